@@ -1,0 +1,1 @@
+//! Head pose → eye views, projections, pose-trace formats.

@@ -1,0 +1,11 @@
+//! stereocache: a headless Vulkan stereo ray tracer for VR rendering research.
+//!
+//! Module map (DESIGN.md): `gpu` holds every line of unsafe Vulkan; `scene`
+//! imports glTF and generates test scenes; `rt` builds the ray-tracing
+//! structures (obvhs CWBVH for the software path, BLAS/TLAS for ray queries);
+//! `camera` turns head poses into eye views and reads pose traces; `methods`
+//! holds one folder per rendering method; `metrics` compares images.
+
+pub mod camera;
+pub mod metrics;
+pub mod scene;

@@ -1,0 +1,59 @@
+//! The scene features a pipeline needs, derived once from the loaded scene and
+//! fed to shaders as specialization constants so a pipeline only contains the
+//! code the scene uses.
+
+use super::{AlphaMode, Environment, LightKind, Scene};
+
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct SceneFeatures {
+    pub textures: bool,
+    pub normal_maps: bool,
+    pub alpha_mask: bool,
+    pub transmission: bool,
+    pub emissive_triangles: bool,
+    pub punctual_lights: bool,
+    pub directional_lights: bool,
+    pub environment_map: bool,
+    pub sky: bool,
+    pub constant_environment: bool,
+}
+
+impl SceneFeatures {
+    pub fn of(scene: &Scene) -> Self {
+        let mats = &scene.materials;
+        SceneFeatures {
+            textures: !scene.textures.is_empty(),
+            normal_maps: mats.iter().any(|m| m.normal_texture.is_some()),
+            alpha_mask: mats.iter().any(|m| m.alpha_mode != AlphaMode::Opaque),
+            transmission: mats.iter().any(|m| m.transmission > 0.0),
+            emissive_triangles: scene.has_emissive_triangles(),
+            punctual_lights: scene
+                .lights
+                .iter()
+                .any(|l| !matches!(l.kind, LightKind::Directional { .. })),
+            directional_lights: scene
+                .lights
+                .iter()
+                .any(|l| matches!(l.kind, LightKind::Directional { .. })),
+            environment_map: matches!(scene.environment, Some(Environment::Map { .. })),
+            sky: matches!(scene.environment, Some(Environment::Sky { .. })),
+            constant_environment: matches!(scene.environment, Some(Environment::Constant(_))),
+        }
+    }
+
+    /// Every feature on: the "all-features" build used to measure what specialization saves.
+    pub fn all() -> Self {
+        SceneFeatures {
+            textures: true,
+            normal_maps: true,
+            alpha_mask: true,
+            transmission: true,
+            emissive_triangles: true,
+            punctual_lights: true,
+            directional_lights: true,
+            environment_map: true,
+            sky: true,
+            constant_environment: true,
+        }
+    }
+}

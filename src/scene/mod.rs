@@ -1,0 +1,175 @@
+//! CPU-side scene: meshes, instances, materials, textures, lights, cameras and
+//! the environment, as imported from glTF 2.0 or produced by a generator.
+//!
+//! Conventions (DESIGN.md): right-handed, +Y up, metres, column vectors, cameras
+//! look down −Z. Everything the GPU needs is derived from these types by
+//! `crate::rt` and `crate::methods`; nothing here touches Vulkan.
+
+pub mod environment;
+pub mod error;
+pub mod features;
+pub mod light;
+pub mod material;
+pub mod mesh;
+pub mod texture;
+
+pub use environment::{Environment, SkyModel};
+pub use error::SceneError;
+pub use features::SceneFeatures;
+pub use light::{Light, LightKind};
+pub use material::{AlphaMode, Material, TextureRef};
+pub use mesh::{Instance, Mesh};
+pub use texture::{Texture, TextureEncoding};
+
+use glam::{Mat4, Vec3};
+use std::path::PathBuf;
+
+/// A camera found in the scene (glTF `cameras` referenced by a node).
+#[derive(Clone, Debug)]
+pub struct SceneCamera {
+    pub name: String,
+    /// Camera-to-world transform (camera looks down −Z, +Y up).
+    pub transform: Mat4,
+    /// Vertical field of view in radians.
+    pub yfov: f32,
+    /// Aspect ratio if the file declares one.
+    pub aspect: Option<f32>,
+    pub znear: f32,
+}
+
+/// A whole scene ready to be uploaded.
+#[derive(Clone, Debug, Default)]
+pub struct Scene {
+    /// Where it came from (file path or `generated:<name>`), used in messages.
+    pub source: PathBuf,
+    /// One mesh per glTF primitive (a single material each).
+    pub meshes: Vec<Mesh>,
+    /// Mesh instances with their object-to-world transforms (node hierarchy flattened).
+    pub instances: Vec<Instance>,
+    pub materials: Vec<Material>,
+    pub textures: Vec<Texture>,
+    pub lights: Vec<Light>,
+    pub cameras: Vec<SceneCamera>,
+    /// The environment seen by rays that leave the scene. `None` means black.
+    pub environment: Option<Environment>,
+    /// Non-fatal problems met while loading (also printed once by the CLI).
+    pub warnings: Vec<String>,
+}
+
+impl Scene {
+    /// Total number of triangles over all instances.
+    pub fn instanced_triangle_count(&self) -> usize {
+        self.instances
+            .iter()
+            .map(|i| self.meshes[i.mesh as usize].triangle_count())
+            .sum()
+    }
+
+    /// World-space bounds over all instances (min, max). Empty scenes give (0, 0).
+    pub fn world_bounds(&self) -> (Vec3, Vec3) {
+        let mut lo = Vec3::splat(f32::INFINITY);
+        let mut hi = Vec3::splat(f32::NEG_INFINITY);
+        for inst in &self.instances {
+            for p in &self.meshes[inst.mesh as usize].positions {
+                let w = inst.transform.transform_point3(*p);
+                lo = lo.min(w);
+                hi = hi.max(w);
+            }
+        }
+        if lo.x > hi.x {
+            (Vec3::ZERO, Vec3::ZERO)
+        } else {
+            (lo, hi)
+        }
+    }
+
+    pub fn has_emissive_triangles(&self) -> bool {
+        self.materials
+            .iter()
+            .any(|m| m.emissive.max_element() > 0.0)
+    }
+
+    pub fn camera(&self, name: &str) -> Option<&SceneCamera> {
+        self.cameras.iter().find(|c| c.name == name)
+    }
+
+    /// Checks the cross references (mesh → material, material → texture,
+    /// instance → mesh) and that there is at least one triangle. Loaders and
+    /// generators call this before returning a scene.
+    pub fn validate(&self) -> Result<(), SceneError> {
+        let src = self.source.clone();
+        for (mi, m) in self.meshes.iter().enumerate() {
+            if m.material as usize >= self.materials.len() {
+                return Err(SceneError::invalid(
+                    &src,
+                    format!(
+                        "mesh {mi} refers to material {} of {}",
+                        m.material,
+                        self.materials.len()
+                    ),
+                ));
+            }
+            if m.indices.len() % 3 != 0 {
+                return Err(SceneError::invalid(
+                    &src,
+                    format!(
+                        "mesh {mi} has {} indices, not a multiple of 3",
+                        m.indices.len()
+                    ),
+                ));
+            }
+            let n = m.positions.len() as u32;
+            if let Some(bad) = m.indices.iter().find(|&&i| i >= n) {
+                return Err(SceneError::invalid(
+                    &src,
+                    format!("mesh {mi} index {bad} is out of range (vertex count {n})"),
+                ));
+            }
+            if m.normals.len() != m.positions.len() || m.uvs.len() != m.positions.len() {
+                return Err(SceneError::invalid(
+                    &src,
+                    format!("mesh {mi} attribute arrays differ in length"),
+                ));
+            }
+            if !m.tangents.is_empty() && m.tangents.len() != m.positions.len() {
+                return Err(SceneError::invalid(
+                    &src,
+                    format!("mesh {mi} tangent array has the wrong length"),
+                ));
+            }
+        }
+        for (ii, inst) in self.instances.iter().enumerate() {
+            if inst.mesh as usize >= self.meshes.len() {
+                return Err(SceneError::invalid(
+                    &src,
+                    format!(
+                        "instance {ii} refers to mesh {} of {}",
+                        inst.mesh,
+                        self.meshes.len()
+                    ),
+                ));
+            }
+        }
+        for (mi, m) in self.materials.iter().enumerate() {
+            for t in m.texture_refs() {
+                if t.texture as usize >= self.textures.len() {
+                    return Err(SceneError::invalid(
+                        &src,
+                        format!(
+                            "material {mi} refers to texture {} of {}",
+                            t.texture,
+                            self.textures.len()
+                        ),
+                    ));
+                }
+            }
+        }
+        if self.instanced_triangle_count() == 0 {
+            return Err(SceneError::invalid(
+                &src,
+                "the scene has no triangles".to_string(),
+            ));
+        }
+        Ok(())
+    }
+}
