@@ -1,1 +1,110 @@
-fn main() {}
+//! Compiles every compute shader under `shaders/` to SPIR-V with glslc
+//! (`--target-env=vulkan1.2 -O`). A shader that includes `common/rt.glsl`
+//! traces rays and is compiled twice, with `-DRT_QUERY` and `-DRT_SOFTWARE`.
+//! A glslc error is printed with its file and line and stops the build.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn collect(dir: &Path, out: &mut Vec<PathBuf>) {
+    let Ok(rd) = std::fs::read_dir(dir) else { return };
+    let mut entries: Vec<_> = rd.flatten().map(|e| e.path()).collect();
+    entries.sort();
+    for p in entries {
+        if p.is_dir() {
+            collect(&p, out);
+        } else if p.extension().is_some_and(|e| e == "comp") {
+            out.push(p);
+        }
+    }
+}
+
+fn main() {
+    println!("cargo:rerun-if-changed=shaders");
+    println!("cargo:rerun-if-env-changed=GLSLC");
+    let root = PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").unwrap());
+    let shader_dir = root.join("shaders");
+    let out_dir = PathBuf::from(std::env::var("OUT_DIR").unwrap());
+    let glslc = std::env::var("GLSLC").unwrap_or_else(|_| "glslc".into());
+
+    let mut sources = Vec::new();
+    collect(&shader_dir, &mut sources);
+
+    // (name, source, defines)
+    let mut jobs: Vec<(String, PathBuf, Vec<&str>)> = Vec::new();
+    for src in &sources {
+        let rel = src.strip_prefix(&shader_dir).unwrap().with_extension("");
+        let name = rel.to_string_lossy().replace('\\', "/");
+        let text = std::fs::read_to_string(src).unwrap_or_default();
+        if text.contains("common/rt.glsl") {
+            jobs.push((format!("{name}.query"), src.clone(), vec!["-DRT_QUERY"]));
+            jobs.push((format!("{name}.software"), src.clone(), vec!["-DRT_SOFTWARE"]));
+        } else {
+            jobs.push((name, src.clone(), vec![]));
+        }
+    }
+
+    let threads = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(2);
+    let chunks: Vec<Vec<(String, PathBuf, Vec<&str>)>> = {
+        let mut c: Vec<Vec<_>> = (0..threads).map(|_| Vec::new()).collect();
+        for (i, j) in jobs.iter().cloned().enumerate() {
+            c[i % threads].push(j);
+        }
+        c
+    };
+    let failures: Vec<String> = std::thread::scope(|s| {
+        let handles: Vec<_> = chunks
+            .into_iter()
+            .map(|chunk| {
+                let glslc = glslc.clone();
+                let out_dir = out_dir.clone();
+                let shader_dir = shader_dir.clone();
+                s.spawn(move || {
+                    let mut errs = Vec::new();
+                    for (name, src, defs) in chunk {
+                        let out = out_dir.join(format!("{}.spv", name.replace('/', "__")));
+                        let res = Command::new(&glslc)
+                            .arg("--target-env=vulkan1.2")
+                            .arg("-O")
+                            .arg("-fshader-stage=compute")
+                            .arg("-I")
+                            .arg(&shader_dir)
+                            .args(&defs)
+                            .arg(&src)
+                            .arg("-o")
+                            .arg(&out)
+                            .output();
+                        match res {
+                            Err(e) => errs.push(format!("cannot run glslc ({e}); install it with scripts/setup.sh or set GLSLC")),
+                            Ok(o) if !o.status.success() => errs.push(format!(
+                                "glslc failed on {} ({}):\n{}{}",
+                                src.display(),
+                                defs.join(" "),
+                                String::from_utf8_lossy(&o.stdout),
+                                String::from_utf8_lossy(&o.stderr)
+                            )),
+                            Ok(_) => {}
+                        }
+                    }
+                    errs
+                })
+            })
+            .collect();
+        handles.into_iter().flat_map(|h| h.join().unwrap()).collect()
+    });
+    if !failures.is_empty() {
+        for f in &failures {
+            eprintln!("{f}");
+        }
+        eprintln!("error: {} shader(s) failed to compile", failures.len());
+        std::process::exit(1);
+    }
+
+    let mut table = String::from("/// (name, SPIR-V) of every compiled shader.\npub static SHADERS: &[(&str, &[u8])] = &[\n");
+    for (name, _, _) in &jobs {
+        let file = out_dir.join(format!("{}.spv", name.replace('/', "__")));
+        table.push_str(&format!("    ({name:?}, include_bytes!({:?})),\n", file.to_string_lossy()));
+    }
+    table.push_str("];\n");
+    std::fs::write(out_dir.join("shaders.rs"), table).unwrap();
+}

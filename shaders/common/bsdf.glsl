@@ -1,0 +1,156 @@
+// Materials: glTF metallic-roughness as Lambert + GGX (energy-conserving: the
+// diffuse lobe is scaled by 1 − F(n·wo)), and smooth/rough dielectrics for
+// KHR_materials_transmission (Walter et al. 2007). All in a local frame
+// with the shading normal at +Z; wo points away from the surface.
+#ifndef BSDF_GLSL
+#define BSDF_GLSL
+#include "common/scene.glsl"
+
+struct Frame { vec3 t; vec3 b; vec3 n; };
+
+Frame frame_from(vec3 n) {
+    // Duff et al. 2017, "Building an Orthonormal Basis, Revisited".
+    float s = n.z >= 0.0 ? 1.0 : -1.0;
+    float a = -1.0 / (s + n.z);
+    float b = n.x * n.y * a;
+    return Frame(vec3(1.0 + s * n.x * n.x * a, s * b, -s * n.x), vec3(b, s + n.y * n.y * a, -n.y), n);
+}
+vec3 to_local(Frame f, vec3 v) { return vec3(dot(v, f.t), dot(v, f.b), dot(v, f.n)); }
+vec3 to_world(Frame f, vec3 v) { return v.x * f.t + v.y * f.b + v.z * f.n; }
+
+struct ShadingMaterial {
+    vec3 base;
+    float metallic;
+    float roughness;
+    float transmission;
+    float ior;
+    vec3 emissive;
+};
+
+float ggx_alpha(float roughness) { return max(roughness * roughness, 1e-3); }
+
+float ggx_d(vec3 m, float a) {
+    if (m.z <= 0.0) return 0.0;
+    float a2 = a * a;
+    float c2 = m.z * m.z;
+    float d = c2 * (a2 - 1.0) + 1.0;
+    return a2 / (PI * d * d);
+}
+
+float smith_lambda(vec3 w, float a) {
+    float c2 = w.z * w.z;
+    if (c2 <= 0.0) return 1e30;
+    float t2 = max(1.0 - c2, 0.0) / c2;
+    return 0.5 * (-1.0 + sqrt(1.0 + a * a * t2));
+}
+float smith_g1(vec3 w, float a) { return 1.0 / (1.0 + smith_lambda(w, a)); }
+float smith_g2(vec3 wo, vec3 wi, float a) { return 1.0 / (1.0 + smith_lambda(wo, a) + smith_lambda(wi, a)); }
+
+// Visible-normal sampling by spherical caps (Dupuy & Benyoub 2023); wo.z > 0.
+vec3 sample_vndf(vec3 wo, float a, vec2 u) {
+    vec3 wh = normalize(vec3(wo.xy * a, wo.z));
+    float phi = 2.0 * PI * u.x;
+    float z = (1.0 - u.y) * (1.0 + wh.z) - wh.z;
+    float st = sqrt(clamp(1.0 - z * z, 0.0, 1.0));
+    vec3 h = vec3(st * cos(phi), st * sin(phi), z) + wh;
+    return normalize(vec3(h.xy * a, max(h.z, 1e-7)));
+}
+
+vec3 fresnel_schlick(vec3 f0, float c) {
+    float m = clamp(1.0 - c, 0.0, 1.0);
+    float m5 = m * m * m * m * m;
+    return f0 + (vec3(1.0) - f0) * m5;
+}
+
+// Exact dielectric Fresnel reflectance; eta = n_t / n_i; cos_i > 0.
+float fresnel_dielectric(float cos_i, float eta) {
+    float s2 = max(0.0, 1.0 - cos_i * cos_i) / (eta * eta);
+    if (s2 >= 1.0) return 1.0;
+    float cos_t = sqrt(1.0 - s2);
+    float rs = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
+    float rp = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
+    return 0.5 * (rs * rs + rp * rp);
+}
+
+vec3 opaque_f0(ShadingMaterial m) {
+    float r = (m.ior - 1.0) / (m.ior + 1.0);
+    return mix(vec3(r * r), m.base, m.metallic);
+}
+
+// Probability of sampling the specular lobe of the opaque BSDF.
+float opaque_spec_prob(ShadingMaterial m, vec3 wo) {
+    vec3 F = fresnel_schlick(opaque_f0(m), wo.z);
+    float lf = dot(F, vec3(0.2126, 0.7152, 0.0722));
+    return m.metallic >= 1.0 ? 1.0 : clamp(mix(lf, 1.0, m.metallic), 0.1, 0.9);
+}
+
+// f(wo, wi)·|cos θi| and the sampling pdf of the opaque BSDF (both local).
+vec3 opaque_eval(ShadingMaterial m, vec3 wo, vec3 wi, out float pdf) {
+    pdf = 0.0;
+    if (wo.z <= 0.0 || wi.z <= 0.0) return vec3(0.0);
+    float a = ggx_alpha(m.roughness);
+    vec3 h = normalize(wo + wi);
+    vec3 f0 = opaque_f0(m);
+    vec3 F = fresnel_schlick(f0, dot(wi, h));
+    float D = ggx_d(h, a);
+    vec3 spec = F * D * smith_g2(wo, wi, a) / (4.0 * wo.z);   // × cos θi cancels 1/cos θi
+    vec3 diff = (1.0 - m.metallic) * m.base * INV_PI * wi.z * (vec3(1.0) - fresnel_schlick(f0, wo.z));
+    float ps = opaque_spec_prob(m, wo);
+    float pdf_spec = smith_g1(wo, a) * D / (4.0 * wo.z);
+    pdf = ps * pdf_spec + (1.0 - ps) * wi.z * INV_PI;
+    return spec + diff;
+}
+
+vec3 cosine_hemisphere(vec2 u) {
+    float r = sqrt(u.x);
+    float phi = 2.0 * PI * u.y;
+    return vec3(r * cos(phi), r * sin(phi), sqrt(max(0.0, 1.0 - u.x)));
+}
+
+// Samples the opaque BSDF; returns false when the sample is below the surface.
+bool opaque_sample(ShadingMaterial m, vec3 wo, vec3 u, out vec3 wi, out vec3 weight, out float pdf) {
+    float a = ggx_alpha(m.roughness);
+    float ps = opaque_spec_prob(m, wo);
+    if (u.z < ps) {
+        vec3 h = sample_vndf(wo, a, u.xy);
+        wi = reflect(-wo, h);
+    } else {
+        wi = cosine_hemisphere(u.xy);
+    }
+    if (wi.z <= 0.0) { weight = vec3(0.0); pdf = 0.0; return false; }
+    vec3 fc = opaque_eval(m, wo, wi, pdf);
+    weight = pdf > 0.0 ? fc / pdf : vec3(0.0);
+    return pdf > 0.0;
+}
+
+// Samples the dielectric BSDF (smooth below roughness 0.02, else rough GGX).
+// wo may be on either side (wo.z < 0 = inside); `weight` = f·|cos|/pdf.
+// `delta` reports a specular event (no light sampling possible).
+bool dielectric_sample(ShadingMaterial m, vec3 wo, vec3 u, out vec3 wi, out vec3 weight, out bool delta) {
+    bool entering = wo.z > 0.0;
+    float eta = entering ? m.ior : 1.0 / m.ior;   // n_t / n_i
+    vec3 wo_up = entering ? wo : -wo;               // work in the hemisphere of wo
+    delta = m.roughness < 0.02;
+    vec3 h;
+    float a = ggx_alpha(m.roughness);
+    if (delta) h = vec3(0.0, 0.0, 1.0);
+    else h = sample_vndf(wo_up, a, u.xy);
+    float c = dot(wo_up, h);
+    float F = fresnel_dielectric(c, eta);
+    vec3 wi_up;
+    bool refracted = false;
+    if (u.z < F) {
+        wi_up = reflect(-wo_up, h);
+        if (wi_up.z <= 0.0) { weight = vec3(0.0); return false; }
+    } else {
+        wi_up = refract(-wo_up, h, 1.0 / eta);
+        if (dot(wi_up, wi_up) == 0.0 || wi_up.z >= 0.0) { weight = vec3(0.0); return false; }
+        refracted = true;
+    }
+    // VNDF sampling with Fresnel-chosen lobes: weight = G2 / G1(wo).
+    weight = delta ? vec3(1.0) : vec3(smith_g2(wo_up, vec3(wi_up.xy, abs(wi_up.z)), a) / smith_g1(wo_up, a));
+    if (refracted) weight *= m.base;   // glTF: transmission is tinted by the base colour
+    wi = entering ? wi_up : -wi_up;
+    return true;
+}
+#endif

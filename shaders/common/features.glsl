@@ -1,0 +1,17 @@
+// Scene features as specialization constants (ids shared with src/rt/features.rs):
+// a pipeline compiles only the code the scene needs (DESIGN.md, "Shaders").
+#ifndef FEATURES_GLSL
+#define FEATURES_GLSL
+layout(constant_id = 0) const bool SC_TEXTURES = true;
+layout(constant_id = 1) const bool SC_NORMAL_MAPS = true;
+layout(constant_id = 2) const bool SC_ALPHA_MASK = true;
+layout(constant_id = 3) const bool SC_TRANSMISSION = true;
+layout(constant_id = 4) const bool SC_EMISSIVE = true;
+layout(constant_id = 5) const bool SC_PUNCTUAL = true;
+layout(constant_id = 6) const bool SC_DIRECTIONAL = true;
+// 0 none (black), 1 constant, 2 Preetham sky, 3 equirectangular map
+layout(constant_id = 7) const uint SC_ENV_KIND = 2;
+// Maximum scattering events along a path (pbrt's maxdepth convention).
+layout(constant_id = 8) const uint SC_MAX_BOUNCES = 3;
+layout(constant_id = 9) const uint SC_TEXTURE_COUNT = 1;
+#endif

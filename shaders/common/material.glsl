@@ -1,0 +1,49 @@
+// Material evaluation at a surface: textures (with a ray-cone mip level) and normal maps.
+#ifndef MATERIAL_GLSL
+#define MATERIAL_GLSL
+#include "common/bsdf.glsl"
+
+// Mip level from a ray cone of width `cone_width` at the hit (Akenine-Möller et al. 2019, Eq. 34).
+float texture_lod(int tex, Surface s, float cone_width, float cos_incidence) {
+    if (cone_width <= 0.0 || s.uv_area_ratio <= 0.0) return 0.0;
+    vec2 size = vec2(textureSize(textures[nonuniformEXT(tex)], 0));
+    float lambda = 0.5 * log2(s.uv_area_ratio * size.x * size.y) + log2(cone_width / max(abs(cos_incidence), 1e-3));
+    return max(lambda, 0.0);
+}
+
+ShadingMaterial material_at(inout Surface s, vec3 ray_dir, float cone_width) {
+    MaterialGpu g = materials[s.material];
+    ShadingMaterial m;
+    m.base = g.base_color.rgb;
+    m.metallic = g.emissive_metallic.w;
+    m.roughness = g.params.x;
+    m.transmission = SC_TRANSMISSION ? g.params.y : 0.0;
+    m.ior = g.params.z;
+    m.emissive = SC_EMISSIVE ? g.emissive_metallic.rgb : vec3(0.0);
+    float cos_i = dot(s.ng, -ray_dir);
+    if (SC_TEXTURES) {
+        if (g.tex0.x >= 0) m.base *= sample_texture(g.tex0.x, s.uv, texture_lod(g.tex0.x, s, cone_width, cos_i)).rgb;
+        if (g.tex0.y >= 0) {
+            vec4 mr = sample_texture(g.tex0.y, s.uv, texture_lod(g.tex0.y, s, cone_width, cos_i));
+            m.roughness *= mr.g;
+            m.metallic *= mr.b;
+        }
+        if (SC_EMISSIVE && g.tex0.w >= 0) m.emissive *= sample_texture(g.tex0.w, s.uv, texture_lod(g.tex0.w, s, cone_width, cos_i)).rgb;
+        if (SC_TRANSMISSION && g.tex1.x >= 0) m.transmission *= sample_texture(g.tex1.x, s.uv, 0.0).r;
+        if (SC_NORMAL_MAPS && g.tex0.z >= 0 && dot(s.tangent, s.tangent) > 0.0) {
+            vec3 tn = sample_texture(g.tex0.z, s.uv, texture_lod(g.tex0.z, s, cone_width, cos_i)).xyz * 2.0 - 1.0;
+            tn.xy *= g.extra.x;
+            vec3 T = normalize(s.tangent - s.n * dot(s.n, s.tangent));
+            vec3 B = cross(s.n, T) * s.tangent_sign;
+            vec3 n = normalize(tn.x * T + tn.y * B + tn.z * s.n);
+            // Keep the mapped normal on the visible side of the geometry.
+            if (dot(n, s.ng) > 0.0 && all(equal(n, n))) s.n = n;
+        }
+    }
+    // Emission only from the front of single-sided emitters.
+    if (!s.front && g.tex1.z == 0) m.emissive = vec3(0.0);
+    m.roughness = clamp(m.roughness, 0.0, 1.0);
+    m.metallic = clamp(m.metallic, 0.0, 1.0);
+    return m;
+}
+#endif

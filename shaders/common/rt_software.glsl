@@ -1,0 +1,145 @@
+// Software backend: traversal of obvhs's compressed wide BVH8 (CWBVH, Ylitie,
+// Karras & Laine, HPG 2017) over all triangles in world space, from storage
+// buffers. Node layout = obvhs::cwbvh::CwBvhNode (80 bytes = 5 × uvec4):
+//   n0 = (p.x, p.y, p.z, e0 | e1 << 8 | e2 << 16 | imask << 24)
+//   n1 = (child_base_idx, primitive_base_idx, child_meta[0..4], child_meta[4..8])
+//   n2 = (qlo_x[0..4], qlo_x[4..8], qhi_x[0..4], qhi_x[4..8])
+//   n3 = same for y, n4 = same for z
+// Leaf triangles are stored in BVH order: tri_verts[3k..3k+3] = (v0, e1, e2)
+// and tri_ref[k] = (instance, primitive) for leaf slot k.
+layout(set = 0, binding = 7, std430) readonly buffer BvhNodes { uvec4 bvh_nodes[]; };
+layout(set = 0, binding = 8, std430) readonly buffer BvhTriRef { uvec2 tri_ref[]; };
+layout(set = 0, binding = 9, std430) readonly buffer BvhTriVerts { vec4 tri_verts[]; };
+
+const uint CWBVH_STACK_SIZE = 32u;
+
+uint cw_byte(uvec2 w, uint i) { return ((i < 4u ? w.x : w.y) >> ((i & 3u) * 8u)) & 0xFFu; }
+
+// Möller–Trumbore against a pre-transformed triangle (v0, e1, e2); returns t or -1.
+float intersect_triangle(vec3 o, vec3 d, vec3 v0, vec3 e1, vec3 e2, out vec2 bary) {
+    vec3 pv = cross(d, e2);
+    float det = dot(e1, pv);
+    bary = vec2(0.0);
+    if (det == 0.0) return -1.0;
+    float inv = 1.0 / det;
+    vec3 tv = o - v0;
+    float u = dot(tv, pv) * inv;
+    if (u < 0.0 || u > 1.0) return -1.0;
+    vec3 qv = cross(tv, e1);
+    float v = dot(d, qv) * inv;
+    if (v < 0.0 || u + v > 1.0) return -1.0;
+    bary = vec2(u, v);
+    return dot(e2, qv) * inv;
+}
+
+// Child hit mask of one node for the ray: bits 24..31 = internal children
+// (slot order permuted by octant), bits 0..23 = leaf triangles (unary counts).
+uint cw_intersect_node(uint node, vec3 o, vec3 inv_d, uint oct_inv4, float tmin, float tmax) {
+    uvec4 n0 = bvh_nodes[5u * node + 0u];
+    uvec4 n1 = bvh_nodes[5u * node + 1u];
+    uvec4 n2 = bvh_nodes[5u * node + 2u];
+    uvec4 n3 = bvh_nodes[5u * node + 3u];
+    uvec4 n4 = bvh_nodes[5u * node + 4u];
+    vec3 p = uintBitsToFloat(n0.xyz);
+    vec3 ext = vec3(uintBitsToFloat((n0.w & 0xFFu) << 23), uintBitsToFloat(((n0.w >> 8) & 0xFFu) << 23),
+                    uintBitsToFloat(((n0.w >> 16) & 0xFFu) << 23));
+    vec3 adj_inv = ext * inv_d;
+    vec3 adj_o = (p - o) * inv_d;
+    bvec3 neg = lessThan(inv_d, vec3(0.0));
+    uint oct = oct_inv4 & 0xFFu;
+    uint hit_mask = 0u;
+    for (uint i = 0u; i < 8u; ++i) {
+        uint meta = cw_byte(n1.zw, i);
+        if (meta == 0u) continue;
+        vec3 lo = vec3(cw_byte(n2.xy, i), cw_byte(n3.xy, i), cw_byte(n4.xy, i));
+        vec3 hi = vec3(cw_byte(n2.zw, i), cw_byte(n3.zw, i), cw_byte(n4.zw, i));
+        vec3 qmin = mix(lo, hi, neg);
+        vec3 qmax = mix(hi, lo, neg);
+        vec3 t0 = qmin * adj_inv + adj_o;
+        vec3 t1 = qmax * adj_inv + adj_o;
+        float tn = max(max(t0.x, t0.y), max(t0.z, tmin));
+        float tf = min(min(t1.x, t1.y), min(t1.z, tmax));
+        if (tn <= tf) {
+            bool inner = (meta & 0x18u) == 0x18u;
+            uint child_bits = meta >> 5;
+            uint bit_index = (meta ^ (inner ? oct : 0u)) & 0x1Fu;
+            hit_mask |= child_bits << bit_index;
+        }
+    }
+    return hit_mask;
+}
+
+vec3 safe_inverse(vec3 d) {
+    const float tiny = 1e-30;
+    return vec3(1.0) / vec3(abs(d.x) > tiny ? d.x : (d.x < 0.0 ? -tiny : tiny),
+                            abs(d.y) > tiny ? d.y : (d.y < 0.0 ? -tiny : tiny),
+                            abs(d.z) > tiny ? d.z : (d.z < 0.0 ? -tiny : tiny));
+}
+
+// any_hit = true returns at the first accepted triangle (shadow rays).
+bool cw_traverse(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out RtHit h) {
+    h.t = tmax;
+    h.instance = 0xFFFFFFFFu;
+    h.prim = 0u;
+    h.bary = vec2(0.0);
+    vec3 inv_d = safe_inverse(d);
+    uint oct_inv4 = (d.x < 0.0 ? 0u : 0x04040404u) | (d.y < 0.0 ? 0u : 0x02020202u) | (d.z < 0.0 ? 0u : 0x01010101u);
+    uvec2 stack[CWBVH_STACK_SIZE];
+    uint sp = 0u;
+    uvec2 current = uvec2(0u, 0x80000000u);
+    uvec2 prims = uvec2(0u);
+    bool found = false;
+    for (;;) {
+        while (prims.y != 0u) {
+            uint local = uint(findMSB(prims.y));
+            prims.y &= ~(1u << local);
+            uint k = prims.x + local;
+            vec2 bary;
+            float t = intersect_triangle(o, d, tri_verts[3u * k].xyz, tri_verts[3u * k + 1u].xyz, tri_verts[3u * k + 2u].xyz, bary);
+            if (t > tmin && t < h.t) {
+                uvec2 ref = tri_ref[k];
+                if (alpha_passes(ref.x, ref.y, bary)) {
+                    h.t = t;
+                    h.instance = ref.x;
+                    h.prim = ref.y;
+                    h.bary = bary;
+                    found = true;
+                    if (any_hit) return true;
+                }
+            }
+        }
+        if ((current.y & 0xFF000000u) != 0u) {
+            uint hits_imask = current.y;
+            uint child_offset = uint(findMSB(hits_imask));
+            uint child_base = current.x;
+            current.y &= ~(1u << child_offset);
+            if ((current.y & 0xFF000000u) != 0u) {
+                if (sp < CWBVH_STACK_SIZE) stack[sp++] = current;
+            }
+            uint slot = (child_offset - 24u) ^ (oct_inv4 & 0xFFu);
+            uint relative = bitCount(hits_imask & ~(0xFFFFFFFFu << slot));
+            uint node = child_base + relative;
+            uint hit_mask = cw_intersect_node(node, o, inv_d, oct_inv4, tmin, h.t);
+            uvec4 n0 = bvh_nodes[5u * node];
+            uvec4 n1 = bvh_nodes[5u * node + 1u];
+            current = uvec2(n1.x, (hit_mask & 0xFF000000u) | (n0.w >> 24));
+            prims = uvec2(n1.y, hit_mask & 0x00FFFFFFu);
+        } else {
+            current = uvec2(0u);
+        }
+        if (prims.y == 0u && (current.y & 0xFF000000u) == 0u) {
+            if (sp == 0u) break;
+            current = stack[--sp];
+        }
+    }
+    return found;
+}
+
+bool rt_closest_hit(vec3 o, vec3 d, float tmin, float tmax, out RtHit h) {
+    return cw_traverse(o, d, tmin, tmax, false, h);
+}
+
+bool rt_occluded(vec3 o, vec3 d, float tmin, float tmax) {
+    RtHit h;
+    return cw_traverse(o, d, tmin, tmax, true, h);
+}

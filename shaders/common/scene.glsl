@@ -1,0 +1,135 @@
+// Scene data (descriptor set 0), shared by every method. Layouts mirror
+// src/rt/gpu_scene.rs (std430).
+#ifndef SCENE_GLSL
+#define SCENE_GLSL
+#extension GL_EXT_nonuniform_qualifier : require
+#include "common/features.glsl"
+
+struct Vertex { vec4 pos_u; vec4 normal_v; vec4 tangent; };
+struct MeshInfo { uint vertex_offset; uint index_offset; uint material; uint triangle_count; };
+struct InstanceInfo { mat4 object_to_world; mat4 normal_to_world; uvec4 mesh_pad; };
+struct MaterialGpu {
+    vec4 base_color;
+    vec4 emissive_metallic;   // emissive rgb (× strength), metallic
+    vec4 params;              // roughness, transmission, ior, alpha cutoff
+    ivec4 tex0;               // base colour, metallic-roughness, normal, emissive (-1 = none)
+    ivec4 tex1;               // transmission, alpha mode (0 opaque, 1 mask), double sided, unused
+    vec4 extra;               // normal scale, unused...
+};
+struct LightGpu {
+    vec4 radiant_kind;        // rgb, kind (0 point, 1 spot, 2 directional)
+    vec4 position_range;      // xyz, range (0 = infinite)
+    vec4 direction;           // xyz = travel direction, w = cos(angular radius) for the sun (1 = delta)
+    vec4 cone;                // cos inner, cos outer, unused, unused
+};
+struct SceneParams {
+    vec4 env_constant;        // rgb, env scale
+    vec4 sun_dir;             // xyz towards the sun (sky), w = sun theta
+    vec4 zenith;              // Y, x, y (Preetham), unused
+    float perez[16];          // A..E for Y, x, y (15 values)
+    uvec4 counts;             // light count, env map width, env map height, instance count
+};
+
+layout(set = 0, binding = 0, std430) readonly buffer Vertices { Vertex vertices[]; };
+layout(set = 0, binding = 1, std430) readonly buffer Indices { uint indices[]; };
+layout(set = 0, binding = 2, std430) readonly buffer Meshes { MeshInfo meshes[]; };
+layout(set = 0, binding = 3, std430) readonly buffer Instances { InstanceInfo instances[]; };
+layout(set = 0, binding = 4, std430) readonly buffer Materials { MaterialGpu materials[]; };
+layout(set = 0, binding = 5, std430) readonly buffer Lights { LightGpu lights[]; };
+layout(set = 0, binding = 6, std430) readonly buffer Params { SceneParams scene; };
+layout(set = 0, binding = 10) uniform sampler2D textures[SC_TEXTURE_COUNT];
+layout(set = 0, binding = 11) uniform sampler2D env_map;
+
+const float PI = 3.14159265358979323846;
+const float INV_PI = 0.31830988618379067154;
+
+uint instance_material(uint inst) { return meshes[instances[inst].mesh_pad.x].material; }
+
+uvec3 triangle_indices(uint inst, uint prim) {
+    MeshInfo m = meshes[instances[inst].mesh_pad.x];
+    uint base = m.index_offset + 3u * prim;
+    return uvec3(indices[base], indices[base + 1u], indices[base + 2u]) + m.vertex_offset;
+}
+
+vec4 sample_texture(int tex, vec2 uv, float lod) {
+    return textureLod(textures[nonuniformEXT(tex)], uv, lod);
+}
+
+// Alpha test used by both ray backends for masked materials.
+bool alpha_passes(uint inst, uint prim, vec2 bary) {
+    if (!SC_ALPHA_MASK) return true;
+    MaterialGpu m = materials[instance_material(inst)];
+    if (m.tex1.y != 1) return true;
+    float a = m.base_color.a;
+    if (SC_TEXTURES && m.tex0.x >= 0) {
+        uvec3 vi = triangle_indices(inst, prim);
+        vec3 w = vec3(1.0 - bary.x - bary.y, bary.x, bary.y);
+        vec2 uv = w.x * vec2(vertices[vi.x].pos_u.w, vertices[vi.x].normal_v.w)
+                + w.y * vec2(vertices[vi.y].pos_u.w, vertices[vi.y].normal_v.w)
+                + w.z * vec2(vertices[vi.z].pos_u.w, vertices[vi.z].normal_v.w);
+        a *= sample_texture(m.tex0.x, uv, 0.0).a;
+    }
+    return a >= m.params.w;
+}
+
+// Everything a shading point needs, rebuilt from (instance, primitive, barycentrics).
+struct Surface {
+    vec3 p;        // world position
+    vec3 ng;       // geometric normal, facing the incoming ray
+    vec3 n;        // shading normal (interpolated, normal-mapped), same side as ng
+    vec2 uv;
+    uint material;
+    bool front;    // the ray hit the side the winding order calls front
+    float uv_area_ratio; // texture-space area / world area of the triangle (ray-cone LOD)
+    vec3 tangent;
+    float tangent_sign;
+};
+
+Surface surface_at(uint inst, uint prim, vec2 bary, vec3 ray_dir) {
+    Surface s;
+    InstanceInfo I = instances[inst];
+    uvec3 vi = triangle_indices(inst, prim);
+    Vertex a = vertices[vi.x], b = vertices[vi.y], c = vertices[vi.z];
+    vec3 w = vec3(1.0 - bary.x - bary.y, bary.x, bary.y);
+    vec3 pa = (I.object_to_world * vec4(a.pos_u.xyz, 1.0)).xyz;
+    vec3 pb = (I.object_to_world * vec4(b.pos_u.xyz, 1.0)).xyz;
+    vec3 pc = (I.object_to_world * vec4(c.pos_u.xyz, 1.0)).xyz;
+    s.p = w.x * pa + w.y * pb + w.z * pc;
+    vec3 e1 = pb - pa, e2 = pc - pa;
+    vec3 gn = cross(e1, e2);
+    float area2 = length(gn);
+    gn = area2 > 0.0 ? gn / area2 : vec3(0.0, 1.0, 0.0);
+    vec3 n = w.x * a.normal_v.xyz + w.y * b.normal_v.xyz + w.z * c.normal_v.xyz;
+    n = mat3(I.normal_to_world) * n;
+    float nl = length(n);
+    n = nl > 1e-20 ? n / nl : gn;
+    s.uv = w.x * vec2(a.pos_u.w, a.normal_v.w) + w.y * vec2(b.pos_u.w, b.normal_v.w) + w.z * vec2(c.pos_u.w, c.normal_v.w);
+    vec2 duv1 = vec2(b.pos_u.w, b.normal_v.w) - vec2(a.pos_u.w, a.normal_v.w);
+    vec2 duv2 = vec2(c.pos_u.w, c.normal_v.w) - vec2(a.pos_u.w, a.normal_v.w);
+    float uv_area2 = abs(duv1.x * duv2.y - duv1.y * duv2.x);
+    s.uv_area_ratio = area2 > 0.0 ? uv_area2 / area2 : 0.0;
+    s.material = meshes[I.mesh_pad.x].material;
+    s.front = dot(gn, ray_dir) < 0.0;
+    if (!s.front) gn = -gn;
+    if (dot(n, gn) < 0.0) n = -n;
+    vec4 t = w.x * a.tangent + w.y * b.tangent + w.z * c.tangent;
+    s.tangent = mat3(I.object_to_world) * t.xyz;
+    s.tangent_sign = t.w < 0.0 ? -1.0 : 1.0;
+    s.ng = gn;
+    s.n = n;
+    return s;
+}
+
+// Offsets a ray origin off a surface so it does not re-hit it
+// (Wächter & Binder, Ray Tracing Gems ch. 6).
+vec3 offset_ray(vec3 p, vec3 n) {
+    const float origin = 1.0 / 32.0, float_scale = 1.0 / 65536.0, int_scale = 256.0;
+    ivec3 of_i = ivec3(int_scale * n);
+    vec3 p_i = vec3(intBitsToFloat(floatBitsToInt(p.x) + ((p.x < 0.0) ? -of_i.x : of_i.x)),
+                    intBitsToFloat(floatBitsToInt(p.y) + ((p.y < 0.0) ? -of_i.y : of_i.y)),
+                    intBitsToFloat(floatBitsToInt(p.z) + ((p.z < 0.0) ? -of_i.z : of_i.z)));
+    return vec3(abs(p.x) < origin ? p.x + float_scale * n.x : p_i.x,
+                abs(p.y) < origin ? p.y + float_scale * n.y : p_i.y,
+                abs(p.z) < origin ? p.z + float_scale * n.z : p_i.z);
+}
+#endif

@@ -1,0 +1,35 @@
+#version 460
+// Jittered path-traced samples accumulated into `accum` (frame.misc.y samples
+// per dispatch, numbered from frame.misc.x so runs are reproducible).
+#include "common/integrator.glsl"
+#include "reference/bindings.glsl"
+layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
+layout(push_constant) uniform Push { uint sample_base; uint sample_count; } pc;
+
+void main() {
+    uvec2 size = frame_size();
+    uvec2 px = gl_GlobalInvocationID.xy;
+    uint eye = gl_GlobalInvocationID.z;
+    if (any(greaterThanEqual(px, size))) return;
+    uint idx = (eye * size.y + px.y) * size.x + px.x;
+    EyeGpu e = frame.eyes[eye];
+    vec3 sum = vec3(0.0);
+    RayCounts rays = RayCounts(0u, 0u);
+    for (uint k = 0u; k < pc.sample_count; ++k) {
+        uint sample_index = pc.sample_base + k;
+        Rng rng = rng_init(frame.size_seed.z, frame.size_seed.w, eye, px.y * size.x + px.x, sample_index);
+        vec2 jitter = rng_next2(rng);
+        vec3 o = e.pos_tanx.xyz;
+        vec3 d = eye_ray_dir(e, vec2(px) + jitter);
+        RtHit h;
+        bool hit = rt_closest_hit(o, d, 0.0, 1e30, h);
+        vec3 L = path_radiance(o, d, hit, h, hit ? h.t * eye_pixel_spread(e) : 0.0, rng, rays);
+        // A non-finite sample is dropped (counted as black) rather than poisoning the mean.
+        if (any(isnan(L)) || any(isinf(L))) L = vec3(0.0);
+        sum += L;
+    }
+    accum[idx] += vec4(sum, float(pc.sample_count));
+    atomicAdd(counters[0], pc.sample_count);
+    atomicAdd(counters[1], rays.bounce);
+    atomicAdd(counters[2], rays.shadow);
+}

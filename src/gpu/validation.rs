@@ -1,0 +1,48 @@
+//! The Khronos validation layer's messages, collected so tests can fail on any.
+
+use ash::vk;
+use std::ffi::CStr;
+use std::sync::Mutex;
+
+/// Messages received from `VK_EXT_debug_utils` (warnings and errors only).
+#[derive(Default)]
+pub struct ValidationLog {
+    messages: Mutex<Vec<String>>,
+}
+
+impl ValidationLog {
+    pub fn messages(&self) -> Vec<String> {
+        self.messages.lock().unwrap().clone()
+    }
+    pub fn count(&self) -> usize {
+        self.messages.lock().unwrap().len()
+    }
+    pub(crate) fn push(&self, m: String) {
+        self.messages.lock().unwrap().push(m);
+    }
+}
+
+/// # Safety
+/// Called by the Vulkan loader with a valid callback-data pointer and the
+/// `user_data` pointer we registered (a `ValidationLog` that outlives the messenger).
+pub(crate) unsafe extern "system" fn debug_callback(
+    severity: vk::DebugUtilsMessageSeverityFlagsEXT,
+    kind: vk::DebugUtilsMessageTypeFlagsEXT,
+    data: *const vk::DebugUtilsMessengerCallbackDataEXT<'_>,
+    user_data: *mut std::ffi::c_void,
+) -> vk::Bool32 {
+    if data.is_null() || user_data.is_null() {
+        return vk::FALSE;
+    }
+    let data = unsafe { &*data };
+    let msg = if data.p_message.is_null() {
+        String::from("(no message)")
+    } else {
+        unsafe { CStr::from_ptr(data.p_message) }.to_string_lossy().into_owned()
+    };
+    let log = unsafe { &*(user_data as *const ValidationLog) };
+    let line = format!("[{severity:?} {kind:?}] {msg}");
+    eprintln!("vulkan validation: {line}");
+    log.push(line);
+    vk::FALSE
+}

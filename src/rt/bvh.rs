@@ -1,0 +1,109 @@
+//! The software ray-tracing structure: one obvhs CWBVH over every triangle of
+//! every instance, transformed to world space ("flattened"). Leaf triangles
+//! are stored in BVH order as (v0, e1, e2) so the GLSL traversal
+//! (shaders/common/rt_software.glsl) reads them without an indirection.
+//! A CPU traversal of the same structure checks the GPU in tests.
+
+use crate::scene::Scene;
+use glam::{Vec3, Vec3A};
+use obvhs::cwbvh::{builder::build_cwbvh_from_tris, node::CwBvhNode, CwBvh};
+use obvhs::ray::{Ray, RayHit};
+use obvhs::triangle::Triangle;
+use obvhs::BvhBuildParams;
+use std::time::Duration;
+
+pub struct SoftwareBvh {
+    pub cwbvh: CwBvh,
+    /// (instance, primitive within its mesh) per leaf slot.
+    pub tri_ref: Vec<[u32; 2]>,
+    /// 3 × vec4 per leaf slot: v0, e1 = v1 − v0, e2 = v2 − v0 (w unused).
+    pub tri_verts: Vec<[f32; 4]>,
+}
+
+/// A CPU ray hit, in the same convention as `RtHit` in GLSL.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CpuHit {
+    pub t: f32,
+    pub instance: u32,
+    pub prim: u32,
+    pub bary: [f32; 2],
+}
+
+impl SoftwareBvh {
+    pub fn build(scene: &Scene) -> SoftwareBvh {
+        let mut tris = Vec::with_capacity(scene.instanced_triangle_count());
+        let mut refs = Vec::with_capacity(tris.capacity());
+        for (ii, inst) in scene.instances.iter().enumerate() {
+            let mesh = &scene.meshes[inst.mesh as usize];
+            for prim in 0..mesh.triangle_count() {
+                let [a, b, c] = mesh.triangle(prim);
+                let t = |p: Vec3| Vec3A::from(inst.transform.transform_point3(p));
+                tris.push(Triangle { v0: t(a), v1: t(b), v2: t(c) });
+                refs.push([ii as u32, prim as u32]);
+            }
+        }
+        let mut build_time = Duration::ZERO;
+        let cwbvh = build_cwbvh_from_tris(&tris, BvhBuildParams::medium_build(), &mut build_time);
+        let mut tri_ref = Vec::with_capacity(cwbvh.primitive_indices.len());
+        let mut tri_verts = Vec::with_capacity(3 * cwbvh.primitive_indices.len());
+        for &pi in &cwbvh.primitive_indices {
+            let t = &tris[pi as usize];
+            tri_ref.push(refs[pi as usize]);
+            let e1 = t.v1 - t.v0;
+            let e2 = t.v2 - t.v0;
+            tri_verts.push([t.v0.x, t.v0.y, t.v0.z, 0.0]);
+            tri_verts.push([e1.x, e1.y, e1.z, 0.0]);
+            tri_verts.push([e2.x, e2.y, e2.z, 0.0]);
+        }
+        SoftwareBvh { cwbvh, tri_ref, tri_verts }
+    }
+
+    pub fn nodes(&self) -> &[CwBvhNode] {
+        &self.cwbvh.nodes
+    }
+
+    /// Closest hit on the CPU with the same Möller–Trumbore test as the GLSL
+    /// traversal (no alpha test: used on opaque scenes).
+    pub fn closest_hit(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> Option<CpuHit> {
+        if self.cwbvh.nodes.is_empty() {
+            return None;
+        }
+        let ray = Ray::new(origin.into(), dir.into(), tmin, tmax);
+        let mut hit = RayHit::none();
+        let mut best: Option<CpuHit> = None;
+        self.cwbvh.ray_traverse(ray, &mut hit, |r, k| {
+            let v = &self.tri_verts[3 * k..3 * k + 3];
+            let (v0, e1, e2) = (Vec3::from_slice(&v[0][..3]), Vec3::from_slice(&v[1][..3]), Vec3::from_slice(&v[2][..3]));
+            match moller_trumbore(Vec3::from(r.origin), Vec3::from(r.direction), v0, e1, e2) {
+                Some((t, u, w)) if t > tmin && t < r.tmax => {
+                    let [inst, prim] = self.tri_ref[k];
+                    best = Some(CpuHit { t, instance: inst, prim, bary: [u, w] });
+                    t
+                }
+                _ => f32::INFINITY,
+            }
+        });
+        best
+    }
+}
+
+/// Möller & Trumbore 1997, the exact arithmetic of `intersect_triangle` in rt_software.glsl.
+pub fn moller_trumbore(o: Vec3, d: Vec3, v0: Vec3, e1: Vec3, e2: Vec3) -> Option<(f32, f32, f32)> {
+    let pv = d.cross(e2);
+    let det = e1.dot(pv);
+    if det == 0.0 {
+        return None;
+    }
+    let inv = 1.0 / det;
+    let tv = o - v0;
+    let u = tv.dot(pv) * inv;
+    if !(0.0..=1.0).contains(&u) {
+        return None;
+    }
+    let qv = tv.cross(e1);
+    let v = d.dot(qv) * inv;
+    if v < 0.0 || u + v > 1.0 {
+        return None;
+    }
+    Some((e2.dot(qv) * inv, u, v))
+}

@@ -1,0 +1,73 @@
+//! Ray-tracing structures and the choice of backend: an obvhs CWBVH over all
+//! triangles in world space for the software path, BLAS per mesh + TLAS for
+//! ray queries (docs/ARCHITECTURE.md explains the flattened choice).
+
+pub mod bvh;
+pub mod gpu_scene;
+
+pub use bvh::{CpuHit, SoftwareBvh};
+pub use gpu_scene::SceneGpu;
+
+use crate::gpu::GpuContext;
+use std::str::FromStr;
+
+/// The ray backend a pipeline is compiled for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RtBackend {
+    /// VK_KHR_ray_query against a TLAS.
+    Query,
+    /// obvhs CWBVH traversed in GLSL from storage buffers.
+    Software,
+}
+
+impl RtBackend {
+    /// Suffix of the shader variant compiled for this backend.
+    pub fn shader_suffix(self) -> &'static str {
+        match self {
+            RtBackend::Query => "query",
+            RtBackend::Software => "software",
+        }
+    }
+}
+
+impl std::fmt::Display for RtBackend {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.shader_suffix())
+    }
+}
+
+/// `--rt auto|query|software`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum RtChoice {
+    /// Ray query when the device has it, else software.
+    #[default]
+    Auto,
+    Query,
+    Software,
+}
+
+impl FromStr for RtChoice {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "auto" => Ok(RtChoice::Auto),
+            "query" => Ok(RtChoice::Query),
+            "software" => Ok(RtChoice::Software),
+            other => Err(format!("unknown ray backend '{other}' (expected auto, query or software)")),
+        }
+    }
+}
+
+impl RtChoice {
+    /// Resolves the choice on a device; asking for `query` where the device has
+    /// no ray queries is an error that says what to use instead.
+    pub fn resolve(self, ctx: &GpuContext) -> Result<RtBackend, String> {
+        match self {
+            RtChoice::Auto => Ok(if ctx.ray_query_enabled() { RtBackend::Query } else { RtBackend::Software }),
+            RtChoice::Software => Ok(RtBackend::Software),
+            RtChoice::Query if ctx.ray_query_enabled() => Ok(RtBackend::Query),
+            RtChoice::Query => Err(format!("device '{}' has no ray queries; use --rt software or --rt auto", ctx.caps.name)),
+        }
+    }
+}
