@@ -8,14 +8,19 @@
 pub mod environment;
 pub mod error;
 pub mod features;
+mod gltf_buffers;
+pub mod gltf_import;
+mod gltf_textures;
 pub mod light;
 pub mod material;
 pub mod mesh;
+pub mod mesh_ops;
 pub mod texture;
 
 pub use environment::{Environment, SkyModel};
 pub use error::SceneError;
 pub use features::SceneFeatures;
+pub use gltf_import::load_gltf;
 pub use light::{Light, LightKind};
 pub use material::{AlphaMode, Material, TextureRef};
 pub use mesh::{Instance, Mesh};
