@@ -5,6 +5,8 @@
 //! look down −Z. Everything the GPU needs is derived from these types by
 //! `crate::rt` and `crate::methods`; nothing here touches Vulkan.
 
+pub mod default_lighting;
+pub mod env_map;
 pub mod environment;
 pub mod error;
 pub mod features;
@@ -15,8 +17,10 @@ pub mod light;
 pub mod material;
 pub mod mesh;
 pub mod mesh_ops;
+pub mod preetham;
 pub mod texture;
 
+pub use default_lighting::{apply_default_lighting, DefaultLighting};
 pub use environment::{Environment, SkyModel};
 pub use error::SceneError;
 pub use features::SceneFeatures;
