@@ -35,10 +35,6 @@ pub fn load_env_map(path: &Path) -> Result<Environment, SceneError> {
     if width == 0 || height == 0 {
         return Err(SceneError::invalid(path, "environment map is empty"));
     }
-    let bad = texels
-        .iter()
-        .filter(|t| !t.iter().all(|c| c.is_finite()))
-        .count();
     let texels = texels
         .into_iter()
         .map(|t| t.map(|c| if c.is_finite() { c.max(0.0) } else { 0.0 }))
