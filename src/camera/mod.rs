@@ -1,1 +1,19 @@
 //! Head pose → eye views, projections, pose-trace formats.
+//!
+//! Conventions (DESIGN.md): glTF axes — right-handed, +Y up, metres, column
+//! vectors; a head (and each eye) looks down its −Z. Eyes sit at ±IPD/2 along
+//! the head's +X (default IPD 0.063 m). A pose trace gives the head in *stage
+//! space*; a stage transform places the stage in the scene.
+//!
+//! - [`pose`]: [`HeadPose`], a rigid head transform.
+//! - [`neck`]: [`HeadNeckModel`], translation for orientation-only tracking.
+//! - [`stereo`]: [`Eye`], [`StereoCamera`], [`EyeView`] — rays and projection,
+//!   the single source of truth for the camera model.
+
+pub mod neck;
+pub mod pose;
+pub mod stereo;
+
+pub use neck::HeadNeckModel;
+pub use pose::HeadPose;
+pub use stereo::{Eye, EyeView, StereoCamera, DEFAULT_IPD, DEFAULT_ZNEAR};
