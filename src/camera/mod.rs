@@ -9,11 +9,15 @@
 //! - [`neck`]: [`HeadNeckModel`], translation for orientation-only tracking.
 //! - [`stereo`]: [`Eye`], [`StereoCamera`], [`EyeView`] — rays and projection,
 //!   the single source of truth for the camera model.
+//! - [`trace`]: [`PoseTrace`] and the project's CSV format, repairs,
+//!   hemisphere continuity, resampling to the render rate.
 
 pub mod neck;
 pub mod pose;
 pub mod stereo;
+pub mod trace;
 
 pub use neck::HeadNeckModel;
 pub use pose::HeadPose;
 pub use stereo::{Eye, EyeView, StereoCamera, DEFAULT_IPD, DEFAULT_ZNEAR};
+pub use trace::{PoseSample, PoseTrace, TraceError};
