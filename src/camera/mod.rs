@@ -3,7 +3,7 @@
 //! Conventions (DESIGN.md): glTF axes — right-handed, +Y up, metres, column
 //! vectors; a head (and each eye) looks down its −Z. Eyes sit at ±IPD/2 along
 //! the head's +X (default IPD 0.063 m). A pose trace gives the head in *stage
-//! space*; a stage transform places the stage in the scene.
+//! space*; a [`Stage`] places the stage in the scene.
 //!
 //! - [`pose`]: [`HeadPose`], a rigid head transform.
 //! - [`neck`]: [`HeadNeckModel`], translation for orientation-only tracking.
@@ -11,13 +11,16 @@
 //!   the single source of truth for the camera model.
 //! - [`trace`]: [`PoseTrace`] and the project's CSV format, repairs,
 //!   hemisphere continuity, resampling to the render rate.
+//! - [`stage`]: [`Stage`], placing a trace's stage in a scene.
 
 pub mod neck;
 pub mod pose;
+pub mod stage;
 pub mod stereo;
 pub mod trace;
 
 pub use neck::HeadNeckModel;
 pub use pose::HeadPose;
+pub use stage::Stage;
 pub use stereo::{Eye, EyeView, StereoCamera, DEFAULT_IPD, DEFAULT_ZNEAR};
 pub use trace::{PoseSample, PoseTrace, TraceError};
