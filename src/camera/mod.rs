@@ -12,13 +12,17 @@
 //! - [`trace`]: [`PoseTrace`] and the project's CSV format, repairs,
 //!   hemisphere continuity, resampling to the render rate.
 //! - [`stage`]: [`Stage`], placing a trace's stage in a scene.
+//! - [`mmsys18`]: importer for the MMSys'18 multi-viewpoint 360° video
+//!   head-orientation logs (orientation only; translation from the neck model).
 
+pub mod mmsys18;
 pub mod neck;
 pub mod pose;
 pub mod stage;
 pub mod stereo;
 pub mod trace;
 
+pub use mmsys18::{convert_mmsys18, read_mmsys18, Mmsys18Options};
 pub use neck::HeadNeckModel;
 pub use pose::HeadPose;
 pub use stage::Stage;
