@@ -14,12 +14,16 @@
 //! - [`stage`]: [`Stage`], placing a trace's stage in a scene.
 //! - [`mmsys18`]: importer for the MMSys'18 multi-viewpoint 360° video
 //!   head-orientation logs (orientation only; translation from the neck model).
+//! - [`synth`]: seeded synthetic traces (head turn, walk, saccade, still),
+//!   with [`pcg`], the small PCG32 generator they use.
 
 pub mod mmsys18;
 pub mod neck;
+pub mod pcg;
 pub mod pose;
 pub mod stage;
 pub mod stereo;
+pub mod synth;
 pub mod trace;
 
 pub use mmsys18::{convert_mmsys18, read_mmsys18, Mmsys18Options};
@@ -27,4 +31,5 @@ pub use neck::HeadNeckModel;
 pub use pose::HeadPose;
 pub use stage::Stage;
 pub use stereo::{Eye, EyeView, StereoCamera, DEFAULT_IPD, DEFAULT_ZNEAR};
+pub use synth::{synth, SynthKind};
 pub use trace::{PoseSample, PoseTrace, TraceError};
