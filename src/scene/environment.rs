@@ -16,10 +16,13 @@ pub enum Environment {
     /// Analytic sky; the sun itself is a `LightKind::Directional` light in `Scene::lights`.
     Sky {
         model: SkyModel,
+        /// Unit direction *towards* the sun (the sun light's `direction` is its negation).
         sun_direction: Vec3,
+        /// Multiplies the model's radiance (Preetham: kcd/m²) into renderer units.
         scale: f32,
     },
-    /// Equirectangular radiance map, linear RGB f32, row 0 at +Y (top), u = 0 at −Z going towards +X.
+    /// Equirectangular radiance map, linear RGB f32, row 0 at +Y (top), u = 0 at −Z going towards +X
+    /// (exact lookup formula in `env_map`).
     Map {
         name: String,
         width: u32,

@@ -5,17 +5,26 @@
 //! look down −Z. Everything the GPU needs is derived from these types by
 //! `crate::rt` and `crate::methods`; nothing here touches Vulkan.
 
+pub mod default_lighting;
+pub mod env_map;
 pub mod environment;
 pub mod error;
 pub mod features;
+mod gltf_buffers;
+pub mod gltf_import;
+mod gltf_textures;
 pub mod light;
 pub mod material;
 pub mod mesh;
+pub mod mesh_ops;
+pub mod preetham;
 pub mod texture;
 
+pub use default_lighting::{apply_default_lighting, DefaultLighting};
 pub use environment::{Environment, SkyModel};
 pub use error::SceneError;
 pub use features::SceneFeatures;
+pub use gltf_import::load_gltf;
 pub use light::{Light, LightKind};
 pub use material::{AlphaMode, Material, TextureRef};
 pub use mesh::{Instance, Mesh};

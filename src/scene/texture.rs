@@ -1,6 +1,6 @@
 //! Textures as RGBA8 mip chains, built on the CPU at load time.
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum TextureEncoding {
     /// Colour data (base colour, emissive): sampled through an sRGB format.
     Srgb,

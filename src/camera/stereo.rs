@@ -1,0 +1,270 @@
+//! Stereo camera: head pose → two eye views, pixel rays and projection.
+//!
+//! This file is the single source of truth for the camera model; shaders
+//! (`shaders/common/camera.glsl`) implement the same formulas and are tested
+//! against these CPU functions.
+//!
+//! Model (glTF conventions, DESIGN.md):
+//! - Each eye looks down its −Z with +Y up and +X to the right; both eyes have
+//!   the head's orientation, so the **eye axes are parallel** (no toe-in).
+//! - The eyes sit at `∓ipd/2` along the head's +X: left eye at `−ipd/2`,
+//!   right eye at `+ipd/2`, both at the head position's height and depth.
+//! - Each eye has the same **symmetric** perspective frustum (`yfov` vertical
+//!   field of view, `aspect = width / height`). Real HMDs use asymmetric
+//!   per-eye frusta; the symmetric parallel-axis pair is what a glTF
+//!   perspective camera describes and keeps reprojection between the eyes a
+//!   pure horizontal shift for a fronto-parallel plane.
+//! - Pixel coordinates are continuous: `(0, 0)` is the top-left corner of the
+//!   top-left pixel, `+x` right, `+y` down; pixel `(i, j)` has its centre at
+//!   `(i + 0.5, j + 0.5)`.
+
+use glam::{Mat4, Quat, UVec2, Vec2, Vec3};
+use serde::{Deserialize, Serialize};
+
+use super::pose::HeadPose;
+
+/// Default interpupillary distance, metres (DESIGN.md).
+pub const DEFAULT_IPD: f32 = 0.063;
+/// Default near distance for raster-style projections and ray `t_min`, metres.
+pub const DEFAULT_ZNEAR: f32 = 0.01;
+
+/// One eye of a stereo pair.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum Eye {
+    /// Index 0, at `−ipd/2` along the head's +X.
+    Left,
+    /// Index 1, at `+ipd/2` along the head's +X.
+    Right,
+}
+
+impl Eye {
+    /// Both eyes in index order.
+    pub const BOTH: [Eye; 2] = [Eye::Left, Eye::Right];
+
+    /// 0 for the left eye, 1 for the right (array and image-layer index).
+    pub fn index(self) -> usize {
+        match self {
+            Eye::Left => 0,
+            Eye::Right => 1,
+        }
+    }
+
+    /// −1 for the left eye, +1 for the right: the eye sits at
+    /// `sign · ipd/2` along the head's +X.
+    pub fn sign(self) -> f32 {
+        match self {
+            Eye::Left => -1.0,
+            Eye::Right => 1.0,
+        }
+    }
+
+    /// The other eye.
+    pub fn other(self) -> Eye {
+        match self {
+            Eye::Left => Eye::Right,
+            Eye::Right => Eye::Left,
+        }
+    }
+}
+
+/// A head-mounted stereo camera in world space.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct StereoCamera {
+    /// Head (eye midpoint) pose in world space.
+    pub head: HeadPose,
+    /// Interpupillary distance, metres.
+    pub ipd: f32,
+    /// Vertical field of view of each eye, radians.
+    pub yfov: f32,
+    /// Width / height of each eye's image.
+    pub aspect: f32,
+    /// Near distance, metres (ray `t_min`, raster near plane).
+    pub znear: f32,
+}
+
+impl StereoCamera {
+    /// A stereo camera with the default IPD and near distance.
+    pub fn new(head: HeadPose, yfov: f32, aspect: f32) -> Self {
+        Self {
+            head,
+            ipd: DEFAULT_IPD,
+            yfov,
+            aspect,
+            znear: DEFAULT_ZNEAR,
+        }
+    }
+
+    /// A stereo camera whose head is a scene camera node: `camera_to_world`
+    /// is the node's world transform (glTF camera looking down its −Z). Scale
+    /// is dropped; the eye midpoint is the node's origin.
+    pub fn from_scene_camera(camera_to_world: Mat4, yfov: f32, aspect: f32) -> Self {
+        Self::new(HeadPose::from_mat4(camera_to_world), yfov, aspect)
+    }
+
+    /// The view of one eye.
+    pub fn eye(&self, eye: Eye) -> EyeView {
+        let offset = Vec3::new(eye.sign() * 0.5 * self.ipd, 0.0, 0.0);
+        let position = self.head.transform_point(offset);
+        let orientation = self.head.orientation;
+        EyeView {
+            eye,
+            position,
+            orientation,
+            world_from_eye: Mat4::from_rotation_translation(orientation, position),
+            yfov: self.yfov,
+            aspect: self.aspect,
+        }
+    }
+
+    /// Both eye views, indexed by [`Eye::index`].
+    pub fn eyes(&self) -> [EyeView; 2] {
+        Eye::BOTH.map(|e| self.eye(e))
+    }
+}
+
+/// One eye's view: a pinhole camera with a symmetric frustum.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct EyeView {
+    /// Which eye.
+    pub eye: Eye,
+    /// Eye position in world space.
+    pub position: Vec3,
+    /// Eye orientation (eye space → world space), the head's orientation.
+    pub orientation: Quat,
+    /// Rigid world-from-eye matrix.
+    pub world_from_eye: Mat4,
+    /// Vertical field of view, radians.
+    pub yfov: f32,
+    /// Width / height.
+    pub aspect: f32,
+}
+
+impl EyeView {
+    /// `(tan(yfov/2) · aspect, tan(yfov/2))`: half extents of the image plane
+    /// at distance 1 along −Z.
+    pub fn tan_half_fov(&self) -> Vec2 {
+        let ty = (0.5 * self.yfov).tan();
+        Vec2::new(ty * self.aspect, ty)
+    }
+
+    /// Rigid eye-from-world matrix (the view matrix).
+    pub fn eye_from_world(&self) -> Mat4 {
+        let inv = self.orientation.conjugate();
+        Mat4::from_rotation_translation(inv, -(inv * self.position))
+    }
+
+    /// Unit world-space direction of the ray through continuous pixel
+    /// coordinates `pixel` of an image of `size` pixels ((0,0) top-left
+    /// corner, +y down; pixel centres at `+0.5`).
+    ///
+    /// In eye space: `ndc = (2·px/w − 1, 1 − 2·py/h)`,
+    /// `d = normalize(ndc.x · tan.x, ndc.y · tan.y, −1)`.
+    pub fn ray_direction(&self, pixel: Vec2, size: UVec2) -> Vec3 {
+        let size = size.as_vec2();
+        let ndc = Vec2::new(2.0 * pixel.x / size.x - 1.0, 1.0 - 2.0 * pixel.y / size.y);
+        let t = self.tan_half_fov();
+        let d_eye = Vec3::new(ndc.x * t.x, ndc.y * t.y, -1.0).normalize();
+        (self.orientation * d_eye).normalize()
+    }
+
+    /// Continuous pixel coordinates and view depth of a world-space point;
+    /// `None` when the point is not in front of the eye (view depth ≤ 0 or
+    /// not finite). The pixel may lie outside `[0, w] × [0, h]`: the caller
+    /// decides what off-screen means. `view_depth` is the distance along the
+    /// eye's −Z (not along the ray), the inverse of [`Self::ray_direction`].
+    pub fn project(&self, world: Vec3, size: UVec2) -> Option<(Vec2, f32)> {
+        let p = self.orientation.conjugate() * (world - self.position);
+        let depth = -p.z;
+        if !(depth > 0.0 && depth.is_finite()) {
+            return None;
+        }
+        let t = self.tan_half_fov();
+        let ndc = Vec2::new(p.x / (depth * t.x), p.y / (depth * t.y));
+        let size = size.as_vec2();
+        let pixel = Vec2::new(0.5 * (ndc.x + 1.0) * size.x, 0.5 * (1.0 - ndc.y) * size.y);
+        Some((pixel, depth))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::EulerRot;
+
+    fn cam() -> StereoCamera {
+        let head = HeadPose::new(
+            Vec3::new(0.3, 1.6, 2.0),
+            Quat::from_euler(EulerRot::YXZ, 0.6, -0.25, 0.05),
+        );
+        StereoCamera::new(head, 90f32.to_radians(), 16.0 / 9.0)
+    }
+
+    #[test]
+    fn eyes_are_ipd_apart_along_head_x() {
+        let c = cam();
+        let [l, r] = c.eyes();
+        let d = r.position - l.position;
+        assert!((d.length() - DEFAULT_IPD).abs() < 1e-6);
+        assert!(d.normalize().abs_diff_eq(c.head.right(), 1e-5));
+        assert!(((l.position + r.position) * 0.5).abs_diff_eq(c.head.position, 1e-6));
+        assert_eq!(l.eye.index(), 0);
+        assert_eq!(r.eye.index(), 1);
+    }
+
+    #[test]
+    fn centre_pixel_looks_forward_and_corners_match_fov() {
+        let c = cam();
+        let v = c.eye(Eye::Left);
+        let size = UVec2::new(64, 36);
+        let d = v.ray_direction(size.as_vec2() * 0.5, size);
+        assert!(d.abs_diff_eq(c.head.forward(), 1e-5));
+        // Top edge centre is yfov/2 above forward.
+        let top = v.ray_direction(Vec2::new(32.0, 0.0), size);
+        let angle = top.angle_between(c.head.forward());
+        assert!((angle - 45f32.to_radians()).abs() < 1e-4);
+        assert!(top.dot(c.head.up()) > 0.0);
+        // Left edge is to the left.
+        let left = v.ray_direction(Vec2::new(0.0, 18.0), size);
+        assert!(left.dot(c.head.right()) < 0.0);
+    }
+
+    #[test]
+    fn project_inverts_ray_direction() {
+        let c = cam();
+        let size = UVec2::new(64, 48);
+        for e in Eye::BOTH {
+            let v = c.eye(e);
+            for &(px, py) in &[(0.5, 0.5), (10.25, 40.75), (63.9, 0.1), (32.0, 24.0)] {
+                let p = Vec2::new(px, py);
+                let dir = v.ray_direction(p, size);
+                for &dist in &[0.05f32, 1.0, 37.0] {
+                    let (q, depth) = v.project(v.position + dir * dist, size).unwrap();
+                    assert!((q - p).length() < 2e-3, "{e:?} {p} -> {q} at {dist}");
+                    let expected = dist * dir.dot(c.head.forward());
+                    assert!((depth - expected).abs() < 1e-4 * dist.max(1.0));
+                }
+            }
+            assert!(v.project(v.position - c.head.forward(), size).is_none());
+        }
+    }
+
+    #[test]
+    fn world_from_eye_and_eye_from_world_are_inverse() {
+        let v = cam().eye(Eye::Right);
+        let m = v.world_from_eye * v.eye_from_world();
+        assert!(m.abs_diff_eq(Mat4::IDENTITY, 1e-5));
+    }
+
+    #[test]
+    fn from_scene_camera_uses_node_transform() {
+        let m =
+            Mat4::from_rotation_translation(Quat::from_rotation_y(1.0), Vec3::new(0.0, 1.5, 0.0));
+        let c = StereoCamera::from_scene_camera(m, 1.0, 1.0);
+        assert!(c.head.position.abs_diff_eq(Vec3::new(0.0, 1.5, 0.0), 1e-6));
+        assert!(c
+            .head
+            .forward()
+            .abs_diff_eq(m.transform_vector3(Vec3::NEG_Z), 1e-6));
+        assert_eq!(c.ipd, DEFAULT_IPD);
+    }
+}

@@ -1,0 +1,740 @@
+//! glTF 2.0 import (`.gltf` + `.bin` + images, or `.glb`) into a [`Scene`].
+//!
+//! The pipeline, and what it does with imperfect files:
+//!
+//! 1. The JSON is parsed with `serde_json` first. Required extensions that only
+//!    change appearance (`AMD_split_roughnessMetallic`, `MSFT_texture_dds`, any
+//!    `KHR_materials_*`, …) are removed from `extensionsRequired` with a warning,
+//!    because the `gltf` crate refuses documents whose required extensions it
+//!    does not know. A required extension that changes geometry
+//!    (`KHR_draco_mesh_compression`, `EXT_meshopt_compression`, …) or that we do
+//!    not recognise is an error.
+//! 2. The document is validated by the `gltf` crate (dangling indices are errors).
+//! 3. Buffers and accessors are read by `gltf_buffers` with checked ranges.
+//! 4. The default scene's node tree is flattened into [`Instance`]s; a glTF mesh
+//!    used by several nodes maps to the same [`Mesh`]es (instancing). Cycles and
+//!    absurd depths are errors.
+//! 5. Every triangle-list primitive becomes one [`Mesh`]; other modes are skipped
+//!    with a warning. Missing indices are generated, missing normals are
+//!    generated (area-weighted), missing uvs are zeros, missing tangents are
+//!    generated from uv derivatives when the material has a normal map.
+//!    **Vertices with a NaN/Inf attribute**: every triangle using such a vertex
+//!    is dropped and one warning per primitive names the mesh and the count.
+//! 6. Images are decoded once each; a missing/undecodable image is a warning and
+//!    the material falls back to its factor.
+//!
+//! The whole import runs under `catch_unwind` as defence in depth: should a
+//! dependency panic on a malformed file, the caller gets an error naming it.
+
+use super::gltf_buffers::{load_buffers, split_container, AccessorReader};
+use super::gltf_textures::{decode_images, ImageUses};
+use super::mesh_ops::{drop_non_finite_triangles, generate_normals, generate_tangents};
+use super::{
+    AlphaMode, Instance, Light, LightKind, Material, Mesh, Scene, SceneCamera, SceneError,
+    TextureEncoding, TextureRef,
+};
+use glam::{Mat4, Vec2, Vec3, Vec4};
+use std::collections::HashMap;
+use std::path::Path;
+
+/// Required extensions that only affect appearance; ignoring them degrades
+/// shading, never geometry. (`KHR_materials_*` are accepted by prefix.)
+const APPEARANCE_ONLY_EXTENSIONS: &[&str] = &[
+    "AMD_split_roughnessMetallic",
+    "MSFT_texture_dds",
+    "KHR_texture_transform",
+    "KHR_materials_variants",
+    "EXT_texture_webp",
+    "KHR_texture_basisu",
+    "MSFT_packing_normalRoughnessMetallic",
+    "MSFT_packing_occlusionRoughnessMetallic",
+];
+
+/// Node hierarchies deeper than this are rejected (real files stay below ~30).
+const MAX_NODE_DEPTH: usize = 256;
+/// Upper bound on instances a node tree may expand to (guards DAG blow-ups).
+const MAX_INSTANCES: usize = 4_000_000;
+
+/// Loads a `.gltf` or `.glb` file. See the module documentation for how
+/// imperfect files are handled; non-fatal problems end up in `Scene::warnings`.
+pub fn load_gltf(path: &Path) -> Result<Scene, SceneError> {
+    match std::panic::catch_unwind(|| load_gltf_unguarded(path)) {
+        Ok(result) => result,
+        Err(payload) => {
+            let what = payload
+                .downcast_ref::<&str>()
+                .map(|s| s.to_string())
+                .or_else(|| payload.downcast_ref::<String>().cloned())
+                .unwrap_or_else(|| "unknown panic".into());
+            Err(SceneError::invalid(
+                path,
+                format!("malformed glTF: the importer failed internally ({what})"),
+            ))
+        }
+    }
+}
+
+fn load_gltf_unguarded(path: &Path) -> Result<Scene, SceneError> {
+    let bytes = std::fs::read(path).map_err(|e| SceneError::io(path, e))?;
+    let container = split_container(path, bytes)?;
+    let mut warnings = Vec::new();
+    let prepared = parse_document(path, &container.json, &mut warnings)?;
+    let doc = prepared.doc;
+    let buffers = load_buffers(&doc, path, container.bin)?;
+    let mut importer = Importer {
+        path,
+        doc: &doc,
+        reader: AccessorReader {
+            path,
+            buffers: &buffers,
+        },
+        scene: Scene {
+            source: path.to_path_buf(),
+            warnings,
+            ..Default::default()
+        },
+        mesh_map: HashMap::new(),
+        default_material: None,
+        instances_budget: MAX_INSTANCES,
+        split_rm_materials: prepared.split_rm,
+        sourceless_textures: prepared.sourceless,
+    };
+    importer.import_materials(&buffers);
+    importer.import_nodes()?;
+    let scene = importer.scene;
+    scene.validate()?;
+    Ok(scene)
+}
+
+/// JSON → validated `gltf::Document`, after filtering `extensionsRequired`.
+fn parse_document(
+    path: &Path,
+    json: &[u8],
+    warnings: &mut Vec<String>,
+) -> Result<Prepared, SceneError> {
+    let mut value: serde_json::Value = serde_json::from_slice(json)
+        .map_err(|e| SceneError::invalid(path, format!("invalid JSON: {e}")))?;
+    let Some(obj) = value.as_object_mut() else {
+        return Err(SceneError::invalid(
+            path,
+            "invalid glTF: the top-level JSON value is not an object",
+        ));
+    };
+    if let Some(required) = obj.get_mut("extensionsRequired") {
+        let list = required.as_array_mut().ok_or_else(|| {
+            SceneError::invalid(path, "invalid glTF: extensionsRequired is not an array")
+        })?;
+        let mut kept = Vec::new();
+        for ext in list.drain(..) {
+            let name = ext.as_str().ok_or_else(|| {
+                SceneError::invalid(
+                    path,
+                    "invalid glTF: extensionsRequired has a non-string entry",
+                )
+            })?;
+            if gltf::json::extensions::ENABLED_EXTENSIONS.contains(&name) {
+                kept.push(ext);
+            } else if APPEARANCE_ONLY_EXTENSIONS.contains(&name)
+                || name.starts_with("KHR_materials_")
+            {
+                warnings.push(format!(
+                    "{}: required extension {name} is not supported; it only affects appearance, \
+                     so it is ignored",
+                    path.display()
+                ));
+            } else {
+                return Err(SceneError::invalid(
+                    path,
+                    format!(
+                        "requires extension {name}, which stereocache does not support \
+                         (it may change geometry); convert the file without it, e.g. with \
+                         `gltf-transform` or Blender"
+                    ),
+                ));
+            }
+        }
+        *list = kept;
+    }
+    let split_rm = obj
+        .get("materials")
+        .and_then(|m| m.as_array())
+        .map_or(0, |ms| {
+            ms.iter()
+                .filter(|m| {
+                    m.pointer("/extensions/AMD_split_roughnessMetallic")
+                        .is_some()
+                })
+                .count()
+        });
+    let sourceless = patch_sourceless_textures(obj);
+    let root: gltf::json::Root = serde_json::from_value(value)
+        .map_err(|e| SceneError::invalid(path, format!("invalid glTF structure: {e}")))?;
+    let doc = gltf::Document::from_json(root).map_err(|e| match e {
+        gltf::Error::Validation(errors) => {
+            let shown: Vec<String> = errors
+                .iter()
+                .take(4)
+                .map(|(p, err)| format!("{p}: {err}"))
+                .collect();
+            let more = errors.len().saturating_sub(4);
+            let more = if more > 0 {
+                format!(" (and {more} more)")
+            } else {
+                String::new()
+            };
+            SceneError::invalid(path, format!("invalid glTF: {}{more}", shown.join("; ")))
+        }
+        other => SceneError::invalid(path, format!("invalid glTF: {other}")),
+    })?;
+    Ok(Prepared {
+        doc,
+        split_rm,
+        sourceless,
+    })
+}
+
+/// Textures with no core `source` (e.g. only `MSFT_texture_dds.source` or
+/// `KHR_texture_basisu.source`) are legal under those extensions but the `gltf`
+/// crate requires `source`. Points them at image 0 (adding a placeholder image
+/// when there is none) and returns their indices so they are never sampled.
+fn patch_sourceless_textures(obj: &mut serde_json::Map<String, serde_json::Value>) -> Vec<usize> {
+    use serde_json::{json, Value};
+    let mut sourceless = Vec::new();
+    if let Some(Value::Array(textures)) = obj.get_mut("textures") {
+        for (i, t) in textures.iter_mut().enumerate() {
+            if let Value::Object(t) = t {
+                if !t.contains_key("source") {
+                    t.insert("source".into(), json!(0));
+                    sourceless.push(i);
+                }
+            }
+        }
+    }
+    if !sourceless.is_empty() {
+        let images = obj.entry("images").or_insert_with(|| json!([]));
+        if let Value::Array(images) = images {
+            if images.is_empty() {
+                images.push(
+                    json!({"name": "placeholder for source-less textures", "uri": "data:;base64,"}),
+                );
+            }
+        }
+    }
+    sourceless
+}
+
+struct Prepared {
+    doc: gltf::Document,
+    /// Materials carrying AMD_split_roughnessMetallic.
+    split_rm: usize,
+    /// Textures that had no core `source` (see `patch_sourceless_textures`).
+    sourceless: Vec<usize>,
+}
+
+struct Importer<'a> {
+    path: &'a Path,
+    doc: &'a gltf::Document,
+    reader: AccessorReader<'a>,
+    scene: Scene,
+    /// glTF mesh index → our mesh indices (one per triangle primitive).
+    mesh_map: HashMap<usize, Vec<u32>>,
+    /// Index of the glTF default material, appended on first use.
+    default_material: Option<u32>,
+    instances_budget: usize,
+    /// Materials carrying AMD_split_roughnessMetallic (counted on the raw JSON:
+    /// the `gltf` crate is built without its generic `extensions` accessors).
+    split_rm_materials: usize,
+    sourceless_textures: Vec<usize>,
+}
+
+fn named(kind: &str, index: usize, name: Option<&str>) -> String {
+    match name {
+        Some(n) if !n.is_empty() => format!("{kind} {index} '{n}'"),
+        _ => format!("{kind} {index}"),
+    }
+}
+
+fn encoding_slot(uses: &mut ImageUses, image: usize, enc: TextureEncoding) {
+    let v = uses.entry(image).or_default();
+    if !v.contains(&enc) {
+        v.push(enc);
+    }
+}
+
+impl Importer<'_> {
+    fn warn(&mut self, msg: String) {
+        self.scene
+            .warnings
+            .push(format!("{}: {msg}", self.path.display()));
+    }
+
+    fn err(&self, msg: String) -> SceneError {
+        SceneError::invalid(self.path, msg)
+    }
+
+    /// Textures first (decoded once per image and encoding), then materials.
+    fn import_materials(&mut self, buffers: &[Vec<u8>]) {
+        let sourceless = self.sourceless_textures.clone();
+        let src = |t: gltf::texture::Texture| {
+            (!sourceless.contains(&t.index())).then(|| t.source().index())
+        };
+        let mut uses = ImageUses::new();
+        for m in self.doc.materials() {
+            let pbr = m.pbr_metallic_roughness();
+            let srgb = [
+                pbr.base_color_texture().and_then(|t| src(t.texture())),
+                m.emissive_texture().and_then(|t| src(t.texture())),
+            ];
+            let linear = [
+                pbr.metallic_roughness_texture()
+                    .and_then(|t| src(t.texture())),
+                m.normal_texture().and_then(|t| src(t.texture())),
+                m.transmission()
+                    .and_then(|t| t.transmission_texture())
+                    .and_then(|t| src(t.texture())),
+            ];
+            for i in srgb.into_iter().flatten() {
+                encoding_slot(&mut uses, i, TextureEncoding::Srgb);
+            }
+            for i in linear.into_iter().flatten() {
+                encoding_slot(&mut uses, i, TextureEncoding::Linear);
+            }
+        }
+        let decoded = decode_images(self.doc, &uses, self.path, buffers);
+        self.scene.warnings.extend(decoded.warnings);
+        let mut lookup: HashMap<(usize, TextureEncoding), u32> = HashMap::new();
+        for (key, tex) in decoded.textures {
+            lookup.insert(key, self.scene.textures.len() as u32);
+            self.scene.textures.push(tex);
+        }
+        let tex_ref = |t: gltf::texture::Texture, enc| {
+            src(t.clone()).and_then(|image| {
+                lookup
+                    .get(&(image, enc))
+                    .map(|&texture| TextureRef { texture })
+            })
+        };
+
+        let split_rm = self.split_rm_materials;
+        let mut blend = Vec::new();
+        let mut other_uv = Vec::new();
+        let mut no_source = Vec::new();
+        for m in self.doc.materials() {
+            let pbr = m.pbr_metallic_roughness();
+            let label = named("material", m.index().unwrap_or(0), m.name());
+            let infos = [
+                pbr.base_color_texture().map(|t| t.tex_coord()),
+                pbr.metallic_roughness_texture().map(|t| t.tex_coord()),
+                m.normal_texture().map(|t| t.tex_coord()),
+                m.emissive_texture().map(|t| t.tex_coord()),
+            ];
+            let core_textures = [
+                pbr.base_color_texture().map(|t| t.texture().index()),
+                pbr.metallic_roughness_texture()
+                    .map(|t| t.texture().index()),
+                m.normal_texture().map(|t| t.texture().index()),
+                m.emissive_texture().map(|t| t.texture().index()),
+            ];
+            if core_textures
+                .into_iter()
+                .flatten()
+                .any(|t| self.sourceless_textures.contains(&t))
+            {
+                no_source.push(label.clone());
+            }
+            if infos.into_iter().flatten().any(|c| c != 0) {
+                other_uv.push(label.clone());
+            }
+            let mut alpha_mode = match m.alpha_mode() {
+                gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
+                gltf::material::AlphaMode::Mask => AlphaMode::Mask,
+                gltf::material::AlphaMode::Blend => AlphaMode::Blend,
+            };
+            let mut alpha_cutoff = m.alpha_cutoff().unwrap_or(0.5);
+            if alpha_mode == AlphaMode::Blend {
+                blend.push(label.clone());
+                alpha_mode = AlphaMode::Mask;
+                alpha_cutoff = 0.5;
+            }
+            let transmission = m.transmission();
+            let emissive = Vec3::from(m.emissive_factor()) * m.emissive_strength().unwrap_or(1.0);
+            let normal = m.normal_texture();
+            let material = Material {
+                name: m.name().map(str::to_owned).unwrap_or_else(|| label.clone()),
+                base_color: Vec4::from(pbr.base_color_factor()),
+                base_color_texture: pbr
+                    .base_color_texture()
+                    .and_then(|t| tex_ref(t.texture(), TextureEncoding::Srgb)),
+                metallic: pbr.metallic_factor(),
+                roughness: pbr.roughness_factor(),
+                metallic_roughness_texture: pbr
+                    .metallic_roughness_texture()
+                    .and_then(|t| tex_ref(t.texture(), TextureEncoding::Linear)),
+                normal_texture: normal
+                    .as_ref()
+                    .and_then(|t| tex_ref(t.texture(), TextureEncoding::Linear)),
+                normal_scale: normal.as_ref().map_or(1.0, |t| t.scale()),
+                emissive,
+                emissive_texture: m
+                    .emissive_texture()
+                    .and_then(|t| tex_ref(t.texture(), TextureEncoding::Srgb)),
+                alpha_mode,
+                alpha_cutoff,
+                double_sided: m.double_sided(),
+                transmission: transmission
+                    .as_ref()
+                    .map_or(0.0, |t| t.transmission_factor()),
+                transmission_texture: transmission
+                    .as_ref()
+                    .and_then(|t| t.transmission_texture())
+                    .and_then(|t| tex_ref(t.texture(), TextureEncoding::Linear)),
+                ior: m.ior().unwrap_or(1.5),
+            };
+            self.scene.materials.push(sanitize_material(material));
+        }
+        if split_rm > 0 {
+            self.warn(format!(
+                "{split_rm} materials use AMD_split_roughnessMetallic; their separate roughness/metallic \
+                 textures are ignored and the roughness/metallic factors are used"
+            ));
+        }
+        if !blend.is_empty() {
+            self.warn(format!(
+                "alphaMode BLEND is rendered as MASK with cutoff 0.5 in {} materials ({})",
+                blend.len(),
+                blend.join(", ")
+            ));
+        }
+        if !no_source.is_empty() {
+            self.warn(format!(
+                "textures without a PNG/JPEG source (e.g. DDS only) fall back to factors in {}",
+                no_source.join(", ")
+            ));
+        }
+        if !other_uv.is_empty() {
+            self.warn(format!(
+                "only TEXCOORD_0 is supported; textures of {} read uv0",
+                other_uv.join(", ")
+            ));
+        }
+    }
+
+    fn default_material(&mut self) -> u32 {
+        *self.default_material.get_or_insert_with(|| {
+            self.scene.materials.push(Material::default());
+            (self.scene.materials.len() - 1) as u32
+        })
+    }
+
+    /// Flattens the default scene (or the first, or every root node when the
+    /// file declares no scene) into instances, lights and cameras.
+    fn import_nodes(&mut self) -> Result<(), SceneError> {
+        let roots: Vec<gltf::Node> = match self
+            .doc
+            .default_scene()
+            .or_else(|| self.doc.scenes().next())
+        {
+            Some(s) => s.nodes().collect(),
+            None => {
+                let mut is_child = vec![false; self.doc.nodes().len()];
+                for n in self.doc.nodes() {
+                    for c in n.children() {
+                        is_child[c.index()] = true;
+                    }
+                }
+                self.doc.nodes().filter(|n| !is_child[n.index()]).collect()
+            }
+        };
+        let mut on_path = vec![false; self.doc.nodes().len()];
+        for root in roots {
+            self.visit(root, Mat4::IDENTITY, &mut on_path, 0)?;
+        }
+        Ok(())
+    }
+
+    fn visit(
+        &mut self,
+        node: gltf::Node,
+        parent: Mat4,
+        on_path: &mut [bool],
+        depth: usize,
+    ) -> Result<(), SceneError> {
+        let label = named("node", node.index(), node.name());
+        if on_path[node.index()] {
+            return Err(self.err(format!(
+                "{label} is its own ancestor: the node hierarchy has a cycle"
+            )));
+        }
+        if depth > MAX_NODE_DEPTH {
+            return Err(self.err(format!(
+                "{label}: node hierarchy deeper than {MAX_NODE_DEPTH} levels"
+            )));
+        }
+        let local = Mat4::from_cols_array_2d(&node.transform().matrix());
+        let world = parent * local;
+        if !world.is_finite() {
+            self.warn(format!(
+                "{label} has a non-finite transform; it and its children are skipped"
+            ));
+            return Ok(());
+        }
+        if let Some(mesh) = node.mesh() {
+            let ids = self.mesh(mesh)?;
+            if self.instances_budget < ids.len() {
+                return Err(self.err(format!(
+                    "the node hierarchy expands to more than {MAX_INSTANCES} instances"
+                )));
+            }
+            self.instances_budget -= ids.len();
+            for id in ids {
+                self.scene.instances.push(Instance {
+                    mesh: id,
+                    transform: world,
+                    name: node
+                        .name()
+                        .map(str::to_owned)
+                        .unwrap_or_else(|| label.clone()),
+                });
+            }
+        }
+        if let Some(camera) = node.camera() {
+            self.camera(&node, camera, world);
+        }
+        if let Some(light) = node.light() {
+            self.light(&node, light, world);
+        }
+        on_path[node.index()] = true;
+        for child in node.children() {
+            self.visit(child, world, on_path, depth + 1)?;
+        }
+        on_path[node.index()] = false;
+        Ok(())
+    }
+
+    fn camera(&mut self, node: &gltf::Node, camera: gltf::Camera, world: Mat4) {
+        let name = camera
+            .name()
+            .or(node.name())
+            .map(str::to_owned)
+            .unwrap_or_else(|| format!("camera {}", camera.index()));
+        match camera.projection() {
+            gltf::camera::Projection::Perspective(p) => {
+                // Camera-to-world without scale: cameras are rigid.
+                let (_, rot, pos) = world.to_scale_rotation_translation();
+                self.scene.cameras.push(SceneCamera {
+                    name,
+                    transform: Mat4::from_rotation_translation(rot.normalize(), pos),
+                    yfov: p.yfov(),
+                    aspect: p.aspect_ratio(),
+                    znear: p.znear(),
+                });
+            }
+            gltf::camera::Projection::Orthographic(_) => {
+                self.warn(format!(
+                    "orthographic camera '{name}' is not supported; skipped"
+                ));
+            }
+        }
+    }
+
+    fn light(&mut self, node: &gltf::Node, light: gltf::khr_lights_punctual::Light, world: Mat4) {
+        use gltf::khr_lights_punctual::Kind;
+        let kind = match light.kind() {
+            Kind::Point => LightKind::Point,
+            Kind::Spot {
+                inner_cone_angle,
+                outer_cone_angle,
+            } => LightKind::Spot {
+                inner_cone: inner_cone_angle,
+                outer_cone: outer_cone_angle,
+            },
+            Kind::Directional => LightKind::Directional {
+                angular_radius: 0.0,
+            },
+        };
+        let direction = world
+            .transform_vector3(Vec3::NEG_Z)
+            .try_normalize()
+            .unwrap_or(Vec3::NEG_Y);
+        let name = light
+            .name()
+            .or(node.name())
+            .map(str::to_owned)
+            .unwrap_or_else(|| format!("light {}", light.index()));
+        self.scene.lights.push(Light {
+            name,
+            kind,
+            radiant: Vec3::from(light.color()) * light.intensity(),
+            position: world.transform_point3(Vec3::ZERO),
+            direction,
+            range: light.range(),
+        });
+    }
+
+    /// Our meshes for one glTF mesh, converted on first use.
+    fn mesh(&mut self, mesh: gltf::Mesh) -> Result<Vec<u32>, SceneError> {
+        if let Some(ids) = self.mesh_map.get(&mesh.index()) {
+            return Ok(ids.clone());
+        }
+        let mut ids = Vec::new();
+        for prim in mesh.primitives() {
+            let label = format!(
+                "{} primitive {}",
+                named("mesh", mesh.index(), mesh.name()),
+                prim.index()
+            );
+            if let Some(m) = self.primitive(&prim, &label, mesh.name())? {
+                ids.push(self.scene.meshes.len() as u32);
+                self.scene.meshes.push(m);
+            }
+        }
+        self.mesh_map.insert(mesh.index(), ids.clone());
+        Ok(ids)
+    }
+
+    fn primitive(
+        &mut self,
+        prim: &gltf::Primitive,
+        label: &str,
+        mesh_name: Option<&str>,
+    ) -> Result<Option<Mesh>, SceneError> {
+        use gltf::mesh::Mode;
+        if prim.mode() != Mode::Triangles {
+            self.warn(format!(
+                "{label}: mode {:?} is not supported (triangles only); skipped",
+                prim.mode()
+            ));
+            return Ok(None);
+        }
+        let Some(pos_acc) = prim.get(&gltf::Semantic::Positions) else {
+            self.warn(format!("{label} has no POSITION attribute; skipped"));
+            return Ok(None);
+        };
+        let r = &self.reader;
+        let positions: Vec<Vec3> = r
+            .read_vec::<3>(&pos_acc, &format!("POSITION of {label}"))?
+            .into_iter()
+            .map(Vec3::from)
+            .collect();
+        let n = positions.len();
+        if n > u32::MAX as usize {
+            return Err(self.err(format!("{label}: more than 2^32 vertices")));
+        }
+        let same_len = |what: &str, len: usize| -> Result<(), SceneError> {
+            if len != n {
+                Err(SceneError::invalid(
+                    self.path,
+                    format!("{label}: {what} has {len} elements but POSITION has {n}"),
+                ))
+            } else {
+                Ok(())
+            }
+        };
+        let normals: Vec<Vec3> = match prim.get(&gltf::Semantic::Normals) {
+            Some(a) => {
+                let v = r.read_vec::<3>(&a, &format!("NORMAL of {label}"))?;
+                same_len("NORMAL", v.len())?;
+                v.into_iter().map(Vec3::from).collect()
+            }
+            None => Vec::new(),
+        };
+        let uvs: Vec<Vec2> = match prim.get(&gltf::Semantic::TexCoords(0)) {
+            Some(a) => {
+                let v = r.read_vec::<2>(&a, &format!("TEXCOORD_0 of {label}"))?;
+                same_len("TEXCOORD_0", v.len())?;
+                v.into_iter().map(Vec2::from).collect()
+            }
+            None => vec![Vec2::ZERO; n],
+        };
+        let tangents: Vec<Vec4> = match prim.get(&gltf::Semantic::Tangents) {
+            Some(a) => {
+                let v = r.read_vec::<4>(&a, &format!("TANGENT of {label}"))?;
+                same_len("TANGENT", v.len())?;
+                v.into_iter().map(Vec4::from).collect()
+            }
+            None => Vec::new(),
+        };
+        let mut indices = match prim.indices() {
+            Some(a) => r.read_indices(&a, &format!("indices of {label}"))?,
+            None => (0..n as u32).collect(),
+        };
+        if let Some((k, &bad)) = indices.iter().enumerate().find(|(_, &i)| i as usize >= n) {
+            return Err(self.err(format!(
+                "{label}: index {k} has value {bad}, out of range for {n} vertices"
+            )));
+        }
+        if indices.len() % 3 != 0 {
+            self.warn(format!(
+                "{label}: {} indices is not a multiple of 3; the last incomplete triangle is ignored",
+                indices.len()
+            ));
+            indices.truncate(indices.len() / 3 * 3);
+        }
+        let material = match prim.material().index() {
+            Some(i) => i as u32,
+            None => self.default_material(),
+        };
+        let mut mesh = Mesh {
+            name: mesh_name
+                .map(str::to_owned)
+                .unwrap_or_else(|| label.to_owned()),
+            positions,
+            normals,
+            uvs,
+            tangents,
+            indices,
+            material,
+        };
+        let dropped = drop_non_finite_triangles(&mut mesh);
+        if dropped > 0 {
+            self.warn(format!(
+                "{label}: {dropped} triangles dropped because they use vertices with NaN/Inf attributes"
+            ));
+        }
+        if mesh.normals.is_empty() {
+            mesh.normals = generate_normals(&mesh.positions, &mesh.indices);
+        } else if mesh.normals.iter().any(|v| v.length_squared() < 1e-20) {
+            let generated = generate_normals(&mesh.positions, &mesh.indices);
+            for (v, g) in mesh.normals.iter_mut().zip(generated) {
+                *v = v.try_normalize().unwrap_or(g);
+            }
+        } else {
+            for v in &mut mesh.normals {
+                *v = v.normalize();
+            }
+        }
+        let needs_tangents = self
+            .scene
+            .materials
+            .get(material as usize)
+            .is_some_and(|m| m.normal_texture.is_some());
+        if mesh.tangents.is_empty() && needs_tangents {
+            mesh.tangents =
+                generate_tangents(&mesh.positions, &mesh.normals, &mesh.uvs, &mesh.indices);
+        }
+        Ok(Some(mesh))
+    }
+}
+
+/// Clamps material parameters to their glTF ranges (files in the wild carry
+/// e.g. roughness 1.0000001 or ior 0 meaning "unset").
+fn sanitize_material(mut m: Material) -> Material {
+    let finite_or = |v: f32, d: f32| if v.is_finite() { v } else { d };
+    m.base_color = Vec4::from_array(
+        m.base_color
+            .to_array()
+            .map(|c| finite_or(c, 1.0).clamp(0.0, 1.0)),
+    );
+    m.metallic = finite_or(m.metallic, 1.0).clamp(0.0, 1.0);
+    m.roughness = finite_or(m.roughness, 1.0).clamp(0.0, 1.0);
+    m.emissive = Vec3::from_array(m.emissive.to_array().map(|c| finite_or(c, 0.0).max(0.0)));
+    m.transmission = finite_or(m.transmission, 0.0).clamp(0.0, 1.0);
+    m.alpha_cutoff = finite_or(m.alpha_cutoff, 0.5).clamp(0.0, 1.0);
+    m.normal_scale = finite_or(m.normal_scale, 1.0);
+    // KHR_materials_ior: ior = 0 is a legal "no refraction" marker; keep ≥ 1 otherwise.
+    m.ior = finite_or(m.ior, 1.5);
+    if m.ior != 0.0 {
+        m.ior = m.ior.max(1.0);
+    }
+    m
+}
