@@ -19,6 +19,19 @@ fn collect(dir: &Path, out: &mut Vec<PathBuf>) {
     }
 }
 
+/// True when `file` includes `common/rt.glsl`, directly or through other includes.
+fn traces_rays(file: &Path, root: &Path, seen: &mut Vec<PathBuf>) -> bool {
+    if seen.iter().any(|p| p == file) {
+        return false;
+    }
+    seen.push(file.to_path_buf());
+    let text = std::fs::read_to_string(file).unwrap_or_default();
+    text.lines().filter_map(|l| l.trim().strip_prefix("#include")).any(|rest| {
+        let name = rest.trim().trim_matches('"');
+        name == "common/rt.glsl" || traces_rays(&root.join(name), root, seen)
+    })
+}
+
 fn main() {
     println!("cargo:rerun-if-changed=shaders");
     println!("cargo:rerun-if-env-changed=GLSLC");
@@ -35,8 +48,7 @@ fn main() {
     for src in &sources {
         let rel = src.strip_prefix(&shader_dir).unwrap().with_extension("");
         let name = rel.to_string_lossy().replace('\\', "/");
-        let text = std::fs::read_to_string(src).unwrap_or_default();
-        if text.contains("common/rt.glsl") {
+        if traces_rays(src, &shader_dir, &mut Vec::new()) {
             jobs.push((format!("{name}.query"), src.clone(), vec!["-DRT_QUERY"]));
             jobs.push((format!("{name}.software"), src.clone(), vec!["-DRT_SOFTWARE"]));
         } else {

@@ -4,8 +4,12 @@
 //! imports glTF and generates test scenes; `rt` builds the ray-tracing
 //! structures (obvhs CWBVH for the software path, BLAS/TLAS for ray queries);
 //! `camera` turns head poses into eye views and reads pose traces; `methods`
-//! holds one folder per rendering method; `metrics` compares images.
+//! holds one folder per rendering method; `output` writes images.
 
 pub mod camera;
+pub mod gpu;
+pub mod methods;
 pub mod metrics;
+pub mod output;
+pub mod rt;
 pub mod scene;

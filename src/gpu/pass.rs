@@ -191,6 +191,16 @@ impl<'r> Pass<'r> {
         rec.end_pass(idx);
     }
 
+    /// Writes `data` (≤ 65536 bytes, a multiple of 4) at the start of the
+    /// first written buffer, inline in the command buffer (per-frame parameters).
+    pub fn update(self, data: &[u8]) {
+        let Pass { rec, name, reads, writes } = self;
+        assert!(data.len() <= 65536 && data.len() % 4 == 0, "pass {name}: vkCmdUpdateBuffer size");
+        let idx = rec.begin_pass(&name, &reads, &writes);
+        unsafe { rec.ctx.device.cmd_update_buffer(rec.cb, writes[0], 0, data) };
+        rec.end_pass(idx);
+    }
+
     /// Copies the first read buffer into the first written buffer (`bytes` long).
     pub fn copy(self, bytes: u64) {
         let Pass { rec, name, reads, writes } = self;

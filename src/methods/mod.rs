@@ -1,0 +1,40 @@
+//! Rendering methods. Every method implements [`Method`] and produces the same
+//! [`StereoFrame`], so replay, compare, metrics and reports never special-case one.
+
+pub mod frame;
+pub mod reference;
+
+pub use frame::{EyeImage, FrameInput, FrameParams, FrameStats, RayCounts, StereoFrame};
+pub use reference::Reference;
+
+use crate::gpu::GpuResult;
+
+/// Settings every method shares, so differences come from the method alone.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct RenderSettings {
+    pub width: u32,
+    pub height: u32,
+    /// Samples per pixel per frame (reference, supersample).
+    pub spp: u32,
+    /// Maximum scattering events per path (pbrt's maxdepth: 1 = direct light only).
+    pub max_bounces: u32,
+    /// Run seed of the counter-based random numbers.
+    pub seed: u32,
+    /// Compile every feature in, ignoring what the scene uses (the unspecialized build).
+    pub all_features: bool,
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        RenderSettings { width: 64, height: 64, spp: 16, max_bounces: 3, seed: 1, all_features: false }
+    }
+}
+
+pub trait Method {
+    /// The method's name on the command line (`reference`, `sample-cache`, ...).
+    fn name(&self) -> &'static str;
+    /// Renders both eyes of one frame.
+    fn render_frame(&mut self, frame: &FrameInput) -> GpuResult<StereoFrame>;
+    /// GPU memory held by the method's own buffers (not the scene's).
+    fn memory_bytes(&self) -> u64;
+}

@@ -1,0 +1,334 @@
+//! `SceneGpu`: the scene in GPU buffers (descriptor set 0 of every pipeline,
+//! layout in shaders/common/scene.glsl), the ray-tracing structure of the
+//! chosen backend, and the specialization constants the scene implies.
+
+use super::{RtBackend, SoftwareBvh};
+use crate::gpu::{
+    accel::{AccelStructures, BlasInput, TlasInstance},
+    BindingKind, Buffer, DescriptorLayout, DescriptorSet, GpuContext, GpuResult, GpuTexture, Resource, Sampler, SpecConstants,
+};
+use crate::scene::preetham::preetham_params;
+use crate::scene::{AlphaMode, Environment, LightKind, Scene, SceneFeatures, SkyModel, TextureEncoding};
+use ash::vk;
+use bytemuck::{Pod, Zeroable};
+use glam::{Mat4, Vec3};
+use std::sync::Arc;
+
+/// Specialization constant ids (shaders/common/features.glsl).
+pub mod spec_id {
+    pub const TEXTURES: u32 = 0;
+    pub const NORMAL_MAPS: u32 = 1;
+    pub const ALPHA_MASK: u32 = 2;
+    pub const TRANSMISSION: u32 = 3;
+    pub const EMISSIVE: u32 = 4;
+    pub const PUNCTUAL: u32 = 5;
+    pub const DIRECTIONAL: u32 = 6;
+    pub const ENV_KIND: u32 = 7;
+    pub const MAX_BOUNCES: u32 = 8;
+    pub const TEXTURE_COUNT: u32 = 9;
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct VertexGpu {
+    pos_u: [f32; 4],
+    normal_v: [f32; 4],
+    tangent: [f32; 4],
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct InstanceGpu {
+    object_to_world: [f32; 16],
+    normal_to_world: [f32; 16],
+    mesh_pad: [u32; 4],
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct MaterialGpu {
+    base_color: [f32; 4],
+    emissive_metallic: [f32; 4],
+    params: [f32; 4],
+    tex0: [i32; 4],
+    tex1: [i32; 4],
+    extra: [f32; 4],
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct LightGpu {
+    radiant_kind: [f32; 4],
+    position_range: [f32; 4],
+    direction: [f32; 4],
+    cone: [f32; 4],
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct SceneParamsGpu {
+    env_constant: [f32; 4],
+    sun_dir: [f32; 4],
+    zenith: [f32; 4],
+    perez: [f32; 16],
+    counts: [u32; 4],
+}
+
+/// Environment kinds of `SC_ENV_KIND`.
+fn env_kind(env: &Option<Environment>) -> u32 {
+    match env {
+        None => 0,
+        Some(Environment::Constant(_)) => 1,
+        Some(Environment::Sky { .. }) => 2,
+        Some(Environment::Map { .. }) => 3,
+    }
+}
+
+pub struct SceneGpu {
+    pub backend: RtBackend,
+    pub features: SceneFeatures,
+    pub layout: Arc<DescriptorLayout>,
+    pub set: DescriptorSet,
+    pub triangle_count: usize,
+    /// Bytes of GPU memory the scene occupies (buffers, textures, BVH/AS).
+    pub bytes: u64,
+    texture_count: u32,
+    _buffers: Vec<Buffer>,
+    _textures: Vec<GpuTexture>,
+    _samplers: Vec<Sampler>,
+    _accel: Option<AccelStructures>,
+}
+
+impl SceneGpu {
+    pub fn upload(ctx: &Arc<GpuContext>, scene: &Scene, backend: RtBackend) -> GpuResult<SceneGpu> {
+        let before = ctx.allocated_bytes();
+        let features = SceneFeatures::of(scene);
+        // Geometry.
+        let mut vertices = Vec::new();
+        let mut indices: Vec<u32> = Vec::new();
+        let mut meshes = Vec::new();
+        for m in &scene.meshes {
+            let vertex_offset = vertices.len() as u32;
+            let index_offset = indices.len() as u32;
+            for i in 0..m.positions.len() {
+                let p = m.positions[i];
+                let n = m.normals[i];
+                let uv = m.uvs[i];
+                let t = m.tangents.get(i).copied().unwrap_or_default();
+                vertices.push(VertexGpu { pos_u: [p.x, p.y, p.z, uv.x], normal_v: [n.x, n.y, n.z, uv.y], tangent: t.to_array() });
+            }
+            indices.extend_from_slice(&m.indices);
+            meshes.push([vertex_offset, index_offset, m.material, m.triangle_count() as u32]);
+        }
+        let instances: Vec<InstanceGpu> = scene
+            .instances
+            .iter()
+            .map(|i| InstanceGpu {
+                object_to_world: i.transform.to_cols_array(),
+                normal_to_world: i.transform.inverse().transpose().to_cols_array(),
+                mesh_pad: [i.mesh, 0, 0, 0],
+            })
+            .collect();
+
+        // Textures (descriptor array at binding 10; a 1×1 white stand-in when there are none).
+        let mut textures = Vec::new();
+        for (ti, t) in scene.textures.iter().enumerate() {
+            let format = match t.encoding {
+                TextureEncoding::Srgb => vk::Format::R8G8B8A8_SRGB,
+                TextureEncoding::Linear => vk::Format::R8G8B8A8_UNORM,
+            };
+            let levels: Vec<&[u8]> = t.mips.iter().map(|m| m.as_slice()).collect();
+            textures.push(GpuTexture::new(ctx, &format!("texture{ti}:{}", t.name), format, t.width, t.height, &levels)?);
+        }
+        if textures.is_empty() {
+            textures.push(GpuTexture::new(ctx, "texture.white", vk::Format::R8G8B8A8_UNORM, 1, 1, &[&[255, 255, 255, 255]])?);
+        }
+        let texture_count = scene.textures.len().max(1) as u32;
+
+        let materials: Vec<MaterialGpu> = scene
+            .materials
+            .iter()
+            .map(|m| {
+                let t = |r: Option<crate::scene::TextureRef>| r.map(|r| r.texture as i32).unwrap_or(-1);
+                MaterialGpu {
+                    base_color: m.base_color.to_array(),
+                    emissive_metallic: [m.emissive.x, m.emissive.y, m.emissive.z, m.metallic],
+                    params: [m.roughness, m.transmission, m.ior, m.alpha_cutoff],
+                    tex0: [t(m.base_color_texture), t(m.metallic_roughness_texture), t(m.normal_texture), t(m.emissive_texture)],
+                    tex1: [t(m.transmission_texture), (m.alpha_mode != AlphaMode::Opaque) as i32, m.double_sided as i32, 0],
+                    extra: [m.normal_scale, 0.0, 0.0, 0.0],
+                }
+            })
+            .collect();
+
+        let lights: Vec<LightGpu> = scene
+            .lights
+            .iter()
+            .map(|l| {
+                let (kind, cos_radius, cone) = match l.kind {
+                    LightKind::Point => (0.0, 1.0, [1.0, 0.0]),
+                    LightKind::Spot { inner_cone, outer_cone } => (1.0, 1.0, [inner_cone.cos(), outer_cone.cos()]),
+                    LightKind::Directional { angular_radius } => (2.0, angular_radius.cos().min(1.0), [1.0, 0.0]),
+                };
+                let d = l.direction.normalize_or(Vec3::NEG_Y);
+                LightGpu {
+                    radiant_kind: [l.radiant.x, l.radiant.y, l.radiant.z, kind],
+                    position_range: [l.position.x, l.position.y, l.position.z, l.range.unwrap_or(0.0)],
+                    direction: [d.x, d.y, d.z, cos_radius],
+                    cone: [cone[0], cone[1], 0.0, 0.0],
+                }
+            })
+            .collect();
+
+        let mut params = SceneParamsGpu::zeroed();
+        params.counts = [lights.len() as u32, 0, 0, instances.len() as u32];
+        let mut env_texture = None;
+        match &scene.environment {
+            Some(Environment::Constant(c)) => params.env_constant = [c.x, c.y, c.z, 1.0],
+            Some(Environment::Sky { model: SkyModel::Preetham { turbidity }, sun_direction, scale }) => {
+                let p = preetham_params(*turbidity, *sun_direction);
+                params.env_constant = [0.0, 0.0, 0.0, *scale];
+                params.sun_dir = [p.sun_direction.x, p.sun_direction.y, p.sun_direction.z, p.sun_theta];
+                params.zenith = [p.zenith[0], p.zenith[1], p.zenith[2], 0.0];
+                for (c, row) in p.perez.iter().enumerate() {
+                    params.perez[c * 5..c * 5 + 5].copy_from_slice(row);
+                }
+            }
+            Some(Environment::Map { name, width, height, texels, scale }) => {
+                params.env_constant = [0.0, 0.0, 0.0, *scale];
+                params.counts[1] = *width;
+                params.counts[2] = *height;
+                let data: Vec<f32> = texels.iter().flat_map(|t| [t[0], t[1], t[2], 1.0]).collect();
+                env_texture = Some(GpuTexture::new(
+                    ctx,
+                    &format!("environment:{name}"),
+                    vk::Format::R32G32B32A32_SFLOAT,
+                    *width,
+                    *height,
+                    &[bytemuck::cast_slice(&data)],
+                )?);
+            }
+            None => {}
+        }
+        let env_texture = match env_texture {
+            Some(t) => t,
+            None => GpuTexture::new(ctx, "environment.none", vk::Format::R32G32B32A32_SFLOAT, 1, 1, &[bytemuck::cast_slice(&[0f32; 4])])?,
+        };
+
+        let none = vk::BufferUsageFlags::empty();
+        let b_vertices = Buffer::with_data(ctx, "scene.vertices", bytemuck::cast_slice(&vertices), none)?;
+        let b_indices = Buffer::with_data(ctx, "scene.indices", bytemuck::cast_slice(&indices), none)?;
+        let b_meshes = Buffer::with_data(ctx, "scene.meshes", bytemuck::cast_slice(&meshes), none)?;
+        let b_instances = Buffer::with_data(ctx, "scene.instances", bytemuck::cast_slice(&instances), none)?;
+        let b_materials = Buffer::with_data(ctx, "scene.materials", bytemuck::cast_slice(&materials), none)?;
+        let b_lights = Buffer::with_data(ctx, "scene.lights", bytemuck::cast_slice(&lights), none)?;
+        let b_params = Buffer::with_data(ctx, "scene.params", bytemuck::bytes_of(&params), none)?;
+
+        // Ray-tracing structure of the backend; the other backend's bindings get 16-byte stand-ins.
+        let (b_nodes, b_ref, b_verts, accel) = match backend {
+            RtBackend::Software => {
+                let bvh = SoftwareBvh::build(scene);
+                (
+                    Buffer::with_data(ctx, "bvh.nodes", bytemuck::cast_slice(bvh.nodes()), none)?,
+                    Buffer::with_data(ctx, "bvh.tri_ref", bytemuck::cast_slice(&bvh.tri_ref), none)?,
+                    Buffer::with_data(ctx, "bvh.tri_verts", bytemuck::cast_slice(&bvh.tri_verts), none)?,
+                    None,
+                )
+            }
+            RtBackend::Query => {
+                let positions: Vec<Vec<[f32; 3]>> = scene.meshes.iter().map(|m| m.positions.iter().map(|p| p.to_array()).collect()).collect();
+                let inputs: Vec<BlasInput> = scene
+                    .meshes
+                    .iter()
+                    .zip(&positions)
+                    .map(|(m, pos)| BlasInput {
+                        positions: pos,
+                        indices: &m.indices,
+                        opaque: scene.materials[m.material as usize].alpha_mode == AlphaMode::Opaque,
+                    })
+                    .collect();
+                let tlas_instances: Vec<TlasInstance> = scene
+                    .instances
+                    .iter()
+                    .enumerate()
+                    .map(|(i, inst)| TlasInstance { transform: row_major_3x4(inst.transform), custom_index: i as u32, blas: inst.mesh as usize })
+                    .collect();
+                let accel = AccelStructures::build(ctx, &inputs, &tlas_instances)?;
+                (
+                    Buffer::storage(ctx, "bvh.nodes.unused", 16)?,
+                    Buffer::storage(ctx, "bvh.tri_ref.unused", 16)?,
+                    Buffer::storage(ctx, "bvh.tri_verts.unused", 16)?,
+                    Some(accel),
+                )
+            }
+        };
+
+        let mut kinds = vec![BindingKind::StorageBuffer; 10];
+        kinds.push(BindingKind::SampledImages(texture_count));
+        kinds.push(BindingKind::SampledImages(1));
+        if backend == RtBackend::Query {
+            kinds.push(BindingKind::AccelerationStructure);
+        }
+        let layout = DescriptorLayout::new(ctx, &kinds)?;
+        let tex_sampler = Sampler::new(ctx, true)?;
+        let env_sampler = Sampler::new(ctx, false)?;
+        let mut resources = vec![
+            Resource::Buffer(&b_vertices),
+            Resource::Buffer(&b_indices),
+            Resource::Buffer(&b_meshes),
+            Resource::Buffer(&b_instances),
+            Resource::Buffer(&b_materials),
+            Resource::Buffer(&b_lights),
+            Resource::Buffer(&b_params),
+            Resource::Buffer(&b_nodes),
+            Resource::Buffer(&b_ref),
+            Resource::Buffer(&b_verts),
+            Resource::Images(textures.iter().collect(), &tex_sampler),
+            Resource::Images(vec![&env_texture], &env_sampler),
+        ];
+        if let Some(a) = &accel {
+            resources.push(Resource::Accel(a.tlas()));
+        }
+        let set = DescriptorSet::new(ctx, &layout, &resources)?;
+        drop(resources);
+        let mut all_textures = textures;
+        all_textures.push(env_texture);
+        let bytes = ctx.allocated_bytes().saturating_sub(before);
+        Ok(SceneGpu {
+            backend,
+            features,
+            layout,
+            set,
+            triangle_count: scene.instanced_triangle_count(),
+            bytes,
+            texture_count,
+            _buffers: vec![b_vertices, b_indices, b_meshes, b_instances, b_materials, b_lights, b_params, b_nodes, b_ref, b_verts],
+            _textures: all_textures,
+            _samplers: vec![tex_sampler, env_sampler],
+            _accel: accel,
+        })
+    }
+
+    /// Specialization constants for this scene: only the features it uses are compiled in.
+    /// `all_features` turns everything on (the unspecialized comparison build).
+    pub fn spec_constants(&self, env: &Option<Environment>, max_bounces: u32, all_features: bool) -> SpecConstants {
+        let f = if all_features { SceneFeatures::all() } else { self.features };
+        let mut s = SpecConstants::default();
+        s.flag(spec_id::TEXTURES, f.textures)
+            .flag(spec_id::NORMAL_MAPS, f.normal_maps)
+            .flag(spec_id::ALPHA_MASK, f.alpha_mask)
+            .flag(spec_id::TRANSMISSION, f.transmission)
+            .flag(spec_id::EMISSIVE, f.emissive_triangles)
+            .flag(spec_id::PUNCTUAL, f.punctual_lights)
+            .flag(spec_id::DIRECTIONAL, f.directional_lights)
+            .set(spec_id::ENV_KIND, env_kind(env))
+            .set(spec_id::MAX_BOUNCES, max_bounces)
+            .set(spec_id::TEXTURE_COUNT, self.texture_count);
+        s
+    }
+}
+
+fn row_major_3x4(m: Mat4) -> [[f32; 4]; 3] {
+    let r = m.transpose().to_cols_array_2d();
+    [r[0], r[1], r[2]]
+}
