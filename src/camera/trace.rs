@@ -17,7 +17,8 @@
 //!   names are trimmed and case-sensitive. A column the format does not
 //!   know is an error that names it (a typo such as `qW` must not be
 //!   silently ignored).
-//! - Blank lines and lines starting with `#` are skipped; fields are trimmed.
+//! - Blank lines and lines starting with `#` are skipped; fields are trimmed;
+//!   a leading UTF-8 byte-order mark is ignored.
 //!
 //! # What reading checks and repairs
 //!
@@ -321,6 +322,8 @@ impl PoseTrace {
 
     /// Parses CSV text; `path` is used in messages only.
     pub fn parse_csv(path: impl AsRef<Path>, text: &str) -> Result<PoseTrace, TraceError> {
+        // A UTF-8 byte-order mark (spreadsheet exports) is not part of `t`.
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         let mut b = TraceBuilder::new(path.as_ref());
         let mut header: Option<CsvHeader> = None;
         let mut header_line = 0;
