@@ -246,7 +246,7 @@ pub fn parse_mmsys18(
     let flips = trace.make_hemisphere_continuous();
     if flips > 0 {
         let msg = format!(
-            "{}: {flips} quaternion sign flip(s) removed (hemisphere continuity)",
+            "{}: {flips} sample(s) had their quaternion sign flipped for hemisphere continuity",
             path.display()
         );
         trace.warnings.push(msg);
@@ -289,7 +289,10 @@ mod tests {
         assert_eq!(t, vec![0.0, 0.5, 1.0]);
         assert!(tr.samples.iter().all(|s| s.pose.orientation.w > 0.0));
         assert!(tr.warnings.iter().any(|w| w.contains("u.txt:4: duplicate")));
-        assert!(tr.warnings.iter().any(|w| w.contains("sign flip")));
+        assert!(tr
+            .warnings
+            .iter()
+            .any(|w| w.contains("hemisphere continuity")));
         assert!(tr.warnings.iter().any(|w| w.contains("viewpoint")));
         assert!(tr.warnings.iter().any(|w| w.contains("normalized")));
     }

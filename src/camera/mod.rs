@@ -14,7 +14,7 @@
 //! - [`stage`]: [`Stage`], placing a trace's stage in a scene.
 //! - [`mmsys18`]: importer for the MMSys'18 multi-viewpoint 360° video
 //!   head-orientation logs (orientation only; translation from the neck model).
-//! - [`synth`]: seeded synthetic traces (head turn, walk, saccade, still),
+//! - [`synth`](mod@synth): seeded synthetic traces (head turn, walk, saccade, still),
 //!   with [`pcg`], the small PCG32 generator they use.
 
 pub mod mmsys18;

@@ -17,7 +17,8 @@
 //!   names are trimmed and case-sensitive. A column the format does not
 //!   know is an error that names it (a typo such as `qW` must not be
 //!   silently ignored).
-//! - Blank lines and lines starting with `#` are skipped; fields are trimmed.
+//! - Blank lines and lines starting with `#` are skipped; fields are trimmed;
+//!   a leading UTF-8 byte-order mark is ignored.
 //!
 //! # What reading checks and repairs
 //!
@@ -321,8 +322,11 @@ impl PoseTrace {
 
     /// Parses CSV text; `path` is used in messages only.
     pub fn parse_csv(path: impl AsRef<Path>, text: &str) -> Result<PoseTrace, TraceError> {
+        // A UTF-8 byte-order mark (spreadsheet exports) is not part of `t`.
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         let mut b = TraceBuilder::new(path.as_ref());
         let mut header: Option<CsvHeader> = None;
+        let mut header_line = 0;
         let mut fields: Vec<&str> = Vec::with_capacity(9);
         for (i, raw) in text.lines().enumerate() {
             let line_no = i + 1;
@@ -332,6 +336,7 @@ impl PoseTrace {
             }
             let Some(h) = &header else {
                 header = Some(parse_header(&b, line_no, line)?);
+                header_line = line_no;
                 continue;
             };
             fields.clear();
@@ -380,9 +385,10 @@ impl PoseTrace {
             });
         }
         if b.sample_count() == 0 {
-            return Err(TraceError::Trace {
+            return Err(TraceError::Line {
                 path,
-                problem: "header but no samples (line 2 onwards is empty)".into(),
+                line: header_line + 1,
+                problem: "no samples after the header; a trace needs at least one".into(),
             });
         }
         Ok(b.finish())
@@ -449,7 +455,9 @@ impl PoseTrace {
     /// (already continuous) one is negative, so that neighbouring samples lie
     /// in the same hemisphere of S³ and interpolation takes the short arc.
     /// The rotations are unchanged (`q` and `−q` are the same rotation).
-    /// Returns the number of flips.
+    /// Returns the number of samples whose sign was flipped (a recording
+    /// that jumps to the other hemisphere and stays there for a while counts
+    /// every sample of that stretch).
     pub fn make_hemisphere_continuous(&mut self) -> usize {
         let mut flips = 0;
         for i in 1..self.samples.len() {
