@@ -363,3 +363,26 @@ fn missing_file_is_an_io_error_naming_it() {
         "{e}"
     );
 }
+
+/// Rewrites `scenes/{cornell,hairball,plane}/` from the generators. Ignored by
+/// default; run `cargo test --test scene_import -- --ignored regenerate_shipped_scenes`.
+#[test]
+#[ignore]
+fn regenerate_shipped_scenes() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    for name in ["cornell", "hairball", "plane"] {
+        let p = stereocache::scene::generate_to_dir(name, &root.join(name)).unwrap();
+        eprintln!("wrote {}", p.display());
+    }
+}
+
+#[test]
+fn shipped_scenes_load() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    for name in ["cornell", "hairball", "plane"] {
+        let dir = root.join(name);
+        let s = load_scene(dir.to_str().unwrap()).unwrap_or_else(|e| panic!("{e}"));
+        let g = generate(name).unwrap();
+        assert_eq!(s.instanced_triangle_count(), g.instanced_triangle_count(), "{name}: regenerate the shipped scenes (scenes/README.md)");
+    }
+}
