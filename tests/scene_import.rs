@@ -383,6 +383,10 @@ fn shipped_scenes_load() {
         let dir = root.join(name);
         let s = load_scene(dir.to_str().unwrap()).unwrap_or_else(|e| panic!("{e}"));
         let g = generate(name).unwrap();
-        assert_eq!(s.instanced_triangle_count(), g.instanced_triangle_count(), "{name}: regenerate the shipped scenes (scenes/README.md)");
+        assert_eq!(
+            s.instanced_triangle_count(),
+            g.instanced_triangle_count(),
+            "{name}: regenerate the shipped scenes (scenes/README.md)"
+        );
     }
 }
