@@ -17,6 +17,9 @@ use std::str::FromStr;
 pub const SUN_ILLUMINANCE: Vec3 = Vec3::new(3.0, 2.9, 2.7);
 /// Sky radiance per kcd/m² of the Preetham model (see module docs).
 pub const SKY_SCALE: f32 = 1.0 / 33.0;
+/// Name of the sun light added by [`apply_default_lighting`]; the glTF writer
+/// leaves it out so a reloaded file gets sun and sky together again.
+pub const DEFAULT_SUN_NAME: &str = "default sun";
 /// Angular radius of the sun disc (0.266°).
 pub const SUN_ANGULAR_RADIUS: f32 = 0.00465;
 
@@ -140,7 +143,7 @@ pub fn apply_default_lighting(
         } => {
             let to_sun = sun_direction(*elevation_deg, *azimuth_deg);
             scene.lights.push(Light {
-                name: "default sun".into(),
+                name: DEFAULT_SUN_NAME.into(),
                 kind: LightKind::Directional {
                     angular_radius: SUN_ANGULAR_RADIUS,
                 },

@@ -1,0 +1,383 @@
+//! Writes a [`Scene`] as glTF 2.0: `NAME.gltf` + `NAME.bin` + one PNG per
+//! texture (`NAME_texN.png`, level 0 only; mips are rebuilt on load).
+//!
+//! Mapping: every `Mesh` becomes a glTF mesh with one primitive (POSITION,
+//! NORMAL, TEXCOORD_0, TANGENT when present, u32 indices); every `Instance` a
+//! node with that mesh and its matrix; every camera a node with a perspective
+//! camera; punctual lights go through `KHR_lights_punctual`. Emissive values
+//! above 1 are split into `emissiveFactor` ≤ 1 × `KHR_materials_emissive_strength`.
+//!
+//! Not written: the environment (glTF has no sky or environment map) and the
+//! sun added by default lighting (named [`DEFAULT_SUN_NAME`]): a loaded file
+//! without lights gets the CLI's default lighting again, sun and sky together.
+//!
+//! All files are written under temporary names and renamed once complete, so
+//! an interrupted export never leaves a half-written `.gltf` behind.
+
+use super::default_lighting::DEFAULT_SUN_NAME;
+use super::{AlphaMode, LightKind, Material, Scene, SceneError, TextureRef};
+use glam::{Mat4, Quat, Vec3};
+use serde_json::{json, Map, Value};
+use std::path::{Path, PathBuf};
+
+const ARRAY_BUFFER: u32 = 34962;
+const ELEMENT_ARRAY_BUFFER: u32 = 34963;
+const FLOAT: u32 = 5126;
+const UNSIGNED_INT: u32 = 5125;
+
+/// Percent-encodes a file name for use as a relative URI.
+fn uri_escape(name: &str) -> String {
+    let mut out = String::new();
+    for b in name.bytes() {
+        if b.is_ascii_alphanumeric() || b"-._~".contains(&b) {
+            out.push(b as char);
+        } else {
+            out.push_str(&format!("%{b:02X}"));
+        }
+    }
+    out
+}
+
+struct BinWriter {
+    bin: Vec<u8>,
+    views: Vec<Value>,
+    accessors: Vec<Value>,
+}
+
+impl BinWriter {
+    fn view(&mut self, bytes: &[u8], target: u32) -> usize {
+        while self.bin.len() % 4 != 0 {
+            self.bin.push(0);
+        }
+        self.views.push(json!({
+            "buffer": 0,
+            "byteOffset": self.bin.len(),
+            "byteLength": bytes.len(),
+            "target": target,
+        }));
+        self.bin.extend_from_slice(bytes);
+        self.views.len() - 1
+    }
+
+    fn floats<const N: usize>(&mut self, data: &[[f32; N]], kind: &str, bounds: bool) -> usize {
+        let bytes: Vec<u8> = data
+            .iter()
+            .flatten()
+            .flat_map(|f| f.to_le_bytes())
+            .collect();
+        let view = self.view(&bytes, ARRAY_BUFFER);
+        let mut acc = json!({
+            "bufferView": view,
+            "componentType": FLOAT,
+            "count": data.len(),
+            "type": kind,
+        });
+        if bounds {
+            let mut lo = [f32::INFINITY; N];
+            let mut hi = [f32::NEG_INFINITY; N];
+            for v in data {
+                for k in 0..N {
+                    lo[k] = lo[k].min(v[k]);
+                    hi[k] = hi[k].max(v[k]);
+                }
+            }
+            acc["min"] = json!(lo.to_vec());
+            acc["max"] = json!(hi.to_vec());
+        }
+        self.accessors.push(acc);
+        self.accessors.len() - 1
+    }
+
+    fn indices(&mut self, data: &[u32]) -> usize {
+        let bytes: Vec<u8> = data.iter().flat_map(|i| i.to_le_bytes()).collect();
+        let view = self.view(&bytes, ELEMENT_ARRAY_BUFFER);
+        self.accessors.push(json!({
+            "bufferView": view,
+            "componentType": UNSIGNED_INT,
+            "count": data.len(),
+            "type": "SCALAR",
+        }));
+        self.accessors.len() - 1
+    }
+}
+
+fn tex(t: Option<TextureRef>) -> Option<Value> {
+    t.map(|t| json!({ "index": t.texture }))
+}
+
+fn material_json(m: &Material, used: &mut Vec<&'static str>) -> Value {
+    let mut pbr = Map::new();
+    pbr.insert("baseColorFactor".into(), json!(m.base_color.to_array()));
+    pbr.insert("metallicFactor".into(), json!(m.metallic));
+    pbr.insert("roughnessFactor".into(), json!(m.roughness));
+    if let Some(t) = tex(m.base_color_texture) {
+        pbr.insert("baseColorTexture".into(), t);
+    }
+    if let Some(t) = tex(m.metallic_roughness_texture) {
+        pbr.insert("metallicRoughnessTexture".into(), t);
+    }
+    let mut out = Map::new();
+    out.insert("name".into(), json!(m.name));
+    out.insert("pbrMetallicRoughness".into(), Value::Object(pbr));
+    if let Some(t) = m.normal_texture {
+        out.insert(
+            "normalTexture".into(),
+            json!({ "index": t.texture, "scale": m.normal_scale }),
+        );
+    }
+    let mut ext = Map::new();
+    let peak = m.emissive.max_element();
+    if peak > 0.0 {
+        let (factor, strength) = if peak > 1.0 {
+            (m.emissive / peak, peak)
+        } else {
+            (m.emissive, 1.0)
+        };
+        out.insert("emissiveFactor".into(), json!(factor.to_array()));
+        if strength != 1.0 {
+            ext.insert(
+                "KHR_materials_emissive_strength".into(),
+                json!({ "emissiveStrength": strength }),
+            );
+        }
+    }
+    if let Some(t) = tex(m.emissive_texture) {
+        out.insert("emissiveTexture".into(), t);
+        if peak <= 0.0 {
+            // A texture needs a non-zero factor to show; glTF's default is 0.
+            out.insert("emissiveFactor".into(), json!([0.0, 0.0, 0.0]));
+        }
+    }
+    match m.alpha_mode {
+        AlphaMode::Opaque => {}
+        AlphaMode::Mask => {
+            out.insert("alphaMode".into(), json!("MASK"));
+            out.insert("alphaCutoff".into(), json!(m.alpha_cutoff));
+        }
+        AlphaMode::Blend => {
+            out.insert("alphaMode".into(), json!("BLEND"));
+        }
+    }
+    if m.double_sided {
+        out.insert("doubleSided".into(), json!(true));
+    }
+    if m.transmission > 0.0 || m.transmission_texture.is_some() {
+        let mut t = Map::new();
+        t.insert("transmissionFactor".into(), json!(m.transmission));
+        if let Some(tt) = tex(m.transmission_texture) {
+            t.insert("transmissionTexture".into(), tt);
+        }
+        ext.insert("KHR_materials_transmission".into(), Value::Object(t));
+    }
+    if m.ior != 1.5 {
+        ext.insert("KHR_materials_ior".into(), json!({ "ior": m.ior }));
+    }
+    for k in ext.keys() {
+        let name: &'static str = match k.as_str() {
+            "KHR_materials_emissive_strength" => "KHR_materials_emissive_strength",
+            "KHR_materials_transmission" => "KHR_materials_transmission",
+            _ => "KHR_materials_ior",
+        };
+        if !used.contains(&name) {
+            used.push(name);
+        }
+    }
+    if !ext.is_empty() {
+        out.insert("extensions".into(), Value::Object(ext));
+    }
+    Value::Object(out)
+}
+
+fn matrix(m: &Mat4) -> Value {
+    json!(m.to_cols_array())
+}
+
+/// A file written under a temporary name, renamed by [`Staged::commit`].
+struct Staged {
+    tmp: PathBuf,
+    dst: PathBuf,
+}
+
+fn stage(dst: PathBuf, bytes: &[u8]) -> Result<Staged, SceneError> {
+    let mut tmp = dst.clone().into_os_string();
+    tmp.push(".tmp");
+    let tmp = PathBuf::from(tmp);
+    std::fs::write(&tmp, bytes).map_err(|e| SceneError::io(&tmp, e))?;
+    Ok(Staged { tmp, dst })
+}
+
+impl Staged {
+    fn commit(self) -> Result<(), SceneError> {
+        std::fs::rename(&self.tmp, &self.dst).map_err(|e| SceneError::io(&self.dst, e))
+    }
+}
+
+/// Writes `scene` as `path` (`.gltf`) with a sibling `.bin` and PNG textures.
+pub fn write_gltf(scene: &Scene, path: &Path) -> Result<(), SceneError> {
+    let dir = path.parent().unwrap_or(Path::new("."));
+    let stem = path
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .ok_or_else(|| SceneError::invalid(path, "output path needs a UTF-8 file name"))?;
+    let mut used: Vec<&'static str> = Vec::new();
+    let mut staged = Vec::new();
+
+    // Textures → PNG files.
+    let mut images = Vec::new();
+    for (i, t) in scene.textures.iter().enumerate() {
+        let file = format!("{stem}_tex{i}.png");
+        let level0 = t.mips.first().cloned().unwrap_or_default();
+        let img = image::RgbaImage::from_raw(t.width, t.height, level0).ok_or_else(|| {
+            SceneError::invalid(
+                path,
+                format!("texture {i} '{}': level 0 has the wrong size", t.name),
+            )
+        })?;
+        let mut png = Vec::new();
+        img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+            .map_err(|e| {
+                SceneError::invalid(
+                    path,
+                    format!("texture {i} '{}': PNG encoding failed: {e}", t.name),
+                )
+            })?;
+        staged.push(stage(dir.join(&file), &png)?);
+        images.push(json!({ "name": t.name, "uri": uri_escape(&file), "mimeType": "image/png" }));
+    }
+    let textures: Vec<Value> = (0..scene.textures.len())
+        .map(|i| json!({ "source": i, "sampler": 0 }))
+        .collect();
+
+    // Geometry → one buffer.
+    let mut bw = BinWriter {
+        bin: Vec::new(),
+        views: Vec::new(),
+        accessors: Vec::new(),
+    };
+    let mut meshes = Vec::new();
+    for m in &scene.meshes {
+        let pos: Vec<[f32; 3]> = m.positions.iter().map(|v| v.to_array()).collect();
+        let nrm: Vec<[f32; 3]> = m.normals.iter().map(|v| v.to_array()).collect();
+        let uv: Vec<[f32; 2]> = m.uvs.iter().map(|v| v.to_array()).collect();
+        let mut attributes = Map::new();
+        attributes.insert("POSITION".into(), json!(bw.floats(&pos, "VEC3", true)));
+        attributes.insert("NORMAL".into(), json!(bw.floats(&nrm, "VEC3", false)));
+        attributes.insert("TEXCOORD_0".into(), json!(bw.floats(&uv, "VEC2", false)));
+        if !m.tangents.is_empty() {
+            let tan: Vec<[f32; 4]> = m.tangents.iter().map(|v| v.to_array()).collect();
+            attributes.insert("TANGENT".into(), json!(bw.floats(&tan, "VEC4", false)));
+        }
+        let indices = bw.indices(&m.indices);
+        meshes.push(json!({
+            "name": m.name,
+            "primitives": [{
+                "attributes": attributes,
+                "indices": indices,
+                "material": m.material,
+                "mode": 4,
+            }],
+        }));
+    }
+
+    // Nodes: instances, cameras, lights.
+    let mut nodes = Vec::new();
+    for inst in &scene.instances {
+        let mut n = json!({ "name": inst.name, "mesh": inst.mesh });
+        if inst.transform != Mat4::IDENTITY {
+            n["matrix"] = matrix(&inst.transform);
+        }
+        nodes.push(n);
+    }
+    let mut cameras = Vec::new();
+    for c in &scene.cameras {
+        let mut p = json!({ "yfov": c.yfov, "znear": c.znear });
+        if let Some(a) = c.aspect {
+            p["aspectRatio"] = json!(a);
+        }
+        nodes.push(
+            json!({ "name": c.name, "camera": cameras.len(), "matrix": matrix(&c.transform) }),
+        );
+        cameras.push(json!({ "name": c.name, "type": "perspective", "perspective": p }));
+    }
+    let mut lights = Vec::new();
+    for l in scene.lights.iter().filter(|l| l.name != DEFAULT_SUN_NAME) {
+        let intensity = l.radiant.max_element().max(0.0);
+        let color = if intensity > 0.0 {
+            l.radiant / intensity
+        } else {
+            Vec3::ONE
+        };
+        let mut j = json!({ "name": l.name, "color": color.to_array(), "intensity": intensity });
+        match l.kind {
+            LightKind::Point => j["type"] = json!("point"),
+            LightKind::Spot {
+                inner_cone,
+                outer_cone,
+            } => {
+                j["type"] = json!("spot");
+                j["spot"] = json!({ "innerConeAngle": inner_cone, "outerConeAngle": outer_cone });
+            }
+            LightKind::Directional { .. } => j["type"] = json!("directional"),
+        }
+        if let Some(r) = l.range {
+            j["range"] = json!(r);
+        }
+        // Orient the node's −Z along the light direction.
+        let dir = l.direction.try_normalize().unwrap_or(Vec3::NEG_Y);
+        let rot = Quat::from_rotation_arc(Vec3::NEG_Z, dir);
+        let m = Mat4::from_rotation_translation(rot, l.position);
+        nodes.push(json!({
+            "name": l.name,
+            "matrix": matrix(&m),
+            "extensions": { "KHR_lights_punctual": { "light": lights.len() } },
+        }));
+        lights.push(j);
+    }
+    if !lights.is_empty() {
+        used.push("KHR_lights_punctual");
+    }
+
+    let materials: Vec<Value> = scene
+        .materials
+        .iter()
+        .map(|m| material_json(m, &mut used))
+        .collect();
+
+    let bin_file = format!("{stem}.bin");
+    let mut root = json!({
+        "asset": { "version": "2.0", "generator": concat!("stereocache ", env!("CARGO_PKG_VERSION")) },
+        "scene": 0,
+        "scenes": [{ "name": stem, "nodes": (0..nodes.len()).collect::<Vec<_>>() }],
+        "nodes": nodes,
+        "meshes": meshes,
+        "materials": materials,
+        "accessors": bw.accessors,
+        "bufferViews": bw.views,
+        "buffers": [{ "uri": uri_escape(&bin_file), "byteLength": bw.bin.len() }],
+    });
+    if !cameras.is_empty() {
+        root["cameras"] = json!(cameras);
+    }
+    if !images.is_empty() {
+        root["images"] = json!(images);
+        root["textures"] = json!(textures);
+        // Repeat wrapping, trilinear filtering.
+        root["samplers"] =
+            json!([{ "magFilter": 9729, "minFilter": 9987, "wrapS": 10497, "wrapT": 10497 }]);
+    }
+    if !lights.is_empty() {
+        root["extensions"] = json!({ "KHR_lights_punctual": { "lights": lights } });
+    }
+    if !used.is_empty() {
+        used.sort_unstable();
+        root["extensionsUsed"] = json!(used);
+    }
+    let text = serde_json::to_string_pretty(&root)
+        .map_err(|e| SceneError::invalid(path, format!("cannot serialise glTF JSON: {e}")))?;
+    staged.push(stage(dir.join(&bin_file), &bw.bin)?);
+    let gltf = stage(path.to_path_buf(), text.as_bytes())?;
+    for s in staged {
+        s.commit()?;
+    }
+    gltf.commit()
+}

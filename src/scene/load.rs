@@ -1,0 +1,62 @@
+//! One entry point for "give me a scene": a built-in generator name, a glTF
+//! file, or a directory holding exactly one glTF file.
+
+use super::generate::{generate, NAMES};
+use super::{load_gltf, Scene, SceneError};
+use std::path::{Path, PathBuf};
+
+fn is_gltf(p: &Path) -> bool {
+    p.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("gltf") || e.eq_ignore_ascii_case("glb"))
+}
+
+/// Resolves `spec`: `cornell`, `hairball`, `plane` generate in memory (a file or
+/// directory of that name in the working directory does not shadow them; write
+/// `./cornell` for that); a `.gltf`/`.glb` path loads it; a directory loads the
+/// single `.gltf`/`.glb` inside it.
+pub fn load_scene(spec: &str) -> Result<Scene, SceneError> {
+    if let Some(scene) = generate(spec) {
+        return Ok(scene);
+    }
+    let path = Path::new(spec);
+    if path.is_dir() {
+        let entries = std::fs::read_dir(path).map_err(|e| SceneError::io(path, e))?;
+        let mut found: Vec<PathBuf> = entries
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.is_file() && is_gltf(p))
+            .collect();
+        found.sort();
+        return match found.as_slice() {
+            [one] => load_gltf(one),
+            [] => Err(SceneError::invalid(
+                path,
+                "directory contains no .gltf or .glb file",
+            )),
+            many => Err(SceneError::invalid(
+                path,
+                format!(
+                    "directory contains {} glTF files ({}); name one of them",
+                    many.len(),
+                    many.iter()
+                        .filter_map(|p| p.file_name().map(|n| n.to_string_lossy().into_owned()))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
+            )),
+        };
+    }
+    if is_gltf(path) {
+        return load_gltf(path);
+    }
+    if path.exists() {
+        return Err(SceneError::invalid(path, "not a .gltf or .glb file"));
+    }
+    Err(SceneError::invalid(
+        path,
+        format!(
+            "no such file or directory, and not a built-in scene ({})",
+            NAMES.join(", ")
+        ),
+    ))
+}
