@@ -7,7 +7,9 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 fn collect(dir: &Path, out: &mut Vec<PathBuf>) {
-    let Ok(rd) = std::fs::read_dir(dir) else { return };
+    let Ok(rd) = std::fs::read_dir(dir) else {
+        return;
+    };
     let mut entries: Vec<_> = rd.flatten().map(|e| e.path()).collect();
     entries.sort();
     for p in entries {
@@ -26,10 +28,12 @@ fn traces_rays(file: &Path, root: &Path, seen: &mut Vec<PathBuf>) -> bool {
     }
     seen.push(file.to_path_buf());
     let text = std::fs::read_to_string(file).unwrap_or_default();
-    text.lines().filter_map(|l| l.trim().strip_prefix("#include")).any(|rest| {
-        let name = rest.trim().trim_matches('"');
-        name == "common/rt.glsl" || traces_rays(&root.join(name), root, seen)
-    })
+    text.lines()
+        .filter_map(|l| l.trim().strip_prefix("#include"))
+        .any(|rest| {
+            let name = rest.trim().trim_matches('"');
+            name == "common/rt.glsl" || traces_rays(&root.join(name), root, seen)
+        })
 }
 
 fn main() {
@@ -50,13 +54,19 @@ fn main() {
         let name = rel.to_string_lossy().replace('\\', "/");
         if traces_rays(src, &shader_dir, &mut Vec::new()) {
             jobs.push((format!("{name}.query"), src.clone(), vec!["-DRT_QUERY"]));
-            jobs.push((format!("{name}.software"), src.clone(), vec!["-DRT_SOFTWARE"]));
+            jobs.push((
+                format!("{name}.software"),
+                src.clone(),
+                vec!["-DRT_SOFTWARE"],
+            ));
         } else {
             jobs.push((name, src.clone(), vec![]));
         }
     }
 
-    let threads = std::thread::available_parallelism().map(|n| n.get()).unwrap_or(2);
+    let threads = std::thread::available_parallelism()
+        .map(|n| n.get())
+        .unwrap_or(2);
     let chunks: Vec<Vec<(String, PathBuf, Vec<&str>)>> = {
         let mut c: Vec<Vec<_>> = (0..threads).map(|_| Vec::new()).collect();
         for (i, j) in jobs.iter().cloned().enumerate() {
@@ -102,7 +112,10 @@ fn main() {
                 })
             })
             .collect();
-        handles.into_iter().flat_map(|h| h.join().unwrap()).collect()
+        handles
+            .into_iter()
+            .flat_map(|h| h.join().unwrap())
+            .collect()
     });
     if !failures.is_empty() {
         for f in &failures {
@@ -112,10 +125,15 @@ fn main() {
         std::process::exit(1);
     }
 
-    let mut table = String::from("/// (name, SPIR-V) of every compiled shader.\npub static SHADERS: &[(&str, &[u8])] = &[\n");
+    let mut table = String::from(
+        "/// (name, SPIR-V) of every compiled shader.\npub static SHADERS: &[(&str, &[u8])] = &[\n",
+    );
     for (name, _, _) in &jobs {
         let file = out_dir.join(format!("{}.spv", name.replace('/', "__")));
-        table.push_str(&format!("    ({name:?}, include_bytes!({:?})),\n", file.to_string_lossy()));
+        table.push_str(&format!(
+            "    ({name:?}, include_bytes!({:?})),\n",
+            file.to_string_lossy()
+        ));
     }
     table.push_str("];\n");
     std::fs::write(out_dir.join("shaders.rs"), table).unwrap();

@@ -6,10 +6,13 @@
 //! `camera` turns head poses into eye views and reads pose traces; `methods`
 //! holds one folder per rendering method; `output` writes images.
 
+pub mod bench;
 pub mod camera;
+pub mod error;
 pub mod gpu;
 pub mod methods;
 pub mod metrics;
 pub mod output;
 pub mod rt;
 pub mod scene;
+pub mod session;

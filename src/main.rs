@@ -1,1 +1,494 @@
-fn main() {}
+//! The `stereocache` command line: info, render, bench, scene, trace.
+
+use anyhow::{anyhow, bail, Context, Result};
+use clap::{Args, Parser, Subcommand};
+use std::path::PathBuf;
+use std::process::ExitCode;
+use stereocache::camera::{convert_mmsys18, synth, Mmsys18Options, SynthKind};
+use stereocache::gpu::{GpuContext, GpuOptions};
+use stereocache::methods::{FrameInput, RenderSettings};
+use stereocache::output;
+use stereocache::rt::RtChoice;
+use stereocache::scene::{generate_to_dir, DefaultLighting};
+use stereocache::session::{parse_pose, parse_size, CameraSelect, Session};
+
+#[derive(Parser)]
+#[command(
+    name = "stereocache",
+    version,
+    about = "Headless Vulkan stereo ray tracer with a screen-space sample cache for VR rendering research"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Args, Clone)]
+struct GpuArgs {
+    /// Use the first Vulkan device whose name contains this text.
+    #[arg(long)]
+    device: Option<String>,
+    /// Enable the Khronos validation layer and report its messages.
+    #[arg(long)]
+    validate: bool,
+    /// With --validate, also enable synchronization validation.
+    #[arg(long)]
+    sync_validation: bool,
+}
+
+impl GpuArgs {
+    fn options(&self) -> GpuOptions {
+        GpuOptions {
+            validate: self.validate || std::env::var_os("STEREOCACHE_VALIDATE").is_some(),
+            sync_validation: self.sync_validation,
+            device: self.device.clone(),
+            want_ray_query: true,
+        }
+    }
+}
+
+#[derive(Args, Clone)]
+struct SceneArgs {
+    /// Scene: built-in name (cornell, hairball, plane), a .gltf/.glb file, or a directory holding one.
+    #[arg(long, default_value = "cornell")]
+    scene: String,
+    /// Lighting for scenes without lights: sun-sky[:ELEV,AZIM,TURB], constant:R,G,B, env:PATH.hdr|.exr
+    #[arg(long, default_value = "sun-sky")]
+    lighting: String,
+    /// Ray backend.
+    #[arg(long, default_value = "auto")]
+    rt: String,
+}
+
+impl SceneArgs {
+    fn open(&self, gpu: &GpuArgs) -> Result<Session> {
+        let lighting: DefaultLighting = self
+            .lighting
+            .parse()
+            .map_err(|e| anyhow!("bad --lighting: {e}"))?;
+        let rt: RtChoice = self
+            .rt
+            .parse()
+            .map_err(|e: String| anyhow!("bad --rt: {e}"))?;
+        let scene = Session::load_scene(&self.scene, &lighting)?;
+        for w in &scene.warnings {
+            eprintln!("warning: {w}");
+        }
+        Ok(Session::new(&gpu.options(), scene, rt)?)
+    }
+}
+
+#[derive(Args, Clone)]
+struct CameraArgs {
+    /// A camera of the scene by name.
+    #[arg(long, conflicts_with = "pose")]
+    camera: Option<String>,
+    /// Head pose in world space: px,py,pz,qx,qy,qz,qw.
+    #[arg(long)]
+    pose: Option<String>,
+    /// Interpupillary distance in metres (default 0.063).
+    #[arg(long)]
+    ipd: Option<f32>,
+    /// Vertical field of view in degrees (default: the scene camera's, else 60).
+    #[arg(long)]
+    fov: Option<f32>,
+}
+
+impl CameraArgs {
+    fn select(&self) -> Result<CameraSelect> {
+        Ok(match (&self.camera, &self.pose) {
+            (Some(n), _) => CameraSelect::Named(n.clone()),
+            (None, Some(p)) => CameraSelect::Pose(parse_pose(p).map_err(|e| anyhow!(e))?),
+            _ => CameraSelect::Default,
+        })
+    }
+    fn fov_radians(&self) -> Result<Option<f32>> {
+        match self.fov {
+            Some(f) if !(f > 1.0 && f < 179.0) => {
+                bail!("bad --fov {f}: expected degrees between 1 and 179")
+            }
+            Some(f) => Ok(Some(f.to_radians())),
+            None => Ok(None),
+        }
+    }
+    fn ipd(&self) -> Result<Option<f32>> {
+        match self.ipd {
+            Some(i) if !(i.is_finite() && (0.0..1.0).contains(&i)) => {
+                bail!("bad --ipd {i}: expected metres in [0, 1)")
+            }
+            other => Ok(other),
+        }
+    }
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Print the chosen Vulkan device and its ray-tracing capabilities.
+    Info {
+        #[command(flatten)]
+        gpu: GpuArgs,
+        /// Print JSON instead of text.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Render one stereo frame and write DIR/{left,right}.{exr,png} and DIR/stats.json.
+    Render {
+        #[command(flatten)]
+        gpu: GpuArgs,
+        #[command(flatten)]
+        scene: SceneArgs,
+        #[command(flatten)]
+        camera: CameraArgs,
+        #[arg(long, default_value = "reference")]
+        method: String,
+        /// Samples per pixel.
+        #[arg(long, default_value_t = 64)]
+        spp: u32,
+        /// Image size per eye, WIDTHxHEIGHT.
+        #[arg(long, default_value = "320x240")]
+        size: String,
+        /// Maximum scattering events per path.
+        #[arg(long, default_value_t = 3)]
+        bounces: u32,
+        #[arg(long, default_value_t = 1)]
+        seed: u32,
+        /// Exposure multiplier for the PNG previews.
+        #[arg(long, default_value_t = 1.0)]
+        exposure: f32,
+        #[arg(long, default_value = "out/render")]
+        out: PathBuf,
+    },
+    /// Benchmarks (figures for docs/PERFORMANCE.md).
+    Bench {
+        #[command(subcommand)]
+        which: BenchCommand,
+    },
+    /// Scenes the project ships.
+    Scene {
+        #[command(subcommand)]
+        which: SceneCommand,
+    },
+    /// Pose traces: convert recordings, make synthetic ones.
+    Trace {
+        #[command(subcommand)]
+        which: TraceCommand,
+    },
+}
+
+#[derive(Subcommand)]
+enum BenchCommand {
+    /// Primary and diffuse-bounce rays per second for each ray backend.
+    Rays {
+        #[command(flatten)]
+        gpu: GpuArgs,
+        #[arg(long, default_value = "hairball")]
+        scene: String,
+        #[arg(long, default_value = "sun-sky")]
+        lighting: String,
+        #[arg(long, default_value = "256x256")]
+        size: String,
+        /// Rounds of primary + bounce rays.
+        #[arg(long, default_value_t = 4)]
+        repeats: u32,
+    },
+}
+
+#[derive(Subcommand)]
+enum SceneCommand {
+    /// Write a generated scene (cornell, hairball, plane) as glTF into DIR.
+    Generate {
+        name: String,
+        #[arg(long)]
+        out: PathBuf,
+    },
+}
+
+#[derive(Subcommand)]
+enum TraceCommand {
+    /// Convert an MMSys'18 orientation recording to the project's CSV format.
+    Convert {
+        input: PathBuf,
+        #[arg(long)]
+        out: PathBuf,
+        /// First source second to keep.
+        #[arg(long, default_value_t = 0.0)]
+        start: f64,
+        /// Last source second to keep (default: to the end).
+        #[arg(long)]
+        end: Option<f64>,
+    },
+    /// Write a seeded synthetic trace.
+    Synth {
+        /// head-turn, walk, saccade or still.
+        #[arg(long)]
+        kind: String,
+        #[arg(long, default_value_t = 5.0)]
+        seconds: f64,
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        #[arg(long, default_value_t = 90.0)]
+        rate: f64,
+        #[arg(long)]
+        out: PathBuf,
+    },
+}
+
+fn report_validation(ctx: &GpuContext) -> Result<()> {
+    let n = ctx.validation.count();
+    if n > 0 {
+        bail!("the Vulkan validation layer reported {n} message(s) (printed above)");
+    }
+    Ok(())
+}
+
+fn run(cli: Cli) -> Result<()> {
+    match cli.command {
+        Command::Info { gpu, json } => {
+            let ctx = GpuContext::new(&gpu.options())?;
+            let c = &ctx.caps;
+            if json {
+                println!("{}", serde_json::to_string_pretty(c)?);
+            } else {
+                println!("device:              {} ({})", c.name, c.device_type);
+                println!("driver:              {} {}", c.driver_name, c.driver_info);
+                println!("Vulkan API:          {}", c.api_version);
+                println!(
+                    "ray query:           {}",
+                    if c.ray_query {
+                        "yes (VK_KHR_ray_query + acceleration structures)"
+                    } else {
+                        "no (software traversal)"
+                    }
+                );
+                println!("64-bit buffer atomics: {}", c.buffer_int64_atomics);
+                println!("shaderInt64:         {}", c.shader_int64);
+                println!(
+                    "subgroup size:       {} ({})",
+                    c.subgroup_size,
+                    c.subgroup_ops.join(", ")
+                );
+                println!("descriptor indexing: {}", c.descriptor_indexing);
+                println!(
+                    "timestamp period:    {} ns ({} valid bits)",
+                    c.timestamp_period_ns, c.timestamp_valid_bits
+                );
+                println!(
+                    "device-local memory: {:.1} GiB",
+                    c.device_local_bytes as f64 / (1u64 << 30) as f64
+                );
+                println!(
+                    "validation layer:    {}",
+                    if ctx.validation_enabled { "on" } else { "off" }
+                );
+            }
+            report_validation(&ctx)
+        }
+        Command::Render {
+            gpu,
+            scene,
+            camera,
+            method,
+            spp,
+            size,
+            bounces,
+            seed,
+            exposure,
+            out,
+        } => {
+            let (w, h) = parse_size(&size).map_err(|e| anyhow!(e))?;
+            if spp == 0 {
+                bail!("bad --spp 0: at least one sample per pixel");
+            }
+            if !(exposure.is_finite() && exposure > 0.0) {
+                bail!("bad --exposure {exposure}: expected a positive number");
+            }
+            let select = camera.select()?;
+            let (fov, ipd) = (camera.fov_radians()?, camera.ipd()?);
+            let session = scene.open(&gpu)?;
+            let cam = session.camera(&select, w, h, ipd, fov)?;
+            let settings = RenderSettings {
+                width: w,
+                height: h,
+                spp,
+                max_bounces: bounces,
+                seed,
+                all_features: false,
+            };
+            let mut m = session.method(&method, &settings)?;
+            let frame = m.render_frame(&FrameInput {
+                index: 0,
+                camera: cam,
+                prev_camera: None,
+            })?;
+            std::fs::create_dir_all(&out).with_context(|| {
+                format!("{}: cannot create the output directory", out.display())
+            })?;
+            output::write_eye(&out, "left", w, h, &frame.eyes[0], exposure)?;
+            output::write_eye(&out, "right", w, h, &frame.eyes[1], exposure)?;
+            let stats = serde_json::json!({
+                "device": session.ctx.caps.name,
+                "driver": format!("{} {}", session.ctx.caps.driver_name, session.ctx.caps.driver_info),
+                "backend": session.backend,
+                "scene": session.scene.source,
+                "triangles": session.scene_gpu.triangle_count,
+                "method": m.name(),
+                "settings": settings,
+                "camera": { "position": cam.head.position.to_array(), "orientation": cam.head.orientation.to_array(), "ipd": cam.ipd, "yfov_deg": cam.yfov.to_degrees() },
+                "gpu_ms": frame.stats.gpu_ms(),
+                "passes": frame.stats.passes,
+                "rays": frame.stats.rays,
+                "method_memory_bytes": m.memory_bytes(),
+                "scene_memory_bytes": session.scene_gpu.bytes,
+            });
+            output::write_json(&out.join("stats.json"), &stats)?;
+            println!(
+                "rendered {} ({}x{} per eye, {} spp, {} backend) in {:.1} GPU ms on {}: {}",
+                session.scene.source.display(),
+                w,
+                h,
+                spp,
+                session.backend,
+                frame.stats.gpu_ms(),
+                session.ctx.caps.name,
+                out.display()
+            );
+            report_validation(&session.ctx)
+        }
+        Command::Bench {
+            which:
+                BenchCommand::Rays {
+                    gpu,
+                    scene,
+                    lighting,
+                    size,
+                    repeats,
+                },
+        } => {
+            let (w, h) = parse_size(&size).map_err(|e| anyhow!(e))?;
+            let lighting: DefaultLighting = lighting
+                .parse()
+                .map_err(|e| anyhow!("bad --lighting: {e}"))?;
+            let loaded = Session::load_scene(&scene, &lighting)?;
+            let ctx = std::sync::Arc::new(GpuContext::new(&gpu.options())?);
+            println!(
+                "device: {} ({}), driver {} {}",
+                ctx.caps.name, ctx.caps.device_type, ctx.caps.driver_name, ctx.caps.driver_info
+            );
+            println!(
+                "scene: {} ({} triangles), {}x{} per eye, both eyes, {} rounds",
+                loaded.source.display(),
+                loaded.instanced_triangle_count(),
+                w,
+                h,
+                repeats
+            );
+            let mut results = Vec::new();
+            let backends: Vec<RtChoice> = if ctx.ray_query_enabled() {
+                vec![RtChoice::Software, RtChoice::Query]
+            } else {
+                vec![RtChoice::Software]
+            };
+            for rt in backends {
+                let session = Session::with_context(ctx.clone(), loaded.clone(), rt)?;
+                let cam = session.camera(&CameraSelect::Default, w, h, None, None)?;
+                let r = stereocache::bench::bench_rays(
+                    &session,
+                    &FrameInput {
+                        index: 0,
+                        camera: cam,
+                        prev_camera: None,
+                    },
+                    w,
+                    h,
+                    repeats,
+                )?;
+                println!(
+                    "{:>9}: primary {:8.3} Mrays/s ({} rays, {:.2} ms)   diffuse bounce {:8.3} Mrays/s ({} rays, {:.2} ms)",
+                    r.backend,
+                    r.primary_mrays_per_s(),
+                    r.primary_rays,
+                    r.primary_ms,
+                    r.bounce_mrays_per_s(),
+                    r.bounce_rays,
+                    r.bounce_ms
+                );
+                results.push(r);
+            }
+            if let [s, q] = results.as_slice() {
+                println!(
+                    "software / ray query time per ray: primary {:.2}x, bounce {:.2}x",
+                    q.primary_mrays_per_s() / s.primary_mrays_per_s(),
+                    q.bounce_mrays_per_s() / s.bounce_mrays_per_s()
+                );
+            } else {
+                println!(
+                    "(this device has no ray queries: only the software backend was measured)"
+                );
+            }
+            report_validation(&ctx)
+        }
+        Command::Scene {
+            which: SceneCommand::Generate { name, out },
+        } => {
+            let path = generate_to_dir(&name, &out)?;
+            println!("wrote {}", path.display());
+            Ok(())
+        }
+        Command::Trace { which } => match which {
+            TraceCommand::Convert {
+                input,
+                out,
+                start,
+                end,
+            } => {
+                let opts = Mmsys18Options {
+                    start,
+                    end: end.unwrap_or(f64::INFINITY),
+                    ..Default::default()
+                };
+                let trace = convert_mmsys18(&input, &out, &opts)?;
+                for w in &trace.warnings {
+                    eprintln!("warning: {w}");
+                }
+                println!(
+                    "wrote {} ({} samples, {:.2} s)",
+                    out.display(),
+                    trace.samples.len(),
+                    trace.duration()
+                );
+                Ok(())
+            }
+            TraceCommand::Synth {
+                kind,
+                seconds,
+                seed,
+                rate,
+                out,
+            } => {
+                let kind: SynthKind = kind.parse().map_err(|e| anyhow!("bad --kind: {e}"))?;
+                if !(seconds.is_finite() && seconds > 0.0 && seconds <= 3600.0) {
+                    bail!("bad --seconds {seconds}: expected a duration in (0, 3600]");
+                }
+                if !(rate.is_finite() && rate >= 1.0 && rate <= 10000.0) {
+                    bail!("bad --rate {rate}: expected Hz in [1, 10000]");
+                }
+                let trace = synth(kind, seconds, seed, rate);
+                trace.write_csv(&out)?;
+                println!("wrote {} ({} samples)", out.display(), trace.samples.len());
+                Ok(())
+            }
+        },
+    }
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            let msg = format!("{e:#}").replace('\n', " ");
+            eprintln!("error: {msg}");
+            ExitCode::FAILURE
+        }
+    }
+}

@@ -24,6 +24,7 @@ struct ShadingMaterial {
     float roughness;
     float transmission;
     float ior;
+    float specular;   // KHR_materials_specular factor: F90 of the dielectric layer
     vec3 emissive;
 };
 
@@ -56,10 +57,10 @@ vec3 sample_vndf(vec3 wo, float a, vec2 u) {
     return normalize(vec3(h.xy * a, max(h.z, 1e-7)));
 }
 
-vec3 fresnel_schlick(vec3 f0, float c) {
+vec3 fresnel_schlick(vec3 f0, vec3 f90, float c) {
     float m = clamp(1.0 - c, 0.0, 1.0);
     float m5 = m * m * m * m * m;
-    return f0 + (vec3(1.0) - f0) * m5;
+    return f0 + (f90 - f0) * m5;
 }
 
 // Exact dielectric Fresnel reflectance; eta = n_t / n_i; cos_i > 0.
@@ -72,16 +73,22 @@ float fresnel_dielectric(float cos_i, float eta) {
     return 0.5 * (rs * rs + rp * rp);
 }
 
+// glTF metallic-roughness Fresnel: dielectric F0 from the ior (scaled by the
+// specular factor, which is also the dielectric F90), metal F0 = base colour.
 vec3 opaque_f0(ShadingMaterial m) {
     float r = (m.ior - 1.0) / (m.ior + 1.0);
-    return mix(vec3(r * r), m.base, m.metallic);
+    return mix(vec3(min(r * r, 1.0) * m.specular), m.base, m.metallic);
 }
+vec3 opaque_f90(ShadingMaterial m) { return vec3(mix(m.specular, 1.0, m.metallic)); }
+vec3 opaque_fresnel(ShadingMaterial m, float c) { return fresnel_schlick(opaque_f0(m), opaque_f90(m), c); }
 
 // Probability of sampling the specular lobe of the opaque BSDF.
 float opaque_spec_prob(ShadingMaterial m, vec3 wo) {
-    vec3 F = fresnel_schlick(opaque_f0(m), wo.z);
+    vec3 F = opaque_fresnel(m, wo.z);
     float lf = dot(F, vec3(0.2126, 0.7152, 0.0722));
-    return m.metallic >= 1.0 ? 1.0 : clamp(mix(lf, 1.0, m.metallic), 0.1, 0.9);
+    if (m.metallic >= 1.0) return 1.0;
+    if (m.metallic <= 0.0 && m.specular <= 0.0) return 0.0;   // pure Lambert
+    return clamp(mix(lf, 1.0, m.metallic), 0.1, 0.9);
 }
 
 // f(wo, wi)·|cos θi| and the sampling pdf of the opaque BSDF (both local).
@@ -90,11 +97,10 @@ vec3 opaque_eval(ShadingMaterial m, vec3 wo, vec3 wi, out float pdf) {
     if (wo.z <= 0.0 || wi.z <= 0.0) return vec3(0.0);
     float a = ggx_alpha(m.roughness);
     vec3 h = normalize(wo + wi);
-    vec3 f0 = opaque_f0(m);
-    vec3 F = fresnel_schlick(f0, dot(wi, h));
+    vec3 F = opaque_fresnel(m, dot(wi, h));
     float D = ggx_d(h, a);
     vec3 spec = F * D * smith_g2(wo, wi, a) / (4.0 * wo.z);   // × cos θi cancels 1/cos θi
-    vec3 diff = (1.0 - m.metallic) * m.base * INV_PI * wi.z * (vec3(1.0) - fresnel_schlick(f0, wo.z));
+    vec3 diff = (1.0 - m.metallic) * m.base * INV_PI * wi.z * (vec3(1.0) - opaque_fresnel(m, wo.z));
     float ps = opaque_spec_prob(m, wo);
     float pdf_spec = smith_g1(wo, a) * D / (4.0 * wo.z);
     pdf = ps * pdf_spec + (1.0 - ps) * wi.z * INV_PI;

@@ -19,6 +19,7 @@ ShadingMaterial material_at(inout Surface s, vec3 ray_dir, float cone_width) {
     m.roughness = g.params.x;
     m.transmission = SC_TRANSMISSION ? g.params.y : 0.0;
     m.ior = g.params.z;
+    m.specular = g.extra.y;
     m.emissive = SC_EMISSIVE ? g.emissive_metallic.rgb : vec3(0.0);
     float cos_i = dot(s.ng, -ray_dir);
     if (SC_TEXTURES) {

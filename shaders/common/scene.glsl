@@ -14,7 +14,7 @@ struct MaterialGpu {
     vec4 params;              // roughness, transmission, ior, alpha cutoff
     ivec4 tex0;               // base colour, metallic-roughness, normal, emissive (-1 = none)
     ivec4 tex1;               // transmission, alpha mode (0 opaque, 1 mask), double sided, unused
-    vec4 extra;               // normal scale, unused...
+    vec4 extra;               // normal scale, specular factor (KHR_materials_specular), unused, unused
 };
 struct LightGpu {
     vec4 radiant_kind;        // rgb, kind (0 point, 1 spot, 2 directional)

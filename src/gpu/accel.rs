@@ -41,41 +41,83 @@ impl AccelStructures {
         self.tlas.raw
     }
 
-    pub fn build(ctx: &Arc<GpuContext>, meshes: &[BlasInput<'_>], instances: &[TlasInstance]) -> GpuResult<AccelStructures> {
+    pub fn build(
+        ctx: &Arc<GpuContext>,
+        meshes: &[BlasInput<'_>],
+        instances: &[TlasInstance],
+    ) -> GpuResult<AccelStructures> {
         let Some(ext) = ctx.accel.as_ref() else {
-            return Err(GpuError::Unsupported("ray queries are not enabled on this device; use --rt software".into()));
+            return Err(GpuError::Unsupported(
+                "ray queries are not enabled on this device; use --rt software".into(),
+            ));
         };
-        let build_usage = vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS;
+        let build_usage = vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR
+            | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS;
         let mut as_props = vk::PhysicalDeviceAccelerationStructurePropertiesKHR::default();
         let mut p2 = vk::PhysicalDeviceProperties2::default().push_next(&mut as_props);
-        unsafe { ctx.instance.get_physical_device_properties2(ctx.physical, &mut p2) };
-        let scratch_align = as_props.min_acceleration_structure_scratch_offset_alignment.max(1) as u64;
+        unsafe {
+            ctx.instance
+                .get_physical_device_properties2(ctx.physical, &mut p2)
+        };
+        let scratch_align = as_props
+            .min_acceleration_structure_scratch_offset_alignment
+            .max(1) as u64;
 
         let mut blases = Vec::with_capacity(meshes.len());
         let mut inputs = Vec::new();
         for (i, m) in meshes.iter().enumerate() {
-            let pos = Buffer::with_data(ctx, &format!("blas{i}.positions"), bytemuck::cast_slice(m.positions), build_usage)?;
-            let idx = Buffer::with_data(ctx, &format!("blas{i}.indices"), bytemuck::cast_slice(m.indices), build_usage)?;
+            let pos = Buffer::with_data(
+                ctx,
+                &format!("blas{i}.positions"),
+                bytemuck::cast_slice(m.positions),
+                build_usage,
+            )?;
+            let idx = Buffer::with_data(
+                ctx,
+                &format!("blas{i}.indices"),
+                bytemuck::cast_slice(m.indices),
+                build_usage,
+            )?;
             inputs.push((pos, idx));
         }
         // Build every BLAS in one submission.
         let mut scratch_buffers = Vec::new();
-        let mut builds: Vec<(vk::AccelerationStructureGeometryKHR, u32, vk::AccelerationStructureKHR, u64)> = Vec::new();
+        let mut builds: Vec<(
+            vk::AccelerationStructureGeometryKHR,
+            u32,
+            vk::AccelerationStructureKHR,
+            u64,
+        )> = Vec::new();
         for (i, (m, (pos, idx))) in meshes.iter().zip(&inputs).enumerate() {
             let tris = vk::AccelerationStructureGeometryTrianglesDataKHR::default()
                 .vertex_format(vk::Format::R32G32B32_SFLOAT)
-                .vertex_data(vk::DeviceOrHostAddressConstKHR { device_address: pos.device_address() })
+                .vertex_data(vk::DeviceOrHostAddressConstKHR {
+                    device_address: pos.device_address(),
+                })
                 .vertex_stride(12)
                 .max_vertex(m.positions.len().saturating_sub(1) as u32)
                 .index_type(vk::IndexType::UINT32)
-                .index_data(vk::DeviceOrHostAddressConstKHR { device_address: idx.device_address() });
+                .index_data(vk::DeviceOrHostAddressConstKHR {
+                    device_address: idx.device_address(),
+                });
             let geometry = vk::AccelerationStructureGeometryKHR::default()
                 .geometry_type(vk::GeometryTypeKHR::TRIANGLES)
                 .geometry(vk::AccelerationStructureGeometryDataKHR { triangles: tris })
-                .flags(if m.opaque { vk::GeometryFlagsKHR::OPAQUE } else { vk::GeometryFlagsKHR::NO_DUPLICATE_ANY_HIT_INVOCATION });
+                .flags(if m.opaque {
+                    vk::GeometryFlagsKHR::OPAQUE
+                } else {
+                    vk::GeometryFlagsKHR::NO_DUPLICATE_ANY_HIT_INVOCATION
+                });
             let prim_count = (m.indices.len() / 3) as u32;
-            let (accel, scratch_addr, scratch) =
-                Self::create(ctx, ext, &format!("blas{i}"), vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL, &geometry, prim_count, scratch_align)?;
+            let (accel, scratch_addr, scratch) = Self::create(
+                ctx,
+                ext,
+                &format!("blas{i}"),
+                vk::AccelerationStructureTypeKHR::BOTTOM_LEVEL,
+                &geometry,
+                prim_count,
+                scratch_align,
+            )?;
             scratch_buffers.push(scratch);
             builds.push((geometry, prim_count, accel.raw, scratch_addr));
             blases.push(accel);
@@ -89,8 +131,11 @@ impl AccelStructures {
                     .mode(vk::BuildAccelerationStructureModeKHR::BUILD)
                     .dst_acceleration_structure(*dst)
                     .geometries(&geoms)
-                    .scratch_data(vk::DeviceOrHostAddressKHR { device_address: *scratch });
-                let range = [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(*prim_count)];
+                    .scratch_data(vk::DeviceOrHostAddressKHR {
+                        device_address: *scratch,
+                    });
+                let range = [vk::AccelerationStructureBuildRangeInfoKHR::default()
+                    .primitive_count(*prim_count)];
                 unsafe { ext.cmd_build_acceleration_structures(cb, &[info], &[&range]) };
             }
         })?;
@@ -100,32 +145,55 @@ impl AccelStructures {
         let raw_instances: Vec<vk::AccelerationStructureInstanceKHR> = instances
             .iter()
             .map(|inst| {
-                let addr_info = vk::AccelerationStructureDeviceAddressInfoKHR::default().acceleration_structure(blases[inst.blas].raw);
+                let addr_info = vk::AccelerationStructureDeviceAddressInfoKHR::default()
+                    .acceleration_structure(blases[inst.blas].raw);
                 let addr = unsafe { ext.get_acceleration_structure_device_address(&addr_info) };
                 let t = inst.transform;
                 vk::AccelerationStructureInstanceKHR {
-                    transform: vk::TransformMatrixKHR { matrix: [t[0][0], t[0][1], t[0][2], t[0][3], t[1][0], t[1][1], t[1][2], t[1][3], t[2][0], t[2][1], t[2][2], t[2][3]] },
+                    transform: vk::TransformMatrixKHR {
+                        matrix: [
+                            t[0][0], t[0][1], t[0][2], t[0][3], t[1][0], t[1][1], t[1][2], t[1][3],
+                            t[2][0], t[2][1], t[2][2], t[2][3],
+                        ],
+                    },
                     instance_custom_index_and_mask: vk::Packed24_8::new(inst.custom_index, 0xff),
                     instance_shader_binding_table_record_offset_and_flags: vk::Packed24_8::new(
                         0,
                         vk::GeometryInstanceFlagsKHR::TRIANGLE_FACING_CULL_DISABLE.as_raw() as u8,
                     ),
-                    acceleration_structure_reference: vk::AccelerationStructureReferenceKHR { device_handle: addr },
+                    acceleration_structure_reference: vk::AccelerationStructureReferenceKHR {
+                        device_handle: addr,
+                    },
                 }
             })
             .collect();
         let inst_bytes: &[u8] = unsafe {
-            std::slice::from_raw_parts(raw_instances.as_ptr() as *const u8, std::mem::size_of_val(raw_instances.as_slice()))
+            std::slice::from_raw_parts(
+                raw_instances.as_ptr() as *const u8,
+                std::mem::size_of_val(raw_instances.as_slice()),
+            )
         };
         let inst_buf = Buffer::with_data(ctx, "tlas.instances", inst_bytes, build_usage)?;
         let inst_data = vk::AccelerationStructureGeometryInstancesDataKHR::default()
             .array_of_pointers(false)
-            .data(vk::DeviceOrHostAddressConstKHR { device_address: inst_buf.device_address() });
+            .data(vk::DeviceOrHostAddressConstKHR {
+                device_address: inst_buf.device_address(),
+            });
         let geometry = vk::AccelerationStructureGeometryKHR::default()
             .geometry_type(vk::GeometryTypeKHR::INSTANCES)
-            .geometry(vk::AccelerationStructureGeometryDataKHR { instances: inst_data });
+            .geometry(vk::AccelerationStructureGeometryDataKHR {
+                instances: inst_data,
+            });
         let count = instances.len() as u32;
-        let (tlas, scratch_addr, scratch) = Self::create(ctx, ext, "tlas", vk::AccelerationStructureTypeKHR::TOP_LEVEL, &geometry, count, scratch_align)?;
+        let (tlas, scratch_addr, scratch) = Self::create(
+            ctx,
+            ext,
+            "tlas",
+            vk::AccelerationStructureTypeKHR::TOP_LEVEL,
+            &geometry,
+            count,
+            scratch_align,
+        )?;
         ctx.submit_once("TLAS build", |cb| {
             let geoms = [geometry];
             let info = vk::AccelerationStructureBuildGeometryInfoKHR::default()
@@ -134,14 +202,21 @@ impl AccelStructures {
                 .mode(vk::BuildAccelerationStructureModeKHR::BUILD)
                 .dst_acceleration_structure(tlas.raw)
                 .geometries(&geoms)
-                .scratch_data(vk::DeviceOrHostAddressKHR { device_address: scratch_addr });
-            let range = [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(count)];
+                .scratch_data(vk::DeviceOrHostAddressKHR {
+                    device_address: scratch_addr,
+                });
+            let range =
+                [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(count)];
             unsafe { ext.cmd_build_acceleration_structures(cb, &[info], &[&range]) };
         })?;
         drop(scratch);
         drop(inst_buf);
         drop(inputs);
-        Ok(AccelStructures { ctx: ctx.clone(), blases, tlas })
+        Ok(AccelStructures {
+            ctx: ctx.clone(),
+            blases,
+            tlas,
+        })
     }
 
     /// Creates an acceleration structure sized for `geometry` and a scratch buffer;
@@ -162,16 +237,28 @@ impl AccelStructures {
             .mode(vk::BuildAccelerationStructureModeKHR::BUILD)
             .geometries(&geoms);
         let mut sizes = vk::AccelerationStructureBuildSizesInfoKHR::default();
-        unsafe { ext.get_acceleration_structure_build_sizes(vk::AccelerationStructureBuildTypeKHR::DEVICE, &info, &[prim_count], &mut sizes) };
+        unsafe {
+            ext.get_acceleration_structure_build_sizes(
+                vk::AccelerationStructureBuildTypeKHR::DEVICE,
+                &info,
+                &[prim_count],
+                &mut sizes,
+            )
+        };
         let buffer = Buffer::new(
             ctx,
             &format!("{name}.storage"),
             sizes.acceleration_structure_size,
-            vk::BufferUsageFlags::ACCELERATION_STRUCTURE_STORAGE_KHR | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
+            vk::BufferUsageFlags::ACCELERATION_STRUCTURE_STORAGE_KHR
+                | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
             MemoryLocation::GpuOnly,
         )?;
-        let create = vk::AccelerationStructureCreateInfoKHR::default().buffer(buffer.raw).size(sizes.acceleration_structure_size).ty(ty);
-        let raw = unsafe { ext.create_acceleration_structure(&create, None) }.map_err(vk_err("vkCreateAccelerationStructureKHR"))?;
+        let create = vk::AccelerationStructureCreateInfoKHR::default()
+            .buffer(buffer.raw)
+            .size(sizes.acceleration_structure_size)
+            .ty(ty);
+        let raw = unsafe { ext.create_acceleration_structure(&create, None) }
+            .map_err(vk_err("vkCreateAccelerationStructureKHR"))?;
         ctx.set_name(raw, name);
         let scratch = Buffer::new(
             ctx,
@@ -181,7 +268,14 @@ impl AccelStructures {
             MemoryLocation::GpuOnly,
         )?;
         let addr = scratch.device_address().div_ceil(scratch_align) * scratch_align;
-        Ok((Accel { raw, _buffer: buffer }, addr, scratch))
+        Ok((
+            Accel {
+                raw,
+                _buffer: buffer,
+            },
+            addr,
+            scratch,
+        ))
     }
 }
 

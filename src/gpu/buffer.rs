@@ -19,7 +19,9 @@ pub struct Buffer {
 
 /// Usage every storage buffer gets (compute read/write, copies, fills).
 const STORAGE_USAGE: vk::BufferUsageFlags = vk::BufferUsageFlags::from_raw(
-    vk::BufferUsageFlags::STORAGE_BUFFER.as_raw() | vk::BufferUsageFlags::TRANSFER_SRC.as_raw() | vk::BufferUsageFlags::TRANSFER_DST.as_raw(),
+    vk::BufferUsageFlags::STORAGE_BUFFER.as_raw()
+        | vk::BufferUsageFlags::TRANSFER_SRC.as_raw()
+        | vk::BufferUsageFlags::TRANSFER_DST.as_raw(),
 );
 
 impl Buffer {
@@ -28,46 +30,92 @@ impl Buffer {
         Self::new(ctx, name, size, STORAGE_USAGE, MemoryLocation::GpuOnly)
     }
 
-    pub fn new(ctx: &Arc<GpuContext>, name: &str, size: u64, usage: vk::BufferUsageFlags, location: MemoryLocation) -> GpuResult<Buffer> {
+    pub fn new(
+        ctx: &Arc<GpuContext>,
+        name: &str,
+        size: u64,
+        usage: vk::BufferUsageFlags,
+        location: MemoryLocation,
+    ) -> GpuResult<Buffer> {
         let size = size.max(16);
         let mut usage = usage;
         if ctx.ray_query_enabled() {
             usage |= vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS;
         }
-        let info = vk::BufferCreateInfo::default().size(size).usage(usage).sharing_mode(vk::SharingMode::EXCLUSIVE);
+        let info = vk::BufferCreateInfo::default()
+            .size(size)
+            .usage(usage)
+            .sharing_mode(vk::SharingMode::EXCLUSIVE);
         let raw = unsafe { ctx.device.create_buffer(&info, None) }.map_err(|e| match e {
             vk::Result::ERROR_OUT_OF_DEVICE_MEMORY | vk::Result::ERROR_OUT_OF_HOST_MEMORY => {
-                GpuError::OutOfMemory { what: name.to_string(), bytes: size }
+                GpuError::OutOfMemory {
+                    what: name.to_string(),
+                    bytes: size,
+                }
             }
-            other => GpuError::Vk { call: "vkCreateBuffer", result: other },
+            other => GpuError::Vk {
+                call: "vkCreateBuffer",
+                result: other,
+            },
         })?;
         let requirements = unsafe { ctx.device.get_buffer_memory_requirements(raw) };
-        let allocation = ctx.allocator.lock().unwrap().allocate(&AllocationCreateDesc {
-            name,
-            requirements,
-            location,
-            linear: true,
-            allocation_scheme: AllocationScheme::GpuAllocatorManaged,
-        });
+        let allocation = ctx
+            .allocator
+            .lock()
+            .unwrap()
+            .allocate(&AllocationCreateDesc {
+                name,
+                requirements,
+                location,
+                linear: true,
+                allocation_scheme: AllocationScheme::GpuAllocatorManaged,
+            });
         let allocation = match allocation {
             Ok(a) => a,
             Err(e) => {
                 unsafe { ctx.device.destroy_buffer(raw, None) };
                 return Err(match e {
-                    gpu_allocator::AllocationError::OutOfMemory => GpuError::OutOfMemory { what: name.to_string(), bytes: size },
-                    other => GpuError::Alloc { what: name.to_string(), message: other.to_string() },
+                    gpu_allocator::AllocationError::OutOfMemory => GpuError::OutOfMemory {
+                        what: name.to_string(),
+                        bytes: size,
+                    },
+                    other => GpuError::Alloc {
+                        what: name.to_string(),
+                        message: other.to_string(),
+                    },
                 });
             }
         };
-        unsafe { ctx.device.bind_buffer_memory(raw, allocation.memory(), allocation.offset()) }.map_err(vk_err("vkBindBufferMemory"))?;
+        unsafe {
+            ctx.device
+                .bind_buffer_memory(raw, allocation.memory(), allocation.offset())
+        }
+        .map_err(vk_err("vkBindBufferMemory"))?;
         ctx.set_name(raw, name);
         ctx.allocated_bytes.fetch_add(size, Ordering::Relaxed);
-        Ok(Buffer { ctx: ctx.clone(), name: name.to_string(), raw, size, allocation: Some(allocation) })
+        Ok(Buffer {
+            ctx: ctx.clone(),
+            name: name.to_string(),
+            raw,
+            size,
+            allocation: Some(allocation),
+        })
     }
 
     /// A device buffer filled with `data` (through a staging copy).
-    pub fn with_data(ctx: &Arc<GpuContext>, name: &str, data: &[u8], extra_usage: vk::BufferUsageFlags) -> GpuResult<Buffer> {
-        let buf = Self::new(ctx, name, data.len() as u64, STORAGE_USAGE | extra_usage, MemoryLocation::GpuOnly)?;
+    pub fn with_data(
+        ctx: &Arc<GpuContext>,
+        name: &str,
+        data: &[u8],
+        extra_usage: vk::BufferUsageFlags,
+    ) -> GpuResult<Buffer> {
+        let buf = Self::new(
+            ctx,
+            name,
+            data.len() as u64,
+            STORAGE_USAGE | extra_usage,
+            MemoryLocation::GpuOnly,
+        )?;
         buf.upload(data)?;
         Ok(buf)
     }
@@ -77,12 +125,24 @@ impl Buffer {
         if data.is_empty() {
             return Ok(());
         }
-        assert!(data.len() as u64 <= self.size, "upload larger than buffer {}", self.name);
-        let staging = Self::new(&self.ctx, &format!("{}.staging", self.name), data.len() as u64, vk::BufferUsageFlags::TRANSFER_SRC, MemoryLocation::CpuToGpu)?;
+        assert!(
+            data.len() as u64 <= self.size,
+            "upload larger than buffer {}",
+            self.name
+        );
+        let staging = Self::new(
+            &self.ctx,
+            &format!("{}.staging", self.name),
+            data.len() as u64,
+            vk::BufferUsageFlags::TRANSFER_SRC,
+            MemoryLocation::CpuToGpu,
+        )?;
         staging.write_mapped(data);
         self.ctx.submit_once("buffer upload", |cb| unsafe {
             let region = [vk::BufferCopy::default().size(data.len() as u64)];
-            self.ctx.device.cmd_copy_buffer(cb, staging.raw, self.raw, &region);
+            self.ctx
+                .device
+                .cmd_copy_buffer(cb, staging.raw, self.raw, &region);
         })
     }
 
@@ -93,19 +153,33 @@ impl Buffer {
 
     fn write_mapped(&self, data: &[u8]) {
         let alloc = self.allocation.as_ref().unwrap();
-        let ptr = alloc.mapped_ptr().expect("staging buffer is host visible").as_ptr() as *mut u8;
+        let ptr = alloc
+            .mapped_ptr()
+            .expect("staging buffer is host visible")
+            .as_ptr() as *mut u8;
         unsafe { std::ptr::copy_nonoverlapping(data.as_ptr(), ptr, data.len()) };
     }
 
     /// Reads the whole buffer back to the host (waits for the GPU).
     pub fn download(&self) -> GpuResult<Vec<u8>> {
-        let staging = Self::new(&self.ctx, &format!("{}.readback", self.name), self.size, vk::BufferUsageFlags::TRANSFER_DST, MemoryLocation::GpuToCpu)?;
+        let staging = Self::new(
+            &self.ctx,
+            &format!("{}.readback", self.name),
+            self.size,
+            vk::BufferUsageFlags::TRANSFER_DST,
+            MemoryLocation::GpuToCpu,
+        )?;
         self.ctx.submit_once("buffer readback", |cb| unsafe {
             let region = [vk::BufferCopy::default().size(self.size)];
-            self.ctx.device.cmd_copy_buffer(cb, self.raw, staging.raw, &region);
+            self.ctx
+                .device
+                .cmd_copy_buffer(cb, self.raw, staging.raw, &region);
         })?;
         let alloc = staging.allocation.as_ref().unwrap();
-        let ptr = alloc.mapped_ptr().expect("readback buffer is host visible").as_ptr() as *const u8;
+        let ptr = alloc
+            .mapped_ptr()
+            .expect("readback buffer is host visible")
+            .as_ptr() as *const u8;
         let mut out = vec![0u8; self.size as usize];
         unsafe { std::ptr::copy_nonoverlapping(ptr, out.as_mut_ptr(), out.len()) };
         Ok(out)
@@ -115,7 +189,9 @@ impl Buffer {
     pub fn download_pod<T: bytemuck::Pod>(&self) -> GpuResult<Vec<T>> {
         let bytes = self.download()?;
         let n = bytes.len() / std::mem::size_of::<T>();
-        Ok(bytemuck::pod_collect_to_vec(&bytes[..n * std::mem::size_of::<T>()]))
+        Ok(bytemuck::pod_collect_to_vec(
+            &bytes[..n * std::mem::size_of::<T>()],
+        ))
     }
 
     pub fn device_address(&self) -> u64 {
@@ -130,6 +206,8 @@ impl Drop for Buffer {
         if let Some(a) = self.allocation.take() {
             let _ = self.ctx.allocator.lock().unwrap().free(a);
         }
-        self.ctx.allocated_bytes.fetch_sub(self.size, Ordering::Relaxed);
+        self.ctx
+            .allocated_bytes
+            .fetch_sub(self.size, Ordering::Relaxed);
     }
 }

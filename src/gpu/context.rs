@@ -66,7 +66,11 @@ fn type_name(t: vk::PhysicalDeviceType) -> &'static str {
 }
 
 fn cstr_field(raw: &[c_char]) -> String {
-    let bytes: Vec<u8> = raw.iter().take_while(|&&c| c != 0).map(|&c| c as u8).collect();
+    let bytes: Vec<u8> = raw
+        .iter()
+        .take_while(|&&c| c != 0)
+        .map(|&c| c as u8)
+        .collect();
     String::from_utf8_lossy(&bytes).into_owned()
 }
 
@@ -105,18 +109,25 @@ impl GpuContext {
             extensions.push(ash::ext::debug_utils::NAME.as_ptr());
         }
         let enabled_features = [vk::ValidationFeatureEnableEXT::SYNCHRONIZATION_VALIDATION];
-        let mut validation_features = vk::ValidationFeaturesEXT::default().enabled_validation_features(&enabled_features);
-        let mut instance_info =
-            vk::InstanceCreateInfo::default().application_info(&app_info).enabled_layer_names(&layers).enabled_extension_names(&extensions);
+        let mut validation_features =
+            vk::ValidationFeaturesEXT::default().enabled_validation_features(&enabled_features);
+        let mut instance_info = vk::InstanceCreateInfo::default()
+            .application_info(&app_info)
+            .enabled_layer_names(&layers)
+            .enabled_extension_names(&extensions);
         if validate && options.sync_validation {
             instance_info = instance_info.push_next(&mut validation_features);
         }
-        let instance = unsafe { entry.create_instance(&instance_info, None) }.map_err(vk_err("vkCreateInstance"))?;
+        let instance = unsafe { entry.create_instance(&instance_info, None) }
+            .map_err(vk_err("vkCreateInstance"))?;
 
         let debug = if validate {
             let du = ash::ext::debug_utils::Instance::new(&entry, &instance);
             let info = vk::DebugUtilsMessengerCreateInfoEXT::default()
-                .message_severity(vk::DebugUtilsMessageSeverityFlagsEXT::WARNING | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR)
+                .message_severity(
+                    vk::DebugUtilsMessageSeverityFlagsEXT::WARNING
+                        | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR,
+                )
                 .message_type(
                     vk::DebugUtilsMessageTypeFlagsEXT::GENERAL
                         | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
@@ -124,8 +135,8 @@ impl GpuContext {
                 )
                 .pfn_user_callback(Some(debug_callback))
                 .user_data(Arc::as_ptr(&validation) as *mut std::ffi::c_void);
-            let messenger =
-                unsafe { du.create_debug_utils_messenger(&info, None) }.map_err(vk_err("vkCreateDebugUtilsMessengerEXT"))?;
+            let messenger = unsafe { du.create_debug_utils_messenger(&info, None) }
+                .map_err(vk_err("vkCreateDebugUtilsMessengerEXT"))?;
             Some((du, messenger))
         } else {
             None
@@ -148,7 +159,10 @@ impl GpuContext {
         // Probe extensions and features.
         let exts = unsafe { instance.enumerate_device_extension_properties(physical) }
             .map_err(vk_err("vkEnumerateDeviceExtensionProperties"))?;
-        let has_ext = |name: &CStr| exts.iter().any(|e| e.extension_name_as_c_str().ok() == Some(name));
+        let has_ext = |name: &CStr| {
+            exts.iter()
+                .any(|e| e.extension_name_as_c_str().ok() == Some(name))
+        };
         let rq_exts = [
             ash::khr::acceleration_structure::NAME,
             ash::khr::ray_query::NAME,
@@ -165,11 +179,16 @@ impl GpuContext {
         }
         unsafe { instance.get_physical_device_features2(physical, &mut f2) };
         let core = f2.features;
-        let ray_query_ok = rq_ext_ok && f_as.acceleration_structure == vk::TRUE && f_rq.ray_query == vk::TRUE && f12.buffer_device_address == vk::TRUE;
+        let ray_query_ok = rq_ext_ok
+            && f_as.acceleration_structure == vk::TRUE
+            && f_rq.ray_query == vk::TRUE
+            && f12.buffer_device_address == vk::TRUE;
 
         let mut subgroup = vk::PhysicalDeviceSubgroupProperties::default();
         let mut driver = vk::PhysicalDeviceDriverProperties::default();
-        let mut p2 = vk::PhysicalDeviceProperties2::default().push_next(&mut subgroup).push_next(&mut driver);
+        let mut p2 = vk::PhysicalDeviceProperties2::default()
+            .push_next(&mut subgroup)
+            .push_next(&mut driver);
         unsafe { instance.get_physical_device_properties2(physical, &mut p2) };
         let props = p2.properties;
         let mem_props = unsafe { instance.get_physical_device_memory_properties(physical) };
@@ -188,16 +207,23 @@ impl GpuContext {
             (vk::SubgroupFeatureFlags::ARITHMETIC, "arithmetic"),
             (vk::SubgroupFeatureFlags::BALLOT, "ballot"),
             (vk::SubgroupFeatureFlags::SHUFFLE, "shuffle"),
-            (vk::SubgroupFeatureFlags::SHUFFLE_RELATIVE, "shuffle_relative"),
+            (
+                vk::SubgroupFeatureFlags::SHUFFLE_RELATIVE,
+                "shuffle_relative",
+            ),
             (vk::SubgroupFeatureFlags::CLUSTERED, "clustered"),
             (vk::SubgroupFeatureFlags::QUAD, "quad"),
         ] {
-            if subgroup.supported_operations.contains(flag) && subgroup.supported_stages.contains(vk::ShaderStageFlags::COMPUTE) {
+            if subgroup.supported_operations.contains(flag)
+                && subgroup
+                    .supported_stages
+                    .contains(vk::ShaderStageFlags::COMPUTE)
+            {
                 subgroup_ops.push(name.to_string());
             }
         }
-        let descriptor_indexing =
-            f12.runtime_descriptor_array == vk::TRUE && f12.shader_sampled_image_array_non_uniform_indexing == vk::TRUE;
+        let descriptor_indexing = f12.runtime_descriptor_array == vk::TRUE
+            && f12.shader_sampled_image_array_non_uniform_indexing == vk::TRUE;
         let caps = DeviceCaps {
             name: candidate.name.clone(),
             device_type: type_name(candidate.kind).into(),
@@ -230,7 +256,9 @@ impl GpuContext {
         }
         let core_enable = vk::PhysicalDeviceFeatures::default()
             .shader_int64(core.shader_int64 == vk::TRUE)
-            .shader_storage_image_write_without_format(core.shader_storage_image_write_without_format == vk::TRUE);
+            .shader_storage_image_write_without_format(
+                core.shader_storage_image_write_without_format == vk::TRUE,
+            );
         let mut e12 = vk::PhysicalDeviceVulkan12Features::default()
             .shader_buffer_int64_atomics(caps.buffer_int64_atomics)
             .buffer_device_address(use_rq)
@@ -239,10 +267,13 @@ impl GpuContext {
             .descriptor_binding_partially_bound(f12.descriptor_binding_partially_bound == vk::TRUE)
             .scalar_block_layout(f12.scalar_block_layout == vk::TRUE)
             .host_query_reset(f12.host_query_reset == vk::TRUE);
-        let mut e_as = vk::PhysicalDeviceAccelerationStructureFeaturesKHR::default().acceleration_structure(true);
+        let mut e_as = vk::PhysicalDeviceAccelerationStructureFeaturesKHR::default()
+            .acceleration_structure(true);
         let mut e_rq = vk::PhysicalDeviceRayQueryFeaturesKHR::default().ray_query(true);
         let priorities = [1.0f32];
-        let queue_infos = [vk::DeviceQueueCreateInfo::default().queue_family_index(candidate.queue_family).queue_priorities(&priorities)];
+        let queue_infos = [vk::DeviceQueueCreateInfo::default()
+            .queue_family_index(candidate.queue_family)
+            .queue_priorities(&priorities)];
         let mut dev_info = vk::DeviceCreateInfo::default()
             .queue_create_infos(&queue_infos)
             .enabled_extension_names(&dev_exts)
@@ -251,7 +282,8 @@ impl GpuContext {
         if use_rq {
             dev_info = dev_info.push_next(&mut e_as).push_next(&mut e_rq);
         }
-        let device = unsafe { instance.create_device(physical, &dev_info, None) }.map_err(vk_err("vkCreateDevice"))?;
+        let device = unsafe { instance.create_device(physical, &dev_info, None) }
+            .map_err(vk_err("vkCreateDevice"))?;
         let queue = unsafe { device.get_device_queue(candidate.queue_family, 0) };
 
         let allocator = Allocator::new(&AllocatorCreateDesc {
@@ -262,14 +294,20 @@ impl GpuContext {
             buffer_device_address: use_rq,
             allocation_sizes: Default::default(),
         })
-        .map_err(|e| GpuError::Alloc { what: "allocator".into(), message: e.to_string() })?;
+        .map_err(|e| GpuError::Alloc {
+            what: "allocator".into(),
+            message: e.to_string(),
+        })?;
 
         let pool_info = vk::CommandPoolCreateInfo::default()
             .queue_family_index(candidate.queue_family)
             .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
-        let command_pool = unsafe { device.create_command_pool(&pool_info, None) }.map_err(vk_err("vkCreateCommandPool"))?;
-        let accel = use_rq.then(|| ash::khr::acceleration_structure::Device::new(&instance, &device));
-        let debug_utils_device = validate.then(|| ash::ext::debug_utils::Device::new(&instance, &device));
+        let command_pool = unsafe { device.create_command_pool(&pool_info, None) }
+            .map_err(vk_err("vkCreateCommandPool"))?;
+        let accel =
+            use_rq.then(|| ash::khr::acceleration_structure::Device::new(&instance, &device));
+        let debug_utils_device =
+            validate.then(|| ash::ext::debug_utils::Device::new(&instance, &device));
 
         let mut caps = caps;
         caps.ray_query = use_rq || (ray_query_ok && !options.want_ray_query);
@@ -293,7 +331,8 @@ impl GpuContext {
     }
 
     fn choose_device(instance: &ash::Instance, filter: Option<&str>) -> GpuResult<Candidate> {
-        let physicals = unsafe { instance.enumerate_physical_devices() }.map_err(vk_err("vkEnumeratePhysicalDevices"))?;
+        let physicals = unsafe { instance.enumerate_physical_devices() }
+            .map_err(vk_err("vkEnumeratePhysicalDevices"))?;
         let mut all = Vec::new();
         for p in physicals {
             let props = unsafe { instance.get_physical_device_properties(p) };
@@ -302,20 +341,36 @@ impl GpuContext {
                 continue;
             }
             let qf = unsafe { instance.get_physical_device_queue_family_properties(p) };
-            let Some(family) = qf.iter().position(|q| q.queue_flags.contains(vk::QueueFlags::COMPUTE)) else {
+            let Some(family) = qf
+                .iter()
+                .position(|q| q.queue_flags.contains(vk::QueueFlags::COMPUTE))
+            else {
                 continue;
             };
-            all.push(Candidate { physical: p, name, kind: props.device_type, queue_family: family as u32 });
+            all.push(Candidate {
+                physical: p,
+                name,
+                kind: props.device_type,
+                queue_family: family as u32,
+            });
         }
         if let Some(f) = filter {
             let fl = f.to_lowercase();
             let names: Vec<String> = all.iter().map(|c| c.name.clone()).collect();
-            return all.into_iter().find(|c| c.name.to_lowercase().contains(&fl)).ok_or_else(|| {
-                GpuError::NoDevice(format!(" whose name contains '{f}' (devices: {})", names.join(", ")))
-            });
+            return all
+                .into_iter()
+                .find(|c| c.name.to_lowercase().contains(&fl))
+                .ok_or_else(|| {
+                    GpuError::NoDevice(format!(
+                        " whose name contains '{f}' (devices: {})",
+                        names.join(", ")
+                    ))
+                });
         }
         all.sort_by_key(|c| type_rank(c.kind));
-        all.into_iter().next().ok_or_else(|| GpuError::NoDevice(String::new()))
+        all.into_iter()
+            .next()
+            .ok_or_else(|| GpuError::NoDevice(String::new()))
     }
 
     /// True when ray queries are enabled on this device (the `query` backend can run).
@@ -329,10 +384,13 @@ impl GpuContext {
             .command_pool(self.command_pool)
             .level(vk::CommandBufferLevel::PRIMARY)
             .command_buffer_count(1);
-        let cb = unsafe { self.device.allocate_command_buffers(&alloc) }.map_err(vk_err("vkAllocateCommandBuffers"))?[0];
-        let begin = vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
+        let cb = unsafe { self.device.allocate_command_buffers(&alloc) }
+            .map_err(vk_err("vkAllocateCommandBuffers"))?[0];
+        let begin = vk::CommandBufferBeginInfo::default()
+            .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
         let result = (|| {
-            unsafe { self.device.begin_command_buffer(cb, &begin) }.map_err(vk_err("vkBeginCommandBuffer"))?;
+            unsafe { self.device.begin_command_buffer(cb, &begin) }
+                .map_err(vk_err("vkBeginCommandBuffer"))?;
             f(cb);
             unsafe { self.device.end_command_buffer(cb) }.map_err(vk_err("vkEndCommandBuffer"))?;
             self.submit_and_wait(cb, what)
@@ -342,7 +400,11 @@ impl GpuContext {
     }
 
     pub(crate) fn submit_and_wait(&self, cb: vk::CommandBuffer, what: &str) -> GpuResult<()> {
-        let fence = unsafe { self.device.create_fence(&vk::FenceCreateInfo::default(), None) }.map_err(vk_err("vkCreateFence"))?;
+        let fence = unsafe {
+            self.device
+                .create_fence(&vk::FenceCreateInfo::default(), None)
+        }
+        .map_err(vk_err("vkCreateFence"))?;
         let cbs = [cb];
         let submit = [vk::SubmitInfo::default().command_buffers(&cbs)];
         let r = unsafe { self.device.queue_submit(self.queue, &submit, fence) }
@@ -350,7 +412,10 @@ impl GpuContext {
         unsafe { self.device.destroy_fence(fence, None) };
         r.map_err(|e| match e {
             vk::Result::ERROR_DEVICE_LOST => GpuError::DeviceLost(what.to_string()),
-            other => GpuError::Vk { call: "vkQueueSubmit/vkWaitForFences", result: other },
+            other => GpuError::Vk {
+                call: "vkQueueSubmit/vkWaitForFences",
+                result: other,
+            },
         })
     }
 
@@ -358,7 +423,9 @@ impl GpuContext {
     pub(crate) fn set_name<H: vk::Handle>(&self, handle: H, name: &str) {
         if let Some(du) = &self.debug_utils_device {
             if let Ok(cname) = CString::new(name) {
-                let info = vk::DebugUtilsObjectNameInfoEXT::default().object_handle(handle).object_name(&cname);
+                let info = vk::DebugUtilsObjectNameInfoEXT::default()
+                    .object_handle(handle)
+                    .object_name(&cname);
                 let _ = unsafe { du.set_debug_utils_object_name(&info) };
             }
         }
@@ -366,7 +433,8 @@ impl GpuContext {
 
     /// Bytes currently allocated through this context's buffers and images.
     pub fn allocated_bytes(&self) -> u64 {
-        self.allocated_bytes.load(std::sync::atomic::Ordering::Relaxed)
+        self.allocated_bytes
+            .load(std::sync::atomic::Ordering::Relaxed)
     }
 
     pub fn wait_idle(&self) {

@@ -38,8 +38,13 @@ impl DescriptorLayout {
             })
             .collect();
         let info = vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings);
-        let raw = unsafe { ctx.device.create_descriptor_set_layout(&info, None) }.map_err(vk_err("vkCreateDescriptorSetLayout"))?;
-        Ok(Arc::new(DescriptorLayout { ctx: ctx.clone(), raw, kinds: kinds.to_vec() }))
+        let raw = unsafe { ctx.device.create_descriptor_set_layout(&info, None) }
+            .map_err(vk_err("vkCreateDescriptorSetLayout"))?;
+        Ok(Arc::new(DescriptorLayout {
+            ctx: ctx.clone(),
+            raw,
+            kinds: kinds.to_vec(),
+        }))
     }
 
     /// A layout of `n` storage buffers at bindings 0..n.
@@ -50,7 +55,11 @@ impl DescriptorLayout {
 
 impl Drop for DescriptorLayout {
     fn drop(&mut self) {
-        unsafe { self.ctx.device.destroy_descriptor_set_layout(self.raw, None) };
+        unsafe {
+            self.ctx
+                .device
+                .destroy_descriptor_set_layout(self.raw, None)
+        };
     }
 }
 
@@ -78,21 +87,38 @@ pub struct DescriptorSet {
 }
 
 impl DescriptorSet {
-    pub fn new(ctx: &Arc<GpuContext>, layout: &Arc<DescriptorLayout>, resources: &[Resource<'_>]) -> GpuResult<DescriptorSet> {
-        assert_eq!(resources.len(), layout.kinds.len(), "descriptor set: resource count differs from the layout");
+    pub fn new(
+        ctx: &Arc<GpuContext>,
+        layout: &Arc<DescriptorLayout>,
+        resources: &[Resource<'_>],
+    ) -> GpuResult<DescriptorSet> {
+        assert_eq!(
+            resources.len(),
+            layout.kinds.len(),
+            "descriptor set: resource count differs from the layout"
+        );
         let mut sizes: Vec<vk::DescriptorPoolSize> = Vec::new();
         for k in &layout.kinds {
             let (ty, count) = descriptor_type(*k);
             match sizes.iter_mut().find(|s| s.ty == ty) {
                 Some(s) => s.descriptor_count += count,
-                None => sizes.push(vk::DescriptorPoolSize { ty, descriptor_count: count }),
+                None => sizes.push(vk::DescriptorPoolSize {
+                    ty,
+                    descriptor_count: count,
+                }),
             }
         }
-        let pool_info = vk::DescriptorPoolCreateInfo::default().max_sets(1).pool_sizes(&sizes);
-        let pool = unsafe { ctx.device.create_descriptor_pool(&pool_info, None) }.map_err(vk_err("vkCreateDescriptorPool"))?;
+        let pool_info = vk::DescriptorPoolCreateInfo::default()
+            .max_sets(1)
+            .pool_sizes(&sizes);
+        let pool = unsafe { ctx.device.create_descriptor_pool(&pool_info, None) }
+            .map_err(vk_err("vkCreateDescriptorPool"))?;
         let layouts = [layout.raw];
-        let alloc = vk::DescriptorSetAllocateInfo::default().descriptor_pool(pool).set_layouts(&layouts);
-        let raw = unsafe { ctx.device.allocate_descriptor_sets(&alloc) }.map_err(vk_err("vkAllocateDescriptorSets"))?[0];
+        let alloc = vk::DescriptorSetAllocateInfo::default()
+            .descriptor_pool(pool)
+            .set_layouts(&layouts);
+        let raw = unsafe { ctx.device.allocate_descriptor_sets(&alloc) }
+            .map_err(vk_err("vkAllocateDescriptorSets"))?[0];
 
         // Gather infos first so the write structs can point at them.
         let mut buffer_infos: Vec<[vk::DescriptorBufferInfo; 1]> = Vec::new();
@@ -101,13 +127,24 @@ impl DescriptorSet {
         for (r, k) in resources.iter().zip(&layout.kinds) {
             match (r, k) {
                 (Resource::Buffer(b), BindingKind::StorageBuffer) => {
-                    buffer_infos.push([vk::DescriptorBufferInfo::default().buffer(b.raw).offset(0).range(vk::WHOLE_SIZE)])
+                    buffer_infos.push([vk::DescriptorBufferInfo::default()
+                        .buffer(b.raw)
+                        .offset(0)
+                        .range(vk::WHOLE_SIZE)])
                 }
                 (Resource::Images(list, sampler), BindingKind::SampledImages(n)) => {
-                    assert!(!list.is_empty() && list.len() as u32 <= (*n).max(1), "image array size");
+                    assert!(
+                        !list.is_empty() && list.len() as u32 <= (*n).max(1),
+                        "image array size"
+                    );
                     let mut v: Vec<vk::DescriptorImageInfo> = list
                         .iter()
-                        .map(|t| vk::DescriptorImageInfo::default().sampler(sampler.raw).image_view(t.view).image_layout(vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL))
+                        .map(|t| {
+                            vk::DescriptorImageInfo::default()
+                                .sampler(sampler.raw)
+                                .image_view(t.view)
+                                .image_layout(vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL)
+                        })
                         .collect();
                     // Fill the rest of the array with the first image (every element must be valid).
                     while (v.len() as u32) < (*n).max(1) {
@@ -115,25 +152,35 @@ impl DescriptorSet {
                     }
                     image_infos.push(v);
                 }
-                (Resource::Accel(a), BindingKind::AccelerationStructure) => accel_handles.push([*a]),
+                (Resource::Accel(a), BindingKind::AccelerationStructure) => {
+                    accel_handles.push([*a])
+                }
                 _ => panic!("descriptor set: resource does not match the layout's binding kind"),
             }
         }
-        let mut accel_writes: Vec<vk::WriteDescriptorSetAccelerationStructureKHR> =
-            accel_handles.iter().map(|h| vk::WriteDescriptorSetAccelerationStructureKHR::default().acceleration_structures(h)).collect();
+        let mut accel_writes: Vec<vk::WriteDescriptorSetAccelerationStructureKHR> = accel_handles
+            .iter()
+            .map(|h| {
+                vk::WriteDescriptorSetAccelerationStructureKHR::default().acceleration_structures(h)
+            })
+            .collect();
         let (mut bi, mut ii, mut ai) = (0, 0, 0);
         let mut writes: Vec<vk::WriteDescriptorSet> = Vec::new();
         let accel_ptr = accel_writes.as_mut_ptr();
         for (binding, k) in layout.kinds.iter().enumerate() {
-            let w = vk::WriteDescriptorSet::default().dst_set(raw).dst_binding(binding as u32);
+            let w = vk::WriteDescriptorSet::default()
+                .dst_set(raw)
+                .dst_binding(binding as u32);
             let w = match k {
                 BindingKind::StorageBuffer => {
                     bi += 1;
-                    w.descriptor_type(vk::DescriptorType::STORAGE_BUFFER).buffer_info(&buffer_infos[bi - 1])
+                    w.descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                        .buffer_info(&buffer_infos[bi - 1])
                 }
                 BindingKind::SampledImages(_) => {
                     ii += 1;
-                    w.descriptor_type(vk::DescriptorType::COMBINED_IMAGE_SAMPLER).image_info(&image_infos[ii - 1])
+                    w.descriptor_type(vk::DescriptorType::COMBINED_IMAGE_SAMPLER)
+                        .image_info(&image_infos[ii - 1])
                 }
                 BindingKind::AccelerationStructure => {
                     ai += 1;
@@ -149,7 +196,12 @@ impl DescriptorSet {
         unsafe { ctx.device.update_descriptor_sets(&writes, &[]) };
         drop(writes);
         drop(accel_writes);
-        Ok(DescriptorSet { ctx: ctx.clone(), pool, raw, layout: layout.clone() })
+        Ok(DescriptorSet {
+            ctx: ctx.clone(),
+            pool,
+            raw,
+            layout: layout.clone(),
+        })
     }
 }
 

@@ -2,12 +2,19 @@
 
 #[derive(Debug, thiserror::Error)]
 pub enum GpuError {
-    #[error("cannot load the Vulkan loader (libvulkan.so.1): {0}; run scripts/setup.sh to install it")]
+    #[error(
+        "cannot load the Vulkan loader (libvulkan.so.1): {0}; run scripts/setup.sh to install it"
+    )]
     Loader(String),
-    #[error("no Vulkan 1.2 device with a compute queue{0}; run scripts/setup.sh to install lavapipe")]
+    #[error(
+        "no Vulkan 1.2 device with a compute queue{0}; run scripts/setup.sh to install lavapipe"
+    )]
     NoDevice(String),
     #[error("Vulkan call {call} failed: {result}")]
-    Vk { call: &'static str, result: ash::vk::Result },
+    Vk {
+        call: &'static str,
+        result: ash::vk::Result,
+    },
     #[error("GPU out of memory while allocating {what} ({bytes} bytes): reduce --size or the cache capacity")]
     OutOfMemory { what: String, bytes: u64 },
     #[error("GPU memory allocation for {what} failed: {message}")]
@@ -25,7 +32,10 @@ pub(crate) fn vk_err(call: &'static str) -> impl Fn(ash::vk::Result) -> GpuError
     move |result| match result {
         ash::vk::Result::ERROR_DEVICE_LOST => GpuError::DeviceLost(call.to_string()),
         ash::vk::Result::ERROR_OUT_OF_DEVICE_MEMORY | ash::vk::Result::ERROR_OUT_OF_HOST_MEMORY => {
-            GpuError::OutOfMemory { what: call.to_string(), bytes: 0 }
+            GpuError::OutOfMemory {
+                what: call.to_string(),
+                bytes: 0,
+            }
         }
         _ => GpuError::Vk { call, result },
     }

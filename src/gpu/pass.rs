@@ -48,13 +48,21 @@ impl Recorder {
             .command_pool(ctx.command_pool)
             .level(vk::CommandBufferLevel::PRIMARY)
             .command_buffer_count(1);
-        let cb = unsafe { ctx.device.allocate_command_buffers(&alloc) }.map_err(vk_err("vkAllocateCommandBuffers"))?[0];
-        let qinfo = vk::QueryPoolCreateInfo::default().query_type(vk::QueryType::TIMESTAMP).query_count(2 * max_passes.max(1));
-        let queries = unsafe { ctx.device.create_query_pool(&qinfo, None) }.map_err(vk_err("vkCreateQueryPool"))?;
-        let begin = vk::CommandBufferBeginInfo::default().flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
+        let cb = unsafe { ctx.device.allocate_command_buffers(&alloc) }
+            .map_err(vk_err("vkAllocateCommandBuffers"))?[0];
+        let qinfo = vk::QueryPoolCreateInfo::default()
+            .query_type(vk::QueryType::TIMESTAMP)
+            .query_count(2 * max_passes.max(1));
+        let queries = unsafe { ctx.device.create_query_pool(&qinfo, None) }
+            .map_err(vk_err("vkCreateQueryPool"))?;
+        let begin = vk::CommandBufferBeginInfo::default()
+            .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
         unsafe {
-            ctx.device.begin_command_buffer(cb, &begin).map_err(vk_err("vkBeginCommandBuffer"))?;
-            ctx.device.cmd_reset_query_pool(cb, queries, 0, 2 * max_passes.max(1));
+            ctx.device
+                .begin_command_buffer(cb, &begin)
+                .map_err(vk_err("vkBeginCommandBuffer"))?;
+            ctx.device
+                .cmd_reset_query_pool(cb, queries, 0, 2 * max_passes.max(1));
         }
         Ok(Recorder {
             ctx: ctx.clone(),
@@ -70,7 +78,12 @@ impl Recorder {
     }
 
     pub fn pass(&mut self, name: &str) -> Pass<'_> {
-        Pass { rec: self, name: name.to_string(), reads: Vec::new(), writes: Vec::new() }
+        Pass {
+            rec: self,
+            name: name.to_string(),
+            reads: Vec::new(),
+            writes: Vec::new(),
+        }
     }
 
     /// Number of passes recorded so far.
@@ -84,15 +97,41 @@ impl Recorder {
     }
 
     fn begin_pass(&mut self, name: &str, reads: &[vk::Buffer], writes: &[vk::Buffer]) -> u32 {
-        assert!((self.names.len() as u32) < self.max_passes, "recorder: more than {} passes", self.max_passes);
+        assert!(
+            (self.names.len() as u32) < self.max_passes,
+            "recorder: more than {} passes",
+            self.max_passes
+        );
         let hazard = reads.iter().any(|b| self.written.contains(b))
-            || writes.iter().any(|b| self.written.contains(b) || self.read.contains(b));
+            || writes
+                .iter()
+                .any(|b| self.written.contains(b) || self.read.contains(b));
         if hazard {
             let barrier = vk::MemoryBarrier::default()
-                .src_access_mask(vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::SHADER_READ | vk::AccessFlags::TRANSFER_WRITE | vk::AccessFlags::TRANSFER_READ)
-                .dst_access_mask(vk::AccessFlags::SHADER_READ | vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_READ | vk::AccessFlags::TRANSFER_WRITE);
+                .src_access_mask(
+                    vk::AccessFlags::SHADER_WRITE
+                        | vk::AccessFlags::SHADER_READ
+                        | vk::AccessFlags::TRANSFER_WRITE
+                        | vk::AccessFlags::TRANSFER_READ,
+                )
+                .dst_access_mask(
+                    vk::AccessFlags::SHADER_READ
+                        | vk::AccessFlags::SHADER_WRITE
+                        | vk::AccessFlags::TRANSFER_READ
+                        | vk::AccessFlags::TRANSFER_WRITE,
+                );
             let stages = vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER;
-            unsafe { self.ctx.device.cmd_pipeline_barrier(self.cb, stages, stages, vk::DependencyFlags::empty(), &[barrier], &[], &[]) };
+            unsafe {
+                self.ctx.device.cmd_pipeline_barrier(
+                    self.cb,
+                    stages,
+                    stages,
+                    vk::DependencyFlags::empty(),
+                    &[barrier],
+                    &[],
+                    &[],
+                )
+            };
             self.written.clear();
             self.read.clear();
             self.barriers += 1;
@@ -101,34 +140,61 @@ impl Recorder {
         self.written.extend(writes.iter().copied());
         let idx = self.names.len() as u32;
         self.names.push(name.to_string());
-        unsafe { self.ctx.device.cmd_write_timestamp(self.cb, vk::PipelineStageFlags::TOP_OF_PIPE, self.queries, 2 * idx) };
+        unsafe {
+            self.ctx.device.cmd_write_timestamp(
+                self.cb,
+                vk::PipelineStageFlags::TOP_OF_PIPE,
+                self.queries,
+                2 * idx,
+            )
+        };
         idx
     }
 
     fn end_pass(&mut self, idx: u32) {
-        unsafe { self.ctx.device.cmd_write_timestamp(self.cb, vk::PipelineStageFlags::BOTTOM_OF_PIPE, self.queries, 2 * idx + 1) };
+        unsafe {
+            self.ctx.device.cmd_write_timestamp(
+                self.cb,
+                vk::PipelineStageFlags::BOTTOM_OF_PIPE,
+                self.queries,
+                2 * idx + 1,
+            )
+        };
     }
 
     /// Ends the command buffer, submits, waits, and returns one timing per pass.
     pub fn finish(mut self) -> GpuResult<Vec<PassTiming>> {
         self.finished = true;
-        unsafe { self.ctx.device.end_command_buffer(self.cb) }.map_err(vk_err("vkEndCommandBuffer"))?;
+        unsafe { self.ctx.device.end_command_buffer(self.cb) }
+            .map_err(vk_err("vkEndCommandBuffer"))?;
         self.ctx.submit_and_wait(self.cb, "frame")?;
         let n = self.names.len();
         let mut timings = Vec::with_capacity(n);
         if n > 0 {
             let mut raw = vec![0u64; 2 * n];
             unsafe {
-                self.ctx.device.get_query_pool_results(self.queries, 0, &mut raw, vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT)
+                self.ctx.device.get_query_pool_results(
+                    self.queries,
+                    0,
+                    &mut raw,
+                    vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT,
+                )
             }
             .map_err(vk_err("vkGetQueryPoolResults"))?;
             let bits = self.ctx.caps.timestamp_valid_bits;
-            let mask = if bits >= 64 || bits == 0 { u64::MAX } else { (1u64 << bits) - 1 };
+            let mask = if bits >= 64 || bits == 0 {
+                u64::MAX
+            } else {
+                (1u64 << bits) - 1
+            };
             let period = self.ctx.caps.timestamp_period_ns as f64;
             for (i, name) in self.names.iter().enumerate() {
                 let (a, b) = (raw[2 * i] & mask, raw[2 * i + 1] & mask);
                 let ticks = b.wrapping_sub(a) & mask;
-                timings.push(PassTiming { name: name.clone(), ms: ticks as f64 * period * 1e-6 });
+                timings.push(PassTiming {
+                    name: name.clone(),
+                    ms: ticks as f64 * period * 1e-6,
+                });
             }
         }
         Ok(timings)
@@ -141,7 +207,9 @@ impl Drop for Recorder {
             if !self.finished {
                 let _ = self.ctx.device.end_command_buffer(self.cb);
             }
-            self.ctx.device.free_command_buffers(self.ctx.command_pool, &[self.cb]);
+            self.ctx
+                .device
+                .free_command_buffers(self.ctx.command_pool, &[self.cb]);
             self.ctx.device.destroy_query_pool(self.queries, None);
         }
     }
@@ -158,21 +226,48 @@ impl<'r> Pass<'r> {
     }
 
     /// Dispatches `pipeline` with descriptor sets bound at 0.. and push constants.
-    pub fn dispatch(self, pipeline: &ComputePipeline, sets: &[&DescriptorSet], push: &[u8], groups: [u32; 3]) {
-        let Pass { rec, name, reads, writes } = self;
+    pub fn dispatch(
+        self,
+        pipeline: &ComputePipeline,
+        sets: &[&DescriptorSet],
+        push: &[u8],
+        groups: [u32; 3],
+    ) {
+        let Pass {
+            rec,
+            name,
+            reads,
+            writes,
+        } = self;
         let idx = rec.begin_pass(&name, &reads, &writes);
         let dev = &rec.ctx.device;
         let raw_sets: Vec<vk::DescriptorSet> = sets.iter().map(|s| s.raw).collect();
         unsafe {
             dev.cmd_bind_pipeline(rec.cb, vk::PipelineBindPoint::COMPUTE, pipeline.raw);
             if !raw_sets.is_empty() {
-                dev.cmd_bind_descriptor_sets(rec.cb, vk::PipelineBindPoint::COMPUTE, pipeline.layout, 0, &raw_sets, &[]);
+                dev.cmd_bind_descriptor_sets(
+                    rec.cb,
+                    vk::PipelineBindPoint::COMPUTE,
+                    pipeline.layout,
+                    0,
+                    &raw_sets,
+                    &[],
+                );
             }
             if pipeline.push_size > 0 {
-                assert!(push.len() as u32 <= pipeline.push_size, "pass {name}: push constants larger than declared");
+                assert!(
+                    push.len() as u32 <= pipeline.push_size,
+                    "pass {name}: push constants larger than declared"
+                );
                 let mut data = push.to_vec();
                 data.resize(pipeline.push_size as usize, 0);
-                dev.cmd_push_constants(rec.cb, pipeline.layout, vk::ShaderStageFlags::COMPUTE, 0, &data);
+                dev.cmd_push_constants(
+                    rec.cb,
+                    pipeline.layout,
+                    vk::ShaderStageFlags::COMPUTE,
+                    0,
+                    &data,
+                );
             }
             if groups.iter().all(|&g| g > 0) {
                 dev.cmd_dispatch(rec.cb, groups[0], groups[1], groups[2]);
@@ -183,10 +278,19 @@ impl<'r> Pass<'r> {
 
     /// Fills the whole of every written buffer with a 32-bit value.
     pub fn fill(self, value: u32) {
-        let Pass { rec, name, reads, writes } = self;
+        let Pass {
+            rec,
+            name,
+            reads,
+            writes,
+        } = self;
         let idx = rec.begin_pass(&name, &reads, &writes);
         for b in &writes {
-            unsafe { rec.ctx.device.cmd_fill_buffer(rec.cb, *b, 0, vk::WHOLE_SIZE, value) };
+            unsafe {
+                rec.ctx
+                    .device
+                    .cmd_fill_buffer(rec.cb, *b, 0, vk::WHOLE_SIZE, value)
+            };
         }
         rec.end_pass(idx);
     }
@@ -194,8 +298,16 @@ impl<'r> Pass<'r> {
     /// Writes `data` (≤ 65536 bytes, a multiple of 4) at the start of the
     /// first written buffer, inline in the command buffer (per-frame parameters).
     pub fn update(self, data: &[u8]) {
-        let Pass { rec, name, reads, writes } = self;
-        assert!(data.len() <= 65536 && data.len() % 4 == 0, "pass {name}: vkCmdUpdateBuffer size");
+        let Pass {
+            rec,
+            name,
+            reads,
+            writes,
+        } = self;
+        assert!(
+            data.len() <= 65536 && data.len() % 4 == 0,
+            "pass {name}: vkCmdUpdateBuffer size"
+        );
         let idx = rec.begin_pass(&name, &reads, &writes);
         unsafe { rec.ctx.device.cmd_update_buffer(rec.cb, writes[0], 0, data) };
         rec.end_pass(idx);
@@ -203,10 +315,19 @@ impl<'r> Pass<'r> {
 
     /// Copies the first read buffer into the first written buffer (`bytes` long).
     pub fn copy(self, bytes: u64) {
-        let Pass { rec, name, reads, writes } = self;
+        let Pass {
+            rec,
+            name,
+            reads,
+            writes,
+        } = self;
         let idx = rec.begin_pass(&name, &reads, &writes);
         let region = [vk::BufferCopy::default().size(bytes)];
-        unsafe { rec.ctx.device.cmd_copy_buffer(rec.cb, reads[0], writes[0], &region) };
+        unsafe {
+            rec.ctx
+                .device
+                .cmd_copy_buffer(rec.cb, reads[0], writes[0], &region)
+        };
         rec.end_pass(idx);
     }
 }

@@ -40,35 +40,57 @@ impl ComputePipeline {
         spec: &SpecConstants,
     ) -> GpuResult<ComputePipeline> {
         if spirv.len() % 4 != 0 || spirv.is_empty() {
-            return Err(GpuError::Unsupported(format!("shader {name}: SPIR-V size {} is not a multiple of 4", spirv.len())));
+            return Err(GpuError::Unsupported(format!(
+                "shader {name}: SPIR-V size {} is not a multiple of 4",
+                spirv.len()
+            )));
         }
-        let words: Vec<u32> = spirv.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
+        let words: Vec<u32> = spirv
+            .chunks_exact(4)
+            .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+            .collect();
         let module_info = vk::ShaderModuleCreateInfo::default().code(&words);
-        let module = unsafe { ctx.device.create_shader_module(&module_info, None) }.map_err(vk_err("vkCreateShaderModule"))?;
+        let module = unsafe { ctx.device.create_shader_module(&module_info, None) }
+            .map_err(vk_err("vkCreateShaderModule"))?;
 
         let raw_layouts: Vec<vk::DescriptorSetLayout> = set_layouts.iter().map(|l| l.raw).collect();
-        let ranges = [vk::PushConstantRange::default().stage_flags(vk::ShaderStageFlags::COMPUTE).offset(0).size(push_size)];
+        let ranges = [vk::PushConstantRange::default()
+            .stage_flags(vk::ShaderStageFlags::COMPUTE)
+            .offset(0)
+            .size(push_size)];
         let mut layout_info = vk::PipelineLayoutCreateInfo::default().set_layouts(&raw_layouts);
         if push_size > 0 {
             layout_info = layout_info.push_constant_ranges(&ranges);
         }
-        let layout = unsafe { ctx.device.create_pipeline_layout(&layout_info, None) }.map_err(vk_err("vkCreatePipelineLayout"))?;
+        let layout = unsafe { ctx.device.create_pipeline_layout(&layout_info, None) }
+            .map_err(vk_err("vkCreatePipelineLayout"))?;
 
         let entries: Vec<vk::SpecializationMapEntry> = spec
             .0
             .iter()
             .enumerate()
-            .map(|(i, (id, _))| vk::SpecializationMapEntry { constant_id: *id, offset: (i * 4) as u32, size: 4 })
+            .map(|(i, (id, _))| vk::SpecializationMapEntry {
+                constant_id: *id,
+                offset: (i * 4) as u32,
+                size: 4,
+            })
             .collect();
         let data: Vec<u8> = spec.0.iter().flat_map(|(_, v)| v.to_le_bytes()).collect();
-        let spec_info = vk::SpecializationInfo::default().map_entries(&entries).data(&data);
+        let spec_info = vk::SpecializationInfo::default()
+            .map_entries(&entries)
+            .data(&data);
         let stage = vk::PipelineShaderStageCreateInfo::default()
             .stage(vk::ShaderStageFlags::COMPUTE)
             .module(module)
             .name(c"main")
             .specialization_info(&spec_info);
-        let info = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(layout)];
-        let result = unsafe { ctx.device.create_compute_pipelines(vk::PipelineCache::null(), &info, None) };
+        let info = [vk::ComputePipelineCreateInfo::default()
+            .stage(stage)
+            .layout(layout)];
+        let result = unsafe {
+            ctx.device
+                .create_compute_pipelines(vk::PipelineCache::null(), &info, None)
+        };
         unsafe { ctx.device.destroy_shader_module(module, None) };
         let raw = match result {
             Ok(p) => p[0],
@@ -78,7 +100,14 @@ impl ComputePipeline {
             }
         };
         ctx.set_name(raw, name);
-        Ok(ComputePipeline { ctx: ctx.clone(), name: name.into(), raw, layout, push_size, _set_layouts: set_layouts.to_vec() })
+        Ok(ComputePipeline {
+            ctx: ctx.clone(),
+            name: name.into(),
+            raw,
+            layout,
+            push_size,
+            _set_layouts: set_layouts.to_vec(),
+        })
     }
 }
 

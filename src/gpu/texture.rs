@@ -21,19 +21,31 @@ pub struct GpuTexture {
 impl GpuTexture {
     /// Creates a sampled image of `format` from tightly packed mip levels
     /// (level 0 first) and leaves it in SHADER_READ_ONLY_OPTIMAL.
-    pub fn new(ctx: &Arc<GpuContext>, name: &str, format: vk::Format, width: u32, height: u32, levels: &[&[u8]]) -> GpuResult<GpuTexture> {
+    pub fn new(
+        ctx: &Arc<GpuContext>,
+        name: &str,
+        format: vk::Format,
+        width: u32,
+        height: u32,
+        levels: &[&[u8]],
+    ) -> GpuResult<GpuTexture> {
         let mip_count = levels.len() as u32;
         let info = vk::ImageCreateInfo::default()
             .image_type(vk::ImageType::TYPE_2D)
             .format(format)
-            .extent(vk::Extent3D { width, height, depth: 1 })
+            .extent(vk::Extent3D {
+                width,
+                height,
+                depth: 1,
+            })
             .mip_levels(mip_count)
             .array_layers(1)
             .samples(vk::SampleCountFlags::TYPE_1)
             .tiling(vk::ImageTiling::OPTIMAL)
             .usage(vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST)
             .initial_layout(vk::ImageLayout::UNDEFINED);
-        let image = unsafe { ctx.device.create_image(&info, None) }.map_err(vk_err("vkCreateImage"))?;
+        let image =
+            unsafe { ctx.device.create_image(&info, None) }.map_err(vk_err("vkCreateImage"))?;
         let requirements = unsafe { ctx.device.get_image_memory_requirements(image) };
         let allocation = ctx
             .allocator
@@ -47,10 +59,20 @@ impl GpuTexture {
                 allocation_scheme: AllocationScheme::GpuAllocatorManaged,
             })
             .map_err(|e| match e {
-                gpu_allocator::AllocationError::OutOfMemory => GpuError::OutOfMemory { what: name.into(), bytes: requirements.size },
-                other => GpuError::Alloc { what: name.into(), message: other.to_string() },
+                gpu_allocator::AllocationError::OutOfMemory => GpuError::OutOfMemory {
+                    what: name.into(),
+                    bytes: requirements.size,
+                },
+                other => GpuError::Alloc {
+                    what: name.into(),
+                    message: other.to_string(),
+                },
             })?;
-        unsafe { ctx.device.bind_image_memory(image, allocation.memory(), allocation.offset()) }.map_err(vk_err("vkBindImageMemory"))?;
+        unsafe {
+            ctx.device
+                .bind_image_memory(image, allocation.memory(), allocation.offset())
+        }
+        .map_err(vk_err("vkBindImageMemory"))?;
         ctx.set_name(image, name);
         let range = vk::ImageSubresourceRange::default()
             .aspect_mask(vk::ImageAspectFlags::COLOR)
@@ -63,7 +85,8 @@ impl GpuTexture {
             .view_type(vk::ImageViewType::TYPE_2D)
             .format(format)
             .subresource_range(range);
-        let view = unsafe { ctx.device.create_image_view(&view_info, None) }.map_err(vk_err("vkCreateImageView"))?;
+        let view = unsafe { ctx.device.create_image_view(&view_info, None) }
+            .map_err(vk_err("vkCreateImageView"))?;
 
         // One staging buffer with all levels, copied level by level.
         let total: usize = levels.iter().map(|l| l.len()).sum();
@@ -73,7 +96,13 @@ impl GpuTexture {
             offsets.push(packed.len() as u64);
             packed.extend_from_slice(l);
         }
-        let staging = Buffer::new(ctx, &format!("{name}.staging"), total as u64, vk::BufferUsageFlags::TRANSFER_SRC, MemoryLocation::CpuToGpu)?;
+        let staging = Buffer::new(
+            ctx,
+            &format!("{name}.staging"),
+            total as u64,
+            vk::BufferUsageFlags::TRANSFER_SRC,
+            MemoryLocation::CpuToGpu,
+        )?;
         staging.upload_mapped(&packed);
         ctx.submit_once("texture upload", |cb| unsafe {
             let to_dst = vk::ImageMemoryBarrier::default()
@@ -85,16 +114,40 @@ impl GpuTexture {
                 .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
                 .image(image)
                 .subresource_range(range);
-            ctx.device.cmd_pipeline_barrier(cb, vk::PipelineStageFlags::TOP_OF_PIPE, vk::PipelineStageFlags::TRANSFER, vk::DependencyFlags::empty(), &[], &[], &[to_dst]);
+            ctx.device.cmd_pipeline_barrier(
+                cb,
+                vk::PipelineStageFlags::TOP_OF_PIPE,
+                vk::PipelineStageFlags::TRANSFER,
+                vk::DependencyFlags::empty(),
+                &[],
+                &[],
+                &[to_dst],
+            );
             let regions: Vec<vk::BufferImageCopy> = (0..mip_count)
                 .map(|m| {
                     vk::BufferImageCopy::default()
                         .buffer_offset(offsets[m as usize])
-                        .image_subresource(vk::ImageSubresourceLayers::default().aspect_mask(vk::ImageAspectFlags::COLOR).mip_level(m).base_array_layer(0).layer_count(1))
-                        .image_extent(vk::Extent3D { width: (width >> m).max(1), height: (height >> m).max(1), depth: 1 })
+                        .image_subresource(
+                            vk::ImageSubresourceLayers::default()
+                                .aspect_mask(vk::ImageAspectFlags::COLOR)
+                                .mip_level(m)
+                                .base_array_layer(0)
+                                .layer_count(1),
+                        )
+                        .image_extent(vk::Extent3D {
+                            width: (width >> m).max(1),
+                            height: (height >> m).max(1),
+                            depth: 1,
+                        })
                 })
                 .collect();
-            ctx.device.cmd_copy_buffer_to_image(cb, staging.raw, image, vk::ImageLayout::TRANSFER_DST_OPTIMAL, &regions);
+            ctx.device.cmd_copy_buffer_to_image(
+                cb,
+                staging.raw,
+                image,
+                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                &regions,
+            );
             let to_read = vk::ImageMemoryBarrier::default()
                 .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
                 .dst_access_mask(vk::AccessFlags::SHADER_READ)
@@ -104,10 +157,26 @@ impl GpuTexture {
                 .dst_queue_family_index(vk::QUEUE_FAMILY_IGNORED)
                 .image(image)
                 .subresource_range(range);
-            ctx.device.cmd_pipeline_barrier(cb, vk::PipelineStageFlags::TRANSFER, vk::PipelineStageFlags::COMPUTE_SHADER, vk::DependencyFlags::empty(), &[], &[], &[to_read]);
+            ctx.device.cmd_pipeline_barrier(
+                cb,
+                vk::PipelineStageFlags::TRANSFER,
+                vk::PipelineStageFlags::COMPUTE_SHADER,
+                vk::DependencyFlags::empty(),
+                &[],
+                &[],
+                &[to_read],
+            );
         })?;
-        ctx.allocated_bytes.fetch_add(requirements.size, Ordering::Relaxed);
-        Ok(GpuTexture { ctx: ctx.clone(), name: name.into(), image, view, allocation: Some(allocation), bytes: requirements.size })
+        ctx.allocated_bytes
+            .fetch_add(requirements.size, Ordering::Relaxed);
+        Ok(GpuTexture {
+            ctx: ctx.clone(),
+            name: name.into(),
+            image,
+            view,
+            allocation: Some(allocation),
+            bytes: requirements.size,
+        })
     }
 }
 
@@ -120,7 +189,9 @@ impl Drop for GpuTexture {
         if let Some(a) = self.allocation.take() {
             let _ = self.ctx.allocator.lock().unwrap().free(a);
         }
-        self.ctx.allocated_bytes.fetch_sub(self.bytes, Ordering::Relaxed);
+        self.ctx
+            .allocated_bytes
+            .fetch_sub(self.bytes, Ordering::Relaxed);
     }
 }
 
@@ -133,7 +204,11 @@ pub struct Sampler {
 impl Sampler {
     /// Trilinear, repeat addressing (material textures) or clamp in v (environment maps).
     pub fn new(ctx: &Arc<GpuContext>, repeat_v: bool) -> GpuResult<Sampler> {
-        let v = if repeat_v { vk::SamplerAddressMode::REPEAT } else { vk::SamplerAddressMode::CLAMP_TO_EDGE };
+        let v = if repeat_v {
+            vk::SamplerAddressMode::REPEAT
+        } else {
+            vk::SamplerAddressMode::CLAMP_TO_EDGE
+        };
         let info = vk::SamplerCreateInfo::default()
             .mag_filter(vk::Filter::LINEAR)
             .min_filter(vk::Filter::LINEAR)
@@ -142,8 +217,12 @@ impl Sampler {
             .address_mode_v(v)
             .address_mode_w(vk::SamplerAddressMode::REPEAT)
             .max_lod(vk::LOD_CLAMP_NONE);
-        let raw = unsafe { ctx.device.create_sampler(&info, None) }.map_err(vk_err("vkCreateSampler"))?;
-        Ok(Sampler { ctx: ctx.clone(), raw })
+        let raw =
+            unsafe { ctx.device.create_sampler(&info, None) }.map_err(vk_err("vkCreateSampler"))?;
+        Ok(Sampler {
+            ctx: ctx.clone(),
+            raw,
+        })
     }
 }
 

@@ -38,7 +38,9 @@ pub(crate) unsafe extern "system" fn debug_callback(
     let msg = if data.p_message.is_null() {
         String::from("(no message)")
     } else {
-        unsafe { CStr::from_ptr(data.p_message) }.to_string_lossy().into_owned()
+        unsafe { CStr::from_ptr(data.p_message) }
+            .to_string_lossy()
+            .into_owned()
     };
     let log = unsafe { &*(user_data as *const ValidationLog) };
     let line = format!("[{severity:?} {kind:?}] {msg}");

@@ -104,7 +104,16 @@ pub struct FrameParams {
 impl FrameParams {
     pub fn new(frame: &FrameInput, width: u32, height: u32, seed: u32) -> Self {
         let eyes = frame.camera.eyes().map(|v| EyeGpu::from_view(&v));
-        let prev = frame.prev_camera.as_ref().map(|c| c.eyes().map(|v| EyeGpu::from_view(&v))).unwrap_or(eyes);
-        FrameParams { eyes, prev_eyes: prev, size_seed: [width, height, seed, frame.index], misc: [0; 4] }
+        let prev = frame
+            .prev_camera
+            .as_ref()
+            .map(|c| c.eyes().map(|v| EyeGpu::from_view(&v)))
+            .unwrap_or(eyes);
+        FrameParams {
+            eyes,
+            prev_eyes: prev,
+            size_seed: [width, height, seed, frame.index],
+            misc: [0; 4],
+        }
     }
 }

@@ -26,7 +26,14 @@ pub struct RenderSettings {
 
 impl Default for RenderSettings {
     fn default() -> Self {
-        RenderSettings { width: 64, height: 64, spp: 16, max_bounces: 3, seed: 1, all_features: false }
+        RenderSettings {
+            width: 64,
+            height: 64,
+            spp: 16,
+            max_bounces: 3,
+            seed: 1,
+            all_features: false,
+        }
     }
 }
 

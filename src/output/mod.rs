@@ -14,15 +14,24 @@ pub enum OutputError {
 }
 
 fn tmp_path(path: &Path) -> PathBuf {
-    let mut name = path.file_name().map(|n| n.to_os_string()).unwrap_or_default();
+    let mut name = path
+        .file_name()
+        .map(|n| n.to_os_string())
+        .unwrap_or_default();
     name.push(".partial");
     path.with_file_name(name)
 }
 
 /// Writes with `f` to a temporary file next to `path`, then renames it into place.
-pub fn write_atomically(path: &Path, f: impl FnOnce(&Path) -> Result<(), String>) -> Result<(), OutputError> {
+pub fn write_atomically(
+    path: &Path,
+    f: impl FnOnce(&Path) -> Result<(), String>,
+) -> Result<(), OutputError> {
     let tmp = tmp_path(path);
-    let err = |message: String| OutputError::Write { path: path.to_path_buf(), message };
+    let err = |message: String| OutputError::Write {
+        path: path.to_path_buf(),
+        message,
+    };
     if let Some(parent) = path.parent() {
         if !parent.as_os_str().is_empty() {
             std::fs::create_dir_all(parent).map_err(|e| err(e.to_string()))?;
@@ -38,7 +47,12 @@ pub fn write_atomically(path: &Path, f: impl FnOnce(&Path) -> Result<(), String>
 }
 
 /// Linear RGB EXR (32-bit float).
-pub fn write_exr(path: &Path, width: u32, height: u32, rgb: &[[f32; 4]]) -> Result<(), OutputError> {
+pub fn write_exr(
+    path: &Path,
+    width: u32,
+    height: u32,
+    rgb: &[[f32; 4]],
+) -> Result<(), OutputError> {
     write_atomically(path, |tmp| {
         exr::prelude::write_rgb_file(tmp, width as usize, height as usize, |x, y| {
             let p = rgb[y * width as usize + x];
@@ -49,31 +63,80 @@ pub fn write_exr(path: &Path, width: u32, height: u32, rgb: &[[f32; 4]]) -> Resu
 }
 
 /// Single-channel float data (depth) as a grey EXR.
-pub fn write_exr_scalar(path: &Path, width: u32, height: u32, v: &[f32]) -> Result<(), OutputError> {
+pub fn write_exr_scalar(
+    path: &Path,
+    width: u32,
+    height: u32,
+    v: &[f32],
+) -> Result<(), OutputError> {
     let rgb: Vec<[f32; 4]> = v.iter().map(|&d| [d, d, d, 1.0]).collect();
     write_exr(path, width, height, &rgb)
 }
 
 /// Tonemapped 8-bit sRGB PNG (see `tonemap`).
-pub fn write_png(path: &Path, width: u32, height: u32, rgb: &[[f32; 4]], exposure: f32) -> Result<(), OutputError> {
+pub fn write_png(
+    path: &Path,
+    width: u32,
+    height: u32,
+    rgb: &[[f32; 4]],
+    exposure: f32,
+) -> Result<(), OutputError> {
     let bytes = tonemap::to_srgb8(rgb, exposure);
     write_atomically(path, |tmp| {
-        image::save_buffer_with_format(tmp, &bytes, width, height, image::ColorType::Rgb8, image::ImageFormat::Png).map_err(|e| e.to_string())
+        image::save_buffer_with_format(
+            tmp,
+            &bytes,
+            width,
+            height,
+            image::ColorType::Rgb8,
+            image::ImageFormat::Png,
+        )
+        .map_err(|e| e.to_string())
     })
 }
 
 /// The 128-bit first hits as little-endian u32 quadruples (Listing 1 encoding).
 pub fn write_first_hits(path: &Path, hits: &[[u32; 4]]) -> Result<(), OutputError> {
-    write_atomically(path, |tmp| std::fs::write(tmp, bytemuck::cast_slice::<[u32; 4], u8>(hits)).map_err(|e| e.to_string()))
+    write_atomically(path, |tmp| {
+        std::fs::write(tmp, bytemuck::cast_slice::<[u32; 4], u8>(hits)).map_err(|e| e.to_string())
+    })
 }
 
 /// Writes one eye as `DIR/<eye>.exr`, `<eye>.png`, `<eye>_depth.exr`,
 /// `<eye>_albedo.exr` and `<eye>_firsthit.bin`.
-pub fn write_eye(dir: &Path, eye: &str, width: u32, height: u32, img: &EyeImage, exposure: f32) -> Result<(), OutputError> {
-    write_exr(&dir.join(format!("{eye}.exr")), width, height, &img.radiance)?;
-    write_png(&dir.join(format!("{eye}.png")), width, height, &img.radiance, exposure)?;
-    write_exr_scalar(&dir.join(format!("{eye}_depth.exr")), width, height, &img.depth)?;
-    write_exr(&dir.join(format!("{eye}_albedo.exr")), width, height, &img.albedo)?;
+pub fn write_eye(
+    dir: &Path,
+    eye: &str,
+    width: u32,
+    height: u32,
+    img: &EyeImage,
+    exposure: f32,
+) -> Result<(), OutputError> {
+    write_exr(
+        &dir.join(format!("{eye}.exr")),
+        width,
+        height,
+        &img.radiance,
+    )?;
+    write_png(
+        &dir.join(format!("{eye}.png")),
+        width,
+        height,
+        &img.radiance,
+        exposure,
+    )?;
+    write_exr_scalar(
+        &dir.join(format!("{eye}_depth.exr")),
+        width,
+        height,
+        &img.depth,
+    )?;
+    write_exr(
+        &dir.join(format!("{eye}_albedo.exr")),
+        width,
+        height,
+        &img.albedo,
+    )?;
     write_first_hits(&dir.join(format!("{eye}_firsthit.bin")), &img.first_hit)
 }
 

@@ -19,7 +19,11 @@ pub fn to_srgb8(rgb: &[[f32; 4]], exposure: f32) -> Vec<u8> {
     let mut out = Vec::with_capacity(rgb.len() * 3);
     for p in rgb {
         for &c in &p[..3] {
-            let v = if c.is_finite() { aces_narkowicz(c.max(0.0) * exposure) } else { 0.0 };
+            let v = if c.is_finite() {
+                aces_narkowicz(c.max(0.0) * exposure)
+            } else {
+                0.0
+            };
             out.push((linear_to_srgb(v) * 255.0 + 0.5) as u8);
         }
     }

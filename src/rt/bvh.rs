@@ -38,7 +38,11 @@ impl SoftwareBvh {
             for prim in 0..mesh.triangle_count() {
                 let [a, b, c] = mesh.triangle(prim);
                 let t = |p: Vec3| Vec3A::from(inst.transform.transform_point3(p));
-                tris.push(Triangle { v0: t(a), v1: t(b), v2: t(c) });
+                tris.push(Triangle {
+                    v0: t(a),
+                    v1: t(b),
+                    v2: t(c),
+                });
                 refs.push([ii as u32, prim as u32]);
             }
         }
@@ -55,7 +59,11 @@ impl SoftwareBvh {
             tri_verts.push([e1.x, e1.y, e1.z, 0.0]);
             tri_verts.push([e2.x, e2.y, e2.z, 0.0]);
         }
-        SoftwareBvh { cwbvh, tri_ref, tri_verts }
+        SoftwareBvh {
+            cwbvh,
+            tri_ref,
+            tri_verts,
+        }
     }
 
     pub fn nodes(&self) -> &[CwBvhNode] {
@@ -73,11 +81,20 @@ impl SoftwareBvh {
         let mut best: Option<CpuHit> = None;
         self.cwbvh.ray_traverse(ray, &mut hit, |r, k| {
             let v = &self.tri_verts[3 * k..3 * k + 3];
-            let (v0, e1, e2) = (Vec3::from_slice(&v[0][..3]), Vec3::from_slice(&v[1][..3]), Vec3::from_slice(&v[2][..3]));
+            let (v0, e1, e2) = (
+                Vec3::from_slice(&v[0][..3]),
+                Vec3::from_slice(&v[1][..3]),
+                Vec3::from_slice(&v[2][..3]),
+            );
             match moller_trumbore(Vec3::from(r.origin), Vec3::from(r.direction), v0, e1, e2) {
                 Some((t, u, w)) if t > tmin && t < r.tmax => {
                     let [inst, prim] = self.tri_ref[k];
-                    best = Some(CpuHit { t, instance: inst, prim, bary: [u, w] });
+                    best = Some(CpuHit {
+                        t,
+                        instance: inst,
+                        prim,
+                        bary: [u, w],
+                    });
                     t
                 }
                 _ => f32::INFINITY,

@@ -5,10 +5,13 @@
 use super::{RtBackend, SoftwareBvh};
 use crate::gpu::{
     accel::{AccelStructures, BlasInput, TlasInstance},
-    BindingKind, Buffer, DescriptorLayout, DescriptorSet, GpuContext, GpuResult, GpuTexture, Resource, Sampler, SpecConstants,
+    BindingKind, Buffer, DescriptorLayout, DescriptorSet, GpuContext, GpuResult, GpuTexture,
+    Resource, Sampler, SpecConstants,
 };
 use crate::scene::preetham::preetham_params;
-use crate::scene::{AlphaMode, Environment, LightKind, Scene, SceneFeatures, SkyModel, TextureEncoding};
+use crate::scene::{
+    AlphaMode, Environment, LightKind, Scene, SceneFeatures, SkyModel, TextureEncoding,
+};
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
 use glam::{Mat4, Vec3};
@@ -115,10 +118,19 @@ impl SceneGpu {
                 let n = m.normals[i];
                 let uv = m.uvs[i];
                 let t = m.tangents.get(i).copied().unwrap_or_default();
-                vertices.push(VertexGpu { pos_u: [p.x, p.y, p.z, uv.x], normal_v: [n.x, n.y, n.z, uv.y], tangent: t.to_array() });
+                vertices.push(VertexGpu {
+                    pos_u: [p.x, p.y, p.z, uv.x],
+                    normal_v: [n.x, n.y, n.z, uv.y],
+                    tangent: t.to_array(),
+                });
             }
             indices.extend_from_slice(&m.indices);
-            meshes.push([vertex_offset, index_offset, m.material, m.triangle_count() as u32]);
+            meshes.push([
+                vertex_offset,
+                index_offset,
+                m.material,
+                m.triangle_count() as u32,
+            ]);
         }
         let instances: Vec<InstanceGpu> = scene
             .instances
@@ -138,10 +150,24 @@ impl SceneGpu {
                 TextureEncoding::Linear => vk::Format::R8G8B8A8_UNORM,
             };
             let levels: Vec<&[u8]> = t.mips.iter().map(|m| m.as_slice()).collect();
-            textures.push(GpuTexture::new(ctx, &format!("texture{ti}:{}", t.name), format, t.width, t.height, &levels)?);
+            textures.push(GpuTexture::new(
+                ctx,
+                &format!("texture{ti}:{}", t.name),
+                format,
+                t.width,
+                t.height,
+                &levels,
+            )?);
         }
         if textures.is_empty() {
-            textures.push(GpuTexture::new(ctx, "texture.white", vk::Format::R8G8B8A8_UNORM, 1, 1, &[&[255, 255, 255, 255]])?);
+            textures.push(GpuTexture::new(
+                ctx,
+                "texture.white",
+                vk::Format::R8G8B8A8_UNORM,
+                1,
+                1,
+                &[&[255, 255, 255, 255]],
+            )?);
         }
         let texture_count = scene.textures.len().max(1) as u32;
 
@@ -149,14 +175,25 @@ impl SceneGpu {
             .materials
             .iter()
             .map(|m| {
-                let t = |r: Option<crate::scene::TextureRef>| r.map(|r| r.texture as i32).unwrap_or(-1);
+                let t =
+                    |r: Option<crate::scene::TextureRef>| r.map(|r| r.texture as i32).unwrap_or(-1);
                 MaterialGpu {
                     base_color: m.base_color.to_array(),
                     emissive_metallic: [m.emissive.x, m.emissive.y, m.emissive.z, m.metallic],
                     params: [m.roughness, m.transmission, m.ior, m.alpha_cutoff],
-                    tex0: [t(m.base_color_texture), t(m.metallic_roughness_texture), t(m.normal_texture), t(m.emissive_texture)],
-                    tex1: [t(m.transmission_texture), (m.alpha_mode != AlphaMode::Opaque) as i32, m.double_sided as i32, 0],
-                    extra: [m.normal_scale, 0.0, 0.0, 0.0],
+                    tex0: [
+                        t(m.base_color_texture),
+                        t(m.metallic_roughness_texture),
+                        t(m.normal_texture),
+                        t(m.emissive_texture),
+                    ],
+                    tex1: [
+                        t(m.transmission_texture),
+                        (m.alpha_mode != AlphaMode::Opaque) as i32,
+                        m.double_sided as i32,
+                        0,
+                    ],
+                    extra: [m.normal_scale, m.specular, 0.0, 0.0],
                 }
             })
             .collect();
@@ -167,13 +204,23 @@ impl SceneGpu {
             .map(|l| {
                 let (kind, cos_radius, cone) = match l.kind {
                     LightKind::Point => (0.0, 1.0, [1.0, 0.0]),
-                    LightKind::Spot { inner_cone, outer_cone } => (1.0, 1.0, [inner_cone.cos(), outer_cone.cos()]),
-                    LightKind::Directional { angular_radius } => (2.0, angular_radius.cos().min(1.0), [1.0, 0.0]),
+                    LightKind::Spot {
+                        inner_cone,
+                        outer_cone,
+                    } => (1.0, 1.0, [inner_cone.cos(), outer_cone.cos()]),
+                    LightKind::Directional { angular_radius } => {
+                        (2.0, angular_radius.cos().min(1.0), [1.0, 0.0])
+                    }
                 };
                 let d = l.direction.normalize_or(Vec3::NEG_Y);
                 LightGpu {
                     radiant_kind: [l.radiant.x, l.radiant.y, l.radiant.z, kind],
-                    position_range: [l.position.x, l.position.y, l.position.z, l.range.unwrap_or(0.0)],
+                    position_range: [
+                        l.position.x,
+                        l.position.y,
+                        l.position.z,
+                        l.range.unwrap_or(0.0),
+                    ],
                     direction: [d.x, d.y, d.z, cos_radius],
                     cone: [cone[0], cone[1], 0.0, 0.0],
                 }
@@ -185,20 +232,38 @@ impl SceneGpu {
         let mut env_texture = None;
         match &scene.environment {
             Some(Environment::Constant(c)) => params.env_constant = [c.x, c.y, c.z, 1.0],
-            Some(Environment::Sky { model: SkyModel::Preetham { turbidity }, sun_direction, scale }) => {
+            Some(Environment::Sky {
+                model: SkyModel::Preetham { turbidity },
+                sun_direction,
+                scale,
+            }) => {
                 let p = preetham_params(*turbidity, *sun_direction);
                 params.env_constant = [0.0, 0.0, 0.0, *scale];
-                params.sun_dir = [p.sun_direction.x, p.sun_direction.y, p.sun_direction.z, p.sun_theta];
+                params.sun_dir = [
+                    p.sun_direction.x,
+                    p.sun_direction.y,
+                    p.sun_direction.z,
+                    p.sun_theta,
+                ];
                 params.zenith = [p.zenith[0], p.zenith[1], p.zenith[2], 0.0];
                 for (c, row) in p.perez.iter().enumerate() {
                     params.perez[c * 5..c * 5 + 5].copy_from_slice(row);
                 }
             }
-            Some(Environment::Map { name, width, height, texels, scale }) => {
+            Some(Environment::Map {
+                name,
+                width,
+                height,
+                texels,
+                scale,
+            }) => {
                 params.env_constant = [0.0, 0.0, 0.0, *scale];
                 params.counts[1] = *width;
                 params.counts[2] = *height;
-                let data: Vec<f32> = texels.iter().flat_map(|t| [t[0], t[1], t[2], 1.0]).collect();
+                let data: Vec<f32> = texels
+                    .iter()
+                    .flat_map(|t| [t[0], t[1], t[2], 1.0])
+                    .collect();
                 env_texture = Some(GpuTexture::new(
                     ctx,
                     &format!("environment:{name}"),
@@ -212,15 +277,34 @@ impl SceneGpu {
         }
         let env_texture = match env_texture {
             Some(t) => t,
-            None => GpuTexture::new(ctx, "environment.none", vk::Format::R32G32B32A32_SFLOAT, 1, 1, &[bytemuck::cast_slice(&[0f32; 4])])?,
+            None => GpuTexture::new(
+                ctx,
+                "environment.none",
+                vk::Format::R32G32B32A32_SFLOAT,
+                1,
+                1,
+                &[bytemuck::cast_slice(&[0f32; 4])],
+            )?,
         };
 
         let none = vk::BufferUsageFlags::empty();
-        let b_vertices = Buffer::with_data(ctx, "scene.vertices", bytemuck::cast_slice(&vertices), none)?;
-        let b_indices = Buffer::with_data(ctx, "scene.indices", bytemuck::cast_slice(&indices), none)?;
+        let b_vertices =
+            Buffer::with_data(ctx, "scene.vertices", bytemuck::cast_slice(&vertices), none)?;
+        let b_indices =
+            Buffer::with_data(ctx, "scene.indices", bytemuck::cast_slice(&indices), none)?;
         let b_meshes = Buffer::with_data(ctx, "scene.meshes", bytemuck::cast_slice(&meshes), none)?;
-        let b_instances = Buffer::with_data(ctx, "scene.instances", bytemuck::cast_slice(&instances), none)?;
-        let b_materials = Buffer::with_data(ctx, "scene.materials", bytemuck::cast_slice(&materials), none)?;
+        let b_instances = Buffer::with_data(
+            ctx,
+            "scene.instances",
+            bytemuck::cast_slice(&instances),
+            none,
+        )?;
+        let b_materials = Buffer::with_data(
+            ctx,
+            "scene.materials",
+            bytemuck::cast_slice(&materials),
+            none,
+        )?;
         let b_lights = Buffer::with_data(ctx, "scene.lights", bytemuck::cast_slice(&lights), none)?;
         let b_params = Buffer::with_data(ctx, "scene.params", bytemuck::bytes_of(&params), none)?;
 
@@ -230,13 +314,27 @@ impl SceneGpu {
                 let bvh = SoftwareBvh::build(scene);
                 (
                     Buffer::with_data(ctx, "bvh.nodes", bytemuck::cast_slice(bvh.nodes()), none)?,
-                    Buffer::with_data(ctx, "bvh.tri_ref", bytemuck::cast_slice(&bvh.tri_ref), none)?,
-                    Buffer::with_data(ctx, "bvh.tri_verts", bytemuck::cast_slice(&bvh.tri_verts), none)?,
+                    Buffer::with_data(
+                        ctx,
+                        "bvh.tri_ref",
+                        bytemuck::cast_slice(&bvh.tri_ref),
+                        none,
+                    )?,
+                    Buffer::with_data(
+                        ctx,
+                        "bvh.tri_verts",
+                        bytemuck::cast_slice(&bvh.tri_verts),
+                        none,
+                    )?,
                     None,
                 )
             }
             RtBackend::Query => {
-                let positions: Vec<Vec<[f32; 3]>> = scene.meshes.iter().map(|m| m.positions.iter().map(|p| p.to_array()).collect()).collect();
+                let positions: Vec<Vec<[f32; 3]>> = scene
+                    .meshes
+                    .iter()
+                    .map(|m| m.positions.iter().map(|p| p.to_array()).collect())
+                    .collect();
                 let inputs: Vec<BlasInput> = scene
                     .meshes
                     .iter()
@@ -244,14 +342,19 @@ impl SceneGpu {
                     .map(|(m, pos)| BlasInput {
                         positions: pos,
                         indices: &m.indices,
-                        opaque: scene.materials[m.material as usize].alpha_mode == AlphaMode::Opaque,
+                        opaque: scene.materials[m.material as usize].alpha_mode
+                            == AlphaMode::Opaque,
                     })
                     .collect();
                 let tlas_instances: Vec<TlasInstance> = scene
                     .instances
                     .iter()
                     .enumerate()
-                    .map(|(i, inst)| TlasInstance { transform: row_major_3x4(inst.transform), custom_index: i as u32, blas: inst.mesh as usize })
+                    .map(|(i, inst)| TlasInstance {
+                        transform: row_major_3x4(inst.transform),
+                        custom_index: i as u32,
+                        blas: inst.mesh as usize,
+                    })
                     .collect();
                 let accel = AccelStructures::build(ctx, &inputs, &tlas_instances)?;
                 (
@@ -302,7 +405,18 @@ impl SceneGpu {
             triangle_count: scene.instanced_triangle_count(),
             bytes,
             texture_count,
-            _buffers: vec![b_vertices, b_indices, b_meshes, b_instances, b_materials, b_lights, b_params, b_nodes, b_ref, b_verts],
+            _buffers: vec![
+                b_vertices,
+                b_indices,
+                b_meshes,
+                b_instances,
+                b_materials,
+                b_lights,
+                b_params,
+                b_nodes,
+                b_ref,
+                b_verts,
+            ],
             _textures: all_textures,
             _samplers: vec![tex_sampler, env_sampler],
             _accel: accel,
@@ -311,8 +425,17 @@ impl SceneGpu {
 
     /// Specialization constants for this scene: only the features it uses are compiled in.
     /// `all_features` turns everything on (the unspecialized comparison build).
-    pub fn spec_constants(&self, env: &Option<Environment>, max_bounces: u32, all_features: bool) -> SpecConstants {
-        let f = if all_features { SceneFeatures::all() } else { self.features };
+    pub fn spec_constants(
+        &self,
+        env: &Option<Environment>,
+        max_bounces: u32,
+        all_features: bool,
+    ) -> SpecConstants {
+        let f = if all_features {
+            SceneFeatures::all()
+        } else {
+            self.features
+        };
         let mut s = SpecConstants::default();
         s.flag(spec_id::TEXTURES, f.textures)
             .flag(spec_id::NORMAL_MAPS, f.normal_maps)

@@ -54,7 +54,9 @@ impl FromStr for RtChoice {
             "auto" => Ok(RtChoice::Auto),
             "query" => Ok(RtChoice::Query),
             "software" => Ok(RtChoice::Software),
-            other => Err(format!("unknown ray backend '{other}' (expected auto, query or software)")),
+            other => Err(format!(
+                "unknown ray backend '{other}' (expected auto, query or software)"
+            )),
         }
     }
 }
@@ -64,10 +66,17 @@ impl RtChoice {
     /// no ray queries is an error that says what to use instead.
     pub fn resolve(self, ctx: &GpuContext) -> Result<RtBackend, String> {
         match self {
-            RtChoice::Auto => Ok(if ctx.ray_query_enabled() { RtBackend::Query } else { RtBackend::Software }),
+            RtChoice::Auto => Ok(if ctx.ray_query_enabled() {
+                RtBackend::Query
+            } else {
+                RtBackend::Software
+            }),
             RtChoice::Software => Ok(RtBackend::Software),
             RtChoice::Query if ctx.ray_query_enabled() => Ok(RtBackend::Query),
-            RtChoice::Query => Err(format!("device '{}' has no ray queries; use --rt software or --rt auto", ctx.caps.name)),
+            RtChoice::Query => Err(format!(
+                "device '{}' has no ray queries; use --rt software or --rt auto",
+                ctx.caps.name
+            )),
         }
     }
 }

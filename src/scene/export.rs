@@ -169,6 +169,12 @@ fn material_json(m: &Material, used: &mut Vec<&'static str>) -> Value {
         }
         ext.insert("KHR_materials_transmission".into(), Value::Object(t));
     }
+    if m.specular != 1.0 {
+        ext.insert(
+            "KHR_materials_specular".into(),
+            json!({ "specularFactor": m.specular }),
+        );
+    }
     if m.ior != 1.5 {
         ext.insert("KHR_materials_ior".into(), json!({ "ior": m.ior }));
     }
@@ -176,6 +182,7 @@ fn material_json(m: &Material, used: &mut Vec<&'static str>) -> Value {
         let name: &'static str = match k.as_str() {
             "KHR_materials_emissive_strength" => "KHR_materials_emissive_strength",
             "KHR_materials_transmission" => "KHR_materials_transmission",
+            "KHR_materials_specular" => "KHR_materials_specular",
             _ => "KHR_materials_ior",
         };
         if !used.contains(&name) {

@@ -389,6 +389,7 @@ impl Importer<'_> {
                     .and_then(|t| t.transmission_texture())
                     .and_then(|t| tex_ref(t.texture(), TextureEncoding::Linear)),
                 ior: m.ior().unwrap_or(1.5),
+                specular: m.specular().map_or(1.0, |s| s.specular_factor()),
             };
             self.scene.materials.push(sanitize_material(material));
         }
@@ -733,6 +734,7 @@ fn sanitize_material(mut m: Material) -> Material {
     m.normal_scale = finite_or(m.normal_scale, 1.0);
     // KHR_materials_ior: ior = 0 is a legal "no refraction" marker; keep ≥ 1 otherwise.
     m.ior = finite_or(m.ior, 1.5);
+    m.specular = finite_or(m.specular, 1.0).clamp(0.0, 1.0);
     if m.ior != 0.0 {
         m.ior = m.ior.max(1.0);
     }

@@ -45,6 +45,9 @@ pub struct Material {
     pub transmission_texture: Option<TextureRef>,
     /// KHR_materials_ior (glTF default 1.5).
     pub ior: f32,
+    /// KHR_materials_specular `specularFactor` (default 1): scales the dielectric
+    /// Fresnel layer; 0 leaves a pure Lambertian diffuse (furnace tests).
+    pub specular: f32,
 }
 
 impl Default for Material {
@@ -67,6 +70,7 @@ impl Default for Material {
             transmission: 0.0,
             transmission_texture: None,
             ior: 1.5,
+            specular: 1.0,
         }
     }
 }

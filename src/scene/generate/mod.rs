@@ -47,7 +47,7 @@ pub fn generate_to_dir(name: &str, dir: &Path) -> Result<PathBuf, SceneError> {
 }
 
 /// Adds a mesh with the given material and one instance of it.
-pub(crate) fn add_mesh(scene: &mut Scene, mut mesh: Mesh, material: u32, transform: Mat4) {
+pub fn add_mesh(scene: &mut Scene, mut mesh: Mesh, material: u32, transform: Mat4) {
     mesh.material = material;
     scene.instances.push(Instance {
         mesh: scene.meshes.len() as u32,
@@ -57,13 +57,13 @@ pub(crate) fn add_mesh(scene: &mut Scene, mut mesh: Mesh, material: u32, transfo
     scene.meshes.push(mesh);
 }
 
-pub(crate) fn add_material(scene: &mut Scene, m: Material) -> u32 {
+pub fn add_material(scene: &mut Scene, m: Material) -> u32 {
     scene.materials.push(m);
     (scene.materials.len() - 1) as u32
 }
 
 /// A camera at `eye` looking at `target` (camera-to-world: columns right, up, −forward, eye).
-pub(crate) fn look_at(name: &str, eye: Vec3, target: Vec3, up: Vec3, yfov_deg: f32) -> SceneCamera {
+pub fn look_at(name: &str, eye: Vec3, target: Vec3, up: Vec3, yfov_deg: f32) -> SceneCamera {
     let forward = (target - eye).normalize();
     let right = forward.cross(up).normalize();
     let up = right.cross(forward);
@@ -83,7 +83,7 @@ pub(crate) fn look_at(name: &str, eye: Vec3, target: Vec3, up: Vec3, yfov_deg: f
 
 /// A planar grid of `nu × nv` quads: corner `origin`, edges `eu`, `ev`; the
 /// front face (counter-clockwise) faces `eu × ev`; uv spans [0, uv_scale.x] × [0, uv_scale.y].
-pub(crate) fn grid(
+pub fn grid(
     name: &str,
     origin: Vec3,
     eu: Vec3,
@@ -119,7 +119,7 @@ pub(crate) fn grid(
 
 /// A unit-radius UV sphere at the origin with smooth normals (`segments`
 /// around Y, `rings` from pole to pole), uv = (longitude, latitude).
-pub(crate) fn uv_sphere(name: &str, segments: u32, rings: u32) -> Mesh {
+pub fn uv_sphere(name: &str, segments: u32, rings: u32) -> Mesh {
     let mut m = Mesh {
         name: name.into(),
         ..Default::default()

@@ -1,0 +1,19 @@
+//! The library's error type: each variant names the file or item and the
+//! problem in one line; the CLI prints it and exits non-zero.
+
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    #[error(transparent)]
+    Scene(#[from] crate::scene::SceneError),
+    #[error(transparent)]
+    Gpu(#[from] crate::gpu::GpuError),
+    #[error(transparent)]
+    Trace(#[from] crate::camera::TraceError),
+    #[error(transparent)]
+    Output(#[from] crate::output::OutputError),
+    /// A command-line value or combination that cannot work.
+    #[error("{0}")]
+    Usage(String),
+}
+
+pub type Result<T> = std::result::Result<T, Error>;

@@ -1,0 +1,176 @@
+//! A rendering session: the GPU, a loaded scene with its lighting, the scene
+//! on the GPU for the chosen ray backend, and the methods that render it.
+//! The CLI and the tests open sessions the same way.
+
+use crate::camera::{HeadPose, StereoCamera, DEFAULT_IPD};
+use crate::error::{Error, Result};
+use crate::gpu::{GpuContext, GpuOptions};
+use crate::methods::{Method, Reference, RenderSettings};
+use crate::rt::{RtBackend, RtChoice, SceneGpu};
+use crate::scene::{apply_default_lighting, load_scene, DefaultLighting, Scene};
+use glam::{Quat, Vec3};
+use std::sync::Arc;
+
+/// Which camera the head sits at.
+#[derive(Clone, Debug, Default)]
+pub enum CameraSelect {
+    /// The scene camera named `default`, else the first camera, else a view framing the scene.
+    #[default]
+    Default,
+    /// A scene camera by name.
+    Named(String),
+    /// An explicit head pose in world space.
+    Pose(HeadPose),
+}
+
+/// Method names the CLI accepts.
+pub const METHODS: &[&str] = &["reference"];
+
+pub struct Session {
+    pub ctx: Arc<GpuContext>,
+    pub scene: Scene,
+    pub scene_gpu: Arc<SceneGpu>,
+    pub backend: RtBackend,
+}
+
+impl Session {
+    /// Opens the GPU and uploads `scene` for the backend `rt` resolves to.
+    pub fn new(gpu: &GpuOptions, scene: Scene, rt: RtChoice) -> Result<Session> {
+        let mut opts = gpu.clone();
+        opts.want_ray_query = rt != RtChoice::Software;
+        let ctx = Arc::new(GpuContext::new(&opts)?);
+        Self::with_context(ctx, scene, rt)
+    }
+
+    /// Uploads `scene` on an existing context (several backends on one device).
+    pub fn with_context(ctx: Arc<GpuContext>, scene: Scene, rt: RtChoice) -> Result<Session> {
+        let backend = rt.resolve(&ctx).map_err(Error::Usage)?;
+        let scene_gpu = Arc::new(SceneGpu::upload(&ctx, &scene, backend)?);
+        Ok(Session {
+            ctx,
+            scene,
+            scene_gpu,
+            backend,
+        })
+    }
+
+    /// Loads a scene by name or path and gives it default lighting when it has none.
+    pub fn load_scene(spec: &str, lighting: &DefaultLighting) -> Result<Scene> {
+        let mut scene = load_scene(spec)?;
+        apply_default_lighting(&mut scene, lighting)?;
+        Ok(scene)
+    }
+
+    /// The stereo camera for a selection, image aspect and IPD.
+    pub fn camera(
+        &self,
+        select: &CameraSelect,
+        width: u32,
+        height: u32,
+        ipd: Option<f32>,
+        yfov_override: Option<f32>,
+    ) -> Result<StereoCamera> {
+        let aspect = width as f32 / height as f32;
+        let default_fov = 60f32.to_radians();
+        let mut cam = match select {
+            CameraSelect::Pose(p) => StereoCamera::new(*p, default_fov, aspect),
+            CameraSelect::Named(name) => {
+                let c = self.scene.camera(name).ok_or_else(|| {
+                    let names: Vec<&str> =
+                        self.scene.cameras.iter().map(|c| c.name.as_str()).collect();
+                    Error::Usage(format!(
+                        "{}: no camera named '{name}' (cameras: {})",
+                        self.scene.source.display(),
+                        if names.is_empty() {
+                            "none".to_string()
+                        } else {
+                            names.join(", ")
+                        }
+                    ))
+                })?;
+                StereoCamera::from_scene_camera(c.transform, c.yfov, aspect)
+            }
+            CameraSelect::Default => {
+                match self.scene.camera("default").or(self.scene.cameras.first()) {
+                    Some(c) => StereoCamera::from_scene_camera(c.transform, c.yfov, aspect),
+                    None => {
+                        // Frame the bounds from +Z, looking down −Z.
+                        let (lo, hi) = self.scene.world_bounds();
+                        let centre = 0.5 * (lo + hi);
+                        let radius = 0.5 * (hi - lo).length().max(1e-3);
+                        let dist = radius / (0.5 * default_fov).sin();
+                        StereoCamera::new(
+                            HeadPose::new(centre + Vec3::Z * dist, Quat::IDENTITY),
+                            default_fov,
+                            aspect,
+                        )
+                    }
+                }
+            }
+        };
+        cam.ipd = ipd.unwrap_or(DEFAULT_IPD);
+        if let Some(f) = yfov_override {
+            cam.yfov = f;
+        }
+        Ok(cam)
+    }
+
+    /// Creates a rendering method by its CLI name.
+    pub fn method(&self, name: &str, settings: &RenderSettings) -> Result<Box<dyn Method>> {
+        match name {
+            "reference" => Ok(Box::new(Reference::new(
+                &self.ctx,
+                &self.scene_gpu,
+                &self.scene.environment,
+                settings,
+            )?)),
+            other => Err(Error::Usage(format!(
+                "unknown method '{other}' (available: {})",
+                METHODS.join(", ")
+            ))),
+        }
+    }
+}
+
+/// Parses `WxH` with a clear message for anything else.
+pub fn parse_size(s: &str) -> std::result::Result<(u32, u32), String> {
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("bad --size '{s}': expected WIDTHxHEIGHT, e.g. 640x480"))?;
+    let w: u32 = w
+        .trim()
+        .parse()
+        .map_err(|_| format!("bad --size '{s}': width '{w}' is not a positive integer"))?;
+    let h: u32 = h
+        .trim()
+        .parse()
+        .map_err(|_| format!("bad --size '{s}': height '{h}' is not a positive integer"))?;
+    if w == 0 || h == 0 {
+        return Err(format!(
+            "bad --size '{s}': width and height must be at least 1"
+        ));
+    }
+    if w > 16384 || h > 16384 {
+        return Err(format!("bad --size '{s}': at most 16384 pixels per side"));
+    }
+    Ok((w, h))
+}
+
+/// Parses `px,py,pz,qx,qy,qz,qw` (metres, unit quaternion).
+pub fn parse_pose(s: &str) -> std::result::Result<HeadPose, String> {
+    let v: Vec<f32> = s
+        .split(',')
+        .map(|x| x.trim().parse::<f32>())
+        .collect::<std::result::Result<_, _>>()
+        .map_err(|_| format!("bad --pose '{s}': expected 7 numbers px,py,pz,qx,qy,qz,qw"))?;
+    if v.len() != 7 || v.iter().any(|x| !x.is_finite()) {
+        return Err(format!(
+            "bad --pose '{s}': expected 7 finite numbers px,py,pz,qx,qy,qz,qw"
+        ));
+    }
+    let q = Quat::from_xyzw(v[3], v[4], v[5], v[6]);
+    if q.length() < 1e-6 {
+        return Err(format!("bad --pose '{s}': the quaternion has zero length"));
+    }
+    Ok(HeadPose::new(Vec3::new(v[0], v[1], v[2]), q.normalize()))
+}

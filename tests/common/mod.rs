@@ -1,0 +1,150 @@
+//! Helpers shared by the GPU tests: every test opens the GPU with the Khronos
+//! validation layer on (when installed) and fails on any message it reports.
+#![allow(dead_code)]
+
+use glam::{Mat4, Vec2, Vec3};
+use std::sync::Arc;
+use stereocache::camera::{HeadPose, StereoCamera};
+use stereocache::gpu::{GpuContext, GpuOptions};
+use stereocache::methods::{FrameInput, RenderSettings, StereoFrame};
+use stereocache::rt::RtChoice;
+use stereocache::scene::{generate::*, Environment, Material, Scene};
+use stereocache::session::Session;
+
+pub fn gpu_options() -> GpuOptions {
+    GpuOptions {
+        validate: true,
+        sync_validation: false,
+        device: None,
+        want_ray_query: true,
+    }
+}
+
+/// One GPU context per test (lavapipe in CI).
+pub fn context() -> Arc<GpuContext> {
+    Arc::new(GpuContext::new(&gpu_options()).expect("a Vulkan 1.2 device (run scripts/setup.sh)"))
+}
+
+pub fn assert_no_validation_messages(ctx: &GpuContext) {
+    let m = ctx.validation.messages();
+    assert!(
+        m.is_empty(),
+        "{} validation message(s):\n{}",
+        m.len(),
+        m.join("\n")
+    );
+}
+
+pub fn session(ctx: &Arc<GpuContext>, scene: Scene, rt: RtChoice) -> Session {
+    Session::with_context(ctx.clone(), scene, rt).expect("scene upload")
+}
+
+pub fn render(
+    s: &Session,
+    method: &str,
+    camera: StereoCamera,
+    settings: &RenderSettings,
+) -> StereoFrame {
+    let mut m = s.method(method, settings).expect("method");
+    m.render_frame(&FrameInput {
+        index: 0,
+        camera,
+        prev_camera: None,
+    })
+    .expect("render")
+}
+
+/// A camera at `eye` looking at `target` (+Y up) as a stereo camera.
+pub fn look_at_camera(eye: Vec3, target: Vec3, yfov_deg: f32, aspect: f32) -> StereoCamera {
+    let c = look_at("test", eye, target, Vec3::Y, yfov_deg);
+    StereoCamera::from_scene_camera(c.transform, c.yfov, aspect)
+}
+
+/// A sphere of `radius` at `centre` with material `m` inside a constant environment `env`.
+pub fn sphere_in_environment(m: Material, centre: Vec3, radius: f32, env: Vec3) -> Scene {
+    let mut s = Scene {
+        source: "test:sphere".into(),
+        ..Default::default()
+    };
+    let mat = add_material(&mut s, m);
+    add_mesh(
+        &mut s,
+        uv_sphere("sphere", 96, 48),
+        mat,
+        Mat4::from_scale_rotation_translation(Vec3::splat(radius), glam::Quat::IDENTITY, centre),
+    );
+    s.environment = Some(Environment::Constant(env));
+    s.validate().unwrap();
+    s
+}
+
+/// The same sphere with every triangle unwelded and given its face normal, so
+/// shading normals equal geometric normals (no shading-normal energy loss).
+pub fn faceted(mut m: stereocache::scene::Mesh) -> stereocache::scene::Mesh {
+    let mut out = stereocache::scene::Mesh {
+        name: m.name.clone(),
+        material: m.material,
+        ..Default::default()
+    };
+    for t in m.indices.chunks_exact(3) {
+        let p: Vec<Vec3> = t.iter().map(|&i| m.positions[i as usize]).collect();
+        let n = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero();
+        for (k, &i) in t.iter().enumerate() {
+            out.indices.push(out.positions.len() as u32);
+            out.positions.push(p[k]);
+            out.normals.push(n);
+            out.uvs.push(m.uvs[i as usize]);
+        }
+    }
+    m.indices.clear();
+    out
+}
+
+/// Like `sphere_in_environment` but faceted (see `faceted`).
+pub fn faceted_sphere_in_environment(m: Material, env: Vec3) -> Scene {
+    let mut s = Scene {
+        source: "test:faceted-sphere".into(),
+        ..Default::default()
+    };
+    let mat = add_material(&mut s, m);
+    add_mesh(
+        &mut s,
+        faceted(uv_sphere("sphere", 48, 24)),
+        mat,
+        Mat4::IDENTITY,
+    );
+    s.environment = Some(Environment::Constant(env));
+    s.validate().unwrap();
+    s
+}
+
+/// A square of side `size` in the XZ plane facing +Y, inside a constant environment.
+pub fn plane_in_environment(m: Material, size: f32, env: Vec3) -> Scene {
+    let mut s = Scene {
+        source: "test:plane".into(),
+        ..Default::default()
+    };
+    let mat = add_material(&mut s, m);
+    let h = 0.5 * size;
+    add_mesh(
+        &mut s,
+        grid(
+            "plane",
+            Vec3::new(-h, 0.0, h),
+            Vec3::X * size,
+            Vec3::NEG_Z * size,
+            4,
+            4,
+            Vec2::ONE,
+        ),
+        mat,
+        Mat4::IDENTITY,
+    );
+    s.environment = Some(Environment::Constant(env));
+    s.validate().unwrap();
+    s
+}
+
+pub fn head_at(p: Vec3) -> HeadPose {
+    HeadPose::new(p, glam::Quat::IDENTITY)
+}
