@@ -1,0 +1,53 @@
+//! The reference path tracer converges as Monte Carlo predicts: for
+//! independent unbiased estimates with N and M samples per pixel, the mean
+//! squared difference is Σσ²_p (1/N + 1/M), so
+//! MSE(64, 1024) / MSE(256, 1024) = (1/64 + 1/1024) / (1/256 + 1/1024) = 3.4.
+//! The tolerance is 4σ of that ratio, estimated from the per-pixel spread of
+//! the squared differences (the statistics of the images themselves).
+
+mod common;
+use common::*;
+use stereocache::methods::{RenderSettings, StereoFrame};
+use stereocache::rt::RtChoice;
+use stereocache::scene::{apply_default_lighting, load_scene, DefaultLighting};
+use stereocache::session::CameraSelect;
+
+fn diff_stats(a: &StereoFrame, b: &StereoFrame) -> (f64, f64) {
+    let d2: Vec<f64> = a
+        .eyes
+        .iter()
+        .zip(&b.eyes)
+        .flat_map(|(ea, eb)| ea.radiance.iter().zip(&eb.radiance))
+        .flat_map(|(x, y)| (0..3).map(move |c| ((x[c] - y[c]) as f64).powi(2)))
+        .collect();
+    let n = d2.len() as f64;
+    let mean = d2.iter().sum::<f64>() / n;
+    let var = d2.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0);
+    (mean, (var / n).sqrt())
+}
+
+#[test]
+fn cornell_reference_error_falls_as_one_over_samples() {
+    let ctx = context();
+    let mut scene = load_scene("cornell").unwrap();
+    apply_default_lighting(&mut scene, &DefaultLighting::default()).unwrap();
+    let s = session(&ctx, scene, RtChoice::Auto);
+    let (w, h) = (32, 32);
+    let cam = s.camera(&CameraSelect::Default, w, h, None, None).unwrap();
+    let run = |spp, seed| render(&s, "reference", cam.clone(), &RenderSettings { width: w, height: h, spp, max_bounces: 3, seed, all_features: false });
+    let r1024 = run(1024, 11);
+    let r256 = run(256, 12);
+    let r64 = run(64, 13);
+    for f in [&r1024, &r256, &r64] {
+        assert!(f.eyes.iter().flat_map(|e| &e.radiance).all(|p| p.iter().all(|c| c.is_finite() && *c >= 0.0)));
+    }
+    let (m64, s64) = diff_stats(&r64, &r1024);
+    let (m256, s256) = diff_stats(&r256, &r1024);
+    let ratio = m64 / m256;
+    let sigma = ratio * ((s64 / m64).powi(2) + (s256 / m256).powi(2)).sqrt();
+    let predicted = (1.0 / 64.0 + 1.0 / 1024.0) / (1.0 / 256.0 + 1.0 / 1024.0);
+    eprintln!("MSE(64,1024) = {m64:.3e}, MSE(256,1024) = {m256:.3e}, ratio {ratio:.3} ± {sigma:.3} (predicted {predicted:.3})");
+    assert!((ratio - predicted).abs() < 4.0 * sigma, "ratio {ratio:.3} ± {sigma:.3}, predicted {predicted:.3}");
+    assert!(m256 < m64, "more samples must lower the error");
+    assert_no_validation_messages(&ctx);
+}
