@@ -1,1 +1,12 @@
-//! Image metrics on linear float images.
+//! Image metrics on linear float images (pure CPU).
+
+pub mod check;
+pub mod error;
+mod filter;
+pub mod image;
+pub mod ssim;
+
+pub use check::MetricsError;
+pub use error::{mse, psnr, rse, RSE_EPSILON};
+pub use image::LinearImage;
+pub use ssim::{ssim, SsimResult};
