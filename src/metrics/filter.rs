@@ -4,20 +4,15 @@
 //! Filters are applied as *correlations* (`out(x) = Σ_k k[i] · in(x + i − r)`);
 //! every kernel used in this module is symmetric or antisymmetric, and the
 //! metrics only use the magnitude of antisymmetric responses, so correlation
-//! and convolution give the same metric. Borders use **symmetric reflection**
-//! (`… 1 0 | 0 1 … n−1 | n−1 n−2 …`), SciPy's `convolve2d(boundary='symm')`
-//! as in the FLIP reference implementation (`flip.py`).
+//! and convolution give the same metric. Borders **clamp to the edge**
+//! (`… 0 0 | 0 1 … n−1 | n−1 n−1 …`), as NVIDIA's C++/Python FLIP package
+//! (`flip-evaluator` 1.7) does; with it our FLIP maps match that package at
+//! every pixel, borders included (see the tests in `flip.rs`).
 
-/// Reflect index `i` into `0..n` (symmetric, edge sample repeated). `n > 0`.
+/// Clamp index `i` into `0..n`. `n > 0`.
 #[inline]
-pub(crate) fn reflect(i: isize, n: usize) -> usize {
-    let n = n as isize;
-    let period = 2 * n;
-    let mut m = i.rem_euclid(period);
-    if m >= n {
-        m = period - 1 - m;
-    }
-    m as usize
+pub(crate) fn clamp_index(i: isize, n: usize) -> usize {
+    i.clamp(0, n as isize - 1) as usize
 }
 
 /// Correlate a `width × height` plane with `kx` along x and then `ky` along y
@@ -42,7 +37,7 @@ pub(crate) fn separable(
         for (x, o) in out.iter_mut().enumerate() {
             let mut acc = 0.0f32;
             for (i, &k) in kx.iter().enumerate() {
-                acc += k * row[reflect(x as isize + i as isize - rx, width)];
+                acc += k * row[clamp_index(x as isize + i as isize - rx, width)];
             }
             *o = acc;
         }
@@ -50,7 +45,7 @@ pub(crate) fn separable(
     let mut out = vec![0.0f32; width * height];
     for y in 0..height {
         for (i, &k) in ky.iter().enumerate() {
-            let sy = reflect(y as isize + i as isize - ry, height);
+            let sy = clamp_index(y as isize + i as isize - ry, height);
             let src = &tmp[sy * width..(sy + 1) * width];
             let dst = &mut out[y * width..(y + 1) * width];
             for (d, &s) in dst.iter_mut().zip(src) {
@@ -78,10 +73,10 @@ mod tests {
     use super::*;
 
     #[test]
-    fn reflect_is_symmetric() {
-        let idx: Vec<usize> = (-3..7).map(|i| reflect(i, 4)).collect();
-        assert_eq!(idx, vec![2, 1, 0, 0, 1, 2, 3, 3, 2, 1]);
-        assert_eq!(reflect(-5, 1), 0);
+    fn clamp_index_repeats_edges() {
+        let idx: Vec<usize> = (-3..7).map(|i| clamp_index(i, 4)).collect();
+        assert_eq!(idx, vec![0, 0, 0, 0, 1, 2, 3, 3, 3, 3]);
+        assert_eq!(clamp_index(-5, 1), 0);
     }
 
     #[test]

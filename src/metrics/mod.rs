@@ -3,10 +3,12 @@
 pub mod check;
 pub mod error;
 mod filter;
+pub mod flip;
 pub mod image;
 pub mod ssim;
 
 pub use check::MetricsError;
 pub use error::{mse, psnr, rse, RSE_EPSILON};
+pub use flip::{flip_hdr, flip_ldr, FlipResult, HdrFlipResult, DEFAULT_PPD};
 pub use image::LinearImage;
 pub use ssim::{ssim, SsimResult};

@@ -16,7 +16,7 @@
 //!
 //! Differences from Wang's MATLAB `ssim_index.m`, stated honestly: no
 //! automatic down-sampling of large images; the map is computed at every
-//! pixel with symmetric border reflection, and the **mean SSIM** (Eq. 17)
+//! pixel with clamp-to-edge borders, and the **mean SSIM** (Eq. 17)
 //! averages only pixels whose window lies fully inside the image (Wang's
 //! `'valid'` region) when the image is at least 11 × 11, and all pixels
 //! otherwise.
