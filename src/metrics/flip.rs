@@ -450,11 +450,15 @@ fn hyab(a: [f32; 3], b: [f32; 3]) -> f32 {
 mod tests {
     use super::*;
 
+    /// 6.283, the truncated 2π the cross-check images were generated with.
+    #[allow(clippy::approx_constant)]
+    const TAU_APPROX: f32 = 6.283;
+
     fn texture(w: usize, h: usize, shift: f32) -> LinearImage {
         LinearImage::from_fn(w, h, |x, y| {
             let u = (x as f32 + shift) / w as f32;
             let v = y as f32 / h as f32;
-            let s = 0.5 + 0.4 * (6.283 * 2.0 * u).sin() * (6.283 * v).cos();
+            let s = 0.5 + 0.4 * (TAU_APPROX * 2.0 * u).sin() * (TAU_APPROX * v).cos();
             [s, 0.6 * s + 0.2, 1.0 - s]
         })
     }
@@ -523,7 +527,7 @@ mod tests {
         LinearImage::from_fn(64, 48, |x, y| {
             let u = (x as f32 + shift) / 64.0;
             let v = y as f32 / 48.0;
-            let s = 0.5 + 0.4 * (6.283 * 2.0 * u).sin() * (6.283 * v).cos();
+            let s = 0.5 + 0.4 * (TAU_APPROX * 2.0 * u).sin() * (TAU_APPROX * v).cos();
             [s, 0.6 * s + 0.2, 1.0 - s]
         })
     }

@@ -1,6 +1,7 @@
 //! Image metrics on linear float images (pure CPU).
 
 pub mod check;
+pub mod cpbd;
 pub mod error;
 mod filter;
 pub mod flip;
@@ -8,6 +9,7 @@ pub mod image;
 pub mod ssim;
 
 pub use check::MetricsError;
+pub use cpbd::{cpbd, CpbdResult};
 pub use error::{mse, psnr, rse, RSE_EPSILON};
 pub use flip::{flip_hdr, flip_ldr, FlipResult, HdrFlipResult, DEFAULT_PPD};
 pub use image::LinearImage;
