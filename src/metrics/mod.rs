@@ -1,1 +1,44 @@
-//! Image metrics on linear float images.
+//! Image metrics on linear float images (pure CPU): the error, sharpness,
+//! temporal-stability and stereo-consistency measures of Philippi et al.
+//! 2025 (Sec. 5, Figs. 10, 12 and 15).
+//!
+//! - [`image`]: [`LinearImage`], Rec. 709 luminance, sRGB encode/decode, the
+//!   display image and display luma every display-referred metric uses.
+//! - [`error`]: RSE (`ε = 0.01`), MSE (linear), PSNR (display image, peak 1).
+//! - [`ssim`](mod@ssim): SSIM (Wang et al. 2004) on display luma, mean and map.
+//! - [`flip`]: LDR-FLIP (Andersson et al. 2020) and HDR-FLIP (2021), mean and
+//!   map; validated against NVIDIA's `flip-evaluator` package.
+//! - [`cpbd`](mod@cpbd): CPBD sharpness (Narvekar & Karam 2011).
+//! - [`reproject`](mod@reproject): backward reprojection between views with a
+//!   co-visibility mask (depth, optionally first-hit ids).
+//! - [`temporal`]: frame-to-frame reprojected difference.
+//! - [`stereo`]: left-into-right stereo discrepancy (mean, p95, overlap).
+//! - [`summary`]: [`ImageMetrics`], all per-image metrics in one record.
+//!
+//! Shared conventions: mismatched sizes and empty images are
+//! [`MetricsError`]s, never panics; non-finite input values count as 0
+//! (see [`image`]); display-referred metrics clamp linear values to `[0, 1]`
+//! with no tone curve (HDR-FLIP does its own exposure bracketing).
+
+pub mod check;
+pub mod cpbd;
+pub mod error;
+mod filter;
+pub mod flip;
+pub mod image;
+pub mod reproject;
+pub mod ssim;
+pub mod stereo;
+pub mod summary;
+pub mod temporal;
+
+pub use check::MetricsError;
+pub use cpbd::{cpbd, CpbdResult};
+pub use error::{mse, psnr, rse, RSE_EPSILON};
+pub use flip::{flip_hdr, flip_ldr, FlipResult, HdrFlipResult, DEFAULT_PPD};
+pub use image::LinearImage;
+pub use reproject::{pixel_difference, reproject, FirstHits, ViewBuffers, MISS_INSTANCE};
+pub use ssim::{ssim, SsimResult};
+pub use stereo::{stereo_discrepancy, StereoDiscrepancy};
+pub use summary::ImageMetrics;
+pub use temporal::{temporal_instability, TemporalInstability};

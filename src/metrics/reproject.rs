@@ -1,0 +1,229 @@
+//! Backward reprojection of one view's image into another view, with a
+//! co-visibility mask: the common step of the temporal and stereo metrics
+//! (Philippi et al. 2025, Figs. 10 and 15: "frame-to-frame reprojected
+//! difference", "the left eye was reprojected onto the right view").
+//!
+//! For each destination pixel `(i, j)` with view depth `d > 0`:
+//! 1. the ray through its centre `(i + ½, j + ½)` is
+//!    [`EyeView::ray_direction`]; the world point is
+//!    `p = eye + dir · d / cos θ`, `cos θ = dir · forward` (depth is measured
+//!    along the eye's −Z, not along the ray);
+//! 2. `p` is projected into the source view ([`EyeView::project`]), giving a
+//!    continuous pixel position and the view depth `d_s` the source *should*
+//!    see there;
+//! 3. the colour is fetched **bilinearly** from the four source pixel centres
+//!    around that position; a tap counts only when its stored source depth
+//!    agrees, `|depth_src − d_s| ≤ tol · d_s`, and — when first-hit buffers
+//!    are given — its instance and primitive equal the destination pixel's.
+//!    Failing taps are dropped and the weights of the rest renormalized;
+//! 4. the pixel is **co-visible** when at least one tap passed. Otherwise it
+//!    is black in the reprojected image.
+//!
+//! Depth `0` (or negative / non-finite) means "no hit" (sky): such pixels are
+//! never co-visible, in either view. Projections outside `[0, w] × [0, h]` of
+//! the source are not co-visible. Source colours are sanitized (non-finite →
+//! 0).
+
+use glam::{UVec2, Vec2, Vec3};
+
+use super::check::{check_len, MetricsError};
+use super::image::{sanitize, LinearImage};
+use crate::camera::EyeView;
+
+/// Instance index of a first hit that missed all geometry.
+pub const MISS_INSTANCE: u32 = u32::MAX;
+
+/// A per-pixel first-hit buffer, `[x, y, primitive, instance]` per pixel.
+pub type FirstHits<'a> = &'a [[u32; 4]];
+
+/// One view's buffers: what a metric needs from a rendered eye image.
+#[derive(Clone, Copy, Debug)]
+pub struct ViewBuffers<'a> {
+    /// Linear radiance.
+    pub image: &'a LinearImage,
+    /// Per-pixel view depth along the eye's −Z (0 = no hit).
+    pub depth: &'a [f32],
+    /// The eye that rendered the image.
+    pub view: &'a EyeView,
+    /// Optional first hits `[x, y, primitive, instance]` (DESIGN.md, 128-bit
+    /// first hits; instance [`MISS_INSTANCE`] = miss).
+    pub first_hits: Option<FirstHits<'a>>,
+}
+
+/// Reproject `src` into the destination view (see the module docs).
+///
+/// Returns the reprojected image (destination size) and the co-visibility
+/// mask. `first_hits = Some((src_hits, dst_hits))` additionally requires the
+/// same instance and primitive. The destination size is `dst_depth`'s grid,
+/// taken to have `src`'s dimensions (both eyes and consecutive frames render
+/// at one resolution); every buffer must hold `width · height` entries.
+pub fn reproject(
+    src: &LinearImage,
+    src_depth: &[f32],
+    src_view: &EyeView,
+    dst_depth: &[f32],
+    dst_view: &EyeView,
+    depth_tolerance_rel: f32,
+    first_hits: Option<(FirstHits, FirstHits)>,
+) -> Result<(LinearImage, Vec<bool>), MetricsError> {
+    let (w, h) = (src.width, src.height);
+    check_len("reproject: source rgb", src.rgb.len(), w, h)?;
+    check_len("reproject: source depth", src_depth.len(), w, h)?;
+    check_len("reproject: destination depth", dst_depth.len(), w, h)?;
+    if let Some((s, d)) = first_hits {
+        check_len("reproject: source first hits", s.len(), w, h)?;
+        check_len("reproject: destination first hits", d.len(), w, h)?;
+    }
+    let tol = if depth_tolerance_rel.is_finite() {
+        depth_tolerance_rel.max(0.0)
+    } else {
+        0.0
+    };
+    let size = UVec2::new(w as u32, h as u32);
+    let forward = dst_view.orientation * Vec3::NEG_Z;
+    let valid = |d: f32| d > 0.0 && d.is_finite();
+    let mut out = LinearImage::filled(w, h, [0.0; 3]);
+    let mut covisible = vec![false; w * h];
+    for j in 0..h {
+        for i in 0..w {
+            let di = j * w + i;
+            let d = dst_depth[di];
+            if !valid(d) {
+                continue;
+            }
+            let dst_id = first_hits.map(|(_, dh)| dh[di]);
+            if dst_id.is_some_and(|id| id[3] == MISS_INSTANCE) {
+                continue;
+            }
+            let dir = dst_view.ray_direction(Vec2::new(i as f32 + 0.5, j as f32 + 0.5), size);
+            let cos = dir.dot(forward);
+            if cos <= 0.0 {
+                continue;
+            }
+            let world = dst_view.position + dir * (d / cos);
+            let Some((p, d_s)) = src_view.project(world, size) else {
+                continue;
+            };
+            if !(p.x >= 0.0 && p.y >= 0.0 && p.x <= w as f32 && p.y <= h as f32) {
+                continue;
+            }
+            let (u, v) = (p.x - 0.5, p.y - 0.5);
+            let (x0, y0) = (u.floor(), v.floor());
+            let (fx, fy) = (u - x0, v - y0);
+            let mut acc = [0.0f32; 3];
+            let mut wsum = 0.0f32;
+            for (dx, dy, wt) in [
+                (0, 0, (1.0 - fx) * (1.0 - fy)),
+                (1, 0, fx * (1.0 - fy)),
+                (0, 1, (1.0 - fx) * fy),
+                (1, 1, fx * fy),
+            ] {
+                let (sx, sy) = (x0 as i64 + dx, y0 as i64 + dy);
+                if wt <= 0.0 || sx < 0 || sy < 0 || sx >= w as i64 || sy >= h as i64 {
+                    continue;
+                }
+                let si = sy as usize * w + sx as usize;
+                let ds = src_depth[si];
+                if !valid(ds) || (ds - d_s).abs() > tol * d_s {
+                    continue;
+                }
+                if let (Some((sh, _)), Some(id)) = (first_hits, dst_id) {
+                    if sh[si][2] != id[2] || sh[si][3] != id[3] {
+                        continue;
+                    }
+                }
+                let c = sanitize(src.rgb[si]);
+                for k in 0..3 {
+                    acc[k] += wt * c[k];
+                }
+                wsum += wt;
+            }
+            if wsum > 0.0 {
+                out.rgb[di] = acc.map(|a| a / wsum);
+                covisible[di] = true;
+            }
+        }
+    }
+    Ok((out, covisible))
+}
+
+/// Per-pixel difference used by the temporal and stereo metrics: the mean
+/// absolute RGB difference `(|ΔR| + |ΔG| + |ΔB|) / 3` on linear values
+/// (sanitized, not clamped).
+#[inline]
+pub fn pixel_difference(a: [f32; 3], b: [f32; 3]) -> f32 {
+    let (a, b) = (sanitize(a), sanitize(b));
+    ((a[0] - b[0]).abs() + (a[1] - b[1]).abs() + (a[2] - b[2]).abs()) / 3.0
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+    use crate::camera::{Eye, HeadPose, StereoCamera};
+    use glam::Quat;
+
+    /// 64 × 64 eyes, 90° fov, IPD 0.125 m: a fronto-parallel plane at depth
+    /// `d` has a disparity of `32 · 0.125 / d` pixels (4 px at `d = 1`).
+    pub(crate) fn rig() -> StereoCamera {
+        let mut c = StereoCamera::new(
+            HeadPose::new(Vec3::new(0.2, 1.5, -0.3), Quat::IDENTITY),
+            90f32.to_radians(),
+            1.0,
+        );
+        c.ipd = 0.125;
+        c
+    }
+
+    pub(crate) fn texture(x: usize, y: usize) -> [f32; 3] {
+        [
+            x as f32 / 64.0,
+            y as f32 / 64.0,
+            ((x * 7 + y * 3) % 11) as f32 / 10.0,
+        ]
+    }
+
+    #[test]
+    fn plane_disparity_reprojects_textured_left_into_right() {
+        let c = rig();
+        let [l, r] = [c.eye(Eye::Left), c.eye(Eye::Right)];
+        let left = LinearImage::from_fn(64, 64, texture);
+        let depth = vec![1.0f32; 64 * 64];
+        let (img, cov) = reproject(&left, &depth, &l, &depth, &r, 0.01, None).unwrap();
+        // Right pixel (i, j) sees what left pixel (i + 4, j) sees.
+        for &(i, j) in &[(0usize, 0usize), (10, 20), (31, 63), (59, 5)] {
+            assert!(cov[j * 64 + i]);
+            let got = img.get(i, j).unwrap();
+            let want = texture(i + 4, j);
+            for k in 0..3 {
+                assert!(
+                    (got[k] - want[k]).abs() < 1e-3,
+                    "({i},{j}) {got:?} {want:?}"
+                );
+            }
+        }
+        // The rightmost 4 columns look at what the left eye cannot see.
+        assert!(!cov[10 * 64 + 60] && !cov[10 * 64 + 63]);
+        assert_eq!(cov.iter().filter(|&&v| v).count(), 60 * 64);
+    }
+
+    #[test]
+    fn depth_and_id_mismatch_break_covisibility() {
+        let c = rig();
+        let [l, r] = [c.eye(Eye::Left), c.eye(Eye::Right)];
+        let img = LinearImage::filled(64, 64, [1.0; 3]);
+        let near = vec![1.0f32; 64 * 64];
+        let far = vec![1.5f32; 64 * 64];
+        let (_, cov) = reproject(&img, &far, &l, &near, &r, 0.05, None).unwrap();
+        assert!(cov.iter().all(|&v| !v));
+        let ids_a = vec![[0, 0, 3, 1]; 64 * 64];
+        let ids_b = vec![[0, 0, 4, 1]; 64 * 64];
+        let (_, cov) = reproject(&img, &near, &l, &near, &r, 0.05, Some((&ids_a, &ids_b))).unwrap();
+        assert!(cov.iter().all(|&v| !v));
+        let (_, cov) = reproject(&img, &near, &l, &near, &r, 0.05, Some((&ids_a, &ids_a))).unwrap();
+        assert_eq!(cov.iter().filter(|&&v| v).count(), 60 * 64);
+        let sky = vec![0.0f32; 64 * 64];
+        let (_, cov) = reproject(&img, &sky, &l, &sky, &r, 0.05, None).unwrap();
+        assert!(cov.iter().all(|&v| !v));
+        assert!(reproject(&img, &near[1..], &l, &near, &r, 0.05, None).is_err());
+    }
+}

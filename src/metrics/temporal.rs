@@ -1,0 +1,104 @@
+//! Temporal instability: the frame-to-frame reprojected difference that
+//! Philippi et al. 2025 (Fig. 10) use as a proxy for temporal stability.
+//!
+//! Frame `t − 1` is reprojected into frame `t` ([`reproject`]); the metric is
+//! the **mean absolute difference** ([`pixel_difference`]: mean over RGB of
+//! `|Δ|`, linear values) over the co-visible pixels. Disocclusions, sky and
+//! off-screen pixels are excluded; `covisible_fraction` says how many pixels
+//! the mean rests on. No co-visible pixel: `mean = 0`, `covisible_fraction = 0`.
+
+use serde::Serialize;
+
+use super::check::MetricsError;
+use super::image::LinearImage;
+use super::reproject::{pixel_difference, reproject, ViewBuffers};
+
+/// Temporal instability of one frame pair.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct TemporalInstability {
+    /// Mean absolute RGB difference over co-visible pixels.
+    pub mean: f32,
+    /// Co-visible pixels / all pixels of frame `t`.
+    pub covisible_fraction: f32,
+    /// Per-pixel difference map of frame `t` (0 where not co-visible).
+    #[serde(skip)]
+    pub map: LinearImage,
+}
+
+/// Temporal instability between `prev` (frame `t − 1`) and `cur` (frame `t`),
+/// with relative depth tolerance `depth_tolerance_rel` (e.g. 0.01). First-hit
+/// ids are compared when both frames carry them.
+pub fn temporal_instability(
+    prev: &ViewBuffers,
+    cur: &ViewBuffers,
+    depth_tolerance_rel: f32,
+) -> Result<TemporalInstability, MetricsError> {
+    prev.image
+        .check_same_size(cur.image, "temporal: current frame")?;
+    let ids = prev.first_hits.zip(cur.first_hits);
+    let (warped, cov) = reproject(
+        prev.image,
+        prev.depth,
+        prev.view,
+        cur.depth,
+        cur.view,
+        depth_tolerance_rel,
+        ids,
+    )?;
+    let (mut sum, mut n) = (0.0f64, 0usize);
+    let map = LinearImage::from_fn(cur.image.width, cur.image.height, |x, y| {
+        let i = y * cur.image.width + x;
+        if cov[i] {
+            let d = pixel_difference(warped.rgb[i], cur.image.rgb[i]);
+            sum += d as f64;
+            n += 1;
+            [d; 3]
+        } else {
+            [0.0; 3]
+        }
+    });
+    Ok(TemporalInstability {
+        mean: if n > 0 { (sum / n as f64) as f32 } else { 0.0 },
+        covisible_fraction: n as f32 / cov.len() as f32,
+        map,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::reproject::tests::{rig, texture};
+    use super::*;
+    use crate::camera::Eye;
+
+    #[test]
+    fn identical_frames_are_stable() {
+        let v = rig().eye(Eye::Left);
+        let img = LinearImage::from_fn(64, 64, texture);
+        let depth: Vec<f32> = (0..64 * 64).map(|i| 1.0 + (i % 64) as f32 * 0.01).collect();
+        let b = ViewBuffers {
+            image: &img,
+            depth: &depth,
+            view: &v,
+            first_hits: None,
+        };
+        let t = temporal_instability(&b, &b, 0.01).unwrap();
+        assert!(t.mean < 1e-5, "{}", t.mean);
+        assert!(t.covisible_fraction > 0.99);
+    }
+
+    #[test]
+    fn flicker_is_measured() {
+        let v = rig().eye(Eye::Right);
+        let a = LinearImage::filled(32, 32, [0.5; 3]);
+        let b = LinearImage::filled(32, 32, [0.7, 0.5, 0.5]);
+        let depth = vec![2.0f32; 32 * 32];
+        let vb = |image| ViewBuffers {
+            image,
+            depth: &depth,
+            view: &v,
+            first_hits: None,
+        };
+        let t = temporal_instability(&vb(&a), &vb(&b), 0.01).unwrap();
+        assert!((t.mean - 0.2 / 3.0).abs() < 1e-4, "{}", t.mean);
+    }
+}
