@@ -469,7 +469,7 @@ fn run(cli: Cli) -> Result<()> {
                 if !(seconds.is_finite() && seconds > 0.0 && seconds <= 3600.0) {
                     bail!("bad --seconds {seconds}: expected a duration in (0, 3600]");
                 }
-                if !(rate.is_finite() && rate >= 1.0 && rate <= 10000.0) {
+                if !(rate.is_finite() && (1.0..=10000.0).contains(&rate)) {
                     bail!("bad --rate {rate}: expected Hz in [1, 10000]");
                 }
                 let trace = synth(kind, seconds, seed, rate);

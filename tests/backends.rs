@@ -16,8 +16,15 @@ const W: u32 = 64;
 const H: u32 = 64;
 
 fn primary(s: &Session, cam: &StereoCamera) -> StereoFrame {
-    let settings = RenderSettings { width: W, height: H, spp: 1, max_bounces: 1, seed: 1, all_features: false };
-    render(s, "reference", cam.clone(), &settings)
+    let settings = RenderSettings {
+        width: W,
+        height: H,
+        spp: 1,
+        max_bounces: 1,
+        seed: 1,
+        all_features: false,
+    };
+    render(s, "reference", *cam, &settings)
 }
 
 struct Agreement {
@@ -27,7 +34,11 @@ struct Agreement {
 }
 
 fn compare(a: &StereoFrame, b: &StereoFrame) -> Agreement {
-    let mut r = Agreement { pixels: 0, id_mismatch: 0, depth_mismatch: 0 };
+    let mut r = Agreement {
+        pixels: 0,
+        id_mismatch: 0,
+        depth_mismatch: 0,
+    };
     for e in 0..2 {
         for i in 0..(W * H) as usize {
             let (ha, hb) = (a.eyes[e].first_hit[i], b.eyes[e].first_hit[i]);
@@ -56,8 +67,16 @@ fn check_scene(name: &str, scene: Scene, cpu: bool) {
     let cam = sw.camera(&CameraSelect::Default, W, H, None, None).unwrap();
     let fs = primary(&sw, &cam);
     let fq = primary(&rq, &cam);
-    let hits = fs.eyes.iter().flat_map(|e| &e.first_hit).filter(|h| h[3] != u32::MAX).count();
-    assert!(hits > 100, "{name}: only {hits} pixels hit geometry; the camera sees nothing");
+    let hits = fs
+        .eyes
+        .iter()
+        .flat_map(|e| &e.first_hit)
+        .filter(|h| h[3] != u32::MAX)
+        .count();
+    assert!(
+        hits > 100,
+        "{name}: only {hits} pixels hit geometry; the camera sees nothing"
+    );
     let agree = compare(&fs, &fq);
     let limit = agree.pixels / 1000; // 99.9 %
     assert!(
@@ -77,7 +96,8 @@ fn check_scene(name: &str, scene: Scene, cpu: bool) {
             for y in 0..H {
                 for x in 0..W {
                     let i = (y * W + x) as usize;
-                    let d = v.ray_direction(Vec2::new(x as f32 + 0.5, y as f32 + 0.5), UVec2::new(W, H));
+                    let d = v
+                        .ray_direction(Vec2::new(x as f32 + 0.5, y as f32 + 0.5), UVec2::new(W, H));
                     let hit = bvh.closest_hit(v.position, d, 0.0, 1e30);
                     let g = fs.eyes[e].first_hit[i];
                     n += 1;
@@ -98,7 +118,10 @@ fn check_scene(name: &str, scene: Scene, cpu: bool) {
                 }
             }
         }
-        assert!(mismatch <= n / 1000, "{name}: CPU vs GPU software traversal: {mismatch} of {n} pixels differ");
+        assert!(
+            mismatch <= n / 1000,
+            "{name}: CPU vs GPU software traversal: {mismatch} of {n} pixels differ"
+        );
     }
     assert_no_validation_messages(&ctx);
 }
@@ -128,7 +151,11 @@ fn plane_backends_agree() {
 fn shipped_gltf_files_agree_with_generated() {
     // The files in scenes/ load and trace the same as the generators.
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell/cornell.gltf");
-    check_scene("scenes/cornell/cornell.gltf", shipped(dir.to_str().unwrap()), true);
+    check_scene(
+        "scenes/cornell/cornell.gltf",
+        shipped(dir.to_str().unwrap()),
+        true,
+    );
 }
 
 /// Sponza has alpha-masked foliage: the two GPU backends alpha-test the same

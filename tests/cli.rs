@@ -12,7 +12,9 @@ fn bin() -> Command {
 }
 
 fn data(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/bad_scenes").join(name)
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/bad_scenes")
+        .join(name)
 }
 
 fn out_dir(tag: &str) -> PathBuf {
@@ -25,10 +27,17 @@ fn out_dir(tag: &str) -> PathBuf {
 fn fails(args: &[&str]) -> String {
     let o = bin().args(args).output().unwrap();
     let stderr = String::from_utf8_lossy(&o.stderr).to_string();
-    assert!(!o.status.success(), "{args:?} should fail; stderr:\n{stderr}");
+    assert!(
+        !o.status.success(),
+        "{args:?} should fail; stderr:\n{stderr}"
+    );
     assert!(!stderr.contains("panicked"), "{args:?} panicked:\n{stderr}");
     let errors: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error")).collect();
-    assert_eq!(errors.len(), 1, "{args:?}: expected one error line, got:\n{stderr}");
+    assert_eq!(
+        errors.len(),
+        1,
+        "{args:?}: expected one error line, got:\n{stderr}"
+    );
     errors[0].to_string()
 }
 
@@ -49,10 +58,29 @@ fn malformed_scenes_give_one_error_line_naming_the_file() {
     ] {
         let out = out_dir("bad");
         let path = data(file);
-        let line = fails(&["render", "--scene", path.to_str().unwrap(), "--size", "8x8", "--spp", "1", "--out", out.to_str().unwrap()]);
-        assert!(line.contains(file), "{file}: error does not name the file: {line}");
-        assert!(line.contains(phrase), "{file}: error lacks '{phrase}': {line}");
-        assert!(!out.join("left.exr").exists() && !out.join("stats.json").exists(), "{file}: output left behind");
+        let line = fails(&[
+            "render",
+            "--scene",
+            path.to_str().unwrap(),
+            "--size",
+            "8x8",
+            "--spp",
+            "1",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(
+            line.contains(file),
+            "{file}: error does not name the file: {line}"
+        );
+        assert!(
+            line.contains(phrase),
+            "{file}: error lacks '{phrase}': {line}"
+        );
+        assert!(
+            !out.join("left.exr").exists() && !out.join("stats.json").exists(),
+            "{file}: output left behind"
+        );
     }
 }
 
@@ -61,16 +89,42 @@ fn recoverable_scene_problems_are_warnings() {
     for file in ["nan_vertices.gltf", "undecodable_image.gltf"] {
         let out = out_dir(file);
         let o = bin()
-            .args(["render", "--scene", data(file).to_str().unwrap(), "--size", "8x8", "--spp", "1", "--pose", "0,0,3,0,0,0,1", "--out", out.to_str().unwrap()])
+            .args([
+                "render",
+                "--scene",
+                data(file).to_str().unwrap(),
+                "--size",
+                "8x8",
+                "--spp",
+                "1",
+                "--pose",
+                "0,0,3,0,0,0,1",
+                "--out",
+                out.to_str().unwrap(),
+            ])
             .output()
             .unwrap();
         let stderr = String::from_utf8_lossy(&o.stderr);
         assert!(o.status.success(), "{file}: {stderr}");
-        assert!(stderr.contains("warning"), "{file}: no warning printed: {stderr}");
-        for f in ["left.exr", "left.png", "right.exr", "right.png", "stats.json", "left_firsthit.bin"] {
+        assert!(
+            stderr.contains("warning"),
+            "{file}: no warning printed: {stderr}"
+        );
+        for f in [
+            "left.exr",
+            "left.png",
+            "right.exr",
+            "right.png",
+            "stats.json",
+            "left_firsthit.bin",
+        ] {
             assert!(out.join(f).exists(), "{file}: {f} missing");
         }
-        assert!(!std::fs::read_dir(&out).unwrap().any(|e| e.unwrap().file_name().to_string_lossy().ends_with(".partial")));
+        assert!(!std::fs::read_dir(&out).unwrap().any(|e| e
+            .unwrap()
+            .file_name()
+            .to_string_lossy()
+            .ends_with(".partial")));
         let _ = std::fs::remove_dir_all(&out);
     }
 }
@@ -83,16 +137,70 @@ fn bad_command_line_values_are_refused() {
         (vec!["render", "--size", "0x10", "--out", o], "bad --size"),
         (vec!["render", "--size", "abc", "--out", o], "bad --size"),
         (vec!["render", "--size", "64x", "--out", o], "bad --size"),
-        (vec!["render", "--size", "99999x10", "--out", o], "bad --size"),
-        (vec!["render", "--camera", "nope", "--size", "8x8", "--out", o], "no camera named 'nope'"),
-        (vec!["render", "--pose", "1,2,3", "--size", "8x8", "--out", o], "bad --pose"),
-        (vec!["render", "--pose", "0,0,0,0,0,0,0", "--size", "8x8", "--out", o], "zero length"),
-        (vec!["render", "--rt", "magic", "--size", "8x8", "--out", o], "bad --rt"),
-        (vec!["render", "--method", "nope", "--size", "8x8", "--out", o], "unknown method"),
-        (vec!["render", "--scene", "/nonexistent/scene.gltf", "--size", "8x8", "--out", o], "scene.gltf"),
-        (vec!["render", "--lighting", "purple", "--size", "8x8", "--out", o], "bad --lighting"),
-        (vec!["render", "--spp", "0", "--size", "8x8", "--out", o], "bad --spp"),
-        (vec!["trace", "synth", "--kind", "dance", "--out", o], "bad --kind"),
+        (
+            vec!["render", "--size", "99999x10", "--out", o],
+            "bad --size",
+        ),
+        (
+            vec!["render", "--camera", "nope", "--size", "8x8", "--out", o],
+            "no camera named 'nope'",
+        ),
+        (
+            vec!["render", "--pose", "1,2,3", "--size", "8x8", "--out", o],
+            "bad --pose",
+        ),
+        (
+            vec![
+                "render",
+                "--pose",
+                "0,0,0,0,0,0,0",
+                "--size",
+                "8x8",
+                "--out",
+                o,
+            ],
+            "zero length",
+        ),
+        (
+            vec!["render", "--rt", "magic", "--size", "8x8", "--out", o],
+            "bad --rt",
+        ),
+        (
+            vec!["render", "--method", "nope", "--size", "8x8", "--out", o],
+            "unknown method",
+        ),
+        (
+            vec![
+                "render",
+                "--scene",
+                "/nonexistent/scene.gltf",
+                "--size",
+                "8x8",
+                "--out",
+                o,
+            ],
+            "scene.gltf",
+        ),
+        (
+            vec![
+                "render",
+                "--lighting",
+                "purple",
+                "--size",
+                "8x8",
+                "--out",
+                o,
+            ],
+            "bad --lighting",
+        ),
+        (
+            vec!["render", "--spp", "0", "--size", "8x8", "--out", o],
+            "bad --spp",
+        ),
+        (
+            vec!["trace", "synth", "--kind", "dance", "--out", o],
+            "bad --kind",
+        ),
     ] {
         let line = fails(&args);
         assert!(line.contains(phrase), "{args:?}: '{line}' lacks '{phrase}'");
@@ -103,15 +211,45 @@ fn bad_command_line_values_are_refused() {
 #[test]
 fn render_writes_every_promised_file() {
     let out = out_dir("ok");
-    let o = bin().args(["render", "--size", "16x12", "--spp", "2", "--out", out.to_str().unwrap()]).output().unwrap();
+    let o = bin()
+        .args([
+            "render",
+            "--size",
+            "16x12",
+            "--spp",
+            "2",
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    for f in ["left.exr", "right.exr", "left.png", "right.png", "left_depth.exr", "left_albedo.exr", "left_firsthit.bin", "stats.json"] {
+    for f in [
+        "left.exr",
+        "right.exr",
+        "left.png",
+        "right.png",
+        "left_depth.exr",
+        "left_albedo.exr",
+        "left_firsthit.bin",
+        "stats.json",
+    ] {
         assert!(out.join(f).exists(), "{f} missing");
     }
-    let stats: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("stats.json")).unwrap()).unwrap();
+    let stats: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("stats.json")).unwrap()).unwrap();
     assert!(stats["gpu_ms"].as_f64().unwrap() > 0.0);
     assert!(stats["rays"]["primary"].as_u64().unwrap() >= 16 * 12 * 2 * 3);
-    assert!(stats["passes"].as_array().unwrap().iter().any(|p| p["name"] == "reference.trace"));
-    assert_eq!(std::fs::metadata(out.join("left_firsthit.bin")).unwrap().len(), 16 * 12 * 16);
+    assert!(stats["passes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .any(|p| p["name"] == "reference.trace"));
+    assert_eq!(
+        std::fs::metadata(out.join("left_firsthit.bin"))
+            .unwrap()
+            .len(),
+        16 * 12 * 16
+    );
     let _ = std::fs::remove_dir_all(&out);
 }

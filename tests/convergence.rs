@@ -34,12 +34,30 @@ fn cornell_reference_error_falls_as_one_over_samples() {
     let s = session(&ctx, scene, RtChoice::Auto);
     let (w, h) = (32, 32);
     let cam = s.camera(&CameraSelect::Default, w, h, None, None).unwrap();
-    let run = |spp, seed| render(&s, "reference", cam.clone(), &RenderSettings { width: w, height: h, spp, max_bounces: 3, seed, all_features: false });
+    let run = |spp, seed| {
+        render(
+            &s,
+            "reference",
+            cam,
+            &RenderSettings {
+                width: w,
+                height: h,
+                spp,
+                max_bounces: 3,
+                seed,
+                all_features: false,
+            },
+        )
+    };
     let r1024 = run(1024, 11);
     let r256 = run(256, 12);
     let r64 = run(64, 13);
     for f in [&r1024, &r256, &r64] {
-        assert!(f.eyes.iter().flat_map(|e| &e.radiance).all(|p| p.iter().all(|c| c.is_finite() && *c >= 0.0)));
+        assert!(f
+            .eyes
+            .iter()
+            .flat_map(|e| &e.radiance)
+            .all(|p| p.iter().all(|c| c.is_finite() && *c >= 0.0)));
     }
     let (m64, s64) = diff_stats(&r64, &r1024);
     let (m256, s256) = diff_stats(&r256, &r1024);
@@ -47,7 +65,10 @@ fn cornell_reference_error_falls_as_one_over_samples() {
     let sigma = ratio * ((s64 / m64).powi(2) + (s256 / m256).powi(2)).sqrt();
     let predicted = (1.0 / 64.0 + 1.0 / 1024.0) / (1.0 / 256.0 + 1.0 / 1024.0);
     eprintln!("MSE(64,1024) = {m64:.3e}, MSE(256,1024) = {m256:.3e}, ratio {ratio:.3} ± {sigma:.3} (predicted {predicted:.3})");
-    assert!((ratio - predicted).abs() < 4.0 * sigma, "ratio {ratio:.3} ± {sigma:.3}, predicted {predicted:.3}");
+    assert!(
+        (ratio - predicted).abs() < 4.0 * sigma,
+        "ratio {ratio:.3} ± {sigma:.3}, predicted {predicted:.3}"
+    );
     assert!(m256 < m64, "more samples must lower the error");
     assert_no_validation_messages(&ctx);
 }
