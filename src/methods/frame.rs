@@ -25,6 +25,9 @@ pub struct EyeImage {
     pub first_hit: Vec<[u32; 4]>,
     /// Base colour at the first hit.
     pub albedo: Vec<[f32; 4]>,
+    /// Named debug views (e.g. `trace-mask`, `spp`, `shaded`, `occupancy`),
+    /// linear RGBA meant to be shown as is.
+    pub debug: Vec<(String, Vec<[f32; 4]>)>,
 }
 
 #[derive(Clone, Copy, Debug, Default, Serialize, PartialEq, Eq)]
@@ -44,6 +47,9 @@ impl RayCounts {
 pub struct FrameStats {
     pub passes: Vec<PassTiming>,
     pub rays: RayCounts,
+    /// Method-specific per-frame counters (visible samples per pixel, holes
+    /// filled, slots purged, ...), written as they are into frames.jsonl.
+    pub counters: std::collections::BTreeMap<String, f64>,
 }
 
 impl FrameStats {

@@ -163,6 +163,7 @@ impl Method for Reference {
             depth: depth[e * npix..(e + 1) * npix].to_vec(),
             first_hit: first_hit[e * npix..(e + 1) * npix].to_vec(),
             albedo: albedo[e * npix..(e + 1) * npix].to_vec(),
+            debug: Vec::new(),
         };
         Ok(StereoFrame {
             width: w,
