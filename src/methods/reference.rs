@@ -176,6 +176,7 @@ impl Method for Reference {
                     bounce: counters[1] as u64,
                     shadow: counters[2] as u64,
                 },
+                counters: Default::default(),
             },
         })
     }
