@@ -313,6 +313,7 @@ fn run(cli: Cli) -> Result<()> {
                 max_bounces: bounces,
                 seed,
                 all_features: false,
+                ..Default::default()
             };
             let mut m = session.method(&method, &settings)?;
             let frame = m.render_frame(&FrameInput {

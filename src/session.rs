@@ -5,7 +5,7 @@
 use crate::camera::{HeadPose, StereoCamera, DEFAULT_IPD};
 use crate::error::{Error, Result};
 use crate::gpu::{GpuContext, GpuOptions};
-use crate::methods::{Method, Reference, RenderSettings};
+use crate::methods::{Method, Reference, RenderSettings, SampleCache};
 use crate::rt::{RtBackend, RtChoice, SceneGpu};
 use crate::scene::{apply_default_lighting, load_scene, DefaultLighting, Scene};
 use glam::{Quat, Vec3};
@@ -24,7 +24,7 @@ pub enum CameraSelect {
 }
 
 /// Method names the CLI accepts.
-pub const METHODS: &[&str] = &["reference"];
+pub const METHODS: &[&str] = &["reference", "sample-cache"];
 
 pub struct Session {
     pub ctx: Arc<GpuContext>,
@@ -119,6 +119,12 @@ impl Session {
     pub fn method(&self, name: &str, settings: &RenderSettings) -> Result<Box<dyn Method>> {
         match name {
             "reference" => Ok(Box::new(Reference::new(
+                &self.ctx,
+                &self.scene_gpu,
+                &self.scene.environment,
+                settings,
+            )?)),
+            "sample-cache" => Ok(Box::new(SampleCache::new(
                 &self.ctx,
                 &self.scene_gpu,
                 &self.scene.environment,

@@ -23,6 +23,7 @@ fn primary(s: &Session, cam: &StereoCamera) -> StereoFrame {
         max_bounces: 1,
         seed: 1,
         all_features: false,
+        ..Default::default()
     };
     render(s, "reference", *cam, &settings)
 }

@@ -46,6 +46,7 @@ fn cornell_reference_error_falls_as_one_over_samples() {
                 max_bounces: 3,
                 seed,
                 all_features: false,
+                ..Default::default()
             },
         )
     };

@@ -33,6 +33,7 @@ fn lambert_white_furnace_returns_environment_radiance() {
             max_bounces: 3,
             seed: 7,
             all_features: false,
+            ..Default::default()
         };
         let f = render(&s, "reference", cam, &settings);
         let mut sphere_pixels = 0;
@@ -82,6 +83,7 @@ fn lambert_smooth_sphere_loses_at_most_the_shading_normal_fraction() {
         max_bounces: 3,
         seed: 7,
         all_features: false,
+        ..Default::default()
     };
     let f = render(&s, "reference", cam, &settings);
     let delta = (3.75f64 / 2.0).to_radians();
@@ -199,6 +201,7 @@ fn ggx_white_furnace_matches_single_scattering_albedo() {
             max_bounces: 1,
             seed: 3,
             all_features: false,
+            ..Default::default()
         };
         let f = render(&s, "reference", cam, &settings);
         let mut sum = 0.0f64;

@@ -3,9 +3,11 @@
 
 pub mod frame;
 pub mod reference;
+pub mod sample_cache;
 
 pub use frame::{EyeImage, FrameInput, FrameParams, FrameStats, RayCounts, StereoFrame};
 pub use reference::Reference;
+pub use sample_cache::{SampleCache, SampleCacheSettings};
 
 use crate::gpu::GpuResult;
 
@@ -22,6 +24,8 @@ pub struct RenderSettings {
     pub seed: u32,
     /// Compile every feature in, ignoring what the scene uses (the unspecialized build).
     pub all_features: bool,
+    /// Options of the `sample-cache` method.
+    pub cache: SampleCacheSettings,
 }
 
 impl Default for RenderSettings {
@@ -33,6 +37,7 @@ impl Default for RenderSettings {
             max_bounces: 3,
             seed: 1,
             all_features: false,
+            cache: SampleCacheSettings::default(),
         }
     }
 }

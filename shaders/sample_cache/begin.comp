@@ -1,0 +1,17 @@
+#version 460
+// Frame start: this frame's importance bounds become the previous frame's,
+// and the histogram, shade-list length and counters are reset.
+#include "sample_cache/common.glsl"
+layout(local_size_x = 64) in;
+void main() {
+    uint i = gl_GlobalInvocationID.x;
+    if (i < 2u) {
+        state[i] = state[4u + i];
+        state[2u + i] = state[6u + i];
+        state[4u + i] = 0xFFFFFFFFu;
+        state[6u + i] = 0u;
+    }
+    if (i == 0u) state[8] = 0u;
+    if (i < 2u * HIST_M) hist[i] = 0u;
+    if (i < 32u) counters[i] = 0u;
+}

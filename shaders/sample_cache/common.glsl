@@ -1,0 +1,148 @@
+// The screen-space sample cache (Philippi, Jensen & Frisvad, EGSR 2025):
+// per eye, N slots per pixel held as N layers; a 32-bit mask per pixel with
+// occupancy bits o_s (0..N−1) and visibility bits v_s (N..2N−1). Per slot:
+// the 128-bit first hit (Listing 1) and a radiance record (demodulated
+// running mean rgb, effective sample count c_s). Descriptor set 1 below;
+// src/methods/sample_cache/ owns the buffers and the pass order.
+#extension GL_EXT_shader_atomic_int64 : require
+#extension GL_ARB_gpu_shader_int64 : require
+#include "common/integrator.glsl"
+#include "common/packing.glsl"
+#include "common/camera.glsl"
+
+layout(constant_id = 20) const uint N_SLOTS = 12;
+layout(constant_id = 21) const uint RETRACE_MODE = 2;   // 0 single, 1 multi, 2 adaptive
+layout(constant_id = 22) const uint SHADING_MODE = 0;   // 0 uniform, 1 adaptive
+layout(constant_id = 23) const uint ACCUM_MODE = 0;     // 0 running mean (+ appendix C clamp), 1 fixed α for view-dependent materials
+const uint HIST_M = 13;                                 // histogram buckets (§3.5)
+const float C_MAX = 65535.0;                            // effective sample counts saturate here
+
+layout(push_constant) uniform Push {
+    float shading_rate;   // 1.0 = one shading invocation per pixel
+    float fixed_alpha;
+    float eps0;           // retrace tolerance, relative to the hit distance
+    float eps1;           // Eq. 2
+    uint n_target;
+    uint delta;
+    uint pad0;
+    uint pad1;
+} pc;
+
+layout(set = 1, binding = 1, std430) buffer MaskPrev { uint mask_prev[]; };
+layout(set = 1, binding = 2, std430) buffer MaskCur { uint mask_cur[]; };
+layout(set = 1, binding = 3, std430) buffer FhPrev { uvec4 fh_prev[]; };
+layout(set = 1, binding = 4, std430) buffer FhCur { uvec4 fh_cur[]; };
+layout(set = 1, binding = 5, std430) buffer RadPrev { vec4 rad_prev[]; };
+layout(set = 1, binding = 6, std430) buffer RadCur { vec4 rad_cur[]; };
+layout(set = 1, binding = 7, std430) buffer DepthMin { uint64_t depth_min[]; };  // t_min bits << 32 | Δn bits
+layout(set = 1, binding = 8, std430) buffer DepthMax { uint depth_max[]; };      // t_max bits
+layout(set = 1, binding = 9, std430) buffer Hist { uint hist[]; };               // [eye][HIST_M]
+// state: [0..2) w_min prev, [2..4) w_max prev, [4..6) w_min next, [6..8) w_max next, [8] shade-list length
+layout(set = 1, binding = 10, std430) buffer State { uint state[]; };
+layout(set = 1, binding = 11, std430) buffer ShadeList { uint shade_list[]; };   // eye << 31 | slot << 26 | pixel
+layout(set = 1, binding = 12, std430) buffer TargetSrc { uint target_src[]; };   // two-pass: source slot index + 1
+layout(set = 1, binding = 13, std430) buffer OutColor { vec4 out_color[]; };
+layout(set = 1, binding = 14, std430) buffer OutM1 { vec4 out_m1[]; };
+layout(set = 1, binding = 15, std430) buffer OutM2 { vec4 out_m2[]; };
+layout(set = 1, binding = 16, std430) buffer OutDepth { float out_depth[]; };
+layout(set = 1, binding = 17, std430) buffer OutFh { uvec4 out_fh[]; };
+layout(set = 1, binding = 18, std430) buffer OutAlbedo { vec4 out_albedo[]; };
+layout(set = 1, binding = 19, std430) buffer Counters { uint counters[]; };
+layout(set = 1, binding = 20, std430) buffer PixelAction { uvec4 pixel_action[]; }; // trace bits, add count, purge slot + 1, flags
+layout(set = 1, binding = 21, std430) buffer PixelStats { uvec4 pixel_stats[]; };   // traced bits, shaded count, fresh, unused
+
+// Counter slots (src/methods/sample_cache/mod.rs names them).
+const uint C_RETRACE_RAYS = 0u, C_NEW_RAYS = 1u, C_BOUNCE_RAYS = 2u, C_SHADOW_RAYS = 3u, C_HOLES = 4u,
+           C_ADDED = 5u, C_PURGED = 6u, C_REPROJECTED = 7u, C_REPROJECT_FULL = 8u, C_OFFSCREEN = 9u,
+           C_SHADED = 10u, C_REPLACED = 11u, C_EDGE_PIXELS = 12u, C_VISIBLE = 13u, C_BG_RAYS = 14u;
+
+uint npix() { return frame.size_seed.x * frame.size_seed.y; }
+uint slot_index(uint eye, uint s, uint pixel) { return (eye * N_SLOTS + s) * npix() + pixel; }
+uint full_bits() { return N_SLOTS >= 32u ? 0xFFFFFFFFu : (1u << N_SLOTS) - 1u; }
+uint occ_bits(uint m) { return m & full_bits(); }
+uint vis_bits(uint m) { return (m >> N_SLOTS) & full_bits(); }
+
+// Index of the k-th set bit of `bits` (k < bitCount(bits)).
+uint nth_set_bit(uint bits, uint k) {
+    for (uint i = 0u; i < k; ++i) bits &= bits - 1u;
+    return uint(findLSB(bits));
+}
+
+// World position and geometric normal of a stored first hit, with the
+// instance transforms of the current frame (appendix D).
+vec3 hit_position(uvec4 fh) {
+    vec2 b = first_hit_bary(fh);
+    uvec3 vi = triangle_indices(fh.w, fh.z);
+    mat4 M = instances[fh.w].object_to_world;
+    vec3 w = vec3(1.0 - b.x - b.y, b.x, b.y);
+    vec3 p = w.x * vertices[vi.x].pos_u.xyz + w.y * vertices[vi.y].pos_u.xyz + w.z * vertices[vi.z].pos_u.xyz;
+    return (M * vec4(p, 1.0)).xyz;
+}
+
+vec3 hit_geometric_normal(uvec4 fh) {
+    uvec3 vi = triangle_indices(fh.w, fh.z);
+    mat4 M = instances[fh.w].object_to_world;
+    vec3 a = (M * vec4(vertices[vi.x].pos_u.xyz, 1.0)).xyz;
+    vec3 b = (M * vec4(vertices[vi.y].pos_u.xyz, 1.0)).xyz;
+    vec3 c = (M * vec4(vertices[vi.z].pos_u.xyz, 1.0)).xyz;
+    vec3 n = cross(b - a, c - a);
+    float l = length(n);
+    return l > 0.0 ? n / l : vec3(0.0, 1.0, 0.0);
+}
+
+// Projects a world point into an eye: continuous pixel coordinates and
+// distance along the view axis; false when behind the eye.
+bool project_to_eye(EyeGpu e, vec3 p, out vec2 px, out float vd) {
+    vec3 d = p - e.pos_tanx.xyz;
+    vd = dot(d, e.fwd.xyz);
+    if (!(vd > 0.0)) return false;
+    float x = dot(d, e.right_tany.xyz) / (vd * e.pos_tanx.w);
+    float y = dot(d, e.up.xyz) / (vd * e.right_tany.w);
+    px = vec2(0.5 * (x + 1.0) * float(frame.size_seed.x), 0.5 * (1.0 - y) * float(frame.size_seed.y));
+    return all(equal(px, px));
+}
+
+// Angle subtended by a pixel's diagonal (φ of Eq. 1).
+float pixel_diagonal_angle(EyeGpu e) {
+    vec2 pix = vec2(2.0 * e.pos_tanx.w / float(frame.size_seed.x), 2.0 * e.right_tany.w / float(frame.size_seed.y));
+    return atan(length(pix));
+}
+
+// Eq. 1: Δn = t_s |1 − cos θ / cos(θ − φ)|, θ clamped to [0, π/2] so the
+// denominator stays ≥ cos(π/2 − φ) = sin φ > 0: finite up to grazing angles.
+// CPU twin: src/methods/sample_cache/heuristics.rs `normal_slope`.
+float normal_slope(float t, float cos_theta, float phi) {
+    float c = clamp(cos_theta, 0.0, 1.0);
+    float theta = acos(c);
+    return t * abs(1.0 - c / cos(theta - phi));
+}
+
+// Eq. 2 with ε1: true when the depths are consistent with one flat surface.
+bool depths_consistent(float t_min, float slope, float t_max, float eps1) {
+    return t_max < (1.0 + eps1) * (t_min + 2.0 * slope);
+}
+
+// §3.5: importance w = (1 + c_s)^−1 into HIST_M logarithmic buckets between
+// the previous frame's w_min and w_max. CPU twin: `importance_bucket`.
+uint importance_bucket(float w, float w_min, float w_max) {
+    if (!(w_max > w_min) || !(w_min > 0.0)) return HIST_M - 1u;
+    float x = log(w / w_min) / log(w_max / w_min);
+    return uint(clamp(floor(x * float(HIST_M)), 0.0, float(HIST_M - 1u)));
+}
+
+// Bucket bounds of this frame from the previous frame's extremes (defaults
+// before the first frame: the full range of 16-bit counts).
+void importance_bounds(uint eye, out float w_min, out float w_max) {
+    uint lo = state[eye], hi = state[2u + eye];
+    w_min = lo == 0xFFFFFFFFu ? 1.0 / (1.0 + C_MAX) : uintBitsToFloat(lo);
+    w_max = hi == 0u ? 1.0 : uintBitsToFloat(hi);
+}
+
+float importance(float c) { return 1.0 / (1.0 + c); }
+
+// Block-sparse pattern of §3.4/§3.5: one pixel per 4×4 block, rotating each frame.
+bool is_sparse_base_pixel(uvec2 px, uint frame_index, uint eye) {
+    uvec2 block = px / 4u;
+    uint k = pcg_hash(block.x * 73856093u ^ block.y * 19349663u ^ eye * 83492791u ^ frame_index * 2654435761u) & 15u;
+    return (px.x & 3u) + 4u * (px.y & 3u) == k;
+}

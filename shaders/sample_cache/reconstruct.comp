@@ -1,0 +1,83 @@
+#version 460
+// §3.3 reconstruction: the pixel colour is the mean over its visible,
+// already shaded samples of albedo × demodulated radiance; a pixel without
+// visible samples shows the environment. Also writes the raw moments of
+// Eq. 5–6 for stereo blending, the depth / first hit / albedo of the closest
+// visible sample, and the debug views.
+#include "sample_cache/common.glsl"
+layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
+layout(set = 1, binding = 22, std430) buffer Debug { vec4 debug_views[]; };   // [view][eye][pixel], 4 views
+
+void main() {
+    uvec2 size = frame_size();
+    uvec2 px = gl_GlobalInvocationID.xy;
+    uint eye = gl_GlobalInvocationID.z;
+    if (any(greaterThanEqual(px, size))) return;
+    uint pixel = px.y * size.x + px.x;
+    uint pm = eye * npix() + pixel;
+    uint m = mask_cur[pm];
+    uint vis = vis_bits(m);
+    EyeGpu e = frame.eyes[eye];
+    vec3 o = e.pos_tanx.xyz;
+    float spread = eye_pixel_spread(e);
+
+    vec3 sum = vec3(0.0), m1 = vec3(0.0), m2 = vec3(0.0);
+    float shaded = 0.0, c_total = 0.0;
+    float best_t = 3.4e38;
+    uvec4 best_fh = uvec4(0u, 0u, 0u, NO_HIT);
+    vec3 best_albedo = vec3(0.0), best_p = vec3(0.0);
+    uint bits = vis;
+    while (bits != 0u) {
+        uint s = uint(findLSB(bits));
+        bits &= bits - 1u;
+        uint idx = slot_index(eye, s, pixel);
+        uvec4 fh = fh_cur[idx];
+        vec3 wp = hit_position(fh);
+        float t = length(wp - o);
+        vec3 d = (wp - o) / max(t, 1e-30);
+        Surface surf = surface_at(fh.w, fh.z, first_hit_bary(fh), d);
+        ShadingMaterial mat = material_at(surf, d, t * spread);
+        vec4 rec = rad_cur[idx];
+        if (t < best_t) { best_t = t; best_fh = fh; best_albedo = mat.base; best_p = wp; }
+        if (rec.w > 0.0) {
+            vec3 L = mat.base * rec.rgb;
+            sum += L;
+            shaded += 1.0;
+            m1 += rec.w * L;          // Eq. 5, weighted by effective sample counts (Eq. 6)
+            m2 += rec.w * L * L;
+            c_total += rec.w;
+        }
+    }
+    vec3 color;
+    if (vis == 0u) {
+        // Background: what the pixel-centre camera ray sees (sky and sun disc).
+        vec3 d = eye_ray_dir(e, vec2(px) + 0.5);
+        float lp;
+        color = environment(d) + sun_radiance(d, lp);
+        m1 = color;
+        m2 = color * color;
+        out_depth[pm] = 0.0;
+        out_fh[pm] = uvec4(0u, 0u, 0u, NO_HIT);
+        out_albedo[pm] = vec4(0.0);
+    } else {
+        color = shaded > 0.0 ? sum / shaded : vec3(0.0);
+        m1 = c_total > 0.0 ? m1 / c_total : color;
+        m2 = c_total > 0.0 ? m2 / c_total : color * color;
+        out_depth[pm] = view_depth(e, best_p);
+        out_fh[pm] = best_fh;
+        out_albedo[pm] = vec4(best_albedo, 1.0);
+    }
+    out_color[pm] = vec4(color, c_total);
+    out_m1[pm] = vec4(m1, c_total);
+    out_m2[pm] = vec4(m2, c_total);
+
+    uvec4 st = pixel_stats[pm];
+    uint n2 = 2u * npix();
+    float inv_n = 1.0 / float(N_SLOTS);
+    // trace mask (Fig. 4): grey = traced slots, red tint = edge pixel; samples per pixel;
+    // shaded samples this frame (Fig. 5); layer occupancy.
+    debug_views[0u * n2 + pm] = vec4(vec3(float(bitCount(st.x)) * inv_n) + vec3(st.w != 0u ? 0.5 : 0.0, 0.0, 0.0), 1.0);
+    debug_views[1u * n2 + pm] = vec4(vec3(float(bitCount(vis)) * inv_n), 1.0);
+    debug_views[2u * n2 + pm] = vec4(vec3(float(st.y) * 0.25), 1.0);
+    debug_views[3u * n2 + pm] = vec4(vec3(float(bitCount(occ_bits(m))) * inv_n), 1.0);
+}

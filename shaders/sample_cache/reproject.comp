@@ -1,0 +1,93 @@
+#version 460
+// §3.1 forward reprojection with slot reservation by atomicOr (Listing 2).
+// One thread per source pixel walks its occupied slots. One-pass (default)
+// writes the sample data right after a successful reservation; two-pass
+// (TWO_PASS) writes only the source address, copied by reproject_copy.comp.
+// Successful visible samples update the per-pixel t_min/Δn (64-bit atomicMin)
+// and t_max (atomicMax), the importance histogram and the frame's w_min/w_max.
+#include "sample_cache/common.glsl"
+layout(constant_id = 24) const bool TWO_PASS = false;
+layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
+
+// Listing 2's choose_target_slot: a free slot, else (visible samples only)
+// an occupied but invisible one whose visibility bit we race for.
+int choose_target_slot(bool vis, uint m) {
+    uint free_slots = ~occ_bits(m) & full_bits();
+    if (free_slots != 0u) return findLSB(free_slots);
+    if (vis) {
+        uint invisible = occ_bits(m) & ~vis_bits(m);
+        if (invisible != 0u) return findLSB(invisible);
+    }
+    return -1;
+}
+
+void main() {
+    uvec2 size = frame_size();
+    uvec2 px = gl_GlobalInvocationID.xy;
+    uint eye = gl_GlobalInvocationID.z;
+    if (any(greaterThanEqual(px, size))) return;
+    uint pixel = px.y * size.x + px.x;
+    uint m_src = mask_prev[eye * npix() + pixel];
+    uint occ = occ_bits(m_src);
+    if (occ == 0u) return;
+    EyeGpu e = frame.eyes[eye];
+    float phi = pixel_diagonal_angle(e);
+    float w_lo, w_hi;
+    importance_bounds(eye, w_lo, w_hi);
+    uint reprojected = 0u, full = 0u, offscreen = 0u;
+    while (occ != 0u) {
+        uint s = uint(findLSB(occ));
+        occ &= occ - 1u;
+        uint src = slot_index(eye, s, pixel);
+        uvec4 fh = fh_prev[src];
+        vec3 wp = hit_position(fh);
+        vec2 q;
+        float vd;
+        if (!project_to_eye(e, wp, q, vd) || any(lessThan(q, vec2(0.0))) || any(greaterThanEqual(q, vec2(size)))) {
+            offscreen++;
+            continue;
+        }
+        uvec2 qi = uvec2(q);
+        uint target = qi.y * size.x + qi.x;
+        uint tm = eye * npix() + target;
+        bool vis = ((m_src >> (N_SLOTS + s)) & 1u) != 0u;
+        uint m = mask_cur[tm];
+        int slot = -1;
+        for (uint attempt = 0u; attempt < 2u * N_SLOTS + 1u; ++attempt) {
+            int i = choose_target_slot(vis, m);
+            if (i < 0) break;
+            uint o_bit = 1u << uint(i);
+            uint v_bit = 1u << (uint(i) + N_SLOTS);
+            uint s_val = o_bit | (vis ? v_bit : 0u);
+            uint old = atomicOr(mask_cur[tm], s_val);
+            bool success = (old & o_bit) == 0u;
+            if (vis && !success) success = (old & v_bit) == 0u;
+            m = old | s_val;
+            if (success) { slot = i; break; }
+        }
+        if (slot < 0) { full++; continue; }
+        uint dst = slot_index(eye, uint(slot), target);
+        if (TWO_PASS) {
+            target_src[dst] = src + 1u;
+        } else {
+            fh_cur[dst] = fh;
+            rad_cur[dst] = rad_prev[src];
+        }
+        reprojected++;
+        if (vis) {
+            vec3 to_eye = e.pos_tanx.xyz - wp;
+            float t = length(to_eye);
+            float cos_theta = abs(dot(hit_geometric_normal(fh), to_eye / max(t, 1e-30)));
+            float slope = normal_slope(t, cos_theta, phi);
+            atomicMin(depth_min[tm], (uint64_t(floatBitsToUint(t)) << 32) | uint64_t(floatBitsToUint(slope)));
+            atomicMax(depth_max[tm], floatBitsToUint(t));
+            float w = importance(rad_prev[src].w);
+            atomicAdd(hist[eye * HIST_M + importance_bucket(w, w_lo, w_hi)], 1u);
+            atomicMin(state[4u + eye], floatBitsToUint(w));
+            atomicMax(state[6u + eye], floatBitsToUint(w));
+        }
+    }
+    if (reprojected > 0u) atomicAdd(counters[C_REPROJECTED], reprojected);
+    if (full > 0u) atomicAdd(counters[C_REPROJECT_FULL], full);
+    if (offscreen > 0u) atomicAdd(counters[C_OFFSCREEN], offscreen);
+}

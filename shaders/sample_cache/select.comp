@@ -1,0 +1,69 @@
+#version 460
+// §3.2 step 1–2 decisions, from the reprojected cache (read only, so the
+// result does not depend on thread order): which slots to retrace
+// (single / multi / adaptive, §3.4), how many samples to add, which to purge.
+#include "sample_cache/common.glsl"
+layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
+
+void main() {
+    uvec2 size = frame_size();
+    uvec2 px = gl_GlobalInvocationID.xy;
+    uint eye = gl_GlobalInvocationID.z;
+    if (any(greaterThanEqual(px, size))) return;
+    uint pixel = px.y * size.x + px.x;
+    uint pm = eye * npix() + pixel;
+    uint m = mask_cur[pm];
+    uint occ = occ_bits(m), vis = vis_bits(m);
+    uint frame_index = frame.size_seed.w;
+
+    // 3×3 neighbourhood: visible-sample density and the farthest sample. Per
+    // appendix A, t_min and Δn are this pixel's own closest sample: every
+    // neighbour sample lies within 2φ of it, so on a flat surface the
+    // neighbourhood's t_max stays below t_min + 2Δn (Eq. 2).
+    uint vis_sum = 0u, count = 0u;
+    uint64_t own = depth_min[pm];
+    bool has_own = own != 0xFFFFFFFFFFFFFFFFul;
+    float t_min = has_own ? uintBitsToFloat(uint(own >> 32)) : 0.0;
+    float slope = has_own ? uintBitsToFloat(uint(own & 0xFFFFFFFFul)) : 0.0;
+    float t_max = 0.0;
+    for (int dy = -1; dy <= 1; ++dy) {
+        for (int dx = -1; dx <= 1; ++dx) {
+            ivec2 q = ivec2(px) + ivec2(dx, dy);
+            if (any(lessThan(q, ivec2(0))) || any(greaterThanEqual(q, ivec2(size)))) continue;
+            uint qm = eye * npix() + uint(q.y) * size.x + uint(q.x);
+            vis_sum += bitCount(vis_bits(mask_cur[qm]));
+            count++;
+            t_max = max(t_max, uintBitsToFloat(depth_max[qm]));
+        }
+    }
+    float density = float(vis_sum) / float(max(count, 1u));
+
+    uint trace = 0u;
+    uint n_occ = bitCount(occ);
+    bool edge = false;
+    if (n_occ > 0u) {
+        uint round_robin = nth_set_bit(occ, frame_index % n_occ);
+        if (RETRACE_MODE == 0u) {
+            trace = 1u << round_robin;
+        } else if (RETRACE_MODE == 1u) {
+            trace = occ;
+        } else {
+            edge = has_own && !depths_consistent(t_min, slope, t_max, pc.eps1);
+            if (edge) trace = occ;
+            else if (is_sparse_base_pixel(px, frame_index, eye)) trace = 1u << round_robin;
+        }
+    }
+
+    // Density control: add towards n_target, or purge one sample at random.
+    uint add = 0u, purge = 0u;
+    uint n_vis = bitCount(vis);
+    if (density < float(pc.n_target) - float(pc.delta) && n_vis < pc.n_target) {
+        uint room = bitCount(~occ & full_bits()) + bitCount(occ & ~vis);
+        add = min(pc.n_target - n_vis, room);
+    } else if (density > float(pc.n_target + pc.delta) && n_vis > 1u) {
+        Rng r = rng_init(frame.size_seed.z, frame_index, eye, pixel, 0x5EED0001u);
+        purge = nth_set_bit(vis, min(uint(rng_next(r) * float(n_vis)), n_vis - 1u)) + 1u;
+        trace &= ~(1u << (purge - 1u));
+    }
+    pixel_action[pm] = uvec4(trace, add, purge, edge ? 1u : 0u);
+}

@@ -1,0 +1,110 @@
+#version 460
+// §3.2 step 3: retrace the selected slots with rays from the eye to the
+// stored hit (visible when the closest hit lies within ε0·t of it), purge,
+// add new samples through random points in the pixel (into a free slot or
+// over an invisible one), and keep at least one visible sample: a pixel left
+// without one gets a fresh hit (over the last one that failed, if any).
+#include "sample_cache/common.glsl"
+layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
+
+// Traces a new sample through a random point of the pixel into `slot`;
+// returns true when it hit geometry.
+bool new_sample(EyeGpu e, uvec2 px, uint eye, uint pixel, uint slot, inout Rng r, inout uint m) {
+    vec3 o = e.pos_tanx.xyz;
+    vec3 d = eye_ray_dir(e, vec2(px) + rng_next2(r));
+    RtHit h;
+    bool hit = rt_closest_hit(o, d, 0.0, 1e30, h);
+    uint o_bit = 1u << slot, v_bit = 1u << (slot + N_SLOTS);
+    if (!hit) {
+        m &= ~(o_bit | v_bit);
+        return false;
+    }
+    uint idx = slot_index(eye, slot, pixel);
+    fh_cur[idx] = encode_first_hit(h.bary, h.instance, h.prim, instance_material(h.instance));
+    rad_cur[idx] = vec4(0.0);
+    m |= o_bit | v_bit;
+    return true;
+}
+
+// A slot for a new sample: free first, then invisible, else -1.
+int slot_for_new(uint m) {
+    uint free_slots = ~occ_bits(m) & full_bits();
+    if (free_slots != 0u) return findLSB(free_slots);
+    uint invisible = occ_bits(m) & ~vis_bits(m);
+    if (invisible != 0u) return findLSB(invisible);
+    return -1;
+}
+
+void main() {
+    uvec2 size = frame_size();
+    uvec2 px = gl_GlobalInvocationID.xy;
+    uint eye = gl_GlobalInvocationID.z;
+    if (any(greaterThanEqual(px, size))) return;
+    uint pixel = px.y * size.x + px.x;
+    uint pm = eye * npix() + pixel;
+    uvec4 action = pixel_action[pm];
+    uint m = mask_cur[pm];
+    EyeGpu e = frame.eyes[eye];
+    vec3 o = e.pos_tanx.xyz;
+    Rng r = rng_init(frame.size_seed.z, frame.size_seed.w, eye, pixel, 0x5EED0002u);
+    uint retrace_rays = 0u, new_rays = 0u, added = 0u, holes = 0u, replaced = 0u, bg_rays = 0u;
+
+    if (action.z != 0u) {
+        uint s = action.z - 1u;
+        m &= ~((1u << s) | (1u << (s + N_SLOTS)));
+    }
+    uint vis_before = vis_bits(m);
+    int last_failed = -1;
+    uint trace = action.x & occ_bits(m);
+    while (trace != 0u) {
+        uint s = uint(findLSB(trace));
+        trace &= trace - 1u;
+        vec3 wp = hit_position(fh_cur[slot_index(eye, s, pixel)]);
+        vec3 d = wp - o;
+        float t = length(d);
+        d /= max(t, 1e-30);
+        RtHit h;
+        bool hit = rt_closest_hit(o, d, 0.0, t * (1.0 + 2.0 * pc.eps0), h);
+        retrace_rays++;
+        bool visible = hit && abs(h.t - t) <= pc.eps0 * t;
+        uint v_bit = 1u << (s + N_SLOTS);
+        if (visible) m |= v_bit;
+        else {
+            if ((m & v_bit) != 0u) last_failed = int(s);
+            m &= ~v_bit;
+        }
+    }
+
+    // Add samples towards the target density.
+    for (uint k = 0u; k < action.y; ++k) {
+        int s = slot_for_new(m);
+        if (s < 0) break;
+        new_rays++;
+        if (new_sample(e, px, eye, pixel, uint(s), r, m)) added++;
+    }
+
+    // Keep at least one visible sample.
+    if (vis_bits(m) == 0u) {
+        int s = last_failed >= 0 ? last_failed : slot_for_new(m);
+        if (s < 0) s = 0;
+        bool had = vis_before != 0u;
+        bool hit = new_sample(e, px, eye, pixel, uint(s), r, m);
+        if (hit) {
+            new_rays++;
+            if (had) replaced++; else holes++;
+        } else {
+            bg_rays++;
+        }
+    }
+    mask_cur[pm] = m;
+    pixel_stats[pm] = uvec4(action.x, 0u, added + holes + replaced, action.w);
+    atomicAdd(counters[C_RETRACE_RAYS], retrace_rays);
+    atomicAdd(counters[C_NEW_RAYS], new_rays);
+    atomicAdd(counters[C_BG_RAYS], bg_rays);
+    atomicAdd(counters[C_ADDED], added);
+    atomicAdd(counters[C_HOLES], holes);
+    atomicAdd(counters[C_REPLACED], replaced);
+    atomicAdd(counters[C_PURGED], action.z != 0u ? 1u : 0u);
+    atomicAdd(counters[C_EDGE_PIXELS], action.w);
+    atomicAdd(counters[C_VISIBLE], bitCount(vis_bits(m)));
+}

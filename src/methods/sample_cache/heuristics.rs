@@ -1,0 +1,148 @@
+//! CPU twins of the sample cache's per-pixel heuristics, written to evaluate
+//! exactly what `shaders/sample_cache/common.glsl` evaluates, so they can be
+//! unit-tested at the edges (θ → 90°, t → 0, huge t).
+
+/// Number of importance buckets of the shading histogram (§3.5, M = 13).
+pub const HIST_M: u32 = 13;
+
+/// Eq. 1: the expected depth extent within a pixel footprint,
+/// Δn = t_s |1 − cos θ / cos(θ − φ)| with θ clamped to [0, π/2] (appendix A):
+/// the denominator is then ≥ sin φ > 0, so Δn ≤ t_s stays finite up to
+/// grazing incidence, and Δn → 0 as t → 0.
+pub fn normal_slope(t: f32, cos_theta: f32, phi: f32) -> f32 {
+    let c = cos_theta.clamp(0.0, 1.0);
+    let theta = c.acos();
+    t * (1.0 - c / (theta - phi).cos()).abs()
+}
+
+/// Eq. 2: `t_max < (1 + ε1)(t_min + 2Δn)` — the depths in a 3×3 neighbourhood
+/// are consistent with one locally flat surface (no retrace of every sample).
+pub fn depths_consistent(t_min: f32, slope: f32, t_max: f32, eps1: f32) -> bool {
+    t_max < (1.0 + eps1) * (t_min + 2.0 * slope)
+}
+
+/// φ of Eq. 1: the angle subtended by a pixel's diagonal, for a symmetric
+/// frustum with half-angle tangents `tan_half` and an image of `size` pixels.
+pub fn pixel_diagonal_angle(tan_half: [f32; 2], size: [u32; 2]) -> f32 {
+    let px = 2.0 * tan_half[0] / size[0] as f32;
+    let py = 2.0 * tan_half[1] / size[1] as f32;
+    (px * px + py * py).sqrt().atan()
+}
+
+/// Shading importance w = (1 + c_s)^−1 (§3.5).
+pub fn importance(c: f32) -> f32 {
+    1.0 / (1.0 + c)
+}
+
+/// Logarithmic bucket of importance `w` between the previous frame's
+/// extremes: floor(M · log(w / w_min) / log(w_max / w_min)), clamped to
+/// [0, M − 1]; degenerate bounds put everything in the top bucket.
+pub fn importance_bucket(w: f32, w_min: f32, w_max: f32) -> u32 {
+    if !(w_max > w_min) || !(w_min > 0.0) {
+        return HIST_M - 1;
+    }
+    let x = (w / w_min).ln() / (w_max / w_min).ln();
+    (x * HIST_M as f32).floor().clamp(0.0, (HIST_M - 1) as f32) as u32
+}
+
+/// Appendix C: the smallest temporal blend factor for a view-dependent
+/// material of GGX roughness α: α_min = (1 − α)·0.5 + α·0.1.
+pub fn alpha_min(alpha_ggx: f32) -> f32 {
+    (1.0 - alpha_ggx) * 0.5 + alpha_ggx * 0.1
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const PHI: f32 = 0.0025; // ~1080p, 90° vertical field of view
+
+    #[test]
+    fn slope_is_zero_head_on_and_bounded_at_grazing_angles() {
+        assert!(normal_slope(10.0, 1.0, PHI) < 10.0 * 4e-6);
+        for deg in [60.0f32, 80.0, 89.0, 89.9, 89.99, 90.0] {
+            let s = normal_slope(10.0, deg.to_radians().cos(), PHI);
+            assert!(
+                s.is_finite() && s >= 0.0 && s <= 10.0 + 1e-4,
+                "θ = {deg}°: Δ = {s}"
+            );
+        }
+        // Exactly tangential and backfacing inputs clamp to θ = 90°: Δ = t.
+        assert!((normal_slope(10.0, 0.0, PHI) - 10.0).abs() < 1e-4);
+        assert!((normal_slope(10.0, -0.5, PHI) - 10.0).abs() < 1e-4);
+        // Grows monotonically with θ.
+        let mut prev = 0.0;
+        for i in 0..=90 {
+            let s = normal_slope(1.0, (i as f32).to_radians().cos(), PHI);
+            assert!(s + 1e-6 >= prev, "not monotone at {i}°");
+            prev = s;
+        }
+    }
+
+    #[test]
+    fn slope_scales_with_distance_and_vanishes_at_zero() {
+        let c = 60f32.to_radians().cos();
+        assert_eq!(normal_slope(0.0, c, PHI), 0.0);
+        let a = normal_slope(1.0, c, PHI);
+        let b = normal_slope(1.0e6, c, PHI);
+        assert!(((b / a) - 1.0e6).abs() / 1.0e6 < 1e-4);
+        assert!(normal_slope(3.0e38, c, PHI).is_finite());
+    }
+
+    #[test]
+    fn small_angle_slope_matches_the_derivative() {
+        // For small φ, Δ ≈ t φ tan θ (first-order expansion of Eq. 1).
+        let theta = 45f32.to_radians();
+        let s = normal_slope(2.0, theta.cos(), PHI);
+        let approx = 2.0 * PHI * theta.tan();
+        assert!((s - approx).abs() / approx < 0.01, "{s} vs {approx}");
+    }
+
+    #[test]
+    fn flat_surfaces_pass_eq2_and_steps_fail() {
+        let t = 5.0;
+        let theta = 70f32.to_radians();
+        let slope = normal_slope(t, theta.cos(), PHI);
+        // A tilted plane's depth range across a 3×3 block stays inside the bound.
+        assert!(depths_consistent(t, slope, t + 1.5 * slope, 0.005));
+        // A depth step (an edge) does not.
+        assert!(!depths_consistent(t, slope, t * 1.2, 0.005));
+        // Numerical noise at a head-on plane is absorbed by ε1.
+        assert!(depths_consistent(t, 0.0, t * (1.0 + 1e-4), 0.005));
+    }
+
+    #[test]
+    fn pixel_diagonal_angle_of_a_square_pixel() {
+        let phi = pixel_diagonal_angle([1.0, 1.0], [1000, 1000]);
+        assert!((phi - (0.002f32 * 2f32.sqrt()).atan()).abs() < 1e-7);
+    }
+
+    #[test]
+    fn buckets_cover_the_range_monotonically() {
+        let (lo, hi) = (importance(1000.0), importance(0.0));
+        assert_eq!(importance_bucket(hi, lo, hi), HIST_M - 1);
+        assert_eq!(importance_bucket(lo, lo, hi), 0);
+        let mut prev = 0;
+        for c in (0..=1000).rev() {
+            let b = importance_bucket(importance(c as f32), lo, hi);
+            assert!(b >= prev, "bucket not monotone in importance");
+            prev = b;
+        }
+        // Outside the bounds clamps; degenerate bounds go to the top bucket.
+        assert_eq!(importance_bucket(2.0, lo, hi), HIST_M - 1);
+        assert_eq!(importance_bucket(1e-9, lo, hi), 0);
+        assert_eq!(importance_bucket(0.5, 0.5, 0.5), HIST_M - 1);
+        assert_eq!(importance_bucket(0.5, 0.0, 1.0), HIST_M - 1);
+        // Logarithmic: equal ratios of w land in equally spaced buckets.
+        let b1 = importance_bucket(lo * 2.0, lo, lo * 2f32.powi(13));
+        let b2 = importance_bucket(lo * 4.0, lo, lo * 2f32.powi(13));
+        assert_eq!((b1, b2), (1, 2));
+    }
+
+    #[test]
+    fn appendix_c_alpha_min() {
+        assert_eq!(alpha_min(0.0), 0.5);
+        assert!((alpha_min(1.0) - 0.1).abs() < 1e-7);
+        assert!((alpha_min(0.2) - 0.42).abs() < 1e-6);
+    }
+}

@@ -1,0 +1,583 @@
+//! `sample-cache`: the screen-space sample cache of Philippi, Jensen &
+//! Frisvad (EGSR 2025), §3.1–3.5 and appendices A, C, D. One cache per eye:
+//! N layers of (first hit, radiance record) plus a 32-bit occupancy/visibility
+//! mask per pixel, double-buffered so each frame reprojects the previous one.
+//!
+//! Memory per pixel per eye: 4 B mask + N × (16 B first hit + 16 B radiance),
+//! twice (previous and current frame), i.e. 64 B per pixel per layer plus 8 B
+//! of masks; plus 12 B of depth bounds and the per-pixel outputs.
+//!
+//! Passes per frame (both eyes in one dispatch each, `z` = eye):
+//! `begin` → `clear` → `reproject` (→ `reproject.copy` for two-pass) →
+//! `select` → `trace` → `shade.select` → `shade` → `reconstruct`.
+
+pub mod heuristics;
+pub mod settings;
+
+pub use settings::{Accumulation, Reproject, Retrace, SampleCacheSettings, Shading};
+
+use super::reference::backend_shader;
+use super::{
+    EyeImage, FrameInput, FrameParams, FrameStats, Method, RayCounts, RenderSettings, StereoFrame,
+};
+use crate::gpu::{
+    Buffer, ComputePipeline, DescriptorLayout, DescriptorSet, GpuContext, GpuError, GpuResult,
+    Recorder, Resource,
+};
+use crate::rt::SceneGpu;
+use crate::scene::Environment;
+use std::sync::Arc;
+
+/// Specialization constant ids of shaders/sample_cache/common.glsl.
+mod spec_id {
+    pub const SLOTS: u32 = 20;
+    pub const RETRACE: u32 = 21;
+    pub const SHADING: u32 = 22;
+    pub const ACCUM: u32 = 23;
+    pub const TWO_PASS: u32 = 24;
+}
+
+/// Counter slots written by the shaders (common.glsl `C_*`), with report names.
+const COUNTERS: &[(usize, &str)] = &[
+    (0, "retrace_rays"),
+    (1, "new_sample_rays"),
+    (4, "holes_filled"),
+    (5, "samples_added"),
+    (6, "slots_purged"),
+    (7, "reprojected_samples"),
+    (8, "reproject_no_free_slot"),
+    (9, "reproject_offscreen"),
+    (10, "shaded_samples"),
+    (11, "last_visible_replaced"),
+    (12, "edge_pixels"),
+    (13, "visible_samples"),
+    (14, "background_rays"),
+];
+
+/// Names of the debug views, in the order the reconstruct pass writes them.
+pub const DEBUG_VIEWS: [&str; 4] = ["trace-mask", "spp", "shaded", "occupancy"];
+
+const LOCAL: u32 = 8;
+const HIST_M: u64 = heuristics::HIST_M as u64;
+
+/// The cache's contents read back from the GPU (current frame), for tests
+/// and debugging. Indices: mask `[eye][pixel]`, slots `[eye][slot][pixel]`.
+pub struct CacheSnapshot {
+    pub slots: u32,
+    pub width: u32,
+    pub height: u32,
+    pub masks: Vec<u32>,
+    pub first_hits: Vec<[u32; 4]>,
+    pub radiance: Vec<[f32; 4]>,
+    /// Per pixel: traced slot bits, shaded samples this frame, new samples, edge flag.
+    pub pixel_stats: Vec<[u32; 4]>,
+    /// Importance histogram `[eye][bucket]` counted during this frame's reprojection.
+    pub histogram: Vec<u32>,
+    /// Length of this frame's shade list.
+    pub shade_count: u32,
+    pub shade_list: Vec<u32>,
+}
+
+impl CacheSnapshot {
+    pub fn npix(&self) -> usize {
+        (self.width * self.height) as usize
+    }
+    pub fn mask(&self, eye: usize, pixel: usize) -> u32 {
+        self.masks[eye * self.npix() + pixel]
+    }
+    pub fn slot(&self, eye: usize, slot: u32, pixel: usize) -> usize {
+        (eye * self.slots as usize + slot as usize) * self.npix() + pixel
+    }
+    pub fn occupied(&self, m: u32) -> u32 {
+        m & ((1u32 << self.slots) - 1)
+    }
+    pub fn visible(&self, m: u32) -> u32 {
+        (m >> self.slots) & ((1u32 << self.slots) - 1)
+    }
+}
+
+struct Pipelines {
+    begin: ComputePipeline,
+    reproject: ComputePipeline,
+    reproject_copy: Option<ComputePipeline>,
+    select: ComputePipeline,
+    trace: ComputePipeline,
+    shade_select: ComputePipeline,
+    shade: ComputePipeline,
+    reconstruct: ComputePipeline,
+}
+
+pub struct SampleCache {
+    ctx: Arc<GpuContext>,
+    scene: Arc<SceneGpu>,
+    settings: RenderSettings,
+    cache: SampleCacheSettings,
+    pipes: Pipelines,
+    /// sets[p] reads buffers[p] as "previous" and writes buffers[1 − p].
+    sets: [DescriptorSet; 2],
+    frame: Buffer,
+    masks: [Buffer; 2],
+    first_hits: [Buffer; 2],
+    radiance: [Buffer; 2],
+    depth_min: Buffer,
+    depth_max: Buffer,
+    hist: Buffer,
+    state: Buffer,
+    shade_list: Buffer,
+    target_src: Buffer,
+    out_color: Buffer,
+    out_m1: Buffer,
+    out_m2: Buffer,
+    out_depth: Buffer,
+    out_fh: Buffer,
+    out_albedo: Buffer,
+    counters: Buffer,
+    pixel_action: Buffer,
+    pixel_stats: Buffer,
+    debug: Buffer,
+    /// Frames rendered so far (selects the ping-pong parity).
+    frames: u64,
+}
+
+impl SampleCache {
+    pub fn new(
+        ctx: &Arc<GpuContext>,
+        scene: &Arc<SceneGpu>,
+        env: &Option<Environment>,
+        settings: &RenderSettings,
+    ) -> GpuResult<Self> {
+        let cache = settings.cache.clone();
+        cache.validate().map_err(GpuError::Unsupported)?;
+        if !ctx.caps.buffer_int64_atomics {
+            return Err(GpuError::Unsupported(format!(
+                "device '{}' lacks shaderBufferInt64Atomics, which the sample cache's depth bounds need",
+                ctx.caps.name
+            )));
+        }
+        let npix = (settings.width * settings.height) as u64;
+        if npix > (1 << 26) {
+            return Err(GpuError::Unsupported(
+                "the sample cache addresses at most 2^26 pixels per eye".into(),
+            ));
+        }
+        let n = cache.slots as u64;
+        let e2 = 2 * npix;
+        let two_pass = cache.reproject == Reproject::TwoPass;
+        let b =
+            |name: &str, bytes: u64| Buffer::storage(ctx, &format!("sample_cache.{name}"), bytes);
+        let frame = b("frame", std::mem::size_of::<FrameParams>() as u64)?;
+        let masks = [b("mask0", e2 * 4)?, b("mask1", e2 * 4)?];
+        let first_hits = [b("first_hit0", e2 * n * 16)?, b("first_hit1", e2 * n * 16)?];
+        let radiance = [b("radiance0", e2 * n * 16)?, b("radiance1", e2 * n * 16)?];
+        let depth_min = b("depth_min", e2 * 8)?;
+        let depth_max = b("depth_max", e2 * 4)?;
+        let hist = b("histogram", 2 * HIST_M * 4)?;
+        let state = b("state", 16 * 4)?;
+        let shade_list = b("shade_list", (e2 * n + e2) * 4)?;
+        let target_src = b("target_src", if two_pass { e2 * n * 4 } else { 16 })?;
+        let out_color = b("color", e2 * 16)?;
+        let out_m1 = b("moment1", e2 * 16)?;
+        let out_m2 = b("moment2", e2 * 16)?;
+        let out_depth = b("depth", e2 * 4)?;
+        let out_fh = b("out_first_hit", e2 * 16)?;
+        let out_albedo = b("albedo", e2 * 16)?;
+        let counters = b("counters", 32 * 4)?;
+        let pixel_action = b("pixel_action", e2 * 16)?;
+        let pixel_stats = b("pixel_stats", e2 * 16)?;
+        let debug = b("debug", 4 * e2 * 16)?;
+
+        let layout = DescriptorLayout::buffers(ctx, 23)?;
+        let make_set = |p: usize| {
+            let q = 1 - p;
+            DescriptorSet::new(
+                ctx,
+                &layout,
+                &[
+                    Resource::Buffer(&frame),
+                    Resource::Buffer(&masks[p]),
+                    Resource::Buffer(&masks[q]),
+                    Resource::Buffer(&first_hits[p]),
+                    Resource::Buffer(&first_hits[q]),
+                    Resource::Buffer(&radiance[p]),
+                    Resource::Buffer(&radiance[q]),
+                    Resource::Buffer(&depth_min),
+                    Resource::Buffer(&depth_max),
+                    Resource::Buffer(&hist),
+                    Resource::Buffer(&state),
+                    Resource::Buffer(&shade_list),
+                    Resource::Buffer(&target_src),
+                    Resource::Buffer(&out_color),
+                    Resource::Buffer(&out_m1),
+                    Resource::Buffer(&out_m2),
+                    Resource::Buffer(&out_depth),
+                    Resource::Buffer(&out_fh),
+                    Resource::Buffer(&out_albedo),
+                    Resource::Buffer(&counters),
+                    Resource::Buffer(&pixel_action),
+                    Resource::Buffer(&pixel_stats),
+                    Resource::Buffer(&debug),
+                ],
+            )
+        };
+        let sets = [make_set(0)?, make_set(1)?];
+
+        let mut spec = scene.spec_constants(env, settings.max_bounces, settings.all_features);
+        spec.set(spec_id::SLOTS, cache.slots)
+            .set(spec_id::RETRACE, cache.retrace as u32)
+            .set(spec_id::SHADING, cache.shading as u32)
+            .set(
+                spec_id::ACCUM,
+                matches!(cache.accumulation, Accumulation::FixedAlpha(_)) as u32,
+            )
+            .flag(spec_id::TWO_PASS, two_pass);
+        let layouts = [scene.layout.clone(), layout];
+        let push = 32;
+        let pipe = |name: &str| -> GpuResult<ComputePipeline> {
+            ComputePipeline::new(
+                ctx,
+                &format!("sample_cache.{name}"),
+                backend_shader(&format!("sample_cache/{name}"), scene)?,
+                &layouts,
+                push,
+                &spec,
+            )
+        };
+        let pipes = Pipelines {
+            begin: pipe("begin")?,
+            reproject: pipe("reproject")?,
+            reproject_copy: if two_pass {
+                Some(pipe("reproject_copy")?)
+            } else {
+                None
+            },
+            select: pipe("select")?,
+            trace: pipe("trace")?,
+            shade_select: pipe("shade_select")?,
+            shade: pipe("shade")?,
+            reconstruct: pipe("reconstruct")?,
+        };
+
+        // Empty caches; importance bounds "unset" so the first frame uses defaults.
+        let mut init = Recorder::new(ctx, 8)?;
+        init.pass("sample_cache.init")
+            .write(&masks[0])
+            .write(&masks[1])
+            .write(&radiance[0])
+            .write(&radiance[1])
+            .write(&hist)
+            .fill(0);
+        init.pass("sample_cache.init.first_hits")
+            .write(&first_hits[0])
+            .write(&first_hits[1])
+            .fill(u32::MAX);
+        let state_init: [u32; 16] = [
+            u32::MAX,
+            u32::MAX,
+            0,
+            0,
+            u32::MAX,
+            u32::MAX,
+            0,
+            0,
+            0,
+            0,
+            0,
+            0,
+            0,
+            0,
+            0,
+            0,
+        ];
+        init.pass("sample_cache.init.state")
+            .write(&state)
+            .update(bytemuck::cast_slice(&state_init));
+        init.finish()?;
+
+        Ok(SampleCache {
+            ctx: ctx.clone(),
+            scene: scene.clone(),
+            settings: settings.clone(),
+            cache,
+            pipes,
+            sets,
+            frame,
+            masks,
+            first_hits,
+            radiance,
+            depth_min,
+            depth_max,
+            hist,
+            state,
+            shade_list,
+            target_src,
+            out_color,
+            out_m1,
+            out_m2,
+            out_depth,
+            out_fh,
+            out_albedo,
+            counters,
+            pixel_action,
+            pixel_stats,
+            debug,
+            frames: 0,
+        })
+    }
+
+    fn push_constants(&self) -> Vec<u8> {
+        let c = &self.cache;
+        let fixed = match c.accumulation {
+            Accumulation::FixedAlpha(a) => a,
+            Accumulation::RunningMean => 0.0,
+        };
+        let mut v = Vec::with_capacity(32);
+        for f in [c.shading_rate, fixed, c.eps0, c.eps1] {
+            v.extend_from_slice(&f.to_le_bytes());
+        }
+        for u in [c.n_target, c.delta, 0, 0] {
+            v.extend_from_slice(&u.to_le_bytes());
+        }
+        v
+    }
+
+    /// Index (0/1) of the buffers holding the current frame's cache.
+    fn cur(&self) -> usize {
+        // Frame f reads buffers[f % 2] and writes buffers[1 − f % 2]; after
+        // render_frame increments `frames`, the latest cache is in:
+        (self.frames % 2) as usize
+    }
+
+    /// Reads the current cache back (after `render_frame`).
+    pub fn snapshot(&self) -> GpuResult<CacheSnapshot> {
+        let c = self.cur();
+        let state: Vec<u32> = self.state.download_pod()?;
+        Ok(CacheSnapshot {
+            slots: self.cache.slots,
+            width: self.settings.width,
+            height: self.settings.height,
+            masks: self.masks[c].download_pod()?,
+            first_hits: self.first_hits[c].download_pod()?,
+            radiance: self.radiance[c].download_pod()?,
+            pixel_stats: self.pixel_stats.download_pod()?,
+            histogram: self.hist.download_pod()?,
+            shade_count: state[8],
+            shade_list: self.shade_list.download_pod()?,
+        })
+    }
+
+    /// Per-pixel raw moments μ1, μ2 (Eq. 5–6; w = total effective count) of the last frame.
+    pub fn moments(&self) -> GpuResult<(Vec<[f32; 4]>, Vec<[f32; 4]>)> {
+        Ok((self.out_m1.download_pod()?, self.out_m2.download_pod()?))
+    }
+
+    pub fn settings(&self) -> &SampleCacheSettings {
+        &self.cache
+    }
+}
+
+impl Method for SampleCache {
+    fn name(&self) -> &'static str {
+        "sample-cache"
+    }
+
+    fn render_frame(&mut self, input: &FrameInput) -> GpuResult<StereoFrame> {
+        let (w, h) = (self.settings.width, self.settings.height);
+        let npix = (w * h) as usize;
+        let parity = (self.frames % 2) as usize;
+        let (cur_mask, cur_fh, cur_rad) = (
+            &self.masks[1 - parity],
+            &self.first_hits[1 - parity],
+            &self.radiance[1 - parity],
+        );
+        let (prev_mask, prev_fh, prev_rad) = (
+            &self.masks[parity],
+            &self.first_hits[parity],
+            &self.radiance[parity],
+        );
+        let mut params = FrameParams::new(input, w, h, self.settings.seed);
+        params.size_seed[3] = input.index;
+        let push = self.push_constants();
+        let sets = [&self.scene.set, &self.sets[parity]];
+        let groups = [w.div_ceil(LOCAL), h.div_ceil(LOCAL), 2];
+        let p = &self.pipes;
+
+        let mut rec = Recorder::new(&self.ctx, 16)?;
+        rec.pass("params")
+            .write(&self.frame)
+            .update(bytemuck::bytes_of(&params));
+        rec.pass("begin")
+            .write(&self.state)
+            .write(&self.hist)
+            .write(&self.counters)
+            .dispatch(&p.begin, &sets, &push, [1, 1, 1]);
+        rec.pass("clear")
+            .write(cur_mask)
+            .write(&self.depth_max)
+            .fill(0);
+        rec.pass("clear.depth")
+            .write(&self.depth_min)
+            .fill(u32::MAX);
+        if p.reproject_copy.is_some() {
+            rec.pass("clear.targets").write(&self.target_src).fill(0);
+        }
+        rec.pass("reproject")
+            .read(&self.frame)
+            .read(prev_mask)
+            .read(prev_fh)
+            .read(prev_rad)
+            .write(cur_mask)
+            .write(cur_fh)
+            .write(cur_rad)
+            .write(&self.depth_min)
+            .write(&self.depth_max)
+            .write(&self.hist)
+            .write(&self.state)
+            .write(&self.counters)
+            .write(&self.target_src)
+            .dispatch(&p.reproject, &sets, &push, groups);
+        if let Some(copy) = &p.reproject_copy {
+            rec.pass("reproject.copy")
+                .read(cur_mask)
+                .read(&self.target_src)
+                .read(prev_fh)
+                .read(prev_rad)
+                .write(cur_fh)
+                .write(cur_rad)
+                .dispatch(copy, &sets, &push, groups);
+        }
+        rec.pass("select")
+            .read(cur_mask)
+            .read(&self.depth_min)
+            .read(&self.depth_max)
+            .write(&self.pixel_action)
+            .dispatch(&p.select, &sets, &push, groups);
+        rec.pass("trace")
+            .read(&self.pixel_action)
+            .write(cur_mask)
+            .write(cur_fh)
+            .write(cur_rad)
+            .write(&self.pixel_stats)
+            .write(&self.counters)
+            .dispatch(&p.trace, &sets, &push, groups);
+        rec.pass("shade.select")
+            .read(cur_mask)
+            .read(cur_rad)
+            .read(&self.hist)
+            .write(&self.state)
+            .write(&self.shade_list)
+            .dispatch(&p.shade_select, &sets, &push, groups);
+        let max_list = (2 * npix) as u32 * (self.cache.slots + 1);
+        rec.pass("shade")
+            .read(&self.shade_list)
+            .read(&self.state)
+            .read(cur_fh)
+            .write(cur_rad)
+            .write(&self.pixel_stats)
+            .write(&self.counters)
+            .dispatch(&p.shade, &sets, &push, [max_list.div_ceil(64), 1, 1]);
+        rec.pass("reconstruct")
+            .read(cur_mask)
+            .read(cur_fh)
+            .read(cur_rad)
+            .read(&self.pixel_stats)
+            .write(&self.out_color)
+            .write(&self.out_m1)
+            .write(&self.out_m2)
+            .write(&self.out_depth)
+            .write(&self.out_fh)
+            .write(&self.out_albedo)
+            .write(&self.debug)
+            .dispatch(&p.reconstruct, &sets, &push, groups);
+        let passes = rec.finish()?;
+        self.frames += 1;
+
+        let color: Vec<[f32; 4]> = self.out_color.download_pod()?;
+        let depth: Vec<f32> = self.out_depth.download_pod()?;
+        let fh: Vec<[u32; 4]> = self.out_fh.download_pod()?;
+        let albedo: Vec<[f32; 4]> = self.out_albedo.download_pod()?;
+        let counters: Vec<u32> = self.counters.download_pod()?;
+        let debug: Vec<[f32; 4]> = if self.cache.debug_views {
+            self.debug.download_pod()?
+        } else {
+            Vec::new()
+        };
+        let eye = |e: usize| EyeImage {
+            radiance: color[e * npix..(e + 1) * npix]
+                .iter()
+                .map(|c| [c[0], c[1], c[2], 1.0])
+                .collect(),
+            depth: depth[e * npix..(e + 1) * npix].to_vec(),
+            first_hit: fh[e * npix..(e + 1) * npix].to_vec(),
+            albedo: albedo[e * npix..(e + 1) * npix].to_vec(),
+            debug: if debug.is_empty() {
+                Vec::new()
+            } else {
+                DEBUG_VIEWS
+                    .iter()
+                    .enumerate()
+                    .map(|(v, name)| {
+                        (
+                            name.to_string(),
+                            debug[(v * 2 + e) * npix..(v * 2 + e + 1) * npix].to_vec(),
+                        )
+                    })
+                    .collect()
+            },
+        };
+        let mut stats = FrameStats {
+            passes,
+            rays: RayCounts {
+                primary: counters[0] as u64 + counters[1] as u64 + counters[14] as u64,
+                bounce: counters[2] as u64,
+                shadow: counters[3] as u64,
+            },
+            counters: Default::default(),
+        };
+        for (i, name) in COUNTERS {
+            stats.counters.insert(name.to_string(), counters[*i] as f64);
+        }
+        stats.counters.insert(
+            "visible_samples_per_pixel".into(),
+            counters[13] as f64 / (2 * npix) as f64,
+        );
+        Ok(StereoFrame {
+            width: w,
+            height: h,
+            eyes: [eye(0), eye(1)],
+            stats,
+        })
+    }
+
+    fn memory_bytes(&self) -> u64 {
+        let mut total = self.frame.size
+            + self.depth_min.size
+            + self.depth_max.size
+            + self.hist.size
+            + self.state.size;
+        for b in self
+            .masks
+            .iter()
+            .chain(&self.first_hits)
+            .chain(&self.radiance)
+        {
+            total += b.size;
+        }
+        for b in [
+            &self.shade_list,
+            &self.target_src,
+            &self.out_color,
+            &self.out_m1,
+            &self.out_m2,
+            &self.out_depth,
+            &self.out_fh,
+            &self.out_albedo,
+            &self.counters,
+            &self.pixel_action,
+            &self.pixel_stats,
+            &self.debug,
+        ] {
+            total += b.size;
+        }
+        total
+    }
+}

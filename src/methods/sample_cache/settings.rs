@@ -1,0 +1,173 @@
+//! Options of the `sample-cache` method and their command-line spellings.
+
+use serde::Serialize;
+use std::str::FromStr;
+
+/// `--retrace`: which cached samples are retraced each frame (§3.2, §3.4).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Retrace {
+    /// One slot per pixel, round robin.
+    Single,
+    /// Every slot every frame.
+    Multi,
+    /// One sample per 4×4 block plus every sample of pixels failing Eq. 2.
+    Adaptive,
+}
+
+/// `--shading`: which samples are shaded each frame (§3.3, §3.5).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Shading {
+    Uniform,
+    Adaptive,
+}
+
+/// `--reproject`: one pass with racy sample writes (default) or two passes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Reproject {
+    OnePass,
+    TwoPass,
+}
+
+/// `--accumulation`: running mean (with appendix C's α_min for
+/// view-dependent materials) or a fixed α for view-dependent materials.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub enum Accumulation {
+    RunningMean,
+    FixedAlpha(f32),
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct SampleCacheSettings {
+    /// N slots per pixel (≤ 16 with the 32-bit mask).
+    pub slots: u32,
+    pub n_target: u32,
+    pub delta: u32,
+    pub retrace: Retrace,
+    pub shading: Shading,
+    /// 1.0 = one shading invocation per pixel (adaptive shading).
+    pub shading_rate: f32,
+    pub reproject: Reproject,
+    pub accumulation: Accumulation,
+    /// Retrace tolerance ε0, relative to the hit distance.
+    pub eps0: f32,
+    /// Eq. 2's ε1.
+    pub eps1: f32,
+    /// Download the debug views (trace mask, samples per pixel, shaded, occupancy).
+    pub debug_views: bool,
+}
+
+impl Default for SampleCacheSettings {
+    fn default() -> Self {
+        SampleCacheSettings {
+            slots: 12,
+            n_target: 4,
+            delta: 1,
+            retrace: Retrace::Adaptive,
+            shading: Shading::Uniform,
+            shading_rate: 1.0,
+            reproject: Reproject::OnePass,
+            accumulation: Accumulation::RunningMean,
+            eps0: 0.001,
+            eps1: 0.005,
+            debug_views: false,
+        }
+    }
+}
+
+impl SampleCacheSettings {
+    /// Checks ranges; the message names the option.
+    pub fn validate(&self) -> Result<(), String> {
+        if !(1..=16).contains(&self.slots) {
+            return Err(format!(
+                "bad --slots {}: the 32-bit mask holds 1 to 16 slots",
+                self.slots
+            ));
+        }
+        if self.n_target == 0 || self.n_target > self.slots {
+            return Err(format!(
+                "bad --n-target {}: expected 1..={} (the slot count)",
+                self.n_target, self.slots
+            ));
+        }
+        if self.delta >= self.n_target {
+            return Err(format!(
+                "bad --delta {}: must be below --n-target {}",
+                self.delta, self.n_target
+            ));
+        }
+        if !(self.shading_rate.is_finite()
+            && self.shading_rate > 0.0
+            && self.shading_rate <= self.slots as f32)
+        {
+            return Err(format!(
+                "bad --shading-rate {}: expected a fraction in (0, {}]",
+                self.shading_rate, self.slots
+            ));
+        }
+        if let Accumulation::FixedAlpha(a) = self.accumulation {
+            if !(a > 0.0 && a <= 1.0) {
+                return Err(format!("bad --accumulation fixed:{a}: α must be in (0, 1]"));
+            }
+        }
+        Ok(())
+    }
+}
+
+impl FromStr for Retrace {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "single" => Ok(Retrace::Single),
+            "multi" => Ok(Retrace::Multi),
+            "adaptive" => Ok(Retrace::Adaptive),
+            _ => Err(format!(
+                "bad --retrace '{s}': expected single, multi or adaptive"
+            )),
+        }
+    }
+}
+
+impl FromStr for Shading {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "uniform" => Ok(Shading::Uniform),
+            "adaptive" => Ok(Shading::Adaptive),
+            _ => Err(format!("bad --shading '{s}': expected uniform or adaptive")),
+        }
+    }
+}
+
+impl FromStr for Reproject {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "one-pass" => Ok(Reproject::OnePass),
+            "two-pass" => Ok(Reproject::TwoPass),
+            _ => Err(format!(
+                "bad --reproject '{s}': expected one-pass or two-pass"
+            )),
+        }
+    }
+}
+
+impl FromStr for Accumulation {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        if s == "mean" {
+            return Ok(Accumulation::RunningMean);
+        }
+        if let Some(a) = s.strip_prefix("fixed:") {
+            let a: f32 = a
+                .parse()
+                .map_err(|_| format!("bad --accumulation '{s}': α is not a number"))?;
+            return Ok(Accumulation::FixedAlpha(a));
+        }
+        Err(format!(
+            "bad --accumulation '{s}': expected mean or fixed:ALPHA"
+        ))
+    }
+}
