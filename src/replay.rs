@@ -94,6 +94,26 @@ impl ReplayOptions {
     }
 }
 
+impl ReplayOptions {
+    /// How many frames a replay of `available` resampled frames renders:
+    /// all of them, or the first `frames`, which may not exceed them.
+    pub fn frame_count(&self, available: usize) -> Result<usize> {
+        match self.frames {
+            _ if available == 0 => Err(Error::Usage(format!(
+                "{}: no frames to render",
+                self.trace.display()
+            ))),
+            Some(k) if k > available => Err(Error::Usage(format!(
+                "bad --frames {k}: {} has {available} frames at {} fps; use at most {available} or omit --frames",
+                self.trace.display(),
+                self.fps,
+            ))),
+            Some(k) => Ok(k),
+            None => Ok(available),
+        }
+    }
+}
+
 fn check_fps(fps: f64) -> Result<()> {
     if fps.is_finite() && fps > 0.0 && fps <= MAX_FPS {
         Ok(())
@@ -260,10 +280,10 @@ impl std::fmt::Display for ReplaySummary {
         )?;
         writeln!(
             f,
-            "GPU {:.2} ms/frame (p95 {:.2} ms), {:.3} Mrays/frame, wall {:.1} s",
+            "GPU {:.2} ms/frame (p95 {:.2} ms), {} rays/frame, wall {:.1} s",
             self.mean_gpu_ms,
             self.p95_gpu_ms,
-            self.rays_per_frame * 1e-6,
+            si(self.rays_per_frame),
             self.wall_s
         )?;
         write!(
@@ -272,6 +292,16 @@ impl std::fmt::Display for ReplaySummary {
             self.out.display(),
             self.images_written
         )
+    }
+}
+
+/// `1234567` → `1.23 M`: a count with an SI prefix.
+fn si(v: f64) -> String {
+    match v {
+        v if v >= 1e9 => format!("{:.2} G", v * 1e-9),
+        v if v >= 1e6 => format!("{:.2} M", v * 1e-6),
+        v if v >= 1e3 => format!("{:.2} k", v * 1e-3),
+        v => format!("{v:.0}"),
     }
 }
 
@@ -285,25 +315,7 @@ pub fn replay(
     opts: &ReplayOptions,
 ) -> Result<ReplaySummary> {
     opts.validate()?;
-    let n = match opts.frames {
-        _ if cameras.is_empty() => {
-            return Err(Error::Usage(format!(
-                "{}: no frames to render",
-                opts.trace.display()
-            )))
-        }
-        Some(k) if k > cameras.len() => {
-            return Err(Error::Usage(format!(
-                "bad --frames {k}: {} has {} frames at {} fps; use at most {} or omit --frames",
-                opts.trace.display(),
-                cameras.len(),
-                opts.fps,
-                cameras.len()
-            )))
-        }
-        Some(k) => k,
-        None => cameras.len(),
-    };
+    let n = opts.frame_count(cameras.len())?;
     let cameras = &cameras[..n];
 
     let out = &opts.out;
