@@ -185,7 +185,15 @@ fn replay_writes_frames_at_the_cadence_and_one_record_per_frame() {
     ] {
         assert!(!sum[key].is_null(), "summary.json lacks {key}");
     }
-    assert!(sum["p95_gpu_ms"].as_f64().unwrap() >= sum["mean_gpu_ms"].as_f64().unwrap() * 0.999);
+    // Statistics computed from the records (not timing assertions): with 7
+    // frames the nearest-rank p95 is the slowest frame.
+    let ms: Vec<f64> = recs.iter().map(|r| r["gpu_ms"].as_f64().unwrap()).collect();
+    let mean = ms.iter().sum::<f64>() / ms.len() as f64;
+    assert!((sum["mean_gpu_ms"].as_f64().unwrap() - mean).abs() < 1e-9);
+    assert_eq!(
+        sum["p95_gpu_ms"].as_f64().unwrap(),
+        ms.iter().cloned().fold(0.0, f64::max)
+    );
     assert_eq!(summary.frames, 7);
     let _ = std::fs::remove_dir_all(&out);
 }
