@@ -13,6 +13,7 @@ pub mod gpu;
 pub mod methods;
 pub mod metrics;
 pub mod output;
+pub mod replay;
 pub mod rt;
 pub mod scene;
 pub mod session;

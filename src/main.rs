@@ -4,10 +4,11 @@ use anyhow::{anyhow, bail, Context, Result};
 use clap::{Args, Parser, Subcommand};
 use std::path::PathBuf;
 use std::process::ExitCode;
-use stereocache::camera::{convert_mmsys18, synth, Mmsys18Options, SynthKind};
+use stereocache::camera::{convert_mmsys18, synth, Mmsys18Options, PoseTrace, SynthKind};
 use stereocache::gpu::{GpuContext, GpuOptions};
 use stereocache::methods::{FrameInput, RenderSettings};
 use stereocache::output;
+use stereocache::replay::{replay, trace_cameras, ReplayOptions, DEFAULT_FPS};
 use stereocache::rt::RtChoice;
 use stereocache::scene::{generate_to_dir, DefaultLighting};
 use stereocache::session::{parse_pose, parse_size, CameraSelect, Session};
@@ -158,6 +159,8 @@ enum Command {
         #[arg(long, default_value = "out/render")]
         out: PathBuf,
     },
+    /// Render a method along a head-pose trace: DIR/frames/, DIR/frames.jsonl, DIR/summary.json.
+    Replay(Box<ReplayArgs>),
     /// Benchmarks (figures for docs/PERFORMANCE.md).
     Bench {
         #[command(subcommand)]
@@ -173,6 +176,92 @@ enum Command {
         #[command(subcommand)]
         which: TraceCommand,
     },
+}
+
+#[derive(Args)]
+struct ReplayArgs {
+    #[command(flatten)]
+    gpu: GpuArgs,
+    #[command(flatten)]
+    scene: SceneArgs,
+    /// The camera the trace's first pose is placed at (frame 0 is this view).
+    #[command(flatten)]
+    camera: CameraArgs,
+    /// Head-pose trace in the project's CSV format (captures/*.csv).
+    #[arg(long)]
+    trace: PathBuf,
+    #[arg(long, default_value = "reference")]
+    method: String,
+    /// Render only the first K frames (default: the whole trace).
+    #[arg(long)]
+    frames: Option<usize>,
+    /// Render rate the trace is resampled at, frames per second.
+    #[arg(long, default_value_t = DEFAULT_FPS)]
+    fps: f64,
+    /// Write images every k-th frame (0 = none; frames.jsonl gets every frame).
+    #[arg(long, default_value_t = 1)]
+    every: usize,
+    /// Samples per pixel per frame.
+    #[arg(long, default_value_t = 16)]
+    spp: u32,
+    /// Image size per eye, WIDTHxHEIGHT.
+    #[arg(long, default_value = "320x240")]
+    size: String,
+    /// Maximum scattering events per path.
+    #[arg(long, default_value_t = 3)]
+    bounces: u32,
+    #[arg(long, default_value_t = 1)]
+    seed: u32,
+    /// Exposure multiplier for the PNG previews.
+    #[arg(long, default_value_t = 1.0)]
+    exposure: f32,
+    /// Also write the method's debug views as PNG.
+    #[arg(long)]
+    debug_views: bool,
+    #[arg(long)]
+    out: PathBuf,
+}
+
+/// `stereocache replay`: arguments are checked and the trace is read before
+/// the GPU is opened, so bad input fails fast and writes nothing.
+fn run_replay(a: ReplayArgs) -> Result<()> {
+    let (w, h) = parse_size(&a.size).map_err(|e| anyhow!(e))?;
+    if a.spp == 0 {
+        bail!("bad --spp 0: at least one sample per pixel");
+    }
+    let mut opts = ReplayOptions {
+        frames: a.frames,
+        fps: a.fps,
+        every: a.every,
+        out: a.out.clone(),
+        exposure: a.exposure,
+        debug_views: a.debug_views,
+        trace: a.trace.clone(),
+        settings: serde_json::Value::Null,
+    };
+    opts.validate()?;
+    let select = a.camera.select()?;
+    let (fov, ipd) = (a.camera.fov_radians()?, a.camera.ipd()?);
+    let trace = PoseTrace::read_csv(&a.trace)?;
+    for w in &trace.warnings {
+        eprintln!("warning: {w}");
+    }
+    let session = a.scene.open(&a.gpu)?;
+    let cameras = trace_cameras(&session, &trace, a.fps, w, h, &select, ipd, fov)?;
+    opts.frame_count(cameras.len())?;
+    let settings = RenderSettings {
+        width: w,
+        height: h,
+        spp: a.spp,
+        max_bounces: a.bounces,
+        seed: a.seed,
+        all_features: false,
+    };
+    opts.settings = serde_json::to_value(&settings)?;
+    let mut method = session.method(&a.method, &settings)?;
+    let summary = replay(&session, method.as_mut(), &cameras, &opts)?;
+    println!("{summary}");
+    report_validation(&session.ctx)
 }
 
 #[derive(Subcommand)]
@@ -355,6 +444,7 @@ fn run(cli: Cli) -> Result<()> {
             );
             report_validation(&session.ctx)
         }
+        Command::Replay(args) => run_replay(*args),
         Command::Bench {
             which:
                 BenchCommand::Rays {
@@ -482,12 +572,26 @@ fn run(cli: Cli) -> Result<()> {
     }
 }
 
+/// The error and its causes on one line. A cause whose text the message
+/// already contains (library errors that print their source) is not repeated.
+fn error_line(e: &anyhow::Error) -> String {
+    let mut msg = e.to_string();
+    for cause in e.chain().skip(1) {
+        let c = cause.to_string();
+        if !msg.contains(&c) {
+            msg.push_str(": ");
+            msg.push_str(&c);
+        }
+    }
+    msg.replace('\n', " ")
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            let msg = format!("{e:#}").replace('\n', " ");
+            let msg = error_line(&e);
             eprintln!("error: {msg}");
             ExitCode::FAILURE
         }

@@ -81,11 +81,25 @@ pub fn write_png(
     rgb: &[[f32; 4]],
     exposure: f32,
 ) -> Result<(), OutputError> {
-    let bytes = tonemap::to_srgb8(rgb, exposure);
+    write_png_bytes(path, width, height, &tonemap::to_srgb8(rgb, exposure))
+}
+
+/// A debug view as an 8-bit sRGB PNG: linear values clamped to [0, 1], no
+/// exposure or tone curve.
+pub fn write_png_clamped(
+    path: &Path,
+    width: u32,
+    height: u32,
+    rgb: &[[f32; 4]],
+) -> Result<(), OutputError> {
+    write_png_bytes(path, width, height, &tonemap::to_srgb8_clamped(rgb))
+}
+
+fn write_png_bytes(path: &Path, width: u32, height: u32, bytes: &[u8]) -> Result<(), OutputError> {
     write_atomically(path, |tmp| {
         image::save_buffer_with_format(
             tmp,
-            &bytes,
+            bytes,
             width,
             height,
             image::ColorType::Rgb8,

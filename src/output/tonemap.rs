@@ -29,3 +29,20 @@ pub fn to_srgb8(rgb: &[[f32; 4]], exposure: f32) -> Vec<u8> {
     }
     out
 }
+
+/// Linear values clamped to [0, 1] and sRGB-encoded, without exposure or
+/// tone curve: for debug views whose values are meant to be shown as they are.
+pub fn to_srgb8_clamped(rgb: &[[f32; 4]]) -> Vec<u8> {
+    let mut out = Vec::with_capacity(rgb.len() * 3);
+    for p in rgb {
+        for &c in &p[..3] {
+            let v = if c.is_finite() {
+                c.clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            out.push((linear_to_srgb(v) * 255.0 + 0.5) as u8);
+        }
+    }
+    out
+}
