@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use stereocache::camera::{convert_mmsys18, synth, Mmsys18Options, PoseTrace, SynthKind};
 use stereocache::gpu::{GpuContext, GpuOptions};
-use stereocache::methods::{FrameInput, RenderSettings};
+use stereocache::methods::{FrameInput, RenderSettings, SampleCacheSettings};
 use stereocache::output;
 use stereocache::replay::{replay, trace_cameras, ReplayOptions, DEFAULT_FPS};
 use stereocache::rt::RtChoice;
@@ -76,6 +76,54 @@ impl SceneArgs {
             eprintln!("warning: {w}");
         }
         Ok(Session::new(&gpu.options(), scene, rt)?)
+    }
+}
+
+/// Options of the sample-cache method (ignored by other methods).
+#[derive(Args, Clone)]
+struct CacheArgs {
+    /// Cache slots per pixel N (1..=16).
+    #[arg(long, default_value_t = 12)]
+    slots: u32,
+    /// Target visible samples per pixel.
+    #[arg(long, default_value_t = 4)]
+    n_target: u32,
+    /// Tolerance around --n-target.
+    #[arg(long, default_value_t = 1)]
+    delta: u32,
+    /// single | multi | adaptive
+    #[arg(long, default_value = "adaptive")]
+    retrace: String,
+    /// uniform | adaptive
+    #[arg(long, default_value = "uniform")]
+    shading: String,
+    /// Shading invocations per pixel and frame for adaptive shading (1.0 = 100 %).
+    #[arg(long, default_value_t = 1.0)]
+    shading_rate: f32,
+    /// one-pass | two-pass
+    #[arg(long, default_value = "one-pass")]
+    reproject: String,
+    /// mean (running mean, appendix C clamp) | fixed:ALPHA (for view-dependent materials)
+    #[arg(long, default_value = "mean")]
+    accumulation: String,
+}
+
+impl CacheArgs {
+    fn settings(&self, debug_views: bool) -> Result<SampleCacheSettings> {
+        let s = SampleCacheSettings {
+            slots: self.slots,
+            n_target: self.n_target,
+            delta: self.delta,
+            retrace: self.retrace.parse().map_err(|e: String| anyhow!(e))?,
+            shading: self.shading.parse().map_err(|e: String| anyhow!(e))?,
+            shading_rate: self.shading_rate,
+            reproject: self.reproject.parse().map_err(|e: String| anyhow!(e))?,
+            accumulation: self.accumulation.parse().map_err(|e: String| anyhow!(e))?,
+            debug_views,
+            ..Default::default()
+        };
+        s.validate().map_err(|e| anyhow!(e))?;
+        Ok(s)
     }
 }
 
@@ -156,6 +204,8 @@ enum Command {
         /// Exposure multiplier for the PNG previews.
         #[arg(long, default_value_t = 1.0)]
         exposure: f32,
+        #[command(flatten)]
+        cache: CacheArgs,
         #[arg(long, default_value = "out/render")]
         out: PathBuf,
     },
@@ -218,6 +268,8 @@ struct ReplayArgs {
     /// Also write the method's debug views as PNG.
     #[arg(long)]
     debug_views: bool,
+    #[command(flatten)]
+    cache: CacheArgs,
     #[arg(long)]
     out: PathBuf,
 }
@@ -229,6 +281,7 @@ fn run_replay(a: ReplayArgs) -> Result<()> {
     if a.spp == 0 {
         bail!("bad --spp 0: at least one sample per pixel");
     }
+    let cache = a.cache.settings(a.debug_views)?;
     let mut opts = ReplayOptions {
         frames: a.frames,
         fps: a.fps,
@@ -256,6 +309,7 @@ fn run_replay(a: ReplayArgs) -> Result<()> {
         max_bounces: a.bounces,
         seed: a.seed,
         all_features: false,
+        cache,
     };
     opts.settings = serde_json::to_value(&settings)?;
     let mut method = session.method(&a.method, &settings)?;
@@ -382,9 +436,11 @@ fn run(cli: Cli) -> Result<()> {
             bounces,
             seed,
             exposure,
+            cache,
             out,
         } => {
             let (w, h) = parse_size(&size).map_err(|e| anyhow!(e))?;
+            let cache = cache.settings(false)?;
             if spp == 0 {
                 bail!("bad --spp 0: at least one sample per pixel");
             }
@@ -402,7 +458,7 @@ fn run(cli: Cli) -> Result<()> {
                 max_bounces: bounces,
                 seed,
                 all_features: false,
-                ..Default::default()
+                cache,
             };
             let mut m = session.method(&method, &settings)?;
             let frame = m.render_frame(&FrameInput {

@@ -42,6 +42,7 @@ fn settings() -> RenderSettings {
         max_bounces: 2,
         seed: 7,
         all_features: false,
+        ..Default::default()
     }
 }
 
