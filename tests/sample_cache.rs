@@ -351,3 +351,251 @@ fn dump_debug_views() {
         .unwrap();
     }
 }
+
+/// Renders `frames` frames of a moving head and returns the method.
+fn run_frames(s: &Session, st: &RenderSettings, frames: u32, deg_per_frame: f32) -> SampleCache {
+    let mut m = cache_method(s, st);
+    let cam0 = s
+        .camera(&CameraSelect::Default, st.width, st.height, None, None)
+        .unwrap();
+    let mut prev = None;
+    for f in 0..frames {
+        let cam = moving(&cam0, f, deg_per_frame);
+        m.render_frame(&FrameInput {
+            index: f,
+            camera: cam,
+            prev_camera: prev,
+        })
+        .unwrap();
+        prev = Some(cam);
+    }
+    m
+}
+
+/// The race-free two-pass reprojection and the default one-pass agree: per
+/// pixel, the sets of visible first hits match on ≥ 99.9 % of samples.
+#[test]
+fn one_pass_and_two_pass_reprojection_agree() {
+    let ctx = context();
+    let s = session(&ctx, shipped("cornell"), RtChoice::Software);
+    let mk = |reproject| {
+        settings(
+            40,
+            30,
+            SampleCacheSettings {
+                reproject,
+                ..Default::default()
+            },
+        )
+    };
+    let a = run_frames(&s, &mk(Reproject::OnePass), 8, 1.5)
+        .snapshot()
+        .unwrap();
+    let b = run_frames(&s, &mk(Reproject::TwoPass), 8, 1.5)
+        .snapshot()
+        .unwrap();
+    let visible_hits = |snap: &CacheSnapshot, e: usize, p: usize| {
+        let mut v: Vec<[u32; 4]> = Vec::new();
+        let mut bits = snap.visible(snap.mask(e, p));
+        while bits != 0 {
+            let s = bits.trailing_zeros();
+            bits &= bits - 1;
+            v.push(snap.first_hits[snap.slot(e, s, p)]);
+        }
+        v.sort();
+        v
+    };
+    let (mut total, mut differ) = (0usize, 0usize);
+    for e in 0..2 {
+        for p in 0..a.npix() {
+            let (va, vb) = (visible_hits(&a, e, p), visible_hits(&b, e, p));
+            total += va.len().max(vb.len());
+            differ += va
+                .iter()
+                .filter(|h| !vb.contains(h))
+                .count()
+                .max(vb.iter().filter(|h| !va.contains(h)).count());
+        }
+    }
+    eprintln!("one-pass vs two-pass: {differ} of {total} visible samples differ");
+    assert!(total > 5000);
+    assert!(differ * 1000 <= total, "{differ} of {total} samples differ");
+    assert_no_validation_messages(&ctx);
+}
+
+/// Static camera: the reconstruction converges to the 1024 spp reference as
+/// the accumulated samples predict. Each pixel averages its (about n_target)
+/// fixed sample positions, so the error against the reference is a floor B
+/// from sample placement plus noise N / c with c the mean shading count per
+/// visible sample (read back from the cache): MSE(F) = B + N / c(F). B and N
+/// are fitted on frames 4 and 16; the prediction for frame 64 must match the
+/// measurement within 4σ, σ from the per-pixel spread of the squared errors.
+#[test]
+fn static_view_converges_towards_the_reference() {
+    let ctx = context();
+    let s = session(&ctx, shipped("cornell"), RtChoice::Software);
+    let (w, h) = (32, 24);
+    let cam = s.camera(&CameraSelect::Default, w, h, None, None).unwrap();
+    let reference = render(
+        &s,
+        "reference",
+        cam,
+        &RenderSettings {
+            width: w,
+            height: h,
+            spp: 1024,
+            max_bounces: 2,
+            seed: 99,
+            all_features: false,
+            ..Default::default()
+        },
+    );
+    let mut m = cache_method(&s, &settings(w, h, SampleCacheSettings::default()));
+    let mut points = Vec::new(); // (mean shading count, MSE, standard error)
+    for f in 0..64 {
+        let fr = m
+            .render_frame(&FrameInput {
+                index: f,
+                camera: cam,
+                prev_camera: Some(cam),
+            })
+            .unwrap();
+        if [3, 15, 63].contains(&f) {
+            let snap = m.snapshot().unwrap();
+            let (mut c, mut n) = (0.0f64, 0usize);
+            for e in 0..2 {
+                for p in 0..snap.npix() {
+                    let mut bits = snap.visible(snap.mask(e, p));
+                    while bits != 0 {
+                        let sl = bits.trailing_zeros();
+                        bits &= bits - 1;
+                        c += snap.radiance[snap.slot(e, sl, p)][3] as f64;
+                        n += 1;
+                    }
+                }
+            }
+            let d2: Vec<f64> = fr
+                .eyes
+                .iter()
+                .zip(&reference.eyes)
+                .flat_map(|(p, q)| p.radiance.iter().zip(&q.radiance))
+                .flat_map(|(p, q)| (0..3).map(move |k| ((p[k] - q[k]) as f64).powi(2)))
+                .collect();
+            let k = d2.len() as f64;
+            let mean = d2.iter().sum::<f64>() / k;
+            let se = (d2.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (k - 1.0) / k).sqrt();
+            eprintln!(
+                "frame {}: mean shading count {:.2}, MSE {mean:.4e} ± {se:.1e}",
+                f + 1,
+                c / n as f64
+            );
+            points.push((c / n as f64, mean, se));
+        }
+    }
+    let [(c1, m1, s1), (c2, m2, s2), (c3, m3, s3)] = [points[0], points[1], points[2]];
+    assert!(
+        m1 > m2 && m2 > m3,
+        "error must fall with frames: {m1} {m2} {m3}"
+    );
+    let k = (1.0 / c3 - 1.0 / c2) / (1.0 / c1 - 1.0 / c2);
+    let predicted = m2 + (m1 - m2) * k;
+    let sigma = ((1.0 - k).powi(2) * s2 * s2 + k * k * s1 * s1 + s3 * s3).sqrt();
+    eprintln!("frame 64: MSE {m3:.4e}, predicted {predicted:.4e} ± {sigma:.1e}");
+    assert!(
+        (m3 - predicted).abs() < 4.0 * sigma,
+        "MSE {m3:.4e} vs predicted {predicted:.4e} ± {sigma:.1e}"
+    );
+    assert_no_validation_messages(&ctx);
+}
+
+/// Adaptive shading dispatches the requested rate (within the coin toss's
+/// binomial spread), prefers samples with few accumulated samples, and the
+/// histogram counted during reprojection holds every reprojected visible sample.
+#[test]
+fn adaptive_shading_dispatches_the_requested_rate() {
+    let ctx = context();
+    let s = session(&ctx, shipped("cornell"), RtChoice::Software);
+    let (w, h) = (48, 36);
+    let rate = 0.5f32;
+    let st = settings(
+        w,
+        h,
+        SampleCacheSettings {
+            shading: Shading::Adaptive,
+            shading_rate: rate,
+            retrace: Retrace::Multi,
+            ..Default::default()
+        },
+    );
+    let mut m = cache_method(&s, &st);
+    let cam0 = s.camera(&CameraSelect::Default, w, h, None, None).unwrap();
+    let mut prev = None;
+    let npix = (w * h) as f64;
+    for f in 0..10 {
+        let cam = moving(&cam0, f, 0.5);
+        let fr = m
+            .render_frame(&FrameInput {
+                index: f,
+                camera: cam,
+                prev_camera: prev,
+            })
+            .unwrap();
+        prev = Some(cam);
+        if f < 3 {
+            continue; // let the importance bounds settle
+        }
+        let snap = m.snapshot().unwrap();
+        // Histogram: every reprojected visible sample was counted once.
+        let hist_total: u32 = snap.histogram.iter().sum();
+        let reprojected_visible = snap_visible_reprojected(&fr);
+        assert_eq!(
+            hist_total as f64, reprojected_visible,
+            "frame {f}: histogram total"
+        );
+        // Rate: base (one per 4×4 block) + rate × pixels, per eye.
+        let shaded = snap.shade_count as f64;
+        let expected = 2.0 * (rate as f64 * npix).max(npix / 16.0);
+        // Binomial spread of the straddling bucket's coin tosses: ≤ n/4 per eye.
+        let sigma = (2.0 * npix / 4.0).sqrt();
+        eprintln!("frame {f}: shaded {shaded} expected {expected:.0} ± {sigma:.0}");
+        assert!(
+            (shaded - expected).abs() <= 4.0 * sigma + 2.0 * npix / 16.0 * 0.05,
+            "frame {f}: shaded {shaded}, expected {expected:.0}"
+        );
+        // Importance: the shaded samples have fewer accumulated samples than the average visible one.
+        let (mut c_shaded, mut n_shaded) = (0.0, 0.0);
+        for code in &snap.shade_list[..snap.shade_count as usize] {
+            let (e, sl, p) = (
+                (code >> 31) as usize,
+                (code >> 26) & 31,
+                (code & 0x3FF_FFFF) as usize,
+            );
+            c_shaded += snap.radiance[snap.slot(e, sl, p)][3] as f64;
+            n_shaded += 1.0;
+        }
+        let (mut c_all, mut n_all) = (0.0, 0.0);
+        for e in 0..2 {
+            for p in 0..snap.npix() {
+                let mut bits = snap.visible(snap.mask(e, p));
+                while bits != 0 {
+                    let sl = bits.trailing_zeros();
+                    bits &= bits - 1;
+                    c_all += snap.radiance[snap.slot(e, sl, p)][3] as f64;
+                    n_all += 1.0;
+                }
+            }
+        }
+        // Counts are read after shading (each shaded sample gained one).
+        assert!(
+            c_shaded / n_shaded - 1.0 < c_all / n_all,
+            "frame {f}: shaded mean count {} vs all {}",
+            c_shaded / n_shaded,
+            c_all / n_all
+        );
+    }
+    assert_no_validation_messages(&ctx);
+}
+
+fn snap_visible_reprojected(fr: &stereocache::methods::StereoFrame) -> f64 {
+    fr.stats.counters["reprojected_visible"]
+}

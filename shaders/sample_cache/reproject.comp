@@ -34,7 +34,7 @@ void main() {
     float phi = pixel_diagonal_angle(e);
     float w_lo, w_hi;
     importance_bounds(eye, w_lo, w_hi);
-    uint reprojected = 0u, full = 0u, offscreen = 0u;
+    uint reprojected = 0u, reprojected_visible = 0u, full = 0u, offscreen = 0u;
     while (occ != 0u) {
         uint s = uint(findLSB(occ));
         occ &= occ - 1u;
@@ -75,6 +75,7 @@ void main() {
         }
         reprojected++;
         if (vis) {
+            reprojected_visible++;
             vec3 to_eye = e.pos_tanx.xyz - wp;
             float t = length(to_eye);
             float cos_theta = abs(dot(hit_geometric_normal(fh), to_eye / max(t, 1e-30)));
@@ -88,6 +89,7 @@ void main() {
         }
     }
     if (reprojected > 0u) atomicAdd(counters[C_REPROJECTED], reprojected);
+    if (reprojected_visible > 0u) atomicAdd(counters[C_REPROJECTED_VISIBLE], reprojected_visible);
     if (full > 0u) atomicAdd(counters[C_REPROJECT_FULL], full);
     if (offscreen > 0u) atomicAdd(counters[C_OFFSCREEN], offscreen);
 }

@@ -52,6 +52,7 @@ const COUNTERS: &[(usize, &str)] = &[
     (12, "edge_pixels"),
     (13, "visible_samples"),
     (14, "background_rays"),
+    (15, "reprojected_visible"),
 ];
 
 /// Names of the debug views, in the order the reconstruct pass writes them.
