@@ -170,6 +170,36 @@ impl CameraArgs {
     }
 }
 
+#[derive(Args)]
+struct RenderArgs {
+    #[command(flatten)]
+    gpu: GpuArgs,
+    #[command(flatten)]
+    scene: SceneArgs,
+    #[command(flatten)]
+    camera: CameraArgs,
+    #[arg(long, default_value = "reference")]
+    method: String,
+    /// Samples per pixel.
+    #[arg(long, default_value_t = 64)]
+    spp: u32,
+    /// Image size per eye, WIDTHxHEIGHT.
+    #[arg(long, default_value = "320x240")]
+    size: String,
+    /// Maximum scattering events per path.
+    #[arg(long, default_value_t = 3)]
+    bounces: u32,
+    #[arg(long, default_value_t = 1)]
+    seed: u32,
+    /// Exposure multiplier for the PNG previews.
+    #[arg(long, default_value_t = 1.0)]
+    exposure: f32,
+    #[command(flatten)]
+    cache: CacheArgs,
+    #[arg(long, default_value = "out/render")]
+    out: PathBuf,
+}
+
 #[derive(Subcommand)]
 enum Command {
     /// Print the chosen Vulkan device and its ray-tracing capabilities.
@@ -181,34 +211,7 @@ enum Command {
         json: bool,
     },
     /// Render one stereo frame and write DIR/{left,right}.{exr,png} and DIR/stats.json.
-    Render {
-        #[command(flatten)]
-        gpu: GpuArgs,
-        #[command(flatten)]
-        scene: SceneArgs,
-        #[command(flatten)]
-        camera: CameraArgs,
-        #[arg(long, default_value = "reference")]
-        method: String,
-        /// Samples per pixel.
-        #[arg(long, default_value_t = 64)]
-        spp: u32,
-        /// Image size per eye, WIDTHxHEIGHT.
-        #[arg(long, default_value = "320x240")]
-        size: String,
-        /// Maximum scattering events per path.
-        #[arg(long, default_value_t = 3)]
-        bounces: u32,
-        #[arg(long, default_value_t = 1)]
-        seed: u32,
-        /// Exposure multiplier for the PNG previews.
-        #[arg(long, default_value_t = 1.0)]
-        exposure: f32,
-        #[command(flatten)]
-        cache: CacheArgs,
-        #[arg(long, default_value = "out/render")]
-        out: PathBuf,
-    },
+    Render(Box<RenderArgs>),
     /// Render a method along a head-pose trace: DIR/frames/, DIR/frames.jsonl, DIR/summary.json.
     Replay(Box<ReplayArgs>),
     /// Benchmarks (figures for docs/PERFORMANCE.md).
@@ -426,19 +429,20 @@ fn run(cli: Cli) -> Result<()> {
             }
             report_validation(&ctx)
         }
-        Command::Render {
-            gpu,
-            scene,
-            camera,
-            method,
-            spp,
-            size,
-            bounces,
-            seed,
-            exposure,
-            cache,
-            out,
-        } => {
+        Command::Render(args) => {
+            let RenderArgs {
+                gpu,
+                scene,
+                camera,
+                method,
+                spp,
+                size,
+                bounces,
+                seed,
+                exposure,
+                cache,
+                out,
+            } = *args;
             let (w, h) = parse_size(&size).map_err(|e| anyhow!(e))?;
             let cache = cache.settings(false)?;
             if spp == 0 {

@@ -311,8 +311,10 @@ fn dump_debug_views() {
     let ctx = context();
     for name in ["cornell", "plane"] {
         let s = session(&ctx, shipped(name), RtChoice::Software);
-        let mut cs = SampleCacheSettings::default();
-        cs.debug_views = true;
+        let cs = SampleCacheSettings {
+            debug_views: true,
+            ..Default::default()
+        };
         let st = settings(128, 96, cs);
         let mut m = cache_method(&s, &st);
         let cam = s

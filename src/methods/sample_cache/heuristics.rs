@@ -38,7 +38,8 @@ pub fn importance(c: f32) -> f32 {
 /// extremes: floor(M · log(w / w_min) / log(w_max / w_min)), clamped to
 /// [0, M − 1]; degenerate bounds put everything in the top bucket.
 pub fn importance_bucket(w: f32, w_min: f32, w_max: f32) -> u32 {
-    if !(w_max > w_min) || !(w_min > 0.0) {
+    let valid = w_max > w_min && w_min > 0.0;
+    if !valid {
         return HIST_M - 1;
     }
     let x = (w / w_min).ln() / (w_max / w_min).ln();
@@ -63,7 +64,7 @@ mod tests {
         for deg in [60.0f32, 80.0, 89.0, 89.9, 89.99, 90.0] {
             let s = normal_slope(10.0, deg.to_radians().cos(), PHI);
             assert!(
-                s.is_finite() && s >= 0.0 && s <= 10.0 + 1e-4,
+                s.is_finite() && (0.0..=10.0 + 1e-4).contains(&s),
                 "θ = {deg}°: Δ = {s}"
             );
         }

@@ -97,6 +97,12 @@ impl CacheSnapshot {
     }
 }
 
+/// Raw moments per pixel `[eye][pixel]`: rgb and the total effective sample count in w.
+pub struct Moments {
+    pub m1: Vec<[f32; 4]>,
+    pub m2: Vec<[f32; 4]>,
+}
+
 struct Pipelines {
     begin: ComputePipeline,
     reproject: ComputePipeline,
@@ -367,8 +373,11 @@ impl SampleCache {
     }
 
     /// Per-pixel raw moments μ1, μ2 (Eq. 5–6; w = total effective count) of the last frame.
-    pub fn moments(&self) -> GpuResult<(Vec<[f32; 4]>, Vec<[f32; 4]>)> {
-        Ok((self.out_m1.download_pod()?, self.out_m2.download_pod()?))
+    pub fn moments(&self) -> GpuResult<Moments> {
+        Ok(Moments {
+            m1: self.out_m1.download_pod()?,
+            m2: self.out_m2.download_pod()?,
+        })
     }
 
     pub fn settings(&self) -> &SampleCacheSettings {
