@@ -116,3 +116,205 @@ pub fn bench_rays(
         bounce_ms: ms("bounce"),
     })
 }
+
+/// Mean milliseconds per frame of the passes whose name starts with `prefix`.
+fn mean_pass_ms(frames: &[crate::methods::FrameStats], prefix: &str) -> f64 {
+    let total: f64 = frames
+        .iter()
+        .flat_map(|f| &f.passes)
+        .filter(|p| p.name.starts_with(prefix))
+        .map(|p| p.ms)
+        .sum();
+    total / frames.len().max(1) as f64
+}
+
+/// One configuration of `bench sample-cache`.
+#[derive(Clone, Debug, Serialize)]
+pub struct CacheBenchRow {
+    pub label: String,
+    pub frame_ms: f64,
+    pub reproject_ms: f64,
+    pub trace_ms: f64,
+    pub shade_ms: f64,
+    pub retrace_rays_per_frame: f64,
+    pub rays_per_frame: f64,
+}
+
+/// Renders `cameras` (frame 0 is a warm-up and not counted) with `method`.
+fn run_frames(
+    method: &mut dyn crate::methods::Method,
+    cameras: &[crate::camera::StereoCamera],
+) -> Result<Vec<crate::methods::FrameStats>> {
+    let mut stats = Vec::new();
+    for (i, cam) in cameras.iter().enumerate() {
+        let prev = if i > 0 { Some(cameras[i - 1]) } else { None };
+        let f = method.render_frame(&FrameInput {
+            index: i as u32,
+            camera: *cam,
+            prev_camera: prev,
+        })?;
+        if i > 0 {
+            stats.push(f.stats);
+        }
+    }
+    Ok(stats)
+}
+
+/// `stereocache bench sample-cache`: in one run on the same frames, the
+/// sample cache with each retrace mode and both reprojection variants, the
+/// plain one-sample scatter, and the 1 spp path tracer.
+pub fn bench_sample_cache(
+    session: &Session,
+    cameras: &[crate::camera::StereoCamera],
+    base: &crate::methods::RenderSettings,
+) -> Result<(Vec<CacheBenchRow>, f64)> {
+    use crate::methods::sample_cache::{Reproject, Retrace, SampleCacheSettings};
+    let mut rows = Vec::new();
+    let configs = [
+        ("adaptive, one-pass", Retrace::Adaptive, Reproject::OnePass),
+        ("single, one-pass", Retrace::Single, Reproject::OnePass),
+        ("multi, one-pass", Retrace::Multi, Reproject::OnePass),
+        ("adaptive, two-pass", Retrace::Adaptive, Reproject::TwoPass),
+    ];
+    for (label, retrace, reproject) in configs {
+        let settings = crate::methods::RenderSettings {
+            cache: SampleCacheSettings {
+                retrace,
+                reproject,
+                ..base.cache.clone()
+            },
+            ..base.clone()
+        };
+        let mut m = session.method("sample-cache", &settings)?;
+        let stats = run_frames(m.as_mut(), cameras)?;
+        let n = stats.len().max(1) as f64;
+        rows.push(CacheBenchRow {
+            label: format!("sample-cache ({label})"),
+            frame_ms: stats.iter().map(|s| s.gpu_ms()).sum::<f64>() / n,
+            reproject_ms: mean_pass_ms(&stats, "reproject"),
+            trace_ms: mean_pass_ms(&stats, "select") + mean_pass_ms(&stats, "trace"),
+            shade_ms: mean_pass_ms(&stats, "shade"),
+            retrace_rays_per_frame: stats
+                .iter()
+                .map(|s| s.counters.get("retrace_rays").copied().unwrap_or(0.0))
+                .sum::<f64>()
+                / n,
+            rays_per_frame: stats.iter().map(|s| s.rays.total() as f64).sum::<f64>() / n,
+        });
+    }
+    // 1 spp path tracing: the reference method with one jittered sample.
+    let naive = crate::methods::RenderSettings {
+        spp: 1,
+        ..base.clone()
+    };
+    let mut m = session.method("reference", &naive)?;
+    let stats = run_frames(m.as_mut(), cameras)?;
+    let n = stats.len().max(1) as f64;
+    rows.push(CacheBenchRow {
+        label: "1 spp path tracing".into(),
+        frame_ms: stats.iter().map(|s| s.gpu_ms()).sum::<f64>() / n,
+        reproject_ms: 0.0,
+        trace_ms: mean_pass_ms(&stats, "reference.primary"),
+        shade_ms: mean_pass_ms(&stats, "reference.trace"),
+        retrace_rays_per_frame: 0.0,
+        rays_per_frame: stats.iter().map(|s| s.rays.total() as f64).sum::<f64>() / n,
+    });
+    Ok((rows, plain_scatter_ms(session, cameras, base)?))
+}
+
+/// Mean GPU time of the plain one-sample-per-pixel scatter over the frames.
+fn plain_scatter_ms(
+    session: &Session,
+    cameras: &[crate::camera::StereoCamera],
+    base: &crate::methods::RenderSettings,
+) -> Result<f64> {
+    let ctx = &session.ctx;
+    let (w, h) = (base.width, base.height);
+    let n = (w * h * 2) as u64;
+    // First hits of frame 0 from the reference's pixel-centre rays.
+    let mut reference = session.method(
+        "reference",
+        &crate::methods::RenderSettings {
+            spp: 1,
+            ..base.clone()
+        },
+    )?;
+    let f0 = reference.render_frame(&FrameInput {
+        index: 0,
+        camera: cameras[0],
+        prev_camera: None,
+    })?;
+    let hits: Vec<[u32; 4]> = f0
+        .eyes
+        .iter()
+        .flat_map(|e| e.first_hit.iter().copied())
+        .collect();
+    let fbuf = Buffer::storage(
+        ctx,
+        "scatter.frame",
+        std::mem::size_of::<FrameParams>() as u64,
+    )?;
+    let src = Buffer::with_data(
+        ctx,
+        "scatter.src",
+        bytemuck::cast_slice(&hits),
+        ash::vk::BufferUsageFlags::empty(),
+    )?;
+    let dst = Buffer::storage(ctx, "scatter.dst", n * 16)?;
+    let layout = DescriptorLayout::buffers(ctx, 3)?;
+    let set = DescriptorSet::new(
+        ctx,
+        &layout,
+        &[
+            Resource::Buffer(&fbuf),
+            Resource::Buffer(&src),
+            Resource::Buffer(&dst),
+        ],
+    )?;
+    let spirv = shaders::spirv("bench/scatter")
+        .ok_or_else(|| GpuError::Unsupported("shader bench/scatter missing".into()))?;
+    let spec = session
+        .scene_gpu
+        .spec_constants(&session.scene.environment, 1, false);
+    let pipe = ComputePipeline::new(
+        ctx,
+        "bench.scatter",
+        spirv,
+        &[session.scene_gpu.layout.clone(), layout],
+        0,
+        &spec,
+    )?;
+    let groups = [w.div_ceil(8), h.div_ceil(8), 2];
+    let mut total = 0.0;
+    for (i, cam) in cameras.iter().enumerate() {
+        let params = FrameParams::new(
+            &FrameInput {
+                index: i as u32,
+                camera: *cam,
+                prev_camera: None,
+            },
+            w,
+            h,
+            1,
+        );
+        let mut rec = Recorder::new(ctx, 3)?;
+        rec.pass("params")
+            .write(&fbuf)
+            .update(bytemuck::bytes_of(&params));
+        rec.pass("clear").write(&dst).fill(0);
+        rec.pass("scatter")
+            .read(&fbuf)
+            .read(&src)
+            .write(&dst)
+            .dispatch(&pipe, &[&session.scene_gpu.set, &set], &[], groups);
+        let t = rec.finish()?;
+        if i > 0 {
+            total += t
+                .iter()
+                .filter(|p| p.name == "scatter")
+                .map(|p| p.ms)
+                .sum::<f64>();
+        }
+    }
+    Ok(total / (cameras.len().saturating_sub(1)).max(1) as f64)
+}

@@ -323,6 +323,22 @@ fn run_replay(a: ReplayArgs) -> Result<()> {
 
 #[derive(Subcommand)]
 enum BenchCommand {
+    /// Sample cache against a plain scatter, per retrace mode, and against 1 spp path tracing.
+    SampleCache {
+        #[command(flatten)]
+        gpu: GpuArgs,
+        #[command(flatten)]
+        scene: SceneArgs,
+        #[arg(long, default_value = "captures/mmsys18-user1.csv")]
+        trace: PathBuf,
+        /// Frames measured (after one warm-up frame).
+        #[arg(long, default_value_t = 30)]
+        frames: usize,
+        #[arg(long, default_value = "160x120")]
+        size: String,
+        #[arg(long, default_value_t = 3)]
+        bounces: u32,
+    },
     /// Primary and diffuse-bounce rays per second for each ray backend.
     Rays {
         #[command(flatten)]
@@ -577,6 +593,121 @@ fn run(cli: Cli) -> Result<()> {
                 );
             }
             report_validation(&ctx)
+        }
+        Command::Bench {
+            which:
+                BenchCommand::SampleCache {
+                    gpu,
+                    scene,
+                    trace,
+                    frames,
+                    size,
+                    bounces,
+                },
+        } => {
+            let (w, h) = parse_size(&size).map_err(|e| anyhow!(e))?;
+            if frames == 0 {
+                bail!("bad --frames 0: measure at least one frame");
+            }
+            let trace_data = PoseTrace::read_csv(&trace)?;
+            let session = scene.open(&gpu)?;
+            let mut cameras = trace_cameras(
+                &session,
+                &trace_data,
+                DEFAULT_FPS,
+                w,
+                h,
+                &CameraSelect::Default,
+                None,
+                None,
+            )?;
+            cameras.truncate(frames + 1);
+            let c = &session.ctx.caps;
+            println!(
+                "device: {} ({}), driver {} {}",
+                c.name, c.device_type, c.driver_name, c.driver_info
+            );
+            println!(
+                "scene: {} ({} triangles), backend {}, trace {} ({} frames at {} Hz after 1 warm-up), {}x{} per eye, {} bounces",
+                session.scene.source.display(),
+                session.scene_gpu.triangle_count,
+                session.backend,
+                trace.display(),
+                cameras.len() - 1,
+                DEFAULT_FPS,
+                w,
+                h,
+                bounces
+            );
+            let base = RenderSettings {
+                width: w,
+                height: h,
+                spp: 1,
+                max_bounces: bounces,
+                seed: 1,
+                all_features: false,
+                cache: SampleCacheSettings::default(),
+            };
+            let (rows, scatter_ms) =
+                stereocache::bench::bench_sample_cache(&session, &cameras, &base)?;
+            println!(
+                "{:<36} {:>10} {:>12} {:>10} {:>10} {:>14} {:>12}",
+                "method",
+                "frame ms",
+                "reproject ms",
+                "trace ms",
+                "shade ms",
+                "retrace rays",
+                "rays/frame"
+            );
+            for r in &rows {
+                println!(
+                    "{:<36} {:>10.2} {:>12.2} {:>10.2} {:>10.2} {:>14.0} {:>12.0}",
+                    r.label,
+                    r.frame_ms,
+                    r.reproject_ms,
+                    r.trace_ms,
+                    r.shade_ms,
+                    r.retrace_rays_per_frame,
+                    r.rays_per_frame
+                );
+            }
+            println!(
+                "{:<36} {:>10} {:>12.2}",
+                "plain one-sample scatter", "", scatter_ms
+            );
+            let row = |l: &str| rows.iter().find(|r| r.label.contains(l)).unwrap();
+            let (adaptive, multi, single, two, naive) = (
+                row("adaptive, one"),
+                row("multi"),
+                row("single"),
+                row("two-pass"),
+                row("1 spp"),
+            );
+            println!("ratios (same run, same device):");
+            println!(
+                "  one-pass reprojection / plain scatter:   {:.2}x time",
+                adaptive.reproject_ms / scatter_ms
+            );
+            println!(
+                "  two-pass / one-pass reprojection:        {:.2}x time",
+                two.reproject_ms / adaptive.reproject_ms
+            );
+            println!(
+                "  adaptive / multi retrace:                {:.2}x rays, {:.2}x trace time",
+                adaptive.retrace_rays_per_frame / multi.retrace_rays_per_frame,
+                adaptive.trace_ms / multi.trace_ms
+            );
+            println!(
+                "  single / multi retrace:                  {:.2}x rays, {:.2}x trace time",
+                single.retrace_rays_per_frame / multi.retrace_rays_per_frame,
+                single.trace_ms / multi.trace_ms
+            );
+            println!(
+                "  sample-cache (adaptive) / 1 spp frame:   {:.2}x time",
+                adaptive.frame_ms / naive.frame_ms
+            );
+            report_validation(&session.ctx)
         }
         Command::Scene {
             which: SceneCommand::Generate { name, out },
