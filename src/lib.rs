@@ -8,6 +8,7 @@
 
 pub mod bench;
 pub mod camera;
+pub mod compare;
 pub mod error;
 pub mod gpu;
 pub mod methods;

@@ -200,6 +200,140 @@ struct RenderArgs {
     out: PathBuf,
 }
 
+#[derive(Args)]
+struct CompareArgs {
+    #[command(flatten)]
+    gpu: GpuArgs,
+    #[command(flatten)]
+    scene: SceneArgs,
+    #[command(flatten)]
+    camera: CameraArgs,
+    /// Head-pose trace in the project's CSV format.
+    #[arg(long, default_value = "captures/mmsys18-user1.csv")]
+    trace: PathBuf,
+    /// Comma-separated methods, e.g. sample-cache,reference.
+    #[arg(long, default_value = "sample-cache,reference")]
+    methods: String,
+    /// Render only the first K frames.
+    #[arg(long)]
+    frames: Option<usize>,
+    #[arg(long, default_value_t = DEFAULT_FPS)]
+    fps: f64,
+    /// Per-method images every k-th frame (0 = none).
+    #[arg(long, default_value_t = 1)]
+    every: usize,
+    /// Frames shown side by side, comma-separated (default: first, middle, last).
+    #[arg(long)]
+    show_frames: Option<String>,
+    /// Magnification of the centre crop in the side-by-side grids.
+    #[arg(long, default_value_t = 3)]
+    zoom: u32,
+    #[arg(long, default_value_t = 1)]
+    spp: u32,
+    #[arg(long, default_value = "160x120")]
+    size: String,
+    #[arg(long, default_value_t = 3)]
+    bounces: u32,
+    #[arg(long, default_value_t = 1)]
+    seed: u32,
+    #[arg(long, default_value_t = 1.0)]
+    exposure: f32,
+    #[command(flatten)]
+    cache: CacheArgs,
+    #[arg(long)]
+    out: PathBuf,
+}
+
+fn run_compare(a: CompareArgs) -> Result<()> {
+    let (w, h) = parse_size(&a.size).map_err(|e| anyhow!(e))?;
+    if a.spp == 0 {
+        bail!("bad --spp 0: at least one sample per pixel");
+    }
+    if a.frames == Some(0) {
+        bail!("bad --frames 0: render at least one frame");
+    }
+    if !(a.fps.is_finite() && a.fps > 0.0 && a.fps <= 10_000.0) {
+        bail!(
+            "bad --fps {}: expected frames per second in (0, 10000]",
+            a.fps
+        );
+    }
+    let methods: Vec<String> = a
+        .methods
+        .split(',')
+        .map(|m| m.trim().to_string())
+        .filter(|m| !m.is_empty())
+        .collect();
+    if methods.is_empty() {
+        bail!("bad --methods '{}': name at least one method", a.methods);
+    }
+    for m in &methods {
+        if !stereocache::session::METHODS.contains(&m.as_str()) {
+            bail!(
+                "bad --methods: unknown method '{m}' (available: {})",
+                stereocache::session::METHODS.join(", ")
+            );
+        }
+    }
+    let shown = match &a.show_frames {
+        None => None,
+        Some(s) => Some(
+            s.split(',')
+                .map(|v| v.trim().parse::<usize>())
+                .collect::<std::result::Result<Vec<_>, _>>()
+                .map_err(|_| {
+                    anyhow!("bad --show-frames '{s}': expected frame numbers like 0,5,9")
+                })?,
+        ),
+    };
+    let cache = a.cache.settings(false)?;
+    let select = a.camera.select()?;
+    let (fov, ipd) = (a.camera.fov_radians()?, a.camera.ipd()?);
+    let trace = PoseTrace::read_csv(&a.trace)?;
+    for w in &trace.warnings {
+        eprintln!("warning: {w}");
+    }
+    let session = a.scene.open(&a.gpu)?;
+    let cameras = trace_cameras(&session, &trace, a.fps, w, h, &select, ipd, fov)?;
+    if let Some(k) = a.frames {
+        if k > cameras.len() {
+            bail!(
+                "bad --frames {k}: {} gives only {} frames at {} fps",
+                a.trace.display(),
+                cameras.len(),
+                a.fps
+            );
+        }
+    }
+    let settings = RenderSettings {
+        width: w,
+        height: h,
+        spp: a.spp,
+        max_bounces: a.bounces,
+        seed: a.seed,
+        all_features: false,
+        cache,
+    };
+    let opts = stereocache::compare::CompareOptions {
+        methods,
+        frames: a.frames,
+        fps: a.fps,
+        every: a.every,
+        out: a.out.clone(),
+        exposure: a.exposure,
+        trace: a.trace.clone(),
+        shown_frames: shown,
+        zoom: a.zoom,
+    };
+    let rows = stereocache::compare::compare(&session, &cameras, &settings, &opts)?;
+    print!("{}", stereocache::compare::summary_table(&rows));
+    println!(
+        "wrote {} (summary.csv, summary.json, side-by-side/, one folder per method)",
+        a.out.display()
+    );
+    report_validation(&session.ctx)
+}
+
 #[derive(Subcommand)]
 enum Command {
     /// Print the chosen Vulkan device and its ray-tracing capabilities.
@@ -212,6 +346,8 @@ enum Command {
     },
     /// Render one stereo frame and write DIR/{left,right}.{exr,png} and DIR/stats.json.
     Render(Box<RenderArgs>),
+    /// Render several methods along the same frames of a trace, side by side.
+    Compare(Box<CompareArgs>),
     /// Render a method along a head-pose trace: DIR/frames/, DIR/frames.jsonl, DIR/summary.json.
     Replay(Box<ReplayArgs>),
     /// Benchmarks (figures for docs/PERFORMANCE.md).
@@ -445,6 +581,7 @@ fn run(cli: Cli) -> Result<()> {
             }
             report_validation(&ctx)
         }
+        Command::Compare(args) => run_compare(*args),
         Command::Render(args) => {
             let RenderArgs {
                 gpu,

@@ -314,6 +314,22 @@ pub fn replay(
     cameras: &[StereoCamera],
     opts: &ReplayOptions,
 ) -> Result<ReplaySummary> {
+    replay_observed(session, method, cameras, opts, &mut |_, _, _| Ok(()))
+}
+
+/// What an observer of a replay receives per frame: the frame's index, its
+/// camera and the rendered frame (before it is dropped). `compare` keeps the
+/// frames it shows side by side; metrics against a reference hook in here.
+pub type FrameObserver<'a> = dyn FnMut(usize, &StereoCamera, &StereoFrame) -> Result<()> + 'a;
+
+/// [`replay`] with an observer called after every frame.
+pub fn replay_observed(
+    session: &Session,
+    method: &mut dyn Method,
+    cameras: &[StereoCamera],
+    opts: &ReplayOptions,
+    observer: &mut FrameObserver<'_>,
+) -> Result<ReplaySummary> {
     opts.validate()?;
     let n = opts.frame_count(cameras.len())?;
     let cameras = &cameras[..n];
@@ -349,6 +365,7 @@ pub fn replay(
             prev_camera: i.checked_sub(1).map(|p| cameras[p]),
         };
         let frame = method.render_frame(&input)?;
+        observer(i, camera, &frame)?;
         (width, height) = (frame.width, frame.height);
         if opts.every > 0 && i % opts.every == 0 {
             write_frame_images(&frames_dir, i, &frame, opts)?;

@@ -2,6 +2,7 @@
 //! Every file is written under a temporary name and renamed when complete, so
 //! an interrupted run never leaves a file that looks finished.
 
+pub mod label;
 pub mod tonemap;
 
 use crate::methods::EyeImage;

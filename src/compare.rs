@@ -1,0 +1,311 @@
+//! `stereocache compare`: every method along the same frames of a trace.
+//! Writes, under `out/`:
+//! - `<method>/` — what `replay` writes for that method (frames, frames.jsonl, summary.json);
+//! - `side-by-side/frame_<k>.png` — one column per method (labelled), rows:
+//!   left eye, right eye, and a zoomed crop of each, for the chosen frames;
+//! - `summary.csv` and `summary.json` — one row per method: mean and p95
+//!   GPU ms per frame, mean ms per pass, rays, memory of the method's buffers,
+//!   and a `metrics` map that the metrics work fills (empty until then).
+
+use crate::camera::StereoCamera;
+use crate::error::{Error, Result};
+use crate::methods::{RenderSettings, StereoFrame};
+use crate::output::{self, label, tonemap};
+use crate::replay::{replay_observed, ReplayOptions, ReplaySummary};
+use crate::session::Session;
+use serde::Serialize;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+#[derive(Clone, Debug)]
+pub struct CompareOptions {
+    pub methods: Vec<String>,
+    pub frames: Option<usize>,
+    pub fps: f64,
+    /// Per-method images every k-th frame (0 = none).
+    pub every: usize,
+    pub out: PathBuf,
+    pub exposure: f32,
+    pub trace: PathBuf,
+    /// Frames shown side by side (default: first, middle, last).
+    pub shown_frames: Option<Vec<usize>>,
+    /// Magnification of the centre crop.
+    pub zoom: u32,
+}
+
+/// One method's row of `summary.csv` / `summary.json`.
+#[derive(Clone, Debug, Serialize)]
+pub struct MethodRow {
+    pub method: String,
+    pub frames: usize,
+    pub mean_gpu_ms: f64,
+    pub p95_gpu_ms: f64,
+    pub pass_mean_ms: BTreeMap<String, f64>,
+    pub rays_per_frame: f64,
+    pub rays_total: u64,
+    pub method_memory_bytes: u64,
+    /// Error / stability / stereo metrics per method (filled by the metrics stage).
+    pub metrics: BTreeMap<String, f64>,
+}
+
+impl MethodRow {
+    fn from_summary(s: &ReplaySummary) -> Self {
+        MethodRow {
+            method: s.method.clone(),
+            frames: s.frames,
+            mean_gpu_ms: s.mean_gpu_ms,
+            p95_gpu_ms: s.p95_gpu_ms,
+            pass_mean_ms: s.pass_mean_ms.clone(),
+            rays_per_frame: s.rays_per_frame,
+            rays_total: s.rays.total,
+            method_memory_bytes: s.method_memory_bytes,
+            metrics: BTreeMap::new(),
+        }
+    }
+}
+
+/// Default frames shown side by side: first, middle and last.
+fn default_shown(n: usize) -> Vec<usize> {
+    let mut v = vec![0, n / 2, n.saturating_sub(1)];
+    v.dedup();
+    v
+}
+
+pub fn compare(
+    session: &Session,
+    cameras: &[StereoCamera],
+    settings: &RenderSettings,
+    opts: &CompareOptions,
+) -> Result<Vec<MethodRow>> {
+    if opts.methods.is_empty() {
+        return Err(Error::Usage(
+            "compare needs at least one method (--methods a,b,...)".into(),
+        ));
+    }
+    let n = opts.frames.unwrap_or(cameras.len()).min(cameras.len());
+    if n == 0 {
+        return Err(Error::Usage("compare: the trace gives no frames".into()));
+    }
+    let shown = opts
+        .shown_frames
+        .clone()
+        .unwrap_or_else(|| default_shown(n));
+    if let Some(bad) = shown.iter().find(|&&f| f >= n) {
+        return Err(Error::Usage(format!(
+            "bad --show-frames: frame {bad} is past the last frame {}",
+            n - 1
+        )));
+    }
+    std::fs::create_dir_all(&opts.out).map_err(|e| Error::io(&opts.out, e))?;
+    // Every method is created before the first frame so bad method options fail fast.
+    let mut methods = Vec::new();
+    for name in &opts.methods {
+        methods.push(session.method(name, settings)?);
+    }
+    let mut rows = Vec::new();
+    // kept[frame][method] = the frame as rendered by that method.
+    let mut kept: Vec<Vec<StereoFrame>> = vec![Vec::new(); shown.len()];
+    for (name, method) in opts.methods.iter().zip(methods.iter_mut()) {
+        let ropts = ReplayOptions {
+            frames: Some(n),
+            fps: opts.fps,
+            every: opts.every,
+            out: opts.out.join(name),
+            exposure: opts.exposure,
+            debug_views: false,
+            trace: opts.trace.clone(),
+            settings: serde_json::to_value(settings).unwrap_or_default(),
+        };
+        let mut observer = |i: usize, _: &StereoCamera, f: &StereoFrame| -> Result<()> {
+            if let Some(k) = shown.iter().position(|&s| s == i) {
+                kept[k].push(f.clone());
+            }
+            Ok(())
+        };
+        let summary = replay_observed(session, method.as_mut(), cameras, &ropts, &mut observer)?;
+        rows.push(MethodRow::from_summary(&summary));
+    }
+    let sbs = opts.out.join("side-by-side");
+    std::fs::create_dir_all(&sbs).map_err(|e| Error::io(&sbs, e))?;
+    for (k, &f) in shown.iter().enumerate() {
+        write_grid(
+            &sbs.join(format!("frame_{f:05}.png")),
+            &opts.methods,
+            &kept[k],
+            opts.exposure,
+            opts.zoom.max(1),
+        )?;
+    }
+    write_summaries(session, opts, settings, &rows)?;
+    Ok(rows)
+}
+
+/// One column per method: a label, left eye, right eye, zoomed centre crops.
+fn write_grid(
+    path: &Path,
+    names: &[String],
+    frames: &[StereoFrame],
+    exposure: f32,
+    zoom: u32,
+) -> Result<()> {
+    let (w, h) = (frames[0].width, frames[0].height);
+    let scale = if w >= 160 { 2 } else { 1 };
+    let label_h = 7 * scale + 6;
+    let gap = 2;
+    let cols = frames.len() as u32;
+    let gw = cols * w + (cols + 1) * gap;
+    let gh = label_h + 4 * h + 5 * gap;
+    let mut img = vec![32u8; (gw * gh * 3) as usize];
+    for (c, (name, f)) in names.iter().zip(frames).enumerate() {
+        let x0 = gap + c as u32 * (w + gap);
+        let text = if label::text_width(name, scale) > w {
+            name.chars().take((w / (6 * scale)) as usize).collect()
+        } else {
+            name.clone()
+        };
+        label::draw_text(&mut img, gw, gh, x0 + 2, 3, &text, scale, [255, 255, 255]);
+        for (e, eye) in f.eyes.iter().enumerate() {
+            let rgb = tonemap::to_srgb8(&eye.radiance, exposure);
+            let y0 = label_h + gap + e as u32 * (h + gap);
+            blit(&mut img, gw, &rgb, w, h, x0, y0, None);
+            // Zoomed crop around the centre.
+            let (cw, ch) = ((w / zoom).max(1), (h / zoom).max(1));
+            let crop = ((w - cw) / 2, (h - ch) / 2, cw, ch);
+            let y1 = label_h + gap + (2 + e as u32) * (h + gap);
+            blit(&mut img, gw, &rgb, w, h, x0, y1, Some(crop));
+        }
+    }
+    output::write_atomically(path, |tmp| {
+        image::save_buffer_with_format(
+            tmp,
+            &img,
+            gw,
+            gh,
+            image::ColorType::Rgb8,
+            image::ImageFormat::Png,
+        )
+        .map_err(|e| e.to_string())
+    })?;
+    Ok(())
+}
+
+/// Copies a w×h RGB8 image (or a crop of it, scaled up to w×h with nearest
+/// neighbour) into the grid at (x0, y0).
+#[allow(clippy::too_many_arguments)]
+fn blit(
+    dst: &mut [u8],
+    dw: u32,
+    src: &[u8],
+    w: u32,
+    h: u32,
+    x0: u32,
+    y0: u32,
+    crop: Option<(u32, u32, u32, u32)>,
+) {
+    for y in 0..h {
+        for x in 0..w {
+            let (sx, sy) = match crop {
+                None => (x, y),
+                Some((cx, cy, cw, ch)) => (cx + x * cw / w, cy + y * ch / h),
+            };
+            let s = ((sy * w + sx) * 3) as usize;
+            let d = (((y0 + y) * dw + x0 + x) * 3) as usize;
+            dst[d..d + 3].copy_from_slice(&src[s..s + 3]);
+        }
+    }
+}
+
+fn write_summaries(
+    session: &Session,
+    opts: &CompareOptions,
+    settings: &RenderSettings,
+    rows: &[MethodRow],
+) -> Result<()> {
+    let mut passes: Vec<String> = rows
+        .iter()
+        .flat_map(|r| r.pass_mean_ms.keys().cloned())
+        .collect();
+    passes.sort();
+    passes.dedup();
+    let mut metric_names: Vec<String> = rows
+        .iter()
+        .flat_map(|r| r.metrics.keys().cloned())
+        .collect();
+    metric_names.sort();
+    metric_names.dedup();
+    let mut csv = String::from(
+        "method,frames,mean_gpu_ms,p95_gpu_ms,rays_per_frame,rays_total,method_memory_bytes",
+    );
+    for m in &metric_names {
+        csv.push_str(&format!(",{m}"));
+    }
+    for p in &passes {
+        csv.push_str(&format!(",pass_ms:{p}"));
+    }
+    csv.push('\n');
+    for r in rows {
+        csv.push_str(&format!(
+            "{},{},{:.4},{:.4},{:.1},{},{}",
+            r.method,
+            r.frames,
+            r.mean_gpu_ms,
+            r.p95_gpu_ms,
+            r.rays_per_frame,
+            r.rays_total,
+            r.method_memory_bytes
+        ));
+        for m in &metric_names {
+            csv.push_str(
+                &r.metrics
+                    .get(m)
+                    .map(|v| format!(",{v:.6e}"))
+                    .unwrap_or_else(|| ",".into()),
+            );
+        }
+        for p in &passes {
+            csv.push_str(&format!(
+                ",{:.4}",
+                r.pass_mean_ms.get(p).copied().unwrap_or(0.0)
+            ));
+        }
+        csv.push('\n');
+    }
+    let csv_path = opts.out.join("summary.csv");
+    output::write_atomically(&csv_path, |tmp| {
+        std::fs::write(tmp, &csv).map_err(|e| e.to_string())
+    })?;
+    let caps = &session.ctx.caps;
+    let json = serde_json::json!({
+        "device": caps.name,
+        "driver": format!("{} {}", caps.driver_name, caps.driver_info),
+        "backend": session.backend,
+        "scene": session.scene.source,
+        "trace": opts.trace,
+        "width": settings.width,
+        "height": settings.height,
+        "fps": opts.fps,
+        "settings": settings,
+        "methods": rows,
+    });
+    output::write_json(&opts.out.join("summary.json"), &json)?;
+    Ok(())
+}
+
+/// The short table printed at the end of a compare run.
+pub fn summary_table(rows: &[MethodRow]) -> String {
+    let mut s = format!(
+        "{:<16} {:>10} {:>10} {:>14} {:>14}\n",
+        "method", "GPU ms", "p95 ms", "rays/frame", "memory MiB"
+    );
+    for r in rows {
+        s.push_str(&format!(
+            "{:<16} {:>10.2} {:>10.2} {:>14.0} {:>14.1}\n",
+            r.method,
+            r.mean_gpu_ms,
+            r.p95_gpu_ms,
+            r.rays_per_frame,
+            r.method_memory_bytes as f64 / (1u64 << 20) as f64
+        ));
+    }
+    s
+}

@@ -1,0 +1,105 @@
+//! `stereocache compare` writes every promised file, with one summary row per method.
+
+use std::path::Path;
+use std::process::Command;
+
+#[test]
+fn compare_writes_every_file() {
+    let out = std::env::temp_dir().join(format!("stereocache-compare-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out);
+    let trace = Path::new(env!("CARGO_MANIFEST_DIR")).join("captures/synth-head-turn.csv");
+    let methods = ["sample-cache", "reference"];
+    let o = Command::new(env!("CARGO_BIN_EXE_stereocache"))
+        .env("STEREOCACHE_VALIDATE", "1")
+        .args([
+            "compare",
+            "--scene",
+            "cornell",
+            "--trace",
+            trace.to_str().unwrap(),
+            "--methods",
+            &methods.join(","),
+            "--frames",
+            "10",
+        ])
+        .args([
+            "--size",
+            "24x18",
+            "--every",
+            "5",
+            "--rt",
+            "software",
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{stderr}");
+    for m in methods {
+        for f in [
+            "frames.jsonl",
+            "summary.json",
+            "frames/00000_left.exr",
+            "frames/00005_right.png",
+        ] {
+            assert!(out.join(m).join(f).exists(), "{m}/{f} missing");
+        }
+        let lines = std::fs::read_to_string(out.join(m).join("frames.jsonl"))
+            .unwrap()
+            .lines()
+            .count();
+        assert_eq!(lines, 10, "{m}: frames.jsonl lines");
+    }
+    for f in ["frame_00000.png", "frame_00005.png", "frame_00009.png"] {
+        let p = out.join("side-by-side").join(f);
+        let img = image::open(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+        assert!(
+            img.width() >= 2 * 24 && img.height() >= 4 * 18,
+            "grid too small"
+        );
+    }
+    let csv = std::fs::read_to_string(out.join("summary.csv")).unwrap();
+    let rows: Vec<&str> = csv.lines().collect();
+    assert_eq!(rows.len(), 1 + methods.len(), "{csv}");
+    assert!(rows[0].starts_with("method,frames,mean_gpu_ms"));
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
+    let list = json["methods"].as_array().unwrap();
+    assert_eq!(list.len(), methods.len());
+    for (row, m) in list.iter().zip(methods) {
+        assert_eq!(row["method"], m);
+        assert!(row["mean_gpu_ms"].as_f64().unwrap() > 0.0);
+        assert!(row["rays_total"].as_u64().unwrap() > 0);
+        assert!(row["method_memory_bytes"].as_u64().unwrap() > 0);
+        // The CSV carries the same numbers.
+        let line = rows
+            .iter()
+            .find(|l| l.starts_with(&format!("{m},")))
+            .unwrap();
+        let mean: f64 = line.split(',').nth(2).unwrap().parse().unwrap();
+        assert!((mean - row["mean_gpu_ms"].as_f64().unwrap()).abs() < 1e-3);
+    }
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+#[test]
+fn compare_refuses_unknown_methods() {
+    let o = Command::new(env!("CARGO_BIN_EXE_stereocache"))
+        .args([
+            "compare",
+            "--methods",
+            "sample-cache,magic",
+            "--out",
+            "/tmp/never-written",
+        ])
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        stderr.contains("unknown method 'magic'") && !stderr.contains("panicked"),
+        "{stderr}"
+    );
+    assert!(!Path::new("/tmp/never-written").exists());
+}
