@@ -163,7 +163,12 @@ fn write_grid(
         } else {
             name.clone()
         };
-        label::draw_text(&mut img, gw, gh, x0 + 2, 3, &text, scale, [255, 255, 255]);
+        label::Canvas {
+            data: &mut img,
+            width: gw,
+            height: gh,
+        }
+        .text(x0 + 2, 3, &text, scale, [255, 255, 255]);
         for (e, eye) in f.eyes.iter().enumerate() {
             let rgb = tonemap::to_srgb8(&eye.radiance, exposure);
             let y0 = label_h + gap + e as u32 * (h + gap);

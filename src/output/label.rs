@@ -262,31 +262,31 @@ pub fn text_width(text: &str, scale: u32) -> u32 {
     text.chars().count() as u32 * 6 * scale
 }
 
-/// Draws `text` into an RGB8 image of width `w` at (x, y) in `color`, clipped to the image.
-pub fn draw_text(
-    img: &mut [u8],
-    w: u32,
-    h: u32,
-    x: u32,
-    y: u32,
-    text: &str,
-    scale: u32,
-    color: [u8; 3],
-) {
-    for (i, c) in text.chars().enumerate() {
-        let g = glyph(c);
-        let gx = x + i as u32 * 6 * scale;
-        for (row, bits) in g.iter().enumerate() {
-            for col in 0..5u32 {
-                if bits & (1 << (4 - col)) == 0 {
-                    continue;
-                }
-                for dy in 0..scale {
-                    for dx in 0..scale {
-                        let (px, py) = (gx + col * scale + dx, y + row as u32 * scale + dy);
-                        if px < w && py < h {
-                            let o = ((py * w + px) * 3) as usize;
-                            img[o..o + 3].copy_from_slice(&color);
+/// An RGB8 image being drawn into.
+pub struct Canvas<'a> {
+    pub data: &'a mut [u8],
+    pub width: u32,
+    pub height: u32,
+}
+
+impl Canvas<'_> {
+    /// Draws `text` with its top-left corner at (x, y), clipped to the image.
+    pub fn text(&mut self, x: u32, y: u32, text: &str, scale: u32, color: [u8; 3]) {
+        for (i, c) in text.chars().enumerate() {
+            let g = glyph(c);
+            let gx = x + i as u32 * 6 * scale;
+            for (row, bits) in g.iter().enumerate() {
+                for col in 0..5u32 {
+                    if bits & (1 << (4 - col)) == 0 {
+                        continue;
+                    }
+                    for dy in 0..scale {
+                        for dx in 0..scale {
+                            let (px, py) = (gx + col * scale + dx, y + row as u32 * scale + dy);
+                            if px < self.width && py < self.height {
+                                let o = ((py * self.width + px) * 3) as usize;
+                                self.data[o..o + 3].copy_from_slice(&color);
+                            }
                         }
                     }
                 }
@@ -303,12 +303,17 @@ mod tests {
     fn draws_inside_and_clips_outside() {
         let (w, h) = (40, 10);
         let mut img = vec![0u8; (w * h * 3) as usize];
-        draw_text(&mut img, w, h, 0, 0, "A1", 1, [255, 255, 255]);
-        assert!(img.iter().any(|&v| v == 255));
+        let mut canvas = Canvas {
+            data: &mut img,
+            width: w,
+            height: h,
+        };
+        canvas.text(0, 0, "A1", 1, [255, 255, 255]);
+        canvas.text(38, 8, "WWW", 2, [1, 2, 3]); // clipped, no panic
+        assert!(img.contains(&255));
         // 'A' top row is .###. at x = 1..4.
         assert_eq!(img[3], 255);
         assert_eq!(img[0], 0);
-        draw_text(&mut img, w, h, 38, 8, "WWW", 2, [1, 2, 3]); // clipped, no panic
         assert_eq!(text_width("abc", 2), 36);
     }
 }
