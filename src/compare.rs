@@ -9,6 +9,7 @@
 
 use crate::camera::StereoCamera;
 use crate::error::{Error, Result};
+use crate::evaluate::{Evaluator, ReferenceCache};
 use crate::methods::{RenderSettings, StereoFrame};
 use crate::output::{self, label, tonemap};
 use crate::replay::{replay_observed, ReplayOptions, ReplaySummary};
@@ -31,6 +32,11 @@ pub struct CompareOptions {
     pub shown_frames: Option<Vec<usize>>,
     /// Magnification of the centre crop.
     pub zoom: u32,
+    /// Samples per pixel of the reference frames the metrics compare against
+    /// (`None`: no metrics).
+    pub reference_spp: Option<u32>,
+    /// Where reference frames are cached between runs.
+    pub reference_cache: PathBuf,
 }
 
 /// One method's row of `summary.csv` / `summary.json`.
@@ -102,10 +108,31 @@ pub fn compare(
     for name in &opts.methods {
         methods.push(session.method(name, settings)?);
     }
+    // Reference frames (rendered once, cached on disk) for the metrics.
+    let references: Vec<StereoFrame> = match opts.reference_spp {
+        None => Vec::new(),
+        Some(spp) => {
+            let rs = RenderSettings {
+                spp,
+                ..settings.clone()
+            };
+            let cache = ReferenceCache {
+                dir: opts.reference_cache.clone(),
+                settings: rs.clone(),
+            };
+            let mut reference = session.method("reference", &rs)?;
+            cameras[..n]
+                .iter()
+                .enumerate()
+                .map(|(i, c)| cache.get(session, reference.as_mut(), c, i as u32))
+                .collect::<Result<_>>()?
+        }
+    };
     let mut rows = Vec::new();
     // kept[frame][method] = the frame as rendered by that method.
     let mut kept: Vec<Vec<StereoFrame>> = vec![Vec::new(); shown.len()];
     for (name, method) in opts.methods.iter().zip(methods.iter_mut()) {
+        let mut evaluator = Evaluator::default();
         let ropts = ReplayOptions {
             frames: Some(n),
             fps: opts.fps,
@@ -116,14 +143,20 @@ pub fn compare(
             trace: opts.trace.clone(),
             settings: serde_json::to_value(settings).unwrap_or_default(),
         };
-        let mut observer = |i: usize, _: &StereoCamera, f: &StereoFrame| -> Result<()> {
-            if let Some(k) = shown.iter().position(|&s| s == i) {
-                kept[k].push(f.clone());
-            }
-            Ok(())
-        };
+        let mut observer =
+            |i: usize, cam: &StereoCamera, f: &StereoFrame| -> Result<BTreeMap<String, f64>> {
+                if let Some(k) = shown.iter().position(|&s| s == i) {
+                    kept[k].push(f.clone());
+                }
+                match references.get(i) {
+                    Some(r) => evaluator.frame(cam, f, r),
+                    None => Ok(BTreeMap::new()),
+                }
+            };
         let summary = replay_observed(session, method.as_mut(), cameras, &ropts, &mut observer)?;
-        rows.push(MethodRow::from_summary(&summary));
+        let mut row = MethodRow::from_summary(&summary);
+        row.metrics = evaluator.means();
+        rows.push(row);
     }
     let sbs = opts.out.join("side-by-side");
     std::fs::create_dir_all(&sbs).map_err(|e| Error::io(&sbs, e))?;
@@ -299,17 +332,35 @@ fn write_summaries(
 /// The short table printed at the end of a compare run.
 pub fn summary_table(rows: &[MethodRow]) -> String {
     let mut s = format!(
-        "{:<16} {:>10} {:>10} {:>14} {:>14}\n",
-        "method", "GPU ms", "p95 ms", "rays/frame", "memory MiB"
+        "{:<16} {:>9} {:>9} {:>12} {:>10} {:>9} {:>9} {:>10} {:>10}\n",
+        "method",
+        "GPU ms",
+        "p95 ms",
+        "rays/frame",
+        "mem MiB",
+        "RSE",
+        "FLIP",
+        "temporal+",
+        "stereo+"
     );
+    let metric = |r: &MethodRow, k: &str| {
+        r.metrics
+            .get(k)
+            .map(|v| format!("{v:.4}"))
+            .unwrap_or_else(|| "-".into())
+    };
     for r in rows {
         s.push_str(&format!(
-            "{:<16} {:>10.2} {:>10.2} {:>14.0} {:>14.1}\n",
+            "{:<16} {:>9.2} {:>9.2} {:>12.0} {:>10.1} {:>9} {:>9} {:>10} {:>10}\n",
             r.method,
             r.mean_gpu_ms,
             r.p95_gpu_ms,
             r.rays_per_frame,
-            r.method_memory_bytes as f64 / (1u64 << 20) as f64
+            r.method_memory_bytes as f64 / (1u64 << 20) as f64,
+            metric(r, "rse"),
+            metric(r, "flip"),
+            metric(r, "temporal_excess"),
+            metric(r, "stereo_excess"),
         ));
     }
     s

@@ -10,6 +10,7 @@ pub mod bench;
 pub mod camera;
 pub mod compare;
 pub mod error;
+pub mod evaluate;
 pub mod gpu;
 pub mod methods;
 pub mod metrics;

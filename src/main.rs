@@ -228,6 +228,12 @@ struct CompareArgs {
     /// Magnification of the centre crop in the side-by-side grids.
     #[arg(long, default_value_t = 3)]
     zoom: u32,
+    /// Samples per pixel of the reference frames the metrics use (0 = no metrics).
+    #[arg(long, default_value_t = 64)]
+    reference_spp: u32,
+    /// Where reference frames are cached between runs.
+    #[arg(long, default_value = "out/reference-cache")]
+    reference_cache: PathBuf,
     #[arg(long, default_value_t = 1)]
     spp: u32,
     #[arg(long, default_value = "160x120")]
@@ -324,6 +330,8 @@ fn run_compare(a: CompareArgs) -> Result<()> {
         trace: a.trace.clone(),
         shown_frames: shown,
         zoom: a.zoom,
+        reference_spp: (a.reference_spp > 0).then_some(a.reference_spp),
+        reference_cache: a.reference_cache.clone(),
     };
     let rows = stereocache::compare::compare(&session, &cameras, &settings, &opts)?;
     print!("{}", stereocache::compare::summary_table(&rows));

@@ -203,6 +203,9 @@ pub struct FrameRecord {
     pub rays: RayRecord,
     /// The method's own counters, as it reported them.
     pub counters: BTreeMap<String, f64>,
+    /// Metrics of this frame against the reference (compare), when computed.
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    pub metrics: BTreeMap<String, f64>,
     pub camera: CameraRecord,
 }
 
@@ -219,6 +222,7 @@ impl FrameRecord {
             passes,
             rays: stats.rays.into(),
             counters: stats.counters.clone(),
+            metrics: BTreeMap::new(),
             camera: CameraRecord {
                 position: camera.head.position.to_array(),
                 orientation: camera.head.orientation.to_array(),
@@ -314,13 +318,17 @@ pub fn replay(
     cameras: &[StereoCamera],
     opts: &ReplayOptions,
 ) -> Result<ReplaySummary> {
-    replay_observed(session, method, cameras, opts, &mut |_, _, _| Ok(()))
+    replay_observed(session, method, cameras, opts, &mut |_, _, _| {
+        Ok(BTreeMap::new())
+    })
 }
 
 /// What an observer of a replay receives per frame: the frame's index, its
-/// camera and the rendered frame (before it is dropped). `compare` keeps the
-/// frames it shows side by side; metrics against a reference hook in here.
-pub type FrameObserver<'a> = dyn FnMut(usize, &StereoCamera, &StereoFrame) -> Result<()> + 'a;
+/// camera and the rendered frame (before it is dropped). It returns metrics
+/// for `frames.jsonl` (empty for none). `compare` keeps the frames it shows
+/// side by side and evaluates every frame against the reference here.
+pub type FrameObserver<'a> =
+    dyn FnMut(usize, &StereoCamera, &StereoFrame) -> Result<BTreeMap<String, f64>> + 'a;
 
 /// [`replay`] with an observer called after every frame.
 pub fn replay_observed(
@@ -365,14 +373,15 @@ pub fn replay_observed(
             prev_camera: i.checked_sub(1).map(|p| cameras[p]),
         };
         let frame = method.render_frame(&input)?;
-        observer(i, camera, &frame)?;
+        let metrics = observer(i, camera, &frame)?;
         (width, height) = (frame.width, frame.height);
         if opts.every > 0 && i % opts.every == 0 {
             write_frame_images(&frames_dir, i, &frame, opts)?;
             images_written += 1;
         }
 
-        let record = FrameRecord::new(i, opts.fps, camera, &frame.stats);
+        let mut record = FrameRecord::new(i, opts.fps, camera, &frame.stats);
+        record.metrics = metrics;
         let mut line = serde_json::to_string(&record).map_err(|e| {
             Error::io(
                 &partial,
