@@ -32,6 +32,12 @@ fn compare_writes_every_file() {
             "--out",
             out.to_str().unwrap(),
         ])
+        .args([
+            "--reference-spp",
+            "8",
+            "--reference-cache",
+            out.join("refs").to_str().unwrap(),
+        ])
         .output()
         .unwrap();
     let stderr = String::from_utf8_lossy(&o.stderr);
@@ -72,6 +78,32 @@ fn compare_writes_every_file() {
         assert!(row["mean_gpu_ms"].as_f64().unwrap() > 0.0);
         assert!(row["rays_total"].as_u64().unwrap() > 0);
         assert!(row["method_memory_bytes"].as_u64().unwrap() > 0);
+        // Metrics against the reference: every frame after the first has temporal ones.
+        for k in [
+            "rse",
+            "flip",
+            "ssim",
+            "stereo_mean",
+            "stereo_mean_reference",
+            "temporal_excess",
+        ] {
+            let v = row["metrics"][k]
+                .as_f64()
+                .unwrap_or_else(|| panic!("{m}: metric {k} missing"));
+            assert!(v.is_finite(), "{m}: {k} = {v}");
+        }
+        let second: serde_json::Value = serde_json::from_str(
+            std::fs::read_to_string(out.join(m).join("frames.jsonl"))
+                .unwrap()
+                .lines()
+                .nth(1)
+                .unwrap(),
+        )
+        .unwrap();
+        assert!(
+            second["metrics"]["temporal"].as_f64().is_some(),
+            "{m}: frames.jsonl lacks metrics"
+        );
         // The CSV carries the same numbers.
         let line = rows
             .iter()
