@@ -19,3 +19,4 @@ pub mod replay;
 pub mod rt;
 pub mod scene;
 pub mod session;
+pub mod stereo;

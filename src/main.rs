@@ -106,6 +106,12 @@ struct CacheArgs {
     /// mean (running mean, appendix C clamp) | fixed:ALPHA (for view-dependent materials)
     #[arg(long, default_value = "mean")]
     accumulation: String,
+    /// Stereo blending of the two eyes (§3.6): none | moments | neighbourhood
+    #[arg(long, default_value = "none")]
+    stereo_blend: String,
+    /// Sharpness R of the stereo blending in [0, 1] (1 = no neighbour contributes).
+    #[arg(long, default_value_t = 0.5)]
+    sharpness: f32,
 }
 
 impl CacheArgs {
@@ -119,6 +125,8 @@ impl CacheArgs {
             shading_rate: self.shading_rate,
             reproject: self.reproject.parse().map_err(|e: String| anyhow!(e))?,
             accumulation: self.accumulation.parse().map_err(|e: String| anyhow!(e))?,
+            stereo_blend: self.stereo_blend.parse().map_err(|e: String| anyhow!(e))?,
+            sharpness: self.sharpness,
             debug_views,
             ..Default::default()
         };

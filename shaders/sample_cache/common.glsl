@@ -24,8 +24,8 @@ layout(push_constant) uniform Push {
     float eps1;           // Eq. 2
     uint n_target;
     uint delta;
-    uint pad0;
-    uint pad1;
+    uint blend_mode;      // 0 none, 1 moments, 2 neighbourhood (stereo_blend.comp)
+    float sharpness;      // R of §3.6
 } pc;
 
 layout(set = 1, binding = 1, std430) buffer MaskPrev { uint mask_prev[]; };

@@ -112,6 +112,7 @@ struct Pipelines {
     shade_select: ComputePipeline,
     shade: ComputePipeline,
     reconstruct: ComputePipeline,
+    stereo_blend: ComputePipeline,
 }
 
 pub struct SampleCache {
@@ -142,6 +143,7 @@ pub struct SampleCache {
     pixel_action: Buffer,
     pixel_stats: Buffer,
     debug: Buffer,
+    out_blended: Buffer,
     /// Frames rendered so far (selects the ping-pong parity).
     frames: u64,
 }
@@ -192,8 +194,9 @@ impl SampleCache {
         let pixel_action = b("pixel_action", e2 * 16)?;
         let pixel_stats = b("pixel_stats", e2 * 16)?;
         let debug = b("debug", 4 * e2 * 16)?;
+        let out_blended = b("blended", e2 * 16)?;
 
-        let layout = DescriptorLayout::buffers(ctx, 23)?;
+        let layout = DescriptorLayout::buffers(ctx, 24)?;
         let make_set = |p: usize| {
             let q = 1 - p;
             DescriptorSet::new(
@@ -223,6 +226,7 @@ impl SampleCache {
                     Resource::Buffer(&pixel_action),
                     Resource::Buffer(&pixel_stats),
                     Resource::Buffer(&debug),
+                    Resource::Buffer(&out_blended),
                 ],
             )
         };
@@ -262,6 +266,7 @@ impl SampleCache {
             shade_select: pipe("shade_select")?,
             shade: pipe("shade")?,
             reconstruct: pipe("reconstruct")?,
+            stereo_blend: pipe("stereo_blend")?,
         };
 
         // Empty caches; importance bounds "unset" so the first frame uses defaults.
@@ -327,6 +332,7 @@ impl SampleCache {
             pixel_action,
             pixel_stats,
             debug,
+            out_blended,
             frames: 0,
         })
     }
@@ -341,7 +347,12 @@ impl SampleCache {
         for f in [c.shading_rate, fixed, c.eps0, c.eps1] {
             v.extend_from_slice(&f.to_le_bytes());
         }
-        for u in [c.n_target, c.delta, 0, 0] {
+        let blend = match c.stereo_blend {
+            crate::stereo::BlendMode::None => 0u32,
+            crate::stereo::BlendMode::Moments => 1,
+            crate::stereo::BlendMode::Neighbourhood => 2,
+        };
+        for u in [c.n_target, c.delta, blend, c.sharpness.to_bits()] {
             v.extend_from_slice(&u.to_le_bytes());
         }
         v
@@ -498,10 +509,25 @@ impl Method for SampleCache {
             .write(&self.out_albedo)
             .write(&self.debug)
             .dispatch(&p.reconstruct, &sets, &push, groups);
+        let blend = self.cache.stereo_blend != crate::stereo::BlendMode::None;
+        if blend {
+            rec.pass("stereo.blend")
+                .read(&self.out_color)
+                .read(&self.out_m1)
+                .read(&self.out_m2)
+                .read(&self.out_depth)
+                .read(&self.out_fh)
+                .write(&self.out_blended)
+                .dispatch(&p.stereo_blend, &sets, &push, groups);
+        }
         let passes = rec.finish()?;
         self.frames += 1;
 
-        let color: Vec<[f32; 4]> = self.out_color.download_pod()?;
+        let color: Vec<[f32; 4]> = if blend {
+            self.out_blended.download_pod()?
+        } else {
+            self.out_color.download_pod()?
+        };
         let depth: Vec<f32> = self.out_depth.download_pod()?;
         let fh: Vec<[u32; 4]> = self.out_fh.download_pod()?;
         let albedo: Vec<[f32; 4]> = self.out_albedo.download_pod()?;
@@ -585,6 +611,7 @@ impl Method for SampleCache {
             &self.pixel_action,
             &self.pixel_stats,
             &self.debug,
+            &self.out_blended,
         ] {
             total += b.size;
         }

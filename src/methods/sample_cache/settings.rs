@@ -57,6 +57,10 @@ pub struct SampleCacheSettings {
     pub eps1: f32,
     /// Download the debug views (trace mask, samples per pixel, shaded, occupancy).
     pub debug_views: bool,
+    /// §3.6 stereo blending of the reconstructed eyes.
+    pub stereo_blend: crate::stereo::BlendMode,
+    /// Sharpness R ∈ [0, 1] of the blending (1 = no neighbour contributes).
+    pub sharpness: f32,
 }
 
 impl Default for SampleCacheSettings {
@@ -73,6 +77,8 @@ impl Default for SampleCacheSettings {
             eps0: 0.001,
             eps1: 0.005,
             debug_views: false,
+            stereo_blend: crate::stereo::BlendMode::None,
+            sharpness: 0.5,
         }
     }
 }
@@ -105,6 +111,12 @@ impl SampleCacheSettings {
             return Err(format!(
                 "bad --shading-rate {}: expected a fraction in (0, {}]",
                 self.shading_rate, self.slots
+            ));
+        }
+        if !(0.0..=1.0).contains(&self.sharpness) {
+            return Err(format!(
+                "bad --sharpness {}: expected R in [0, 1]",
+                self.sharpness
             ));
         }
         if let Accumulation::FixedAlpha(a) = self.accumulation {

@@ -1,0 +1,134 @@
+#version 460
+// §3.6 stereo blending. For each pixel of eye Y, the closest visible sample's
+// position is projected into the other eye X; where X sees the same point
+// (depth agreement within 1 %), the final colour is lerp(X, Y, β′) (Eq. 3)
+// with β′ from Eq. 8. Moments: the cache's per-pixel μ1, μ2 (Eq. 5–6,
+// `moments` mode) or 3×3 neighbourhood estimates from the colours
+// (`neighbourhood`, Philippi et al. 2023). Y's moments are blurred over 3×3
+// with neighbour weight 1 − R; X's are resampled with Dodgson's quadratic
+// kernel of parameter R. CPU twin of the math: src/stereo/blend.rs.
+#include "sample_cache/common.glsl"
+layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
+layout(set = 1, binding = 23, std430) buffer OutBlended { vec4 out_blended[]; };
+
+float dodgson(float s, float r) {
+    float a = abs(s);
+    if (a <= 0.5) return -2.0 * r * a * a + 0.5 * (r + 1.0);
+    if (a <= 1.5) return r * a * a - (2.0 * r + 0.5) * a + 0.75 * (r + 1.0);
+    return 0.0;
+}
+
+vec3 beta_prime(vec3 m1x, vec3 m2x, vec3 m1y, vec3 m2y) {
+    vec3 var_y = max(m2y - m1y * m1y, vec3(0.0));
+    vec3 denom = m2x + m2y - 2.0 * m1x * m1y;
+    vec3 b;
+    for (int c = 0; c < 3; ++c) {
+        bool ok = denom[c] > 1e-12 && !isinf(denom[c]) && !isnan(denom[c]) && !isinf(var_y[c]) && !isnan(var_y[c]);
+        b[c] = ok ? clamp(1.0 - var_y[c] / denom[c], 0.0, 1.0) : 1.0;
+    }
+    return b;
+}
+
+// The cache's moments of pixel q of `eye` (Eq. 5–6).
+void moments_at(uint eye, uvec2 q, out vec3 m1, out vec3 m2) {
+    uint i = eye * npix() + q.y * frame_size().x + q.x;
+    m1 = out_m1[i].rgb;
+    m2 = out_m2[i].rgb;
+}
+
+// Neighbourhood baseline (Philippi et al. 2023): moments of the colours in
+// the 3×3 box around pixel c of `eye`.
+void box_moments(uint eye, ivec2 c, out vec3 m1, out vec3 m2) {
+    uvec2 size = frame_size();
+    m1 = vec3(0.0);
+    m2 = vec3(0.0);
+    float n = 0.0;
+    for (int j = -1; j <= 1; ++j) {
+        for (int i = -1; i <= 1; ++i) {
+            ivec2 t = c + ivec2(i, j);
+            if (any(lessThan(t, ivec2(0))) || any(greaterThanEqual(t, ivec2(size)))) continue;
+            vec3 col = out_color[eye * npix() + uint(t.y) * size.x + uint(t.x)].rgb;
+            m1 += col;
+            m2 += col * col;
+            n += 1.0;
+        }
+    }
+    m1 /= n;
+    m2 /= n;
+}
+
+void main() {
+    uvec2 size = frame_size();
+    uvec2 px = gl_GlobalInvocationID.xy;
+    uint eye = gl_GlobalInvocationID.z;
+    if (any(greaterThanEqual(px, size))) return;
+    uint pm = eye * npix() + px.y * size.x + px.x;
+    vec3 y_color = out_color[pm].rgb;
+    out_blended[pm] = vec4(y_color, 1.0);
+    uvec4 fh = out_fh[pm];
+    if (!first_hit_valid(fh)) return;                      // background: left unblended
+    uint other = 1u - eye;
+    EyeGpu ex = frame.eyes[other];
+    vec3 wp = hit_position(fh);
+    vec2 q;
+    float vd;
+    if (!project_to_eye(ex, wp, q, vd)) return;
+    if (any(lessThan(q, vec2(0.0))) || any(greaterThanEqual(q, vec2(size)))) return;
+    uvec2 qi = uvec2(q);
+    float dx = out_depth[other * npix() + qi.y * size.x + qi.x];
+    if (!(dx > 0.0) || abs(dx - vd) > 0.01 * vd) return;   // no co-visible counterpart
+
+    float r = clamp(pc.sharpness, 0.0, 1.0);
+    // X: Dodgson resampling around q (taps within 1.5 pixels).
+    vec3 m1x = vec3(0.0), m2x = vec3(0.0), cx = vec3(0.0);
+    float wsum = 0.0;
+    ivec2 base = ivec2(floor(q - 0.5));
+    for (int j = -1; j <= 2; ++j) {
+        for (int i = -1; i <= 2; ++i) {
+            ivec2 t = base + ivec2(i, j);
+            if (any(lessThan(t, ivec2(0))) || any(greaterThanEqual(t, ivec2(size)))) continue;
+            vec2 s = q - (vec2(t) + 0.5);
+            float w = dodgson(s.x, r) * dodgson(s.y, r);
+            if (w == 0.0) continue;
+            if (pc.blend_mode == 1u) {
+                vec3 a1, a2;
+                moments_at(other, uvec2(t), a1, a2);
+                m1x += w * a1;
+                m2x += w * a2;
+            }
+            cx += w * out_color[other * npix() + uint(t.y) * size.x + uint(t.x)].rgb;
+            wsum += w;
+        }
+    }
+    if (!(wsum > 1e-6)) return;
+    m1x /= wsum;
+    m2x /= wsum;
+    cx = max(cx / wsum, vec3(0.0));   // Dodgson has negative lobes for r > ½
+
+    vec3 m1y = vec3(0.0), m2y = vec3(0.0);
+    if (pc.blend_mode == 2u) {
+        box_moments(other, ivec2(qi), m1x, m2x);
+        box_moments(eye, ivec2(px), m1y, m2y);
+    } else {
+        // Y: 3×3 blur of the moments with neighbour weight 1 − R, centre weight 1.
+        float wy = 0.0;
+        for (int j = -1; j <= 1; ++j) {
+            for (int i = -1; i <= 1; ++i) {
+                ivec2 t = ivec2(px) + ivec2(i, j);
+                if (any(lessThan(t, ivec2(0))) || any(greaterThanEqual(t, ivec2(size)))) continue;
+                float w = (i == 0 && j == 0) ? 1.0 : 1.0 - r;
+                if (w == 0.0) continue;
+                vec3 a1, a2;
+                moments_at(eye, uvec2(t), a1, a2);
+                m1y += w * a1;
+                m2y += w * a2;
+                wy += w;
+            }
+        }
+        m1y /= wy;
+        m2y /= wy;
+    }
+    vec3 b = beta_prime(m1x, m2x, m1y, m2y);
+    vec3 blended = (1.0 - b) * cx + b * y_color;
+    if (all(equal(blended, blended)) && !any(isinf(blended))) out_blended[pm] = vec4(blended, 1.0);
+}
