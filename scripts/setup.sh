@@ -14,6 +14,9 @@ if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
 
 codename=$(. /etc/os-release && echo "${VERSION_CODENAME:-}")
 packages=(libvulkan1 libvulkan-dev vulkan-tools glslc vulkan-validationlayers mesa-vulkan-drivers)
+# `setup.sh --test` also installs what only the test suite needs: Debian's
+# chromium, to load the HTML report in a real headless browser.
+if [ "${1:-}" = "--test" ]; then packages+=(chromium); fi
 
 have_all() {
   for p in "${packages[@]}"; do

@@ -4,6 +4,6 @@
 # test enables the Khronos validation layer and fails on any message.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-bash scripts/setup.sh
+bash scripts/setup.sh --test
 export STEREOCACHE_VALIDATE=1
 cargo test --locked --no-fail-fast "$@"

@@ -16,6 +16,7 @@ pub mod methods;
 pub mod metrics;
 pub mod output;
 pub mod replay;
+pub mod report;
 pub mod rt;
 pub mod scene;
 pub mod session;

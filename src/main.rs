@@ -343,10 +343,12 @@ fn run_compare(a: CompareArgs) -> Result<()> {
     };
     let rows = stereocache::compare::compare(&session, &cameras, &settings, &opts)?;
     print!("{}", stereocache::compare::summary_table(&rows));
+    let report = stereocache::report::write_report(&a.out)?;
     println!(
         "wrote {} (summary.csv, summary.json, side-by-side/, one folder per method)",
         a.out.display()
     );
+    println!("report: {}", report.display());
     report_validation(&session.ctx)
 }
 
@@ -364,6 +366,11 @@ enum Command {
     Render(Box<RenderArgs>),
     /// Render several methods along the same frames of a trace, side by side.
     Compare(Box<CompareArgs>),
+    /// Write DIR/report.html from a compare output directory.
+    Report {
+        /// The directory `stereocache compare --out` wrote.
+        dir: PathBuf,
+    },
     /// Render a method along a head-pose trace: DIR/frames/, DIR/frames.jsonl, DIR/summary.json.
     Replay(Box<ReplayArgs>),
     /// Benchmarks (figures for docs/PERFORMANCE.md).
@@ -598,6 +605,11 @@ fn run(cli: Cli) -> Result<()> {
             report_validation(&ctx)
         }
         Command::Compare(args) => run_compare(*args),
+        Command::Report { dir } => {
+            let path = stereocache::report::write_report(&dir)?;
+            println!("wrote {}", path.display());
+            Ok(())
+        }
         Command::Render(args) => {
             let RenderArgs {
                 gpu,

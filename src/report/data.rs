@@ -1,0 +1,120 @@
+//! What a report reads from a compare directory.
+
+use crate::error::{Error, Result};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// One frame of one method (from frames.jsonl).
+#[derive(Clone, Debug)]
+pub struct FramePoint {
+    pub index: usize,
+    pub gpu_ms: f64,
+    pub metrics: BTreeMap<String, f64>,
+}
+
+#[derive(Clone, Debug)]
+pub struct MethodData {
+    pub name: String,
+    /// The method's row of summary.json as it was written.
+    pub row: serde_json::Value,
+    pub frames: Vec<FramePoint>,
+}
+
+impl MethodData {
+    pub fn metric(&self, k: &str) -> Option<f64> {
+        self.row["metrics"][k].as_f64()
+    }
+    pub fn mean_gpu_ms(&self) -> f64 {
+        self.row["mean_gpu_ms"].as_f64().unwrap_or(0.0)
+    }
+    pub fn pass_ms(&self) -> BTreeMap<String, f64> {
+        self.row["pass_mean_ms"]
+            .as_object()
+            .map(|m| {
+                m.iter()
+                    .filter_map(|(k, v)| v.as_f64().map(|v| (k.clone(), v)))
+                    .collect()
+            })
+            .unwrap_or_default()
+    }
+}
+
+pub struct ReportData {
+    pub dir: PathBuf,
+    pub summary: serde_json::Value,
+    pub methods: Vec<MethodData>,
+    /// Side-by-side grid images (file name, bytes).
+    pub grids: Vec<(String, Vec<u8>)>,
+}
+
+fn bad(path: &Path, what: impl std::fmt::Display) -> Error {
+    Error::Usage(format!("{}: {what}", path.display()))
+}
+
+/// Reads a compare directory; a missing or malformed file is an error naming it.
+pub fn load(dir: &Path) -> Result<ReportData> {
+    let sp = dir.join("summary.json");
+    let text = std::fs::read_to_string(&sp).map_err(|e| {
+        bad(
+            &sp,
+            format!("cannot read ({e}); is this a `stereocache compare` output directory?"),
+        )
+    })?;
+    let summary: serde_json::Value =
+        serde_json::from_str(&text).map_err(|e| bad(&sp, format!("invalid JSON: {e}")))?;
+    let rows = summary["methods"]
+        .as_array()
+        .ok_or_else(|| bad(&sp, "no \"methods\" list"))?;
+    let mut methods = Vec::new();
+    for row in rows {
+        let name = row["method"]
+            .as_str()
+            .ok_or_else(|| bad(&sp, "a method row has no name"))?
+            .to_string();
+        let fp = dir.join(&name).join("frames.jsonl");
+        let text =
+            std::fs::read_to_string(&fp).map_err(|e| bad(&fp, format!("cannot read ({e})")))?;
+        let mut frames = Vec::new();
+        for (ln, line) in text.lines().enumerate() {
+            let v: serde_json::Value = serde_json::from_str(line)
+                .map_err(|e| bad(&fp, format!("line {}: invalid JSON: {e}", ln + 1)))?;
+            frames.push(FramePoint {
+                index: v["index"].as_u64().unwrap_or(ln as u64) as usize,
+                gpu_ms: v["gpu_ms"].as_f64().unwrap_or(0.0),
+                metrics: v["metrics"]
+                    .as_object()
+                    .map(|m| {
+                        m.iter()
+                            .filter_map(|(k, v)| v.as_f64().map(|v| (k.clone(), v)))
+                            .collect()
+                    })
+                    .unwrap_or_default(),
+            });
+        }
+        methods.push(MethodData {
+            name,
+            row: row.clone(),
+            frames,
+        });
+    }
+    let mut grids = Vec::new();
+    let sbs = dir.join("side-by-side");
+    if let Ok(rd) = std::fs::read_dir(&sbs) {
+        let mut names: Vec<PathBuf> = rd
+            .flatten()
+            .map(|e| e.path())
+            .filter(|p| p.extension().is_some_and(|e| e == "png"))
+            .collect();
+        names.sort();
+        for p in names {
+            let bytes = std::fs::read(&p).map_err(|e| bad(&p, e))?;
+            grids.push((p.file_name().unwrap().to_string_lossy().into_owned(), bytes));
+        }
+    }
+    Ok(ReportData {
+        dir: dir.to_path_buf(),
+        summary,
+        methods,
+        grids,
+    })
+}

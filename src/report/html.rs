@@ -1,0 +1,151 @@
+//! The report page.
+
+use super::data::ReportData;
+use super::plots;
+use crate::error::Result;
+use base64::Engine;
+
+fn esc(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+}
+
+fn fmt(v: Option<f64>) -> String {
+    match v {
+        Some(v) if v.is_finite() => {
+            if v.abs() >= 100.0 {
+                format!("{v:.1}")
+            } else {
+                format!("{v:.4}")
+            }
+        }
+        _ => "–".into(),
+    }
+}
+
+/// Metrics shown in the table, with their meaning.
+const METRICS: &[(&str, &str)] = &[
+    ("rse", "relative squared error (ε = 0.01), lower is better"),
+    ("flip", "HDR-FLIP, lower is better"),
+    ("ssim", "SSIM on display luma, higher is better"),
+    ("cpbd", "CPBD sharpness (reference: cpbd_reference)"),
+    (
+        "temporal_excess",
+        "temporal instability minus the reference's",
+    ),
+    (
+        "stereo_excess",
+        "stereo discrepancy minus the reference pair's",
+    ),
+    ("stereo_p95", "95th percentile stereo discrepancy"),
+];
+
+pub fn page(d: &ReportData) -> Result<String> {
+    let s = &d.summary;
+    let mut h = String::new();
+    h.push_str("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>stereocache report</title>\n<style>body{font-family:sans-serif;margin:2em;max-width:1100px}table{border-collapse:collapse}td,th{border:1px solid #bbb;padding:4px 8px;text-align:right}th{background:#eee}td:first-child{text-align:left}img{image-rendering:pixelated;max-width:100%}figure{margin:1em 0}.note{color:#555;font-size:90%}</style></head><body>\n");
+    h.push_str("<h1>stereocache comparison</h1>\n<p>");
+    for (k, label) in [
+        ("scene", "scene"),
+        ("trace", "trace"),
+        ("device", "device"),
+        ("driver", "driver"),
+        ("backend", "ray backend"),
+    ] {
+        let v = s[k]
+            .as_str()
+            .map(str::to_string)
+            .unwrap_or_else(|| s[k].to_string());
+        h.push_str(&format!("<b>{label}</b>: {} &nbsp; ", esc(&v)));
+    }
+    h.push_str(&format!(
+        "<b>size</b>: {}×{} per eye &nbsp; <b>fps</b>: {}</p>\n",
+        s["width"], s["height"], s["fps"]
+    ));
+
+    h.push_str("<h2>Summary</h2>\n<table id=\"summary\"><tr><th>method</th><th>frames</th><th>mean GPU ms</th><th>p95 GPU ms</th><th>rays / frame</th><th>memory MiB</th>");
+    for (m, _) in METRICS {
+        h.push_str(&format!("<th>{m}</th>"));
+    }
+    h.push_str("</tr>\n");
+    for m in &d.methods {
+        let r = &m.row;
+        h.push_str(&format!(
+            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>",
+            esc(&m.name),
+            r["frames"],
+            fmt(r["mean_gpu_ms"].as_f64()),
+            fmt(r["p95_gpu_ms"].as_f64()),
+            fmt(r["rays_per_frame"].as_f64()),
+            fmt(r["method_memory_bytes"]
+                .as_f64()
+                .map(|b| b / (1u64 << 20) as f64))
+        ));
+        for (k, _) in METRICS {
+            h.push_str(&format!("<td>{}</td>", fmt(m.metric(k))));
+        }
+        h.push_str("</tr>\n");
+    }
+    h.push_str("</table>\n<p class=\"note\">");
+    for (k, v) in METRICS {
+        h.push_str(&format!("<b>{k}</b>: {v}. "));
+    }
+    h.push_str("Times are GPU timestamps on the device named above.</p>\n");
+
+    let has_metrics = d.methods.iter().any(|m| m.metric("rse").is_some());
+    h.push_str("<h2>Per frame</h2>\n");
+    if has_metrics {
+        h.push_str(&format!(
+            "<figure>{}</figure>\n",
+            plots::per_frame(&d.methods, "Relative squared error per frame", "RSE", |f| f
+                .metrics
+                .get("rse")
+                .copied())
+        ));
+    }
+    h.push_str(&format!(
+        "<figure>{}</figure>\n",
+        plots::per_frame(&d.methods, "GPU time per frame", "ms", |f| Some(f.gpu_ms))
+    ));
+    h.push_str("<h2>Where the time goes</h2>\n");
+    h.push_str(&format!(
+        "<figure>{}</figure>\n",
+        plots::pass_breakdown(&d.methods)
+    ));
+    if has_metrics {
+        h.push_str("<h2>Error against time</h2>\n");
+        h.push_str(&format!(
+            "<figure>{}</figure>\n",
+            plots::pareto(&d.methods, "rse")
+        ));
+        h.push_str(&format!(
+            "<figure>{}</figure>\n",
+            plots::pareto(&d.methods, "flip")
+        ));
+    }
+    if !d.grids.is_empty() {
+        h.push_str("<h2>Side by side</h2>\n<p class=\"note\">Columns: methods. Rows: left eye, right eye, centre crops of each (nearest-neighbour zoom).</p>\n");
+        for (name, bytes) in &d.grids {
+            let b64 = base64::engine::general_purpose::STANDARD.encode(bytes);
+            // PNG width from the IHDR chunk; small grids are shown enlarged (pixelated).
+            let w = bytes
+                .get(16..20)
+                .map(|b| u32::from_be_bytes([b[0], b[1], b[2], b[3]]))
+                .unwrap_or(0);
+            let shown = if w > 0 && w < 500 {
+                w * (900 / w).max(1)
+            } else {
+                w
+            };
+            h.push_str(&format!(
+                "<figure><img alt=\"{}\" width=\"{shown}\" src=\"data:image/png;base64,{b64}\"><figcaption>{}</figcaption></figure>\n",
+                esc(name),
+                esc(name)
+            ));
+        }
+    }
+    h.push_str("</body></html>\n");
+    Ok(h)
+}

@@ -1,0 +1,219 @@
+//! SVG charts (plotters) for the report.
+
+use super::data::MethodData;
+use plotters::prelude::*;
+
+const W: u32 = 720;
+const H: u32 = 320;
+
+fn palette(i: usize) -> RGBColor {
+    const C: [RGBColor; 12] = [
+        RGBColor(31, 119, 180),
+        RGBColor(255, 127, 14),
+        RGBColor(44, 160, 44),
+        RGBColor(214, 39, 40),
+        RGBColor(148, 103, 189),
+        RGBColor(140, 86, 75),
+        RGBColor(227, 119, 194),
+        RGBColor(127, 127, 127),
+        RGBColor(188, 189, 34),
+        RGBColor(23, 190, 207),
+        RGBColor(57, 59, 121),
+        RGBColor(173, 73, 74),
+    ];
+    // Past 12, vary the lightness so neighbours in a stack stay apart.
+    let c = C[i % C.len()];
+    if i < C.len() {
+        c
+    } else {
+        RGBColor(c.0 / 2 + 100, c.1 / 2 + 100, c.2 / 2 + 100)
+    }
+}
+
+fn finite_max(v: impl Iterator<Item = f64>) -> f64 {
+    v.filter(|x| x.is_finite()).fold(0.0f64, f64::max)
+}
+
+/// One line per method: `value(frame)` against the frame index.
+pub fn per_frame(
+    methods: &[MethodData],
+    title: &str,
+    y_label: &str,
+    value: impl Fn(&super::data::FramePoint) -> Option<f64>,
+) -> String {
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (W, H)).into_drawing_area();
+        let _ = root.fill(&WHITE);
+        let n = methods
+            .iter()
+            .map(|m| m.frames.len())
+            .max()
+            .unwrap_or(1)
+            .max(2);
+        let ymax = finite_max(
+            methods
+                .iter()
+                .flat_map(|m| m.frames.iter().filter_map(&value)),
+        )
+        .max(1e-9)
+            * 1.1;
+        let mut chart = match ChartBuilder::on(&root)
+            .caption(title, ("sans-serif", 16))
+            .margin(10)
+            .x_label_area_size(30)
+            .y_label_area_size(60)
+            .build_cartesian_2d(0f64..(n - 1) as f64, 0f64..ymax)
+        {
+            Ok(c) => c,
+            Err(_) => return svg_error(title),
+        };
+        let _ = chart
+            .configure_mesh()
+            .x_desc("frame")
+            .y_desc(y_label)
+            .draw();
+        for (i, m) in methods.iter().enumerate() {
+            let pts: Vec<(f64, f64)> = m
+                .frames
+                .iter()
+                .filter_map(|f| {
+                    value(f)
+                        .filter(|v| v.is_finite())
+                        .map(|v| (f.index as f64, v))
+                })
+                .collect();
+            let color = palette(i);
+            if let Ok(s) = chart.draw_series(LineSeries::new(pts, color.stroke_width(2))) {
+                s.label(m.name.clone()).legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 16, y)], color.stroke_width(2))
+                });
+            }
+        }
+        let _ = chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .draw();
+        let _ = root.present();
+    }
+    svg
+}
+
+/// Stacked bars: mean ms per pass for each method.
+pub fn pass_breakdown(methods: &[MethodData]) -> String {
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (W + 200, H + 100)).into_drawing_area();
+        let _ = root.fill(&WHITE);
+        let mut passes: Vec<String> = methods
+            .iter()
+            .flat_map(|m| m.pass_ms().into_keys())
+            .collect();
+        passes.sort();
+        passes.dedup();
+        let ymax =
+            finite_max(methods.iter().map(|m| m.pass_ms().values().sum::<f64>())).max(1e-9) * 1.15;
+        let mut chart = match ChartBuilder::on(&root)
+            .caption("GPU time per pass (mean ms per frame)", ("sans-serif", 16))
+            .margin(10)
+            .margin_right(210)
+            .x_label_area_size(30)
+            .y_label_area_size(60)
+            .build_cartesian_2d(0f64..methods.len() as f64, 0f64..ymax)
+        {
+            Ok(c) => c,
+            Err(_) => return svg_error("passes"),
+        };
+        let names: Vec<String> = methods.iter().map(|m| m.name.clone()).collect();
+        let _ = chart
+            .configure_mesh()
+            .disable_x_mesh()
+            .x_labels(2 * methods.len() + 1)
+            .x_label_formatter(&|x| {
+                // Ticks fall on multiples of ½: name the bar centres only.
+                if (x - x.floor() - 0.5).abs() < 1e-3 {
+                    names.get(x.floor() as usize).cloned().unwrap_or_default()
+                } else {
+                    String::new()
+                }
+            })
+            .y_desc("ms")
+            .draw();
+        for (pi, p) in passes.iter().enumerate() {
+            let color = palette(pi);
+            let bars: Vec<Rectangle<(f64, f64)>> = methods
+                .iter()
+                .enumerate()
+                .filter_map(|(mi, m)| {
+                    let ms = m.pass_ms();
+                    let v = *ms.get(p)?;
+                    let below: f64 = passes[..pi].iter().filter_map(|q| ms.get(q)).sum();
+                    Some(Rectangle::new(
+                        [(mi as f64 + 0.2, below), (mi as f64 + 0.8, below + v)],
+                        color.filled(),
+                    ))
+                })
+                .collect();
+            if let Ok(s) = chart.draw_series(bars) {
+                s.label(p.clone()).legend(move |(x, y)| {
+                    Rectangle::new([(x, y - 5), (x + 10, y + 5)], color.filled())
+                });
+            }
+        }
+        let _ = chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::Coordinate(W as i32 - 10, 20))
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .draw();
+        let _ = root.present();
+    }
+    svg
+}
+
+/// Error against frame time, one point per method (the Pareto view).
+pub fn pareto(methods: &[MethodData], metric: &str) -> String {
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (W, H)).into_drawing_area();
+        let _ = root.fill(&WHITE);
+        let pts: Vec<(usize, f64, f64)> = methods
+            .iter()
+            .enumerate()
+            .filter_map(|(i, m)| m.metric(metric).map(|e| (i, m.mean_gpu_ms(), e)))
+            .collect();
+        let xmax = finite_max(pts.iter().map(|p| p.1)).max(1e-9) * 1.2;
+        let ymax = finite_max(pts.iter().map(|p| p.2)).max(1e-9) * 1.2;
+        let mut chart = match ChartBuilder::on(&root)
+            .caption(
+                format!("{metric} against GPU frame time"),
+                ("sans-serif", 16),
+            )
+            .margin(10)
+            .x_label_area_size(30)
+            .y_label_area_size(60)
+            .build_cartesian_2d(0f64..xmax, 0f64..ymax)
+        {
+            Ok(c) => c,
+            Err(_) => return svg_error("pareto"),
+        };
+        let _ = chart
+            .configure_mesh()
+            .x_desc("mean GPU ms per frame")
+            .y_desc(metric)
+            .draw();
+        for (i, x, y) in pts {
+            let color = palette(i);
+            let name = methods[i].name.clone();
+            let _ = chart.draw_series(std::iter::once(Circle::new((x, y), 6, color.filled())));
+            let _ = chart.draw_series(std::iter::once(Text::new(name, (x, y), ("sans-serif", 13))));
+        }
+        let _ = root.present();
+    }
+    svg
+}
+
+fn svg_error(what: &str) -> String {
+    format!("<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"{W}\" height=\"40\"><text x=\"10\" y=\"25\">{what}: no data to plot</text></svg>")
+}
