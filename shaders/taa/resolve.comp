@@ -22,7 +22,7 @@ layout(push_constant) uniform Push {
     float alpha;      // fixed α, or α_min for the pfj23 weights
     float gamma;      // clipping box half-width in standard deviations
     uint weights;     // 0 fixed, 1 pfj23
-    uint flags;       // bit 0: a history exists; bit 1: reject disocclusions
+    uint flags;       // bit 0: a history exists; bit 1: reject disocclusions; bit 2: clip
 } pc;
 
 layout(set = 1, binding = 1, std430) readonly buffer InColor { vec4 in_color[]; };     // rgb radiance (w ignored)
@@ -139,8 +139,9 @@ void main() {
         n = 1.0;
         atomicAdd(counters[reason], 1u);
     } else {
-        bool clipped;
-        vec3 h = ycocg_to_rgb(clip_towards_mean(rgb_to_ycocg(hist.rgb), mu, pc.gamma * sigma, clipped));
+        bool clipped = false;
+        vec3 h = hist.rgb;
+        if ((pc.flags & 4u) != 0u) h = ycocg_to_rgb(clip_towards_mean(rgb_to_ycocg(h), mu, pc.gamma * sigma, clipped));
         float n_prev = hist.w;
         float alpha = pc.weights == 1u ? max(1.0 / (n_prev + 1.0), pc.alpha) : pc.alpha;
         result = mix(max(h, vec3(0.0)), c, alpha);

@@ -9,8 +9,8 @@ pub mod sample_cache;
 pub mod taa;
 
 pub use frame::{EyeImage, FrameInput, FrameParams, FrameStats, RayCounts, StereoFrame};
-pub use reference::Reference;
 pub use isrt::{Isrt, IsrtSettings};
+pub use reference::Reference;
 pub use sample_cache::{SampleCache, SampleCacheSettings};
 pub use taa::{Taa, TaaPass, TaaSettings, TaaWeights};
 

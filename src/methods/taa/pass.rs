@@ -113,17 +113,10 @@ impl TaaPass {
         let sets = [make_set(0)?, make_set(1)?];
         // camera.glsl lives in set 1, so set 0 is the scene's (bound, unused).
         let layouts = [scene.layout.clone(), layout];
-        let spirv = shaders::spirv("taa/resolve").ok_or_else(|| {
-            GpuError::Unsupported("shader taa/resolve was not compiled".into())
-        })?;
-        let pipeline = ComputePipeline::new(
-            ctx,
-            "taa.resolve",
-            spirv,
-            &layouts,
-            16,
-            &Default::default(),
-        )?;
+        let spirv = shaders::spirv("taa/resolve")
+            .ok_or_else(|| GpuError::Unsupported("shader taa/resolve was not compiled".into()))?;
+        let pipeline =
+            ComputePipeline::new(ctx, "taa.resolve", spirv, &layouts, 16, &Default::default())?;
         Ok(TaaPass {
             settings: settings.clone(),
             width,
@@ -162,7 +155,9 @@ impl TaaPass {
         );
         let p = (self.frames % 2) as usize;
         let params = FrameParams::new(input, self.width, self.height, self.seed);
-        let flags = (self.frames > 0) as u32 | (self.settings.reject_disocclusions as u32) << 1;
+        let flags = (self.frames > 0) as u32
+            | (self.settings.reject_disocclusions as u32) << 1
+            | (self.settings.clip as u32) << 2;
         let weights = match self.settings.weights {
             TaaWeights::Fixed => 0u32,
             TaaWeights::Pfj23 => 1,
@@ -177,11 +172,7 @@ impl TaaPass {
             .update(bytemuck::bytes_of(&params));
         rec.pass("taa.clear").write(&self.counters).fill(0);
         let sets = [&self.scene.set, &self.sets[p]];
-        let groups = [
-            self.width.div_ceil(LOCAL),
-            self.height.div_ceil(LOCAL),
-            2,
-        ];
+        let groups = [self.width.div_ceil(LOCAL), self.height.div_ceil(LOCAL), 2];
         rec.pass("taa.resolve")
             .read(&self.frame)
             .read(inputs.color)

@@ -35,8 +35,10 @@ pub struct TaaSettings {
     pub weights: TaaWeights,
     /// Half-width of the YCoCg clipping box in standard deviations of the 3×3
     /// neighbourhood (Salvi's variance clipping; 1 = the survey's γ ≈ 1).
-    /// A huge value disables clipping (ablation).
     pub gamma: f32,
+    /// Clip the history at all (off only for ablations and tests; note that
+    /// a flat neighbourhood has σ = 0, so no finite γ turns clipping off).
+    pub clip: bool,
     /// Reject the history on disocclusion (off only for ablations and tests).
     pub reject_disocclusions: bool,
 }
@@ -47,6 +49,7 @@ impl Default for TaaSettings {
             alpha: 0.1,
             weights: TaaWeights::Fixed,
             gamma: 1.0,
+            clip: true,
             reject_disocclusions: true,
         }
     }
@@ -60,7 +63,7 @@ impl TaaSettings {
                 self.alpha
             ));
         }
-        if !(self.gamma > 0.0) {
+        if !(self.gamma.is_finite() && self.gamma > 0.0) {
             return Err(format!(
                 "bad --taa-gamma {}: expected a positive number",
                 self.gamma
@@ -102,7 +105,9 @@ mod tests {
         assert!((halton(4, 3) - 4.0 / 9.0).abs() < 1e-7);
         // The 16 jitters are distinct and inside the pixel; their mean is near the centre.
         let js: Vec<[f32; 2]> = (0..16).map(halton_jitter).collect();
-        let mean = js.iter().fold([0.0; 2], |a, j| [a[0] + j[0] / 16.0, a[1] + j[1] / 16.0]);
+        let mean = js
+            .iter()
+            .fold([0.0; 2], |a, j| [a[0] + j[0] / 16.0, a[1] + j[1] / 16.0]);
         assert!((mean[0] - 0.5).abs() < 0.05 && (mean[1] - 0.5).abs() < 0.05);
         assert!(js.iter().all(|j| j.iter().all(|v| (0.0..1.0).contains(v))));
     }
