@@ -6,7 +6,9 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use stereocache::camera::{convert_mmsys18, synth, Mmsys18Options, PoseTrace, SynthKind};
 use stereocache::gpu::{GpuContext, GpuOptions};
-use stereocache::methods::{FrameInput, RenderSettings, SampleCacheSettings};
+use stereocache::methods::{
+    FrameInput, IsrtSettings, RenderSettings, SampleCacheSettings, TaaSettings,
+};
 use stereocache::output;
 use stereocache::replay::{replay, trace_cameras, ReplayOptions, DEFAULT_FPS};
 use stereocache::rt::RtChoice;
@@ -135,6 +137,52 @@ impl CacheArgs {
     }
 }
 
+/// Options of the taa method (ignored by other methods).
+#[derive(Args, Clone)]
+struct TaaArgs {
+    /// Blend factor of the new frame (fixed weights), or its lower bound α_min (pfj23).
+    #[arg(long, default_value_t = 0.1)]
+    taa_alpha: f32,
+    /// fixed (EMA with --taa-alpha) | pfj23 (per-pixel sample-count weights, see docs)
+    #[arg(long, default_value = "fixed")]
+    taa_weights: String,
+    /// Clipping box half-width in standard deviations of the 3×3 YCoCg neighbourhood.
+    #[arg(long, default_value_t = 1.0)]
+    taa_gamma: f32,
+}
+
+impl TaaArgs {
+    fn settings(&self) -> Result<TaaSettings> {
+        let s = TaaSettings {
+            alpha: self.taa_alpha,
+            weights: self.taa_weights.parse().map_err(|e: String| anyhow!(e))?,
+            gamma: self.taa_gamma,
+            ..Default::default()
+        };
+        s.validate().map_err(|e| anyhow!(e))?;
+        Ok(s)
+    }
+}
+
+/// Options of the isrt method (ignored by other methods).
+#[derive(Args, Clone)]
+struct IsrtArgs {
+    /// Super-resolution cells per pixel side M (2, 3 or 4).
+    #[arg(long, default_value_t = 3)]
+    isrt_m: u32,
+}
+
+impl IsrtArgs {
+    fn settings(&self) -> Result<IsrtSettings> {
+        let s = IsrtSettings {
+            m: self.isrt_m,
+            ..Default::default()
+        };
+        s.validate().map_err(|e| anyhow!(e))?;
+        Ok(s)
+    }
+}
+
 #[derive(Args, Clone)]
 struct CameraArgs {
     /// A camera of the scene by name.
@@ -204,6 +252,10 @@ struct RenderArgs {
     exposure: f32,
     #[command(flatten)]
     cache: CacheArgs,
+    #[command(flatten)]
+    taa: TaaArgs,
+    #[command(flatten)]
+    isrt: IsrtArgs,
     #[arg(long, default_value = "out/render")]
     out: PathBuf,
 }
@@ -254,6 +306,10 @@ struct CompareArgs {
     exposure: f32,
     #[command(flatten)]
     cache: CacheArgs,
+    #[command(flatten)]
+    taa: TaaArgs,
+    #[command(flatten)]
+    isrt: IsrtArgs,
     #[arg(long)]
     out: PathBuf,
 }
@@ -319,6 +375,7 @@ fn run_compare(a: CompareArgs) -> Result<()> {
             );
         }
     }
+    let (taa, isrt) = (a.taa.settings()?, a.isrt.settings()?);
     let settings = RenderSettings {
         width: w,
         height: h,
@@ -327,6 +384,8 @@ fn run_compare(a: CompareArgs) -> Result<()> {
         seed: a.seed,
         all_features: false,
         cache,
+        taa,
+        isrt,
     };
     let opts = stereocache::compare::CompareOptions {
         methods,
@@ -432,6 +491,10 @@ struct ReplayArgs {
     debug_views: bool,
     #[command(flatten)]
     cache: CacheArgs,
+    #[command(flatten)]
+    taa: TaaArgs,
+    #[command(flatten)]
+    isrt: IsrtArgs,
     #[arg(long)]
     out: PathBuf,
 }
@@ -444,6 +507,7 @@ fn run_replay(a: ReplayArgs) -> Result<()> {
         bail!("bad --spp 0: at least one sample per pixel");
     }
     let cache = a.cache.settings(a.debug_views)?;
+    let (taa, isrt) = (a.taa.settings()?, a.isrt.settings()?);
     let mut opts = ReplayOptions {
         frames: a.frames,
         fps: a.fps,
@@ -472,6 +536,8 @@ fn run_replay(a: ReplayArgs) -> Result<()> {
         seed: a.seed,
         all_features: false,
         cache,
+        taa,
+        isrt,
     };
     opts.settings = serde_json::to_value(&settings)?;
     let mut method = session.method(&a.method, &settings)?;
@@ -622,10 +688,13 @@ fn run(cli: Cli) -> Result<()> {
                 seed,
                 exposure,
                 cache,
+                taa,
+                isrt,
                 out,
             } = *args;
             let (w, h) = parse_size(&size).map_err(|e| anyhow!(e))?;
             let cache = cache.settings(false)?;
+            let (taa, isrt) = (taa.settings()?, isrt.settings()?);
             if spp == 0 {
                 bail!("bad --spp 0: at least one sample per pixel");
             }
@@ -644,6 +713,8 @@ fn run(cli: Cli) -> Result<()> {
                 seed,
                 all_features: false,
                 cache,
+                taa,
+                isrt,
             };
             let mut m = session.method(&method, &settings)?;
             let frame = m.render_frame(&FrameInput {
@@ -812,6 +883,7 @@ fn run(cli: Cli) -> Result<()> {
                 seed: 1,
                 all_features: false,
                 cache: SampleCacheSettings::default(),
+                ..Default::default()
             };
             let (rows, scatter_ms) =
                 stereocache::bench::bench_sample_cache(&session, &cameras, &base)?;

@@ -5,7 +5,7 @@
 use crate::camera::{HeadPose, StereoCamera, DEFAULT_IPD};
 use crate::error::{Error, Result};
 use crate::gpu::{GpuContext, GpuOptions};
-use crate::methods::{Method, Reference, RenderSettings, SampleCache};
+use crate::methods::{baseline, Isrt, Method, Reference, RenderSettings, SampleCache, Taa};
 use crate::rt::{RtBackend, RtChoice, SceneGpu};
 use crate::scene::{apply_default_lighting, load_scene, DefaultLighting, Scene};
 use glam::{Quat, Vec3};
@@ -24,7 +24,14 @@ pub enum CameraSelect {
 }
 
 /// Method names the CLI accepts.
-pub const METHODS: &[&str] = &["reference", "sample-cache"];
+pub const METHODS: &[&str] = &[
+    "reference",
+    "sample-cache",
+    "naive",
+    "supersample",
+    "taa",
+    "isrt",
+];
 
 pub struct Session {
     pub ctx: Arc<GpuContext>,
@@ -125,6 +132,30 @@ impl Session {
                 settings,
             )?)),
             "sample-cache" => Ok(Box::new(SampleCache::new(
+                &self.ctx,
+                &self.scene_gpu,
+                &self.scene.environment,
+                settings,
+            )?)),
+            "naive" => Ok(Box::new(baseline::naive(
+                &self.ctx,
+                &self.scene_gpu,
+                &self.scene.environment,
+                settings,
+            )?)),
+            "supersample" => Ok(Box::new(baseline::supersample(
+                &self.ctx,
+                &self.scene_gpu,
+                &self.scene.environment,
+                settings,
+            )?)),
+            "taa" => Ok(Box::new(Taa::new(
+                &self.ctx,
+                &self.scene_gpu,
+                &self.scene.environment,
+                settings,
+            )?)),
+            "isrt" => Ok(Box::new(Isrt::new(
                 &self.ctx,
                 &self.scene_gpu,
                 &self.scene.environment,

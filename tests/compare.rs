@@ -8,7 +8,7 @@ fn compare_writes_every_file() {
     let out = std::env::temp_dir().join(format!("stereocache-compare-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&out);
     let trace = Path::new(env!("CARGO_MANIFEST_DIR")).join("captures/synth-head-turn.csv");
-    let methods = ["sample-cache", "reference"];
+    let methods = ["sample-cache", "taa", "naive"];
     let o = Command::new(env!("CARGO_BIN_EXE_stereocache"))
         .env("STEREOCACHE_VALIDATE", "1")
         .args([

@@ -3,7 +3,7 @@
 
 mod common;
 use common::*;
-use glam::{Quat, UVec2, Vec2, Vec3};
+use glam::{Quat, UVec2, Vec3};
 use stereocache::camera::{Eye, StereoCamera};
 use stereocache::methods::sample_cache::{
     CacheSnapshot, Reproject, Retrace, SampleCache, SampleCacheSettings, Shading,
@@ -28,6 +28,7 @@ fn settings(w: u32, h: u32, cache: SampleCacheSettings) -> RenderSettings {
         seed: 5,
         all_features: false,
         cache,
+        ..Default::default()
     }
 }
 
@@ -96,52 +97,6 @@ fn check_invariants(
         }
     }
     (visible, mismatched, uncovered)
-}
-
-/// True when a 5×5 grid of rays over the pixel all hit geometry (a CPU
-/// stand-in for "geometry covers the whole pixel").
-fn fully_covered(
-    bvh: &SoftwareBvh,
-    v: &stereocache::camera::EyeView,
-    pixel: usize,
-    w: u32,
-    h: u32,
-) -> bool {
-    let c = pixel_centre(pixel, w) - Vec2::splat(0.5);
-    (0..25).all(|k| {
-        let o = Vec2::new((k % 5) as f32 * 0.245 + 0.01, (k / 5) as f32 * 0.245 + 0.01);
-        bvh.closest_hit(
-            v.position,
-            v.ray_direction(c + o, UVec2::new(w, h)),
-            0.0,
-            1e30,
-        )
-        .is_some()
-    })
-}
-
-fn pixel_centre(pixel: usize, w: u32) -> Vec2 {
-    Vec2::new(
-        (pixel as u32 % w) as f32 + 0.5,
-        (pixel as u32 / w) as f32 + 0.5,
-    )
-}
-
-/// World position of a stored first hit, from the software BVH's triangle data.
-fn stored_position(bvh: &SoftwareBvh, fh: [u32; 4]) -> Vec3 {
-    let k = bvh
-        .tri_ref
-        .iter()
-        .position(|r| r[0] == fh[3] && r[1] == fh[2])
-        .expect("stored triangle exists");
-    let v = &bvh.tri_verts[3 * k..3 * k + 3];
-    let (v0, e1, e2) = (
-        Vec3::from_slice(&v[0][..3]),
-        Vec3::from_slice(&v[1][..3]),
-        Vec3::from_slice(&v[2][..3]),
-    );
-    let b = Vec2::new((fh[0] & 0xFF_FFFF) as f32, (fh[1] & 0xFF_FFFF) as f32) / 16_777_215.0;
-    v0 + b.x * e1 + b.y * e2
 }
 
 /// Runs `frames` frames of a turning, drifting head and checks the invariants

@@ -33,6 +33,7 @@ fn blending_lowers_stereo_discrepancy() {
                 sharpness: 0.5,
                 ..Default::default()
             },
+            ..Default::default()
         };
         let mut m = SampleCache::new(&s.ctx, &s.scene_gpu, &s.scene.environment, &st).unwrap();
         let mut last = None;

@@ -29,4 +29,16 @@ float eye_pixel_spread(EyeGpu e) { return 2.0 * e.right_tany.w / float(frame.siz
 
 // Distance along the viewing axis (what depth buffers store).
 float view_depth(EyeGpu e, vec3 p) { return dot(p - e.pos_tanx.xyz, e.fwd.xyz); }
+
+// Projects a world point into an eye: continuous pixel coordinates and
+// distance along the view axis; false when behind the eye.
+bool project_to_eye(EyeGpu e, vec3 p, out vec2 px, out float vd) {
+    vec3 d = p - e.pos_tanx.xyz;
+    vd = dot(d, e.fwd.xyz);
+    if (!(vd > 0.0)) return false;
+    float x = dot(d, e.right_tany.xyz) / (vd * e.pos_tanx.w);
+    float y = dot(d, e.up.xyz) / (vd * e.right_tany.w);
+    px = vec2(0.5 * (x + 1.0) * float(frame.size_seed.x), 0.5 * (1.0 - y) * float(frame.size_seed.y));
+    return all(equal(px, px));
+}
 #endif

@@ -1,10 +1,12 @@
 #version 460
 // Jittered path-traced samples accumulated into `accum` (frame.misc.y samples
-// per dispatch, numbered from frame.misc.x so runs are reproducible).
+// per dispatch, numbered from sample_base so runs are reproducible). With
+// fixed_jitter != 0 every sample goes through the sub-pixel position `jitter`
+// (the Halton sequence of the taa method) instead of a random one.
 #include "common/integrator.glsl"
 #include "reference/bindings.glsl"
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
-layout(push_constant) uniform Push { uint sample_base; uint sample_count; } pc;
+layout(push_constant) uniform Push { uint sample_base; uint sample_count; uint fixed_jitter; uint pad; vec2 jitter; } pc;
 
 void main() {
     uvec2 size = frame_size();
@@ -19,6 +21,7 @@ void main() {
         uint sample_index = pc.sample_base + k;
         Rng rng = rng_init(frame.size_seed.z, frame.size_seed.w, eye, px.y * size.x + px.x, sample_index);
         vec2 jitter = rng_next2(rng);
+        if (pc.fixed_jitter != 0u) jitter = pc.jitter;
         vec3 o = e.pos_tanx.xyz;
         vec3 d = eye_ray_dir(e, vec2(px) + jitter);
         RtHit h;

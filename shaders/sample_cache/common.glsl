@@ -9,6 +9,7 @@
 #include "common/integrator.glsl"
 #include "common/packing.glsl"
 #include "common/camera.glsl"
+#include "common/first_hit.glsl"
 
 layout(constant_id = 20) const uint N_SLOTS = 12;
 layout(constant_id = 21) const uint RETRACE_MODE = 2;   // 0 single, 1 multi, 2 adaptive
@@ -67,40 +68,6 @@ uint vis_bits(uint m) { return (m >> N_SLOTS) & full_bits(); }
 uint nth_set_bit(uint bits, uint k) {
     for (uint i = 0u; i < k; ++i) bits &= bits - 1u;
     return uint(findLSB(bits));
-}
-
-// World position and geometric normal of a stored first hit, with the
-// instance transforms of the current frame (appendix D).
-vec3 hit_position(uvec4 fh) {
-    vec2 b = first_hit_bary(fh);
-    uvec3 vi = triangle_indices(fh.w, fh.z);
-    mat4 M = instances[fh.w].object_to_world;
-    vec3 w = vec3(1.0 - b.x - b.y, b.x, b.y);
-    vec3 p = w.x * vertices[vi.x].pos_u.xyz + w.y * vertices[vi.y].pos_u.xyz + w.z * vertices[vi.z].pos_u.xyz;
-    return (M * vec4(p, 1.0)).xyz;
-}
-
-vec3 hit_geometric_normal(uvec4 fh) {
-    uvec3 vi = triangle_indices(fh.w, fh.z);
-    mat4 M = instances[fh.w].object_to_world;
-    vec3 a = (M * vec4(vertices[vi.x].pos_u.xyz, 1.0)).xyz;
-    vec3 b = (M * vec4(vertices[vi.y].pos_u.xyz, 1.0)).xyz;
-    vec3 c = (M * vec4(vertices[vi.z].pos_u.xyz, 1.0)).xyz;
-    vec3 n = cross(b - a, c - a);
-    float l = length(n);
-    return l > 0.0 ? n / l : vec3(0.0, 1.0, 0.0);
-}
-
-// Projects a world point into an eye: continuous pixel coordinates and
-// distance along the view axis; false when behind the eye.
-bool project_to_eye(EyeGpu e, vec3 p, out vec2 px, out float vd) {
-    vec3 d = p - e.pos_tanx.xyz;
-    vd = dot(d, e.fwd.xyz);
-    if (!(vd > 0.0)) return false;
-    float x = dot(d, e.right_tany.xyz) / (vd * e.pos_tanx.w);
-    float y = dot(d, e.up.xyz) / (vd * e.right_tany.w);
-    px = vec2(0.5 * (x + 1.0) * float(frame.size_seed.x), 0.5 * (1.0 - y) * float(frame.size_seed.y));
-    return all(equal(px, px));
 }
 
 // Angle subtended by a pixel's diagonal (φ of Eq. 1).

@@ -1,13 +1,18 @@
 //! Rendering methods. Every method implements [`Method`] and produces the same
 //! [`StereoFrame`], so replay, compare, metrics and reports never special-case one.
 
+pub mod baseline;
 pub mod frame;
+pub mod isrt;
 pub mod reference;
 pub mod sample_cache;
+pub mod taa;
 
 pub use frame::{EyeImage, FrameInput, FrameParams, FrameStats, RayCounts, StereoFrame};
+pub use isrt::{Isrt, IsrtSettings};
 pub use reference::Reference;
 pub use sample_cache::{SampleCache, SampleCacheSettings};
+pub use taa::{Taa, TaaPass, TaaSettings, TaaWeights};
 
 use crate::gpu::GpuResult;
 
@@ -26,6 +31,10 @@ pub struct RenderSettings {
     pub all_features: bool,
     /// Options of the `sample-cache` method.
     pub cache: SampleCacheSettings,
+    /// Options of the `taa` method (and of TAA passes other methods run).
+    pub taa: TaaSettings,
+    /// Options of the `isrt` method.
+    pub isrt: IsrtSettings,
 }
 
 impl Default for RenderSettings {
@@ -38,6 +47,8 @@ impl Default for RenderSettings {
             seed: 1,
             all_features: false,
             cache: SampleCacheSettings::default(),
+            taa: TaaSettings::default(),
+            isrt: IsrtSettings::default(),
         }
     }
 }

@@ -18,6 +18,7 @@ const LOCAL: u32 = 8;
 const CHUNK: u32 = 16;
 
 pub struct Reference {
+    name: &'static str,
     ctx: Arc<GpuContext>,
     scene: Arc<SceneGpu>,
     settings: RenderSettings,
@@ -41,6 +42,18 @@ pub(crate) fn backend_shader(name: &str, scene: &SceneGpu) -> GpuResult<&'static
 
 impl Reference {
     pub fn new(
+        ctx: &Arc<GpuContext>,
+        scene: &Arc<SceneGpu>,
+        env: &Option<Environment>,
+        settings: &RenderSettings,
+    ) -> GpuResult<Self> {
+        Self::with_name("reference", ctx, scene, env, settings)
+    }
+
+    /// The same path tracer under another method name (`naive`, `supersample`,
+    /// the colour source of `taa`): see `super::baseline`.
+    pub fn with_name(
+        name: &'static str,
         ctx: &Arc<GpuContext>,
         scene: &Arc<SceneGpu>,
         env: &Option<Environment>,
@@ -85,10 +98,11 @@ impl Reference {
             "reference.trace",
             backend_shader("reference/trace", scene)?,
             &layouts,
-            8,
+            24,
             &spec,
         )?;
         Ok(Reference {
+            name,
             ctx: ctx.clone(),
             scene: scene.clone(),
             settings: settings.clone(),
@@ -105,61 +119,118 @@ impl Reference {
     }
 }
 
-impl Method for Reference {
-    fn name(&self) -> &'static str {
-        "reference"
+/// The per-pixel buffers a `Reference` frame leaves on the GPU, `[eye][pixel]`.
+pub struct ReferenceOutputs<'a> {
+    /// rgb = sum of the frame's samples, w = their count (radiance itself at 1 spp).
+    pub accum: &'a Buffer,
+    /// View depth of the pixel-centre first hit, 0 = miss.
+    pub depth: &'a Buffer,
+    /// Pixel-centre first hits (Listing 1).
+    pub first_hit: &'a Buffer,
+    pub albedo: &'a Buffer,
+}
+
+impl Reference {
+    /// Passes `record` adds to a recorder.
+    pub fn pass_count(&self) -> u32 {
+        3 + self.settings.spp.max(1).div_ceil(CHUNK)
     }
 
-    fn render_frame(&mut self, input: &FrameInput) -> GpuResult<StereoFrame> {
+    /// The buffers `record` fills.
+    pub fn outputs(&self) -> ReferenceOutputs<'_> {
+        ReferenceOutputs {
+            accum: &self.accum,
+            depth: &self.depth,
+            first_hit: &self.first_hit,
+            albedo: &self.albedo,
+        }
+    }
+
+    /// Records one frame (params, clear, primary, trace) into `rec`. With
+    /// `jitter = Some(j)` every sample goes through sub-pixel position `j`
+    /// (in [0, 1)²) instead of a random one per sample.
+    pub fn record(&self, rec: &mut Recorder, input: &FrameInput, jitter: Option<[f32; 2]>) {
         let (w, h) = (self.settings.width, self.settings.height);
         let spp = self.settings.spp.max(1);
         let chunks = spp.div_ceil(CHUNK);
         let params = FrameParams::new(input, w, h, self.settings.seed);
         let groups = [w.div_ceil(LOCAL), h.div_ceil(LOCAL), 2];
-        let mut rec = Recorder::new(&self.ctx, 5 + chunks)?;
-        rec.pass("reference.params")
+        let p = self.name;
+        rec.pass(&format!("{p}.params"))
             .write(&self.frame)
             .update(bytemuck::bytes_of(&params));
-        rec.pass("reference.clear")
+        rec.pass(&format!("{p}.clear"))
             .write(&self.accum)
             .write(&self.counters)
             .fill(0);
         let sets = [&self.scene.set, &self.set];
-        rec.pass("reference.primary")
+        rec.pass(&format!("{p}.primary"))
             .read(&self.frame)
             .write(&self.first_hit)
             .write(&self.depth)
             .write(&self.albedo)
             .write(&self.counters)
             .dispatch(&self.primary, &sets, &[], groups);
+        let (fixed, j) = match jitter {
+            Some(j) => (1u32, j),
+            None => (0, [0.0; 2]),
+        };
         for c in 0..chunks {
             let base = c * CHUNK;
             let count = CHUNK.min(spp - base);
-            let push: Vec<u8> = [base, count].iter().flat_map(|v| v.to_le_bytes()).collect();
-            rec.pass("reference.trace")
+            let mut push: Vec<u8> = [base, count, fixed, 0]
+                .iter()
+                .flat_map(|v| v.to_le_bytes())
+                .collect();
+            push.extend(j.iter().flat_map(|v| v.to_le_bytes()));
+            rec.pass(&format!("{p}.trace"))
                 .read(&self.frame)
                 .write(&self.accum)
                 .write(&self.counters)
                 .dispatch(&self.trace, &sets, &push, groups);
         }
-        let passes = rec.finish()?;
-        let accum: Vec<[f32; 4]> = self.accum.download_pod()?;
+    }
+
+    /// Ray counts of the last recorded frame.
+    pub fn ray_counts(&self) -> GpuResult<RayCounts> {
+        let counters: Vec<u32> = self.counters.download_pod()?;
+        Ok(RayCounts {
+            primary: counters[0] as u64,
+            bounce: counters[1] as u64,
+            shadow: counters[2] as u64,
+        })
+    }
+
+    /// Reads the last frame back; `radiance` overrides the accumulated mean
+    /// (`[eye][pixel]`, e.g. a TAA resolve of it).
+    pub fn read_frame(
+        &self,
+        passes: Vec<crate::gpu::PassTiming>,
+        radiance: Option<Vec<[f32; 4]>>,
+    ) -> GpuResult<StereoFrame> {
+        let (w, h) = (self.settings.width, self.settings.height);
+        let radiance = match radiance {
+            Some(r) => r,
+            None => {
+                let accum: Vec<[f32; 4]> = self.accum.download_pod()?;
+                accum
+                    .iter()
+                    .map(|a| {
+                        if a[3] > 0.0 {
+                            [a[0] / a[3], a[1] / a[3], a[2] / a[3], 1.0]
+                        } else {
+                            [0.0; 4]
+                        }
+                    })
+                    .collect()
+            }
+        };
         let first_hit: Vec<[u32; 4]> = self.first_hit.download_pod()?;
         let depth: Vec<f32> = self.depth.download_pod()?;
         let albedo: Vec<[f32; 4]> = self.albedo.download_pod()?;
-        let counters: Vec<u32> = self.counters.download_pod()?;
         let npix = (w * h) as usize;
         let eye = |e: usize| EyeImage {
-            radiance: accum[e * npix..(e + 1) * npix]
-                .iter()
-                .map(|a| {
-                    if a[3] > 0.0 {
-                        [a[0] / a[3], a[1] / a[3], a[2] / a[3], 1.0]
-                    } else {
-                        [0.0; 4]
-                    }
-                })
-                .collect(),
+            radiance: radiance[e * npix..(e + 1) * npix].to_vec(),
             depth: depth[e * npix..(e + 1) * npix].to_vec(),
             first_hit: first_hit[e * npix..(e + 1) * npix].to_vec(),
             albedo: albedo[e * npix..(e + 1) * npix].to_vec(),
@@ -171,14 +242,23 @@ impl Method for Reference {
             eyes: [eye(0), eye(1)],
             stats: FrameStats {
                 passes,
-                rays: RayCounts {
-                    primary: counters[0] as u64,
-                    bounce: counters[1] as u64,
-                    shadow: counters[2] as u64,
-                },
+                rays: self.ray_counts()?,
                 counters: Default::default(),
             },
         })
+    }
+}
+
+impl Method for Reference {
+    fn name(&self) -> &'static str {
+        self.name
+    }
+
+    fn render_frame(&mut self, input: &FrameInput) -> GpuResult<StereoFrame> {
+        let mut rec = Recorder::new(&self.ctx, self.pass_count())?;
+        self.record(&mut rec, input, None);
+        let passes = rec.finish()?;
+        self.read_frame(passes, None)
     }
 
     fn memory_bytes(&self) -> u64 {

@@ -148,3 +148,49 @@ pub fn plane_in_environment(m: Material, size: f32, env: Vec3) -> Scene {
 pub fn head_at(p: Vec3) -> HeadPose {
     HeadPose::new(p, glam::Quat::IDENTITY)
 }
+
+/// True when a 5×5 grid of rays over the pixel all hit geometry (a CPU
+/// stand-in for "geometry covers the whole pixel").
+pub fn fully_covered(
+    bvh: &stereocache::rt::SoftwareBvh,
+    v: &stereocache::camera::EyeView,
+    pixel: usize,
+    w: u32,
+    h: u32,
+) -> bool {
+    let c = pixel_centre(pixel, w) - Vec2::splat(0.5);
+    (0..25).all(|k| {
+        let o = Vec2::new((k % 5) as f32 * 0.245 + 0.01, (k / 5) as f32 * 0.245 + 0.01);
+        bvh.closest_hit(
+            v.position,
+            v.ray_direction(c + o, glam::UVec2::new(w, h)),
+            0.0,
+            1e30,
+        )
+        .is_some()
+    })
+}
+
+pub fn pixel_centre(pixel: usize, w: u32) -> Vec2 {
+    Vec2::new(
+        (pixel as u32 % w) as f32 + 0.5,
+        (pixel as u32 / w) as f32 + 0.5,
+    )
+}
+
+/// World position of a stored first hit, from the software BVH's triangle data.
+pub fn stored_position(bvh: &stereocache::rt::SoftwareBvh, fh: [u32; 4]) -> Vec3 {
+    let k = bvh
+        .tri_ref
+        .iter()
+        .position(|r| r[0] == fh[3] && r[1] == fh[2])
+        .expect("stored triangle exists");
+    let v = &bvh.tri_verts[3 * k..3 * k + 3];
+    let (v0, e1, e2) = (
+        Vec3::from_slice(&v[0][..3]),
+        Vec3::from_slice(&v[1][..3]),
+        Vec3::from_slice(&v[2][..3]),
+    );
+    let b = Vec2::new((fh[0] & 0xFF_FFFF) as f32, (fh[1] & 0xFF_FFFF) as f32) / 16_777_215.0;
+    v0 + b.x * e1 + b.y * e2
+}

@@ -1,0 +1,45 @@
+// Interactive stable ray tracing (Dal Corso et al. 2017), the layout the
+// sample-cache paper compares against in Fig. 10: per eye a super-resolution
+// grid of (W·M) × (H·M) cells, M × M per pixel; a sample's sub-pixel position
+// fixes its cell. Per cell: the 128-bit first hit (Listing 1; w = NO_HIT marks
+// an empty cell) and a radiance record (demodulated running-mean rgb, sample
+// count). Everything is double-buffered (previous / current frame).
+// Descriptor set 1 below; src/methods/isrt/ owns the buffers and the passes.
+#extension GL_EXT_shader_atomic_int64 : require
+#extension GL_ARB_gpu_shader_int64 : require
+#include "common/integrator.glsl"
+#include "common/packing.glsl"
+#include "common/camera.glsl"
+#include "common/first_hit.glsl"
+
+layout(constant_id = 30) const uint M = 3;   // cells per pixel side
+const float C_MAX = 65535.0;                 // sample counts saturate here
+
+layout(push_constant) uniform Push {
+    float eps0;   // retrace tolerance, relative to the hit distance
+    uint pad0;
+    uint pad1;
+    uint pad2;
+} pc;
+
+layout(set = 1, binding = 1, std430) buffer FhPrev { uvec4 fh_prev[]; };
+layout(set = 1, binding = 2, std430) buffer FhCur { uvec4 fh_cur[]; };
+layout(set = 1, binding = 3, std430) buffer RadPrev { vec4 rad_prev[]; };
+layout(set = 1, binding = 4, std430) buffer RadCur { vec4 rad_cur[]; };
+// Reservation per cell: view depth bits << 32 | source cell (within the eye); the closer sample wins.
+layout(set = 1, binding = 5, std430) buffer Claim { uint64_t claim[]; };
+layout(set = 1, binding = 6, std430) buffer OutColor { vec4 out_color[]; };
+layout(set = 1, binding = 7, std430) buffer OutDepth { float out_depth[]; };
+layout(set = 1, binding = 8, std430) buffer OutFh { uvec4 out_fh[]; };
+layout(set = 1, binding = 9, std430) buffer OutAlbedo { vec4 out_albedo[]; };
+layout(set = 1, binding = 10, std430) buffer Counters { uint counters[]; };
+
+// Counter slots (src/methods/isrt/mod.rs names them).
+const uint C_REPROJECTED = 0u, C_OFFSCREEN = 1u, C_KEPT = 2u, C_RETRACE_RAYS = 3u, C_RETRACE_LOST = 4u,
+           C_NEW_RAYS = 5u, C_NEW_HITS = 6u, C_SHADED = 7u, C_BOUNCE_RAYS = 8u, C_SHADOW_RAYS = 9u,
+           C_SAMPLES = 10u;
+
+uvec2 grid_size() { return frame_size() * M; }
+uint cells_per_eye() { uvec2 g = grid_size(); return g.x * g.y; }
+uint cell_index(uint eye, uvec2 g) { return eye * cells_per_eye() + g.y * grid_size().x + g.x; }
+uint pixel_index(uint eye, uvec2 px) { return (eye * frame_size().y + px.y) * frame_size().x + px.x; }

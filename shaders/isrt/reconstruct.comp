@@ -1,0 +1,53 @@
+#version 460
+// Reconstruction: the pixel colour is the mean over its visible (= occupied,
+// since invisible samples are dropped when retraced), already shaded samples
+// of albedo × demodulated radiance; depth, first hit and albedo are the
+// closest sample's. A pixel without samples shows the environment through
+// its centre.
+#include "isrt/common.glsl"
+layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
+
+void main() {
+    uvec2 px = gl_GlobalInvocationID.xy;
+    uint eye = gl_GlobalInvocationID.z;
+    if (any(greaterThanEqual(px, frame_size()))) return;
+    uint pm = pixel_index(eye, px);
+    EyeGpu e = frame.eyes[eye];
+    vec3 o = e.pos_tanx.xyz;
+    float spread = eye_pixel_spread(e);
+    vec3 sum = vec3(0.0);
+    float shaded = 0.0, samples = 0.0;
+    float best_t = 3.4e38;
+    uvec4 best_fh = uvec4(0u, 0u, 0u, NO_HIT);
+    vec3 best_albedo = vec3(0.0), best_p = vec3(0.0);
+    for (uint k = 0u; k < M * M; ++k) {
+        uint idx = cell_index(eye, px * M + uvec2(k % M, k / M));
+        uvec4 fh = fh_cur[idx];
+        if (!first_hit_valid(fh)) continue;
+        samples += 1.0;
+        vec3 wp = hit_position(fh);
+        float t = length(wp - o);
+        vec3 d = (wp - o) / max(t, 1e-30);
+        Surface surf = surface_at(fh.w, fh.z, first_hit_bary(fh), d);
+        ShadingMaterial mat = material_at(surf, d, t * spread);
+        if (t < best_t) { best_t = t; best_fh = fh; best_albedo = mat.base; best_p = wp; }
+        vec4 rec = rad_cur[idx];
+        if (rec.w > 0.0) {
+            sum += mat.base * rec.rgb;
+            shaded += 1.0;
+        }
+    }
+    if (samples == 0.0) {
+        vec3 d = eye_ray_dir(e, vec2(px) + 0.5);
+        float lp;
+        out_color[pm] = vec4(environment(d) + sun_radiance(d, lp), 0.0);
+        out_depth[pm] = 0.0;
+        out_fh[pm] = uvec4(0u, 0u, 0u, NO_HIT);
+        out_albedo[pm] = vec4(0.0);
+    } else {
+        out_color[pm] = vec4(shaded > 0.0 ? sum / shaded : vec3(0.0), samples);
+        out_depth[pm] = view_depth(e, best_p);
+        out_fh[pm] = best_fh;
+        out_albedo[pm] = vec4(best_albedo, 1.0);
+    }
+}

@@ -1,0 +1,29 @@
+#version 460
+// Forward reprojection: one thread per cell of the previous frame. A sample
+// lands in the cell its new sub-pixel position falls into; the reservation is
+// a 64-bit atomicMin on (view depth | source cell), so the closest sample wins
+// and ties go to the lower source index (independent of thread order).
+#include "isrt/common.glsl"
+layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
+
+void main() {
+    uvec2 g = gl_GlobalInvocationID.xy;
+    uint eye = gl_GlobalInvocationID.z;
+    uvec2 gs = grid_size();
+    if (any(greaterThanEqual(g, gs))) return;
+    uint src = cell_index(eye, g);
+    uvec4 fh = fh_prev[src];
+    if (!first_hit_valid(fh)) return;
+    vec2 q;
+    float vd;
+    vec2 size = vec2(frame_size());
+    if (!project_to_eye(frame.eyes[eye], hit_position(fh), q, vd) || any(lessThan(q, vec2(0.0))) ||
+        any(greaterThanEqual(q, size))) {
+        atomicAdd(counters[C_OFFSCREEN], 1u);
+        return;
+    }
+    uvec2 t = min(uvec2(q * float(M)), gs - 1u);
+    uint local = src - eye * cells_per_eye();
+    atomicMin(claim[cell_index(eye, t)], (uint64_t(floatBitsToUint(vd)) << 32) | uint64_t(local));
+    atomicAdd(counters[C_REPROJECTED], 1u);
+}

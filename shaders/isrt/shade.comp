@@ -1,0 +1,60 @@
+#version 460
+// Shading: one sample per pixel and frame, round robin over the pixel's
+// occupied cells (frame index mod count, like the sample cache's uniform
+// shading). One path through the stored first hit with the shared
+// integrator, demodulated by the first hit's base colour and accumulated as a
+// running mean, with the sample cache's appendix C clamp of α for
+// view-dependent materials.
+#include "isrt/common.glsl"
+layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
+
+bool view_dependent(ShadingMaterial m) { return m.metallic > 0.5 || m.transmission > 0.0; }
+
+void main() {
+    uvec2 px = gl_GlobalInvocationID.xy;
+    uint eye = gl_GlobalInvocationID.z;
+    if (any(greaterThanEqual(px, frame_size()))) return;
+    uint occupied = 0u;
+    for (uint k = 0u; k < M * M; ++k) {
+        if (first_hit_valid(fh_cur[cell_index(eye, px * M + uvec2(k % M, k / M))])) occupied |= 1u << k;
+    }
+    uint n = bitCount(occupied);
+    if (n == 0u) return;
+    uint pick = frame.size_seed.w % n;
+    for (uint i = 0u; i < pick; ++i) occupied &= occupied - 1u;
+    uint k = uint(findLSB(occupied));
+    uint idx = cell_index(eye, px * M + uvec2(k % M, k / M));
+    uvec4 fh = fh_cur[idx];
+    EyeGpu e = frame.eyes[eye];
+    vec3 o = e.pos_tanx.xyz;
+    vec3 wp = hit_position(fh);
+    float t = length(wp - o);
+    vec3 d = (wp - o) / max(t, 1e-30);
+    RtHit h;
+    h.t = t;
+    h.instance = fh.w;
+    h.prim = fh.z;
+    h.bary = first_hit_bary(fh);
+    Rng rng = rng_init(frame.size_seed.z, frame.size_seed.w, eye, px.y * frame_size().x + px.x, 0x15A70002u + k);
+    RayCounts rays = RayCounts(0u, 0u);
+    vec3 L = path_radiance(o, d, true, h, t * eye_pixel_spread(e), rng, rays);
+    if (any(isnan(L)) || any(isinf(L))) L = vec3(0.0);
+    Surface s = surface_at(h.instance, h.prim, h.bary, d);
+    ShadingMaterial m = material_at(s, d, t * eye_pixel_spread(e));
+    vec3 demod = L / max(m.base, vec3(1e-3));
+    vec4 rec = rad_cur[idx];
+    float c = min(rec.w + 1.0, C_MAX);
+    float alpha = 1.0 / c;
+    if (view_dependent(m)) {
+        float a_ggx = m.roughness * m.roughness;
+        float a_min = (1.0 - a_ggx) * 0.5 + a_ggx * 0.1;
+        if (alpha < a_min) {
+            alpha = a_min;
+            c = 1.0 / a_min;
+        }
+    }
+    rad_cur[idx] = vec4(mix(rec.rgb, demod, alpha), c);
+    atomicAdd(counters[C_SHADED], 1u);
+    atomicAdd(counters[C_BOUNCE_RAYS], rays.bounce);
+    atomicAdd(counters[C_SHADOW_RAYS], rays.shadow);
+}

@@ -1,0 +1,154 @@
+#version 460
+// Temporal antialiasing resolve (Yang, Liu & Salvi 2020, "A Survey of
+// Temporal Antialiasing Techniques"), one thread per pixel and eye:
+//  1. reprojection (§4.1): the pixel centre's world point, rebuilt from the
+//     current view depth (a miss: its direction), projected into the previous
+//     eye pose gives the history position q;
+//  2. history rejection (§4.2): q off-screen, or no bilinear tap around q whose
+//     previous first hit and depth agree with the point (both misses, or both
+//     hits at the expected previous view depth) → disocclusion, history dropped;
+//  3. bilinear history fetch over the consistent taps only, renormalised
+//     (per-tap validity as in SVGF's reprojection);
+//  4. variance clipping (§4.2, Salvi 2016): the history is clipped towards
+//     the mean of a YCoCg AABB μ ± γσ of the current 3×3 neighbourhood;
+//  5. blend (§3): fixed α, or α = max(1/(n+1), α_min) with the per-pixel
+//     history length n (our reading of Philippi et al. 2023).
+// Set 1 below; src/methods/taa/pass.rs (TaaPass) owns the buffers.
+#include "common/camera.glsl"
+#include "common/packing.glsl"
+layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
+
+layout(push_constant) uniform Push {
+    float alpha;      // fixed α, or α_min for the pfj23 weights
+    float gamma;      // clipping box half-width in standard deviations
+    uint weights;     // 0 fixed, 1 pfj23
+    uint flags;       // bit 0: a history exists; bit 1: reject disocclusions; bit 2: clip
+} pc;
+
+layout(set = 1, binding = 1, std430) readonly buffer InColor { vec4 in_color[]; };     // rgb radiance (w ignored)
+layout(set = 1, binding = 2, std430) readonly buffer InDepth { float in_depth[]; };    // view depth, 0 = miss
+layout(set = 1, binding = 3, std430) readonly buffer InFh { uvec4 in_fh[]; };          // pixel-centre first hits
+layout(set = 1, binding = 4, std430) readonly buffer HistPrev { vec4 hist_prev[]; };   // rgb, history length n
+layout(set = 1, binding = 5, std430) writeonly buffer HistCur { vec4 hist_cur[]; };
+layout(set = 1, binding = 6, std430) readonly buffer PrevDepth { float prev_depth[]; };
+layout(set = 1, binding = 7, std430) readonly buffer PrevFh { uvec4 prev_fh[]; };
+layout(set = 1, binding = 8, std430) buffer Counters { uint counters[]; };
+
+// Counter slots (src/methods/taa/pass.rs names them).
+const uint C_OFFSCREEN = 0u, C_DISOCCLUDED = 1u, C_NO_HISTORY = 2u, C_CLIPPED = 3u, C_ACCEPTED = 4u,
+           C_HISTORY_SUM = 5u;
+const float N_MAX = 255.0;            // history lengths saturate here
+const float TOL_SAME_INSTANCE = 0.1;  // relative depth tolerance when the tap saw the same instance
+const float TOL_OTHER = 0.01;         // ... and when it saw another one
+
+vec3 rgb_to_ycocg(vec3 c) {
+    return vec3(0.25 * c.r + 0.5 * c.g + 0.25 * c.b, 0.5 * c.r - 0.5 * c.b, -0.25 * c.r + 0.5 * c.g - 0.25 * c.b);
+}
+vec3 ycocg_to_rgb(vec3 c) {
+    float t = c.x - c.z;
+    return vec3(t + c.y, c.x + c.z, t - c.y);
+}
+
+// Clips h towards the box centre mu (half extents ext) along the segment h → mu.
+vec3 clip_towards_mean(vec3 h, vec3 mu, vec3 ext, out bool clipped) {
+    vec3 d = h - mu;
+    vec3 a = abs(d) / max(ext, vec3(1e-7));
+    float m = max(a.x, max(a.y, a.z));
+    clipped = m > 1.0;
+    return clipped ? mu + d / m : h;
+}
+
+vec3 sanitize(vec3 c) { return (any(isnan(c)) || any(isinf(c))) ? vec3(0.0) : max(c, vec3(0.0)); }
+
+// Does the previous frame's tap (first hit, depth) show the current point,
+// whose view depth in the previous eye is `vd` (a miss: hit = false)?
+bool tap_consistent(bool hit, uvec4 fh, float vd, uvec4 pfh, float pdepth) {
+    if (!hit) return !first_hit_valid(pfh);
+    if (!first_hit_valid(pfh)) return false;
+    float tol = pfh.w == fh.w ? TOL_SAME_INSTANCE : TOL_OTHER;
+    return abs(pdepth - vd) <= tol * vd;
+}
+
+void main() {
+    uvec2 size = frame_size();
+    uvec2 px = gl_GlobalInvocationID.xy;
+    uint eye = gl_GlobalInvocationID.z;
+    if (any(greaterThanEqual(px, size))) return;
+    uint base = eye * size.x * size.y;
+    uint idx = base + px.y * size.x + px.x;
+    vec3 c = sanitize(in_color[idx].rgb);
+
+    // 3×3 neighbourhood moments in YCoCg (clamped at the image border).
+    vec3 m1 = vec3(0.0), m2 = vec3(0.0);
+    for (int dy = -1; dy <= 1; ++dy) {
+        for (int dx = -1; dx <= 1; ++dx) {
+            ivec2 q = clamp(ivec2(px) + ivec2(dx, dy), ivec2(0), ivec2(size) - 1);
+            vec3 y = rgb_to_ycocg(sanitize(in_color[base + uint(q.y) * size.x + uint(q.x)].rgb));
+            m1 += y;
+            m2 += y * y;
+        }
+    }
+    vec3 mu = m1 / 9.0;
+    vec3 sigma = sqrt(max(m2 / 9.0 - mu * mu, vec3(0.0)));
+
+    // Reprojection of the pixel centre into the previous eye.
+    EyeGpu e = frame.eyes[eye];
+    EyeGpu pe = frame.prev_eyes[eye];
+    vec3 d = eye_ray_dir(e, vec2(px) + 0.5);
+    uvec4 fh = in_fh[idx];
+    bool hit = first_hit_valid(fh);
+    vec2 q;
+    float vd;
+    bool on_screen;
+    if (hit) {
+        vec3 p = e.pos_tanx.xyz + d * (in_depth[idx] / dot(d, e.fwd.xyz));
+        on_screen = project_to_eye(pe, p, q, vd);
+    } else {
+        on_screen = project_to_eye(pe, pe.pos_tanx.xyz + d, q, vd);   // a direction: rotation only
+    }
+    on_screen = on_screen && all(greaterThanEqual(q, vec2(0.0))) && all(lessThan(q, vec2(size)));
+
+    uint reason = 0u;   // 0 history used, else the C_* slot that rejected it
+    vec4 hist = vec4(0.0);
+    if ((pc.flags & 1u) == 0u) {
+        reason = C_NO_HISTORY;
+    } else if (!on_screen) {
+        reason = C_OFFSCREEN;
+    } else {
+        vec2 f = q - 0.5;
+        ivec2 b = ivec2(floor(f));
+        vec2 t = f - vec2(b);
+        float wsum = 0.0;
+        for (int k = 0; k < 4; ++k) {
+            ivec2 tp = b + ivec2(k & 1, k >> 1);
+            if (any(lessThan(tp, ivec2(0))) || any(greaterThanEqual(tp, ivec2(size)))) continue;
+            float w = ((k & 1) != 0 ? t.x : 1.0 - t.x) * ((k >> 1) != 0 ? t.y : 1.0 - t.y);
+            uint pi = base + uint(tp.y) * size.x + uint(tp.x);
+            if ((pc.flags & 2u) != 0u && !tap_consistent(hit, fh, vd, prev_fh[pi], prev_depth[pi])) continue;
+            hist += w * hist_prev[pi];
+            wsum += w;
+        }
+        if (wsum > 1e-4) hist /= wsum;
+        else reason = C_DISOCCLUDED;
+    }
+
+    vec3 result;
+    float n;
+    if (reason != 0u) {
+        result = c;
+        n = 1.0;
+        atomicAdd(counters[reason], 1u);
+    } else {
+        bool clipped = false;
+        vec3 h = hist.rgb;
+        if ((pc.flags & 4u) != 0u) h = ycocg_to_rgb(clip_towards_mean(rgb_to_ycocg(h), mu, pc.gamma * sigma, clipped));
+        float n_prev = hist.w;
+        float alpha = pc.weights == 1u ? max(1.0 / (n_prev + 1.0), pc.alpha) : pc.alpha;
+        result = mix(max(h, vec3(0.0)), c, alpha);
+        n = min(n_prev + 1.0, N_MAX);
+        atomicAdd(counters[C_ACCEPTED], 1u);
+        if (clipped) atomicAdd(counters[C_CLIPPED], 1u);
+    }
+    atomicAdd(counters[C_HISTORY_SUM], uint(n));
+    hist_cur[idx] = vec4(result, n);
+}

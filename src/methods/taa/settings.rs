@@ -1,0 +1,120 @@
+//! Options of the `taa` method (and of any method that runs [`super::TaaPass`]).
+
+use serde::Serialize;
+use std::str::FromStr;
+
+/// How the history and the new frame are blended.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub enum TaaWeights {
+    /// Exponential moving average with a fixed α (Yang et al. 2020, §3).
+    Fixed,
+    /// Per-pixel accumulated-sample-count weights, our reading of Philippi et
+    /// al. 2023 ([PFJ23]): α = max(1/(n+1), α_min) with n the pixel's history
+    /// length, reset to 0 when the history is rejected. A fresh history is a
+    /// running mean until it holds 1/α_min − 1 frames, then an EMA with α_min.
+    Pfj23,
+}
+
+impl FromStr for TaaWeights {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "fixed" => Ok(TaaWeights::Fixed),
+            "pfj23" => Ok(TaaWeights::Pfj23),
+            other => Err(format!(
+                "bad --taa-weights '{other}': expected fixed or pfj23"
+            )),
+        }
+    }
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct TaaSettings {
+    /// Blend factor of the new frame (fixed weights) or its lower bound α_min (pfj23).
+    pub alpha: f32,
+    pub weights: TaaWeights,
+    /// Half-width of the YCoCg clipping box in standard deviations of the 3×3
+    /// neighbourhood (Salvi's variance clipping; 1 = the survey's γ ≈ 1).
+    pub gamma: f32,
+    /// Clip the history at all (off only for ablations and tests; note that
+    /// a flat neighbourhood has σ = 0, so no finite γ turns clipping off).
+    pub clip: bool,
+    /// Reject the history on disocclusion (off only for ablations and tests).
+    pub reject_disocclusions: bool,
+}
+
+impl Default for TaaSettings {
+    fn default() -> Self {
+        TaaSettings {
+            alpha: 0.1,
+            weights: TaaWeights::Fixed,
+            gamma: 1.0,
+            clip: true,
+            reject_disocclusions: true,
+        }
+    }
+}
+
+impl TaaSettings {
+    pub fn validate(&self) -> Result<(), String> {
+        if !(self.alpha > 0.0 && self.alpha <= 1.0) {
+            return Err(format!(
+                "bad --taa-alpha {}: expected a number in (0, 1]",
+                self.alpha
+            ));
+        }
+        if !(self.gamma.is_finite() && self.gamma > 0.0) {
+            return Err(format!(
+                "bad --taa-gamma {}: expected a positive number",
+                self.gamma
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Element `i` (1-based) of the Halton sequence in base `b`, in [0, 1).
+pub fn halton(mut i: u32, b: u32) -> f32 {
+    let (mut f, mut r) = (1.0f64, 0.0f64);
+    while i > 0 {
+        f /= b as f64;
+        r += f * (i % b) as f64;
+        i /= b;
+    }
+    r as f32
+}
+
+/// The sub-pixel position of frame `index`: Halton(2, 3), period 16
+/// (Yang et al. 2020, §3.1), skipping element 0 = (0, 0).
+pub fn halton_jitter(index: u32) -> [f32; 2] {
+    let i = index % 16 + 1;
+    [halton(i, 2), halton(i, 3)]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn halton_known_values() {
+        assert_eq!(halton(1, 2), 0.5);
+        assert_eq!(halton(2, 2), 0.25);
+        assert_eq!(halton(3, 2), 0.75);
+        assert!((halton(1, 3) - 1.0 / 3.0).abs() < 1e-7);
+        assert!((halton(2, 3) - 2.0 / 3.0).abs() < 1e-7);
+        assert!((halton(4, 3) - 4.0 / 9.0).abs() < 1e-7);
+        // The 16 jitters are distinct and inside the pixel; their mean is near the centre.
+        let js: Vec<[f32; 2]> = (0..16).map(halton_jitter).collect();
+        let mean = js
+            .iter()
+            .fold([0.0; 2], |a, j| [a[0] + j[0] / 16.0, a[1] + j[1] / 16.0]);
+        assert!((mean[0] - 0.5).abs() < 0.05 && (mean[1] - 0.5).abs() < 0.05);
+        assert!(js.iter().all(|j| j.iter().all(|v| (0.0..1.0).contains(v))));
+    }
+
+    #[test]
+    fn parse_weights() {
+        assert_eq!("pfj23".parse::<TaaWeights>().unwrap(), TaaWeights::Pfj23);
+        assert!("nope".parse::<TaaWeights>().is_err());
+    }
+}
