@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use stereocache::camera::{convert_mmsys18, synth, Mmsys18Options, PoseTrace, SynthKind};
 use stereocache::gpu::{GpuContext, GpuOptions};
-use stereocache::methods::{FrameInput, RenderSettings, SampleCacheSettings};
+use stereocache::methods::{FrameInput, HashCacheSettings, RenderSettings, SampleCacheSettings};
 use stereocache::output;
 use stereocache::replay::{replay, trace_cameras, ReplayOptions, DEFAULT_FPS};
 use stereocache::rt::RtChoice;
@@ -127,6 +127,53 @@ impl CacheArgs {
     }
 }
 
+/// Options of the hash-cache method (ignored by other methods).
+#[derive(Args, Clone)]
+struct HashArgs {
+    /// Hash-cache table entries (24 B each; a multiple of 16).
+    #[arg(long, default_value_t = 1 << 20)]
+    hash_capacity: u32,
+    /// distance | distance-normal (level of detail also from the incidence angle)
+    #[arg(long, default_value = "distance")]
+    hash_lod: String,
+    /// Store voxels in 4x4 tiles across the hit normal's major axis (GI-1.0).
+    #[arg(long)]
+    hash_tiles: bool,
+    /// Linear-probing bound (entries, or tiles with --hash-tiles).
+    #[arg(long, default_value_t = 16)]
+    hash_max_probe: u32,
+    /// Entries untouched for more than this many frames may be overwritten.
+    #[arg(long, default_value_t = 64)]
+    hash_stale_frames: u32,
+    /// Voxel edge as a multiple of the pixel footprint (before power-of-two quantization).
+    #[arg(long, default_value_t = 1.0)]
+    hash_lod_scale: f32,
+    /// Running-mean sample count cap per entry.
+    #[arg(long, default_value_t = 1024)]
+    hash_max_samples: u32,
+    /// Turn off the TAA pass on the hash cache's output.
+    #[arg(long)]
+    hash_no_taa: bool,
+}
+
+impl HashArgs {
+    fn settings(&self, debug_views: bool) -> Result<HashCacheSettings> {
+        let s = HashCacheSettings {
+            capacity: self.hash_capacity,
+            max_probe: self.hash_max_probe,
+            stale_frames: self.hash_stale_frames,
+            lod: self.hash_lod.parse().map_err(|e: String| anyhow!(e))?,
+            tiles: self.hash_tiles,
+            lod_scale: self.hash_lod_scale,
+            max_samples: self.hash_max_samples,
+            taa: !self.hash_no_taa,
+            debug_views,
+        };
+        s.validate().map_err(|e| anyhow!(e))?;
+        Ok(s)
+    }
+}
+
 #[derive(Args, Clone)]
 struct CameraArgs {
     /// A camera of the scene by name.
@@ -196,6 +243,8 @@ struct RenderArgs {
     exposure: f32,
     #[command(flatten)]
     cache: CacheArgs,
+    #[command(flatten)]
+    hash: HashArgs,
     #[arg(long, default_value = "out/render")]
     out: PathBuf,
 }
@@ -273,6 +322,8 @@ struct ReplayArgs {
     debug_views: bool,
     #[command(flatten)]
     cache: CacheArgs,
+    #[command(flatten)]
+    hash: HashArgs,
     #[arg(long)]
     out: PathBuf,
 }
@@ -285,6 +336,7 @@ fn run_replay(a: ReplayArgs) -> Result<()> {
         bail!("bad --spp 0: at least one sample per pixel");
     }
     let cache = a.cache.settings(a.debug_views)?;
+    let hash = a.hash.settings(a.debug_views)?;
     let mut opts = ReplayOptions {
         frames: a.frames,
         fps: a.fps,
@@ -313,6 +365,7 @@ fn run_replay(a: ReplayArgs) -> Result<()> {
         seed: a.seed,
         all_features: false,
         cache,
+        hash,
     };
     opts.settings = serde_json::to_value(&settings)?;
     let mut method = session.method(&a.method, &settings)?;
@@ -457,10 +510,12 @@ fn run(cli: Cli) -> Result<()> {
                 seed,
                 exposure,
                 cache,
+                hash,
                 out,
             } = *args;
             let (w, h) = parse_size(&size).map_err(|e| anyhow!(e))?;
             let cache = cache.settings(false)?;
+            let hash = hash.settings(false)?;
             if spp == 0 {
                 bail!("bad --spp 0: at least one sample per pixel");
             }
@@ -479,6 +534,7 @@ fn run(cli: Cli) -> Result<()> {
                 seed,
                 all_features: false,
                 cache,
+                hash,
             };
             let mut m = session.method(&method, &settings)?;
             let frame = m.render_frame(&FrameInput {
@@ -647,6 +703,7 @@ fn run(cli: Cli) -> Result<()> {
                 seed: 1,
                 all_features: false,
                 cache: SampleCacheSettings::default(),
+                hash: HashCacheSettings::default(),
             };
             let (rows, scatter_ms) =
                 stereocache::bench::bench_sample_cache(&session, &cameras, &base)?;

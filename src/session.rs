@@ -5,7 +5,7 @@
 use crate::camera::{HeadPose, StereoCamera, DEFAULT_IPD};
 use crate::error::{Error, Result};
 use crate::gpu::{GpuContext, GpuOptions};
-use crate::methods::{Method, Reference, RenderSettings, SampleCache};
+use crate::methods::{HashCache, Method, Reference, RenderSettings, SampleCache};
 use crate::rt::{RtBackend, RtChoice, SceneGpu};
 use crate::scene::{apply_default_lighting, load_scene, DefaultLighting, Scene};
 use glam::{Quat, Vec3};
@@ -24,7 +24,7 @@ pub enum CameraSelect {
 }
 
 /// Method names the CLI accepts.
-pub const METHODS: &[&str] = &["reference", "sample-cache"];
+pub const METHODS: &[&str] = &["reference", "sample-cache", "hash-cache"];
 
 pub struct Session {
     pub ctx: Arc<GpuContext>,
@@ -125,6 +125,12 @@ impl Session {
                 settings,
             )?)),
             "sample-cache" => Ok(Box::new(SampleCache::new(
+                &self.ctx,
+                &self.scene_gpu,
+                &self.scene.environment,
+                settings,
+            )?)),
+            "hash-cache" => Ok(Box::new(HashCache::new(
                 &self.ctx,
                 &self.scene_gpu,
                 &self.scene.environment,

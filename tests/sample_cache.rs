@@ -28,6 +28,7 @@ fn settings(w: u32, h: u32, cache: SampleCacheSettings) -> RenderSettings {
         seed: 5,
         all_features: false,
         cache,
+        ..Default::default()
     }
 }
 

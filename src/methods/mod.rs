@@ -2,10 +2,12 @@
 //! [`StereoFrame`], so replay, compare, metrics and reports never special-case one.
 
 pub mod frame;
+pub mod hash_cache;
 pub mod reference;
 pub mod sample_cache;
 
 pub use frame::{EyeImage, FrameInput, FrameParams, FrameStats, RayCounts, StereoFrame};
+pub use hash_cache::{HashCache, HashCacheSettings};
 pub use reference::Reference;
 pub use sample_cache::{SampleCache, SampleCacheSettings};
 
@@ -26,6 +28,8 @@ pub struct RenderSettings {
     pub all_features: bool,
     /// Options of the `sample-cache` method.
     pub cache: SampleCacheSettings,
+    /// Options of the `hash-cache` method.
+    pub hash: HashCacheSettings,
 }
 
 impl Default for RenderSettings {
@@ -38,6 +42,7 @@ impl Default for RenderSettings {
             seed: 1,
             all_features: false,
             cache: SampleCacheSettings::default(),
+            hash: HashCacheSettings::default(),
         }
     }
 }
