@@ -480,3 +480,58 @@ fn furnace_sphere_shows_its_albedo() {
     }
     assert_no_validation_messages(&ctx);
 }
+
+/// The command line: bad `--hash-*` values get one error line naming the
+/// option; a render with the method and its options writes the images.
+#[test]
+fn cli_hash_options() {
+    let run = |args: &[&str]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_stereocache"))
+            .env("STEREOCACHE_VALIDATE", "1")
+            .args(args)
+            .output()
+            .unwrap()
+    };
+    let out = std::env::temp_dir().join(format!("stereocache-hash-cli-{}", std::process::id()));
+    let out_s = out.to_string_lossy().to_string();
+    for (flag, value) in [
+        ("--hash-capacity", "100"),
+        ("--hash-lod", "nearest"),
+        ("--hash-max-probe", "0"),
+        ("--hash-lod-scale", "0"),
+    ] {
+        let o = run(&[
+            "render",
+            "--method",
+            "hash-cache",
+            flag,
+            value,
+            "--out",
+            &out_s,
+        ]);
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        let errors: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error")).collect();
+        assert!(!o.status.success() && errors.len() == 1, "{stderr}");
+        assert!(errors[0].contains(flag), "{flag}: {}", errors[0]);
+        assert!(!out.exists(), "{flag}: output written");
+    }
+    let o = run(&[
+        "render",
+        "--method",
+        "hash-cache",
+        "--size",
+        "16x12",
+        "--rt",
+        "software",
+        "--hash-tiles",
+        "--hash-lod",
+        "distance-normal",
+        "--hash-capacity",
+        "4096",
+        "--out",
+        &out_s,
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(out.join("left.exr").exists() && out.join("right.png").exists());
+    let _ = std::fs::remove_dir_all(&out);
+}
