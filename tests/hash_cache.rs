@@ -535,3 +535,75 @@ fn cli_hash_options() {
     assert!(out.join("left.exr").exists() && out.join("right.png").exists());
     let _ = std::fs::remove_dir_all(&out);
 }
+
+/// Fig. 9's comparison as numbers (run with `--ignored --nocapture`): on a
+/// static view of the plane (grazing angles towards the horizon), the mean
+/// absolute frame-to-frame change of the output over frames 17..32 and the
+/// MSE against the reference, per LoD mode, without and with TAA.
+#[test]
+#[ignore]
+fn fig9_lod_modes_temporal_stability() {
+    let ctx = context();
+    let s = session(&ctx, shipped("plane"), RtChoice::Software);
+    let (w, h) = (64, 48);
+    let cam = s.camera(&CameraSelect::Default, w, h, None, None).unwrap();
+    let reference = render(
+        &s,
+        "reference",
+        cam,
+        &RenderSettings {
+            width: w,
+            height: h,
+            spp: 512,
+            max_bounces: 2,
+            seed: 99,
+            ..Default::default()
+        },
+    );
+    for taa in [false, true] {
+        for lod in [HashLod::Distance, HashLod::DistanceNormal] {
+            let hs = HashCacheSettings {
+                lod,
+                taa,
+                ..Default::default()
+            };
+            let mut m = hash_method(&s, &settings(w, h, hs));
+            let (mut prev, mut change, mut n) = (None::<StereoFrame>, 0.0f64, 0usize);
+            let mut last = None;
+            for f in 0..32u32 {
+                let fr = m
+                    .render_frame(&FrameInput {
+                        index: f,
+                        camera: cam,
+                        prev_camera: Some(cam),
+                    })
+                    .unwrap();
+                if let (Some(p), true) = (&prev, f >= 16) {
+                    for (a, b) in fr.eyes.iter().zip(&p.eyes) {
+                        for (x, y) in a.radiance.iter().zip(&b.radiance) {
+                            change += (0..3).map(|k| (x[k] - y[k]).abs() as f64).sum::<f64>();
+                            n += 3;
+                        }
+                    }
+                }
+                last = Some(fr.stats.counters.clone());
+                prev = Some(fr);
+            }
+            let p = prev.unwrap();
+            let mse = p
+                .eyes
+                .iter()
+                .zip(&reference.eyes)
+                .flat_map(|(a, b)| a.radiance.iter().zip(&b.radiance))
+                .flat_map(|(a, b)| (0..3).map(move |k| ((a[k] - b[k]) as f64).powi(2)))
+                .sum::<f64>()
+                / (2 * w * h * 3) as f64;
+            let live = last.unwrap()["live_entries"];
+            eprintln!(
+                "taa {taa:5} lod {lod:?}: mean |frame change| {:.4e}, MSE {mse:.4e}, live entries {live}",
+                change / n as f64
+            );
+        }
+    }
+    assert_no_validation_messages(&ctx);
+}
