@@ -119,14 +119,15 @@ uint hc_find_or_insert(uint h, uint local_offset, uint c, out uint slot, out boo
 int hc_level(float t, vec3 d, vec3 ng, EyeGpu e) {
     float footprint = t * eye_pixel_spread(e) * pc.lod_scale;
     if (hc_lod_normal()) footprint /= max(abs(dot(d, ng)), 1.0 / 16.0);
-    return clamp(int(floor(log2(max(footprint, 1e-30)))), -HC_LEVEL_BIAS + 1, 31 - 8);
+    return clamp(int(floor(log2(max(footprint, 1e-30)))), -24, 23);   // 60 nm .. 8 km
 }
 
 // Key of the (jittered) point p with geometric normal ng at `level`.
 // Tiles: 4x4 voxels in the plane across ng's major axis (signed), the voxel's
 // coordinate along that axis dropped within its tile.
 void hc_key(vec3 p, vec3 ng, int level, out ivec3 coord, out uint meta) {
-    ivec3 v = ivec3(floor(p * exp2(float(-level))));
+    // Clamped so the float → int conversion stays defined far from the origin.
+    ivec3 v = ivec3(clamp(floor(p * exp2(float(-level))), vec3(-1073741824.0), vec3(1073741760.0)));
     if (!hc_tiles()) {
         coord = v;
         meta = hc_pack_meta(level, HC_NO_AXIS, 0u, false);
