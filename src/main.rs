@@ -7,7 +7,7 @@ use std::process::ExitCode;
 use stereocache::camera::{convert_mmsys18, synth, Mmsys18Options, PoseTrace, SynthKind};
 use stereocache::gpu::{GpuContext, GpuOptions};
 use stereocache::methods::{
-    FrameInput, IsrtSettings, RenderSettings, SampleCacheSettings, TaaSettings,
+    FrameInput, HashCacheSettings, IsrtSettings, RenderSettings, SampleCacheSettings, TaaSettings,
 };
 use stereocache::output;
 use stereocache::replay::{replay, trace_cameras, ReplayOptions, DEFAULT_FPS};
@@ -183,6 +183,53 @@ impl IsrtArgs {
     }
 }
 
+/// Options of the hash-cache method (ignored by other methods).
+#[derive(Args, Clone)]
+struct HashArgs {
+    /// Hash-cache table entries (24 B each; a multiple of 16).
+    #[arg(long, default_value_t = 1 << 20)]
+    hash_capacity: u32,
+    /// distance | distance-normal (level of detail also from the incidence angle)
+    #[arg(long, default_value = "distance")]
+    hash_lod: String,
+    /// Store voxels in 4x4 tiles across the hit normal's major axis (GI-1.0).
+    #[arg(long)]
+    hash_tiles: bool,
+    /// Linear-probing bound (entries, or tiles with --hash-tiles).
+    #[arg(long, default_value_t = 16)]
+    hash_max_probe: u32,
+    /// Entries untouched for more than this many frames may be overwritten.
+    #[arg(long, default_value_t = 64)]
+    hash_stale_frames: u32,
+    /// Voxel edge as a multiple of the pixel footprint (before power-of-two quantization).
+    #[arg(long, default_value_t = 1.0)]
+    hash_lod_scale: f32,
+    /// Running-mean sample count cap per entry.
+    #[arg(long, default_value_t = 1024)]
+    hash_max_samples: u32,
+    /// Turn off the TAA pass on the hash cache's output.
+    #[arg(long)]
+    hash_no_taa: bool,
+}
+
+impl HashArgs {
+    fn settings(&self, debug_views: bool) -> Result<HashCacheSettings> {
+        let s = HashCacheSettings {
+            capacity: self.hash_capacity,
+            max_probe: self.hash_max_probe,
+            stale_frames: self.hash_stale_frames,
+            lod: self.hash_lod.parse().map_err(|e: String| anyhow!(e))?,
+            tiles: self.hash_tiles,
+            lod_scale: self.hash_lod_scale,
+            max_samples: self.hash_max_samples,
+            taa: !self.hash_no_taa,
+            debug_views,
+        };
+        s.validate().map_err(|e| anyhow!(e))?;
+        Ok(s)
+    }
+}
+
 #[derive(Args, Clone)]
 struct CameraArgs {
     /// A camera of the scene by name.
@@ -256,6 +303,8 @@ struct RenderArgs {
     taa: TaaArgs,
     #[command(flatten)]
     isrt: IsrtArgs,
+    #[command(flatten)]
+    hash: HashArgs,
     #[arg(long, default_value = "out/render")]
     out: PathBuf,
 }
@@ -310,6 +359,8 @@ struct CompareArgs {
     taa: TaaArgs,
     #[command(flatten)]
     isrt: IsrtArgs,
+    #[command(flatten)]
+    hash: HashArgs,
     #[arg(long)]
     out: PathBuf,
 }
@@ -376,6 +427,7 @@ fn run_compare(a: CompareArgs) -> Result<()> {
         }
     }
     let (taa, isrt) = (a.taa.settings()?, a.isrt.settings()?);
+    let hash = a.hash.settings(false)?;
     let settings = RenderSettings {
         width: w,
         height: h,
@@ -386,6 +438,7 @@ fn run_compare(a: CompareArgs) -> Result<()> {
         cache,
         taa,
         isrt,
+        hash,
     };
     let opts = stereocache::compare::CompareOptions {
         methods,
@@ -495,6 +548,8 @@ struct ReplayArgs {
     taa: TaaArgs,
     #[command(flatten)]
     isrt: IsrtArgs,
+    #[command(flatten)]
+    hash: HashArgs,
     #[arg(long)]
     out: PathBuf,
 }
@@ -508,6 +563,7 @@ fn run_replay(a: ReplayArgs) -> Result<()> {
     }
     let cache = a.cache.settings(a.debug_views)?;
     let (taa, isrt) = (a.taa.settings()?, a.isrt.settings()?);
+    let hash = a.hash.settings(a.debug_views)?;
     let mut opts = ReplayOptions {
         frames: a.frames,
         fps: a.fps,
@@ -538,6 +594,7 @@ fn run_replay(a: ReplayArgs) -> Result<()> {
         cache,
         taa,
         isrt,
+        hash,
     };
     opts.settings = serde_json::to_value(&settings)?;
     let mut method = session.method(&a.method, &settings)?;
@@ -690,11 +747,13 @@ fn run(cli: Cli) -> Result<()> {
                 cache,
                 taa,
                 isrt,
+                hash,
                 out,
             } = *args;
             let (w, h) = parse_size(&size).map_err(|e| anyhow!(e))?;
             let cache = cache.settings(false)?;
             let (taa, isrt) = (taa.settings()?, isrt.settings()?);
+            let hash = hash.settings(false)?;
             if spp == 0 {
                 bail!("bad --spp 0: at least one sample per pixel");
             }
@@ -715,6 +774,7 @@ fn run(cli: Cli) -> Result<()> {
                 cache,
                 taa,
                 isrt,
+                hash,
             };
             let mut m = session.method(&method, &settings)?;
             let frame = m.render_frame(&FrameInput {

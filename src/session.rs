@@ -5,7 +5,9 @@
 use crate::camera::{HeadPose, StereoCamera, DEFAULT_IPD};
 use crate::error::{Error, Result};
 use crate::gpu::{GpuContext, GpuOptions};
-use crate::methods::{baseline, Isrt, Method, Reference, RenderSettings, SampleCache, Taa};
+use crate::methods::{
+    baseline, HashCache, Isrt, Method, Reference, RenderSettings, SampleCache, Taa,
+};
 use crate::rt::{RtBackend, RtChoice, SceneGpu};
 use crate::scene::{apply_default_lighting, load_scene, DefaultLighting, Scene};
 use glam::{Quat, Vec3};
@@ -31,6 +33,7 @@ pub const METHODS: &[&str] = &[
     "supersample",
     "taa",
     "isrt",
+    "hash-cache",
 ];
 
 pub struct Session {
@@ -156,6 +159,12 @@ impl Session {
                 settings,
             )?)),
             "isrt" => Ok(Box::new(Isrt::new(
+                &self.ctx,
+                &self.scene_gpu,
+                &self.scene.environment,
+                settings,
+            )?)),
+            "hash-cache" => Ok(Box::new(HashCache::new(
                 &self.ctx,
                 &self.scene_gpu,
                 &self.scene.environment,

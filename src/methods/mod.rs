@@ -3,12 +3,14 @@
 
 pub mod baseline;
 pub mod frame;
+pub mod hash_cache;
 pub mod isrt;
 pub mod reference;
 pub mod sample_cache;
 pub mod taa;
 
 pub use frame::{EyeImage, FrameInput, FrameParams, FrameStats, RayCounts, StereoFrame};
+pub use hash_cache::{HashCache, HashCacheSettings};
 pub use isrt::{Isrt, IsrtSettings};
 pub use reference::Reference;
 pub use sample_cache::{SampleCache, SampleCacheSettings};
@@ -35,6 +37,8 @@ pub struct RenderSettings {
     pub taa: TaaSettings,
     /// Options of the `isrt` method.
     pub isrt: IsrtSettings,
+    /// Options of the `hash-cache` method.
+    pub hash: HashCacheSettings,
 }
 
 impl Default for RenderSettings {
@@ -49,6 +53,7 @@ impl Default for RenderSettings {
             cache: SampleCacheSettings::default(),
             taa: TaaSettings::default(),
             isrt: IsrtSettings::default(),
+            hash: HashCacheSettings::default(),
         }
     }
 }
