@@ -46,6 +46,9 @@ pub struct MethodRow {
     pub frames: usize,
     pub mean_gpu_ms: f64,
     pub p95_gpu_ms: f64,
+    /// Mean / p95 over the frames after the first (frame 0 carries one-time driver costs).
+    pub steady_mean_gpu_ms: f64,
+    pub steady_p95_gpu_ms: f64,
     pub pass_mean_ms: BTreeMap<String, f64>,
     pub rays_per_frame: f64,
     pub rays_total: u64,
@@ -61,6 +64,8 @@ impl MethodRow {
             frames: s.frames,
             mean_gpu_ms: s.mean_gpu_ms,
             p95_gpu_ms: s.p95_gpu_ms,
+            steady_mean_gpu_ms: s.steady_mean_gpu_ms,
+            steady_p95_gpu_ms: s.steady_p95_gpu_ms,
             pass_mean_ms: s.pass_mean_ms.clone(),
             rays_per_frame: s.rays_per_frame,
             rays_total: s.rays.total,
@@ -272,7 +277,7 @@ fn write_summaries(
     metric_names.sort();
     metric_names.dedup();
     let mut csv = String::from(
-        "method,frames,mean_gpu_ms,p95_gpu_ms,rays_per_frame,rays_total,method_memory_bytes",
+        "method,frames,mean_gpu_ms,p95_gpu_ms,steady_mean_gpu_ms,steady_p95_gpu_ms,rays_per_frame,rays_total,method_memory_bytes",
     );
     for m in &metric_names {
         csv.push_str(&format!(",{m}"));
@@ -283,11 +288,13 @@ fn write_summaries(
     csv.push('\n');
     for r in rows {
         csv.push_str(&format!(
-            "{},{},{:.4},{:.4},{:.1},{},{}",
+            "{},{},{:.4},{:.4},{:.4},{:.4},{:.1},{},{}",
             r.method,
             r.frames,
             r.mean_gpu_ms,
             r.p95_gpu_ms,
+            r.steady_mean_gpu_ms,
+            r.steady_p95_gpu_ms,
             r.rays_per_frame,
             r.rays_total,
             r.method_memory_bytes
@@ -353,8 +360,8 @@ pub fn summary_table(rows: &[MethodRow]) -> String {
         s.push_str(&format!(
             "{:<16} {:>9.2} {:>9.2} {:>12.0} {:>10.1} {:>9} {:>9} {:>10} {:>10}\n",
             r.method,
-            r.mean_gpu_ms,
-            r.p95_gpu_ms,
+            r.steady_mean_gpu_ms,
+            r.steady_p95_gpu_ms,
             r.rays_per_frame,
             r.method_memory_bytes as f64 / (1u64 << 20) as f64,
             metric(r, "rse"),

@@ -255,6 +255,13 @@ pub struct ReplaySummary {
     pub mean_gpu_ms: f64,
     /// 95th percentile (nearest rank) of the per-frame GPU time.
     pub p95_gpu_ms: f64,
+    /// GPU time of frame 0, which carries the driver's one-time costs
+    /// (lavapipe compiles pipelines on first use).
+    pub first_frame_gpu_ms: f64,
+    /// Mean and p95 over the frames after the first (the steady state; equal
+    /// to the plain figures for a one-frame run). Benchmarks quote these.
+    pub steady_mean_gpu_ms: f64,
+    pub steady_p95_gpu_ms: f64,
     /// Mean milliseconds per frame of each pass name (0 for frames without it).
     pub pass_mean_ms: BTreeMap<String, f64>,
     /// Rays over the whole replay.
@@ -429,6 +436,15 @@ pub fn replay_observed(
         images_written,
         mean_gpu_ms: gpu_ms.iter().sum::<f64>() / n as f64,
         p95_gpu_ms: percentile_nearest_rank(&gpu_ms, 0.95),
+        first_frame_gpu_ms: gpu_ms[0],
+        steady_mean_gpu_ms: {
+            let s = if n > 1 { &gpu_ms[1..] } else { &gpu_ms[..] };
+            s.iter().sum::<f64>() / s.len() as f64
+        },
+        steady_p95_gpu_ms: percentile_nearest_rank(
+            if n > 1 { &gpu_ms[1..] } else { &gpu_ms[..] },
+            0.95,
+        ),
         pass_mean_ms: pass_sums
             .into_iter()
             .map(|(k, v)| (k, v / n as f64))

@@ -71,7 +71,7 @@ fn report_is_self_contained_and_matches_the_summary() {
             .split("<tr>")
             .find(|r| r.starts_with(&format!("<td>{method}</td>")))
             .expect("method row in the table");
-        for key in ["mean_gpu_ms", "rse", "flip"] {
+        for key in ["steady_mean_gpu_ms", "rse", "flip"] {
             let col = header.iter().position(|h| *h == key).unwrap();
             let v: f64 = cells[col].parse().unwrap();
             let shown = if v.abs() >= 100.0 {

@@ -25,7 +25,10 @@ impl MethodData {
         self.row["metrics"][k].as_f64()
     }
     pub fn mean_gpu_ms(&self) -> f64 {
-        self.row["mean_gpu_ms"].as_f64().unwrap_or(0.0)
+        self.row["steady_mean_gpu_ms"]
+            .as_f64()
+            .or(self.row["mean_gpu_ms"].as_f64())
+            .unwrap_or(0.0)
     }
     pub fn pass_ms(&self) -> BTreeMap<String, f64> {
         self.row["pass_mean_ms"]

@@ -65,7 +65,7 @@ pub fn page(d: &ReportData) -> Result<String> {
         s["width"], s["height"], s["fps"]
     ));
 
-    h.push_str("<h2>Summary</h2>\n<table id=\"summary\"><tr><th>method</th><th>frames</th><th>mean GPU ms</th><th>p95 GPU ms</th><th>rays / frame</th><th>memory MiB</th>");
+    h.push_str("<h2>Summary</h2>\n<table id=\"summary\"><tr><th>method</th><th>frames</th><th>mean GPU ms*</th><th>p95 GPU ms*</th><th>rays / frame</th><th>memory MiB</th>");
     for (m, _) in METRICS {
         h.push_str(&format!("<th>{m}</th>"));
     }
@@ -76,8 +76,8 @@ pub fn page(d: &ReportData) -> Result<String> {
             "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>",
             esc(&m.name),
             r["frames"],
-            fmt(r["mean_gpu_ms"].as_f64()),
-            fmt(r["p95_gpu_ms"].as_f64()),
+            fmt(r["steady_mean_gpu_ms"].as_f64()),
+            fmt(r["steady_p95_gpu_ms"].as_f64()),
             fmt(r["rays_per_frame"].as_f64()),
             fmt(r["method_memory_bytes"]
                 .as_f64()
@@ -92,7 +92,7 @@ pub fn page(d: &ReportData) -> Result<String> {
     for (k, v) in METRICS {
         h.push_str(&format!("<b>{k}</b>: {v}. "));
     }
-    h.push_str("Times are GPU timestamps on the device named above.</p>\n");
+    h.push_str("Times are GPU timestamps on the device named above; * = frames after the first (frame 0 carries one-time driver costs such as pipeline compilation).</p>\n");
 
     let has_metrics = d.methods.iter().any(|m| m.metric("rse").is_some());
     h.push_str("<h2>Per frame</h2>\n");
