@@ -108,10 +108,14 @@ pub fn compare(
         )));
     }
     std::fs::create_dir_all(&opts.out).map_err(|e| Error::io(&opts.out, e))?;
-    // Every method is created before the first frame so bad method options fail fast.
+    // Every method is created before the first frame so bad method options
+    // fail fast; debug views are on so the grids can show them.
+    let mut with_debug = settings.clone();
+    with_debug.cache.debug_views = true;
+    with_debug.hash.debug_views = true;
     let mut methods = Vec::new();
     for name in &opts.methods {
-        methods.push(session.method(name, settings)?);
+        methods.push(session.method(name, &with_debug)?);
     }
     // Reference frames (rendered once, cached on disk) for the metrics.
     let references: Vec<StereoFrame> = match opts.reference_spp {
@@ -136,6 +140,7 @@ pub fn compare(
     let mut rows = Vec::new();
     // kept[frame][method] = the frame as rendered by that method.
     let mut kept: Vec<Vec<StereoFrame>> = vec![Vec::new(); shown.len()];
+    let mut kept_cameras: Vec<Option<StereoCamera>> = vec![None; shown.len()];
     for (name, method) in opts.methods.iter().zip(methods.iter_mut()) {
         let mut evaluator = Evaluator::default();
         let ropts = ReplayOptions {
@@ -152,6 +157,7 @@ pub fn compare(
             |i: usize, cam: &StereoCamera, f: &StereoFrame| -> Result<BTreeMap<String, f64>> {
                 if let Some(k) = shown.iter().position(|&s| s == i) {
                     kept[k].push(f.clone());
+                    kept_cameras[k] = Some(*cam);
                 }
                 match references.get(i) {
                     Some(r) => evaluator.frame(cam, f, r),
@@ -166,10 +172,12 @@ pub fn compare(
     let sbs = opts.out.join("side-by-side");
     std::fs::create_dir_all(&sbs).map_err(|e| Error::io(&sbs, e))?;
     for (k, &f) in shown.iter().enumerate() {
+        let cam = kept_cameras[k].expect("shown frames were rendered");
         write_grid(
             &sbs.join(format!("frame_{f:05}.png")),
             &opts.methods,
             &kept[k],
+            &cam,
             opts.exposure,
             opts.zoom.max(1),
         )?;
@@ -178,11 +186,52 @@ pub fn compare(
     Ok(rows)
 }
 
-/// One column per method: a label, left eye, right eye, zoomed centre crops.
+/// |left reprojected into the right view − right| on co-visible pixels
+/// (same instance and primitive, depth within 1 %), 0 elsewhere: where the
+/// two eyes disagree about the same surface point.
+pub fn stereo_difference(f: &StereoFrame, cam: &StereoCamera) -> Vec<[f32; 4]> {
+    use crate::metrics::{reproject, LinearImage};
+    let (w, h) = (f.width as usize, f.height as usize);
+    let views = cam.eyes();
+    let (l, r) = (&f.eyes[0], &f.eyes[1]);
+    let (Ok(li), Ok(ri)) = (
+        LinearImage::from_rgba(&l.radiance, w, h),
+        LinearImage::from_rgba(&r.radiance, w, h),
+    ) else {
+        return vec![[0.0; 4]; w * h];
+    };
+    match reproject(
+        &li,
+        &l.depth,
+        &views[0],
+        &r.depth,
+        &views[1],
+        0.01,
+        Some((&l.first_hit, &r.first_hit)),
+    ) {
+        Ok((warped, cov)) => (0..w * h)
+            .map(|i| {
+                if !cov[i] {
+                    return [0.0; 4];
+                }
+                let d = (0..3)
+                    .map(|c| (warped.rgb[i][c] - ri.rgb[i][c]).abs())
+                    .sum::<f32>()
+                    / 3.0;
+                [d, d, d, 1.0]
+            })
+            .collect(),
+        Err(_) => vec![[0.0; 4]; w * h],
+    }
+}
+
+/// One column per method: a label, left eye, right eye, zoomed centre crops,
+/// the stereo difference (×4), and the methods' debug views where they have them.
 fn write_grid(
     path: &Path,
     names: &[String],
     frames: &[StereoFrame],
+    cam: &StereoCamera,
     exposure: f32,
     zoom: u32,
 ) -> Result<()> {
@@ -190,10 +239,21 @@ fn write_grid(
     let scale = if w >= 160 { 2 } else { 1 };
     let label_h = 7 * scale + 6;
     let gap = 2;
+    // Debug-view rows: every view name any method has, in first-seen order.
+    let mut debug_names: Vec<String> = Vec::new();
+    for f in frames {
+        for (n, _) in &f.eyes[0].debug {
+            if !debug_names.contains(n) {
+                debug_names.push(n.clone());
+            }
+        }
+    }
+    let rows = 5 + debug_names.len() as u32;
     let cols = frames.len() as u32;
     let gw = cols * w + (cols + 1) * gap;
-    let gh = label_h + 4 * h + 5 * gap;
+    let gh = label_h + rows * h + (rows + 1) * gap;
     let mut img = vec![32u8; (gw * gh * 3) as usize];
+    let row_y = |r: u32| label_h + gap + r * (h + gap);
     for (c, (name, f)) in names.iter().zip(frames).enumerate() {
         let x0 = gap + c as u32 * (w + gap);
         let text = if label::text_width(name, scale) > w {
@@ -209,14 +269,46 @@ fn write_grid(
         .text(x0 + 2, 3, &text, scale, [255, 255, 255]);
         for (e, eye) in f.eyes.iter().enumerate() {
             let rgb = tonemap::to_srgb8(&eye.radiance, exposure);
-            let y0 = label_h + gap + e as u32 * (h + gap);
-            blit(&mut img, gw, &rgb, w, h, x0, y0, None);
+            blit(&mut img, gw, &rgb, w, h, x0, row_y(e as u32), None);
             // Zoomed crop around the centre.
             let (cw, ch) = ((w / zoom).max(1), (h / zoom).max(1));
             let crop = ((w - cw) / 2, (h - ch) / 2, cw, ch);
-            let y1 = label_h + gap + (2 + e as u32) * (h + gap);
-            blit(&mut img, gw, &rgb, w, h, x0, y1, Some(crop));
+            blit(
+                &mut img,
+                gw,
+                &rgb,
+                w,
+                h,
+                x0,
+                row_y(2 + e as u32),
+                Some(crop),
+            );
         }
+        let diff = tonemap::to_srgb8(&stereo_difference(f, cam), 4.0);
+        blit(&mut img, gw, &diff, w, h, x0, row_y(4), None);
+        for (k, dn) in debug_names.iter().enumerate() {
+            if let Some((_, view)) = f.eyes[0].debug.iter().find(|(n, _)| n == dn) {
+                let rgb: Vec<u8> = view
+                    .iter()
+                    .flat_map(|p| (0..3).map(move |c| (p[c].clamp(0.0, 1.0) * 255.0 + 0.5) as u8))
+                    .collect();
+                blit(&mut img, gw, &rgb, w, h, x0, row_y(5 + k as u32), None);
+            }
+        }
+    }
+    // Row captions in the first column.
+    let captions: Vec<String> = ["left", "right", "left crop", "right crop", "stereo diff x4"]
+        .iter()
+        .map(|s| s.to_string())
+        .chain(debug_names.iter().map(|n| format!("{n} (left)")))
+        .collect();
+    for (r, cap) in captions.iter().enumerate() {
+        label::Canvas {
+            data: &mut img,
+            width: gw,
+            height: gh,
+        }
+        .text(gap + 2, row_y(r as u32) + 2, cap, 1, [255, 255, 0]);
     }
     output::write_atomically(path, |tmp| {
         image::save_buffer_with_format(
