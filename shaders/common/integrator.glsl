@@ -52,9 +52,13 @@ vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, float cone_width, inout Rn
             pdf_prev = 0.0;
         } else {
             if (wo.z <= 0.0) break;
-            // Next-event estimation.
+            // Next-event estimation. Its random numbers are drawn whether or
+            // not lights are compiled in, so the stream (and the image) does
+            // not depend on the specialization constants.
+            vec2 u_light = rng_next2(r);
+            float u_pick = rng_next(r);
             LightSample ls;
-            if ((SC_DIRECTIONAL || SC_PUNCTUAL) && sample_light(s.p, rng_next2(r), rng_next(r), ls) && dot(ls.wi, s.ng) > 0.0) {
+            if ((SC_DIRECTIONAL || SC_PUNCTUAL) && sample_light(s.p, u_light, u_pick, ls) && dot(ls.wi, s.ng) > 0.0) {
                 float pdf_b;
                 vec3 fc = opaque_eval(m, wo, to_local(f, ls.wi), pdf_b);
                 if (any(greaterThan(fc, vec3(0.0)))) {
