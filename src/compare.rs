@@ -42,7 +42,10 @@ pub struct CompareOptions {
 /// One method's row of `summary.csv` / `summary.json`.
 #[derive(Clone, Debug, Serialize)]
 pub struct MethodRow {
+    /// The configuration's label (the method name in a plain compare).
     pub method: String,
+    /// The rendering method it ran (`sample-cache`, `taa`, ...).
+    pub kind: String,
     pub frames: usize,
     pub mean_gpu_ms: f64,
     pub p95_gpu_ms: f64,
@@ -61,6 +64,7 @@ impl MethodRow {
     fn from_summary(s: &ReplaySummary) -> Self {
         MethodRow {
             method: s.method.clone(),
+            kind: s.method.clone(),
             frames: s.frames,
             mean_gpu_ms: s.mean_gpu_ms,
             p95_gpu_ms: s.p95_gpu_ms,
@@ -82,6 +86,16 @@ fn default_shown(n: usize) -> Vec<usize> {
     v
 }
 
+/// One configuration of a comparison: a label (its folder and column name),
+/// the method, and the settings it runs with.
+#[derive(Clone, Debug)]
+pub struct Config {
+    pub label: String,
+    pub method: String,
+    pub settings: RenderSettings,
+}
+
+/// Every method of `opts.methods` with the same settings.
 pub fn compare(
     session: &Session,
     cameras: &[StereoCamera],
@@ -92,6 +106,43 @@ pub fn compare(
         return Err(Error::Usage(
             "compare needs at least one method (--methods a,b,...)".into(),
         ));
+    }
+    let configs: Vec<Config> = opts
+        .methods
+        .iter()
+        .map(|m| Config {
+            label: m.clone(),
+            method: m.clone(),
+            settings: settings.clone(),
+        })
+        .collect();
+    compare_configs(session, cameras, &configs, settings, opts)
+}
+
+/// Every configuration along the same frames; references use `reference_settings`
+/// with `opts.reference_spp` samples per pixel.
+pub fn compare_configs(
+    session: &Session,
+    cameras: &[StereoCamera],
+    configs: &[Config],
+    reference_settings: &RenderSettings,
+    opts: &CompareOptions,
+) -> Result<Vec<MethodRow>> {
+    let settings = reference_settings;
+    if configs.is_empty() {
+        return Err(Error::Usage("nothing to compare".into()));
+    }
+    let labels: Vec<String> = configs.iter().map(|c| c.label.clone()).collect();
+    for l in &labels {
+        if l.is_empty()
+            || !l
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || "-_.=".contains(c))
+        {
+            return Err(Error::Usage(format!(
+                "configuration label '{l}' must be letters, digits, '-', '_', '.', '='"
+            )));
+        }
     }
     let n = opts.frames.unwrap_or(cameras.len()).min(cameras.len());
     if n == 0 {
@@ -110,12 +161,12 @@ pub fn compare(
     std::fs::create_dir_all(&opts.out).map_err(|e| Error::io(&opts.out, e))?;
     // Every method is created before the first frame so bad method options
     // fail fast; debug views are on so the grids can show them.
-    let mut with_debug = settings.clone();
-    with_debug.cache.debug_views = true;
-    with_debug.hash.debug_views = true;
     let mut methods = Vec::new();
-    for name in &opts.methods {
-        methods.push(session.method(name, &with_debug)?);
+    for c in configs {
+        let mut with_debug = c.settings.clone();
+        with_debug.cache.debug_views = true;
+        with_debug.hash.debug_views = true;
+        methods.push(session.method(&c.method, &with_debug)?);
     }
     // Reference frames (rendered once, cached on disk) for the metrics.
     let references: Vec<StereoFrame> = match opts.reference_spp {
@@ -141,7 +192,7 @@ pub fn compare(
     // kept[frame][method] = the frame as rendered by that method.
     let mut kept: Vec<Vec<StereoFrame>> = vec![Vec::new(); shown.len()];
     let mut kept_cameras: Vec<Option<StereoCamera>> = vec![None; shown.len()];
-    for (name, method) in opts.methods.iter().zip(methods.iter_mut()) {
+    for ((name, config), method) in labels.iter().zip(configs).zip(methods.iter_mut()) {
         let mut evaluator = Evaluator::default();
         let ropts = ReplayOptions {
             frames: Some(n),
@@ -166,6 +217,8 @@ pub fn compare(
             };
         let summary = replay_observed(session, method.as_mut(), cameras, &ropts, &mut observer)?;
         let mut row = MethodRow::from_summary(&summary);
+        row.method = name.clone();
+        row.kind = config.method.clone();
         row.metrics = evaluator.means();
         rows.push(row);
     }
@@ -175,7 +228,7 @@ pub fn compare(
         let cam = kept_cameras[k].expect("shown frames were rendered");
         write_grid(
             &sbs.join(format!("frame_{f:05}.png")),
-            &opts.methods,
+            &labels,
             &kept[k],
             &cam,
             opts.exposure,
