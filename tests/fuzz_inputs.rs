@@ -146,7 +146,7 @@ fn mutate_lines(base: &'static str, sep: char) -> impl Strategy<Value = String> 
             }
             let li = a % n;
             match kind {
-                0 | 1 | 2 => {
+                0..=2 => {
                     let m = lines[li].len();
                     if m > 0 {
                         lines[li][b % m] = num.to_string();
@@ -637,6 +637,14 @@ fn regression_dangling_position_accessor() {
 fn regression_degenerate_cameras() {
     let s = load_gltf(&fuzz_file("degenerate_cameras.gltf")).unwrap();
     assert!(s.cameras.is_empty(), "{:?}", s.cameras);
-    assert!(s.warnings.iter().any(|w| w.contains("degenerate")), "{:?}", s.warnings);
-    assert!(s.warnings.iter().any(|w| w.contains("yfov -1")), "{:?}", s.warnings);
+    assert!(
+        s.warnings.iter().any(|w| w.contains("degenerate")),
+        "{:?}",
+        s.warnings
+    );
+    assert!(
+        s.warnings.iter().any(|w| w.contains("yfov -1")),
+        "{:?}",
+        s.warnings
+    );
 }
