@@ -253,3 +253,65 @@ fn render_writes_every_promised_file() {
     );
     let _ = std::fs::remove_dir_all(&out);
 }
+
+/// Impossible sizes end at once with one clear line: the sample cache's
+/// documented size limit (2^26 pixels per eye), or GPU out of memory naming
+/// the buffer — never a hang, a panic or a half-written output.
+#[test]
+fn impossible_sizes_fail_cleanly() {
+    let out = out_dir("oom");
+    let o = out.to_str().unwrap();
+    let trace = Path::new(env!("CARGO_MANIFEST_DIR")).join("captures/synth-head-turn.csv");
+    let t = trace.to_str().unwrap();
+    let replay = |size: &'static str| {
+        vec![
+            "replay",
+            "--scene",
+            "cornell",
+            "--trace",
+            t,
+            "--frames",
+            "1",
+            "--size",
+            size,
+            "--method",
+            "sample-cache",
+            "--slots",
+            "16",
+            "--out",
+            o,
+        ]
+    };
+    for (args, phrase) in [
+        (replay("16384x16384"), "at most 2^26 pixels per eye"),
+        (
+            replay("8192x8192"),
+            "GPU out of memory while allocating sample_cache",
+        ),
+        (
+            vec![
+                "render",
+                "--scene",
+                "cornell",
+                "--size",
+                "16384x16384",
+                "--spp",
+                "1",
+                "--out",
+                o,
+            ],
+            "GPU out of memory while allocating reference",
+        ),
+    ] {
+        let start = std::time::Instant::now();
+        let line = fails(&args);
+        assert!(line.contains(phrase), "{args:?}: {line}");
+        assert!(
+            start.elapsed().as_secs() < 60,
+            "{args:?} took {:?}",
+            start.elapsed()
+        );
+        assert!(!out.join("left.exr").exists() && !out.join("summary.json").exists());
+    }
+    let _ = std::fs::remove_dir_all(&out);
+}

@@ -152,8 +152,21 @@ impl TraceBuilder {
 
     /// Checks and normalizes a quaternion given as `(x, y, z, w)` in f64.
     pub(crate) fn quaternion(&mut self, line: usize, q: [f64; 4]) -> Result<Quat, TraceError> {
-        let norm = q.iter().map(|c| c * c).sum::<f64>().sqrt();
-        // Components are finite (checked by the readers), so the norm is too.
+        // Components are finite (checked by the readers) but may be huge
+        // (1e308): scale by the largest magnitude before squaring so the norm
+        // cannot overflow to ∞ (which turned the quaternion into NaNs; found
+        // by `tests/fuzz_inputs.rs`, regression `tests/data/fuzz/huge_quaternion.csv`).
+        let scale = q.iter().fold(0.0f64, |m, c| m.max(c.abs()));
+        if scale == 0.0 {
+            return Err(self.line_error(
+                line,
+                "quaternion has zero norm; a head orientation needs a unit quaternion (qx,qy,qz,qw)",
+            ));
+        }
+        let q = q.map(|c| c / scale);
+        // `unit` ∈ [1, 2]; `norm` may round to ∞ near f64::MAX, harmless below.
+        let unit = q.iter().map(|c| c * c).sum::<f64>().sqrt();
+        let norm = unit * scale;
         if norm <= 1e-9 {
             return Err(self.line_error(
                 line,
@@ -167,7 +180,7 @@ impl TraceBuilder {
                 self.worst_norm = Some((line, dev));
             }
         }
-        let [x, y, z, w] = q.map(|c| (c / norm) as f32);
+        let [x, y, z, w] = q.map(|c| (c / unit) as f32);
         Ok(Quat::from_xyzw(x, y, z, w).normalize())
     }
 
@@ -350,14 +363,31 @@ impl PoseTrace {
             let mut v = [0.0f64; 8];
             for (k, &col) in h.required.iter().enumerate() {
                 v[k] = parse_field(&b, line_no, col, CSV_COLUMNS[k], fields[col])?;
+                // Positions are stored as f32: a finite f64 beyond f32::MAX
+                // would become ∞ (found by `tests/fuzz_inputs.rs`).
+                if (1..4).contains(&k) && !(v[k] as f32).is_finite() {
+                    return Err(b.line_error(
+                        line_no,
+                        format!(
+                            "column `{}` (column {}): position {} m is out of range (|x| ≤ {:e})",
+                            CSV_COLUMNS[k],
+                            col + 1,
+                            v[k],
+                            f32::MAX
+                        ),
+                    ));
+                }
             }
             let ipd = match h.ipd {
                 Some(col) if !fields[col].is_empty() => {
                     let ipd = parse_field(&b, line_no, col, "ipd", fields[col])?;
-                    if ipd < 0.0 {
+                    if ipd < 0.0 || !(ipd as f32).is_finite() {
                         return Err(b.line_error(
                             line_no,
-                            format!("column `ipd` (column {}): negative IPD {ipd}", col + 1),
+                            format!(
+                                "column `ipd` (column {}): IPD {ipd} is negative or out of range",
+                                col + 1
+                            ),
                         ));
                     }
                     Some(ipd as f32)

@@ -167,6 +167,7 @@ fn parse_document(
                 .count()
         });
     let sourceless = patch_sourceless_textures(obj);
+    check_position_accessors(path, obj)?;
     let root: gltf::json::Root = serde_json::from_value(value)
         .map_err(|e| SceneError::invalid(path, format!("invalid glTF structure: {e}")))?;
     let doc = gltf::Document::from_json(root).map_err(|e| match e {
@@ -191,6 +192,46 @@ fn parse_document(
         split_rm,
         sourceless,
     })
+}
+
+/// `gltf-json` 1.4's primitive validation indexes `accessors[POSITION]`
+/// before checking that the index exists (it panics on a dangling POSITION),
+/// so that one reference is checked here on the raw JSON first. Found by
+/// `tests/fuzz_inputs.rs`; regression file `tests/data/fuzz/dangling_position.gltf`.
+fn check_position_accessors(
+    path: &Path,
+    obj: &serde_json::Map<String, serde_json::Value>,
+) -> Result<(), SceneError> {
+    let accessors = obj
+        .get("accessors")
+        .and_then(|a| a.as_array())
+        .map_or(0, Vec::len);
+    let Some(meshes) = obj.get("meshes").and_then(|m| m.as_array()) else {
+        return Ok(());
+    };
+    for (mi, mesh) in meshes.iter().enumerate() {
+        let Some(prims) = mesh.get("primitives").and_then(|p| p.as_array()) else {
+            continue;
+        };
+        for (pi, prim) in prims.iter().enumerate() {
+            let Some(pos) = prim.pointer("/attributes/POSITION") else {
+                continue;
+            };
+            // Non-integers are reported by the typed parse that follows.
+            if let Some(k) = pos.as_u64() {
+                if k >= accessors as u64 {
+                    return Err(SceneError::invalid(
+                        path,
+                        format!(
+                            "invalid glTF: meshes[{mi}].primitives[{pi}].attributes.POSITION \
+                             refers to accessor {k}, but the file has {accessors} accessors"
+                        ),
+                    ));
+                }
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Textures with no core `source` (e.g. only `MSFT_texture_dds.source` or
@@ -522,12 +563,45 @@ impl Importer<'_> {
             gltf::camera::Projection::Perspective(p) => {
                 // Camera-to-world without scale: cameras are rigid.
                 let (_, rot, pos) = world.to_scale_rotation_translation();
+                let transform = Mat4::from_rotation_translation(rot.normalize(), pos);
+                // A zero scale (or a zero rotation quaternion) leaves no
+                // orientation to take: NaNs. Found by `tests/fuzz_inputs.rs`.
+                if !transform.is_finite() {
+                    self.warn(format!(
+                        "camera '{name}': its node transform is degenerate (zero scale?); skipped"
+                    ));
+                    return;
+                }
+                let yfov = p.yfov();
+                if !(yfov > 0.0 && yfov < std::f32::consts::PI) {
+                    self.warn(format!(
+                        "camera '{name}': yfov {yfov} is not in (0, π) radians; skipped"
+                    ));
+                    return;
+                }
+                let aspect = p.aspect_ratio().filter(|a| a.is_finite() && *a > 0.0);
+                if aspect.is_none() && p.aspect_ratio().is_some() {
+                    self.warn(format!(
+                        "camera '{name}': aspectRatio {:?} is not positive and finite; ignored",
+                        p.aspect_ratio().unwrap_or_default()
+                    ));
+                }
+                let znear = p.znear();
+                let znear = if znear.is_finite() && znear > 0.0 {
+                    znear
+                } else {
+                    self.warn(format!(
+                        "camera '{name}': znear {znear} is not positive and finite; using {}",
+                        crate::camera::DEFAULT_ZNEAR
+                    ));
+                    crate::camera::DEFAULT_ZNEAR
+                };
                 self.scene.cameras.push(SceneCamera {
                     name,
-                    transform: Mat4::from_rotation_translation(rot.normalize(), pos),
-                    yfov: p.yfov(),
-                    aspect: p.aspect_ratio(),
-                    znear: p.znear(),
+                    transform,
+                    yfov,
+                    aspect,
+                    znear,
                 });
             }
             gltf::camera::Projection::Orthographic(_) => {
@@ -562,10 +636,17 @@ impl Importer<'_> {
             .or(node.name())
             .map(str::to_owned)
             .unwrap_or_else(|| format!("light {}", light.index()));
+        let radiant = Vec3::from(light.color()) * light.intensity();
+        if !radiant.is_finite() || radiant.min_element() < 0.0 {
+            self.warn(format!(
+                "light '{name}': colour × intensity {radiant} is negative or not finite; skipped"
+            ));
+            return;
+        }
         self.scene.lights.push(Light {
             name,
             kind,
-            radiant: Vec3::from(light.color()) * light.intensity(),
+            radiant,
             position: world.transform_point3(Vec3::ZERO),
             direction,
             range: light.range(),

@@ -11,10 +11,12 @@ use stereocache::rt::RtChoice;
 use stereocache::scene::{generate::*, Environment, Material, Scene};
 use stereocache::session::Session;
 
+/// Validation always on; synchronization validation too when
+/// `STEREOCACHE_SYNC_VALIDATION=1` (slow; see docs/ROBUSTNESS.md).
 pub fn gpu_options() -> GpuOptions {
     GpuOptions {
         validate: true,
-        sync_validation: false,
+        sync_validation: std::env::var("STEREOCACHE_SYNC_VALIDATION").is_ok_and(|v| v == "1"),
         device: None,
         want_ray_query: true,
     }

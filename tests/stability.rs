@@ -1,0 +1,603 @@
+//! Numerical stability under stress (issue 7): scenes far from the origin
+//! and at extreme scales, grazing views, degenerate triangles, long runs, and
+//! the precision of the packed barycentrics. Figures: `docs/ROBUSTNESS.md`.
+
+mod common;
+use common::*;
+use glam::{Mat4, Quat, Vec2, Vec3};
+use stereocache::camera::{Eye, StereoCamera};
+use stereocache::methods::sample_cache::{
+    CacheSnapshot, Retrace, SampleCache, SampleCacheSettings,
+};
+use stereocache::methods::{FrameInput, Method, RenderSettings, StereoFrame};
+use stereocache::rt::{RtChoice, SoftwareBvh};
+use stereocache::scene::{
+    apply_default_lighting, load_scene, DefaultLighting, Environment, Material, Mesh, Scene,
+};
+use stereocache::session::CameraSelect;
+
+fn shipped(name: &str) -> Scene {
+    let mut s = load_scene(name).unwrap();
+    apply_default_lighting(&mut s, &DefaultLighting::default()).unwrap();
+    s
+}
+
+/// `world' = scale · world + offset` applied to every instance, light and camera.
+fn transformed(mut s: Scene, scale: f32, offset: Vec3) -> Scene {
+    let m = Mat4::from_translation(offset) * Mat4::from_scale(Vec3::splat(scale));
+    for i in &mut s.instances {
+        i.transform = m * i.transform;
+    }
+    for l in &mut s.lights {
+        l.position = m.transform_point3(l.position);
+        l.range = l.range.map(|r| r * scale);
+    }
+    for c in &mut s.cameras {
+        let (_, r, t) = c.transform.to_scale_rotation_translation();
+        c.transform = Mat4::from_rotation_translation(r, m.transform_point3(t));
+        c.znear *= scale;
+    }
+    s
+}
+
+fn camera_transformed(c: &StereoCamera, scale: f32, offset: Vec3) -> StereoCamera {
+    let mut c = *c;
+    c.head.position = c.head.position * scale + offset;
+    c.ipd *= scale;
+    c.znear *= scale;
+    c
+}
+
+fn settings(w: u32, h: u32, cache: SampleCacheSettings) -> RenderSettings {
+    RenderSettings {
+        width: w,
+        height: h,
+        spp: 1,
+        max_bounces: 2,
+        seed: 5,
+        all_features: false,
+        cache,
+        ..Default::default()
+    }
+}
+
+/// A head turning about +Y and drifting sideways by `drift` per frame.
+fn moving(start: &StereoCamera, frame: u32, deg_per_frame: f32, drift: f32) -> StereoCamera {
+    let mut c = *start;
+    let yaw = Quat::from_rotation_y((deg_per_frame * frame as f32).to_radians());
+    c.head.orientation = (start.head.orientation * yaw).normalize();
+    c.head.position =
+        start.head.position + start.head.orientation * Vec3::new(drift * frame as f32, 0.0, 0.0);
+    c
+}
+
+fn all_finite(f: &StereoFrame) -> bool {
+    f.eyes.iter().all(|e| {
+        e.radiance.iter().all(|p| p.iter().all(|c| c.is_finite()))
+            && e.depth.iter().all(|d| d.is_finite())
+            && e.albedo.iter().all(|p| p.iter().all(|c| c.is_finite()))
+    })
+}
+
+fn snapshot_finite(s: &CacheSnapshot) -> bool {
+    s.radiance.iter().all(|r| r.iter().all(|c| c.is_finite()))
+}
+
+/// Fraction of pixels (both eyes) where software and query backends agree
+/// on the primary hit's instance and primitive.
+fn backend_agreement(
+    ctx: &std::sync::Arc<stereocache::gpu::GpuContext>,
+    scene: &Scene,
+    cam: &StereoCamera,
+) -> Option<(f64, usize)> {
+    if !ctx.ray_query_enabled() {
+        return None;
+    }
+    let st = RenderSettings {
+        width: 48,
+        height: 36,
+        spp: 1,
+        max_bounces: 1,
+        seed: 1,
+        all_features: false,
+        ..Default::default()
+    };
+    let sw = session(ctx, scene.clone(), RtChoice::Software);
+    let rq = session(ctx, scene.clone(), RtChoice::Query);
+    let (a, b) = (
+        render(&sw, "reference", *cam, &st),
+        render(&rq, "reference", *cam, &st),
+    );
+    let (mut same, mut n, mut hits) = (0, 0, 0);
+    for e in 0..2 {
+        for (ha, hb) in a.eyes[e].first_hit.iter().zip(&b.eyes[e].first_hit) {
+            n += 1;
+            hits += (ha[3] != u32::MAX) as usize;
+            same += (ha[2] == hb[2] && ha[3] == hb[3]) as usize;
+        }
+    }
+    Some((same as f64 / n as f64, hits))
+}
+
+/// Stale visible samples (a fresh CPU ray does not reach the stored hit) and
+/// visible samples, accumulated over frames 1.. of a moving run; plus the
+/// number of covered pixels left without a visible sample.
+struct CacheRun {
+    visible: usize,
+    stale: usize,
+    uncovered: usize,
+    finite: bool,
+}
+
+fn cache_run(
+    scene: &Scene,
+    cam0: &StereoCamera,
+    frames: u32,
+    drift: f32,
+    rel_eps: f32,
+) -> CacheRun {
+    let ctx = context();
+    let s = session(&ctx, scene.clone(), RtChoice::Software);
+    let (w, h) = (32, 24);
+    let st = settings(w, h, SampleCacheSettings::default());
+    let mut m = SampleCache::new(&s.ctx, &s.scene_gpu, &s.scene.environment, &st).unwrap();
+    let bvh = SoftwareBvh::build(&s.scene);
+    let mut r = CacheRun {
+        visible: 0,
+        stale: 0,
+        uncovered: 0,
+        finite: true,
+    };
+    let mut prev = None;
+    for f in 0..frames {
+        let cam = moving(cam0, f, 1.5, drift);
+        let frame = m
+            .render_frame(&FrameInput {
+                index: f,
+                camera: cam,
+                prev_camera: prev,
+            })
+            .unwrap();
+        prev = Some(cam);
+        let snap = m.snapshot().unwrap();
+        r.finite &= all_finite(&frame) && snapshot_finite(&snap);
+        if f == 0 {
+            continue;
+        }
+        for (e, eye) in Eye::BOTH.iter().enumerate() {
+            let v = cam.eye(*eye);
+            for pixel in 0..snap.npix() {
+                let vis = snap.visible(snap.mask(e, pixel));
+                if vis == 0 && fully_covered(&bvh, &v, pixel, w, h) {
+                    r.uncovered += 1;
+                }
+                let mut bits = vis;
+                while bits != 0 {
+                    let slot = bits.trailing_zeros();
+                    bits &= bits - 1;
+                    let fh = snap.first_hits[snap.slot(e, slot, pixel)];
+                    let p = stored_position(&bvh, fh);
+                    let d = (p - v.position).normalize();
+                    r.visible += 1;
+                    match bvh.closest_hit(v.position, d, 0.0, 1e30) {
+                        Some(hit) if hit.instance == fh[3] && hit.prim == fh[2] => {}
+                        Some(hit)
+                            if (hit.t - (p - v.position).length()).abs() <= rel_eps * hit.t => {}
+                        _ => r.stale += 1,
+                    }
+                }
+            }
+        }
+    }
+    assert_no_validation_messages(&ctx);
+    r
+}
+
+/// Runs both checks for the Cornell box under `scale · x + offset`; returns
+/// (backend agreement, stale fraction, uncovered pixels, finite).
+fn cornell_under(scale: f32, offset: Vec3) -> (Option<f64>, f64, usize, bool) {
+    let base = shipped("cornell");
+    let ctx = context();
+    let s0 = session(&ctx, base.clone(), RtChoice::Software);
+    let cam0 = s0
+        .camera(&CameraSelect::Default, 32, 24, None, None)
+        .unwrap();
+    drop(s0);
+    let scene = transformed(base, scale, offset);
+    let cam = camera_transformed(&cam0, scale, offset);
+    let agree = backend_agreement(&ctx, &scene, &cam).map(|(a, hits)| {
+        assert!(hits > 500, "camera sees nothing ({hits} hits)");
+        a
+    });
+    assert_no_validation_messages(&ctx);
+    let r = cache_run(&scene, &cam, 5, 0.004 * scale, 1e-3);
+    let stale = r.stale as f64 / r.visible.max(1) as f64;
+    eprintln!(
+        "cornell scale {scale:e} offset {:e}: backends agree {:?}, stale {}/{} = {stale:.4}, uncovered {}, finite {}",
+        offset.x, agree, r.stale, r.visible, r.uncovered, r.finite
+    );
+    (agree, stale, r.uncovered, r.finite)
+}
+
+fn assert_bounds(what: &str, (agree, stale, uncovered, finite): (Option<f64>, f64, usize, bool)) {
+    assert!(finite, "{what}: non-finite output or cache radiance");
+    if let Some(a) = agree {
+        assert!(
+            a >= 0.99,
+            "{what}: backends agree on {:.2} % of pixels",
+            100.0 * a
+        );
+    }
+    // The same budget as tests/sample_cache.rs on the Cornell box.
+    assert!(stale <= 0.01, "{what}: stale fraction {stale:.4}");
+    assert_eq!(
+        uncovered, 0,
+        "{what}: covered pixels without a visible sample"
+    );
+}
+
+#[test]
+fn cornell_far_from_origin_1e3() {
+    assert_bounds("offset 1e3", cornell_under(1.0, Vec3::new(1e3, 1e3, -1e3)));
+}
+
+/// Offsets where f32 world space runs out of precision: measured, reported
+/// in docs/ROBUSTNESS.md, only finiteness asserted. At 1e4 the backends agree
+/// on 98.5 % of pixels (< 99 %), at 1e5 on 91.8 % with 3.2 % stale samples;
+/// at 1e6 the debug build of obvhs panics (CWBVH deeper than its 32-entry
+/// traversal stack), so it is not run here.
+#[test]
+#[ignore]
+fn cornell_far_from_origin_breakdown() {
+    for o in [1e4f32, 1e5] {
+        let r = cornell_under(1.0, Vec3::new(o, o, -o));
+        assert!(r.3, "offset {o:e}: non-finite values");
+    }
+}
+#[test]
+fn cornell_scaled_down_1e_3() {
+    assert_bounds("scale 1e-3", cornell_under(1e-3, Vec3::ZERO));
+}
+
+/// Fails in debug builds: obvhs's CWBVH validation (debug assertions only)
+/// checks that primitives fit their parent with an absolute 1e-5 tolerance,
+/// below f32 rounding at coordinates of ~1e4. See docs/ROBUSTNESS.md.
+#[test]
+#[ignore]
+fn cornell_scaled_up_1e4() {
+    assert_bounds("scale 1e4", cornell_under(1e4, Vec3::ZERO));
+}
+
+/// A large plane seen from 1 m above with the view level: rows near the
+/// horizon see the plane at up to ≈ 89.95° from its normal. Eq. 1's slope
+/// term must stay bounded and adaptive retracing must not flag the plane.
+#[test]
+fn grazing_plane_adaptive_retrace() {
+    let ctx = context();
+    let scene = plane_in_environment(
+        Material {
+            base_color: glam::Vec4::new(0.6, 0.6, 0.6, 1.0),
+            ..Default::default()
+        },
+        4000.0,
+        Vec3::splat(0.5),
+    );
+    let s = session(&ctx, scene, RtChoice::Software);
+    let (w, h) = (64, 48);
+    let cs = SampleCacheSettings {
+        retrace: Retrace::Adaptive,
+        ..Default::default()
+    };
+    let st = settings(w, h, cs);
+    let mut m = SampleCache::new(&s.ctx, &s.scene_gpu, &s.scene.environment, &st).unwrap();
+    // Eye 1 m above the plane, looking level along −Z: the horizon is the
+    // middle row; the farthest plane point (2000 m) is at atan(2000) = 89.97°.
+    let cam0 = look_at_camera(
+        Vec3::new(0.0, 1.0, 0.0),
+        Vec3::new(0.0, 1.0, -10.0),
+        60.0,
+        w as f32 / h as f32,
+    );
+    let (mut edge, mut retrace, mut plane_px) = (0.0, 0.0, 0usize);
+    let mut prev = None;
+    let frames = 6;
+    for f in 0..frames {
+        let cam = moving(&cam0, f, 0.5, 0.004);
+        let fr = m
+            .render_frame(&FrameInput {
+                index: f,
+                camera: cam,
+                prev_camera: prev,
+            })
+            .unwrap();
+        prev = Some(cam);
+        assert!(all_finite(&fr), "frame {f}: non-finite output");
+        let snap = m.snapshot().unwrap();
+        assert!(snapshot_finite(&snap));
+        if f > 0 {
+            edge += fr.stats.counters["edge_pixels"];
+            retrace += fr.stats.counters["retrace_rays"];
+            plane_px += fr
+                .eyes
+                .iter()
+                .flat_map(|e| &e.first_hit)
+                .filter(|h| h[3] != u32::MAX)
+                .count();
+        }
+    }
+    let edge_frac = edge / plane_px as f64;
+    let retrace_frac = retrace / plane_px as f64;
+    eprintln!(
+        "grazing plane: {plane_px} plane pixels over {} frames, edge pixels {edge} ({:.3} of plane pixels), retrace rays {retrace} ({:.3} per plane pixel)",
+        frames - 1,
+        edge_frac,
+        retrace_frac
+    );
+    assert!(plane_px > 1000);
+    // Measured 0.22 (and 0.98 retrace rays per plane pixel): far from the
+    // whole plane, but not small either; see docs/ROBUSTNESS.md. This bound
+    // guards against a regression to "every grazing pixel is an edge".
+    assert!(edge_frac < 0.3, "edge fraction {edge_frac:.3}");
+    assert_no_validation_messages(&ctx);
+}
+
+/// Zero-area triangles (collinear and coincident vertices), needles and
+/// duplicated vertices next to a normal quad: no NaN/Inf anywhere.
+#[test]
+fn degenerate_triangles_stay_finite() {
+    let mut s = Scene {
+        source: "test:degenerate".into(),
+        ..Default::default()
+    };
+    let mat = stereocache::scene::generate::add_material(&mut s, Material::default());
+    let p = |x: f32, y: f32, z: f32| Vec3::new(x, y, z);
+    let positions = vec![
+        // A proper quad (two triangles) facing +Z.
+        p(-1.0, -1.0, 0.0),
+        p(1.0, -1.0, 0.0),
+        p(1.0, 1.0, 0.0),
+        p(-1.0, 1.0, 0.0),
+        // Coincident vertices (zero area, zero edges).
+        p(0.2, 0.2, 0.1),
+        p(0.2, 0.2, 0.1),
+        p(0.2, 0.2, 0.1),
+        // Collinear vertices (zero area, non-zero edges).
+        p(-0.5, 0.0, 0.2),
+        p(0.0, 0.0, 0.2),
+        p(0.5, 0.0, 0.2),
+        // Needles: 2 m long, 1e-7 m wide, one facing the camera.
+        p(-1.0, 0.5, 0.3),
+        p(1.0, 0.5, 0.3),
+        p(1.0, 0.5 + 1e-7, 0.3),
+        p(0.0, -0.9, 0.3),
+        p(0.0, 0.9, 0.3),
+        p(1e-7, 0.9, 0.3),
+        // Duplicated quad vertices (same positions as 0..4).
+        p(-1.0, -1.0, 0.0),
+        p(1.0, -1.0, 0.0),
+        p(1.0, 1.0, 0.0),
+    ];
+    let indices = vec![
+        0, 1, 2, 0, 2, 3, 4, 5, 6, 7, 8, 9, 9, 8, 7, 10, 11, 12, 13, 14, 15, 16, 17, 18, 0, 0, 0,
+        1, 1, 2,
+    ];
+    let n = positions.len();
+    let mesh = Mesh {
+        name: "degenerate".into(),
+        normals: stereocache::scene::mesh_ops::generate_normals(&positions, &indices),
+        positions,
+        uvs: vec![Vec2::ZERO; n],
+        tangents: Vec::new(),
+        indices,
+        material: 0,
+    };
+    stereocache::scene::generate::add_mesh(&mut s, mesh, mat, Mat4::IDENTITY);
+    s.environment = Some(Environment::Constant(Vec3::splat(0.8)));
+    s.validate().unwrap();
+    for n in &s.meshes[0].normals {
+        assert!(n.is_finite(), "generated normal {n}");
+    }
+    let ctx = context();
+    let (w, h) = (32, 24);
+    let cam = look_at_camera(
+        Vec3::new(0.0, 0.0, 3.0),
+        Vec3::ZERO,
+        50.0,
+        w as f32 / h as f32,
+    );
+    for rt in [RtChoice::Software, RtChoice::Auto] {
+        let sess = session(&ctx, s.clone(), rt);
+        let mut st = settings(w, h, SampleCacheSettings::default());
+        st.spp = 4;
+        st.max_bounces = 3;
+        let fr = render(&sess, "reference", cam, &st);
+        assert!(all_finite(&fr), "{rt:?}: reference output not finite");
+        let mut m =
+            SampleCache::new(&sess.ctx, &sess.scene_gpu, &sess.scene.environment, &st).unwrap();
+        let mut prev = None;
+        for f in 0..4 {
+            let c = moving(&cam, f, 1.0, 0.01);
+            let fr = m
+                .render_frame(&FrameInput {
+                    index: f,
+                    camera: c,
+                    prev_camera: prev,
+                })
+                .unwrap();
+            prev = Some(c);
+            assert!(
+                all_finite(&fr),
+                "{rt:?} frame {f}: sample-cache output not finite"
+            );
+            let snap = m.snapshot().unwrap();
+            assert!(
+                snapshot_finite(&snap),
+                "{rt:?} frame {f}: cache radiance not finite"
+            );
+            let mo = m.moments().unwrap();
+            assert!(
+                mo.m1
+                    .iter()
+                    .chain(&mo.m2)
+                    .all(|v| v.iter().all(|c| c.is_finite())),
+                "{rt:?} frame {f}: moments not finite"
+            );
+        }
+    }
+    assert_no_validation_messages(&ctx);
+}
+
+/// Replays `frames` frames at 8×6; returns (max sample count, finite,
+/// allocated bytes after frame 10, at the end).
+fn long_run(frames: u32, moving_head: bool) -> (f32, bool, u64, u64) {
+    let ctx = context();
+    let s = session(&ctx, shipped("cornell"), RtChoice::Software);
+    let (w, h) = (8, 6);
+    let st = settings(w, h, SampleCacheSettings::default());
+    let mut m = SampleCache::new(&s.ctx, &s.scene_gpu, &s.scene.environment, &st).unwrap();
+    let cam0 = s.camera(&CameraSelect::Default, w, h, None, None).unwrap();
+    let (mut finite, mut at10) = (true, 0);
+    let mut prev = None;
+    for f in 0..frames {
+        // Moving: a slow back-and-forth turn, so samples keep being reused.
+        let cam = if moving_head {
+            let k = (f % 200) as f32;
+            moving(&cam0, 0, 0.0, 0.0).tap_yaw(if k < 100.0 { k } else { 200.0 - k } * 0.05)
+        } else {
+            cam0
+        };
+        let fr = m
+            .render_frame(&FrameInput {
+                index: f,
+                camera: cam,
+                prev_camera: prev.or(Some(cam)),
+            })
+            .unwrap();
+        prev = Some(cam);
+        if f % 64 == 0 || f + 1 == frames {
+            finite &= all_finite(&fr);
+        }
+        if f == 10 {
+            at10 = ctx.allocated_bytes();
+        }
+    }
+    let snap = m.snapshot().unwrap();
+    finite &= snapshot_finite(&snap);
+    let mut max_count = 0.0f32;
+    for e in 0..2 {
+        for px in 0..snap.npix() {
+            let mut bits = snap.occupied(snap.mask(e, px));
+            while bits != 0 {
+                let slot = bits.trailing_zeros();
+                bits &= bits - 1;
+                max_count = max_count.max(snap.radiance[snap.slot(e, slot, px)][3]);
+            }
+        }
+    }
+    let end = ctx.allocated_bytes();
+    assert_no_validation_messages(&ctx);
+    (max_count, finite, at10, end)
+}
+
+trait TapYaw {
+    fn tap_yaw(self, deg: f32) -> Self;
+}
+
+impl TapYaw for StereoCamera {
+    fn tap_yaw(mut self, deg: f32) -> Self {
+        self.head.orientation =
+            (self.head.orientation * Quat::from_rotation_y(deg.to_radians())).normalize();
+        self
+    }
+}
+
+fn check_long_run(frames: u32, moving_head: bool) {
+    let t = std::time::Instant::now();
+    let (max_count, finite, at10, end) = long_run(frames, moving_head);
+    eprintln!(
+        "long run, {frames} frames at 8×6, moving {moving_head}: max sample count {max_count}, finite {finite}, allocated {at10} B at frame 10, {end} B at the end, {:.1} s",
+        t.elapsed().as_secs_f64()
+    );
+    assert!(finite);
+    assert!(max_count <= 65_535.0, "count {max_count} beyond saturation");
+    assert_eq!(at10, end, "GPU memory grew during the run");
+}
+
+#[test]
+fn long_run_static() {
+    check_long_run(1_200, false);
+}
+
+#[test]
+fn long_run_moving() {
+    check_long_run(600, true);
+}
+
+/// The issue's 10 000 frames (minutes on lavapipe); result in docs/ROBUSTNESS.md.
+#[test]
+#[ignore]
+fn long_run_10000_frames() {
+    check_long_run(10_000, false);
+    check_long_run(10_000, true);
+}
+
+// ------------------------------------------------ barycentric packing (CPU)
+
+/// `shaders/common/packing.glsl`: b ↦ round(clamp(b, 0, 1) · (2²⁴ − 1)), in
+/// the low 24 bits; decoding divides by 2²⁴ − 1 (as `stored_position`).
+fn encode(b: f32) -> u32 {
+    (b.clamp(0.0, 1.0) * 16_777_215.0).round() as u32 & 0xFF_FFFF
+}
+
+fn decode(q: u32) -> f32 {
+    (q & 0xFF_FFFF) as f32 / 16_777_215.0
+}
+
+#[test]
+fn barycentric_packing_round_trip() {
+    let mut rng = stereocache::camera::pcg::Pcg32::new(7, 1);
+    let mut worst_b = 0.0f64;
+    let mut worst_rel = 0.0f64;
+    for size_exp in [-6i32, -3, 0, 3, 6] {
+        for _ in 0..20_000 {
+            let size = 10f64.powi(size_exp);
+            let v0 = glam::DVec3::new(rng.next_f64(), rng.next_f64(), rng.next_f64()) * size;
+            let e1 = glam::DVec3::new(
+                rng.next_f64() - 0.5,
+                rng.next_f64() - 0.5,
+                rng.next_f64() - 0.5,
+            ) * size;
+            let e2 = glam::DVec3::new(
+                rng.next_f64() - 0.5,
+                rng.next_f64() - 0.5,
+                rng.next_f64() - 0.5,
+            ) * size;
+            let (mut b1, mut b2) = (rng.next_f64() as f32, rng.next_f64() as f32);
+            if b1 + b2 > 1.0 {
+                (b1, b2) = (1.0 - b1, 1.0 - b2);
+            }
+            let (d1, d2) = (decode(encode(b1)), decode(encode(b2)));
+            let (eb1, eb2) = ((d1 as f64 - b1 as f64).abs(), (d2 as f64 - b2 as f64).abs());
+            // Half a quantization step plus f32 rounding of b and of the division.
+            let step = 1.0 / 16_777_215.0;
+            assert!(eb1 <= 0.5 * step + 2f64.powi(-24) && eb2 <= 0.5 * step + 2f64.powi(-24));
+            worst_b = worst_b.max(eb1.max(eb2));
+            let p = v0 + e1 * b1 as f64 + e2 * b2 as f64;
+            let q = v0 + e1 * d1 as f64 + e2 * d2 as f64;
+            let edge = e1.length().max(e2.length());
+            let rel = (p - q).length() / edge;
+            assert!(
+                rel <= 2f64.powi(-24) * 2f64.sqrt() * 1.5,
+                "relative error {rel:e} at size {size:e}"
+            );
+            worst_rel = worst_rel.max(rel);
+        }
+    }
+    eprintln!("barycentric packing: worst |Δb| = {worst_b:e} (2^-24 = {:e}), worst |Δp| / edge = {worst_rel:e}", 2f64.powi(-24));
+    // Exact at the ends and the midpoint's neighbours.
+    assert_eq!(decode(encode(0.0)), 0.0);
+    assert_eq!(decode(encode(1.0)), 1.0);
+    assert_eq!(encode(2.0), 0xFF_FFFF);
+    assert_eq!(encode(-1.0), 0);
+    assert_eq!(encode(f32::NAN), 0);
+}
