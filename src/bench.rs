@@ -318,3 +318,78 @@ fn plain_scatter_ms(
     }
     Ok(total / (cameras.len().saturating_sub(1)).max(1) as f64)
 }
+
+/// The configurations `bench tradeoff` sweeps: every method, and for the
+/// sample cache N ∈ {4, 8, 12, 16}, n_target, retrace single/multi/adaptive,
+/// shading uniform/adaptive at several rates, one-/two-pass reprojection;
+/// hash-cache capacities and LoD rules; supersampling at several spp.
+pub fn tradeoff_configs(base: &crate::methods::RenderSettings) -> Vec<crate::compare::Config> {
+    use crate::compare::Config;
+    use crate::methods::hash_cache::settings::HashLod;
+    use crate::methods::sample_cache::{Reproject, Retrace, Shading};
+    let mut v = Vec::new();
+    let cfg = |label: String, method: &str, s: crate::methods::RenderSettings| Config {
+        label,
+        method: method.into(),
+        settings: s,
+    };
+    for n in [4u32, 8, 12, 16] {
+        let mut s = base.clone();
+        s.cache.slots = n;
+        s.cache.n_target = 4.min(n - 1).max(2);
+        s.cache.delta = 1;
+        v.push(cfg(format!("sc-N{n}"), "sample-cache", s));
+    }
+    for nt in [2u32, 6] {
+        let mut s = base.clone();
+        s.cache.n_target = nt;
+        v.push(cfg(format!("sc-ntarget{nt}"), "sample-cache", s));
+    }
+    for (name, r) in [("single", Retrace::Single), ("multi", Retrace::Multi)] {
+        let mut s = base.clone();
+        s.cache.retrace = r;
+        v.push(cfg(format!("sc-retrace-{name}"), "sample-cache", s));
+    }
+    for rate in [0.25f32, 0.5, 1.0] {
+        let mut s = base.clone();
+        s.cache.shading = Shading::Adaptive;
+        s.cache.shading_rate = rate;
+        v.push(cfg(format!("sc-adaptive-shading{rate}"), "sample-cache", s));
+    }
+    let mut s = base.clone();
+    s.cache.reproject = Reproject::TwoPass;
+    v.push(cfg("sc-two-pass".into(), "sample-cache", s));
+    for (cap, lod) in [
+        (1u32 << 16, HashLod::Distance),
+        (1 << 20, HashLod::Distance),
+        (1 << 20, HashLod::DistanceNormal),
+    ] {
+        let mut s = base.clone();
+        s.hash.capacity = cap;
+        s.hash.lod = lod;
+        let lname = if lod == HashLod::Distance {
+            "dist"
+        } else {
+            "distnormal"
+        };
+        v.push(cfg(
+            format!("hash-2e{}-{lname}", cap.trailing_zeros()),
+            "hash-cache",
+            s,
+        ));
+    }
+    v.push(cfg("taa".into(), "taa", base.clone()));
+    v.push(cfg("isrt".into(), "isrt", base.clone()));
+    v.push(cfg("naive".into(), "naive", base.clone()));
+    for spp in [2u32, 4, 8] {
+        v.push(cfg(
+            format!("supersample-{spp}spp"),
+            "supersample",
+            crate::methods::RenderSettings {
+                spp,
+                ..base.clone()
+            },
+        ));
+    }
+    v
+}

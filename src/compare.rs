@@ -52,6 +52,7 @@ pub struct MethodRow {
     /// Mean / p95 over the frames after the first (frame 0 carries one-time driver costs).
     pub steady_mean_gpu_ms: f64,
     pub steady_p95_gpu_ms: f64,
+    /// Mean ms per pass over the frames after the first (all frames for a one-frame run).
     pub pass_mean_ms: BTreeMap<String, f64>,
     pub rays_per_frame: f64,
     pub rays_total: u64,
@@ -70,7 +71,11 @@ impl MethodRow {
             p95_gpu_ms: s.p95_gpu_ms,
             steady_mean_gpu_ms: s.steady_mean_gpu_ms,
             steady_p95_gpu_ms: s.steady_p95_gpu_ms,
-            pass_mean_ms: s.pass_mean_ms.clone(),
+            pass_mean_ms: if s.steady_pass_mean_ms.is_empty() {
+                s.pass_mean_ms.clone()
+            } else {
+                s.steady_pass_mean_ms.clone()
+            },
             rays_per_frame: s.rays_per_frame,
             rays_total: s.rays.total,
             method_memory_bytes: s.method_memory_bytes,

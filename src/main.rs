@@ -605,6 +605,29 @@ fn run_replay(a: ReplayArgs) -> Result<()> {
 
 #[derive(Subcommand)]
 enum BenchCommand {
+    /// Run time against error for every method and a sweep of their settings
+    /// (one run, one device): DIR/tradeoff.csv and DIR/report.html.
+    Tradeoff {
+        #[command(flatten)]
+        gpu: GpuArgs,
+        #[command(flatten)]
+        scene: SceneArgs,
+        #[arg(long, default_value = "captures/mmsys18-user1.csv")]
+        trace: PathBuf,
+        #[arg(long, default_value_t = 16)]
+        frames: usize,
+        #[arg(long, default_value = "64x48")]
+        size: String,
+        #[arg(long, default_value_t = 3)]
+        bounces: u32,
+        /// Samples per pixel of the reference frames.
+        #[arg(long, default_value_t = 64)]
+        reference_spp: u32,
+        #[arg(long, default_value = "out/reference-cache")]
+        reference_cache: PathBuf,
+        #[arg(long)]
+        out: PathBuf,
+    },
     /// Sample cache against a plain scatter, per retrace mode, and against 1 spp path tracing.
     SampleCache {
         #[command(flatten)]
@@ -889,6 +912,90 @@ fn run(cli: Cli) -> Result<()> {
                 );
             }
             report_validation(&ctx)
+        }
+        Command::Bench {
+            which:
+                BenchCommand::Tradeoff {
+                    gpu,
+                    scene,
+                    trace,
+                    frames,
+                    size,
+                    bounces,
+                    reference_spp,
+                    reference_cache,
+                    out,
+                },
+        } => {
+            let (w, h) = parse_size(&size).map_err(|e| anyhow!(e))?;
+            if frames == 0 || reference_spp == 0 {
+                bail!("bad --frames/--reference-spp: both must be at least 1");
+            }
+            let trace_data = PoseTrace::read_csv(&trace)?;
+            let session = scene.open(&gpu)?;
+            let cameras = trace_cameras(
+                &session,
+                &trace_data,
+                DEFAULT_FPS,
+                w,
+                h,
+                &CameraSelect::Default,
+                None,
+                None,
+            )?;
+            if frames > cameras.len() {
+                bail!(
+                    "bad --frames {frames}: {} gives {} frames",
+                    trace.display(),
+                    cameras.len()
+                );
+            }
+            let c = &session.ctx.caps;
+            println!(
+                "device: {} ({}), driver {} {}",
+                c.name, c.device_type, c.driver_name, c.driver_info
+            );
+            println!(
+                "scene: {} ({} triangles), backend {}, trace {} ({frames} frames at {DEFAULT_FPS} Hz), {w}x{h} per eye, {bounces} bounces, reference {reference_spp} spp",
+                session.scene.source.display(),
+                session.scene_gpu.triangle_count,
+                session.backend,
+                trace.display()
+            );
+            let base = RenderSettings {
+                width: w,
+                height: h,
+                spp: 1,
+                max_bounces: bounces,
+                seed: 1,
+                ..Default::default()
+            };
+            let configs = stereocache::bench::tradeoff_configs(&base);
+            let opts = stereocache::compare::CompareOptions {
+                methods: Vec::new(),
+                frames: Some(frames),
+                fps: DEFAULT_FPS,
+                every: 0,
+                out: out.clone(),
+                exposure: 1.0,
+                trace: trace.clone(),
+                shown_frames: None,
+                zoom: 3,
+                reference_spp: Some(reference_spp),
+                reference_cache,
+            };
+            let rows =
+                stereocache::compare::compare_configs(&session, &cameras, &configs, &base, &opts)?;
+            std::fs::copy(out.join("summary.csv"), out.join("tradeoff.csv"))
+                .with_context(|| format!("{}: cannot write tradeoff.csv", out.display()))?;
+            print!("{}", stereocache::compare::summary_table(&rows));
+            let report = stereocache::report::write_report(&out)?;
+            println!(
+                "wrote {} (tradeoff.csv, report: {})",
+                out.display(),
+                report.display()
+            );
+            report_validation(&session.ctx)
         }
         Command::Bench {
             which:

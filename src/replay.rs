@@ -264,6 +264,9 @@ pub struct ReplaySummary {
     pub steady_p95_gpu_ms: f64,
     /// Mean milliseconds per frame of each pass name (0 for frames without it).
     pub pass_mean_ms: BTreeMap<String, f64>,
+    /// The same over the frames after the first (what the per-pass
+    /// breakdowns of reports show).
+    pub steady_pass_mean_ms: BTreeMap<String, f64>,
     /// Rays over the whole replay.
     pub rays: RayRecord,
     pub rays_per_frame: f64,
@@ -370,6 +373,7 @@ pub fn replay_observed(
     let start = Instant::now();
     let mut gpu_ms = Vec::with_capacity(n);
     let mut pass_sums: BTreeMap<String, f64> = BTreeMap::new();
+    let mut steady_pass_sums: BTreeMap<String, f64> = BTreeMap::new();
     let mut rays = RayCounts::default();
     let mut images_written = 0;
     let (mut width, mut height) = (0, 0);
@@ -402,6 +406,9 @@ pub fn replay_observed(
 
         for (name, ms) in &record.passes {
             *pass_sums.entry(name.clone()).or_insert(0.0) += ms;
+            if i > 0 {
+                *steady_pass_sums.entry(name.clone()).or_insert(0.0) += ms;
+            }
         }
         gpu_ms.push(record.gpu_ms);
         rays.primary += frame.stats.rays.primary;
@@ -449,6 +456,14 @@ pub fn replay_observed(
             .into_iter()
             .map(|(k, v)| (k, v / n as f64))
             .collect(),
+        steady_pass_mean_ms: if n > 1 {
+            steady_pass_sums
+                .into_iter()
+                .map(|(k, v)| (k, v / (n - 1) as f64))
+                .collect()
+        } else {
+            BTreeMap::new()
+        },
         rays: rays.into(),
         rays_per_frame: rays.total() as f64 / n as f64,
         method_memory_bytes: method.memory_bytes(),

@@ -24,6 +24,10 @@ impl MethodData {
     pub fn metric(&self, k: &str) -> Option<f64> {
         self.row["metrics"][k].as_f64()
     }
+    /// The rendering method behind the configuration (its label otherwise).
+    pub fn kind(&self) -> String {
+        self.row["kind"].as_str().unwrap_or(&self.name).to_string()
+    }
     pub fn mean_gpu_ms(&self) -> f64 {
         self.row["steady_mean_gpu_ms"]
             .as_f64()

@@ -172,16 +172,19 @@ pub fn pass_breakdown(methods: &[MethodData]) -> String {
     svg
 }
 
-/// Error against frame time, one point per method (the Pareto view).
+/// Error against frame time: one point per configuration, and per method
+/// kind a line through its Pareto-optimal points (no other point of the same
+/// kind is both faster and more accurate) — the figure to choose settings by.
 pub fn pareto(methods: &[MethodData], metric: &str) -> String {
     let mut svg = String::new();
     {
-        let root = SVGBackend::with_string(&mut svg, (W, H)).into_drawing_area();
+        let root = SVGBackend::with_string(&mut svg, (W + 200, H + 80)).into_drawing_area();
         let _ = root.fill(&WHITE);
         let pts: Vec<(usize, f64, f64)> = methods
             .iter()
             .enumerate()
             .filter_map(|(i, m)| m.metric(metric).map(|e| (i, m.mean_gpu_ms(), e)))
+            .filter(|p| p.1.is_finite() && p.2.is_finite())
             .collect();
         let xmax = finite_max(pts.iter().map(|p| p.1)).max(1e-9) * 1.2;
         let ymax = finite_max(pts.iter().map(|p| p.2)).max(1e-9) * 1.2;
@@ -191,6 +194,7 @@ pub fn pareto(methods: &[MethodData], metric: &str) -> String {
                 ("sans-serif", 16),
             )
             .margin(10)
+            .margin_right(210)
             .x_label_area_size(30)
             .y_label_area_size(60)
             .build_cartesian_2d(0f64..xmax, 0f64..ymax)
@@ -200,15 +204,54 @@ pub fn pareto(methods: &[MethodData], metric: &str) -> String {
         };
         let _ = chart
             .configure_mesh()
-            .x_desc("mean GPU ms per frame")
+            .x_desc("mean GPU ms per frame (after the first)")
             .y_desc(metric)
             .draw();
-        for (i, x, y) in pts {
-            let color = palette(i);
-            let name = methods[i].name.clone();
-            let _ = chart.draw_series(std::iter::once(Circle::new((x, y), 6, color.filled())));
-            let _ = chart.draw_series(std::iter::once(Text::new(name, (x, y), ("sans-serif", 13))));
+        let mut kinds: Vec<String> = methods.iter().map(|m| m.kind()).collect();
+        kinds.dedup();
+        let mut seen: Vec<String> = Vec::new();
+        for k in kinds {
+            if seen.contains(&k) {
+                continue;
+            }
+            seen.push(k.clone());
         }
+        for (ki, k) in seen.iter().enumerate() {
+            let color = palette(ki);
+            let mut own: Vec<(f64, f64)> = pts
+                .iter()
+                .filter(|p| methods[p.0].kind() == *k)
+                .map(|p| (p.1, p.2))
+                .collect();
+            own.sort_by(|a, b| a.0.total_cmp(&b.0));
+            let mut front = Vec::new();
+            let mut best = f64::INFINITY;
+            for p in &own {
+                if p.1 < best {
+                    best = p.1;
+                    front.push(*p);
+                }
+            }
+            if let Ok(s) = chart.draw_series(LineSeries::new(front, color.stroke_width(2))) {
+                s.label(k.clone()).legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 16, y)], color.stroke_width(2))
+                });
+            }
+            let _ = chart.draw_series(own.iter().map(|p| Circle::new(*p, 4, color.filled())));
+        }
+        for (i, x, y) in &pts {
+            let _ = chart.draw_series(std::iter::once(Text::new(
+                methods[*i].name.clone(),
+                (*x, *y),
+                ("sans-serif", 11),
+            )));
+        }
+        let _ = chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::Coordinate(W as i32 - 10, 20))
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .draw();
         let _ = root.present();
     }
     svg
