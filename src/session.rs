@@ -6,7 +6,7 @@ use crate::camera::{HeadPose, StereoCamera, DEFAULT_IPD};
 use crate::error::{Error, Result};
 use crate::gpu::{GpuContext, GpuOptions};
 use crate::methods::{
-    baseline, HashCache, Isrt, Method, Reference, RenderSettings, SampleCache, Taa,
+    baseline, HashCache, Hybrid, Isrt, Method, Reference, RenderSettings, SampleCache, Taa,
 };
 use crate::rt::{RtBackend, RtChoice, SceneGpu};
 use crate::scene::{apply_default_lighting, load_scene, DefaultLighting, Scene};
@@ -34,6 +34,7 @@ pub const METHODS: &[&str] = &[
     "taa",
     "isrt",
     "hash-cache",
+    "hybrid",
 ];
 
 pub struct Session {
@@ -165,6 +166,12 @@ impl Session {
                 settings,
             )?)),
             "hash-cache" => Ok(Box::new(HashCache::new(
+                &self.ctx,
+                &self.scene_gpu,
+                &self.scene.environment,
+                settings,
+            )?)),
+            "hybrid" => Ok(Box::new(Hybrid::new(
                 &self.ctx,
                 &self.scene_gpu,
                 &self.scene.environment,

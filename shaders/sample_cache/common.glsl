@@ -15,6 +15,10 @@ layout(constant_id = 20) const uint N_SLOTS = 12;
 layout(constant_id = 21) const uint RETRACE_MODE = 2;   // 0 single, 1 multi, 2 adaptive
 layout(constant_id = 22) const uint SHADING_MODE = 0;   // 0 uniform, 1 adaptive
 layout(constant_id = 23) const uint ACCUM_MODE = 0;     // 0 running mean (+ appendix C clamp), 1 fixed α for view-dependent materials
+// false: visibility only (the `hybrid` method) — the radiance records are
+// neither read nor written (their buffers are placeholders), and the
+// importance histogram is not counted.
+layout(constant_id = 25) const bool SHADING_STORAGE = true;
 const uint HIST_M = 13;                                 // histogram buckets (§3.5)
 const float C_MAX = 65535.0;                            // effective sample counts saturate here
 

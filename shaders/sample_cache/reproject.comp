@@ -71,7 +71,7 @@ void main() {
             target_src[dst] = src + 1u;
         } else {
             fh_cur[dst] = fh;
-            rad_cur[dst] = rad_prev[src];
+            if (SHADING_STORAGE) rad_cur[dst] = rad_prev[src];
         }
         reprojected++;
         if (vis) {
@@ -82,10 +82,12 @@ void main() {
             float slope = normal_slope(t, cos_theta, phi);
             atomicMin(depth_min[tm], (uint64_t(floatBitsToUint(t)) << 32) | uint64_t(floatBitsToUint(slope)));
             atomicMax(depth_max[tm], floatBitsToUint(t));
-            float w = importance(rad_prev[src].w);
-            atomicAdd(hist[eye * HIST_M + importance_bucket(w, w_lo, w_hi)], 1u);
-            atomicMin(state[4u + eye], floatBitsToUint(w));
-            atomicMax(state[6u + eye], floatBitsToUint(w));
+            if (SHADING_STORAGE) {
+                float w = importance(rad_prev[src].w);
+                atomicAdd(hist[eye * HIST_M + importance_bucket(w, w_lo, w_hi)], 1u);
+                atomicMin(state[4u + eye], floatBitsToUint(w));
+                atomicMax(state[6u + eye], floatBitsToUint(w));
+            }
         }
     }
     if (reprojected > 0u) atomicAdd(counters[C_REPROJECTED], reprojected);

@@ -17,7 +17,7 @@ void main() {
         uint src = target_src[dst];
         if (src != 0u) {
             fh_cur[dst] = fh_prev[src - 1u];
-            rad_cur[dst] = rad_prev[src - 1u];
+            if (SHADING_STORAGE) rad_cur[dst] = rad_prev[src - 1u];
         }
     }
 }

@@ -21,7 +21,7 @@ bool new_sample(EyeGpu e, uvec2 px, uint eye, uint pixel, uint slot, inout Rng r
     }
     uint idx = slot_index(eye, slot, pixel);
     fh_cur[idx] = encode_first_hit(h.bary, h.instance, h.prim, instance_material(h.instance));
-    rad_cur[idx] = vec4(0.0);
+    if (SHADING_STORAGE) rad_cur[idx] = vec4(0.0);
     m |= o_bit | v_bit;
     return true;
 }

@@ -4,6 +4,7 @@
 pub mod baseline;
 pub mod frame;
 pub mod hash_cache;
+pub mod hybrid;
 pub mod isrt;
 pub mod reference;
 pub mod sample_cache;
@@ -11,6 +12,7 @@ pub mod taa;
 
 pub use frame::{EyeImage, FrameInput, FrameParams, FrameStats, RayCounts, StereoFrame};
 pub use hash_cache::{HashCache, HashCacheSettings};
+pub use hybrid::Hybrid;
 pub use isrt::{Isrt, IsrtSettings};
 pub use reference::Reference;
 pub use sample_cache::{SampleCache, SampleCacheSettings};
@@ -31,13 +33,13 @@ pub struct RenderSettings {
     pub seed: u32,
     /// Compile every feature in, ignoring what the scene uses (the unspecialized build).
     pub all_features: bool,
-    /// Options of the `sample-cache` method.
+    /// Options of the `sample-cache` method (and of `hybrid`'s visibility).
     pub cache: SampleCacheSettings,
     /// Options of the `taa` method (and of TAA passes other methods run).
     pub taa: TaaSettings,
     /// Options of the `isrt` method.
     pub isrt: IsrtSettings,
-    /// Options of the `hash-cache` method.
+    /// Options of the `hash-cache` method (and of `hybrid`'s table).
     pub hash: HashCacheSettings,
 }
 

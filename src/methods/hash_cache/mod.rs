@@ -34,7 +34,7 @@ use crate::scene::Environment;
 use std::sync::Arc;
 
 /// Counter slots written by the shaders (common.glsl `C_*`), with report names.
-const COUNTERS: &[(usize, &str)] = &[
+pub(crate) const COUNTERS: &[(usize, &str)] = &[
     (3, "cells_found"),
     (4, "cells_reserved"),
     (5, "cells_evicted_stale"),
@@ -52,6 +52,36 @@ pub const DEBUG_VIEWS: [&str; 4] = ["voxel", "lod", "cell-samples", "lookup"];
 pub const ENTRY_BYTES: u64 = 24;
 
 const LOCAL: u32 = 8;
+
+/// The frame counter stamped into table entries by a method's frame `k`
+/// (0-based): k + 1 mod 2^32 (0 never stamps, so a zeroed table is empty).
+pub(crate) fn stamp(k: u64) -> u32 {
+    (k as u32).wrapping_add(1)
+}
+
+/// The push constants of `shaders/hash_cache/common.glsl` (`Push`) for the
+/// settings `h` and the frame stamp `now`; shared with `hybrid`, whose
+/// shaders include the same file.
+pub(crate) fn push_constants(h: &HashCacheSettings, now: u32) -> Vec<u8> {
+    let flags = h.tiles as u32
+        | ((h.lod == HashLod::DistanceNormal) as u32) << 1
+        | (h.debug_views as u32) << 2;
+    let mut v = Vec::with_capacity(32);
+    for u in [h.capacity, h.max_probe, h.stale_frames, flags] {
+        v.extend_from_slice(&u.to_le_bytes());
+    }
+    v.extend_from_slice(&h.lod_scale.to_le_bytes());
+    for u in [h.max_samples, now, 0] {
+        v.extend_from_slice(&u.to_le_bytes());
+    }
+    v
+}
+
+/// Dispatch grid of `count.comp` (256 entries per group, ≤ 1024 groups per row).
+pub(crate) fn count_grid(capacity: u32) -> [u32; 3] {
+    let groups = capacity.div_ceil(256);
+    [groups.min(1024), groups.div_ceil(1024), 1]
+}
 
 /// The table read back from the GPU (tests, debugging).
 pub struct TableSnapshot {
@@ -207,23 +237,11 @@ impl HashCache {
 
     /// The frame counter stamped into entries by frame `k` (0-based): k + 1 mod 2^32.
     fn stamp(k: u64) -> u32 {
-        (k as u32).wrapping_add(1)
+        stamp(k)
     }
 
     fn push_constants(&self, now: u32) -> Vec<u8> {
-        let h = &self.hash;
-        let flags = h.tiles as u32
-            | ((h.lod == HashLod::DistanceNormal) as u32) << 1
-            | (h.debug_views as u32) << 2;
-        let mut v = Vec::with_capacity(32);
-        for u in [h.capacity, h.max_probe, h.stale_frames, flags] {
-            v.extend_from_slice(&u.to_le_bytes());
-        }
-        v.extend_from_slice(&h.lod_scale.to_le_bytes());
-        for u in [h.max_samples, now, 0] {
-            v.extend_from_slice(&u.to_le_bytes());
-        }
-        v
+        push_constants(&self.hash, now)
     }
 
     /// Reads the table back (after `render_frame`).
@@ -257,8 +275,7 @@ impl Method for HashCache {
         let params = FrameParams::new(input, w, h, self.settings.seed);
         let push = self.push_constants(now);
         let groups = [w.div_ceil(LOCAL), h.div_ceil(LOCAL), 2];
-        let count_groups = self.hash.capacity.div_ceil(256);
-        let count_grid = [count_groups.min(1024), count_groups.div_ceil(1024), 1];
+        let count_grid = count_grid(self.hash.capacity);
         let p = &self.pipes;
         let sets = [&self.scene.set, &self.set];
 

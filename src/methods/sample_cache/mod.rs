@@ -10,6 +10,14 @@
 //! Passes per frame (both eyes in one dispatch each, `z` = eye):
 //! `begin` → `clear` → `reproject` (→ `reproject.copy` for two-pass) →
 //! `select` → `trace` → `shade.select` → `shade` → `reconstruct`.
+//!
+//! **Visibility only** ([`SampleCache::visibility_only`], used by `hybrid`):
+//! the same cache without shading storage (specialization constant
+//! `SHADING_STORAGE` = false: radiance records are neither read nor written,
+//! their buffers and the shading outputs are 16-byte placeholders). Another
+//! method records [`SampleCache::record_visibility`] (`begin` … `trace`) into
+//! its own recorder, then its own passes on the current cache
+//! ([`SampleCache::current_buffers`]), then calls [`SampleCache::end_frame`].
 
 pub mod heuristics;
 pub mod settings;
@@ -35,6 +43,7 @@ mod spec_id {
     pub const SHADING: u32 = 22;
     pub const ACCUM: u32 = 23;
     pub const TWO_PASS: u32 = 24;
+    pub const SHADING_STORAGE: u32 = 25;
 }
 
 /// Counter slots written by the shaders (common.glsl `C_*`), with report names.
@@ -109,10 +118,23 @@ struct Pipelines {
     reproject_copy: Option<ComputePipeline>,
     select: ComputePipeline,
     trace: ComputePipeline,
+    /// None for a visibility-only cache.
+    shading: Option<ShadingPipelines>,
+}
+
+struct ShadingPipelines {
     shade_select: ComputePipeline,
     shade: ComputePipeline,
     reconstruct: ComputePipeline,
     stereo_blend: ComputePipeline,
+}
+
+/// The current frame's cache buffers (see [`SampleCache::current_buffers`]).
+pub struct CacheBuffers<'a> {
+    /// `[eye][pixel]` u32: occupancy bits 0..N−1, visibility bits N..2N−1.
+    pub masks: &'a Buffer,
+    /// `[eye][slot][pixel]` uvec4 first hits (Listing 1; w = 0xFFFFFFFF: none).
+    pub first_hits: &'a Buffer,
 }
 
 pub struct SampleCache {
@@ -149,11 +171,36 @@ pub struct SampleCache {
 }
 
 impl SampleCache {
+    /// The full method: visibility and shading (the `sample-cache` method).
     pub fn new(
         ctx: &Arc<GpuContext>,
         scene: &Arc<SceneGpu>,
         env: &Option<Environment>,
         settings: &RenderSettings,
+    ) -> GpuResult<Self> {
+        Self::build(ctx, scene, env, settings, true)
+    }
+
+    /// The cache without shading storage: reprojection, adaptive retrace and
+    /// density control only, for a method that shades the visible samples
+    /// itself (`hybrid`). [`Method::render_frame`] refuses to run on it.
+    pub fn visibility_only(
+        ctx: &Arc<GpuContext>,
+        scene: &Arc<SceneGpu>,
+        env: &Option<Environment>,
+        settings: &RenderSettings,
+    ) -> GpuResult<Self> {
+        Self::build(ctx, scene, env, settings, false)
+    }
+}
+
+impl SampleCache {
+    fn build(
+        ctx: &Arc<GpuContext>,
+        scene: &Arc<SceneGpu>,
+        env: &Option<Environment>,
+        settings: &RenderSettings,
+        shading: bool,
     ) -> GpuResult<Self> {
         let cache = settings.cache.clone();
         cache.validate().map_err(GpuError::Unsupported)?;
@@ -174,27 +221,29 @@ impl SampleCache {
         let two_pass = cache.reproject == Reproject::TwoPass;
         let b =
             |name: &str, bytes: u64| Buffer::storage(ctx, &format!("sample_cache.{name}"), bytes);
+        // Buffers only the shading passes use: placeholders when visibility only.
+        let sb = |name: &str, bytes: u64| b(name, if shading { bytes } else { 16 });
         let frame = b("frame", std::mem::size_of::<FrameParams>() as u64)?;
         let masks = [b("mask0", e2 * 4)?, b("mask1", e2 * 4)?];
         let first_hits = [b("first_hit0", e2 * n * 16)?, b("first_hit1", e2 * n * 16)?];
-        let radiance = [b("radiance0", e2 * n * 16)?, b("radiance1", e2 * n * 16)?];
+        let radiance = [sb("radiance0", e2 * n * 16)?, sb("radiance1", e2 * n * 16)?];
         let depth_min = b("depth_min", e2 * 8)?;
         let depth_max = b("depth_max", e2 * 4)?;
         let hist = b("histogram", 2 * HIST_M * 4)?;
         let state = b("state", 16 * 4)?;
-        let shade_list = b("shade_list", (e2 * n + e2) * 4)?;
+        let shade_list = sb("shade_list", (e2 * n + e2) * 4)?;
         let target_src = b("target_src", if two_pass { e2 * n * 4 } else { 16 })?;
-        let out_color = b("color", e2 * 16)?;
-        let out_m1 = b("moment1", e2 * 16)?;
-        let out_m2 = b("moment2", e2 * 16)?;
-        let out_depth = b("depth", e2 * 4)?;
-        let out_fh = b("out_first_hit", e2 * 16)?;
-        let out_albedo = b("albedo", e2 * 16)?;
+        let out_color = sb("color", e2 * 16)?;
+        let out_m1 = sb("moment1", e2 * 16)?;
+        let out_m2 = sb("moment2", e2 * 16)?;
+        let out_depth = sb("depth", e2 * 4)?;
+        let out_fh = sb("out_first_hit", e2 * 16)?;
+        let out_albedo = sb("albedo", e2 * 16)?;
         let counters = b("counters", 32 * 4)?;
         let pixel_action = b("pixel_action", e2 * 16)?;
         let pixel_stats = b("pixel_stats", e2 * 16)?;
-        let debug = b("debug", 4 * e2 * 16)?;
-        let out_blended = b("blended", e2 * 16)?;
+        let debug = sb("debug", 4 * e2 * 16)?;
+        let out_blended = sb("blended", e2 * 16)?;
 
         let layout = DescriptorLayout::buffers(ctx, 24)?;
         let make_set = |p: usize| {
@@ -240,7 +289,8 @@ impl SampleCache {
                 spec_id::ACCUM,
                 matches!(cache.accumulation, Accumulation::FixedAlpha(_)) as u32,
             )
-            .flag(spec_id::TWO_PASS, two_pass);
+            .flag(spec_id::TWO_PASS, two_pass)
+            .flag(spec_id::SHADING_STORAGE, shading);
         let layouts = [scene.layout.clone(), layout];
         let push = 32;
         let pipe = |name: &str| -> GpuResult<ComputePipeline> {
@@ -263,10 +313,16 @@ impl SampleCache {
             },
             select: pipe("select")?,
             trace: pipe("trace")?,
-            shade_select: pipe("shade_select")?,
-            shade: pipe("shade")?,
-            reconstruct: pipe("reconstruct")?,
-            stereo_blend: pipe("stereo_blend")?,
+            shading: if shading {
+                Some(ShadingPipelines {
+                    shade_select: pipe("shade_select")?,
+                    shade: pipe("shade")?,
+                    reconstruct: pipe("reconstruct")?,
+                    stereo_blend: pipe("stereo_blend")?,
+                })
+            } else {
+                None
+            },
         };
 
         // Empty caches; importance bounds "unset" so the first frame uses defaults.
@@ -391,19 +447,14 @@ impl SampleCache {
         })
     }
 
-    pub fn settings(&self) -> &SampleCacheSettings {
-        &self.cache
-    }
-}
-
-impl Method for SampleCache {
-    fn name(&self) -> &'static str {
-        "sample-cache"
-    }
-
-    fn render_frame(&mut self, input: &FrameInput) -> GpuResult<StereoFrame> {
+    /// Records this frame's visibility passes (`params`, `begin`, `clear`,
+    /// `reproject`, `select`, `trace`) into `rec` and returns the index of the
+    /// buffers that hold this frame's cache ([`Self::current_buffers`]).
+    /// Writes `input` into [`Self::frame_buffer`]. Call [`Self::end_frame`]
+    /// after the recorder has finished.
+    pub fn record_visibility(&self, rec: &mut Recorder, input: &FrameInput) -> usize {
         let (w, h) = (self.settings.width, self.settings.height);
-        let npix = (w * h) as usize;
+        // Frame f reads buffers[f % 2] ("previous") and writes buffers[1 − f % 2].
         let parity = (self.frames % 2) as usize;
         let (cur_mask, cur_fh, cur_rad) = (
             &self.masks[1 - parity],
@@ -421,8 +472,6 @@ impl Method for SampleCache {
         let sets = [&self.scene.set, &self.sets[parity]];
         let groups = [w.div_ceil(LOCAL), h.div_ceil(LOCAL), 2];
         let p = &self.pipes;
-
-        let mut rec = Recorder::new(&self.ctx, 16)?;
         rec.pass("params")
             .write(&self.frame)
             .update(bytemuck::bytes_of(&params));
@@ -480,13 +529,84 @@ impl Method for SampleCache {
             .write(&self.pixel_stats)
             .write(&self.counters)
             .dispatch(&p.trace, &sets, &push, groups);
+        1 - parity
+    }
+
+    /// Ends a frame recorded with [`Self::record_visibility`] (flips the
+    /// ping-pong parity; [`Self::snapshot`] then reads this frame's cache).
+    pub fn end_frame(&mut self) {
+        self.frames += 1;
+    }
+
+    /// The mask and first-hit buffers with index `i` (0 or 1). During a frame
+    /// the current cache is the index [`Self::record_visibility`] returned;
+    /// between frames it is `frames rendered % 2`. A method that binds them in
+    /// descriptor sets builds one set per index.
+    pub fn current_buffers(&self, i: usize) -> CacheBuffers<'_> {
+        CacheBuffers {
+            masks: &self.masks[i],
+            first_hits: &self.first_hits[i],
+        }
+    }
+
+    /// The per-frame camera buffer (`FrameBuf` of camera.glsl), written by
+    /// [`Self::record_visibility`]'s `params` pass.
+    pub fn frame_buffer(&self) -> &Buffer {
+        &self.frame
+    }
+
+    /// The visibility counters of the last finished frame, by report name
+    /// (`retrace_rays`, `new_sample_rays`, `visible_samples`, ...), and the
+    /// primary rays it traced (retrace + new samples + background).
+    pub fn visibility_counters(&self) -> GpuResult<(u64, std::collections::BTreeMap<String, f64>)> {
+        let counters: Vec<u32> = self.counters.download_pod()?;
+        let mut named = std::collections::BTreeMap::new();
+        for (i, name) in COUNTERS {
+            if *name != "shaded_samples" {
+                named.insert(name.to_string(), counters[*i] as f64);
+            }
+        }
+        let npix = (self.settings.width * self.settings.height) as f64;
+        named.insert(
+            "visible_samples_per_pixel".into(),
+            counters[13] as f64 / (2.0 * npix),
+        );
+        let primary = counters[0] as u64 + counters[1] as u64 + counters[14] as u64;
+        Ok((primary, named))
+    }
+
+    pub fn settings(&self) -> &SampleCacheSettings {
+        &self.cache
+    }
+}
+
+impl Method for SampleCache {
+    fn name(&self) -> &'static str {
+        "sample-cache"
+    }
+
+    fn render_frame(&mut self, input: &FrameInput) -> GpuResult<StereoFrame> {
+        let (w, h) = (self.settings.width, self.settings.height);
+        let npix = (w * h) as usize;
+        let Some(sp) = &self.pipes.shading else {
+            return Err(GpuError::Unsupported(
+                "a visibility-only sample cache does not shade; render it through `hybrid`".into(),
+            ));
+        };
+        let mut rec = Recorder::new(&self.ctx, 16)?;
+        let cur = self.record_visibility(&mut rec, input);
+        let (cur_mask, cur_fh, cur_rad) =
+            (&self.masks[cur], &self.first_hits[cur], &self.radiance[cur]);
+        let push = self.push_constants();
+        let sets = [&self.scene.set, &self.sets[1 - cur]];
+        let groups = [w.div_ceil(LOCAL), h.div_ceil(LOCAL), 2];
         rec.pass("shade.select")
             .read(cur_mask)
             .read(cur_rad)
             .read(&self.hist)
             .write(&self.state)
             .write(&self.shade_list)
-            .dispatch(&p.shade_select, &sets, &push, groups);
+            .dispatch(&sp.shade_select, &sets, &push, groups);
         let max_list = (2 * npix) as u32 * (self.cache.slots + 1);
         rec.pass("shade")
             .read(&self.shade_list)
@@ -495,7 +615,7 @@ impl Method for SampleCache {
             .write(cur_rad)
             .write(&self.pixel_stats)
             .write(&self.counters)
-            .dispatch(&p.shade, &sets, &push, [max_list.div_ceil(64), 1, 1]);
+            .dispatch(&sp.shade, &sets, &push, [max_list.div_ceil(64), 1, 1]);
         rec.pass("reconstruct")
             .read(cur_mask)
             .read(cur_fh)
@@ -508,7 +628,7 @@ impl Method for SampleCache {
             .write(&self.out_fh)
             .write(&self.out_albedo)
             .write(&self.debug)
-            .dispatch(&p.reconstruct, &sets, &push, groups);
+            .dispatch(&sp.reconstruct, &sets, &push, groups);
         let blend = self.cache.stereo_blend != crate::stereo::BlendMode::None;
         if blend {
             rec.pass("stereo.blend")
@@ -518,10 +638,10 @@ impl Method for SampleCache {
                 .read(&self.out_depth)
                 .read(&self.out_fh)
                 .write(&self.out_blended)
-                .dispatch(&p.stereo_blend, &sets, &push, groups);
+                .dispatch(&sp.stereo_blend, &sets, &push, groups);
         }
         let passes = rec.finish()?;
-        self.frames += 1;
+        self.end_frame();
 
         let color: Vec<[f32; 4]> = if blend {
             self.out_blended.download_pod()?

@@ -1,0 +1,61 @@
+// Hybrid (paper §4): the sample cache without shading storage supplies the
+// visible first hits of every pixel; their radiance comes from the hash
+// cache's table, looked up at the hash cache's level of detail L and at its
+// parent L + 1. Descriptor set 1 = the hash cache's bindings 0..13 and push
+// constants (hash_cache/common.glsl, so its update.comp and count.comp run
+// unchanged on this set) + the sample cache's current mask and first hits.
+// src/methods/hybrid/ owns the buffers and the pass order.
+#include "hash_cache/common.glsl"
+#include "common/first_hit.glsl"
+
+layout(constant_id = 20) const uint N_SLOTS = 12;   // the sample cache's slot count
+layout(set = 1, binding = 14, std430) readonly buffer MaskCur { uint mask_cur[]; };   // [eye][pixel]
+layout(set = 1, binding = 15, std430) readonly buffer FhCur { uvec4 fh_cur[]; };      // [eye][slot][pixel]
+
+// Counter slots after the hash cache's (src/methods/hybrid/mod.rs names them).
+const uint C_LOOKED_UP = 11u, C_BOTH = 12u, C_FINE_ONLY = 13u, C_COARSE_ONLY = 14u, C_NO_LEVEL = 15u,
+           C_UPD_FINE = 16u, C_UPD_COARSE = 17u;
+
+uint hy_vis_bits(uint m) {
+    uint full = N_SLOTS >= 32u ? 0xFFFFFFFFu : (1u << N_SLOTS) - 1u;
+    return (m >> N_SLOTS) & full;
+}
+uint hy_slot_index(uint eye, uint s, uint pixel) { return (eye * N_SLOTS + s) * npix() + pixel; }
+
+// Index of the k-th set bit of `bits` (k < bitCount(bits)).
+uint hy_nth_set_bit(uint bits, uint k) {
+    for (uint i = 0u; i < k; ++i) bits &= bits - 1u;
+    return uint(findLSB(bits));
+}
+
+// The sample that updates the table this frame: round robin over the
+// pixel's visible samples by frame index (`vis` ≠ 0).
+uint hy_update_slot(uint vis) { return hy_nth_set_bit(vis, frame.size_seed.w % bitCount(vis)); }
+
+// Index hash, offset in the tile and checksum of the voxel holding p at
+// `level`. No voxel jitter: a cached sample maps to the same voxels every
+// frame (the "stable lookups" of the hybrid).
+void hy_key(vec3 p, vec3 ng, int level, out uint h, out uint local_offset, out uint chk) {
+    ivec3 coord;
+    uint meta;
+    hc_key(p, ng, level, coord, meta);
+    h = hc_index_hash(coord, meta);
+    local_offset = hc_meta_local(meta);
+    chk = hc_checksum(coord, meta);
+}
+
+// Finds the key within the probe window without inserting; refreshes the
+// entry's last access so entries that are only read stay alive.
+bool hy_find(uint h, uint local_offset, uint c, out uint slot) {
+    slot = NO_CELL;
+    for (uint i = 0u; i < pc.max_probe; ++i) {
+        uint s = hc_probe_slot(h, local_offset, hc_tiles(), i, pc.capacity);
+        uint64_t w = keys[s];
+        if (hc_chk(w) == c) {
+            if (hc_touch(s, c, w) < 0) return false;
+            slot = s;
+            return true;
+        }
+    }
+    return false;
+}

@@ -1,0 +1,45 @@
+#version 460
+// Hybrid, first pass: per pixel one visible sample of the sample cache
+// (round robin, hy_update_slot) and one of its two levels — the hash cache's
+// level L or the parent L + 1, chosen by a coin toss — is looked up or
+// reserved in the table; the first toucher of an entry this frame becomes its
+// updater. Writes pix_hit / pix_ray / pix_cell in the hash cache's format, so
+// hash_cache/update.comp then traces the secondary path unchanged.
+#include "hybrid/common.glsl"
+layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
+
+void main() {
+    uvec2 size = frame_size();
+    uvec2 px = gl_GlobalInvocationID.xy;
+    uint eye = gl_GlobalInvocationID.z;
+    if (any(greaterThanEqual(px, size))) return;
+    uint pixel = px.y * size.x + px.x;
+    uint pm = eye * npix() + pixel;
+    uint vis = hy_vis_bits(mask_cur[pm]);
+    if (vis == 0u) {
+        pix_cell[pm] = uvec4(NO_CELL, ST_MISS, 0u, 0u);
+        atomicAdd(counters[C_MISSES], 1u);
+        return;
+    }
+    uvec4 fh = fh_cur[hy_slot_index(eye, hy_update_slot(vis), pixel)];
+    EyeGpu e = frame.eyes[eye];
+    vec3 o = e.pos_tanx.xyz;
+    vec3 wp = hit_position(fh);
+    float t = length(wp - o);
+    vec3 d = (wp - o) / max(t, 1e-30);
+    vec2 bary = first_hit_bary(fh);
+    Surface s = surface_at(fh.w, fh.z, bary, d);
+    Rng r = rng_init(frame.size_seed.z, pc.now, eye, pixel, 0x4B1D0001u);
+    bool coarse = rng_next(r) < 0.5;
+    int level = hc_level(t, d, s.ng, e) + (coarse ? 1 : 0);
+    uint h, local_offset, chk;
+    hy_key(wp, s.ng, level, h, local_offset, chk);
+    uint slot;
+    bool winner;
+    uint st = hc_find_or_insert(h, local_offset, chk, slot, winner);
+    pix_hit[pm] = uvec4(floatBitsToUint(bary), fh.z, fh.w);
+    pix_ray[pm] = vec4(d, t);
+    pix_cell[pm] = uvec4(slot, st | (winner ? 16u : 0u), chk, hc_pack_meta(level, HC_NO_AXIS, local_offset, hc_tiles()));
+    atomicAdd(counters[C_FOUND + st], 1u);
+    atomicAdd(counters[coarse ? C_UPD_COARSE : C_UPD_FINE], 1u);
+}

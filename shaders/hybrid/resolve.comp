@@ -1,0 +1,87 @@
+#version 460
+// Hybrid, last pass (after hash_cache/update.comp): every visible sample of
+// the pixel looks up its voxel at the hash cache's level L and the parent
+// L + 1 (find only, no insertion); its colour is base colour × the mean of
+// the levels that hold radiance + emission (the updated sample falls back on
+// its own path when its reservation failed; a sample with no level holding
+// radiance does not contribute). Pixel colour = mean over the contributing
+// samples; depth, first hit, albedo and the TAA position of the closest
+// visible sample; a pixel without visible samples shows the environment
+// through its centre.
+#include "hybrid/common.glsl"
+layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
+
+void main() {
+    uvec2 size = frame_size();
+    uvec2 px = gl_GlobalInvocationID.xy;
+    uint eye = gl_GlobalInvocationID.z;
+    if (any(greaterThanEqual(px, size))) return;
+    uint pixel = px.y * size.x + px.x;
+    uint pm = eye * npix() + pixel;
+    uint vis = hy_vis_bits(mask_cur[pm]);
+    EyeGpu e = frame.eyes[eye];
+    vec3 o = e.pos_tanx.xyz;
+    if (vis == 0u) {
+        vec3 d = eye_ray_dir(e, vec2(px) + 0.5);
+        float lp;
+        color[pm] = vec4(environment(d) + sun_radiance(d, lp), 1.0);
+        position[pm] = vec4(d, 0.0);
+        out_depth[pm] = 0.0;
+        out_fh[pm] = uvec4(0u, 0u, 0u, NO_HIT);
+        out_albedo[pm] = vec4(0.0);
+        return;
+    }
+    float spread = eye_pixel_spread(e);
+    uint upd_slot = hy_update_slot(vis);
+    bool upd_failed = (pix_cell[pm].y & 15u) == ST_FAILED;
+    vec3 sum = vec3(0.0);
+    float contributing = 0.0;
+    uint n_both = 0u, n_fine = 0u, n_coarse = 0u, n_none = 0u;
+    float best_t = 3.4e38;
+    uvec4 best_fh = uvec4(0u, 0u, 0u, NO_HIT);
+    vec3 best_albedo = vec3(0.0), best_p = vec3(0.0);
+    uint bits = vis;
+    while (bits != 0u) {
+        uint sl = uint(findLSB(bits));
+        bits &= bits - 1u;
+        uvec4 fh = fh_cur[hy_slot_index(eye, sl, pixel)];
+        vec3 wp = hit_position(fh);
+        float t = length(wp - o);
+        vec3 d = (wp - o) / max(t, 1e-30);
+        Surface s = surface_at(fh.w, fh.z, first_hit_bary(fh), d);
+        ShadingMaterial m = material_at(s, d, t * spread);
+        if (t < best_t) { best_t = t; best_fh = fh; best_albedo = m.base; best_p = wp; }
+        int level = hc_level(t, d, s.ng, e);
+        vec3 acc = vec3(0.0);
+        bool got[2] = bool[2](false, false);
+        for (int k = 0; k < 2; ++k) {
+            uint h, local_offset, chk, slot;
+            hy_key(wp, s.ng, level + k, h, local_offset, chk);
+            if (hy_find(h, local_offset, chk, slot)) {
+                vec4 c = cells[slot];
+                if (c.w > 0.0) { acc += c.rgb; got[k] = true; }
+            }
+        }
+        float levels = float(got[0]) + float(got[1]);
+        if (got[0] && got[1]) n_both++;
+        else if (got[0]) n_fine++;
+        else if (got[1]) n_coarse++;
+        else n_none++;
+        if (levels == 0.0 && sl == upd_slot && upd_failed) { acc = fallback[pm].rgb; levels = 1.0; }
+        if (levels > 0.0) {
+            vec3 Le = SC_EMISSIVE ? m.emissive : vec3(0.0);
+            sum += m.base * (acc / levels) + Le;
+            contributing += 1.0;
+        }
+    }
+    color[pm] = vec4(contributing > 0.0 ? sum / contributing : vec3(0.0), 1.0);
+    position[pm] = vec4(best_p, 1.0);
+    out_depth[pm] = view_depth(e, best_p);
+    out_fh[pm] = best_fh;
+    out_albedo[pm] = vec4(best_albedo, 1.0);
+    atomicAdd(counters[C_LOOKED_UP], bitCount(vis));
+    if (n_both > 0u) atomicAdd(counters[C_BOTH], n_both);
+    if (n_fine > 0u) atomicAdd(counters[C_FINE_ONLY], n_fine);
+    if (n_coarse > 0u) atomicAdd(counters[C_COARSE_ONLY], n_coarse);
+    if (n_none > 0u) atomicAdd(counters[C_NO_LEVEL], n_none);
+}
