@@ -8,10 +8,7 @@ cd "$(dirname "$0")/.."
 bash scripts/setup.sh
 cargo build --release --locked
 ./target/release/stereocache info
-methods="sample-cache,taa,naive"
-if ./target/release/stereocache compare --help | grep -q -- "--hash-capacity"; then
-  methods="sample-cache,hash-cache,taa,naive"
-fi
+methods="sample-cache,hash-cache,hybrid,taa,naive"
 ./target/release/stereocache compare --scene hairball --trace captures/mmsys18-user1.csv \
   --methods "$methods" --frames 24 --size 96x72 --rt software --stereo-blend moments \
   --reference-spp 64 --out out/compare "$@"

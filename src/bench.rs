@@ -378,6 +378,7 @@ pub fn tradeoff_configs(base: &crate::methods::RenderSettings) -> Vec<crate::com
             s,
         ));
     }
+    v.push(cfg("hybrid".into(), "hybrid", base.clone()));
     v.push(cfg("taa".into(), "taa", base.clone()));
     v.push(cfg("isrt".into(), "isrt", base.clone()));
     v.push(cfg("naive".into(), "naive", base.clone()));
