@@ -9,7 +9,7 @@ use std::path::Path;
 use stereocache::camera::{Eye, StereoCamera};
 use stereocache::methods::{RenderSettings, StereoFrame};
 use stereocache::rt::{RtChoice, SoftwareBvh};
-use stereocache::scene::{apply_default_lighting, load_scene, DefaultLighting, Scene};
+use stereocache::scene::Scene;
 use stereocache::session::{CameraSelect, Session};
 
 const W: u32 = 64;
@@ -125,12 +125,6 @@ fn check_scene(name: &str, scene: Scene, cpu: bool) {
         );
     }
     assert_no_validation_messages(&ctx);
-}
-
-fn shipped(name: &str) -> Scene {
-    let mut s = load_scene(name).unwrap();
-    apply_default_lighting(&mut s, &DefaultLighting::default()).unwrap();
-    s
 }
 
 #[test]

@@ -7,7 +7,7 @@
 
 mod common;
 use common::*;
-use glam::{Mat4, Quat, UVec2, Vec2, Vec3};
+use glam::{Mat4, UVec2, Vec2, Vec3};
 use std::collections::{HashMap, HashSet};
 use stereocache::camera::{Eye, StereoCamera};
 use stereocache::methods::isrt::IsrtSnapshot;
@@ -15,16 +15,8 @@ use stereocache::methods::{
     FrameInput, Isrt, IsrtSettings, Method, RenderSettings, StereoFrame, TaaSettings, TaaWeights,
 };
 use stereocache::rt::{RtChoice, SoftwareBvh};
-use stereocache::scene::{
-    apply_default_lighting, generate::*, load_scene, DefaultLighting, Environment, Material, Scene,
-};
+use stereocache::scene::{generate::*, Environment, Material, Scene};
 use stereocache::session::{CameraSelect, Session, METHODS};
-
-fn shipped(name: &str) -> Scene {
-    let mut s = load_scene(name).unwrap();
-    apply_default_lighting(&mut s, &DefaultLighting::default()).unwrap();
-    s
-}
 
 fn settings(w: u32, h: u32, spp: u32, seed: u32) -> RenderSettings {
     RenderSettings {
@@ -64,14 +56,8 @@ fn assert_finite_non_negative(f: &StereoFrame, what: &str) {
     }
 }
 
-/// A head turning about +Y by `deg` per frame and drifting sideways.
 fn moving(start: &StereoCamera, frame: u32, deg: f32) -> StereoCamera {
-    let mut c = *start;
-    let yaw = Quat::from_rotation_y((deg * frame as f32).to_radians());
-    c.head.orientation = (start.head.orientation * yaw).normalize();
-    c.head.position =
-        start.head.position + start.head.orientation * Vec3::new(0.004 * frame as f32, 0.0, 0.0);
-    c
+    turning_head(start, frame, deg, 0.004)
 }
 
 /// Renders `frames` frames of `cams` with one method instance; returns every frame.

@@ -6,7 +6,7 @@
 
 mod common;
 use common::*;
-use glam::{Quat, Vec3};
+use glam::Vec3;
 use std::path::Path;
 use std::process::Command;
 use stereocache::camera::{Eye, StereoCamera};
@@ -14,14 +14,8 @@ use stereocache::methods::hash_cache::{HashCacheSettings, HashLod};
 use stereocache::methods::sample_cache::SampleCacheSettings;
 use stereocache::methods::{FrameInput, Hybrid, Method, RenderSettings, StereoFrame};
 use stereocache::rt::{RtChoice, SoftwareBvh};
-use stereocache::scene::{apply_default_lighting, load_scene, DefaultLighting, Material, Scene};
+use stereocache::scene::Material;
 use stereocache::session::{CameraSelect, Session};
-
-fn shipped(name: &str) -> Scene {
-    let mut s = load_scene(name).unwrap();
-    apply_default_lighting(&mut s, &DefaultLighting::default()).unwrap();
-    s
-}
 
 fn settings(w: u32, h: u32, hash: HashCacheSettings) -> RenderSettings {
     RenderSettings {
@@ -41,14 +35,8 @@ fn hybrid(s: &Session, st: &RenderSettings) -> Hybrid {
     Hybrid::new(&s.ctx, &s.scene_gpu, &s.scene.environment, st).expect("hybrid")
 }
 
-/// A head turning about +Y by `deg_per_frame` and drifting sideways.
 fn moving(start: &StereoCamera, frame: u32, deg_per_frame: f32) -> StereoCamera {
-    let mut c = *start;
-    let yaw = Quat::from_rotation_y((deg_per_frame * frame as f32).to_radians());
-    c.head.orientation = (start.head.orientation * yaw).normalize();
-    c.head.position =
-        start.head.position + start.head.orientation * Vec3::new(0.004 * frame as f32, 0.0, 0.0);
-    c
+    turning_head(start, frame, deg_per_frame, 0.004)
 }
 
 fn assert_finite_non_negative(fr: &StereoFrame, what: &str) {

@@ -3,21 +3,14 @@
 
 mod common;
 use common::*;
-use glam::{Quat, UVec2, Vec3};
+use glam::UVec2;
 use stereocache::camera::{Eye, StereoCamera};
 use stereocache::methods::sample_cache::{
     CacheSnapshot, Reproject, Retrace, SampleCache, SampleCacheSettings, Shading,
 };
 use stereocache::methods::{FrameInput, Method, RenderSettings};
 use stereocache::rt::{RtChoice, SoftwareBvh};
-use stereocache::scene::{apply_default_lighting, load_scene, DefaultLighting, Scene};
 use stereocache::session::{CameraSelect, Session};
-
-fn shipped(name: &str) -> Scene {
-    let mut s = load_scene(name).unwrap();
-    apply_default_lighting(&mut s, &DefaultLighting::default()).unwrap();
-    s
-}
 
 fn settings(w: u32, h: u32, cache: SampleCacheSettings) -> RenderSettings {
     RenderSettings {
@@ -36,14 +29,8 @@ fn cache_method(s: &Session, st: &RenderSettings) -> SampleCache {
     SampleCache::new(&s.ctx, &s.scene_gpu, &s.scene.environment, st).expect("sample cache")
 }
 
-/// A head turning about +Y by `deg_per_frame` and drifting sideways.
 fn moving(start: &StereoCamera, frame: u32, deg_per_frame: f32) -> StereoCamera {
-    let mut c = *start;
-    let yaw = Quat::from_rotation_y((deg_per_frame * frame as f32).to_radians());
-    c.head.orientation = (start.head.orientation * yaw).normalize();
-    c.head.position =
-        start.head.position + start.head.orientation * Vec3::new(0.004 * frame as f32, 0.0, 0.0);
-    c
+    turning_head(start, frame, deg_per_frame, 0.004)
 }
 
 /// Checks the structural invariants and returns the fraction of visible

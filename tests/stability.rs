@@ -11,16 +11,8 @@ use stereocache::methods::sample_cache::{
 };
 use stereocache::methods::{FrameInput, Method, RenderSettings, StereoFrame};
 use stereocache::rt::{RtChoice, SoftwareBvh};
-use stereocache::scene::{
-    apply_default_lighting, load_scene, DefaultLighting, Environment, Material, Mesh, Scene,
-};
+use stereocache::scene::{Environment, Material, Mesh, Scene};
 use stereocache::session::CameraSelect;
-
-fn shipped(name: &str) -> Scene {
-    let mut s = load_scene(name).unwrap();
-    apply_default_lighting(&mut s, &DefaultLighting::default()).unwrap();
-    s
-}
 
 /// `world' = scale · world + offset` applied to every instance, light and camera.
 fn transformed(mut s: Scene, scale: f32, offset: Vec3) -> Scene {
@@ -61,14 +53,8 @@ fn settings(w: u32, h: u32, cache: SampleCacheSettings) -> RenderSettings {
     }
 }
 
-/// A head turning about +Y and drifting sideways by `drift` per frame.
 fn moving(start: &StereoCamera, frame: u32, deg_per_frame: f32, drift: f32) -> StereoCamera {
-    let mut c = *start;
-    let yaw = Quat::from_rotation_y((deg_per_frame * frame as f32).to_radians());
-    c.head.orientation = (start.head.orientation * yaw).normalize();
-    c.head.position =
-        start.head.position + start.head.orientation * Vec3::new(drift * frame as f32, 0.0, 0.0);
-    c
+    turning_head(start, frame, deg_per_frame, drift)
 }
 
 fn all_finite(f: &StereoFrame) -> bool {

@@ -10,7 +10,10 @@ pub mod reference;
 pub mod sample_cache;
 pub mod taa;
 
-pub use frame::{EyeImage, FrameInput, FrameParams, FrameStats, RayCounts, StereoFrame};
+pub use frame::{
+    named_counters, EyeImage, FrameInput, FrameParams, FrameStats, OutputBuffers, RayCounts,
+    StereoFrame,
+};
 pub use hash_cache::{HashCache, HashCacheSettings};
 pub use hybrid::Hybrid;
 pub use isrt::{Isrt, IsrtSettings};

@@ -196,3 +196,30 @@ pub fn stored_position(bvh: &stereocache::rt::SoftwareBvh, fh: [u32; 4]) -> Vec3
     let b = Vec2::new((fh[0] & 0xFF_FFFF) as f32, (fh[1] & 0xFF_FFFF) as f32) / 16_777_215.0;
     v0 + b.x * e1 + b.y * e2
 }
+
+/// A shipped scene (built-in name or path) with default lighting where it has none.
+pub fn shipped(name: &str) -> Scene {
+    let mut s = stereocache::scene::load_scene(name).unwrap();
+    stereocache::scene::apply_default_lighting(
+        &mut s,
+        &stereocache::scene::DefaultLighting::default(),
+    )
+    .unwrap();
+    s
+}
+
+/// `start`'s head turned about +Y by `deg_per_frame`·frame and moved along its
+/// +X by `drift_per_frame`·frame metres: a simple moving trace for tests.
+pub fn turning_head(
+    start: &StereoCamera,
+    frame: u32,
+    deg_per_frame: f32,
+    drift_per_frame: f32,
+) -> StereoCamera {
+    let mut c = *start;
+    let yaw = glam::Quat::from_rotation_y((deg_per_frame * frame as f32).to_radians());
+    c.head.orientation = (start.head.orientation * yaw).normalize();
+    c.head.position = start.head.position
+        + start.head.orientation * Vec3::new(drift_per_frame * frame as f32, 0.0, 0.0);
+    c
+}

@@ -23,7 +23,8 @@ pub use taa::Taa;
 
 use super::reference::backend_shader;
 use super::{
-    EyeImage, FrameInput, FrameParams, FrameStats, Method, RayCounts, RenderSettings, StereoFrame,
+    named_counters, FrameInput, FrameParams, FrameStats, Method, OutputBuffers, RayCounts,
+    RenderSettings, StereoFrame,
 };
 use crate::gpu::{
     Buffer, ComputePipeline, DescriptorLayout, DescriptorSet, GpuContext, GpuError, GpuResult,
@@ -331,39 +332,18 @@ impl Method for HashCache {
         let passes = rec.finish()?;
         self.frames += 1;
 
-        let color: Vec<[f32; 4]> = out.unwrap_or(&self.color).download_pod()?;
-        let depth: Vec<f32> = self.out_depth.download_pod()?;
-        let fh: Vec<[u32; 4]> = self.out_fh.download_pod()?;
-        let albedo: Vec<[f32; 4]> = self.out_albedo.download_pod()?;
+        let outputs = OutputBuffers {
+            color: out.unwrap_or(&self.color),
+            depth: &self.out_depth,
+            first_hit: &self.out_fh,
+            albedo: &self.out_albedo,
+            debug: self
+                .hash
+                .debug_views
+                .then_some((&self.debug, &DEBUG_VIEWS[..])),
+        };
+        let eyes = outputs.read(npix)?;
         let counters: Vec<u32> = self.counters.download_pod()?;
-        let debug: Vec<[f32; 4]> = if self.hash.debug_views {
-            self.debug.download_pod()?
-        } else {
-            Vec::new()
-        };
-        let eye = |e: usize| EyeImage {
-            radiance: color[e * npix..(e + 1) * npix]
-                .iter()
-                .map(|c| [c[0], c[1], c[2], 1.0])
-                .collect(),
-            depth: depth[e * npix..(e + 1) * npix].to_vec(),
-            first_hit: fh[e * npix..(e + 1) * npix].to_vec(),
-            albedo: albedo[e * npix..(e + 1) * npix].to_vec(),
-            debug: if debug.is_empty() {
-                Vec::new()
-            } else {
-                DEBUG_VIEWS
-                    .iter()
-                    .enumerate()
-                    .map(|(v, name)| {
-                        (
-                            name.to_string(),
-                            debug[(v * 2 + e) * npix..(v * 2 + e + 1) * npix].to_vec(),
-                        )
-                    })
-                    .collect()
-            },
-        };
         let mut stats = FrameStats {
             passes,
             rays: RayCounts {
@@ -373,9 +353,7 @@ impl Method for HashCache {
             },
             counters: Default::default(),
         };
-        for (i, name) in COUNTERS {
-            stats.counters.insert(name.to_string(), counters[*i] as f64);
-        }
+        stats.counters = named_counters(&counters, COUNTERS);
         stats.counters.insert(
             "table_occupancy".into(),
             counters[9] as f64 / self.hash.capacity as f64,
@@ -383,7 +361,7 @@ impl Method for HashCache {
         Ok(StereoFrame {
             width: w,
             height: h,
-            eyes: [eye(0), eye(1)],
+            eyes,
             stats,
         })
     }

@@ -31,7 +31,8 @@
 use super::hash_cache::{self, HashCacheSettings, Taa};
 use super::reference::backend_shader;
 use super::{
-    EyeImage, FrameInput, FrameStats, Method, RayCounts, RenderSettings, SampleCache, StereoFrame,
+    FrameInput, FrameStats, Method, OutputBuffers, RayCounts, RenderSettings, SampleCache,
+    StereoFrame,
 };
 use crate::gpu::{
     Buffer, ComputePipeline, DescriptorLayout, DescriptorSet, GpuContext, GpuError, GpuResult,
@@ -281,22 +282,16 @@ impl Method for Hybrid {
         self.cache.end_frame();
         self.frames += 1;
 
-        let color: Vec<[f32; 4]> = out.unwrap_or(&self.color).download_pod()?;
-        let depth: Vec<f32> = self.out_depth.download_pod()?;
-        let fh: Vec<[u32; 4]> = self.out_fh.download_pod()?;
-        let albedo: Vec<[f32; 4]> = self.out_albedo.download_pod()?;
+        let outputs = OutputBuffers {
+            color: out.unwrap_or(&self.color),
+            depth: &self.out_depth,
+            first_hit: &self.out_fh,
+            albedo: &self.out_albedo,
+            debug: None,
+        };
+        let eyes = outputs.read(npix)?;
         let counters: Vec<u32> = self.counters.download_pod()?;
         let (primary, visibility) = self.cache.visibility_counters()?;
-        let eye = |e: usize| EyeImage {
-            radiance: color[e * npix..(e + 1) * npix]
-                .iter()
-                .map(|c| [c[0], c[1], c[2], 1.0])
-                .collect(),
-            depth: depth[e * npix..(e + 1) * npix].to_vec(),
-            first_hit: fh[e * npix..(e + 1) * npix].to_vec(),
-            albedo: albedo[e * npix..(e + 1) * npix].to_vec(),
-            debug: Vec::new(),
-        };
         let mut stats = FrameStats {
             passes,
             rays: RayCounts {
@@ -322,7 +317,7 @@ impl Method for Hybrid {
         Ok(StereoFrame {
             width: w,
             height: h,
-            eyes: [eye(0), eye(1)],
+            eyes,
             stats,
         })
     }

@@ -49,7 +49,8 @@ pub mod settings {
 
 use super::reference::backend_shader;
 use super::{
-    EyeImage, FrameInput, FrameParams, FrameStats, Method, RayCounts, RenderSettings, StereoFrame,
+    named_counters, FrameInput, FrameParams, FrameStats, Method, OutputBuffers, RayCounts,
+    RenderSettings, StereoFrame,
 };
 use crate::gpu::{
     Buffer, ComputePipeline, DescriptorLayout, DescriptorSet, GpuContext, GpuError, GpuResult,
@@ -314,21 +315,15 @@ impl Method for Isrt {
         let passes = rec.finish()?;
         self.frames += 1;
 
-        let color: Vec<[f32; 4]> = self.out_color.download_pod()?;
-        let depth: Vec<f32> = self.out_depth.download_pod()?;
-        let fh: Vec<[u32; 4]> = self.out_fh.download_pod()?;
-        let albedo: Vec<[f32; 4]> = self.out_albedo.download_pod()?;
-        let counters: Vec<u32> = self.counters.download_pod()?;
-        let eye = |e: usize| EyeImage {
-            radiance: color[e * npix..(e + 1) * npix]
-                .iter()
-                .map(|c| [c[0], c[1], c[2], 1.0])
-                .collect(),
-            depth: depth[e * npix..(e + 1) * npix].to_vec(),
-            first_hit: fh[e * npix..(e + 1) * npix].to_vec(),
-            albedo: albedo[e * npix..(e + 1) * npix].to_vec(),
-            debug: Vec::new(),
+        let outputs = OutputBuffers {
+            color: &self.out_color,
+            depth: &self.out_depth,
+            first_hit: &self.out_fh,
+            albedo: &self.out_albedo,
+            debug: None,
         };
+        let eyes = outputs.read(npix)?;
+        let counters: Vec<u32> = self.counters.download_pod()?;
         let mut stats = FrameStats {
             passes,
             rays: RayCounts {
@@ -338,9 +333,7 @@ impl Method for Isrt {
             },
             counters: Default::default(),
         };
-        for (i, name) in COUNTERS {
-            stats.counters.insert(name.to_string(), counters[*i] as f64);
-        }
+        stats.counters = named_counters(&counters, COUNTERS);
         stats.counters.insert(
             "samples_per_pixel".into(),
             counters[10] as f64 / (2 * npix) as f64,
@@ -348,7 +341,7 @@ impl Method for Isrt {
         Ok(StereoFrame {
             width: w,
             height: h,
-            eyes: [eye(0), eye(1)],
+            eyes,
             stats,
         })
     }

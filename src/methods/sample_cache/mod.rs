@@ -26,7 +26,8 @@ pub use settings::{Accumulation, Reproject, Retrace, SampleCacheSettings, Shadin
 
 use super::reference::backend_shader;
 use super::{
-    EyeImage, FrameInput, FrameParams, FrameStats, Method, RayCounts, RenderSettings, StereoFrame,
+    named_counters, FrameInput, FrameParams, FrameStats, Method, OutputBuffers, RayCounts,
+    RenderSettings, StereoFrame,
 };
 use crate::gpu::{
     Buffer, ComputePipeline, DescriptorLayout, DescriptorSet, GpuContext, GpuError, GpuResult,
@@ -643,43 +644,22 @@ impl Method for SampleCache {
         let passes = rec.finish()?;
         self.end_frame();
 
-        let color: Vec<[f32; 4]> = if blend {
-            self.out_blended.download_pod()?
-        } else {
-            self.out_color.download_pod()?
-        };
-        let depth: Vec<f32> = self.out_depth.download_pod()?;
-        let fh: Vec<[u32; 4]> = self.out_fh.download_pod()?;
-        let albedo: Vec<[f32; 4]> = self.out_albedo.download_pod()?;
-        let counters: Vec<u32> = self.counters.download_pod()?;
-        let debug: Vec<[f32; 4]> = if self.cache.debug_views {
-            self.debug.download_pod()?
-        } else {
-            Vec::new()
-        };
-        let eye = |e: usize| EyeImage {
-            radiance: color[e * npix..(e + 1) * npix]
-                .iter()
-                .map(|c| [c[0], c[1], c[2], 1.0])
-                .collect(),
-            depth: depth[e * npix..(e + 1) * npix].to_vec(),
-            first_hit: fh[e * npix..(e + 1) * npix].to_vec(),
-            albedo: albedo[e * npix..(e + 1) * npix].to_vec(),
-            debug: if debug.is_empty() {
-                Vec::new()
+        let outputs = OutputBuffers {
+            color: if blend {
+                &self.out_blended
             } else {
-                DEBUG_VIEWS
-                    .iter()
-                    .enumerate()
-                    .map(|(v, name)| {
-                        (
-                            name.to_string(),
-                            debug[(v * 2 + e) * npix..(v * 2 + e + 1) * npix].to_vec(),
-                        )
-                    })
-                    .collect()
+                &self.out_color
             },
+            depth: &self.out_depth,
+            first_hit: &self.out_fh,
+            albedo: &self.out_albedo,
+            debug: self
+                .cache
+                .debug_views
+                .then_some((&self.debug, &DEBUG_VIEWS[..])),
         };
+        let eyes = outputs.read(npix)?;
+        let counters: Vec<u32> = self.counters.download_pod()?;
         let mut stats = FrameStats {
             passes,
             rays: RayCounts {
@@ -689,9 +669,7 @@ impl Method for SampleCache {
             },
             counters: Default::default(),
         };
-        for (i, name) in COUNTERS {
-            stats.counters.insert(name.to_string(), counters[*i] as f64);
-        }
+        stats.counters = named_counters(&counters, COUNTERS);
         stats.counters.insert(
             "visible_samples_per_pixel".into(),
             counters[13] as f64 / (2 * npix) as f64,
@@ -699,7 +677,7 @@ impl Method for SampleCache {
         Ok(StereoFrame {
             width: w,
             height: h,
-            eyes: [eye(0), eye(1)],
+            eyes,
             stats,
         })
     }
