@@ -230,6 +230,47 @@ impl HashArgs {
     }
 }
 
+/// Every method's options, flattened into the commands that create methods.
+#[derive(Args, Clone)]
+struct MethodArgs {
+    #[command(flatten)]
+    cache: CacheArgs,
+    #[command(flatten)]
+    taa: TaaArgs,
+    #[command(flatten)]
+    isrt: IsrtArgs,
+    #[command(flatten)]
+    hash: HashArgs,
+}
+
+impl MethodArgs {
+    /// The settings every method is created with (checked; one error line each).
+    fn settings(
+        &self,
+        (width, height): (u32, u32),
+        spp: u32,
+        max_bounces: u32,
+        seed: u32,
+        debug_views: bool,
+    ) -> Result<RenderSettings> {
+        if spp == 0 {
+            bail!("bad --spp 0: at least one sample per pixel");
+        }
+        Ok(RenderSettings {
+            width,
+            height,
+            spp,
+            max_bounces,
+            seed,
+            all_features: false,
+            cache: self.cache.settings(debug_views)?,
+            taa: self.taa.settings()?,
+            isrt: self.isrt.settings()?,
+            hash: self.hash.settings(debug_views)?,
+        })
+    }
+}
+
 #[derive(Args, Clone)]
 struct CameraArgs {
     /// A camera of the scene by name.
@@ -298,13 +339,7 @@ struct RenderArgs {
     #[arg(long, default_value_t = 1.0)]
     exposure: f32,
     #[command(flatten)]
-    cache: CacheArgs,
-    #[command(flatten)]
-    taa: TaaArgs,
-    #[command(flatten)]
-    isrt: IsrtArgs,
-    #[command(flatten)]
-    hash: HashArgs,
+    method_opts: MethodArgs,
     #[arg(long, default_value = "out/render")]
     out: PathBuf,
 }
@@ -354,22 +389,13 @@ struct CompareArgs {
     #[arg(long, default_value_t = 1.0)]
     exposure: f32,
     #[command(flatten)]
-    cache: CacheArgs,
-    #[command(flatten)]
-    taa: TaaArgs,
-    #[command(flatten)]
-    isrt: IsrtArgs,
-    #[command(flatten)]
-    hash: HashArgs,
+    method_opts: MethodArgs,
     #[arg(long)]
     out: PathBuf,
 }
 
 fn run_compare(a: CompareArgs) -> Result<()> {
     let (w, h) = parse_size(&a.size).map_err(|e| anyhow!(e))?;
-    if a.spp == 0 {
-        bail!("bad --spp 0: at least one sample per pixel");
-    }
     if a.frames == Some(0) {
         bail!("bad --frames 0: render at least one frame");
     }
@@ -396,6 +422,9 @@ fn run_compare(a: CompareArgs) -> Result<()> {
             );
         }
     }
+    let settings = a
+        .method_opts
+        .settings((w, h), a.spp, a.bounces, a.seed, false)?;
     let shown = match &a.show_frames {
         None => None,
         Some(s) => Some(
@@ -407,7 +436,6 @@ fn run_compare(a: CompareArgs) -> Result<()> {
                 })?,
         ),
     };
-    let cache = a.cache.settings(false)?;
     let select = a.camera.select()?;
     let (fov, ipd) = (a.camera.fov_radians()?, a.camera.ipd()?);
     let trace = PoseTrace::read_csv(&a.trace)?;
@@ -426,20 +454,6 @@ fn run_compare(a: CompareArgs) -> Result<()> {
             );
         }
     }
-    let (taa, isrt) = (a.taa.settings()?, a.isrt.settings()?);
-    let hash = a.hash.settings(false)?;
-    let settings = RenderSettings {
-        width: w,
-        height: h,
-        spp: a.spp,
-        max_bounces: a.bounces,
-        seed: a.seed,
-        all_features: false,
-        cache,
-        taa,
-        isrt,
-        hash,
-    };
     let opts = stereocache::compare::CompareOptions {
         methods,
         frames: a.frames,
@@ -543,13 +557,7 @@ struct ReplayArgs {
     #[arg(long)]
     debug_views: bool,
     #[command(flatten)]
-    cache: CacheArgs,
-    #[command(flatten)]
-    taa: TaaArgs,
-    #[command(flatten)]
-    isrt: IsrtArgs,
-    #[command(flatten)]
-    hash: HashArgs,
+    method_opts: MethodArgs,
     #[arg(long)]
     out: PathBuf,
 }
@@ -558,12 +566,9 @@ struct ReplayArgs {
 /// the GPU is opened, so bad input fails fast and writes nothing.
 fn run_replay(a: ReplayArgs) -> Result<()> {
     let (w, h) = parse_size(&a.size).map_err(|e| anyhow!(e))?;
-    if a.spp == 0 {
-        bail!("bad --spp 0: at least one sample per pixel");
-    }
-    let cache = a.cache.settings(a.debug_views)?;
-    let (taa, isrt) = (a.taa.settings()?, a.isrt.settings()?);
-    let hash = a.hash.settings(a.debug_views)?;
+    let settings = a
+        .method_opts
+        .settings((w, h), a.spp, a.bounces, a.seed, a.debug_views)?;
     let mut opts = ReplayOptions {
         frames: a.frames,
         fps: a.fps,
@@ -584,18 +589,6 @@ fn run_replay(a: ReplayArgs) -> Result<()> {
     let session = a.scene.open(&a.gpu)?;
     let cameras = trace_cameras(&session, &trace, a.fps, w, h, &select, ipd, fov)?;
     opts.frame_count(cameras.len())?;
-    let settings = RenderSettings {
-        width: w,
-        height: h,
-        spp: a.spp,
-        max_bounces: a.bounces,
-        seed: a.seed,
-        all_features: false,
-        cache,
-        taa,
-        isrt,
-        hash,
-    };
     opts.settings = serde_json::to_value(&settings)?;
     let mut method = session.method(&a.method, &settings)?;
     let summary = replay(&session, method.as_mut(), &cameras, &opts)?;
@@ -767,19 +760,11 @@ fn run(cli: Cli) -> Result<()> {
                 bounces,
                 seed,
                 exposure,
-                cache,
-                taa,
-                isrt,
-                hash,
+                method_opts,
                 out,
             } = *args;
             let (w, h) = parse_size(&size).map_err(|e| anyhow!(e))?;
-            let cache = cache.settings(false)?;
-            let (taa, isrt) = (taa.settings()?, isrt.settings()?);
-            let hash = hash.settings(false)?;
-            if spp == 0 {
-                bail!("bad --spp 0: at least one sample per pixel");
-            }
+            let settings = method_opts.settings((w, h), spp, bounces, seed, false)?;
             if !(exposure.is_finite() && exposure > 0.0) {
                 bail!("bad --exposure {exposure}: expected a positive number");
             }
@@ -787,18 +772,6 @@ fn run(cli: Cli) -> Result<()> {
             let (fov, ipd) = (camera.fov_radians()?, camera.ipd()?);
             let session = scene.open(&gpu)?;
             let cam = session.camera(&select, w, h, ipd, fov)?;
-            let settings = RenderSettings {
-                width: w,
-                height: h,
-                spp,
-                max_bounces: bounces,
-                seed,
-                all_features: false,
-                cache,
-                taa,
-                isrt,
-                hash,
-            };
             let mut m = session.method(&method, &settings)?;
             let frame = m.render_frame(&FrameInput {
                 index: 0,
