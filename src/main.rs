@@ -598,6 +598,25 @@ fn run_replay(a: ReplayArgs) -> Result<()> {
 
 #[derive(Subcommand)]
 enum BenchCommand {
+    /// Frame time per method at pixels ×1, ×2, ×4, ×8 and on hairballs of
+    /// about 10k, 100k and 1M triangles, with fitted exponents.
+    Scaling {
+        #[command(flatten)]
+        gpu: GpuArgs,
+        /// Ray backend.
+        #[arg(long, default_value = "software")]
+        rt: String,
+        #[arg(long, default_value = "captures/mmsys18-user1.csv")]
+        trace: PathBuf,
+        /// Frames measured per point (after one warm-up frame).
+        #[arg(long, default_value_t = 6)]
+        frames: usize,
+        /// Base size per eye (×1 pixels).
+        #[arg(long, default_value = "48x36")]
+        size: String,
+        #[arg(long, default_value = "sample-cache,hash-cache,taa,naive")]
+        methods: String,
+    },
     /// Run time against error for every method and a sweep of their settings
     /// (one run, one device): DIR/tradeoff.csv and DIR/report.html.
     Tradeoff {
@@ -882,6 +901,87 @@ fn run(cli: Cli) -> Result<()> {
             } else {
                 println!(
                     "(this device has no ray queries: only the software backend was measured)"
+                );
+            }
+            report_validation(&ctx)
+        }
+        Command::Bench {
+            which:
+                BenchCommand::Scaling {
+                    gpu,
+                    rt,
+                    trace,
+                    frames,
+                    size,
+                    methods,
+                },
+        } => {
+            let (w0, h0) = parse_size(&size).map_err(|e| anyhow!(e))?;
+            let rt: RtChoice = rt.parse().map_err(|e: String| anyhow!("bad --rt: {e}"))?;
+            let methods: Vec<String> = methods.split(',').map(|m| m.trim().to_string()).collect();
+            for m in &methods {
+                if !stereocache::session::METHODS.contains(&m.as_str()) {
+                    bail!("bad --methods: unknown method '{m}'");
+                }
+            }
+            if frames == 0 {
+                bail!("bad --frames 0");
+            }
+            let trace_data = PoseTrace::read_csv(&trace)?;
+            let ctx = std::sync::Arc::new(GpuContext::new(&gpu.options())?);
+            let c = &ctx.caps;
+            println!("device: {} ({}), driver {} {}", c.name, c.device_type, c.driver_name, c.driver_info);
+            println!("trace {} ({frames} frames after 1 warm-up per point), 3 bounces, both eyes", trace.display());
+            let base = |w: u32, h: u32| RenderSettings { width: w, height: h, spp: 1, max_bounces: 3, seed: 1, ..Default::default() };
+            let cameras_for = |s: &Session, w: u32, h: u32| -> Result<Vec<stereocache::camera::StereoCamera>> {
+                let mut cams = trace_cameras(s, &trace_data, DEFAULT_FPS, w, h, &CameraSelect::Default, None, None)?;
+                cams.truncate(frames + 1);
+                Ok(cams)
+            };
+            // Pixels.
+            let session = Session::with_context(ctx.clone(), stereocache::scene::generate("hairball").expect("built-in"), rt)?;
+            println!("\nresolution scaling (hairball, {} backend): GPU ms per stereo frame", session.backend);
+            let factors = [1.0f64, 2.0, 4.0, 8.0];
+            let mut by_method: Vec<Vec<(f64, f64)>> = vec![Vec::new(); methods.len()];
+            for f in factors {
+                let (w, h) = ((w0 as f64 * f.sqrt()).round() as u32, (h0 as f64 * f.sqrt()).round() as u32);
+                let cams = cameras_for(&session, w, h)?;
+                let mut line = format!("  {w:>4}x{h:<4} ({:>6} px/eye):", w * h);
+                for (i, m) in methods.iter().enumerate() {
+                    let ms = stereocache::bench::steady_frame_ms(&session, m, &base(w, h), &cams)?;
+                    by_method[i].push(((w * h) as f64, ms));
+                    line.push_str(&format!("  {m} {ms:8.2}"));
+                }
+                println!("{line}");
+            }
+            for (i, m) in methods.iter().enumerate() {
+                let logs: Vec<(f64, f64)> = by_method[i].iter().map(|(p, t)| (p.ln(), t.ln())).collect();
+                println!("  {m}: time ∝ pixels^{:.2} (1.0 = linear)", stereocache::bench::fit_slope(&logs));
+            }
+            drop(session);
+            // Triangles.
+            println!("\ntriangle scaling ({w0}x{h0} per eye): GPU ms per stereo frame");
+            let mut by_method: Vec<Vec<(f64, f64)>> = vec![Vec::new(); methods.len()];
+            for tubes in [21u32, 208, 2080] {
+                let scene = stereocache::scene::generate::hairball::hairball_with_tubes(tubes);
+                let tris = scene.instanced_triangle_count() as f64;
+                let session = Session::with_context(ctx.clone(), scene, rt)?;
+                let cams = cameras_for(&session, w0, h0)?;
+                let mut line = format!("  {:>8} triangles:", tris as u64);
+                for (i, m) in methods.iter().enumerate() {
+                    let ms = stereocache::bench::steady_frame_ms(&session, m, &base(w0, h0), &cams)?;
+                    by_method[i].push((tris, ms));
+                    line.push_str(&format!("  {m} {ms:8.2}"));
+                }
+                println!("{line}");
+            }
+            for (i, m) in methods.iter().enumerate() {
+                let logs: Vec<(f64, f64)> = by_method[i].iter().map(|(n, t)| (n.ln(), t.ln())).collect();
+                let lin: Vec<(f64, f64)> = by_method[i].iter().map(|(n, t)| (n.ln(), *t)).collect();
+                println!(
+                    "  {m}: time ∝ triangles^{:.2}; +{:.2} ms per ×e triangles (logarithmic growth shows as a small exponent)",
+                    stereocache::bench::fit_slope(&logs),
+                    stereocache::bench::fit_slope(&lin)
                 );
             }
             report_validation(&ctx)

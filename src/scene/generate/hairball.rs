@@ -112,6 +112,12 @@ fn tube(mesh: &mut Mesh, pts: &[Vec3]) {
 }
 
 pub fn hairball() -> Scene {
+    hairball_with_tubes(TUBES)
+}
+
+/// The hairball with `tubes` tubes (the shipped one has `TUBES`); triangles
+/// grow linearly with the tube count. Used by `bench scaling`.
+pub fn hairball_with_tubes(tubes: u32) -> Scene {
     let mut s = Scene {
         source: "generated:hairball".into(),
         ..Default::default()
@@ -122,7 +128,7 @@ pub fn hairball() -> Scene {
         name: "hairball".into(),
         ..Default::default()
     };
-    for _ in 0..TUBES {
+    for _ in 0..tubes.max(1) {
         let pts = path(&mut rng);
         tube(&mut mesh, &pts);
     }
