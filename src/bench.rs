@@ -398,7 +398,10 @@ pub fn tradeoff_configs(base: &crate::methods::RenderSettings) -> Vec<crate::com
 /// Least-squares slope of y against x.
 pub fn fit_slope(points: &[(f64, f64)]) -> f64 {
     let n = points.len() as f64;
-    let (mx, my) = (points.iter().map(|p| p.0).sum::<f64>() / n, points.iter().map(|p| p.1).sum::<f64>() / n);
+    let (mx, my) = (
+        points.iter().map(|p| p.0).sum::<f64>() / n,
+        points.iter().map(|p| p.1).sum::<f64>() / n,
+    );
     let sxy: f64 = points.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
     let sxx: f64 = points.iter().map(|p| (p.0 - mx) * (p.0 - mx)).sum();
     if sxx > 0.0 {
@@ -409,7 +412,12 @@ pub fn fit_slope(points: &[(f64, f64)]) -> f64 {
 }
 
 /// Steady-state mean GPU ms per frame of `method` over `cameras` (frame 0 excluded).
-pub fn steady_frame_ms(session: &Session, method: &str, settings: &crate::methods::RenderSettings, cameras: &[crate::camera::StereoCamera]) -> Result<f64> {
+pub fn steady_frame_ms(
+    session: &Session,
+    method: &str,
+    settings: &crate::methods::RenderSettings,
+    cameras: &[crate::camera::StereoCamera],
+) -> Result<f64> {
     let mut m = session.method(method, settings)?;
     let stats = run_frames(m.as_mut(), cameras)?;
     Ok(stats.iter().map(|s| s.gpu_ms()).sum::<f64>() / stats.len().max(1) as f64)

@@ -930,21 +930,54 @@ fn run(cli: Cli) -> Result<()> {
             let trace_data = PoseTrace::read_csv(&trace)?;
             let ctx = std::sync::Arc::new(GpuContext::new(&gpu.options())?);
             let c = &ctx.caps;
-            println!("device: {} ({}), driver {} {}", c.name, c.device_type, c.driver_name, c.driver_info);
-            println!("trace {} ({frames} frames after 1 warm-up per point), 3 bounces, both eyes", trace.display());
-            let base = |w: u32, h: u32| RenderSettings { width: w, height: h, spp: 1, max_bounces: 3, seed: 1, ..Default::default() };
-            let cameras_for = |s: &Session, w: u32, h: u32| -> Result<Vec<stereocache::camera::StereoCamera>> {
-                let mut cams = trace_cameras(s, &trace_data, DEFAULT_FPS, w, h, &CameraSelect::Default, None, None)?;
-                cams.truncate(frames + 1);
-                Ok(cams)
+            println!(
+                "device: {} ({}), driver {} {}",
+                c.name, c.device_type, c.driver_name, c.driver_info
+            );
+            println!(
+                "trace {} ({frames} frames after 1 warm-up per point), 3 bounces, both eyes",
+                trace.display()
+            );
+            let base = |w: u32, h: u32| RenderSettings {
+                width: w,
+                height: h,
+                spp: 1,
+                max_bounces: 3,
+                seed: 1,
+                ..Default::default()
             };
+            let cameras_for =
+                |s: &Session, w: u32, h: u32| -> Result<Vec<stereocache::camera::StereoCamera>> {
+                    let mut cams = trace_cameras(
+                        s,
+                        &trace_data,
+                        DEFAULT_FPS,
+                        w,
+                        h,
+                        &CameraSelect::Default,
+                        None,
+                        None,
+                    )?;
+                    cams.truncate(frames + 1);
+                    Ok(cams)
+                };
             // Pixels.
-            let session = Session::with_context(ctx.clone(), stereocache::scene::generate("hairball").expect("built-in"), rt)?;
-            println!("\nresolution scaling (hairball, {} backend): GPU ms per stereo frame", session.backend);
+            let session = Session::with_context(
+                ctx.clone(),
+                stereocache::scene::generate("hairball").expect("built-in"),
+                rt,
+            )?;
+            println!(
+                "\nresolution scaling (hairball, {} backend): GPU ms per stereo frame",
+                session.backend
+            );
             let factors = [1.0f64, 2.0, 4.0, 8.0];
             let mut by_method: Vec<Vec<(f64, f64)>> = vec![Vec::new(); methods.len()];
             for f in factors {
-                let (w, h) = ((w0 as f64 * f.sqrt()).round() as u32, (h0 as f64 * f.sqrt()).round() as u32);
+                let (w, h) = (
+                    (w0 as f64 * f.sqrt()).round() as u32,
+                    (h0 as f64 * f.sqrt()).round() as u32,
+                );
                 let cams = cameras_for(&session, w, h)?;
                 let mut line = format!("  {w:>4}x{h:<4} ({:>6} px/eye):", w * h);
                 for (i, m) in methods.iter().enumerate() {
@@ -955,8 +988,12 @@ fn run(cli: Cli) -> Result<()> {
                 println!("{line}");
             }
             for (i, m) in methods.iter().enumerate() {
-                let logs: Vec<(f64, f64)> = by_method[i].iter().map(|(p, t)| (p.ln(), t.ln())).collect();
-                println!("  {m}: time ∝ pixels^{:.2} (1.0 = linear)", stereocache::bench::fit_slope(&logs));
+                let logs: Vec<(f64, f64)> =
+                    by_method[i].iter().map(|(p, t)| (p.ln(), t.ln())).collect();
+                println!(
+                    "  {m}: time ∝ pixels^{:.2} (1.0 = linear)",
+                    stereocache::bench::fit_slope(&logs)
+                );
             }
             drop(session);
             // Triangles.
@@ -969,14 +1006,16 @@ fn run(cli: Cli) -> Result<()> {
                 let cams = cameras_for(&session, w0, h0)?;
                 let mut line = format!("  {:>8} triangles:", tris as u64);
                 for (i, m) in methods.iter().enumerate() {
-                    let ms = stereocache::bench::steady_frame_ms(&session, m, &base(w0, h0), &cams)?;
+                    let ms =
+                        stereocache::bench::steady_frame_ms(&session, m, &base(w0, h0), &cams)?;
                     by_method[i].push((tris, ms));
                     line.push_str(&format!("  {m} {ms:8.2}"));
                 }
                 println!("{line}");
             }
             for (i, m) in methods.iter().enumerate() {
-                let logs: Vec<(f64, f64)> = by_method[i].iter().map(|(n, t)| (n.ln(), t.ln())).collect();
+                let logs: Vec<(f64, f64)> =
+                    by_method[i].iter().map(|(n, t)| (n.ln(), t.ln())).collect();
                 let lin: Vec<(f64, f64)> = by_method[i].iter().map(|(n, t)| (n.ln(), *t)).collect();
                 println!(
                     "  {m}: time ∝ triangles^{:.2}; +{:.2} ms per ×e triangles (logarithmic growth shows as a small exponent)",
