@@ -29,20 +29,8 @@ fn settings(w: u32, h: u32, spp: u32, seed: u32) -> RenderSettings {
     }
 }
 
-/// Mean squared difference over all channels of both eyes and the standard
-/// error of that mean (from the per-pixel spread of squared differences).
 fn diff_stats(a: &StereoFrame, b: &StereoFrame) -> (f64, f64) {
-    let d2: Vec<f64> = a
-        .eyes
-        .iter()
-        .zip(&b.eyes)
-        .flat_map(|(ea, eb)| ea.radiance.iter().zip(&eb.radiance))
-        .flat_map(|(x, y)| (0..3).map(move |c| ((x[c] - y[c]) as f64).powi(2)))
-        .collect();
-    let n = d2.len() as f64;
-    let mean = d2.iter().sum::<f64>() / n;
-    let var = d2.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0);
-    (mean, (var / n).sqrt())
+    mean_and_standard_error(&squared_errors(a, b))
 }
 
 fn assert_finite_non_negative(f: &StereoFrame, what: &str) {

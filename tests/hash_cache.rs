@@ -322,19 +322,7 @@ fn static_view_converges_towards_the_reference() {
     let s = session(&ctx, shipped("hairball"), RtChoice::Software);
     let (w, h) = (32, 24);
     let cam = s.camera(&CameraSelect::Default, w, h, None, None).unwrap();
-    let reference = render(
-        &s,
-        "reference",
-        cam,
-        &RenderSettings {
-            width: w,
-            height: h,
-            spp: 1024,
-            max_bounces: 2,
-            seed: 99,
-            ..Default::default()
-        },
-    );
+    let reference = reference_frame(&s, cam, w, h, 1024);
     let mut m = hash_method(&s, &settings(w, h, HashCacheSettings::default()));
     let mut points = Vec::new();
     for f in 0..48u32 {
@@ -347,16 +335,7 @@ fn static_view_converges_towards_the_reference() {
             .unwrap();
         assert_finite_non_negative(&fr, "cornell");
         if [0, 7, 47].contains(&f) {
-            let d2: Vec<f64> = fr
-                .eyes
-                .iter()
-                .zip(&reference.eyes)
-                .flat_map(|(p, q)| p.radiance.iter().zip(&q.radiance))
-                .flat_map(|(p, q)| (0..3).map(move |k| ((p[k] - q[k]) as f64).powi(2)))
-                .collect();
-            let k = d2.len() as f64;
-            let mean = d2.iter().sum::<f64>() / k;
-            let se = (d2.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (k - 1.0) / k).sqrt();
+            let (mean, se) = mean_and_standard_error(&squared_errors(&fr, &reference));
             eprintln!(
                 "frame {}: MSE {mean:.4e} ± {se:.1e}, {:?}",
                 f + 1,

@@ -380,20 +380,7 @@ fn static_view_converges_towards_the_reference() {
     let s = session(&ctx, shipped("cornell"), RtChoice::Software);
     let (w, h) = (32, 24);
     let cam = s.camera(&CameraSelect::Default, w, h, None, None).unwrap();
-    let reference = render(
-        &s,
-        "reference",
-        cam,
-        &RenderSettings {
-            width: w,
-            height: h,
-            spp: 1024,
-            max_bounces: 2,
-            seed: 99,
-            all_features: false,
-            ..Default::default()
-        },
-    );
+    let reference = reference_frame(&s, cam, w, h, 1024);
     let mut m = cache_method(&s, &settings(w, h, SampleCacheSettings::default()));
     let mut points = Vec::new(); // (mean shading count, MSE, standard error)
     for f in 0..64 {
@@ -418,16 +405,7 @@ fn static_view_converges_towards_the_reference() {
                     }
                 }
             }
-            let d2: Vec<f64> = fr
-                .eyes
-                .iter()
-                .zip(&reference.eyes)
-                .flat_map(|(p, q)| p.radiance.iter().zip(&q.radiance))
-                .flat_map(|(p, q)| (0..3).map(move |k| ((p[k] - q[k]) as f64).powi(2)))
-                .collect();
-            let k = d2.len() as f64;
-            let mean = d2.iter().sum::<f64>() / k;
-            let se = (d2.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (k - 1.0) / k).sqrt();
+            let (mean, se) = mean_and_standard_error(&squared_errors(&fr, &reference));
             eprintln!(
                 "frame {}: mean shading count {:.2}, MSE {mean:.4e} ± {se:.1e}",
                 f + 1,

@@ -223,3 +223,40 @@ pub fn turning_head(
         + start.head.orientation * Vec3::new(drift_per_frame * frame as f32, 0.0, 0.0);
     c
 }
+
+/// A high-spp `reference` render of both eyes (the target of convergence tests).
+pub fn reference_frame(
+    s: &Session,
+    camera: StereoCamera,
+    width: u32,
+    height: u32,
+    spp: u32,
+) -> StereoFrame {
+    let settings = RenderSettings {
+        width,
+        height,
+        spp,
+        max_bounces: 2,
+        seed: 99,
+        ..Default::default()
+    };
+    render(s, "reference", camera, &settings)
+}
+
+/// Per-pixel, per-channel squared differences of two stereo frames' radiance.
+pub fn squared_errors(a: &StereoFrame, b: &StereoFrame) -> Vec<f64> {
+    a.eyes
+        .iter()
+        .zip(&b.eyes)
+        .flat_map(|(p, q)| p.radiance.iter().zip(&q.radiance))
+        .flat_map(|(p, q)| (0..3).map(move |k| ((p[k] - q[k]) as f64).powi(2)))
+        .collect()
+}
+
+/// Mean of `v` and the standard error of that mean.
+pub fn mean_and_standard_error(v: &[f64]) -> (f64, f64) {
+    let k = v.len() as f64;
+    let mean = v.iter().sum::<f64>() / k;
+    let se = (v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (k - 1.0) / k).sqrt();
+    (mean, se)
+}
