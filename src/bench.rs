@@ -74,7 +74,7 @@ pub fn bench_rays(
         4,
         &spec,
     )?;
-    let params = FrameParams::new(frame, width, height, 1);
+    let params = FrameParams::new(frame, width, height, 1, session.scene_gpu.origin);
     let groups = [width.div_ceil(8), height.div_ceil(8), 2];
     let sets = [&session.scene_gpu.set, &set];
     let mut rec = Recorder::new(ctx, 2 + 2 * repeats)?;
@@ -296,6 +296,7 @@ fn plain_scatter_ms(
             w,
             h,
             1,
+            session.scene_gpu.origin,
         );
         let mut rec = Recorder::new(ctx, 3)?;
         rec.pass("params")

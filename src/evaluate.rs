@@ -36,7 +36,7 @@ impl ReferenceCache {
             "v1|{}|{}|{:?}|{:?}|{:?}|{}|{}|{}x{}|spp{}|b{}|seed{}|frame{}|{}",
             session.scene.source.display(),
             session.scene_gpu.triangle_count,
-            cam.head.position.to_array().map(f32::to_bits),
+            cam.world_position().to_array().map(f64::to_bits),
             cam.head.orientation.to_array().map(f32::to_bits),
             [cam.ipd, cam.yfov, cam.aspect].map(f32::to_bits),
             session.scene.lights.len(),

@@ -40,13 +40,17 @@ struct GpuArgs {
 }
 
 impl GpuArgs {
-    fn options(&self) -> GpuOptions {
+    /// GPU options from the flags and the environment (watchdog, faults).
+    fn options(&self) -> Result<GpuOptions> {
         GpuOptions {
             validate: self.validate || std::env::var_os("STEREOCACHE_VALIDATE").is_some(),
             sync_validation: self.sync_validation,
             device: self.device.clone(),
             want_ray_query: true,
+            ..Default::default()
         }
+        .with_env()
+        .map_err(|e| anyhow!(e))
     }
 }
 
@@ -77,7 +81,7 @@ impl SceneArgs {
         for w in &scene.warnings {
             eprintln!("warning: {w}");
         }
-        Ok(Session::new(&gpu.options(), scene, rt)?)
+        Ok(Session::new(&gpu.options()?, scene, rt)?)
     }
 }
 
@@ -723,7 +727,7 @@ fn report_validation(ctx: &GpuContext) -> Result<()> {
 fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Info { gpu, json } => {
-            let ctx = GpuContext::new(&gpu.options())?;
+            let ctx = GpuContext::new(&gpu.options()?)?;
             let c = &ctx.caps;
             if json {
                 println!("{}", serde_json::to_string_pretty(c)?);
@@ -810,7 +814,7 @@ fn run(cli: Cli) -> Result<()> {
                 "triangles": session.scene_gpu.triangle_count,
                 "method": m.name(),
                 "settings": settings,
-                "camera": { "position": cam.head.position.to_array(), "orientation": cam.head.orientation.to_array(), "ipd": cam.ipd, "yfov_deg": cam.yfov.to_degrees() },
+                "camera": { "position": cam.world_position().to_array(), "orientation": cam.head.orientation.to_array(), "ipd": cam.ipd, "yfov_deg": cam.yfov.to_degrees() },
                 "gpu_ms": frame.stats.gpu_ms(),
                 "passes": frame.stats.passes,
                 "rays": frame.stats.rays,
@@ -847,7 +851,7 @@ fn run(cli: Cli) -> Result<()> {
                 .parse()
                 .map_err(|e| anyhow!("bad --lighting: {e}"))?;
             let loaded = Session::load_scene(&scene, &lighting)?;
-            let ctx = std::sync::Arc::new(GpuContext::new(&gpu.options())?);
+            let ctx = std::sync::Arc::new(GpuContext::new(&gpu.options()?)?);
             println!(
                 "device: {} ({}), driver {} {}",
                 ctx.caps.name, ctx.caps.device_type, ctx.caps.driver_name, ctx.caps.driver_info
@@ -928,7 +932,7 @@ fn run(cli: Cli) -> Result<()> {
                 bail!("bad --frames 0");
             }
             let trace_data = PoseTrace::read_csv(&trace)?;
-            let ctx = std::sync::Arc::new(GpuContext::new(&gpu.options())?);
+            let ctx = std::sync::Arc::new(GpuContext::new(&gpu.options()?)?);
             let c = &ctx.caps;
             println!(
                 "device: {} ({}), driver {} {}",

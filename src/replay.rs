@@ -153,9 +153,14 @@ pub fn trace_cameras(
     };
     let base = session.camera(select, width, height, ipd, yfov)?;
     let stage = Stage::at_camera(base.head.to_mat4(), &first.pose);
+    // The stage works relative to the base camera's anchor (f64), so a
+    // camera far from the origin keeps the trace's millimetre motion.
     Ok(samples
         .iter()
-        .map(|s| stage.eye_camera(s, base.yfov, base.aspect, base.ipd))
+        .map(|s| StereoCamera {
+            anchor: base.anchor,
+            ..stage.eye_camera(s, base.yfov, base.aspect, base.ipd)
+        })
         .collect())
 }
 
@@ -183,7 +188,7 @@ impl From<RayCounts> for RayRecord {
 #[derive(Clone, Debug, Serialize)]
 pub struct CameraRecord {
     /// Eye midpoint, metres.
-    pub position: [f32; 3],
+    pub position: [f64; 3],
     /// Head orientation as a unit quaternion `[x, y, z, w]`.
     pub orientation: [f32; 4],
     /// Interpupillary distance, metres.
@@ -224,7 +229,7 @@ impl FrameRecord {
             counters: stats.counters.clone(),
             metrics: BTreeMap::new(),
             camera: CameraRecord {
-                position: camera.head.position.to_array(),
+                position: camera.world_position().to_array(),
                 orientation: camera.head.orientation.to_array(),
                 ipd: camera.ipd,
             },

@@ -119,6 +119,10 @@ impl Session {
                 }
             }
         };
+        // Every session camera keeps its world position in the f64 anchor
+        // and starts with the head at 0 relative to it (see StereoCamera).
+        cam.anchor = cam.world_position();
+        cam.head.position = Vec3::ZERO;
         cam.ipd = ipd.unwrap_or(DEFAULT_IPD);
         if let Some(f) = yfov_override {
             cam.yfov = f;

@@ -154,9 +154,9 @@ fn replay_writes_frames_at_the_cadence_and_one_record_per_frame() {
         assert_eq!(rays["total"].as_u64().unwrap(), kinds);
         ray_total += kinds;
         assert!(r["counters"].is_object());
-        let pos: Vec<f32> = serde_json::from_value(r["camera"]["position"].clone()).unwrap();
+        let pos: Vec<f64> = serde_json::from_value(r["camera"]["position"].clone()).unwrap();
         let q: Vec<f32> = serde_json::from_value(r["camera"]["orientation"].clone()).unwrap();
-        assert_eq!(pos, cams[i].head.position.to_array());
+        assert_eq!(pos, cams[i].world_position().to_array());
         assert_eq!(q, cams[i].head.orientation.to_array());
         assert_eq!(r["camera"]["ipd"].as_f64().unwrap() as f32, DEFAULT_IPD);
     }
@@ -294,6 +294,7 @@ fn frame_zero_is_the_scene_camera_and_later_frames_follow_the_trace() {
         let scene_cam: StereoCamera = s.camera(&select, W, H, None, None).unwrap();
         let cams = trace_cameras(&s, &trace, 90.0, W, H, &select, None, None).unwrap();
         assert_eq!(cams.len(), samples.len());
+        assert_eq!(cams[0].anchor, scene_cam.anchor, "{select:?}: anchor");
         assert!(
             close_pose(&cams[0].head, &scene_cam.head, 1e-5),
             "{select:?}: frame 0 {:?} != camera {:?}",

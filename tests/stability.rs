@@ -12,7 +12,7 @@ use stereocache::methods::sample_cache::{
 use stereocache::methods::{FrameInput, Method, RenderSettings, StereoFrame};
 use stereocache::rt::{RtChoice, SoftwareBvh};
 use stereocache::scene::{Environment, Material, Mesh, Scene};
-use stereocache::session::CameraSelect;
+use stereocache::session::{CameraSelect, Session};
 
 /// `world' = scale · world + offset` applied to every instance, light and camera.
 fn transformed(mut s: Scene, scale: f32, offset: Vec3) -> Scene {
@@ -34,7 +34,8 @@ fn transformed(mut s: Scene, scale: f32, offset: Vec3) -> Scene {
 
 fn camera_transformed(c: &StereoCamera, scale: f32, offset: Vec3) -> StereoCamera {
     let mut c = *c;
-    c.head.position = c.head.position * scale + offset;
+    c.anchor = c.anchor * scale as f64 + offset.as_dvec3();
+    c.head.position *= scale;
     c.ipd *= scale;
     c.znear *= scale;
     c
@@ -70,15 +71,13 @@ fn snapshot_finite(s: &CacheSnapshot) -> bool {
 }
 
 /// Fraction of pixels (both eyes) where software and query backends agree
-/// on the primary hit's instance and primitive.
+/// on the primary hit's instance and primitive, and the number of hits.
 fn backend_agreement(
-    ctx: &std::sync::Arc<stereocache::gpu::GpuContext>,
-    scene: &Scene,
+    sw: &Session,
+    rq: Option<&Session>,
     cam: &StereoCamera,
 ) -> Option<(f64, usize)> {
-    if !ctx.ray_query_enabled() {
-        return None;
-    }
+    let rq = rq?;
     let st = RenderSettings {
         width: 48,
         height: 36,
@@ -88,11 +87,9 @@ fn backend_agreement(
         all_features: false,
         ..Default::default()
     };
-    let sw = session(ctx, scene.clone(), RtChoice::Software);
-    let rq = session(ctx, scene.clone(), RtChoice::Query);
     let (a, b) = (
-        render(&sw, "reference", *cam, &st),
-        render(&rq, "reference", *cam, &st),
+        render(sw, "reference", *cam, &st),
+        render(rq, "reference", *cam, &st),
     );
     let (mut same, mut n, mut hits) = (0, 0, 0);
     for e in 0..2 {
@@ -107,23 +104,16 @@ fn backend_agreement(
 
 /// Stale visible samples (a fresh CPU ray does not reach the stored hit) and
 /// visible samples, accumulated over frames 1.. of a moving run; plus the
-/// number of covered pixels left without a visible sample.
+/// number of covered pixels left without a visible sample (of `pixels`).
 struct CacheRun {
     visible: usize,
     stale: usize,
     uncovered: usize,
+    pixels: usize,
     finite: bool,
 }
 
-fn cache_run(
-    scene: &Scene,
-    cam0: &StereoCamera,
-    frames: u32,
-    drift: f32,
-    rel_eps: f32,
-) -> CacheRun {
-    let ctx = context();
-    let s = session(&ctx, scene.clone(), RtChoice::Software);
+fn cache_run(s: &Session, cam0: &StereoCamera, frames: u32, drift: f32, rel_eps: f32) -> CacheRun {
     let (w, h) = (32, 24);
     let st = settings(w, h, SampleCacheSettings::default());
     let mut m = SampleCache::new(&s.ctx, &s.scene_gpu, &s.scene.environment, &st).unwrap();
@@ -132,6 +122,7 @@ fn cache_run(
         visible: 0,
         stale: 0,
         uncovered: 0,
+        pixels: 0,
         finite: true,
     };
     let mut prev = None;
@@ -152,7 +143,10 @@ fn cache_run(
         }
         for (e, eye) in Eye::BOTH.iter().enumerate() {
             let v = cam.eye(*eye);
+            // Rays in the BVH's frame: the eye relative to the render origin.
+            let eye_pos = bvh.to_local(v.world);
             for pixel in 0..snap.npix() {
+                r.pixels += 1;
                 let vis = snap.visible(snap.mask(e, pixel));
                 if vis == 0 && fully_covered(&bvh, &v, pixel, w, h) {
                     r.uncovered += 1;
@@ -163,95 +157,166 @@ fn cache_run(
                     bits &= bits - 1;
                     let fh = snap.first_hits[snap.slot(e, slot, pixel)];
                     let p = stored_position(&bvh, fh);
-                    let d = (p - v.position).normalize();
+                    let d = (p - eye_pos).normalize();
                     r.visible += 1;
-                    match bvh.closest_hit(v.position, d, 0.0, 1e30) {
+                    match bvh.closest_hit(eye_pos, d, 0.0, 1e30) {
                         Some(hit) if hit.instance == fh[3] && hit.prim == fh[2] => {}
-                        Some(hit)
-                            if (hit.t - (p - v.position).length()).abs() <= rel_eps * hit.t => {}
+                        Some(hit) if (hit.t - (p - eye_pos).length()).abs() <= rel_eps * hit.t => {}
                         _ => r.stale += 1,
                     }
                 }
             }
         }
     }
-    assert_no_validation_messages(&ctx);
     r
 }
 
-/// Runs both checks for the Cornell box under `scale · x + offset`; returns
-/// (backend agreement, stale fraction, uncovered pixels, finite).
-fn cornell_under(scale: f32, offset: Vec3) -> (Option<f64>, f64, usize, bool) {
-    let base = shipped("cornell");
+/// Mean per-pixel squared error (and its standard error) of the sample
+/// cache after 8 frames of a still view against the scene's own 128 spp
+/// reference.
+fn error_against_reference(s: &Session, cam: &StereoCamera) -> (f64, f64) {
+    let (w, h) = (32, 24);
+    let reference = reference_frame(s, *cam, w, h, 128);
+    let mut st = settings(w, h, SampleCacheSettings::default());
+    st.max_bounces = 2;
+    let mut m = s.method("sample-cache", &st).unwrap();
+    let mut last = None;
+    for f in 0..8 {
+        last = Some(
+            m.render_frame(&FrameInput {
+                index: f,
+                camera: *cam,
+                prev_camera: Some(*cam),
+            })
+            .unwrap(),
+        );
+    }
+    mean_and_standard_error(&squared_errors(&last.unwrap(), &reference))
+}
+
+/// Everything measured for one scene under `scale · x + offset`.
+struct Stress {
+    agree: Option<f64>,
+    stale: f64,
+    uncovered: f64,
+    finite: bool,
+    mse: (f64, f64),
+}
+
+fn measure(base: &Scene, cam0: &StereoCamera, scale: f32, offset: Vec3) -> Stress {
     let ctx = context();
-    let s0 = session(&ctx, base.clone(), RtChoice::Software);
-    let cam0 = s0
-        .camera(&CameraSelect::Default, 32, 24, None, None)
-        .unwrap();
-    drop(s0);
-    let scene = transformed(base, scale, offset);
-    let cam = camera_transformed(&cam0, scale, offset);
-    let agree = backend_agreement(&ctx, &scene, &cam).map(|(a, hits)| {
+    let scene = transformed(base.clone(), scale, offset);
+    let cam = camera_transformed(cam0, scale, offset);
+    let sw = session(&ctx, scene.clone(), RtChoice::Software);
+    let rq = ctx
+        .ray_query_enabled()
+        .then(|| session(&ctx, scene, RtChoice::Query));
+    let agree = backend_agreement(&sw, rq.as_ref(), &cam).map(|(a, hits)| {
         assert!(hits > 500, "camera sees nothing ({hits} hits)");
         a
     });
+    let r = cache_run(&sw, &cam, 5, 0.004 * scale, 1e-3);
+    let mse = error_against_reference(&sw, &cam);
     assert_no_validation_messages(&ctx);
-    let r = cache_run(&scene, &cam, 5, 0.004 * scale, 1e-3);
-    let stale = r.stale as f64 / r.visible.max(1) as f64;
+    let m = Stress {
+        agree,
+        stale: r.stale as f64 / r.visible.max(1) as f64,
+        uncovered: r.uncovered as f64 / r.pixels.max(1) as f64,
+        finite: r.finite,
+        mse,
+    };
     eprintln!(
-        "cornell scale {scale:e} offset {:e}: backends agree {:?}, stale {}/{} = {stale:.4}, uncovered {}, finite {}",
-        offset.x, agree, r.stale, r.visible, r.uncovered, r.finite
+        "{} scale {scale:e} offset {:e} (origin {}): backends agree {:?}, stale {}/{} = {:.4}, uncovered {:.4}, finite {}, MSE {:.4e} ± {:.1e}",
+        base.source.display(),
+        offset.x,
+        sw.scene_gpu.origin,
+        m.agree,
+        r.stale,
+        r.visible,
+        m.stale,
+        m.uncovered,
+        m.finite,
+        m.mse.0,
+        m.mse.1
     );
-    (agree, stale, r.uncovered, r.finite)
+    m
 }
 
-fn assert_bounds(what: &str, (agree, stale, uncovered, finite): (Option<f64>, f64, usize, bool)) {
-    assert!(finite, "{what}: non-finite output or cache radiance");
-    if let Some(a) = agree {
+/// The bounds of tests/backends.rs and tests/sample_cache.rs, and the same
+/// error against the scene's own reference as at the origin: the two means
+/// may differ by 4 standard errors of their difference (each from its
+/// pixel count), no more.
+fn assert_like_origin(what: &str, m: &Stress, at_origin: &Stress, uncovered_budget: f64) {
+    assert!(m.finite, "{what}: non-finite output or cache radiance");
+    if let Some(a) = m.agree {
         assert!(
             a >= 0.99,
             "{what}: backends agree on {:.2} % of pixels",
             100.0 * a
         );
     }
-    // The same budget as tests/sample_cache.rs on the Cornell box.
-    assert!(stale <= 0.01, "{what}: stale fraction {stale:.4}");
-    assert_eq!(
-        uncovered, 0,
-        "{what}: covered pixels without a visible sample"
+    assert!(m.stale <= 0.01, "{what}: stale fraction {:.4}", m.stale);
+    assert!(
+        m.uncovered <= uncovered_budget,
+        "{what}: {:.4} of pixels covered but without a visible sample",
+        m.uncovered
+    );
+    let (e, se) = m.mse;
+    let (e0, se0) = at_origin.mse;
+    let bound = 4.0 * (se * se + se0 * se0).sqrt();
+    assert!(
+        (e - e0).abs() <= bound,
+        "{what}: MSE {e:.4e} against its reference, {e0:.4e} at the origin (bound {bound:.1e})"
     );
 }
 
-#[test]
-fn cornell_far_from_origin_1e3() {
-    assert_bounds("offset 1e3", cornell_under(1.0, Vec3::new(1e3, 1e3, -1e3)));
-}
-
-/// Offsets where f32 world space runs out of precision: measured, reported
-/// in docs/ROBUSTNESS.md, only finiteness asserted. At 1e4 the backends agree
-/// on 98.5 % of pixels (< 99 %), at 1e5 on 91.8 % with 3.2 % stale samples;
-/// at 1e6 the debug build of obvhs panics (CWBVH deeper than its 32-entry
-/// traversal stack), so it is not run here.
-#[test]
-#[ignore]
-fn cornell_far_from_origin_breakdown() {
-    for o in [1e4f32, 1e5] {
-        let r = cornell_under(1.0, Vec3::new(o, o, -o));
-        assert!(r.3, "offset {o:e}: non-finite values");
+/// The scene translated by (o, o, −o) for o = 1e3, 1e5, 1e6 m and scaled by
+/// 1e-3 and 1e4, against the same scene at the origin.
+fn stress_scene(name: &str, uncovered_budget: f64) {
+    let base = shipped(name);
+    let cam0 = {
+        let ctx = context();
+        let s0 = session(&ctx, base.clone(), RtChoice::Software);
+        s0.camera(&CameraSelect::Default, 32, 24, None, None)
+            .unwrap()
+    };
+    let at_origin = measure(&base, &cam0, 1.0, Vec3::ZERO);
+    assert_like_origin(
+        &format!("{name} at the origin"),
+        &at_origin,
+        &at_origin,
+        uncovered_budget,
+    );
+    for o in [1e3f32, 1e5, 1e6] {
+        let m = measure(&base, &cam0, 1.0, Vec3::new(o, o, -o));
+        assert_like_origin(
+            &format!("{name} offset {o:e}"),
+            &m,
+            &at_origin,
+            uncovered_budget,
+        );
+    }
+    for k in [1e-3f32, 1e4] {
+        let m = measure(&base, &cam0, k, Vec3::ZERO);
+        assert_like_origin(
+            &format!("{name} scale {k:e}"),
+            &m,
+            &at_origin,
+            uncovered_budget,
+        );
     }
 }
+
 #[test]
-fn cornell_scaled_down_1e_3() {
-    assert_bounds("scale 1e-3", cornell_under(1e-3, Vec3::ZERO));
+fn cornell_far_from_origin_and_scaled() {
+    stress_scene("cornell", 0.0);
 }
 
-/// Fails in debug builds: obvhs's CWBVH validation (debug assertions only)
-/// checks that primitives fit their parent with an absolute 1e-5 tolerance,
-/// below f32 rounding at coordinates of ~1e4. See docs/ROBUSTNESS.md.
+/// Hairball: 25 probe rays cannot prove every pixel between strands covered,
+/// so up to 1 % of pixels may lack a visible sample (tests/sample_cache.rs).
 #[test]
-#[ignore]
-fn cornell_scaled_up_1e4() {
-    assert_bounds("scale 1e4", cornell_under(1e4, Vec3::ZERO));
+fn hairball_far_from_origin_and_scaled() {
+    stress_scene("hairball", 0.01);
 }
 
 /// A large plane seen from 1 m above with the view level: rows near the

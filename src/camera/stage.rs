@@ -88,6 +88,7 @@ impl Stage {
         let head = self.world_pose(&sample.pose);
         StereoCamera {
             head,
+            anchor: glam::DVec3::ZERO,
             ipd: sample.ipd.unwrap_or(default_ipd),
             yfov,
             aspect,

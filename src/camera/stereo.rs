@@ -18,7 +18,7 @@
 //!   top-left pixel, `+x` right, `+y` down; pixel `(i, j)` has its centre at
 //!   `(i + 0.5, j + 0.5)`.
 
-use glam::{Mat4, Quat, UVec2, Vec2, Vec3};
+use glam::{DVec3, Mat4, Quat, UVec2, Vec2, Vec3};
 use serde::{Deserialize, Serialize};
 
 use super::pose::HeadPose;
@@ -70,8 +70,12 @@ impl Eye {
 /// A head-mounted stereo camera in world space.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct StereoCamera {
-    /// Head (eye midpoint) pose in world space.
+    /// Head (eye midpoint) pose, its position relative to `anchor`.
     pub head: HeadPose,
+    /// The world point the head position is relative to, in f64: a camera
+    /// placed far from the origin keeps millimetre head motion and IPD
+    /// (an f32 world position at 1e6 m is quantized to 6 cm).
+    pub anchor: DVec3,
     /// Interpupillary distance, metres.
     pub ipd: f32,
     /// Vertical field of view of each eye, radians.
@@ -87,6 +91,7 @@ impl StereoCamera {
     pub fn new(head: HeadPose, yfov: f32, aspect: f32) -> Self {
         Self {
             head,
+            anchor: DVec3::ZERO,
             ipd: DEFAULT_IPD,
             yfov,
             aspect,
@@ -96,19 +101,30 @@ impl StereoCamera {
 
     /// A stereo camera whose head is a scene camera node: `camera_to_world`
     /// is the node's world transform (glTF camera looking down its −Z). Scale
-    /// is dropped; the eye midpoint is the node's origin.
+    /// is dropped; the eye midpoint is the node's origin, which becomes the
+    /// anchor (the head starts at position 0 relative to it).
     pub fn from_scene_camera(camera_to_world: Mat4, yfov: f32, aspect: f32) -> Self {
-        Self::new(HeadPose::from_mat4(camera_to_world), yfov, aspect)
+        let pose = HeadPose::from_mat4(camera_to_world);
+        let mut c = Self::new(HeadPose::new(Vec3::ZERO, pose.orientation), yfov, aspect);
+        c.anchor = pose.position.as_dvec3();
+        c
+    }
+
+    /// The head (eye midpoint) position in world space.
+    pub fn world_position(&self) -> DVec3 {
+        self.anchor + self.head.position.as_dvec3()
     }
 
     /// The view of one eye.
     pub fn eye(&self, eye: Eye) -> EyeView {
         let offset = Vec3::new(eye.sign() * 0.5 * self.ipd, 0.0, 0.0);
-        let position = self.head.transform_point(offset);
+        let world = self.anchor + self.head.transform_point(offset).as_dvec3();
+        let position = world.as_vec3();
         let orientation = self.head.orientation;
         EyeView {
             eye,
             position,
+            world,
             orientation,
             world_from_eye: Mat4::from_rotation_translation(orientation, position),
             yfov: self.yfov,
@@ -127,8 +143,11 @@ impl StereoCamera {
 pub struct EyeView {
     /// Which eye.
     pub eye: Eye,
-    /// Eye position in world space.
+    /// Eye position in world space (f32: see `world` far from the origin).
     pub position: Vec3,
+    /// Eye position in world space in f64, for differences of positions far
+    /// from the origin (`position` is this rounded to f32).
+    pub world: DVec3,
     /// Eye orientation (eye space → world space), the head's orientation.
     pub orientation: Quat,
     /// Rigid world-from-eye matrix.
@@ -173,7 +192,14 @@ impl EyeView {
     /// decides what off-screen means. `view_depth` is the distance along the
     /// eye's −Z (not along the ray), the inverse of [`Self::ray_direction`].
     pub fn project(&self, world: Vec3, size: UVec2) -> Option<(Vec2, f32)> {
-        let p = self.orientation.conjugate() * (world - self.position);
+        self.project_offset(world - self.position, size)
+    }
+
+    /// `project` of the point `self.position + offset`: callers that know
+    /// the offset more precisely than the world point (far from the origin)
+    /// pass it directly.
+    pub fn project_offset(&self, offset: Vec3, size: UVec2) -> Option<(Vec2, f32)> {
+        let p = self.orientation.conjugate() * offset;
         let depth = -p.z;
         if !(depth > 0.0 && depth.is_finite()) {
             return None;
@@ -248,6 +274,20 @@ mod tests {
         }
     }
 
+    /// Far from the origin the f64 anchor keeps the IPD and small head
+    /// motion that an f32 world position (spacing 6 cm at 1e6 m) would lose.
+    #[test]
+    fn anchored_eyes_keep_their_separation_far_from_the_origin() {
+        let mut c = cam();
+        c.anchor = DVec3::new(1e6, 1e6, -1e6);
+        c.head.position += Vec3::new(0.001, 0.0, 0.0);
+        let [l, r] = c.eyes();
+        let ipd = (r.world - l.world).length();
+        assert!((ipd - c.ipd as f64).abs() < 1e-6, "{ipd}");
+        let mid = 0.5 * (l.world + r.world);
+        assert!((mid - c.world_position()).length() < 1e-6);
+    }
+
     #[test]
     fn world_from_eye_and_eye_from_world_are_inverse() {
         let v = cam().eye(Eye::Right);
@@ -260,7 +300,10 @@ mod tests {
         let m =
             Mat4::from_rotation_translation(Quat::from_rotation_y(1.0), Vec3::new(0.0, 1.5, 0.0));
         let c = StereoCamera::from_scene_camera(m, 1.0, 1.0);
-        assert!(c.head.position.abs_diff_eq(Vec3::new(0.0, 1.5, 0.0), 1e-6));
+        assert!(c
+            .world_position()
+            .abs_diff_eq(DVec3::new(0.0, 1.5, 0.0), 1e-6));
+        assert_eq!(c.head.position, Vec3::ZERO);
         assert!(c
             .head
             .forward()

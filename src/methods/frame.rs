@@ -3,6 +3,7 @@
 use crate::camera::{Eye, EyeView, StereoCamera};
 use crate::gpu::PassTiming;
 use bytemuck::{Pod, Zeroable};
+use glam::DVec3;
 use serde::Serialize;
 
 /// One frame to render: its index along the trace and the stereo camera
@@ -83,13 +84,16 @@ pub struct EyeGpu {
 }
 
 impl EyeGpu {
-    pub fn from_view(v: &EyeView) -> Self {
+    /// The eye with its position relative to the render origin
+    /// (`SceneGpu::origin`, subtracted in f64).
+    pub fn from_view(v: &EyeView, origin: DVec3) -> Self {
         let t = v.tan_half_fov();
+        let p = (v.world - origin).as_vec3();
         let r = v.orientation * glam::Vec3::X;
         let u = v.orientation * glam::Vec3::Y;
         let f = v.orientation * glam::Vec3::NEG_Z;
         EyeGpu {
-            pos_tanx: [v.position.x, v.position.y, v.position.z, t.x],
+            pos_tanx: [p.x, p.y, p.z, t.x],
             right_tany: [r.x, r.y, r.z, t.y],
             up: [u.x, u.y, u.z, 0.0],
             fwd: [f.x, f.y, f.z, 0.0],
@@ -108,12 +112,13 @@ pub struct FrameParams {
 }
 
 impl FrameParams {
-    pub fn new(frame: &FrameInput, width: u32, height: u32, seed: u32) -> Self {
-        let eyes = frame.camera.eyes().map(|v| EyeGpu::from_view(&v));
+    /// `origin`: the scene's render origin (`SceneGpu::origin`).
+    pub fn new(frame: &FrameInput, width: u32, height: u32, seed: u32, origin: DVec3) -> Self {
+        let eyes = frame.camera.eyes().map(|v| EyeGpu::from_view(&v, origin));
         let prev = frame
             .prev_camera
             .as_ref()
-            .map(|c| c.eyes().map(|v| EyeGpu::from_view(&v)))
+            .map(|c| c.eyes().map(|v| EyeGpu::from_view(&v, origin)))
             .unwrap_or(eyes);
         FrameParams {
             eyes,

@@ -153,7 +153,7 @@ impl Reference {
         let (w, h) = (self.settings.width, self.settings.height);
         let spp = self.settings.spp.max(1);
         let chunks = spp.div_ceil(CHUNK);
-        let params = FrameParams::new(input, w, h, self.settings.seed);
+        let params = FrameParams::new(input, w, h, self.settings.seed, self.scene.origin);
         let groups = [w.div_ceil(LOCAL), h.div_ceil(LOCAL), 2];
         let p = self.name;
         rec.pass(&format!("{p}.params"))

@@ -100,8 +100,10 @@ pub fn reproject(
             if cos <= 0.0 {
                 continue;
             }
-            let world = dst_view.position + dir * (d / cos);
-            let Some((p, d_s)) = src_view.project(world, size) else {
+            // The point relative to the source eye; the eyes' offset is taken
+            // in f64 so views far from the origin keep their precision.
+            let eyes = (dst_view.world - src_view.world).as_vec3();
+            let Some((p, d_s)) = src_view.project_offset(eyes + dir * (d / cos), size) else {
                 continue;
             };
             if !(p.x >= 0.0 && p.y >= 0.0 && p.x <= w as f32 && p.y <= h as f32) {

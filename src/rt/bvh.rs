@@ -3,17 +3,30 @@
 //! are stored in BVH order as (v0, e1, e2) so the GLSL traversal
 //! (shaders/common/rt_software.glsl) reads them without an indirection.
 //! A CPU traversal of the same structure checks the GPU in tests.
+//!
+//! Positions are relative to the scene's render origin (`super::origin`):
+//! triangles are transformed to world space and rebased in f64 before they
+//! become f32, so a scene far from its file's origin keeps its precision.
 
+use super::origin::render_origin;
 use crate::scene::Scene;
-use glam::{Vec3, Vec3A};
+use glam::{DVec3, Vec3, Vec3A};
 use obvhs::cwbvh::{builder::build_cwbvh_from_tris, node::CwBvhNode, CwBvh};
 use obvhs::ray::{Ray, RayHit};
 use obvhs::triangle::Triangle;
 use obvhs::BvhBuildParams;
 use std::time::Duration;
 
+/// Depth of the traversal stack in shaders/common/rt_software.glsl
+/// (`CWBVH_STACK_SIZE`); a deeper CWBVH could drop nodes there.
+pub const TRAVERSAL_STACK_SIZE: u32 = 32;
+
 pub struct SoftwareBvh {
     pub cwbvh: CwBvh,
+    /// The render origin every position below is relative to.
+    pub origin: DVec3,
+    /// Depth of the deepest internal node (root = 0).
+    pub max_depth: u32,
     /// (instance, primitive within its mesh) per leaf slot.
     pub tri_ref: Vec<[u32; 2]>,
     /// 3 × vec4 per leaf slot: v0, e1 = v1 − v0, e2 = v2 − v0 (w unused).
@@ -31,13 +44,16 @@ pub struct CpuHit {
 
 impl SoftwareBvh {
     pub fn build(scene: &Scene) -> SoftwareBvh {
+        let origin = render_origin(scene);
         let mut tris = Vec::with_capacity(scene.instanced_triangle_count());
         let mut refs = Vec::with_capacity(tris.capacity());
         for (ii, inst) in scene.instances.iter().enumerate() {
             let mesh = &scene.meshes[inst.mesh as usize];
             for prim in 0..mesh.triangle_count() {
                 let [a, b, c] = mesh.triangle(prim);
-                let t = |p: Vec3| Vec3A::from(inst.transform.transform_point3(p));
+                let m = inst.transform.as_dmat4();
+                let t =
+                    |p: Vec3| Vec3A::from((m.transform_point3(p.as_dvec3()) - origin).as_vec3());
                 tris.push(Triangle {
                     v0: t(a),
                     v1: t(b),
@@ -59,18 +75,27 @@ impl SoftwareBvh {
             tri_verts.push([e1.x, e1.y, e1.z, 0.0]);
             tri_verts.push([e2.x, e2.y, e2.z, 0.0]);
         }
+        let max_depth = max_depth(&cwbvh);
         SoftwareBvh {
             cwbvh,
+            origin,
+            max_depth,
             tri_ref,
             tri_verts,
         }
+    }
+
+    /// A world point in this structure's frame (relative to `origin`).
+    pub fn to_local(&self, world: DVec3) -> Vec3 {
+        (world - self.origin).as_vec3()
     }
 
     pub fn nodes(&self) -> &[CwBvhNode] {
         &self.cwbvh.nodes
     }
 
-    /// Closest hit on the CPU with the same Möller–Trumbore test as the GLSL
+    /// Closest hit on the CPU, for a ray in this structure's frame (see
+    /// `to_local`), with the same Möller–Trumbore test as the GLSL
     /// traversal (no alpha test: used on opaque scenes).
     pub fn closest_hit(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> Option<CpuHit> {
         if self.cwbvh.nodes.is_empty() {
@@ -123,4 +148,28 @@ pub fn moller_trumbore(o: Vec3, d: Vec3, v0: Vec3, e1: Vec3, e2: Vec3) -> Option
         return None;
     }
     Some((e2.dot(qv) * inv, u, v))
+}
+
+/// Depth of the deepest internal node, walked iteratively (obvhs's own check
+/// runs only in its debug builds).
+fn max_depth(bvh: &CwBvh) -> u32 {
+    let mut deepest = 0;
+    let mut stack = vec![(0usize, 0u32)];
+    if bvh.nodes.is_empty() {
+        return 0;
+    }
+    while let Some((i, depth)) = stack.pop() {
+        deepest = deepest.max(depth);
+        let node = &bvh.nodes[i];
+        for ch in 0..8 {
+            let meta = node.child_meta[ch] as u32;
+            if meta == 0 || node.imask & (1 << ch) == 0 {
+                continue;
+            }
+            let slot = (meta & 0b11111) - 24;
+            let rel = (node.imask as u32 & !(u32::MAX << slot)).count_ones();
+            stack.push((node.child_base_idx as usize + rel as usize, depth + 1));
+        }
+    }
+    deepest
 }

@@ -2,11 +2,12 @@
 //! layout in shaders/common/scene.glsl), the ray-tracing structure of the
 //! chosen backend, and the specialization constants the scene implies.
 
-use super::{RtBackend, SoftwareBvh};
+use super::origin::{relative_point, relative_transform, render_origin};
+use super::{RtBackend, SoftwareBvh, TRAVERSAL_STACK_SIZE};
 use crate::gpu::{
     accel::{AccelStructures, BlasInput, TlasInstance},
-    BindingKind, Buffer, DescriptorLayout, DescriptorSet, GpuContext, GpuResult, GpuTexture,
-    Resource, Sampler, SpecConstants,
+    BindingKind, Buffer, DescriptorLayout, DescriptorSet, GpuContext, GpuError, GpuResult,
+    GpuTexture, Resource, Sampler, SpecConstants,
 };
 use crate::scene::preetham::preetham_params;
 use crate::scene::{
@@ -14,7 +15,7 @@ use crate::scene::{
 };
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
-use glam::{Mat4, Vec3};
+use glam::{DVec3, Mat4, Vec3};
 use std::sync::Arc;
 
 /// Specialization constant ids (shaders/common/features.glsl).
@@ -89,6 +90,8 @@ fn env_kind(env: &Option<Environment>) -> u32 {
 
 pub struct SceneGpu {
     pub backend: RtBackend,
+    /// The render origin GPU positions are relative to (rt/origin.rs).
+    pub origin: DVec3,
     pub features: SceneFeatures,
     pub layout: Arc<DescriptorLayout>,
     pub set: DescriptorSet,
@@ -132,11 +135,14 @@ impl SceneGpu {
                 m.triangle_count() as u32,
             ]);
         }
+        // Positions relative to the render origin (rt/origin.rs): instance
+        // transforms, lights and the eyes (FrameParams) are rebased in f64.
+        let origin = render_origin(scene);
         let instances: Vec<InstanceGpu> = scene
             .instances
             .iter()
             .map(|i| InstanceGpu {
-                object_to_world: i.transform.to_cols_array(),
+                object_to_world: relative_transform(i.transform, origin).to_cols_array(),
                 normal_to_world: i.transform.inverse().transpose().to_cols_array(),
                 mesh_pad: [i.mesh, 0, 0, 0],
             })
@@ -213,14 +219,10 @@ impl SceneGpu {
                     }
                 };
                 let d = l.direction.normalize_or(Vec3::NEG_Y);
+                let p = relative_point(l.position, origin);
                 LightGpu {
                     radiant_kind: [l.radiant.x, l.radiant.y, l.radiant.z, kind],
-                    position_range: [
-                        l.position.x,
-                        l.position.y,
-                        l.position.z,
-                        l.range.unwrap_or(0.0),
-                    ],
+                    position_range: [p.x, p.y, p.z, l.range.unwrap_or(0.0)],
                     direction: [d.x, d.y, d.z, cos_radius],
                     cone: [cone[0], cone[1], 0.0, 0.0],
                 }
@@ -312,6 +314,13 @@ impl SceneGpu {
         let (b_nodes, b_ref, b_verts, accel) = match backend {
             RtBackend::Software => {
                 let bvh = SoftwareBvh::build(scene);
+                if bvh.max_depth >= TRAVERSAL_STACK_SIZE {
+                    return Err(GpuError::Unsupported(format!(
+                        "the software BVH of {} is {} levels deep; the GLSL traversal stack holds {TRAVERSAL_STACK_SIZE}",
+                        scene.source.display(),
+                        bvh.max_depth
+                    )));
+                }
                 (
                     Buffer::with_data(ctx, "bvh.nodes", bytemuck::cast_slice(bvh.nodes()), none)?,
                     Buffer::with_data(
@@ -351,7 +360,7 @@ impl SceneGpu {
                     .iter()
                     .enumerate()
                     .map(|(i, inst)| TlasInstance {
-                        transform: row_major_3x4(inst.transform),
+                        transform: row_major_3x4(relative_transform(inst.transform, origin)),
                         custom_index: i as u32,
                         blas: inst.mesh as usize,
                     })
@@ -399,6 +408,7 @@ impl SceneGpu {
         let bytes = ctx.allocated_bytes().saturating_sub(before);
         Ok(SceneGpu {
             backend,
+            origin,
             features,
             layout,
             set,

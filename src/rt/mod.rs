@@ -4,8 +4,9 @@
 
 pub mod bvh;
 pub mod gpu_scene;
+pub mod origin;
 
-pub use bvh::{CpuHit, SoftwareBvh};
+pub use bvh::{CpuHit, SoftwareBvh, TRAVERSAL_STACK_SIZE};
 pub use gpu_scene::SceneGpu;
 
 use crate::gpu::GpuContext;

@@ -19,6 +19,7 @@ pub fn gpu_options() -> GpuOptions {
         sync_validation: std::env::var("STEREOCACHE_SYNC_VALIDATION").is_ok_and(|v| v == "1"),
         device: None,
         want_ray_query: true,
+        ..Default::default()
     }
 }
 
@@ -164,7 +165,7 @@ pub fn fully_covered(
     (0..25).all(|k| {
         let o = Vec2::new((k % 5) as f32 * 0.245 + 0.01, (k / 5) as f32 * 0.245 + 0.01);
         bvh.closest_hit(
-            v.position,
+            bvh.to_local(v.world),
             v.ray_direction(c + o, glam::UVec2::new(w, h)),
             0.0,
             1e30,
@@ -180,7 +181,9 @@ pub fn pixel_centre(pixel: usize, w: u32) -> Vec2 {
     )
 }
 
-/// World position of a stored first hit, from the software BVH's triangle data.
+/// Position of a stored first hit from the software BVH's triangle data, in
+/// the BVH's frame (relative to `bvh.origin`; world space for scenes whose
+/// render origin is 0, i.e. every scene near its file's origin).
 pub fn stored_position(bvh: &stereocache::rt::SoftwareBvh, fh: [u32; 4]) -> Vec3 {
     let k = bvh
         .tri_ref

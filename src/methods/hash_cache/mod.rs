@@ -273,7 +273,7 @@ impl Method for HashCache {
         let (w, h) = (self.settings.width, self.settings.height);
         let npix = (w * h) as usize;
         let now = Self::stamp(self.frames);
-        let params = FrameParams::new(input, w, h, self.settings.seed);
+        let params = FrameParams::new(input, w, h, self.settings.seed, self.scene.origin);
         let push = self.push_constants(now);
         let groups = [w.div_ceil(LOCAL), h.div_ceil(LOCAL), 2];
         let count_grid = count_grid(self.hash.capacity);

@@ -266,7 +266,7 @@ impl Method for Isrt {
         let parity = (self.frames % 2) as usize;
         let (prev_fh, prev_rad) = (&self.first_hits[parity], &self.radiance[parity]);
         let (cur_fh, cur_rad) = (&self.first_hits[1 - parity], &self.radiance[1 - parity]);
-        let params = FrameParams::new(input, w, h, self.settings.seed);
+        let params = FrameParams::new(input, w, h, self.settings.seed, self.scene.origin);
         let mut push = Vec::with_capacity(16);
         push.extend(self.isrt.eps0.to_le_bytes());
         push.extend([0u8; 12]);

@@ -467,7 +467,7 @@ impl SampleCache {
             &self.first_hits[parity],
             &self.radiance[parity],
         );
-        let mut params = FrameParams::new(input, w, h, self.settings.seed);
+        let mut params = FrameParams::new(input, w, h, self.settings.seed, self.scene.origin);
         params.size_seed[3] = input.index;
         let push = self.push_constants();
         let sets = [&self.scene.set, &self.sets[parity]];

@@ -154,7 +154,7 @@ impl TaaPass {
             "TaaPass::record: inputs differ from the buffers bound at creation"
         );
         let p = (self.frames % 2) as usize;
-        let params = FrameParams::new(input, self.width, self.height, self.seed);
+        let params = FrameParams::new(input, self.width, self.height, self.seed, self.scene.origin);
         let flags = (self.frames > 0) as u32
             | (self.settings.reject_disocclusions as u32) << 1
             | (self.settings.clip as u32) << 2;
