@@ -28,7 +28,12 @@ fn out_dir(tag: &str) -> PathBuf {
 
 /// Runs and expects failure: returns the single error line.
 fn fails(args: &[&str]) -> String {
-    let o = bin().args(args).output().unwrap();
+    fails_with(args, &[])
+}
+
+/// `fails` with extra environment variables.
+fn fails_with(args: &[&str], env: &[(&str, &str)]) -> String {
+    let o = bin().args(args).envs(env.iter().copied()).output().unwrap();
     let stderr = String::from_utf8_lossy(&o.stderr).to_string();
     assert_ne!(
         o.status.code(),
@@ -314,6 +319,59 @@ fn impossible_sizes_fail_cleanly() {
         let line = fails(&args);
         assert!(line.contains(phrase), "{args:?}: {line}");
         assert!(!out.join("left.exr").exists() && !out.join("summary.json").exists());
+    }
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+/// A lost device (fault injected where the driver would report
+/// VK_ERROR_DEVICE_LOST) and a hung one (a watchdog far shorter than the
+/// frame) end with one error line, a non-zero exit and no complete-looking
+/// output; a malformed setting of either variable is refused by name.
+#[test]
+fn lost_and_hung_devices_fail_cleanly() {
+    let out = out_dir("lost");
+    let o = out.to_str().unwrap();
+    let trace = Path::new(env!("CARGO_MANIFEST_DIR")).join("captures/synth-head-turn.csv");
+    let t = trace.to_str().unwrap();
+    let replay = [
+        "replay",
+        "--scene",
+        "cornell",
+        "--trace",
+        t,
+        "--frames",
+        "6",
+        "--size",
+        "32x24",
+        "--method",
+        "sample-cache",
+        "--every",
+        "1",
+        "--out",
+        o,
+    ];
+    let line = fails_with(&replay, &[("STEREOCACHE_FAULT_DEVICE_LOST_AFTER", "4")]);
+    assert!(line.contains("GPU device was lost"), "{line}");
+    assert!(
+        !out.join("summary.json").exists() && !out.join("frames.jsonl").exists(),
+        "a lost device left complete-looking output"
+    );
+    let _ = std::fs::remove_dir_all(&out);
+
+    let render = [
+        "render", "--scene", "hairball", "--size", "256x192", "--spp", "64", "--out", o,
+    ];
+    let line = fails_with(&render, &[("STEREOCACHE_GPU_TIMEOUT_S", "0.000001")]);
+    assert!(line.contains("did not finish"), "{line}");
+    assert!(!out.join("left.exr").exists() && !out.join("stats.json").exists());
+
+    for (var, value) in [
+        ("STEREOCACHE_GPU_TIMEOUT_S", "soon"),
+        ("STEREOCACHE_GPU_TIMEOUT_S", "-1"),
+        ("STEREOCACHE_FAULT_DEVICE_LOST_AFTER", "x"),
+    ] {
+        let line = fails_with(&["info"], &[(var, value)]);
+        assert!(line.contains(var), "{var}={value}: {line}");
     }
     let _ = std::fs::remove_dir_all(&out);
 }

@@ -281,6 +281,9 @@ impl AccelStructures {
 
 impl Drop for AccelStructures {
     fn drop(&mut self) {
+        if self.ctx.is_abandoned() {
+            return;
+        }
         if let Some(ext) = self.ctx.accel.as_ref() {
             unsafe {
                 ext.destroy_acceleration_structure(self.tlas.raw, None);

@@ -24,6 +24,40 @@ pub struct GpuOptions {
     pub device: Option<String>,
     /// Enable VK_KHR_ray_query when the device has it.
     pub want_ray_query: bool,
+    /// Longest wait for one submission; past it the device counts as hung
+    /// and is abandoned (`None`: wait forever). See `with_env`.
+    pub timeout: Option<std::time::Duration>,
+    /// Fault injection: the submission after this many successful ones
+    /// reports a lost device, as a driver would (tests of the error path).
+    pub lose_device_after: Option<u64>,
+}
+
+impl GpuOptions {
+    /// Default GPU watchdog of the command line, in seconds.
+    pub const DEFAULT_TIMEOUT_S: f64 = 600.0;
+
+    /// Reads `STEREOCACHE_GPU_TIMEOUT_S` (seconds, default 600; 0 = wait
+    /// forever) and `STEREOCACHE_FAULT_DEVICE_LOST_AFTER` (a submission
+    /// count). A malformed value is an error naming the variable.
+    pub fn with_env(mut self) -> Result<Self, String> {
+        let read = |name: &str| std::env::var(name).ok().map(|v| (name.to_string(), v));
+        let timeout_s = match read("STEREOCACHE_GPU_TIMEOUT_S") {
+            None => Self::DEFAULT_TIMEOUT_S,
+            Some((n, v)) => match v.trim().parse::<f64>() {
+                Ok(s) if s.is_finite() && s >= 0.0 => s,
+                _ => return Err(format!("{n}={v}: expected a number of seconds ≥ 0")),
+            },
+        };
+        self.timeout = (timeout_s > 0.0).then(|| std::time::Duration::from_secs_f64(timeout_s));
+        if let Some((n, v)) = read("STEREOCACHE_FAULT_DEVICE_LOST_AFTER") {
+            self.lose_device_after = Some(
+                v.trim()
+                    .parse()
+                    .map_err(|_| format!("{n}={v}: expected a submission count"))?,
+            );
+        }
+        Ok(self)
+    }
 }
 
 pub struct GpuContext {
@@ -41,6 +75,14 @@ pub struct GpuContext {
     pub(crate) allocator: ManuallyDrop<Mutex<Allocator>>,
     pub(crate) command_pool: vk::CommandPool,
     pub(crate) accel: Option<ash::khr::acceleration_structure::Device>,
+    timeout: Option<std::time::Duration>,
+    lose_device_after: Option<u64>,
+    submits: std::sync::atomic::AtomicU64,
+    /// A submission outlived the watchdog: its work may still run, so no
+    /// object is destroyed any more (every `Drop` in src/gpu/ leaks instead
+    /// of freeing memory the device may still write).
+    abandoned: std::sync::atomic::AtomicBool,
+    lost: std::sync::atomic::AtomicBool,
     pub(crate) debug_utils_device: Option<ash::ext::debug_utils::Device>,
     pub(crate) allocated_bytes: std::sync::atomic::AtomicU64,
 }
@@ -325,6 +367,11 @@ impl GpuContext {
             allocator: ManuallyDrop::new(Mutex::new(allocator)),
             command_pool,
             accel,
+            timeout: options.timeout,
+            lose_device_after: options.lose_device_after,
+            submits: Default::default(),
+            abandoned: Default::default(),
+            lost: Default::default(),
             debug_utils_device,
             allocated_bytes: Default::default(),
         })
@@ -399,7 +446,28 @@ impl GpuContext {
         result
     }
 
+    /// True once a submission outlived the watchdog (see `abandoned`).
+    pub fn is_abandoned(&self) -> bool {
+        self.abandoned.load(std::sync::atomic::Ordering::SeqCst)
+    }
+
+    /// Submits and waits at most the watchdog time. A lost device, a hung
+    /// one (timeout) and every later submission give an error, never a hang.
     pub(crate) fn submit_and_wait(&self, cb: vk::CommandBuffer, what: &str) -> GpuResult<()> {
+        use std::sync::atomic::Ordering::SeqCst;
+        if self.lost.load(SeqCst) || self.is_abandoned() {
+            return Err(GpuError::DeviceLost(format!(
+                "{what} (the device was lost earlier)"
+            )));
+        }
+        let n = self.submits.fetch_add(1, SeqCst);
+        if self.lose_device_after.is_some_and(|k| n >= k) {
+            self.lost.store(true, SeqCst);
+            return Err(GpuError::DeviceLost(format!("{what} (injected fault)")));
+        }
+        let timeout_ns = self
+            .timeout
+            .map_or(u64::MAX, |t| t.as_nanos().min(u64::MAX as u128) as u64);
         let fence = unsafe {
             self.device
                 .create_fence(&vk::FenceCreateInfo::default(), None)
@@ -408,10 +476,21 @@ impl GpuContext {
         let cbs = [cb];
         let submit = [vk::SubmitInfo::default().command_buffers(&cbs)];
         let r = unsafe { self.device.queue_submit(self.queue, &submit, fence) }
-            .and_then(|_| unsafe { self.device.wait_for_fences(&[fence], true, u64::MAX) });
+            .and_then(|_| unsafe { self.device.wait_for_fences(&[fence], true, timeout_ns) });
+        if r == Err(vk::Result::TIMEOUT) {
+            // The fence is still pending: leak it with everything else.
+            self.abandoned.store(true, SeqCst);
+            return Err(GpuError::Hung {
+                what: what.to_string(),
+                seconds: self.timeout.map_or(0.0, |t| t.as_secs_f64()),
+            });
+        }
         unsafe { self.device.destroy_fence(fence, None) };
         r.map_err(|e| match e {
-            vk::Result::ERROR_DEVICE_LOST => GpuError::DeviceLost(what.to_string()),
+            vk::Result::ERROR_DEVICE_LOST => {
+                self.lost.store(true, SeqCst);
+                GpuError::DeviceLost(what.to_string())
+            }
             other => GpuError::Vk {
                 call: "vkQueueSubmit/vkWaitForFences",
                 result: other,
@@ -444,6 +523,11 @@ impl GpuContext {
 
 impl Drop for GpuContext {
     fn drop(&mut self) {
+        if self.is_abandoned() {
+            // Waiting could hang and destroying could free memory in use:
+            // the process is about to report the error and exit.
+            return;
+        }
         unsafe {
             let _ = self.device.device_wait_idle();
             self.device.destroy_command_pool(self.command_pool, None);

@@ -55,6 +55,9 @@ impl DescriptorLayout {
 
 impl Drop for DescriptorLayout {
     fn drop(&mut self) {
+        if self.ctx.is_abandoned() {
+            return;
+        }
         unsafe {
             self.ctx
                 .device
@@ -207,6 +210,9 @@ impl DescriptorSet {
 
 impl Drop for DescriptorSet {
     fn drop(&mut self) {
+        if self.ctx.is_abandoned() {
+            return;
+        }
         unsafe { self.ctx.device.destroy_descriptor_pool(self.pool, None) };
     }
 }

@@ -21,6 +21,8 @@ pub enum GpuError {
     Alloc { what: String, message: String },
     #[error("the GPU device was lost (driver crash or timeout) during {0}")]
     DeviceLost(String),
+    #[error("the GPU did not finish {what} within {seconds} s (hung device or shader; STEREOCACHE_GPU_TIMEOUT_S sets the limit)")]
+    Hung { what: String, seconds: f64 },
     #[error("{0}")]
     Unsupported(String),
 }

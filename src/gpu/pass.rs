@@ -203,6 +203,9 @@ impl Recorder {
 
 impl Drop for Recorder {
     fn drop(&mut self) {
+        if self.ctx.is_abandoned() {
+            return;
+        }
         unsafe {
             if !self.finished {
                 let _ = self.ctx.device.end_command_buffer(self.cb);

@@ -113,6 +113,9 @@ impl ComputePipeline {
 
 impl Drop for ComputePipeline {
     fn drop(&mut self) {
+        if self.ctx.is_abandoned() {
+            return;
+        }
         unsafe {
             self.ctx.device.destroy_pipeline(self.raw, None);
             self.ctx.device.destroy_pipeline_layout(self.layout, None);

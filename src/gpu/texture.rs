@@ -182,6 +182,9 @@ impl GpuTexture {
 
 impl Drop for GpuTexture {
     fn drop(&mut self) {
+        if self.ctx.is_abandoned() {
+            return;
+        }
         unsafe {
             self.ctx.device.destroy_image_view(self.view, None);
             self.ctx.device.destroy_image(self.image, None);
@@ -228,6 +231,9 @@ impl Sampler {
 
 impl Drop for Sampler {
     fn drop(&mut self) {
+        if self.ctx.is_abandoned() {
+            return;
+        }
         unsafe { self.ctx.device.destroy_sampler(self.raw, None) };
     }
 }
