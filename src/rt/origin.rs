@@ -33,7 +33,7 @@ pub fn render_origin(scene: &Scene) -> DVec3 {
             }
         }
     }
-    if !(lo.x <= hi.x) {
+    if lo.x > hi.x {
         return DVec3::ZERO;
     }
     ((lo + hi) * 0.5 / ORIGIN_GRID).round() * ORIGIN_GRID
