@@ -263,6 +263,8 @@ impl MethodArgs {
             max_bounces,
             seed,
             all_features: false,
+            extra_features: Default::default(),
+            all_passes: false,
             cache: self.cache.settings(debug_views)?,
             taa: self.taa.settings()?,
             isrt: self.isrt.settings()?,

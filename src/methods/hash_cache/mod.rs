@@ -185,7 +185,7 @@ impl HashCache {
                 Resource::Buffer(&debug),
             ],
         )?;
-        let spec = scene.spec_constants(env, settings.max_bounces, settings.all_features);
+        let spec = settings.spec_constants(scene, env);
         let layouts = [scene.layout.clone(), layout];
         let pipe = |name: &str| -> GpuResult<ComputePipeline> {
             ComputePipeline::new(
