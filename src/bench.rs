@@ -1,5 +1,6 @@
 //! Benchmarks (never pass/fail tests): `stereocache bench rays` measures
-//! primary and diffuse-bounce rays per second for each ray backend.
+//! primary and diffuse-bounce rays per second for each ray backend; `bench
+//! specialization` what pipelines specialized to a scene and skipped passes save.
 
 use crate::error::Result;
 use crate::gpu::{
