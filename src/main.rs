@@ -267,6 +267,8 @@ impl MethodArgs {
             max_bounces,
             seed,
             all_features: false,
+            extra_features: Default::default(),
+            all_passes: false,
             cache: self.cache.settings(debug_views)?,
             taa: self.taa.settings()?,
             isrt: self.isrt.settings()?,
@@ -660,6 +662,37 @@ enum BenchCommand {
         #[arg(long, default_value_t = 3)]
         bounces: u32,
     },
+    /// Issue 6: GPU frame time of pipelines specialized to the scene's
+    /// features against the all-features build, of each unused feature's code,
+    /// and of skipping passes with nothing to do; both eyes, builds interleaved.
+    Specialization {
+        #[command(flatten)]
+        gpu: GpuArgs,
+        /// Scenes, comma-separated: built-in names, .gltf/.glb files or directories.
+        #[arg(long, default_value = "cornell,hairball,plane")]
+        scenes: String,
+        /// Lighting for scenes without lights (see `render --lighting`).
+        #[arg(long, default_value = "sun-sky")]
+        lighting: String,
+        /// Ray backend.
+        #[arg(long, default_value = "auto")]
+        rt: String,
+        #[arg(long, default_value = "naive,sample-cache,hash-cache")]
+        methods: String,
+        /// Bounce counts, comma-separated (single-feature builds at the largest).
+        #[arg(long, default_value = "3,0")]
+        bounces: String,
+        #[arg(long, default_value = "captures/mmsys18-user1.csv")]
+        trace: PathBuf,
+        /// Frames measured per build (after one warm-up frame).
+        #[arg(long, default_value_t = 8)]
+        frames: usize,
+        #[arg(long, default_value = "64x48")]
+        size: String,
+        /// Also write the table as CSV to this file.
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
     /// Primary and diffuse-bounce rays per second for each ray backend.
     Rays {
         #[command(flatten)]
@@ -714,6 +747,14 @@ enum TraceCommand {
         #[arg(long)]
         out: PathBuf,
     },
+}
+
+/// The first line every benchmark prints: which device and driver measured.
+fn device_line(c: &stereocache::gpu::DeviceCaps) -> String {
+    format!(
+        "device: {} ({}), driver {} {}",
+        c.name, c.device_type, c.driver_name, c.driver_info
+    )
 }
 
 fn report_validation(ctx: &GpuContext) -> Result<()> {
@@ -852,10 +893,7 @@ fn run(cli: Cli) -> Result<()> {
                 .map_err(|e| anyhow!("bad --lighting: {e}"))?;
             let loaded = Session::load_scene(&scene, &lighting)?;
             let ctx = std::sync::Arc::new(GpuContext::new(&gpu.options()?)?);
-            println!(
-                "device: {} ({}), driver {} {}",
-                ctx.caps.name, ctx.caps.device_type, ctx.caps.driver_name, ctx.caps.driver_info
-            );
+            println!("{}", device_line(&ctx.caps));
             println!(
                 "scene: {} ({} triangles), {}x{} per eye, both eyes, {} rounds",
                 loaded.source.display(),
@@ -934,10 +972,7 @@ fn run(cli: Cli) -> Result<()> {
             let trace_data = PoseTrace::read_csv(&trace)?;
             let ctx = std::sync::Arc::new(GpuContext::new(&gpu.options()?)?);
             let c = &ctx.caps;
-            println!(
-                "device: {} ({}), driver {} {}",
-                c.name, c.device_type, c.driver_name, c.driver_info
-            );
+            println!("{}", device_line(c));
             println!(
                 "trace {} ({frames} frames after 1 warm-up per point), 3 bounces, both eyes",
                 trace.display()
@@ -1067,10 +1102,7 @@ fn run(cli: Cli) -> Result<()> {
                 );
             }
             let c = &session.ctx.caps;
-            println!(
-                "device: {} ({}), driver {} {}",
-                c.name, c.device_type, c.driver_name, c.driver_info
-            );
+            println!("{}", device_line(c));
             println!(
                 "scene: {} ({} triangles), backend {}, trace {} ({frames} frames at {DEFAULT_FPS} Hz), {w}x{h} per eye, {bounces} bounces, reference {reference_spp} spp",
                 session.scene.source.display(),
@@ -1142,10 +1174,7 @@ fn run(cli: Cli) -> Result<()> {
             )?;
             cameras.truncate(frames + 1);
             let c = &session.ctx.caps;
-            println!(
-                "device: {} ({}), driver {} {}",
-                c.name, c.device_type, c.driver_name, c.driver_info
-            );
+            println!("{}", device_line(c));
             println!(
                 "scene: {} ({} triangles), backend {}, trace {} ({} frames at {} Hz after 1 warm-up), {}x{} per eye, {} bounces",
                 session.scene.source.display(),
@@ -1229,6 +1258,32 @@ fn run(cli: Cli) -> Result<()> {
             );
             report_validation(&session.ctx)
         }
+        Command::Bench {
+            which:
+                BenchCommand::Specialization {
+                    gpu,
+                    scenes,
+                    lighting,
+                    rt,
+                    methods,
+                    bounces,
+                    trace,
+                    frames,
+                    size,
+                    out,
+                },
+        } => run_bench_specialization(BenchSpecArgs {
+            gpu,
+            scenes,
+            lighting,
+            rt,
+            methods,
+            bounces,
+            trace,
+            frames,
+            size,
+            out,
+        }),
         Command::Scene {
             which: SceneCommand::Generate { name, out },
         } => {
@@ -1306,5 +1361,150 @@ fn main() -> ExitCode {
             eprintln!("error: {msg}");
             ExitCode::FAILURE
         }
+    }
+}
+
+/// Arguments of `bench specialization`.
+struct BenchSpecArgs {
+    gpu: GpuArgs,
+    scenes: String,
+    lighting: String,
+    rt: String,
+    methods: String,
+    bounces: String,
+    trace: PathBuf,
+    frames: usize,
+    size: String,
+    out: Option<PathBuf>,
+}
+
+/// `stereocache bench specialization`: every argument is checked and every
+/// scene loaded before the GPU is opened, so bad input fails fast.
+fn run_bench_specialization(a: BenchSpecArgs) -> Result<()> {
+    let (w, h) = parse_size(&a.size).map_err(|e| anyhow!(e))?;
+    if a.frames == 0 {
+        bail!("bad --frames 0: measure at least one frame");
+    }
+    let rt: RtChoice = a.rt.parse().map_err(|e: String| anyhow!("bad --rt: {e}"))?;
+    let lighting: DefaultLighting = a
+        .lighting
+        .parse()
+        .map_err(|e| anyhow!("bad --lighting: {e}"))?;
+    let methods: Vec<String> = a.methods.split(',').map(|m| m.trim().to_string()).collect();
+    for m in &methods {
+        if !stereocache::session::METHODS.contains(&m.as_str()) {
+            bail!("bad --methods: unknown method '{m}'");
+        }
+    }
+    let mut bounces = Vec::new();
+    for b in a.bounces.split(',') {
+        match b.trim().parse::<u32>() {
+            Ok(n) if n <= 64 => bounces.push(n),
+            _ => bail!(
+                "bad --bounces '{}': expected comma-separated counts in 0..=64",
+                a.bounces
+            ),
+        }
+    }
+    let trace = PoseTrace::read_csv(&a.trace)?;
+    let mut scenes = Vec::new();
+    for spec in a.scenes.split(',').map(str::trim) {
+        let scene = Session::load_scene(spec, &lighting)?;
+        for warning in &scene.warnings {
+            eprintln!("warning: {warning}");
+        }
+        let label = std::path::Path::new(spec)
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| spec.to_string());
+        scenes.push((label, scene));
+    }
+    let ctx = std::sync::Arc::new(GpuContext::new(&a.gpu.options()?)?);
+    println!("{}", device_line(&ctx.caps));
+    println!(
+        "{w}x{h} per eye, both eyes, 1 spp, bounces {}, trace {} ({} frames at {DEFAULT_FPS} Hz after 1 warm-up), builds interleaved frame by frame",
+        a.bounces,
+        a.trace.display(),
+        a.frames
+    );
+    let base = RenderSettings {
+        width: w,
+        height: h,
+        spp: 1,
+        seed: 1,
+        ..Default::default()
+    };
+    let mut rows = Vec::new();
+    for (label, scene) in scenes {
+        let triangles = scene.instanced_triangle_count();
+        let session = Session::with_context(ctx.clone(), scene, rt)?;
+        let f = session.scene_gpu.features;
+        let flags = |on: bool| -> Vec<String> {
+            let mut v: Vec<String> = stereocache::bench::FEATURE_FLAGS
+                .iter()
+                .filter(|n| stereocache::bench::has_feature(&f, n) == on)
+                .map(|n| n.to_string())
+                .collect();
+            if on {
+                v.push(format!(
+                    "environment: {}",
+                    session
+                        .scene
+                        .environment
+                        .as_ref()
+                        .map(environment_kind)
+                        .unwrap_or("none")
+                ));
+            }
+            v
+        };
+        println!(
+            "\nscene {label} ({triangles} triangles, backend {}): uses {}; lacks {}",
+            session.backend,
+            flags(true).join(", "),
+            flags(false).join(", ")
+        );
+        let mut cameras = trace_cameras(
+            &session,
+            &trace,
+            DEFAULT_FPS,
+            w,
+            h,
+            &CameraSelect::Default,
+            None,
+            None,
+        )?;
+        if cameras.len() < a.frames + 1 {
+            bail!(
+                "bad --frames {}: {} gives {} frames",
+                a.frames,
+                a.trace.display(),
+                cameras.len()
+            );
+        }
+        cameras.truncate(a.frames + 1);
+        let r = stereocache::bench::bench_specialization(
+            &session, &label, &methods, &bounces, &cameras, &base,
+        )?;
+        print!("{}", stereocache::bench::spec_table(&r));
+        rows.extend(r);
+    }
+    println!("\nall scenes:");
+    print!("{}", stereocache::bench::spec_table(&rows));
+    if let Some(out) = &a.out {
+        let csv = stereocache::bench::spec_csv(&rows);
+        output::write_atomically(out, |p| std::fs::write(p, &csv).map_err(|e| e.to_string()))?;
+        println!("wrote {}", out.display());
+    }
+    report_validation(&ctx)
+}
+
+/// The environment's kind in words.
+fn environment_kind(e: &stereocache::scene::Environment) -> &'static str {
+    use stereocache::scene::Environment;
+    match e {
+        Environment::Constant(_) => "constant",
+        Environment::Sky { .. } => "sky",
+        Environment::Map { .. } => "map",
     }
 }

@@ -375,3 +375,68 @@ fn lost_and_hung_devices_fail_cleanly() {
     }
     let _ = std::fs::remove_dir_all(&out);
 }
+
+/// `bench specialization`: bad values are one error line before the GPU
+/// opens; a tiny run prints the device first and writes the CSV it promises
+/// (figures are not checked: timings belong in benchmarks, not tests).
+#[test]
+fn bench_specialization_checks_input_and_writes_csv() {
+    for (args, phrase) in [
+        (vec!["--frames", "0"], "bad --frames"),
+        (vec!["--methods", "naive,nope"], "unknown method 'nope'"),
+        (vec!["--bounces", "3,x"], "bad --bounces"),
+        (vec!["--size", "0x8"], "bad --size"),
+        (vec!["--rt", "magic"], "bad --rt"),
+        (vec!["--scenes", "/nonexistent/s.gltf"], "s.gltf"),
+    ] {
+        let mut a = vec!["bench", "specialization"];
+        a.extend(args.iter().copied());
+        let line = fails(&a);
+        assert!(line.contains(phrase), "{a:?}: '{line}' lacks '{phrase}'");
+    }
+    let out = out_dir("bench-spec");
+    let csv = out.join("spec.csv");
+    let o = bin()
+        .args([
+            "bench",
+            "specialization",
+            "--scenes",
+            "plane",
+            "--methods",
+            "naive",
+            "--bounces",
+            "0",
+            "--frames",
+            "1",
+            "--size",
+            "8x6",
+            "--out",
+            csv.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(stdout.starts_with("device: "), "{stdout}");
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(
+        lines.next(),
+        Some("scene,method,bounces,build,passes,frame_ms,ratio,ratio_se,against")
+    );
+    let builds: Vec<&str> = lines.map(|l| l.split(',').nth(3).unwrap()).collect();
+    // Bounces 0 is also the largest count: the plane lacks normal maps, so that
+    // single-feature build is among them.
+    for b in [
+        "all features",
+        "specialized",
+        "specialized + skip",
+        "specialized + normal_maps",
+    ] {
+        assert!(builds.contains(&b), "{b} missing from {builds:?}");
+    }
+}

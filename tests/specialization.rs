@@ -2,10 +2,13 @@
 //! all-features build of the same shaders: the disabled branches are dead code
 //! for that scene, so the results must agree bit for bit (or within float
 //! rounding where the compiler reorders arithmetic; observed: bit-exact).
+//! Passes skipped because they have nothing to do (issue 6) leave the image
+//! bit-identical to the build that records every pass, and are absent from
+//! the frame's per-pass stats.
 
 mod common;
 use common::*;
-use stereocache::methods::{RenderSettings, SampleCacheSettings};
+use stereocache::methods::{FrameInput, HashCacheSettings, RenderSettings, SampleCacheSettings};
 use stereocache::rt::RtChoice;
 use stereocache::scene::{apply_default_lighting, load_scene, DefaultLighting};
 use stereocache::session::CameraSelect;
@@ -64,6 +67,105 @@ fn specialized_and_all_features_pipelines_agree() {
             assert!(
                 max_rel <= 1e-5,
                 "{name}/{method}: max relative difference {max_rel}"
+            );
+        }
+    }
+    assert_no_validation_messages(&ctx);
+}
+
+/// Zero bounces: `hash-cache` skips `update` (every cell and fallback path
+/// would receive exactly 0) and clears `fallback` instead. Over a moving
+/// trace through a tiny table (probe failures, misses that move across
+/// pixels) on an emissive scene and a textured sky scene, every output is
+/// bit-identical to the build that records every pass; with bounces or debug
+/// views `update` stays.
+#[test]
+fn zero_bounce_hash_cache_skips_update_with_identical_images() {
+    let ctx = context();
+    for name in ["cornell", "plane"] {
+        let s = session(&ctx, shipped(name), RtChoice::Software);
+        let (w, h) = (24, 16);
+        let cam0 = s.camera(&CameraSelect::Default, w, h, None, None).unwrap();
+        let settings = |bounces: u32, all_passes: bool, debug_views: bool| RenderSettings {
+            width: w,
+            height: h,
+            spp: 1,
+            max_bounces: bounces,
+            seed: 3,
+            all_passes,
+            hash: HashCacheSettings {
+                capacity: 128,
+                max_probe: 4,
+                stale_frames: 2,
+                debug_views,
+                ..Default::default()
+            },
+            ..Default::default()
+        };
+        let mut skip = s.method("hash-cache", &settings(0, false, false)).unwrap();
+        let mut every = s.method("hash-cache", &settings(0, true, false)).unwrap();
+        let mut failures = 0.0;
+        let mut prev = None;
+        for f in 0..4u32 {
+            let cam = turning_head(&cam0, f, 2.0, 0.02);
+            let input = FrameInput {
+                index: f,
+                camera: cam,
+                prev_camera: prev,
+            };
+            prev = Some(cam);
+            let (a, b) = (
+                skip.render_frame(&input).unwrap(),
+                every.render_frame(&input).unwrap(),
+            );
+            let names = |fr: &stereocache::methods::StereoFrame| -> Vec<String> {
+                fr.stats.passes.iter().map(|p| p.name.clone()).collect()
+            };
+            let (na, nb) = (names(&a), names(&b));
+            assert!(!na.contains(&"update".to_string()), "{name}: {na:?}");
+            assert!(na.contains(&"clear.fallback".to_string()), "{name}: {na:?}");
+            assert!(nb.contains(&"update".to_string()), "{name}: {nb:?}");
+            failures += b.stats.counters["probe_failures"];
+            for (e, (ea, eb)) in a.eyes.iter().zip(&b.eyes).enumerate() {
+                let bits = |v: &[[f32; 4]]| -> Vec<[u32; 4]> {
+                    v.iter().map(|p| p.map(f32::to_bits)).collect()
+                };
+                assert_eq!(
+                    bits(&ea.radiance),
+                    bits(&eb.radiance),
+                    "{name} frame {f} eye {e}: radiance differs"
+                );
+                assert_eq!(ea.first_hit, eb.first_hit, "{name} frame {f} eye {e}");
+                assert_eq!(
+                    bits(&ea.albedo),
+                    bits(&eb.albedo),
+                    "{name} frame {f} eye {e}: albedo differs"
+                );
+                let depth = |v: &[f32]| -> Vec<u32> { v.iter().map(|d| d.to_bits()).collect() };
+                assert_eq!(
+                    depth(&ea.depth),
+                    depth(&eb.depth),
+                    "{name} frame {f} eye {e}"
+                );
+            }
+        }
+        // The fallback path of a failed probe is part of what is compared.
+        assert!(failures > 0.0, "{name}: the tiny table never overflowed");
+        // With bounces, or with debug views (they show cell sample counts), `update` stays.
+        for (bounces, debug) in [(1, false), (0, true)] {
+            let mut m = s
+                .method("hash-cache", &settings(bounces, false, debug))
+                .unwrap();
+            let fr = m
+                .render_frame(&FrameInput {
+                    index: 0,
+                    camera: cam0,
+                    prev_camera: None,
+                })
+                .unwrap();
+            assert!(
+                fr.stats.passes.iter().any(|p| p.name == "update"),
+                "{name}: bounces {bounces}, debug views {debug}: update skipped"
             );
         }
     }

@@ -8,6 +8,7 @@ pub mod hybrid;
 pub mod isrt;
 pub mod reference;
 pub mod sample_cache;
+mod specialize;
 pub mod taa;
 
 pub use frame::{
@@ -36,6 +37,12 @@ pub struct RenderSettings {
     pub seed: u32,
     /// Compile every feature in, ignoring what the scene uses (the unspecialized build).
     pub all_features: bool,
+    /// Features compiled in on top of the scene's own (benchmarks: what one
+    /// feature's code costs a scene that does not use it).
+    pub extra_features: crate::scene::SceneFeatures,
+    /// Record every pass, also those that provably have nothing to do for this
+    /// scene and these settings (the build issue 6's skipping is checked against).
+    pub all_passes: bool,
     /// Options of the `sample-cache` method (and of `hybrid`'s visibility).
     pub cache: SampleCacheSettings,
     /// Options of the `taa` method (and of TAA passes other methods run).
@@ -55,6 +62,8 @@ impl Default for RenderSettings {
             max_bounces: 3,
             seed: 1,
             all_features: false,
+            extra_features: Default::default(),
+            all_passes: false,
             cache: SampleCacheSettings::default(),
             taa: TaaSettings::default(),
             isrt: IsrtSettings::default(),

@@ -83,7 +83,7 @@ impl Reference {
                 Resource::Buffer(&counters),
             ],
         )?;
-        let spec = scene.spec_constants(env, settings.max_bounces, settings.all_features);
+        let spec = settings.spec_constants(scene, env);
         let layouts = [scene.layout.clone(), layout];
         let primary = ComputePipeline::new(
             ctx,

@@ -185,7 +185,7 @@ impl HashCache {
                 Resource::Buffer(&debug),
             ],
         )?;
-        let spec = scene.spec_constants(env, settings.max_bounces, settings.all_features);
+        let spec = settings.spec_constants(scene, env);
         let layouts = [scene.layout.clone(), layout];
         let pipe = |name: &str| -> GpuResult<ComputePipeline> {
             ComputePipeline::new(
@@ -245,6 +245,18 @@ impl HashCache {
         push_constants(&self.hash, now)
     }
 
+    /// Whether the `update` pass can change the image. With zero bounces a
+    /// path from a first hit ends there: `path_radiance` returns exactly the
+    /// hit's emission, which `update` subtracts, so every cell and fallback
+    /// path would receive exactly 0 (rgb). Cells start at 0 and only `update`
+    /// writes them, so without it `resolve` reads the same rgb (base × 0 +
+    /// emission); the sample counts in `w` differ, which only the debug views
+    /// show, so they keep the pass. `cell_updates` and `fallback_paths` then
+    /// count 0: no update ran.
+    fn update_has_work(&self) -> bool {
+        self.settings.all_passes || self.settings.max_bounces > 0 || self.hash.debug_views
+    }
+
     /// Reads the table back (after `render_frame`).
     pub fn snapshot(&self) -> GpuResult<TableSnapshot> {
         Ok(TableSnapshot {
@@ -285,6 +297,12 @@ impl Method for HashCache {
             .write(&self.frame)
             .update(bytemuck::bytes_of(&params));
         rec.pass("clear").write(&self.counters).fill(0);
+        let update = self.update_has_work();
+        if !update {
+            // What `update` would leave in `fallback` for a probe failure
+            // (rgb = 0); misses get theirs from `primary`, after this clear.
+            rec.pass("clear.fallback").write(&self.fallback).fill(0);
+        }
         rec.pass("primary")
             .read(&self.frame)
             .write(&self.keys)
@@ -298,14 +316,16 @@ impl Method for HashCache {
             .write(&self.out_albedo)
             .write(&self.counters)
             .dispatch(&p.primary, &sets, &push, groups);
-        rec.pass("update")
-            .read(&self.pix_hit)
-            .read(&self.pix_ray)
-            .read(&self.pix_cell)
-            .write(&self.cells)
-            .write(&self.fallback)
-            .write(&self.counters)
-            .dispatch(&p.update, &sets, &push, groups);
+        if update {
+            rec.pass("update")
+                .read(&self.pix_hit)
+                .read(&self.pix_ray)
+                .read(&self.pix_cell)
+                .write(&self.cells)
+                .write(&self.fallback)
+                .write(&self.counters)
+                .dispatch(&p.update, &sets, &push, groups);
+        }
         rec.pass("resolve")
             .read(&self.pix_hit)
             .read(&self.pix_ray)

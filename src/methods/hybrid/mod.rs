@@ -148,7 +148,7 @@ impl Hybrid {
             )
         };
         let sets = [make_set(0)?, make_set(1)?];
-        let mut spec = scene.spec_constants(env, settings.max_bounces, settings.all_features);
+        let mut spec = settings.spec_constants(scene, env);
         spec.set(SPEC_SLOTS, settings.cache.slots);
         let layouts = [scene.layout.clone(), layout];
         let pipe = |name: &str| -> GpuResult<ComputePipeline> {

@@ -282,7 +282,7 @@ impl SampleCache {
         };
         let sets = [make_set(0)?, make_set(1)?];
 
-        let mut spec = scene.spec_constants(env, settings.max_bounces, settings.all_features);
+        let mut spec = settings.spec_constants(scene, env);
         spec.set(spec_id::SLOTS, cache.slots)
             .set(spec_id::RETRACE, cache.retrace as u32)
             .set(spec_id::SHADING, cache.shading as u32)

@@ -1,0 +1,34 @@
+//! Which build of a method's pipelines to make: the specialization constants
+//! from the scene's features (`SceneGpu::spec_constants`), every feature for
+//! the all-features build, plus the features `RenderSettings::extra_features`
+//! compiles in on top — the benchmark of issue 6 (`stereocache bench
+//! specialization`) uses that to price one feature's code at a time.
+
+use super::RenderSettings;
+use crate::gpu::SpecConstants;
+use crate::rt::gpu_scene::spec_id;
+use crate::rt::SceneGpu;
+use crate::scene::Environment;
+
+impl RenderSettings {
+    /// The scene-feature specialization constants (spec ids 0..9 of
+    /// shaders/common/features.glsl) for pipelines of `scene` under these settings.
+    pub fn spec_constants(&self, scene: &SceneGpu, env: &Option<Environment>) -> SpecConstants {
+        let mut s = scene.spec_constants(env, self.max_bounces, self.all_features);
+        let x = &self.extra_features;
+        for (id, on) in [
+            (spec_id::TEXTURES, x.textures),
+            (spec_id::NORMAL_MAPS, x.normal_maps),
+            (spec_id::ALPHA_MASK, x.alpha_mask),
+            (spec_id::TRANSMISSION, x.transmission),
+            (spec_id::EMISSIVE, x.emissive_triangles),
+            (spec_id::PUNCTUAL, x.punctual_lights),
+            (spec_id::DIRECTIONAL, x.directional_lights),
+        ] {
+            if on {
+                s.flag(id, true);
+            }
+        }
+        s
+    }
+}
