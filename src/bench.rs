@@ -188,6 +188,39 @@ pub fn bench_sample_cache(
         let mut m = session.method("sample-cache", &settings)?;
         let stats = run_frames(m.as_mut(), cameras)?;
         let n = stats.len().max(1) as f64;
+        // Per-pass profile (mean GPU ms per frame, in recording order) on stderr.
+        let mut names: Vec<&str> = Vec::new();
+        for p in stats.iter().flat_map(|f| &f.passes) {
+            if !names.contains(&p.name.as_str()) {
+                names.push(&p.name);
+            }
+        }
+        let profile: Vec<String> = names
+            .iter()
+            .map(|name| {
+                let ms: f64 = stats
+                    .iter()
+                    .flat_map(|f| &f.passes)
+                    .filter(|p| p.name == *name)
+                    .map(|p| p.ms)
+                    .sum();
+                format!("{name} {:.2}", ms / n)
+            })
+            .collect();
+        let per_pixel = |c: &str| {
+            stats
+                .iter()
+                .map(|s| s.counters.get(c).copied().unwrap_or(0.0))
+                .sum::<f64>()
+                / (n * 2.0 * (base.width * base.height) as f64)
+        };
+        eprintln!(
+            "passes ({label}), ms: {}; per pixel: {:.2} reprojected, {:.2} visible, {:.2} shaded",
+            profile.join(", "),
+            per_pixel("reprojected_samples"),
+            per_pixel("reprojected_visible"),
+            per_pixel("shaded_samples"),
+        );
         rows.push(CacheBenchRow {
             label: format!("sample-cache ({label})"),
             frame_ms: stats.iter().map(|s| s.gpu_ms()).sum::<f64>() / n,
