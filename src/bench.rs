@@ -171,6 +171,52 @@ pub fn bench_sample_cache(
 ) -> Result<(Vec<CacheBenchRow>, f64)> {
     use crate::methods::sample_cache::{Reproject, Retrace, SampleCacheSettings};
     let mut rows = Vec::new();
+    // Per-pass profile on stderr: GPU ms per frame in recording order (mean
+    // and, less sensitive to other processes on a CPU device, median over
+    // frames) and the cache's samples per pixel.
+    let profile = |label: &str, stats: &[crate::methods::FrameStats]| {
+        let n = stats.len().max(1) as f64;
+        let mut names: Vec<&str> = Vec::new();
+        for p in stats.iter().flat_map(|f| &f.passes) {
+            if !names.contains(&p.name.as_str()) {
+                names.push(&p.name);
+            }
+        }
+        let profile: Vec<String> = names
+            .iter()
+            .chain(&["frame"])
+            .map(|name| {
+                let mut ms: Vec<f64> = stats
+                    .iter()
+                    .map(|f| {
+                        f.passes
+                            .iter()
+                            .filter(|p| *name == "frame" || p.name == *name)
+                            .map(|p| p.ms)
+                            .sum()
+                    })
+                    .collect();
+                ms.sort_by(f64::total_cmp);
+                let mean = ms.iter().sum::<f64>() / n;
+                format!("{name} {mean:.2}/{:.2}", ms[ms.len() / 2])
+            })
+            .collect();
+        let per_pixel = |c: &str| {
+            stats
+                .iter()
+                .map(|s| s.counters.get(c).copied().unwrap_or(0.0))
+                .sum::<f64>()
+                / (n * 2.0 * (base.width * base.height) as f64)
+        };
+        eprintln!(
+            "passes ({label}), mean/median ms: {}; per pixel: {:.2} reprojected, \
+             {:.2} visible, {:.2} shaded",
+            profile.join(", "),
+            per_pixel("reprojected_samples"),
+            per_pixel("reprojected_visible"),
+            per_pixel("shaded_samples"),
+        );
+    };
     let configs = [
         ("adaptive, one-pass", Retrace::Adaptive, Reproject::OnePass),
         ("single, one-pass", Retrace::Single, Reproject::OnePass),
@@ -189,6 +235,7 @@ pub fn bench_sample_cache(
         let mut m = session.method("sample-cache", &settings)?;
         let stats = run_frames(m.as_mut(), cameras)?;
         let n = stats.len().max(1) as f64;
+        profile(label, &stats);
         rows.push(CacheBenchRow {
             label: format!("sample-cache ({label})"),
             frame_ms: stats.iter().map(|s| s.gpu_ms()).sum::<f64>() / n,
@@ -211,6 +258,7 @@ pub fn bench_sample_cache(
     let mut m = session.method("reference", &naive)?;
     let stats = run_frames(m.as_mut(), cameras)?;
     let n = stats.len().max(1) as f64;
+    profile("1 spp", &stats);
     rows.push(CacheBenchRow {
         label: "1 spp path tracing".into(),
         frame_ms: stats.iter().map(|s| s.gpu_ms()).sum::<f64>() / n,

@@ -74,19 +74,26 @@ uint nth_set_bit(uint bits, uint k) {
     return uint(findLSB(bits));
 }
 
-// Angle subtended by a pixel's diagonal (φ of Eq. 1).
-float pixel_diagonal_angle(EyeGpu e) {
+// cos φ and sin φ of the angle φ subtended by a pixel's diagonal (Eq. 1):
+// φ = atan(L) for the diagonal's tangent-plane length L, so
+// cos φ = 1/√(1 + L²) and sin φ = L/√(1 + L²).
+// CPU twin: src/methods/sample_cache/heuristics.rs `pixel_diagonal_cos_sin`.
+vec2 pixel_diagonal_cos_sin(EyeGpu e) {
     vec2 pix = vec2(2.0 * e.pos_tanx.w / float(frame.size_seed.x), 2.0 * e.right_tany.w / float(frame.size_seed.y));
-    return atan(length(pix));
+    float l = length(pix);
+    float inv = inversesqrt(1.0 + l * l);
+    return vec2(inv, l * inv);
 }
 
 // Eq. 1: Δn = t_s |1 − cos θ / cos(θ − φ)|, θ clamped to [0, π/2] so the
 // denominator stays ≥ cos(π/2 − φ) = sin φ > 0: finite up to grazing angles.
+// Without trigonometry: cos(θ − φ) = cos θ cos φ + sin θ sin φ with
+// sin θ = √((1 − cos θ)(1 + cos θ)) ≥ 0 on [0, π/2].
 // CPU twin: src/methods/sample_cache/heuristics.rs `normal_slope`.
-float normal_slope(float t, float cos_theta, float phi) {
+float normal_slope(float t, float cos_theta, vec2 cs_phi) {
     float c = clamp(cos_theta, 0.0, 1.0);
-    float theta = acos(c);
-    return t * abs(1.0 - c / cos(theta - phi));
+    float sin_theta = sqrt((1.0 - c) * (1.0 + c));
+    return t * abs(1.0 - c / (c * cs_phi.x + sin_theta * cs_phi.y));
 }
 
 // Eq. 2 with ε1: true when the depths are consistent with one flat surface.

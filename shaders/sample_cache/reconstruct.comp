@@ -7,6 +7,9 @@
 #include "sample_cache/common.glsl"
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 layout(set = 1, binding = 22, std430) buffer Debug { vec4 debug_views[]; };   // [view][eye][pixel], 4 views
+// The debug views are written only when requested (they are 64 B per pixel of
+// stores that nothing reads otherwise).
+layout(constant_id = 26) const bool DEBUG_VIEWS = false;
 
 void main() {
     uvec2 size = frame_size();
@@ -71,6 +74,7 @@ void main() {
     out_m1[pm] = vec4(m1, c_total);
     out_m2[pm] = vec4(m2, c_total);
 
+    if (!DEBUG_VIEWS) return;
     uvec4 st = pixel_stats[pm];
     uint n2 = 2u * npix();
     float inv_n = 1.0 / float(N_SLOTS);

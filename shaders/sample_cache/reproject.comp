@@ -31,7 +31,7 @@ void main() {
     uint occ = occ_bits(m_src);
     if (occ == 0u) return;
     EyeGpu e = frame.eyes[eye];
-    float phi = pixel_diagonal_angle(e);
+    vec2 cs_phi = pixel_diagonal_cos_sin(e);
     float w_lo, w_hi;
     importance_bounds(eye, w_lo, w_hi);
     uint reprojected = 0u, reprojected_visible = 0u, full = 0u, offscreen = 0u;
@@ -40,7 +40,8 @@ void main() {
         occ &= occ - 1u;
         uint src = slot_index(eye, s, pixel);
         uvec4 fh = fh_prev[src];
-        vec3 wp = hit_position(fh);
+        vec3 wp, ng;
+        hit_position_and_normal(fh, wp, ng);
         vec2 q;
         float vd;
         if (!project_to_eye(e, wp, q, vd) || any(lessThan(q, vec2(0.0))) || any(greaterThanEqual(q, vec2(size)))) {
@@ -78,8 +79,8 @@ void main() {
             reprojected_visible++;
             vec3 to_eye = e.pos_tanx.xyz - wp;
             float t = length(to_eye);
-            float cos_theta = abs(dot(hit_geometric_normal(fh), to_eye / max(t, 1e-30)));
-            float slope = normal_slope(t, cos_theta, phi);
+            float cos_theta = abs(dot(ng, to_eye / max(t, 1e-30)));
+            float slope = normal_slope(t, cos_theta, cs_phi);
             atomicMin(depth_min[tm], (uint64_t(floatBitsToUint(t)) << 32) | uint64_t(floatBitsToUint(slope)));
             atomicMax(depth_max[tm], floatBitsToUint(t));
             if (SHADING_STORAGE) {

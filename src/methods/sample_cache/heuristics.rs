@@ -8,11 +8,13 @@ pub const HIST_M: u32 = 13;
 /// Eq. 1: the expected depth extent within a pixel footprint,
 /// Δn = t_s |1 − cos θ / cos(θ − φ)| with θ clamped to [0, π/2] (appendix A):
 /// the denominator is then ≥ sin φ > 0, so Δn ≤ t_s stays finite up to
-/// grazing incidence, and Δn → 0 as t → 0.
-pub fn normal_slope(t: f32, cos_theta: f32, phi: f32) -> f32 {
+/// grazing incidence, and Δn → 0 as t → 0. Evaluated without trigonometry
+/// as cos(θ − φ) = cos θ cos φ + sin θ sin φ, sin θ = √((1 − cos θ)(1 + cos θ)),
+/// from `cs_phi` = (cos φ, sin φ) ([`pixel_diagonal_cos_sin`]).
+pub fn normal_slope(t: f32, cos_theta: f32, cs_phi: [f32; 2]) -> f32 {
     let c = cos_theta.clamp(0.0, 1.0);
-    let theta = c.acos();
-    t * (1.0 - c / (theta - phi).cos()).abs()
+    let sin_theta = ((1.0 - c) * (1.0 + c)).sqrt();
+    t * (1.0 - c / (c * cs_phi[0] + sin_theta * cs_phi[1])).abs()
 }
 
 /// Eq. 2: `t_max < (1 + ε1)(t_min + 2Δn)` — the depths in a 3×3 neighbourhood
@@ -27,6 +29,16 @@ pub fn pixel_diagonal_angle(tan_half: [f32; 2], size: [u32; 2]) -> f32 {
     let px = 2.0 * tan_half[0] / size[0] as f32;
     let py = 2.0 * tan_half[1] / size[1] as f32;
     (px * px + py * py).sqrt().atan()
+}
+
+/// (cos φ, sin φ) of [`pixel_diagonal_angle`] without trigonometry:
+/// φ = atan(L), so cos φ = 1/√(1 + L²) and sin φ = L/√(1 + L²).
+pub fn pixel_diagonal_cos_sin(tan_half: [f32; 2], size: [u32; 2]) -> [f32; 2] {
+    let px = 2.0 * tan_half[0] / size[0] as f32;
+    let py = 2.0 * tan_half[1] / size[1] as f32;
+    let l = (px * px + py * py).sqrt();
+    let inv = 1.0 / (1.0 + l * l).sqrt();
+    [inv, l * inv]
 }
 
 /// Shading importance w = (1 + c_s)^−1 (§3.5).
@@ -57,24 +69,25 @@ mod tests {
     use super::*;
 
     const PHI: f32 = 0.0025; // ~1080p, 90° vertical field of view
+    const CS_PHI: [f32; 2] = [0.999_996_9, 0.002_499_997_4]; // (cos PHI, sin PHI)
 
     #[test]
     fn slope_is_zero_head_on_and_bounded_at_grazing_angles() {
-        assert!(normal_slope(10.0, 1.0, PHI) < 10.0 * 4e-6);
+        assert!(normal_slope(10.0, 1.0, CS_PHI) < 10.0 * 4e-6);
         for deg in [60.0f32, 80.0, 89.0, 89.9, 89.99, 90.0] {
-            let s = normal_slope(10.0, deg.to_radians().cos(), PHI);
+            let s = normal_slope(10.0, deg.to_radians().cos(), CS_PHI);
             assert!(
                 s.is_finite() && (0.0..=10.0 + 1e-4).contains(&s),
                 "θ = {deg}°: Δ = {s}"
             );
         }
         // Exactly tangential and backfacing inputs clamp to θ = 90°: Δ = t.
-        assert!((normal_slope(10.0, 0.0, PHI) - 10.0).abs() < 1e-4);
-        assert!((normal_slope(10.0, -0.5, PHI) - 10.0).abs() < 1e-4);
+        assert!((normal_slope(10.0, 0.0, CS_PHI) - 10.0).abs() < 1e-4);
+        assert!((normal_slope(10.0, -0.5, CS_PHI) - 10.0).abs() < 1e-4);
         // Grows monotonically with θ.
         let mut prev = 0.0;
         for i in 0..=90 {
-            let s = normal_slope(1.0, (i as f32).to_radians().cos(), PHI);
+            let s = normal_slope(1.0, (i as f32).to_radians().cos(), CS_PHI);
             assert!(s + 1e-6 >= prev, "not monotone at {i}°");
             prev = s;
         }
@@ -83,18 +96,18 @@ mod tests {
     #[test]
     fn slope_scales_with_distance_and_vanishes_at_zero() {
         let c = 60f32.to_radians().cos();
-        assert_eq!(normal_slope(0.0, c, PHI), 0.0);
-        let a = normal_slope(1.0, c, PHI);
-        let b = normal_slope(1.0e6, c, PHI);
+        assert_eq!(normal_slope(0.0, c, CS_PHI), 0.0);
+        let a = normal_slope(1.0, c, CS_PHI);
+        let b = normal_slope(1.0e6, c, CS_PHI);
         assert!(((b / a) - 1.0e6).abs() / 1.0e6 < 1e-4);
-        assert!(normal_slope(3.0e38, c, PHI).is_finite());
+        assert!(normal_slope(3.0e38, c, CS_PHI).is_finite());
     }
 
     #[test]
     fn small_angle_slope_matches_the_derivative() {
         // For small φ, Δ ≈ t φ tan θ (first-order expansion of Eq. 1).
         let theta = 45f32.to_radians();
-        let s = normal_slope(2.0, theta.cos(), PHI);
+        let s = normal_slope(2.0, theta.cos(), CS_PHI);
         let approx = 2.0 * PHI * theta.tan();
         assert!((s - approx).abs() / approx < 0.01, "{s} vs {approx}");
     }
@@ -103,7 +116,7 @@ mod tests {
     fn flat_surfaces_pass_eq2_and_steps_fail() {
         let t = 5.0;
         let theta = 70f32.to_radians();
-        let slope = normal_slope(t, theta.cos(), PHI);
+        let slope = normal_slope(t, theta.cos(), CS_PHI);
         // A tilted plane's depth range across a 3×3 block stays inside the bound.
         assert!(depths_consistent(t, slope, t + 1.5 * slope, 0.005));
         // A depth step (an edge) does not.
@@ -116,6 +129,29 @@ mod tests {
     fn pixel_diagonal_angle_of_a_square_pixel() {
         let phi = pixel_diagonal_angle([1.0, 1.0], [1000, 1000]);
         assert!((phi - (0.002f32 * 2f32.sqrt()).atan()).abs() < 1e-7);
+        let [c, s] = pixel_diagonal_cos_sin([1.0, 1.0], [1000, 1000]);
+        assert!((c - phi.cos()).abs() < 1e-7 && (s - phi.sin()).abs() < 1e-7);
+        assert!((CS_PHI[0] - PHI.cos()).abs() < 1e-7 && (CS_PHI[1] - PHI.sin()).abs() < 1e-9);
+    }
+
+    #[test]
+    fn trig_free_slope_equals_the_angle_form() {
+        // Eq. 1 as written, in f64: t |1 − cos θ / cos(θ − φ)|.
+        for phi in [PHI, 0.01, 0.05] {
+            let cs = [phi.cos(), phi.sin()];
+            for i in 0..=900 {
+                let theta = (i as f64 / 10.0).to_radians();
+                let exact = (1.0 - theta.cos() / (theta - phi as f64).cos()).abs();
+                let s = normal_slope(1.0, theta.cos() as f32, cs) as f64;
+                // f32 rounding of cos θ is amplified by 1/cos(θ − φ) near grazing angles.
+                let tol = 1e-6 / (theta - phi as f64).cos() + 1e-4 * exact;
+                assert!(
+                    (s - exact).abs() <= tol,
+                    "φ = {phi}, θ = {}°: {s} vs {exact}",
+                    i as f64 / 10.0
+                );
+            }
+        }
     }
 
     #[test]

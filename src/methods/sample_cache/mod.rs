@@ -45,6 +45,7 @@ mod spec_id {
     pub const ACCUM: u32 = 23;
     pub const TWO_PASS: u32 = 24;
     pub const SHADING_STORAGE: u32 = 25;
+    pub const DEBUG_VIEWS: u32 = 26;
 }
 
 /// Counter slots written by the shaders (common.glsl `C_*`), with report names.
@@ -291,7 +292,8 @@ impl SampleCache {
                 matches!(cache.accumulation, Accumulation::FixedAlpha(_)) as u32,
             )
             .flag(spec_id::TWO_PASS, two_pass)
-            .flag(spec_id::SHADING_STORAGE, shading);
+            .flag(spec_id::SHADING_STORAGE, shading)
+            .flag(spec_id::DEBUG_VIEWS, cache.debug_views);
         let layouts = [scene.layout.clone(), layout];
         let push = 32;
         let pipe = |name: &str| -> GpuResult<ComputePipeline> {
