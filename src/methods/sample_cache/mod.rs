@@ -610,7 +610,9 @@ impl Method for SampleCache {
             .write(&self.state)
             .write(&self.shade_list)
             .dispatch(&sp.shade_select, &sets, &push, groups);
-        let max_list = (2 * npix) as u32 * (self.cache.slots + 1);
+        // shade.comp strides over the list (up to (N + 1) entries per pixel)
+        // with one invocation per pixel of both eyes.
+        let shade_groups = (2 * npix as u32).div_ceil(64);
         rec.pass("shade")
             .read(&self.shade_list)
             .read(&self.state)
@@ -618,7 +620,7 @@ impl Method for SampleCache {
             .write(cur_rad)
             .write(&self.pixel_stats)
             .write(&self.counters)
-            .dispatch(&sp.shade, &sets, &push, [max_list.div_ceil(64), 1, 1]);
+            .dispatch(&sp.shade, &sets, &push, [shade_groups, 1, 1]);
         rec.pass("reconstruct")
             .read(cur_mask)
             .read(cur_fh)
