@@ -53,9 +53,19 @@ pub struct FrameStats {
     pub counters: std::collections::BTreeMap<String, f64>,
 }
 
+/// Prefix of passes that only measure (counters for the statistics, e.g. the
+/// hash table's live entries): they are timed and listed per pass, but are
+/// not part of a method's cost, so `gpu_ms` leaves them out.
+pub const DIAGNOSTIC_PASS_PREFIX: &str = "diag.";
+
 impl FrameStats {
+    /// GPU time of the method's own passes (diagnostic passes excluded).
     pub fn gpu_ms(&self) -> f64 {
-        self.passes.iter().map(|p| p.ms).sum()
+        self.passes
+            .iter()
+            .filter(|p| !p.name.starts_with(DIAGNOSTIC_PASS_PREFIX))
+            .map(|p| p.ms)
+            .sum()
     }
 }
 
@@ -186,4 +196,26 @@ pub fn named_counters(
         .iter()
         .map(|(i, n)| (n.to_string(), values.get(*i).copied().unwrap_or(0) as f64))
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn gpu_ms_leaves_out_diagnostic_passes() {
+        let pass = |name: &str, ms| PassTiming {
+            name: name.into(),
+            ms,
+        };
+        let s = FrameStats {
+            passes: vec![
+                pass("primary", 1.5),
+                pass("diag.count", 10.0),
+                pass("taa", 0.25),
+            ],
+            ..Default::default()
+        };
+        assert_eq!(s.gpu_ms(), 1.75);
+    }
 }

@@ -39,6 +39,7 @@ impl MethodData {
             .as_object()
             .map(|m| {
                 m.iter()
+                    .filter(|(k, _)| !k.starts_with(crate::methods::frame::DIAGNOSTIC_PASS_PREFIX))
                     .filter_map(|(k, v)| v.as_f64().map(|v| (k.clone(), v)))
                     .collect()
             })

@@ -11,8 +11,8 @@
 //! → `primary` (jittered 1 spp first hits, voxel lookup / reservation, the
 //! first toucher of an entry this frame becomes its updater) → `update` (one
 //! secondary path per updated entry; own path for pixels whose lookup
-//! failed) → `resolve` (base colour × entry radiance + emission) → `count`
-//! (live entries) → `taa`.
+//! failed) → `resolve` (base colour × entry radiance + emission) → `diag.count`
+//! (live entries, a statistic: not counted in the frame time) → `taa`.
 
 pub mod hash;
 pub mod settings;
@@ -335,7 +335,7 @@ impl Method for HashCache {
             .write(&self.color)
             .write(&self.debug)
             .dispatch(&p.resolve, &sets, &push, groups);
-        rec.pass("count")
+        rec.pass("diag.count")
             .read(&self.keys)
             .write(&self.counters)
             .dispatch(&p.count, &sets, &push, count_grid);

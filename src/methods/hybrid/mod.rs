@@ -18,7 +18,8 @@
 //!   finds (never inserts) both levels; sample colour = base colour × mean of
 //!   the levels holding radiance + emission; pixel colour = mean over its
 //!   samples;
-//! * `hybrid.count` (`hash_cache/count.comp`, live entries) → `taa`
+//! * `diag.hybrid.count` (`hash_cache/count.comp`, live entries; a statistic
+//!   left out of the frame time) → `taa`
 //!   ([`crate::methods::hash_cache::Taa`], as the hash cache, unless
 //!   `--hash-no-taa`).
 //!
@@ -259,7 +260,7 @@ impl Method for Hybrid {
             .write(&self.out_albedo)
             .write(&self.counters)
             .dispatch(&p.resolve, &sets, &push, groups);
-        rec.pass("hybrid.count")
+        rec.pass("diag.hybrid.count")
             .read(&self.keys)
             .write(&self.counters)
             .dispatch(
