@@ -456,7 +456,10 @@ fn degenerate_triangles_stay_finite() {
         50.0,
         w as f32 / h as f32,
     );
-    for rt in [RtChoice::Software, RtChoice::Auto] {
+    for rt in [RtChoice::Software, RtChoice::Query] {
+        if rt == RtChoice::Query && !ctx.ray_query_enabled() {
+            continue;
+        }
         let sess = session(&ctx, s.clone(), rt);
         let mut st = settings(w, h, SampleCacheSettings::default());
         st.spp = 4;

@@ -425,6 +425,12 @@ impl GpuContext {
         self.accel.is_some()
     }
 
+    /// True for CPU implementations (lavapipe, SwiftShader), whose ray
+    /// queries are software too.
+    pub fn is_cpu_device(&self) -> bool {
+        self.caps.device_type == type_name(vk::PhysicalDeviceType::CPU)
+    }
+
     /// Records commands with `f` into a one-time command buffer, submits and waits.
     pub fn submit_once<F: FnOnce(vk::CommandBuffer)>(&self, what: &str, f: F) -> GpuResult<()> {
         let alloc = vk::CommandBufferAllocateInfo::default()
