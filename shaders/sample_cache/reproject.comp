@@ -83,7 +83,10 @@ void main() {
             float slope = normal_slope(t, cos_theta, cs_phi);
             atomicMin(depth_min[tm], (uint64_t(floatBitsToUint(t)) << 32) | uint64_t(floatBitsToUint(slope)));
             atomicMax(depth_max[tm], floatBitsToUint(t));
-            if (SHADING_STORAGE) {
+            // The importance histogram and its bounds feed adaptive shading
+            // only (§3.5): uniform shading skips these three global atomics
+            // per visible sample (issue 6).
+            if (SHADING_STORAGE && SHADING_MODE == 1u) {
                 float w = importance(rad_prev[src].w);
                 atomicAdd(hist[eye * HIST_M + importance_bucket(w, w_lo, w_hi)], 1u);
                 atomicMin(state[4u + eye], floatBitsToUint(w));

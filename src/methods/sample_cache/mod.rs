@@ -83,7 +83,8 @@ pub struct CacheSnapshot {
     pub radiance: Vec<[f32; 4]>,
     /// Per pixel: traced slot bits, shaded samples this frame, new samples, edge flag.
     pub pixel_stats: Vec<[u32; 4]>,
-    /// Importance histogram `[eye][bucket]` counted during this frame's reprojection.
+    /// Importance histogram `[eye][bucket]` counted during this frame's
+    /// reprojection (adaptive shading only; zeros under uniform shading).
     pub histogram: Vec<u32>,
     /// Length of this frame's shade list.
     pub shade_count: u32,
