@@ -665,34 +665,7 @@ enum BenchCommand {
     /// Issue 6: GPU frame time of pipelines specialized to the scene's
     /// features against the all-features build, of each unused feature's code,
     /// and of skipping passes with nothing to do; both eyes, builds interleaved.
-    Specialization {
-        #[command(flatten)]
-        gpu: GpuArgs,
-        /// Scenes, comma-separated: built-in names, .gltf/.glb files or directories.
-        #[arg(long, default_value = "cornell,hairball,plane")]
-        scenes: String,
-        /// Lighting for scenes without lights (see `render --lighting`).
-        #[arg(long, default_value = "sun-sky")]
-        lighting: String,
-        /// Ray backend.
-        #[arg(long, default_value = "auto")]
-        rt: String,
-        #[arg(long, default_value = "naive,sample-cache,hash-cache")]
-        methods: String,
-        /// Bounce counts, comma-separated (single-feature builds at the largest).
-        #[arg(long, default_value = "3,0")]
-        bounces: String,
-        #[arg(long, default_value = "captures/mmsys18-user1.csv")]
-        trace: PathBuf,
-        /// Frames measured per build (after one warm-up frame).
-        #[arg(long, default_value_t = 8)]
-        frames: usize,
-        #[arg(long, default_value = "64x48")]
-        size: String,
-        /// Also write the table as CSV to this file.
-        #[arg(long)]
-        out: Option<PathBuf>,
-    },
+    Specialization(BenchSpecArgs),
     /// Primary and diffuse-bounce rays per second for each ray backend.
     Rays {
         #[command(flatten)]
@@ -1259,31 +1232,8 @@ fn run(cli: Cli) -> Result<()> {
             report_validation(&session.ctx)
         }
         Command::Bench {
-            which:
-                BenchCommand::Specialization {
-                    gpu,
-                    scenes,
-                    lighting,
-                    rt,
-                    methods,
-                    bounces,
-                    trace,
-                    frames,
-                    size,
-                    out,
-                },
-        } => run_bench_specialization(BenchSpecArgs {
-            gpu,
-            scenes,
-            lighting,
-            rt,
-            methods,
-            bounces,
-            trace,
-            frames,
-            size,
-            out,
-        }),
+            which: BenchCommand::Specialization(args),
+        } => run_bench_specialization(args),
         Command::Scene {
             which: SceneCommand::Generate { name, out },
         } => {
@@ -1365,16 +1315,33 @@ fn main() -> ExitCode {
 }
 
 /// Arguments of `bench specialization`.
+#[derive(Args)]
 struct BenchSpecArgs {
+    #[command(flatten)]
     gpu: GpuArgs,
+    /// Scenes, comma-separated: built-in names, .gltf/.glb files or directories.
+    #[arg(long, default_value = "cornell,hairball,plane")]
     scenes: String,
+    /// Lighting for scenes without lights (see `render --lighting`).
+    #[arg(long, default_value = "sun-sky")]
     lighting: String,
+    /// Ray backend.
+    #[arg(long, default_value = "auto")]
     rt: String,
+    #[arg(long, default_value = "naive,sample-cache,hash-cache")]
     methods: String,
+    /// Bounce counts, comma-separated (single-feature builds at the largest).
+    #[arg(long, default_value = "3,0")]
     bounces: String,
+    #[arg(long, default_value = "captures/mmsys18-user1.csv")]
     trace: PathBuf,
+    /// Frames measured per build (after one warm-up frame).
+    #[arg(long, default_value_t = 8)]
     frames: usize,
+    #[arg(long, default_value = "64x48")]
     size: String,
+    /// Also write the table as CSV to this file.
+    #[arg(long)]
     out: Option<PathBuf>,
 }
 
