@@ -43,8 +43,14 @@ pub struct CpuHit {
 }
 
 impl SoftwareBvh {
+    /// The structure relative to the scene's render origin.
     pub fn build(scene: &Scene) -> SoftwareBvh {
-        let origin = render_origin(scene);
+        Self::build_at(scene, render_origin(scene))
+    }
+
+    /// The structure relative to `origin` (the upload passes the origin it
+    /// already computed for the rest of the scene).
+    pub fn build_at(scene: &Scene, origin: DVec3) -> SoftwareBvh {
         let mut tris = Vec::with_capacity(scene.instanced_triangle_count());
         let mut refs = Vec::with_capacity(tris.capacity());
         for (ii, inst) in scene.instances.iter().enumerate() {

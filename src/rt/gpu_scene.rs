@@ -313,7 +313,7 @@ impl SceneGpu {
         // Ray-tracing structure of the backend; the other backend's bindings get 16-byte stand-ins.
         let (b_nodes, b_ref, b_verts, accel) = match backend {
             RtBackend::Software => {
-                let bvh = SoftwareBvh::build(scene);
+                let bvh = SoftwareBvh::build_at(scene, origin);
                 if bvh.max_depth >= TRAVERSAL_STACK_SIZE {
                     return Err(GpuError::Unsupported(format!(
                         "the software BVH of {} is {} levels deep; the GLSL traversal stack holds {TRAVERSAL_STACK_SIZE}",
