@@ -521,3 +521,86 @@ fn adaptive_shading_dispatches_the_requested_rate() {
 fn snap_visible_reprojected(fr: &stereocache::methods::StereoFrame) -> f64 {
     fr.stats.counters["reprojected_visible"]
 }
+
+/// A pixel through which the environment shows costs one ray per frame, like
+/// a path tracer's primary ray: the ray that adds a sample and finds
+/// background ends the adding there (issue 6; it used to trace n_target + 1
+/// missing rays every frame). Looking away from the scene: exactly one
+/// background ray per pixel and no other ray. Looking at a sphere that
+/// covers part of the view: at most one background ray per pixel, at least
+/// one per pixel left without a visible sample, and every pixel the sphere
+/// fully covers keeps a visible sample.
+#[test]
+fn background_pixels_trace_one_ray_per_frame() {
+    let ctx = context();
+    let scene = sphere_in_environment(
+        stereocache::scene::Material::default(),
+        glam::Vec3::ZERO,
+        1.0,
+        glam::Vec3::splat(0.5),
+    );
+    let s = session(&ctx, scene, RtChoice::Software);
+    let bvh = SoftwareBvh::build(&s.scene);
+    let (w, h) = (40, 30);
+    let npix = (w * h) as f64;
+    let st = settings(w, h, SampleCacheSettings::default());
+    let count = |fr: &stereocache::methods::StereoFrame, name: &str| {
+        fr.stats.counters.get(name).copied().unwrap_or(0.0)
+    };
+    for (view, target) in [
+        ("away", glam::Vec3::new(0.0, 0.0, 10.0)),
+        ("sphere", glam::Vec3::ZERO),
+    ] {
+        let cam = look_at_camera(
+            glam::Vec3::new(0.0, 0.0, 4.0),
+            target,
+            45.0,
+            w as f32 / h as f32,
+        );
+        let mut m = cache_method(&s, &st);
+        for f in 0..6 {
+            let fr = m
+                .render_frame(&FrameInput {
+                    index: f,
+                    camera: cam,
+                    prev_camera: if f > 0 { Some(cam) } else { None },
+                })
+                .unwrap();
+            let bg = count(&fr, "background_rays");
+            let snap = m.snapshot().unwrap();
+            let mut empty = 0usize;
+            for (e, eye) in Eye::BOTH.iter().enumerate() {
+                let v = cam.eye(*eye);
+                for p in 0..snap.npix() {
+                    if snap.visible(snap.mask(e, p)) == 0 {
+                        empty += 1;
+                        assert!(
+                            f == 0 || !fully_covered(&bvh, &v, p, w, h),
+                            "{view} frame {f}: eye {e} pixel {p} covered but without a visible sample"
+                        );
+                    }
+                }
+            }
+            eprintln!(
+                "{view} frame {f}: {bg} background rays, {empty} pixels without a visible sample, {} new-sample rays, {} retrace rays",
+                count(&fr, "new_sample_rays"),
+                count(&fr, "retrace_rays")
+            );
+            if view == "away" {
+                assert_eq!(bg, 2.0 * npix, "{view} frame {f}: background rays");
+                assert_eq!(count(&fr, "new_sample_rays"), 0.0, "{view} frame {f}");
+                assert_eq!(count(&fr, "retrace_rays"), 0.0, "{view} frame {f}");
+            } else {
+                assert!(
+                    empty > 0 && (empty as f64) < 2.0 * npix,
+                    "{view}: sphere covers part of the view"
+                );
+                assert!(
+                    bg >= empty as f64 && bg <= 2.0 * npix,
+                    "{view} frame {f}: {bg} background rays for {empty} empty pixels"
+                );
+            }
+        }
+    }
+    assert_no_validation_messages(&ctx);
+}

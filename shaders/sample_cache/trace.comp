@@ -75,16 +75,28 @@ void main() {
         }
     }
 
-    // Add samples towards the target density.
+    // Add samples towards the target density. A ray that finds background
+    // ends the adding for this frame: a pixel that shows the environment
+    // would otherwise trace n_target missing rays every frame (4× a path
+    // tracer's one primary ray there, issue 6); a pixel that is only partly
+    // covered keeps one more sample per frame until it reaches the target.
+    bool missed = false;
     for (uint k = 0u; k < action.y; ++k) {
         int s = slot_for_new(m);
         if (s < 0) break;
-        new_rays++;
-        if (new_sample(e, px, eye, pixel, uint(s), r, m)) added++;
+        if (new_sample(e, px, eye, pixel, uint(s), r, m)) {
+            new_rays++;
+            added++;
+        } else {
+            bg_rays++;
+            missed = true;
+            break;
+        }
     }
 
-    // Keep at least one visible sample.
-    if (vis_bits(m) == 0u) {
+    // Keep at least one visible sample (unless this frame's ray just saw the
+    // background through this pixel).
+    if (vis_bits(m) == 0u && !missed) {
         int s = last_failed >= 0 ? last_failed : slot_for_new(m);
         if (s < 0) s = 0;
         bool had = vis_before != 0u;
@@ -98,13 +110,15 @@ void main() {
     }
     mask_cur[pm] = m;
     pixel_stats[pm] = uvec4(action.x, 0u, added + holes + replaced, action.w);
-    atomicAdd(counters[C_RETRACE_RAYS], retrace_rays);
-    atomicAdd(counters[C_NEW_RAYS], new_rays);
-    atomicAdd(counters[C_BG_RAYS], bg_rays);
-    atomicAdd(counters[C_ADDED], added);
-    atomicAdd(counters[C_HOLES], holes);
-    atomicAdd(counters[C_REPLACED], replaced);
-    atomicAdd(counters[C_PURGED], action.z != 0u ? 1u : 0u);
-    atomicAdd(counters[C_EDGE_PIXELS], action.w);
+    // Statistics: skip the atomics that would add zero (most pixels retrace
+    // nothing under adaptive retracing, issue 6).
+    if (retrace_rays != 0u) atomicAdd(counters[C_RETRACE_RAYS], retrace_rays);
+    if (new_rays != 0u) atomicAdd(counters[C_NEW_RAYS], new_rays);
+    if (bg_rays != 0u) atomicAdd(counters[C_BG_RAYS], bg_rays);
+    if (added != 0u) atomicAdd(counters[C_ADDED], added);
+    if (holes != 0u) atomicAdd(counters[C_HOLES], holes);
+    if (replaced != 0u) atomicAdd(counters[C_REPLACED], replaced);
+    if (action.z != 0u) atomicAdd(counters[C_PURGED], 1u);
+    if (action.w != 0u) atomicAdd(counters[C_EDGE_PIXELS], action.w);
     atomicAdd(counters[C_VISIBLE], bitCount(vis_bits(m)));
 }
