@@ -139,26 +139,44 @@ pub struct CacheBenchRow {
     pub shade_ms: f64,
     pub retrace_rays_per_frame: f64,
     pub rays_per_frame: f64,
+    /// GPU frame time of every measured frame (for paired ratios).
+    pub frame_ms_per_frame: Vec<f64>,
 }
 
-/// Renders `cameras` (frame 0 is a warm-up and not counted) with `method`.
-fn run_frames(
-    method: &mut dyn crate::methods::Method,
+/// Renders `cameras` with every method in `methods`, interleaved frame by
+/// frame in rotating order so drift of a shared machine hits them alike;
+/// frame 0 is a warm-up and not counted. Returns stats[method][frame].
+pub fn run_interleaved(
+    methods: &mut [Box<dyn crate::methods::Method>],
     cameras: &[crate::camera::StereoCamera],
-) -> Result<Vec<crate::methods::FrameStats>> {
-    let mut stats = Vec::new();
+) -> Result<Vec<Vec<crate::methods::FrameStats>>> {
+    let mut stats = vec![Vec::new(); methods.len()];
     for (i, cam) in cameras.iter().enumerate() {
-        let prev = if i > 0 { Some(cameras[i - 1]) } else { None };
-        let f = method.render_frame(&FrameInput {
+        let input = FrameInput {
             index: i as u32,
             camera: *cam,
-            prev_camera: prev,
-        })?;
-        if i > 0 {
-            stats.push(f.stats);
+            prev_camera: if i > 0 { Some(cameras[i - 1]) } else { None },
+        };
+        for k in 0..methods.len() {
+            let j = (k + i) % methods.len();
+            let f = methods[j].render_frame(&input)?;
+            if i > 0 {
+                stats[j].push(f.stats);
+            }
         }
     }
     Ok(stats)
+}
+
+/// Ratio of the means of `a` and `b` (paired per-frame times of two methods
+/// on the same frames) and the standard error of the per-frame ratios.
+pub fn paired_ratio(a: &[f64], b: &[f64]) -> (f64, f64) {
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
+    let r: Vec<f64> = a.iter().zip(b).map(|(x, y)| x / y).collect();
+    let m = mean(&r);
+    let n = r.len() as f64;
+    let var = r.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (n - 1.0).max(1.0);
+    (mean(a) / mean(b), (var / n.max(1.0)).sqrt())
 }
 
 /// `stereocache bench sample-cache`: in one run on the same frames, the
@@ -223,6 +241,8 @@ pub fn bench_sample_cache(
         ("multi, one-pass", Retrace::Multi, Reproject::OnePass),
         ("adaptive, two-pass", Retrace::Adaptive, Reproject::TwoPass),
     ];
+    let mut methods = Vec::new();
+    let mut labels = Vec::new();
     for (label, retrace, reproject) in configs {
         let settings = crate::methods::RenderSettings {
             cache: SampleCacheSettings {
@@ -232,42 +252,54 @@ pub fn bench_sample_cache(
             },
             ..base.clone()
         };
-        let mut m = session.method("sample-cache", &settings)?;
-        let stats = run_frames(m.as_mut(), cameras)?;
-        let n = stats.len().max(1) as f64;
-        profile(label, &stats);
-        rows.push(CacheBenchRow {
-            label: format!("sample-cache ({label})"),
-            frame_ms: stats.iter().map(|s| s.gpu_ms()).sum::<f64>() / n,
-            reproject_ms: mean_pass_ms(&stats, "reproject"),
-            trace_ms: mean_pass_ms(&stats, "select") + mean_pass_ms(&stats, "trace"),
-            shade_ms: mean_pass_ms(&stats, "shade"),
-            retrace_rays_per_frame: stats
-                .iter()
-                .map(|s| s.counters.get("retrace_rays").copied().unwrap_or(0.0))
-                .sum::<f64>()
-                / n,
-            rays_per_frame: stats.iter().map(|s| s.rays.total() as f64).sum::<f64>() / n,
-        });
+        methods.push(session.method("sample-cache", &settings)?);
+        labels.push(format!("sample-cache ({label})"));
     }
     // 1 spp path tracing: the reference method with one jittered sample.
     let naive = crate::methods::RenderSettings {
         spp: 1,
         ..base.clone()
     };
-    let mut m = session.method("reference", &naive)?;
-    let stats = run_frames(m.as_mut(), cameras)?;
-    let n = stats.len().max(1) as f64;
-    profile("1 spp", &stats);
-    rows.push(CacheBenchRow {
-        label: "1 spp path tracing".into(),
-        frame_ms: stats.iter().map(|s| s.gpu_ms()).sum::<f64>() / n,
-        reproject_ms: 0.0,
-        trace_ms: mean_pass_ms(&stats, "reference.primary"),
-        shade_ms: mean_pass_ms(&stats, "reference.trace"),
-        retrace_rays_per_frame: 0.0,
-        rays_per_frame: stats.iter().map(|s| s.rays.total() as f64).sum::<f64>() / n,
-    });
+    methods.push(session.method("reference", &naive)?);
+    labels.push("1 spp path tracing".into());
+    let all = run_interleaved(&mut methods, cameras)?;
+    drop(methods);
+    for (label, stats) in labels.into_iter().zip(all) {
+        let n = stats.len().max(1) as f64;
+        let naive = label.starts_with("1 spp");
+        profile(
+            label
+                .trim_start_matches("sample-cache (")
+                .trim_end_matches(')'),
+            &stats,
+        );
+        let (trace_ms, shade_ms) = if naive {
+            (
+                mean_pass_ms(&stats, "reference.primary"),
+                mean_pass_ms(&stats, "reference.trace"),
+            )
+        } else {
+            (
+                mean_pass_ms(&stats, "select") + mean_pass_ms(&stats, "trace"),
+                mean_pass_ms(&stats, "shade"),
+            )
+        };
+        let frame_ms: Vec<f64> = stats.iter().map(|s| s.gpu_ms()).collect();
+        rows.push(CacheBenchRow {
+            label,
+            frame_ms: frame_ms.iter().sum::<f64>() / n,
+            reproject_ms: mean_pass_ms(&stats, "reproject"),
+            trace_ms,
+            shade_ms,
+            retrace_rays_per_frame: stats
+                .iter()
+                .map(|s| s.counters.get("retrace_rays").copied().unwrap_or(0.0))
+                .sum::<f64>()
+                / n,
+            rays_per_frame: stats.iter().map(|s| s.rays.total() as f64).sum::<f64>() / n,
+            frame_ms_per_frame: frame_ms,
+        });
+    }
     Ok((rows, plain_scatter_ms(session, cameras, base)?))
 }
 
@@ -468,8 +500,8 @@ pub fn steady_frame_ms(
     settings: &crate::methods::RenderSettings,
     cameras: &[crate::camera::StereoCamera],
 ) -> Result<f64> {
-    let mut m = session.method(method, settings)?;
-    let stats = run_frames(m.as_mut(), cameras)?;
+    let mut m = [session.method(method, settings)?];
+    let stats = run_interleaved(&mut m, cameras)?.remove(0);
     Ok(stats.iter().map(|s| s.gpu_ms()).sum::<f64>() / stats.len().max(1) as f64)
 }
 
@@ -585,36 +617,20 @@ pub fn bench_specialization(
                 instances.push(session.method(method, s)?);
             }
             // times[build][frame], pass counts per build.
-            let mut times = vec![Vec::new(); builds.len()];
-            let mut passes = vec![0usize; builds.len()];
-            for (i, cam) in cameras.iter().enumerate() {
-                let input = FrameInput {
-                    index: i as u32,
-                    camera: *cam,
-                    prev_camera: if i > 0 { Some(cameras[i - 1]) } else { None },
-                };
-                for k in 0..builds.len() {
-                    let j = (k + i) % builds.len();
-                    let f = instances[j].render_frame(&input)?;
-                    if i > 0 {
-                        times[j].push(f.stats.gpu_ms());
-                    }
-                    passes[j] = f.stats.passes.len();
-                }
-            }
+            let stats = run_interleaved(&mut instances, cameras)?;
             drop(instances);
+            let times: Vec<Vec<f64>> = stats
+                .iter()
+                .map(|v| v.iter().map(|f| f.gpu_ms()).collect())
+                .collect();
+            let passes: Vec<usize> = stats
+                .iter()
+                .map(|v| v.last().map_or(0, |f| f.passes.len()))
+                .collect();
             let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
-            // Ratio of means, and the standard error of the paired per-frame ratios.
-            let ratio = |a: &[f64], b: &[f64]| -> (f64, f64) {
-                let r: Vec<f64> = a.iter().zip(b).map(|(x, y)| x / y).collect();
-                let m = mean(&r);
-                let n = r.len() as f64;
-                let var = r.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (n - 1.0).max(1.0);
-                (mean(a) / mean(b), (var / n).sqrt())
-            };
             for (j, (label, _)) in builds.iter().enumerate() {
                 let base_idx = if j <= 2 { 0 } else { 1 };
-                let (r, se) = ratio(&times[j], &times[base_idx]);
+                let (r, se) = paired_ratio(&times[j], &times[base_idx]);
                 rows.push(SpecBenchRow {
                     scene: scene_label.to_string(),
                     method: method.clone(),
