@@ -102,6 +102,18 @@ impl Buffer {
         })
     }
 
+    /// A storage buffer that compute shaders fill with
+    /// `VkDispatchIndirectCommand`s for [`super::pass::Pass::dispatch_indirect`].
+    pub fn indirect_args(ctx: &Arc<GpuContext>, name: &str, size: u64) -> GpuResult<Buffer> {
+        Self::new(
+            ctx,
+            name,
+            size,
+            STORAGE_USAGE | vk::BufferUsageFlags::INDIRECT_BUFFER,
+            MemoryLocation::GpuOnly,
+        )
+    }
+
     /// A device buffer filled with `data` (through a staging copy).
     pub fn with_data(
         ctx: &Arc<GpuContext>,

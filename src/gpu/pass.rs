@@ -107,20 +107,27 @@ impl Recorder {
                 .iter()
                 .any(|b| self.written.contains(b) || self.read.contains(b));
         if hazard {
+            // One global barrier for every hazard; the indirect-command
+            // stage is in it because dispatch arguments are written by
+            // shaders (Pass::dispatch_indirect).
             let barrier = vk::MemoryBarrier::default()
                 .src_access_mask(
                     vk::AccessFlags::SHADER_WRITE
                         | vk::AccessFlags::SHADER_READ
                         | vk::AccessFlags::TRANSFER_WRITE
-                        | vk::AccessFlags::TRANSFER_READ,
+                        | vk::AccessFlags::TRANSFER_READ
+                        | vk::AccessFlags::INDIRECT_COMMAND_READ,
                 )
                 .dst_access_mask(
                     vk::AccessFlags::SHADER_READ
                         | vk::AccessFlags::SHADER_WRITE
                         | vk::AccessFlags::TRANSFER_READ
-                        | vk::AccessFlags::TRANSFER_WRITE,
+                        | vk::AccessFlags::TRANSFER_WRITE
+                        | vk::AccessFlags::INDIRECT_COMMAND_READ,
                 );
-            let stages = vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER;
+            let stages = vk::PipelineStageFlags::COMPUTE_SHADER
+                | vk::PipelineStageFlags::TRANSFER
+                | vk::PipelineStageFlags::DRAW_INDIRECT;
             unsafe {
                 self.ctx.device.cmd_pipeline_barrier(
                     self.cb,
@@ -236,6 +243,45 @@ impl<'r> Pass<'r> {
         push: &[u8],
         groups: [u32; 3],
     ) {
+        self.record(pipeline, sets, push, |dev, cb| {
+            if groups.iter().all(|&g| g > 0) {
+                unsafe { dev.cmd_dispatch(cb, groups[0], groups[1], groups[2]) };
+            }
+        });
+    }
+
+    /// Like [`Self::dispatch`], with the workgroup counts read on the device
+    /// from the `VkDispatchIndirectCommand` at byte `offset` of `args` (a
+    /// [`Buffer::indirect_args`] written by an earlier pass; it is read by
+    /// this one). The writer keeps the counts within
+    /// `maxComputeWorkGroupCount`.
+    pub fn dispatch_indirect(
+        mut self,
+        pipeline: &ComputePipeline,
+        sets: &[&DescriptorSet],
+        push: &[u8],
+        args: &Buffer,
+        offset: u64,
+    ) {
+        assert!(
+            offset % 4 == 0 && offset + 12 <= args.size,
+            "pass {}: indirect arguments outside their buffer",
+            self.name
+        );
+        self.reads.push(args.raw);
+        let raw = args.raw;
+        self.record(pipeline, sets, push, |dev, cb| unsafe {
+            dev.cmd_dispatch_indirect(cb, raw, offset)
+        });
+    }
+
+    fn record(
+        self,
+        pipeline: &ComputePipeline,
+        sets: &[&DescriptorSet],
+        push: &[u8],
+        dispatch: impl FnOnce(&ash::Device, vk::CommandBuffer),
+    ) {
         let Pass {
             rec,
             name,
@@ -272,10 +318,8 @@ impl<'r> Pass<'r> {
                     &data,
                 );
             }
-            if groups.iter().all(|&g| g > 0) {
-                dev.cmd_dispatch(rec.cb, groups[0], groups[1], groups[2]);
-            }
         }
+        dispatch(dev, rec.cb);
         rec.end_pass(idx);
     }
 
