@@ -1,6 +1,6 @@
 #version 460
 // Frame start: this frame's importance bounds become the previous frame's,
-// and the histogram, shade-list length and counters are reset.
+// and the histogram, shade- and retrace-list lengths and counters are reset.
 #include "sample_cache/common.glsl"
 layout(local_size_x = 64) in;
 void main() {
@@ -11,7 +11,10 @@ void main() {
         state[4u + i] = 0xFFFFFFFFu;
         state[6u + i] = 0u;
     }
-    if (i == 0u) state[8] = 0u;
+    if (i == 0u) {
+        state[8] = 0u;
+        state[9] = 0u;
+    }
     if (i < 2u * HIST_M) hist[i] = 0u;
     if (i < 32u) counters[i] = 0u;
 }

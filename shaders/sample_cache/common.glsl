@@ -42,7 +42,8 @@ layout(set = 1, binding = 6, std430) buffer RadCur { vec4 rad_cur[]; };
 layout(set = 1, binding = 7, std430) buffer DepthMin { uint64_t depth_min[]; };  // t_min bits << 32 | Δn bits
 layout(set = 1, binding = 8, std430) buffer DepthMax { uint depth_max[]; };      // t_max bits
 layout(set = 1, binding = 9, std430) buffer Hist { uint hist[]; };               // [eye][HIST_M]
-// state: [0..2) w_min prev, [2..4) w_max prev, [4..6) w_min next, [6..8) w_max next, [8] shade-list length
+// state: [0..2) w_min prev, [2..4) w_max prev, [4..6) w_min next, [6..8) w_max next, [8] shade-list length,
+// [9] retrace-list length
 layout(set = 1, binding = 10, std430) buffer State { uint state[]; };
 layout(set = 1, binding = 11, std430) buffer ShadeList { uint shade_list[]; };   // eye << 31 | slot << 26 | pixel
 layout(set = 1, binding = 12, std430) buffer TargetSrc { uint target_src[]; };   // two-pass: source slot index + 1
@@ -55,6 +56,21 @@ layout(set = 1, binding = 18, std430) buffer OutAlbedo { vec4 out_albedo[]; };
 layout(set = 1, binding = 19, std430) buffer Counters { uint counters[]; };
 layout(set = 1, binding = 20, std430) buffer PixelAction { uvec4 pixel_action[]; }; // trace bits, add count, purge slot + 1, flags
 layout(set = 1, binding = 21, std430) buffer PixelStats { uvec4 pixel_stats[]; };   // traced bits, shaded count, fresh, unused
+// Retracing (§3.4) as a compacted list: select.comp appends the slots to
+// retrace (eye << 31 | slot << 26 | pixel), retrace.comp traces them with
+// every lane busy and sets the bits of the slots found visible in
+// retrace_found, which trace.comp applies.
+layout(set = 1, binding = 24, std430) buffer RetraceList { uint retrace_list[]; };
+layout(set = 1, binding = 25, std430) buffer RetraceFound { uint retrace_found[]; };  // [eye][pixel]
+// VkDispatchIndirectCommand per list: [0..3) retrace, [4..7) shade (indirect_args.comp).
+layout(set = 1, binding = 26, std430) buffer IndirectArgs { uint indirect_args[]; };
+// Slot-list entries (shade and retrace lists).
+uint list_entry(uint eye, uint slot, uint pixel) { return (eye << 31) | (slot << 26) | pixel; }
+void list_decode(uint code, out uint eye, out uint slot, out uint pixel) {
+    eye = code >> 31;
+    slot = (code >> 26) & 31u;
+    pixel = code & 0x3FFFFFFu;
+}
 
 // Counter slots (src/methods/sample_cache/mod.rs names them).
 const uint C_RETRACE_RAYS = 0u, C_NEW_RAYS = 1u, C_BOUNCE_RAYS = 2u, C_SHADOW_RAYS = 3u, C_HOLES = 4u,

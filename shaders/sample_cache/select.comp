@@ -1,7 +1,8 @@
 #version 460
 // §3.2 step 1–2 decisions, from the reprojected cache (read only, so the
 // result does not depend on thread order): which slots to retrace
-// (single / multi / adaptive, §3.4), how many samples to add, which to purge.
+// (single / multi / adaptive, §3.4), how many samples to add, which to purge;
+// the slots to retrace are appended to retrace_list.
 #include "sample_cache/common.glsl"
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 
@@ -66,4 +67,14 @@ void main() {
         trace &= ~(1u << (purge - 1u));
     }
     pixel_action[pm] = uvec4(trace, add, purge, edge ? 1u : 0u);
+    // The slots to retrace go to the compacted list (one reservation per pixel).
+    retrace_found[pm] = 0u;
+    if (trace != 0u) {
+        uint i = atomicAdd(state[9], bitCount(trace));
+        while (trace != 0u) {
+            uint s = uint(findLSB(trace));
+            trace &= trace - 1u;
+            retrace_list[i++] = list_entry(eye, s, pixel);
+        }
+    }
 }

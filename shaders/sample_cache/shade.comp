@@ -10,16 +10,18 @@ layout(local_size_x = 64) in;
 bool view_dependent(ShadingMaterial m) { return m.metallic > 0.5 || m.transmission > 0.0; }
 
 void main() {
-    // Grid-stride over the list: the dispatch covers one entry per pixel (the
-    // uniform-shading maximum), not the list's capacity of (N + 1) per pixel,
-    // whose mostly empty workgroups cost time on CPU drivers (issue 6).
+    // Grid-stride over the list: the indirect dispatch covers the list's
+    // length (indirect_args.comp, up to the device's workgroup-count limit),
+    // not its capacity of (N + 1) entries per pixel, whose mostly empty
+    // workgroups cost time on CPU drivers (issue 6).
     uint stride = gl_NumWorkGroups.x * gl_WorkGroupSize.x;
     uint count = state[8];
     uint shaded = 0u;
     RayCounts rays = RayCounts(0u, 0u);
     for (uint i = gl_GlobalInvocationID.x; i < count; i += stride) {
         uint code = shade_list[i];
-        uint eye = code >> 31, slot = (code >> 26) & 31u, pixel = code & 0x3FFFFFFu;
+        uint eye, slot, pixel;
+        list_decode(code, eye, slot, pixel);
         uint idx = slot_index(eye, slot, pixel);
         uvec4 fh = fh_cur[idx];
         EyeGpu e = frame.eyes[eye];

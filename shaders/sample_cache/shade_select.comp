@@ -10,7 +10,7 @@ layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 
 void push_shade(uint eye, uint slot, uint pixel) {
     uint i = atomicAdd(state[8], 1u);
-    shade_list[i] = (eye << 31) | (slot << 26) | pixel;
+    shade_list[i] = list_entry(eye, slot, pixel);
 }
 
 void main() {

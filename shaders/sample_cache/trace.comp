@@ -1,6 +1,5 @@
 #version 460
-// §3.2 step 3: retrace the selected slots with rays from the eye to the
-// stored hit (visible when the closest hit lies within ε0·t of it), purge,
+// §3.2 step 3: apply the retrace results (retrace.comp), purge,
 // add new samples through random points in the pixel (into a free slot or
 // over an invisible one), and keep at least one visible sample: a pixel left
 // without one gets a fresh hit (over the last one that failed, if any).
@@ -45,35 +44,22 @@ void main() {
     uvec4 action = pixel_action[pm];
     uint m = mask_cur[pm];
     EyeGpu e = frame.eyes[eye];
-    vec3 o = e.pos_tanx.xyz;
     Rng r = rng_init(frame.size_seed.z, frame.size_seed.w, eye, pixel, 0x5EED0002u);
-    uint retrace_rays = 0u, new_rays = 0u, added = 0u, holes = 0u, replaced = 0u, bg_rays = 0u;
+    uint new_rays = 0u, added = 0u, holes = 0u, replaced = 0u, bg_rays = 0u;
 
     if (action.z != 0u) {
         uint s = action.z - 1u;
         m &= ~((1u << s) | (1u << (s + N_SLOTS)));
     }
     uint vis_before = vis_bits(m);
-    int last_failed = -1;
-    uint trace = action.x & occ_bits(m);
-    while (trace != 0u) {
-        uint s = uint(findLSB(trace));
-        trace &= trace - 1u;
-        vec3 wp = hit_position(fh_cur[slot_index(eye, s, pixel)]);
-        vec3 d = wp - o;
-        float t = length(d);
-        d /= max(t, 1e-30);
-        RtHit h;
-        bool hit = rt_closest_hit(o, d, 0.0, t * (1.0 + 2.0 * pc.eps0), h);
-        retrace_rays++;
-        bool visible = hit && abs(h.t - t) <= pc.eps0 * t;
-        uint v_bit = 1u << (s + N_SLOTS);
-        if (visible) m |= v_bit;
-        else {
-            if ((m & v_bit) != 0u) last_failed = int(s);
-            m &= ~v_bit;
-        }
-    }
+    // Retrace results (retrace.comp): traced slots found visible keep or get
+    // their visibility bit, the others lose it; the last one (highest slot)
+    // that was visible and failed takes the fresh hit if none stays visible.
+    uint traced = action.x & occ_bits(m);
+    uint found = retrace_found[pm] & traced;
+    uint failed = traced & ~found & vis_before;
+    int last_failed = failed != 0u ? findMSB(failed) : -1;
+    m = (m & ~(traced << N_SLOTS)) | (found << N_SLOTS);
 
     // Add samples towards the target density. A ray that finds background
     // ends the adding for this frame: a pixel that shows the environment
@@ -110,9 +96,8 @@ void main() {
     }
     mask_cur[pm] = m;
     pixel_stats[pm] = uvec4(action.x, 0u, added + holes + replaced, action.w);
-    // Statistics: skip the atomics that would add zero (most pixels retrace
-    // nothing under adaptive retracing, issue 6).
-    if (retrace_rays != 0u) atomicAdd(counters[C_RETRACE_RAYS], retrace_rays);
+    // Statistics: skip the atomics that would add zero (most pixels add
+    // nothing once the cache is filled, issue 6).
     if (new_rays != 0u) atomicAdd(counters[C_NEW_RAYS], new_rays);
     if (bg_rays != 0u) atomicAdd(counters[C_BG_RAYS], bg_rays);
     if (added != 0u) atomicAdd(counters[C_ADDED], added);

@@ -31,7 +31,7 @@ use super::{
 };
 use crate::gpu::{
     Buffer, ComputePipeline, DescriptorLayout, DescriptorSet, GpuContext, GpuError, GpuResult,
-    Recorder, Resource,
+    Recorder, Resource, SpecConstants,
 };
 use crate::rt::SceneGpu;
 use crate::scene::Environment;
@@ -46,6 +46,8 @@ mod spec_id {
     pub const TWO_PASS: u32 = 24;
     pub const SHADING_STORAGE: u32 = 25;
     pub const DEBUG_VIEWS: u32 = 26;
+    /// indirect_args.comp: which list's dispatch it writes (0 retrace, 1 shade).
+    pub const ARGS_LIST: u32 = 27;
 }
 
 /// Counter slots written by the shaders (common.glsl `C_*`), with report names.
@@ -120,6 +122,8 @@ struct Pipelines {
     reproject: ComputePipeline,
     reproject_copy: Option<ComputePipeline>,
     select: ComputePipeline,
+    retrace_args: ComputePipeline,
+    retrace: ComputePipeline,
     trace: ComputePipeline,
     /// None for a visibility-only cache.
     shading: Option<ShadingPipelines>,
@@ -127,6 +131,7 @@ struct Pipelines {
 
 struct ShadingPipelines {
     shade_select: ComputePipeline,
+    shade_args: ComputePipeline,
     shade: ComputePipeline,
     reconstruct: ComputePipeline,
     stereo_blend: ComputePipeline,
@@ -167,6 +172,10 @@ pub struct SampleCache {
     counters: Buffer,
     pixel_action: Buffer,
     pixel_stats: Buffer,
+    retrace_list: Buffer,
+    retrace_found: Buffer,
+    /// Dispatch arguments of the retrace (bytes 0..12) and shade (16..28) passes.
+    indirect: Buffer,
     debug: Buffer,
     out_blended: Buffer,
     /// Frames rendered so far (selects the ping-pong parity).
@@ -245,10 +254,13 @@ impl SampleCache {
         let counters = b("counters", 32 * 4)?;
         let pixel_action = b("pixel_action", e2 * 16)?;
         let pixel_stats = b("pixel_stats", e2 * 16)?;
+        let retrace_list = b("retrace_list", e2 * n * 4)?;
+        let retrace_found = b("retrace_found", e2 * 4)?;
+        let indirect = Buffer::indirect_args(ctx, "sample_cache.indirect_args", 32)?;
         let debug = sb("debug", 4 * e2 * 16)?;
         let out_blended = sb("blended", e2 * 16)?;
 
-        let layout = DescriptorLayout::buffers(ctx, 24)?;
+        let layout = DescriptorLayout::buffers(ctx, 27)?;
         let make_set = |p: usize| {
             let q = 1 - p;
             DescriptorSet::new(
@@ -279,6 +291,9 @@ impl SampleCache {
                     Resource::Buffer(&pixel_stats),
                     Resource::Buffer(&debug),
                     Resource::Buffer(&out_blended),
+                    Resource::Buffer(&retrace_list),
+                    Resource::Buffer(&retrace_found),
+                    Resource::Buffer(&indirect),
                 ],
             )
         };
@@ -297,15 +312,21 @@ impl SampleCache {
             .flag(spec_id::DEBUG_VIEWS, cache.debug_views);
         let layouts = [scene.layout.clone(), layout];
         let push = 32;
-        let pipe = |name: &str| -> GpuResult<ComputePipeline> {
+        let pipe_with = |name: &str, label: &str, spec: &SpecConstants| {
             ComputePipeline::new(
                 ctx,
-                &format!("sample_cache.{name}"),
+                &format!("sample_cache.{label}"),
                 backend_shader(&format!("sample_cache/{name}"), scene)?,
                 &layouts,
                 push,
-                &spec,
+                spec,
             )
+        };
+        let pipe = |name: &str| pipe_with(name, name, &spec);
+        let args_pipe = |list: u32, label: &str| {
+            let mut s = spec.clone();
+            s.set(spec_id::ARGS_LIST, list);
+            pipe_with("indirect_args", label, &s)
         };
         let pipes = Pipelines {
             begin: pipe("begin")?,
@@ -316,10 +337,13 @@ impl SampleCache {
                 None
             },
             select: pipe("select")?,
+            retrace_args: args_pipe(0, "retrace_args")?,
+            retrace: pipe("retrace")?,
             trace: pipe("trace")?,
             shading: if shading {
                 Some(ShadingPipelines {
                     shade_select: pipe("shade_select")?,
+                    shade_args: args_pipe(1, "shade_args")?,
                     shade: pipe("shade")?,
                     reconstruct: pipe("reconstruct")?,
                     stereo_blend: pipe("stereo_blend")?,
@@ -391,6 +415,9 @@ impl SampleCache {
             counters,
             pixel_action,
             pixel_stats,
+            retrace_list,
+            retrace_found,
+            indirect,
             debug,
             out_blended,
             frames: 0,
@@ -524,9 +551,25 @@ impl SampleCache {
             .read(&self.depth_min)
             .read(&self.depth_max)
             .write(&self.pixel_action)
+            .write(&self.state)
+            .write(&self.retrace_list)
+            .write(&self.retrace_found)
             .dispatch(&p.select, &sets, &push, groups);
+        rec.pass("trace.args")
+            .read(&self.state)
+            .write(&self.indirect)
+            .dispatch(&p.retrace_args, &sets, &push, [1, 1, 1]);
+        rec.pass("trace.retrace")
+            .read(&self.frame)
+            .read(&self.state)
+            .read(&self.retrace_list)
+            .read(cur_fh)
+            .write(&self.retrace_found)
+            .write(&self.counters)
+            .dispatch_indirect(&p.retrace, &sets, &push, &self.indirect, 0);
         rec.pass("trace")
             .read(&self.pixel_action)
+            .read(&self.retrace_found)
             .write(cur_mask)
             .write(cur_fh)
             .write(cur_rad)
@@ -597,7 +640,7 @@ impl Method for SampleCache {
                 "a visibility-only sample cache does not shade; render it through `hybrid`".into(),
             ));
         };
-        let mut rec = Recorder::new(&self.ctx, 16)?;
+        let mut rec = Recorder::new(&self.ctx, 20)?;
         let cur = self.record_visibility(&mut rec, input);
         let (cur_mask, cur_fh, cur_rad) =
             (&self.masks[cur], &self.first_hits[cur], &self.radiance[cur]);
@@ -611,9 +654,11 @@ impl Method for SampleCache {
             .write(&self.state)
             .write(&self.shade_list)
             .dispatch(&sp.shade_select, &sets, &push, groups);
-        // shade.comp strides over the list (up to (N + 1) entries per pixel)
-        // with one invocation per pixel of both eyes.
-        let shade_groups = (2 * npix as u32).div_ceil(64);
+        // shade.comp runs over the list's length (indirect dispatch).
+        rec.pass("shade.args")
+            .read(&self.state)
+            .write(&self.indirect)
+            .dispatch(&sp.shade_args, &sets, &push, [1, 1, 1]);
         rec.pass("shade")
             .read(&self.shade_list)
             .read(&self.state)
@@ -621,7 +666,7 @@ impl Method for SampleCache {
             .write(cur_rad)
             .write(&self.pixel_stats)
             .write(&self.counters)
-            .dispatch(&sp.shade, &sets, &push, [shade_groups, 1, 1]);
+            .dispatch_indirect(&sp.shade, &sets, &push, &self.indirect, 16);
         rec.pass("reconstruct")
             .read(cur_mask)
             .read(cur_fh)

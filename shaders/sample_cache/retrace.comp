@@ -1,0 +1,28 @@
+#version 460
+// §3.2 step 3, first half: retrace the slots select.comp listed, with rays
+// from the eye to the stored hit; a sample is visible when the closest hit
+// lies within ε0·t of it. Run over the compacted list so every lane traces
+// (per pixel, only edge and base-rate pixels retrace under adaptive
+// retracing, and a per-pixel dispatch left most lanes idle, issue 6).
+#include "sample_cache/common.glsl"
+layout(local_size_x = 64) in;
+
+void main() {
+    uint stride = gl_NumWorkGroups.x * gl_WorkGroupSize.x;
+    uint count = state[9];
+    uint rays = 0u;
+    for (uint i = gl_GlobalInvocationID.x; i < count; i += stride) {
+        uint eye, s, pixel;
+        list_decode(retrace_list[i], eye, s, pixel);
+        vec3 o = frame.eyes[eye].pos_tanx.xyz;
+        vec3 wp = hit_position(fh_cur[slot_index(eye, s, pixel)]);
+        vec3 d = wp - o;
+        float t = length(d);
+        d /= max(t, 1e-30);
+        RtHit h;
+        bool hit = rt_closest_hit(o, d, 0.0, t * (1.0 + 2.0 * pc.eps0), h);
+        rays++;
+        if (hit && abs(h.t - t) <= pc.eps0 * t) atomicOr(retrace_found[eye * npix() + pixel], 1u << s);
+    }
+    if (rays != 0u) atomicAdd(counters[C_RETRACE_RAYS], rays);
+}
