@@ -126,7 +126,8 @@ fn mean_pass_ms(frames: &[crate::methods::FrameStats], prefix: &str) -> f64 {
         .filter(|p| p.name.starts_with(prefix))
         .map(|p| p.ms)
         .sum();
-    total / frames.len().max(1) as f64
+    // + 0.0: an empty sum is -0.0, printed as "-0.00".
+    total / frames.len().max(1) as f64 + 0.0
 }
 
 /// One configuration of `bench sample-cache`.
