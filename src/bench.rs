@@ -187,7 +187,7 @@ pub fn bench_sample_cache(
     session: &Session,
     cameras: &[crate::camera::StereoCamera],
     base: &crate::methods::RenderSettings,
-) -> Result<(Vec<CacheBenchRow>, f64)> {
+) -> Result<(Vec<CacheBenchRow>, ScatterBaselines)> {
     use crate::methods::sample_cache::{Reproject, Retrace, SampleCacheSettings};
     let mut rows = Vec::new();
     // Per-pass profile on stderr: GPU ms per frame in recording order (mean
@@ -301,18 +301,35 @@ pub fn bench_sample_cache(
             frame_ms_per_frame: frame_ms,
         });
     }
-    Ok((rows, plain_scatter_ms(session, cameras, base)?))
+    Ok((rows, scatter_baselines(session, cameras, base)?))
 }
 
-/// Mean GPU time of the plain one-sample-per-pixel scatter over the frames.
-fn plain_scatter_ms(
+/// GPU times of the two scatter baselines of `bench sample-cache` (mean ms
+/// per frame over the measured frames).
+#[derive(Clone, Debug, Serialize)]
+pub struct ScatterBaselines {
+    /// The paper's "simple reprojection" (Fig. 6): one first hit per pixel,
+    /// plain store (`bench/scatter.comp`).
+    pub one_sample_ms: f64,
+    /// Every occupied slot of a warmed-up sample cache with its 32-byte
+    /// payload, plain store into the same layer (`bench/scatter_slots.comp`).
+    pub all_slots_ms: f64,
+    /// Occupied slots per pixel (both eyes) of that cache.
+    pub slots_per_pixel: f64,
+}
+
+/// Runs both scatter baselines in the same command buffer per frame over
+/// `cameras` (frame 0 not counted): sources are the reference's first hits of
+/// frame 0 and a sample cache (`base.cache`) after up to 10 frames.
+fn scatter_baselines(
     session: &Session,
     cameras: &[crate::camera::StereoCamera],
     base: &crate::methods::RenderSettings,
-) -> Result<f64> {
+) -> Result<ScatterBaselines> {
     let ctx = &session.ctx;
     let (w, h) = (base.width, base.height);
     let n = (w * h * 2) as u64;
+    let slots = base.cache.slots;
     // First hits of frame 0 from the reference's pixel-centre rays.
     let mut reference = session.method(
         "reference",
@@ -326,23 +343,51 @@ fn plain_scatter_ms(
         camera: cameras[0],
         prev_camera: None,
     })?;
+    drop(reference);
     let hits: Vec<[u32; 4]> = f0
         .eyes
         .iter()
         .flat_map(|e| e.first_hit.iter().copied())
         .collect();
+    // A warmed-up sample cache's slots.
+    let snap = {
+        let mut cache = crate::methods::sample_cache::SampleCache::new(
+            ctx,
+            &session.scene_gpu,
+            &session.scene.environment,
+            base,
+        )?;
+        use crate::methods::Method;
+        let warm = cameras.len().min(11);
+        for (i, cam) in cameras[..warm].iter().enumerate() {
+            cache.render_frame(&FrameInput {
+                index: i as u32,
+                camera: *cam,
+                prev_camera: if i > 0 { Some(cameras[i - 1]) } else { None },
+            })?;
+        }
+        cache.snapshot()?
+    };
+    let occupied: u64 = snap
+        .masks
+        .iter()
+        .map(|&m| snap.occupied(m).count_ones() as u64)
+        .sum();
     let fbuf = Buffer::storage(
         ctx,
         "scatter.frame",
         std::mem::size_of::<FrameParams>() as u64,
     )?;
-    let src = Buffer::with_data(
-        ctx,
-        "scatter.src",
-        bytemuck::cast_slice(&hits),
-        ash::vk::BufferUsageFlags::empty(),
-    )?;
+    let upload = |name: &str, data: &[u8]| {
+        Buffer::with_data(ctx, name, data, ash::vk::BufferUsageFlags::empty())
+    };
+    let src = upload("scatter.src", bytemuck::cast_slice(&hits))?;
     let dst = Buffer::storage(ctx, "scatter.dst", n * 16)?;
+    let masks = upload("scatter.slots.masks", bytemuck::cast_slice(&snap.masks))?;
+    let src_fh = upload("scatter.slots.src_fh", bytemuck::cast_slice(&snap.first_hits))?;
+    let src_rad = upload("scatter.slots.src_rad", bytemuck::cast_slice(&snap.radiance))?;
+    let dst_fh = Buffer::storage(ctx, "scatter.slots.dst_fh", n * slots as u64 * 16)?;
+    let dst_rad = Buffer::storage(ctx, "scatter.slots.dst_rad", n * slots as u64 * 16)?;
     let layout = DescriptorLayout::buffers(ctx, 3)?;
     let set = DescriptorSet::new(
         ctx,
@@ -353,21 +398,38 @@ fn plain_scatter_ms(
             Resource::Buffer(&dst),
         ],
     )?;
-    let spirv = shaders::spirv("bench/scatter")
-        .ok_or_else(|| GpuError::Unsupported("shader bench/scatter missing".into()))?;
+    let slots_layout = DescriptorLayout::buffers(ctx, 6)?;
+    let slots_set = DescriptorSet::new(
+        ctx,
+        &slots_layout,
+        &[
+            Resource::Buffer(&fbuf),
+            Resource::Buffer(&masks),
+            Resource::Buffer(&src_fh),
+            Resource::Buffer(&src_rad),
+            Resource::Buffer(&dst_fh),
+            Resource::Buffer(&dst_rad),
+        ],
+    )?;
     let spec = session
         .scene_gpu
         .spec_constants(&session.scene.environment, 1, false);
-    let pipe = ComputePipeline::new(
-        ctx,
-        "bench.scatter",
-        spirv,
-        &[session.scene_gpu.layout.clone(), layout],
-        0,
-        &spec,
-    )?;
+    let pipeline = |name: &str, layout: &std::sync::Arc<DescriptorLayout>, push: u32| -> Result<ComputePipeline> {
+        let spirv = shaders::spirv(name)
+            .ok_or_else(|| GpuError::Unsupported(format!("shader {name} missing")))?;
+        Ok(ComputePipeline::new(
+            ctx,
+            name,
+            spirv,
+            &[session.scene_gpu.layout.clone(), layout.clone()],
+            push,
+            &spec,
+        )?)
+    };
+    let pipe = pipeline("bench/scatter", &layout, 0)?;
+    let slots_pipe = pipeline("bench/scatter_slots", &slots_layout, 4)?;
     let groups = [w.div_ceil(8), h.div_ceil(8), 2];
-    let mut total = 0.0;
+    let (mut one, mut all) = (0.0, 0.0);
     for (i, cam) in cameras.iter().enumerate() {
         let params = FrameParams::new(
             &FrameInput {
@@ -380,26 +442,46 @@ fn plain_scatter_ms(
             1,
             session.scene_gpu.origin,
         );
-        let mut rec = Recorder::new(ctx, 3)?;
+        let mut rec = Recorder::new(ctx, 5)?;
         rec.pass("params")
             .write(&fbuf)
             .update(bytemuck::bytes_of(&params));
-        rec.pass("clear").write(&dst).fill(0);
+        rec.pass("clear")
+            .write(&dst)
+            .write(&dst_fh)
+            .write(&dst_rad)
+            .fill(0);
         rec.pass("scatter")
             .read(&fbuf)
             .read(&src)
             .write(&dst)
             .dispatch(&pipe, &[&session.scene_gpu.set, &set], &[], groups);
+        rec.pass("scatter.slots")
+            .read(&fbuf)
+            .read(&masks)
+            .read(&src_fh)
+            .read(&src_rad)
+            .write(&dst_fh)
+            .write(&dst_rad)
+            .dispatch(
+                &slots_pipe,
+                &[&session.scene_gpu.set, &slots_set],
+                &slots.to_le_bytes(),
+                groups,
+            );
         let t = rec.finish()?;
         if i > 0 {
-            total += t
-                .iter()
-                .filter(|p| p.name == "scatter")
-                .map(|p| p.ms)
-                .sum::<f64>();
+            let ms = |name: &str| t.iter().filter(|p| p.name == name).map(|p| p.ms).sum::<f64>();
+            one += ms("scatter");
+            all += ms("scatter.slots");
         }
     }
-    Ok(total / (cameras.len().saturating_sub(1)).max(1) as f64)
+    let frames = (cameras.len().saturating_sub(1)).max(1) as f64;
+    Ok(ScatterBaselines {
+        one_sample_ms: one / frames,
+        all_slots_ms: all / frames,
+        slots_per_pixel: occupied as f64 / n as f64,
+    })
 }
 
 /// The configurations `bench tradeoff` sweeps: every method, and for the
