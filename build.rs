@@ -1,6 +1,9 @@
 //! Compiles every compute shader under `shaders/` to SPIR-V with glslc
 //! (`--target-env=vulkan1.2 -O`). A shader that includes `common/rt.glsl`
 //! traces rays and is compiled twice, with `-DRT_QUERY` and `-DRT_SOFTWARE`.
+//! A shader with a line `// variant: SUBGROUP_OPS` is also compiled with
+//! `-DSUBGROUP_OPS` as `NAME.subgroup` (subgroup arithmetic and ballot, for
+//! devices that support them; the plain build is the fallback).
 //! A glslc error is printed with its file and line and stops the build.
 
 use std::path::{Path, PathBuf};
@@ -52,15 +55,22 @@ fn main() {
     for src in &sources {
         let rel = src.strip_prefix(&shader_dir).unwrap().with_extension("");
         let name = rel.to_string_lossy().replace('\\', "/");
-        if traces_rays(src, &shader_dir, &mut Vec::new()) {
-            jobs.push((format!("{name}.query"), src.clone(), vec!["-DRT_QUERY"]));
-            jobs.push((
-                format!("{name}.software"),
-                src.clone(),
-                vec!["-DRT_SOFTWARE"],
-            ));
-        } else {
-            jobs.push((name, src.clone(), vec![]));
+        let text = std::fs::read_to_string(src).unwrap_or_default();
+        let mut variants = vec![(name.clone(), vec![])];
+        if text.lines().any(|l| l.trim() == "// variant: SUBGROUP_OPS") {
+            variants.push((format!("{name}.subgroup"), vec!["-DSUBGROUP_OPS"]));
+        }
+        let rt = traces_rays(src, &shader_dir, &mut Vec::new());
+        for (name, defs) in variants {
+            if rt {
+                for (suffix, def) in [("query", "-DRT_QUERY"), ("software", "-DRT_SOFTWARE")] {
+                    let mut d = defs.clone();
+                    d.push(def);
+                    jobs.push((format!("{name}.{suffix}"), src.clone(), d));
+                }
+            } else {
+                jobs.push((name, src.clone(), defs));
+            }
         }
     }
 

@@ -236,21 +236,45 @@ pub fn bench_sample_cache(
             per_pixel("shaded_samples"),
         );
     };
+    // The last row: the default configuration with the plain shader builds
+    // instead of the subgroup-operation ones (same where the device has none).
     let configs = [
-        ("adaptive, one-pass", Retrace::Adaptive, Reproject::OnePass),
-        ("single, one-pass", Retrace::Single, Reproject::OnePass),
-        ("multi, one-pass", Retrace::Multi, Reproject::OnePass),
-        ("adaptive, two-pass", Retrace::Adaptive, Reproject::TwoPass),
+        (
+            "adaptive, one-pass",
+            Retrace::Adaptive,
+            Reproject::OnePass,
+            true,
+        ),
+        (
+            "single, one-pass",
+            Retrace::Single,
+            Reproject::OnePass,
+            true,
+        ),
+        ("multi, one-pass", Retrace::Multi, Reproject::OnePass, true),
+        (
+            "adaptive, two-pass",
+            Retrace::Adaptive,
+            Reproject::TwoPass,
+            true,
+        ),
+        (
+            "adaptive, one-pass, plain builds",
+            Retrace::Adaptive,
+            Reproject::OnePass,
+            false,
+        ),
     ];
     let mut methods = Vec::new();
     let mut labels = Vec::new();
-    for (label, retrace, reproject) in configs {
+    for (label, retrace, reproject, subgroup_ops) in configs {
         let settings = crate::methods::RenderSettings {
             cache: SampleCacheSettings {
                 retrace,
                 reproject,
                 ..base.cache.clone()
             },
+            subgroup_ops,
             ..base.clone()
         };
         methods.push(session.method("sample-cache", &settings)?);
@@ -384,8 +408,14 @@ fn scatter_baselines(
     let src = upload("scatter.src", bytemuck::cast_slice(&hits))?;
     let dst = Buffer::storage(ctx, "scatter.dst", n * 16)?;
     let masks = upload("scatter.slots.masks", bytemuck::cast_slice(&snap.masks))?;
-    let src_fh = upload("scatter.slots.src_fh", bytemuck::cast_slice(&snap.first_hits))?;
-    let src_rad = upload("scatter.slots.src_rad", bytemuck::cast_slice(&snap.radiance))?;
+    let src_fh = upload(
+        "scatter.slots.src_fh",
+        bytemuck::cast_slice(&snap.first_hits),
+    )?;
+    let src_rad = upload(
+        "scatter.slots.src_rad",
+        bytemuck::cast_slice(&snap.radiance),
+    )?;
     let dst_fh = Buffer::storage(ctx, "scatter.slots.dst_fh", n * slots as u64 * 16)?;
     let dst_rad = Buffer::storage(ctx, "scatter.slots.dst_rad", n * slots as u64 * 16)?;
     let layout = DescriptorLayout::buffers(ctx, 3)?;
@@ -414,7 +444,10 @@ fn scatter_baselines(
     let spec = session
         .scene_gpu
         .spec_constants(&session.scene.environment, 1, false);
-    let pipeline = |name: &str, layout: &std::sync::Arc<DescriptorLayout>, push: u32| -> Result<ComputePipeline> {
+    let pipeline = |name: &str,
+                    layout: &std::sync::Arc<DescriptorLayout>,
+                    push: u32|
+     -> Result<ComputePipeline> {
         let spirv = shaders::spirv(name)
             .ok_or_else(|| GpuError::Unsupported(format!("shader {name} missing")))?;
         Ok(ComputePipeline::new(
@@ -471,7 +504,12 @@ fn scatter_baselines(
             );
         let t = rec.finish()?;
         if i > 0 {
-            let ms = |name: &str| t.iter().filter(|p| p.name == name).map(|p| p.ms).sum::<f64>();
+            let ms = |name: &str| {
+                t.iter()
+                    .filter(|p| p.name == name)
+                    .map(|p| p.ms)
+                    .sum::<f64>()
+            };
             one += ms("scatter");
             all += ms("scatter.slots");
         }

@@ -245,6 +245,10 @@ struct MethodArgs {
     isrt: IsrtArgs,
     #[command(flatten)]
     hash: HashArgs,
+    /// Use the plain shader builds even where the device supports subgroup
+    /// operations (the sample cache's counters, lists and histogram).
+    #[arg(long)]
+    no_subgroup_ops: bool,
 }
 
 impl MethodArgs {
@@ -269,6 +273,7 @@ impl MethodArgs {
             all_features: false,
             extra_features: Default::default(),
             all_passes: false,
+            subgroup_ops: !self.no_subgroup_ops,
             cache: self.cache.settings(debug_views)?,
             taa: self.taa.settings()?,
             isrt: self.isrt.settings()?,
@@ -661,6 +666,9 @@ enum BenchCommand {
         size: String,
         #[arg(long, default_value_t = 3)]
         bounces: u32,
+        /// Shading of every sample-cache row: uniform or adaptive (§3.5).
+        #[arg(long, default_value = "uniform")]
+        shading: String,
     },
     /// Issue 6: GPU frame time of pipelines specialized to the scene's
     /// features against the all-features build, of each unused feature's code,
@@ -1127,9 +1135,12 @@ fn run(cli: Cli) -> Result<()> {
                     frames,
                     size,
                     bounces,
+                    shading,
                 },
         } => {
             let (w, h) = parse_size(&size).map_err(|e| anyhow!(e))?;
+            let shading: stereocache::methods::sample_cache::Shading =
+                shading.parse().map_err(|e: String| anyhow!(e))?;
             if frames == 0 {
                 bail!("bad --frames 0: measure at least one frame");
             }
@@ -1167,7 +1178,10 @@ fn run(cli: Cli) -> Result<()> {
                 max_bounces: bounces,
                 seed: 1,
                 all_features: false,
-                cache: SampleCacheSettings::default(),
+                cache: SampleCacheSettings {
+                    shading,
+                    ..SampleCacheSettings::default()
+                },
                 ..Default::default()
             };
             let (rows, scatter) =
@@ -1206,12 +1220,13 @@ fn run(cli: Cli) -> Result<()> {
                 scatter.slots_per_pixel
             );
             let row = |l: &str| rows.iter().find(|r| r.label.contains(l)).unwrap();
-            let (adaptive, multi, single, two, naive) = (
-                row("adaptive, one"),
+            let (adaptive, multi, single, two, naive, plain) = (
+                row("adaptive, one-pass)"),
                 row("multi"),
                 row("single"),
                 row("two-pass"),
                 row("1 spp"),
+                row("plain builds"),
             );
             println!("ratios (same run, same device):");
             println!(
@@ -1242,6 +1257,17 @@ fn run(cli: Cli) -> Result<()> {
             );
             println!(
                 "  sample-cache (adaptive) / 1 spp frame:   {r:.2}x time (± {se:.2}, standard error of the per-frame ratios; methods interleaved frame by frame)"
+            );
+            let (r, se) = stereocache::bench::paired_ratio(
+                &adaptive.frame_ms_per_frame,
+                &plain.frame_ms_per_frame,
+            );
+            let subgroup = session.ctx.caps.has_subgroup_ops(&["arithmetic", "ballot"]);
+            println!(
+                "  subgroup-op / plain shader builds:       {r:.2}x frame (± {se:.2}), {:.2}x reproject, {:.2}x shade{}",
+                adaptive.reproject_ms / plain.reproject_ms,
+                adaptive.shade_ms / plain.shade_ms,
+                if subgroup { "" } else { " (this device has no subgroup arithmetic/ballot: both are the plain builds)" }
             );
             report_validation(&session.ctx)
         }

@@ -437,19 +437,30 @@ fn static_view_converges_towards_the_reference() {
 fn adaptive_shading_dispatches_the_requested_rate() {
     let ctx = context();
     let s = session(&ctx, shipped("cornell"), RtChoice::Software);
+    for subgroup_ops in [true, false] {
+        adaptive_shading_rate(&s, subgroup_ops);
+    }
+    assert_no_validation_messages(&ctx);
+}
+
+fn adaptive_shading_rate(s: &Session, subgroup_ops: bool) {
     let (w, h) = (48, 36);
     let rate = 0.5f32;
-    let st = settings(
-        w,
-        h,
-        SampleCacheSettings {
-            shading: Shading::Adaptive,
-            shading_rate: rate,
-            retrace: Retrace::Multi,
-            ..Default::default()
-        },
-    );
-    let mut m = cache_method(&s, &st);
+    let st = RenderSettings {
+        subgroup_ops,
+        ..settings(
+            w,
+            h,
+            SampleCacheSettings {
+                shading: Shading::Adaptive,
+                shading_rate: rate,
+                retrace: Retrace::Multi,
+                ..Default::default()
+            },
+        )
+    };
+    let mut m = cache_method(s, &st);
+    eprintln!("subgroup builds: {}", m.uses_subgroup_ops());
     let cam0 = s.camera(&CameraSelect::Default, w, h, None, None).unwrap();
     let mut prev = None;
     let npix = (w * h) as f64;
@@ -514,8 +525,16 @@ fn adaptive_shading_dispatches_the_requested_rate() {
             c_shaded / n_shaded,
             c_all / n_all
         );
+        // The shade list holds each sample once (its reservation is per
+        // subgroup in the subgroup builds).
+        let list = &snap.shade_list[..snap.shade_count as usize];
+        let unique: std::collections::HashSet<_> = list.iter().collect();
+        assert_eq!(
+            unique.len(),
+            list.len(),
+            "frame {f}: shade list entries repeat"
+        );
     }
-    assert_no_validation_messages(&ctx);
 }
 
 fn snap_visible_reprojected(fr: &stereocache::methods::StereoFrame) -> f64 {
@@ -602,5 +621,71 @@ fn background_pixels_trace_one_ray_per_frame() {
             }
         }
     }
+    assert_no_validation_messages(&ctx);
+}
+
+/// The subgroup-operation builds (`// variant: SUBGROUP_OPS`: counters, list
+/// reservations and the importance histogram reduced per subgroup) and the
+/// plain builds compute the same thing: over the first two frames the
+/// visibility counters and the importance histogram are equal. These do not
+/// depend on which invocation wins a slot in reprojection (a race); what
+/// does — which sample the straddling bucket's coin tosses pick, hence the
+/// shaded count and the paths' rays — is left out.
+#[test]
+fn subgroup_and_plain_builds_agree() {
+    let ctx = context();
+    let s = session(&ctx, shipped("cornell"), RtChoice::Software);
+    if !ctx.caps.has_subgroup_ops(&["arithmetic", "ballot"]) {
+        eprintln!("device without subgroup arithmetic/ballot: only the plain builds exist here");
+        return;
+    }
+    let (w, h) = (48, 36);
+    let cam0 = s.camera(&CameraSelect::Default, w, h, None, None).unwrap();
+    let run = |subgroup_ops: bool| {
+        let st = RenderSettings {
+            subgroup_ops,
+            ..settings(
+                w,
+                h,
+                SampleCacheSettings {
+                    shading: Shading::Adaptive,
+                    shading_rate: 0.75,
+                    ..Default::default()
+                },
+            )
+        };
+        let mut m = cache_method(&s, &st);
+        assert_eq!(m.uses_subgroup_ops(), subgroup_ops);
+        let mut out = Vec::new();
+        let mut prev = None;
+        for f in 0..2 {
+            let cam = moving(&cam0, f, 0.5);
+            let fr = m
+                .render_frame(&FrameInput {
+                    index: f,
+                    camera: cam,
+                    prev_camera: prev,
+                })
+                .unwrap();
+            prev = Some(cam);
+            let snap = m.snapshot().unwrap();
+            let mut counters = fr.stats.counters.clone();
+            for order_dependent in ["shaded_samples", "bounce_rays", "shadow_rays"] {
+                counters.remove(order_dependent);
+            }
+            out.push((counters, snap.histogram.clone()));
+        }
+        out
+    };
+    let (sg, plain) = (run(true), run(false));
+    for f in 0..2 {
+        assert_eq!(sg[f].0, plain[f].0, "frame {f}: counters");
+        assert_eq!(sg[f].1, plain[f].1, "frame {f}: importance histogram");
+    }
+    let hist_total: u32 = sg[1].1.iter().sum();
+    assert!(
+        hist_total > 0,
+        "the second frame reprojects samples into the histogram"
+    );
     assert_no_validation_messages(&ctx);
 }

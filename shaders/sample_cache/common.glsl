@@ -6,6 +6,11 @@
 // src/methods/sample_cache/ owns the buffers and the pass order.
 #extension GL_EXT_shader_atomic_int64 : require
 #extension GL_ARB_gpu_shader_int64 : require
+#ifdef SUBGROUP_OPS
+#extension GL_KHR_shader_subgroup_basic : require
+#extension GL_KHR_shader_subgroup_arithmetic : require
+#extension GL_KHR_shader_subgroup_ballot : require
+#endif
 #include "common/integrator.glsl"
 #include "common/packing.glsl"
 #include "common/camera.glsl"
@@ -64,6 +69,35 @@ layout(set = 1, binding = 24, std430) buffer RetraceList { uint retrace_list[]; 
 layout(set = 1, binding = 25, std430) buffer RetraceFound { uint retrace_found[]; };  // [eye][pixel]
 // VkDispatchIndirectCommand per list: [0..3) retrace, [4..7) shade (indirect_args.comp).
 layout(set = 1, binding = 26, std430) buffer IndirectArgs { uint indirect_args[]; };
+// Global atomics, one per subgroup where subgroup operations are compiled in
+// (the `.subgroup` build of the shaders marked `// variant: SUBGROUP_OPS`,
+// chosen when the device supports subgroup arithmetic and ballot), else one
+// per invocation. The subgroup forms combine whichever invocations call
+// together, so they are correct in divergent code too.
+
+// counters[c] += v.
+void count_add(uint c, uint v) {
+#ifdef SUBGROUP_OPS
+    uint total = subgroupAdd(v);
+    if (subgroupElect() && total != 0u) atomicAdd(counters[c], total);
+#else
+    if (v != 0u) atomicAdd(counters[c], v);
+#endif
+}
+
+// Reserves n consecutive entries of the list whose length is state[len] and
+// returns the first (meaningless when n = 0).
+uint list_reserve(uint len, uint n) {
+#ifdef SUBGROUP_OPS
+    uint total = subgroupAdd(n);
+    uint base = 0u;
+    if (subgroupElect() && total != 0u) base = atomicAdd(state[len], total);
+    return subgroupBroadcastFirst(base) + subgroupExclusiveAdd(n);
+#else
+    return n != 0u ? atomicAdd(state[len], n) : 0u;
+#endif
+}
+
 // Slot-list entries (shade and retrace lists).
 uint list_entry(uint eye, uint slot, uint pixel) { return (eye << 31) | (slot << 26) | pixel; }
 void list_decode(uint code, out uint eye, out uint slot, out uint pixel) {

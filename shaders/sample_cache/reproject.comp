@@ -1,4 +1,5 @@
 #version 460
+// variant: SUBGROUP_OPS
 // §3.1 forward reprojection with slot reservation by atomicOr (Listing 2).
 // One thread per source pixel walks its occupied slots. One-pass (default)
 // writes the sample data right after a successful reservation; two-pass
@@ -19,6 +20,31 @@ int choose_target_slot(bool vis, uint m) {
         if (invisible != 0u) return findLSB(invisible);
     }
     return -1;
+}
+
+// One visible sample into the importance histogram (§3.5) and the frame's
+// w_min / w_max. With subgroup operations: one atomic per distinct bucket
+// among the subgroup's active invocations and one min / max per subgroup.
+void histogram_add(uint eye, uint bucket, float w) {
+#ifdef SUBGROUP_OPS
+    float w_min = subgroupMin(w), w_max = subgroupMax(w);
+    if (subgroupElect()) {
+        atomicMin(state[4u + eye], floatBitsToUint(w_min));
+        atomicMax(state[6u + eye], floatBitsToUint(w_max));
+    }
+    for (;;) {
+        uint first = subgroupBroadcastFirst(bucket);
+        if (bucket == first) {
+            uint n = subgroupBallotBitCount(subgroupBallot(true));
+            if (subgroupElect()) atomicAdd(hist[eye * HIST_M + first], n);
+            break;
+        }
+    }
+#else
+    atomicAdd(hist[eye * HIST_M + bucket], 1u);
+    atomicMin(state[4u + eye], floatBitsToUint(w));
+    atomicMax(state[6u + eye], floatBitsToUint(w));
+#endif
 }
 
 void main() {
@@ -88,14 +114,12 @@ void main() {
             // per visible sample (issue 6).
             if (SHADING_STORAGE && SHADING_MODE == 1u) {
                 float w = importance(rad_prev[src].w);
-                atomicAdd(hist[eye * HIST_M + importance_bucket(w, w_lo, w_hi)], 1u);
-                atomicMin(state[4u + eye], floatBitsToUint(w));
-                atomicMax(state[6u + eye], floatBitsToUint(w));
+                histogram_add(eye, importance_bucket(w, w_lo, w_hi), w);
             }
         }
     }
-    if (reprojected > 0u) atomicAdd(counters[C_REPROJECTED], reprojected);
-    if (reprojected_visible > 0u) atomicAdd(counters[C_REPROJECTED_VISIBLE], reprojected_visible);
-    if (full > 0u) atomicAdd(counters[C_REPROJECT_FULL], full);
-    if (offscreen > 0u) atomicAdd(counters[C_OFFSCREEN], offscreen);
+    count_add(C_REPROJECTED, reprojected);
+    count_add(C_REPROJECTED_VISIBLE, reprojected_visible);
+    count_add(C_REPROJECT_FULL, full);
+    count_add(C_OFFSCREEN, offscreen);
 }

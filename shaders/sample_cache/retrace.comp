@@ -1,4 +1,5 @@
 #version 460
+// variant: SUBGROUP_OPS
 // §3.2 step 3, first half: retrace the slots select.comp listed, with rays
 // from the eye to the stored hit; a sample is visible when the closest hit
 // lies within ε0·t of it. Run over the compacted list so every lane traces
@@ -24,5 +25,5 @@ void main() {
         rays++;
         if (hit && abs(h.t - t) <= pc.eps0 * t) atomicOr(retrace_found[eye * npix() + pixel], 1u << s);
     }
-    if (rays != 0u) atomicAdd(counters[C_RETRACE_RAYS], rays);
+    count_add(C_RETRACE_RAYS, rays);
 }

@@ -1,4 +1,5 @@
 #version 460
+// variant: SUBGROUP_OPS
 // §3.2 step 1–2 decisions, from the reprojected cache (read only, so the
 // result does not depend on thread order): which slots to retrace
 // (single / multi / adaptive, §3.4), how many samples to add, which to purge;
@@ -69,8 +70,8 @@ void main() {
     pixel_action[pm] = uvec4(trace, add, purge, edge ? 1u : 0u);
     // The slots to retrace go to the compacted list (one reservation per pixel).
     retrace_found[pm] = 0u;
+    uint i = list_reserve(9u, bitCount(trace));
     if (trace != 0u) {
-        uint i = atomicAdd(state[9], bitCount(trace));
         while (trace != 0u) {
             uint s = uint(findLSB(trace));
             trace &= trace - 1u;

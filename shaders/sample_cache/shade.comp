@@ -1,4 +1,5 @@
 #version 460
+// variant: SUBGROUP_OPS
 // Shades the compacted samples: one path per sample from the eye through its
 // stored first hit (the integrator every method shares), demodulated by the
 // first hit's base colour and accumulated as a running mean. View-dependent
@@ -56,9 +57,7 @@ void main() {
         atomicAdd(pixel_stats[eye * npix() + pixel].y, 1u);
         shaded++;
     }
-    if (shaded > 0u) {
-        atomicAdd(counters[C_SHADED], shaded);
-        atomicAdd(counters[C_BOUNCE_RAYS], rays.bounce);
-        atomicAdd(counters[C_SHADOW_RAYS], rays.shadow);
-    }
+    count_add(C_SHADED, shaded);
+    count_add(C_BOUNCE_RAYS, rays.bounce);
+    count_add(C_SHADOW_RAYS, rays.shadow);
 }

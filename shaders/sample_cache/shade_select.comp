@@ -1,4 +1,5 @@
 #version 460
+// variant: SUBGROUP_OPS
 // §3.3/§3.5: choose the samples to shade and compact them into shade_list.
 // Uniform: one visible sample per pixel, round robin. Adaptive: one sample per
 // 4×4 block as the base rate, plus samples by importance w = (1 + c_s)^−1:
@@ -9,7 +10,7 @@
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 
 void push_shade(uint eye, uint slot, uint pixel) {
-    uint i = atomicAdd(state[8], 1u);
+    uint i = list_reserve(8u, 1u);
     shade_list[i] = list_entry(eye, slot, pixel);
 }
 

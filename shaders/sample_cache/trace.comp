@@ -1,4 +1,5 @@
 #version 460
+// variant: SUBGROUP_OPS
 // §3.2 step 3: apply the retrace results (retrace.comp), purge,
 // add new samples through random points in the pixel (into a free slot or
 // over an invisible one), and keep at least one visible sample: a pixel left
@@ -96,14 +97,13 @@ void main() {
     }
     mask_cur[pm] = m;
     pixel_stats[pm] = uvec4(action.x, 0u, added + holes + replaced, action.w);
-    // Statistics: skip the atomics that would add zero (most pixels add
-    // nothing once the cache is filled, issue 6).
-    if (new_rays != 0u) atomicAdd(counters[C_NEW_RAYS], new_rays);
-    if (bg_rays != 0u) atomicAdd(counters[C_BG_RAYS], bg_rays);
-    if (added != 0u) atomicAdd(counters[C_ADDED], added);
-    if (holes != 0u) atomicAdd(counters[C_HOLES], holes);
-    if (replaced != 0u) atomicAdd(counters[C_REPLACED], replaced);
-    if (action.z != 0u) atomicAdd(counters[C_PURGED], 1u);
-    if (action.w != 0u) atomicAdd(counters[C_EDGE_PIXELS], action.w);
-    atomicAdd(counters[C_VISIBLE], bitCount(vis_bits(m)));
+    // Statistics (count_add: no atomic for a zero, or one per subgroup).
+    count_add(C_NEW_RAYS, new_rays);
+    count_add(C_BG_RAYS, bg_rays);
+    count_add(C_ADDED, added);
+    count_add(C_HOLES, holes);
+    count_add(C_REPLACED, replaced);
+    count_add(C_PURGED, action.z != 0u ? 1u : 0u);
+    count_add(C_EDGE_PIXELS, action.w);
+    count_add(C_VISIBLE, bitCount(vis_bits(m)));
 }

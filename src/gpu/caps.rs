@@ -26,3 +26,13 @@ pub struct DeviceCaps {
     pub max_storage_buffer_range: u64,
     pub device_local_bytes: u64,
 }
+
+impl DeviceCaps {
+    /// True when compute shaders support every named subgroup operation
+    /// class (`arithmetic`, `ballot`, … as in [`Self::subgroup_ops`]).
+    pub fn has_subgroup_ops(&self, classes: &[&str]) -> bool {
+        classes
+            .iter()
+            .all(|c| self.subgroup_ops.iter().any(|s| s == c))
+    }
+}

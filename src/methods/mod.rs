@@ -43,6 +43,10 @@ pub struct RenderSettings {
     /// Record every pass, also those that provably have nothing to do for this
     /// scene and these settings (the build issue 6's skipping is checked against).
     pub all_passes: bool,
+    /// Use the subgroup-operation builds of the shaders that have one, where
+    /// the device supports subgroup arithmetic and ballot (default); false
+    /// forces the plain builds (benchmarks and tests compare the two).
+    pub subgroup_ops: bool,
     /// Options of the `sample-cache` method (and of `hybrid`'s visibility).
     pub cache: SampleCacheSettings,
     /// Options of the `taa` method (and of TAA passes other methods run).
@@ -64,6 +68,7 @@ impl Default for RenderSettings {
             all_features: false,
             extra_features: Default::default(),
             all_passes: false,
+            subgroup_ops: true,
             cache: SampleCacheSettings::default(),
             taa: TaaSettings::default(),
             isrt: IsrtSettings::default(),

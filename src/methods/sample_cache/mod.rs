@@ -176,6 +176,8 @@ pub struct SampleCache {
     retrace_found: Buffer,
     /// Dispatch arguments of the retrace (bytes 0..12) and shade (16..28) passes.
     indirect: Buffer,
+    /// The `.subgroup` shader builds are in use.
+    subgroup: bool,
     debug: Buffer,
     out_blended: Buffer,
     /// Frames rendered so far (selects the ping-pong parity).
@@ -312,11 +314,24 @@ impl SampleCache {
             .flag(spec_id::DEBUG_VIEWS, cache.debug_views);
         let layouts = [scene.layout.clone(), layout];
         let push = 32;
+        // The `.subgroup` build of a shader where it exists and the device
+        // can run it (subgroup arithmetic and ballot in compute shaders).
+        let subgroup =
+            settings.subgroup_ops && ctx.caps.has_subgroup_ops(&["arithmetic", "ballot"]);
+        let shader = |name: &str| {
+            let sg = format!("sample_cache/{name}.subgroup");
+            if subgroup {
+                if let Ok(spirv) = backend_shader(&sg, scene) {
+                    return Ok(spirv);
+                }
+            }
+            backend_shader(&format!("sample_cache/{name}"), scene)
+        };
         let pipe_with = |name: &str, label: &str, spec: &SpecConstants| {
             ComputePipeline::new(
                 ctx,
                 &format!("sample_cache.{label}"),
-                backend_shader(&format!("sample_cache/{name}"), scene)?,
+                shader(name)?,
                 &layouts,
                 push,
                 spec,
@@ -420,6 +435,7 @@ impl SampleCache {
             indirect,
             debug,
             out_blended,
+            subgroup,
             frames: 0,
         })
     }
@@ -624,6 +640,12 @@ impl SampleCache {
 
     pub fn settings(&self) -> &SampleCacheSettings {
         &self.cache
+    }
+
+    /// True when the pipelines use the subgroup-operation builds (the
+    /// settings allow it and the device supports subgroup arithmetic and ballot).
+    pub fn uses_subgroup_ops(&self) -> bool {
+        self.subgroup
     }
 }
 
