@@ -78,10 +78,25 @@ pub fn bench_rays(
     let params = FrameParams::new(frame, width, height, 1, session.scene_gpu.origin);
     let groups = [width.div_ceil(8), height.div_ceil(8), 2];
     let sets = [&session.scene_gpu.set, &set];
-    let mut rec = Recorder::new(ctx, 2 + 2 * repeats)?;
+    let mut rec = Recorder::new(ctx, 5 + 2 * repeats)?;
     rec.pass("bench.params")
         .write(&fbuf)
         .update(bytemuck::bytes_of(&params));
+    // One untimed round first: a CPU driver may compile (or load from its
+    // disk cache) the pipeline at its first dispatch, which cost up to 5x
+    // the round's time in the first run after a rebuild.
+    rec.pass("warmup.primary")
+        .read(&fbuf)
+        .write(&hits)
+        .write(&normals)
+        .write(&counters)
+        .dispatch(&pipe, &sets, &0u32.to_le_bytes(), groups);
+    rec.pass("warmup.bounce")
+        .read(&fbuf)
+        .read(&hits)
+        .read(&normals)
+        .write(&counters)
+        .dispatch(&pipe, &sets, &1u32.to_le_bytes(), groups);
     rec.pass("bench.clear").write(&counters).fill(0);
     for _ in 0..repeats {
         rec.pass("primary")
