@@ -651,6 +651,7 @@ pub const FEATURE_FLAGS: &[&str] = &[
     "emissive_triangles",
     "punctual_lights",
     "directional_lights",
+    "view_dependent",
 ];
 
 /// Whether flag `name` of [`FEATURE_FLAGS`] is on in `f`; with `set`, turns it on.
@@ -663,6 +664,7 @@ fn feature_flag(f: &mut crate::scene::SceneFeatures, name: &str, set: bool) -> b
         "emissive_triangles" => &mut f.emissive_triangles,
         "punctual_lights" => &mut f.punctual_lights,
         "directional_lights" => &mut f.directional_lights,
+        "view_dependent" => &mut f.view_dependent,
         _ => unreachable!("FEATURE_FLAGS names every flag"),
     };
     if set {

@@ -16,9 +16,27 @@ use stereocache::session::CameraSelect;
 #[test]
 fn specialized_and_all_features_pipelines_agree() {
     let ctx = context();
-    for name in ["cornell", "plane"] {
-        let mut scene = load_scene(name).unwrap();
-        apply_default_lighting(&mut scene, &DefaultLighting::default()).unwrap();
+    // A Lambertian scene (specular layer 0, metallic 0): the only one here
+    // whose pipelines compile the GGX lobe out (`view_dependent` false).
+    let lambert = sphere_in_environment(
+        stereocache::scene::Material {
+            specular: 0.0,
+            ..stereocache::scene::Material::diffuse("lambert", glam::Vec3::new(0.7, 0.5, 0.3))
+        },
+        glam::Vec3::ZERO,
+        1.0,
+        glam::Vec3::new(0.9, 0.8, 1.0),
+    );
+    assert!(!stereocache::scene::SceneFeatures::of(&lambert).view_dependent);
+    for name in ["cornell", "plane", "lambert"] {
+        let scene = if name == "lambert" {
+            lambert.clone()
+        } else {
+            let mut scene = load_scene(name).unwrap();
+            apply_default_lighting(&mut scene, &DefaultLighting::default()).unwrap();
+            assert!(stereocache::scene::SceneFeatures::of(&scene).view_dependent);
+            scene
+        };
         let s = session(&ctx, scene, RtChoice::Software);
         let (w, h) = (16, 12);
         let cam = s.camera(&CameraSelect::Default, w, h, None, None).unwrap();

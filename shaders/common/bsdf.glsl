@@ -84,6 +84,7 @@ vec3 opaque_fresnel(ShadingMaterial m, float c) { return fresnel_schlick(opaque_
 
 // Probability of sampling the specular lobe of the opaque BSDF.
 float opaque_spec_prob(ShadingMaterial m, vec3 wo) {
+    if (!SC_VIEW_DEPENDENT) return 0.0;   // no material has a specular lobe
     vec3 F = opaque_fresnel(m, wo.z);
     float lf = dot(F, vec3(0.2126, 0.7152, 0.0722));
     if (m.metallic >= 1.0) return 1.0;
@@ -95,6 +96,12 @@ float opaque_spec_prob(ShadingMaterial m, vec3 wo) {
 vec3 opaque_eval(ShadingMaterial m, vec3 wo, vec3 wi, out float pdf) {
     pdf = 0.0;
     if (wo.z <= 0.0 || wi.z <= 0.0) return vec3(0.0);
+    if (!SC_VIEW_DEPENDENT) {
+        // Lambert: metallic = 0 and F = 0 (F0 = F90 = 0), so the general
+        // expression below reduces to exactly this (the GGX lobe times 0).
+        pdf = wi.z * INV_PI;
+        return m.base * INV_PI * wi.z;
+    }
     float a = ggx_alpha(m.roughness);
     vec3 h = normalize(wo + wi);
     vec3 F = opaque_fresnel(m, dot(wi, h));

@@ -14,4 +14,8 @@ layout(constant_id = 7) const uint SC_ENV_KIND = 2;
 // Maximum scattering events along a path (pbrt's maxdepth convention).
 layout(constant_id = 8) const uint SC_MAX_BOUNCES = 3;
 layout(constant_id = 9) const uint SC_TEXTURE_COUNT = 1;
+// false: every material is Lambertian (metallic 0, specular layer 0): the
+// opaque BSDF's GGX lobe and Fresnel terms are compiled out (they evaluate
+// to exactly 0 for such materials, and the random numbers are drawn alike).
+layout(constant_id = 10) const bool SC_VIEW_DEPENDENT = true;
 #endif

@@ -11,7 +11,7 @@ use crate::rt::SceneGpu;
 use crate::scene::Environment;
 
 impl RenderSettings {
-    /// The scene-feature specialization constants (spec ids 0..9 of
+    /// The scene-feature specialization constants (spec ids 0..10 of
     /// shaders/common/features.glsl) for pipelines of `scene` under these settings.
     pub fn spec_constants(&self, scene: &SceneGpu, env: &Option<Environment>) -> SpecConstants {
         let mut s = scene.spec_constants(env, self.max_bounces, self.all_features);
@@ -24,6 +24,7 @@ impl RenderSettings {
             (spec_id::EMISSIVE, x.emissive_triangles),
             (spec_id::PUNCTUAL, x.punctual_lights),
             (spec_id::DIRECTIONAL, x.directional_lights),
+            (spec_id::VIEW_DEPENDENT, x.view_dependent),
         ] {
             if on {
                 s.flag(id, true);

@@ -30,6 +30,7 @@ pub mod spec_id {
     pub const ENV_KIND: u32 = 7;
     pub const MAX_BOUNCES: u32 = 8;
     pub const TEXTURE_COUNT: u32 = 9;
+    pub const VIEW_DEPENDENT: u32 = 10;
 }
 
 #[repr(C)]
@@ -454,6 +455,7 @@ impl SceneGpu {
             .flag(spec_id::EMISSIVE, f.emissive_triangles)
             .flag(spec_id::PUNCTUAL, f.punctual_lights)
             .flag(spec_id::DIRECTIONAL, f.directional_lights)
+            .flag(spec_id::VIEW_DEPENDENT, f.view_dependent)
             .set(spec_id::ENV_KIND, env_kind(env))
             .set(spec_id::MAX_BOUNCES, max_bounces)
             .set(spec_id::TEXTURE_COUNT, self.texture_count);

@@ -13,6 +13,10 @@ pub struct SceneFeatures {
     pub emissive_triangles: bool,
     pub punctual_lights: bool,
     pub directional_lights: bool,
+    /// A material with a view-dependent opaque lobe: metallic > 0 or a
+    /// dielectric specular layer (KHR_materials_specular factor > 0, default
+    /// 1). Without one, every opaque surface is Lambertian.
+    pub view_dependent: bool,
     pub environment_map: bool,
     pub sky: bool,
     pub constant_environment: bool,
@@ -35,6 +39,7 @@ impl SceneFeatures {
                 .lights
                 .iter()
                 .any(|l| matches!(l.kind, LightKind::Directional { .. })),
+            view_dependent: mats.iter().any(|m| m.metallic > 0.0 || m.specular > 0.0),
             environment_map: matches!(scene.environment, Some(Environment::Map { .. })),
             sky: matches!(scene.environment, Some(Environment::Sky { .. })),
             constant_environment: matches!(scene.environment, Some(Environment::Constant(_))),
@@ -51,6 +56,7 @@ impl SceneFeatures {
             emissive_triangles: true,
             punctual_lights: true,
             directional_lights: true,
+            view_dependent: true,
             environment_map: true,
             sky: true,
             constant_environment: true,
