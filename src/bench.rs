@@ -613,6 +613,55 @@ pub fn tradeoff_configs(base: &crate::methods::RenderSettings) -> Vec<crate::com
     v
 }
 
+/// The ratios `bench tradeoff` prints under its table (configurations of
+/// the same run on the same device, run one after another): each method's
+/// default configuration against naive, and the sample cache's variants
+/// against its default (`sc-N12`). Pairs whose rows are missing are skipped.
+pub fn tradeoff_ratios(rows: &[crate::compare::MethodRow]) -> String {
+    let row = |label: &str| rows.iter().find(|r| r.method == label);
+    let rse = |r: &crate::compare::MethodRow| r.metrics.get("rse").copied();
+    let mut out =
+        String::from("ratios (same run, same device; configurations one after another):\n");
+    let mut line = |a: &str, b: &str, what: &str| {
+        if let (Some(x), Some(y)) = (row(a), row(b)) {
+            let mut l = format!(
+                "  {:<44} {:.2}x time, {:.2}x rays",
+                format!("{a} / {b}{what}:"),
+                x.steady_mean_gpu_ms / y.steady_mean_gpu_ms,
+                x.rays_per_frame / y.rays_per_frame
+            );
+            if let (Some(ex), Some(ey)) = (rse(x), rse(y)) {
+                l.push_str(&format!(", {:.2}x RSE", ex / ey));
+            }
+            out.push_str(&l);
+            out.push('\n');
+        }
+    };
+    for m in [
+        "sc-N12",
+        "hash-2e20-dist",
+        "hybrid",
+        "taa",
+        "isrt",
+        "supersample-4spp",
+    ] {
+        line(m, "naive", "");
+    }
+    line("sc-retrace-multi", "sc-N12", " (multi / adaptive retrace)");
+    line(
+        "sc-retrace-single",
+        "sc-N12",
+        " (single / adaptive retrace)",
+    );
+    line("sc-two-pass", "sc-N12", " (two- / one-pass reprojection)");
+    line(
+        "sc-adaptive-shading1",
+        "sc-N12",
+        " (adaptive / uniform shading)",
+    );
+    out
+}
+
 /// Least-squares slope of y against x.
 pub fn fit_slope(points: &[(f64, f64)]) -> f64 {
     let n = points.len() as f64;

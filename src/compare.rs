@@ -124,8 +124,17 @@ pub fn compare(
     compare_configs(session, cameras, &configs, settings, opts)
 }
 
+/// The seed of the reference frames the metrics compare against. They must
+/// not share random numbers with the methods: under the methods' own seed a
+/// 1 spp path tracer's sample is also the reference's first sample, and a
+/// supersampled image at the reference's sample count *is* the reference
+/// (error exactly 0), which biases those methods' errors low.
+pub fn reference_seed(method_seed: u32) -> u32 {
+    method_seed ^ 0x9E37_79B9
+}
+
 /// Every configuration along the same frames; references use `reference_settings`
-/// with `opts.reference_spp` samples per pixel.
+/// with `opts.reference_spp` samples per pixel and their own seed ([`reference_seed`]).
 pub fn compare_configs(
     session: &Session,
     cameras: &[StereoCamera],
@@ -179,6 +188,7 @@ pub fn compare_configs(
         Some(spp) => {
             let rs = RenderSettings {
                 spp,
+                seed: reference_seed(settings.seed),
                 ..settings.clone()
             };
             let cache = ReferenceCache {

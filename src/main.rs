@@ -1007,6 +1007,7 @@ fn run(cli: Cli) -> Result<()> {
                 }
                 println!("{line}");
             }
+            print_against_naive(&methods, &by_method, "pixels per eye");
             for (i, m) in methods.iter().enumerate() {
                 let logs: Vec<(f64, f64)> =
                     by_method[i].iter().map(|(p, t)| (p.ln(), t.ln())).collect();
@@ -1033,6 +1034,7 @@ fn run(cli: Cli) -> Result<()> {
                 }
                 println!("{line}");
             }
+            print_against_naive(&methods, &by_method, "triangles");
             for (i, m) in methods.iter().enumerate() {
                 let logs: Vec<(f64, f64)> =
                     by_method[i].iter().map(|(n, t)| (n.ln(), t.ln())).collect();
@@ -1118,6 +1120,7 @@ fn run(cli: Cli) -> Result<()> {
             std::fs::copy(out.join("summary.csv"), out.join("tradeoff.csv"))
                 .with_context(|| format!("{}: cannot write tradeoff.csv", out.display()))?;
             print!("{}", stereocache::compare::summary_table(&rows));
+            print!("{}", stereocache::bench::tradeoff_ratios(&rows));
             let report = stereocache::report::write_report(&out)?;
             println!(
                 "wrote {} (tradeoff.csv, report: {})",
@@ -1325,6 +1328,25 @@ fn run(cli: Cli) -> Result<()> {
                 Ok(())
             }
         },
+    }
+}
+
+/// `bench scaling`: every method's frame time over naive's at each point
+/// (same run, same device), when naive was measured.
+fn print_against_naive(methods: &[String], by_method: &[Vec<(f64, f64)>], x: &str) {
+    let Some(n) = methods.iter().position(|m| m == "naive") else {
+        return;
+    };
+    for (i, m) in methods.iter().enumerate() {
+        if i == n {
+            continue;
+        }
+        let r: Vec<String> = by_method[i]
+            .iter()
+            .zip(&by_method[n])
+            .map(|((_, t), (_, tn))| format!("{:.2}x", t / tn))
+            .collect();
+        println!("  {m} / naive by {x}: {}", r.join(", "));
     }
 }
 

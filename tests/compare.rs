@@ -135,3 +135,68 @@ fn compare_refuses_unknown_methods() {
     );
     assert!(!Path::new("/tmp/never-written").exists());
 }
+
+/// The metrics' reference frames draw their own random numbers: a
+/// supersampled method at the reference's own sample count is an independent
+/// estimate of the same image, so its error is not 0 (it was, exactly, when
+/// the reference shared the methods' seed). Asserted only what is certain
+/// whatever the noise: 0 < RSE(supersample at N spp) < RSE(naive).
+#[test]
+fn reference_frames_are_independent_of_the_methods_samples() {
+    let out = std::env::temp_dir().join(format!("stereocache-refseed-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out);
+    let trace = Path::new(env!("CARGO_MANIFEST_DIR")).join("captures/synth-head-turn.csv");
+    let o = Command::new(env!("CARGO_BIN_EXE_stereocache"))
+        .env("STEREOCACHE_VALIDATE", "1")
+        .args([
+            "compare",
+            "--scene",
+            "cornell",
+            "--trace",
+            trace.to_str().unwrap(),
+        ])
+        .args([
+            "--methods",
+            "naive,supersample",
+            "--spp",
+            "8",
+            "--frames",
+            "2",
+        ])
+        .args([
+            "--size",
+            "24x18",
+            "--rt",
+            "software",
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .args([
+            "--reference-spp",
+            "8",
+            "--reference-cache",
+            out.join("refs").to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let csv = std::fs::read_to_string(out.join("summary.csv")).unwrap();
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = header.iter().position(|h| *h == "rse").expect("rse column");
+    let rse = |method: &str| -> f64 {
+        let row = csv
+            .lines()
+            .find(|l| l.starts_with(&format!("{method},")))
+            .unwrap_or_else(|| panic!("{method} row"));
+        row.split(',').nth(col).unwrap().parse().unwrap()
+    };
+    let (naive, ss) = (rse("naive"), rse("supersample"));
+    eprintln!("RSE naive {naive}, supersample (8 spp against 8 spp) {ss}");
+    assert!(
+        ss > 0.0,
+        "supersample at the reference's spp matches it exactly: shared random numbers"
+    );
+    assert!(ss < naive, "8 spp ({ss}) should beat 1 spp ({naive})");
+    let _ = std::fs::remove_dir_all(&out);
+}
