@@ -678,16 +678,23 @@ pub fn fit_slope(points: &[(f64, f64)]) -> f64 {
     }
 }
 
-/// Steady-state mean GPU ms per frame of `method` over `cameras` (frame 0 excluded).
+/// Steady-state mean GPU ms per frame of each of `methods` over `cameras`
+/// (frame 0 excluded), the methods rendering the frames interleaved.
 pub fn steady_frame_ms(
     session: &Session,
-    method: &str,
+    methods: &[String],
     settings: &crate::methods::RenderSettings,
     cameras: &[crate::camera::StereoCamera],
-) -> Result<f64> {
-    let mut m = [session.method(method, settings)?];
-    let stats = run_interleaved(&mut m, cameras)?.remove(0);
-    Ok(stats.iter().map(|s| s.gpu_ms()).sum::<f64>() / stats.len().max(1) as f64)
+) -> Result<Vec<f64>> {
+    let mut m = Vec::new();
+    for name in methods {
+        m.push(session.method(name, settings)?);
+    }
+    let stats = run_interleaved(&mut m, cameras)?;
+    Ok(stats
+        .iter()
+        .map(|v| v.iter().map(|s| s.gpu_ms()).sum::<f64>() / v.len().max(1) as f64)
+        .collect())
 }
 
 /// The scene features a specialization constant switches on or off, by name

@@ -955,7 +955,7 @@ fn run(cli: Cli) -> Result<()> {
             let c = &ctx.caps;
             println!("{}", device_line(c));
             println!(
-                "trace {} ({frames} frames after 1 warm-up per point), 3 bounces, both eyes",
+                "trace {} ({frames} frames after 1 warm-up per point, methods interleaved frame by frame), 3 bounces, both eyes",
                 trace.display()
             );
             let base = |w: u32, h: u32| RenderSettings {
@@ -1000,8 +1000,9 @@ fn run(cli: Cli) -> Result<()> {
                 );
                 let cams = cameras_for(&session, w, h)?;
                 let mut line = format!("  {w:>4}x{h:<4} ({:>6} px/eye):", w * h);
-                for (i, m) in methods.iter().enumerate() {
-                    let ms = stereocache::bench::steady_frame_ms(&session, m, &base(w, h), &cams)?;
+                let times =
+                    stereocache::bench::steady_frame_ms(&session, &methods, &base(w, h), &cams)?;
+                for (i, (m, ms)) in methods.iter().zip(times).enumerate() {
                     by_method[i].push(((w * h) as f64, ms));
                     line.push_str(&format!("  {m} {ms:8.2}"));
                 }
@@ -1026,9 +1027,9 @@ fn run(cli: Cli) -> Result<()> {
                 let session = Session::with_context(ctx.clone(), scene, rt)?;
                 let cams = cameras_for(&session, w0, h0)?;
                 let mut line = format!("  {:>8} triangles:", tris as u64);
-                for (i, m) in methods.iter().enumerate() {
-                    let ms =
-                        stereocache::bench::steady_frame_ms(&session, m, &base(w0, h0), &cams)?;
+                let times =
+                    stereocache::bench::steady_frame_ms(&session, &methods, &base(w0, h0), &cams)?;
+                for (i, (m, ms)) in methods.iter().zip(times).enumerate() {
                     by_method[i].push((tris, ms));
                     line.push_str(&format!("  {m} {ms:8.2}"));
                 }
