@@ -293,7 +293,7 @@ pub fn bench_sample_cache(
             ..base.clone()
         };
         methods.push(session.method("sample-cache", &settings)?);
-        labels.push(format!("sample-cache ({label})"));
+        labels.push(label);
     }
     // 1 spp path tracing: the reference method with one jittered sample.
     let naive = crate::methods::RenderSettings {
@@ -301,18 +301,14 @@ pub fn bench_sample_cache(
         ..base.clone()
     };
     methods.push(session.method("reference", &naive)?);
-    labels.push("1 spp path tracing".into());
+    labels.push("1 spp path tracing");
     let all = run_interleaved(&mut methods, cameras)?;
     drop(methods);
-    for (label, stats) in labels.into_iter().zip(all) {
+    let n_cache = labels.len() - 1;
+    for (k, (label, stats)) in labels.into_iter().zip(all).enumerate() {
         let n = stats.len().max(1) as f64;
-        let naive = label.starts_with("1 spp");
-        profile(
-            label
-                .trim_start_matches("sample-cache (")
-                .trim_end_matches(')'),
-            &stats,
-        );
+        let naive = k == n_cache;
+        profile(label, &stats);
         let (trace_ms, shade_ms) = if naive {
             (
                 mean_pass_ms(&stats, "reference.primary"),
@@ -326,7 +322,11 @@ pub fn bench_sample_cache(
         };
         let frame_ms: Vec<f64> = stats.iter().map(|s| s.gpu_ms()).collect();
         rows.push(CacheBenchRow {
-            label,
+            label: if naive {
+                label.to_string()
+            } else {
+                format!("sample-cache ({label})")
+            },
             frame_ms: frame_ms.iter().sum::<f64>() / n,
             reproject_ms: mean_pass_ms(&stats, "reproject"),
             trace_ms,

@@ -1191,7 +1191,7 @@ fn run(cli: Cli) -> Result<()> {
             let (rows, scatter) =
                 stereocache::bench::bench_sample_cache(&session, &cameras, &base)?;
             println!(
-                "{:<36} {:>10} {:>12} {:>10} {:>10} {:>14} {:>12}",
+                "{:<48} {:>10} {:>12} {:>10} {:>10} {:>14} {:>12}",
                 "method",
                 "frame ms",
                 "reproject ms",
@@ -1202,7 +1202,7 @@ fn run(cli: Cli) -> Result<()> {
             );
             for r in &rows {
                 println!(
-                    "{:<36} {:>10.2} {:>12.2} {:>10.2} {:>10.2} {:>14.0} {:>12.0}",
+                    "{:<48} {:>10.2} {:>12.2} {:>10.2} {:>10.2} {:>14.0} {:>12.0}",
                     r.label,
                     r.frame_ms,
                     r.reproject_ms,
@@ -1213,11 +1213,11 @@ fn run(cli: Cli) -> Result<()> {
                 );
             }
             println!(
-                "{:<36} {:>10} {:>12.2}",
+                "{:<48} {:>10} {:>12.2}",
                 "plain one-sample scatter", "", scatter.one_sample_ms
             );
             println!(
-                "{:<36} {:>10} {:>12.2}   ({:.2} occupied slots per pixel)",
+                "{:<48} {:>10} {:>12.2}   ({:.2} occupied slots per pixel)",
                 "plain scatter of all cached slots",
                 "",
                 scatter.all_slots_ms,

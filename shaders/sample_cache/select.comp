@@ -71,11 +71,9 @@ void main() {
     // The slots to retrace go to the compacted list (one reservation per pixel).
     retrace_found[pm] = 0u;
     uint i = list_reserve(9u, bitCount(trace));
-    if (trace != 0u) {
-        while (trace != 0u) {
-            uint s = uint(findLSB(trace));
-            trace &= trace - 1u;
-            retrace_list[i++] = list_entry(eye, s, pixel);
-        }
+    while (trace != 0u) {
+        uint s = uint(findLSB(trace));
+        trace &= trace - 1u;
+        retrace_list[i++] = list_entry(eye, s, pixel);
     }
 }
