@@ -3,13 +3,12 @@
 use std::path::Path;
 use std::process::Command;
 
-#[test]
-fn compare_writes_every_file() {
-    let out = std::env::temp_dir().join(format!("stereocache-compare-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&out);
+/// `stereocache compare` on the Cornell box along the synthetic head turn at
+/// 24×18, software backend, 8 spp references cached under `out/refs`,
+/// validation on, with `args` (methods, frames, ...) added.
+fn compare_cornell(out: &Path, args: &[&str]) -> std::process::Output {
     let trace = Path::new(env!("CARGO_MANIFEST_DIR")).join("captures/synth-head-turn.csv");
-    let methods = ["sample-cache", "taa", "naive"];
-    let o = Command::new(env!("CARGO_BIN_EXE_stereocache"))
+    Command::new(env!("CARGO_BIN_EXE_stereocache"))
         .env("STEREOCACHE_VALIDATE", "1")
         .args([
             "compare",
@@ -17,16 +16,10 @@ fn compare_writes_every_file() {
             "cornell",
             "--trace",
             trace.to_str().unwrap(),
-            "--methods",
-            &methods.join(","),
-            "--frames",
-            "10",
         ])
         .args([
             "--size",
             "24x18",
-            "--every",
-            "5",
             "--rt",
             "software",
             "--out",
@@ -38,8 +31,27 @@ fn compare_writes_every_file() {
             "--reference-cache",
             out.join("refs").to_str().unwrap(),
         ])
+        .args(args)
         .output()
-        .unwrap();
+        .unwrap()
+}
+
+#[test]
+fn compare_writes_every_file() {
+    let out = std::env::temp_dir().join(format!("stereocache-compare-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out);
+    let methods = ["sample-cache", "taa", "naive"];
+    let o = compare_cornell(
+        &out,
+        &[
+            "--methods",
+            &methods.join(","),
+            "--frames",
+            "10",
+            "--every",
+            "5",
+        ],
+    );
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{stderr}");
     for m in methods {
@@ -145,40 +157,17 @@ fn compare_refuses_unknown_methods() {
 fn reference_frames_are_independent_of_the_methods_samples() {
     let out = std::env::temp_dir().join(format!("stereocache-refseed-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&out);
-    let trace = Path::new(env!("CARGO_MANIFEST_DIR")).join("captures/synth-head-turn.csv");
-    let o = Command::new(env!("CARGO_BIN_EXE_stereocache"))
-        .env("STEREOCACHE_VALIDATE", "1")
-        .args([
-            "compare",
-            "--scene",
-            "cornell",
-            "--trace",
-            trace.to_str().unwrap(),
-        ])
-        .args([
+    let o = compare_cornell(
+        &out,
+        &[
             "--methods",
             "naive,supersample",
             "--spp",
             "8",
             "--frames",
             "2",
-        ])
-        .args([
-            "--size",
-            "24x18",
-            "--rt",
-            "software",
-            "--out",
-            out.to_str().unwrap(),
-        ])
-        .args([
-            "--reference-spp",
-            "8",
-            "--reference-cache",
-            out.join("refs").to_str().unwrap(),
-        ])
-        .output()
-        .unwrap();
+        ],
+    );
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let csv = std::fs::read_to_string(out.join("summary.csv")).unwrap();
     let mut lines = csv.lines();
