@@ -40,13 +40,14 @@ vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, float cone_width, inout Rn
         vec3 wi_world;
         if (SC_TRANSMISSION && m.transmission > 0.0 && rng_next(r) < m.transmission) {
             // Dielectric component (chosen with probability = its mixture weight).
+            // The BSDF works in a frame around the *outward* normal (s.n faces
+            // the ray, so it is flipped on back-face hits): wo.z < 0 means the
+            // ray arrives from inside, and wi comes back in that same frame.
             Frame fg = frame_from(s.front ? s.n : -s.n);
-            vec3 wo_d = to_local(fg, -d);
-            if (!s.front) wo_d = -wo_d;
             vec3 wi, w;
             bool delta;
-            if (!dielectric_sample(m, s.front ? wo_d : -wo_d, vec3(rng_next2(r), rng_next(r)), wi, w, delta)) break;
-            wi_world = to_world(fg, s.front ? wi : -wi);
+            if (!dielectric_sample(m, to_local(fg, -d), vec3(rng_next2(r), rng_next(r)), wi, w, delta)) break;
+            wi_world = to_world(fg, wi);
             beta *= w;
             specular_prev = true;
             pdf_prev = 0.0;
