@@ -142,6 +142,13 @@ impl TraceBuilder {
         }
     }
 
+    pub(crate) fn trace_error(&self, problem: impl Into<String>) -> TraceError {
+        TraceError::Trace {
+            path: self.path.clone(),
+            problem: problem.into(),
+        }
+    }
+
     pub(crate) fn warn(&mut self, line: Option<usize>, message: impl AsRef<str>) {
         let w = match line {
             Some(l) => format!("{}:{l}: {}", self.path.display(), message.as_ref()),
@@ -229,6 +236,11 @@ impl TraceBuilder {
             warnings: self.warnings,
         }
     }
+}
+
+/// The text of a trace file (an I/O or UTF-8 error names the file).
+pub(crate) fn read_text(path: &Path) -> Result<String, TraceError> {
+    std::fs::read_to_string(path).map_err(|e| io_error(path, e))
 }
 
 fn io_error(path: &Path, source: std::io::Error) -> TraceError {
