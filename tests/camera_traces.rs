@@ -1185,3 +1185,108 @@ fn cli_refuses_bad_recordings_and_flags_with_one_error_line() {
         assert!(!out.exists(), "{args:?} left {o}");
     }
 }
+
+// -- no panic on arbitrary input --------------------------------------------
+
+use proptest::prelude::*;
+
+const IMPORT_TOKENS: &[&str] = &[
+    "timestamp",
+    "time",
+    "x",
+    "qw",
+    "position.x",
+    "orientation.w",
+    "flags",
+    ",",
+    ",",
+    ",",
+    ";",
+    " ",
+    " ",
+    "\t",
+    "\n",
+    "\n",
+    "\r\n",
+    "#",
+    "0",
+    "1",
+    "-1",
+    "0.5",
+    "1e308",
+    "1e39",
+    "NaN",
+    "inf",
+    "-",
+    ".",
+    "e",
+    "0x",
+    "F",
+    "637231069485244909",
+    "9223372036854775807",
+    "-9223372036854775808",
+    "99999999999999999999",
+    "\u{feff}",
+    "é",
+    "\"",
+];
+
+/// Imported traces are sorted, finite and unit; errors and warnings name
+/// the file and are one line.
+fn check_import(
+    r: Result<PoseTrace, stereocache::camera::TraceError>,
+) -> Result<(), TestCaseError> {
+    match r {
+        Err(e) => {
+            let m = e.to_string();
+            prop_assert!(m.starts_with("f.txt") && !m.contains('\n'), "{}", m);
+        }
+        Ok(tr) => {
+            prop_assert!(!tr.samples.is_empty());
+            for w in tr.samples.windows(2) {
+                prop_assert!(w[1].t > w[0].t, "{:?}", w);
+            }
+            for s in &tr.samples {
+                prop_assert!(s.t.is_finite() && s.pose.position.is_finite());
+                prop_assert!((s.pose.orientation.length() - 1.0).abs() < 1e-3, "{:?}", s);
+            }
+            for w in tr.warnings.iter().chain(convention_warning(&tr).iter()) {
+                prop_assert!(w.starts_with("f.txt") && !w.contains('\n'), "{}", w);
+            }
+        }
+    }
+    Ok(())
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 300, ..ProptestConfig::default() })]
+
+    #[test]
+    fn importers_never_panic(
+        tokens in prop::collection::vec(prop::sample::select(IMPORT_TOKENS), 0..80),
+        unit in prop::sample::select(vec![TimeUnit::Seconds, TimeUnit::Nanoseconds, TimeUnit::Ticks]),
+    ) {
+        let text = tokens.concat();
+        check_import(parse_generic_csv("f.txt", &text, &CsvOptions::new(unit, AxisConvention::UNITY)))?;
+        let mut by_index = CsvOptions::new(unit, AxisConvention::CORBILLON);
+        by_index.columns = Some(ColumnMap::indices(0, Some([1, 2, 3]), [4, 5, 6, 7]));
+        check_import(parse_generic_csv("f.txt", &text, &by_index))?;
+        check_import(parse_openxr("f.txt", &text, TimeWindow::default()))?;
+        check_import(parse_mmsys17("f.txt", &text, &Mmsys17Options::default()))?;
+    }
+
+    #[test]
+    fn hololens_rows_with_a_field_replaced_never_panic(
+        line in 1usize..8,
+        field in 0usize..8,
+        value in prop::sample::select(IMPORT_TOKENS),
+    ) {
+        let text = unity_walk(0.1, 1.0, Vec3::Z, 0.0);
+        let mut lines: Vec<String> = text.lines().map(String::from).collect();
+        let mut fields: Vec<String> = lines[line].split(", ").map(String::from).collect();
+        fields[field] = value.to_string();
+        lines[line] = fields.join(", ");
+        let text = lines.join("\n");
+        check_import(parse_generic_csv("f.txt", &text, &hololens()))?;
+    }
+}

@@ -203,13 +203,14 @@ impl AxisConvention {
 
     /// The usual forward axis for a handedness and up axis: with +y up,
     /// −z for right-handed (OpenGL, glTF, OpenXR) and +z for left-handed
-    /// (Unity, Direct3D); with ±z up, +x (ROS REP 103, Corbillon et al.,
-    /// Unreal). `None` for an x-up frame (no common default).
+    /// (Unity, Direct3D); with ±z up, +x (ROS REP 103 and NED, Corbillon et
+    /// al., Unreal). `None` where there is no common default (x up; −y up,
+    /// e.g. OpenCV's camera frame looking along +z).
     pub fn default_forward(handedness: Handedness, up: SignedAxis) -> Option<SignedAxis> {
-        match (up.index(), handedness) {
-            (1, Handedness::Right) => Some(SignedAxis::NZ),
-            (1, Handedness::Left) => Some(SignedAxis::PZ),
-            (2, _) => Some(SignedAxis::PX),
+        match (up, handedness) {
+            (SignedAxis::PY, Handedness::Right) => Some(SignedAxis::NZ),
+            (SignedAxis::PY, Handedness::Left) => Some(SignedAxis::PZ),
+            (SignedAxis::PZ | SignedAxis::NZ, _) => Some(SignedAxis::PX),
             _ => None,
         }
     }
@@ -289,5 +290,11 @@ mod tests {
         assert_eq!("x".parse::<SignedAxis>().unwrap().to_string(), "+x");
         assert!("w".parse::<SignedAxis>().is_err());
         assert!(AxisConvention::new(Handedness::Left, SignedAxis::PY, SignedAxis::NY).is_err());
+        let fwd = |h, up| AxisConvention::default_forward(h, up);
+        assert_eq!(fwd(Handedness::Left, SignedAxis::PY), Some(SignedAxis::PZ));
+        assert_eq!(fwd(Handedness::Right, SignedAxis::PY), Some(SignedAxis::NZ));
+        assert_eq!(fwd(Handedness::Right, SignedAxis::NZ), Some(SignedAxis::PX));
+        assert_eq!(fwd(Handedness::Right, SignedAxis::NY), None);
+        assert_eq!(fwd(Handedness::Right, SignedAxis::PX), None);
     }
 }
