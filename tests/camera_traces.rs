@@ -919,6 +919,35 @@ fn bad_recordings_are_one_line_errors_naming_file_and_line() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("qw=9") && e.contains("8 fields"), "{e}");
+    // Two quantities in one field.
+    o.columns = Some("t=0,x=1,y=2,z=7,qx=4,qy=5,qz=6,qw=7".parse().unwrap());
+    let e = parse_generic_csv("bad.csv", &walk, &o)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.starts_with("bad.csv:1:") && e.contains("both `z` and `qw`"),
+        "{e}"
+    );
+    // A headerless file whose first line has a damaged number: an error on
+    // that line, not a silently skipped "header".
+    let mut o = hololens();
+    o.columns = Some(ColumnMap::indices(0, Some([1, 2, 3]), [4, 5, 6, 7]));
+    let body: String = walk.lines().skip(1).map(|l| l.to_string() + "\n").collect();
+    let damaged = body.replacen(", 0, 1.6,", ", 0x, 1.6,", 1);
+    let e = parse_generic_csv("bad.csv", &damaged, &o)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.starts_with("bad.csv:1:") && e.contains("`0x` is not a number"),
+        "{e}"
+    );
+    assert_eq!(
+        parse_generic_csv("ok.csv", &body, &o)
+            .unwrap()
+            .samples
+            .len(),
+        4
+    );
 }
 
 // -- the command line -------------------------------------------------------

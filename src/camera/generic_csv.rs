@@ -5,10 +5,11 @@
 //! # What it reads
 //!
 //! Delimited text as split by `src/camera/table.rs` (comma, semicolon or
-//! whitespace; optional header line, detected as a first line with a
-//! non-numeric field). A [`ColumnMap`] says which field holds the time, the
+//! whitespace; optional header line, detected as a first line without a
+//! numeric field). A [`ColumnMap`] says which field holds the time, the
 //! position `x, y, z` (optional) and the quaternion `qx, qy, qz, qw`, by
-//! 0-based index or by header name:
+//! 0-based index or by header name (two quantities in one field is an
+//! error: a typo, not a layout):
 //!
 //! ```text
 //! --columns t=0,x=1,y=2,z=3,qx=4,qy=5,qz=6,qw=7
@@ -335,6 +336,19 @@ fn resolve(
         index("qz", &o[2])?,
         index("qw", &o[3])?,
     ];
+    let mut used: Vec<(usize, &str)> = vec![(t, "t")];
+    if let Some(p) = position {
+        used.extend(p.into_iter().zip(["x", "y", "z"]));
+    }
+    used.extend(orientation.into_iter().zip(["qx", "qy", "qz", "qw"]));
+    for (k, &(i, key)) in used.iter().enumerate() {
+        if let Some(&(_, other)) = used[..k].iter().find(|(j, _)| *j == i) {
+            return Err(b.line_error(
+                first_line,
+                format!("--columns maps both `{other}` and `{key}` to field index {i}"),
+            ));
+        }
+    }
     Ok(Columns::new(header, t, position, orientation))
 }
 

@@ -124,7 +124,7 @@ pub fn convention_warning(trace: &PoseTrace) -> Option<String> {
         return None;
     }
     Some(format!(
-        "{}: the head moves backwards relative to where it looks for {:.0} % of the {:.1} m it moves along its view axis — likely a coordinate-convention problem: wrong handedness (Unity/HoloLens recordings are left-handed: --handedness left) or wrong forward axis (--forward)",
+        "{}: the head moves backwards relative to where it looks for {:.0} % of the {:.1} m it moves along its view axis — likely a coordinate-convention problem: wrong handedness (Unity/HoloLens recordings are left-handed: --format csv --handedness left) or wrong forward axis (--forward)",
         trace.source.display(),
         100.0 * m.backward_fraction(),
         m.along_m()

@@ -24,7 +24,7 @@ pub(crate) enum HeaderRule {
     Required,
     /// The format has none: every line is data.
     Never,
-    /// A header when any field of the first line is not a number.
+    /// A header when no field of the first line is a number.
     Detect,
 }
 
@@ -91,7 +91,9 @@ pub(crate) fn read_table<'a>(
     let is_header = match rule {
         HeaderRule::Required => true,
         HeaderRule::Never => false,
-        HeaderRule::Detect => first_fields.iter().any(|f| f.parse::<f64>().is_err()),
+        // Every field non-numeric: a data line with one damaged number stays
+        // data (and its error names the field) instead of being skipped.
+        HeaderRule::Detect => first_fields.iter().all(|f| f.parse::<f64>().is_err()),
     };
     let mut header = None;
     let mut rest = &lines[..];
