@@ -278,6 +278,7 @@ impl MethodArgs {
             taa: self.taa.settings()?,
             isrt: self.isrt.settings()?,
             hash: self.hash.settings(debug_views)?,
+            light_sampling: Default::default(),
         })
     }
 }
