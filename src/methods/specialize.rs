@@ -11,7 +11,7 @@ use crate::rt::SceneGpu;
 use crate::scene::Environment;
 
 impl RenderSettings {
-    /// The scene-feature specialization constants (spec ids 0..10 of
+    /// The scene-feature specialization constants (spec ids 0..11 of
     /// shaders/common/features.glsl) for pipelines of `scene` under these settings.
     pub fn spec_constants(&self, scene: &SceneGpu, env: &Option<Environment>) -> SpecConstants {
         let mut s = scene.spec_constants(env, self.max_bounces, self.all_features);
