@@ -534,3 +534,33 @@ fn map_sampling_agrees_with_bsdf_sampling_on_an_hdr_map() {
     );
     assert_no_validation_messages(&ctx);
 }
+
+/// `bench lights` refuses bad input with one `error:` line naming the
+/// argument, a non-zero exit and no panic, before opening the GPU.
+#[test]
+fn bench_lights_rejects_bad_arguments() {
+    for (args, needle) in [
+        (&["--strategies", "mis,fast"][..], "--strategies"),
+        (&["--spp", "0"][..], "--spp"),
+        (&["--size", "0x-1"][..], "size"),
+        (&["--scenes", "/nonexistent/scene.gltf"][..], "scene.gltf"),
+    ] {
+        let o = std::process::Command::new("timeout")
+            .arg("120")
+            .arg(env!("CARGO_BIN_EXE_stereocache"))
+            .args(["bench", "lights"])
+            .args(args)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert!(
+            !o.status.success() && o.status.code() != Some(124),
+            "{args:?}: {:?}",
+            o.status
+        );
+        let lines: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error:")).collect();
+        assert_eq!(lines.len(), 1, "{args:?}: {stderr}");
+        assert!(lines[0].contains(needle), "{args:?}: {}", lines[0]);
+        assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+    }
+}
