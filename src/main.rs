@@ -281,6 +281,7 @@ impl MethodArgs {
             taa: self.taa.settings()?,
             isrt: self.isrt.settings()?,
             hash: self.hash.settings(debug_views)?,
+            light_sampling: Default::default(),
         })
     }
 }
@@ -677,6 +678,10 @@ enum BenchCommand {
     /// features against the all-features build, of each unused feature's code,
     /// and of skipping passes with nothing to do; both eyes, builds interleaved.
     Specialization(BenchSpecArgs),
+    /// Issue 13: MSE at equal time of the reference path tracer with light
+    /// sampling of emitters and maps (MIS) against BSDF sampling alone (the
+    /// integrator before NEE) and NEE alone, on a static view, interleaved.
+    Lights(BenchLightsArgs),
     /// Primary and diffuse-bounce rays per second for each ray backend.
     Rays {
         #[command(flatten)]
@@ -1399,6 +1404,9 @@ fn run(cli: Cli) -> Result<()> {
         Command::Bench {
             which: BenchCommand::Specialization(args),
         } => run_bench_specialization(args),
+        Command::Bench {
+            which: BenchCommand::Lights(args),
+        } => run_bench_lights(args),
         Command::Scene {
             which: SceneCommand::Generate { name, out },
         } => {
@@ -1505,6 +1513,112 @@ struct BenchSpecArgs {
     /// Also write the table as CSV to this file.
     #[arg(long)]
     out: Option<PathBuf>,
+}
+
+#[derive(Args)]
+struct BenchLightsArgs {
+    #[command(flatten)]
+    gpu: GpuArgs,
+    /// Scenes, comma-separated: built-in names, .gltf/.glb files or directories.
+    #[arg(long, default_value = "cornell,plane")]
+    scenes: String,
+    /// Lighting for scenes without lights (see `render --lighting`).
+    #[arg(long, default_value = "sun-sky")]
+    lighting: String,
+    /// Ray backend.
+    #[arg(long, default_value = "auto")]
+    rt: String,
+    /// Strategies, comma-separated (the first is the equal-time baseline): bsdf, mis, nee.
+    #[arg(long, default_value = "bsdf,mis,nee")]
+    strategies: String,
+    #[arg(long, default_value = "64x64")]
+    size: String,
+    /// Samples per pixel of each measured frame.
+    #[arg(long, default_value_t = 16)]
+    spp: u32,
+    /// Samples per pixel of the reference image (MIS, its own seed).
+    #[arg(long, default_value_t = 2048)]
+    reference_spp: u32,
+    #[arg(long, default_value_t = 3)]
+    bounces: u32,
+    /// Frames measured per strategy (after one warm-up frame).
+    #[arg(long, default_value_t = 8)]
+    frames: usize,
+}
+
+fn run_bench_lights(a: BenchLightsArgs) -> Result<()> {
+    use stereocache::methods::LightSampling;
+    let (w, h) = parse_size(&a.size).map_err(|e| anyhow!(e))?;
+    if a.frames == 0 || a.spp == 0 || a.reference_spp == 0 {
+        bail!("bad --frames/--spp/--reference-spp: each must be at least 1");
+    }
+    let rt: RtChoice = a.rt.parse().map_err(|e: String| anyhow!("bad --rt: {e}"))?;
+    let lighting: DefaultLighting = a
+        .lighting
+        .parse()
+        .map_err(|e| anyhow!("bad --lighting: {e}"))?;
+    let mut strategies = Vec::new();
+    for s in a.strategies.split(',').map(str::trim) {
+        strategies.push(match s {
+            "mis" => LightSampling::Mis,
+            "nee" => LightSampling::Nee,
+            "bsdf" => LightSampling::Bsdf,
+            _ => bail!("bad --strategies: unknown strategy '{s}' (expected bsdf, mis or nee)"),
+        });
+    }
+    let mut scenes = Vec::new();
+    for spec in a.scenes.split(',').map(str::trim) {
+        let scene = Session::load_scene(spec, &lighting)?;
+        for warning in &scene.warnings {
+            eprintln!("warning: {warning}");
+        }
+        let label = std::path::Path::new(spec)
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| spec.to_string());
+        scenes.push((label, scene));
+    }
+    let ctx = std::sync::Arc::new(GpuContext::new(&a.gpu.options()?)?);
+    println!("{}", device_line(&ctx.caps));
+    println!(
+        "{w}x{h} per eye, both eyes, {} spp, bounces {}, reference {} spp (MIS), {} frames per strategy after 1 warm-up, interleaved frame by frame",
+        a.spp, a.bounces, a.reference_spp, a.frames
+    );
+    let base = RenderSettings {
+        width: w,
+        height: h,
+        spp: a.spp,
+        max_bounces: a.bounces,
+        seed: 1,
+        ..Default::default()
+    };
+    let mut rows = Vec::new();
+    for (label, scene) in scenes {
+        let session = Session::with_context(ctx.clone(), scene, rt)?;
+        let camera = session.camera(&CameraSelect::Default, w, h, None, None)?;
+        println!(
+            "scene {label}: backend {}, emissive triangles {}, environment {}",
+            session.backend,
+            session.scene_gpu.features.emissive_triangles,
+            session
+                .scene
+                .environment
+                .as_ref()
+                .map(environment_kind)
+                .unwrap_or("none")
+        );
+        rows.extend(stereocache::bench::bench_lights(
+            &session,
+            &label,
+            camera,
+            &base,
+            &strategies,
+            a.reference_spp,
+            a.frames,
+        )?);
+    }
+    print!("{}", stereocache::bench::light_table(&rows));
+    report_validation(&ctx)
 }
 
 /// `stereocache bench specialization`: every argument is checked and every

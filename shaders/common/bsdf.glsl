@@ -166,4 +166,20 @@ bool dielectric_sample(ShadingMaterial m, vec3 wo, vec3 u, out vec3 wi, out vec3
     wi = entering ? wi_up : -wi_up;
     return true;
 }
+
+// dielectric_sample in world space, as the integrator calls it: `n` = shading
+// normal on the side the ray `d` arrives from (Surface.n), `front` = the ray
+// hit the outside (Surface.front). The BSDF works in a frame around the
+// *outward* normal, so wo.z < 0 for a ray arriving from inside, and the
+// sampled wi comes back in that same frame — it must not be flipped again on
+// back-face hits (issue 13: doing so sent every ray leaving glass back inside;
+// tests/dielectric.rs checks this function against Snell's law).
+bool dielectric_sample_world(ShadingMaterial m, vec3 n, bool front, vec3 d, vec3 u, out vec3 wi_world, out vec3 weight, out bool delta) {
+    Frame fg = frame_from(front ? n : -n);
+    vec3 wi;
+    wi_world = vec3(0.0);
+    if (!dielectric_sample(m, to_local(fg, -d), u, wi, weight, delta)) return false;
+    wi_world = to_world(fg, wi);
+    return true;
+}
 #endif

@@ -18,4 +18,12 @@ layout(constant_id = 9) const uint SC_TEXTURE_COUNT = 1;
 // opaque BSDF's GGX lobe and Fresnel terms are compiled out (they evaluate
 // to exactly 0 for such materials, and the random numbers are drawn alike).
 layout(constant_id = 10) const bool SC_VIEW_DEPENDENT = true;
+// How emissive triangles and the environment map are sampled (integrator.glsl;
+// src/methods/specialize.rs `LightSampling`): 0 both strategies combined by
+// MIS (the renderer), 1 next-event estimation only, 2 BSDF sampling only
+// (the estimator without light sampling; tests and benchmarks).
+layout(constant_id = 11) const uint SC_LIGHT_STRATEGY = 0;
+const uint LIGHT_STRATEGY_MIS = 0u;
+const uint LIGHT_STRATEGY_NEE = 1u;
+const uint LIGHT_STRATEGY_BSDF = 2u;
 #endif

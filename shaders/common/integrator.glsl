@@ -1,7 +1,28 @@
 // The path tracer every method shares (same bounces, Russian roulette, lights
 // and seeds), so method differences come from the method alone.
-// NEE for the sun and punctual lights with MIS against BSDF sampling for the
-// sun disc; emissive triangles and the sky are reached by BSDF sampling.
+// Next-event estimation (NEE) at every non-delta vertex for: punctual lights
+// and the sun (one light picked uniformly); emissive triangles (one picked by
+// power, a point uniformly by area, lights.glsl); the equirectangular map
+// (piecewise-constant importance sampling, sky.glsl). The sun disc, emissive
+// triangles and the map are also reached by BSDF sampling; both strategies are
+// combined by multiple importance sampling with the power heuristic (Veach
+// 1997, §9.2.2): a BSDF-sampled ray that hits an emitter or escapes to the map
+// after a non-delta vertex is weighted by p_bsdf² / (p_bsdf² + p_light²), with
+// p_light the light-sampling density of that direction, and the NEE sample by
+// the complement, so nothing is counted twice. After a delta event (smooth
+// glass, the camera) there is no NEE and the emission counts in full.
+// SC_LIGHT_STRATEGY (features.glsl) can switch emitters and the map to NEE
+// only or BSDF only (each alone is unbiased too; tests compare the three).
+// Constant and Preetham skies are left to BSDF sampling (cosine sampling is
+// already proportional to a constant sky; the sun is the sky's bright part).
+//
+// Random numbers: the BSDF / Russian-roulette / punctual-light numbers come
+// from the bounce's stream `r` and are drawn whether or not lights are
+// compiled in, so that stream does not depend on the specialization constants.
+// Emitter and map sampling draw from a separate stream `rl` forked off `r`
+// without advancing it (also drawn in full either way): images of scenes
+// without emissive triangles or maps are bit for bit those of the integrator
+// before it had area-light NEE.
 #ifndef INTEGRATOR_GLSL
 #define INTEGRATOR_GLSL
 #include "common/rt.glsl"
@@ -11,6 +32,61 @@
 #include "common/sky.glsl"
 
 struct RayCounts { uint bounce; uint shadow; };
+
+// MIS weight of emission a path vertex sees directly (camera ray or
+// BSDF-sampled ray after a vertex with sampling pdf `pdf_prev`).
+float emitter_mis_weight(RtHit h, vec3 d, bool specular_prev, float pdf_prev) {
+    if (specular_prev || SC_LIGHT_STRATEGY == LIGHT_STRATEGY_BSDF) return 1.0;
+    float pl = emitter_pdf(h.instance, h.prim, d, h.t);
+    if (SC_LIGHT_STRATEGY == LIGHT_STRATEGY_NEE) return pl > 0.0 ? 0.0 : 1.0;
+    return pl > 0.0 ? power_heuristic(pdf_prev, pl) : 1.0;
+}
+
+// The same for the environment map seen by an escaping ray.
+float env_mis_weight(vec3 d, bool specular_prev, float pdf_prev) {
+    if (SC_ENV_KIND != 3u || specular_prev || SC_LIGHT_STRATEGY == LIGHT_STRATEGY_BSDF) return 1.0;
+    float pe = env_pdf(d);
+    if (SC_LIGHT_STRATEGY == LIGHT_STRATEGY_NEE) return pe > 0.0 ? 0.0 : 1.0;
+    return pe > 0.0 ? power_heuristic(pdf_prev, pe) : 1.0;
+}
+
+// Light-sampling estimates (before the path throughput) at a non-delta vertex
+// of the opaque BSDF: one emissive-triangle sample and one map sample, each
+// weighted against BSDF sampling by the power heuristic.
+vec3 nee_area_lights(Surface s, ShadingMaterial m, Frame f, vec3 wo, vec4 u_emitter, vec2 u_env, inout RayCounts rays) {
+    vec3 L = vec3(0.0);
+    if (SC_LIGHT_STRATEGY == LIGHT_STRATEGY_BSDF) return L;
+    if (SC_EMISSIVE) {
+        EmitterSample es;
+        if (sample_emitter(s.p, u_emitter, es) && dot(es.wi, s.ng) > 0.0) {
+            float pdf_b;
+            vec3 fc = opaque_eval(m, wo, to_local(f, es.wi), pdf_b);
+            if (any(greaterThan(fc, vec3(0.0)))) {
+                rays.shadow++;
+                if (!rt_occluded(offset_ray(s.p, s.ng), es.wi, 0.0, es.dist * (1.0 - 1e-4))) {
+                    float w = SC_LIGHT_STRATEGY == LIGHT_STRATEGY_NEE ? 1.0 : power_heuristic(es.pdf, pdf_b);
+                    L += fc * es.Le * (w / es.pdf);
+                }
+            }
+        }
+    }
+    if (SC_ENV_KIND == 3u) {
+        vec3 wi;
+        float pdf_e;
+        if (env_sample(u_env, wi, pdf_e) && dot(wi, s.ng) > 0.0) {
+            float pdf_b;
+            vec3 fc = opaque_eval(m, wo, to_local(f, wi), pdf_b);
+            if (any(greaterThan(fc, vec3(0.0)))) {
+                rays.shadow++;
+                if (!rt_occluded(offset_ray(s.p, s.ng), wi, 0.0, 1e30)) {
+                    float w = SC_LIGHT_STRATEGY == LIGHT_STRATEGY_NEE ? 1.0 : power_heuristic(pdf_e, pdf_b);
+                    L += fc * environment(wi) * (w / pdf_e);
+                }
+            }
+        }
+    }
+    return L;
+}
 
 // Radiance towards the origin of ray (o, d) whose closest hit is `h` (`hit` =
 // false for a miss). `cone_width` is the ray-cone width at the hit, used for
@@ -23,7 +99,7 @@ vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, float cone_width, inout Rn
     float cone = cone_width;
     for (uint bounce = 0u;; ++bounce) {
         if (!hit) {
-            L += beta * environment(d);
+            L += beta * environment(d) * env_mis_weight(d, specular_prev, pdf_prev);
             float lp;
             vec3 sun = sun_radiance(d, lp);
             if (any(greaterThan(sun, vec3(0.0)))) L += beta * sun * (specular_prev ? 1.0 : power_heuristic(pdf_prev, lp));
@@ -31,23 +107,23 @@ vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, float cone_width, inout Rn
         }
         Surface s = surface_at(h.instance, h.prim, h.bary, d);
         ShadingMaterial m = material_at(s, d, cone);
-        if (SC_EMISSIVE) L += beta * m.emissive;
+        if (SC_EMISSIVE && any(greaterThan(m.emissive, vec3(0.0))))
+            L += beta * m.emissive * emitter_mis_weight(h, d, specular_prev, pdf_prev);
         if (bounce >= SC_MAX_BOUNCES) break;
 
         Frame f = frame_from(s.n);
         vec3 wo = to_local(f, -d);
         Rng r = rng_fork(rng, bounce);
+        Rng rl = rng_fork(r, 0x4C696768u);   // light-sampling stream (does not advance r)
         vec3 wi_world;
         if (SC_TRANSMISSION && m.transmission > 0.0 && rng_next(r) < m.transmission) {
-            // Dielectric component (chosen with probability = its mixture weight).
-            // The BSDF works in a frame around the *outward* normal (s.n faces
-            // the ray, so it is flipped on back-face hits): wo.z < 0 means the
-            // ray arrives from inside, and wi comes back in that same frame.
-            Frame fg = frame_from(s.front ? s.n : -s.n);
-            vec3 wi, w;
+            // Dielectric component (chosen with probability = its mixture weight;
+            // frames in bsdf.glsl dielectric_sample_world). Rough glass is
+            // treated like a delta event for light sampling (no NEE, emission
+            // seen through it counts in full).
+            vec3 w;
             bool delta;
-            if (!dielectric_sample(m, to_local(fg, -d), vec3(rng_next2(r), rng_next(r)), wi, w, delta)) break;
-            wi_world = to_world(fg, wi);
+            if (!dielectric_sample_world(m, s.n, s.front, d, vec3(rng_next2(r), rng_next(r)), wi_world, w, delta)) break;
             beta *= w;
             specular_prev = true;
             pdf_prev = 0.0;
@@ -71,6 +147,10 @@ vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, float cone_width, inout Rn
                     }
                 }
             }
+            // Emissive triangles and the environment map (stream rl, drawn in full).
+            vec4 u_emitter = vec4(rng_next2(rl), rng_next2(rl));
+            vec2 u_env = rng_next2(rl);
+            L += beta * nee_area_lights(s, m, f, wo, u_emitter, u_env, rays);
             vec3 wi, w;
             float pdf;
             if (!opaque_sample(m, wo, vec3(rng_next2(r), rng_next(r)), wi, w, pdf)) break;

@@ -1,5 +1,7 @@
-// Next-event estimation for punctual lights (KHR_lights_punctual) and the sun
-// (a directional light with an angular radius, sampled uniformly in its cone).
+// Next-event estimation for punctual lights (KHR_lights_punctual), the sun
+// (a directional light with an angular radius, sampled uniformly in its cone)
+// and emissive triangles (picked by power with an alias table, then a point
+// uniformly by area; src/scene/emitters.rs, src/scene/alias.rs).
 #ifndef LIGHTS_GLSL
 #define LIGHTS_GLSL
 #include "common/rt.glsl"
@@ -11,6 +13,86 @@ struct LightSample {
     vec3 L;           // incident radiance / pdf (includes 1/selection prob)
     float pdf;        // solid-angle pdf (0 = delta light, no MIS)
 };
+
+// Emissive triangles (src/rt/gpu_scene.rs `emitter_buffer`).
+struct EmitterGpu {
+    vec3 p0; float alias_prob;   // world vertices; alias table entry
+    vec3 p1; uint alias;
+    vec3 p2; float pdf_area;     // pick probability / area
+    uvec4 ids;                   // instance, primitive, unused, unused
+};
+layout(set = 0, binding = 12, std430) readonly buffer Emitters { uvec4 emitter_header; EmitterGpu emitters[]; };
+
+struct EmitterSample {
+    vec3 wi;      // world direction towards the sampled point
+    float dist;   // distance to it
+    vec3 Le;      // radiance it emits towards the shading point
+    float pdf;    // solid-angle pdf of wi (pick probability · area pdf · dist² / |cos θl|)
+};
+
+// Emitted radiance of emitter triangle `e` at barycentrics `bary`, seen along
+// a ray of direction `dir` — exactly what material_at gives a hit there at
+// mip 0 (secondary hits use mip 0): factor × emissive texture, nothing from
+// the back of a single-sided material, nothing where the alpha mask cuts.
+vec3 emitted_radiance(EmitterGpu e, vec2 bary, vec3 dir) {
+    uint inst = e.ids.x, prim = e.ids.y;
+    MaterialGpu g = materials[instance_material(inst)];
+    vec3 gn = cross(e.p1 - e.p0, e.p2 - e.p0);
+    if (dot(gn, dir) >= 0.0 && g.tex1.z == 0) return vec3(0.0);
+    if (!alpha_passes(inst, prim, bary)) return vec3(0.0);
+    vec3 Le = g.emissive_metallic.rgb;
+    if (SC_TEXTURES && g.tex0.w >= 0) {
+        uvec3 vi = triangle_indices(inst, prim);
+        vec3 w = vec3(1.0 - bary.x - bary.y, bary.x, bary.y);
+        vec2 uv = w.x * vec2(vertices[vi.x].pos_u.w, vertices[vi.x].normal_v.w)
+                + w.y * vec2(vertices[vi.y].pos_u.w, vertices[vi.y].normal_v.w)
+                + w.z * vec2(vertices[vi.z].pos_u.w, vertices[vi.z].normal_v.w);
+        Le *= sample_texture(g.tex0.w, uv, 0.0).rgb;
+    }
+    return Le;
+}
+
+// Picks an emitter triangle by power (u.x, u.y: alias table) and a point on it
+// uniformly by area (u.zw: Turk's square-root mapping, pbrt-v4 SampleUniformTriangle).
+bool sample_emitter(vec3 p, vec4 u, out EmitterSample es) {
+    es.pdf = 0.0;
+    es.Le = vec3(0.0);
+    uint count = emitter_header.x;
+    if (count == 0u) return false;
+    uint i = min(uint(u.x * float(count)), count - 1u);
+    if (u.y >= emitters[i].alias_prob) i = emitters[i].alias;
+    EmitterGpu e = emitters[i];
+    float su = sqrt(u.z);
+    vec2 bary = vec2(su * (1.0 - u.w), su * u.w);   // weights of p1, p2
+    vec3 q = (1.0 - bary.x - bary.y) * e.p0 + bary.x * e.p1 + bary.y * e.p2;
+    vec3 d = q - p;
+    float dist2 = dot(d, d);
+    if (!(dist2 > 0.0)) return false;
+    es.dist = sqrt(dist2);
+    es.wi = d / es.dist;
+    vec3 gn = cross(e.p1 - e.p0, e.p2 - e.p0);
+    float gl = length(gn);
+    if (!(gl > 0.0)) return false;
+    float cos_l = abs(dot(gn / gl, es.wi));
+    if (cos_l <= 0.0) return false;
+    es.pdf = e.pdf_area * dist2 / cos_l;
+    es.Le = emitted_radiance(e, bary, es.wi);
+    return es.pdf > 0.0 && any(greaterThan(es.Le, vec3(0.0)));
+}
+
+// Solid-angle pdf with which sample_emitter would pick the point a ray from
+// distance `t` along unit direction `dir` hit on (instance, prim) — the
+// light-sampling pdf in the MIS weight of a BSDF-sampled emitter hit.
+float emitter_pdf(uint inst, uint prim, vec3 dir, float t) {
+    uint first = instances[inst].mesh_pad.y;
+    if (first == 0u || emitter_header.x == 0u) return 0.0;
+    EmitterGpu e = emitters[first - 1u + prim];
+    vec3 gn = cross(e.p1 - e.p0, e.p2 - e.p0);
+    float gl = length(gn);
+    if (!(gl > 0.0)) return 0.0;
+    float cos_l = abs(dot(gn / gl, dir));
+    return cos_l > 0.0 ? e.pdf_area * t * t / cos_l : 0.0;
+}
 
 float power_heuristic(float a, float b) {
     float a2 = a * a, b2 = b * b;

@@ -52,4 +52,65 @@ vec3 environment(vec3 dir) {
     }
     return vec3(0.0);
 }
+
+// Importance sampling of the equirectangular map (SC_ENV_KIND 3): the
+// piecewise-constant distribution of src/scene/env_distribution.rs, with
+// header (width, height; width 0 = none), the marginal CDF over rows (h + 1
+// floats) and each row's conditional CDF over columns (w + 1 floats).
+layout(set = 0, binding = 13, std430) readonly buffer EnvDistribution { uvec4 env_header; float env_cdf[]; };
+
+// Largest index k in [first, first + n) with env_cdf[k] <= x (env_cdf[first] = 0).
+uint env_cdf_find(uint first, uint n, float x) {
+    uint lo = 0u, hi = n - 1u;   // invariant: env_cdf[first + lo] <= x
+    while (lo < hi) {
+        uint mid = (lo + hi + 1u) >> 1;
+        if (env_cdf[first + mid] <= x) lo = mid; else hi = mid - 1u;
+    }
+    return lo;
+}
+
+// Solid-angle density of the map sampling at u, v ∈ [0, 1): p(u, v) / (2π² sin θ).
+float env_pdf_uv(float u, float v) {
+    uint w = env_header.x, h = env_header.y;
+    if (w == 0u) return 0.0;
+    uint x = min(uint(u * float(w)), w - 1u), y = min(uint(v * float(h)), h - 1u);
+    float pm = env_cdf[y + 1u] - env_cdf[y];
+    uint row = h + 1u + y * (w + 1u);
+    float pc = env_cdf[row + x + 1u] - env_cdf[row + x];
+    float sin_t = sin(PI * v);
+    return sin_t > 0.0 ? pm * float(h) * pc * float(w) / (2.0 * PI * PI * sin_t) : 0.0;
+}
+
+// The density env_sample has for direction `dir` (MIS of rays that escape).
+float env_pdf(vec3 dir) {
+    if (SC_ENV_KIND != 3u) return 0.0;
+    float u = atan(dir.x, -dir.z) * (0.5 * INV_PI);
+    u = u < 0.0 ? u + 1.0 : u;
+    float v = acos(clamp(dir.y, -1.0, 1.0)) * INV_PI;
+    return env_pdf_uv(u, v);
+}
+
+// Samples a direction from the map's distribution (row by the marginal, then
+// column by that row's conditional, uniform within the texel).
+bool env_sample(vec2 r, out vec3 dir, out float pdf) {
+    pdf = 0.0;
+    dir = vec3(0.0, 1.0, 0.0);
+    uint w = env_header.x, h = env_header.y;
+    if (SC_ENV_KIND != 3u || w == 0u) return false;
+    uint y = min(env_cdf_find(0u, h + 1u, r.y), h - 1u);
+    float c0 = env_cdf[y], c1 = env_cdf[y + 1u];
+    float v = (float(y) + clamp((r.y - c0) / max(c1 - c0, 1e-30), 0.0, 1.0)) / float(h);
+    uint row = h + 1u + y * (w + 1u);
+    uint x = min(env_cdf_find(row, w + 1u, r.x), w - 1u);
+    float d0 = env_cdf[row + x], d1 = env_cdf[row + x + 1u];
+    float u = (float(x) + clamp((r.x - d0) / max(d1 - d0, 1e-30), 0.0, 1.0)) / float(w);
+    u = min(u, 1.0 - 1e-7);
+    v = clamp(v, 1e-7, 1.0 - 1e-7);
+    // Direction of (u, v): inverse of environment()'s lookup (env_map.rs equirect_direction).
+    float phi = 2.0 * PI * u, theta = PI * v;
+    float st = sin(theta);
+    dir = vec3(st * sin(phi), cos(theta), -st * cos(phi));
+    pdf = (c1 - c0) * float(h) * (d1 - d0) * float(w) / (2.0 * PI * PI * st);
+    return pdf > 0.0;
+}
 #endif

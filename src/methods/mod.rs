@@ -20,6 +20,7 @@ pub use hybrid::Hybrid;
 pub use isrt::{Isrt, IsrtSettings};
 pub use reference::Reference;
 pub use sample_cache::{SampleCache, SampleCacheSettings};
+pub use specialize::LightSampling;
 pub use taa::{Taa, TaaPass, TaaSettings, TaaWeights};
 
 use crate::gpu::GpuResult;
@@ -55,6 +56,8 @@ pub struct RenderSettings {
     pub isrt: IsrtSettings,
     /// Options of the `hash-cache` method (and of `hybrid`'s table).
     pub hash: HashCacheSettings,
+    /// Sampling of emissive triangles and environment maps (default MIS).
+    pub light_sampling: LightSampling,
 }
 
 impl Default for RenderSettings {
@@ -73,6 +76,7 @@ impl Default for RenderSettings {
             taa: TaaSettings::default(),
             isrt: IsrtSettings::default(),
             hash: HashCacheSettings::default(),
+            light_sampling: LightSampling::Mis,
         }
     }
 }

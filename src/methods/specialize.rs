@@ -11,7 +11,7 @@ use crate::rt::SceneGpu;
 use crate::scene::Environment;
 
 impl RenderSettings {
-    /// The scene-feature specialization constants (spec ids 0..10 of
+    /// The scene-feature specialization constants (spec ids 0..11 of
     /// shaders/common/features.glsl) for pipelines of `scene` under these settings.
     pub fn spec_constants(&self, scene: &SceneGpu, env: &Option<Environment>) -> SpecConstants {
         let mut s = scene.spec_constants(env, self.max_bounces, self.all_features);
@@ -30,6 +30,23 @@ impl RenderSettings {
                 s.flag(id, true);
             }
         }
+        s.set(spec_id::LIGHT_STRATEGY, self.light_sampling as u32);
         s
     }
+}
+
+/// How emissive triangles and environment maps are sampled (spec constant
+/// `SC_LIGHT_STRATEGY`, shaders/common/features.glsl). `Mis` is the renderer;
+/// the other two are its two strategies alone — each unbiased, so tests check
+/// that all three agree in expectation, and `Bsdf` is exactly the integrator
+/// before it had area-light NEE (the benchmark's "before").
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub enum LightSampling {
+    /// Next-event estimation and BSDF sampling, power-heuristic MIS.
+    #[default]
+    Mis = 0,
+    /// Next-event estimation only (BSDF-sampled hits on lights count 0).
+    Nee = 1,
+    /// BSDF sampling only (no light sampling of emitters or the map).
+    Bsdf = 2,
 }

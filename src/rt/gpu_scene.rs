@@ -9,6 +9,8 @@ use crate::gpu::{
     BindingKind, Buffer, DescriptorLayout, DescriptorSet, GpuContext, GpuError, GpuResult,
     GpuTexture, Resource, Sampler, SpecConstants,
 };
+use crate::scene::emitters::Emitters;
+use crate::scene::env_distribution::EnvDistribution;
 use crate::scene::preetham::preetham_params;
 use crate::scene::{
     AlphaMode, Environment, LightKind, Scene, SceneFeatures, SkyModel, TextureEncoding,
@@ -31,6 +33,15 @@ pub mod spec_id {
     pub const MAX_BOUNCES: u32 = 8;
     pub const TEXTURE_COUNT: u32 = 9;
     pub const VIEW_DEPENDENT: u32 = 10;
+    pub const LIGHT_STRATEGY: u32 = 11;
+}
+
+/// Descriptor-set-0 bindings of the light-sampling data (lights.glsl, sky.glsl)
+/// and of the TLAS (rt_query.glsl, ray-query backend only).
+pub mod binding {
+    pub const EMITTERS: u32 = 12;
+    pub const ENV_DISTRIBUTION: u32 = 13;
+    pub const TLAS: u32 = 14;
 }
 
 #[repr(C)]
@@ -67,6 +78,22 @@ struct LightGpu {
     position_range: [f32; 4],
     direction: [f32; 4],
     cone: [f32; 4],
+}
+
+/// One emissive triangle for next-event estimation (lights.glsl `EmitterGpu`):
+/// world vertices (render-origin relative), its alias-table entry, and
+/// pdf_area = pick probability / area (the area-measure light pdf of its points).
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct EmitterGpu {
+    p0: [f32; 3],
+    alias_prob: f32,
+    p1: [f32; 3],
+    alias: u32,
+    p2: [f32; 3],
+    pdf_area: f32,
+    /// instance, primitive, unused, unused
+    ids: [u32; 4],
 }
 
 #[repr(C)]
@@ -139,15 +166,23 @@ impl SceneGpu {
         // Positions relative to the render origin (rt/origin.rs): instance
         // transforms, lights and the eyes (FrameParams) are rebased in f64.
         let origin = render_origin(scene);
+        // Emissive triangles in the same (render-origin relative) frame.
+        let emitters = Emitters::of(scene, |k| {
+            relative_transform(scene.instances[k].transform, origin)
+        });
         let instances: Vec<InstanceGpu> = scene
             .instances
             .iter()
-            .map(|i| InstanceGpu {
+            .zip(&emitters.first)
+            .map(|(i, first)| InstanceGpu {
                 object_to_world: relative_transform(i.transform, origin).to_cols_array(),
                 normal_to_world: i.transform.inverse().transpose().to_cols_array(),
-                mesh_pad: [i.mesh, 0, 0, 0],
+                // .y: 1 + index of the instance's first emitter triangle (0 = none),
+                // the MIS lookup of a BSDF-sampled emitter hit (lights.glsl).
+                mesh_pad: [i.mesh, first.map_or(0, |f| f + 1), 0, 0],
             })
             .collect();
+        let emitter_bytes = emitter_buffer(&emitters);
 
         // Textures (descriptor array at binding 10; a 1×1 white stand-in when there are none).
         let mut textures = Vec::new();
@@ -233,6 +268,7 @@ impl SceneGpu {
         let mut params = SceneParamsGpu::zeroed();
         params.counts = [lights.len() as u32, 0, 0, instances.len() as u32];
         let mut env_texture = None;
+        let mut env_dist = None;
         match &scene.environment {
             Some(Environment::Constant(c)) => params.env_constant = [c.x, c.y, c.z, 1.0],
             Some(Environment::Sky {
@@ -263,6 +299,7 @@ impl SceneGpu {
                 params.env_constant = [0.0, 0.0, 0.0, *scale];
                 params.counts[1] = *width;
                 params.counts[2] = *height;
+                env_dist = EnvDistribution::new(*width, *height, texels);
                 let data: Vec<f32> = texels
                     .iter()
                     .flat_map(|t| [t[0], t[1], t[2], 1.0])
@@ -310,6 +347,13 @@ impl SceneGpu {
         )?;
         let b_lights = Buffer::with_data(ctx, "scene.lights", bytemuck::cast_slice(&lights), none)?;
         let b_params = Buffer::with_data(ctx, "scene.params", bytemuck::bytes_of(&params), none)?;
+        let b_emitters = Buffer::with_data(ctx, "scene.emitters", &emitter_bytes, none)?;
+        let b_env_dist = Buffer::with_data(
+            ctx,
+            "scene.env_distribution",
+            &env_distribution_buffer(env_dist.as_ref()),
+            none,
+        )?;
 
         // Ray-tracing structure of the backend; the other backend's bindings get 16-byte stand-ins.
         let (b_nodes, b_ref, b_verts, accel) = match backend {
@@ -379,6 +423,9 @@ impl SceneGpu {
         let mut kinds = vec![BindingKind::StorageBuffer; 10];
         kinds.push(BindingKind::SampledImages(texture_count));
         kinds.push(BindingKind::SampledImages(1));
+        kinds.push(BindingKind::StorageBuffer); // binding::EMITTERS
+        kinds.push(BindingKind::StorageBuffer); // binding::ENV_DISTRIBUTION
+        debug_assert_eq!(kinds.len(), binding::TLAS as usize);
         if backend == RtBackend::Query {
             kinds.push(BindingKind::AccelerationStructure);
         }
@@ -398,6 +445,8 @@ impl SceneGpu {
             Resource::Buffer(&b_verts),
             Resource::Images(textures.iter().collect(), &tex_sampler),
             Resource::Images(vec![&env_texture], &env_sampler),
+            Resource::Buffer(&b_emitters),
+            Resource::Buffer(&b_env_dist),
         ];
         if let Some(a) = &accel {
             resources.push(Resource::Accel(a.tlas()));
@@ -427,6 +476,8 @@ impl SceneGpu {
                 b_nodes,
                 b_ref,
                 b_verts,
+                b_emitters,
+                b_env_dist,
             ],
             _textures: all_textures,
             _samplers: vec![tex_sampler, env_sampler],
@@ -461,6 +512,48 @@ impl SceneGpu {
             .set(spec_id::TEXTURE_COUNT, self.texture_count);
         s
     }
+}
+
+/// The emitter buffer: a uvec4 header (triangle count, 0, 0, 0) and one
+/// `EmitterGpu` per triangle (lights.glsl `Emitters`). No emitters (or no
+/// power) → count 0, and NEE of emissive triangles does nothing.
+fn emitter_buffer(e: &Emitters) -> Vec<u8> {
+    let mut out: Vec<u8> = Vec::new();
+    let Some(table) = &e.table else {
+        out.extend_from_slice(bytemuck::cast_slice(&[0u32; 4]));
+        out.extend_from_slice(bytemuck::bytes_of(&EmitterGpu::zeroed()));
+        return out;
+    };
+    out.extend_from_slice(bytemuck::cast_slice(&[e.triangles.len() as u32, 0, 0, 0]));
+    for (t, (a, pmf)) in e.triangles.iter().zip(table.entries.iter().zip(&table.pmf)) {
+        let g = EmitterGpu {
+            p0: t.vertices[0].to_array(),
+            alias_prob: a.prob,
+            p1: t.vertices[1].to_array(),
+            alias: a.alias,
+            p2: t.vertices[2].to_array(),
+            pdf_area: if t.area > 0.0 { pmf / t.area } else { 0.0 },
+            ids: [t.instance, t.prim, 0, 0],
+        };
+        out.extend_from_slice(bytemuck::bytes_of(&g));
+    }
+    out
+}
+
+/// The environment distribution buffer: a uvec4 header (width, height, 0, 0;
+/// width 0 = no distribution), the marginal CDF (h + 1 floats), then the
+/// conditional CDFs (h rows of w + 1 floats) — sky.glsl `EnvDistribution`.
+fn env_distribution_buffer(d: Option<&EnvDistribution>) -> Vec<u8> {
+    let mut out: Vec<u8> = Vec::new();
+    match d {
+        Some(d) => {
+            out.extend_from_slice(bytemuck::cast_slice(&[d.width, d.height, 0, 0]));
+            out.extend_from_slice(bytemuck::cast_slice(&d.marginal_cdf));
+            out.extend_from_slice(bytemuck::cast_slice(&d.conditional_cdf));
+        }
+        None => out.extend_from_slice(bytemuck::cast_slice(&[0u32; 8])),
+    }
+    out
 }
 
 fn row_major_3x4(m: Mat4) -> [[f32; 4]; 3] {

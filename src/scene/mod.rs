@@ -5,7 +5,10 @@
 //! look down −Z. Everything the GPU needs is derived from these types by
 //! `crate::rt` and `crate::methods`; nothing here touches Vulkan.
 
+pub mod alias;
 pub mod default_lighting;
+pub mod emitters;
+pub mod env_distribution;
 pub mod env_map;
 pub mod environment;
 pub mod error;

@@ -1,0 +1,639 @@
+//! Smooth glass, checked where a ray sent the wrong way shows (a furnace
+//! cannot: a uniform environment looks the same from every direction):
+//! the sampled directions against Snell's law, Fresnel and total internal
+//! reflection through the GLSL (`dielectric_sample_world`, the function the
+//! integrator calls); the transmission through a glass sphere at normal
+//! incidence on both ray backends; the caustic of a glass sphere.
+
+mod common;
+use common::*;
+use glam::{DVec3, Mat4, Quat, Vec2, Vec3};
+use stereocache::gpu::{
+    shaders, Buffer, ComputePipeline, DescriptorLayout, DescriptorSet, Recorder, Resource,
+};
+use stereocache::methods::RenderSettings;
+use stereocache::rt::RtChoice;
+use stereocache::scene::generate::{add_material, add_mesh, grid, uv_sphere};
+use stereocache::scene::{Material, Scene};
+
+const IOR: f64 = 1.5;
+
+fn glass() -> Material {
+    Material {
+        name: "glass".into(),
+        base_color: glam::Vec4::ONE,
+        metallic: 0.0,
+        roughness: 0.0,
+        transmission: 1.0,
+        ior: IOR as f32,
+        ..Default::default()
+    }
+}
+
+/// A black (non-reflecting) emitter of radiance `le`, facing `eu × ev`.
+fn emitter(le: f32) -> Material {
+    Material {
+        emissive: Vec3::splat(le),
+        specular: 0.0,
+        ..Material::diffuse("light", Vec3::ZERO)
+    }
+}
+
+// ---------------------------------------------------------------------------
+// (c) Directions through the GLSL against the physics.
+
+/// One case for dielectric_test.comp and what came back.
+struct Case {
+    n: DVec3,    // Surface.n: shading normal on the side the ray arrives from
+    front: bool, // the ray hit the outside
+    d: DVec3,    // ray direction
+    u: [f64; 3], // random numbers
+}
+
+struct Sampled {
+    ok: bool,
+    wi: DVec3,
+    weight: DVec3,
+    delta: bool,
+}
+
+fn run_kernel(cases: &[Case], roughness: f32) -> Vec<Sampled> {
+    let ctx = context();
+    let raw: Vec<[f32; 4]> = cases
+        .iter()
+        .flat_map(|c| {
+            [
+                [
+                    c.n.x as f32,
+                    c.n.y as f32,
+                    c.n.z as f32,
+                    c.front as u32 as f32,
+                ],
+                [c.d.x as f32, c.d.y as f32, c.d.z as f32, IOR as f32],
+                [c.u[0] as f32, c.u[1] as f32, c.u[2] as f32, roughness],
+            ]
+        })
+        .collect();
+    let n = cases.len() as u32;
+    let inp = Buffer::with_data(
+        &ctx,
+        "test.cases",
+        bytemuck::cast_slice(&raw),
+        Default::default(),
+    )
+    .unwrap();
+    let out = Buffer::storage(&ctx, "test.out", n as u64 * 32).unwrap();
+    let layout = DescriptorLayout::buffers(&ctx, 2).unwrap();
+    let set = DescriptorSet::new(
+        &ctx,
+        &layout,
+        &[Resource::Buffer(&inp), Resource::Buffer(&out)],
+    )
+    .unwrap();
+    // The kernel's buffers are set 1 (set 0 is the scene's, unused here).
+    let pipe = ComputePipeline::new(
+        &ctx,
+        "dielectric_test",
+        shaders::spirv("common/dielectric_test").expect("dielectric_test compiled"),
+        &[layout.clone(), layout],
+        4,
+        &Default::default(),
+    )
+    .unwrap();
+    let mut rec = Recorder::new(&ctx, 1).unwrap();
+    rec.pass("dielectric_test").read(&inp).write(&out).dispatch(
+        &pipe,
+        &[&set, &set],
+        &n.to_le_bytes(),
+        [n.div_ceil(64), 1, 1],
+    );
+    rec.finish().unwrap();
+    let got: Vec<[f32; 4]> = out.download_pod().unwrap();
+    assert_no_validation_messages(&ctx);
+    (0..cases.len())
+        .map(|i| {
+            let (a, b) = (got[2 * i], got[2 * i + 1]);
+            Sampled {
+                ok: a[3] > 0.5,
+                wi: DVec3::new(a[0] as f64, a[1] as f64, a[2] as f64),
+                weight: DVec3::new(b[0] as f64, b[1] as f64, b[2] as f64),
+                delta: b[3] > 0.5,
+            }
+        })
+        .collect()
+}
+
+/// Deterministic pseudo-random numbers for the cases.
+fn rand01(i: u32, k: u32) -> f64 {
+    let h = stereocache::methods::hash_cache::hash::pcg_hash(
+        i.wrapping_mul(0x9E37_79B9) ^ k.wrapping_mul(0x85EB_CA6B),
+    );
+    (h >> 8) as f64 / 16_777_216.0
+}
+
+fn random_unit(i: u32, k: u32) -> DVec3 {
+    let z = 2.0 * rand01(i, k) - 1.0;
+    let phi = std::f64::consts::TAU * rand01(i, k + 1);
+    let r = (1.0 - z * z).sqrt();
+    DVec3::new(r * phi.cos(), r * phi.sin(), z)
+}
+
+/// A ray direction arriving at a surface of outward normal `out` from outside
+/// (`inside` = false) or inside, at incidence angle θ to the normal.
+fn arriving(out: DVec3, theta: f64, azimuth: DVec3, inside: bool) -> DVec3 {
+    let t = (azimuth - out * azimuth.dot(out)).normalize();
+    // Travelling against the normal of the side it comes from.
+    let side = if inside { -out } else { out };
+    (t * theta.sin() - side * theta.cos()).normalize()
+}
+
+/// Snell's law, the side of the surface, the plane of incidence and the
+/// Fresnel choice for every smooth case: entering (air → glass), leaving
+/// (glass → air), total internal reflection beyond the critical angle, and
+/// reflection on both sides; the weight is 1 (white glass) and the event delta.
+/// Directions agree with the exact vectors to 2e-5 (f32 arithmetic on unit
+/// vectors, about 100 ulps).
+#[test]
+fn smooth_glass_directions_follow_snell_fresnel_and_total_internal_reflection() {
+    let critical = (1.0 / IOR).asin();
+    let mut cases = Vec::new();
+    let mut kinds = Vec::new(); // (inside, theta, want_reflection)
+    for i in 0..4000u32 {
+        let out = random_unit(i, 1);
+        let inside = i % 2 == 1;
+        // Angles up to 85°, kept 0.5° away from the critical angle and grazing.
+        let mut theta = rand01(i, 3) * 85f64.to_radians();
+        if (theta - critical).abs() < 0.5f64.to_radians() {
+            theta += 1f64.to_radians();
+        }
+        let d = arriving(out, theta, random_unit(i, 4), inside);
+        let eta = if inside { 1.0 / IOR } else { IOR };
+        let f = fresnel_dielectric(theta.cos(), eta);
+        // u.z below F reflects; keep it 1e-3 away from F so f32 F cannot flip it.
+        let mut uz = rand01(i, 6);
+        if i % 3 == 0 {
+            uz = 0.5 * f; // forced reflection
+        }
+        if (uz - f).abs() < 1e-3 {
+            uz = (f + 2e-3).min(0.9999);
+        }
+        let tir = inside && theta > critical;
+        cases.push(Case {
+            n: if inside { -out } else { out },
+            front: !inside,
+            d,
+            u: [rand01(i, 7), rand01(i, 8), uz],
+        });
+        kinds.push((inside, theta, tir || uz < f, out, d));
+    }
+    let got = run_kernel(&cases, 0.0);
+    let (mut entering, mut leaving, mut tir, mut reflections) = (0, 0, 0, 0);
+    for (k, (s, &(inside, theta, reflect, out, d))) in got.iter().zip(&kinds).enumerate() {
+        assert!(
+            s.ok && s.delta,
+            "case {k}: a smooth sample is a valid delta event"
+        );
+        assert!(
+            (s.weight - DVec3::ONE).abs().max_element() < 1e-6,
+            "case {k}: weight {}",
+            s.weight
+        );
+        assert!(
+            (s.wi.length() - 1.0).abs() < 2e-5,
+            "case {k}: |wi| = {}",
+            s.wi.length()
+        );
+        let side = if inside { -out } else { out }; // the normal on the arriving side
+        let want = if reflect {
+            d - 2.0 * d.dot(side) * side
+        } else {
+            // Refraction into the far side: tangential part scaled by η_i/η_t (Snell).
+            let eta_ratio = if inside { IOR } else { 1.0 / IOR }; // n_i / n_t
+            let cos_i = -d.dot(side);
+            let sin2_t = eta_ratio * eta_ratio * (1.0 - cos_i * cos_i);
+            assert!(
+                sin2_t < 1.0,
+                "case {k}: refraction beyond the critical angle"
+            );
+            eta_ratio * d + (eta_ratio * cos_i - (1.0 - sin2_t).sqrt()) * side
+        };
+        assert!(
+            (s.wi - want).abs().max_element() < 2e-5,
+            "case {k} ({} at {:.2}°, {}): wi {} but want {}",
+            if inside { "inside" } else { "outside" },
+            theta.to_degrees(),
+            if reflect { "reflection" } else { "refraction" },
+            s.wi,
+            want
+        );
+        // The physics in words: refraction crosses to the other side of the
+        // surface (leaving glass goes outwards), reflection stays.
+        let goes_out = s.wi.dot(out) > 0.0;
+        assert_eq!(
+            goes_out,
+            reflect != inside,
+            "case {k}: wrong side of the surface"
+        );
+        match (inside, reflect) {
+            (false, false) => entering += 1,
+            (true, false) => leaving += 1,
+            (true, true) if theta > critical => tir += 1,
+            _ => reflections += 1,
+        }
+    }
+    assert!(
+        entering > 500 && leaving > 300 && tir > 300 && reflections > 500,
+        "{entering} {leaving} {tir} {reflections}"
+    );
+}
+
+// --- CPU twin of bsdf.glsl for the rough dielectric (VNDF sampling depends on
+// the tangent frame, so the twin mirrors frame_from too).
+
+fn frame_from(n: DVec3) -> (DVec3, DVec3, DVec3) {
+    let s = if n.z >= 0.0 { 1.0 } else { -1.0 };
+    let a = -1.0 / (s + n.z);
+    let b = n.x * n.y * a;
+    (
+        DVec3::new(1.0 + s * n.x * n.x * a, s * b, -s * n.x),
+        DVec3::new(b, s + n.y * n.y * a, -n.y),
+        n,
+    )
+}
+
+fn lambda(w: DVec3, a: f64) -> f64 {
+    let c2 = w.z * w.z;
+    if c2 <= 0.0 {
+        return 1e30;
+    }
+    0.5 * (-1.0 + (1.0 + a * a * (1.0 - c2).max(0.0) / c2).sqrt())
+}
+
+fn refract(i: DVec3, n: DVec3, eta: f64) -> DVec3 {
+    // GLSL refract().
+    let k = 1.0 - eta * eta * (1.0 - n.dot(i) * n.dot(i));
+    if k < 0.0 {
+        DVec3::ZERO
+    } else {
+        eta * i - (eta * n.dot(i) + k.sqrt()) * n
+    }
+}
+
+/// bsdf.glsl dielectric_sample_world in f64: (ok, wi_world, weight).
+fn twin(n: DVec3, front: bool, d: DVec3, u: [f64; 3], roughness: f64) -> (bool, DVec3, f64) {
+    let (t, b, nn) = frame_from(if front { n } else { -n });
+    let wd = -d;
+    let wo = DVec3::new(wd.dot(t), wd.dot(b), wd.dot(nn));
+    let entering = wo.z > 0.0;
+    let eta = if entering { IOR } else { 1.0 / IOR };
+    let wo_up = if entering { wo } else { -wo };
+    let a = (roughness * roughness).max(1e-3);
+    let wh = DVec3::new(wo_up.x * a, wo_up.y * a, wo_up.z).normalize();
+    let phi = std::f64::consts::TAU * u[0];
+    let z = (1.0 - u[1]) * (1.0 + wh.z) - wh.z;
+    let st = (1.0 - z * z).clamp(0.0, 1.0).sqrt();
+    let h = DVec3::new(st * phi.cos(), st * phi.sin(), z) + wh;
+    let h = DVec3::new(h.x * a, h.y * a, h.z.max(1e-7)).normalize();
+    let c = wo_up.dot(h);
+    let f = fresnel_dielectric(c, eta);
+    let wi_up = if u[2] < f {
+        let r = -wo_up - 2.0 * (-wo_up).dot(h) * h;
+        if r.z <= 0.0 {
+            return (false, DVec3::ZERO, 0.0);
+        }
+        r
+    } else {
+        let r = refract(-wo_up, h, 1.0 / eta);
+        if r == DVec3::ZERO || r.z >= 0.0 {
+            return (false, DVec3::ZERO, 0.0);
+        }
+        r
+    };
+    let wi_abs = DVec3::new(wi_up.x, wi_up.y, wi_up.z.abs());
+    let weight = (1.0 + lambda(wo_up, a)) / (1.0 + lambda(wo_up, a) + lambda(wi_abs, a));
+    let wi = if entering { wi_up } else { -wi_up };
+    (true, wi.x * t + wi.y * b + wi.z * nn, weight)
+}
+
+/// Rough glass (roughness 0.3 and 0.7), entering and leaving: the GLSL's
+/// directions and weights equal the f64 twin's to 1e-3 (f32 through VNDF
+/// sampling and refraction; cases within 1e-3 of a Fresnel or horizon
+/// decision are moved off it). Rough leaving rays also cross to the outside
+/// in the majority (a reversed direction would put them inside).
+#[test]
+fn rough_glass_samples_match_the_cpu_twin() {
+    for roughness in [0.3f64, 0.7] {
+        let mut cases = Vec::new();
+        for i in 0..2000u32 {
+            let out = random_unit(i, 11);
+            let inside = i % 2 == 1;
+            let theta = rand01(i, 12) * 80f64.to_radians();
+            let d = arriving(out, theta, random_unit(i, 13), inside);
+            let mut u = [rand01(i, 15), rand01(i, 16), rand01(i, 17)];
+            // Move u.z off the Fresnel threshold of this microfacet (a decision
+            // within 1e-3 of it could go either way in f32).
+            let n = if inside { -out } else { out };
+            for _ in 0..8 {
+                let at = |uz: f64| {
+                    twin(
+                        n,
+                        !inside,
+                        d,
+                        [u[0], u[1], uz.clamp(0.0, 0.9999)],
+                        roughness,
+                    )
+                };
+                let (ok, wi, _) = at(u[2]);
+                let stable = [u[2] - 1e-3, u[2] + 1e-3].iter().all(|&z| {
+                    let (o, w, _) = at(z);
+                    o == ok && (w - wi).length() < 1e-9
+                });
+                if stable {
+                    break;
+                }
+                u[2] = (u[2] + 0.01) % 1.0;
+            }
+            cases.push(Case {
+                n: if inside { -out } else { out },
+                front: !inside,
+                d,
+                u,
+            });
+        }
+        let got = run_kernel(&cases, roughness as f32);
+        let (mut compared, mut out_of_glass, mut leaving_refracted) = (0, 0, 0);
+        for (k, (c, s)) in cases.iter().zip(&got).enumerate() {
+            let (ok, wi, w) = twin(c.n, c.front, c.d, c.u, roughness);
+            // Near the horizon f32 and f64 may disagree on validity; skip only those.
+            if ok != s.ok {
+                assert!(
+                    wi.dot(c.n).abs() < 2e-3 || !ok && s.wi.dot(c.n).abs() < 2e-3,
+                    "case {k}: GLSL ok = {} but twin ok = {ok} away from the horizon",
+                    s.ok
+                );
+                continue;
+            }
+            assert!(!s.delta, "case {k}: rough glass is not a delta event");
+            if !ok {
+                continue;
+            }
+            compared += 1;
+            assert!(
+                (s.wi - wi).abs().max_element() < 1e-3,
+                "case {k}: wi {} vs twin {wi}",
+                s.wi
+            );
+            assert!(
+                (s.weight.x - w).abs() < 1e-3,
+                "case {k}: weight {} vs twin {w}",
+                s.weight.x
+            );
+            let out = if c.front { c.n } else { -c.n };
+            if !c.front && wi.dot(out) > 0.0 {
+                leaving_refracted += 1;
+                out_of_glass += (s.wi.dot(out) > 0.0) as usize;
+            }
+        }
+        assert!(
+            compared > 1500,
+            "roughness {roughness}: only {compared} cases compared"
+        );
+        assert_eq!(
+            out_of_glass, leaving_refracted,
+            "roughness {roughness}: rays leaving glass sent back in"
+        );
+        assert!(leaving_refracted > 200, "{leaving_refracted}");
+    }
+}
+
+// ---------------------------------------------------------------------------
+// (a) Transmission through a glass sphere at normal incidence.
+
+fn rt_backends(ctx: &stereocache::gpu::GpuContext) -> Vec<RtChoice> {
+    let mut v = vec![RtChoice::Software];
+    if ctx.ray_query_enabled() {
+        v.push(RtChoice::Query);
+    } else {
+        skip_unless_ci("the ray-query backend");
+    }
+    v
+}
+
+/// A smooth glass sphere (radius 1, η = 1.5) between the camera and a large
+/// emitter of radiance Le in an otherwise black scene; a 2° field of view
+/// through the sphere's centre, at most 2 scattering events (enter, leave).
+/// Each path either refracts twice and reaches the emitter (probability
+/// (1 − F)², value Le) or reflects into the black, so the mean radiance is
+/// (1 − F)²·Le with F(0) = ((η − 1)/(η + 1))² = 0.04 → 0.9216·Le. Tolerance:
+/// 5 standard errors of that Bernoulli mean over all samples, plus the
+/// largest change of (1 − F)² over the incidence angles in view (≤ 7.5°,
+/// computed). With the old back-face flip every leaving ray went back in.
+#[test]
+fn glass_sphere_transmits_one_minus_fresnel_squared_at_normal_incidence() {
+    let ctx = context();
+    let le = 2.0f32;
+    let mut s = Scene {
+        source: "test:glass-sphere-before-emitter".into(),
+        ..Default::default()
+    };
+    let g = add_material(&mut s, glass());
+    let e = add_material(&mut s, emitter(le));
+    add_mesh(&mut s, uv_sphere("sphere", 192, 96), g, Mat4::IDENTITY);
+    // A 40 m square at z = −4 facing +Z (towards the sphere and camera).
+    add_mesh(
+        &mut s,
+        grid(
+            "emitter",
+            Vec3::new(-20.0, -20.0, -4.0),
+            Vec3::X * 40.0,
+            Vec3::Y * 40.0,
+            1,
+            1,
+            Vec2::ONE,
+        ),
+        e,
+        Mat4::IDENTITY,
+    );
+    s.validate().unwrap();
+    let cam = look_at_camera(Vec3::new(0.0, 0.0, 4.0), Vec3::ZERO, 2.0, 1.0);
+    let (w, h, spp) = (16u32, 16u32, 64u32);
+    let settings = RenderSettings {
+        width: w,
+        height: h,
+        spp,
+        max_bounces: 2,
+        seed: 3,
+        ..Default::default()
+    };
+    let f0 = ((IOR - 1.0) / (IOR + 1.0)).powi(2);
+    let expected = (1.0 - f0).powi(2);
+    // Largest incidence angle: corner ray of either eye (ipd/2 off axis).
+    let mut max_sin = 0.0f64;
+    for v in cam.eyes() {
+        for (px, py) in [
+            (0.0, 0.0),
+            (w as f32, 0.0),
+            (0.0, h as f32),
+            (w as f32, h as f32),
+        ] {
+            let dir = v
+                .ray_direction(Vec2::new(px, py), glam::UVec2::new(w, h))
+                .as_dvec3();
+            let o = v.position.as_dvec3();
+            // Distance of the ray's line from the centre = sin θ on the unit sphere.
+            max_sin = max_sin.max(o.cross(dir).length());
+        }
+    }
+    let bias = (0..=100)
+        .map(|k| {
+            let th = (max_sin * k as f64 / 100.0).asin();
+            (expected - (1.0 - fresnel_dielectric(th.cos(), IOR)).powi(2)).abs()
+        })
+        .fold(0.0, f64::max);
+    let n = (2 * w * h * spp) as f64;
+    let se = le as f64 * (expected * (1.0 - expected) / n).sqrt();
+    let tol = 5.0 * se + bias * le as f64;
+    for rt in rt_backends(&ctx) {
+        let sess = session(&ctx, s.clone(), rt);
+        let fr = render(&sess, "reference", cam, &settings);
+        let (mut sum, mut count) = (0.0f64, 0usize);
+        for eye in &fr.eyes {
+            for (px, fh) in eye.radiance.iter().zip(&eye.first_hit) {
+                assert_eq!(fh[3], 0, "{rt:?}: every pixel sees the sphere (instance 0)");
+                sum += px[0] as f64 + px[1] as f64 + px[2] as f64;
+                count += 3;
+            }
+        }
+        let mean = sum / count as f64;
+        eprintln!(
+            "{rt:?}: {:.5}·Le, want {expected:.5} ± {:.5}",
+            mean / le as f64,
+            tol / le as f64
+        );
+        assert!(
+            (mean - expected * le as f64).abs() < tol,
+            "{rt:?}: radiance through the sphere {mean:.5} = {:.4}·Le, want (1 − F0)² = {expected:.4} (±{:.4})",
+            mean / le as f64,
+            tol / le as f64
+        );
+    }
+    assert_no_validation_messages(&ctx);
+}
+
+// ---------------------------------------------------------------------------
+// (b) The caustic.
+
+/// A glass ball (radius 1, η = 1.5) above a white diffuse floor, a 0.5 m
+/// square light 10 m above the floor, black elsewhere. The ball lens images
+/// the light onto the floor below it (ball-lens focal length ηR/2(η − 1) =
+/// 1.5 m from the centre; the floor is at the image distance 1.834 m), so the
+/// floor there — in the ball's shadow for direct light — is much brighter
+/// than the floor's unshadowed direct light ρ/π·π·Le·F (F: the exact form
+/// factor to the light). The floor points within 5 cm of the axis are averaged
+/// (pixels picked by intersecting their centre rays with the floor on the
+/// CPU); they must exceed the direct light by 5 standard errors of their mean
+/// (the spread between those pixels, which includes real variation, bounds it).
+#[test]
+fn glass_sphere_caustic_is_brighter_than_unshadowed_direct_light() {
+    let ctx = context();
+    let (le, rho, side, height) = (100.0f32, 0.8f32, 0.5f32, 10.0f32);
+    let centre_y = 1.834f32;
+    let mut s = Scene {
+        source: "test:caustic".into(),
+        ..Default::default()
+    };
+    let g = add_material(&mut s, glass());
+    let floor = add_material(
+        &mut s,
+        Material {
+            specular: 0.0,
+            ..Material::diffuse("floor", Vec3::splat(rho))
+        },
+    );
+    let e = add_material(&mut s, emitter(le));
+    add_mesh(
+        &mut s,
+        uv_sphere("ball", 128, 64),
+        g,
+        Mat4::from_scale_rotation_translation(
+            Vec3::ONE,
+            Quat::IDENTITY,
+            Vec3::new(0.0, centre_y, 0.0),
+        ),
+    );
+    add_mesh(
+        &mut s,
+        grid(
+            "floor",
+            Vec3::new(-10.0, 0.0, 10.0),
+            Vec3::X * 20.0,
+            Vec3::NEG_Z * 20.0,
+            4,
+            4,
+            Vec2::ONE,
+        ),
+        floor,
+        Mat4::IDENTITY,
+    );
+    // Facing −Y: eu × ev = Z × X = +Y would face up, so use X × Z = −Y.
+    let h = 0.5 * side;
+    add_mesh(
+        &mut s,
+        grid(
+            "light",
+            Vec3::new(-h, height, -h),
+            Vec3::X * side,
+            Vec3::Z * side,
+            1,
+            1,
+            Vec2::ONE,
+        ),
+        e,
+        Mat4::IDENTITY,
+    );
+    s.validate().unwrap();
+    let cam = look_at_camera(Vec3::new(4.0, 1.2, 0.0), Vec3::ZERO, 4.0, 1.0);
+    let (w, hgt) = (32u32, 32u32);
+    let settings = RenderSettings {
+        width: w,
+        height: hgt,
+        spp: 128,
+        max_bounces: 3,
+        seed: 5,
+        ..Default::default()
+    };
+    let hd = h as f64;
+    let direct =
+        rho as f64 * le as f64 * form_factor_to_parallel_rect(-hd, hd, -hd, hd, height as f64);
+    let sess = session(&ctx, s, RtChoice::Software);
+    let fr = render(&sess, "reference", cam, &settings);
+    let mut vals = Vec::new();
+    for (v, eye) in cam.eyes().iter().zip(&fr.eyes) {
+        for (p, px) in eye.radiance.iter().enumerate() {
+            let dir = v.ray_direction(pixel_centre(p, w), glam::UVec2::new(w, hgt));
+            if dir.y >= 0.0 {
+                continue;
+            }
+            let t = -v.position.y / dir.y;
+            let q = v.position + t * dir;
+            if Vec2::new(q.x, q.z).length() < 0.05 {
+                vals.push((px[0] + px[1] + px[2]) as f64 / 3.0);
+            }
+        }
+    }
+    assert!(
+        vals.len() >= 20,
+        "only {} pixels see the caustic region",
+        vals.len()
+    );
+    let (mean, se) = mean_and_standard_error(&vals);
+    eprintln!(
+        "caustic {mean:.4} ± {se:.4} over {} pixels, direct {direct:.4}",
+        vals.len()
+    );
+    assert!(
+        mean - direct > 5.0 * se,
+        "caustic {mean:.4} ± {se:.4} is not brighter than the unshadowed direct light {direct:.4}"
+    );
+    assert_no_validation_messages(&ctx);
+}

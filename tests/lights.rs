@@ -1,0 +1,566 @@
+//! Next-event estimation of emissive triangles and environment-map importance
+//! sampling, each combined with BSDF sampling by MIS (integrator.glsl):
+//! analytic irradiance under an emissive quad (single-, double-sided and
+//! textured), the three strategies (MIS, NEE only, BSDF only) agreeing in
+//! expectation on the Cornell box, the error of each strategy alone against
+//! the variance its estimator predicts on a small emitter, and map sampling
+//! against BSDF sampling on a constant and a high-dynamic-range map.
+
+mod common;
+use common::*;
+use glam::{Mat4, Vec2, Vec3};
+use stereocache::camera::StereoCamera;
+use stereocache::methods::{LightSampling, RenderSettings, StereoFrame};
+use stereocache::rt::RtChoice;
+use stereocache::scene::generate::{add_material, add_mesh, grid};
+use stereocache::scene::{Environment, Material, Scene, Texture, TextureEncoding, TextureRef};
+
+const STRATEGIES: [LightSampling; 3] =
+    [LightSampling::Mis, LightSampling::Nee, LightSampling::Bsdf];
+
+fn lambert(rho: f32) -> Material {
+    Material {
+        specular: 0.0,
+        ..Material::diffuse("lambert", Vec3::splat(rho))
+    }
+}
+
+/// A large diffuse floor (y = 0, albedo ρ) under a square emitter of side
+/// `side` centred at height `c`; `up` turns the emitter to face +Y (away).
+fn floor_under_quad(rho: f32, side: f32, c: f32, emitter: Material, up: bool) -> Scene {
+    let mut s = Scene {
+        source: "test:floor-under-quad".into(),
+        ..Default::default()
+    };
+    let f = add_material(&mut s, lambert(rho));
+    let e = add_material(&mut s, emitter);
+    add_mesh(
+        &mut s,
+        grid(
+            "floor",
+            Vec3::new(-20.0, 0.0, 20.0),
+            Vec3::X * 40.0,
+            Vec3::NEG_Z * 40.0,
+            2,
+            2,
+            Vec2::ONE,
+        ),
+        f,
+        Mat4::IDENTITY,
+    );
+    let h = 0.5 * side;
+    // X × Z = −Y faces the floor; X × −Z = +Y faces away.
+    let quad = if up {
+        grid(
+            "light",
+            Vec3::new(-h, c, h),
+            Vec3::X * side,
+            Vec3::NEG_Z * side,
+            1,
+            1,
+            Vec2::ONE,
+        )
+    } else {
+        grid(
+            "light",
+            Vec3::new(-h, c, -h),
+            Vec3::X * side,
+            Vec3::Z * side,
+            1,
+            1,
+            Vec2::ONE,
+        )
+    };
+    add_mesh(&mut s, quad, e, Mat4::IDENTITY);
+    s.validate().unwrap();
+    s
+}
+
+fn emissive(le: f32) -> Material {
+    Material {
+        emissive: Vec3::splat(le),
+        specular: 0.0,
+        ..Material::diffuse("light", Vec3::ZERO)
+    }
+}
+
+/// A camera at height `y` looking straight down at the origin, narrow field.
+fn down_camera(y: f32, fov: f32) -> StereoCamera {
+    look_at_camera(Vec3::new(0.0, y, 1e-4), Vec3::ZERO, fov, 1.0)
+}
+
+/// Floor point (x, z) seen through each pixel centre of each eye.
+fn floor_points(cam: &StereoCamera, w: u32, h: u32) -> Vec<Vec<(f64, f64)>> {
+    cam.eyes()
+        .iter()
+        .map(|v| {
+            (0..(w * h) as usize)
+                .map(|p| {
+                    let d = v.ray_direction(pixel_centre(p, w), glam::UVec2::new(w, h));
+                    let t = -v.position.y / d.y;
+                    let q = v.position + t * d;
+                    (q.x as f64, q.z as f64)
+                })
+                .collect()
+        })
+        .collect()
+}
+
+fn render_with(
+    s: &stereocache::session::Session,
+    cam: StereoCamera,
+    (w, h): (u32, u32),
+    spp: u32,
+    bounces: u32,
+    seed: u32,
+    ls: LightSampling,
+) -> StereoFrame {
+    let settings = RenderSettings {
+        width: w,
+        height: h,
+        spp,
+        max_bounces: bounces,
+        seed,
+        light_sampling: ls,
+        ..Default::default()
+    };
+    render(s, "reference", cam, &settings)
+}
+
+/// Mean and standard error of (pixel − expected) over both eyes, channel 0.
+fn residual(f: &StereoFrame, expected: &[Vec<f64>]) -> (f64, f64) {
+    let v: Vec<f64> = f
+        .eyes
+        .iter()
+        .zip(expected)
+        .flat_map(|(e, x)| e.radiance.iter().zip(x).map(|(p, x)| p[0] as f64 - x))
+        .collect();
+    mean_and_standard_error(&v)
+}
+
+/// Direct light (one scattering event) on a diffuse floor under a 1 m square
+/// emitter 1 m up: the radiance at floor point q is ρ·Le·F(q) with F the
+/// exact differential-area-to-parallel-rectangle form factor. For MIS, NEE
+/// only and BSDF only, the mean residual over all pixels is within 5 standard
+/// errors (from the pixels' own spread) and the absolute mean within 1 %.
+/// The same holds for the emitter turned away but double-sided, and for a
+/// textured emitter (a white strip over the middle half of a black emissive
+/// texture: the strip's form factor); a single-sided emitter turned away
+/// gives exactly 0.
+#[test]
+fn floor_under_an_emissive_quad_receives_the_form_factor_irradiance() {
+    let ctx = context();
+    let (rho, le, side, c) = (0.5f32, 3.0f32, 1.0f32, 1.0f32);
+    let (w, h) = (24u32, 24u32);
+    let cam = down_camera(0.5, 20.0);
+    let pts = floor_points(&cam, w, h);
+    let expect = |x0: f64, x1: f64| -> Vec<Vec<f64>> {
+        pts.iter()
+            .map(|eye| {
+                eye.iter()
+                    .map(|&(x, z)| {
+                        let hs = 0.5 * side as f64;
+                        (rho * le) as f64
+                            * form_factor_to_parallel_rect(
+                                x0 - x,
+                                x1 - x,
+                                -hs - z,
+                                hs - z,
+                                c as f64,
+                            )
+                    })
+                    .collect()
+            })
+            .collect()
+    };
+    let hs = 0.5 * side as f64;
+    let full = expect(-hs, hs);
+    // Textured: 64×64 sRGB emissive texture, white for u ∈ [1/4, 3/4) (texel
+    // columns 16..48), black elsewhere (black at both edges, so the sampler's
+    // wrap-around blends nothing in); u runs along +X over the quad.
+    let strip = expect(-0.5 * hs, 0.5 * hs);
+    let tex = {
+        let mut px = Vec::new();
+        for _y in 0..64 {
+            for x in 0..64 {
+                let v = if (16..48).contains(&x) { 255 } else { 0 };
+                px.extend([v, v, v, 255]);
+            }
+        }
+        Texture::with_mips("strip".into(), TextureEncoding::Srgb, 64, 64, px)
+    };
+    let mut textured = floor_under_quad(rho, side, c, emissive(le), false);
+    textured.textures.push(tex);
+    textured.materials[1].emissive_texture = Some(TextureRef { texture: 0 });
+    let two_sided = floor_under_quad(
+        rho,
+        side,
+        c,
+        Material {
+            double_sided: true,
+            ..emissive(le)
+        },
+        true,
+    );
+    let cases: Vec<(&str, Scene, &Vec<Vec<f64>>)> = vec![
+        (
+            "facing the floor",
+            floor_under_quad(rho, side, c, emissive(le), false),
+            &full,
+        ),
+        ("double-sided, turned away", two_sided, &full),
+        ("textured strip", textured, &strip),
+    ];
+    for (what, scene, want) in cases {
+        let s = session(&ctx, scene, RtChoice::Software);
+        let mean_want: f64 = want.iter().flatten().sum::<f64>() / (2 * w * h) as f64;
+        for ls in STRATEGIES {
+            let f = render_with(&s, cam, (w, h), 32, 1, 11, ls);
+            let (m, se) = residual(&f, want);
+            eprintln!("{what} {ls:?}: residual {m:.2e} ± {se:.2e} (expected mean {mean_want:.4})");
+            assert!(
+                m.abs() < 5.0 * se + 1e-6,
+                "{what}, {ls:?}: mean residual {m:.3e} is {:.1} standard errors ({se:.2e})",
+                m / se
+            );
+            assert!(
+                m.abs() < 0.01 * mean_want,
+                "{what}, {ls:?}: mean residual {m:.3e} over 1 % of {mean_want:.4}"
+            );
+        }
+    }
+    let away = floor_under_quad(rho, side, c, emissive(le), true);
+    let s = session(&ctx, away, RtChoice::Software);
+    for ls in STRATEGIES {
+        let f = render_with(&s, cam, (w, h), 8, 1, 11, ls);
+        let max = f
+            .eyes
+            .iter()
+            .flat_map(|e| e.radiance.iter())
+            .map(|p| p[0].max(p[1]).max(p[2]))
+            .fold(0.0f32, f32::max);
+        assert_eq!(
+            max, 0.0,
+            "{ls:?}: a single-sided emitter turned away lights the floor"
+        );
+    }
+    assert_no_validation_messages(&ctx);
+}
+
+/// Mean and standard error of the per-pixel differences of two frames over
+/// the pixels of `block` (of a `n`×`n` split of the image), channel mean.
+fn block_difference(a: &StereoFrame, b: &StereoFrame, w: u32, n: u32, block: u32) -> (f64, f64) {
+    let (bx, by) = (block % n, block / n);
+    let mut v = Vec::new();
+    for (ea, eb) in a.eyes.iter().zip(&b.eyes) {
+        for (p, (x, y)) in ea.radiance.iter().zip(&eb.radiance).enumerate() {
+            let (px, py) = (p as u32 % w, p as u32 / w);
+            if px * n / w == bx && py * n / w == by {
+                // One value per pixel (the channels of a pixel are correlated).
+                v.push((0..3).map(|k| x[k] as f64 - y[k] as f64).sum::<f64>() / 3.0);
+            }
+        }
+    }
+    mean_and_standard_error(&v)
+}
+
+/// The shipped Cornell box (lit only by its ceiling emitter; glass and metal
+/// spheres): MIS, NEE only and BSDF only are each unbiased, so their images
+/// agree in expectation. For every pair and each of the 16 blocks of a 4×4
+/// split, the mean pixel difference is within 4.5 standard errors of the
+/// differences (a two-sided 4.5σ bound over 48 comparisons: false-alarm
+/// probability ≈ 48·7e-6 ≈ 3e-4).
+#[test]
+fn mis_nee_only_and_bsdf_only_agree_on_the_cornell_box() {
+    let ctx = context();
+    let scene = shipped("cornell");
+    let cam = scene
+        .camera("default")
+        .map(|c| StereoCamera::from_scene_camera(c.transform, c.yfov, 1.0))
+        .expect("cornell camera");
+    let s = session(&ctx, scene, RtChoice::Software);
+    let (w, h) = (32u32, 32u32);
+    let frames: Vec<StereoFrame> = STRATEGIES
+        .iter()
+        .enumerate()
+        .map(|(i, &ls)| render_with(&s, cam, (w, h), 32, 3, 20 + i as u32, ls))
+        .collect();
+    for (i, j) in [(0usize, 1usize), (0, 2), (1, 2)] {
+        let mut worst = 0.0f64;
+        for block in 0..16 {
+            let (m, se) = block_difference(&frames[i], &frames[j], w, 4, block);
+            worst = worst.max((m / se).abs());
+            assert!(
+                m.abs() < 4.5 * se,
+                "{:?} vs {:?}, block {block}: mean difference {m:.4} is {:.1} standard errors",
+                STRATEGIES[i],
+                STRATEGIES[j],
+                m / se
+            );
+        }
+        eprintln!(
+            "{:?} vs {:?}: worst block {worst:.2} standard errors",
+            STRATEGIES[i], STRATEGIES[j]
+        );
+    }
+    assert_no_validation_messages(&ctx);
+}
+
+/// A small bright emitter (0.3 m square, 1 m above the floor; form factor
+/// ≈ 0.028, so a cosine-sampled ray hits it about once in 35) seen by 2×24×24
+/// floor pixels, one scattering event. The pixel error of each strategy alone
+/// must fall as σ²/N with the per-sample variance σ² its estimator predicts:
+/// NEE only — X = ρ/π·Le·cos θ·cos θ'·A/d² for a point uniform on the quad,
+/// σ² by 64×64 midpoint quadrature per pixel; BSDF only — X = ρ·Le with the
+/// hit probability F, σ² = (ρLe)²F(1 − F). Measured MSE / predicted σ²/N at
+/// N = 4, 16, 64 must be 1 within 5 standard deviations of an MSE estimate
+/// over M pixels, sqrt((κ − 1)/M) with κ the kurtosis of an N-sample mean
+/// (3 + (κ₁ − 3)/N; κ₁ from the same moments). NEE's predicted variance is
+/// also far below BSDF sampling's (the point of NEE here).
+#[test]
+fn each_strategy_alone_converges_at_the_rate_its_variance_predicts() {
+    let ctx = context();
+    let (rho, le, side, c) = (0.5f32, 20.0f32, 0.3f32, 1.0f32);
+    let (w, h) = (24u32, 24u32);
+    let cam = down_camera(0.5, 20.0);
+    let pts: Vec<(f64, f64)> = floor_points(&cam, w, h).concat();
+    let s = session(
+        &ctx,
+        floor_under_quad(rho, side, c, emissive(le), false),
+        RtChoice::Software,
+    );
+    let (rho, le, side, c) = (rho as f64, le as f64, side as f64, c as f64);
+    let hs = 0.5 * side;
+    // Per pixel: mean, and the four central moments' ingredients for NEE and BSDF.
+    let k = 64;
+    let mut mean = Vec::new();
+    let mut nee = Vec::new(); // (σ², m4)
+    let mut bsdf = Vec::new();
+    for &(x, z) in &pts {
+        let f = form_factor_to_parallel_rect(-hs - x, hs - x, -hs - z, hs - z, c);
+        let mu = rho * le * f;
+        let mut xs = Vec::with_capacity(k * k);
+        for i in 0..k {
+            for j in 0..k {
+                let px = -hs + side * (i as f64 + 0.5) / k as f64 - x;
+                let pz = -hs + side * (j as f64 + 0.5) / k as f64 - z;
+                let d2 = px * px + pz * pz + c * c;
+                // cos θ = cos θ' = c/d.
+                xs.push(rho / std::f64::consts::PI * le * (c * c / d2) * side * side / d2);
+            }
+        }
+        let m: f64 = xs.iter().sum::<f64>() / xs.len() as f64;
+        let v: f64 = xs.iter().map(|x| (x - m).powi(2)).sum::<f64>() / xs.len() as f64;
+        let m4: f64 = xs.iter().map(|x| (x - m).powi(4)).sum::<f64>() / xs.len() as f64;
+        mean.push(mu);
+        nee.push((v, m4));
+        let (a, p) = (rho * le, f);
+        bsdf.push((
+            a * a * p * (1.0 - p),
+            a.powi(4) * p * (1.0 - p) * (1.0 - 3.0 * p + 3.0 * p * p),
+        ));
+    }
+    let npx = pts.len() as f64;
+    let avg_var = |m: &[(f64, f64)]| m.iter().map(|x| x.0).sum::<f64>() / npx;
+    assert!(
+        avg_var(&nee) * 100.0 < avg_var(&bsdf),
+        "NEE variance {} vs BSDF {}",
+        avg_var(&nee),
+        avg_var(&bsdf)
+    );
+    for (ls, moments) in [(LightSampling::Nee, &nee), (LightSampling::Bsdf, &bsdf)] {
+        for (i, n) in [4u32, 16, 64].into_iter().enumerate() {
+            let f = render_with(&s, cam, (w, h), n, 1, 40 + i as u32, ls);
+            let got: Vec<f64> = f
+                .eyes
+                .iter()
+                .flat_map(|e| e.radiance.iter().map(|p| p[0] as f64))
+                .collect();
+            let mse = got
+                .iter()
+                .zip(&mean)
+                .map(|(g, m)| (g - m).powi(2))
+                .sum::<f64>()
+                / npx;
+            let nf = n as f64;
+            let predicted = avg_var(moments) / nf;
+            // Kurtosis of an N-sample mean from the per-sample moments (pixel-averaged).
+            let k1 = moments.iter().map(|(v, m4)| m4 / (v * v)).sum::<f64>() / npx;
+            let kn = 3.0 + (k1 - 3.0) / nf;
+            let rel_sd = ((kn - 1.0) / npx).sqrt();
+            let ratio = mse / predicted;
+            eprintln!("{ls:?} at {n} spp: MSE {mse:.3e}, predicted {predicted:.3e}, ratio {ratio:.3} (±{rel_sd:.3})");
+            assert!(
+                (ratio - 1.0).abs() < 5.0 * rel_sd,
+                "{ls:?} at {n} spp: MSE {mse:.3e} is {ratio:.3}× the predicted σ²/N = {predicted:.3e} (sd {rel_sd:.3})"
+            );
+        }
+    }
+    assert_no_validation_messages(&ctx);
+}
+
+/// A faceted diffuse sphere (ρ = 0.6; shading = geometric normals, convex)
+/// lit by an equirectangular map, one scattering event.
+fn sphere_under_map(width: u32, height: u32, texels: Vec<[f32; 3]>) -> Scene {
+    let mut s = faceted_sphere_in_environment(lambert(0.6), Vec3::ONE);
+    s.environment = Some(Environment::Map {
+        name: "test".into(),
+        width,
+        height,
+        texels,
+        scale: 1.0,
+    });
+    s
+}
+
+/// A constant map of radiance 0.5 and a view filled by the sphere: every
+/// pixel reflects exactly ρ·0.5 = 0.3. BSDF sampling gets it exactly (each
+/// cosine sample carries ρ·L); NEE only and MIS — which sample the map's
+/// distribution — agree in expectation: their mean residual over all pixels
+/// is within 5 standard errors, and under 0.5 %.
+#[test]
+fn map_sampling_agrees_with_bsdf_sampling_on_a_constant_map() {
+    let ctx = context();
+    let (w, h) = (16u32, 8u32);
+    let s = session(
+        &ctx,
+        sphere_under_map(w, h, vec![[0.5; 3]; (w * h) as usize]),
+        RtChoice::Software,
+    );
+    // 3 m away with a 20° field of view: the view (±0.53 m) lies inside the unit sphere's outline.
+    let cam = look_at_camera(Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, 20.0, 1.0);
+    for ls in STRATEGIES {
+        let f = render_with(&s, cam, (32, 32), 64, 1, 60, ls);
+        let mut v = Vec::new();
+        for e in &f.eyes {
+            for (p, fh) in e.radiance.iter().zip(&e.first_hit) {
+                assert_ne!(fh[3], u32::MAX, "the sphere fills the view");
+                v.push(p[0] as f64 - 0.3);
+            }
+        }
+        let (m, se) = mean_and_standard_error(&v);
+        eprintln!(
+            "constant map {ls:?}: residual {m:.2e} ± {se:.2e} over {} pixels",
+            v.len()
+        );
+        assert!(v.len() > 500);
+        if ls == LightSampling::Bsdf {
+            assert!(
+                m.abs() < 1e-5 && se < 1e-6,
+                "BSDF sampling of a constant map: residual {m:.2e} ± {se:.2e}"
+            );
+        } else {
+            assert!(m.abs() < 5.0 * se, "{ls:?}: residual {m:.3e} ± {se:.2e}");
+            assert!(se > 0.0, "{ls:?}: light sampling should be noisy here");
+        }
+    }
+    assert_no_validation_messages(&ctx);
+}
+
+/// A generated high-dynamic-range map (a dim sky gradient, a black lower
+/// half, and a 2×2-texel "sun" 400× brighter): MIS and NEE only against BSDF
+/// only, per block of a 4×4 split, within 4.5 standard errors of the pixel
+/// differences (256 spp, so that the standard error of BSDF sampling's rare
+/// sun hits is itself well estimated); MIS is also far less noisy than BSDF
+/// sampling on the sphere (the point of sampling the map).
+#[test]
+fn map_sampling_agrees_with_bsdf_sampling_on_an_hdr_map() {
+    let ctx = context();
+    let (w, h) = (32u32, 16u32);
+    let texels: Vec<[f32; 3]> = (0..w * h)
+        .map(|i| {
+            let (x, y) = (i % w, i / w);
+            if (x == 9 || x == 10) && (y == 4 || y == 5) {
+                [400.0, 380.0, 300.0]
+            } else if y >= h / 2 {
+                [0.0; 3]
+            } else {
+                [0.2 + 0.02 * y as f32, 0.3, 0.5 + 0.01 * x as f32]
+            }
+        })
+        .collect();
+    let s = session(&ctx, sphere_under_map(w, h, texels), RtChoice::Software);
+    // Looking from the sun's side (u ≈ 0.3: towards +X, slightly −Z).
+    let cam = look_at_camera(Vec3::new(2.5, 1.0, -1.0), Vec3::ZERO, 45.0, 1.0);
+    let (iw, ih) = (32u32, 32u32);
+    let frames: Vec<StereoFrame> = STRATEGIES
+        .iter()
+        .enumerate()
+        .map(|(i, &ls)| render_with(&s, cam, (iw, ih), 256, 1, 70 + i as u32, ls))
+        .collect();
+    for (i, j) in [(0usize, 2usize), (1, 2), (0, 1)] {
+        let mut worst = 0.0f64;
+        for block in 0..16 {
+            let (m, se) = block_difference(&frames[i], &frames[j], iw, 4, block);
+            if se == 0.0 {
+                assert_eq!(m, 0.0, "block {block} identical background must not differ");
+                continue;
+            }
+            worst = worst.max((m / se).abs());
+            assert!(
+                m.abs() < 4.5 * se,
+                "{:?} vs {:?}, block {block}: mean difference {m:.4} is {:.1} standard errors",
+                STRATEGIES[i],
+                STRATEGIES[j],
+                m / se
+            );
+        }
+        eprintln!(
+            "HDR map {:?} vs {:?}: worst block {worst:.2} standard errors",
+            STRATEGIES[i], STRATEGIES[j]
+        );
+    }
+    // Noise: a strategy's per-pixel variance at 16 spp from two renders with
+    // different seeds, Var = mean((a − b)²)/2 over the sphere's pixels.
+    let variance = |ls: LightSampling| -> f64 {
+        let a = render_with(&s, cam, (iw, ih), 16, 1, 80, ls);
+        let b = render_with(&s, cam, (iw, ih), 16, 1, 81, ls);
+        let (mut acc, mut n) = (0.0, 0.0);
+        for (ea, eb) in a.eyes.iter().zip(&b.eyes) {
+            for ((pa, pb), fh) in ea.radiance.iter().zip(&eb.radiance).zip(&ea.first_hit) {
+                if fh[3] != u32::MAX {
+                    acc += (pa[0] as f64 - pb[0] as f64).powi(2);
+                    n += 1.0;
+                }
+            }
+        }
+        acc / n / 2.0
+    };
+    let (mis, bsdf) = (variance(LightSampling::Mis), variance(LightSampling::Bsdf));
+    eprintln!("HDR map pixel variance at 16 spp: MIS {mis:.3e}, BSDF only {bsdf:.3e}");
+    assert!(
+        mis * 10.0 < bsdf,
+        "MIS variance {mis:.3e} not well below BSDF sampling's {bsdf:.3e}"
+    );
+    assert_no_validation_messages(&ctx);
+}
+
+/// `bench lights` refuses bad input with one `error:` line naming the
+/// argument, a non-zero exit and no panic, before opening the GPU.
+#[test]
+fn bench_lights_rejects_bad_arguments() {
+    for (args, needle) in [
+        (&["--strategies", "mis,fast"][..], "--strategies"),
+        (&["--spp", "0"][..], "--spp"),
+        (&["--size", "0x-1"][..], "size"),
+        (&["--scenes", "/nonexistent/scene.gltf"][..], "scene.gltf"),
+    ] {
+        let o = std::process::Command::new("timeout")
+            .arg("120")
+            .arg(env!("CARGO_BIN_EXE_stereocache"))
+            .args(["bench", "lights"])
+            .args(args)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert!(
+            !o.status.success() && o.status.code() != Some(124),
+            "{args:?}: {:?}",
+            o.status
+        );
+        let lines: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error:")).collect();
+        assert_eq!(lines.len(), 1, "{args:?}: {stderr}");
+        assert!(lines[0].contains(needle), "{args:?}: {}", lines[0]);
+        assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+    }
+}
