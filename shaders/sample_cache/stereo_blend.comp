@@ -7,12 +7,15 @@
 // (`neighbourhood`, Philippi et al. 2023). Y's moments are blurred over 3×3
 // with neighbour weight 1 − R; X's moments are resampled with Dodgson's
 // quadratic kernel of parameter R (§5.2: R controls how much the moments are
-// blurred). X's colour itself is resampled bilinearly at the reprojected
-// position (the paper's "texture fetch"), without that blur: at R = 0 the
-// kernel spans 3×3 pixels, and blending with X's Dodgson-blurred colour
-// blurred the image (issue 12 item 5). Bilinear rather than nearest: nearest
-// would shift X by up to half a pixel, a misregistration that the blend turns
-// into stereo discrepancy at every texture edge.
+// blurred). X's colour itself is taken from the pixel q falls in (nearest),
+// without that blur: at R = 0 the kernel spans 3×3 pixels, and blending
+// with X's Dodgson-blurred colour blurred the image (issue 12 item 5).
+// Nearest rather than bilinear: any interpolation at the fractional
+// disparity low-passes X (a half-pixel bilinear averages two pixels), and on
+// a noise-free textured plane bilinear X halved the blended image's CPBD at
+// R = 0 while nearest kept it within noise of the unblended image
+// (tests/sample_cache_shading.rs); nearest's price is a misregistration of
+// X by at most half a pixel, which β′ (the bias term) limits at edges.
 // A single-sample pixel: Eq. 5 over one sample gives μ2 = μ1², i.e. σ² = 0
 // (Eq. 7); we keep the paper's estimator rather than invent a variance. As
 // Y that gives β′ = 1 (Y kept as it is: nothing to gain by blending); as X
@@ -115,25 +118,8 @@ void main() {
         m1x /= wsum;
         m2x /= wsum;
     }
-    // X's colour: bilinear at q (no blur).
-    vec3 cx = vec3(0.0);
-    {
-        vec2 g = q - 0.5;
-        ivec2 b0 = ivec2(floor(g));
-        vec2 f = g - vec2(b0);
-        float wsum = 0.0;
-        for (int j = 0; j <= 1; ++j) {
-            for (int i = 0; i <= 1; ++i) {
-                ivec2 t = b0 + ivec2(i, j);
-                if (any(lessThan(t, ivec2(0))) || any(greaterThanEqual(t, ivec2(size)))) continue;
-                float w = (i == 0 ? 1.0 - f.x : f.x) * (j == 0 ? 1.0 - f.y : f.y);
-                cx += w * out_color[other * npix() + uint(t.y) * size.x + uint(t.x)].rgb;
-                wsum += w;
-            }
-        }
-        if (!(wsum > 1e-6)) return;
-        cx /= wsum;
-    }
+    // X's colour: the pixel q falls in (nearest, no blur).
+    vec3 cx = out_color[other * npix() + qi.y * size.x + qi.x].rgb;
 
     vec3 m1y = vec3(0.0), m2y = vec3(0.0);
     if (pc.blend_mode == 2u) {

@@ -65,33 +65,6 @@ pub fn pixel_moments(samples: &[(f32, f32)]) -> Option<(f32, f32)> {
     (c > 0.0).then(|| (m1 / c, m2 / c))
 }
 
-/// Bilinear interpolation of `image` (`width` × rows, pixel centres at
-/// integer + ½) at `q`, the way `stereo_blend.comp` resamples X's colour:
-/// taps outside the image are dropped and the rest renormalized.
-pub fn bilinear(image: &[f32], width: usize, q: [f32; 2]) -> f32 {
-    let height = image.len() / width;
-    let (gx, gy) = (q[0] - 0.5, q[1] - 0.5);
-    let (bx, by) = (gx.floor(), gy.floor());
-    let (fx, fy) = (gx - bx, gy - by);
-    let (mut sum, mut wsum) = (0.0f32, 0.0f32);
-    for j in 0..2 {
-        for i in 0..2 {
-            let (tx, ty) = (bx as i64 + i, by as i64 + j);
-            if tx < 0 || ty < 0 || tx >= width as i64 || ty >= height as i64 {
-                continue;
-            }
-            let w = (if i == 0 { 1.0 - fx } else { fx }) * (if j == 0 { 1.0 - fy } else { fy });
-            sum += w * image[ty as usize * width + tx as usize];
-            wsum += w;
-        }
-    }
-    if wsum > 1e-6 {
-        sum / wsum
-    } else {
-        0.0
-    }
-}
-
 /// Dodgson's quadratic resampling kernel (Dodgson 1997) with parameter r:
 /// −2r s² + (r + 1)/2 for |s| ≤ ½, r s² − (2r + ½)|s| + ¾(r + 1) for
 /// ½ < |s| ≤ 3/2, else 0. r = 1 interpolates (weight 1 at 0, 0 at ±1);
@@ -312,16 +285,6 @@ mod tests {
         // nonlinearity moves the mean a little.
         let mean_beta = betas / pixels as f64;
         assert!(mean_beta > 0.5 && mean_beta < 0.75, "mean β′ {mean_beta}");
-    }
-
-    #[test]
-    fn bilinear_interpolates_and_reproduces_pixel_centres() {
-        let img = [0.0f32, 1.0, 2.0, 3.0, 4.0, 5.0]; // 3 × 2
-        assert_eq!(bilinear(&img, 3, [1.5, 0.5]), 1.0);
-        assert!((bilinear(&img, 3, [1.0, 0.5]) - 0.5).abs() < 1e-6);
-        assert!((bilinear(&img, 3, [2.0, 1.0]) - 3.0).abs() < 1e-6);
-        // Outside taps are dropped: the border pixel's value.
-        assert_eq!(bilinear(&img, 3, [0.2, 0.5]), 0.0);
     }
 
     #[test]
