@@ -52,22 +52,10 @@ void state_add(uint i, uint v) {
 #endif
 }
 
-// One sample into the importance histogram (§3.5). With subgroup operations:
-// one atomic per distinct bucket among the subgroup's active invocations.
-void histogram_add(uint eye, uint bucket) {
-#ifdef SUBGROUP_OPS
-    for (;;) {
-        uint first = subgroupBroadcastFirst(bucket);
-        if (bucket == first) {
-            uint n = subgroupBallotBitCount(subgroupBallot(true));
-            if (subgroupElect()) atomicAdd(hist[eye * HIST_M + first], n);
-            break;
-        }
-    }
-#else
-    atomicAdd(hist[eye * HIST_M + bucket], 1u);
-#endif
-}
+// The workgroup's share of the importance histogram (§3.5), counted with
+// shared-memory atomics and added to the global histogram once per bucket
+// and workgroup at the end of phase 0.
+shared uint wg_hist[HIST_M];
 
 // The frame's importance extremes (the next frame's bucket bounds).
 void bounds_add(uint eye, float w_min, float w_max) {
@@ -86,11 +74,10 @@ void bounds_add(uint eye, float w_min, float w_max) {
 #endif
 }
 
-void main() {
+uint slot_bucket(uvec2 buckets, uint s) { return ((s < 8u ? buckets.x : buckets.y) >> (4u * (s & 7u))) & 15u; }
+
+void select_pixel(uvec2 px, uint eye) {
     uvec2 size = frame_size();
-    uvec2 px = gl_GlobalInvocationID.xy;
-    uint eye = gl_GlobalInvocationID.z;
-    if (any(greaterThanEqual(px, size))) return;
     uint pixel = px.y * size.x + px.x;
     uint vis = shadeable_bits(eye, pixel, vis_bits(mask_cur[eye * npix() + pixel]));
     uint n = bitCount(vis);
@@ -101,32 +88,38 @@ void main() {
         return;
     }
     bool base = n > 0u && is_sparse_base_pixel(px, frame_index, eye);
+    float w_lo, w_hi;
+    importance_bounds(eye, w_lo, w_hi);
+    // One read of each visible sample's record: which are shaded, their
+    // buckets (4 bits per slot, M = 13 ≤ 16) and the pixel's importance extremes.
     uint shaded_bits = 0u;
+    uvec2 buckets = uvec2(0u);
+    float f_min = 1.0, f_max = 0.0;
     uint bits = vis;
     while (bits != 0u) {
         uint s = uint(findLSB(bits));
         bits &= bits - 1u;
-        if (rad_cur[slot_index(eye, s, pixel)].w > 0.0) shaded_bits |= 1u << s;
+        float c = rad_cur[slot_index(eye, s, pixel)].w;
+        if (c > 0.0) shaded_bits |= 1u << s;
+        float w = importance(c);
+        f_min = min(f_min, w);
+        f_max = max(f_max, w);
+        uint b = importance_bucket(w, w_lo, w_hi);
+        if (s < 8u) buckets.x |= b << (4u * s); else buckets.y |= b << (4u * (s - 8u));
     }
     bool unshaded = n > 0u && !base && shaded_bits == 0u;
     // The round-robin sample of base and unshaded pixels is chosen outside
     // the histogram (it is not counted in it).
     uint first = (base || unshaded) ? 1u << round_robin : 0u;
-    float w_lo, w_hi;
-    importance_bounds(eye, w_lo, w_hi);
 
     if (SELECT_PHASE == 0u) {
         state_add(S_BASE + eye, base ? 1u : 0u);
         state_add(S_UNSHADED + eye, unshaded ? 1u : 0u);
-        float f_min = 1.0, f_max = 0.0;
-        bits = vis;
+        bits = vis & ~first;
         while (bits != 0u) {
             uint s = uint(findLSB(bits));
             bits &= bits - 1u;
-            float w = importance(rad_cur[slot_index(eye, s, pixel)].w);
-            f_min = min(f_min, w);
-            f_max = max(f_max, w);
-            if ((first & (1u << s)) == 0u) histogram_add(eye, importance_bucket(w, w_lo, w_hi));
+            atomicAdd(wg_hist[slot_bucket(buckets, s)], 1u);
         }
         bounds_add(eye, f_min, f_max);
         return;
@@ -160,8 +153,24 @@ void main() {
         uint s = uint(findLSB(bits));
         bits &= bits - 1u;
         float coin = rng_next(r);
-        uint b = importance_bucket(importance(rad_cur[slot_index(eye, s, pixel)].w), w_lo, w_hi);
+        uint b = slot_bucket(buckets, s);
         bool take = straddle < 0 || int(b) > straddle || (int(b) == straddle && coin < p_straddle);
         if (take) push_shade(eye, s, pixel);
     }
+}
+
+void main() {
+    uvec2 px = gl_GlobalInvocationID.xy;
+    uint eye = gl_GlobalInvocationID.z;
+    bool inside = all(lessThan(px, frame_size()));
+    if (SELECT_PHASE == 1u || SHADING_MODE == 0u) {   // (specialization constants: uniform)
+        if (inside) select_pixel(px, eye);
+        return;
+    }
+    uint lid = gl_LocalInvocationIndex;
+    if (lid < HIST_M) wg_hist[lid] = 0u;
+    barrier();
+    if (inside) select_pixel(px, eye);
+    barrier();
+    if (lid < HIST_M && wg_hist[lid] != 0u) atomicAdd(hist[eye * HIST_M + lid], wg_hist[lid]);
 }
