@@ -59,7 +59,7 @@ layout(set = 1, binding = 16, std430) buffer OutDepth { float out_depth[]; };
 layout(set = 1, binding = 17, std430) buffer OutFh { uvec4 out_fh[]; };
 layout(set = 1, binding = 18, std430) buffer OutAlbedo { vec4 out_albedo[]; };
 layout(set = 1, binding = 19, std430) buffer Counters { uint counters[]; };
-layout(set = 1, binding = 20, std430) buffer PixelAction { uvec4 pixel_action[]; }; // trace bits, add count, purge slot + 1, flags
+layout(set = 1, binding = 20, std430) buffer PixelAction { uvec4 pixel_action[]; }; // select.comp → trace.comp: trace bits, add count, purge slot + 1, flags; then (adaptive shading) shade_select.comp phase 0 → 1: packed buckets (xy), shadeable visible bits, round robin | flags
 layout(set = 1, binding = 21, std430) buffer PixelStats { uvec4 pixel_stats[]; };   // traced bits, shaded count, fresh, unused
 // Retracing (§3.4) as a compacted list: select.comp appends the slots to
 // retrace (eye << 31 | slot << 26 | pixel), retrace.comp traces them with

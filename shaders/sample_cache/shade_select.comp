@@ -79,40 +79,47 @@ uint slot_bucket(uvec2 buckets, uint s) { return ((s < 8u ? buckets.x : buckets.
 void select_pixel(uvec2 px, uint eye) {
     uvec2 size = frame_size();
     uint pixel = px.y * size.x + px.x;
-    uint vis = shadeable_bits(eye, pixel, vis_bits(mask_cur[eye * npix() + pixel]));
-    uint n = bitCount(vis);
+    uint pm = eye * npix() + pixel;
     uint frame_index = frame.size_seed.w;
-    uint round_robin = n > 0u ? nth_set_bit(vis, frame_index % n) : 0u;
     if (SHADING_MODE == 0u) {
-        if (n > 0u) push_shade(eye, round_robin, pixel);
+        uint vis = shadeable_bits(eye, pixel, vis_bits(mask_cur[pm]));
+        uint n = bitCount(vis);
+        if (n > 0u) push_shade(eye, nth_set_bit(vis, frame_index % n), pixel);
         return;
     }
-    bool base = n > 0u && is_sparse_base_pixel(px, frame_index, eye);
-    float w_lo, w_hi;
-    importance_bounds(eye, w_lo, w_hi);
-    // One read of each visible sample's record: which are shaded, their
-    // buckets (4 bits per slot, M = 13 ≤ 16) and the pixel's importance extremes.
-    uint shaded_bits = 0u;
+    uint vis, round_robin;
+    bool base, unshaded;
     uvec2 buckets = uvec2(0u);
-    float f_min = 1.0, f_max = 0.0;
-    uint bits = vis;
-    while (bits != 0u) {
-        uint s = uint(findLSB(bits));
-        bits &= bits - 1u;
-        float c = rad_cur[slot_index(eye, s, pixel)].w;
-        if (c > 0.0) shaded_bits |= 1u << s;
-        float w = importance(c);
-        f_min = min(f_min, w);
-        f_max = max(f_max, w);
-        uint b = importance_bucket(w, w_lo, w_hi);
-        if (s < 8u) buckets.x |= b << (4u * s); else buckets.y |= b << (4u * (s - 8u));
-    }
-    bool unshaded = n > 0u && !base && shaded_bits == 0u;
-    // The round-robin sample of base and unshaded pixels is chosen outside
-    // the histogram (it is not counted in it).
-    uint first = (base || unshaded) ? 1u << round_robin : 0u;
-
     if (SELECT_PHASE == 0u) {
+        vis = shadeable_bits(eye, pixel, vis_bits(mask_cur[pm]));
+        uint n = bitCount(vis);
+        round_robin = n > 0u ? nth_set_bit(vis, frame_index % n) : 0u;
+        base = n > 0u && is_sparse_base_pixel(px, frame_index, eye);
+        float w_lo, w_hi;
+        importance_bounds(eye, w_lo, w_hi);
+        // One read of each visible sample's record: which are shaded, their
+        // buckets (4 bits per slot, M = 13 ≤ 16) and the importance extremes.
+        uint shaded_bits = 0u;
+        float f_min = 1.0, f_max = 0.0;
+        uint bits = vis;
+        while (bits != 0u) {
+            uint s = uint(findLSB(bits));
+            bits &= bits - 1u;
+            float c = rad_cur[slot_index(eye, s, pixel)].w;
+            if (c > 0.0) shaded_bits |= 1u << s;
+            float w = importance(c);
+            f_min = min(f_min, w);
+            f_max = max(f_max, w);
+            uint b = importance_bucket(w, w_lo, w_hi);
+            if (s < 8u) buckets.x |= b << (4u * s); else buckets.y |= b << (4u * (s - 8u));
+        }
+        unshaded = n > 0u && !base && shaded_bits == 0u;
+        // Phase 1 reads this analysis back instead of the cache. pixel_action
+        // (select.comp's decisions) has been consumed by trace.comp by now.
+        pixel_action[pm] = uvec4(buckets, vis, round_robin | (base ? 0x100u : 0u) | (unshaded ? 0x200u : 0u));
+        // The round-robin sample of base and unshaded pixels is chosen
+        // outside the histogram (it is not counted in it).
+        uint first = (base || unshaded) ? 1u << round_robin : 0u;
         state_add(S_BASE + eye, base ? 1u : 0u);
         state_add(S_UNSHADED + eye, unshaded ? 1u : 0u);
         bits = vis & ~first;
@@ -124,6 +131,14 @@ void select_pixel(uvec2 px, uint eye) {
         bounds_add(eye, f_min, f_max);
         return;
     }
+    uvec4 a = pixel_action[pm];
+    buckets = a.xy;
+    vis = a.z;
+    round_robin = a.w & 31u;
+    base = (a.w & 0x100u) != 0u;
+    unshaded = (a.w & 0x200u) != 0u;
+    uint n = bitCount(vis);
+    uint first = (base || unshaded) ? 1u << round_robin : 0u;
 
     // Budget per eye (rate × pixels), spent on the base rate, then the
     // unshaded pixels, then the histogram's most important samples.
@@ -148,7 +163,7 @@ void select_pixel(uvec2 px, uint eye) {
     Rng r = rng_init(frame.size_seed.z, frame_index, eye, pixel, 0x5EED0003u);
     float coin_unshaded = rng_next(r);
     if (base || (unshaded && coin_unshaded < p_unshaded)) push_shade(eye, round_robin, pixel);
-    bits = vis & ~first;
+    uint bits = vis & ~first;
     while (bits != 0u) {
         uint s = uint(findLSB(bits));
         bits &= bits - 1u;

@@ -717,6 +717,7 @@ impl Method for SampleCache {
                 .read(cur_mask)
                 .read(cur_fh)
                 .read(cur_rad)
+                .write(&self.pixel_action)
                 .write(&self.hist)
                 .write(&self.state)
                 .dispatch(count, &sets, &push, groups);
@@ -725,6 +726,7 @@ impl Method for SampleCache {
             .read(cur_mask)
             .read(cur_fh)
             .read(cur_rad)
+            .read(&self.pixel_action)
             .read(&self.hist)
             .write(&self.state)
             .write(&self.shade_list)
