@@ -112,7 +112,7 @@ struct CacheArgs {
     /// one-pass | two-pass
     #[arg(long, default_value = "one-pass")]
     reproject: String,
-    /// mean (running mean, appendix C clamp) | fixed:ALPHA (for view-dependent materials)
+    /// mean (running mean, appendix C α_min floor for samples with a specular lobe) | fixed:ALPHA (α floored at ALPHA for every sample, §5.2)
     #[arg(long, default_value = "mean")]
     accumulation: String,
     /// Stereo blending of the two eyes (§3.6): none | moments | neighbourhood

@@ -15,6 +15,7 @@ void main() {
         state[8] = 0u;
         state[9] = 0u;
     }
+    if (i < 4u) state[10u + i] = 0u;   // shade_select.comp's per-eye pixel counts
     if (i < 2u * HIST_M) hist[i] = 0u;
     if (i < 32u) counters[i] = 0u;
 }

@@ -48,10 +48,10 @@ layout(set = 1, binding = 7, std430) buffer DepthMin { uint64_t depth_min[]; }; 
 layout(set = 1, binding = 8, std430) buffer DepthMax { uint depth_max[]; };      // t_max bits
 layout(set = 1, binding = 9, std430) buffer Hist { uint hist[]; };               // [eye][HIST_M]
 // state: [0..2) w_min prev, [2..4) w_max prev, [4..6) w_min next, [6..8) w_max next, [8] shade-list length,
-// [9] retrace-list length
+// [9] retrace-list length, [10..12) unshaded pixels, [12..14) base-rate pixels (shade_select.comp phase 0)
 layout(set = 1, binding = 10, std430) buffer State { uint state[]; };
 layout(set = 1, binding = 11, std430) buffer ShadeList { uint shade_list[]; };   // eye << 31 | slot << 26 | pixel
-layout(set = 1, binding = 12, std430) buffer TargetSrc { uint target_src[]; };   // two-pass: source slot index + 1
+layout(set = 1, binding = 12, std430) buffer TargetSrc { uint target_src[]; };   // two-pass: v << 31 | (source slot·npix + pixel + 1), reproject.comp
 layout(set = 1, binding = 13, std430) buffer OutColor { vec4 out_color[]; };
 layout(set = 1, binding = 14, std430) buffer OutM1 { vec4 out_m1[]; };
 layout(set = 1, binding = 15, std430) buffer OutM2 { vec4 out_m2[]; };
@@ -59,7 +59,7 @@ layout(set = 1, binding = 16, std430) buffer OutDepth { float out_depth[]; };
 layout(set = 1, binding = 17, std430) buffer OutFh { uvec4 out_fh[]; };
 layout(set = 1, binding = 18, std430) buffer OutAlbedo { vec4 out_albedo[]; };
 layout(set = 1, binding = 19, std430) buffer Counters { uint counters[]; };
-layout(set = 1, binding = 20, std430) buffer PixelAction { uvec4 pixel_action[]; }; // trace bits, add count, purge slot + 1, flags
+layout(set = 1, binding = 20, std430) buffer PixelAction { uvec4 pixel_action[]; }; // select.comp → trace.comp: trace bits, add count, purge slot + 1, flags; then (adaptive shading) shade_select.comp phase 0 → 1: packed buckets (xy), shadeable visible bits, round robin | flags
 layout(set = 1, binding = 21, std430) buffer PixelStats { uvec4 pixel_stats[]; };   // traced bits, shaded count, fresh, unused
 // Retracing (§3.4) as a compacted list: select.comp appends the slots to
 // retrace (eye << 31 | slot << 26 | pixel), retrace.comp traces them with
@@ -168,6 +168,56 @@ void importance_bounds(uint eye, out float w_min, out float w_max) {
 }
 
 float importance(float c) { return 1.0 / (1.0 + c); }
+
+// --- Demodulation (§3.3) --------------------------------------------------
+// The radiance record holds L_s with the first hit's emission removed and the
+// rest divided by the base colour (floored at 1e-3 against division by zero);
+// reconstruction multiplies by the same floored factor and adds the emission
+// back, so a black-base emitter (and anything else a black base does not
+// multiply, e.g. a dielectric's specular layer) comes back exactly (issue 12
+// item 7). The emission is the first hit's `m.emissive`, exactly the term
+// path_radiance adds at the first hit (weight 1: a camera ray).
+vec3 demodulation_factor(ShadingMaterial m) { return max(m.base, vec3(1e-3)); }
+vec3 demodulate(vec3 L, ShadingMaterial m) { return (L - m.emissive) / demodulation_factor(m); }
+vec3 remodulate(vec3 demod, ShadingMaterial m) { return demodulation_factor(m) * demod + m.emissive; }
+
+// --- Accumulation (appendix C, §5.2, Eq. 5) ----------------------------------
+// True when the sample's BSDF has a specular (GGX or dielectric) lobe: a
+// metal, a transmissive dielectric, or an opaque dielectric with a specular
+// layer (KHR_materials_specular factor > 0; glTF's default is 1). Only pure
+// Lambert materials (metallic 0, specular 0, no transmission) lack one.
+bool has_specular_lobe(ShadingMaterial m) {
+    return m.transmission > 0.0 || (SC_VIEW_DEPENDENT && (m.metallic > 0.0 || m.specular > 0.0));
+}
+
+// Appendix C: α_min = (1 − α_GGX)·0.5 + α_GGX·0.1, α_GGX the BSDF's GGX
+// roughness (bsdf.glsl ggx_alpha). CPU twin: heuristics.rs `alpha_min`.
+float alpha_min(float a_ggx) { return (1.0 - a_ggx) * 0.5 + a_ggx * 0.1; }
+
+// One exponential-average step (Yang et al. 2009): x' = (1 − α)x + αL. The
+// effective sample count c = σ²/Var(x) follows Var(x') = (1 − α)²Var(x) +
+// α²σ², i.e. c' = 1 / ((1 − α)²/c + α²): α = 1/(c + 1) (running mean) gives
+// c' = c + 1 exactly, a constant α tends to (2 − α)/α. This c is what Eq. 5–6
+// weight by and what the importance (1 + c)^−1 reads. CPU twin: heuristics.rs
+// `accumulate_count`.
+float accumulated_count(float c, float alpha) {
+    if (!(c > 0.0) || alpha >= 1.0) return 1.0;
+    float k = 1.0 - alpha;
+    return min(1.0 / (k * k / c + alpha * alpha), C_MAX);
+}
+
+// The visible samples of a pixel that shading can take: those whose first
+// hit is a surface (a sample whose first hit is NO_HIT, should the cache hold
+// one, is evaluated by reconstruction, not shaded).
+uint shadeable_bits(uint eye, uint pixel, uint vis) {
+    uint out_bits = vis;
+    while (vis != 0u) {
+        uint s = uint(findLSB(vis));
+        vis &= vis - 1u;
+        if (fh_cur[slot_index(eye, s, pixel)].w == NO_HIT) out_bits &= ~(1u << s);
+    }
+    return out_bits;
+}
 
 // Block-sparse pattern of §3.4/§3.5: one pixel per 4×4 block, rotating each frame.
 bool is_sparse_base_pixel(uvec2 px, uint frame_index, uint eye) {

@@ -1,7 +1,12 @@
 #version 460
 // §3.3 reconstruction: the pixel colour is the mean over its visible,
-// already shaded samples of albedo × demodulated radiance; a pixel without
-// visible samples shows the environment. Also writes the raw moments of
+// already shaded samples of their remodulated radiance (common.glsl
+// `remodulate`: base colour × demodulated radiance + emission); a pixel
+// without visible samples shows the environment. A pixel whose visible
+// samples are all still unshaded (adaptive shading when the frame's rate
+// cannot cover every such pixel: frame 0 or a disocclusion at a rate below
+// one path per pixel) falls back to its neighbours' demodulated radiance
+// (`unshaded_fallback`) instead of black. Also writes the raw moments of
 // Eq. 5–6 for stereo blending, the depth / first hit / albedo of the closest
 // visible sample, and the debug views.
 #include "sample_cache/common.glsl"
@@ -10,6 +15,40 @@ layout(set = 1, binding = 22, std430) buffer Debug { vec4 debug_views[]; };   //
 // The debug views are written only when requested (they are 64 B per pixel of
 // stores that nothing reads otherwise).
 layout(constant_id = 26) const bool DEBUG_VIEWS = false;
+
+// Issue 12 item 3 (adaptive shading): the mean demodulated radiance of the
+// shaded visible samples nearest to `px` — the ring of Chebyshev radius r =
+// 1, 2, ... up to 4 that first holds any, each weighted by its effective
+// count — or false when none lies within 4 pixels. shade_select.comp shades
+// one sample of every 4×4 block (the base rate) and gives unshaded pixels
+// priority within the rate, so a covered block has a shaded sample within
+// radius 3 (its base pixel) unless the block's base pixel sees background.
+// Surface detail stays the pixel's own: the caller remodulates with its own
+// samples' base colour and emission.
+bool unshaded_fallback(uint eye, ivec2 px, ivec2 size, out vec3 demod) {
+    for (int r = 1; r <= 4; ++r) {
+        vec3 sum = vec3(0.0);
+        float wsum = 0.0;
+        for (int dy = -r; dy <= r; ++dy) {
+            for (int dx = -r; dx <= r; ++dx) {
+                if (max(abs(dx), abs(dy)) != r) continue;
+                ivec2 q = px + ivec2(dx, dy);
+                if (any(lessThan(q, ivec2(0))) || any(greaterThanEqual(q, size))) continue;
+                uint qp = uint(q.y) * uint(size.x) + uint(q.x);
+                uint bits = vis_bits(mask_cur[eye * npix() + qp]);
+                while (bits != 0u) {
+                    uint s = uint(findLSB(bits));
+                    bits &= bits - 1u;
+                    vec4 rec = rad_cur[slot_index(eye, s, qp)];
+                    if (rec.w > 0.0) { sum += rec.w * rec.rgb; wsum += rec.w; }
+                }
+            }
+        }
+        if (wsum > 0.0) { demod = sum / wsum; return true; }
+    }
+    demod = vec3(0.0);
+    return false;
+}
 
 void main() {
     uvec2 size = frame_size();
@@ -26,6 +65,7 @@ void main() {
 
     vec3 sum = vec3(0.0), m1 = vec3(0.0), m2 = vec3(0.0);
     float shaded = 0.0, c_total = 0.0;
+    vec3 factor_sum = vec3(0.0), emission_sum = vec3(0.0);   // for the unshaded fallback (issue 12 item 3)
     float best_t = 3.4e38;
     uvec4 best_fh = uvec4(0u, 0u, 0u, NO_HIT);
     vec3 best_albedo = vec3(0.0), best_p = vec3(0.0);
@@ -42,8 +82,10 @@ void main() {
         ShadingMaterial mat = material_at(surf, d, t * spread);
         vec4 rec = rad_cur[idx];
         if (t < best_t) { best_t = t; best_fh = fh; best_albedo = mat.base; best_p = wp; }
+        factor_sum += demodulation_factor(mat);
+        emission_sum += mat.emissive;
         if (rec.w > 0.0) {
-            vec3 L = mat.base * rec.rgb;
+            vec3 L = remodulate(rec.rgb, mat);   // issue 12 item 7: emission kept
             sum += L;
             shaded += 1.0;
             m1 += rec.w * L;          // Eq. 5, weighted by effective sample counts (Eq. 6)
@@ -63,7 +105,18 @@ void main() {
         out_fh[pm] = uvec4(0u, 0u, 0u, NO_HIT);
         out_albedo[pm] = vec4(0.0);
     } else {
-        color = shaded > 0.0 ? sum / shaded : vec3(0.0);
+        if (shaded > 0.0) {
+            color = sum / shaded;
+        } else {
+            // Issue 12 item 3: no visible sample shaded yet. The mean of
+            // remodulate(neighbours' radiance, own material) over the own
+            // visible samples; without a shaded neighbour either, their own
+            // emission remains.
+            vec3 demod;
+            unshaded_fallback(eye, ivec2(px), ivec2(size), demod);
+            float n_vis = float(bitCount(vis));
+            color = (factor_sum * demod + emission_sum) / n_vis;
+        }
         m1 = c_total > 0.0 ? m1 / c_total : color;
         m2 = c_total > 0.0 ? m2 / c_total : color * color;
         out_depth[pm] = view_depth(e, best_p);

@@ -5,7 +5,7 @@
 // writes the sample data right after a successful reservation; two-pass
 // (TWO_PASS) writes only the source address, copied by reproject_copy.comp.
 // Successful visible samples update the per-pixel t_min/Δn (64-bit atomicMin)
-// and t_max (atomicMax), the importance histogram and the frame's w_min/w_max.
+// and t_max (atomicMax).
 #include "sample_cache/common.glsl"
 layout(constant_id = 24) const bool TWO_PASS = false;
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
@@ -22,31 +22,6 @@ int choose_target_slot(bool vis, uint m) {
     return -1;
 }
 
-// One visible sample into the importance histogram (§3.5) and the frame's
-// w_min / w_max. With subgroup operations: one atomic per distinct bucket
-// among the subgroup's active invocations and one min / max per subgroup.
-void histogram_add(uint eye, uint bucket, float w) {
-#ifdef SUBGROUP_OPS
-    float w_min = subgroupMin(w), w_max = subgroupMax(w);
-    if (subgroupElect()) {
-        atomicMin(state[4u + eye], floatBitsToUint(w_min));
-        atomicMax(state[6u + eye], floatBitsToUint(w_max));
-    }
-    for (;;) {
-        uint first = subgroupBroadcastFirst(bucket);
-        if (bucket == first) {
-            uint n = subgroupBallotBitCount(subgroupBallot(true));
-            if (subgroupElect()) atomicAdd(hist[eye * HIST_M + first], n);
-            break;
-        }
-    }
-#else
-    atomicAdd(hist[eye * HIST_M + bucket], 1u);
-    atomicMin(state[4u + eye], floatBitsToUint(w));
-    atomicMax(state[6u + eye], floatBitsToUint(w));
-#endif
-}
-
 void main() {
     uvec2 size = frame_size();
     uvec2 px = gl_GlobalInvocationID.xy;
@@ -58,8 +33,6 @@ void main() {
     if (occ == 0u) return;
     EyeGpu e = frame.eyes[eye];
     vec2 cs_phi = pixel_diagonal_cos_sin(e);
-    float w_lo, w_hi;
-    importance_bounds(eye, w_lo, w_hi);
     uint reprojected = 0u, reprojected_visible = 0u, full = 0u, offscreen = 0u;
     while (occ != 0u) {
         uint s = uint(findLSB(occ));
@@ -95,7 +68,17 @@ void main() {
         if (slot < 0) { full++; continue; }
         uint dst = slot_index(eye, uint(slot), target);
         if (TWO_PASS) {
-            target_src[dst] = src + 1u;
+            // §3.1's race-free variant, pass 1: the slot's source is the
+            // atomicMax of key = v << 31 | (s·npix + pixel + 1) over the
+            // reservations that succeeded on it. Listing 2 lets at most one
+            // invisible reservation (on a free slot) and one visible one (on
+            // a free or invisible slot) succeed per slot, so the visible
+            // source wins whatever order the threads ran in, and
+            // reproject_copy.comp copies the data with the visibility and
+            // occupancy the key carries: an invisible sample's data can never
+            // sit under a visible bit. (s·npix + pixel + 1 ≤ 16·2^26 < 2^31:
+            // the source is in the same eye.)
+            atomicMax(target_src[dst], (vis ? 0x80000000u : 0u) | (s * npix() + pixel + 1u));
         } else {
             fh_cur[dst] = fh;
             if (SHADING_STORAGE) rad_cur[dst] = rad_prev[src];
@@ -109,13 +92,9 @@ void main() {
             float slope = normal_slope(t, cos_theta, cs_phi);
             atomicMin(depth_min[tm], (uint64_t(floatBitsToUint(t)) << 32) | uint64_t(floatBitsToUint(slope)));
             atomicMax(depth_max[tm], floatBitsToUint(t));
-            // The importance histogram and its bounds feed adaptive shading
-            // only (§3.5): uniform shading skips these three global atomics
-            // per visible sample (issue 6).
-            if (SHADING_STORAGE && SHADING_MODE == 1u) {
-                float w = importance(rad_prev[src].w);
-                histogram_add(eye, importance_bucket(w, w_lo, w_hi), w);
-            }
+            // (The importance histogram of §3.5 is counted after tracing, by
+            // shade_select.comp phase 0, so that it holds this frame's new
+            // samples too: issue 12 item 3.)
         }
     }
     count_add(C_REPROJECTED, reprojected);

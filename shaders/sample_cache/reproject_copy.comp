@@ -1,6 +1,9 @@
 #version 460
-// Second step of the two-pass reprojection: copy every reserved slot's data
-// from the address written by the first step (race-free variant of §3.1).
+// Second step of the two-pass reprojection (§3.1's race-free variant): per
+// target slot, copy the sample whose key won reproject.comp's atomicMax —
+// a visible source over an invisible one, independent of thread order —
+// and rebuild the pixel's mask from the winning keys, so each slot's data,
+// visibility and occupancy come from the same source sample.
 #include "sample_cache/common.glsl"
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 void main() {
@@ -9,15 +12,19 @@ void main() {
     uint eye = gl_GlobalInvocationID.z;
     if (any(greaterThanEqual(px, size))) return;
     uint pixel = px.y * size.x + px.x;
-    uint occ = occ_bits(mask_cur[eye * npix() + pixel]);
+    uint pm = eye * npix() + pixel;
+    uint occ = occ_bits(mask_cur[pm]);
+    uint m = 0u;
     while (occ != 0u) {
         uint s = uint(findLSB(occ));
         occ &= occ - 1u;
         uint dst = slot_index(eye, s, pixel);
-        uint src = target_src[dst];
-        if (src != 0u) {
-            fh_cur[dst] = fh_prev[src - 1u];
-            if (SHADING_STORAGE) rad_cur[dst] = rad_prev[src - 1u];
-        }
+        uint key = target_src[dst];
+        if (key == 0u) continue;   // (every successful reservation writes a key)
+        uint src = eye * N_SLOTS * npix() + (key & 0x7FFFFFFFu) - 1u;
+        fh_cur[dst] = fh_prev[src];
+        if (SHADING_STORAGE) rad_cur[dst] = rad_prev[src];
+        m |= (1u << s) | ((key >> 31) << (s + N_SLOTS));
     }
+    mask_cur[pm] = m;
 }

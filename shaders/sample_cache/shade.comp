@@ -1,14 +1,18 @@
 #version 460
 // variant: SUBGROUP_OPS
 // Shades the compacted samples: one path per sample from the eye through its
-// stored first hit (the integrator every method shares), demodulated by the
-// first hit's base colour and accumulated as a running mean. View-dependent
-// materials clamp the blend factor to α_min = (1 − α_GGX)·0.5 + α_GGX·0.1
-// (appendix C), or use a fixed α (ACCUM_MODE 1).
+// stored first hit (the integrator every method shares), demodulated
+// (common.glsl `demodulate`: emission kept apart) and accumulated as an
+// exponential average whose effective count c_s the record carries
+// (common.glsl `accumulated_count`). The blend factor is the running mean's
+// 1/(c_s + 1), floored at appendix C's α_min = (1 − α_GGX)·0.5 + α_GGX·0.1
+// for every sample whose BSDF has a specular lobe (ACCUM_MODE 0), or at the
+// fixed α of `--accumulation fixed:A` for every sample (ACCUM_MODE 1, §5.2's
+// α = 0.1). Flooring rather than replacing keeps the start exact: the first
+// shading of a sample (c_s = 0) takes its path as is, and the average only
+// becomes exponential once 1/(c_s + 1) falls below the floor.
 #include "sample_cache/common.glsl"
 layout(local_size_x = 64) in;
-
-bool view_dependent(ShadingMaterial m) { return m.metallic > 0.5 || m.transmission > 0.0; }
 
 void main() {
     // Grid-stride over the list: the indirect dispatch covers the list's
@@ -40,20 +44,17 @@ void main() {
         if (any(isnan(L)) || any(isinf(L))) L = vec3(0.0);
         Surface s = surface_at(h.instance, h.prim, h.bary, d);
         ShadingMaterial m = material_at(s, d, t * eye_pixel_spread(e));
-        vec3 demod = L / max(m.base, vec3(1e-3));
+        vec3 demod = demodulate(L, m);
 
         vec4 rec = rad_cur[idx];
-        float c = min(rec.w + 1.0, C_MAX);
-        float alpha = 1.0 / c;
-        if (view_dependent(m)) {
-            float a_ggx = m.roughness * m.roughness;
-            float a_min = ACCUM_MODE == 1u ? pc.fixed_alpha : (1.0 - a_ggx) * 0.5 + a_ggx * 0.1;
-            if (alpha < a_min) {
-                alpha = a_min;
-                c = 1.0 / a_min;   // effective sample count of the clamped blend
-            }
-        }
-        rad_cur[idx] = vec4(mix(rec.rgb, demod, alpha), c);
+        float c = rec.w;
+        float alpha = 1.0 / (c + 1.0);   // running mean
+        float alpha_floor = ACCUM_MODE == 1u ? pc.fixed_alpha
+                          : has_specular_lobe(m) ? alpha_min(ggx_alpha(m.roughness)) : 0.0;
+        bool clamped = alpha < alpha_floor;
+        if (clamped) alpha = alpha_floor;
+        float c_next = clamped ? accumulated_count(c, alpha) : min(c + 1.0, C_MAX);
+        rad_cur[idx] = vec4(mix(rec.rgb, demod, alpha), c_next);
         atomicAdd(pixel_stats[eye * npix() + pixel].y, 1u);
         shaded++;
     }

@@ -5,8 +5,24 @@
 // with β′ from Eq. 8. Moments: the cache's per-pixel μ1, μ2 (Eq. 5–6,
 // `moments` mode) or 3×3 neighbourhood estimates from the colours
 // (`neighbourhood`, Philippi et al. 2023). Y's moments are blurred over 3×3
-// with neighbour weight 1 − R; X's are resampled with Dodgson's quadratic
-// kernel of parameter R. CPU twin of the math: src/stereo/blend.rs.
+// with neighbour weight 1 − R; X's moments are resampled with Dodgson's
+// quadratic kernel of parameter R (§5.2: R controls how much the moments are
+// blurred). X's colour itself is taken from the pixel q falls in (nearest),
+// without that blur: at R = 0 the kernel spans 3×3 pixels, and blending
+// with X's Dodgson-blurred colour blurred the image (issue 12 item 5).
+// Nearest rather than bilinear: any interpolation at the fractional
+// disparity low-passes X (a half-pixel bilinear averages two pixels), and on
+// a noise-free textured plane bilinear X halved the blended image's CPBD at
+// R = 0 while nearest kept it within noise of the unblended image
+// (tests/sample_cache_shading.rs); nearest's price is a misregistration of
+// X by at most half a pixel, which β′ (the bias term) limits at edges.
+// A single-sample pixel: Eq. 5 over one sample gives μ2 = μ1², i.e. σ² = 0
+// (Eq. 7); we keep the paper's estimator rather than invent a variance. As
+// Y that gives β′ = 1 (Y kept as it is: nothing to gain by blending); as X
+// it makes β′ = 1 − σ_Y²/(Bias² + σ_Y²), i.e. X is trusted as noise-free and
+// weighted by how far its mean lies from Y's. At R < 1 the 3×3 blur of the
+// moments brings the neighbours' spreads in, which is exactly what
+// the sharpness parameter trades. CPU twin of the math: src/stereo/blend.rs.
 #include "sample_cache/common.glsl"
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 layout(set = 1, binding = 23, std430) buffer OutBlended { vec4 out_blended[]; };
@@ -79,31 +95,31 @@ void main() {
     if (!(dx > 0.0) || abs(dx - vd) > 0.01 * vd) return;   // no co-visible counterpart
 
     float r = clamp(pc.sharpness, 0.0, 1.0);
-    // X: Dodgson resampling around q (taps within 1.5 pixels).
-    vec3 m1x = vec3(0.0), m2x = vec3(0.0), cx = vec3(0.0);
-    float wsum = 0.0;
-    ivec2 base = ivec2(floor(q - 0.5));
-    for (int j = -1; j <= 2; ++j) {
-        for (int i = -1; i <= 2; ++i) {
-            ivec2 t = base + ivec2(i, j);
-            if (any(lessThan(t, ivec2(0))) || any(greaterThanEqual(t, ivec2(size)))) continue;
-            vec2 s = q - (vec2(t) + 0.5);
-            float w = dodgson(s.x, r) * dodgson(s.y, r);
-            if (w == 0.0) continue;
-            if (pc.blend_mode == 1u) {
+    // X's moments: Dodgson resampling around q (taps within 1.5 pixels).
+    vec3 m1x = vec3(0.0), m2x = vec3(0.0);
+    if (pc.blend_mode == 1u) {
+        float wsum = 0.0;
+        ivec2 base = ivec2(floor(q - 0.5));
+        for (int j = -1; j <= 2; ++j) {
+            for (int i = -1; i <= 2; ++i) {
+                ivec2 t = base + ivec2(i, j);
+                if (any(lessThan(t, ivec2(0))) || any(greaterThanEqual(t, ivec2(size)))) continue;
+                vec2 s = q - (vec2(t) + 0.5);
+                float w = dodgson(s.x, r) * dodgson(s.y, r);
+                if (w == 0.0) continue;
                 vec3 a1, a2;
                 moments_at(other, uvec2(t), a1, a2);
                 m1x += w * a1;
                 m2x += w * a2;
+                wsum += w;
             }
-            cx += w * out_color[other * npix() + uint(t.y) * size.x + uint(t.x)].rgb;
-            wsum += w;
         }
+        if (!(wsum > 1e-6)) return;
+        m1x /= wsum;
+        m2x /= wsum;
     }
-    if (!(wsum > 1e-6)) return;
-    m1x /= wsum;
-    m2x /= wsum;
-    cx = max(cx / wsum, vec3(0.0));   // Dodgson has negative lobes for r > ½
+    // X's colour: the pixel q falls in (nearest, no blur).
+    vec3 cx = out_color[other * npix() + qi.y * size.x + qi.x].rgb;
 
     vec3 m1y = vec3(0.0), m2y = vec3(0.0);
     if (pc.blend_mode == 2u) {

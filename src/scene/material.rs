@@ -99,11 +99,13 @@ impl Material {
         .flatten()
     }
 
-    /// Whether the appearance depends on the view direction beyond Lambert
-    /// (appendix C's clamp applies to such materials).
+    /// Whether the BSDF has a specular lobe (metal, transmission, or a
+    /// dielectric specular layer), i.e. the appearance depends on the view
+    /// direction beyond Lambert: appendix C's α_min clamp applies to such
+    /// materials (shaders/sample_cache/common.glsl `has_specular_lobe`).
     pub fn is_view_dependent(&self) -> bool {
         self.metallic > 0.0
-            || self.roughness < 1.0
+            || self.specular > 0.0
             || self.transmission > 0.0
             || self.metallic_roughness_texture.is_some()
     }

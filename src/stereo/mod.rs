@@ -4,4 +4,4 @@
 
 pub mod blend;
 
-pub use blend::{beta_prime, dodgson, neighbour_weight, BlendMode};
+pub use blend::{beta_prime, dodgson, neighbour_weight, pixel_moments, BlendMode};

@@ -64,6 +64,33 @@ pub fn alpha_min(alpha_ggx: f32) -> f32 {
     (1.0 - alpha_ggx) * 0.5 + alpha_ggx * 0.1
 }
 
+/// Effective sample count after one exponential-average step
+/// x' = (1 − α)x + αL with independent L (Yang et al. 2009): from
+/// Var(x') = (1 − α)² Var(x) + α² σ², c' = 1 / ((1 − α)²/c + α²); an empty
+/// record (c = 0) or α = 1 gives 1. common.glsl `accumulated_count`.
+pub fn accumulated_count(c: f32, alpha: f32) -> f32 {
+    if c <= 0.0 || alpha >= 1.0 {
+        return 1.0;
+    }
+    let k = 1.0 - alpha;
+    (1.0 / (k * k / c + alpha * alpha)).min(C_MAX)
+}
+
+/// Effective counts saturate here (common.glsl `C_MAX`).
+pub const C_MAX: f32 = 65535.0;
+
+/// shade.comp's update of a record with effective count `c`: the blend
+/// factor (the running mean's 1/(c + 1), floored at `alpha_floor` — appendix
+/// C's α_min, `--accumulation fixed:A`'s A, or 0) and the new count.
+pub fn accumulate(c: f32, alpha_floor: f32) -> (f32, f32) {
+    let alpha = 1.0 / (c + 1.0);
+    if alpha < alpha_floor {
+        (alpha_floor, accumulated_count(c, alpha_floor))
+    } else {
+        (alpha, (c + 1.0).min(C_MAX))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -174,6 +201,62 @@ mod tests {
         let b1 = importance_bucket(lo * 2.0, lo, lo * 2f32.powi(13));
         let b2 = importance_bucket(lo * 4.0, lo, lo * 2f32.powi(13));
         assert_eq!((b1, b2), (1, 2));
+    }
+
+    /// The effective count is what the variance says: many independent
+    /// records accumulate N(0, 1) samples with α floored at appendix C's
+    /// α_min(0.2) = 0.42 (and at 0.1, §5.2's fixed α); after every step the
+    /// records' empirical variance equals 1/c within 4 standard errors
+    /// (relative standard error √(2/(records − 1)) of a variance estimate).
+    #[test]
+    fn effective_count_predicts_the_variance_of_the_average() {
+        let mut state = 0x1234_5678_9abc_def0u64;
+        let mut normal = move || {
+            let mut u = || {
+                state = state
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                ((state >> 40) as f64 + 0.5) / (1u64 << 24) as f64
+            };
+            let (a, b) = (u(), u());
+            (-2.0 * a.ln()).sqrt() * (std::f64::consts::TAU * b).cos()
+        };
+        let records = 20_000usize;
+        for floor in [alpha_min(0.2), 0.1] {
+            let mut x = vec![0.0f64; records];
+            let mut c = 0.0f32;
+            for step in 0..40 {
+                let (alpha, c_next) = accumulate(c, floor);
+                for v in x.iter_mut() {
+                    *v += alpha as f64 * (normal() - *v);
+                }
+                c = c_next;
+                if ![0, 4, 9, 19, 39].contains(&step) {
+                    continue;
+                }
+                let mean = x.iter().sum::<f64>() / records as f64;
+                let var = x.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (records - 1) as f64;
+                let predicted = 1.0 / c as f64;
+                let tol = 4.0 * predicted * (2.0 / (records - 1) as f64).sqrt();
+                assert!(
+                    (var - predicted).abs() < tol,
+                    "floor {floor}, step {step}: variance {var} vs 1/c = {predicted} ± {tol}"
+                );
+            }
+            // The running mean counts exactly until 1/(c + 1) falls below the
+            // floor; then c tends to (2 − α)/α.
+            assert!(
+                (c - (2.0 - floor) / floor).abs() < 0.01 * c,
+                "floor {floor}: c = {c}"
+            );
+        }
+        for k in 0..50 {
+            assert_eq!(
+                accumulate(k as f32, 0.0),
+                (1.0 / (k as f32 + 1.0), k as f32 + 1.0)
+            );
+        }
+        assert_eq!(accumulate(0.0, 0.1), (1.0, 1.0));
     }
 
     #[test]

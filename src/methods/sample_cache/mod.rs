@@ -9,7 +9,7 @@
 //!
 //! Passes per frame (both eyes in one dispatch each, `z` = eye):
 //! `begin` → `clear` → `reproject` (→ `reproject.copy` for two-pass) →
-//! `select` → `trace` → `shade.select` → `shade` → `reconstruct`.
+//! `select` → `trace` → (`shade.count` for adaptive shading →) `shade.select` → `shade` → `reconstruct`.
 //!
 //! **Visibility only** ([`SampleCache::visibility_only`], used by `hybrid`):
 //! the same cache without shading storage (specialization constant
@@ -48,6 +48,8 @@ mod spec_id {
     pub const DEBUG_VIEWS: u32 = 26;
     /// indirect_args.comp: which list's dispatch it writes (0 retrace, 1 shade).
     pub const ARGS_LIST: u32 = 27;
+    /// shade_select.comp: 0 counts the importance histogram, 1 selects.
+    pub const SELECT_PHASE: u32 = 28;
 }
 
 /// Counter slots written by the shaders (common.glsl `C_*`), with report names.
@@ -85,9 +87,16 @@ pub struct CacheSnapshot {
     pub radiance: Vec<[f32; 4]>,
     /// Per pixel: traced slot bits, shaded samples this frame, new samples, edge flag.
     pub pixel_stats: Vec<[u32; 4]>,
-    /// Importance histogram `[eye][bucket]` counted during this frame's
-    /// reprojection (adaptive shading only; zeros under uniform shading).
+    /// Importance histogram `[eye][bucket]` of this frame's shading
+    /// candidates, counted after primary tracing by `shade.count` (adaptive
+    /// shading only; zeros under uniform shading): every visible sample
+    /// except the round-robin sample of base-rate and unshaded pixels.
     pub histogram: Vec<u32>,
+    /// Per eye: pixels with visible samples none of which was shaded before
+    /// this frame, outside the base-rate pattern (adaptive shading).
+    pub unshaded_pixels: [u32; 2],
+    /// Per eye: base-rate pixels (one per 4×4 block) with a visible sample.
+    pub base_pixels: [u32; 2],
     /// Length of this frame's shade list.
     pub shade_count: u32,
     pub shade_list: Vec<u32>,
@@ -130,6 +139,8 @@ struct Pipelines {
 }
 
 struct ShadingPipelines {
+    /// shade_select.comp phase 0 (adaptive shading only): the importance histogram.
+    shade_count: Option<ComputePipeline>,
     shade_select: ComputePipeline,
     shade_args: ComputePipeline,
     shade: ComputePipeline,
@@ -357,6 +368,13 @@ impl SampleCache {
             trace: pipe("trace")?,
             shading: if shading {
                 Some(ShadingPipelines {
+                    shade_count: if cache.shading == Shading::Adaptive {
+                        let mut s = spec.clone();
+                        s.set(spec_id::SELECT_PHASE, 0);
+                        Some(pipe_with("shade_select", "shade_count", &s)?)
+                    } else {
+                        None
+                    },
                     shade_select: pipe("shade_select")?,
                     shade_args: args_pipe(1, "shade_args")?,
                     shade: pipe("shade")?,
@@ -481,9 +499,34 @@ impl SampleCache {
             radiance: self.radiance[c].download_pod()?,
             pixel_stats: self.pixel_stats.download_pod()?,
             histogram: self.hist.download_pod()?,
+            unshaded_pixels: [state[10], state[11]],
+            base_pixels: [state[12], state[13]],
             shade_count: state[8],
             shade_list: self.shade_list.download_pod()?,
         })
+    }
+
+    /// Replaces the current cache — what the next frame reprojects — with
+    /// `snap`'s masks, first hits and radiance records (tests construct
+    /// cache contents this way; the other fields of `snap` are ignored).
+    pub fn load(&mut self, snap: &CacheSnapshot) -> GpuResult<()> {
+        let c = self.cur();
+        let expect = (2 * self.settings.width * self.settings.height) as usize;
+        let n = expect * self.cache.slots as usize;
+        if snap.masks.len() != expect
+            || snap.first_hits.len() != n
+            || (self.pipes.shading.is_some() && snap.radiance.len() != n)
+        {
+            return Err(GpuError::Unsupported(
+                "SampleCache::load: the snapshot's size does not match the cache".into(),
+            ));
+        }
+        self.masks[c].upload(bytemuck::cast_slice(&snap.masks))?;
+        self.first_hits[c].upload(bytemuck::cast_slice(&snap.first_hits))?;
+        if self.pipes.shading.is_some() {
+            self.radiance[c].upload(bytemuck::cast_slice(&snap.radiance))?;
+        }
+        Ok(())
     }
 
     /// Per-pixel raw moments μ1, μ2 (Eq. 5–6; w = total effective count) of the last frame.
@@ -554,7 +597,7 @@ impl SampleCache {
             .dispatch(&p.reproject, &sets, &push, groups);
         if let Some(copy) = &p.reproject_copy {
             rec.pass("reproject.copy")
-                .read(cur_mask)
+                .write(cur_mask)
                 .read(&self.target_src)
                 .read(prev_fh)
                 .read(prev_rad)
@@ -669,9 +712,21 @@ impl Method for SampleCache {
         let push = self.push_constants();
         let sets = [&self.scene.set, &self.sets[1 - cur]];
         let groups = [w.div_ceil(LOCAL), h.div_ceil(LOCAL), 2];
+        if let Some(count) = &sp.shade_count {
+            rec.pass("shade.count")
+                .read(cur_mask)
+                .read(cur_fh)
+                .read(cur_rad)
+                .write(&self.pixel_action)
+                .write(&self.hist)
+                .write(&self.state)
+                .dispatch(count, &sets, &push, groups);
+        }
         rec.pass("shade.select")
             .read(cur_mask)
+            .read(cur_fh)
             .read(cur_rad)
+            .read(&self.pixel_action)
             .read(&self.hist)
             .write(&self.state)
             .write(&self.shade_list)

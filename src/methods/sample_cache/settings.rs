@@ -31,8 +31,12 @@ pub enum Reproject {
     TwoPass,
 }
 
-/// `--accumulation`: running mean (with appendix C's α_min for
-/// view-dependent materials) or a fixed α for view-dependent materials.
+/// `--accumulation`: how shade.comp averages a sample's paths.
+/// `mean`: running mean, its blend factor floored at appendix C's
+/// α_min = (1 − α_GGX)·0.5 + α_GGX·0.1 for every sample whose BSDF has a
+/// specular lobe (metal, transmission, or a dielectric specular layer).
+/// `fixed:A`: every sample's blend factor floored at A (§5.2 uses α = 0.1):
+/// a running mean while 1/(c_s + 1) > A, then an exponential average with α = A.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub enum Accumulation {
     RunningMean,
