@@ -378,17 +378,7 @@ fn write_grid(
         }
         .text(gap + 2, row_y(r as u32) + 2, cap, 1, [255, 255, 0]);
     }
-    output::write_atomically(path, |tmp| {
-        image::save_buffer_with_format(
-            tmp,
-            &img,
-            gw,
-            gh,
-            image::ColorType::Rgb8,
-            image::ImageFormat::Png,
-        )
-        .map_err(|e| e.to_string())
-    })?;
+    output::write_encoded(path, |out| output::encode_png_rgb8(out, gw, gh, &img))?;
     Ok(())
 }
 
@@ -476,9 +466,7 @@ fn write_summaries(
         csv.push('\n');
     }
     let csv_path = opts.out.join("summary.csv");
-    output::write_atomically(&csv_path, |tmp| {
-        std::fs::write(tmp, &csv).map_err(|e| e.to_string())
-    })?;
+    output::write_text(&csv_path, &csv)?;
     let caps = &session.ctx.caps;
     let json = serde_json::json!({
         "device": caps.name,

@@ -94,9 +94,7 @@ fn write_frame(path: &Path, f: &StereoFrame) -> Result<()> {
         bytes.extend_from_slice(bytemuck::cast_slice(&e.depth));
         bytes.extend_from_slice(bytemuck::cast_slice(&e.first_hit));
     }
-    crate::output::write_atomically(path, |tmp| {
-        std::fs::write(tmp, &bytes).map_err(|e| e.to_string())
-    })?;
+    crate::output::write_file(path, &bytes)?;
     Ok(())
 }
 

@@ -1118,8 +1118,10 @@ fn run(cli: Cli) -> Result<()> {
             };
             let rows =
                 stereocache::compare::compare_configs(&session, &cameras, &configs, &base, &opts)?;
-            std::fs::copy(out.join("summary.csv"), out.join("tradeoff.csv"))
-                .with_context(|| format!("{}: cannot write tradeoff.csv", out.display()))?;
+            let summary_csv = out.join("summary.csv");
+            let csv = std::fs::read(&summary_csv)
+                .with_context(|| format!("{}: cannot read", summary_csv.display()))?;
+            output::write_file(&out.join("tradeoff.csv"), &csv)?;
             print!("{}", stereocache::compare::summary_table(&rows));
             print!("{}", stereocache::bench::tradeoff_ratios(&rows));
             let report = stereocache::report::write_report(&out)?;
@@ -1523,7 +1525,7 @@ fn run_bench_specialization(a: BenchSpecArgs) -> Result<()> {
     print!("{}", stereocache::bench::spec_table(&rows));
     if let Some(out) = &a.out {
         let csv = stereocache::bench::spec_csv(&rows);
-        output::write_atomically(out, |p| std::fs::write(p, &csv).map_err(|e| e.to_string()))?;
+        output::write_text(out, &csv)?;
         println!("wrote {}", out.display());
     }
     report_validation(&ctx)
