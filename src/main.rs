@@ -447,6 +447,9 @@ fn run_compare(a: CompareArgs) -> Result<()> {
                 })?,
         ),
     };
+    if a.reference_spp > 0 {
+        stereocache::evaluate::check_reference_spp(a.reference_spp)?;
+    }
     let select = a.camera.select()?;
     let (fov, ipd) = (a.camera.fov_radians()?, a.camera.ipd()?);
     let trace = PoseTrace::read_csv(&a.trace)?;
@@ -478,8 +481,9 @@ fn run_compare(a: CompareArgs) -> Result<()> {
         reference_spp: (a.reference_spp > 0).then_some(a.reference_spp),
         reference_cache: a.reference_cache.clone(),
     };
-    let rows = stereocache::compare::compare(&session, &cameras, &settings, &opts)?;
-    print!("{}", stereocache::compare::summary_table(&rows));
+    let cmp = stereocache::compare::compare(&session, &cameras, &settings, &opts)?;
+    print!("{}", stereocache::compare::summary_table(&cmp.rows));
+    print_reference_noise(&cmp);
     let report = stereocache::report::write_report(&a.out)?;
     println!(
         "wrote {} (summary.csv, summary.json, side-by-side/, one folder per method)",
@@ -487,6 +491,27 @@ fn run_compare(a: CompareArgs) -> Result<()> {
     );
     println!("report: {}", report.display());
     report_validation(&session.ctx)
+}
+
+/// The reference's estimated error under a compare table, and the one
+/// `warning:` line when it is not small against the best method's.
+fn print_reference_noise(cmp: &stereocache::compare::Comparison) {
+    let Some(r) = &cmp.reference else { return };
+    println!(
+        "reference: {} spp (two independent halves of {}), estimated RSE {:.4} ± {:.4}, MSE {:.3e} against the converged image{}",
+        r.spp,
+        r.half_spp,
+        r.rse,
+        r.rse_stderr,
+        r.mse,
+        match (&r.best_method, r.ratio_to_best) {
+            (Some(m), Some(x)) => format!(" ({x:.3}x the best method's RSE, {m})"),
+            _ => String::new(),
+        }
+    );
+    if let Some(w) = &r.warning {
+        eprintln!("warning: {w}");
+    }
 }
 
 #[derive(Subcommand)]
@@ -1066,6 +1091,7 @@ fn run(cli: Cli) -> Result<()> {
             if frames == 0 || reference_spp == 0 {
                 bail!("bad --frames/--reference-spp: both must be at least 1");
             }
+            stereocache::evaluate::check_reference_spp(reference_spp)?;
             let trace_data = PoseTrace::read_csv(&trace)?;
             let session = scene.open(&gpu)?;
             let cameras = trace_cameras(
@@ -1116,14 +1142,16 @@ fn run(cli: Cli) -> Result<()> {
                 reference_spp: Some(reference_spp),
                 reference_cache,
             };
-            let rows =
+            let cmp =
                 stereocache::compare::compare_configs(&session, &cameras, &configs, &base, &opts)?;
+            let rows = &cmp.rows;
             let summary_csv = out.join("summary.csv");
             let csv = std::fs::read(&summary_csv)
                 .with_context(|| format!("{}: cannot read", summary_csv.display()))?;
             output::write_file(&out.join("tradeoff.csv"), &csv)?;
-            print!("{}", stereocache::compare::summary_table(&rows));
-            print!("{}", stereocache::bench::tradeoff_ratios(&rows));
+            print!("{}", stereocache::compare::summary_table(rows));
+            print_reference_noise(&cmp);
+            print!("{}", stereocache::bench::tradeoff_ratios(rows));
             let report = stereocache::report::write_report(&out)?;
             println!(
                 "wrote {} (tradeoff.csv, report: {})",
