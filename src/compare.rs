@@ -187,7 +187,7 @@ impl ReferenceSummary {
                 let s = suggested_reference_spp(spp, n.rse, *b);
                 sum.suggested_spp = Some(s);
                 sum.warning = Some(format!(
-                    "the reference ({spp} spp) has an estimated RSE of {:.4} ± {:.4} against the converged image, {r:.2}x the best method's ({name}, RSE {b:.4}); above {REFERENCE_NOISE_RATIO}x every method's error is inflated by the reference's noise: use --reference-spp {s} or more",
+                    "the reference ({spp} spp) has an estimated RSE of {:.4} ± {:.1e} against the converged image, {r:.2}x the best method's ({name}, RSE {b:.4}); above {REFERENCE_NOISE_RATIO}x every method's error is inflated by the reference's noise: use --reference-spp {s} or more",
                     n.rse, n.rse_stderr
                 ));
             }

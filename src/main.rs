@@ -498,7 +498,7 @@ fn run_compare(a: CompareArgs) -> Result<()> {
 fn print_reference_noise(cmp: &stereocache::compare::Comparison) {
     let Some(r) = &cmp.reference else { return };
     println!(
-        "reference: {} spp (two independent halves of {}), estimated RSE {:.4} ± {:.4}, MSE {:.3e} against the converged image{}",
+        "reference: {} spp (two independent halves of {}), estimated RSE {:.4} ± {:.1e}, MSE {:.3e} against the converged image{}",
         r.spp,
         r.half_spp,
         r.rse,

@@ -24,6 +24,14 @@ pub enum OutputError {
 }
 
 impl OutputError {
+    /// The final path and the problem (`cannot write: ...`), for error
+    /// types of other modules that name the file themselves.
+    pub fn into_parts(self) -> (PathBuf, String) {
+        match self {
+            OutputError::Write { path, message } => (path, format!("cannot write: {message}")),
+        }
+    }
+
     fn new(path: &Path, message: impl std::fmt::Display) -> Self {
         OutputError::Write {
             path: path.to_path_buf(),

@@ -112,7 +112,7 @@ pub fn page(d: &ReportData) -> Result<String> {
             reference["spp"],
             reference["half_spp"],
             fmt(Some(rse)),
-            fmt(reference["rse_stderr"].as_f64()),
+            reference["rse_stderr"].as_f64().map(|v| format!("{v:.1e}")).unwrap_or_else(|| "–".into()),
             reference["mse"].as_f64().map(|v| format!("{v:.3e}")).unwrap_or_else(|| "–".into()),
             match (reference["best_method"].as_str(), reference["ratio_to_best"].as_f64()) {
                 (Some(m), Some(x)) => format!(", {x:.3}× the best method's RSE ({})", esc(m)),
