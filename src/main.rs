@@ -383,8 +383,11 @@ struct CompareArgs {
     /// Magnification of the centre crop in the side-by-side grids.
     #[arg(long, default_value_t = 3)]
     zoom: u32,
-    /// Samples per pixel of the reference frames the metrics use (0 = no metrics).
-    #[arg(long, default_value_t = 64)]
+    /// Samples per pixel of the reference frames the metrics use (0 = no
+    /// metrics; even: two independent halves). 128: the shipped scenes' main
+    /// job then has a reference RSE below 0.1x the best method's (hairball
+    /// 0.027x, Cornell box 0.091x; docs/PERFORMANCE.md has the rule).
+    #[arg(long, default_value_t = 128)]
     reference_spp: u32,
     /// Where reference frames are cached between runs.
     #[arg(long, default_value = "out/reference-cache")]
@@ -668,8 +671,8 @@ enum BenchCommand {
         size: String,
         #[arg(long, default_value_t = 3)]
         bounces: u32,
-        /// Samples per pixel of the reference frames.
-        #[arg(long, default_value_t = 64)]
+        /// Samples per pixel of the reference frames (even; as `compare`).
+        #[arg(long, default_value_t = 128)]
         reference_spp: u32,
         #[arg(long, default_value = "out/reference-cache")]
         reference_cache: PathBuf,
