@@ -11,4 +11,4 @@ cargo build --release --locked
 methods="sample-cache,hash-cache,hybrid,taa,naive"
 ./target/release/stereocache compare --scene hairball --trace captures/mmsys18-user1.csv \
   --methods "$methods" --frames 24 --size 96x72 --rt software --stereo-blend moments \
-  --reference-spp 64 --out out/compare "$@"
+  --reference-spp 128 --out out/compare "$@"

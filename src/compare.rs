@@ -5,12 +5,22 @@
 //!   left eye, right eye, and a zoomed crop of each, for the chosen frames;
 //! - `summary.csv` and `summary.json` — one row per method: mean and p95
 //!   GPU ms per frame, mean ms per pass, rays, memory of the method's buffers,
-//!   and a `metrics` map that the metrics work fills (empty until then).
+//!   and the `metrics` against the reference (with `rse_reference` and
+//!   `mse_reference`, the reference's own estimated error, beside `rse` and
+//!   `mse`); summary.json also has `reference` ([`ReferenceSummary`]).
+//!
+//! The reference is rendered as two independent halves of `spp/2` samples
+//! (different seeds) whose mean is the reference; their difference estimates
+//! its own error ([`crate::metrics::reference_noise`]). When that error is
+//! above [`REFERENCE_NOISE_RATIO`] × the best method's RSE, the comparison
+//! carries a warning (printed by the CLI as one `warning:` line, shown in the
+//! report) with the `--reference-spp` that would suffice.
 
 use crate::camera::StereoCamera;
 use crate::error::{Error, Result};
-use crate::evaluate::{Evaluator, ReferenceCache};
+use crate::evaluate::{half_seeds, Evaluator, ReferenceCache, ReferenceFrame};
 use crate::methods::{RenderSettings, StereoFrame};
+use crate::metrics::ReferenceNoise;
 use crate::output::{self, label, tonemap};
 use crate::replay::{replay_observed, ReplayOptions, ReplaySummary};
 use crate::session::Session;
@@ -33,7 +43,7 @@ pub struct CompareOptions {
     /// Magnification of the centre crop.
     pub zoom: u32,
     /// Samples per pixel of the reference frames the metrics compare against
-    /// (`None`: no metrics).
+    /// (`None`: no metrics); even, rendered as two independent halves.
     pub reference_spp: Option<u32>,
     /// Where reference frames are cached between runs.
     pub reference_cache: PathBuf,
@@ -84,6 +94,116 @@ impl MethodRow {
     }
 }
 
+/// The reference's estimated RSE is "not small" when it exceeds this
+/// fraction of the best method's measured RSE: every measured RSE contains
+/// the reference's (metrics::reference_noise), so at 0.1 the best method's
+/// figure is inflated by up to 10 %, the others' by less.
+pub const REFERENCE_NOISE_RATIO: f64 = 0.1;
+
+/// The reference the metrics used and its own error, estimated from its two
+/// independent halves (`reference` in summary.json).
+#[derive(Clone, Debug, Serialize)]
+pub struct ReferenceSummary {
+    /// Samples per pixel of the reference (the mean of the two halves).
+    pub spp: u32,
+    /// Samples per pixel of each half.
+    pub half_spp: u32,
+    /// The seeds of the two halves.
+    pub half_seeds: [u32; 2],
+    /// Frames (each both eyes) the estimate averages over.
+    pub frames: usize,
+    /// Estimated error of the reference against the converged image, means
+    /// over frames and eyes with standard errors: `rse` is the RSE (ε = 0.01)
+    /// the converged image itself would be measured at against this
+    /// reference, i.e. the part of every method's RSE that is the
+    /// reference's noise; `mse` likewise (linear).
+    pub rse: f64,
+    pub rse_stderr: f64,
+    pub mse: f64,
+    pub mse_stderr: f64,
+    pub estimator: &'static str,
+    /// The method with the lowest measured RSE, and that RSE.
+    pub best_method: Option<String>,
+    pub best_method_rse: Option<f64>,
+    /// `rse / best_method_rse`.
+    pub ratio_to_best: Option<f64>,
+    /// The warning threshold on `ratio_to_best` ([`REFERENCE_NOISE_RATIO`]).
+    pub warning_ratio: f64,
+    /// `--reference-spp` that would bring `ratio_to_best` to the threshold
+    /// ([`suggested_reference_spp`]); present with the warning.
+    pub suggested_spp: Option<u32>,
+    /// The warning printed (without its `warning: ` prefix), if any.
+    pub warning: Option<String>,
+}
+
+/// Reference samples per pixel that bring the reference's RSE to
+/// [`REFERENCE_NOISE_RATIO`] × the best method's, from a run at `spp`:
+/// unbiased Monte Carlo error falls as 1/spp (`ρ' = ρ · spp/S'`), and the
+/// best method's measured RSE is its true RSE plus the reference's (`best =
+/// b + ρ`), so `ρ'/(b + ρ') = k` gives `S' = spp · ρ (1 − k)/(k (best − ρ))`.
+/// When the reference's noise is most of the best method's figure (`best ≤
+/// ρ / (1 − k)`, no estimate of `b`), `S' = spp · ρ/(k · best)`, a lower
+/// bound. Rounded up to a power of two.
+pub fn suggested_reference_spp(spp: u32, rse_ref: f64, best: f64) -> u32 {
+    let k = REFERENCE_NOISE_RATIO;
+    let s = spp as f64;
+    let want = if best > rse_ref / (1.0 - k) {
+        s * rse_ref * (1.0 - k) / (k * (best - rse_ref))
+    } else {
+        s * rse_ref / (k * best)
+    };
+    let want = want.ceil().clamp(2.0, (1u64 << 31) as f64) as u32;
+    want.next_power_of_two()
+}
+
+impl ReferenceSummary {
+    fn new(spp: u32, seed: u32, noise: &[ReferenceNoise], rows: &[MethodRow]) -> Self {
+        let n = ReferenceNoise::mean(noise);
+        let best = rows
+            .iter()
+            .filter_map(|r| r.metrics.get("rse").map(|&v| (r.method.clone(), v)))
+            .filter(|(_, v)| v.is_finite())
+            .min_by(|a, b| a.1.total_cmp(&b.1));
+        let ratio = best.as_ref().map(|(_, b)| n.rse / b);
+        let mut sum = ReferenceSummary {
+            spp,
+            half_spp: spp / 2,
+            half_seeds: half_seeds(seed),
+            frames: noise.len(),
+            rse: n.rse,
+            rse_stderr: n.rse_stderr,
+            mse: n.mse,
+            mse_stderr: n.mse_stderr,
+            estimator: "two independent halves A, B of spp/2: per pixel and channel ((A-B)/2)^2 estimates Var((A+B)/2); rse = mean of ((A-B)/2)^2/(((A+B)/2)^2 + 0.01), mse = mean of ((A-B)/2)^2",
+            best_method: best.as_ref().map(|b| b.0.clone()),
+            best_method_rse: best.as_ref().map(|b| b.1),
+            ratio_to_best: ratio,
+            warning_ratio: REFERENCE_NOISE_RATIO,
+            suggested_spp: None,
+            warning: None,
+        };
+        if let (Some((name, b)), Some(r)) = (&best, ratio) {
+            if r > REFERENCE_NOISE_RATIO || !r.is_finite() {
+                let s = suggested_reference_spp(spp, n.rse, *b);
+                sum.suggested_spp = Some(s);
+                sum.warning = Some(format!(
+                    "the reference ({spp} spp) has an estimated RSE of {:.4} ± {:.1e} against the converged image, {r:.2}x the best method's ({name}, RSE {b:.4}); above {REFERENCE_NOISE_RATIO}x every method's error is inflated by the reference's noise: use --reference-spp {s} or more",
+                    n.rse, n.rse_stderr
+                ));
+            }
+        }
+        sum
+    }
+}
+
+/// What a comparison measured: one row per configuration, and the reference
+/// (when metrics were computed).
+#[derive(Clone, Debug)]
+pub struct Comparison {
+    pub rows: Vec<MethodRow>,
+    pub reference: Option<ReferenceSummary>,
+}
+
 /// Default frames shown side by side: first, middle and last.
 fn default_shown(n: usize) -> Vec<usize> {
     let mut v = vec![0, n / 2, n.saturating_sub(1)];
@@ -106,7 +226,7 @@ pub fn compare(
     cameras: &[StereoCamera],
     settings: &RenderSettings,
     opts: &CompareOptions,
-) -> Result<Vec<MethodRow>> {
+) -> Result<Comparison> {
     if opts.methods.is_empty() {
         return Err(Error::Usage(
             "compare needs at least one method (--methods a,b,...)".into(),
@@ -141,7 +261,7 @@ pub fn compare_configs(
     configs: &[Config],
     reference_settings: &RenderSettings,
     opts: &CompareOptions,
-) -> Result<Vec<MethodRow>> {
+) -> Result<Comparison> {
     let settings = reference_settings;
     if configs.is_empty() {
         return Err(Error::Usage("nothing to compare".into()));
@@ -157,6 +277,9 @@ pub fn compare_configs(
                 "configuration label '{l}' must be letters, digits, '-', '_', '.', '='"
             )));
         }
+    }
+    if let Some(spp) = opts.reference_spp {
+        crate::evaluate::check_reference_spp(spp)?;
     }
     let n = opts.frames.unwrap_or(cameras.len()).min(cameras.len());
     if n == 0 {
@@ -182,8 +305,9 @@ pub fn compare_configs(
         with_debug.hash.debug_views = true;
         methods.push(session.method(&c.method, &with_debug)?);
     }
-    // Reference frames (rendered once, cached on disk) for the metrics.
-    let references: Vec<StereoFrame> = match opts.reference_spp {
+    // Reference frames (rendered once as two independent halves, cached on
+    // disk) for the metrics.
+    let references: Vec<ReferenceFrame> = match opts.reference_spp {
         None => Vec::new(),
         Some(spp) => {
             let rs = RenderSettings {
@@ -191,15 +315,11 @@ pub fn compare_configs(
                 seed: reference_seed(settings.seed),
                 ..settings.clone()
             };
-            let cache = ReferenceCache {
-                dir: opts.reference_cache.clone(),
-                settings: rs.clone(),
-            };
-            let mut reference = session.method("reference", &rs)?;
+            let mut cache = ReferenceCache::new(opts.reference_cache.clone(), rs)?;
             cameras[..n]
                 .iter()
                 .enumerate()
-                .map(|(i, c)| cache.get(session, reference.as_mut(), c, i as u32))
+                .map(|(i, c)| cache.get(session, c, i as u32))
                 .collect::<Result<_>>()?
         }
     };
@@ -250,8 +370,12 @@ pub fn compare_configs(
             opts.zoom.max(1),
         )?;
     }
-    write_summaries(session, opts, settings, &rows)?;
-    Ok(rows)
+    let reference = opts.reference_spp.map(|spp| {
+        let noise: Vec<ReferenceNoise> = references.iter().map(|r| r.noise).collect();
+        ReferenceSummary::new(spp, reference_seed(settings.seed), &noise, &rows)
+    });
+    write_summaries(session, opts, settings, &rows, reference.as_ref())?;
+    Ok(Comparison { rows, reference })
 }
 
 /// |left reprojected into the right view − right| on co-visible pixels
@@ -378,17 +502,7 @@ fn write_grid(
         }
         .text(gap + 2, row_y(r as u32) + 2, cap, 1, [255, 255, 0]);
     }
-    output::write_atomically(path, |tmp| {
-        image::save_buffer_with_format(
-            tmp,
-            &img,
-            gw,
-            gh,
-            image::ColorType::Rgb8,
-            image::ImageFormat::Png,
-        )
-        .map_err(|e| e.to_string())
-    })?;
+    output::write_encoded(path, |out| output::encode_png_rgb8(out, gw, gh, &img))?;
     Ok(())
 }
 
@@ -423,6 +537,7 @@ fn write_summaries(
     opts: &CompareOptions,
     settings: &RenderSettings,
     rows: &[MethodRow],
+    reference: Option<&ReferenceSummary>,
 ) -> Result<()> {
     let mut passes: Vec<String> = rows
         .iter()
@@ -476,9 +591,7 @@ fn write_summaries(
         csv.push('\n');
     }
     let csv_path = opts.out.join("summary.csv");
-    output::write_atomically(&csv_path, |tmp| {
-        std::fs::write(tmp, &csv).map_err(|e| e.to_string())
-    })?;
+    output::write_text(&csv_path, &csv)?;
     let caps = &session.ctx.caps;
     let json = serde_json::json!({
         "device": caps.name,
@@ -490,6 +603,7 @@ fn write_summaries(
         "height": settings.height,
         "fps": opts.fps,
         "settings": settings,
+        "reference": reference,
         "methods": rows,
     });
     output::write_json(&opts.out.join("summary.json"), &json)?;

@@ -4,14 +4,17 @@
 //! instability (frame t−1 reprojected into t, method minus reference) and
 //! stereo discrepancy (left reprojected into right, with the reference
 //! pair's own discrepancy beside it so view-dependent effects are not
-//! counted as error).
+//! counted as error). The reference is rendered as two independent halves;
+//! their difference estimates its own error (`rse_reference`,
+//! `mse_reference`, [`crate::metrics::reference_noise`]), which every
+//! method's measured error contains.
 
 use crate::camera::{Eye, StereoCamera};
 use crate::error::{Error, Result};
 use crate::methods::{EyeImage, FrameInput, Method, RenderSettings, StereoFrame};
 use crate::metrics::{
-    stereo::stereo_discrepancy, temporal::temporal_instability, ImageMetrics, LinearImage,
-    ViewBuffers,
+    half_split_error, mean_of_halves, stereo::stereo_discrepancy, temporal::temporal_instability,
+    ImageMetrics, LinearImage, ReferenceNoise, ViewBuffers, RSE_EPSILON,
 };
 use crate::session::Session;
 use std::collections::BTreeMap;
@@ -20,20 +23,84 @@ use std::path::{Path, PathBuf};
 /// Relative depth tolerance of co-visibility in the reprojection metrics.
 pub const DEPTH_TOLERANCE: f32 = 0.01;
 
-/// Reference frames rendered by the `reference` method at `spp`, cached in
-/// `dir` under a key of scene, pose, size and settings, so a compare run
-/// does not recompute them.
+/// The seeds of the two half references of a reference drawn with `seed`
+/// (itself [`crate::compare::reference_seed`] of the methods' seed). Both
+/// differ from the methods' seed and from each other (xor with distinct
+/// non-zero constants), and the shaders hash the seed before use
+/// (`rng_init`), so the halves' random numbers are independent.
+pub fn half_seeds(seed: u32) -> [u32; 2] {
+    [seed, seed ^ 0x85EB_CA6B]
+}
+
+/// A reference frame as the metrics use it: the mean of two independent
+/// half-sample references (`spp/2` each, [`half_seeds`]), and the error of
+/// that mean against the converged image, estimated from the halves
+/// ([`crate::metrics::reference_noise`]; mean over both eyes).
+#[derive(Clone)]
+pub struct ReferenceFrame {
+    /// `(A + B)/2`: radiance is the halves' mean; depth and first hits are
+    /// the pixel-centre primary hits, which do not depend on the seed.
+    pub frame: StereoFrame,
+    pub noise: ReferenceNoise,
+}
+
+impl ReferenceFrame {
+    /// The mean of `halves` and its estimated error.
+    pub fn from_halves(halves: [StereoFrame; 2]) -> Result<Self> {
+        let [a, b] = halves;
+        let (w, h) = (a.width, a.height);
+        if (b.width, b.height) != (w, h) {
+            return Err(Error::Usage(format!(
+                "reference halves of different sizes: {w}x{h} and {}x{}",
+                b.width, b.height
+            )));
+        }
+        let m = |e: crate::metrics::MetricsError| Error::Usage(format!("metrics: {e}"));
+        let mut noise = Vec::new();
+        let mut frame = a.clone();
+        for e in 0..2 {
+            let (ia, ib) = (image(&a.eyes[e], w, h)?, image(&b.eyes[e], w, h)?);
+            noise.push(half_split_error(&ia, &ib, RSE_EPSILON).map_err(m)?);
+            let mean = mean_of_halves(&ia, &ib).map_err(m)?;
+            frame.eyes[e].radiance = mean.rgb.iter().map(|p| [p[0], p[1], p[2], 1.0]).collect();
+        }
+        frame.stats.rays.primary += b.stats.rays.primary;
+        frame.stats.rays.bounce += b.stats.rays.bounce;
+        frame.stats.rays.shadow += b.stats.rays.shadow;
+        Ok(ReferenceFrame {
+            frame,
+            noise: ReferenceNoise::mean(&noise),
+        })
+    }
+}
+
+/// Reference frames rendered by the `reference` method at `settings.spp`
+/// samples per pixel as two independent halves of `spp/2` ([`half_seeds`] of
+/// `settings.seed`), cached in `dir` (both halves) under a key of scene,
+/// pose, size and settings, so a compare run does not recompute them.
 pub struct ReferenceCache {
     pub dir: PathBuf,
     pub settings: RenderSettings,
+    /// The two half renderers, created on the first frame not in the cache.
+    renderers: Option<[Box<dyn Method>; 2]>,
 }
 
 impl ReferenceCache {
+    /// A cache for references of `settings` (`spp` even and at least 2).
+    pub fn new(dir: PathBuf, settings: RenderSettings) -> Result<Self> {
+        check_reference_spp(settings.spp)?;
+        Ok(ReferenceCache {
+            dir,
+            settings,
+            renderers: None,
+        })
+    }
+
     /// FNV-1a hash of everything that determines the image.
     fn key(&self, session: &Session, cam: &StereoCamera, index: u32) -> String {
         let s = &self.settings;
         let text = format!(
-            "v1|{}|{}|{:?}|{:?}|{:?}|{}|{}|{}x{}|spp{}|b{}|seed{}|frame{}|{}",
+            "v2-halves|{}|{}|{:?}|{:?}|{:?}|{}|{}|{}x{}|spp{}|b{}|seed{}|frame{}|{}",
             session.scene.source.display(),
             session.scene_gpu.triangle_count,
             cam.world_position().to_array().map(f64::to_bits),
@@ -57,55 +124,90 @@ impl ReferenceCache {
         format!("{h:016x}")
     }
 
-    /// The reference for frame `index` at `cam`: read from the cache, or rendered and stored.
+    /// The reference for frame `index` at `cam`: read from the cache, or
+    /// rendered (both halves) and stored.
     pub fn get(
-        &self,
+        &mut self,
         session: &Session,
-        method: &mut dyn Method,
         cam: &StereoCamera,
         index: u32,
-    ) -> Result<StereoFrame> {
+    ) -> Result<ReferenceFrame> {
         let path = self
             .dir
             .join(format!("{}.ref", self.key(session, cam, index)));
-        if let Some(f) = read_frame(&path, self.settings.width, self.settings.height) {
-            return Ok(f);
-        }
-        let f = method.render_frame(&FrameInput {
-            index,
-            camera: *cam,
-            prev_camera: None,
-        })?;
-        std::fs::create_dir_all(&self.dir).map_err(|e| Error::io(&self.dir, e))?;
-        write_frame(&path, &f)?;
-        Ok(f)
+        let halves = match read_halves(&path, self.settings.width, self.settings.height) {
+            Some(h) => h,
+            None => {
+                if self.renderers.is_none() {
+                    let [sa, sb] = half_seeds(self.settings.seed);
+                    let half = |seed| RenderSettings {
+                        spp: self.settings.spp / 2,
+                        seed,
+                        ..self.settings.clone()
+                    };
+                    self.renderers = Some([
+                        session.method("reference", &half(sa))?,
+                        session.method("reference", &half(sb))?,
+                    ]);
+                }
+                let input = FrameInput {
+                    index,
+                    camera: *cam,
+                    prev_camera: None,
+                };
+                let [ra, rb] = self.renderers.as_mut().expect("created above");
+                let halves = [ra.render_frame(&input)?, rb.render_frame(&input)?];
+                std::fs::create_dir_all(&self.dir).map_err(|e| Error::io(&self.dir, e))?;
+                write_halves(&path, &halves)?;
+                halves
+            }
+        };
+        ReferenceFrame::from_halves(halves)
     }
 }
 
-const MAGIC: &[u8; 8] = b"SCREF01\n";
+/// `--reference-spp` must split into two equal halves.
+pub fn check_reference_spp(spp: u32) -> Result<()> {
+    if spp >= 2 && spp % 2 == 0 {
+        Ok(())
+    } else {
+        Err(Error::Usage(format!(
+            "bad --reference-spp {spp}: expected an even number of at least 2 (the reference is rendered as two independent halves of spp/2 samples, whose difference estimates its own error)"
+        )))
+    }
+}
 
-fn write_frame(path: &Path, f: &StereoFrame) -> Result<()> {
+const MAGIC: &[u8; 8] = b"SCREF02\n";
+
+/// Both halves: header, radiance of half A (left, right), of half B (left,
+/// right), then depth and first hits (left, right) once — they come from the
+/// pixel-centre primary rays and are the same in both halves.
+fn write_halves(path: &Path, f: &[StereoFrame; 2]) -> Result<()> {
     let mut bytes = Vec::new();
     bytes.extend_from_slice(MAGIC);
-    bytes.extend_from_slice(&f.width.to_le_bytes());
-    bytes.extend_from_slice(&f.height.to_le_bytes());
-    for e in &f.eyes {
-        bytes.extend_from_slice(bytemuck::cast_slice(&e.radiance));
+    bytes.extend_from_slice(&f[0].width.to_le_bytes());
+    bytes.extend_from_slice(&f[0].height.to_le_bytes());
+    for half in f {
+        for e in &half.eyes {
+            bytes.extend_from_slice(bytemuck::cast_slice(&e.radiance));
+        }
+    }
+    for e in &f[0].eyes {
         bytes.extend_from_slice(bytemuck::cast_slice(&e.depth));
         bytes.extend_from_slice(bytemuck::cast_slice(&e.first_hit));
     }
-    crate::output::write_atomically(path, |tmp| {
-        std::fs::write(tmp, &bytes).map_err(|e| e.to_string())
-    })?;
+    crate::output::write_file(path, &bytes)?;
     Ok(())
 }
 
-/// Reads a cached reference; `None` when absent, truncated or of another size.
-fn read_frame(path: &Path, width: u32, height: u32) -> Option<StereoFrame> {
+/// Reads cached halves; `None` when absent, truncated, of another size or
+/// of an older format.
+fn read_halves(path: &Path, width: u32, height: u32) -> Option<[StereoFrame; 2]> {
     let bytes = std::fs::read(path).ok()?;
     let n = (width * height) as usize;
-    let per_eye = n * (16 + 4 + 16);
-    if bytes.len() != 16 + 2 * per_eye || &bytes[..8] != MAGIC {
+    let rad = n * 16;
+    let geo = n * (4 + 16);
+    if bytes.len() != 16 + 4 * rad + 2 * geo || &bytes[..8] != MAGIC {
         return None;
     }
     let w = u32::from_le_bytes(bytes[8..12].try_into().ok()?);
@@ -113,22 +215,25 @@ fn read_frame(path: &Path, width: u32, height: u32) -> Option<StereoFrame> {
     if (w, h) != (width, height) {
         return None;
     }
-    let eye = |k: usize| {
-        let b = &bytes[16 + k * per_eye..16 + (k + 1) * per_eye];
+    let body = &bytes[16..];
+    let eye = |half: usize, e: usize| {
+        let r = &body[(2 * half + e) * rad..(2 * half + e + 1) * rad];
+        let g = &body[4 * rad + e * geo..4 * rad + (e + 1) * geo];
         EyeImage {
-            radiance: bytemuck::pod_collect_to_vec(&b[..n * 16]),
-            depth: bytemuck::pod_collect_to_vec(&b[n * 16..n * 20]),
-            first_hit: bytemuck::pod_collect_to_vec(&b[n * 20..]),
+            radiance: bytemuck::pod_collect_to_vec(r),
+            depth: bytemuck::pod_collect_to_vec(&g[..n * 4]),
+            first_hit: bytemuck::pod_collect_to_vec(&g[n * 4..]),
             albedo: Vec::new(),
             debug: Vec::new(),
         }
     };
-    Some(StereoFrame {
+    let frame = |half: usize| StereoFrame {
         width,
         height,
-        eyes: [eye(0), eye(1)],
+        eyes: [eye(half, 0), eye(half, 1)],
         stats: Default::default(),
-    })
+    };
+    Some([frame(0), frame(1)])
 }
 
 fn image(e: &EyeImage, w: u32, h: u32) -> Result<LinearImage> {
@@ -159,13 +264,16 @@ fn views<'a>(
 }
 
 impl Evaluator {
-    /// Metrics of `frame` (rendered at `cam`) against `reference`, averaged over both eyes.
+    /// Metrics of `frame` (rendered at `cam`) against `reference`, averaged
+    /// over both eyes, with the reference's own estimated error beside them
+    /// (`rse_reference`, `mse_reference`: the floor under `rse` and `mse`).
     pub fn frame(
         &mut self,
         cam: &StereoCamera,
         frame: &StereoFrame,
-        reference: &StereoFrame,
+        reference_frame: &ReferenceFrame,
     ) -> Result<BTreeMap<String, f64>> {
+        let reference = &reference_frame.frame;
         let (w, h) = (frame.width, frame.height);
         let m = |e: crate::metrics::MetricsError| Error::Usage(format!("metrics: {e}"));
         let views_now = cam.eyes();
@@ -242,6 +350,9 @@ impl Evaluator {
         out.insert("stereo_mean_reference".into(), sr.mean as f64);
         out.insert("stereo_p95_reference".into(), sr.p95 as f64);
         out.insert("stereo_excess".into(), (sm.mean - sr.mean) as f64);
+        // The reference's own error: the floor under `rse` and `mse`.
+        out.insert("rse_reference".into(), reference_frame.noise.rse);
+        out.insert("mse_reference".into(), reference_frame.noise.mse);
         for (k, v) in &out {
             let s = self.sums.entry(k.clone()).or_insert((0.0, 0));
             s.0 += v;

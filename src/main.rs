@@ -387,8 +387,11 @@ struct CompareArgs {
     /// Magnification of the centre crop in the side-by-side grids.
     #[arg(long, default_value_t = 3)]
     zoom: u32,
-    /// Samples per pixel of the reference frames the metrics use (0 = no metrics).
-    #[arg(long, default_value_t = 64)]
+    /// Samples per pixel of the reference frames the metrics use (0 = no
+    /// metrics; even: two independent halves). 128: the shipped scenes' main
+    /// job then has a reference RSE below 0.1x the best method's (hairball
+    /// 0.027x, Cornell box 0.091x; docs/PERFORMANCE.md has the rule).
+    #[arg(long, default_value_t = 128)]
     reference_spp: u32,
     /// Where reference frames are cached between runs.
     #[arg(long, default_value = "out/reference-cache")]
@@ -451,6 +454,9 @@ fn run_compare(a: CompareArgs) -> Result<()> {
                 })?,
         ),
     };
+    if a.reference_spp > 0 {
+        stereocache::evaluate::check_reference_spp(a.reference_spp)?;
+    }
     let select = a.camera.select()?;
     let (fov, ipd) = (a.camera.fov_radians()?, a.camera.ipd()?);
     let trace = PoseTrace::read_csv(&a.trace)?;
@@ -482,8 +488,9 @@ fn run_compare(a: CompareArgs) -> Result<()> {
         reference_spp: (a.reference_spp > 0).then_some(a.reference_spp),
         reference_cache: a.reference_cache.clone(),
     };
-    let rows = stereocache::compare::compare(&session, &cameras, &settings, &opts)?;
-    print!("{}", stereocache::compare::summary_table(&rows));
+    let cmp = stereocache::compare::compare(&session, &cameras, &settings, &opts)?;
+    print!("{}", stereocache::compare::summary_table(&cmp.rows));
+    print_reference_noise(&cmp);
     let report = stereocache::report::write_report(&a.out)?;
     println!(
         "wrote {} (summary.csv, summary.json, side-by-side/, one folder per method)",
@@ -491,6 +498,27 @@ fn run_compare(a: CompareArgs) -> Result<()> {
     );
     println!("report: {}", report.display());
     report_validation(&session.ctx)
+}
+
+/// The reference's estimated error under a compare table, and the one
+/// `warning:` line when it is not small against the best method's.
+fn print_reference_noise(cmp: &stereocache::compare::Comparison) {
+    let Some(r) = &cmp.reference else { return };
+    println!(
+        "reference: {} spp (two independent halves of {}), estimated RSE {:.4} ± {:.1e}, MSE {:.3e} against the converged image{}",
+        r.spp,
+        r.half_spp,
+        r.rse,
+        r.rse_stderr,
+        r.mse,
+        match (&r.best_method, r.ratio_to_best) {
+            (Some(m), Some(x)) => format!(" ({x:.3}x the best method's RSE, {m})"),
+            _ => String::new(),
+        }
+    );
+    if let Some(w) = &r.warning {
+        eprintln!("warning: {w}");
+    }
 }
 
 #[derive(Subcommand)]
@@ -647,8 +675,8 @@ enum BenchCommand {
         size: String,
         #[arg(long, default_value_t = 3)]
         bounces: u32,
-        /// Samples per pixel of the reference frames.
-        #[arg(long, default_value_t = 64)]
+        /// Samples per pixel of the reference frames (even; as `compare`).
+        #[arg(long, default_value_t = 128)]
         reference_spp: u32,
         #[arg(long, default_value = "out/reference-cache")]
         reference_cache: PathBuf,
@@ -1192,6 +1220,7 @@ fn run(cli: Cli) -> Result<()> {
             if frames == 0 || reference_spp == 0 {
                 bail!("bad --frames/--reference-spp: both must be at least 1");
             }
+            stereocache::evaluate::check_reference_spp(reference_spp)?;
             let trace_data = PoseTrace::read_csv(&trace)?;
             let session = scene.open(&gpu)?;
             let cameras = trace_cameras(
@@ -1242,12 +1271,16 @@ fn run(cli: Cli) -> Result<()> {
                 reference_spp: Some(reference_spp),
                 reference_cache,
             };
-            let rows =
+            let cmp =
                 stereocache::compare::compare_configs(&session, &cameras, &configs, &base, &opts)?;
-            std::fs::copy(out.join("summary.csv"), out.join("tradeoff.csv"))
-                .with_context(|| format!("{}: cannot write tradeoff.csv", out.display()))?;
-            print!("{}", stereocache::compare::summary_table(&rows));
-            print!("{}", stereocache::bench::tradeoff_ratios(&rows));
+            let rows = &cmp.rows;
+            let summary_csv = out.join("summary.csv");
+            let csv = std::fs::read(&summary_csv)
+                .with_context(|| format!("{}: cannot read", summary_csv.display()))?;
+            output::write_file(&out.join("tradeoff.csv"), &csv)?;
+            print!("{}", stereocache::compare::summary_table(rows));
+            print_reference_noise(&cmp);
+            print!("{}", stereocache::bench::tradeoff_ratios(rows));
             let report = stereocache::report::write_report(&out)?;
             println!(
                 "wrote {} (tradeoff.csv, report: {})",
@@ -1736,7 +1769,7 @@ fn run_bench_specialization(a: BenchSpecArgs) -> Result<()> {
     print!("{}", stereocache::bench::spec_table(&rows));
     if let Some(out) = &a.out {
         let csv = stereocache::bench::spec_csv(&rows);
-        output::write_atomically(out, |p| std::fs::write(p, &csv).map_err(|e| e.to_string()))?;
+        output::write_text(out, &csv)?;
         println!("wrote {}", out.display());
     }
     report_validation(&ctx)

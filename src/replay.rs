@@ -12,8 +12,13 @@
 //!   debug view as `frames/{index:05}_{eye}_{view}.png` (clamped, not tonemapped);
 //! - `frames.jsonl`: one JSON object per frame ([`FrameRecord`]), written line
 //!   by line as `frames.jsonl.partial` and renamed when the last frame is done,
-//!   so an interrupted run never leaves a file that looks complete;
+//!   so an interrupted run never leaves a file that looks complete (a run that
+//!   fails removes it);
 //! - `summary.json`: [`ReplaySummary`].
+//!
+//! Every file goes through [`output::atomic`]: a failed write (a full disk)
+//! fails the replay with an error naming the file and leaves nothing under
+//! its final name.
 //!
 //! Stale `frames.jsonl` and `summary.json` of an earlier run in the same
 //! directory are removed before the first frame, so they cannot be mistaken
@@ -27,7 +32,7 @@ use crate::output;
 use crate::session::{CameraSelect, Session};
 use serde::Serialize;
 use std::collections::BTreeMap;
-use std::io::{IsTerminal, Write};
+use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -257,16 +262,21 @@ pub struct ReplaySummary {
     pub every: usize,
     /// Frames whose images were written.
     pub images_written: usize,
+    /// Mean GPU time per frame over **all** frames, frame 0 included.
     pub mean_gpu_ms: f64,
-    /// 95th percentile (nearest rank) of the per-frame GPU time.
+    /// 95th percentile (nearest rank) of the per-frame GPU time, all frames.
     pub p95_gpu_ms: f64,
     /// GPU time of frame 0, which carries the driver's one-time costs
     /// (lavapipe compiles pipelines on first use).
     pub first_frame_gpu_ms: f64,
     /// Mean and p95 over the frames after the first (the steady state; equal
-    /// to the plain figures for a one-frame run). Benchmarks quote these.
+    /// to the plain figures for a one-frame run). Benchmarks, `compare` and
+    /// the printed summary quote these.
     pub steady_mean_gpu_ms: f64,
     pub steady_p95_gpu_ms: f64,
+    /// The frames the steady figures cover: `frames − 1` (frames 1.. ), or 1
+    /// for a one-frame run, whose only frame then includes the first-use costs.
+    pub steady_frames: usize,
     /// Mean milliseconds per frame of each pass name (0 for frames without it).
     pub pass_mean_ms: BTreeMap<String, f64>,
     /// The same over the frames after the first (what the per-pass
@@ -297,11 +307,19 @@ impl std::fmt::Display for ReplaySummary {
             self.backend,
             self.device
         )?;
+        // Steady state as `compare` reports it: frame 0 carries the driver's
+        // one-time costs (lavapipe compiles pipelines on first use).
+        let steady = if self.frames > 1 {
+            format!("frames 1-{}", self.frames - 1)
+        } else {
+            "one frame, first-use costs included".to_string()
+        };
         writeln!(
             f,
-            "GPU {:.2} ms/frame (p95 {:.2} ms), {} rays/frame, wall {:.1} s",
-            self.mean_gpu_ms,
-            self.p95_gpu_ms,
+            "GPU {:.2} ms/frame steady ({steady}; p95 {:.2} ms), first frame {:.2} ms, {} rays/frame, wall {:.1} s",
+            self.steady_mean_gpu_ms,
+            self.steady_p95_gpu_ms,
+            self.first_frame_gpu_ms,
             si(self.rays_per_frame),
             self.wall_s
         )?;
@@ -371,8 +389,7 @@ pub fn replay_observed(
             _ => {}
         }
     }
-    let partial = out.join("frames.jsonl.partial");
-    let mut lines = std::fs::File::create(&partial).map_err(|e| Error::io(&partial, e))?;
+    let mut lines = output::AtomicFile::create(&jsonl)?;
 
     let progress = progress_bar(n);
     let start = Instant::now();
@@ -400,14 +417,12 @@ pub fn replay_observed(
         record.metrics = metrics;
         let mut line = serde_json::to_string(&record).map_err(|e| {
             Error::io(
-                &partial,
+                &jsonl,
                 std::io::Error::new(std::io::ErrorKind::InvalidData, e),
             )
         })?;
         line.push('\n');
-        lines
-            .write_all(line.as_bytes())
-            .map_err(|e| Error::io(&partial, e))?;
+        lines.write_all(line.as_bytes())?;
 
         for (name, ms) in &record.passes {
             *pass_sums.entry(name.clone()).or_insert(0.0) += ms;
@@ -427,9 +442,7 @@ pub fn replay_observed(
     }
     let wall_s = start.elapsed().as_secs_f64();
     progress.finish_and_clear();
-    lines.sync_all().map_err(|e| Error::io(&partial, e))?;
-    drop(lines);
-    std::fs::rename(&partial, &jsonl).map_err(|e| Error::io(&jsonl, e))?;
+    lines.commit()?;
 
     let caps = &session.ctx.caps;
     let summary = ReplaySummary {
@@ -457,6 +470,7 @@ pub fn replay_observed(
             if n > 1 { &gpu_ms[1..] } else { &gpu_ms[..] },
             0.95,
         ),
+        steady_frames: if n > 1 { n - 1 } else { 1 },
         pass_mean_ms: pass_sums
             .into_iter()
             .map(|(k, v)| (k, v / n as f64))

@@ -189,3 +189,167 @@ fn reference_frames_are_independent_of_the_methods_samples() {
     assert!(ss < naive, "8 spp ({ss}) should beat 1 spp ({naive})");
     let _ = std::fs::remove_dir_all(&out);
 }
+
+/// `compare --scene plane` along the real user1 trace at 32×24, software
+/// backend, naive (1 spp) only, 2 frames, references at `reference_spp`
+/// cached in `cache`.
+fn compare_plane_naive(out: &Path, cache: &Path, reference_spp: &str) -> std::process::Output {
+    let trace = Path::new(env!("CARGO_MANIFEST_DIR")).join("captures/mmsys18-user1.csv");
+    Command::new(env!("CARGO_BIN_EXE_stereocache"))
+        .env("STEREOCACHE_VALIDATE", "1")
+        .args([
+            "compare",
+            "--scene",
+            "plane",
+            "--trace",
+            trace.to_str().unwrap(),
+        ])
+        .args(["--methods", "naive", "--frames", "2", "--every", "0"])
+        .args([
+            "--size",
+            "32x24",
+            "--rt",
+            "software",
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .args(["--reference-spp", reference_spp])
+        .args(["--reference-cache", cache.to_str().unwrap()])
+        .output()
+        .unwrap()
+}
+
+/// The reference is two independent halves whose difference estimates its
+/// own error, reported beside the methods' (summary.json `reference`, the
+/// `rse_reference` column of summary.csv, the report) with one `warning:`
+/// line when it is above 0.1× the best method's RSE.
+///
+/// Expected figures: naive and the reference are the same unbiased path
+/// tracer at 1 and S spp, so the reference's RSE is ρ₁/S and naive's
+/// measured RSE is ρ₁ + ρ₁/S (its own error plus the reference's): the ratio
+/// is 1/(S + 1) whatever the scene — 0.33 at S = 2 (warns) and 0.03 at S = 32
+/// (does not), each more than 3× away from the 0.1 threshold, far beyond the
+/// estimates' scatter at 2 × 2 × 32×24 pixels (their standard errors are a
+/// few per cent; printed).
+#[test]
+fn the_reference_estimates_its_own_noise_and_warns_when_it_is_not_small() {
+    let base = std::env::temp_dir().join(format!("stereocache-refnoise-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&base);
+    let cache = base.join("refs");
+    let mut seen = Vec::new();
+    for (spp, warns) in [("2", true), ("32", false)] {
+        let out = base.join(format!("spp{spp}"));
+        let o = compare_plane_naive(&out, &cache, spp);
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        let stdout = String::from_utf8_lossy(&o.stdout);
+        assert!(o.status.success(), "{stderr}");
+        let json: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
+        let r = &json["reference"];
+        let (rse, se) = (
+            r["rse"].as_f64().unwrap(),
+            r["rse_stderr"].as_f64().unwrap(),
+        );
+        let naive = json["methods"][0]["metrics"]["rse"].as_f64().unwrap();
+        let ratio = r["ratio_to_best"].as_f64().unwrap();
+        eprintln!(
+            "reference {spp} spp: RSE {rse:.4e} ± {se:.1e}, naive {naive:.4e}, ratio {ratio:.3}"
+        );
+        assert_eq!(r["spp"].as_u64(), spp.parse::<u64>().ok());
+        assert_eq!(
+            r["half_spp"].as_u64().unwrap() * 2,
+            r["spp"].as_u64().unwrap()
+        );
+        assert_eq!(r["best_method"], "naive");
+        assert!(rse > 0.0 && se > 0.0 && se < 0.2 * rse, "RSE {rse} ± {se}");
+        assert!((ratio - rse / naive).abs() < 1e-9 * ratio);
+        // Beside the methods' errors: in their rows and the CSV.
+        let row = &json["methods"][0]["metrics"];
+        assert!((row["rse_reference"].as_f64().unwrap() - rse).abs() < 1e-9 * rse);
+        assert!(row["mse_reference"].as_f64().unwrap() > 0.0);
+        let csv = std::fs::read_to_string(out.join("summary.csv")).unwrap();
+        assert!(
+            csv.lines()
+                .next()
+                .unwrap()
+                .split(',')
+                .any(|h| h == "rse_reference"),
+            "{csv}"
+        );
+        let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+        assert!(
+            html.contains("id=\"reference-noise\""),
+            "report lacks the reference's error"
+        );
+        let warnings: Vec<&str> = stderr
+            .lines()
+            .filter(|l| l.starts_with("warning:"))
+            .collect();
+        assert!(stdout.contains("reference: "), "{stdout}");
+        if warns {
+            assert!(ratio > 0.1, "ratio {ratio}");
+            assert_eq!(warnings.len(), 1, "{stderr}");
+            assert!(
+                warnings[0].contains("the reference (2 spp)")
+                    && warnings[0].contains("--reference-spp"),
+                "{}",
+                warnings[0]
+            );
+            assert!(r["warning"].is_string() && r["suggested_spp"].as_u64().unwrap() > 2);
+            assert!(html.contains("id=\"reference-warning\""));
+        } else {
+            assert!(ratio < 0.1, "ratio {ratio}");
+            assert!(warnings.is_empty(), "{stderr}");
+            assert!(r["warning"].is_null());
+            assert!(!html.contains("id=\"reference-warning\""));
+        }
+        seen.push((rse, r.clone()));
+    }
+    // The cache holds both halves of every frame: 2 frames × 2 runs, each
+    // file a header, 4 radiance images (2 halves × 2 eyes) and depth + first
+    // hits per eye.
+    let n = 32 * 24;
+    let files: Vec<_> = std::fs::read_dir(&cache).unwrap().flatten().collect();
+    assert_eq!(files.len(), 4);
+    for f in &files {
+        assert_eq!(
+            f.metadata().unwrap().len() as usize,
+            16 + 4 * n * 16 + 2 * n * 20
+        );
+    }
+    // A rerun reads them back: the same estimate, no warning lost.
+    let out = base.join("again");
+    let o = compare_plane_naive(&out, &cache, "2");
+    assert!(o.status.success());
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(json["reference"]["rse"], seen[0].1["rse"]);
+    assert_eq!(
+        String::from_utf8_lossy(&o.stderr)
+            .lines()
+            .filter(|l| l.starts_with("warning:"))
+            .count(),
+        1
+    );
+    let _ = std::fs::remove_dir_all(&base);
+}
+
+#[test]
+fn an_odd_reference_spp_is_refused_before_any_work() {
+    let out = std::env::temp_dir().join(format!("stereocache-oddref-{}", std::process::id()));
+    let o = Command::new(env!("CARGO_BIN_EXE_stereocache"))
+        .args(["compare", "--methods", "naive", "--reference-spp", "7"])
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    let errors: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error:")).collect();
+    assert_eq!(errors.len(), 1, "{stderr}");
+    assert!(
+        errors[0].contains("bad --reference-spp 7") && errors[0].contains("even"),
+        "{stderr}"
+    );
+    assert!(!out.exists());
+}

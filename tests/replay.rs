@@ -493,6 +493,9 @@ fn cli_replay_writes_summary_and_prints_it() {
     assert!(o.status.success(), "{stderr}");
     assert!(stdout.contains("replayed 4 frames"), "{stdout}");
     assert!(stdout.contains("ms/frame"), "{stdout}");
+    // Steady-state GPU time, as compare reports it, and the first frame apart.
+    assert!(stdout.contains("ms/frame steady (frames 1-3"), "{stdout}");
+    assert!(stdout.contains("first frame"), "{stdout}");
     assert!(stdout.contains(&out.display().to_string()), "{stdout}");
     // A hidden progress bar: nothing on stderr when it is not a terminal.
     assert!(!stderr.contains("frames ["), "{stderr}");
@@ -503,5 +506,56 @@ fn cli_replay_writes_summary_and_prints_it() {
         serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
     assert_eq!(sum["frames"], 4);
     assert_eq!(sum["settings"]["max_bounces"], 1);
+    assert_eq!(sum["steady_frames"], 3);
+    let steady = sum["steady_mean_gpu_ms"].as_f64().unwrap();
+    assert!(
+        stdout.contains(&format!("GPU {steady:.2} ms/frame steady")),
+        "the printed figure is summary.json's steady_mean_gpu_ms ({steady}): {stdout}"
+    );
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+/// A full disk while a PNG is written fails the replay with one `error:`
+/// line naming the file and leaves nothing under its final name (before,
+/// the encoder's unflushed buffer lost the error and a 0-byte PNG was
+/// renamed into place while the run went on). The disk is `/dev/full`
+/// behind the PNG's temporary name: the file opens, every write fails with
+/// ENOSPC, as on a disk that fills up after a file was created.
+#[cfg(target_os = "linux")]
+#[test]
+fn cli_replay_on_a_full_disk_fails_with_one_error_and_no_file() {
+    let out = out_dir("full-disk");
+    let frames = out.join("frames");
+    std::fs::create_dir_all(&frames).unwrap();
+    std::os::unix::fs::symlink("/dev/full", frames.join("00000_left.png.partial")).unwrap();
+    let o = bin()
+        .args([
+            "replay", "--scene", "cornell", "--size", "16x12", "--spp", "1",
+        ])
+        .args(["--frames", "2", "--bounces", "1"])
+        .arg("--trace")
+        .arg(head_turn())
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success(),
+        "a failed write must fail the command:\n{stderr}"
+    );
+    let errors: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error:")).collect();
+    assert_eq!(errors.len(), 1, "{stderr}");
+    assert!(
+        errors[0].contains("00000_left.png: cannot write") && errors[0].contains("No space left"),
+        "{}",
+        errors[0]
+    );
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    let png = frames.join("00000_left.png");
+    assert!(png.symlink_metadata().is_err(), "{} exists", png.display());
+    assert!(!frames.join("00000_left.png.partial").exists());
+    assert!(!out.join("frames.jsonl").exists() && !out.join("summary.json").exists());
+    assert!(Path::new("/dev/full").exists());
     let _ = std::fs::remove_dir_all(&out);
 }

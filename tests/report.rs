@@ -70,6 +70,7 @@ fn report_is_self_contained_and_matches_the_summary() {
         let table_row = html
             .split("<tr>")
             .find(|r| r.starts_with(&format!("<td>{method}</td>")))
+            .and_then(|r| r.split("</tr>").next())
             .expect("method row in the table");
         for key in ["steady_mean_gpu_ms", "rse", "flip"] {
             let col = header.iter().position(|h| *h == key).unwrap();
@@ -85,6 +86,21 @@ fn report_is_self_contained_and_matches_the_summary() {
             );
         }
     }
+    // The reference's own estimated error has its row, in the RSE column.
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
+    let rse = json["reference"]["rse"]
+        .as_f64()
+        .expect("summary.json reference.rse");
+    let row = html
+        .split("<tr id=\"reference-row\">")
+        .nth(1)
+        .and_then(|r| r.split("</tr>").next())
+        .expect("reference row in the table");
+    assert!(
+        row.contains(&format!("<td>{rse:.4}</td>")),
+        "{rse:.4} not in {row}"
+    );
     let _ = std::fs::remove_dir_all(&out);
 }
 

@@ -40,7 +40,6 @@
 //! interpolating.
 
 use std::fmt::Write as _;
-use std::io::Write as _;
 use std::path::{Path, PathBuf};
 
 use glam::{Quat, Vec3};
@@ -466,22 +465,13 @@ impl PoseTrace {
         out
     }
 
-    /// Writes the CSV format to `path`: first to `<path>.tmp` beside it,
-    /// then renamed over `path`, so a reader never sees a half-written file.
+    /// Writes the CSV format to `path` through the one output path
+    /// (`output::write_text`: `<path>.partial` beside it, synced, renamed
+    /// over `path`), so a reader never sees a half-written file.
     pub fn write_csv(&self, path: impl AsRef<Path>) -> Result<(), TraceError> {
-        let path = path.as_ref();
-        let mut tmp_name = path.file_name().unwrap_or_default().to_os_string();
-        tmp_name.push(".tmp");
-        let tmp = path.with_file_name(tmp_name);
-        let write = || -> std::io::Result<()> {
-            let mut f = std::fs::File::create(&tmp)?;
-            f.write_all(self.to_csv_string().as_bytes())?;
-            f.sync_all()?;
-            std::fs::rename(&tmp, path)
-        };
-        write().map_err(|e| {
-            let _ = std::fs::remove_file(&tmp);
-            io_error(path, e)
+        crate::output::write_text(path.as_ref(), &self.to_csv_string()).map_err(|e| {
+            let (path, problem) = e.into_parts();
+            TraceError::Trace { path, problem }
         })
     }
 

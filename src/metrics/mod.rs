@@ -14,6 +14,8 @@
 //! - [`temporal`]: frame-to-frame reprojected difference.
 //! - [`stereo`]: left-into-right stereo discrepancy (mean, p95, overlap).
 //! - [`summary`]: [`ImageMetrics`], all per-image metrics in one record.
+//! - [`reference_noise`]: the reference's own error, estimated from two
+//!   independent half-sample references.
 //!
 //! Shared conventions: mismatched sizes and empty images are
 //! [`MetricsError`]s, never panics; non-finite input values count as 0
@@ -26,6 +28,7 @@ pub mod error;
 mod filter;
 pub mod flip;
 pub mod image;
+pub mod reference_noise;
 pub mod reproject;
 pub mod ssim;
 pub mod stereo;
@@ -37,6 +40,7 @@ pub use cpbd::{cpbd, CpbdResult};
 pub use error::{mse, psnr, rse, RSE_EPSILON};
 pub use flip::{flip_hdr, flip_ldr, FlipResult, HdrFlipResult, DEFAULT_PPD};
 pub use image::LinearImage;
+pub use reference_noise::{half_split_error, mean_of_halves, ReferenceNoise};
 pub use reproject::{pixel_difference, reproject, FirstHits, ViewBuffers, MISS_INSTANCE};
 pub use ssim::{ssim, SsimResult};
 pub use stereo::{stereo_discrepancy, StereoDiscrepancy};

@@ -88,7 +88,45 @@ pub fn page(d: &ReportData) -> Result<String> {
         }
         h.push_str("</tr>\n");
     }
-    h.push_str("</table>\n<p class=\"note\">");
+    let reference = &s["reference"];
+    if let Some(rse) = reference["rse"].as_f64() {
+        // The reference's own estimated error, in the RSE column.
+        h.push_str(&format!(
+            "<tr id=\"reference-row\"><td>reference ({} spp, estimated)</td><td>{}</td><td>–</td><td>–</td><td>–</td><td>–</td>",
+            reference["spp"], reference["frames"]
+        ));
+        for (k, _) in METRICS {
+            let v = if *k == "rse" {
+                fmt(Some(rse))
+            } else {
+                "–".into()
+            };
+            h.push_str(&format!("<td>{v}</td>"));
+        }
+        h.push_str("</tr>\n");
+    }
+    h.push_str("</table>\n");
+    if let Some(rse) = reference["rse"].as_f64() {
+        h.push_str(&format!(
+            "<p id=\"reference-noise\">The reference: {} spp, rendered as two independent halves of {} spp whose difference estimates its own error: RSE {} ± {}, MSE {} against the converged image{}. Every method's RSE contains this much of the reference's noise.</p>\n",
+            reference["spp"],
+            reference["half_spp"],
+            fmt(Some(rse)),
+            reference["rse_stderr"].as_f64().map(|v| format!("{v:.1e}")).unwrap_or_else(|| "–".into()),
+            reference["mse"].as_f64().map(|v| format!("{v:.3e}")).unwrap_or_else(|| "–".into()),
+            match (reference["best_method"].as_str(), reference["ratio_to_best"].as_f64()) {
+                (Some(m), Some(x)) => format!(", {x:.3}× the best method's RSE ({})", esc(m)),
+                _ => String::new(),
+            }
+        ));
+    }
+    if let Some(w) = reference["warning"].as_str() {
+        h.push_str(&format!(
+            "<p class=\"warning\" id=\"reference-warning\">warning: {}</p>\n",
+            esc(w)
+        ));
+    }
+    h.push_str("<p class=\"note\">");
     for (k, v) in METRICS {
         h.push_str(&format!("<b>{k}</b>: {v}. "));
     }

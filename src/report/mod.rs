@@ -19,8 +19,6 @@ pub fn write_report(dir: &Path) -> Result<PathBuf> {
     let data = load(dir)?;
     let page = html::page(&data)?;
     let path = dir.join("report.html");
-    crate::output::write_atomically(&path, |tmp| {
-        std::fs::write(tmp, &page).map_err(|e| e.to_string())
-    })?;
+    crate::output::write_text(&path, &page)?;
     Ok(path)
 }

@@ -199,23 +199,28 @@ fn matrix(m: &Mat4) -> Value {
     json!(m.to_cols_array())
 }
 
-/// A file written under a temporary name, renamed by [`Staged::commit`].
-struct Staged {
-    tmp: PathBuf,
-    dst: PathBuf,
+/// A file written under its temporary name through the one output path
+/// (`output::AtomicFile`), renamed into place by [`Staged::commit`] once
+/// every file of the export is written.
+struct Staged(crate::output::AtomicFile);
+
+fn write_error(e: crate::output::OutputError) -> SceneError {
+    let (path, message) = e.into_parts();
+    SceneError::Invalid { path, message }
 }
 
 fn stage(dst: PathBuf, bytes: &[u8]) -> Result<Staged, SceneError> {
-    let mut tmp = dst.clone().into_os_string();
-    tmp.push(".tmp");
-    let tmp = PathBuf::from(tmp);
-    std::fs::write(&tmp, bytes).map_err(|e| SceneError::io(&tmp, e))?;
-    Ok(Staged { tmp, dst })
+    let mut f = crate::output::AtomicFile::create(&dst).map_err(write_error)?;
+    if let Err(e) = f.write_all(bytes) {
+        f.discard();
+        return Err(write_error(e));
+    }
+    Ok(Staged(f))
 }
 
 impl Staged {
     fn commit(self) -> Result<(), SceneError> {
-        std::fs::rename(&self.tmp, &self.dst).map_err(|e| SceneError::io(&self.dst, e))
+        self.0.commit().map_err(write_error)
     }
 }
 
