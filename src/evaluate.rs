@@ -96,11 +96,29 @@ impl ReferenceCache {
         })
     }
 
-    /// FNV-1a hash of everything that determines the image.
+    /// FNV-1a hash of everything that determines the image, the renderer's
+    /// own code included: the SPIR-V of the reference shaders (so a change of
+    /// the integrator never reuses references rendered by the old one) and the
+    /// scene file's length and modification time (an edited scene is new).
     fn key(&self, session: &Session, cam: &StereoCamera, index: u32) -> String {
         let s = &self.settings;
+        let code = fnv1a(
+            crate::gpu::shaders::SHADERS
+                .iter()
+                .filter(|(name, _)| name.starts_with("reference/"))
+                .flat_map(|(name, spv)| name.bytes().chain(spv.iter().copied())),
+        );
+        let file = std::fs::metadata(&session.scene.source)
+            .map(|m| {
+                let t = m
+                    .modified()
+                    .ok()
+                    .and_then(|t| t.duration_since(std::time::UNIX_EPOCH).ok());
+                format!("{}@{:?}", m.len(), t.map(|d| d.as_nanos()))
+            })
+            .unwrap_or_default();
         let text = format!(
-            "v2-halves|{}|{}|{:?}|{:?}|{:?}|{}|{}|{}x{}|spp{}|b{}|seed{}|frame{}|{}",
+            "v2-halves|{code:016x}|{file}|{}|{}|{:?}|{:?}|{:?}|{}|{}|{}x{}|spp{}|b{}|seed{}|frame{}|{}",
             session.scene.source.display(),
             session.scene_gpu.triangle_count,
             cam.world_position().to_array().map(f64::to_bits),
@@ -116,12 +134,7 @@ impl ReferenceCache {
             index,
             env!("CARGO_PKG_VERSION"),
         );
-        let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-        for b in text.bytes() {
-            h ^= b as u64;
-            h = h.wrapping_mul(0x0000_0100_0000_01B3);
-        }
-        format!("{h:016x}")
+        format!("{:016x}", fnv1a(text.bytes()))
     }
 
     /// The reference for frame `index` at `cam`: read from the cache, or
@@ -370,4 +383,14 @@ impl Evaluator {
             .map(|(k, (s, n))| (k.clone(), s / *n as f64))
             .collect()
     }
+}
+
+/// 64-bit FNV-1a over a byte stream.
+fn fnv1a(bytes: impl IntoIterator<Item = u8>) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    for b in bytes {
+        h ^= b as u64;
+        h = h.wrapping_mul(0x0000_0100_0000_01B3);
+    }
+    h
 }
