@@ -1,6 +1,8 @@
 #version 460
 // §3.3 reconstruction: the pixel colour is the mean over its visible,
-// already shaded samples of albedo × demodulated radiance; a pixel without
+// already shaded samples of albedo × demodulated radiance and its visible
+// background samples (first_hit.glsl) of the environment in their
+// directions, so a partly covered pixel shows its coverage; a pixel without
 // visible samples shows the environment. Also writes the raw moments of
 // Eq. 5–6 for stereo blending, the depth / first hit / albedo of the closest
 // visible sample, and the debug views.
@@ -29,12 +31,22 @@ void main() {
     float best_t = 3.4e38;
     uvec4 best_fh = uvec4(0u, 0u, 0u, NO_HIT);
     vec3 best_albedo = vec3(0.0), best_p = vec3(0.0);
+    // Background samples: sum and sum of squares of their radiance, count.
+    vec3 bg_sum = vec3(0.0), bg_sum2 = vec3(0.0);
+    float n_bg = 0.0;
     uint bits = vis;
     while (bits != 0u) {
         uint s = uint(findLSB(bits));
         bits &= bits - 1u;
         uint idx = slot_index(eye, s, pixel);
         uvec4 fh = fh_cur[idx];
+        if (first_hit_is_background(fh)) {
+            vec3 Lb = background_radiance(background_direction(fh));
+            bg_sum += Lb;
+            bg_sum2 += Lb * Lb;
+            n_bg += 1.0;
+            continue;
+        }
         vec3 wp = hit_position(fh);
         float t = length(wp - o);
         vec3 d = (wp - o) / max(t, 1e-30);
@@ -51,6 +63,17 @@ void main() {
             c_total += rec.w;
         }
     }
+    // Background samples in the mean (exact radiance, not accumulated): each
+    // counts as one sample in the colour and, in the moments (Eq. 5–6), with
+    // the mean effective count of the pixel's shaded samples (1 without
+    // any), so μ1 weighs coverage like the colour does.
+    float c_bg = shaded > 0.0 ? c_total / shaded : 1.0;
+    sum += bg_sum;
+    shaded += n_bg;
+    m1 += c_bg * bg_sum;
+    m2 += c_bg * bg_sum2;
+    c_total += c_bg * n_bg;
+    bool surface = best_t < 3.4e38;   // some visible surface sample
     vec3 color;
     if (vis == 0u) {
         // Background: what the pixel-centre camera ray sees (sky and sun disc).
@@ -66,9 +89,11 @@ void main() {
         color = shaded > 0.0 ? sum / shaded : vec3(0.0);
         m1 = c_total > 0.0 ? m1 / c_total : color;
         m2 = c_total > 0.0 ? m2 / c_total : color * color;
-        out_depth[pm] = view_depth(e, best_p);
+        // Depth, first hit and albedo of the closest visible surface sample;
+        // background only: as for a pixel without samples.
+        out_depth[pm] = surface ? view_depth(e, best_p) : 0.0;
         out_fh[pm] = best_fh;
-        out_albedo[pm] = vec4(best_albedo, 1.0);
+        out_albedo[pm] = surface ? vec4(best_albedo, 1.0) : vec4(0.0);
     }
     out_color[pm] = vec4(color, c_total);
     out_m1[pm] = vec4(m1, c_total);

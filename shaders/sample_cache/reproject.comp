@@ -67,7 +67,12 @@ void main() {
         uint src = slot_index(eye, s, pixel);
         uvec4 fh = fh_prev[src];
         vec3 wp, ng;
-        hit_position_and_normal(fh, wp, ng);
+        // Background sample (§3.3): a direction at infinity, projected
+        // through the point one unit along it from the new eye (only the
+        // view rotation moves it); its distance is t = ∞ (below).
+        bool bg = first_hit_is_background(fh);
+        if (bg) wp = e.pos_tanx.xyz + background_direction(fh);
+        else hit_position_and_normal(fh, wp, ng);
         vec2 q;
         float vd;
         if (!project_to_eye(e, wp, q, vd) || any(lessThan(q, vec2(0.0))) || any(greaterThanEqual(q, vec2(size)))) {
@@ -107,12 +112,17 @@ void main() {
             float t = length(to_eye);
             float cos_theta = abs(dot(ng, to_eye / max(t, 1e-30)));
             float slope = normal_slope(t, cos_theta, cs_phi);
+            // Background samples: t = ∞ and Δn = 0 in the depth bounds, so a
+            // pixel whose neighbourhood mixes surface and background fails
+            // Eq. 2 (a silhouette); they carry no radiance record to shade
+            // and stay out of the importance histogram.
+            if (bg) { t = uintBitsToFloat(0x7F800000u); slope = 0.0; }
             atomicMin(depth_min[tm], (uint64_t(floatBitsToUint(t)) << 32) | uint64_t(floatBitsToUint(slope)));
             atomicMax(depth_max[tm], floatBitsToUint(t));
             // The importance histogram and its bounds feed adaptive shading
             // only (§3.5): uniform shading skips these three global atomics
             // per visible sample (issue 6).
-            if (SHADING_STORAGE && SHADING_MODE == 1u) {
+            if (SHADING_STORAGE && SHADING_MODE == 1u && !bg) {
                 float w = importance(rad_prev[src].w);
                 histogram_add(eye, importance_bucket(w, w_lo, w_hi), w);
             }

@@ -50,19 +50,29 @@ void main() {
         } else if (RETRACE_MODE == 1u) {
             trace = occ;
         } else {
-            edge = has_own && !depths_consistent(t_min, slope, t_max, pc.eps1);
+            // A pixel whose closest sample is background (t_min = ∞) passes
+            // Eq. 2: nothing in its neighbourhood lies beyond infinity
+            // (t_max ≤ t_min), while IEEE's ∞ < ∞ would flag every sky pixel.
+            edge = has_own && !isinf(t_min) && !depths_consistent(t_min, slope, t_max, pc.eps1);
             if (edge) trace = occ;
             else if (is_sparse_base_pixel(px, frame_index, eye)) trace = 1u << round_robin;
         }
     }
 
-    // Density control: add towards n_target, or purge one sample at random.
+    // Density control (§3.2): add towards n_target, or purge one sample at
+    // random. Background samples count like any other (they are visible
+    // samples). Besides the 3×3 mean the pixel's own count decides adding
+    // (issue 12): a pixel below n_target − δ inside a neighbourhood whose mean
+    // is in the band would otherwise never be refilled. Purging keeps the
+    // pixel at n_target − δ or above, so it cannot undo such an add the next
+    // frame (and keeps at least one sample, as §3.2 requires).
     uint add = 0u, purge = 0u;
     uint n_vis = bitCount(vis);
-    if (density < float(pc.n_target) - float(pc.delta) && n_vis < pc.n_target) {
+    float low = float(pc.n_target) - float(pc.delta);
+    if ((density < low || float(n_vis) < low) && n_vis < pc.n_target) {
         uint room = bitCount(~occ & full_bits()) + bitCount(occ & ~vis);
         add = min(pc.n_target - n_vis, room);
-    } else if (density > float(pc.n_target + pc.delta) && n_vis > 1u) {
+    } else if (density > float(pc.n_target + pc.delta) && n_vis > max(1u, pc.n_target - min(pc.delta, pc.n_target))) {
         Rng r = rng_init(frame.size_seed.z, frame_index, eye, pixel, 0x5EED0001u);
         purge = nth_set_bit(vis, min(uint(rng_next(r) * float(n_vis)), n_vis - 1u)) + 1u;
         trace &= ~(1u << (purge - 1u));

@@ -20,7 +20,8 @@ void main() {
     uint eye = gl_GlobalInvocationID.z;
     if (any(greaterThanEqual(px, size))) return;
     uint pixel = px.y * size.x + px.x;
-    uint vis = vis_bits(mask_cur[eye * npix() + pixel]);
+    // Only surface samples are shaded (background samples: reconstruct.comp).
+    uint vis = surface_slots(eye, pixel, vis_bits(mask_cur[eye * npix() + pixel]));
     uint n = bitCount(vis);
     if (n == 0u) return;
     uint frame_index = frame.size_seed.w;

@@ -75,6 +75,7 @@ const COUNTERS: &[(usize, &str)] = &[
     (6, "new_samples"),
     (7, "shaded_samples"),
     (10, "samples"),
+    (11, "background_samples"),
 ];
 
 /// The grid read back from the GPU (current frame), for tests and debugging.
@@ -98,8 +99,14 @@ impl IsrtSnapshot {
     pub fn cell(&self, eye: usize, gx: u32, gy: u32) -> usize {
         eye * self.cells_per_eye() + (gy * self.grid_width() + gx) as usize
     }
+    /// The cell holds a surface sample.
     pub fn occupied(&self, cell: usize) -> bool {
         self.first_hits[cell][3] != u32::MAX
+    }
+    /// The cell holds a background sample (a ray that missed the scene,
+    /// [`crate::methods::sample_cache::background`]).
+    pub fn background(&self, cell: usize) -> bool {
+        crate::methods::sample_cache::background::is_background(self.first_hits[cell])
     }
 }
 
