@@ -143,11 +143,19 @@ fn run_moving(
         );
         let snap = m.snapshot().unwrap();
         let (v, bad, uncovered) = check_invariants(&snap, &cam, &bvh);
-        // A pixel that geometry covers keeps a visible sample. On solid
-        // surfaces this is exact; between thin hairball tubes a fresh sample
-        // can still fall through a gap the 25 probes missed (≤ 1 % of pixels).
+        // A pixel that geometry covers keeps a visible surface sample. On
+        // solid surfaces this is exact with multi and adaptive retracing;
+        // between thin hairball tubes a fresh sample can still fall through a
+        // gap the 25 probes missed (≤ 1 % of pixels). Single retracing (one
+        // slot per pixel and frame, round robin) leaves a pixel that an edge
+        // moves over with its background samples (issue 12: rays that missed
+        // are samples) visible until each is retraced — the lagging
+        // visibility §3.2 ascribes to single sampling — so there it is
+        // bounded like the stale samples (1 % of pixels), not zero.
         let limit = if scene == "hairball" {
             snap.npix() * 2 / 100
+        } else if retrace == Retrace::Single {
+            snap.npix() / 100
         } else {
             0
         };
@@ -495,9 +503,11 @@ fn adaptive_shading_rate(s: &Session, subgroup_ops: bool) {
             continue; // let the importance bounds settle
         }
         let snap = m.snapshot().unwrap();
-        // Histogram: every reprojected visible sample was counted once.
+        // Histogram: every reprojected visible surface sample was counted
+        // once (background samples are not shaded, issue 12).
         let hist_total: u32 = snap.histogram.iter().sum();
-        let reprojected_visible = snap_visible_reprojected(&fr);
+        let reprojected_visible =
+            snap_visible_reprojected(&fr) - fr.stats.counters["reprojected_visible_background"];
         assert_eq!(
             hist_total as f64, reprojected_visible,
             "frame {f}: histogram total"
@@ -526,7 +536,8 @@ fn adaptive_shading_rate(s: &Session, subgroup_ops: bool) {
         let (mut c_all, mut n_all) = (0.0, 0.0);
         for e in 0..2 {
             for p in 0..snap.npix() {
-                let mut bits = snap.visible(snap.mask(e, p));
+                // Visible surface samples (background ones are not shaded).
+                let mut bits = snap.surface(e, p, snap.visible(snap.mask(e, p)));
                 while bits != 0 {
                     let sl = bits.trailing_zeros();
                     bits &= bits - 1;

@@ -114,7 +114,7 @@ void list_decode(uint code, out uint eye, out uint slot, out uint pixel) {
 const uint C_RETRACE_RAYS = 0u, C_NEW_RAYS = 1u, C_BOUNCE_RAYS = 2u, C_SHADOW_RAYS = 3u, C_HOLES = 4u,
            C_ADDED = 5u, C_PURGED = 6u, C_REPROJECTED = 7u, C_REPROJECT_FULL = 8u, C_OFFSCREEN = 9u,
            C_SHADED = 10u, C_REPLACED = 11u, C_EDGE_PIXELS = 12u, C_VISIBLE = 13u, C_BG_RAYS = 14u,
-           C_REPROJECTED_VISIBLE = 15u;
+           C_REPROJECTED_VISIBLE = 15u, C_REPROJECTED_BACKGROUND = 16u;
 
 uint npix() { return frame.size_seed.x * frame.size_seed.y; }
 uint slot_index(uint eye, uint s, uint pixel) { return (eye * N_SLOTS + s) * npix() + pixel; }

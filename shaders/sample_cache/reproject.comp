@@ -60,7 +60,7 @@ void main() {
     vec2 cs_phi = pixel_diagonal_cos_sin(e);
     float w_lo, w_hi;
     importance_bounds(eye, w_lo, w_hi);
-    uint reprojected = 0u, reprojected_visible = 0u, full = 0u, offscreen = 0u;
+    uint reprojected = 0u, reprojected_visible = 0u, full = 0u, offscreen = 0u, reprojected_bg = 0u;
     while (occ != 0u) {
         uint s = uint(findLSB(occ));
         occ &= occ - 1u;
@@ -116,7 +116,7 @@ void main() {
             // pixel whose neighbourhood mixes surface and background fails
             // Eq. 2 (a silhouette); they carry no radiance record to shade
             // and stay out of the importance histogram.
-            if (bg) { t = uintBitsToFloat(0x7F800000u); slope = 0.0; }
+            if (bg) { t = uintBitsToFloat(0x7F800000u); slope = 0.0; reprojected_bg++; }
             atomicMin(depth_min[tm], (uint64_t(floatBitsToUint(t)) << 32) | uint64_t(floatBitsToUint(slope)));
             atomicMax(depth_max[tm], floatBitsToUint(t));
             // The importance histogram and its bounds feed adaptive shading
@@ -130,6 +130,7 @@ void main() {
     }
     count_add(C_REPROJECTED, reprojected);
     count_add(C_REPROJECTED_VISIBLE, reprojected_visible);
+    count_add(C_REPROJECTED_BACKGROUND, reprojected_bg);
     count_add(C_REPROJECT_FULL, full);
     count_add(C_OFFSCREEN, offscreen);
 }

@@ -28,6 +28,7 @@ void main() {
     float t_min = has_own ? uintBitsToFloat(uint(own >> 32)) : 0.0;
     float slope = has_own ? uintBitsToFloat(uint(own & 0xFFFFFFFFul)) : 0.0;
     float t_max = 0.0;
+    float t_near = uintBitsToFloat(0x7F800000u);   // closest sample in the 3×3 neighbourhood
     for (int dy = -1; dy <= 1; ++dy) {
         for (int dx = -1; dx <= 1; ++dx) {
             ivec2 q = ivec2(px) + ivec2(dx, dy);
@@ -36,6 +37,8 @@ void main() {
             vis_sum += bitCount(vis_bits(mask_cur[qm]));
             count++;
             t_max = max(t_max, uintBitsToFloat(depth_max[qm]));
+            uint64_t q_min = depth_min[qm];
+            if (q_min != 0xFFFFFFFFFFFFFFFFul) t_near = min(t_near, uintBitsToFloat(uint(q_min >> 32)));
         }
     }
     float density = float(vis_sum) / float(max(count, 1u));
@@ -50,10 +53,16 @@ void main() {
         } else if (RETRACE_MODE == 1u) {
             trace = occ;
         } else {
-            // A pixel whose closest sample is background (t_min = ∞) passes
-            // Eq. 2: nothing in its neighbourhood lies beyond infinity
-            // (t_max ≤ t_min), while IEEE's ∞ < ∞ would flag every sky pixel.
-            edge = has_own && !isinf(t_min) && !depths_consistent(t_min, slope, t_max, pc.eps1);
+            // A pixel whose visible samples are all background (t_min = ∞)
+            // passes Eq. 2 trivially (nothing lies beyond infinity; IEEE's
+            // ∞ < ∞ would flag every sky pixel). It is an edge instead when
+            // a neighbour holds a surface sample (the sky side of a
+            // silhouette): geometry moving in from that neighbour would
+            // otherwise leave its background samples visible until the base
+            // rate reaches them (a covered pixel showing sky). Away from
+            // silhouettes sky pixels keep the base rate only.
+            if (has_own && isinf(t_min)) edge = !isinf(t_near);
+            else edge = has_own && !depths_consistent(t_min, slope, t_max, pc.eps1);
             if (edge) trace = occ;
             else if (is_sparse_base_pixel(px, frame_index, eye)) trace = 1u << round_robin;
         }
@@ -62,17 +71,22 @@ void main() {
     // Density control (§3.2): add towards n_target, or purge one sample at
     // random. Background samples count like any other (they are visible
     // samples). Besides the 3×3 mean the pixel's own count decides adding
-    // (issue 12): a pixel below n_target − δ inside a neighbourhood whose mean
-    // is in the band would otherwise never be refilled. Purging keeps the
-    // pixel at n_target − δ or above, so it cannot undo such an add the next
-    // frame (and keeps at least one sample, as §3.2 requires).
+    // (issue 12): a pixel below n_target − δ inside a neighbourhood whose
+    // mean is in the band would otherwise never be refilled. It is refilled
+    // to n_target − δ only, and only while the mean is at most n_target, so
+    // the refill raises the mean by at most (n_target − δ)/9 and cannot push
+    // it above the band (refilling to n_target under motion, where
+    // reprojection spreads the samples unevenly, held the mean above
+    // n_target + δ on 10 % of the Cornell pixels).
     uint add = 0u, purge = 0u;
     uint n_vis = bitCount(vis);
-    float low = float(pc.n_target) - float(pc.delta);
-    if ((density < low || float(n_vis) < low) && n_vis < pc.n_target) {
-        uint room = bitCount(~occ & full_bits()) + bitCount(occ & ~vis);
+    uint low = pc.n_target - min(pc.delta, pc.n_target);
+    uint room = bitCount(~occ & full_bits()) + bitCount(occ & ~vis);
+    if (density < float(low) && n_vis < pc.n_target) {
         add = min(pc.n_target - n_vis, room);
-    } else if (density > float(pc.n_target + pc.delta) && n_vis > max(1u, pc.n_target - min(pc.delta, pc.n_target))) {
+    } else if (n_vis < low && density <= float(pc.n_target)) {
+        add = min(low - n_vis, room);
+    } else if (density > float(pc.n_target + pc.delta) && n_vis > 1u) {
         Rng r = rng_init(frame.size_seed.z, frame_index, eye, pixel, 0x5EED0001u);
         purge = nth_set_bit(vis, min(uint(rng_next(r) * float(n_vis)), n_vis - 1u)) + 1u;
         trace &= ~(1u << (purge - 1u));

@@ -67,6 +67,7 @@ const COUNTERS: &[(usize, &str)] = &[
     (13, "visible_samples"),
     (14, "background_rays"),
     (15, "reprojected_visible"),
+    (16, "reprojected_visible_background"),
 ];
 
 /// Names of the debug views, in the order the reconstruct pass writes them.
