@@ -7,10 +7,11 @@
 //! → `reproject` (one thread per previous cell; the sample lands in the cell
 //! its new sub-pixel position falls into; 64-bit `atomicMin` on
 //! depth | source index: the closest sample wins) → `gather` (copies the
-//! winners) → `trace` (every sample retraced; invisible ones dropped; every
-//! empty cell gets a new sample through a random point in it) → `shade` (one
+//! winners) → `trace` (every sample retraced; occluded ones dropped; every
+//! empty cell gets a new sample through a random point in it, a miss a
+//! background sample: the ray's direction, `sample_cache::background`) → `shade` (one
 //! sample per pixel, round robin; demodulated running mean) → `reconstruct`
-//! (mean over the pixel's shaded samples).
+//! (mean over the pixel's shaded and background samples).
 //!
 //! Memory per pixel per eye: M² × (16 B first hit + 16 B radiance) × 2
 //! (previous / current) + M² × 8 B reservations, plus the per-pixel outputs.
