@@ -108,17 +108,24 @@ void main() {
         reprojected++;
         if (vis) {
             reprojected_visible++;
-            vec3 to_eye = e.pos_tanx.xyz - wp;
-            float t = length(to_eye);
-            float cos_theta = abs(dot(ng, to_eye / max(t, 1e-30)));
-            float slope = normal_slope(t, cos_theta, cs_phi);
-            // Background samples: t = ∞ and Δn = 0 in the depth bounds, so a
-            // pixel whose neighbourhood mixes surface and background fails
-            // Eq. 2 (a silhouette); they carry no radiance record to shade
-            // and stay out of the importance histogram.
-            if (bg) { t = uintBitsToFloat(0x7F800000u); slope = 0.0; reprojected_bg++; }
-            atomicMin(depth_min[tm], (uint64_t(floatBitsToUint(t)) << 32) | uint64_t(floatBitsToUint(slope)));
-            atomicMax(depth_max[tm], floatBitsToUint(t));
+            if (bg) {
+                // Background samples (t = ∞) only raise t_max to ∞, so a
+                // pixel whose neighbourhood mixes surface and background
+                // fails Eq. 2 (a silhouette); t_min stays the closest surface
+                // sample's (unset: only background, select.comp). One atomic
+                // per pixel, not per sample, where t_max is ∞ already; they
+                // carry no radiance record to shade and stay out of the
+                // importance histogram.
+                reprojected_bg++;
+                if (depth_max[tm] != 0x7F800000u) atomicMax(depth_max[tm], 0x7F800000u);
+            } else {
+                vec3 to_eye = e.pos_tanx.xyz - wp;
+                float t = length(to_eye);
+                float cos_theta = abs(dot(ng, to_eye / max(t, 1e-30)));
+                float slope = normal_slope(t, cos_theta, cs_phi);
+                atomicMin(depth_min[tm], (uint64_t(floatBitsToUint(t)) << 32) | uint64_t(floatBitsToUint(slope)));
+                atomicMax(depth_max[tm], floatBitsToUint(t));
+            }
             // The importance histogram and its bounds feed adaptive shading
             // only (§3.5): uniform shading skips these three global atomics
             // per visible sample (issue 6).

@@ -37,7 +37,7 @@ void main() {
             vis_sum += bitCount(vis_bits(mask_cur[qm]));
             count++;
             t_max = max(t_max, uintBitsToFloat(depth_max[qm]));
-            uint64_t q_min = depth_min[qm];
+            uint64_t q_min = depth_min[qm];   // unset: no visible surface sample there
             if (q_min != 0xFFFFFFFFFFFFFFFFul) t_near = min(t_near, uintBitsToFloat(uint(q_min >> 32)));
         }
     }
@@ -53,16 +53,16 @@ void main() {
         } else if (RETRACE_MODE == 1u) {
             trace = occ;
         } else {
-            // A pixel whose visible samples are all background (t_min = ∞)
-            // passes Eq. 2 trivially (nothing lies beyond infinity; IEEE's
+            // A pixel whose visible samples are all background (t_min = ∞:
+            // depth_min unset, reproject.comp) passes Eq. 2 trivially (nothing lies beyond infinity; IEEE's
             // ∞ < ∞ would flag every sky pixel). It is an edge instead when
             // a neighbour holds a surface sample (the sky side of a
             // silhouette): geometry moving in from that neighbour would
             // otherwise leave its background samples visible until the base
             // rate reaches them (a covered pixel showing sky). Away from
             // silhouettes sky pixels keep the base rate only.
-            if (has_own && isinf(t_min)) edge = !isinf(t_near);
-            else edge = has_own && !depths_consistent(t_min, slope, t_max, pc.eps1);
+            if (!has_own) edge = vis != 0u && !isinf(t_near);
+            else edge = !depths_consistent(t_min, slope, t_max, pc.eps1);
             if (edge) trace = occ;
             else if (is_sparse_base_pixel(px, frame_index, eye)) trace = 1u << round_robin;
         }
