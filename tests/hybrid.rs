@@ -11,6 +11,7 @@ use std::path::Path;
 use std::process::Command;
 use stereocache::camera::{Eye, StereoCamera};
 use stereocache::methods::hash_cache::{HashCacheSettings, HashLod};
+use stereocache::methods::sample_cache::background::background_direction;
 use stereocache::methods::sample_cache::SampleCacheSettings;
 use stereocache::methods::{FrameInput, Hybrid, Method, RenderSettings, StereoFrame};
 use stereocache::rt::{RtChoice, SoftwareBvh};
@@ -87,9 +88,21 @@ fn invariants_hold_along_a_moving_trace() {
                 let v = cam.eye(*eye);
                 for pixel in 0..npix {
                     let mk = snap.mask(e, pixel);
-                    let (occ, vis) = (snap.occupied(mk), snap.visible(mk));
-                    assert_eq!(vis & !occ, 0, "{name} frame {f}: v without o ({mk:#x})");
+                    let (occ, all_vis) = (snap.occupied(mk), snap.visible(mk));
+                    assert_eq!(all_vis & !occ, 0, "{name} frame {f}: v without o ({mk:#x})");
                     assert_eq!(mk >> (2 * n), 0, "{name}: mask bits above 2N");
+                    // Background samples (rays that missed, §3.3) are visible
+                    // samples too, but only surface samples look up the table
+                    // and give the pixel a first hit.
+                    let vis = snap.surface(e, pixel, all_vis);
+                    let mut bg_bits = all_vis & !vis;
+                    while bg_bits != 0 {
+                        let sl = bg_bits.trailing_zeros();
+                        bg_bits &= bg_bits - 1;
+                        let d = background_direction(snap.first_hits[snap.slot(e, sl, pixel)])
+                            .expect("a background record");
+                        assert!(d.is_finite() && (d.length() - 1.0).abs() < 1e-5);
+                    }
                     let out_hit = fr.eyes[e].first_hit[pixel][3] != u32::MAX;
                     assert_eq!(
                         out_hit,
@@ -167,9 +180,12 @@ fn invariants_hold_along_a_moving_trace() {
 /// Furnace: a faceted grey Lambert sphere (no specular) in a constant white
 /// environment. Every path leaves the convex sphere after one bounce carrying
 /// albedo × 1, so every entry holds 1, every sample shows its albedo, and
-/// without TAA the output is exactly the albedo where a pixel has samples
-/// (partly covered silhouette pixels included: only samples count) and 1
-/// elsewhere; over moving frames, with and without tiles.
+/// without TAA the output is exactly the albedo where a pixel has only
+/// surface samples and 1 where it has only background samples (rays that
+/// missed, §3.3); a partly covered silhouette pixel is exactly the mean of
+/// k albedo samples and its b background samples for some k between 0 and
+/// its surface samples (a surface sample without a table entry yet does not
+/// contribute); over moving frames, with and without tiles.
 #[test]
 fn furnace_sphere_shows_its_albedo() {
     let ctx = context();
@@ -201,18 +217,33 @@ fn furnace_sphere_shows_its_albedo() {
                 })
                 .unwrap();
             prev = Some(cam);
+            let snap = m.sample_cache().snapshot().unwrap();
             let mut on_sphere = 0;
-            for eye in &fr.eyes {
-                for (px, fh) in eye.radiance.iter().zip(&eye.first_hit) {
+            for (e, eye) in fr.eyes.iter().enumerate() {
+                for (pixel, (px, fh)) in eye.radiance.iter().zip(&eye.first_hit).enumerate() {
                     let hit = fh[3] != u32::MAX;
                     on_sphere += hit as usize;
-                    for k in 0..3 {
-                        let want = if hit { albedo[k] } else { 1.0 };
-                        assert!(
-                            (px[k] - want).abs() < 1e-4,
-                            "tiles {tiles} frame {f}: radiance {px:?}"
-                        );
-                    }
+                    let all_vis = snap.visible(snap.mask(e, pixel));
+                    let n_surface = snap.surface(e, pixel, all_vis).count_ones();
+                    let n_bg = all_vis.count_ones() - n_surface;
+                    assert_eq!(hit, n_surface > 0);
+                    let mean = |k: u32| {
+                        let c = (k + n_bg) as f32;
+                        (albedo * k as f32 + Vec3::splat(n_bg as f32)) / c.max(1.0)
+                    };
+                    let fits = |k: u32| {
+                        let want = if k + n_bg == 0 { Vec3::ONE } else { mean(k) };
+                        (0..3).all(|c| (px[c] - want[c]).abs() < 1e-4)
+                    };
+                    let ks = if n_bg == 0 {
+                        n_surface.min(1)..=n_surface
+                    } else {
+                        0..=n_surface
+                    };
+                    assert!(
+                        ks.clone().any(fits),
+                        "tiles {tiles} frame {f}: radiance {px:?} with {n_surface} surface and {n_bg} background samples"
+                    );
                 }
             }
             assert!(on_sphere > 500);

@@ -5,6 +5,7 @@ mod common;
 use common::*;
 use glam::UVec2;
 use stereocache::camera::{Eye, StereoCamera};
+use stereocache::methods::sample_cache::background::background_direction;
 use stereocache::methods::sample_cache::{
     CacheSnapshot, Reproject, Retrace, SampleCache, SampleCacheSettings, Shading,
 };
@@ -53,7 +54,8 @@ fn check_invariants(
                 "eye {e} pixel {pixel}: visible bit without occupancy (mask {m:#x})"
             );
             assert_eq!(m >> (2 * snap.slots), 0, "mask bits above 2N set");
-            if vis == 0 && fully_covered(bvh, &v, pixel, w, h) {
+            // Covered: a visible surface sample (background samples do not count).
+            if snap.surface(e, pixel, vis) == 0 && fully_covered(bvh, &v, pixel, w, h) {
                 uncovered += 1;
             }
             let mut bits = vis;
@@ -61,11 +63,26 @@ fn check_invariants(
                 let s = bits.trailing_zeros();
                 bits &= bits - 1;
                 let fh = snap.first_hits[snap.slot(e, s, pixel)];
+                visible += 1;
+                // A background sample (§3.3, a ray that missed the scene):
+                // a fresh ray in its direction misses too, and the direction
+                // projects into its own pixel.
+                if let Some(d) = background_direction(fh) {
+                    if bvh.closest_hit(v.position, d, 0.0, 1e30).is_some() {
+                        mismatched += 1;
+                    }
+                    if let Some((q, _)) = v.project(v.position + d, UVec2::new(w, h)) {
+                        assert!(
+                            (q - pixel_centre(pixel, w)).abs().max_element() < 0.5 + 1e-3,
+                            "background sample outside its pixel"
+                        );
+                    }
+                    continue;
+                }
                 assert_ne!(fh[3], u32::MAX, "visible sample without a first hit");
                 // Where does the stored sample lie, and what does a fresh ray towards it hit?
                 let p = stored_position(bvh, fh);
                 let d = (p - v.position).normalize();
-                visible += 1;
                 match bvh.closest_hit(v.position, d, 0.0, 1e30) {
                     Some(hit) if hit.instance == fh[3] && hit.prim == fh[2] => {}
                     Some(hit) if (hit.t - (p - v.position).length()).abs() <= 1e-3 * hit.t => {}
@@ -126,11 +143,19 @@ fn run_moving(
         );
         let snap = m.snapshot().unwrap();
         let (v, bad, uncovered) = check_invariants(&snap, &cam, &bvh);
-        // A pixel that geometry covers keeps a visible sample. On solid
-        // surfaces this is exact; between thin hairball tubes a fresh sample
-        // can still fall through a gap the 25 probes missed (≤ 1 % of pixels).
+        // A pixel that geometry covers keeps a visible surface sample. On
+        // solid surfaces this is exact with multi and adaptive retracing;
+        // between thin hairball tubes a fresh sample can still fall through a
+        // gap the 25 probes missed (≤ 1 % of pixels). Single retracing (one
+        // slot per pixel and frame, round robin) leaves a pixel that an edge
+        // moves over with its background samples (issue 12: rays that missed
+        // are samples) visible until each is retraced — the lagging
+        // visibility §3.2 ascribes to single sampling — so there it is
+        // bounded like the stale samples (1 % of pixels), not zero.
         let limit = if scene == "hairball" {
             snap.npix() * 2 / 100
+        } else if retrace == Retrace::Single {
+            snap.npix() / 100
         } else {
             0
         };
@@ -479,14 +504,15 @@ fn adaptive_shading_rate(s: &Session, subgroup_ops: bool) {
         }
         let snap = m.snapshot().unwrap();
         // Histogram: every shading candidate was counted once — the visible
-        // samples after tracing (new ones included, issue 12 item 3; it used
-        // to hold the reprojected visible samples, `reprojected_visible`)
-        // except the round-robin sample of base-rate and unshaded pixels,
-        // which are selected outside it.
+        // surface samples after tracing (new ones included, issue 12 item 3;
+        // it used to hold the reprojected visible samples,
+        // `reprojected_visible`) except the round-robin sample of base-rate
+        // and unshaded pixels, which are selected outside it. Background
+        // samples are never shaded (issue 12 item 1).
         let hist_total: u32 = snap.histogram.iter().sum();
         let visible: u32 = (0..2)
             .flat_map(|e| (0..snap.npix()).map(move |p| (e, p)))
-            .map(|(e, p)| snap.visible(snap.mask(e, p)).count_ones())
+            .map(|(e, p)| snap.surface(e, p, snap.visible(snap.mask(e, p))).count_ones())
             .sum();
         let first: u32 = snap.base_pixels.iter().chain(&snap.unshaded_pixels).sum();
         assert_eq!(hist_total, visible - first, "frame {f}: histogram total");
@@ -515,7 +541,8 @@ fn adaptive_shading_rate(s: &Session, subgroup_ops: bool) {
         let (mut c_all, mut n_all) = (0.0, 0.0);
         for e in 0..2 {
             for p in 0..snap.npix() {
-                let mut bits = snap.visible(snap.mask(e, p));
+                // Visible surface samples (background ones are not shaded).
+                let mut bits = snap.surface(e, p, snap.visible(snap.mask(e, p)));
                 while bits != 0 {
                     let sl = bits.trailing_zeros();
                     bits &= bits - 1;
@@ -547,14 +574,20 @@ fn snap_visible_reprojected(fr: &stereocache::methods::StereoFrame) -> f64 {
     fr.stats.counters["reprojected_visible"]
 }
 
-/// A pixel through which the environment shows costs one ray per frame, like
-/// a path tracer's primary ray: the ray that adds a sample and finds
-/// background ends the adding there (issue 6; it used to trace n_target + 1
-/// missing rays every frame). Looking away from the scene: exactly one
-/// background ray per pixel and no other ray. Looking at a sphere that
-/// covers part of the view: at most one background ray per pixel, at least
-/// one per pixel left without a visible sample, and every pixel the sphere
-/// fully covers keeps a visible sample.
+/// A pixel through which the environment shows is cheap. Before background
+/// samples (issue 6) it traced one missing ray per frame (the ray that adds
+/// a sample and finds background ended the adding). With background samples
+/// stored (§3.3, issue 12) such a pixel fills its n_target slots once, like
+/// any pixel, and then traces only the base-rate retrace of §3.4 (one slot
+/// per 4×4 block). Looking away from the scene: frame 0 traces exactly
+/// n_target background rays per pixel, every later frame no new-sample ray
+/// and exactly one retrace ray per 4×4 block (blocks cut by the border
+/// included) — over the six frames fewer rays than the old one per pixel
+/// and frame. Looking at a sphere that covers part of the view: frame 0
+/// traces at most n_target new rays per pixel, at least n_target background
+/// rays per pixel the sphere does not touch; every pixel keeps a visible
+/// sample and every pixel the sphere fully covers a visible surface sample;
+/// in the static later frames no sample is lost, so no new ray is traced.
 #[test]
 fn background_pixels_trace_one_ray_per_frame() {
     let ctx = context();
@@ -566,9 +599,12 @@ fn background_pixels_trace_one_ray_per_frame() {
     );
     let s = session(&ctx, scene, RtChoice::Software);
     let bvh = SoftwareBvh::build(&s.scene);
-    let (w, h) = (40, 30);
+    let (w, h) = (40u32, 30u32);
     let npix = (w * h) as f64;
-    let st = settings(w, h, SampleCacheSettings::default());
+    let cs = SampleCacheSettings::default();
+    let n_target = cs.n_target as f64;
+    let blocks = 2.0 * (w.div_ceil(4) * h.div_ceil(4)) as f64;
+    let st = settings(w, h, cs);
     let count = |fr: &stereocache::methods::StereoFrame, name: &str| {
         fr.stats.counters.get(name).copied().unwrap_or(0.0)
     };
@@ -583,6 +619,7 @@ fn background_pixels_trace_one_ray_per_frame() {
             w as f32 / h as f32,
         );
         let mut m = cache_method(&s, &st);
+        let mut total_rays = 0.0;
         for f in 0..6 {
             let fr = m
                 .render_frame(&FrameInput {
@@ -592,39 +629,66 @@ fn background_pixels_trace_one_ray_per_frame() {
                 })
                 .unwrap();
             let bg = count(&fr, "background_rays");
+            let new = count(&fr, "new_sample_rays");
+            let retrace = count(&fr, "retrace_rays");
+            total_rays += bg + new + retrace;
             let snap = m.snapshot().unwrap();
-            let mut empty = 0usize;
+            let (mut sky, mut empty) = (0usize, 0usize);
             for (e, eye) in Eye::BOTH.iter().enumerate() {
                 let v = cam.eye(*eye);
                 for p in 0..snap.npix() {
-                    if snap.visible(snap.mask(e, p)) == 0 {
+                    let vis = snap.visible(snap.mask(e, p));
+                    if vis == 0 {
                         empty += 1;
+                    }
+                    if snap.surface(e, p, vis) == 0 {
+                        sky += 1;
                         assert!(
-                            f == 0 || !fully_covered(&bvh, &v, p, w, h),
-                            "{view} frame {f}: eye {e} pixel {p} covered but without a visible sample"
+                            !fully_covered(&bvh, &v, p, w, h),
+                            "{view} frame {f}: eye {e} pixel {p} covered but without a visible surface sample"
                         );
                     }
                 }
             }
             eprintln!(
-                "{view} frame {f}: {bg} background rays, {empty} pixels without a visible sample, {} new-sample rays, {} retrace rays",
-                count(&fr, "new_sample_rays"),
-                count(&fr, "retrace_rays")
+                "{view} frame {f}: {bg} background rays, {sky} pixels without a visible surface sample, {new} new-sample rays, {retrace} retrace rays"
+            );
+            assert_eq!(
+                empty, 0,
+                "{view} frame {f}: pixels without a visible sample"
             );
             if view == "away" {
-                assert_eq!(bg, 2.0 * npix, "{view} frame {f}: background rays");
-                assert_eq!(count(&fr, "new_sample_rays"), 0.0, "{view} frame {f}");
-                assert_eq!(count(&fr, "retrace_rays"), 0.0, "{view} frame {f}");
+                assert_eq!(sky as f64, 2.0 * npix);
+                let expected_bg = if f == 0 { n_target * 2.0 * npix } else { 0.0 };
+                assert_eq!(bg, expected_bg, "{view} frame {f}: background rays");
+                assert_eq!(new, 0.0, "{view} frame {f}");
+                let expected_retrace = if f == 0 { 0.0 } else { blocks };
+                assert_eq!(retrace, expected_retrace, "{view} frame {f}: retrace rays");
             } else {
                 assert!(
-                    empty > 0 && (empty as f64) < 2.0 * npix,
+                    sky > 0 && (sky as f64) < 2.0 * npix,
                     "{view}: sphere covers part of the view"
                 );
-                assert!(
-                    bg >= empty as f64 && bg <= 2.0 * npix,
-                    "{view} frame {f}: {bg} background rays for {empty} empty pixels"
-                );
+                if f == 0 {
+                    assert!(
+                        bg >= n_target * sky as f64 && bg + new <= n_target * 2.0 * npix,
+                        "{view} frame {f}: {bg} background rays for {sky} sky pixels"
+                    );
+                } else {
+                    assert_eq!(
+                        bg + new,
+                        0.0,
+                        "{view} frame {f}: a static view loses no sample"
+                    );
+                }
             }
+        }
+        if view == "away" {
+            // The old cost: one background ray per pixel and frame.
+            assert!(
+                total_rays < 6.0 * 2.0 * npix,
+                "{view}: {total_rays} rays in 6 frames"
+            );
         }
     }
     assert_no_validation_messages(&ctx);

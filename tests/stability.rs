@@ -148,7 +148,9 @@ fn cache_run(s: &Session, cam0: &StereoCamera, frames: u32, drift: f32, rel_eps:
             for pixel in 0..snap.npix() {
                 r.pixels += 1;
                 let vis = snap.visible(snap.mask(e, pixel));
-                if vis == 0 && fully_covered(&bvh, &v, pixel, w, h) {
+                // Covered: a visible surface sample (background samples,
+                // rays that missed the scene, issue 12, do not count).
+                if snap.surface(e, pixel, vis) == 0 && fully_covered(&bvh, &v, pixel, w, h) {
                     r.uncovered += 1;
                 }
                 let mut bits = vis;
@@ -156,6 +158,17 @@ fn cache_run(s: &Session, cam0: &StereoCamera, frames: u32, drift: f32, rel_eps:
                     let slot = bits.trailing_zeros();
                     bits &= bits - 1;
                     let fh = snap.first_hits[snap.slot(e, slot, pixel)];
+                    // A visible background sample is stale when a fresh ray
+                    // in its direction hits the scene.
+                    if let Some(d) =
+                        stereocache::methods::sample_cache::background::background_direction(fh)
+                    {
+                        r.visible += 1;
+                        if bvh.closest_hit(eye_pos, d, 0.0, 1e30).is_some() {
+                            r.stale += 1;
+                        }
+                        continue;
+                    }
                     let p = stored_position(&bvh, fh);
                     let d = (p - eye_pos).normalize();
                     r.visible += 1;

@@ -29,4 +29,34 @@ void hit_position_and_normal(uvec4 fh, out vec3 p, out vec3 ng) {
     float l = length(n);
     ng = l > 0.0 ? n / l : vec3(0.0, 1.0, 0.0);
 }
+
+// Background samples (§3.3: "the environment is evaluated where the stored
+// samples represent the rendered background"). A new-sample ray that misses
+// the scene is a sample too: its record keeps the no-hit marker of Listing 1's
+// encoding (w = NO_HIT, so first_hit_valid() is false and no pass mistakes it
+// for a surface) and stores the ray's world direction instead of a triangle:
+// x, y = the direction's octahedral coordinates as float bits (full float
+// precision), z = BACKGROUND_TAG. Such a sample lies at infinity: it
+// reprojects as a direction, its radiance is the environment's in that
+// direction, and it is visible while a ray in that direction hits nothing.
+// CPU twin: src/methods/sample_cache/background.rs.
+const uint BACKGROUND_TAG = 0x42474E44u;   // "BGND"
+
+bool first_hit_is_background(uvec4 fh) { return fh.w == NO_HIT && fh.z == BACKGROUND_TAG; }
+
+vec2 bg_sign_not_zero(vec2 v) { return vec2(v.x >= 0.0 ? 1.0 : -1.0, v.y >= 0.0 ? 1.0 : -1.0); }
+
+uvec4 encode_background(vec3 d) {
+    vec3 n = d / (abs(d.x) + abs(d.y) + abs(d.z));
+    vec2 p = n.z >= 0.0 ? n.xy : (1.0 - abs(n.yx)) * bg_sign_not_zero(n.xy);
+    return uvec4(floatBitsToUint(p.x), floatBitsToUint(p.y), BACKGROUND_TAG, NO_HIT);
+}
+
+// Unit world direction of a background sample.
+vec3 background_direction(uvec4 fh) {
+    vec2 p = vec2(uintBitsToFloat(fh.x), uintBitsToFloat(fh.y));
+    vec3 n = vec3(p, 1.0 - abs(p.x) - abs(p.y));
+    if (n.z < 0.0) n.xy = (1.0 - abs(n.yx)) * bg_sign_not_zero(n.xy);
+    return normalize(n);
+}
 #endif

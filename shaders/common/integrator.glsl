@@ -107,6 +107,11 @@ vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, float cone_width, inout Rn
         }
         Surface s = surface_at(h.instance, h.prim, h.bary, d);
         ShadingMaterial m = material_at(s, d, cone);
+        // Shading normal facing away from the ray (interpolated or mapped
+        // normals at grazing hits: s.ng faces the ray, s.n only shares its
+        // hemisphere): wo.z ≤ 0 below would end every path here black, so
+        // shade such a hit with the geometric normal (issue 12).
+        if (dot(s.n, d) >= 0.0) s.n = s.ng;
         if (SC_EMISSIVE && any(greaterThan(m.emissive, vec3(0.0))))
             L += beta * m.emissive * emitter_mis_weight(h, d, specular_prev, pdf_prev);
         if (bounce >= SC_MAX_BOUNCES) break;

@@ -22,6 +22,19 @@ uint hy_vis_bits(uint m) {
 }
 uint hy_slot_index(uint eye, uint s, uint pixel) { return (eye * N_SLOTS + s) * npix() + pixel; }
 
+// The slots of `bits` that hold surface samples, not background ones (a
+// sample whose ray missed the scene, first_hit.glsl): only those look up
+// or update the table.
+uint hy_surface_bits(uint eye, uint pixel, uint bits) {
+    uint out_bits = bits, b = bits;
+    while (b != 0u) {
+        uint s = uint(findLSB(b));
+        b &= b - 1u;
+        if (first_hit_is_background(fh_cur[hy_slot_index(eye, s, pixel)])) out_bits &= ~(1u << s);
+    }
+    return out_bits;
+}
+
 // Index of the k-th set bit of `bits` (k < bitCount(bits)).
 uint hy_nth_set_bit(uint bits, uint k) {
     for (uint i = 0u; i < k; ++i) bits &= bits - 1u;
@@ -29,7 +42,7 @@ uint hy_nth_set_bit(uint bits, uint k) {
 }
 
 // The sample that updates the table this frame: round robin over the
-// pixel's visible samples by frame index (`vis` ≠ 0).
+// pixel's visible surface samples by frame index (`vis` ≠ 0).
 uint hy_update_slot(uint vis) { return hy_nth_set_bit(vis, frame.size_seed.w % bitCount(vis)); }
 
 // Index hash, offset in the tile and checksum of the voxel holding p at

@@ -15,7 +15,7 @@ void main() {
     if (any(greaterThanEqual(px, size))) return;
     uint pixel = px.y * size.x + px.x;
     uint pm = eye * npix() + pixel;
-    uint vis = hy_vis_bits(mask_cur[pm]);
+    uint vis = hy_surface_bits(eye, pixel, hy_vis_bits(mask_cur[pm]));
     if (vis == 0u) {
         pix_cell[pm] = uvec4(NO_CELL, ST_MISS, 0u, 0u);
         atomicAdd(counters[C_MISSES], 1u);

@@ -4,10 +4,13 @@
 // L + 1 (find only, no insertion); its colour is base colour × the mean of
 // the levels that hold radiance + emission (the updated sample falls back on
 // its own path when its reservation failed; a sample with no level holding
-// radiance does not contribute). Pixel colour = mean over the contributing
-// samples; depth, first hit, albedo and the TAA position of the closest
-// visible sample; a pixel without visible samples shows the environment
-// through its centre.
+// radiance does not contribute). Visible background samples (the sample
+// cache's rays that missed the scene, first_hit.glsl) contribute the
+// environment in their directions. Pixel colour = mean over the contributing
+// samples, so a partly covered pixel shows its coverage; depth, first hit,
+// albedo and the TAA position of the closest visible surface sample; a pixel
+// without visible surface samples shows the environment: the mean over its
+// background samples, or through its centre without any.
 #include "hybrid/common.glsl"
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 
@@ -18,13 +21,26 @@ void main() {
     if (any(greaterThanEqual(px, size))) return;
     uint pixel = px.y * size.x + px.x;
     uint pm = eye * npix() + pixel;
-    uint vis = hy_vis_bits(mask_cur[pm]);
+    uint all_vis = hy_vis_bits(mask_cur[pm]);
+    uint vis = hy_surface_bits(eye, pixel, all_vis);
     EyeGpu e = frame.eyes[eye];
     vec3 o = e.pos_tanx.xyz;
+    // Background samples: sum of their environment radiance and count.
+    vec3 bg_sum = vec3(0.0);
+    float n_bg = 0.0;
+    uint bg_bits = all_vis & ~vis;
+    while (bg_bits != 0u) {
+        uint sl = uint(findLSB(bg_bits));
+        bg_bits &= bg_bits - 1u;
+        vec3 db = background_direction(fh_cur[hy_slot_index(eye, sl, pixel)]);
+        float lp;
+        bg_sum += environment(db) + sun_radiance(db, lp);
+        n_bg += 1.0;
+    }
     if (vis == 0u) {
         vec3 d = eye_ray_dir(e, vec2(px) + 0.5);
         float lp;
-        color[pm] = vec4(environment(d) + sun_radiance(d, lp), 1.0);
+        color[pm] = vec4(n_bg > 0.0 ? bg_sum / n_bg : environment(d) + sun_radiance(d, lp), 1.0);
         position[pm] = vec4(d, 0.0);
         out_depth[pm] = 0.0;
         out_fh[pm] = uvec4(0u, 0u, 0u, NO_HIT);
@@ -74,7 +90,7 @@ void main() {
             contributing += 1.0;
         }
     }
-    color[pm] = vec4(contributing > 0.0 ? sum / contributing : vec3(0.0), 1.0);
+    color[pm] = vec4(contributing + n_bg > 0.0 ? (sum + bg_sum) / (contributing + n_bg) : vec3(0.0), 1.0);
     position[pm] = vec4(best_p, 1.0);
     out_depth[pm] = view_depth(e, best_p);
     out_fh[pm] = best_fh;

@@ -2,7 +2,8 @@
 // sample-cache paper compares against in Fig. 10: per eye a super-resolution
 // grid of (W·M) × (H·M) cells, M × M per pixel; a sample's sub-pixel position
 // fixes its cell. Per cell: the 128-bit first hit (Listing 1; w = NO_HIT marks
-// an empty cell) and a radiance record (demodulated running-mean rgb, sample
+// an empty cell, or with z = BACKGROUND_TAG a background sample: a sample
+// whose ray missed the scene, stored as its direction, first_hit.glsl) and a radiance record (demodulated running-mean rgb, sample
 // count). Everything is double-buffered (previous / current frame).
 // Descriptor set 1 below; src/methods/isrt/ owns the buffers and the passes.
 #extension GL_EXT_shader_atomic_int64 : require
@@ -37,7 +38,7 @@ layout(set = 1, binding = 10, std430) buffer Counters { uint counters[]; };
 // Counter slots (src/methods/isrt/mod.rs names them).
 const uint C_REPROJECTED = 0u, C_OFFSCREEN = 1u, C_KEPT = 2u, C_RETRACE_RAYS = 3u, C_RETRACE_LOST = 4u,
            C_NEW_RAYS = 5u, C_NEW_HITS = 6u, C_SHADED = 7u, C_BOUNCE_RAYS = 8u, C_SHADOW_RAYS = 9u,
-           C_SAMPLES = 10u;
+           C_SAMPLES = 10u, C_BACKGROUND = 11u;   // C_SAMPLES: surface samples; C_BACKGROUND: background ones
 
 uvec2 grid_size() { return frame_size() * M; }
 uint cells_per_eye() { uvec2 g = grid_size(); return g.x * g.y; }

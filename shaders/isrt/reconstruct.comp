@@ -1,9 +1,11 @@
 #version 460
 // Reconstruction: the pixel colour is the mean over its visible (= occupied,
 // since invisible samples are dropped when retraced), already shaded samples
-// of albedo × demodulated radiance; depth, first hit and albedo are the
-// closest sample's. A pixel without samples shows the environment through
-// its centre.
+// of albedo × demodulated radiance and its background samples
+// (first_hit.glsl) of the environment in their directions, so a partly
+// covered pixel shows its coverage; depth, first hit and albedo are the
+// closest surface sample's. A pixel without samples shows the environment
+// through its centre.
 #include "isrt/common.glsl"
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 
@@ -20,9 +22,18 @@ void main() {
     float best_t = 3.4e38;
     uvec4 best_fh = uvec4(0u, 0u, 0u, NO_HIT);
     vec3 best_albedo = vec3(0.0), best_p = vec3(0.0);
+    vec3 bg_sum = vec3(0.0);
+    float n_bg = 0.0;
     for (uint k = 0u; k < M * M; ++k) {
         uint idx = cell_index(eye, px * M + uvec2(k % M, k / M));
         uvec4 fh = fh_cur[idx];
+        if (first_hit_is_background(fh)) {
+            float lp;
+            vec3 db = background_direction(fh);
+            bg_sum += environment(db) + sun_radiance(db, lp);
+            n_bg += 1.0;
+            continue;
+        }
         if (!first_hit_valid(fh)) continue;
         samples += 1.0;
         vec3 wp = hit_position(fh);
@@ -37,7 +48,13 @@ void main() {
             shaded += 1.0;
         }
     }
-    if (samples == 0.0) {
+    if (samples == 0.0 && n_bg > 0.0) {
+        // Background samples only.
+        out_color[pm] = vec4(bg_sum / n_bg, 0.0);
+        out_depth[pm] = 0.0;
+        out_fh[pm] = uvec4(0u, 0u, 0u, NO_HIT);
+        out_albedo[pm] = vec4(0.0);
+    } else if (samples == 0.0) {
         vec3 d = eye_ray_dir(e, vec2(px) + 0.5);
         float lp;
         out_color[pm] = vec4(environment(d) + sun_radiance(d, lp), 0.0);
@@ -45,7 +62,7 @@ void main() {
         out_fh[pm] = uvec4(0u, 0u, 0u, NO_HIT);
         out_albedo[pm] = vec4(0.0);
     } else {
-        out_color[pm] = vec4(shaded > 0.0 ? sum / shaded : vec3(0.0), samples);
+        out_color[pm] = vec4(shaded + n_bg > 0.0 ? (sum + bg_sum) / (shaded + n_bg) : vec3(0.0), samples);
         out_depth[pm] = view_depth(e, best_p);
         out_fh[pm] = best_fh;
         out_albedo[pm] = vec4(best_albedo, 1.0);

@@ -13,17 +13,24 @@ void main() {
     if (any(greaterThanEqual(g, gs))) return;
     uint src = cell_index(eye, g);
     uvec4 fh = fh_prev[src];
-    if (!first_hit_valid(fh)) return;
+    // A background sample (first_hit.glsl) reprojects as a direction at
+    // infinity: through the point one unit along it from the new eye, with
+    // view depth ∞ in the claim, so any surface sample wins its cell.
+    bool bg = first_hit_is_background(fh);
+    if (!first_hit_valid(fh) && !bg) return;
     vec2 q;
     float vd;
     vec2 size = vec2(frame_size());
-    if (!project_to_eye(frame.eyes[eye], hit_position(fh), q, vd) || any(lessThan(q, vec2(0.0))) ||
+    EyeGpu e = frame.eyes[eye];
+    vec3 p = bg ? e.pos_tanx.xyz + background_direction(fh) : hit_position(fh);
+    if (!project_to_eye(e, p, q, vd) || any(lessThan(q, vec2(0.0))) ||
         any(greaterThanEqual(q, size))) {
         atomicAdd(counters[C_OFFSCREEN], 1u);
         return;
     }
     uvec2 t = min(uvec2(q * float(M)), gs - 1u);
     uint local = src - eye * cells_per_eye();
+    if (bg) vd = uintBitsToFloat(0x7F800000u);
     atomicMin(claim[cell_index(eye, t)], (uint64_t(floatBitsToUint(vd)) << 32) | uint64_t(local));
     atomicAdd(counters[C_REPROJECTED], 1u);
 }

@@ -1,9 +1,14 @@
 #version 460
-// Every sample is retraced every frame: a ray from the eye to the stored hit
-// (visible when the closest hit lies within ε0·t of it, as in the sample
-// cache's retrace); an invisible sample is dropped. Every empty cell is then
-// filled with a new sample through a uniformly random point of that cell (a
-// miss leaves the cell empty, so sky cells are retried each frame).
+// Every sample is retraced every frame: a ray from the eye to the stored hit,
+// as in the sample cache's retrace (sample_cache/retrace.comp): kept when the
+// closest hit lies within ε0·t of it, dropped when a closer hit is found,
+// kept when the ray finds neither (no hit near the stored one: precision at
+// triangle edges; §3.2 of the sample-cache paper drops a sample only behind
+// a closer hit). A background sample (first_hit.glsl) is retraced along its
+// direction and kept while that ray hits nothing. Every empty cell is then
+// filled with a new sample through a uniformly random point of that cell; a
+// miss stores a background sample, which the reconstruction counts with the
+// environment's radiance (the cell's share of the pixel's coverage).
 #include "isrt/common.glsl"
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 
@@ -15,7 +20,14 @@ void main() {
     EyeGpu e = frame.eyes[eye];
     vec3 o = e.pos_tanx.xyz;
     uvec4 fh = fh_cur[idx];
-    if (first_hit_valid(fh)) {
+    if (first_hit_is_background(fh)) {
+        atomicAdd(counters[C_RETRACE_RAYS], 1u);
+        if (!rt_occluded(o, background_direction(fh), 0.0, 1e30)) {
+            atomicAdd(counters[C_BACKGROUND], 1u);
+            return;
+        }
+        atomicAdd(counters[C_RETRACE_LOST], 1u);
+    } else if (first_hit_valid(fh)) {
         vec3 wp = hit_position(fh);
         vec3 d = wp - o;
         float t = length(d);
@@ -23,7 +35,7 @@ void main() {
         RtHit h;
         bool hit = rt_closest_hit(o, d, 0.0, t * (1.0 + 2.0 * pc.eps0), h);
         atomicAdd(counters[C_RETRACE_RAYS], 1u);
-        if (hit && abs(h.t - t) <= pc.eps0 * t) {
+        if (!hit || h.t >= t - pc.eps0 * t) {
             atomicAdd(counters[C_SAMPLES], 1u);
             return;
         }
@@ -40,7 +52,8 @@ void main() {
         atomicAdd(counters[C_NEW_HITS], 1u);
         atomicAdd(counters[C_SAMPLES], 1u);
     } else {
-        fh_cur[idx] = uvec4(0u, 0u, 0u, NO_HIT);
+        fh_cur[idx] = encode_background(d);
+        atomicAdd(counters[C_BACKGROUND], 1u);
     }
     rad_cur[idx] = vec4(0.0);
 }

@@ -63,8 +63,12 @@ layout(set = 1, binding = 20, std430) buffer PixelAction { uvec4 pixel_action[];
 layout(set = 1, binding = 21, std430) buffer PixelStats { uvec4 pixel_stats[]; };   // traced bits, shaded count, fresh, unused
 // Retracing (§3.4) as a compacted list: select.comp appends the slots to
 // retrace (eye << 31 | slot << 26 | pixel), retrace.comp traces them with
-// every lane busy and sets the bits of the slots found visible in
-// retrace_found, which trace.comp applies.
+// every lane busy and records per pixel in retrace_found, which trace.comp
+// applies: bit s = slot s found visible (closest hit within ε0 of it, or, for
+// a background sample, no hit at all); bit N + s = a closer hit was found
+// (the sample is occluded). Neither bit: the ray found no hit near the
+// stored one (precision at triangle edges) and the slot keeps its
+// visibility, as §3.2 sets v_s = 0 only "if a closer hit is encountered".
 layout(set = 1, binding = 24, std430) buffer RetraceList { uint retrace_list[]; };
 layout(set = 1, binding = 25, std430) buffer RetraceFound { uint retrace_found[]; };  // [eye][pixel]
 // VkDispatchIndirectCommand per list: [0..3) retrace, [4..7) shade (indirect_args.comp).
@@ -110,13 +114,37 @@ void list_decode(uint code, out uint eye, out uint slot, out uint pixel) {
 const uint C_RETRACE_RAYS = 0u, C_NEW_RAYS = 1u, C_BOUNCE_RAYS = 2u, C_SHADOW_RAYS = 3u, C_HOLES = 4u,
            C_ADDED = 5u, C_PURGED = 6u, C_REPROJECTED = 7u, C_REPROJECT_FULL = 8u, C_OFFSCREEN = 9u,
            C_SHADED = 10u, C_REPLACED = 11u, C_EDGE_PIXELS = 12u, C_VISIBLE = 13u, C_BG_RAYS = 14u,
-           C_REPROJECTED_VISIBLE = 15u;
+           C_REPROJECTED_VISIBLE = 15u, C_REPROJECTED_BACKGROUND = 16u;
 
 uint npix() { return frame.size_seed.x * frame.size_seed.y; }
 uint slot_index(uint eye, uint s, uint pixel) { return (eye * N_SLOTS + s) * npix() + pixel; }
 uint full_bits() { return N_SLOTS >= 32u ? 0xFFFFFFFFu : (1u << N_SLOTS) - 1u; }
 uint occ_bits(uint m) { return m & full_bits(); }
 uint vis_bits(uint m) { return (m >> N_SLOTS) & full_bits(); }
+
+// Background samples (first_hit.glsl): slot s of `pixel` holds one.
+bool slot_is_background(uint eye, uint s, uint pixel) {
+    return first_hit_is_background(fh_cur[slot_index(eye, s, pixel)]);
+}
+
+// The slots of `bits` that hold surface samples (not background ones): the
+// samples that shading and the surface outputs use.
+uint surface_slots(uint eye, uint pixel, uint bits) {
+    uint out_bits = bits, b = bits;
+    while (b != 0u) {
+        uint s = uint(findLSB(b));
+        b &= b - 1u;
+        if (slot_is_background(eye, s, pixel)) out_bits &= ~(1u << s);
+    }
+    return out_bits;
+}
+
+// Radiance of a background sample (§3.3): the environment and sun discs
+// seen in its direction, as the reference sees them through a missing ray.
+vec3 background_radiance(vec3 d) {
+    float lp;
+    return environment(d) + sun_radiance(d, lp);
+}
 
 // Index of the k-th set bit of `bits` (k < bitCount(bits)).
 uint nth_set_bit(uint bits, uint k) {
@@ -206,22 +234,13 @@ float accumulated_count(float c, float alpha) {
     return min(1.0 / (k * k / c + alpha * alpha), C_MAX);
 }
 
-// The visible samples of a pixel that shading can take: those whose first
-// hit is a surface (a sample whose first hit is NO_HIT, should the cache hold
-// one, is evaluated by reconstruction, not shaded).
-uint shadeable_bits(uint eye, uint pixel, uint vis) {
-    uint out_bits = vis;
-    while (vis != 0u) {
-        uint s = uint(findLSB(vis));
-        vis &= vis - 1u;
-        if (fh_cur[slot_index(eye, s, pixel)].w == NO_HIT) out_bits &= ~(1u << s);
-    }
-    return out_bits;
-}
-
-// Block-sparse pattern of §3.4/§3.5: one pixel per 4×4 block, rotating each frame.
+// Block-sparse pattern of §3.4/§3.5: one pixel per 4×4 block, rotating each
+// frame. Blocks cut by the right or bottom border (width or height not a
+// multiple of 4) choose among their pixels inside the image, so they too get
+// their base pixel every frame.
 bool is_sparse_base_pixel(uvec2 px, uint frame_index, uint eye) {
     uvec2 block = px / 4u;
-    uint k = pcg_hash(block.x * 73856093u ^ block.y * 19349663u ^ eye * 83492791u ^ frame_index * 2654435761u) & 15u;
-    return (px.x & 3u) + 4u * (px.y & 3u) == k;
+    uvec2 extent = min(frame_size() - block * 4u, uvec2(4u));
+    uint k = pcg_hash(block.x * 73856093u ^ block.y * 19349663u ^ eye * 83492791u ^ frame_index * 2654435761u) % (extent.x * extent.y);
+    return (px.x & 3u) + extent.x * (px.y & 3u) == k;
 }

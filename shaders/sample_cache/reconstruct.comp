@@ -1,11 +1,14 @@
 #version 460
 // §3.3 reconstruction: the pixel colour is the mean over its visible,
 // already shaded samples of their remodulated radiance (common.glsl
-// `remodulate`: base colour × demodulated radiance + emission); a pixel
-// without visible samples shows the environment. A pixel whose visible
-// samples are all still unshaded (adaptive shading when the frame's rate
-// cannot cover every such pixel: frame 0 or a disocclusion at a rate below
-// one path per pixel) falls back to its neighbours' demodulated radiance
+// `remodulate`: base colour × demodulated radiance + emission) and its visible
+// background samples (first_hit.glsl) of the environment in their
+// directions, each kind weighted by its share of the pixel's visible samples,
+// so a partly covered pixel shows its coverage; a pixel without visible
+// samples shows the environment. A pixel whose visible surface samples are
+// all still unshaded (adaptive shading when the frame's rate cannot cover
+// every such pixel: frame 0 or a disocclusion at a rate below one path per
+// pixel) falls back to its neighbours' demodulated radiance
 // (`unshaded_fallback`) instead of black. Also writes the raw moments of
 // Eq. 5–6 for stereo blending, the depth / first hit / albedo of the closest
 // visible sample, and the debug views.
@@ -69,12 +72,22 @@ void main() {
     float best_t = 3.4e38;
     uvec4 best_fh = uvec4(0u, 0u, 0u, NO_HIT);
     vec3 best_albedo = vec3(0.0), best_p = vec3(0.0);
+    // Background samples: sum and sum of squares of their radiance, count.
+    vec3 bg_sum = vec3(0.0), bg_sum2 = vec3(0.0);
+    float n_bg = 0.0;
     uint bits = vis;
     while (bits != 0u) {
         uint s = uint(findLSB(bits));
         bits &= bits - 1u;
         uint idx = slot_index(eye, s, pixel);
         uvec4 fh = fh_cur[idx];
+        if (first_hit_is_background(fh)) {
+            vec3 Lb = background_radiance(background_direction(fh));
+            bg_sum += Lb;
+            bg_sum2 += Lb * Lb;
+            n_bg += 1.0;
+            continue;
+        }
         vec3 wp = hit_position(fh);
         float t = length(wp - o);
         vec3 d = (wp - o) / max(t, 1e-30);
@@ -93,6 +106,15 @@ void main() {
             c_total += rec.w;
         }
     }
+    // Background samples in the mean (exact radiance, not accumulated): each
+    // counts as one sample in the colour and, in the moments (Eq. 5–6), with
+    // the mean effective count of the pixel's shaded samples (1 without
+    // any), so μ1 weighs coverage like the colour does.
+    float c_bg = shaded > 0.0 ? c_total / shaded : 1.0;
+    m1 += c_bg * bg_sum;
+    m2 += c_bg * bg_sum2;
+    c_total += c_bg * n_bg;
+    bool surface = best_t < 3.4e38;   // some visible surface sample
     vec3 color;
     if (vis == 0u) {
         // Background: what the pixel-centre camera ray sees (sky and sun disc).
@@ -105,23 +127,32 @@ void main() {
         out_fh[pm] = uvec4(0u, 0u, 0u, NO_HIT);
         out_albedo[pm] = vec4(0.0);
     } else {
+        // Coverage (issue 12 item 1): the visible surface samples stand for
+        // their share n_surf / (n_surf + n_bg) of the pixel with the mean of
+        // those already shaded, the background samples for theirs with the
+        // environment, so a pixel whose surface samples are not all shaded
+        // yet keeps its coverage.
+        float n_surf = float(bitCount(vis)) - n_bg;
+        vec3 surf_mean = vec3(0.0);
         if (shaded > 0.0) {
-            color = sum / shaded;
-        } else {
-            // Issue 12 item 3: no visible sample shaded yet. The mean of
-            // remodulate(neighbours' radiance, own material) over the own
-            // visible samples; without a shaded neighbour either, their own
-            // emission remains.
+            surf_mean = sum / shaded;
+        } else if (n_surf > 0.0) {
+            // Issue 12 item 3: no visible surface sample shaded yet. The mean
+            // of remodulate(neighbours' radiance, own material) over the own
+            // visible surface samples; without a shaded neighbour either,
+            // their own emission remains.
             vec3 demod;
             unshaded_fallback(eye, ivec2(px), ivec2(size), demod);
-            float n_vis = float(bitCount(vis));
-            color = (factor_sum * demod + emission_sum) / n_vis;
+            surf_mean = (factor_sum * demod + emission_sum) / n_surf;
         }
+        color = (n_surf * surf_mean + bg_sum) / (n_surf + n_bg);
         m1 = c_total > 0.0 ? m1 / c_total : color;
         m2 = c_total > 0.0 ? m2 / c_total : color * color;
-        out_depth[pm] = view_depth(e, best_p);
+        // Depth, first hit and albedo of the closest visible surface sample;
+        // background only: as for a pixel without samples.
+        out_depth[pm] = surface ? view_depth(e, best_p) : 0.0;
         out_fh[pm] = best_fh;
-        out_albedo[pm] = vec4(best_albedo, 1.0);
+        out_albedo[pm] = surface ? vec4(best_albedo, 1.0) : vec4(0.0);
     }
     out_color[pm] = vec4(color, c_total);
     out_m1[pm] = vec4(m1, c_total);

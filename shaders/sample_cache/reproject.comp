@@ -33,14 +33,19 @@ void main() {
     if (occ == 0u) return;
     EyeGpu e = frame.eyes[eye];
     vec2 cs_phi = pixel_diagonal_cos_sin(e);
-    uint reprojected = 0u, reprojected_visible = 0u, full = 0u, offscreen = 0u;
+    uint reprojected = 0u, reprojected_visible = 0u, full = 0u, offscreen = 0u, reprojected_bg = 0u;
     while (occ != 0u) {
         uint s = uint(findLSB(occ));
         occ &= occ - 1u;
         uint src = slot_index(eye, s, pixel);
         uvec4 fh = fh_prev[src];
         vec3 wp, ng;
-        hit_position_and_normal(fh, wp, ng);
+        // Background sample (§3.3): a direction at infinity, projected
+        // through the point one unit along it from the new eye (only the
+        // view rotation moves it); its distance is t = ∞ (below).
+        bool bg = first_hit_is_background(fh);
+        if (bg) wp = e.pos_tanx.xyz + background_direction(fh);
+        else hit_position_and_normal(fh, wp, ng);
         vec2 q;
         float vd;
         if (!project_to_eye(e, wp, q, vd) || any(lessThan(q, vec2(0.0))) || any(greaterThanEqual(q, vec2(size)))) {
@@ -86,19 +91,32 @@ void main() {
         reprojected++;
         if (vis) {
             reprojected_visible++;
-            vec3 to_eye = e.pos_tanx.xyz - wp;
-            float t = length(to_eye);
-            float cos_theta = abs(dot(ng, to_eye / max(t, 1e-30)));
-            float slope = normal_slope(t, cos_theta, cs_phi);
-            atomicMin(depth_min[tm], (uint64_t(floatBitsToUint(t)) << 32) | uint64_t(floatBitsToUint(slope)));
-            atomicMax(depth_max[tm], floatBitsToUint(t));
+            if (bg) {
+                // Background samples (t = ∞) only raise t_max to ∞, so a
+                // pixel whose neighbourhood mixes surface and background
+                // fails Eq. 2 (a silhouette); t_min stays the closest surface
+                // sample's (unset: only background, select.comp). One atomic
+                // per pixel, not per sample, where t_max is ∞ already; they
+                // carry no radiance record to shade.
+                reprojected_bg++;
+                if (depth_max[tm] != 0x7F800000u) atomicMax(depth_max[tm], 0x7F800000u);
+            } else {
+                vec3 to_eye = e.pos_tanx.xyz - wp;
+                float t = length(to_eye);
+                float cos_theta = abs(dot(ng, to_eye / max(t, 1e-30)));
+                float slope = normal_slope(t, cos_theta, cs_phi);
+                atomicMin(depth_min[tm], (uint64_t(floatBitsToUint(t)) << 32) | uint64_t(floatBitsToUint(slope)));
+                atomicMax(depth_max[tm], floatBitsToUint(t));
+            }
             // (The importance histogram of §3.5 is counted after tracing, by
             // shade_select.comp phase 0, so that it holds this frame's new
-            // samples too: issue 12 item 3.)
+            // samples too: issue 12 item 3; background samples are never
+            // shaded and stay out of it.)
         }
     }
     count_add(C_REPROJECTED, reprojected);
     count_add(C_REPROJECTED_VISIBLE, reprojected_visible);
+    count_add(C_REPROJECTED_BACKGROUND, reprojected_bg);
     count_add(C_REPROJECT_FULL, full);
     count_add(C_OFFSCREEN, offscreen);
 }

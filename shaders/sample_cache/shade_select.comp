@@ -82,7 +82,7 @@ void select_pixel(uvec2 px, uint eye) {
     uint pm = eye * npix() + pixel;
     uint frame_index = frame.size_seed.w;
     if (SHADING_MODE == 0u) {
-        uint vis = shadeable_bits(eye, pixel, vis_bits(mask_cur[pm]));
+        uint vis = surface_slots(eye, pixel, vis_bits(mask_cur[pm]));
         uint n = bitCount(vis);
         if (n > 0u) push_shade(eye, nth_set_bit(vis, frame_index % n), pixel);
         return;
@@ -91,7 +91,7 @@ void select_pixel(uvec2 px, uint eye) {
     bool base, unshaded;
     uvec2 buckets = uvec2(0u);
     if (SELECT_PHASE == 0u) {
-        vis = shadeable_bits(eye, pixel, vis_bits(mask_cur[pm]));
+        vis = surface_slots(eye, pixel, vis_bits(mask_cur[pm]));
         uint n = bitCount(vis);
         round_robin = n > 0u ? nth_set_bit(vis, frame_index % n) : 0u;
         base = n > 0u && is_sparse_base_pixel(px, frame_index, eye);

@@ -3,27 +3,26 @@
 // §3.2 step 3: apply the retrace results (retrace.comp), purge,
 // add new samples through random points in the pixel (into a free slot or
 // over an invisible one), and keep at least one visible sample: a pixel left
-// without one gets a fresh hit (over the last one that failed, if any).
+// without one gets a fresh sample (over the last one that failed, if any).
+// A new-sample ray that misses the scene stores a background sample (§3.3,
+// first_hit.glsl), so every new ray leaves a visible sample.
 #include "sample_cache/common.glsl"
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 
-// Traces a new sample through a random point of the pixel into `slot`;
-// returns true when it hit geometry.
+// Traces a new sample through a random point of the pixel into `slot`: its
+// first hit, or a background sample when the ray misses the scene. Returns
+// true when it hit geometry.
 bool new_sample(EyeGpu e, uvec2 px, uint eye, uint pixel, uint slot, inout Rng r, inout uint m) {
     vec3 o = e.pos_tanx.xyz;
     vec3 d = eye_ray_dir(e, vec2(px) + rng_next2(r));
     RtHit h;
     bool hit = rt_closest_hit(o, d, 0.0, 1e30, h);
     uint o_bit = 1u << slot, v_bit = 1u << (slot + N_SLOTS);
-    if (!hit) {
-        m &= ~(o_bit | v_bit);
-        return false;
-    }
     uint idx = slot_index(eye, slot, pixel);
-    fh_cur[idx] = encode_first_hit(h.bary, h.instance, h.prim, instance_material(h.instance));
+    fh_cur[idx] = hit ? encode_first_hit(h.bary, h.instance, h.prim, instance_material(h.instance)) : encode_background(d);
     if (SHADING_STORAGE) rad_cur[idx] = vec4(0.0);
     m |= o_bit | v_bit;
-    return true;
+    return hit;
 }
 
 // A slot for a new sample: free first, then invisible, else -1.
@@ -54,46 +53,40 @@ void main() {
     }
     uint vis_before = vis_bits(m);
     // Retrace results (retrace.comp): traced slots found visible keep or get
-    // their visibility bit, the others lose it; the last one (highest slot)
-    // that was visible and failed takes the fresh hit if none stays visible.
+    // their visibility bit, those behind a closer hit lose it, the others
+    // (no hit near the stored one) keep theirs; the last one (highest slot)
+    // that was visible and was occluded takes the fresh sample if none stays
+    // visible.
     uint traced = action.x & occ_bits(m);
-    uint found = retrace_found[pm] & traced;
-    uint failed = traced & ~found & vis_before;
+    uint rf = retrace_found[pm];
+    uint found = rf & traced;
+    uint occluded = (rf >> N_SLOTS) & traced & ~found;
+    uint failed = occluded & vis_before;
     int last_failed = failed != 0u ? findMSB(failed) : -1;
-    m = (m & ~(traced << N_SLOTS)) | (found << N_SLOTS);
+    m = (m & ~(occluded << N_SLOTS)) | (found << N_SLOTS);
 
-    // Add samples towards the target density. A ray that finds background
-    // ends the adding for this frame: a pixel that shows the environment
-    // would otherwise trace n_target missing rays every frame (4× a path
-    // tracer's one primary ray there, issue 6); a pixel that is only partly
-    // covered keeps one more sample per frame until it reaches the target.
-    bool missed = false;
+    // Add samples towards the target density; a ray that misses adds a
+    // background sample. (The earlier early stop at the first miss kept
+    // sky pixels at one ray per frame but froze partly covered pixels at one
+    // sample and dropped the sky's share of their coverage; with background
+    // samples stored, a sky pixel fills its slots once and then costs only
+    // the base-rate retrace.)
     for (uint k = 0u; k < action.y; ++k) {
         int s = slot_for_new(m);
         if (s < 0) break;
-        if (new_sample(e, px, eye, pixel, uint(s), r, m)) {
-            new_rays++;
-            added++;
-        } else {
-            bg_rays++;
-            missed = true;
-            break;
-        }
+        if (new_sample(e, px, eye, pixel, uint(s), r, m)) new_rays++;
+        else bg_rays++;
+        added++;
     }
 
-    // Keep at least one visible sample (unless this frame's ray just saw the
-    // background through this pixel).
-    if (vis_bits(m) == 0u && !missed) {
+    // Keep at least one visible sample.
+    if (vis_bits(m) == 0u) {
         int s = last_failed >= 0 ? last_failed : slot_for_new(m);
         if (s < 0) s = 0;
         bool had = vis_before != 0u;
-        bool hit = new_sample(e, px, eye, pixel, uint(s), r, m);
-        if (hit) {
-            new_rays++;
-            if (had) replaced++; else holes++;
-        } else {
-            bg_rays++;
-        }
+        if (new_sample(e, px, eye, pixel, uint(s), r, m)) new_rays++;
+        else bg_rays++;
+        if (had) replaced++; else holes++;
     }
     mask_cur[pm] = m;
     pixel_stats[pm] = uvec4(action.x, 0u, added + holes + replaced, action.w);

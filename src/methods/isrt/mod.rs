@@ -7,10 +7,11 @@
 //! → `reproject` (one thread per previous cell; the sample lands in the cell
 //! its new sub-pixel position falls into; 64-bit `atomicMin` on
 //! depth | source index: the closest sample wins) → `gather` (copies the
-//! winners) → `trace` (every sample retraced; invisible ones dropped; every
-//! empty cell gets a new sample through a random point in it) → `shade` (one
+//! winners) → `trace` (every sample retraced; occluded ones dropped; every
+//! empty cell gets a new sample through a random point in it, a miss a
+//! background sample: the ray's direction, `sample_cache::background`) → `shade` (one
 //! sample per pixel, round robin; demodulated running mean) → `reconstruct`
-//! (mean over the pixel's shaded samples).
+//! (mean over the pixel's shaded and background samples).
 //!
 //! Memory per pixel per eye: M² × (16 B first hit + 16 B radiance) × 2
 //! (previous / current) + M² × 8 B reservations, plus the per-pixel outputs.
@@ -75,6 +76,7 @@ const COUNTERS: &[(usize, &str)] = &[
     (6, "new_samples"),
     (7, "shaded_samples"),
     (10, "samples"),
+    (11, "background_samples"),
 ];
 
 /// The grid read back from the GPU (current frame), for tests and debugging.
@@ -98,8 +100,14 @@ impl IsrtSnapshot {
     pub fn cell(&self, eye: usize, gx: u32, gy: u32) -> usize {
         eye * self.cells_per_eye() + (gy * self.grid_width() + gx) as usize
     }
+    /// The cell holds a surface sample.
     pub fn occupied(&self, cell: usize) -> bool {
         self.first_hits[cell][3] != u32::MAX
+    }
+    /// The cell holds a background sample (a ray that missed the scene,
+    /// [`crate::methods::sample_cache::background`]).
+    pub fn background(&self, cell: usize) -> bool {
+        crate::methods::sample_cache::background::is_background(self.first_hits[cell])
     }
 }
 

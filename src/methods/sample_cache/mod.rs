@@ -19,6 +19,7 @@
 //! its own recorder, then its own passes on the current cache
 //! ([`SampleCache::current_buffers`]), then calls [`SampleCache::end_frame`].
 
+pub mod background;
 pub mod heuristics;
 pub mod settings;
 
@@ -68,6 +69,7 @@ const COUNTERS: &[(usize, &str)] = &[
     (13, "visible_samples"),
     (14, "background_rays"),
     (15, "reprojected_visible"),
+    (16, "reprojected_visible_background"),
 ];
 
 /// Names of the debug views, in the order the reconstruct pass writes them.
@@ -118,6 +120,23 @@ impl CacheSnapshot {
     pub fn visible(&self, m: u32) -> u32 {
         (m >> self.slots) & ((1u32 << self.slots) - 1)
     }
+    /// Slot `slot` of `pixel` holds a background sample ([`background`]).
+    pub fn is_background(&self, eye: usize, slot: u32, pixel: usize) -> bool {
+        background::is_background(self.first_hits[self.slot(eye, slot, pixel)])
+    }
+    /// The slots of `bits` that hold surface samples (not background ones).
+    pub fn surface(&self, eye: usize, pixel: usize, bits: u32) -> u32 {
+        let mut out = bits;
+        let mut b = bits;
+        while b != 0 {
+            let s = b.trailing_zeros();
+            b &= b - 1;
+            if self.is_background(eye, s, pixel) {
+                out &= !(1 << s);
+            }
+        }
+        out
+    }
 }
 
 /// Raw moments per pixel `[eye][pixel]`: rgb and the total effective sample count in w.
@@ -152,7 +171,8 @@ struct ShadingPipelines {
 pub struct CacheBuffers<'a> {
     /// `[eye][pixel]` u32: occupancy bits 0..N−1, visibility bits N..2N−1.
     pub masks: &'a Buffer,
-    /// `[eye][slot][pixel]` uvec4 first hits (Listing 1; w = 0xFFFFFFFF: none).
+    /// `[eye][slot][pixel]` uvec4 first hits (Listing 1; w = 0xFFFFFFFF: none,
+    /// or a background sample, [`background`]).
     pub first_hits: &'a Buffer,
 }
 
