@@ -82,14 +82,40 @@ fn supersample_naive_and_taa_against_the_reference() {
     let cam = s.camera(&CameraSelect::Default, w, h, None, None).unwrap();
     let r = 512.0;
     let reference = render(&s, "reference", cam, &settings(w, h, r as u32, 11));
-    let naive = render(&s, "naive", cam, &settings(w, h, 64, 12));
+    // naive's expected squared error from 16 independent 1 spp images (seeds
+    // 100..116), per pixel the mean of their squared errors, so it rests on
+    // as many paths as the 16 spp supersample image. With next-event
+    // estimation the 1 spp error is concentrated (97 % of it in 1 % of the
+    // pixels) in the pixels the ceiling emitter's edge crosses, where a
+    // jittered sample hits the light or not: one image's squared error (and
+    // its standard error from the pixel spread) then depends on a few
+    // Bernoulli draws and varies by ±30 % from image to image.
+    let naives: Vec<StereoFrame> = (0..16)
+        .map(|k| render(&s, "naive", cam, &settings(w, h, 64, 100 + k)))
+        .collect();
+    let naive = &naives[0];
     let ss = render(&s, "supersample", cam, &settings(w, h, 16, 13));
-    for (f, name) in [(&naive, "naive"), (&ss, "supersample")] {
+    for (f, name) in [(naive, "naive"), (&ss, "supersample")] {
         assert_finite_non_negative(f, name);
     }
     // naive ignores --spp: one sample per pixel.
     assert_eq!(naive.stats.rays.primary, 2 * (w * h) as u64 * 2);
-    let (m1, s1) = diff_stats(&naive, &reference);
+    let per_pixel: Vec<Vec<f64>> = naives
+        .iter()
+        .map(|n| squared_errors(n, &reference))
+        .collect();
+    let naive_sq: Vec<f64> = (0..per_pixel[0].len())
+        .map(|i| per_pixel.iter().map(|v| v[i]).sum::<f64>() / per_pixel.len() as f64)
+        .collect();
+    let (m1, s1) = mean_and_standard_error(&naive_sq);
+    // The spread of one 1 spp image's MSE (frame 0 of TAA below is one).
+    let singles: Vec<f64> = per_pixel
+        .iter()
+        .map(|v| v.iter().sum::<f64>() / v.len() as f64)
+        .collect();
+    let single_sd =
+        (singles.iter().map(|x| (x - m1).powi(2)).sum::<f64>() / (singles.len() - 1) as f64).sqrt();
+    eprintln!("MSE of single 1 spp images: {singles:.3?} (sd {single_sd:.3e})");
     let (m16, s16) = diff_stats(&ss, &reference);
     let ratio = m1 / m16;
     let sigma = ratio * ((s1 / m1).powi(2) + (s16 / m16).powi(2)).sqrt();
@@ -109,45 +135,55 @@ fn supersample_naive_and_taa_against_the_reference() {
         (TaaWeights::Fixed, false),
         (TaaWeights::Pfj23, false),
     ] {
-        let st = RenderSettings {
-            taa: TaaSettings {
-                weights,
-                clip,
-                ..Default::default()
-            },
-            ..settings(w, h, 1, 21)
-        };
-        let mut m = s.method("taa", &st).unwrap();
-        let frames = run(m.as_mut(), &cams);
-        let e: Vec<f64> = frames
-            .iter()
-            .map(|f| {
+        // RUNS independent runs (seeds 21..) averaged frame by frame: one
+        // run's per-frame MSE rests on the few emitter-edge pixels (above),
+        // too noisy for the orderings below.
+        const RUNS: u32 = 8;
+        let mut e = vec![0.0; cams.len()];
+        for run_k in 0..RUNS {
+            let st = RenderSettings {
+                taa: TaaSettings {
+                    weights,
+                    clip,
+                    ..Default::default()
+                },
+                ..settings(w, h, 1, 21 + run_k)
+            };
+            let mut m = s.method("taa", &st).unwrap();
+            let frames = run(m.as_mut(), &cams);
+            for (i, f) in frames.iter().enumerate() {
                 assert_finite_non_negative(f, "taa");
-                diff_stats(f, &reference).0
-            })
-            .collect();
-        eprintln!("taa {weights:?} clip {clip}: MSE per frame {e:.4?}");
-        // Frame 0 is plain 1 spp (no history): its error is naive's, within noise.
-        assert!(
-            (e[0] - m1).abs() < 0.5 * m1,
-            "frame 0 {} vs naive {m1}",
-            e[0]
-        );
-        let last = frames.last().unwrap();
-        assert_eq!(last.stats.counters["taa_history_used"], (2 * w * h) as f64);
-        assert_eq!(last.stats.counters["taa_rejected_disocclusion"], 0.0);
+                let mse_i = diff_stats(f, &reference).0;
+                // Frame 0 is plain 1 spp (no history): its error is one
+                // 1 spp image's, within 4 standard deviations of that MSE.
+                if i == 0 {
+                    assert!(
+                        (mse_i - m1).abs() < 4.0 * single_sd,
+                        "run {run_k} frame 0 {mse_i} vs naive {m1} ± {single_sd}"
+                    );
+                }
+                e[i] += mse_i / RUNS as f64;
+            }
+            let last = frames.last().unwrap();
+            assert_eq!(last.stats.counters["taa_history_used"], (2 * w * h) as f64);
+            assert_eq!(last.stats.counters["taa_rejected_disocclusion"], 0.0);
+        }
+        eprintln!("taa {weights:?} clip {clip}: MSE per frame (mean of {RUNS} runs) {e:.4?}");
         mse.insert(format!("{weights:?} {clip}"), e);
     }
     let (clip, fixed, pfj) = (&mse["Fixed true"], &mse["Fixed false"], &mse["Pfj23 false"]);
     // Clipping against a 1 spp neighbourhood acts as a spatial filter at once
     // and adds bias; a halving is all that is asserted (figures in the docs).
-    assert!(clip[15] < 0.5 * clip[0], "γ = 1: {clip:?}");
+    // The reductions are against the expected 1 spp error m1 (16 images),
+    // not frame 0's single image: the box's emitter edges make one image's
+    // MSE vary by ±30 % (single_sd above).
+    assert!(clip[15] < 0.5 * m1, "γ = 1: {clip:?} vs 1 spp {m1}");
     assert!(clip[15] < clip[4] && clip[4] < clip[0], "γ = 1: {clip:?}");
     // Without clipping an EMA with α = 0.1 keeps ≈ α/(2 − α) ≈ 5 % of the
     // 1 spp variance in steady state (plus the Halton-vs-random jitter
     // difference to the reference at edges).
-    assert!(fixed[15] < 0.25 * fixed[0], "fixed: {fixed:?}");
-    assert!(pfj[15] < 0.25 * pfj[0], "pfj23: {pfj:?}");
+    assert!(fixed[15] < 0.25 * m1, "fixed: {fixed:?} vs 1 spp {m1}");
+    assert!(pfj[15] < 0.25 * m1, "pfj23: {pfj:?} vs 1 spp {m1}");
     // While the history is short, a running mean (pfj23: variance σ²/n) beats
     // an EMA from a reset (variance 0.81ⁿ⁻¹ + …, e.g. 0.56 σ² vs 0.25 σ² at
     // n = 4). The jitter pattern's bias against the reference adds to both, so

@@ -512,7 +512,10 @@ fn adaptive_shading_rate(s: &Session, subgroup_ops: bool) {
         let hist_total: u32 = snap.histogram.iter().sum();
         let visible: u32 = (0..2)
             .flat_map(|e| (0..snap.npix()).map(move |p| (e, p)))
-            .map(|(e, p)| snap.surface(e, p, snap.visible(snap.mask(e, p))).count_ones())
+            .map(|(e, p)| {
+                snap.surface(e, p, snap.visible(snap.mask(e, p)))
+                    .count_ones()
+            })
             .sum();
         let first: u32 = snap.base_pixels.iter().chain(&snap.unshaded_pixels).sum();
         assert_eq!(hist_total, visible - first, "frame {f}: histogram total");

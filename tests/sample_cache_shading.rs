@@ -141,11 +141,15 @@ fn adaptive_shading_holds_the_rate_and_leaves_no_visible_pixel_black() {
                 "frame {f}: {shaded} paths dispatched for a requested {requested} (± {:.1})",
                 var.sqrt()
             );
-            // The histogram holds every candidate once: the visible samples
-            // but the base-rate and unshaded pixels' round-robin ones.
+            // The histogram holds every candidate once: the visible surface
+            // samples (background samples are never shaded) but the
+            // base-rate and unshaded pixels' round-robin ones.
             let visible: u32 = (0..2)
                 .flat_map(|e| (0..snap.npix()).map(move |p| (e, p)))
-                .map(|(e, p)| snap.visible(snap.mask(e, p)).count_ones())
+                .map(|(e, p)| {
+                    snap.surface(e, p, snap.visible(snap.mask(e, p)))
+                        .count_ones()
+                })
                 .sum();
             let hist: u32 = snap.histogram.iter().sum();
             let first: u32 = snap.base_pixels.iter().chain(&snap.unshaded_pixels).sum();
