@@ -357,12 +357,12 @@ fn under_filled_pixels_recover_and_none_stays_black() {
                 "{name}: covered pixels exactly black where the reference is lit"
             );
         }
-        // The Cornell box is lit by its ceiling emitter alone, which only
-        // BSDF sampling reaches (no next-event estimation of emissive
-        // triangles): after 32 paths about 40 % of its covered pixels are
-        // black even in a 32 spp reference, and more in the cache, whose
-        // pixel reuses four fixed positions (E[P0(x)^8]^4 ≥ E[P0(x)]^32). So
-        // the black count is printed, not asserted, there.
+        // The Cornell box: written when its ceiling emitter was reached by
+        // BSDF sampling alone (about 40 % of covered pixels black after 32
+        // paths). With next-event estimation of emissive triangles merged,
+        // 35 of 2 524 covered pixels (1.4 %) are still exactly black after 32
+        // frames where the 64 spp reference is lit; their cause is not yet
+        // found (issue 12 note), so the count is printed, not asserted, there.
     }
     assert_no_validation_messages(&ctx);
 }
