@@ -1599,18 +1599,7 @@ fn run_bench_lights(a: BenchLightsArgs) -> Result<()> {
             _ => bail!("bad --strategies: unknown strategy '{s}' (expected bsdf, mis or nee)"),
         });
     }
-    let mut scenes = Vec::new();
-    for spec in a.scenes.split(',').map(str::trim) {
-        let scene = Session::load_scene(spec, &lighting)?;
-        for warning in &scene.warnings {
-            eprintln!("warning: {warning}");
-        }
-        let label = std::path::Path::new(spec)
-            .file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_else(|| spec.to_string());
-        scenes.push((label, scene));
-    }
+    let scenes = load_labelled_scenes(&a.scenes, &lighting)?;
     let ctx = std::sync::Arc::new(GpuContext::new(&a.gpu.options()?)?);
     println!("{}", device_line(&ctx.caps));
     println!(
@@ -1683,18 +1672,7 @@ fn run_bench_specialization(a: BenchSpecArgs) -> Result<()> {
         }
     }
     let trace = PoseTrace::read_csv(&a.trace)?;
-    let mut scenes = Vec::new();
-    for spec in a.scenes.split(',').map(str::trim) {
-        let scene = Session::load_scene(spec, &lighting)?;
-        for warning in &scene.warnings {
-            eprintln!("warning: {warning}");
-        }
-        let label = std::path::Path::new(spec)
-            .file_stem()
-            .map(|s| s.to_string_lossy().into_owned())
-            .unwrap_or_else(|| spec.to_string());
-        scenes.push((label, scene));
-    }
+    let scenes = load_labelled_scenes(&a.scenes, &lighting)?;
     let ctx = std::sync::Arc::new(GpuContext::new(&a.gpu.options()?)?);
     println!("{}", device_line(&ctx.caps));
     println!(
@@ -1783,4 +1761,25 @@ fn environment_kind(e: &stereocache::scene::Environment) -> &'static str {
         Environment::Sky { .. } => "sky",
         Environment::Map { .. } => "map",
     }
+}
+
+/// The scenes of a comma-separated `--scenes` list, each labelled by its file
+/// stem (or its name), their warnings printed.
+fn load_labelled_scenes(
+    list: &str,
+    lighting: &DefaultLighting,
+) -> Result<Vec<(String, stereocache::scene::Scene)>> {
+    let mut scenes = Vec::new();
+    for spec in list.split(',').map(str::trim) {
+        let scene = Session::load_scene(spec, lighting)?;
+        for warning in &scene.warnings {
+            eprintln!("warning: {warning}");
+        }
+        let label = std::path::Path::new(spec)
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| spec.to_string());
+        scenes.push((label, scene));
+    }
+    Ok(scenes)
 }

@@ -14,20 +14,7 @@ use stereocache::rt::{RtChoice, SoftwareBvh};
 use stereocache::session::{CameraSelect, Session};
 
 fn settings(w: u32, h: u32, cache: SampleCacheSettings) -> RenderSettings {
-    RenderSettings {
-        width: w,
-        height: h,
-        spp: 1,
-        max_bounces: 2,
-        seed: 5,
-        all_features: false,
-        cache,
-        ..Default::default()
-    }
-}
-
-fn cache_method(s: &Session, st: &RenderSettings) -> SampleCache {
-    SampleCache::new(&s.ctx, &s.scene_gpu, &s.scene.environment, st).expect("sample cache")
+    cache_settings(w, h, cache, 5)
 }
 
 fn moving(start: &StereoCamera, frame: u32, deg_per_frame: f32) -> StereoCamera {

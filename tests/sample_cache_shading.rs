@@ -8,31 +8,18 @@ use common::*;
 use glam::Vec3;
 use stereocache::camera::{synth, SynthKind};
 use stereocache::methods::sample_cache::{
-    CacheSnapshot, Reproject, Retrace, SampleCache, SampleCacheSettings, Shading,
+    CacheSnapshot, Reproject, Retrace, SampleCacheSettings, Shading,
 };
 use stereocache::methods::{FrameInput, Method, RenderSettings, StereoFrame};
 use stereocache::metrics::{cpbd, LinearImage};
 use stereocache::replay::trace_cameras;
 use stereocache::rt::RtChoice;
 use stereocache::scene::Material;
-use stereocache::session::{CameraSelect, Session};
+use stereocache::session::CameraSelect;
 use stereocache::stereo::BlendMode;
 
 fn settings(w: u32, h: u32, cache: SampleCacheSettings) -> RenderSettings {
-    RenderSettings {
-        width: w,
-        height: h,
-        spp: 1,
-        max_bounces: 2,
-        seed: 9,
-        all_features: false,
-        cache,
-        ..Default::default()
-    }
-}
-
-fn cache_method(s: &Session, st: &RenderSettings) -> SampleCache {
-    SampleCache::new(&s.ctx, &s.scene_gpu, &s.scene.environment, st).expect("sample cache")
+    cache_settings(w, h, cache, 9)
 }
 
 /// Per eye: the expected number of dispatched shading paths and the

@@ -42,16 +42,7 @@ fn camera_transformed(c: &StereoCamera, scale: f32, offset: Vec3) -> StereoCamer
 }
 
 fn settings(w: u32, h: u32, cache: SampleCacheSettings) -> RenderSettings {
-    RenderSettings {
-        width: w,
-        height: h,
-        spp: 1,
-        max_bounces: 2,
-        seed: 5,
-        all_features: false,
-        cache,
-        ..Default::default()
-    }
+    cache_settings(w, h, cache, 5)
 }
 
 fn moving(start: &StereoCamera, frame: u32, deg_per_frame: f32, drift: f32) -> StereoCamera {

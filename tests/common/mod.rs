@@ -299,3 +299,38 @@ pub fn fresnel_dielectric(cos_i: f64, eta: f64) -> f64 {
     let rp = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
     0.5 * (rs * rs + rp * rp)
 }
+
+/// Settings of the sample-cache tests: `w`×`h` per eye, 1 spp, 2 bounces,
+/// specialized pipelines, the given cache settings and seed.
+pub fn cache_settings(
+    w: u32,
+    h: u32,
+    cache: stereocache::methods::sample_cache::SampleCacheSettings,
+    seed: u32,
+) -> RenderSettings {
+    RenderSettings {
+        width: w,
+        height: h,
+        spp: 1,
+        max_bounces: 2,
+        seed,
+        all_features: false,
+        cache,
+        ..Default::default()
+    }
+}
+
+/// A sample cache of `st` on the session's scene (its snapshot API is not on
+/// the `Method` trait).
+pub fn cache_method(
+    s: &Session,
+    st: &RenderSettings,
+) -> stereocache::methods::sample_cache::SampleCache {
+    stereocache::methods::sample_cache::SampleCache::new(
+        &s.ctx,
+        &s.scene_gpu,
+        &s.scene.environment,
+        st,
+    )
+    .expect("sample cache")
+}
