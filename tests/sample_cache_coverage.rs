@@ -361,8 +361,15 @@ fn under_filled_pixels_recover_and_none_stays_black() {
         // BSDF sampling alone (about 40 % of covered pixels black after 32
         // paths). With next-event estimation of emissive triangles merged,
         // 35 of 2 524 covered pixels (1.4 %) are still exactly black after 32
-        // frames where the 64 spp reference is lit; their cause is not yet
-        // found (issue 12 note), so the count is printed, not asserted, there.
+        // frames where the 64 spp reference is lit. Dumped, they are of two
+        // kinds, both from the cache keeping its sample positions in a still
+        // view: pixels on the smooth glass sphere (instance 7), where a fixed
+        // position's refraction chain is deterministic and at 2 bounces ends
+        // on an unlit wall hit while the jittered reference catches the
+        // emitter in some of its paths; and low-coverage pixels at the box's
+        // outer edges whose n_target samples all missed (background only,
+        // black environment; a fraction f is missed by all four with
+        // probability (1 − f)⁴). So the count is printed, not asserted, there.
     }
     assert_no_validation_messages(&ctx);
 }
