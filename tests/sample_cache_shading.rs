@@ -307,18 +307,7 @@ fn stereo_blending_does_not_blur_the_colour() {
             },
         );
         let mut m = cache_method(&s, &st);
-        let mut last = None;
-        for f in 0..2 {
-            last = Some(
-                m.render_frame(&FrameInput {
-                    index: f,
-                    camera: cam,
-                    prev_camera: Some(cam),
-                })
-                .unwrap(),
-            );
-        }
-        last.unwrap()
+        render_still(&mut m, cam, 2)
     };
     let none = run(BlendMode::None, 0.0);
     for r in [0.0f32, 1.0] {

@@ -5,7 +5,7 @@ mod common;
 use common::*;
 use stereocache::camera::Eye;
 use stereocache::methods::sample_cache::{SampleCache, SampleCacheSettings};
-use stereocache::methods::{FrameInput, Method, RenderSettings, StereoFrame};
+use stereocache::methods::{RenderSettings, StereoFrame};
 use stereocache::metrics::{stereo::stereo_discrepancy, LinearImage, ViewBuffers};
 use stereocache::rt::RtChoice;
 use stereocache::scene::{apply_default_lighting, load_scene, DefaultLighting};
@@ -36,18 +36,7 @@ fn blending_lowers_stereo_discrepancy() {
             ..Default::default()
         };
         let mut m = SampleCache::new(&s.ctx, &s.scene_gpu, &s.scene.environment, &st).unwrap();
-        let mut last = None;
-        for f in 0..4 {
-            last = Some(
-                m.render_frame(&FrameInput {
-                    index: f,
-                    camera: cam,
-                    prev_camera: Some(cam),
-                })
-                .unwrap(),
-            );
-        }
-        last.unwrap()
+        render_still(&mut m, cam, 4)
     };
     let views = cam.eyes();
     let discrepancy = |f: &StereoFrame| {

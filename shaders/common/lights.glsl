@@ -42,11 +42,7 @@ vec3 emitted_radiance(EmitterGpu e, vec2 bary, vec3 dir) {
     if (!alpha_passes(inst, prim, bary)) return vec3(0.0);
     vec3 Le = g.emissive_metallic.rgb;
     if (SC_TEXTURES && g.tex0.w >= 0) {
-        uvec3 vi = triangle_indices(inst, prim);
-        vec3 w = vec3(1.0 - bary.x - bary.y, bary.x, bary.y);
-        vec2 uv = w.x * vec2(vertices[vi.x].pos_u.w, vertices[vi.x].normal_v.w)
-                + w.y * vec2(vertices[vi.y].pos_u.w, vertices[vi.y].normal_v.w)
-                + w.z * vec2(vertices[vi.z].pos_u.w, vertices[vi.z].normal_v.w);
+        vec2 uv = triangle_uv(inst, prim, bary);
         Le *= sample_texture(g.tex0.w, uv, 0.0).rgb;
     }
     return Le;

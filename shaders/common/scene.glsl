@@ -55,6 +55,15 @@ vec4 sample_texture(int tex, vec2 uv, float lod) {
     return textureLod(textures[nonuniformEXT(tex)], uv, lod);
 }
 
+// Texture coordinates at barycentrics `bary` of a triangle.
+vec2 triangle_uv(uint inst, uint prim, vec2 bary) {
+    uvec3 vi = triangle_indices(inst, prim);
+    vec3 w = vec3(1.0 - bary.x - bary.y, bary.x, bary.y);
+    return w.x * vec2(vertices[vi.x].pos_u.w, vertices[vi.x].normal_v.w)
+         + w.y * vec2(vertices[vi.y].pos_u.w, vertices[vi.y].normal_v.w)
+         + w.z * vec2(vertices[vi.z].pos_u.w, vertices[vi.z].normal_v.w);
+}
+
 // Alpha test used by both ray backends for masked materials.
 bool alpha_passes(uint inst, uint prim, vec2 bary) {
     if (!SC_ALPHA_MASK) return true;
@@ -62,11 +71,7 @@ bool alpha_passes(uint inst, uint prim, vec2 bary) {
     if (m.tex1.y != 1) return true;
     float a = m.base_color.a;
     if (SC_TEXTURES && m.tex0.x >= 0) {
-        uvec3 vi = triangle_indices(inst, prim);
-        vec3 w = vec3(1.0 - bary.x - bary.y, bary.x, bary.y);
-        vec2 uv = w.x * vec2(vertices[vi.x].pos_u.w, vertices[vi.x].normal_v.w)
-                + w.y * vec2(vertices[vi.y].pos_u.w, vertices[vi.y].normal_v.w)
-                + w.z * vec2(vertices[vi.z].pos_u.w, vertices[vi.z].normal_v.w);
+        vec2 uv = triangle_uv(inst, prim, bary);
         a *= sample_texture(m.tex0.x, uv, 0.0).a;
     }
     return a >= m.params.w;

@@ -334,3 +334,24 @@ pub fn cache_method(
     )
     .expect("sample cache")
 }
+
+/// Renders `frames` frames of a still camera (each frame's previous camera is
+/// the same) with one method instance; returns the last.
+pub fn render_still(
+    m: &mut dyn stereocache::methods::Method,
+    cam: StereoCamera,
+    frames: u32,
+) -> StereoFrame {
+    let mut last = None;
+    for f in 0..frames {
+        last = Some(
+            m.render_frame(&FrameInput {
+                index: f,
+                camera: cam,
+                prev_camera: Some(cam),
+            })
+            .expect("render"),
+        );
+    }
+    last.expect("at least one frame")
+}
