@@ -904,42 +904,7 @@ fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Info { gpu, json } => {
             let ctx = GpuContext::new(&gpu.options()?)?;
-            let c = &ctx.caps;
-            if json {
-                println!("{}", serde_json::to_string_pretty(c)?);
-            } else {
-                println!("device:              {} ({})", c.name, c.device_type);
-                println!("driver:              {} {}", c.driver_name, c.driver_info);
-                println!("Vulkan API:          {}", c.api_version);
-                println!(
-                    "ray query:           {}",
-                    if c.ray_query {
-                        "yes (VK_KHR_ray_query + acceleration structures)"
-                    } else {
-                        "no (software traversal)"
-                    }
-                );
-                println!("64-bit buffer atomics: {}", c.buffer_int64_atomics);
-                println!("shaderInt64:         {}", c.shader_int64);
-                println!(
-                    "subgroup size:       {} ({})",
-                    c.subgroup_size,
-                    c.subgroup_ops.join(", ")
-                );
-                println!("descriptor indexing: {}", c.descriptor_indexing);
-                println!(
-                    "timestamp period:    {} ns ({} valid bits)",
-                    c.timestamp_period_ns, c.timestamp_valid_bits
-                );
-                println!(
-                    "device-local memory: {:.1} GiB",
-                    c.device_local_bytes as f64 / (1u64 << 30) as f64
-                );
-                println!(
-                    "validation layer:    {}",
-                    if ctx.validation_enabled { "on" } else { "off" }
-                );
-            }
+            stereocache::gpu::info::print(&ctx, json);
             report_validation(&ctx)
         }
         Command::Compare(args) => run_compare(*args),

@@ -1,17 +1,22 @@
-//! The Vulkan instance and device: device choice (discrete GPU first, then
-//! integrated, then CPU; `--device` overrides), feature probing, the memory
-//! allocator and one-shot command submission.
+//! The GPU context: opens the device in three steps, **probe → choose →
+//! open** (`probe.rs`: every physical device's capabilities as plain data;
+//! `choose.rs`: the device to use, every other one rejected with its reason;
+//! `open.rs`: the logical device with exactly the requested features), then
+//! holds the memory allocator, the command pool and one-shot submission
+//! with the GPU watchdog.
 
-use super::caps::DeviceCaps;
+use super::caps::{DeviceCaps, Features};
+use super::choose::{choose, Rejection};
 use super::error::{vk_err, GpuError, GpuResult};
-use super::validation::{debug_callback, ValidationLog};
+use super::instance::Instance;
+use super::open::{open, FeatureRequest, Opened};
+use super::probe::{probe_all, type_name, Probed};
+use super::validation::ValidationLog;
 use ash::vk;
 use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
-use std::ffi::{c_char, CStr, CString};
+use std::ffi::CString;
 use std::mem::ManuallyDrop;
 use std::sync::{Arc, Mutex};
-
-const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
 
 /// How to open the GPU.
 #[derive(Clone, Debug, Default)]
@@ -22,8 +27,12 @@ pub struct GpuOptions {
     pub sync_validation: bool,
     /// Pick the first device whose name contains this (case-insensitive).
     pub device: Option<String>,
-    /// Enable VK_KHR_ray_query when the device has it.
+    /// Enable VK_KHR_ray_query when the device has it (only then: the
+    /// software backend needs none of it).
     pub want_ray_query: bool,
+    /// Features a device must support to be chosen (default: none; the
+    /// optional ones of `FeatureRequest::new` are enabled where supported).
+    pub require: Features,
     /// Longest wait for one submission; past it the device counts as hung
     /// and is abandoned (`None`: wait forever). See `with_env`.
     pub timeout: Option<std::time::Duration>,
@@ -68,13 +77,25 @@ pub struct GpuContext {
     pub validation: Arc<ValidationLog>,
     pub validation_enabled: bool,
     pub physical: vk::PhysicalDevice,
+    /// What the chosen device supports (`caps.supported`), its limits and
+    /// identity. What was enabled is `enabled`.
     pub caps: DeviceCaps,
+    /// The features the device was created with (and, for `debug_utils`,
+    /// the instance): code relies on these, never on `caps.supported`.
+    pub enabled: Features,
+    /// Every physical device probed, the chosen one included (`info`).
+    pub devices: Vec<DeviceCaps>,
+    /// The devices not chosen, each with its reason.
+    pub rejected: Vec<Rejection>,
     pub device: ash::Device,
     pub queue: vk::Queue,
     pub queue_family: u32,
     pub(crate) allocator: ManuallyDrop<Mutex<Allocator>>,
     pub(crate) command_pool: vk::CommandPool,
+    /// VK_KHR_acceleration_structure (with `enabled.ray_query`).
     pub(crate) accel: Option<ash::khr::acceleration_structure::Device>,
+    /// VK_KHR_push_descriptor (with `enabled.push_descriptor`).
+    pub(crate) push_descriptor: Option<ash::khr::push_descriptor::Device>,
     timeout: Option<std::time::Duration>,
     lose_device_after: Option<u64>,
     submits: std::sync::atomic::AtomicU64,
@@ -83,341 +104,152 @@ pub struct GpuContext {
     /// of freeing memory the device may still write).
     abandoned: std::sync::atomic::AtomicBool,
     lost: std::sync::atomic::AtomicBool,
+    /// VK_EXT_debug_utils device functions (with `enabled.debug_utils`):
+    /// object names and command-buffer labels.
     pub(crate) debug_utils_device: Option<ash::ext::debug_utils::Device>,
     pub(crate) allocated_bytes: std::sync::atomic::AtomicU64,
 }
 
-fn type_rank(t: vk::PhysicalDeviceType) -> u32 {
-    match t {
-        vk::PhysicalDeviceType::DISCRETE_GPU => 0,
-        vk::PhysicalDeviceType::INTEGRATED_GPU => 1,
-        vk::PhysicalDeviceType::VIRTUAL_GPU => 2,
-        vk::PhysicalDeviceType::CPU => 3,
-        _ => 4,
-    }
-}
-
-fn type_name(t: vk::PhysicalDeviceType) -> &'static str {
-    match t {
-        vk::PhysicalDeviceType::DISCRETE_GPU => "discrete GPU",
-        vk::PhysicalDeviceType::INTEGRATED_GPU => "integrated GPU",
-        vk::PhysicalDeviceType::VIRTUAL_GPU => "virtual GPU",
-        vk::PhysicalDeviceType::CPU => "CPU",
-        _ => "other",
-    }
-}
-
-fn cstr_field(raw: &[c_char]) -> String {
-    let bytes: Vec<u8> = raw
-        .iter()
-        .take_while(|&&c| c != 0)
-        .map(|&c| c as u8)
-        .collect();
-    String::from_utf8_lossy(&bytes).into_owned()
-}
-
-/// A device that qualifies: Vulkan 1.2 and a queue family with compute.
-struct Candidate {
-    physical: vk::PhysicalDevice,
-    name: String,
-    kind: vk::PhysicalDeviceType,
-    queue_family: u32,
-}
-
 impl GpuContext {
+    /// Probes every device, chooses one (`--device`, else discrete GPU
+    /// first … CPU last; unusable devices are rejected with a reason, printed
+    /// as a warning) and opens it with `FeatureRequest::new(want_ray_query,
+    /// require)` resolved against what it supports.
     pub fn new(options: &GpuOptions) -> GpuResult<Self> {
-        let entry = unsafe { ash::Entry::load() }.map_err(|e| GpuError::Loader(e.to_string()))?;
         let validation = Arc::new(ValidationLog::default());
-
-        let layer_present = unsafe { entry.enumerate_instance_layer_properties() }
-            .map_err(vk_err("vkEnumerateInstanceLayerProperties"))?
-            .iter()
-            .any(|l| l.layer_name_as_c_str().ok() == Some(VALIDATION_LAYER));
-        let validate = options.validate && layer_present;
-        if options.validate && !layer_present {
-            eprintln!("warning: --validate asked for VK_LAYER_KHRONOS_validation, which is not installed; running without it");
-        }
-
-        let app_name = c"stereocache";
-        let app_info = vk::ApplicationInfo::default()
-            .application_name(app_name)
-            .application_version(1)
-            .engine_name(app_name)
-            .api_version(vk::API_VERSION_1_2);
-        let mut layers: Vec<*const c_char> = Vec::new();
-        let mut extensions: Vec<*const c_char> = Vec::new();
-        if validate {
-            layers.push(VALIDATION_LAYER.as_ptr());
-            extensions.push(ash::ext::debug_utils::NAME.as_ptr());
-        }
-        let enabled_features = [vk::ValidationFeatureEnableEXT::SYNCHRONIZATION_VALIDATION];
-        let mut validation_features =
-            vk::ValidationFeaturesEXT::default().enabled_validation_features(&enabled_features);
-        let mut instance_info = vk::InstanceCreateInfo::default()
-            .application_info(&app_info)
-            .enabled_layer_names(&layers)
-            .enabled_extension_names(&extensions);
-        if validate && options.sync_validation {
-            instance_info = instance_info.push_next(&mut validation_features);
-        }
-        let instance = unsafe { entry.create_instance(&instance_info, None) }
-            .map_err(vk_err("vkCreateInstance"))?;
-
-        let debug = if validate {
-            let du = ash::ext::debug_utils::Instance::new(&entry, &instance);
-            let info = vk::DebugUtilsMessengerCreateInfoEXT::default()
-                .message_severity(
-                    vk::DebugUtilsMessageSeverityFlagsEXT::WARNING
-                        | vk::DebugUtilsMessageSeverityFlagsEXT::ERROR,
-                )
-                .message_type(
-                    vk::DebugUtilsMessageTypeFlagsEXT::GENERAL
-                        | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
-                        | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE,
-                )
-                .pfn_user_callback(Some(debug_callback))
-                .user_data(Arc::as_ptr(&validation) as *mut std::ffi::c_void);
-            let messenger = unsafe { du.create_debug_utils_messenger(&info, None) }
-                .map_err(vk_err("vkCreateDebugUtilsMessengerEXT"))?;
-            Some((du, messenger))
-        } else {
-            None
-        };
-
-        let candidate = match Self::choose_device(&instance, options.device.as_deref()) {
-            Ok(c) => c,
+        let request = FeatureRequest::new(options.want_ray_query, options.require);
+        let mut inst = super::instance::create(
+            options.validate,
+            options.sync_validation,
+            request.optional.debug_utils || request.required.debug_utils,
+            &validation,
+        )?;
+        match Self::open_device(&inst, options, &request) {
+            Ok(parts) => Ok(Self::assemble(inst, validation, options, parts)),
             Err(e) => {
-                unsafe {
-                    if let Some((du, m)) = &debug {
-                        du.destroy_debug_utils_messenger(*m, None);
-                    }
-                    instance.destroy_instance(None);
-                }
-                return Err(e);
-            }
-        };
-        let physical = candidate.physical;
-
-        // Probe extensions and features.
-        let exts = unsafe { instance.enumerate_device_extension_properties(physical) }
-            .map_err(vk_err("vkEnumerateDeviceExtensionProperties"))?;
-        let has_ext = |name: &CStr| {
-            exts.iter()
-                .any(|e| e.extension_name_as_c_str().ok() == Some(name))
-        };
-        let rq_exts = [
-            ash::khr::acceleration_structure::NAME,
-            ash::khr::ray_query::NAME,
-            ash::khr::deferred_host_operations::NAME,
-        ];
-        let rq_ext_ok = rq_exts.iter().all(|n| has_ext(n));
-
-        let mut f12 = vk::PhysicalDeviceVulkan12Features::default();
-        let mut f_as = vk::PhysicalDeviceAccelerationStructureFeaturesKHR::default();
-        let mut f_rq = vk::PhysicalDeviceRayQueryFeaturesKHR::default();
-        let mut f2 = vk::PhysicalDeviceFeatures2::default().push_next(&mut f12);
-        if rq_ext_ok {
-            f2 = f2.push_next(&mut f_as).push_next(&mut f_rq);
-        }
-        unsafe { instance.get_physical_device_features2(physical, &mut f2) };
-        let core = f2.features;
-        let ray_query_ok = rq_ext_ok
-            && f_as.acceleration_structure == vk::TRUE
-            && f_rq.ray_query == vk::TRUE
-            && f12.buffer_device_address == vk::TRUE;
-
-        let mut subgroup = vk::PhysicalDeviceSubgroupProperties::default();
-        let mut driver = vk::PhysicalDeviceDriverProperties::default();
-        let mut p2 = vk::PhysicalDeviceProperties2::default()
-            .push_next(&mut subgroup)
-            .push_next(&mut driver);
-        unsafe { instance.get_physical_device_properties2(physical, &mut p2) };
-        let props = p2.properties;
-        let mem_props = unsafe { instance.get_physical_device_memory_properties(physical) };
-        let device_local_bytes = mem_props.memory_heaps[..mem_props.memory_heap_count as usize]
-            .iter()
-            .filter(|h| h.flags.contains(vk::MemoryHeapFlags::DEVICE_LOCAL))
-            .map(|h| h.size)
-            .max()
-            .unwrap_or(0);
-        let qprops = unsafe { instance.get_physical_device_queue_family_properties(physical) };
-
-        let mut subgroup_ops = Vec::new();
-        for (flag, name) in [
-            (vk::SubgroupFeatureFlags::BASIC, "basic"),
-            (vk::SubgroupFeatureFlags::VOTE, "vote"),
-            (vk::SubgroupFeatureFlags::ARITHMETIC, "arithmetic"),
-            (vk::SubgroupFeatureFlags::BALLOT, "ballot"),
-            (vk::SubgroupFeatureFlags::SHUFFLE, "shuffle"),
-            (
-                vk::SubgroupFeatureFlags::SHUFFLE_RELATIVE,
-                "shuffle_relative",
-            ),
-            (vk::SubgroupFeatureFlags::CLUSTERED, "clustered"),
-            (vk::SubgroupFeatureFlags::QUAD, "quad"),
-        ] {
-            if subgroup.supported_operations.contains(flag)
-                && subgroup
-                    .supported_stages
-                    .contains(vk::ShaderStageFlags::COMPUTE)
-            {
-                subgroup_ops.push(name.to_string());
+                // SAFETY: `open_device` destroys whatever it created before
+                // failing, so nothing made from the instance is alive.
+                unsafe { inst.destroy() };
+                Err(e)
             }
         }
-        let descriptor_indexing = f12.runtime_descriptor_array == vk::TRUE
-            && f12.shader_sampled_image_array_non_uniform_indexing == vk::TRUE;
-        let caps = DeviceCaps {
-            name: candidate.name.clone(),
-            device_type: type_name(candidate.kind).into(),
-            vendor_id: props.vendor_id,
-            driver_name: cstr_field(&driver.driver_name),
-            driver_info: cstr_field(&driver.driver_info),
-            api_version: format!(
-                "{}.{}.{}",
-                vk::api_version_major(props.api_version),
-                vk::api_version_minor(props.api_version),
-                vk::api_version_patch(props.api_version)
-            ),
-            ray_query: ray_query_ok,
-            buffer_int64_atomics: f12.shader_buffer_int64_atomics == vk::TRUE,
-            shader_int64: core.shader_int64 == vk::TRUE,
-            subgroup_size: subgroup.subgroup_size,
-            subgroup_ops,
-            descriptor_indexing,
-            timestamp_period_ns: props.limits.timestamp_period,
-            timestamp_valid_bits: qprops[candidate.queue_family as usize].timestamp_valid_bits,
-            max_storage_buffer_range: props.limits.max_storage_buffer_range as u64,
-            device_local_bytes,
-        };
+    }
 
-        // Enable what we use.
-        let use_rq = options.want_ray_query && ray_query_ok;
-        let mut dev_exts: Vec<*const c_char> = Vec::new();
-        if use_rq {
-            dev_exts.extend(rq_exts.iter().map(|n| n.as_ptr()));
-        }
-        let core_enable = vk::PhysicalDeviceFeatures::default()
-            .shader_int64(core.shader_int64 == vk::TRUE)
-            .shader_storage_image_write_without_format(
-                core.shader_storage_image_write_without_format == vk::TRUE,
+    /// Probe, choose, open, then the allocator and the command pool.
+    fn open_device(
+        inst: &Instance,
+        options: &GpuOptions,
+        request: &FeatureRequest,
+    ) -> GpuResult<DeviceParts> {
+        let mut probed = probe_all(&inst.instance, inst.debug_utils)?;
+        let devices: Vec<DeviceCaps> = probed.iter().map(|p| p.caps.clone()).collect();
+        let choice = choose(&devices, options.device.as_deref(), &request.required)?;
+        for r in choice.rejected.iter().filter(|r| r.unusable) {
+            eprintln!(
+                "warning: Vulkan device {} is not usable: {}",
+                r.device, r.reason
             );
-        let mut e12 = vk::PhysicalDeviceVulkan12Features::default()
-            .shader_buffer_int64_atomics(caps.buffer_int64_atomics)
-            .buffer_device_address(use_rq)
-            .runtime_descriptor_array(descriptor_indexing)
-            .shader_sampled_image_array_non_uniform_indexing(descriptor_indexing)
-            .descriptor_binding_partially_bound(f12.descriptor_binding_partially_bound == vk::TRUE)
-            .scalar_block_layout(f12.scalar_block_layout == vk::TRUE)
-            .host_query_reset(f12.host_query_reset == vk::TRUE);
-        let mut e_as = vk::PhysicalDeviceAccelerationStructureFeaturesKHR::default()
-            .acceleration_structure(true);
-        let mut e_rq = vk::PhysicalDeviceRayQueryFeaturesKHR::default().ray_query(true);
-        let priorities = [1.0f32];
-        let queue_infos = [vk::DeviceQueueCreateInfo::default()
-            .queue_family_index(candidate.queue_family)
-            .queue_priorities(&priorities)];
-        let mut dev_info = vk::DeviceCreateInfo::default()
-            .queue_create_infos(&queue_infos)
-            .enabled_extension_names(&dev_exts)
-            .enabled_features(&core_enable)
-            .push_next(&mut e12);
-        if use_rq {
-            dev_info = dev_info.push_next(&mut e_as).push_next(&mut e_rq);
         }
-        let device = unsafe { instance.create_device(physical, &dev_info, None) }
-            .map_err(vk_err("vkCreateDevice"))?;
-        let queue = unsafe { device.get_device_queue(candidate.queue_family, 0) };
+        let chosen: Probed = probed.swap_remove(choice.chosen);
+        let enabled = request.resolve(&chosen.caps.supported);
+        let opened = open(&inst.instance, &chosen, &enabled)?;
+        let device = opened.device.clone();
+        let rest = (|| {
+            let allocator = Allocator::new(&AllocatorCreateDesc {
+                instance: inst.instance.clone(),
+                device: device.clone(),
+                physical_device: chosen.physical,
+                debug_settings: Default::default(),
+                buffer_device_address: enabled.ray_query,
+                allocation_sizes: Default::default(),
+            })
+            .map_err(|e| GpuError::Alloc {
+                what: "allocator".into(),
+                message: e.to_string(),
+            })?;
+            let pool_info = vk::CommandPoolCreateInfo::default()
+                .queue_family_index(opened.queue_family)
+                .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
+            // SAFETY: `device` is live and `queue_family` is one of its queues' family.
+            let command_pool = unsafe { device.create_command_pool(&pool_info, None) }
+                .map_err(vk_err("vkCreateCommandPool"))?;
+            Ok((allocator, command_pool))
+        })();
+        match rest {
+            Ok((allocator, command_pool)) => Ok(DeviceParts {
+                physical: chosen.physical,
+                caps: chosen.caps,
+                enabled,
+                devices,
+                rejected: choice.rejected,
+                opened,
+                allocator,
+                command_pool,
+            }),
+            Err(e) => {
+                // SAFETY: nothing was submitted; the allocator (if it was
+                // made) was dropped inside the closure.
+                unsafe { device.destroy_device(None) };
+                Err(e)
+            }
+        }
+    }
 
-        let allocator = Allocator::new(&AllocatorCreateDesc {
-            instance: instance.clone(),
-            device: device.clone(),
-            physical_device: physical,
-            debug_settings: Default::default(),
-            buffer_device_address: use_rq,
-            allocation_sizes: Default::default(),
-        })
-        .map_err(|e| GpuError::Alloc {
-            what: "allocator".into(),
-            message: e.to_string(),
-        })?;
-
-        let pool_info = vk::CommandPoolCreateInfo::default()
-            .queue_family_index(candidate.queue_family)
-            .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
-        let command_pool = unsafe { device.create_command_pool(&pool_info, None) }
-            .map_err(vk_err("vkCreateCommandPool"))?;
-        let accel =
-            use_rq.then(|| ash::khr::acceleration_structure::Device::new(&instance, &device));
-        let debug_utils_device =
-            validate.then(|| ash::ext::debug_utils::Device::new(&instance, &device));
-
-        let mut caps = caps;
-        caps.ray_query = use_rq || (ray_query_ok && !options.want_ray_query);
-        Ok(GpuContext {
+    fn assemble(
+        inst: Instance,
+        validation: Arc<ValidationLog>,
+        options: &GpuOptions,
+        p: DeviceParts,
+    ) -> Self {
+        let Instance {
             entry,
             instance,
-            debug,
+            messenger,
+            validate,
+            ..
+        } = inst;
+        GpuContext {
+            entry,
+            instance,
+            debug: messenger,
             validation,
             validation_enabled: validate,
-            physical,
-            caps,
-            device,
-            queue,
-            queue_family: candidate.queue_family,
-            allocator: ManuallyDrop::new(Mutex::new(allocator)),
-            command_pool,
-            accel,
+            physical: p.physical,
+            caps: p.caps,
+            enabled: p.enabled,
+            devices: p.devices,
+            rejected: p.rejected,
+            device: p.opened.device,
+            queue: p.opened.queue,
+            queue_family: p.opened.queue_family,
+            allocator: ManuallyDrop::new(Mutex::new(p.allocator)),
+            command_pool: p.command_pool,
+            accel: p.opened.accel,
+            push_descriptor: p.opened.push_descriptor,
             timeout: options.timeout,
             lose_device_after: options.lose_device_after,
             submits: Default::default(),
             abandoned: Default::default(),
             lost: Default::default(),
-            debug_utils_device,
+            debug_utils_device: p.opened.debug_utils,
             allocated_bytes: Default::default(),
-        })
+        }
     }
 
-    fn choose_device(instance: &ash::Instance, filter: Option<&str>) -> GpuResult<Candidate> {
-        let physicals = unsafe { instance.enumerate_physical_devices() }
-            .map_err(vk_err("vkEnumeratePhysicalDevices"))?;
-        let mut all = Vec::new();
-        for p in physicals {
-            let props = unsafe { instance.get_physical_device_properties(p) };
-            let name = cstr_field(&props.device_name);
-            if props.api_version < vk::API_VERSION_1_2 {
-                continue;
-            }
-            let qf = unsafe { instance.get_physical_device_queue_family_properties(p) };
-            let Some(family) = qf
-                .iter()
-                .position(|q| q.queue_flags.contains(vk::QueueFlags::COMPUTE))
-            else {
-                continue;
-            };
-            all.push(Candidate {
-                physical: p,
-                name,
-                kind: props.device_type,
-                queue_family: family as u32,
-            });
-        }
-        if let Some(f) = filter {
-            let fl = f.to_lowercase();
-            let names: Vec<String> = all.iter().map(|c| c.name.clone()).collect();
-            return all
-                .into_iter()
-                .find(|c| c.name.to_lowercase().contains(&fl))
-                .ok_or_else(|| {
-                    GpuError::NoDevice(format!(
-                        " whose name contains '{f}' (devices: {})",
-                        names.join(", ")
-                    ))
-                });
-        }
-        all.sort_by_key(|c| type_rank(c.kind));
-        all.into_iter()
-            .next()
-            .ok_or_else(|| GpuError::NoDevice(String::new()))
+    /// True when VK_KHR_push_descriptor is enabled (`push_descriptor_fns`).
+    pub fn push_descriptor_enabled(&self) -> bool {
+        self.push_descriptor.is_some()
+    }
+
+    /// The VK_KHR_push_descriptor functions, when enabled.
+    pub fn push_descriptor_fns(&self) -> Option<&ash::khr::push_descriptor::Device> {
+        self.push_descriptor.as_ref()
+    }
+
+    /// The VK_EXT_debug_utils device functions (object names, command
+    /// labels), when enabled.
+    pub fn debug_utils_fns(&self) -> Option<&ash::ext::debug_utils::Device> {
+        self.debug_utils_device.as_ref()
     }
 
     /// True when ray queries are enabled on this device (the `query` backend can run).
@@ -437,18 +269,30 @@ impl GpuContext {
             .command_pool(self.command_pool)
             .level(vk::CommandBufferLevel::PRIMARY)
             .command_buffer_count(1);
+        // SAFETY: the pool belongs to this device and is only used from the
+        // thread holding `&self` for the duration of this call.
         let cb = unsafe { self.device.allocate_command_buffers(&alloc) }
             .map_err(vk_err("vkAllocateCommandBuffers"))?[0];
         let begin = vk::CommandBufferBeginInfo::default()
             .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
         let result = (|| {
+            // SAFETY: `cb` was just allocated and is in the initial state.
             unsafe { self.device.begin_command_buffer(cb, &begin) }
                 .map_err(vk_err("vkBeginCommandBuffer"))?;
             f(cb);
+            // SAFETY: `cb` is recording (begun above).
             unsafe { self.device.end_command_buffer(cb) }.map_err(vk_err("vkEndCommandBuffer"))?;
             self.submit_and_wait(cb, what)
         })();
-        unsafe { self.device.free_command_buffers(self.command_pool, &[cb]) };
+        // After a watchdog timeout `cb` is still pending: freeing it would
+        // let the driver run freed commands (a crash at exit, the validation
+        // error VUID-vkFreeCommandBuffers-pCommandBuffers-00047). Leak it,
+        // like everything else once the context is abandoned.
+        if !self.is_abandoned() {
+            // SAFETY: `cb` is not pending (the wait completed, failed or
+            // the submission never happened) and came from this pool.
+            unsafe { self.device.free_command_buffers(self.command_pool, &[cb]) };
+        }
         result
     }
 
@@ -474,6 +318,7 @@ impl GpuContext {
         let timeout_ns = self
             .timeout
             .map_or(u64::MAX, |t| t.as_nanos().min(u64::MAX as u128) as u64);
+        // SAFETY: a plain fence on the live device.
         let fence = unsafe {
             self.device
                 .create_fence(&vk::FenceCreateInfo::default(), None)
@@ -481,7 +326,12 @@ impl GpuContext {
         .map_err(vk_err("vkCreateFence"))?;
         let cbs = [cb];
         let submit = [vk::SubmitInfo::default().command_buffers(&cbs)];
+        // SAFETY: `cb` is executable (ended) and its resources are kept
+        // alive by the caller until this returns; the fence is unsignalled.
+        // The queue is used from one thread at a time (`&self` callers run
+        // on the thread that owns the session).
         let r = unsafe { self.device.queue_submit(self.queue, &submit, fence) }
+            // SAFETY: the fence was created above on this device.
             .and_then(|_| unsafe { self.device.wait_for_fences(&[fence], true, timeout_ns) });
         if r == Err(vk::Result::TIMEOUT) {
             // The fence is still pending: leak it with everything else.
@@ -491,6 +341,8 @@ impl GpuContext {
                 seconds: self.timeout.map_or(0.0, |t| t.as_secs_f64()),
             });
         }
+        // SAFETY: the fence is signalled (or the submission failed), so no
+        // queue operation still refers to it.
         unsafe { self.device.destroy_fence(fence, None) };
         r.map_err(|e| match e {
             vk::Result::ERROR_DEVICE_LOST => {
@@ -504,13 +356,16 @@ impl GpuContext {
         })
     }
 
-    /// Gives a Vulkan object a name visible in validation messages.
+    /// Gives a Vulkan object a name visible in validation messages and
+    /// captures (when VK_EXT_debug_utils is enabled).
     pub(crate) fn set_name<H: vk::Handle>(&self, handle: H, name: &str) {
         if let Some(du) = &self.debug_utils_device {
             if let Ok(cname) = CString::new(name) {
                 let info = vk::DebugUtilsObjectNameInfoEXT::default()
                     .object_handle(handle)
                     .object_name(&cname);
+                // SAFETY: `handle` is a live object of this device (callers
+                // name what they just created) and `cname` outlives the call.
                 let _ = unsafe { du.set_debug_utils_object_name(&info) };
             }
         }
@@ -523,17 +378,40 @@ impl GpuContext {
     }
 
     pub fn wait_idle(&self) {
+        // SAFETY: waiting has no preconditions beyond a live device.
         let _ = unsafe { self.device.device_wait_idle() };
     }
+}
+
+/// What `open_device` made, before it becomes a `GpuContext`.
+struct DeviceParts {
+    physical: vk::PhysicalDevice,
+    caps: DeviceCaps,
+    enabled: Features,
+    devices: Vec<DeviceCaps>,
+    rejected: Vec<Rejection>,
+    opened: Opened,
+    allocator: Allocator,
+    command_pool: vk::CommandPool,
 }
 
 impl Drop for GpuContext {
     fn drop(&mut self) {
         if self.is_abandoned() {
             // Waiting could hang and destroying could free memory in use:
-            // the process is about to report the error and exit.
+            // the process is about to report the error and exit. The
+            // messenger stays registered, so the log its `user_data` points
+            // to must outlive this struct: leak one reference. Likewise keep
+            // libvulkan loaded (the Entry's library) under the live instance.
+            std::mem::forget(self.validation.clone());
+            std::mem::forget(self.entry.clone());
             return;
         }
+        // SAFETY: every Buffer, image, pipeline and recorder holds an
+        // `Arc<GpuContext>`, so all of them are gone; after the idle wait no
+        // work is pending. Objects are destroyed children first, the
+        // messenger before the instance, and `debug` is taken so nothing is
+        // destroyed twice.
         unsafe {
             let _ = self.device.device_wait_idle();
             self.device.destroy_command_pool(self.command_pool, None);

@@ -1,23 +1,32 @@
-//! Every line of unsafe Vulkan lives here: the device, memory, descriptors,
-//! pipelines, the pass recorder with its timestamps, and acceleration structures.
+//! Every line of unsafe Vulkan lives here: the device (instance → probe →
+//! choose → open → context), memory, descriptors, pipelines, the pass
+//! recorder with its timestamps, and acceleration structures. The crate
+//! root denies `unsafe_code` everywhere else.
 
 pub mod accel;
 pub mod buffer;
 pub mod caps;
+pub mod choose;
 pub mod context;
 pub mod descriptors;
 pub mod error;
+pub mod info;
+mod instance;
+pub mod open;
 pub mod pass;
 pub mod pipeline;
+mod probe;
 pub mod shaders;
 pub mod texture;
 pub mod validation;
 
 pub use buffer::Buffer;
-pub use caps::DeviceCaps;
+pub use caps::{DeviceCaps, Features, MemoryHeap};
+pub use choose::{choose, Choice, Rejection};
 pub use context::{GpuContext, GpuOptions};
 pub use descriptors::{BindingKind, DescriptorLayout, DescriptorSet, Resource};
 pub use error::{GpuError, GpuResult};
+pub use open::FeatureRequest;
 pub use pass::{groups_for, PassTiming, Recorder};
 pub use pipeline::{ComputePipeline, SpecConstants};
 pub use texture::{GpuTexture, Sampler};

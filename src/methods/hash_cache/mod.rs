@@ -134,7 +134,7 @@ impl HashCache {
     ) -> GpuResult<Self> {
         let hash = settings.hash.clone();
         hash.validate().map_err(GpuError::Unsupported)?;
-        if !ctx.caps.buffer_int64_atomics {
+        if !ctx.enabled.buffer_int64_atomics {
             return Err(GpuError::Unsupported(format!(
                 "device '{}' lacks shaderBufferInt64Atomics, which the hash cache's keys need",
                 ctx.caps.name

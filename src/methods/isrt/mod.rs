@@ -148,7 +148,7 @@ impl Isrt {
     ) -> GpuResult<Self> {
         let isrt = settings.isrt.clone();
         isrt.validate().map_err(GpuError::Unsupported)?;
-        if !ctx.caps.buffer_int64_atomics {
+        if !ctx.enabled.buffer_int64_atomics {
             return Err(GpuError::Unsupported(format!(
                 "device '{}' lacks shaderBufferInt64Atomics, which isrt's cell reservation needs",
                 ctx.caps.name

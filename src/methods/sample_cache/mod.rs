@@ -249,7 +249,7 @@ impl SampleCache {
     ) -> GpuResult<Self> {
         let cache = settings.cache.clone();
         cache.validate().map_err(GpuError::Unsupported)?;
-        if !ctx.caps.buffer_int64_atomics {
+        if !ctx.enabled.buffer_int64_atomics {
             return Err(GpuError::Unsupported(format!(
                 "device '{}' lacks shaderBufferInt64Atomics, which the sample cache's depth bounds need",
                 ctx.caps.name
