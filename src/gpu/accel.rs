@@ -1,5 +1,6 @@
 //! Acceleration structures for the ray-query backend: one BLAS per mesh and
 //! a TLAS over the instances (VK_KHR_acceleration_structure, built on the device).
+#![deny(clippy::undocumented_unsafe_blocks)]
 
 use super::buffer::Buffer;
 use super::context::GpuContext;
@@ -55,6 +56,8 @@ impl AccelStructures {
             | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS;
         let mut as_props = vk::PhysicalDeviceAccelerationStructurePropertiesKHR::default();
         let mut p2 = vk::PhysicalDeviceProperties2::default().push_next(&mut as_props);
+        // SAFETY: ray queries are enabled, so VK_KHR_acceleration_structure
+        // exists and its properties struct may be chained.
         unsafe {
             ctx.instance
                 .get_physical_device_properties2(ctx.physical, &mut p2)
@@ -136,6 +139,10 @@ impl AccelStructures {
                     });
                 let range = [vk::AccelerationStructureBuildRangeInfoKHR::default()
                     .primitive_count(*prim_count)];
+                // SAFETY: `cb` is recording; the vertex/index buffers, the
+                // destination and the scratch (sized by
+                // vkGetAccelerationStructureBuildSizesKHR, aligned) live
+                // until submit_once has waited.
                 unsafe { ext.cmd_build_acceleration_structures(cb, &[info], &[&range]) };
             }
         })?;
@@ -147,6 +154,7 @@ impl AccelStructures {
             .map(|inst| {
                 let addr_info = vk::AccelerationStructureDeviceAddressInfoKHR::default()
                     .acceleration_structure(blases[inst.blas].raw);
+                // SAFETY: the BLAS was created on this device and is live.
                 let addr = unsafe { ext.get_acceleration_structure_device_address(&addr_info) };
                 let t = inst.transform;
                 vk::AccelerationStructureInstanceKHR {
@@ -167,6 +175,10 @@ impl AccelStructures {
                 }
             })
             .collect();
+        // SAFETY: AccelerationStructureInstanceKHR is #[repr(C)] of
+        // 12 f32, two u32 and a u64 (the union's device_handle, which is
+        // set): 64 bytes, no padding, all initialised; the slice borrows
+        // `raw_instances` for its size exactly.
         let inst_bytes: &[u8] = unsafe {
             std::slice::from_raw_parts(
                 raw_instances.as_ptr() as *const u8,
@@ -207,6 +219,9 @@ impl AccelStructures {
                 });
             let range =
                 [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(count)];
+            // SAFETY: `cb` is recording after the BLAS build completed (its
+            // own submission); instances, TLAS and scratch live until
+            // submit_once has waited.
             unsafe { ext.cmd_build_acceleration_structures(cb, &[info], &[&range]) };
         })?;
         drop(scratch);
@@ -237,6 +252,8 @@ impl AccelStructures {
             .mode(vk::BuildAccelerationStructureModeKHR::BUILD)
             .geometries(&geoms);
         let mut sizes = vk::AccelerationStructureBuildSizesInfoKHR::default();
+        // SAFETY: `info` describes `geoms` with `prim_count` primitives
+        // (one geometry, one count); a query without side effects.
         unsafe {
             ext.get_acceleration_structure_build_sizes(
                 vk::AccelerationStructureBuildTypeKHR::DEVICE,
@@ -257,6 +274,8 @@ impl AccelStructures {
             .buffer(buffer.raw)
             .size(sizes.acceleration_structure_size)
             .ty(ty);
+        // SAFETY: `buffer` has ACCELERATION_STRUCTURE_STORAGE usage, bound
+        // memory and the size the driver asked for; it is kept in the Accel.
         let raw = unsafe { ext.create_acceleration_structure(&create, None) }
             .map_err(vk_err("vkCreateAccelerationStructureKHR"))?;
         ctx.set_name(raw, name);
@@ -285,6 +304,9 @@ impl Drop for AccelStructures {
             return;
         }
         if let Some(ext) = self.ctx.accel.as_ref() {
+            // SAFETY: the session holding these structures is dropping, so
+            // no pending work traces against them (an abandoned context
+            // returned above); the storage buffers are dropped after.
             unsafe {
                 ext.destroy_acceleration_structure(self.tlas.raw, None);
                 for b in &self.blases {

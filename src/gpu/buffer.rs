@@ -1,5 +1,6 @@
 //! Named storage buffers allocated through gpu-allocator, with upload and
 //! readback through staging copies.
+#![deny(clippy::undocumented_unsafe_blocks)]
 
 use super::context::GpuContext;
 use super::error::{vk_err, GpuError, GpuResult};
@@ -46,6 +47,8 @@ impl Buffer {
             .size(size)
             .usage(usage)
             .sharing_mode(vk::SharingMode::EXCLUSIVE);
+        // SAFETY: a valid create-info on the live device; the device-address
+        // usage is added only when bufferDeviceAddress is enabled.
         let raw = unsafe { ctx.device.create_buffer(&info, None) }.map_err(|e| match e {
             vk::Result::ERROR_OUT_OF_DEVICE_MEMORY | vk::Result::ERROR_OUT_OF_HOST_MEMORY => {
                 GpuError::OutOfMemory {
@@ -58,6 +61,7 @@ impl Buffer {
                 result: other,
             },
         })?;
+        // SAFETY: `raw` was just created on this device.
         let requirements = unsafe { ctx.device.get_buffer_memory_requirements(raw) };
         let allocation = ctx
             .allocator
@@ -73,6 +77,7 @@ impl Buffer {
         let allocation = match allocation {
             Ok(a) => a,
             Err(e) => {
+                // SAFETY: `raw` has no memory bound and was never used.
                 unsafe { ctx.device.destroy_buffer(raw, None) };
                 return Err(match e {
                     gpu_allocator::AllocationError::OutOfMemory => GpuError::OutOfMemory {
@@ -86,6 +91,8 @@ impl Buffer {
                 });
             }
         };
+        // SAFETY: the allocation was made for `raw`'s requirements and is
+        // bound once, before any use of the buffer.
         unsafe {
             ctx.device
                 .bind_buffer_memory(raw, allocation.memory(), allocation.offset())
@@ -150,6 +157,8 @@ impl Buffer {
             MemoryLocation::CpuToGpu,
         )?;
         staging.write_mapped(data);
+        // SAFETY: `cb` is recording; both buffers live until `submit_once`
+        // has waited, and the region lies within both (`data.len()` ≤ sizes).
         self.ctx.submit_once("buffer upload", |cb| unsafe {
             let region = [vk::BufferCopy::default().size(data.len() as u64)];
             self.ctx
@@ -164,11 +173,21 @@ impl Buffer {
     }
 
     fn write_mapped(&self, data: &[u8]) {
+        assert!(
+            data.len() as u64 <= self.size,
+            "write of {} bytes into the {}-byte buffer {}",
+            data.len(),
+            self.size,
+            self.name
+        );
         let alloc = self.allocation.as_ref().unwrap();
         let ptr = alloc
             .mapped_ptr()
             .expect("staging buffer is host visible")
             .as_ptr() as *mut u8;
+        // SAFETY: the mapping covers the allocation, which is at least
+        // `self.size` ≥ `data.len()` bytes (asserted above); host memory and
+        // the mapping cannot overlap.
         unsafe { std::ptr::copy_nonoverlapping(data.as_ptr(), ptr, data.len()) };
     }
 
@@ -181,6 +200,8 @@ impl Buffer {
             vk::BufferUsageFlags::TRANSFER_DST,
             MemoryLocation::GpuToCpu,
         )?;
+        // SAFETY: `cb` is recording; both buffers are `self.size` bytes and
+        // live until `submit_once` has waited.
         self.ctx.submit_once("buffer readback", |cb| unsafe {
             let region = [vk::BufferCopy::default().size(self.size)];
             self.ctx
@@ -193,6 +214,8 @@ impl Buffer {
             .expect("readback buffer is host visible")
             .as_ptr() as *const u8;
         let mut out = vec![0u8; self.size as usize];
+        // SAFETY: the GPU finished writing (submit_once waited); the mapping
+        // holds `self.size` bytes, the length of `out`.
         unsafe { std::ptr::copy_nonoverlapping(ptr, out.as_mut_ptr(), out.len()) };
         Ok(out)
     }
@@ -207,7 +230,14 @@ impl Buffer {
     }
 
     pub fn device_address(&self) -> u64 {
+        assert!(
+            self.ctx.ray_query_enabled(),
+            "device address of {} without bufferDeviceAddress enabled",
+            self.name
+        );
         let info = vk::BufferDeviceAddressInfo::default().buffer(self.raw);
+        // SAFETY: bufferDeviceAddress is enabled (asserted), so every buffer
+        // was created with SHADER_DEVICE_ADDRESS usage and bound memory.
         unsafe { self.ctx.device.get_buffer_device_address(&info) }
     }
 }
@@ -217,6 +247,9 @@ impl Drop for Buffer {
         if self.ctx.is_abandoned() {
             return;
         }
+        // SAFETY: recorders and sets that use the buffer hold it (or finished
+        // waiting) before it drops, and after an abandoned submission we
+        // returned above; the allocation is freed after the buffer.
         unsafe { self.ctx.device.destroy_buffer(self.raw, None) };
         if let Some(a) = self.allocation.take() {
             let _ = self.ctx.allocator.lock().unwrap().free(a);

@@ -6,6 +6,7 @@
 //! The same [`Features`] type says what a device *supports*
 //! (`caps.supported`) and what a context *enabled* (`ctx.enabled`); the two
 //! are never the same field.
+#![deny(clippy::undocumented_unsafe_blocks)]
 
 use serde::Serialize;
 

@@ -6,6 +6,7 @@
 //! usable ones `--device NAME` picks the first whose name contains NAME
 //! (case-insensitive), otherwise the preference is discrete GPU, integrated,
 //! virtual, CPU, other (enumeration order among equals).
+#![deny(clippy::undocumented_unsafe_blocks)]
 
 use super::caps::{DeviceCaps, Features};
 use super::error::{GpuError, GpuResult};

@@ -4,6 +4,7 @@
 //! `open.rs`: the logical device with exactly the requested features), then
 //! holds the memory allocator, the command pool and one-shot submission
 //! with the GPU watchdog.
+#![deny(clippy::undocumented_unsafe_blocks)]
 
 use super::caps::{DeviceCaps, Features};
 use super::choose::{choose, Rejection};

@@ -1,4 +1,5 @@
 //! Errors from the GPU layer: one line that says what failed and what to do.
+#![deny(clippy::undocumented_unsafe_blocks)]
 
 #[derive(Debug, thiserror::Error)]
 pub enum GpuError {

@@ -1,5 +1,6 @@
 //! `stereocache info`: what every device supports and, for the chosen one,
 //! what was enabled; the devices not chosen with their reasons.
+#![deny(clippy::undocumented_unsafe_blocks)]
 
 use super::caps::DeviceCaps;
 use super::context::GpuContext;

@@ -1,6 +1,7 @@
 //! The Vulkan instance: the loader, the validation layer (when asked for and
 //! installed), VK_EXT_debug_utils (whenever the instance offers it: object
 //! names and pass labels) and the validation messenger.
+#![deny(clippy::undocumented_unsafe_blocks)]
 
 use super::error::{vk_err, GpuError, GpuResult};
 use super::validation::{debug_callback, ValidationLog};

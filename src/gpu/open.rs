@@ -5,6 +5,7 @@
 //! device supports. `open` then builds `vkCreateDevice`'s extension list and
 //! feature structs from that `Features` value alone, so `ctx.enabled` is
 //! precisely what the device was created with.
+#![deny(clippy::undocumented_unsafe_blocks)]
 
 use super::caps::Features;
 use super::error::{vk_err, GpuResult};

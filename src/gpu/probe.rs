@@ -1,5 +1,6 @@
 //! Probe: what each physical device offers, read into plain data
 //! ([`DeviceCaps`]) before anything is chosen or enabled.
+#![deny(clippy::undocumented_unsafe_blocks)]
 
 use super::caps::{DeviceCaps, Features, MemoryHeap};
 use super::error::{vk_err, GpuResult};

@@ -1,4 +1,5 @@
 //! Sampled 2D images (material textures with mip chains, environment maps).
+#![deny(clippy::undocumented_unsafe_blocks)]
 
 use super::buffer::Buffer;
 use super::context::GpuContext;
@@ -8,6 +9,15 @@ use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
 use gpu_allocator::MemoryLocation;
 use std::sync::atomic::Ordering;
 use std::sync::Arc;
+
+/// Bytes per texel of the formats textures are created with.
+fn texel_bytes(format: vk::Format) -> Option<u64> {
+    match format {
+        vk::Format::R8G8B8A8_SRGB | vk::Format::R8G8B8A8_UNORM => Some(4),
+        vk::Format::R32G32B32A32_SFLOAT => Some(16),
+        _ => None,
+    }
+}
 
 pub struct GpuTexture {
     ctx: Arc<GpuContext>,
@@ -30,6 +40,21 @@ impl GpuTexture {
         levels: &[&[u8]],
     ) -> GpuResult<GpuTexture> {
         let mip_count = levels.len() as u32;
+        // The copies below read `extent × texel` bytes per level from the
+        // staging buffer: check the levels hold them.
+        let texel = texel_bytes(format).ok_or_else(|| {
+            GpuError::Unsupported(format!(
+                "texture {name}: format {format:?} is not supported"
+            ))
+        })?;
+        for (m, l) in levels.iter().enumerate() {
+            let need = u64::from((width >> m).max(1)) * u64::from((height >> m).max(1)) * texel;
+            assert!(
+                l.len() as u64 >= need,
+                "texture {name}: mip level {m} has {} bytes, needs {need}",
+                l.len()
+            );
+        }
         let info = vk::ImageCreateInfo::default()
             .image_type(vk::ImageType::TYPE_2D)
             .format(format)
@@ -44,8 +69,10 @@ impl GpuTexture {
             .tiling(vk::ImageTiling::OPTIMAL)
             .usage(vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST)
             .initial_layout(vk::ImageLayout::UNDEFINED);
+        // SAFETY: a valid create-info on the live device.
         let image =
             unsafe { ctx.device.create_image(&info, None) }.map_err(vk_err("vkCreateImage"))?;
+        // SAFETY: `image` was just created on this device.
         let requirements = unsafe { ctx.device.get_image_memory_requirements(image) };
         let allocation = ctx
             .allocator
@@ -68,6 +95,8 @@ impl GpuTexture {
                     message: other.to_string(),
                 },
             })?;
+        // SAFETY: the allocation was made for `image`'s requirements and is
+        // bound once, before any use.
         unsafe {
             ctx.device
                 .bind_image_memory(image, allocation.memory(), allocation.offset())
@@ -85,6 +114,8 @@ impl GpuTexture {
             .view_type(vk::ImageViewType::TYPE_2D)
             .format(format)
             .subresource_range(range);
+        // SAFETY: `image` has memory bound; the view's format and range
+        // match its creation.
         let view = unsafe { ctx.device.create_image_view(&view_info, None) }
             .map_err(vk_err("vkCreateImageView"))?;
 
@@ -104,6 +135,10 @@ impl GpuTexture {
             MemoryLocation::CpuToGpu,
         )?;
         staging.upload_mapped(&packed);
+        // SAFETY: `cb` is recording; the image and the staging buffer live
+        // until `submit_once` has waited; each region lies within its mip
+        // level and within the staging data (sizes checked at the top); the
+        // barriers move every level UNDEFINED → TRANSFER_DST → SHADER_READ.
         ctx.submit_once("texture upload", |cb| unsafe {
             let to_dst = vk::ImageMemoryBarrier::default()
                 .src_access_mask(vk::AccessFlags::empty())
@@ -185,6 +220,9 @@ impl Drop for GpuTexture {
         if self.ctx.is_abandoned() {
             return;
         }
+        // SAFETY: users of the texture (descriptor sets, recorders) hold the
+        // session that holds it, so no pending work refers to it (an
+        // abandoned context returned above); the view goes before the image.
         unsafe {
             self.ctx.device.destroy_image_view(self.view, None);
             self.ctx.device.destroy_image(self.image, None);
@@ -220,6 +258,7 @@ impl Sampler {
             .address_mode_v(v)
             .address_mode_w(vk::SamplerAddressMode::REPEAT)
             .max_lod(vk::LOD_CLAMP_NONE);
+        // SAFETY: a valid create-info on the live device.
         let raw =
             unsafe { ctx.device.create_sampler(&info, None) }.map_err(vk_err("vkCreateSampler"))?;
         Ok(Sampler {
@@ -234,6 +273,7 @@ impl Drop for Sampler {
         if self.ctx.is_abandoned() {
             return;
         }
+        // SAFETY: as for GpuTexture: no pending work uses the sampler.
         unsafe { self.ctx.device.destroy_sampler(self.raw, None) };
     }
 }

@@ -1,4 +1,5 @@
 //! The Khronos validation layer's messages, collected so tests can fail on any.
+#![deny(clippy::undocumented_unsafe_blocks)]
 
 use ash::vk;
 use std::ffi::CStr;
@@ -34,14 +35,19 @@ pub(crate) unsafe extern "system" fn debug_callback(
     if data.is_null() || user_data.is_null() {
         return vk::FALSE;
     }
+    // SAFETY: non-null (checked) and valid for the callback (the loader's contract).
     let data = unsafe { &*data };
     let msg = if data.p_message.is_null() {
         String::from("(no message)")
     } else {
+        // SAFETY: non-null (checked); the loader passes a NUL-terminated string.
         unsafe { CStr::from_ptr(data.p_message) }
             .to_string_lossy()
             .into_owned()
     };
+    // SAFETY: `user_data` is the `Arc<ValidationLog>` pointer registered in
+    // instance.rs; the context keeps that Arc alive while the messenger is
+    // registered (and leaks it when it leaves the instance alive).
     let log = unsafe { &*(user_data as *const ValidationLog) };
     let line = format!("[{severity:?} {kind:?}] {msg}");
     eprintln!("vulkan validation: {line}");
