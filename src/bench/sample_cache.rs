@@ -6,8 +6,8 @@ use crate::error::Result;
 use crate::gpu::{
     shaders, Buffer, ComputePipeline, DescriptorLayout, DescriptorSet, GpuError, Recorder, Resource,
 };
-use crate::methods::{FrameInput, FrameParams};
 use crate::methods::MethodKind;
+use crate::methods::{FrameInput, FrameParams};
 use crate::session::Session;
 use serde::Serialize;
 

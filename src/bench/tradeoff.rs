@@ -7,9 +7,9 @@
 /// hash-cache capacities and LoD rules; supersampling at several spp.
 pub fn tradeoff_configs(base: &crate::methods::RenderSettings) -> Vec<crate::compare::Config> {
     use crate::compare::Config;
-    use crate::methods::MethodKind;
     use crate::methods::hash_cache::settings::HashLod;
     use crate::methods::sample_cache::{Reproject, Retrace, Shading};
+    use crate::methods::MethodKind;
     let mut v = Vec::new();
     let cfg = |label: String, method: MethodKind, s: crate::methods::RenderSettings| Config {
         label,
@@ -31,13 +31,21 @@ pub fn tradeoff_configs(base: &crate::methods::RenderSettings) -> Vec<crate::com
     for (name, r) in [("single", Retrace::Single), ("multi", Retrace::Multi)] {
         let mut s = base.clone();
         s.cache.retrace = r;
-        v.push(cfg(format!("sc-retrace-{name}"), MethodKind::SampleCache, s));
+        v.push(cfg(
+            format!("sc-retrace-{name}"),
+            MethodKind::SampleCache,
+            s,
+        ));
     }
     for rate in [0.25f32, 0.5, 1.0] {
         let mut s = base.clone();
         s.cache.shading = Shading::Adaptive;
         s.cache.shading_rate = rate;
-        v.push(cfg(format!("sc-adaptive-shading{rate}"), MethodKind::SampleCache, s));
+        v.push(cfg(
+            format!("sc-adaptive-shading{rate}"),
+            MethodKind::SampleCache,
+            s,
+        ));
     }
     let mut s = base.clone();
     s.cache.reproject = Reproject::TwoPass;

@@ -43,7 +43,11 @@ pub fn fps(s: &str) -> Result<f64, String> {
 
 /// `--exposure`: a positive multiplier.
 pub fn exposure(s: &str) -> Result<f32, String> {
-    float_with("--exposure", stereocache::values::positive_f32, "a positive number")(s)
+    float_with(
+        "--exposure",
+        stereocache::values::positive_f32,
+        "a positive number",
+    )(s)
 }
 
 /// `--reference-spp` of compare and `bench tradeoff`: 0 (none) or an even

@@ -8,7 +8,9 @@
 //! `fn(&Arc<GpuContext>, &Arc<SceneGpu>, &Option<Environment>, &RenderSettings) -> GpuResult<T>`),
 //! `pub mod` in `methods/mod.rs`, and one line in the `methods!` list below.
 
-use super::{baseline, HashCache, Hybrid, Isrt, Method, Reference, RenderSettings, SampleCache, Taa};
+use super::{
+    baseline, HashCache, Hybrid, Isrt, Method, Reference, RenderSettings, SampleCache, Taa,
+};
 use crate::error::{Error, Result};
 use crate::session::Session;
 use std::str::FromStr;
@@ -133,6 +135,9 @@ mod tests {
             parse_list(" naive, taa ").unwrap(),
             [MethodKind::Naive, MethodKind::Taa]
         );
-        assert!(parse_list(",").unwrap_err().to_string().contains("at least one"));
+        assert!(parse_list(",")
+            .unwrap_err()
+            .to_string()
+            .contains("at least one"));
     }
 }
