@@ -6,6 +6,7 @@ use crate::cli::common::{device_line, report_validation};
 use anyhow::Result;
 use clap::Args;
 use std::path::PathBuf;
+use stereocache::bench::{CacheBenchRow, ScatterBaselines};
 use stereocache::camera::PoseTrace;
 use stereocache::methods::sample_cache::Shading;
 use stereocache::methods::{RenderSettings, SampleCacheSettings};
@@ -88,11 +89,22 @@ pub fn run(a: SampleCacheBenchArgs) -> Result<()> {
         ..Default::default()
     };
     let (rows, scatter) = stereocache::bench::bench_sample_cache(&session, &cameras, &base)?;
+    print_table(&rows, &scatter);
+    print_ratios(
+        &rows,
+        &scatter,
+        session.ctx.caps.has_subgroup_ops(&["arithmetic", "ballot"]),
+    );
+    report_validation(&session.ctx)
+}
+
+/// One line per configuration and the two scatter baselines.
+fn print_table(rows: &[CacheBenchRow], scatter: &ScatterBaselines) {
     println!(
         "{:<48} {:>10} {:>12} {:>10} {:>10} {:>14} {:>12}",
         "method", "frame ms", "reproject ms", "trace ms", "shade ms", "retrace rays", "rays/frame"
     );
-    for r in &rows {
+    for r in rows {
         println!(
             "{:<48} {:>10.2} {:>12.2} {:>10.2} {:>10.2} {:>14.0} {:>12.0}",
             r.label,
@@ -112,6 +124,11 @@ pub fn run(a: SampleCacheBenchArgs) -> Result<()> {
         "{:<48} {:>10} {:>12.2}   ({:.2} occupied slots per pixel)",
         "plain scatter of all cached slots", "", scatter.all_slots_ms, scatter.slots_per_pixel
     );
+}
+
+/// The ratios the docs quote (same run, same device); `subgroup`: whether the
+/// device has the subgroup operations the default builds use.
+fn print_ratios(rows: &[CacheBenchRow], scatter: &ScatterBaselines, subgroup: bool) {
     let row = |l: &str| rows.iter().find(|r| r.label.contains(l)).unwrap();
     let (adaptive, multi, single, two, naive, plain) = (
         row("adaptive, one-pass)"),
@@ -151,12 +168,10 @@ pub fn run(a: SampleCacheBenchArgs) -> Result<()> {
     );
     let (r, se) =
         stereocache::bench::paired_ratio(&adaptive.frame_ms_per_frame, &plain.frame_ms_per_frame);
-    let subgroup = session.ctx.caps.has_subgroup_ops(&["arithmetic", "ballot"]);
     println!(
         "  subgroup-op / plain shader builds:       {r:.2}x frame (± {se:.2}), {:.2}x reproject, {:.2}x shade{}",
         adaptive.reproject_ms / plain.reproject_ms,
         adaptive.shade_ms / plain.shade_ms,
         if subgroup { "" } else { " (this device has no subgroup arithmetic/ballot: both are the plain builds)" }
     );
-    report_validation(&session.ctx)
 }

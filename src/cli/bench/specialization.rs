@@ -98,31 +98,11 @@ pub fn run(a: BenchSpecArgs) -> Result<()> {
     for (label, scene) in scenes {
         let triangles = scene.instanced_triangle_count();
         let session = Session::with_context(ctx.clone(), scene, rt)?;
-        let f = session.scene_gpu.features;
-        let flags = |on: bool| -> Vec<String> {
-            let mut v: Vec<String> = stereocache::bench::FEATURE_FLAGS
-                .iter()
-                .filter(|n| stereocache::bench::has_feature(&f, n) == on)
-                .map(|n| n.to_string())
-                .collect();
-            if on {
-                v.push(format!(
-                    "environment: {}",
-                    session
-                        .scene
-                        .environment
-                        .as_ref()
-                        .map(environment_kind)
-                        .unwrap_or("none")
-                ));
-            }
-            v
-        };
         println!(
             "\nscene {label} ({triangles} triangles, backend {}): uses {}; lacks {}",
             session.backend,
-            flags(true).join(", "),
-            flags(false).join(", ")
+            feature_names(&session, true).join(", "),
+            feature_names(&session, false).join(", ")
         );
         let mut cameras = trace_cameras(
             &session,
@@ -157,4 +137,27 @@ pub fn run(a: BenchSpecArgs) -> Result<()> {
         println!("wrote {}", out.display());
     }
     report_validation(&ctx)
+}
+
+/// The feature flags `session`'s scene uses (`on`; with the environment's
+/// kind) or lacks.
+fn feature_names(session: &Session, on: bool) -> Vec<String> {
+    let f = session.scene_gpu.features;
+    let mut v: Vec<String> = stereocache::bench::FEATURE_FLAGS
+        .iter()
+        .filter(|n| stereocache::bench::has_feature(&f, n) == on)
+        .map(|n| n.to_string())
+        .collect();
+    if on {
+        v.push(format!(
+            "environment: {}",
+            session
+                .scene
+                .environment
+                .as_ref()
+                .map(environment_kind)
+                .unwrap_or("none")
+        ));
+    }
+    v
 }
