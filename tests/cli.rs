@@ -2,22 +2,14 @@
 //! file or value and the problem, a non-zero exit, no panic, and no output
 //! files left behind.
 
+mod common;
+use common::{bad_scene as data, cli, single_error_line};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-/// The binary under coreutils' `timeout`, so a hang fails the test with
-/// status 124 instead of stalling the suite.
+/// The binary under `timeout` (see `common::cli`).
 fn bin() -> Command {
-    let mut c = Command::new("timeout");
-    c.arg("300").arg(env!("CARGO_BIN_EXE_stereocache"));
-    c.env("STEREOCACHE_VALIDATE", "1");
-    c
-}
-
-fn data(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/data/bad_scenes")
-        .join(name)
+    cli(300)
 }
 
 fn out_dir(tag: &str) -> PathBuf {
@@ -34,24 +26,7 @@ fn fails(args: &[&str]) -> String {
 /// `fails` with extra environment variables.
 fn fails_with(args: &[&str], env: &[(&str, &str)]) -> String {
     let o = bin().args(args).envs(env.iter().copied()).output().unwrap();
-    let stderr = String::from_utf8_lossy(&o.stderr).to_string();
-    assert_ne!(
-        o.status.code(),
-        Some(124),
-        "{args:?} hung (killed by timeout)"
-    );
-    assert!(
-        !o.status.success(),
-        "{args:?} should fail; stderr:\n{stderr}"
-    );
-    assert!(!stderr.contains("panicked"), "{args:?} panicked:\n{stderr}");
-    let errors: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error")).collect();
-    assert_eq!(
-        errors.len(),
-        1,
-        "{args:?}: expected one error line, got:\n{stderr}"
-    );
-    errors[0].to_string()
+    single_error_line(&o, &format!("{args:?}"))
 }
 
 #[test]
