@@ -415,3 +415,107 @@ fn bench_specialization_checks_input_and_writes_csv() {
         assert!(builds.contains(&b), "{b} missing from {builds:?}");
     }
 }
+
+/// Impossible numbers are refused while the command line is parsed, before
+/// the GPU is opened: `--device` names no device here, so a command that got
+/// as far as opening one would fail with the device error instead. One
+/// `error:` line naming the flag, no output directory.
+#[test]
+fn out_of_range_values_are_refused_before_the_device_opens() {
+    let out = out_dir("ranges");
+    let o = out.to_str().unwrap();
+    let trace = Path::new(env!("CARGO_MANIFEST_DIR")).join("captures/synth-head-turn.csv");
+    let t = trace.to_str().unwrap();
+    let replay = |flag: &'static str, value: &'static str| {
+        vec![
+            "replay",
+            "--device",
+            "no-such-gpu",
+            "--trace",
+            t,
+            "--out",
+            o,
+            flag,
+            value,
+        ]
+    };
+    let render = |flag: &'static str, value: &'static str| {
+        vec!["render", "--device", "no-such-gpu", "--out", o, flag, value]
+    };
+    for (args, phrase) in [
+        (render("--spp", "4294967295"), "bad --spp 4294967295"),
+        (render("--spp", "65537"), "bad --spp 65537"),
+        (render("--spp", "0"), "bad --spp 0"),
+        (render("--size", "100000x100000"), "at most 16384"),
+        (render("--bounces", "65"), "bad --bounces 65"),
+        (render("--slots", "17"), "bad --slots 17"),
+        (render("--ipd", "2"), "bad --ipd 2"),
+        (render("--fov", "0"), "bad --fov 0"),
+        (render("--exposure", "0"), "bad --exposure 0"),
+        (replay("--frames", "0"), "bad --frames 0"),
+        (replay("--frames", "99999999999"), "bad --frames"),
+        (replay("--fps", "1e9"), "bad --fps"),
+        (replay("--spp", "4294967295"), "bad --spp"),
+        (
+            vec![
+                "compare",
+                "--device",
+                "no-such-gpu",
+                "--out",
+                o,
+                "--reference-spp",
+                "131072",
+            ],
+            "bad --reference-spp 131072",
+        ),
+    ] {
+        let line = fails(&args);
+        assert!(line.contains(phrase), "{args:?}: '{line}' lacks '{phrase}'");
+        assert!(
+            !line.contains("no-such-gpu"),
+            "{args:?}: the device was opened first: {line}"
+        );
+        assert!(!out.exists(), "{args:?}: output written");
+    }
+    // The same device flag alone does reach the device: the check above is meaningful.
+    let line = fails(&render("--size", "8x8"));
+    assert!(line.contains("no-such-gpu"), "{line}");
+}
+
+/// `render`, `replay` and `compare` refuse an output directory that is a
+/// file, lies below a file, or cannot be created (here under /proc, which no
+/// user can create files in) before opening the GPU, without creating anything.
+#[test]
+fn unusable_output_directories_are_refused_before_rendering() {
+    let base = out_dir("outdir");
+    std::fs::create_dir_all(&base).unwrap();
+    let file = base.join("a-file");
+    std::fs::write(&file, b"not a directory").unwrap();
+    let below = file.join("sub");
+    let proc_dir = Path::new("/proc/stereocache-cli-test");
+    let trace = Path::new(env!("CARGO_MANIFEST_DIR")).join("captures/synth-head-turn.csv");
+    for (dir, phrase) in [
+        (file.as_path(), "is a file"),
+        (below.as_path(), "is a file"),
+        (proc_dir, "not writable"),
+    ] {
+        let d = dir.to_str().unwrap();
+        for cmd in [
+            vec!["render", "--size", "8x8"],
+            vec!["replay", "--trace", trace.to_str().unwrap()],
+            vec!["compare", "--methods", "naive"],
+        ] {
+            let mut args = cmd.clone();
+            args.extend(["--device", "no-such-gpu", "--out", d]);
+            let line = fails(&args);
+            assert!(
+                line.contains(d) && line.contains(phrase),
+                "{args:?}: {line}"
+            );
+            assert!(!line.contains("no-such-gpu"), "{args:?}: {line}");
+        }
+    }
+    assert_eq!(std::fs::read(&file).unwrap(), b"not a directory");
+    assert!(!proc_dir.exists());
+    let _ = std::fs::remove_dir_all(&base);
+}
