@@ -51,9 +51,12 @@ macro_rules! methods {
             /// Creates the method on `session`'s device and scene.
             pub fn create(self, session: &Session, settings: &RenderSettings) -> Result<Box<dyn Method>> {
                 let (ctx, scene, env) = (&session.ctx, &session.scene_gpu, &session.scene.environment);
-                Ok(match self {
+                let method: Box<dyn Method> = match self {
                     $(MethodKind::$variant => Box::new($ctor(ctx, scene, env, settings)?),)+
-                })
+                };
+                // The name a method reports (summary.json, stats.json) is its registry name.
+                debug_assert_eq!(method.name(), self.name());
+                Ok(method)
             }
         }
     };
