@@ -17,6 +17,8 @@
 pub mod hash;
 pub mod settings;
 pub mod taa;
+
+/// The command-line options (`--hash-*`).
 pub mod args;
 
 pub use settings::{HashCacheSettings, HashLod};
