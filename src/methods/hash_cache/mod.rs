@@ -14,12 +14,10 @@
 //! failed) → `resolve` (base colour × entry radiance + emission) → `diag.count`
 //! (live entries, a statistic: not counted in the frame time) → `taa`.
 
+pub mod args;
 pub mod hash;
 pub mod settings;
 pub mod taa;
-
-/// The command-line options (`--hash-*`).
-pub mod args;
 
 pub use settings::{HashCacheSettings, HashLod};
 pub use taa::Taa;
