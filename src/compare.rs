@@ -19,7 +19,7 @@
 use crate::camera::StereoCamera;
 use crate::error::{Error, Result};
 use crate::evaluate::{half_seeds, Evaluator, ReferenceCache, ReferenceFrame};
-use crate::methods::{RenderSettings, StereoFrame};
+use crate::methods::{MethodKind, RenderSettings, StereoFrame};
 use crate::metrics::ReferenceNoise;
 use crate::output::{self, label, tonemap};
 use crate::replay::{replay_observed, ReplayOptions, ReplaySummary};
@@ -30,7 +30,7 @@ use std::path::{Path, PathBuf};
 
 #[derive(Clone, Debug)]
 pub struct CompareOptions {
-    pub methods: Vec<String>,
+    pub methods: Vec<MethodKind>,
     pub frames: Option<usize>,
     pub fps: f64,
     /// Per-method images every k-th frame (0 = none).
@@ -216,7 +216,7 @@ fn default_shown(n: usize) -> Vec<usize> {
 #[derive(Clone, Debug)]
 pub struct Config {
     pub label: String,
-    pub method: String,
+    pub method: MethodKind,
     pub settings: RenderSettings,
 }
 
@@ -235,9 +235,9 @@ pub fn compare(
     let configs: Vec<Config> = opts
         .methods
         .iter()
-        .map(|m| Config {
-            label: m.clone(),
-            method: m.clone(),
+        .map(|&m| Config {
+            label: m.name().to_string(),
+            method: m,
             settings: settings.clone(),
         })
         .collect();
@@ -303,7 +303,7 @@ pub fn compare_configs(
         let mut with_debug = c.settings.clone();
         with_debug.cache.debug_views = true;
         with_debug.hash.debug_views = true;
-        methods.push(session.method(&c.method, &with_debug)?);
+        methods.push(session.create(c.method, &with_debug)?);
     }
     // Reference frames (rendered once as two independent halves, cached on
     // disk) for the metrics.
@@ -353,7 +353,7 @@ pub fn compare_configs(
         let summary = replay_observed(session, method.as_mut(), cameras, &ropts, &mut observer)?;
         let mut row = MethodRow::from_summary(&summary);
         row.method = name.clone();
-        row.kind = config.method.clone();
+        row.kind = config.method.name().to_string();
         row.metrics = evaluator.means();
         rows.push(row);
     }

@@ -11,7 +11,7 @@
 
 use crate::camera::{Eye, StereoCamera};
 use crate::error::{Error, Result};
-use crate::methods::{EyeImage, FrameInput, Method, RenderSettings, StereoFrame};
+use crate::methods::{EyeImage, FrameInput, Method, MethodKind, RenderSettings, StereoFrame};
 use crate::metrics::{
     half_split_error, mean_of_halves, stereo::stereo_discrepancy, temporal::temporal_instability,
     ImageMetrics, LinearImage, ReferenceNoise, ViewBuffers, RSE_EPSILON,
@@ -159,8 +159,8 @@ impl ReferenceCache {
                         ..self.settings.clone()
                     };
                     self.renderers = Some([
-                        session.method("reference", &half(sa))?,
-                        session.method("reference", &half(sb))?,
+                        session.create(MethodKind::Reference, &half(sa))?,
+                        session.create(MethodKind::Reference, &half(sb))?,
                     ]);
                 }
                 let input = FrameInput {

@@ -26,3 +26,4 @@ pub mod rt;
 pub mod scene;
 pub mod session;
 pub mod stereo;
+pub mod values;

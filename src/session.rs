@@ -5,9 +5,7 @@
 use crate::camera::{HeadPose, StereoCamera, DEFAULT_IPD};
 use crate::error::{Error, Result};
 use crate::gpu::{GpuContext, GpuOptions};
-use crate::methods::{
-    baseline, HashCache, Hybrid, Isrt, Method, Reference, RenderSettings, SampleCache, Taa,
-};
+use crate::methods::{Method, MethodKind, RenderSettings};
 use crate::rt::{RtBackend, RtChoice, SceneGpu};
 use crate::scene::{apply_default_lighting, load_scene, DefaultLighting, Scene};
 use glam::{Quat, Vec3};
@@ -25,17 +23,16 @@ pub enum CameraSelect {
     Pose(HeadPose),
 }
 
-/// Method names the CLI accepts.
-pub const METHODS: &[&str] = &[
-    "reference",
-    "sample-cache",
-    "naive",
-    "supersample",
-    "taa",
-    "isrt",
-    "hash-cache",
-    "hybrid",
-];
+/// Method names the CLI accepts, in registry order ([`MethodKind::ALL`]).
+pub const METHODS: &[&str] = &{
+    let mut names = [""; MethodKind::ALL.len()];
+    let mut i = 0;
+    while i < names.len() {
+        names[i] = MethodKind::ALL[i].name();
+        i += 1;
+    }
+    names
+};
 
 pub struct Session {
     pub ctx: Arc<GpuContext>,
@@ -130,62 +127,15 @@ impl Session {
         Ok(cam)
     }
 
-    /// Creates a rendering method by its CLI name.
+    /// Creates a rendering method (the registry's constructor).
+    pub fn create(&self, kind: MethodKind, settings: &RenderSettings) -> Result<Box<dyn Method>> {
+        kind.create(self, settings)
+    }
+
+    /// Creates a rendering method by its CLI name (an unknown name is a
+    /// usage error listing the registry's names).
     pub fn method(&self, name: &str, settings: &RenderSettings) -> Result<Box<dyn Method>> {
-        match name {
-            "reference" => Ok(Box::new(Reference::new(
-                &self.ctx,
-                &self.scene_gpu,
-                &self.scene.environment,
-                settings,
-            )?)),
-            "sample-cache" => Ok(Box::new(SampleCache::new(
-                &self.ctx,
-                &self.scene_gpu,
-                &self.scene.environment,
-                settings,
-            )?)),
-            "naive" => Ok(Box::new(baseline::naive(
-                &self.ctx,
-                &self.scene_gpu,
-                &self.scene.environment,
-                settings,
-            )?)),
-            "supersample" => Ok(Box::new(baseline::supersample(
-                &self.ctx,
-                &self.scene_gpu,
-                &self.scene.environment,
-                settings,
-            )?)),
-            "taa" => Ok(Box::new(Taa::new(
-                &self.ctx,
-                &self.scene_gpu,
-                &self.scene.environment,
-                settings,
-            )?)),
-            "isrt" => Ok(Box::new(Isrt::new(
-                &self.ctx,
-                &self.scene_gpu,
-                &self.scene.environment,
-                settings,
-            )?)),
-            "hash-cache" => Ok(Box::new(HashCache::new(
-                &self.ctx,
-                &self.scene_gpu,
-                &self.scene.environment,
-                settings,
-            )?)),
-            "hybrid" => Ok(Box::new(Hybrid::new(
-                &self.ctx,
-                &self.scene_gpu,
-                &self.scene.environment,
-                settings,
-            )?)),
-            other => Err(Error::Usage(format!(
-                "unknown method '{other}' (available: {})",
-                METHODS.join(", ")
-            ))),
-        }
+        self.create(name.parse()?, settings)
     }
 }
 

@@ -59,8 +59,10 @@ fn compare(a: &StereoFrame, b: &StereoFrame) -> Agreement {
 
 fn check_scene(name: &str, scene: Scene, cpu: bool) {
     let ctx = context();
-    if !ctx.ray_query_enabled() {
-        eprintln!("skipped: this device has no ray queries, nothing to compare against");
+    if !require(
+        ctx.ray_query_enabled(),
+        "ray queries (the backend compared against)",
+    ) {
         return;
     }
     let sw = session(&ctx, scene.clone(), RtChoice::Software);
@@ -158,8 +160,7 @@ fn shipped_gltf_files_agree_with_generated() {
 #[test]
 fn sponza_backends_agree() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes/sponza/Sponza.gltf");
-    if !path.exists() {
-        eprintln!("skipped: {} not present", path.display());
+    if !require_file(&path) {
         return;
     }
     check_scene("sponza", shipped(path.to_str().unwrap()), false);

@@ -12,11 +12,11 @@ use std::collections::{HashMap, HashSet};
 use stereocache::camera::{Eye, StereoCamera};
 use stereocache::methods::isrt::IsrtSnapshot;
 use stereocache::methods::{
-    FrameInput, Isrt, IsrtSettings, Method, RenderSettings, StereoFrame, TaaSettings, TaaWeights,
+    Isrt, IsrtSettings, Method, RenderSettings, StereoFrame, TaaSettings, TaaWeights,
 };
 use stereocache::rt::{RtChoice, SoftwareBvh};
 use stereocache::scene::{generate::*, Environment, Material, Scene};
-use stereocache::session::{CameraSelect, Session, METHODS};
+use stereocache::session::{Session, METHODS};
 
 fn settings(w: u32, h: u32, spp: u32, seed: u32) -> RenderSettings {
     RenderSettings {
@@ -33,7 +33,8 @@ fn diff_stats(a: &StereoFrame, b: &StereoFrame) -> (f64, f64) {
     mean_and_standard_error(&squared_errors(a, b))
 }
 
-fn assert_finite_non_negative(f: &StereoFrame, what: &str) {
+/// Like `common::assert_finite_non_negative` over the colour channels only.
+fn assert_rgb_finite_non_negative(f: &StereoFrame, what: &str) {
     for (e, eye) in f.eyes.iter().enumerate() {
         for (p, c) in eye.radiance.iter().enumerate() {
             assert!(
@@ -54,13 +55,7 @@ fn run(m: &mut dyn Method, cams: &[StereoCamera]) -> Vec<StereoFrame> {
     cams.iter()
         .enumerate()
         .map(|(i, c)| {
-            let f = m
-                .render_frame(&FrameInput {
-                    index: i as u32,
-                    camera: *c,
-                    prev_camera: prev,
-                })
-                .expect("render");
+            let f = render_at(m, i as u32, *c, prev);
             prev = Some(*c);
             f
         })
@@ -79,7 +74,7 @@ fn supersample_naive_and_taa_against_the_reference() {
     let ctx = context();
     let s = session(&ctx, shipped("cornell"), RtChoice::Auto);
     let (w, h) = (32, 32);
-    let cam = s.camera(&CameraSelect::Default, w, h, None, None).unwrap();
+    let cam = default_camera(&s, w, h);
     let r = 512.0;
     let reference = render(&s, "reference", cam, &settings(w, h, r as u32, 11));
     // naive's expected squared error from 16 independent 1 spp images (seeds
@@ -96,7 +91,7 @@ fn supersample_naive_and_taa_against_the_reference() {
     let naive = &naives[0];
     let ss = render(&s, "supersample", cam, &settings(w, h, 16, 13));
     for (f, name) in [(naive, "naive"), (&ss, "supersample")] {
-        assert_finite_non_negative(f, name);
+        assert_rgb_finite_non_negative(f, name);
     }
     // naive ignores --spp: one sample per pixel.
     assert_eq!(naive.stats.rays.primary, 2 * (w * h) as u64 * 2);
@@ -152,7 +147,7 @@ fn supersample_naive_and_taa_against_the_reference() {
             let mut m = s.method("taa", &st).unwrap();
             let frames = run(m.as_mut(), &cams);
             for (i, f) in frames.iter().enumerate() {
-                assert_finite_non_negative(f, "taa");
+                assert_rgb_finite_non_negative(f, "taa");
                 let mse_i = diff_stats(f, &reference).0;
                 // Frame 0 is plain 1 spp (no history): its error is one
                 // 1 spp image's, within 4 standard deviations of that MSE.
@@ -443,20 +438,14 @@ fn isrt_grid_invariants_on_a_moving_trace() {
         let mut method = Isrt::new(&s.ctx, &s.scene_gpu, &s.scene.environment, &st).unwrap();
         let bvh = SoftwareBvh::build(&s.scene);
         let hits = HitPositions::new(&bvh);
-        let cam0 = s.camera(&CameraSelect::Default, w, h, None, None).unwrap();
+        let cam0 = default_camera(&s, w, h);
         let (mut samples, mut stale, mut kept) = (0, 0, 0.0);
         let mut prev = None;
         for f in 0..6 {
             let cam = moving(&cam0, f, 1.5);
-            let frame = method
-                .render_frame(&FrameInput {
-                    index: f,
-                    camera: cam,
-                    prev_camera: prev,
-                })
-                .unwrap();
+            let frame = render_at(&mut method, f, cam, prev);
             prev = Some(cam);
-            assert_finite_non_negative(&frame, "isrt");
+            assert_rgb_finite_non_negative(&frame, "isrt");
             let snap = method.snapshot().unwrap();
             let (n, bad) = check_isrt(&snap, &frame, &cam, &bvh, &hits);
             let c = &frame.stats.counters;
@@ -493,14 +482,14 @@ fn every_method_is_finite_and_non_negative_on_every_shipped_scene() {
     for scene in ["cornell", "hairball", "plane"] {
         let s: Session = session(&ctx, shipped(scene), RtChoice::Auto);
         let (w, h) = (24, 16);
-        let cam0 = s.camera(&CameraSelect::Default, w, h, None, None).unwrap();
+        let cam0 = default_camera(&s, w, h);
         let cams: Vec<StereoCamera> = (0..3).map(|f| moving(&cam0, f, 2.0)).collect();
         for method in METHODS {
             let mut m = s.method(method, &settings(w, h, 2, 9)).unwrap();
             assert_eq!(m.name(), *method);
             assert!(m.memory_bytes() > 0);
             for f in run(m.as_mut(), &cams) {
-                assert_finite_non_negative(&f, &format!("{method} on {scene}"));
+                assert_rgb_finite_non_negative(&f, &format!("{method} on {scene}"));
             }
         }
     }

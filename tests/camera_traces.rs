@@ -1,6 +1,8 @@
 //! Camera model and pose traces: eye geometry, rays, CSV, resampling,
 //! hemisphere continuity, the MMSys'18 importer, bad traces, synthesis.
 
+mod common;
+use common::require_file;
 use std::path::PathBuf;
 
 use glam::{EulerRot, Mat4, Quat, UVec2, Vec2, Vec3};
@@ -173,14 +175,7 @@ fn sign_flips_resample_smoothly() {
 #[test]
 fn mmsys18_user1_imports() {
     let raw = manifest().join("../shared/captures/mmsys18/user1_quaternion.txt");
-    if !raw.exists() {
-        // A skip hides the real-data check: not allowed in CI.
-        assert!(
-            std::env::var_os("CI").is_none(),
-            "{} not present (CI is set, so this must not skip)",
-            raw.display()
-        );
-        eprintln!("skipping: {} not present", raw.display());
+    if !require_file(&raw) {
         return;
     }
     let tr = read_mmsys18(&raw, &Mmsys18Options::default()).unwrap();
@@ -953,9 +948,7 @@ fn bad_recordings_are_one_line_errors_naming_file_and_line() {
 // -- the command line -------------------------------------------------------
 
 fn cli() -> std::process::Command {
-    let mut c = std::process::Command::new("timeout");
-    c.arg("120").arg(env!("CARGO_BIN_EXE_stereocache"));
-    c
+    common::cli(120)
 }
 
 struct Run {
@@ -978,15 +971,8 @@ fn run_cli(args: &[&str]) -> Run {
 
 /// Expects failure with exactly one `error:` line; returns it.
 fn cli_error(args: &[&str]) -> String {
-    let r = run_cli(args);
-    assert!(!r.ok, "{args:?} should fail:\n{}", r.stderr);
-    let errors: Vec<&str> = r
-        .stderr
-        .lines()
-        .filter(|l| l.starts_with("error"))
-        .collect();
-    assert_eq!(errors.len(), 1, "{args:?}:\n{}", r.stderr);
-    errors[0].to_string()
+    let o = cli().args(args).output().unwrap();
+    common::single_error_line(&o, &format!("{args:?}"))
 }
 
 #[test]

@@ -2,22 +2,14 @@
 //! file or value and the problem, a non-zero exit, no panic, and no output
 //! files left behind.
 
+mod common;
+use common::{bad_scene as data, cli, single_error_line};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-/// The binary under coreutils' `timeout`, so a hang fails the test with
-/// status 124 instead of stalling the suite.
+/// The binary under `timeout` (see `common::cli`).
 fn bin() -> Command {
-    let mut c = Command::new("timeout");
-    c.arg("300").arg(env!("CARGO_BIN_EXE_stereocache"));
-    c.env("STEREOCACHE_VALIDATE", "1");
-    c
-}
-
-fn data(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/data/bad_scenes")
-        .join(name)
+    cli(300)
 }
 
 fn out_dir(tag: &str) -> PathBuf {
@@ -34,24 +26,7 @@ fn fails(args: &[&str]) -> String {
 /// `fails` with extra environment variables.
 fn fails_with(args: &[&str], env: &[(&str, &str)]) -> String {
     let o = bin().args(args).envs(env.iter().copied()).output().unwrap();
-    let stderr = String::from_utf8_lossy(&o.stderr).to_string();
-    assert_ne!(
-        o.status.code(),
-        Some(124),
-        "{args:?} hung (killed by timeout)"
-    );
-    assert!(
-        !o.status.success(),
-        "{args:?} should fail; stderr:\n{stderr}"
-    );
-    assert!(!stderr.contains("panicked"), "{args:?} panicked:\n{stderr}");
-    let errors: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error")).collect();
-    assert_eq!(
-        errors.len(),
-        1,
-        "{args:?}: expected one error line, got:\n{stderr}"
-    );
-    errors[0].to_string()
+    single_error_line(&o, &format!("{args:?}"))
 }
 
 #[test]
@@ -439,4 +414,108 @@ fn bench_specialization_checks_input_and_writes_csv() {
     ] {
         assert!(builds.contains(&b), "{b} missing from {builds:?}");
     }
+}
+
+/// Impossible numbers are refused while the command line is parsed, before
+/// the GPU is opened: `--device` names no device here, so a command that got
+/// as far as opening one would fail with the device error instead. One
+/// `error:` line naming the flag, no output directory.
+#[test]
+fn out_of_range_values_are_refused_before_the_device_opens() {
+    let out = out_dir("ranges");
+    let o = out.to_str().unwrap();
+    let trace = Path::new(env!("CARGO_MANIFEST_DIR")).join("captures/synth-head-turn.csv");
+    let t = trace.to_str().unwrap();
+    let replay = |flag: &'static str, value: &'static str| {
+        vec![
+            "replay",
+            "--device",
+            "no-such-gpu",
+            "--trace",
+            t,
+            "--out",
+            o,
+            flag,
+            value,
+        ]
+    };
+    let render = |flag: &'static str, value: &'static str| {
+        vec!["render", "--device", "no-such-gpu", "--out", o, flag, value]
+    };
+    for (args, phrase) in [
+        (render("--spp", "4294967295"), "bad --spp 4294967295"),
+        (render("--spp", "65537"), "bad --spp 65537"),
+        (render("--spp", "0"), "bad --spp 0"),
+        (render("--size", "100000x100000"), "at most 16384"),
+        (render("--bounces", "65"), "bad --bounces 65"),
+        (render("--slots", "17"), "bad --slots 17"),
+        (render("--ipd", "2"), "bad --ipd 2"),
+        (render("--fov", "0"), "bad --fov 0"),
+        (render("--exposure", "0"), "bad --exposure 0"),
+        (replay("--frames", "0"), "bad --frames 0"),
+        (replay("--frames", "99999999999"), "bad --frames"),
+        (replay("--fps", "1e9"), "bad --fps"),
+        (replay("--spp", "4294967295"), "bad --spp"),
+        (
+            vec![
+                "compare",
+                "--device",
+                "no-such-gpu",
+                "--out",
+                o,
+                "--reference-spp",
+                "131072",
+            ],
+            "bad --reference-spp 131072",
+        ),
+    ] {
+        let line = fails(&args);
+        assert!(line.contains(phrase), "{args:?}: '{line}' lacks '{phrase}'");
+        assert!(
+            !line.contains("no-such-gpu"),
+            "{args:?}: the device was opened first: {line}"
+        );
+        assert!(!out.exists(), "{args:?}: output written");
+    }
+    // The same device flag alone does reach the device: the check above is meaningful.
+    let line = fails(&render("--size", "8x8"));
+    assert!(line.contains("no-such-gpu"), "{line}");
+}
+
+/// `render`, `replay` and `compare` refuse an output directory that is a
+/// file, lies below a file, or cannot be created (here under /proc, which no
+/// user can create files in) before opening the GPU, without creating anything.
+#[test]
+fn unusable_output_directories_are_refused_before_rendering() {
+    let base = out_dir("outdir");
+    std::fs::create_dir_all(&base).unwrap();
+    let file = base.join("a-file");
+    std::fs::write(&file, b"not a directory").unwrap();
+    let below = file.join("sub");
+    let proc_dir = Path::new("/proc/stereocache-cli-test");
+    let trace = Path::new(env!("CARGO_MANIFEST_DIR")).join("captures/synth-head-turn.csv");
+    for (dir, phrase) in [
+        (file.as_path(), "is a file"),
+        (below.as_path(), "is a file"),
+        (proc_dir, "not writable"),
+    ] {
+        let d = dir.to_str().unwrap();
+        for cmd in [
+            vec!["render", "--size", "8x8"],
+            vec!["replay", "--trace", trace.to_str().unwrap()],
+            vec!["compare", "--methods", "naive"],
+        ] {
+            let mut args = cmd.clone();
+            args.extend(["--device", "no-such-gpu", "--out", d]);
+            let line = fails(&args);
+            assert!(
+                line.contains(d) && line.contains(phrase),
+                "{args:?}: {line}"
+            );
+            assert!(!line.contains("no-such-gpu"), "{args:?}: {line}");
+        }
+    }
+    assert_eq!(std::fs::read(&file).unwrap(), b"not a directory");
+    assert!(!proc_dir.exists());
+    let _ = std::fs::remove_dir_all(&base);
 }

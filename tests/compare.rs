@@ -1,5 +1,7 @@
 //! `stereocache compare` writes every promised file, with one summary row per method.
 
+mod common;
+use common::single_error_line;
 use std::path::Path;
 use std::process::Command;
 
@@ -343,13 +345,10 @@ fn an_odd_reference_spp_is_refused_before_any_work() {
         .arg(&out)
         .output()
         .unwrap();
-    assert!(!o.status.success());
-    let stderr = String::from_utf8_lossy(&o.stderr);
-    let errors: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error:")).collect();
-    assert_eq!(errors.len(), 1, "{stderr}");
+    let error = single_error_line(&o, "--reference-spp 7");
     assert!(
-        errors[0].contains("bad --reference-spp 7") && errors[0].contains("even"),
-        "{stderr}"
+        error.contains("bad --reference-spp 7") && error.contains("even"),
+        "{error}"
     );
     assert!(!out.exists());
 }

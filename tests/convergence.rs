@@ -10,7 +10,6 @@ use common::*;
 use stereocache::methods::{RenderSettings, StereoFrame};
 use stereocache::rt::RtChoice;
 use stereocache::scene::{apply_default_lighting, load_scene, DefaultLighting};
-use stereocache::session::CameraSelect;
 
 fn diff_stats(a: &StereoFrame, b: &StereoFrame) -> (f64, f64) {
     mean_and_standard_error(&squared_errors(a, b))
@@ -23,7 +22,7 @@ fn cornell_reference_error_falls_as_one_over_samples() {
     apply_default_lighting(&mut scene, &DefaultLighting::default()).unwrap();
     let s = session(&ctx, scene, RtChoice::Auto);
     let (w, h) = (32, 32);
-    let cam = s.camera(&CameraSelect::Default, w, h, None, None).unwrap();
+    let cam = default_camera(&s, w, h);
     let run = |spp, seed| {
         render(
             &s,
@@ -44,11 +43,7 @@ fn cornell_reference_error_falls_as_one_over_samples() {
     let r256 = run(256, 12);
     let r64 = run(64, 13);
     for f in [&r1024, &r256, &r64] {
-        assert!(f
-            .eyes
-            .iter()
-            .flat_map(|e| &e.radiance)
-            .all(|p| p.iter().all(|c| c.is_finite() && *c >= 0.0)));
+        assert_finite_non_negative(f, "reference");
     }
     let (m64, s64) = diff_stats(&r64, &r1024);
     let (m256, s256) = diff_stats(&r256, &r1024);

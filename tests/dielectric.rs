@@ -411,10 +411,8 @@ fn rough_glass_samples_match_the_cpu_twin() {
 
 fn rt_backends(ctx: &stereocache::gpu::GpuContext) -> Vec<RtChoice> {
     let mut v = vec![RtChoice::Software];
-    if ctx.ray_query_enabled() {
+    if require(ctx.ray_query_enabled(), "the ray-query backend") {
         v.push(RtChoice::Query);
-    } else {
-        skip_unless_ci("the ray-query backend");
     }
     v
 }

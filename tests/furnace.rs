@@ -16,8 +16,7 @@ use stereocache::scene::Material;
 fn lambert_white_furnace_returns_environment_radiance() {
     let ctx = context();
     for rt in [RtChoice::Software, RtChoice::Query] {
-        if rt == RtChoice::Query && !ctx.ray_query_enabled() {
-            eprintln!("skipped: no ray queries on this device");
+        if rt == RtChoice::Query && !require(ctx.ray_query_enabled(), "ray queries") {
             continue;
         }
         let s = session(

@@ -15,10 +15,10 @@ use stereocache::methods::hash_cache::hash::{
     entry_checksum, entry_frame, pack_meta, pcg_hash, share_probe_window, VoxelKey, NO_AXIS,
 };
 use stereocache::methods::hash_cache::{HashCache, HashCacheSettings, HashLod, ENTRY_BYTES};
-use stereocache::methods::{FrameInput, Method, RenderSettings, StereoFrame};
+use stereocache::methods::{Method, RenderSettings, StereoFrame};
 use stereocache::rt::RtChoice;
 use stereocache::scene::Material;
-use stereocache::session::{CameraSelect, Session};
+use stereocache::session::Session;
 
 fn settings(w: u32, h: u32, hash: HashCacheSettings) -> RenderSettings {
     RenderSettings {
@@ -41,17 +41,6 @@ fn moving(start: &StereoCamera, frame: u32, deg_per_frame: f32) -> StereoCamera 
     turning_head(start, frame, deg_per_frame, 0.01)
 }
 
-fn assert_finite_non_negative(fr: &StereoFrame, what: &str) {
-    for (e, eye) in fr.eyes.iter().enumerate() {
-        for (i, p) in eye.radiance.iter().enumerate() {
-            assert!(
-                p.iter().all(|c| c.is_finite() && *c >= 0.0),
-                "{what}: eye {e} pixel {i} radiance {p:?}"
-            );
-        }
-    }
-}
-
 /// Renders `frames` frames along `moving(cam0, f, deg)`; returns the frames' counters summed.
 fn run(
     m: &mut HashCache,
@@ -64,13 +53,7 @@ fn run(
     let mut prev = None;
     for f in 0..frames {
         let cam = moving(&cam0, f, deg);
-        let fr = m
-            .render_frame(&FrameInput {
-                index: f,
-                camera: cam,
-                prev_camera: prev,
-            })
-            .unwrap();
+        let fr = render_at(m, f, cam, prev);
         prev = Some(cam);
         assert_finite_non_negative(&fr, what);
         for (k, v) in &fr.stats.counters {
@@ -203,7 +186,7 @@ fn tiny_table_evicts_stale_entries_and_stays_finite() {
     let ctx = context();
     let s = session(&ctx, shipped("cornell"), RtChoice::Software);
     let (w, h) = (32, 24);
-    let cam0 = s.camera(&CameraSelect::Default, w, h, None, None).unwrap();
+    let cam0 = default_camera(&s, w, h);
     for (tiles, taa) in [(false, true), (true, false)] {
         let hs = HashCacheSettings {
             capacity: 256,
@@ -235,7 +218,7 @@ fn no_two_entries_share_a_key_after_a_moving_trace() {
     let ctx = context();
     let s = session(&ctx, shipped("hairball"), RtChoice::Software);
     let (w, h) = (40, 30);
-    let cam0 = s.camera(&CameraSelect::Default, w, h, None, None).unwrap();
+    let cam0 = default_camera(&s, w, h);
     for tiles in [false, true] {
         let hs = HashCacheSettings {
             capacity: 4096,
@@ -250,13 +233,7 @@ fn no_two_entries_share_a_key_after_a_moving_trace() {
         let mut evicted = 0.0;
         for f in 0..8 {
             let cam = moving(&cam0, f, 2.0);
-            let fr = m
-                .render_frame(&FrameInput {
-                    index: f,
-                    camera: cam,
-                    prev_camera: prev,
-                })
-                .unwrap();
+            let fr = render_at(&mut m, f, cam, prev);
             prev = Some(cam);
             assert_finite_non_negative(&fr, "hairball");
             let live = assert_unique_keys(&m);
@@ -279,7 +256,7 @@ fn frame_counter_wraps_safely() {
     let ctx = context();
     let s = session(&ctx, shipped("cornell"), RtChoice::Software);
     let (w, h) = (24, 16);
-    let cam = s.camera(&CameraSelect::Default, w, h, None, None).unwrap();
+    let cam = default_camera(&s, w, h);
     let hs = HashCacheSettings {
         capacity: 1 << 14,
         stale_frames: 8,
@@ -289,13 +266,7 @@ fn frame_counter_wraps_safely() {
     m.set_frame_counter(u32::MAX as u64 - 3);
     let mut found = Vec::new();
     for f in 0..8 {
-        let fr = m
-            .render_frame(&FrameInput {
-                index: f,
-                camera: cam,
-                prev_camera: Some(cam),
-            })
-            .unwrap();
+        let fr = render_at(&mut m, f, cam, Some(cam));
         let c = &fr.stats.counters;
         assert_eq!(c["cells_evicted_stale"], 0.0, "frame {f}: {c:?}");
         assert_eq!(c["probe_failures"], 0.0, "frame {f}: {c:?}");
@@ -319,20 +290,12 @@ fn frame_counter_wraps_safely() {
 #[test]
 fn static_view_converges_towards_the_reference() {
     let ctx = context();
-    let s = session(&ctx, shipped("hairball"), RtChoice::Software);
     let (w, h) = (32, 24);
-    let cam = s.camera(&CameraSelect::Default, w, h, None, None).unwrap();
-    let reference = reference_frame(&s, cam, w, h, 1024);
+    let (s, cam, reference) = static_view_with_reference(&ctx, "hairball", w, h, 1024);
     let mut m = hash_method(&s, &settings(w, h, HashCacheSettings::default()));
     let mut points = Vec::new();
     for f in 0..48u32 {
-        let fr = m
-            .render_frame(&FrameInput {
-                index: f,
-                camera: cam,
-                prev_camera: Some(cam),
-            })
-            .unwrap();
+        let fr = render_at(&mut m, f, cam, Some(cam));
         assert_finite_non_negative(&fr, "cornell");
         if [0, 7, 47].contains(&f) {
             let (mean, se) = mean_and_standard_error(&squared_errors(&fr, &reference));
@@ -362,7 +325,7 @@ fn every_shipped_scene_renders_finite_radiance() {
     for (i, name) in ["cornell", "hairball", "plane"].iter().enumerate() {
         let s = session(&ctx, shipped(name), RtChoice::Software);
         let (w, h) = (24, 16);
-        let cam0 = s.camera(&CameraSelect::Default, w, h, None, None).unwrap();
+        let cam0 = default_camera(&s, w, h);
         let hs = HashCacheSettings {
             capacity: 1 << 14,
             tiles: i % 2 == 1,
@@ -408,13 +371,7 @@ fn furnace_sphere_shows_its_albedo() {
         let mut prev = None;
         for f in 0..4 {
             let cam = moving(&cam0, f, 1.0);
-            let fr = m
-                .render_frame(&FrameInput {
-                    index: f,
-                    camera: cam,
-                    prev_camera: prev,
-                })
-                .unwrap();
+            let fr = render_at(&mut m, f, cam, prev);
             prev = Some(cam);
             let mut on_sphere = 0;
             for eye in &fr.eyes {
@@ -476,10 +433,8 @@ fn cli_hash_options() {
             "--out",
             &out_s,
         ]);
-        let stderr = String::from_utf8_lossy(&o.stderr);
-        let errors: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error")).collect();
-        assert!(!o.status.success() && errors.len() == 1, "{stderr}");
-        assert!(errors[0].contains(flag), "{flag}: {}", errors[0]);
+        let error = single_error_line(&o, flag);
+        assert!(error.contains(flag), "{flag}: {error}");
         assert!(!out.exists(), "{flag}: output written");
     }
     let o = run(&[
@@ -513,7 +468,7 @@ fn fig9_lod_modes_temporal_stability() {
     let ctx = context();
     let s = session(&ctx, shipped("plane"), RtChoice::Software);
     let (w, h) = (64, 48);
-    let cam = s.camera(&CameraSelect::Default, w, h, None, None).unwrap();
+    let cam = default_camera(&s, w, h);
     let reference = render(
         &s,
         "reference",
@@ -538,13 +493,7 @@ fn fig9_lod_modes_temporal_stability() {
             let (mut prev, mut change, mut n) = (None::<StereoFrame>, 0.0f64, 0usize);
             let mut last = None;
             for f in 0..32u32 {
-                let fr = m
-                    .render_frame(&FrameInput {
-                        index: f,
-                        camera: cam,
-                        prev_camera: Some(cam),
-                    })
-                    .unwrap();
+                let fr = render_at(&mut m, f, cam, Some(cam));
                 if let (Some(p), true) = (&prev, f >= 16) {
                     for (a, b) in fr.eyes.iter().zip(&p.eyes) {
                         for (x, y) in a.radiance.iter().zip(&b.radiance) {

@@ -13,10 +13,10 @@ use stereocache::camera::{Eye, StereoCamera};
 use stereocache::methods::hash_cache::{HashCacheSettings, HashLod};
 use stereocache::methods::sample_cache::background::background_direction;
 use stereocache::methods::sample_cache::SampleCacheSettings;
-use stereocache::methods::{FrameInput, Hybrid, Method, RenderSettings, StereoFrame};
+use stereocache::methods::{Hybrid, Method, RenderSettings};
 use stereocache::rt::{RtChoice, SoftwareBvh};
 use stereocache::scene::Material;
-use stereocache::session::{CameraSelect, Session};
+use stereocache::session::Session;
 
 fn settings(w: u32, h: u32, hash: HashCacheSettings) -> RenderSettings {
     RenderSettings {
@@ -40,17 +40,6 @@ fn moving(start: &StereoCamera, frame: u32, deg_per_frame: f32) -> StereoCamera 
     turning_head(start, frame, deg_per_frame, 0.004)
 }
 
-fn assert_finite_non_negative(fr: &StereoFrame, what: &str) {
-    for (e, eye) in fr.eyes.iter().enumerate() {
-        for (i, p) in eye.radiance.iter().enumerate() {
-            assert!(
-                p.iter().all(|c| c.is_finite() && *c >= 0.0),
-                "{what}: eye {e} pixel {i} radiance {p:?}"
-            );
-        }
-    }
-}
-
 /// After every frame of a moving trace: v ⇒ o, no mask bits above 2N, every
 /// visible sample holds a valid first hit of an existing triangle, every
 /// pixel that geometry covers has a visible sample (≤ 2 % exceptions between
@@ -66,19 +55,13 @@ fn invariants_hold_along_a_moving_trace() {
         let (w, h) = (40, 30);
         let npix = (w * h) as usize;
         let mut m = hybrid(&s, &settings(w, h, HashCacheSettings::default()));
-        let cam0 = s.camera(&CameraSelect::Default, w, h, None, None).unwrap();
+        let cam0 = default_camera(&s, w, h);
         let bvh = SoftwareBvh::build(&s.scene);
         let mut prev = None;
         let (mut fine, mut coarse, mut both) = (0.0, 0.0, 0.0);
         for f in 0..frames {
             let cam = moving(&cam0, f, 1.5);
-            let fr = m
-                .render_frame(&FrameInput {
-                    index: f,
-                    camera: cam,
-                    prev_camera: prev,
-                })
-                .unwrap();
+            let fr = render_at(&mut m, f, cam, prev);
             prev = Some(cam);
             assert_finite_non_negative(&fr, name);
             let snap = m.sample_cache().snapshot().unwrap();
@@ -209,13 +192,7 @@ fn furnace_sphere_shows_its_albedo() {
         let mut prev = None;
         for f in 0..4 {
             let cam = moving(&cam0, f, 1.0);
-            let fr = m
-                .render_frame(&FrameInput {
-                    index: f,
-                    camera: cam,
-                    prev_camera: prev,
-                })
-                .unwrap();
+            let fr = render_at(&mut m, f, cam, prev);
             prev = Some(cam);
             let snap = m.sample_cache().snapshot().unwrap();
             let mut on_sphere = 0;
@@ -260,7 +237,7 @@ fn every_shipped_scene_renders_finite_radiance() {
     for (i, name) in ["cornell", "hairball", "plane"].iter().enumerate() {
         let s = session(&ctx, shipped(name), RtChoice::Software);
         let (w, h) = (24, 16);
-        let cam0 = s.camera(&CameraSelect::Default, w, h, None, None).unwrap();
+        let cam0 = default_camera(&s, w, h);
         let hs = HashCacheSettings {
             capacity: 1 << 14,
             tiles: i % 2 == 1,
@@ -276,13 +253,7 @@ fn every_shipped_scene_renders_finite_radiance() {
         let mut prev = None;
         for f in 0..3 {
             let cam = moving(&cam0, f, 1.0);
-            let fr = m
-                .render_frame(&FrameInput {
-                    index: f,
-                    camera: cam,
-                    prev_camera: prev,
-                })
-                .unwrap();
+            let fr = render_at(&mut m, f, cam, prev);
             prev = Some(cam);
             assert_finite_non_negative(&fr, name);
         }
@@ -303,20 +274,12 @@ fn every_shipped_scene_renders_finite_radiance() {
 #[test]
 fn static_view_converges_towards_the_reference() {
     let ctx = context();
-    let s = session(&ctx, shipped("hairball"), RtChoice::Software);
     let (w, h) = (32, 24);
-    let cam = s.camera(&CameraSelect::Default, w, h, None, None).unwrap();
-    let reference = reference_frame(&s, cam, w, h, 1024);
+    let (s, cam, reference) = static_view_with_reference(&ctx, "hairball", w, h, 1024);
     let mut m = hybrid(&s, &settings(w, h, HashCacheSettings::default()));
     let mut points = Vec::new();
     for f in 0..32u32 {
-        let fr = m
-            .render_frame(&FrameInput {
-                index: f,
-                camera: cam,
-                prev_camera: Some(cam),
-            })
-            .unwrap();
+        let fr = render_at(&mut m, f, cam, Some(cam));
         assert_finite_non_negative(&fr, "hairball");
         if [0, 3, 7, 31].contains(&f) {
             let d2 = squared_errors(&fr, &reference);

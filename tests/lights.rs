@@ -545,22 +545,12 @@ fn bench_lights_rejects_bad_arguments() {
         (&["--size", "0x-1"][..], "size"),
         (&["--scenes", "/nonexistent/scene.gltf"][..], "scene.gltf"),
     ] {
-        let o = std::process::Command::new("timeout")
-            .arg("120")
-            .arg(env!("CARGO_BIN_EXE_stereocache"))
+        let o = cli(120)
             .args(["bench", "lights"])
             .args(args)
             .output()
             .unwrap();
-        let stderr = String::from_utf8_lossy(&o.stderr);
-        assert!(
-            !o.status.success() && o.status.code() != Some(124),
-            "{args:?}: {:?}",
-            o.status
-        );
-        let lines: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error:")).collect();
-        assert_eq!(lines.len(), 1, "{args:?}: {stderr}");
-        assert!(lines[0].contains(needle), "{args:?}: {}", lines[0]);
-        assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+        let line = single_error_line(&o, &format!("{args:?}"));
+        assert!(line.contains(needle), "{args:?}: {line}");
     }
 }

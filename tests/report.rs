@@ -2,6 +2,8 @@
 //! its numbers equal summary.csv's, and it loads in a real headless browser
 //! (Debian's chromium) without console errors into a non-blank page.
 
+mod common;
+use common::require;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -109,10 +111,13 @@ fn report_loads_in_headless_chromium() {
     let chromium = ["/usr/bin/chromium", "/usr/bin/chromium-browser"]
         .into_iter()
         .find(|p| Path::new(p).exists());
-    let Some(chromium) = chromium else {
-        eprintln!("skipped: chromium not installed (scripts/setup.sh --test installs it)");
+    if !require(
+        chromium.is_some(),
+        "chromium (scripts/setup.sh --test installs it)",
+    ) {
         return;
-    };
+    }
+    let chromium = chromium.expect("checked above");
     let out = compare_run("browser");
     let shot = out.join("shot.png");
     let profile = out.join("profile");

@@ -9,7 +9,7 @@ use stereocache::methods::sample_cache::background::background_direction;
 use stereocache::methods::sample_cache::{
     CacheSnapshot, Reproject, Retrace, SampleCache, SampleCacheSettings, Shading,
 };
-use stereocache::methods::{FrameInput, Method, RenderSettings};
+use stereocache::methods::RenderSettings;
 use stereocache::rt::{RtChoice, SoftwareBvh};
 use stereocache::session::{CameraSelect, Session};
 
@@ -106,28 +106,15 @@ fn run_moving(
     };
     let (w, h) = (48, 36);
     let mut m = cache_method(&s, &settings(w, h, cs));
-    let cam0 = s.camera(&CameraSelect::Default, w, h, None, None).unwrap();
+    let cam0 = default_camera(&s, w, h);
     let bvh = SoftwareBvh::build(&s.scene);
     let (mut visible, mut stale, mut rays) = (0, 0, 0u64);
     let mut prev = None;
     for f in 0..frames {
         let cam = moving(&cam0, f, deg_per_frame);
-        let frame = m
-            .render_frame(&FrameInput {
-                index: f,
-                camera: cam,
-                prev_camera: prev,
-            })
-            .unwrap();
+        let frame = render_at(&mut m, f, cam, prev);
         prev = Some(cam);
-        assert!(
-            frame
-                .eyes
-                .iter()
-                .flat_map(|e| &e.radiance)
-                .all(|p| p.iter().all(|c| c.is_finite() && *c >= 0.0)),
-            "non-finite output"
-        );
+        assert_finite_non_negative(&frame, "sample cache");
         let snap = m.snapshot().unwrap();
         let (v, bad, uncovered) = check_invariants(&snap, &cam, &bvh);
         // A pixel that geometry covers keeps a visible surface sample. On
@@ -276,14 +263,7 @@ fn dump_debug_views() {
             .unwrap();
         let mut last = None;
         for f in 0..4 {
-            last = Some(
-                m.render_frame(&FrameInput {
-                    index: f,
-                    camera: cam,
-                    prev_camera: Some(cam),
-                })
-                .unwrap(),
-            );
+            last = Some(render_at(&mut m, f, cam, Some(cam)));
         }
         let fr = last.unwrap();
         eprintln!("{name}: {:?}", fr.stats.counters);
@@ -317,12 +297,7 @@ fn run_frames(s: &Session, st: &RenderSettings, frames: u32, deg_per_frame: f32)
     let mut prev = None;
     for f in 0..frames {
         let cam = moving(&cam0, f, deg_per_frame);
-        m.render_frame(&FrameInput {
-            index: f,
-            camera: cam,
-            prev_camera: prev,
-        })
-        .unwrap();
+        render_at(&mut m, f, cam, prev);
         prev = Some(cam);
     }
     m
@@ -389,20 +364,12 @@ fn one_pass_and_two_pass_reprojection_agree() {
 #[test]
 fn static_view_converges_towards_the_reference() {
     let ctx = context();
-    let s = session(&ctx, shipped("cornell"), RtChoice::Software);
     let (w, h) = (32, 24);
-    let cam = s.camera(&CameraSelect::Default, w, h, None, None).unwrap();
-    let reference = reference_frame(&s, cam, w, h, 1024);
+    let (s, cam, reference) = static_view_with_reference(&ctx, "cornell", w, h, 1024);
     let mut m = cache_method(&s, &settings(w, h, SampleCacheSettings::default()));
     let mut points = Vec::new(); // (mean shading count, MSE, standard error)
     for f in 0..64 {
-        let fr = m
-            .render_frame(&FrameInput {
-                index: f,
-                camera: cam,
-                prev_camera: Some(cam),
-            })
-            .unwrap();
+        let fr = render_at(&mut m, f, cam, Some(cam));
         if [3, 15, 63].contains(&f) {
             let snap = m.snapshot().unwrap();
             let (mut c, mut n) = (0.0f64, 0usize);
@@ -473,18 +440,12 @@ fn adaptive_shading_rate(s: &Session, subgroup_ops: bool) {
     };
     let mut m = cache_method(s, &st);
     eprintln!("subgroup builds: {}", m.uses_subgroup_ops());
-    let cam0 = s.camera(&CameraSelect::Default, w, h, None, None).unwrap();
+    let cam0 = default_camera(s, w, h);
     let mut prev = None;
     let npix = (w * h) as f64;
     for f in 0..10 {
         let cam = moving(&cam0, f, 0.5);
-        let fr = m
-            .render_frame(&FrameInput {
-                index: f,
-                camera: cam,
-                prev_camera: prev,
-            })
-            .unwrap();
+        let fr = render_at(&mut m, f, cam, prev);
         prev = Some(cam);
         if f < 3 {
             continue; // let the importance bounds settle
@@ -611,13 +572,7 @@ fn background_pixels_trace_one_ray_per_frame() {
         let mut m = cache_method(&s, &st);
         let mut total_rays = 0.0;
         for f in 0..6 {
-            let fr = m
-                .render_frame(&FrameInput {
-                    index: f,
-                    camera: cam,
-                    prev_camera: if f > 0 { Some(cam) } else { None },
-                })
-                .unwrap();
+            let fr = render_at(&mut m, f, cam, if f > 0 { Some(cam) } else { None });
             let bg = count(&fr, "background_rays");
             let new = count(&fr, "new_sample_rays");
             let retrace = count(&fr, "retrace_rays");
@@ -695,12 +650,15 @@ fn background_pixels_trace_one_ray_per_frame() {
 fn subgroup_and_plain_builds_agree() {
     let ctx = context();
     let s = session(&ctx, shipped("cornell"), RtChoice::Software);
-    if !ctx.caps.has_subgroup_ops(&["arithmetic", "ballot"]) {
-        eprintln!("device without subgroup arithmetic/ballot: only the plain builds exist here");
+    // Without subgroup arithmetic/ballot only the plain builds exist: nothing to compare.
+    if !require(
+        ctx.caps.has_subgroup_ops(&["arithmetic", "ballot"]),
+        "subgroup arithmetic and ballot",
+    ) {
         return;
     }
     let (w, h) = (48, 36);
-    let cam0 = s.camera(&CameraSelect::Default, w, h, None, None).unwrap();
+    let cam0 = default_camera(&s, w, h);
     let run = |subgroup_ops: bool| {
         let st = RenderSettings {
             subgroup_ops,
@@ -720,13 +678,7 @@ fn subgroup_and_plain_builds_agree() {
         let mut prev = None;
         for f in 0..2 {
             let cam = moving(&cam0, f, 0.5);
-            let fr = m
-                .render_frame(&FrameInput {
-                    index: f,
-                    camera: cam,
-                    prev_camera: prev,
-                })
-                .unwrap();
+            let fr = render_at(&mut m, f, cam, prev);
             prev = Some(cam);
             let snap = m.snapshot().unwrap();
             let mut counters = fr.stats.counters.clone();

@@ -11,11 +11,10 @@ use stereocache::camera::{Eye, EyeView, StereoCamera};
 use stereocache::methods::hash_cache::HashCacheSettings;
 use stereocache::methods::isrt::{Isrt, IsrtSettings};
 use stereocache::methods::sample_cache::{SampleCache, SampleCacheSettings};
-use stereocache::methods::{FrameInput, Hybrid, Method, RenderSettings, StereoFrame};
+use stereocache::methods::{Hybrid, Method, RenderSettings, StereoFrame};
 use stereocache::rt::{RtChoice, SoftwareBvh};
 use stereocache::scene::generate::{add_material, add_mesh, grid};
 use stereocache::scene::{Environment, Material, Scene};
-use stereocache::session::CameraSelect;
 
 fn settings(w: u32, h: u32) -> RenderSettings {
     RenderSettings {
@@ -44,14 +43,7 @@ fn luminance(c: [f32; 4]) -> f64 {
 fn still(m: &mut dyn Method, cam: StereoCamera, frames: u32) -> StereoFrame {
     let mut last = None;
     for f in 0..frames {
-        last = Some(
-            m.render_frame(&FrameInput {
-                index: f,
-                camera: cam,
-                prev_camera: (f > 0).then_some(cam),
-            })
-            .unwrap(),
-        );
+        last = Some(render_at(m, f, cam, (f > 0).then_some(cam)));
     }
     last.unwrap()
 }
@@ -224,7 +216,7 @@ fn hairball_edges_match_the_reference() {
     let ctx = context();
     let s = session(&ctx, shipped("hairball"), RtChoice::Software);
     let (w, h) = (64, 48);
-    let cam = s.camera(&CameraSelect::Default, w, h, None, None).unwrap();
+    let cam = default_camera(&s, w, h);
     let bvh = SoftwareBvh::build(&s.scene);
     let reference = reference_frame(&s, cam, w, h, 128);
     let mut m =
@@ -282,7 +274,7 @@ fn under_filled_pixels_recover_and_none_stays_black() {
     for name in ["hairball", "cornell"] {
         let s = session(&ctx, shipped(name), RtChoice::Software);
         let (w, h) = (48, 36);
-        let cam = s.camera(&CameraSelect::Default, w, h, None, None).unwrap();
+        let cam = default_camera(&s, w, h);
         let bvh = SoftwareBvh::build(&s.scene);
         let st = settings(w, h);
         let cs = st.cache.clone();
@@ -292,13 +284,7 @@ fn under_filled_pixels_recover_and_none_stays_black() {
         let mut last = None;
         let mut exempt_total = 0;
         for f in 0..frames {
-            let fr = m
-                .render_frame(&FrameInput {
-                    index: f,
-                    camera: cam,
-                    prev_camera: (f > 0).then_some(cam),
-                })
-                .unwrap();
+            let fr = render_at(&mut m, f, cam, (f > 0).then_some(cam));
             let snap = m.snapshot().unwrap();
             let (mut under, mut exempt) = (0, 0);
             for e in 0..2 {
@@ -460,7 +446,7 @@ fn edge_bias_report() {
     let ctx = context();
     let s = session(&ctx, shipped("hairball"), RtChoice::Software);
     let (w, h) = (96, 72);
-    let cam = s.camera(&CameraSelect::Default, w, h, None, None).unwrap();
+    let cam = default_camera(&s, w, h);
     let bvh = SoftwareBvh::build(&s.scene);
     let reference = reference_frame(&s, cam, w, h, 512);
     let mut m =

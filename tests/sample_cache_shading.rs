@@ -10,7 +10,7 @@ use stereocache::camera::{synth, SynthKind};
 use stereocache::methods::sample_cache::{
     CacheSnapshot, Reproject, Retrace, SampleCacheSettings, Shading,
 };
-use stereocache::methods::{FrameInput, Method, RenderSettings, StereoFrame};
+use stereocache::methods::{RenderSettings, StereoFrame};
 use stereocache::metrics::{cpbd, LinearImage};
 use stereocache::replay::trace_cameras;
 use stereocache::rt::RtChoice;
@@ -94,13 +94,7 @@ fn adaptive_shading_holds_the_rate_and_leaves_no_visible_pixel_black() {
         let mut m = cache_method(&s, &st);
         let mut prev = None;
         for (f, cam) in cams.iter().enumerate() {
-            let fr = m
-                .render_frame(&FrameInput {
-                    index: f as u32,
-                    camera: *cam,
-                    prev_camera: prev,
-                })
-                .unwrap();
+            let fr = render_at(&mut m, f as u32, *cam, prev);
             prev = Some(*cam);
             let snap = m.snapshot().unwrap();
             let (mut mean, mut var) = (0.0, 0.0);
@@ -167,7 +161,7 @@ fn two_pass_reprojection_keeps_the_visible_sample_on_a_shared_slot() {
     let ctx = context();
     let s = session(&ctx, shipped("plane"), RtChoice::Software);
     let (w, h) = (32, 24);
-    let cam = s.camera(&CameraSelect::Default, w, h, None, None).unwrap();
+    let cam = default_camera(&s, w, h);
     // Two first hits of one ground pixel from a two-slot cache's first frame.
     let mut probe = cache_method(
         &s,
@@ -182,13 +176,7 @@ fn two_pass_reprojection_keeps_the_visible_sample_on_a_shared_slot() {
             },
         ),
     );
-    probe
-        .render_frame(&FrameInput {
-            index: 0,
-            camera: cam,
-            prev_camera: None,
-        })
-        .unwrap();
+    render_at(&mut probe, 0, cam, None);
     let ps = probe.snapshot().unwrap();
     let target = (ps.npix() * 3 / 4..ps.npix())
         .find(|&p| {
@@ -235,12 +223,7 @@ fn two_pass_reprojection_keeps_the_visible_sample_on_a_shared_slot() {
             snap.radiance[inv] = [1.0, 0.0, 0.0, 1000.0];
             snap.radiance[vis] = [0.0, 1.0, 0.0, 7.0];
             m.load(&snap).unwrap();
-            m.render_frame(&FrameInput {
-                index: 0,
-                camera: cam,
-                prev_camera: Some(cam),
-            })
-            .unwrap();
+            render_at(&mut m, 0, cam, Some(cam));
             let out = m.snapshot().unwrap();
             let mask = out.mask(0, target);
             let (fh, rad) = (out.first_hits[target], out.radiance[target]);
@@ -295,7 +278,7 @@ fn stereo_blending_does_not_blur_the_colour() {
     }
     let s = session(&ctx, scene, RtChoice::Software);
     let (w, h) = (256, 192);
-    let cam = s.camera(&CameraSelect::Default, w, h, None, None).unwrap();
+    let cam = default_camera(&s, w, h);
     let run = |mode: BlendMode, sharpness: f32| -> StereoFrame {
         let st = settings(
             w,
@@ -380,13 +363,7 @@ fn black_base_emitter_renders_its_emission_through_the_cache() {
     );
     let mut m = cache_method(&s, &st);
     for f in 0..3 {
-        let fr = m
-            .render_frame(&FrameInput {
-                index: f,
-                camera: cam,
-                prev_camera: if f > 0 { Some(cam) } else { None },
-            })
-            .unwrap();
+        let fr = render_at(&mut m, f, cam, if f > 0 { Some(cam) } else { None });
         for (e, (a, b)) in reference.eyes.iter().zip(&fr.eyes).enumerate() {
             for (p, (x, y)) in a.radiance.iter().zip(&b.radiance).enumerate() {
                 for k in 0..3 {

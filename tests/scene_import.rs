@@ -1,15 +1,11 @@
 //! Scene import, generators and the glTF writer. CPU only, fast.
 
+mod common;
+use common::{bad_scene as bad, require_file};
 use std::path::{Path, PathBuf};
 use stereocache::scene::{
     generate, load_gltf, load_scene, write_gltf, Environment, Material, Scene,
 };
-
-fn bad(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/data/bad_scenes")
-        .join(name)
-}
 
 fn temp_dir(tag: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("stereocache-{tag}-{}", std::process::id()));
@@ -213,11 +209,7 @@ fn sponza_loads_with_warnings() {
         env!("CARGO_MANIFEST_DIR"),
         "/../shared/scenes/sponza/Sponza.gltf"
     ));
-    if !path.exists() {
-        eprintln!(
-            "skipped: ../shared not present ({} missing)",
-            path.display()
-        );
+    if !require_file(&path) {
         return;
     }
     let scene = load_gltf(&path).unwrap_or_else(|e| panic!("Sponza must load: {e}"));

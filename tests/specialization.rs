@@ -11,7 +11,6 @@ use common::*;
 use stereocache::methods::{FrameInput, HashCacheSettings, RenderSettings, SampleCacheSettings};
 use stereocache::rt::RtChoice;
 use stereocache::scene::{apply_default_lighting, load_scene, DefaultLighting};
-use stereocache::session::CameraSelect;
 
 #[test]
 fn specialized_and_all_features_pipelines_agree() {
@@ -39,7 +38,7 @@ fn specialized_and_all_features_pipelines_agree() {
         };
         let s = session(&ctx, scene, RtChoice::Software);
         let (w, h) = (16, 12);
-        let cam = s.camera(&CameraSelect::Default, w, h, None, None).unwrap();
+        let cam = default_camera(&s, w, h);
         // The sample cache's nine pipelines take lavapipe a while to compile
         // in their all-features form: one scene is enough for them.
         let methods: &[&str] = if name == "cornell" {
@@ -103,7 +102,7 @@ fn zero_bounce_hash_cache_skips_update_with_identical_images() {
     for name in ["cornell", "plane"] {
         let s = session(&ctx, shipped(name), RtChoice::Software);
         let (w, h) = (24, 16);
-        let cam0 = s.camera(&CameraSelect::Default, w, h, None, None).unwrap();
+        let cam0 = default_camera(&s, w, h);
         let settings = |bounces: u32, all_passes: bool, debug_views: bool| RenderSettings {
             width: w,
             height: h,
@@ -174,13 +173,7 @@ fn zero_bounce_hash_cache_skips_update_with_identical_images() {
             let mut m = s
                 .method("hash-cache", &settings(bounces, false, debug))
                 .unwrap();
-            let fr = m
-                .render_frame(&FrameInput {
-                    index: 0,
-                    camera: cam0,
-                    prev_camera: None,
-                })
-                .unwrap();
+            let fr = render_at(m.as_mut(), 0, cam0, None);
             assert!(
                 fr.stats.passes.iter().any(|p| p.name == "update"),
                 "{name}: bounces {bounces}, debug views {debug}: update skipped"

@@ -9,7 +9,7 @@ use stereocache::camera::{Eye, StereoCamera};
 use stereocache::methods::sample_cache::{
     CacheSnapshot, Retrace, SampleCache, SampleCacheSettings,
 };
-use stereocache::methods::{FrameInput, Method, RenderSettings, StereoFrame};
+use stereocache::methods::{RenderSettings, StereoFrame};
 use stereocache::rt::{RtChoice, SoftwareBvh};
 use stereocache::scene::{Environment, Material, Mesh, Scene};
 use stereocache::session::{CameraSelect, Session};
@@ -119,13 +119,7 @@ fn cache_run(s: &Session, cam0: &StereoCamera, frames: u32, drift: f32, rel_eps:
     let mut prev = None;
     for f in 0..frames {
         let cam = moving(cam0, f, 1.5, drift);
-        let frame = m
-            .render_frame(&FrameInput {
-                index: f,
-                camera: cam,
-                prev_camera: prev,
-            })
-            .unwrap();
+        let frame = render_at(&mut m, f, cam, prev);
         prev = Some(cam);
         let snap = m.snapshot().unwrap();
         r.finite &= all_finite(&frame) && snapshot_finite(&snap);
@@ -186,14 +180,7 @@ fn error_against_reference(s: &Session, cam: &StereoCamera) -> (f64, f64) {
     let mut m = s.method("sample-cache", &st).unwrap();
     let mut last = None;
     for f in 0..8 {
-        last = Some(
-            m.render_frame(&FrameInput {
-                index: f,
-                camera: *cam,
-                prev_camera: Some(*cam),
-            })
-            .unwrap(),
-        );
+        last = Some(render_at(m.as_mut(), f, *cam, Some(*cam)));
     }
     mean_and_standard_error(&squared_errors(&last.unwrap(), &reference))
 }
@@ -212,8 +199,7 @@ fn measure(base: &Scene, cam0: &StereoCamera, scale: f32, offset: Vec3) -> Stres
     let scene = transformed(base.clone(), scale, offset);
     let cam = camera_transformed(cam0, scale, offset);
     let sw = session(&ctx, scene.clone(), RtChoice::Software);
-    let rq = ctx
-        .ray_query_enabled()
+    let rq = require(ctx.ray_query_enabled(), "ray queries (backend agreement)")
         .then(|| session(&ctx, scene, RtChoice::Query));
     let agree = backend_agreement(&sw, rq.as_ref(), &cam).map(|(a, hits)| {
         assert!(hits > 500, "camera sees nothing ({hits} hits)");
@@ -358,13 +344,7 @@ fn grazing_plane_adaptive_retrace() {
     let frames = 6;
     for f in 0..frames {
         let cam = moving(&cam0, f, 0.5, 0.004);
-        let fr = m
-            .render_frame(&FrameInput {
-                index: f,
-                camera: cam,
-                prev_camera: prev,
-            })
-            .unwrap();
+        let fr = render_at(&mut m, f, cam, prev);
         prev = Some(cam);
         assert!(all_finite(&fr), "frame {f}: non-finite output");
         let snap = m.snapshot().unwrap();
@@ -461,7 +441,7 @@ fn degenerate_triangles_stay_finite() {
         w as f32 / h as f32,
     );
     for rt in [RtChoice::Software, RtChoice::Query] {
-        if rt == RtChoice::Query && !ctx.ray_query_enabled() {
+        if rt == RtChoice::Query && !require(ctx.ray_query_enabled(), "ray queries") {
             continue;
         }
         let sess = session(&ctx, s.clone(), rt);
@@ -475,13 +455,7 @@ fn degenerate_triangles_stay_finite() {
         let mut prev = None;
         for f in 0..4 {
             let c = moving(&cam, f, 1.0, 0.01);
-            let fr = m
-                .render_frame(&FrameInput {
-                    index: f,
-                    camera: c,
-                    prev_camera: prev,
-                })
-                .unwrap();
+            let fr = render_at(&mut m, f, c, prev);
             prev = Some(c);
             assert!(
                 all_finite(&fr),
@@ -513,7 +487,7 @@ fn long_run(frames: u32, moving_head: bool) -> (f32, bool, u64, u64) {
     let (w, h) = (8, 6);
     let st = settings(w, h, SampleCacheSettings::default());
     let mut m = SampleCache::new(&s.ctx, &s.scene_gpu, &s.scene.environment, &st).unwrap();
-    let cam0 = s.camera(&CameraSelect::Default, w, h, None, None).unwrap();
+    let cam0 = default_camera(&s, w, h);
     let (mut finite, mut at10) = (true, 0);
     let mut prev = None;
     for f in 0..frames {
@@ -524,13 +498,7 @@ fn long_run(frames: u32, moving_head: bool) -> (f32, bool, u64, u64) {
         } else {
             cam0
         };
-        let fr = m
-            .render_frame(&FrameInput {
-                index: f,
-                camera: cam,
-                prev_camera: prev.or(Some(cam)),
-            })
-            .unwrap();
+        let fr = render_at(&mut m, f, cam, prev.or(Some(cam)));
         prev = Some(cam);
         if f % 64 == 0 || f + 1 == frames {
             finite &= all_finite(&fr);

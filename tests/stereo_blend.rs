@@ -9,7 +9,6 @@ use stereocache::methods::{RenderSettings, StereoFrame};
 use stereocache::metrics::{stereo::stereo_discrepancy, LinearImage, ViewBuffers};
 use stereocache::rt::RtChoice;
 use stereocache::scene::{apply_default_lighting, load_scene, DefaultLighting};
-use stereocache::session::CameraSelect;
 use stereocache::stereo::BlendMode;
 
 #[test]
@@ -19,7 +18,7 @@ fn blending_lowers_stereo_discrepancy() {
     apply_default_lighting(&mut scene, &DefaultLighting::default()).unwrap();
     let s = session(&ctx, scene, RtChoice::Software);
     let (w, h) = (48, 36);
-    let cam = s.camera(&CameraSelect::Default, w, h, None, None).unwrap();
+    let cam = default_camera(&s, w, h);
     let run = |mode: BlendMode| -> StereoFrame {
         let st = RenderSettings {
             width: w,
@@ -61,14 +60,7 @@ fn blending_lowers_stereo_discrepancy() {
     let none = run(BlendMode::None);
     for mode in [BlendMode::Moments, BlendMode::Neighbourhood] {
         let blended = run(mode);
-        for e in &blended.eyes {
-            assert!(
-                e.radiance
-                    .iter()
-                    .all(|p| p.iter().all(|c| c.is_finite() && *c >= 0.0)),
-                "{mode:?}: non-finite output"
-            );
-        }
+        assert_finite_non_negative(&blended, &format!("{mode:?}"));
         let (a, b) = (discrepancy(&none), discrepancy(&blended));
         eprintln!(
             "{mode:?}: stereo discrepancy {:.4} → {:.4} (co-visible {:.2})",

@@ -49,12 +49,47 @@ pub fn render(
     settings: &RenderSettings,
 ) -> StereoFrame {
     let mut m = s.method(method, settings).expect("method");
+    render_at(m.as_mut(), 0, camera, None)
+}
+
+/// Renders frame `index` with `camera`, the previous frame's camera being
+/// `prev_camera` (None on a trace's first frame).
+pub fn render_at<M: stereocache::methods::Method + ?Sized>(
+    m: &mut M,
+    index: u32,
+    camera: StereoCamera,
+    prev_camera: Option<StereoCamera>,
+) -> StereoFrame {
     m.render_frame(&FrameInput {
-        index: 0,
+        index,
         camera,
-        prev_camera: None,
+        prev_camera,
     })
     .expect("render")
+}
+
+/// Every pixel's radiance in both eyes is finite and non-negative.
+pub fn assert_finite_non_negative(fr: &StereoFrame, what: &str) {
+    for (e, eye) in fr.eyes.iter().enumerate() {
+        for (i, p) in eye.radiance.iter().enumerate() {
+            assert!(
+                p.iter().all(|c| c.is_finite() && *c >= 0.0),
+                "{what}: eye {e} pixel {i} radiance {p:?}"
+            );
+        }
+    }
+}
+
+/// The session's default camera (`CameraSelect::Default`) for `w`×`h` eyes.
+pub fn default_camera(s: &Session, w: u32, h: u32) -> StereoCamera {
+    s.camera(
+        &stereocache::session::CameraSelect::Default,
+        w,
+        h,
+        None,
+        None,
+    )
+    .expect("default camera")
 }
 
 /// A camera at `eye` looking at `target` (+Y up) as a stereo camera.
@@ -246,6 +281,21 @@ pub fn reference_frame(
     render(s, "reference", camera, &settings)
 }
 
+/// A shipped scene on the software backend seen from its default camera at
+/// `w`×`h`, with a `spp` reference of that view (the static-view convergence tests).
+pub fn static_view_with_reference(
+    ctx: &Arc<GpuContext>,
+    name: &str,
+    w: u32,
+    h: u32,
+    spp: u32,
+) -> (Session, StereoCamera, StereoFrame) {
+    let s = session(ctx, shipped(name), RtChoice::Software);
+    let cam = default_camera(&s, w, h);
+    let reference = reference_frame(&s, cam, w, h, spp);
+    (s, cam, reference)
+}
+
 /// Per-pixel, per-channel squared differences of two stereo frames' radiance.
 pub fn squared_errors(a: &StereoFrame, b: &StereoFrame) -> Vec<f64> {
     a.eyes
@@ -279,13 +329,31 @@ pub fn form_factor_to_parallel_rect(x0: f64, x1: f64, z0: f64, z1: f64, c: f64) 
     corner(x1, z1) - corner(x0, z1) - corner(x1, z0) + corner(x0, z0)
 }
 
-/// Fails under CI (a test may not silently skip there), else says why it skips.
-pub fn skip_unless_ci(what: &str) {
+/// Whether a test can go on: true when `available`. Otherwise the test would
+/// skip `what` (a device feature, a data file, a tool): with the environment
+/// variable `CI` set that is a failure — a skip must not hide a check in CI —
+/// and elsewhere it says on stderr what is skipped and returns false. Use as
+/// `if !require(ctx.ray_query_enabled(), "ray queries") { return; }`.
+pub fn require(available: bool, what: &str) -> bool {
+    require_in_ci(std::env::var_os("CI").is_some(), available, what)
+}
+
+/// [`require`] with the CI decision passed in (unit-tested in tests/skips.rs).
+pub fn require_in_ci(ci: bool, available: bool, what: &str) -> bool {
+    if available {
+        return true;
+    }
     assert!(
-        std::env::var_os("CI").is_none(),
-        "CI is set but {what} is not available"
+        !ci,
+        "CI is set but {what} is not available: this test may not skip in CI"
     );
     eprintln!("skipped: {what} not available");
+    false
+}
+
+/// [`require`] for a data file outside the repository (`../shared`).
+pub fn require_file(path: &std::path::Path) -> bool {
+    require(path.exists(), &path.display().to_string())
 }
 
 /// Exact unpolarised Fresnel reflectance of a dielectric interface, η = n_t/n_i.
@@ -344,14 +412,46 @@ pub fn render_still(
 ) -> StereoFrame {
     let mut last = None;
     for f in 0..frames {
-        last = Some(
-            m.render_frame(&FrameInput {
-                index: f,
-                camera: cam,
-                prev_camera: Some(cam),
-            })
-            .expect("render"),
-        );
+        last = Some(render_at(m, f, cam, Some(cam)));
     }
     last.expect("at least one frame")
+}
+
+/// The `stereocache` binary under coreutils' `timeout`, so a hang fails the
+/// test with status 124 instead of stalling the suite; validation layer on.
+pub fn cli(timeout_s: u32) -> std::process::Command {
+    let mut c = std::process::Command::new("timeout");
+    c.arg(timeout_s.to_string())
+        .arg(env!("CARGO_BIN_EXE_stereocache"));
+    c.env("STEREOCACHE_VALIDATE", "1");
+    c
+}
+
+/// The one error line of a command that must fail on bad input: it did not
+/// hang (timeout's 124), exited non-zero, did not panic, and wrote exactly
+/// one line starting with `error` to stderr, an `error:` line (returned).
+pub fn single_error_line(o: &std::process::Output, what: &str) -> String {
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_ne!(
+        o.status.code(),
+        Some(124),
+        "{what} hung (killed by timeout)"
+    );
+    assert!(!o.status.success(), "{what} should fail; stderr:\n{stderr}");
+    assert!(!stderr.contains("panicked"), "{what} panicked:\n{stderr}");
+    let errors: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error")).collect();
+    assert_eq!(
+        errors.len(),
+        1,
+        "{what}: expected one error line, got:\n{stderr}"
+    );
+    assert!(errors[0].starts_with("error:"), "{what}: {}", errors[0]);
+    errors[0].to_string()
+}
+
+/// A file of `tests/data/bad_scenes`.
+pub fn bad_scene(name: &str) -> std::path::PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/bad_scenes")
+        .join(name)
 }

@@ -14,6 +14,7 @@
 //! failed) → `resolve` (base colour × entry radiance + emission) → `diag.count`
 //! (live entries, a statistic: not counted in the frame time) → `taa`.
 
+pub mod args;
 pub mod hash;
 pub mod settings;
 pub mod taa;

@@ -18,6 +18,8 @@
 
 pub use settings::IsrtSettings;
 
+pub mod args;
+
 pub mod settings {
     use serde::Serialize;
 

@@ -19,6 +19,7 @@
 //! its own recorder, then its own passes on the current cache
 //! ([`SampleCache::current_buffers`]), then calls [`SampleCache::end_frame`].
 
+pub mod args;
 pub mod background;
 pub mod heuristics;
 pub mod settings;

@@ -5,6 +5,7 @@
 //! first hits are the pixel centres' (unjittered), which the resolve uses for
 //! reprojection and disocclusion tests.
 
+pub mod args;
 pub mod pass;
 pub mod settings;
 

@@ -1,0 +1,135 @@
+//! `bench lights`: MSE at equal time of light sampling (MIS, NEE) against
+//! BSDF sampling alone.
+
+use crate::error::Result;
+use crate::methods::{FrameInput, MethodKind};
+use crate::session::Session;
+
+/// One strategy's row of `bench lights`.
+#[derive(Clone, Debug)]
+pub struct LightBenchRow {
+    pub scene: String,
+    pub strategy: crate::methods::LightSampling,
+    /// Mean GPU time of a frame (both eyes) at the measured spp.
+    pub frame_ms: f64,
+    /// Mean squared error against the reference (all pixels and channels),
+    /// averaged over the frames, and its standard error over frames.
+    pub mse: f64,
+    pub mse_se: f64,
+    /// MSE at the frame time of the first strategy: mse · frame_ms / frame_ms[0]
+    /// (MSE ∝ 1/samples ∝ 1/time for an unbiased estimator).
+    pub mse_equal_time: f64,
+}
+
+/// `stereocache bench lights` (issue 13): the reference path tracer on a static
+/// view with each light-sampling strategy in `strategies` (the first is the
+/// baseline the equal-time MSE is normalised to), `frames` frames each (one
+/// warm-up first) with fresh random numbers, interleaved frame by frame in
+/// rotating order, against one reference image rendered with MIS at
+/// `reference_spp` with its own seed.
+pub fn bench_lights(
+    session: &Session,
+    scene_label: &str,
+    camera: crate::camera::StereoCamera,
+    base: &crate::methods::RenderSettings,
+    strategies: &[crate::methods::LightSampling],
+    reference_spp: u32,
+    frames: usize,
+) -> Result<Vec<LightBenchRow>> {
+    use crate::methods::{LightSampling, RenderSettings};
+    let frame = |i: u32| FrameInput {
+        index: i,
+        camera,
+        prev_camera: None,
+    };
+    let reference = session
+        .create(
+            MethodKind::Reference,
+            &RenderSettings {
+                spp: reference_spp,
+                seed: base.seed ^ 0x9E37_79B9,
+                light_sampling: LightSampling::Mis,
+                ..base.clone()
+            },
+        )?
+        .render_frame(&frame(0))?;
+    let mut methods = Vec::new();
+    for &s in strategies {
+        methods.push(session.create(
+            MethodKind::Reference,
+            &RenderSettings {
+                light_sampling: s,
+                ..base.clone()
+            },
+        )?);
+    }
+    let mse_of = |f: &crate::methods::StereoFrame| -> f64 {
+        let (mut acc, mut n) = (0.0f64, 0usize);
+        for (a, b) in f.eyes.iter().zip(&reference.eyes) {
+            for (p, q) in a.radiance.iter().zip(&b.radiance) {
+                for k in 0..3 {
+                    acc += ((p[k] - q[k]) as f64).powi(2);
+                    n += 1;
+                }
+            }
+        }
+        acc / n.max(1) as f64
+    };
+    let mut ms = vec![Vec::new(); methods.len()];
+    let mut mse = vec![Vec::new(); methods.len()];
+    for i in 0..=frames {
+        for k in 0..methods.len() {
+            let j = (k + i) % methods.len();
+            let f = methods[j].render_frame(&frame(1 + i as u32))?;
+            if i > 0 {
+                ms[j].push(f.stats.gpu_ms());
+                mse[j].push(mse_of(&f));
+            }
+        }
+    }
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
+    let se = |v: &[f64]| {
+        let m = mean(v);
+        let n = v.len() as f64;
+        (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0).max(1.0) / n.max(1.0)).sqrt()
+    };
+    let t0 = mean(&ms[0]);
+    Ok(strategies
+        .iter()
+        .enumerate()
+        .map(|(j, &s)| LightBenchRow {
+            scene: scene_label.to_string(),
+            strategy: s,
+            frame_ms: mean(&ms[j]),
+            mse: mean(&mse[j]),
+            mse_se: se(&mse[j]),
+            mse_equal_time: mean(&mse[j]) * mean(&ms[j]) / t0,
+        })
+        .collect())
+}
+
+/// `bench lights` rows as a text table (ratios against each scene's first row).
+pub fn light_table(rows: &[LightBenchRow]) -> String {
+    let mut s = format!(
+        "{:<10} {:<6} {:>10} {:>12} {:>10} {:>15} {:>12}\n",
+        "scene", "light", "frame ms", "MSE", "± se", "MSE equal time", "vs first"
+    );
+    let mut first: Option<(&str, f64)> = None;
+    for r in rows {
+        if first.is_none_or(|(sc, _)| sc != r.scene) {
+            first = Some((&r.scene, r.mse_equal_time));
+        }
+        let f = first.map_or(1.0, |(_, m)| m);
+        s += &format!(
+            "{:<10} {:<6} {:>10.2} {:>12.4e} {:>10.2e} {:>15.4e} {:>11.3}x\n",
+            r.scene,
+            format!("{:?}", r.strategy).to_lowercase(),
+            r.frame_ms,
+            r.mse,
+            r.mse_se,
+            r.mse_equal_time,
+            r.mse_equal_time / f
+        );
+    }
+    s
+}

@@ -1,0 +1,24 @@
+//! Benchmarks (never pass/fail tests), one file per `stereocache bench`
+//! subcommand: `rays` (rays per second per backend), `sample_cache` (the
+//! cache against a plain scatter and 1 spp path tracing), `tradeoff` (time
+//! against error over a settings sweep), `scaling` (pixels and triangles),
+//! `specialization` (specialized pipelines and skipped passes), `lights`
+//! (light sampling at equal time); `interleave` holds what they share.
+
+pub mod interleave;
+pub mod lights;
+pub mod rays;
+pub mod sample_cache;
+pub mod scaling;
+pub mod specialization;
+pub mod tradeoff;
+
+pub use interleave::{paired_ratio, run_interleaved};
+pub use lights::{bench_lights, light_table, LightBenchRow};
+pub use rays::{bench_rays, RayBench};
+pub use sample_cache::{bench_sample_cache, CacheBenchRow, ScatterBaselines};
+pub use scaling::{fit_slope, steady_frame_ms};
+pub use specialization::{
+    bench_specialization, has_feature, spec_csv, spec_table, SpecBenchRow, FEATURE_FLAGS,
+};
+pub use tradeoff::{tradeoff_configs, tradeoff_ratios};

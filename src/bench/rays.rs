@@ -1,0 +1,132 @@
+//! `bench rays`: primary and diffuse-bounce rays per second for each ray backend.
+
+use crate::error::Result;
+use crate::gpu::{
+    shaders, Buffer, ComputePipeline, DescriptorLayout, DescriptorSet, GpuError, Recorder, Resource,
+};
+use crate::methods::{FrameInput, FrameParams};
+use crate::session::Session;
+use serde::Serialize;
+
+#[derive(Clone, Debug, Serialize)]
+pub struct RayBench {
+    pub backend: String,
+    pub width: u32,
+    pub height: u32,
+    pub repeats: u32,
+    pub primary_rays: u64,
+    pub primary_ms: f64,
+    pub bounce_rays: u64,
+    pub bounce_ms: f64,
+}
+
+impl RayBench {
+    pub fn primary_mrays_per_s(&self) -> f64 {
+        self.primary_rays as f64 / (self.primary_ms * 1e3)
+    }
+    pub fn bounce_mrays_per_s(&self) -> f64 {
+        self.bounce_rays as f64 / (self.bounce_ms * 1e3)
+    }
+}
+
+/// Traces `repeats` rounds of primary + bounce rays for both eyes of `frame`;
+/// the GPU time of the passes gives the rates.
+pub fn bench_rays(
+    session: &Session,
+    frame: &FrameInput,
+    width: u32,
+    height: u32,
+    repeats: u32,
+) -> Result<RayBench> {
+    let ctx = &session.ctx;
+    let n = (width * height * 2) as u64;
+    let fbuf = Buffer::storage(
+        ctx,
+        "bench.frame",
+        std::mem::size_of::<FrameParams>() as u64,
+    )?;
+    let hits = Buffer::storage(ctx, "bench.hits", n * 16)?;
+    let normals = Buffer::storage(ctx, "bench.normals", n * 16)?;
+    let counters = Buffer::storage(ctx, "bench.counters", 16)?;
+    let layout = DescriptorLayout::buffers(ctx, 4)?;
+    let set = DescriptorSet::new(
+        ctx,
+        &layout,
+        &[
+            Resource::Buffer(&fbuf),
+            Resource::Buffer(&hits),
+            Resource::Buffer(&normals),
+            Resource::Buffer(&counters),
+        ],
+    )?;
+    let name = format!("bench/rays.{}", session.backend.shader_suffix());
+    let spirv = shaders::spirv(&name)
+        .ok_or_else(|| GpuError::Unsupported(format!("shader {name} missing")))?;
+    let spec = session
+        .scene_gpu
+        .spec_constants(&session.scene.environment, 1, false);
+    let pipe = ComputePipeline::new(
+        ctx,
+        "bench.rays",
+        spirv,
+        &[session.scene_gpu.layout.clone(), layout],
+        4,
+        &spec,
+    )?;
+    let params = FrameParams::new(frame, width, height, 1, session.scene_gpu.origin);
+    let groups = [width.div_ceil(8), height.div_ceil(8), 2];
+    let sets = [&session.scene_gpu.set, &set];
+    let mut rec = Recorder::new(ctx, 5 + 2 * repeats)?;
+    rec.pass("bench.params")
+        .write(&fbuf)
+        .update(bytemuck::bytes_of(&params));
+    // One untimed round first: a CPU driver may compile (or load from its
+    // disk cache) the pipeline at its first dispatch, which cost up to 5x
+    // the round's time in the first run after a rebuild.
+    rec.pass("warmup.primary")
+        .read(&fbuf)
+        .write(&hits)
+        .write(&normals)
+        .write(&counters)
+        .dispatch(&pipe, &sets, &0u32.to_le_bytes(), groups);
+    rec.pass("warmup.bounce")
+        .read(&fbuf)
+        .read(&hits)
+        .read(&normals)
+        .write(&counters)
+        .dispatch(&pipe, &sets, &1u32.to_le_bytes(), groups);
+    rec.pass("bench.clear").write(&counters).fill(0);
+    for _ in 0..repeats {
+        rec.pass("primary")
+            .read(&fbuf)
+            .write(&hits)
+            .write(&normals)
+            .write(&counters)
+            .dispatch(&pipe, &sets, &0u32.to_le_bytes(), groups);
+        rec.pass("bounce")
+            .read(&fbuf)
+            .read(&hits)
+            .read(&normals)
+            .write(&counters)
+            .dispatch(&pipe, &sets, &1u32.to_le_bytes(), groups);
+    }
+    let timings = rec.finish()?;
+    let c: Vec<u32> = counters.download_pod()?;
+    let ms = |name: &str| {
+        timings
+            .iter()
+            .filter(|t| t.name == name)
+            .map(|t| t.ms)
+            .sum::<f64>()
+    };
+    Ok(RayBench {
+        backend: session.backend.to_string(),
+        width,
+        height,
+        repeats,
+        primary_rays: c[0] as u64,
+        primary_ms: ms("primary"),
+        bounce_rays: c[1] as u64,
+        bounce_ms: ms("bounce"),
+    })
+}

@@ -1,0 +1,242 @@
+//! Argument groups shared by the subcommands (device, scene and lighting,
+//! camera, every method's options) and the typed values with their
+//! parse-time range checks. A subcommand flattens the groups it needs.
+
+use anyhow::{anyhow, Result};
+use clap::Args;
+use stereocache::camera::HeadPose;
+use stereocache::gpu::GpuOptions;
+use stereocache::methods::hash_cache::args::HashCacheArgs;
+use stereocache::methods::isrt::args::IsrtArgs;
+use stereocache::methods::sample_cache::args::SampleCacheArgs;
+use stereocache::methods::taa::args::TaaArgs;
+use stereocache::methods::{registry, MethodKind, RenderSettings};
+use stereocache::replay::MAX_FPS;
+use stereocache::rt::RtChoice;
+use stereocache::scene::DefaultLighting;
+use stereocache::session::{parse_pose, CameraSelect, Session};
+use stereocache::values::{float_with, int_in, named, Size, MAX_BOUNCES, MAX_FRAMES, MAX_SPP};
+
+/// `--spp`: samples per pixel and frame, 1..=[`MAX_SPP`].
+pub fn spp(s: &str) -> Result<u32, String> {
+    int_in("--spp", 1, MAX_SPP, "samples per pixel")(s)
+}
+
+/// `--bounces`: scattering events per path, 0..=[`MAX_BOUNCES`].
+pub fn bounces(s: &str) -> Result<u32, String> {
+    int_in("--bounces", 0, MAX_BOUNCES, "scattering events per path")(s)
+}
+
+/// `--frames`: frames to render or measure, 1..=[`MAX_FRAMES`].
+pub fn frames(s: &str) -> Result<usize, String> {
+    int_in("--frames", 1, MAX_FRAMES, "frames")(s)
+}
+
+/// `--fps`: the rate a trace is resampled at, in (0, [`MAX_FPS`]].
+pub fn fps(s: &str) -> Result<f64, String> {
+    float_with(
+        "--fps",
+        |v: f64| v.is_finite() && v > 0.0 && v <= MAX_FPS,
+        "frames per second in (0, 10000]",
+    )(s)
+}
+
+/// `--exposure`: a positive multiplier.
+pub fn exposure(s: &str) -> Result<f32, String> {
+    float_with(
+        "--exposure",
+        stereocache::values::positive_f32,
+        "a positive number",
+    )(s)
+}
+
+/// `--reference-spp` of compare and `bench tradeoff`: 0 (none) or an even
+/// count up to [`MAX_SPP`] (checked for evenness where it is used, with the reason).
+pub fn reference_spp(s: &str) -> Result<u32, String> {
+    int_in("--reference-spp", 0, MAX_SPP, "samples per pixel")(s)
+}
+
+/// `--methods a,b,...`: registry names, at least one.
+#[derive(Clone, Debug)]
+pub struct MethodList(pub Vec<MethodKind>);
+
+impl std::str::FromStr for MethodList {
+    type Err = String;
+    fn from_str(s: &str) -> Result<MethodList, String> {
+        registry::parse_list(s)
+            .map(MethodList)
+            .map_err(|e| format!("bad --methods: {e}"))
+    }
+}
+
+/// A comma-separated list of `T` (`--show-frames 0,5,9`, `--bounces 3,0`).
+pub fn list_of<T: std::str::FromStr + Clone + Send + Sync + 'static>(
+    s: &str,
+    bad: impl Fn(&str) -> String,
+) -> Result<Vec<T>, String> {
+    s.split(',')
+        .map(|v| v.trim().parse::<T>().map_err(|_| bad(s)))
+        .collect()
+}
+
+#[derive(Args, Clone)]
+pub struct GpuArgs {
+    /// Use the first Vulkan device whose name contains this text.
+    #[arg(long)]
+    pub device: Option<String>,
+    /// Enable the Khronos validation layer and report its messages.
+    #[arg(long)]
+    pub validate: bool,
+    /// With --validate, also enable synchronization validation.
+    #[arg(long)]
+    pub sync_validation: bool,
+}
+
+impl GpuArgs {
+    /// GPU options from the flags and the environment (watchdog, faults).
+    pub fn options(&self) -> Result<GpuOptions> {
+        GpuOptions {
+            validate: self.validate || std::env::var_os("STEREOCACHE_VALIDATE").is_some(),
+            sync_validation: self.sync_validation,
+            device: self.device.clone(),
+            want_ray_query: true,
+            ..Default::default()
+        }
+        .with_env()
+        .map_err(|e| anyhow!(e))
+    }
+}
+
+/// `--lighting`: sun-sky[:ELEV,AZIM,TURB], constant:R,G,B or env:PATH.
+pub fn lighting(s: &str) -> Result<DefaultLighting, String> {
+    named::<DefaultLighting>("--lighting")(s)
+}
+
+/// `--rt`: auto, query or software.
+pub fn rt(s: &str) -> Result<RtChoice, String> {
+    named::<RtChoice>("--rt")(s)
+}
+
+#[derive(Args, Clone)]
+pub struct SceneArgs {
+    /// Scene: built-in name (cornell, hairball, plane), a .gltf/.glb file, or a directory holding one.
+    #[arg(long, default_value = "cornell")]
+    pub scene: String,
+    /// Lighting for scenes without lights: sun-sky[:ELEV,AZIM,TURB], constant:R,G,B, env:PATH.hdr|.exr
+    #[arg(long, default_value = "sun-sky", value_parser = lighting)]
+    pub lighting: DefaultLighting,
+    /// Ray backend.
+    #[arg(long, default_value = "auto", value_parser = rt)]
+    pub rt: RtChoice,
+}
+
+impl SceneArgs {
+    /// Loads the scene (warnings printed), then opens the GPU and uploads it.
+    pub fn open(&self, gpu: &GpuArgs) -> Result<Session> {
+        let scene = Session::load_scene(&self.scene, &self.lighting)?;
+        for w in &scene.warnings {
+            eprintln!("warning: {w}");
+        }
+        Ok(Session::new(&gpu.options()?, scene, self.rt)?)
+    }
+}
+
+/// Every method's options, each group defined in its method's folder,
+/// flattened into the commands that create methods.
+#[derive(Args, Clone)]
+pub struct MethodArgs {
+    #[command(flatten)]
+    pub cache: SampleCacheArgs,
+    #[command(flatten)]
+    pub taa: TaaArgs,
+    #[command(flatten)]
+    pub isrt: IsrtArgs,
+    #[command(flatten)]
+    pub hash: HashCacheArgs,
+    /// Use the plain shader builds even where the device supports subgroup
+    /// operations (the sample cache's counters, lists and histogram).
+    #[arg(long)]
+    pub no_subgroup_ops: bool,
+}
+
+impl MethodArgs {
+    /// The settings every method is created with (checked; one error line each).
+    pub fn settings(
+        &self,
+        size: Size,
+        spp: u32,
+        max_bounces: u32,
+        seed: u32,
+        debug_views: bool,
+    ) -> Result<RenderSettings> {
+        Ok(RenderSettings {
+            width: size.width,
+            height: size.height,
+            spp,
+            max_bounces,
+            seed,
+            all_features: false,
+            extra_features: Default::default(),
+            all_passes: false,
+            subgroup_ops: !self.no_subgroup_ops,
+            cache: self.cache.settings(debug_views).map_err(|e| anyhow!(e))?,
+            taa: self.taa.settings().map_err(|e| anyhow!(e))?,
+            isrt: self.isrt.settings().map_err(|e| anyhow!(e))?,
+            hash: self.hash.settings(debug_views).map_err(|e| anyhow!(e))?,
+            light_sampling: Default::default(),
+        })
+    }
+}
+
+/// `--pose px,py,pz,qx,qy,qz,qw`.
+pub fn pose(s: &str) -> Result<HeadPose, String> {
+    parse_pose(s)
+}
+
+/// `--fov`: degrees strictly between 1 and 179.
+pub fn fov(s: &str) -> Result<f32, String> {
+    float_with(
+        "--fov",
+        |f: f32| f > 1.0 && f < 179.0,
+        "degrees between 1 and 179",
+    )(s)
+}
+
+/// `--ipd`: metres in [0, 1).
+pub fn ipd(s: &str) -> Result<f32, String> {
+    float_with(
+        "--ipd",
+        |i: f32| i.is_finite() && (0.0..1.0).contains(&i),
+        "metres in [0, 1)",
+    )(s)
+}
+
+#[derive(Args, Clone)]
+pub struct CameraArgs {
+    /// A camera of the scene by name.
+    #[arg(long, conflicts_with = "pose")]
+    pub camera: Option<String>,
+    /// Head pose in world space: px,py,pz,qx,qy,qz,qw.
+    #[arg(long, value_parser = pose)]
+    pub pose: Option<HeadPose>,
+    /// Interpupillary distance in metres (default 0.063).
+    #[arg(long, value_parser = ipd)]
+    pub ipd: Option<f32>,
+    /// Vertical field of view in degrees (default: the scene camera's, else 60).
+    #[arg(long, value_parser = fov)]
+    pub fov: Option<f32>,
+}
+
+impl CameraArgs {
+    pub fn select(&self) -> CameraSelect {
+        match (&self.camera, &self.pose) {
+            (Some(n), _) => CameraSelect::Named(n.clone()),
+            (None, Some(p)) => CameraSelect::Pose(*p),
+            _ => CameraSelect::Default,
+        }
+    }
+
+    pub fn fov_radians(&self) -> Option<f32> {
+        self.fov.map(f32::to_radians)
+    }
+}

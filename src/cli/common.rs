@@ -1,0 +1,95 @@
+//! Helpers several subcommands share: the device line benchmarks print
+//! first, the validation verdict, the reference-noise line under a compare
+//! table, and scene lists.
+
+use anyhow::{bail, Result};
+use stereocache::gpu::{DeviceCaps, GpuContext};
+use stereocache::scene::{DefaultLighting, Environment, Scene};
+use stereocache::session::Session;
+
+/// The first line every benchmark prints: which device and driver measured.
+pub fn device_line(c: &DeviceCaps) -> String {
+    format!(
+        "device: {} ({}), driver {} {}",
+        c.name, c.device_type, c.driver_name, c.driver_info
+    )
+}
+
+/// Fails when the validation layer reported anything (the messages were printed).
+pub fn report_validation(ctx: &GpuContext) -> Result<()> {
+    let n = ctx.validation.count();
+    if n > 0 {
+        bail!("the Vulkan validation layer reported {n} message(s) (printed above)");
+    }
+    Ok(())
+}
+
+/// The reference's estimated error under a compare table, and the one
+/// `warning:` line when it is not small against the best method's.
+pub fn print_reference_noise(cmp: &stereocache::compare::Comparison) {
+    let Some(r) = &cmp.reference else { return };
+    println!(
+        "reference: {} spp (two independent halves of {}), estimated RSE {:.4} ± {:.1e}, MSE {:.3e} against the converged image{}",
+        r.spp,
+        r.half_spp,
+        r.rse,
+        r.rse_stderr,
+        r.mse,
+        match (&r.best_method, r.ratio_to_best) {
+            (Some(m), Some(x)) => format!(" ({x:.3}x the best method's RSE, {m})"),
+            _ => String::new(),
+        }
+    );
+    if let Some(w) = &r.warning {
+        eprintln!("warning: {w}");
+    }
+}
+
+/// The environment's kind in words.
+pub fn environment_kind(e: &Environment) -> &'static str {
+    match e {
+        Environment::Constant(_) => "constant",
+        Environment::Sky { .. } => "sky",
+        Environment::Map { .. } => "map",
+    }
+}
+
+/// The scenes of a comma-separated `--scenes` list, each labelled by its file
+/// stem (or its name), their warnings printed.
+pub fn load_labelled_scenes(
+    list: &str,
+    lighting: &DefaultLighting,
+) -> Result<Vec<(String, Scene)>> {
+    let mut scenes = Vec::new();
+    for spec in list.split(',').map(str::trim) {
+        let scene = Session::load_scene(spec, lighting)?;
+        for warning in &scene.warnings {
+            eprintln!("warning: {warning}");
+        }
+        let label = std::path::Path::new(spec)
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| spec.to_string());
+        scenes.push((label, scene));
+    }
+    Ok(scenes)
+}
+
+/// Refuses an output directory that cannot be created or written, before any work.
+pub fn check_out(dir: &std::path::Path) -> Result<()> {
+    stereocache::values::check_output_dir(dir).map_err(anyhow::Error::msg)
+}
+
+/// The error and its causes on one line. A cause whose text the message
+/// already contains (library errors that print their source) is not repeated.
+pub fn error_line(e: &anyhow::Error) -> String {
+    let mut msg = e.to_string();
+    for cause in e.chain().skip(1) {
+        let c = cause.to_string();
+        if !msg.contains(&c) {
+            msg.push_str(": ");
+            msg.push_str(&c);
+        }
+    }
+    msg.replace('\n', " ")
+}

@@ -1,0 +1,100 @@
+//! `stereocache render`: one stereo frame, written as DIR/{left,right}.{exr,png}
+//! and DIR/stats.json.
+
+use super::args::{self, CameraArgs, GpuArgs, MethodArgs, SceneArgs};
+use super::common::{check_out, report_validation};
+use anyhow::{Context, Result};
+use clap::Args;
+use std::path::PathBuf;
+use stereocache::methods::{FrameInput, MethodKind};
+use stereocache::output;
+use stereocache::values::Size;
+
+#[derive(Args)]
+pub struct RenderArgs {
+    #[command(flatten)]
+    gpu: GpuArgs,
+    #[command(flatten)]
+    scene: SceneArgs,
+    #[command(flatten)]
+    camera: CameraArgs,
+    #[arg(long, default_value = "reference", value_parser = method)]
+    method: MethodKind,
+    /// Samples per pixel.
+    #[arg(long, default_value_t = 64, value_parser = args::spp)]
+    spp: u32,
+    /// Image size per eye, WIDTHxHEIGHT.
+    #[arg(long, default_value = "320x240")]
+    size: Size,
+    /// Maximum scattering events per path.
+    #[arg(long, default_value_t = 3, value_parser = args::bounces)]
+    bounces: u32,
+    #[arg(long, default_value_t = 1)]
+    seed: u32,
+    /// Exposure multiplier for the PNG previews.
+    #[arg(long, default_value_t = 1.0, value_parser = args::exposure)]
+    exposure: f32,
+    #[command(flatten)]
+    method_opts: MethodArgs,
+    #[arg(long, default_value = "out/render")]
+    out: PathBuf,
+}
+
+/// `--method`: a registry name (the message lists them all).
+pub fn method(s: &str) -> Result<MethodKind, String> {
+    s.parse::<MethodKind>().map_err(|e| e.to_string())
+}
+
+pub fn run(a: RenderArgs) -> Result<()> {
+    let Size {
+        width: w,
+        height: h,
+    } = a.size;
+    let settings = a
+        .method_opts
+        .settings(a.size, a.spp, a.bounces, a.seed, false)?;
+    check_out(&a.out)?;
+    let select = a.camera.select();
+    let session = a.scene.open(&a.gpu)?;
+    let cam = session.camera(&select, w, h, a.camera.ipd, a.camera.fov_radians())?;
+    let mut m = session.create(a.method, &settings)?;
+    let frame = m.render_frame(&FrameInput {
+        index: 0,
+        camera: cam,
+        prev_camera: None,
+    })?;
+    let out = &a.out;
+    std::fs::create_dir_all(out)
+        .with_context(|| format!("{}: cannot create the output directory", out.display()))?;
+    output::write_eye(out, "left", w, h, &frame.eyes[0], a.exposure)?;
+    output::write_eye(out, "right", w, h, &frame.eyes[1], a.exposure)?;
+    let caps = &session.ctx.caps;
+    let stats = serde_json::json!({
+        "device": caps.name,
+        "driver": format!("{} {}", caps.driver_name, caps.driver_info),
+        "backend": session.backend,
+        "scene": session.scene.source,
+        "triangles": session.scene_gpu.triangle_count,
+        "method": m.name(),
+        "settings": settings,
+        "camera": { "position": cam.world_position().to_array(), "orientation": cam.head.orientation.to_array(), "ipd": cam.ipd, "yfov_deg": cam.yfov.to_degrees() },
+        "gpu_ms": frame.stats.gpu_ms(),
+        "passes": frame.stats.passes,
+        "rays": frame.stats.rays,
+        "method_memory_bytes": m.memory_bytes(),
+        "scene_memory_bytes": session.scene_gpu.bytes,
+    });
+    output::write_json(&out.join("stats.json"), &stats)?;
+    println!(
+        "rendered {} ({}x{} per eye, {} spp, {} backend) in {:.1} GPU ms on {}: {}",
+        session.scene.source.display(),
+        w,
+        h,
+        a.spp,
+        session.backend,
+        frame.stats.gpu_ms(),
+        caps.name,
+        out.display()
+    );
+    report_validation(&session.ctx)
+}

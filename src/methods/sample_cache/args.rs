@@ -1,0 +1,64 @@
+//! The `sample-cache` method's command-line options (flattened into every
+//! command that creates methods; `hybrid` takes its visibility from them).
+
+use super::settings::{Accumulation, Reproject, Retrace, SampleCacheSettings, Shading};
+use crate::stereo::BlendMode;
+use crate::values::{float_with, int_in};
+
+/// Options of the sample-cache method (ignored by other methods).
+#[derive(clap::Args, Clone, Debug)]
+pub struct SampleCacheArgs {
+    /// Cache slots per pixel N (1..=16).
+    #[arg(long, default_value_t = 12, value_parser = int_in("--slots", 1u32, 16, "slots per pixel (the 32-bit mask)"))]
+    pub slots: u32,
+    /// Target visible samples per pixel.
+    #[arg(long, default_value_t = 4, value_parser = int_in("--n-target", 1u32, 16, "visible samples per pixel"))]
+    pub n_target: u32,
+    /// Tolerance around --n-target.
+    #[arg(long, default_value_t = 1, value_parser = int_in("--delta", 0u32, 15, "samples"))]
+    pub delta: u32,
+    /// single | multi | adaptive
+    #[arg(long, default_value = "adaptive")]
+    pub retrace: Retrace,
+    /// uniform | adaptive
+    #[arg(long, default_value = "uniform")]
+    pub shading: Shading,
+    /// Shading invocations per pixel and frame for adaptive shading (1.0 = 100 %).
+    #[arg(long, default_value_t = 1.0, value_parser = float_with("--shading-rate", |v: f32| v.is_finite() && v > 0.0 && v <= 16.0, "a fraction in (0, 16] (at most --slots)"))]
+    pub shading_rate: f32,
+    /// one-pass | two-pass
+    #[arg(long, default_value = "one-pass")]
+    pub reproject: Reproject,
+    /// mean (running mean, appendix C α_min floor for samples with a specular lobe) | fixed:ALPHA (α floored at ALPHA for every sample, §5.2)
+    #[arg(long, default_value = "mean")]
+    pub accumulation: Accumulation,
+    /// Stereo blending of the two eyes (§3.6): none | moments | neighbourhood
+    #[arg(long, default_value = "none")]
+    pub stereo_blend: BlendMode,
+    /// Sharpness R of the stereo blending in [0, 1] (1 = no neighbour contributes).
+    #[arg(long, default_value_t = 0.5, value_parser = float_with("--sharpness", |v: f32| (0.0..=1.0).contains(&v), "R in [0, 1]"))]
+    pub sharpness: f32,
+}
+
+impl SampleCacheArgs {
+    /// The method's settings, with the checks that relate two options
+    /// (`--n-target` ≤ `--slots`, ...); the message names the option.
+    pub fn settings(&self, debug_views: bool) -> Result<SampleCacheSettings, String> {
+        let s = SampleCacheSettings {
+            slots: self.slots,
+            n_target: self.n_target,
+            delta: self.delta,
+            retrace: self.retrace,
+            shading: self.shading,
+            shading_rate: self.shading_rate,
+            reproject: self.reproject,
+            accumulation: self.accumulation,
+            stereo_blend: self.stereo_blend,
+            sharpness: self.sharpness,
+            debug_views,
+            ..Default::default()
+        };
+        s.validate()?;
+        Ok(s)
+    }
+}

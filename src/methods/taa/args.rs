@@ -1,0 +1,33 @@
+//! The `taa` method's command-line options (also those of the TAA passes
+//! `hash-cache` and `hybrid` run on their output).
+
+use super::settings::{TaaSettings, TaaWeights};
+use crate::values::float_with;
+
+/// Options of the taa method (ignored by other methods).
+#[derive(clap::Args, Clone, Debug)]
+pub struct TaaArgs {
+    /// Blend factor of the new frame (fixed weights), or its lower bound α_min (pfj23).
+    #[arg(long, default_value_t = 0.1, value_parser = float_with("--taa-alpha", |v: f32| v > 0.0 && v <= 1.0, "a number in (0, 1]"))]
+    pub taa_alpha: f32,
+    /// fixed (EMA with --taa-alpha) | pfj23 (per-pixel sample-count weights, see docs)
+    #[arg(long, default_value = "fixed")]
+    pub taa_weights: TaaWeights,
+    /// Clipping box half-width in standard deviations of the 3×3 YCoCg neighbourhood.
+    #[arg(long, default_value_t = 1.0, value_parser = float_with("--taa-gamma", crate::values::positive_f32, "a positive number"))]
+    pub taa_gamma: f32,
+}
+
+impl TaaArgs {
+    /// The method's settings (checked; the message names the option).
+    pub fn settings(&self) -> Result<TaaSettings, String> {
+        let s = TaaSettings {
+            alpha: self.taa_alpha,
+            weights: self.taa_weights,
+            gamma: self.taa_gamma,
+            ..Default::default()
+        };
+        s.validate()?;
+        Ok(s)
+    }
+}
