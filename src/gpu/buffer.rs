@@ -25,12 +25,45 @@ const STORAGE_USAGE: vk::BufferUsageFlags = vk::BufferUsageFlags::from_raw(
         | vk::BufferUsageFlags::TRANSFER_DST.as_raw(),
 );
 
+/// Refuses a buffer meant for storage-descriptor binding (bound whole, as
+/// `descriptors.rs` does) that is larger than the device's
+/// `maxStorageBufferRange`: binding it is invalid
+/// (VUID-VkWriteDescriptorSet-descriptorType-00333) and the shader's
+/// accesses past the range are undefined. Checked before `vkCreateBuffer`,
+/// so nothing is allocated, uploaded or rendered first.
+fn check_storage_range(ctx: &GpuContext, name: &str, size: u64) -> GpuResult<()> {
+    let limit = ctx.caps.max_storage_buffer_range;
+    let bytes = size.max(16);
+    if bytes <= limit {
+        return Ok(());
+    }
+    let hint = if name.starts_with("scene.") || name.starts_with("bvh.") {
+        "the scene is too large for this device (fewer triangles, lights or a smaller environment map)"
+    } else {
+        "reduce --size (the sample cache also by --slots, the hash table by --hash-capacity)"
+    };
+    Err(GpuError::StorageRange {
+        what: name.to_string(),
+        bytes,
+        limit,
+        device: ctx.caps.name.clone(),
+        hint,
+    })
+}
+
 impl Buffer {
-    /// A device buffer of `size` bytes (at least 16) usable as a storage buffer.
+    /// A device buffer of `size` bytes (at least 16) usable as a storage
+    /// buffer; refused when larger than the device's `maxStorageBufferRange`.
     pub fn storage(ctx: &Arc<GpuContext>, name: &str, size: u64) -> GpuResult<Buffer> {
+        check_storage_range(ctx, name, size)?;
         Self::new(ctx, name, size, STORAGE_USAGE, MemoryLocation::GpuOnly)
     }
 
+    /// A buffer with exactly `usage` (plus device addresses when ray query is
+    /// enabled). No `maxStorageBufferRange` check: for staging copies and
+    /// buffers reached by device address (acceleration structures and their
+    /// scratch), never bound as storage descriptors; those use
+    /// [`Self::storage`], [`Self::indirect_args`] or [`Self::with_data`].
     pub fn new(
         ctx: &Arc<GpuContext>,
         name: &str,
@@ -112,6 +145,7 @@ impl Buffer {
     /// A storage buffer that compute shaders fill with
     /// `VkDispatchIndirectCommand`s for [`super::pass::Pass::dispatch_indirect`].
     pub fn indirect_args(ctx: &Arc<GpuContext>, name: &str, size: u64) -> GpuResult<Buffer> {
+        check_storage_range(ctx, name, size)?;
         Self::new(
             ctx,
             name,
@@ -121,13 +155,15 @@ impl Buffer {
         )
     }
 
-    /// A device buffer filled with `data` (through a staging copy).
+    /// A storage buffer filled with `data` (through a staging copy); the
+    /// range is checked before the staging copy is made.
     pub fn with_data(
         ctx: &Arc<GpuContext>,
         name: &str,
         data: &[u8],
         extra_usage: vk::BufferUsageFlags,
     ) -> GpuResult<Buffer> {
+        check_storage_range(ctx, name, data.len() as u64)?;
         let buf = Self::new(
             ctx,
             name,

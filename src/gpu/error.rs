@@ -18,6 +18,16 @@ pub enum GpuError {
     },
     #[error("GPU out of memory while allocating {what} ({bytes} bytes): reduce --size or the cache capacity")]
     OutOfMemory { what: String, bytes: u64 },
+    /// A buffer bound as a storage descriptor must not exceed the device's
+    /// `maxStorageBufferRange` (VUID-VkWriteDescriptorSet-descriptorType-00333).
+    #[error("storage buffer {what} needs {bytes} bytes, more than device '{device}' binds ({limit} bytes, maxStorageBufferRange): {hint}")]
+    StorageRange {
+        what: String,
+        bytes: u64,
+        limit: u64,
+        device: String,
+        hint: &'static str,
+    },
     #[error("GPU memory allocation for {what} failed: {message}")]
     Alloc { what: String, message: String },
     #[error("the GPU device was lost (driver crash or timeout) during {0}")]
