@@ -40,7 +40,7 @@ fn check_storage_range(ctx: &GpuContext, name: &str, size: u64) -> GpuResult<()>
     let hint = if name.starts_with("scene.") || name.starts_with("bvh.") {
         "the scene is too large for this device (fewer triangles, lights or a smaller environment map)"
     } else {
-        "reduce --size (the sample cache also by --slots, the hash table by --hash-capacity)"
+        "reduce --size, --slots (sample cache) or --hash-capacity (hash table)"
     };
     Err(GpuError::StorageRange {
         what: name.to_string(),
