@@ -56,9 +56,12 @@ fn main() {
     let out_dir = PathBuf::from(std::env::var("OUT_DIR").unwrap());
     let header_dir = out_dir.join("interface");
     std::fs::create_dir_all(&header_dir).unwrap();
-    for i in interface::ALL {
-        let path = header_dir.join(format!("{}.glsl", i.name));
-        let text = interface::glsl::header(i);
+    let headers = interface::ALL
+        .iter()
+        .map(|i| (i.name, interface::glsl::header(i)))
+        .chain([("frame", interface::glsl::frame_header())]);
+    for (name, text) in headers {
+        let path = header_dir.join(format!("{name}.glsl"));
         // Rewritten only when changed, so glslc's inputs keep their times.
         if std::fs::read_to_string(&path).ok().as_deref() != Some(text.as_str()) {
             std::fs::write(&path, text).unwrap();

@@ -20,7 +20,7 @@
 //! ```
 
 use super::buffer::Buffer;
-use super::descriptors::{push_descriptors, DescriptorSet};
+use super::descriptors::DescriptorSet;
 use super::error::{vk_err, GpuError, GpuResult};
 use super::pass::Recorder;
 use super::pipeline::ComputePipeline;
@@ -203,9 +203,9 @@ impl<'a> ComputePass<'_, 'a> {
             .filter(|(_, a)| *a == Access::Write)
             .map(|(b, _)| b.raw)
             .collect();
-        let fallback_set = match push_descriptors(&rec.ctx) {
-            Some(_) => None,
-            None => Some(allocate_pass_set(rec, pipeline)?),
+        let fallback_set = match pipeline.push_descriptors {
+            true => None,
+            false => Some(allocate_pass_set(rec, pipeline)?),
         };
         let idx = rec.begin_pass(&name, &reads, &writes);
         let infos: Vec<[vk::DescriptorBufferInfo; 1]> = bindings
@@ -247,7 +247,8 @@ impl<'a> ComputePass<'_, 'a> {
                     &[],
                 );
             }
-            match (push_descriptors(&rec.ctx), fallback_set) {
+            let pd = rec.ctx.push_descriptor.as_ref();
+            match (pd.filter(|_| pipeline.push_descriptors), fallback_set) {
                 (Some(pd), _) => {
                     if !writes.is_empty() {
                         pd.cmd_push_descriptor_set(

@@ -53,11 +53,12 @@ impl DescriptorLayout {
     }
 
     /// The per-pass set of `n` storage buffers that the pass builder binds
-    /// (src/gpu/compute_pass.rs): a push-descriptor layout where the device
-    /// has VK_KHR_push_descriptor, else a plain one for per-pass sets.
+    /// (src/gpu/compute_pass.rs): a push-descriptor layout with `push`, else
+    /// a plain one for per-pass sets.
     pub(crate) fn pass_buffers(
         ctx: &Arc<GpuContext>,
         n: usize,
+        push: bool,
     ) -> GpuResult<Arc<DescriptorLayout>> {
         let bindings: Vec<vk::DescriptorSetLayoutBinding> = (0..n)
             .map(|i| {
@@ -69,7 +70,7 @@ impl DescriptorLayout {
             })
             .collect();
         let mut info = vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings);
-        if push_descriptors(ctx).is_some() {
+        if push {
             info = info.flags(vk::DescriptorSetLayoutCreateFlags::PUSH_DESCRIPTOR_KHR);
         }
         // SAFETY: `info` and the bindings it points at live across the call;
@@ -84,19 +85,14 @@ impl DescriptorLayout {
     }
 }
 
-/// The push-descriptor functions when the pass builder uses them: the
-/// device has VK_KHR_push_descriptor and `STEREOCACHE_NO_PUSH_DESCRIPTOR`
-/// is not `1` (which forces the per-pass descriptor-set fallback, for tests
-/// of that path on devices that have the extension).
-pub(crate) fn push_descriptors(ctx: &GpuContext) -> Option<&ash::khr::push_descriptor::Device> {
-    static FORCE_OFF: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
-    let off = *FORCE_OFF
-        .get_or_init(|| std::env::var("STEREOCACHE_NO_PUSH_DESCRIPTOR").is_ok_and(|v| v == "1"));
-    if off {
-        None
-    } else {
-        ctx.push_descriptor.as_ref()
-    }
+/// True when a pipeline created now binds its per-pass buffers with push
+/// descriptors: the device has VK_KHR_push_descriptor and
+/// `STEREOCACHE_NO_PUSH_DESCRIPTOR` is not `1` (which forces the per-pass
+/// descriptor-set fallback, for tests of that path on devices that have
+/// the extension). Each pipeline keeps the answer it was created with.
+pub(crate) fn use_push_descriptors(ctx: &GpuContext) -> bool {
+    ctx.push_descriptor.is_some()
+        && !std::env::var("STEREOCACHE_NO_PUSH_DESCRIPTOR").is_ok_and(|v| v == "1")
 }
 
 impl Drop for DescriptorLayout {

@@ -33,6 +33,9 @@ pub struct ComputePipeline {
     pub interface: Option<&'static Interface>,
     /// Number of persistent sets before the per-pass set.
     pub shared_sets: u32,
+    /// The per-pass set is pushed (VK_KHR_push_descriptor), else allocated
+    /// per pass from the recorder's pools.
+    pub(crate) push_descriptors: bool,
     _set_layouts: Vec<Arc<DescriptorLayout>>,
 }
 
@@ -66,10 +69,12 @@ impl ComputePipeline {
                 )));
             }
         }
+        let push_descriptors = super::descriptors::use_push_descriptors(ctx);
         let mut layouts = shared.to_vec();
         layouts.push(DescriptorLayout::pass_buffers(
             ctx,
             interface.bindings.len(),
+            push_descriptors,
         )?);
         let mut p = Self::new(
             ctx,
@@ -81,6 +86,7 @@ impl ComputePipeline {
         )?;
         p.interface = Some(interface);
         p.shared_sets = shared.len() as u32;
+        p.push_descriptors = push_descriptors;
         Ok(p)
     }
 
@@ -160,6 +166,7 @@ impl ComputePipeline {
             layout,
             push_size,
             interface: None,
+            push_descriptors: false,
             shared_sets: set_layouts.len() as u32,
             _set_layouts: set_layouts.to_vec(),
         })
@@ -167,6 +174,12 @@ impl ComputePipeline {
 }
 
 impl ComputePipeline {
+    /// True when the per-pass buffers are bound with push descriptors
+    /// (false: per-pass descriptor sets, or a pipeline without interface).
+    pub fn uses_push_descriptors(&self) -> bool {
+        self.push_descriptors
+    }
+
     /// The per-pass set's layout (the last one) of a pipeline made
     /// [`ComputePipeline::with_interface`].
     pub(crate) fn pass_layout_raw(&self) -> vk::DescriptorSetLayout {
