@@ -86,7 +86,7 @@ impl TaaPass {
             ctx,
             "taa.resolve",
             spirv,
-            &[scene.layout.clone()],
+            std::slice::from_ref(&scene.layout),
             &INTERFACE,
             Some(&RESOLVE_PUSH),
             &Default::default(),
