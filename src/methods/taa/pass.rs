@@ -58,9 +58,6 @@ pub struct TaaPass {
 }
 
 impl TaaPass {
-    /// Passes `record` adds to a recorder.
-    pub const PASSES: u32 = 5;
-
     pub fn new(
         ctx: &Arc<GpuContext>,
         scene: &Arc<SceneGpu>,
