@@ -62,6 +62,10 @@ pub fn text(ctx: &GpuContext) -> String {
         gib(c.device_local_bytes)
     ));
     out.push(format!("memory heaps:        {}", heaps(c)));
+    out.push(format!(
+        "storage buffer:      at most {} bytes (maxStorageBufferRange)",
+        c.max_storage_buffer_range
+    ));
     out.push(format!("supported features:  {}", c.supported.names()));
     out.push(format!("enabled features:    {}", e.names()));
     out.push(format!(
