@@ -11,10 +11,11 @@ use stereocache::camera::StereoCamera;
 use stereocache::gpu::{
     shaders, Buffer, ComputePipeline, DescriptorLayout, DescriptorSet, Recorder, Resource,
 };
-use stereocache::methods::hash_cache::hash::{
+use stereocache::methods::hash_cache::{HashCache, HashCacheSettings, HashLod};
+use stereocache::methods::hash_table::hash::{
     entry_checksum, entry_frame, pack_meta, pcg_hash, share_probe_window, VoxelKey, NO_AXIS,
 };
-use stereocache::methods::hash_cache::{HashCache, HashCacheSettings, HashLod, ENTRY_BYTES};
+use stereocache::methods::hash_table::ENTRY_BYTES;
 use stereocache::methods::{FrameInput, Method, RenderSettings, StereoFrame};
 use stereocache::rt::RtChoice;
 use stereocache::scene::Material;
@@ -39,17 +40,6 @@ fn hash_method(s: &Session, st: &RenderSettings) -> HashCache {
 
 fn moving(start: &StereoCamera, frame: u32, deg_per_frame: f32) -> StereoCamera {
     turning_head(start, frame, deg_per_frame, 0.01)
-}
-
-fn assert_finite_non_negative(fr: &StereoFrame, what: &str) {
-    for (e, eye) in fr.eyes.iter().enumerate() {
-        for (i, p) in eye.radiance.iter().enumerate() {
-            assert!(
-                p.iter().all(|c| c.is_finite() && *c >= 0.0),
-                "{what}: eye {e} pixel {i} radiance {p:?}"
-            );
-        }
-    }
 }
 
 /// Renders `frames` frames along `moving(cam0, f, deg)`; returns the frames' counters summed.
@@ -127,7 +117,7 @@ fn glsl_hashes_and_probe_sequence_match_the_cpu() {
     let pipe = ComputePipeline::new(
         &ctx,
         "hash_test",
-        shaders::spirv("hash_cache/hash_test").expect("hash_test compiled"),
+        shaders::spirv("hash_table/hash_test").expect("hash_test compiled"),
         &[layout],
         8,
         &Default::default(),

@@ -13,7 +13,7 @@ use stereocache::camera::{Eye, StereoCamera};
 use stereocache::methods::hash_cache::{HashCacheSettings, HashLod};
 use stereocache::methods::sample_cache::background::background_direction;
 use stereocache::methods::sample_cache::SampleCacheSettings;
-use stereocache::methods::{FrameInput, Hybrid, Method, RenderSettings, StereoFrame};
+use stereocache::methods::{FrameInput, Hybrid, Method, RenderSettings};
 use stereocache::rt::{RtChoice, SoftwareBvh};
 use stereocache::scene::Material;
 use stereocache::session::{CameraSelect, Session};
@@ -38,17 +38,6 @@ fn hybrid(s: &Session, st: &RenderSettings) -> Hybrid {
 
 fn moving(start: &StereoCamera, frame: u32, deg_per_frame: f32) -> StereoCamera {
     turning_head(start, frame, deg_per_frame, 0.004)
-}
-
-fn assert_finite_non_negative(fr: &StereoFrame, what: &str) {
-    for (e, eye) in fr.eyes.iter().enumerate() {
-        for (i, p) in eye.radiance.iter().enumerate() {
-            assert!(
-                p.iter().all(|c| c.is_finite() && *c >= 0.0),
-                "{what}: eye {e} pixel {i} radiance {p:?}"
-            );
-        }
-    }
 }
 
 /// After every frame of a moving trace: v ⇒ o, no mask bits above 2N, every

@@ -3,7 +3,7 @@
 // optionally incidence; jittered by up to one voxel in the tangent plane) is
 // looked up or reserved. The first thread to touch an entry this frame
 // becomes its updater (winner). Also writes the per-pixel outputs.
-#include "hash_cache/common.glsl"
+#include "hash_table/table.glsl"
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 
 void main() {

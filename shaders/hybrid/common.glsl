@@ -1,11 +1,11 @@
 // Hybrid (paper §4): the sample cache without shading storage supplies the
 // visible first hits of every pixel; their radiance comes from the hash
 // cache's table, looked up at the hash cache's level of detail L and at its
-// parent L + 1. Descriptor set 1 = the hash cache's bindings 0..13 and push
-// constants (hash_cache/common.glsl, so its update.comp and count.comp run
+// parent L + 1. Descriptor set 1 = the hash table's bindings 0..13 and push
+// constants (hash_table/table.glsl, so its update.comp and count.comp run
 // unchanged on this set) + the sample cache's current mask and first hits.
 // src/methods/hybrid/ owns the buffers and the pass order.
-#include "hash_cache/common.glsl"
+#include "hash_table/table.glsl"
 #include "common/first_hit.glsl"
 
 layout(constant_id = 20) const uint N_SLOTS = 12;   // the sample cache's slot count

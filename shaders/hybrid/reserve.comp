@@ -4,7 +4,7 @@
 // level L or the parent L + 1, chosen by a coin toss — is looked up or
 // reserved in the table; the first toucher of an entry this frame becomes its
 // updater. Writes pix_hit / pix_ray / pix_cell in the hash cache's format, so
-// hash_cache/update.comp then traces the secondary path unchanged.
+// hash_table/update.comp then traces the secondary path unchanged.
 #include "hybrid/common.glsl"
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 

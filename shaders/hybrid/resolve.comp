@@ -1,5 +1,5 @@
 #version 460
-// Hybrid, last pass (after hash_cache/update.comp): every visible sample of
+// Hybrid, last pass (after hash_table/update.comp): every visible sample of
 // the pixel looks up its voxel at the hash cache's level L and the parent
 // L + 1 (find only, no insertion); its colour is base colour × the mean of
 // the levels that hold radiance + emission (the updated sample falls back on

@@ -4,6 +4,7 @@
 pub mod baseline;
 pub mod frame;
 pub mod hash_cache;
+pub mod hash_table;
 pub mod hybrid;
 pub mod isrt;
 pub mod reference;

@@ -355,3 +355,15 @@ pub fn render_still(
     }
     last.expect("at least one frame")
 }
+
+/// Every radiance channel of both eyes is finite and non-negative.
+pub fn assert_finite_non_negative(fr: &StereoFrame, what: &str) {
+    for (e, eye) in fr.eyes.iter().enumerate() {
+        for (i, p) in eye.radiance.iter().enumerate() {
+            assert!(
+                p.iter().all(|c| c.is_finite() && *c >= 0.0),
+                "{what}: eye {e} pixel {i} radiance {p:?}"
+            );
+        }
+    }
+}

@@ -11,14 +11,15 @@
 //! * `hybrid.reserve` (`shaders/hybrid/reserve.comp`): per pixel one
 //!   visible sample, round robin by frame index, and one of its two levels,
 //!   chosen by a fair coin, is found or reserved in the table;
-//! * `hybrid.update`: `shaders/hash_cache/update.comp` unchanged — the
+//! * `hybrid.update`: the hash table's update pass
+//!   ([`HashTable::record_update`], `shaders/hash_table/update.comp`) — the
 //!   updater of each touched entry traces one secondary path from the
 //!   sample's stored first hit (one path per pixel at most);
 //! * `hybrid.resolve` (`shaders/hybrid/resolve.comp`): every visible sample
 //!   finds (never inserts) both levels; sample colour = base colour × mean of
 //!   the levels holding radiance + emission; pixel colour = mean over its
 //!   samples;
-//! * `diag.hybrid.count` (`hash_cache/count.comp`, live entries; a statistic
+//! * `diag.hybrid.count` (the table's `count.comp`, live entries; a statistic
 //!   left out of the frame time) → `taa`
 //!   ([`crate::methods::hash_cache::Taa`], as the hash cache, unless
 //!   `--hash-no-taa`).
@@ -26,24 +27,20 @@
 //! Cost of the lookups: 2 × (visible samples per pixel) probe walks per
 //! pixel in `resolve` (≈ 8 at n_target = 4) and one in `reserve`; one
 //! secondary path per pixel at most. Memory: the visibility-only sample
-//! cache, the table (24 B per entry) and the hash cache's per-pixel buffers
+//! cache, the table ([`HashTable`]: 24 B per entry and its per-pixel buffers)
 //! and TAA history.
 
-use super::hash_cache::{self, HashCacheSettings, Taa};
-use super::reference::backend_shader;
+use super::hash_cache::{HashCacheSettings, Taa};
+use super::hash_table::{self as table, HashTable, TableDesc, TABLE_COUNTER_SLOTS};
 use super::{
-    FrameInput, FrameStats, Method, OutputBuffers, RayCounts, RenderSettings, SampleCache,
-    StereoFrame,
+    named_counters, FrameInput, FrameStats, Method, RenderSettings, SampleCache, StereoFrame,
 };
-use crate::gpu::{
-    Buffer, ComputePipeline, DescriptorLayout, DescriptorSet, GpuContext, GpuError, GpuResult,
-    Recorder, Resource,
-};
+use crate::gpu::{ComputePipeline, DescriptorSet, GpuContext, GpuResult, Recorder};
 use crate::rt::SceneGpu;
 use crate::scene::Environment;
 use std::sync::Arc;
 
-/// Counter slots of `shaders/hybrid/common.glsl` (after the hash cache's), with report names.
+/// Counter slots of `shaders/hybrid/common.glsl` (after the table's), with report names.
 const COUNTERS: &[(usize, &str)] = &[
     (11, "samples_looked_up"),
     (12, "both_level_hits"),
@@ -54,42 +51,26 @@ const COUNTERS: &[(usize, &str)] = &[
     (17, "updates_coarse_level"),
 ];
 const COUNTER_SLOTS: u64 = 32;
+const _: () = assert!(COUNTER_SLOTS > TABLE_COUNTER_SLOTS + COUNTERS.len() as u64 - 1);
 /// Specialization constant id of the sample cache's slot count (N_SLOTS).
 const SPEC_SLOTS: u32 = 20;
 const LOCAL: u32 = 8;
 
 struct Pipelines {
     reserve: ComputePipeline,
-    update: ComputePipeline,
     resolve: ComputePipeline,
-    count: ComputePipeline,
 }
 
 pub struct Hybrid {
     ctx: Arc<GpuContext>,
     scene: Arc<SceneGpu>,
     settings: RenderSettings,
-    hash: HashCacheSettings,
     cache: SampleCache,
+    table: HashTable,
     pipes: Pipelines,
     /// sets[i] binds the sample cache's buffers with index i as the current cache.
     sets: [DescriptorSet; 2],
-    keys: Buffer,
-    cells: Buffer,
-    pix_hit: Buffer,
-    pix_ray: Buffer,
-    pix_cell: Buffer,
-    fallback: Buffer,
-    color: Buffer,
-    out_depth: Buffer,
-    out_fh: Buffer,
-    out_albedo: Buffer,
-    position: Buffer,
-    counters: Buffer,
-    debug: Buffer,
     taa: Taa,
-    /// Frames rendered so far; frame k stamps entries with (k + 1) mod 2^32.
-    frames: u64,
 }
 
 impl Hybrid {
@@ -100,101 +81,48 @@ impl Hybrid {
         settings: &RenderSettings,
     ) -> GpuResult<Self> {
         let mut hash = settings.hash.clone();
-        hash.validate().map_err(GpuError::Unsupported)?;
+        hash.validate().map_err(crate::gpu::GpuError::Unsupported)?;
         // The hash cache's debug views are not produced here.
         hash.debug_views = false;
         let cache = SampleCache::visibility_only(ctx, scene, env, settings)?;
         let e2 = 2 * (settings.width * settings.height) as u64;
-        let cap = hash.capacity as u64;
-        let b = |name: &str, bytes: u64| Buffer::storage(ctx, &format!("hybrid.{name}"), bytes);
-        let keys = b("keys", cap * 8)?;
-        let cells = b("cells", cap * 16)?;
-        let pix_hit = b("pix_hit", e2 * 16)?;
-        let pix_ray = b("pix_ray", e2 * 16)?;
-        let pix_cell = b("pix_cell", e2 * 16)?;
-        let fallback = b("fallback", e2 * 16)?;
-        let color = b("color", e2 * 16)?;
-        let out_depth = b("depth", e2 * 4)?;
-        let out_fh = b("first_hit", e2 * 16)?;
-        let out_albedo = b("albedo", e2 * 16)?;
-        let position = b("position", e2 * 16)?;
-        let counters = b("counters", COUNTER_SLOTS * 4)?;
-        let debug = b("debug", 16)?;
-        let frame = cache.frame_buffer();
-        // Bindings 0..13 as shaders/hash_cache/common.glsl, 14..15 the current sample cache.
-        let layout = DescriptorLayout::buffers(ctx, 16)?;
-        let make_set = |i: usize| {
-            let cur = cache.current_buffers(i);
-            DescriptorSet::new(
-                ctx,
-                &layout,
-                &[
-                    Resource::Buffer(frame),
-                    Resource::Buffer(&keys),
-                    Resource::Buffer(&cells),
-                    Resource::Buffer(&pix_hit),
-                    Resource::Buffer(&pix_ray),
-                    Resource::Buffer(&pix_cell),
-                    Resource::Buffer(&fallback),
-                    Resource::Buffer(&color),
-                    Resource::Buffer(&out_depth),
-                    Resource::Buffer(&out_fh),
-                    Resource::Buffer(&out_albedo),
-                    Resource::Buffer(&position),
-                    Resource::Buffer(&counters),
-                    Resource::Buffer(&debug),
-                    Resource::Buffer(cur.masks),
-                    Resource::Buffer(cur.first_hits),
-                ],
-            )
-        };
-        let sets = [make_set(0)?, make_set(1)?];
         let mut spec = settings.spec_constants(scene, env);
         spec.set(SPEC_SLOTS, settings.cache.slots);
-        let layouts = [scene.layout.clone(), layout];
-        let pipe = |name: &str| -> GpuResult<ComputePipeline> {
-            ComputePipeline::new(
-                ctx,
-                &format!("hybrid.{}", name.rsplit('/').next().unwrap_or(name)),
-                backend_shader(name, scene)?,
-                &layouts,
-                32,
-                &spec,
-            )
+        let table = HashTable::new(
+            ctx,
+            scene,
+            &hash,
+            TableDesc {
+                label: "hybrid",
+                passes: "hybrid.",
+                pixels: e2,
+                counter_slots: COUNTER_SLOTS,
+                debug_views: 0,
+                // 14..15: the current sample cache's masks and first hits.
+                extra_bindings: 2,
+                spec: &spec,
+            },
+        )?;
+        let frame = cache.frame_buffer();
+        let make_set = |i: usize| {
+            let cur = cache.current_buffers(i);
+            table.descriptor_set(ctx, frame, &[cur.masks, cur.first_hits])
         };
+        let sets = [make_set(0)?, make_set(1)?];
         let pipes = Pipelines {
-            reserve: pipe("hybrid/reserve")?,
-            update: pipe("hash_cache/update")?,
-            resolve: pipe("hybrid/resolve")?,
-            count: pipe("hash_cache/count")?,
+            reserve: table.pipeline(ctx, scene, "hybrid/reserve")?,
+            resolve: table.pipeline(ctx, scene, "hybrid/resolve")?,
         };
-        let taa = Taa::new(ctx, scene, e2, frame, &color, &position, &out_depth)?;
-        let mut init = Recorder::new(ctx, 1)?;
-        init.pass("hybrid.init").write(&keys).write(&cells).fill(0);
-        init.finish()?;
+        let taa = table.pixels().taa(ctx, scene, frame)?;
         Ok(Hybrid {
             ctx: ctx.clone(),
             scene: scene.clone(),
             settings: settings.clone(),
-            hash,
             cache,
+            table,
             pipes,
             sets,
-            keys,
-            cells,
-            pix_hit,
-            pix_ray,
-            pix_cell,
-            fallback,
-            color,
-            out_depth,
-            out_fh,
-            out_albedo,
-            position,
-            counters,
-            debug,
             taa,
-            frames: 0,
         })
     }
 
@@ -205,7 +133,7 @@ impl Hybrid {
     }
 
     pub fn hash_settings(&self) -> &HashCacheSettings {
-        &self.hash
+        self.table.settings()
     }
 }
 
@@ -217,8 +145,8 @@ impl Method for Hybrid {
     fn render_frame(&mut self, input: &FrameInput) -> GpuResult<StereoFrame> {
         let (w, h) = (self.settings.width, self.settings.height);
         let npix = (w * h) as usize;
-        let now = hash_cache::stamp(self.frames);
-        let push = hash_cache::push_constants(&self.hash, now);
+        let push = self.table.push();
+        let push = bytemuck::bytes_of(&push);
         let groups = [w.div_ceil(LOCAL), h.div_ceil(LOCAL), 2];
         let p = &self.pipes;
 
@@ -226,95 +154,64 @@ impl Method for Hybrid {
         let cur = self.cache.record_visibility(&mut rec, input);
         let cache = self.cache.current_buffers(cur);
         let frame = self.cache.frame_buffer();
+        let t = &self.table;
+        let px = t.pixels();
         let sets = [&self.scene.set, &self.sets[cur]];
-        rec.pass("hybrid.clear").write(&self.counters).fill(0);
+        t.record_clear(&mut rec);
         rec.pass("hybrid.reserve")
             .read(frame)
             .read(cache.masks)
             .read(cache.first_hits)
-            .write(&self.keys)
-            .write(&self.pix_hit)
-            .write(&self.pix_ray)
-            .write(&self.pix_cell)
-            .write(&self.counters)
-            .dispatch(&p.reserve, &sets, &push, groups);
-        rec.pass("hybrid.update")
-            .read(&self.pix_hit)
-            .read(&self.pix_ray)
-            .read(&self.pix_cell)
-            .write(&self.cells)
-            .write(&self.fallback)
-            .write(&self.counters)
-            .dispatch(&p.update, &sets, &push, groups);
+            .write(t.keys())
+            .write(&px.hit)
+            .write(&px.ray)
+            .write(&px.cell)
+            .write(t.counters())
+            .dispatch(&p.reserve, &sets, push, groups);
+        t.record_update(&mut rec, &sets, groups);
         rec.pass("hybrid.resolve")
             .read(cache.masks)
             .read(cache.first_hits)
-            .read(&self.pix_cell)
-            .read(&self.cells)
-            .read(&self.fallback)
-            .write(&self.keys)
-            .write(&self.color)
-            .write(&self.position)
-            .write(&self.out_depth)
-            .write(&self.out_fh)
-            .write(&self.out_albedo)
-            .write(&self.counters)
-            .dispatch(&p.resolve, &sets, &push, groups);
-        rec.pass("diag.hybrid.count")
-            .read(&self.keys)
-            .write(&self.counters)
-            .dispatch(
-                &p.count,
-                &sets,
-                &push,
-                hash_cache::count_grid(self.hash.capacity),
-            );
-        let out = if self.hash.taa {
-            Some(self.taa.record(
-                &mut rec,
-                &self.scene.set,
-                [frame, &self.color, &self.position, &self.out_depth],
-                groups,
-            ))
-        } else {
-            None
-        };
+            .read(&px.cell)
+            .read(t.cells())
+            .read(&px.fallback)
+            .write(t.keys())
+            .write(&px.color)
+            .write(&px.position)
+            .write(&px.depth)
+            .write(&px.first_hit)
+            .write(&px.albedo)
+            .write(t.counters())
+            .dispatch(&p.resolve, &sets, push, groups);
+        t.record_count(&mut rec, &sets);
+        let shown = px.record_taa(
+            &mut self.taa,
+            t.settings().taa,
+            &mut rec,
+            &self.scene.set,
+            frame,
+            groups,
+        );
         let passes = rec.finish()?;
         self.cache.end_frame();
-        self.frames += 1;
 
-        let outputs = OutputBuffers {
-            color: out.unwrap_or(&self.color),
-            depth: &self.out_depth,
-            first_hit: &self.out_fh,
-            albedo: &self.out_albedo,
-            debug: None,
-        };
-        let eyes = outputs.read(npix)?;
-        let counters: Vec<u32> = self.counters.download_pod()?;
+        let eyes = t.pixels().outputs(shown, None).read(npix)?;
+        let counters = t.read_counters()?;
         let (primary, visibility) = self.cache.visibility_counters()?;
         let mut stats = FrameStats {
             passes,
-            rays: RayCounts {
-                primary,
-                bounce: counters[1] as u64,
-                shadow: counters[2] as u64,
-            },
+            rays: table::ray_counts(&counters),
             counters: visibility,
         };
-        for (i, name) in hash_cache::COUNTERS.iter().chain(COUNTERS) {
-            // The hash cache's own misses count pixels without a visible sample here.
-            let name = if *name == "primary_misses" {
-                "pixels_without_samples"
-            } else {
-                name
-            };
-            stats.counters.insert(name.to_string(), counters[*i] as f64);
-        }
-        stats.counters.insert(
-            "table_occupancy".into(),
-            counters[9] as f64 / self.hash.capacity as f64,
-        );
+        stats.rays.primary = primary;
+        // The table's misses count pixels without a visible sample here.
+        stats.counters.extend(table::table_counters(
+            &counters,
+            t.settings().capacity,
+            "pixels_without_samples",
+        ));
+        stats.counters.extend(named_counters(&counters, COUNTERS));
+        self.table.end_frame();
         Ok(StereoFrame {
             width: w,
             height: h,
@@ -324,25 +221,6 @@ impl Method for Hybrid {
     }
 
     fn memory_bytes(&self) -> u64 {
-        self.cache.memory_bytes()
-            + [
-                &self.keys,
-                &self.cells,
-                &self.pix_hit,
-                &self.pix_ray,
-                &self.pix_cell,
-                &self.fallback,
-                &self.color,
-                &self.out_depth,
-                &self.out_fh,
-                &self.out_albedo,
-                &self.position,
-                &self.counters,
-                &self.debug,
-            ]
-            .iter()
-            .map(|b| b.size)
-            .sum::<u64>()
-            + self.taa.memory_bytes()
+        self.cache.memory_bytes() + self.table.memory_bytes() + self.taa.memory_bytes()
     }
 }

@@ -6,7 +6,7 @@
 // cell's running mean (count capped at max_samples; a freshly reserved or
 // evicted cell starts over). Pixels without a cell (probe failure) trace
 // their own path into `fallback`.
-#include "hash_cache/common.glsl"
+#include "hash_table/table.glsl"
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 
 void main() {

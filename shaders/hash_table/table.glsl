@@ -2,14 +2,16 @@
 // Gautron 2021): open addressing with linear probing over a table of
 // `capacity` entries, each a 64-bit word (checksum << 32 | last access frame)
 // and an RGBA32F record (demodulated radiance running mean, sample count):
-// 24 bytes per entry. Descriptor set 1 below; src/methods/hash_cache/ owns
-// the buffers and the pass order (primary → update → resolve → count → taa).
+// 24 bytes per entry. Descriptor set 1 below (bindings 0..13; a method may
+// add its own after 13). src/methods/hash_table/ owns the buffers and the
+// table's passes (update.comp, count.comp); hash_cache/ and hybrid/ add the
+// passes that fill the per-pixel requests and resolve the image.
 #extension GL_EXT_shader_atomic_int64 : require
 #extension GL_ARB_gpu_shader_int64 : require
 #include "common/integrator.glsl"
 #include "common/packing.glsl"
 #include "common/camera.glsl"
-#include "hash_cache/hash.glsl"
+#include "hash_table/hash.glsl"
 
 layout(push_constant) uniform Push {
     uint capacity;
@@ -36,7 +38,7 @@ layout(set = 1, binding = 11, std430) buffer Position { vec4 position[]; };   //
 layout(set = 1, binding = 12, std430) buffer Counters { uint counters[]; };
 layout(set = 1, binding = 13, std430) buffer Debug { vec4 debug_out[]; };     // [view][eye][pixel]
 
-// Counter slots (src/methods/hash_cache/mod.rs names them).
+// Counter slots (src/methods/hash_table/counters.rs names them).
 const uint C_PRIMARY = 0u, C_BOUNCE = 1u, C_SHADOW = 2u, C_FOUND = 3u, C_RESERVED = 4u, C_EVICTED = 5u,
            C_FAILED = 6u, C_UPDATES = 7u, C_FALLBACK = 8u, C_LIVE = 9u, C_MISSES = 10u;
 const uint ST_FOUND = 0u, ST_RESERVED = 1u, ST_EVICTED = 2u, ST_FAILED = 3u, ST_MISS = 4u;

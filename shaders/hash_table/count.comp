@@ -1,6 +1,6 @@
 #version 460
 // Live entries (touched within the last `stale` frames) for the counters.
-#include "hash_cache/common.glsl"
+#include "hash_table/table.glsl"
 layout(local_size_x = 256) in;
 shared uint live;
 
