@@ -18,7 +18,7 @@ void main() {
     uint vis = hy_surface_bits(eye, pixel, hy_vis_bits(mask_cur[pm]));
     if (vis == 0u) {
         pix_cell[pm] = uvec4(NO_CELL, ST_MISS, 0u, 0u);
-        atomicAdd(counters[C_MISSES], 1u);
+        atomicAdd(counters[C_HT_MISSES], 1u);
         return;
     }
     uvec4 fh = fh_cur[hy_slot_index(eye, hy_update_slot(vis), pixel)];
@@ -40,6 +40,6 @@ void main() {
     pix_hit[pm] = uvec4(floatBitsToUint(bary), fh.z, fh.w);
     pix_ray[pm] = vec4(d, t);
     pix_cell[pm] = uvec4(slot, st | (winner ? 16u : 0u), chk, hc_pack_meta(level, HC_NO_AXIS, local_offset, hc_tiles()));
-    atomicAdd(counters[C_FOUND + st], 1u);
-    atomicAdd(counters[coarse ? C_UPD_COARSE : C_UPD_FINE], 1u);
+    atomicAdd(counters[C_HT_FOUND + st], 1u);
+    atomicAdd(counters[coarse ? C_HY_UPD_COARSE : C_HY_UPD_FINE], 1u);
 }

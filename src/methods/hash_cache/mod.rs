@@ -20,8 +20,11 @@ pub use settings::{HashCacheSettings, HashLod};
 pub use taa::Taa;
 
 use super::hash_table::{self as table, HashTable, TableDesc};
-use super::{FrameInput, FrameParams, FrameStats, Method, RenderSettings, StereoFrame};
-use crate::gpu::{Buffer, ComputePipeline, DescriptorSet, GpuContext, GpuResult, Recorder};
+use super::{
+    frame_loop, Color, FrameInput, FrameOutputs, FrameParams, Method, RenderSettings, StereoFrame,
+};
+use crate::gpu::{Buffer, ComputePipeline, GpuContext, GpuResult, HostReadback, Recorder};
+use crate::interface::hash_table::INTERFACE;
 use crate::rt::SceneGpu;
 use crate::scene::Environment;
 use std::sync::Arc;
@@ -42,9 +45,9 @@ pub struct HashCache {
     settings: RenderSettings,
     table: HashTable,
     pipes: Pipelines,
-    set: DescriptorSet,
     frame: Buffer,
     taa: Taa,
+    readback: HostReadback,
 }
 
 impl HashCache {
@@ -76,25 +79,23 @@ impl HashCache {
                 } else {
                     0
                 },
-                extra_bindings: 0,
                 spec: &spec,
             },
         )?;
-        let set = table.descriptor_set(ctx, &frame, &[])?;
         let pipes = Pipelines {
-            primary: table.pipeline(ctx, scene, "hash_cache/primary")?,
-            resolve: table.pipeline(ctx, scene, "hash_cache/resolve")?,
+            primary: table.pipeline(ctx, scene, "hash_cache/primary", &INTERFACE)?,
+            resolve: table.pipeline(ctx, scene, "hash_cache/resolve", &INTERFACE)?,
         };
-        let taa = table.pixels().taa(ctx, scene, &frame)?;
+        let taa = table.pixels().taa(ctx, scene)?;
         Ok(HashCache {
             ctx: ctx.clone(),
             scene: scene.clone(),
             settings: settings.clone(),
             table,
             pipes,
-            set,
             frame,
             taa,
+            readback: HostReadback::new(),
         })
     }
 
@@ -132,83 +133,68 @@ impl Method for HashCache {
         "hash-cache"
     }
 
-    fn render_frame(&mut self, input: &FrameInput) -> GpuResult<StereoFrame> {
-        let (w, h) = (self.settings.width, self.settings.height);
-        let npix = (w * h) as usize;
-        let params = FrameParams::new(input, w, h, self.settings.seed, self.scene.origin);
-        let push = self.table.push();
-        let push = bytemuck::bytes_of(&push);
-        let groups = [w.div_ceil(LOCAL), h.div_ceil(LOCAL), 2];
-        let p = &self.pipes;
-        let t = &self.table;
-        let px = t.pixels();
-        let sets = [&self.scene.set, &self.set];
+    fn context(&self) -> &Arc<GpuContext> {
+        &self.ctx
+    }
 
-        let mut rec = Recorder::new(&self.ctx, 8)?;
+    fn record<'a>(
+        &'a mut self,
+        rec: &mut Recorder<'a>,
+        input: &FrameInput,
+    ) -> GpuResult<FrameOutputs<'a>> {
+        self.table.begin_frame();
+        let taa_on = self.table.settings().taa;
+        if taa_on {
+            self.taa.begin_frame();
+        }
+        let this: &'a HashCache = self;
+        let (w, h) = (this.settings.width, this.settings.height);
+        let params = FrameParams::new(input, w, h, this.settings.seed, this.scene.origin);
+        let groups = [w.div_ceil(LOCAL), h.div_ceil(LOCAL), 2];
+        let (p, t, scene_set) = (&this.pipes, &this.table, &this.scene.set);
+        let px = t.pixels();
+
         rec.pass("params")
-            .write(&self.frame)
+            .write(&this.frame)
             .update(bytemuck::bytes_of(&params));
-        t.record_clear(&mut rec);
-        let update = self.update_has_work();
+        t.record_clear(rec);
+        let update = this.update_has_work();
         if !update {
             // What `update` would leave in `fallback` for a probe failure
             // (rgb = 0); misses get theirs from `primary`, after this clear.
             rec.pass("clear.fallback").write(&px.fallback).fill(0);
         }
-        rec.pass("primary")
-            .read(&self.frame)
-            .write(t.keys())
-            .write(&px.hit)
-            .write(&px.ray)
-            .write(&px.cell)
-            .write(&px.fallback)
-            .write(&px.position)
-            .write(&px.depth)
-            .write(&px.first_hit)
-            .write(&px.albedo)
-            .write(t.counters())
-            .dispatch(&p.primary, &sets, push, groups);
+        t.pass(rec, "primary", &p.primary, scene_set, &this.frame)
+            .dispatch(groups)?;
         if update {
-            t.record_update(&mut rec, &sets, groups);
+            t.record_update(rec, scene_set, &this.frame, groups)?;
         }
-        rec.pass("resolve")
-            .read(&px.hit)
-            .read(&px.ray)
-            .read(&px.cell)
-            .read(t.cells())
-            .read(&px.fallback)
-            .write(&px.color)
-            .write(t.debug())
-            .dispatch(&p.resolve, &sets, push, groups);
-        t.record_count(&mut rec, &sets);
-        let shown = px.record_taa(
-            &mut self.taa,
-            t.settings().taa,
-            &mut rec,
-            &self.scene.set,
-            &self.frame,
-            groups,
-        );
-        let passes = rec.finish()?;
-
-        let debug = t
-            .settings()
-            .debug_views
-            .then_some((t.debug(), &DEBUG_VIEWS[..]));
-        let eyes = t.pixels().outputs(shown, debug).read(npix)?;
-        let counters = t.read_counters()?;
-        let stats = FrameStats {
-            passes,
-            rays: table::ray_counts(&counters),
-            counters: table::table_counters(&counters, t.settings().capacity, "primary_misses"),
-        };
-        self.table.end_frame();
-        Ok(StereoFrame {
+        t.pass(rec, "resolve", &p.resolve, scene_set, &this.frame)
+            .dispatch(groups)?;
+        t.record_count(rec, scene_set, &this.frame)?;
+        let shown = px.record_taa(&this.taa, taa_on, rec, scene_set, &this.frame, groups)?;
+        Ok(FrameOutputs {
             width: w,
             height: h,
-            eyes,
-            stats,
+            color: Color::Radiance(shown),
+            depth: &px.depth,
+            first_hit: &px.first_hit,
+            albedo: &px.albedo,
+            debug: t
+                .settings()
+                .debug_views
+                .then_some((t.debug(), &DEBUG_VIEWS[..])),
+            counters: vec![table::table_counters(t.counters())],
+            host_counters: Default::default(),
+            readback: &this.readback,
         })
+    }
+
+    /// The shared frame loop, plus `table_occupancy` from the live entries read back.
+    fn render_frame(&mut self, input: &FrameInput) -> GpuResult<StereoFrame> {
+        let mut frame = frame_loop::render(self, input)?;
+        table::add_occupancy(&mut frame.stats, self.table.settings().capacity);
+        Ok(frame)
     }
 
     fn memory_bytes(&self) -> u64 {

@@ -1,45 +1,25 @@
-//! The table's counter slots (`C_*` in `shaders/hash_table/table.glsl`) and
-//! how a frame's counters become statistics. Slots 0–2 are the ray counts;
-//! a method's own counters follow [`TABLE_COUNTER_SLOTS`].
+//! The table's counters as frame statistics: typed slots
+//! ([`TableCounter`], src/interface/hash_table.rs; `C_HT_*` in the shaders)
+//! read back by the shared frame loop, and the occupancy derived from them.
 
-use crate::methods::{named_counters, RayCounts};
-use std::collections::BTreeMap;
+use crate::interface::hash_table::TableCounter;
+use crate::methods::{CounterOutput, FrameStats, RaySlots};
 
-/// Slots written by the table's shaders (and by the methods' lookup passes),
-/// with report names. Slot 10 counts pixels without a lookup: named by the
-/// method (`primary_misses` in hash-cache).
-pub const TABLE_COUNTERS: &[(usize, &str)] = &[
-    (3, "cells_found"),
-    (4, "cells_reserved"),
-    (5, "cells_evicted_stale"),
-    (6, "probe_failures"),
-    (7, "cell_updates"),
-    (8, "fallback_paths"),
-    (9, "live_entries"),
-];
-const C_LIVE: usize = 9;
-const C_MISSES: usize = 10;
-
-/// Counter slots the table's shaders use (0..=10).
-pub const TABLE_COUNTER_SLOTS: u64 = 11;
-
-/// Ray counts of slots 0 (primary), 1 (bounce) and 2 (shadow).
-pub fn ray_counts(values: &[u32]) -> RayCounts {
-    RayCounts {
-        primary: values[0] as u64,
-        bounce: values[1] as u64,
-        shadow: values[2] as u64,
-    }
+/// The table's counter buffer as a frame output: every reported slot, and
+/// slots 0–2 as the frame's ray counts.
+pub fn table_counters(buffer: &crate::gpu::Buffer) -> CounterOutput<'_> {
+    use TableCounter::*;
+    CounterOutput::of::<TableCounter>(buffer).rays(RaySlots::of(
+        &[PrimaryRays],
+        &[BounceRays],
+        &[ShadowRays],
+    ))
 }
 
-/// The table's counters as statistics: the named slots, slot 10 as
-/// `misses`, and `table_occupancy` (live entries / capacity).
-pub fn table_counters(values: &[u32], capacity: u32, misses: &str) -> BTreeMap<String, f64> {
-    let mut c = named_counters(values, TABLE_COUNTERS);
-    c.insert(misses.to_string(), values[C_MISSES] as f64);
-    c.insert(
-        "table_occupancy".into(),
-        values[C_LIVE] as f64 / capacity as f64,
-    );
-    c
+/// Adds `table_occupancy` (live entries / capacity) to a frame's statistics.
+pub fn add_occupancy(stats: &mut FrameStats, capacity: u32) {
+    let live = stats.counters.get("live_entries").copied().unwrap_or(0.0);
+    stats
+        .counters
+        .insert("table_occupancy".into(), live / capacity as f64);
 }

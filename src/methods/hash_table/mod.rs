@@ -10,14 +10,15 @@
 //! descriptor interface: `shaders/hash_table/table.glsl`.
 //!
 //! What a method using the table does per frame (both eyes per dispatch,
-//! `z` = eye): [`HashTable::record_clear`] (counters) → its own pass that
+//! `z` = eye): [`HashTable::begin_frame`], [`HashTable::record_clear`]
+//! (counters) → its own pass ([`HashTable::pass`]) that
 //! finds or reserves one entry per pixel and writes the per-pixel requests
 //! ([`PixelBuffers`]: first hit, ray, entry, status; the first toucher of an
 //! entry this frame becomes its updater) → [`HashTable::record_update`]
 //! (`update.comp`: one secondary path per updated entry into its running
 //! mean, the pixel's own path where the lookup failed) → its own resolve →
 //! [`HashTable::record_count`] (`count.comp`, live entries: a statistic, not
-//! counted in the frame time) → [`HashTable::end_frame`].
+//! counted in the frame time); its counters are [`table_counters`].
 
 mod counters;
 pub mod hash;
@@ -25,7 +26,7 @@ mod pixels;
 mod push;
 mod table;
 
-pub use counters::{ray_counts, table_counters, TABLE_COUNTERS, TABLE_COUNTER_SLOTS};
+pub use counters::{add_occupancy, table_counters};
 pub use pixels::PixelBuffers;
 pub use push::TablePush;
-pub use table::{stamp, HashTable, TableDesc, TableSnapshot, ENTRY_BYTES, TABLE_BINDINGS};
+pub use table::{stamp, HashTable, TableDesc, TableSnapshot, ENTRY_BYTES};

@@ -3,7 +3,7 @@
 //! requests the update pass reads and the method's outputs.
 
 use crate::gpu::{Buffer, DescriptorSet, GpuContext, GpuResult, Recorder};
-use crate::methods::hash_cache::Taa;
+use crate::methods::hash_cache::taa::{Taa, TaaInputs};
 use crate::methods::OutputBuffers;
 use crate::rt::SceneGpu;
 use std::sync::Arc;
@@ -77,34 +77,31 @@ impl PixelBuffers {
         }
     }
 
-    /// TAA over these buffers' colour, first-hit position and depth.
-    pub fn taa(&self, ctx: &Arc<GpuContext>, scene: &SceneGpu, frame: &Buffer) -> GpuResult<Taa> {
-        Taa::new(
-            ctx,
-            scene,
-            self.count,
-            frame,
-            &self.color,
-            &self.position,
-            &self.depth,
-        )
+    /// TAA history for these buffers.
+    pub fn taa(&self, ctx: &Arc<GpuContext>, scene: &SceneGpu) -> GpuResult<Taa> {
+        Taa::new(ctx, scene, self.count)
     }
 
-    /// Records `taa` (made by [`PixelBuffers::taa`] with `frame`) when `on`;
-    /// returns the colour the frame shows once the recorder has finished.
+    /// Records `taa` over these buffers' colour, position and depth when
+    /// `on` (after [`Taa::begin_frame`]); returns the colour the frame shows.
     pub fn record_taa<'a>(
         &'a self,
-        taa: &'a mut Taa,
+        taa: &'a Taa,
         on: bool,
-        rec: &mut Recorder,
-        scene_set: &DescriptorSet,
-        frame: &Buffer,
+        rec: &mut Recorder<'a>,
+        scene_set: &'a DescriptorSet,
+        frame: &'a Buffer,
         groups: [u32; 3],
-    ) -> &'a Buffer {
+    ) -> GpuResult<&'a Buffer> {
         if !on {
-            return &self.color;
+            return Ok(&self.color);
         }
-        let inputs = [frame, &self.color, &self.position, &self.depth];
+        let inputs = TaaInputs {
+            frame,
+            color: &self.color,
+            position: &self.position,
+            depth: &self.depth,
+        };
         taa.record(rec, scene_set, inputs, groups)
     }
 }

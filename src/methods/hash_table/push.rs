@@ -1,8 +1,9 @@
-//! The push constants of `shaders/hash_table/table.glsl` (`Push`).
+//! The push constants of every pass over the table (`HASH_TABLE_PUSH` of
+//! src/interface/hash_table.rs, `pc` in `shaders/hash_table/table.glsl`).
 
 use crate::methods::hash_cache::{HashCacheSettings, HashLod};
 
-/// `Push` of table.glsl, field for field.
+/// [`crate::interface::hash_table::PUSH`], field for field.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct TablePush {
@@ -21,7 +22,8 @@ pub struct TablePush {
     pub pad: u32,
 }
 
-const _: () = assert!(std::mem::size_of::<TablePush>() == 32);
+const _: () =
+    assert!(std::mem::size_of::<TablePush>() == crate::interface::hash_table::PUSH.size() as usize);
 
 impl TablePush {
     /// The push constants for the settings `h` and the frame stamp `now`.

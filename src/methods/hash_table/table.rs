@@ -1,16 +1,19 @@
 //! [`HashTable`]: the table's buffers (keys, cells, the per-pixel requests
-//! and outputs, counters, debug views), its memory, its descriptor
-//! interface (set 1, bindings 0–13 of `shaders/hash_table/table.glsl`) and
-//! its passes: clear, update (insert results → running means), live-entry
-//! count; plus the frame counter whose stamps age entries out.
+//! and outputs, counters, debug views), its memory, its shader interface
+//! (set 1 = the bindings of src/interface/hash_table.rs, declared once by
+//! [`HashTable::pass`]) and its passes: clear, update (insert results →
+//! running means), live-entry count; plus the frame counter whose stamps
+//! age entries out.
 
-use super::counters::TABLE_COUNTER_SLOTS;
 use super::pixels::PixelBuffers;
 use super::push::TablePush;
 use crate::gpu::{
-    Buffer, ComputePipeline, DescriptorLayout, DescriptorSet, GpuContext, GpuError, GpuResult,
-    Recorder, Resource, SpecConstants,
+    Buffer, ComputePass, ComputePipeline, DescriptorSet, GpuContext, GpuError, GpuResult, Recorder,
+    SpecConstants,
 };
+use crate::interface::hash_table::{TableCounter, INTERFACE, PUSH};
+use crate::interface::CounterSlot;
+use crate::interface::Interface;
 use crate::methods::hash_cache::HashCacheSettings;
 use crate::methods::reference::backend_shader;
 use crate::rt::SceneGpu;
@@ -18,10 +21,6 @@ use std::sync::Arc;
 
 /// Bytes per table entry: 8 (key word) + 16 (RGBA32F).
 pub const ENTRY_BYTES: u64 = 24;
-
-/// Bindings of set 1 the table defines (0 = the frame's `FrameBuf`, 1–13 its
-/// buffers); a method's own bindings follow.
-pub const TABLE_BINDINGS: usize = 14;
 
 /// The frame counter stamped into table entries by a method's frame `k`
 /// (0-based): k + 1 mod 2^32 (0 never stamps, so a zeroed table is empty).
@@ -38,18 +37,19 @@ fn count_grid(capacity: u32) -> [u32; 3] {
 fn pipeline(
     ctx: &Arc<GpuContext>,
     scene: &SceneGpu,
-    layout: &Arc<DescriptorLayout>,
     label: &str,
     shader: &str,
+    interface: &'static Interface,
     spec: &SpecConstants,
 ) -> GpuResult<ComputePipeline> {
     let name = shader.rsplit('/').next().unwrap_or(shader);
-    ComputePipeline::new(
+    ComputePipeline::with_interface(
         ctx,
         &format!("{label}.{name}"),
         backend_shader(shader, scene)?,
-        &[scene.layout.clone(), layout.clone()],
-        std::mem::size_of::<TablePush>() as u32,
+        std::slice::from_ref(&scene.layout),
+        interface,
+        Some(&PUSH),
         spec,
     )
 }
@@ -63,12 +63,10 @@ pub struct TableDesc<'a> {
     pub passes: &'static str,
     /// Pixels of both eyes (2 × width × height).
     pub pixels: u64,
-    /// Counter slots (at least [`TABLE_COUNTER_SLOTS`]; the method's own follow).
+    /// Counter slots (at least the table's [`TableCounter`]s; the method's own follow).
     pub counter_slots: u64,
     /// The debug views written by the method's resolve (`[view][eye][pixel]`).
     pub debug_views: usize,
-    /// Bindings of set 1 after the table's [`TABLE_BINDINGS`].
-    pub extra_bindings: usize,
     /// Specialization constants of the table's pipelines and of the
     /// method's made by [`HashTable::pipeline`].
     pub spec: &'a SpecConstants,
@@ -92,16 +90,17 @@ pub struct HashTable {
     pixels: PixelBuffers,
     counters: Buffer,
     debug: Buffer,
-    layout: Arc<DescriptorLayout>,
     update: ComputePipeline,
     count: ComputePipeline,
-    /// Frames rendered so far; frame k stamps entries with (k + 1) mod 2^32.
+    /// Frames begun so far; frame k stamps entries with (k + 1) mod 2^32.
     frames: u64,
+    /// The stamp of the frame being recorded.
+    now: u32,
 }
 
 impl HashTable {
-    /// Checks the settings and the device, creates the buffers, the layout
-    /// of set 1 and the table's pipelines, and clears the table.
+    /// Checks the settings and the device, creates the buffers and the
+    /// table's pipelines, and clears the table.
     pub fn new(
         ctx: &Arc<GpuContext>,
         scene: &SceneGpu,
@@ -115,7 +114,7 @@ impl HashTable {
                 ctx.caps.name
             )));
         }
-        assert!(desc.counter_slots >= TABLE_COUNTER_SLOTS);
+        assert!(desc.counter_slots >= TableCounter::ALL.len() as u64);
         let label = desc.label;
         let cap = settings.capacity as u64;
         let b = |name: &str, bytes: u64| Buffer::storage(ctx, &format!("{label}.{name}"), bytes);
@@ -127,14 +126,13 @@ impl HashTable {
             "debug",
             (desc.debug_views as u64 * desc.pixels * 16).max(16),
         )?;
-        let layout = DescriptorLayout::buffers(ctx, TABLE_BINDINGS + desc.extra_bindings)?;
         let mut init = Recorder::new(ctx, 1)?;
         init.pass(&format!("{label}.init"))
             .write(&keys)
             .write(&cells)
             .fill(0);
         init.finish()?;
-        let pipe = |name: &str| pipeline(ctx, scene, &layout, label, name, desc.spec);
+        let pipe = |name: &str| pipeline(ctx, scene, label, name, &INTERFACE, desc.spec);
         let update = pipe("hash_table/update")?;
         let count = pipe("hash_table/count")?;
         Ok(HashTable {
@@ -147,50 +145,61 @@ impl HashTable {
             pixels,
             counters,
             debug,
-            layout,
             update,
             count,
             frames: 0,
+            now: stamp(0),
         })
     }
 
-    /// A pipeline of the method's over the scene's set and the table's set 1,
-    /// with the table's push constants: `shader` (e.g. `hash_cache/primary`)
-    /// for the scene's ray backend, named `{label}.{file name}`.
+    /// A pipeline of the method's over the scene's set and set 1 of
+    /// `interface` (the table's, or one that starts with the table's
+    /// bindings), with the table's push constants: `shader` (e.g.
+    /// `hash_cache/primary`) for the scene's ray backend, named
+    /// `{label}.{file name}`.
     pub fn pipeline(
         &self,
         ctx: &Arc<GpuContext>,
         scene: &SceneGpu,
         shader: &str,
+        interface: &'static Interface,
     ) -> GpuResult<ComputePipeline> {
-        pipeline(ctx, scene, &self.layout, self.label, shader, &self.spec)
+        pipeline(ctx, scene, self.label, shader, interface, &self.spec)
     }
 
     pub fn settings(&self) -> &HashCacheSettings {
         &self.settings
     }
 
-    /// Layout of set 1 (the method's pipelines use it too).
-    pub fn layout(&self) -> &Arc<DescriptorLayout> {
-        &self.layout
-    }
-
-    /// Set 1: `frame` (binding 0), the table's buffers (1–13), then the
-    /// method's `extra` buffers.
-    pub fn descriptor_set(
-        &self,
-        ctx: &Arc<GpuContext>,
-        frame: &Buffer,
-        extra: &[&Buffer],
-    ) -> GpuResult<DescriptorSet> {
-        let buffers: Vec<&Buffer> = [frame, &self.keys, &self.cells]
-            .into_iter()
-            .chain(self.pixels.all())
-            .chain([&self.counters, &self.debug])
-            .chain(extra.iter().copied())
-            .collect();
-        let r: Vec<Resource> = buffers.into_iter().map(Resource::Buffer).collect();
-        DescriptorSet::new(ctx, &self.layout, &r)
+    /// A pass of `pipeline` with the scene's set and the table's bindings
+    /// declared in binding order (`frame` at 0: the method's `FrameBuf`) and
+    /// this frame's push constants; a method's own bindings may follow.
+    pub fn pass<'r, 'a>(
+        &'a self,
+        rec: &'r mut Recorder<'a>,
+        name: &str,
+        pipeline: &'a ComputePipeline,
+        scene_set: &'a DescriptorSet,
+        frame: &'a Buffer,
+    ) -> ComputePass<'r, 'a> {
+        let px = &self.pixels;
+        rec.compute(name, pipeline)
+            .shared(scene_set)
+            .read(frame)
+            .write(&self.keys)
+            .write(&self.cells)
+            .write(&px.hit)
+            .write(&px.ray)
+            .write(&px.cell)
+            .write(&px.fallback)
+            .write(&px.color)
+            .write(&px.depth)
+            .write(&px.first_hit)
+            .write(&px.albedo)
+            .write(&px.position)
+            .write(&self.counters)
+            .write(&self.debug)
+            .push(&self.push())
     }
 
     pub fn keys(&self) -> &Buffer {
@@ -209,9 +218,16 @@ impl HashTable {
         &self.debug
     }
 
-    /// The push constants of this frame.
+    /// Starts a frame: its passes stamp the entries they touch with the
+    /// next value of the frame counter.
+    pub fn begin_frame(&mut self) {
+        self.now = stamp(self.frames);
+        self.frames += 1;
+    }
+
+    /// The push constants of the frame being recorded.
     pub fn push(&self) -> TablePush {
-        TablePush::new(&self.settings, stamp(self.frames))
+        TablePush::new(&self.settings, self.now)
     }
 
     /// `{p}clear`: zeroes the counters.
@@ -223,45 +239,34 @@ impl HashTable {
 
     /// `{p}update` (`update.comp`): the updater of each entry touched this
     /// frame traces one secondary path into its running mean; a pixel whose
-    /// lookup failed traces its own into `fallback`. `sets` = scene set, set 1.
-    pub fn record_update(&self, rec: &mut Recorder, sets: &[&DescriptorSet], groups: [u32; 3]) {
-        let px = &self.pixels;
-        rec.pass(&format!("{}update", self.passes))
-            .read(&px.hit)
-            .read(&px.ray)
-            .read(&px.cell)
-            .write(&self.cells)
-            .write(&px.fallback)
-            .write(&self.counters)
-            .dispatch(&self.update, sets, bytemuck::bytes_of(&self.push()), groups);
+    /// lookup failed traces its own into `fallback`.
+    pub fn record_update<'a>(
+        &'a self,
+        rec: &mut Recorder<'a>,
+        scene_set: &'a DescriptorSet,
+        frame: &'a Buffer,
+        groups: [u32; 3],
+    ) -> GpuResult<()> {
+        let name = format!("{}update", self.passes);
+        self.pass(rec, &name, &self.update, scene_set, frame)
+            .dispatch(groups)
     }
 
     /// `diag.{p}count` (`count.comp`): live entries into the counters.
-    pub fn record_count(&self, rec: &mut Recorder, sets: &[&DescriptorSet]) {
-        rec.pass(&format!("diag.{}count", self.passes))
-            .read(&self.keys)
-            .write(&self.counters)
-            .dispatch(
-                &self.count,
-                sets,
-                bytemuck::bytes_of(&self.push()),
-                count_grid(self.settings.capacity),
-            );
-    }
-
-    /// After a frame's passes: the next frame stamps the next value.
-    pub fn end_frame(&mut self) {
-        self.frames += 1;
+    pub fn record_count<'a>(
+        &'a self,
+        rec: &mut Recorder<'a>,
+        scene_set: &'a DescriptorSet,
+        frame: &'a Buffer,
+    ) -> GpuResult<()> {
+        let name = format!("diag.{}count", self.passes);
+        self.pass(rec, &name, &self.count, scene_set, frame)
+            .dispatch(count_grid(self.settings.capacity))
     }
 
     /// Starts the frame counter at `frames` (tests of the wrap-around at 2^32).
     pub fn set_frame_counter(&mut self, frames: u64) {
         self.frames = frames;
-    }
-
-    /// The counters read back (after the frame's recorder has finished).
-    pub fn read_counters(&self) -> GpuResult<Vec<u32>> {
-        self.counters.download_pod()
     }
 
     /// Reads the table back (after a frame).

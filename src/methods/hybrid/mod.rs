@@ -31,29 +31,19 @@
 //! and TAA history.
 
 use super::hash_cache::{HashCacheSettings, Taa};
-use super::hash_table::{self as table, HashTable, TableDesc, TABLE_COUNTER_SLOTS};
+use super::hash_table::{self as table, HashTable, TableDesc};
 use super::{
-    named_counters, FrameInput, FrameStats, Method, RenderSettings, SampleCache, StereoFrame,
+    frame_loop, Color, CounterOutput, FrameInput, FrameOutputs, Method, RaySlots, RenderSettings,
+    SampleCache, StereoFrame,
 };
-use crate::gpu::{ComputePipeline, DescriptorSet, GpuContext, GpuResult, Recorder};
+use crate::gpu::{ComputePipeline, GpuContext, GpuResult, HostReadback, Recorder};
+use crate::interface::hybrid::{HybridCounter, INTERFACE, SPEC_SLOTS};
 use crate::rt::SceneGpu;
 use crate::scene::Environment;
 use std::sync::Arc;
 
-/// Counter slots of `shaders/hybrid/common.glsl` (after the table's), with report names.
-const COUNTERS: &[(usize, &str)] = &[
-    (11, "samples_looked_up"),
-    (12, "both_level_hits"),
-    (13, "fine_level_only"),
-    (14, "coarse_level_only"),
-    (15, "no_level_hits"),
-    (16, "updates_fine_level"),
-    (17, "updates_coarse_level"),
-];
+/// Counter slots allocated (`C_HY_*` use the first 18).
 const COUNTER_SLOTS: u64 = 32;
-const _: () = assert!(COUNTER_SLOTS > TABLE_COUNTER_SLOTS + COUNTERS.len() as u64 - 1);
-/// Specialization constant id of the sample cache's slot count (N_SLOTS).
-const SPEC_SLOTS: u32 = 20;
 const LOCAL: u32 = 8;
 
 struct Pipelines {
@@ -68,9 +58,8 @@ pub struct Hybrid {
     cache: SampleCache,
     table: HashTable,
     pipes: Pipelines,
-    /// sets[i] binds the sample cache's buffers with index i as the current cache.
-    sets: [DescriptorSet; 2],
     taa: Taa,
+    readback: HostReadback,
 }
 
 impl Hybrid {
@@ -98,22 +87,14 @@ impl Hybrid {
                 pixels: e2,
                 counter_slots: COUNTER_SLOTS,
                 debug_views: 0,
-                // 14..15: the current sample cache's masks and first hits.
-                extra_bindings: 2,
                 spec: &spec,
             },
         )?;
-        let frame = cache.frame_buffer();
-        let make_set = |i: usize| {
-            let cur = cache.current_buffers(i);
-            table.descriptor_set(ctx, frame, &[cur.masks, cur.first_hits])
-        };
-        let sets = [make_set(0)?, make_set(1)?];
         let pipes = Pipelines {
-            reserve: table.pipeline(ctx, scene, "hybrid/reserve")?,
-            resolve: table.pipeline(ctx, scene, "hybrid/resolve")?,
+            reserve: table.pipeline(ctx, scene, "hybrid/reserve", &INTERFACE)?,
+            resolve: table.pipeline(ctx, scene, "hybrid/resolve", &INTERFACE)?,
         };
-        let taa = table.pixels().taa(ctx, scene, frame)?;
+        let taa = table.pixels().taa(ctx, scene)?;
         Ok(Hybrid {
             ctx: ctx.clone(),
             scene: scene.clone(),
@@ -121,8 +102,8 @@ impl Hybrid {
             cache,
             table,
             pipes,
-            sets,
             taa,
+            readback: HostReadback::new(),
         })
     }
 
@@ -142,82 +123,77 @@ impl Method for Hybrid {
         "hybrid"
     }
 
-    fn render_frame(&mut self, input: &FrameInput) -> GpuResult<StereoFrame> {
-        let (w, h) = (self.settings.width, self.settings.height);
-        let npix = (w * h) as usize;
-        let push = self.table.push();
-        let push = bytemuck::bytes_of(&push);
+    fn context(&self) -> &Arc<GpuContext> {
+        &self.ctx
+    }
+
+    fn record<'a>(
+        &'a mut self,
+        rec: &mut Recorder<'a>,
+        input: &FrameInput,
+    ) -> GpuResult<FrameOutputs<'a>> {
+        self.table.begin_frame();
+        let taa_on = self.table.settings().taa;
+        if taa_on {
+            self.taa.begin_frame();
+        }
+        let this: &'a Hybrid = self;
+        let (w, h) = (this.settings.width, this.settings.height);
         let groups = [w.div_ceil(LOCAL), h.div_ceil(LOCAL), 2];
-        let p = &self.pipes;
-
-        let mut rec = Recorder::new(&self.ctx, 24)?;
-        let cur = self.cache.record_visibility(&mut rec, input);
-        let cache = self.cache.current_buffers(cur);
-        let frame = self.cache.frame_buffer();
-        let t = &self.table;
+        let (p, t, scene_set) = (&this.pipes, &this.table, &this.scene.set);
         let px = t.pixels();
-        let sets = [&self.scene.set, &self.sets[cur]];
-        t.record_clear(&mut rec);
-        rec.pass("hybrid.reserve")
-            .read(frame)
-            .read(cache.masks)
-            .read(cache.first_hits)
-            .write(t.keys())
-            .write(&px.hit)
-            .write(&px.ray)
-            .write(&px.cell)
-            .write(t.counters())
-            .dispatch(&p.reserve, &sets, push, groups);
-        t.record_update(&mut rec, &sets, groups);
-        rec.pass("hybrid.resolve")
-            .read(cache.masks)
-            .read(cache.first_hits)
-            .read(&px.cell)
-            .read(t.cells())
-            .read(&px.fallback)
-            .write(t.keys())
-            .write(&px.color)
-            .write(&px.position)
-            .write(&px.depth)
-            .write(&px.first_hit)
-            .write(&px.albedo)
-            .write(t.counters())
-            .dispatch(&p.resolve, &sets, push, groups);
-        t.record_count(&mut rec, &sets);
-        let shown = px.record_taa(
-            &mut self.taa,
-            t.settings().taa,
-            &mut rec,
-            &self.scene.set,
-            frame,
-            groups,
-        );
-        let passes = rec.finish()?;
-        self.cache.end_frame();
 
-        let eyes = t.pixels().outputs(shown, None).read(npix)?;
-        let counters = t.read_counters()?;
-        let (primary, visibility) = self.cache.visibility_counters()?;
-        let mut stats = FrameStats {
-            passes,
-            rays: table::ray_counts(&counters),
-            counters: visibility,
-        };
-        stats.rays.primary = primary;
-        // The table's misses count pixels without a visible sample here.
-        stats.counters.extend(table::table_counters(
-            &counters,
-            t.settings().capacity,
-            "pixels_without_samples",
-        ));
-        stats.counters.extend(named_counters(&counters, COUNTERS));
-        self.table.end_frame();
-        Ok(StereoFrame {
+        let cur = this.cache.record_visibility(rec, input);
+        let cache = this.cache.current_buffers(cur);
+        let frame = this.cache.frame_buffer();
+        t.record_clear(rec);
+        t.pass(rec, "hybrid.reserve", &p.reserve, scene_set, frame)
+            .read(cache.masks)
+            .read(cache.first_hits)
+            .dispatch(groups)?;
+        t.record_update(rec, scene_set, frame, groups)?;
+        t.pass(rec, "hybrid.resolve", &p.resolve, scene_set, frame)
+            .read(cache.masks)
+            .read(cache.first_hits)
+            .dispatch(groups)?;
+        t.record_count(rec, scene_set, frame)?;
+        let shown = px.record_taa(&this.taa, taa_on, rec, scene_set, frame, groups)?;
+        use HybridCounter::*;
+        Ok(FrameOutputs {
             width: w,
             height: h,
-            eyes,
-            stats,
+            color: Color::Radiance(shown),
+            depth: &px.depth,
+            first_hit: &px.first_hit,
+            albedo: &px.albedo,
+            debug: None,
+            // Primary rays are the sample cache's (added in render_frame).
+            counters: vec![
+                CounterOutput::of::<HybridCounter>(t.counters()).rays(RaySlots::of(
+                    &[],
+                    &[BounceRays],
+                    &[ShadowRays],
+                )),
+            ],
+            host_counters: Default::default(),
+            readback: &this.readback,
         })
+    }
+
+    /// The shared frame loop, then the sample cache's visibility counters
+    /// and primary rays (read back from its own counters; not yet part of
+    /// the batched readback) and `table_occupancy`.
+    fn render_frame(&mut self, input: &FrameInput) -> GpuResult<StereoFrame> {
+        let mut frame = frame_loop::render(self, input)?;
+        self.cache.end_frame();
+        let (primary, visibility) = self.cache.visibility_counters()?;
+        let stats = &mut frame.stats;
+        stats.rays.primary = primary;
+        for (k, v) in visibility {
+            stats.counters.entry(k).or_insert(v);
+        }
+        table::add_occupancy(stats, self.table.settings().capacity);
+        Ok(frame)
     }
 
     fn memory_bytes(&self) -> u64 {
