@@ -50,22 +50,17 @@ fn run(
     what: &str,
 ) -> HashMap<String, f64> {
     let mut sum: HashMap<String, f64> = HashMap::new();
-    let mut prev = None;
-    for f in 0..frames {
-        let cam = moving(&cam0, f, deg);
-        let fr = m
-            .render_frame(&FrameInput {
-                index: f,
-                camera: cam,
-                prev_camera: prev,
-            })
-            .unwrap();
-        prev = Some(cam);
-        assert_finite_non_negative(&fr, what);
-        for (k, v) in &fr.stats.counters {
-            *sum.entry(k.clone()).or_default() += v;
-        }
-    }
+    render_along(
+        m,
+        frames,
+        |f| moving(&cam0, f, deg),
+        |_, fr| {
+            assert_finite_non_negative(fr, what);
+            for (k, v) in &fr.stats.counters {
+                *sum.entry(k.clone()).or_default() += v;
+            }
+        },
+    );
     sum
 }
 
@@ -387,37 +382,32 @@ fn furnace_sphere_shows_its_albedo() {
             ..Default::default()
         };
         let mut m = hash_method(&s, &settings(32, 32, hs));
-        let mut prev = None;
-        for f in 0..4 {
-            let cam = moving(&cam0, f, 1.0);
-            let fr = m
-                .render_frame(&FrameInput {
-                    index: f,
-                    camera: cam,
-                    prev_camera: prev,
-                })
-                .unwrap();
-            prev = Some(cam);
-            let mut on_sphere = 0;
-            for eye in &fr.eyes {
-                for (px, fh) in eye.radiance.iter().zip(&eye.first_hit) {
-                    let hit = fh[3] != u32::MAX;
-                    on_sphere += hit as usize;
-                    for k in 0..3 {
-                        // Without TAA exact; TAA may blend sphere and background
-                        // at silhouettes, so there only the range is known.
-                        let ok = if taa {
-                            px[k] >= albedo[k] - 1e-4 && px[k] <= 1.0 + 1e-4
-                        } else {
-                            let want = if hit { albedo[k] } else { 1.0 };
-                            (px[k] - want).abs() < 1e-4
-                        };
-                        assert!(ok, "tiles {tiles} taa {taa} frame {f}: radiance {px:?}");
+        render_along(
+            &mut m,
+            4,
+            |f| moving(&cam0, f, 1.0),
+            |f, fr| {
+                let mut on_sphere = 0;
+                for eye in &fr.eyes {
+                    for (px, fh) in eye.radiance.iter().zip(&eye.first_hit) {
+                        let hit = fh[3] != u32::MAX;
+                        on_sphere += hit as usize;
+                        for k in 0..3 {
+                            // Without TAA exact; TAA may blend sphere and background
+                            // at silhouettes, so there only the range is known.
+                            let ok = if taa {
+                                px[k] >= albedo[k] - 1e-4 && px[k] <= 1.0 + 1e-4
+                            } else {
+                                let want = if hit { albedo[k] } else { 1.0 };
+                                (px[k] - want).abs() < 1e-4
+                            };
+                            assert!(ok, "tiles {tiles} taa {taa} frame {f}: radiance {px:?}");
+                        }
                     }
                 }
-            }
-            assert!(on_sphere > 500);
-        }
+                assert!(on_sphere > 500);
+            },
+        );
         let snap = m.snapshot().unwrap();
         for (w, c) in snap.keys.iter().zip(&snap.cells) {
             if entry_checksum(*w) != 0 {

@@ -262,19 +262,12 @@ fn every_shipped_scene_renders_finite_radiance() {
             ..Default::default()
         };
         let mut m = hybrid(&s, &settings(w, h, hs));
-        let mut prev = None;
-        for f in 0..3 {
-            let cam = moving(&cam0, f, 1.0);
-            let fr = m
-                .render_frame(&FrameInput {
-                    index: f,
-                    camera: cam,
-                    prev_camera: prev,
-                })
-                .unwrap();
-            prev = Some(cam);
-            assert_finite_non_negative(&fr, name);
-        }
+        render_along(
+            &mut m,
+            3,
+            |f| moving(&cam0, f, 1.0),
+            |_, fr| assert_finite_non_negative(fr, name),
+        );
     }
     assert_no_validation_messages(&ctx);
 }

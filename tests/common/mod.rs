@@ -367,3 +367,27 @@ pub fn assert_finite_non_negative(fr: &StereoFrame, what: &str) {
         }
     }
 }
+
+/// Renders `frames` frames along `path(f)` with one method instance (each
+/// frame's previous camera is the frame before's, none for the first) and
+/// hands every frame to `each`.
+pub fn render_along(
+    m: &mut dyn stereocache::methods::Method,
+    frames: u32,
+    path: impl Fn(u32) -> StereoCamera,
+    mut each: impl FnMut(u32, &StereoFrame),
+) {
+    let mut prev = None;
+    for f in 0..frames {
+        let cam = path(f);
+        let fr = m
+            .render_frame(&FrameInput {
+                index: f,
+                camera: cam,
+                prev_camera: prev,
+            })
+            .expect("render");
+        prev = Some(cam);
+        each(f, &fr);
+    }
+}
