@@ -3,7 +3,7 @@
 // optionally incidence; jittered by up to one voxel in the tangent plane) is
 // looked up or reserved. The first thread to touch an entry this frame
 // becomes its updater (winner). Also writes the per-pixel outputs.
-#include "hash_cache/common.glsl"
+#include "hash_table/table.glsl"
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 
 void main() {
@@ -19,7 +19,7 @@ void main() {
     vec3 d = eye_ray_dir(e, vec2(px) + rng_next2(r));
     RtHit h;
     bool hit = rt_closest_hit(o, d, 0.0, 1e30, h);
-    atomicAdd(counters[C_PRIMARY], 1u);
+    atomicAdd(counters[C_HT_PRIMARY], 1u);
     if (!hit) {
         RayCounts rays = RayCounts(0u, 0u);
         Rng rr = r;
@@ -33,7 +33,7 @@ void main() {
         out_depth[pm] = 0.0;
         out_fh[pm] = uvec4(0u, 0u, 0u, NO_HIT);
         out_albedo[pm] = vec4(0.0);
-        atomicAdd(counters[C_MISSES], 1u);
+        atomicAdd(counters[C_HT_MISSES], 1u);
         return;
     }
     float cone = h.t * eye_pixel_spread(e);
@@ -62,5 +62,5 @@ void main() {
     bool winner;
     uint st = hc_find_or_insert(hsh, hc_meta_local(meta), chk, slot, winner);
     pix_cell[pm] = uvec4(slot, st | (winner ? 16u : 0u), chk, meta);
-    atomicAdd(counters[C_FOUND + st], 1u);
+    atomicAdd(counters[C_HT_FOUND + st], 1u);
 }

@@ -2,7 +2,7 @@
 // Final colour = base colour × cell radiance + first-hit emission (the
 // environment for misses); debug views: voxel id, level of detail, cell
 // samples / max_samples, lookup status.
-#include "hash_cache/common.glsl"
+#include "hash_table/table.glsl"
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 
 const uint VIEWS = 4u;

@@ -7,21 +7,18 @@
 // clamp the history to mean ± γσ of the 3×3 current neighbourhood in YCoCg;
 // blend with weight 1/(n+1) floored at α_min (n = history length, kept in w).
 #include "common/camera.glsl"
+#include "interface/hash_taa.glsl"
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 
-layout(set = 1, binding = 1, std430) readonly buffer ColorIn { vec4 color_in[]; };
-layout(set = 1, binding = 2, std430) readonly buffer PositionIn { vec4 position_in[]; };  // w = 1 hit point, w = 0 direction
-layout(set = 1, binding = 3, std430) readonly buffer DepthIn { float depth_in[]; };      // view depth, 0 = miss
-layout(set = 1, binding = 4, std430) readonly buffer HistPrev { vec4 hist_prev[]; };     // rgb, history length
-layout(set = 1, binding = 5, std430) writeonly buffer HistCur { vec4 hist_cur[]; };
-layout(set = 1, binding = 6, std430) readonly buffer HDepthPrev { float hdepth_prev[]; };
-layout(set = 1, binding = 7, std430) writeonly buffer HDepthCur { float hdepth_cur[]; };
-layout(push_constant) uniform Push {
-    float alpha_min;
-    float gamma;
-    float depth_tolerance;
-    uint reset;          // 1: ignore the history (first frame)
-} pc;
+layout(set = SET_HASH_TAA, binding = B_HASH_TAA_COLOR_IN, std430) readonly buffer ColorIn { vec4 color_in[]; };
+layout(set = SET_HASH_TAA, binding = B_HASH_TAA_POSITION_IN, std430) readonly buffer PositionIn { vec4 position_in[]; };  // w = 1 hit point, w = 0 direction
+layout(set = SET_HASH_TAA, binding = B_HASH_TAA_DEPTH_IN, std430) readonly buffer DepthIn { float depth_in[]; };      // view depth, 0 = miss
+layout(set = SET_HASH_TAA, binding = B_HASH_TAA_HIST_PREV, std430) readonly buffer HistPrev { vec4 hist_prev[]; };     // rgb, history length
+layout(set = SET_HASH_TAA, binding = B_HASH_TAA_HIST_CUR, std430) writeonly buffer HistCur { vec4 hist_cur[]; };
+layout(set = SET_HASH_TAA, binding = B_HASH_TAA_HDEPTH_PREV, std430) readonly buffer HDepthPrev { float hdepth_prev[]; };
+layout(set = SET_HASH_TAA, binding = B_HASH_TAA_HDEPTH_CUR, std430) writeonly buffer HDepthCur { float hdepth_cur[]; };
+// alpha_min, gamma, depth_tolerance, reset (1: ignore the history, first frame)
+layout(push_constant) uniform Push { HASH_TAA_PUSH } pc;
 
 vec3 rgb_to_ycocg(vec3 c) {
     return vec3(0.25 * c.r + 0.5 * c.g + 0.25 * c.b, 0.5 * c.r - 0.5 * c.b, -0.25 * c.r + 0.5 * c.g - 0.25 * c.b);

@@ -1,20 +1,19 @@
 // Hybrid (paper §4): the sample cache without shading storage supplies the
 // visible first hits of every pixel; their radiance comes from the hash
 // cache's table, looked up at the hash cache's level of detail L and at its
-// parent L + 1. Descriptor set 1 = the hash cache's bindings 0..13 and push
-// constants (hash_cache/common.glsl, so its update.comp and count.comp run
+// parent L + 1. Descriptor set 1 = the hash table's bindings 0..13 and push
+// constants (hash_table/table.glsl, so its update.comp and count.comp run
 // unchanged on this set) + the sample cache's current mask and first hits.
 // src/methods/hybrid/ owns the buffers and the pass order.
-#include "hash_cache/common.glsl"
+#include "hash_table/table.glsl"
+#include "interface/hybrid.glsl"
 #include "common/first_hit.glsl"
 
-layout(constant_id = 20) const uint N_SLOTS = 12;   // the sample cache's slot count
-layout(set = 1, binding = 14, std430) readonly buffer MaskCur { uint mask_cur[]; };   // [eye][pixel]
-layout(set = 1, binding = 15, std430) readonly buffer FhCur { uvec4 fh_cur[]; };      // [eye][slot][pixel]
+layout(constant_id = SPEC_HYBRID_N_SLOTS) const uint N_SLOTS = 12;   // the sample cache's slot count
+layout(set = SET_HYBRID, binding = B_HYBRID_MASK_CUR, std430) readonly buffer MaskCur { uint mask_cur[]; };   // [eye][pixel]
+layout(set = SET_HYBRID, binding = B_HYBRID_FH_CUR, std430) readonly buffer FhCur { uvec4 fh_cur[]; };      // [eye][slot][pixel]
 
-// Counter slots after the hash cache's (src/methods/hybrid/mod.rs names them).
-const uint C_LOOKED_UP = 11u, C_BOTH = 12u, C_FINE_ONLY = 13u, C_COARSE_ONLY = 14u, C_NO_LEVEL = 15u,
-           C_UPD_FINE = 16u, C_UPD_COARSE = 17u;
+// Counter slots: the table's C_HT_*, then C_HY_* (src/interface/hybrid.rs, HybridCounter).
 
 uint hy_vis_bits(uint m) {
     uint full = N_SLOTS >= 32u ? 0xFFFFFFFFu : (1u << N_SLOTS) - 1u;

@@ -4,7 +4,7 @@
 // level L or the parent L + 1, chosen by a coin toss — is looked up or
 // reserved in the table; the first toucher of an entry this frame becomes its
 // updater. Writes pix_hit / pix_ray / pix_cell in the hash cache's format, so
-// hash_cache/update.comp then traces the secondary path unchanged.
+// hash_table/update.comp then traces the secondary path unchanged.
 #include "hybrid/common.glsl"
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 
@@ -18,7 +18,7 @@ void main() {
     uint vis = hy_surface_bits(eye, pixel, hy_vis_bits(mask_cur[pm]));
     if (vis == 0u) {
         pix_cell[pm] = uvec4(NO_CELL, ST_MISS, 0u, 0u);
-        atomicAdd(counters[C_MISSES], 1u);
+        atomicAdd(counters[C_HT_MISSES], 1u);
         return;
     }
     uvec4 fh = fh_cur[hy_slot_index(eye, hy_update_slot(vis), pixel)];
@@ -40,6 +40,6 @@ void main() {
     pix_hit[pm] = uvec4(floatBitsToUint(bary), fh.z, fh.w);
     pix_ray[pm] = vec4(d, t);
     pix_cell[pm] = uvec4(slot, st | (winner ? 16u : 0u), chk, hc_pack_meta(level, HC_NO_AXIS, local_offset, hc_tiles()));
-    atomicAdd(counters[C_FOUND + st], 1u);
-    atomicAdd(counters[coarse ? C_UPD_COARSE : C_UPD_FINE], 1u);
+    atomicAdd(counters[C_HT_FOUND + st], 1u);
+    atomicAdd(counters[coarse ? C_HY_UPD_COARSE : C_HY_UPD_FINE], 1u);
 }

@@ -1,5 +1,5 @@
 #version 460
-// Hybrid, last pass (after hash_cache/update.comp): every visible sample of
+// Hybrid, last pass (after hash_table/update.comp): every visible sample of
 // the pixel looks up its voxel at the hash cache's level L and the parent
 // L + 1 (find only, no insertion); its colour is base colour × the mean of
 // the levels that hold radiance + emission (the updated sample falls back on
@@ -95,9 +95,9 @@ void main() {
     out_depth[pm] = view_depth(e, best_p);
     out_fh[pm] = best_fh;
     out_albedo[pm] = vec4(best_albedo, 1.0);
-    atomicAdd(counters[C_LOOKED_UP], bitCount(vis));
-    if (n_both > 0u) atomicAdd(counters[C_BOTH], n_both);
-    if (n_fine > 0u) atomicAdd(counters[C_FINE_ONLY], n_fine);
-    if (n_coarse > 0u) atomicAdd(counters[C_COARSE_ONLY], n_coarse);
-    if (n_none > 0u) atomicAdd(counters[C_NO_LEVEL], n_none);
+    atomicAdd(counters[C_HY_LOOKED_UP], bitCount(vis));
+    if (n_both > 0u) atomicAdd(counters[C_HY_BOTH], n_both);
+    if (n_fine > 0u) atomicAdd(counters[C_HY_FINE_ONLY], n_fine);
+    if (n_coarse > 0u) atomicAdd(counters[C_HY_COARSE_ONLY], n_coarse);
+    if (n_none > 0u) atomicAdd(counters[C_HY_NO_LEVEL], n_none);
 }

@@ -12,6 +12,8 @@
 pub mod bench;
 pub mod dielectric;
 pub mod glsl;
+pub mod hash_table;
+pub mod hybrid;
 pub mod isrt;
 pub mod reference;
 pub mod scene;
@@ -30,6 +32,10 @@ pub const ALL: &[&Interface] = &[
     &bench::SCATTER,
     &bench::SCATTER_SLOTS,
     &dielectric::INTERFACE,
+    &hash_table::INTERFACE,
+    &hash_table::TEST,
+    &hash_table::TAA,
+    &hybrid::INTERFACE,
 ];
 
 /// camera.glsl's `FrameBuf` (the per-frame stereo camera, `FrameParams`):

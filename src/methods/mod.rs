@@ -5,6 +5,7 @@ pub mod baseline;
 pub mod frame;
 mod frame_loop;
 pub mod hash_cache;
+pub mod hash_table;
 pub mod hybrid;
 pub mod isrt;
 pub mod outputs;

@@ -1,13 +1,13 @@
 //! Temporal antialiasing as a self-contained pass (`shaders/hash_cache/taa.comp`):
-//! owns its history (colour + length, view depth; double-buffered) and its
-//! descriptor set, and reads a method's colour, first-hit position and depth
-//! buffers. Written for `hash-cache`; kept free of hash-cache state so the
+//! owns its history (colour + length, view depth; double-buffered) and
+//! reads a method's colour, first-hit position and depth buffers (interface
+//! `hash_taa` of src/interface/hash_table.rs). Written for `hash-cache`; kept free of hash-cache state so the
 //! standalone `taa` method can reuse or replace it.
 
 use crate::gpu::{
-    shaders, Buffer, ComputePipeline, DescriptorLayout, DescriptorSet, GpuContext, GpuError,
-    GpuResult, Recorder, Resource,
+    shaders, Buffer, ComputePipeline, DescriptorSet, GpuContext, GpuError, GpuResult, Recorder,
 };
+use crate::interface::hash_table::{TAA, TAA_PUSH};
 use crate::rt::SceneGpu;
 use std::sync::Arc;
 
@@ -18,97 +18,100 @@ pub const GAMMA: f32 = 1.25;
 /// Relative view-depth tolerance of the disocclusion test.
 pub const DEPTH_TOLERANCE: f32 = 0.05;
 
+/// `HASH_TAA_PUSH` of src/interface/hash_table.rs.
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct TaaPush {
+    alpha_min: f32,
+    gamma: f32,
+    depth_tolerance: f32,
+    /// 1: ignore the history (first frame).
+    reset: u32,
+}
+const _: () = assert!(std::mem::size_of::<TaaPush>() == TAA_PUSH.size() as usize);
+
 pub struct Taa {
     pipeline: ComputePipeline,
-    /// sets[p] reads history[p] and writes history[1 − p].
-    sets: [DescriptorSet; 2],
+    /// history[p] is read and history[1 − p] written in a frame of parity p.
     history: [Buffer; 2],
     depth: [Buffer; 2],
     frames: u64,
 }
 
+/// The buffers TAA reads, each `2 × width × height` entries, eye-major.
+#[derive(Clone, Copy)]
+pub struct TaaInputs<'a> {
+    /// The `FrameBuf` of camera.glsl.
+    pub frame: &'a Buffer,
+    pub color: &'a Buffer,
+    /// vec4: hit point with w = 1, or ray direction with w = 0.
+    pub position: &'a Buffer,
+    /// View depth, 0 = miss.
+    pub depth: &'a Buffer,
+}
+
 impl Taa {
-    /// `frame` is the `FrameBuf` of camera.glsl; `color`, `position` (vec4: hit
-    /// point with w = 1, or ray direction with w = 0) and `depth` (view depth,
-    /// 0 = miss) hold `2 × width × height` entries, eye-major.
-    pub fn new(
-        ctx: &Arc<GpuContext>,
-        scene: &SceneGpu,
-        pixels: u64,
-        frame: &Buffer,
-        color: &Buffer,
-        position: &Buffer,
-        depth: &Buffer,
-    ) -> GpuResult<Taa> {
+    /// History for `pixels` entries (both eyes).
+    pub fn new(ctx: &Arc<GpuContext>, scene: &SceneGpu, pixels: u64) -> GpuResult<Taa> {
         let b = |name: &str, bytes: u64| Buffer::storage(ctx, &format!("taa.{name}"), bytes);
         let history = [b("history0", pixels * 16)?, b("history1", pixels * 16)?];
         let hdepth = [b("depth0", pixels * 4)?, b("depth1", pixels * 4)?];
-        let layout = DescriptorLayout::buffers(ctx, 8)?;
-        let make = |p: usize| {
-            DescriptorSet::new(
-                ctx,
-                &layout,
-                &[
-                    Resource::Buffer(frame),
-                    Resource::Buffer(color),
-                    Resource::Buffer(position),
-                    Resource::Buffer(depth),
-                    Resource::Buffer(&history[p]),
-                    Resource::Buffer(&history[1 - p]),
-                    Resource::Buffer(&hdepth[p]),
-                    Resource::Buffer(&hdepth[1 - p]),
-                ],
-            )
-        };
-        let sets = [make(0)?, make(1)?];
         // Traces no rays: one SPIR-V for both ray backends.
         let spirv = shaders::spirv("hash_cache/taa").ok_or_else(|| {
             GpuError::Unsupported("shader hash_cache/taa was not compiled".into())
         })?;
-        let pipeline = ComputePipeline::new(
+        let pipeline = ComputePipeline::with_interface(
             ctx,
             "taa.resolve",
             spirv,
-            &[scene.layout.clone(), layout],
-            16,
+            std::slice::from_ref(&scene.layout),
+            &TAA,
+            Some(&TAA_PUSH),
             &Default::default(),
         )?;
         Ok(Taa {
             pipeline,
-            sets,
             history,
             depth: hdepth,
             frames: 0,
         })
     }
 
-    /// Records the resolve; `inputs` are the buffers given to `new` (for the
-    /// recorder's hazard tracking). Returns the buffer holding the result
-    /// (rgb, history length in w) once the recorder has finished.
-    pub fn record<'a>(
-        &'a mut self,
-        rec: &mut Recorder,
-        scene_set: &DescriptorSet,
-        inputs: [&Buffer; 4],
-        groups: [u32; 3],
-    ) -> &'a Buffer {
-        let p = (self.frames % 2) as usize;
-        let mut push = Vec::with_capacity(16);
-        for f in [ALPHA_MIN, GAMMA, DEPTH_TOLERANCE] {
-            push.extend_from_slice(&f.to_le_bytes());
-        }
-        push.extend_from_slice(&((self.frames == 0) as u32).to_le_bytes());
-        let mut pass = rec.pass("taa");
-        for b in inputs {
-            pass = pass.read(b);
-        }
-        pass.read(&self.history[p])
-            .read(&self.depth[p])
-            .write(&self.history[1 - p])
-            .write(&self.depth[1 - p])
-            .dispatch(&self.pipeline, &[scene_set, &self.sets[p]], &push, groups);
+    /// Starts a frame that runs TAA (before [`Taa::record`]).
+    pub fn begin_frame(&mut self) {
         self.frames += 1;
-        &self.history[1 - p]
+    }
+
+    /// Records the resolve of the frame begun last. Returns the buffer
+    /// holding the result (rgb, history length in w) once the recorder has
+    /// finished.
+    pub fn record<'a>(
+        &'a self,
+        rec: &mut Recorder<'a>,
+        scene_set: &'a DescriptorSet,
+        inputs: TaaInputs<'a>,
+        groups: [u32; 3],
+    ) -> GpuResult<&'a Buffer> {
+        let k = self.frames.saturating_sub(1);
+        let p = (k % 2) as usize;
+        rec.compute("taa", &self.pipeline)
+            .shared(scene_set)
+            .read(inputs.frame)
+            .read(inputs.color)
+            .read(inputs.position)
+            .read(inputs.depth)
+            .read(&self.history[p])
+            .write(&self.history[1 - p])
+            .read(&self.depth[p])
+            .write(&self.depth[1 - p])
+            .push(&TaaPush {
+                alpha_min: ALPHA_MIN,
+                gamma: GAMMA,
+                depth_tolerance: DEPTH_TOLERANCE,
+                reset: (k == 0) as u32,
+            })
+            .dispatch(groups)?;
+        Ok(&self.history[1 - p])
     }
 
     /// Forget the history (the next frame shows the current colour only).

@@ -6,7 +6,7 @@
 // cell's running mean (count capped at max_samples; a freshly reserved or
 // evicted cell starts over). Pixels without a cell (probe failure) trace
 // their own path into `fallback`.
-#include "hash_cache/common.glsl"
+#include "hash_table/table.glsl"
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 
 void main() {
@@ -41,13 +41,13 @@ void main() {
     vec3 demod = max(L - Le, vec3(0.0)) / max(m.base, vec3(1e-3));
     if (st == ST_FAILED) {
         fallback[pm] = vec4(demod, 1.0);
-        atomicAdd(counters[C_FALLBACK], 1u);
+        atomicAdd(counters[C_HT_FALLBACK], 1u);
     } else {
         vec4 c = st == ST_FOUND ? cells[cell.x] : vec4(0.0);
         float n = min(c.w + 1.0, float(pc.max_samples));
         cells[cell.x] = vec4(mix(c.rgb, demod, 1.0 / n), n);
-        atomicAdd(counters[C_UPDATES], 1u);
+        atomicAdd(counters[C_HT_UPDATES], 1u);
     }
-    atomicAdd(counters[C_BOUNCE], rays.bounce);
-    atomicAdd(counters[C_SHADOW], rays.shadow);
+    atomicAdd(counters[C_HT_BOUNCE], rays.bounce);
+    atomicAdd(counters[C_HT_SHADOW], rays.shadow);
 }

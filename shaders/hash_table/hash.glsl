@@ -1,6 +1,6 @@
 // Keys, hashes and the probe sequence of the hash cache. Pure functions, no
 // bindings: the method's passes and hash_test.comp both include this file.
-// CPU twin, bit for bit: src/methods/hash_cache/hash.rs (see its notes).
+// CPU twin, bit for bit: src/methods/hash_table/hash.rs (see its notes).
 //   key   = (ivec3 voxel or tile coordinates, uint meta)
 //   meta  = level + 32 (bits 0-5) | major axis 0..5, 7 = none (6-8)
 //         | offset in the 4x4 tile (9-12) | tiles on (13)

@@ -1,11 +1,12 @@
 #version 460
 // Test kernel: index hash, checksum and the first 16 probe slots of each
-// input key, compared bit for bit with src/methods/hash_cache/hash.rs.
-#include "hash_cache/hash.glsl"
+// input key, compared bit for bit with src/methods/hash_table/hash.rs.
+#include "hash_table/hash.glsl"
+#include "interface/hash_test.glsl"
 layout(local_size_x = 64) in;
-layout(set = 0, binding = 0, std430) readonly buffer Keys { ivec4 keys[]; };   // x, y, z, meta
-layout(set = 0, binding = 1, std430) writeonly buffer Out { uint outs[]; };    // 18 words per key
-layout(push_constant) uniform Push { uint count; uint capacity; } pc;
+layout(set = SET_HASH_TEST, binding = B_HASH_TEST_KEYS, std430) readonly buffer Keys { ivec4 keys[]; };   // x, y, z, meta
+layout(set = SET_HASH_TEST, binding = B_HASH_TEST_OUTS, std430) writeonly buffer Out { uint outs[]; };    // 18 words per key
+layout(push_constant) uniform Push { HASH_TEST_PUSH } pc;
 
 void main() {
     uint i = gl_GlobalInvocationID.x;

@@ -2,43 +2,41 @@
 // Gautron 2021): open addressing with linear probing over a table of
 // `capacity` entries, each a 64-bit word (checksum << 32 | last access frame)
 // and an RGBA32F record (demodulated radiance running mean, sample count):
-// 24 bytes per entry. Descriptor set 1 below; src/methods/hash_cache/ owns
-// the buffers and the pass order (primary → update → resolve → count → taa).
+// 24 bytes per entry. Descriptor set 1 below (bindings 0..13; a method may
+// add its own after 13). src/methods/hash_table/ owns the buffers and the
+// table's passes (update.comp, count.comp); hash_cache/ and hybrid/ add the
+// passes that fill the per-pixel requests and resolve the image.
 #extension GL_EXT_shader_atomic_int64 : require
 #extension GL_ARB_gpu_shader_int64 : require
 #include "common/integrator.glsl"
 #include "common/packing.glsl"
 #include "common/camera.glsl"
-#include "hash_cache/hash.glsl"
+#include "hash_table/hash.glsl"
 
-layout(push_constant) uniform Push {
-    uint capacity;
-    uint max_probe;
-    uint stale;       // entries older than this many frames may be overwritten
-    uint flags;       // bit 0 tiles, bit 1 distance-normal LoD, bit 2 debug views
-    float lod_scale;  // voxel edge / pixel footprint before quantization
-    uint max_samples; // running-mean count cap
-    uint now;         // the method's frame counter mod 2^32 (starts at 1)
-    uint pad;
-} pc;
+#include "interface/hash_table.glsl"
 
-layout(set = 1, binding = 1, std430) coherent buffer Keys { uint64_t keys[]; };
-layout(set = 1, binding = 2, std430) buffer Cells { vec4 cells[]; };          // demodulated mean rgb, count
-layout(set = 1, binding = 3, std430) buffer PixHit { uvec4 pix_hit[]; };      // bary bits x, y, prim, instance
-layout(set = 1, binding = 4, std430) buffer PixRay { vec4 pix_ray[]; };       // jittered direction, t (< 0: miss)
-layout(set = 1, binding = 5, std430) buffer PixCell { uvec4 pix_cell[]; };    // slot, status | winner << 4, checksum, meta
-layout(set = 1, binding = 6, std430) buffer Fallback { vec4 fallback[]; };    // miss: environment; no cell: own path
-layout(set = 1, binding = 7, std430) buffer Color { vec4 color[]; };          // resolved colour before TAA
-layout(set = 1, binding = 8, std430) buffer OutDepth { float out_depth[]; };
-layout(set = 1, binding = 9, std430) buffer OutFh { uvec4 out_fh[]; };
-layout(set = 1, binding = 10, std430) buffer OutAlbedo { vec4 out_albedo[]; };
-layout(set = 1, binding = 11, std430) buffer Position { vec4 position[]; };   // hit point, w = 1; miss: direction, w = 0
-layout(set = 1, binding = 12, std430) buffer Counters { uint counters[]; };
-layout(set = 1, binding = 13, std430) buffer Debug { vec4 debug_out[]; };     // [view][eye][pixel]
+// capacity, max_probe, stale (entries older than this many frames may be
+// overwritten), flags (bit 0 tiles, bit 1 distance-normal LoD, bit 2 debug
+// views), lod_scale (voxel edge / pixel footprint before quantization),
+// max_samples (running-mean count cap), now (the method's frame counter mod
+// 2^32, starts at 1): src/interface/hash_table.rs.
+layout(push_constant) uniform Push { HASH_TABLE_PUSH } pc;
 
-// Counter slots (src/methods/hash_cache/mod.rs names them).
-const uint C_PRIMARY = 0u, C_BOUNCE = 1u, C_SHADOW = 2u, C_FOUND = 3u, C_RESERVED = 4u, C_EVICTED = 5u,
-           C_FAILED = 6u, C_UPDATES = 7u, C_FALLBACK = 8u, C_LIVE = 9u, C_MISSES = 10u;
+layout(set = SET_HASH_TABLE, binding = B_HASH_TABLE_KEYS, std430) coherent buffer Keys { uint64_t keys[]; };
+layout(set = SET_HASH_TABLE, binding = B_HASH_TABLE_CELLS, std430) buffer Cells { vec4 cells[]; };          // demodulated mean rgb, count
+layout(set = SET_HASH_TABLE, binding = B_HASH_TABLE_PIX_HIT, std430) buffer PixHit { uvec4 pix_hit[]; };      // bary bits x, y, prim, instance
+layout(set = SET_HASH_TABLE, binding = B_HASH_TABLE_PIX_RAY, std430) buffer PixRay { vec4 pix_ray[]; };       // jittered direction, t (< 0: miss)
+layout(set = SET_HASH_TABLE, binding = B_HASH_TABLE_PIX_CELL, std430) buffer PixCell { uvec4 pix_cell[]; };    // slot, status | winner << 4, checksum, meta
+layout(set = SET_HASH_TABLE, binding = B_HASH_TABLE_FALLBACK, std430) buffer Fallback { vec4 fallback[]; };    // miss: environment; no cell: own path
+layout(set = SET_HASH_TABLE, binding = B_HASH_TABLE_COLOR, std430) buffer Color { vec4 color[]; };          // resolved colour before TAA
+layout(set = SET_HASH_TABLE, binding = B_HASH_TABLE_OUT_DEPTH, std430) buffer OutDepth { float out_depth[]; };
+layout(set = SET_HASH_TABLE, binding = B_HASH_TABLE_OUT_FH, std430) buffer OutFh { uvec4 out_fh[]; };
+layout(set = SET_HASH_TABLE, binding = B_HASH_TABLE_OUT_ALBEDO, std430) buffer OutAlbedo { vec4 out_albedo[]; };
+layout(set = SET_HASH_TABLE, binding = B_HASH_TABLE_POSITION, std430) buffer Position { vec4 position[]; };   // hit point, w = 1; miss: direction, w = 0
+layout(set = SET_HASH_TABLE, binding = B_HASH_TABLE_COUNTERS, std430) buffer Counters { uint counters[]; };
+layout(set = SET_HASH_TABLE, binding = B_HASH_TABLE_DEBUG, std430) buffer Debug { vec4 debug_out[]; };     // [view][eye][pixel]
+
+// Counter slots: C_HT_* (src/interface/hash_table.rs, TableCounter).
 const uint ST_FOUND = 0u, ST_RESERVED = 1u, ST_EVICTED = 2u, ST_FAILED = 3u, ST_MISS = 4u;
 const uint NO_CELL = 0xFFFFFFFFu;
 
