@@ -8,9 +8,8 @@ use common::*;
 use glam::Vec3;
 use std::collections::HashMap;
 use stereocache::camera::StereoCamera;
-use stereocache::gpu::{
-    shaders, Buffer, ComputePipeline, DescriptorLayout, DescriptorSet, Recorder, Resource,
-};
+use stereocache::gpu::{shaders, Buffer, ComputePipeline, Recorder};
+use stereocache::interface::hash_table;
 use stereocache::methods::hash_cache::hash::{
     entry_checksum, entry_frame, pack_meta, pcg_hash, share_probe_window, VoxelKey, NO_AXIS,
 };
@@ -100,31 +99,24 @@ fn glsl_hashes_and_probe_sequence_match_the_cpu() {
     )
     .unwrap();
     let out = Buffer::storage(&ctx, "test.out", n as u64 * 18 * 4).unwrap();
-    let layout = DescriptorLayout::buffers(&ctx, 2).unwrap();
-    let set = DescriptorSet::new(
-        &ctx,
-        &layout,
-        &[Resource::Buffer(&key_buf), Resource::Buffer(&out)],
-    )
-    .unwrap();
-    let pipe = ComputePipeline::new(
+    let pipe = ComputePipeline::with_interface(
         &ctx,
         "hash_test",
-        shaders::spirv("hash_cache/hash_test").expect("hash_test compiled"),
-        &[layout],
-        8,
+        shaders::spirv("hash_table/hash_test").expect("hash_test compiled"),
+        &[],
+        &hash_table::TEST,
+        Some(&hash_table::TEST_PUSH),
         &Default::default(),
     )
     .unwrap();
     for capacity in [1u32 << 16, 16 * 37] {
         let mut rec = Recorder::new(&ctx, 1).unwrap();
-        let push: Vec<u8> = [n, capacity].iter().flat_map(|v| v.to_le_bytes()).collect();
-        rec.pass("hash_test").read(&key_buf).write(&out).dispatch(
-            &pipe,
-            &[&set],
-            &push,
-            [n.div_ceil(64), 1, 1],
-        );
+        rec.compute("hash_test", &pipe)
+            .read(&key_buf)
+            .write(&out)
+            .push(&[n, capacity])
+            .dispatch([n.div_ceil(64), 1, 1])
+            .unwrap();
         rec.finish().unwrap();
         let got: Vec<u32> = out.download_pod().unwrap();
         for (i, k) in keys.iter().enumerate() {
