@@ -12,6 +12,7 @@ pub mod compare;
 pub mod error;
 pub mod evaluate;
 pub mod gpu;
+pub mod interface;
 pub mod methods;
 pub mod metrics;
 pub mod output;

@@ -84,6 +84,10 @@ pub struct GpuContext {
     abandoned: std::sync::atomic::AtomicBool,
     lost: std::sync::atomic::AtomicBool,
     pub(crate) debug_utils_device: Option<ash::ext::debug_utils::Device>,
+    /// VK_KHR_push_descriptor, enabled where the device has it (the pass
+    /// builder's per-pass bindings; src/gpu/compute_pass.rs falls back to
+    /// per-pass descriptor sets without it).
+    pub(crate) push_descriptor: Option<ash::khr::push_descriptor::Device>,
     pub(crate) allocated_bytes: std::sync::atomic::AtomicU64,
 }
 
@@ -296,6 +300,10 @@ impl GpuContext {
         if use_rq {
             dev_exts.extend(rq_exts.iter().map(|n| n.as_ptr()));
         }
+        let use_push_descriptor = has_ext(ash::khr::push_descriptor::NAME);
+        if use_push_descriptor {
+            dev_exts.push(ash::khr::push_descriptor::NAME.as_ptr());
+        }
         let core_enable = vk::PhysicalDeviceFeatures::default()
             .shader_int64(core.shader_int64 == vk::TRUE)
             .shader_storage_image_write_without_format(
@@ -350,6 +358,8 @@ impl GpuContext {
             use_rq.then(|| ash::khr::acceleration_structure::Device::new(&instance, &device));
         let debug_utils_device =
             validate.then(|| ash::ext::debug_utils::Device::new(&instance, &device));
+        let push_descriptor =
+            use_push_descriptor.then(|| ash::khr::push_descriptor::Device::new(&instance, &device));
 
         let mut caps = caps;
         caps.ray_query = use_rq || (ray_query_ok && !options.want_ray_query);
@@ -373,6 +383,7 @@ impl GpuContext {
             abandoned: Default::default(),
             lost: Default::default(),
             debug_utils_device,
+            push_descriptor,
             allocated_bytes: Default::default(),
         })
     }
