@@ -14,6 +14,7 @@ pub mod dielectric;
 pub mod glsl;
 pub mod isrt;
 pub mod reference;
+pub mod sample_cache;
 pub mod scene;
 pub mod taa;
 mod types;
@@ -26,6 +27,7 @@ pub const ALL: &[&Interface] = &[
     &reference::INTERFACE,
     &taa::INTERFACE,
     &isrt::INTERFACE,
+    &sample_cache::INTERFACE,
     &bench::RAYS,
     &bench::SCATTER,
     &bench::SCATTER_SLOTS,

@@ -223,7 +223,7 @@ impl Method for Hybrid {
         let p = &self.pipes;
 
         let mut rec = Recorder::new(&self.ctx, 24)?;
-        let cur = self.cache.record_visibility(&mut rec, input);
+        let cur = self.cache.record_visibility(&mut rec, input)?;
         let cache = self.cache.current_buffers(cur);
         let frame = self.cache.frame_buffer();
         let sets = [&self.scene.set, &self.sets[cur]];
