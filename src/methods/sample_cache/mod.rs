@@ -20,7 +20,9 @@
 //! their buffers and the shading outputs are 16-byte placeholders). Another
 //! method records [`SampleCache::record_visibility`] (`begin` … `trace`) into
 //! its own recorder, then its own passes on the current cache
-//! ([`SampleCache::current_buffers`]), then calls [`SampleCache::end_frame`];
+//! ([`SampleCache::current_buffers`]), then calls [`SampleCache::end_frame`]
+//! — or, recording from `&'a mut self` for the shared frame loop,
+//! [`SampleCache::begin_frame`] then [`SampleCache::record_begun_visibility`];
 //! [`SampleCache::visibility_counter_output`] gives it the visibility counters
 //! for its own `FrameOutputs`.
 
@@ -551,6 +553,20 @@ impl SampleCache {
         Ok(1 - prev)
     }
 
+    /// [`Self::record_visibility`] for a method that records from
+    /// `&'a mut self` (the shared frame loop), where nothing can be changed
+    /// after recording: call [`Self::begin_frame`] first, then this. Returns
+    /// the index of the buffers that hold this frame's cache.
+    pub fn record_begun_visibility<'a>(
+        &'a self,
+        rec: &mut Recorder<'a>,
+        input: &FrameInput,
+    ) -> GpuResult<usize> {
+        let cur = self.cur();
+        self.record_visibility_from(rec, input, 1 - cur)?;
+        Ok(cur)
+    }
+
     /// The visibility passes of a frame that reads the cache `prev` (0/1).
     fn record_visibility_from<'a>(
         &'a self,
@@ -597,6 +613,13 @@ impl SampleCache {
     /// Ends a frame recorded with [`Self::record_visibility`] (flips the
     /// ping-pong parity; [`Self::snapshot`] then reads this frame's cache).
     pub fn end_frame(&mut self) {
+        self.frames += 1;
+    }
+
+    /// Starts a frame to be recorded with [`Self::record_begun_visibility`]
+    /// (flips the ping-pong parity before recording; [`Self::snapshot`]
+    /// reads this frame's cache once it has run).
+    pub fn begin_frame(&mut self) {
         self.frames += 1;
     }
 
@@ -708,16 +731,13 @@ impl Method for SampleCache {
                 "a visibility-only sample cache does not shade; render it through `hybrid`".into(),
             ));
         }
-        // Frame f reads buffers[f % 2] ("previous") and writes buffers[1 − f % 2];
-        // counting the frame now makes `snapshot` read this frame's cache.
-        let prev = (self.frames % 2) as usize;
-        self.end_frame();
+        self.begin_frame();
         let this: &'a SampleCache = self;
         let Some(sp) = &this.pipes.shading else {
             unreachable!("checked above")
         };
         let (w, h) = (this.settings.width, this.settings.height);
-        this.record_visibility_from(rec, input, prev)?;
+        let prev = 1 - this.record_begun_visibility(rec, input)?;
         let groups = [w.div_ceil(LOCAL), h.div_ceil(LOCAL), 2];
         if let Some(count) = &sp.shade_count {
             this.pass(rec, "shade.count", count, prev)
