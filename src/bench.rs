@@ -3,9 +3,9 @@
 //! specialization` what pipelines specialized to a scene and skipped passes save.
 
 use crate::error::Result;
-use crate::gpu::{
-    shaders, Buffer, ComputePipeline, DescriptorLayout, DescriptorSet, GpuError, Recorder, Resource,
-};
+use crate::gpu::{shaders, Buffer, ComputePipeline, DescriptorSet, GpuError, Recorder};
+use crate::interface::bench::{self, BenchRaysCounter};
+use crate::interface::CounterSlot;
 use crate::methods::{FrameInput, FrameParams};
 use crate::session::Session;
 use serde::Serialize;
@@ -50,34 +50,25 @@ pub fn bench_rays(
     let hits = Buffer::storage(ctx, "bench.hits", n * 16)?;
     let normals = Buffer::storage(ctx, "bench.normals", n * 16)?;
     let counters = Buffer::storage(ctx, "bench.counters", 16)?;
-    let layout = DescriptorLayout::buffers(ctx, 4)?;
-    let set = DescriptorSet::new(
-        ctx,
-        &layout,
-        &[
-            Resource::Buffer(&fbuf),
-            Resource::Buffer(&hits),
-            Resource::Buffer(&normals),
-            Resource::Buffer(&counters),
-        ],
-    )?;
     let name = format!("bench/rays.{}", session.backend.shader_suffix());
     let spirv = shaders::spirv(&name)
         .ok_or_else(|| GpuError::Unsupported(format!("shader {name} missing")))?;
     let spec = session
         .scene_gpu
         .spec_constants(&session.scene.environment, 1, false);
-    let pipe = ComputePipeline::new(
+    let pipe = ComputePipeline::with_interface(
         ctx,
         "bench.rays",
         spirv,
-        &[session.scene_gpu.layout.clone(), layout],
-        4,
+        std::slice::from_ref(&session.scene_gpu.layout),
+        &bench::RAYS,
+        Some(&bench::RAYS_PUSH),
         &spec,
     )?;
     let params = FrameParams::new(frame, width, height, 1, session.scene_gpu.origin);
     let groups = [width.div_ceil(8), height.div_ceil(8), 2];
-    let sets = [&session.scene_gpu.set, &set];
+    let bufs = [&fbuf, &hits, &normals, &counters];
+    let set = &session.scene_gpu.set;
     let mut rec = Recorder::new(ctx, 5 + 2 * repeats)?;
     rec.pass("bench.params")
         .write(&fbuf)
@@ -85,32 +76,12 @@ pub fn bench_rays(
     // One untimed round first: a CPU driver may compile (or load from its
     // disk cache) the pipeline at its first dispatch, which cost up to 5x
     // the round's time in the first run after a rebuild.
-    rec.pass("warmup.primary")
-        .read(&fbuf)
-        .write(&hits)
-        .write(&normals)
-        .write(&counters)
-        .dispatch(&pipe, &sets, &0u32.to_le_bytes(), groups);
-    rec.pass("warmup.bounce")
-        .read(&fbuf)
-        .read(&hits)
-        .read(&normals)
-        .write(&counters)
-        .dispatch(&pipe, &sets, &1u32.to_le_bytes(), groups);
+    rays_pass(&mut rec, "warmup.primary", &pipe, set, bufs, 0, groups)?;
+    rays_pass(&mut rec, "warmup.bounce", &pipe, set, bufs, 1, groups)?;
     rec.pass("bench.clear").write(&counters).fill(0);
     for _ in 0..repeats {
-        rec.pass("primary")
-            .read(&fbuf)
-            .write(&hits)
-            .write(&normals)
-            .write(&counters)
-            .dispatch(&pipe, &sets, &0u32.to_le_bytes(), groups);
-        rec.pass("bounce")
-            .read(&fbuf)
-            .read(&hits)
-            .read(&normals)
-            .write(&counters)
-            .dispatch(&pipe, &sets, &1u32.to_le_bytes(), groups);
+        rays_pass(&mut rec, "primary", &pipe, set, bufs, 0, groups)?;
+        rays_pass(&mut rec, "bounce", &pipe, set, bufs, 1, groups)?;
     }
     let timings = rec.finish()?;
     let c: Vec<u32> = counters.download_pod()?;
@@ -126,11 +97,33 @@ pub fn bench_rays(
         width,
         height,
         repeats,
-        primary_rays: c[0] as u64,
+        primary_rays: c[BenchRaysCounter::PrimaryRays.slot()] as u64,
         primary_ms: ms("primary"),
-        bounce_rays: c[1] as u64,
+        bounce_rays: c[BenchRaysCounter::BounceRays.slot()] as u64,
         bounce_ms: ms("bounce"),
     })
+}
+
+/// One pass of bench/rays.comp in mode 0 (primary) or 1 (bounce); `bufs`
+/// in the binding order of src/interface/bench.rs (frame, hits, normals,
+/// counters).
+fn rays_pass<'a>(
+    rec: &mut Recorder<'a>,
+    name: &str,
+    pipe: &'a ComputePipeline,
+    scene_set: &'a DescriptorSet,
+    bufs: [&'a Buffer; 4],
+    mode: u32,
+    groups: [u32; 3],
+) -> crate::gpu::GpuResult<()> {
+    rec.compute(name, pipe)
+        .shared(scene_set)
+        .read(bufs[0])
+        .write(bufs[1])
+        .write(bufs[2])
+        .write(bufs[3])
+        .push(&mode)
+        .dispatch(groups)
 }
 
 /// Mean milliseconds per frame of the passes whose name starts with `prefix`.
@@ -433,49 +426,31 @@ fn scatter_baselines(
     )?;
     let dst_fh = Buffer::storage(ctx, "scatter.slots.dst_fh", n * slots as u64 * 16)?;
     let dst_rad = Buffer::storage(ctx, "scatter.slots.dst_rad", n * slots as u64 * 16)?;
-    let layout = DescriptorLayout::buffers(ctx, 3)?;
-    let set = DescriptorSet::new(
-        ctx,
-        &layout,
-        &[
-            Resource::Buffer(&fbuf),
-            Resource::Buffer(&src),
-            Resource::Buffer(&dst),
-        ],
-    )?;
-    let slots_layout = DescriptorLayout::buffers(ctx, 6)?;
-    let slots_set = DescriptorSet::new(
-        ctx,
-        &slots_layout,
-        &[
-            Resource::Buffer(&fbuf),
-            Resource::Buffer(&masks),
-            Resource::Buffer(&src_fh),
-            Resource::Buffer(&src_rad),
-            Resource::Buffer(&dst_fh),
-            Resource::Buffer(&dst_rad),
-        ],
-    )?;
     let spec = session
         .scene_gpu
         .spec_constants(&session.scene.environment, 1, false);
     let pipeline = |name: &str,
-                    layout: &std::sync::Arc<DescriptorLayout>,
-                    push: u32|
+                    interface: &'static crate::interface::Interface,
+                    push: Option<&'static crate::interface::PushBlock>|
      -> Result<ComputePipeline> {
         let spirv = shaders::spirv(name)
             .ok_or_else(|| GpuError::Unsupported(format!("shader {name} missing")))?;
-        Ok(ComputePipeline::new(
+        Ok(ComputePipeline::with_interface(
             ctx,
             name,
             spirv,
-            &[session.scene_gpu.layout.clone(), layout.clone()],
+            std::slice::from_ref(&session.scene_gpu.layout),
+            interface,
             push,
             &spec,
         )?)
     };
-    let pipe = pipeline("bench/scatter", &layout, 0)?;
-    let slots_pipe = pipeline("bench/scatter_slots", &slots_layout, 4)?;
+    let pipe = pipeline("bench/scatter", &bench::SCATTER, None)?;
+    let slots_pipe = pipeline(
+        "bench/scatter_slots",
+        &bench::SCATTER_SLOTS,
+        Some(&bench::SCATTER_SLOTS_PUSH),
+    )?;
     let groups = [w.div_ceil(8), h.div_ceil(8), 2];
     let (mut one, mut all) = (0.0, 0.0);
     for (i, cam) in cameras.iter().enumerate() {
@@ -499,24 +474,22 @@ fn scatter_baselines(
             .write(&dst_fh)
             .write(&dst_rad)
             .fill(0);
-        rec.pass("scatter")
+        rec.compute("scatter", &pipe)
+            .shared(&session.scene_gpu.set)
             .read(&fbuf)
             .read(&src)
             .write(&dst)
-            .dispatch(&pipe, &[&session.scene_gpu.set, &set], &[], groups);
-        rec.pass("scatter.slots")
+            .dispatch(groups)?;
+        rec.compute("scatter.slots", &slots_pipe)
+            .shared(&session.scene_gpu.set)
             .read(&fbuf)
             .read(&masks)
             .read(&src_fh)
             .read(&src_rad)
             .write(&dst_fh)
             .write(&dst_rad)
-            .dispatch(
-                &slots_pipe,
-                &[&session.scene_gpu.set, &slots_set],
-                &slots.to_le_bytes(),
-                groups,
-            );
+            .push(&slots)
+            .dispatch(groups)?;
         let t = rec.finish()?;
         if i > 0 {
             let ms = |name: &str| {
