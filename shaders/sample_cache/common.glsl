@@ -2,7 +2,9 @@
 // per eye, N slots per pixel held as N layers; a 32-bit mask per pixel with
 // occupancy bits o_s (0..N−1) and visibility bits v_s (N..2N−1). Per slot:
 // the 128-bit first hit (Listing 1) and a radiance record (demodulated
-// running mean rgb, effective sample count c_s). Descriptor set 1 below;
+// running mean rgb, effective sample count c_s). Descriptor set 1 below:
+// bindings, push constants, counter slots and specialization-constant ids
+// from src/interface/sample_cache.rs (the generated interface/sample_cache.glsl);
 // src/methods/sample_cache/ owns the buffers and the pass order.
 #extension GL_EXT_shader_atomic_int64 : require
 #extension GL_ARB_gpu_shader_int64 : require
@@ -11,56 +13,48 @@
 #extension GL_KHR_shader_subgroup_arithmetic : require
 #extension GL_KHR_shader_subgroup_ballot : require
 #endif
+#include "interface/sample_cache.glsl"
 #include "common/integrator.glsl"
 #include "common/packing.glsl"
 #include "common/camera.glsl"
 #include "common/first_hit.glsl"
 
-layout(constant_id = 20) const uint N_SLOTS = 12;
-layout(constant_id = 21) const uint RETRACE_MODE = 2;   // 0 single, 1 multi, 2 adaptive
-layout(constant_id = 22) const uint SHADING_MODE = 0;   // 0 uniform, 1 adaptive
-layout(constant_id = 23) const uint ACCUM_MODE = 0;     // 0 running mean (+ appendix C clamp), 1 fixed α for view-dependent materials
+layout(constant_id = SPEC_SAMPLE_CACHE_SLOTS) const uint N_SLOTS = 12;
+layout(constant_id = SPEC_SAMPLE_CACHE_RETRACE) const uint RETRACE_MODE = 2;   // 0 single, 1 multi, 2 adaptive
+layout(constant_id = SPEC_SAMPLE_CACHE_SHADING) const uint SHADING_MODE = 0;   // 0 uniform, 1 adaptive
+layout(constant_id = SPEC_SAMPLE_CACHE_ACCUM) const uint ACCUM_MODE = 0;     // 0 running mean (+ appendix C clamp), 1 fixed α for view-dependent materials
 // false: visibility only (the `hybrid` method) — the radiance records are
 // neither read nor written (their buffers are placeholders), and the
 // importance histogram is not counted.
-layout(constant_id = 25) const bool SHADING_STORAGE = true;
+layout(constant_id = SPEC_SAMPLE_CACHE_SHADING_STORAGE) const bool SHADING_STORAGE = true;
 const uint HIST_M = 13;                                 // histogram buckets (§3.5)
 const float C_MAX = 65535.0;                            // effective sample counts saturate here
 
-layout(push_constant) uniform Push {
-    float shading_rate;   // 1.0 = one shading invocation per pixel
-    float fixed_alpha;
-    float eps0;           // retrace tolerance, relative to the hit distance
-    float eps1;           // Eq. 2
-    uint n_target;
-    uint delta;
-    uint blend_mode;      // 0 none, 1 moments, 2 neighbourhood (stereo_blend.comp)
-    float sharpness;      // R of §3.6
-} pc;
+layout(push_constant) uniform Push { SAMPLE_CACHE_PUSH } pc;   // src/interface/sample_cache.rs (PUSH)
 
-layout(set = 1, binding = 1, std430) buffer MaskPrev { uint mask_prev[]; };
-layout(set = 1, binding = 2, std430) buffer MaskCur { uint mask_cur[]; };
-layout(set = 1, binding = 3, std430) buffer FhPrev { uvec4 fh_prev[]; };
-layout(set = 1, binding = 4, std430) buffer FhCur { uvec4 fh_cur[]; };
-layout(set = 1, binding = 5, std430) buffer RadPrev { vec4 rad_prev[]; };
-layout(set = 1, binding = 6, std430) buffer RadCur { vec4 rad_cur[]; };
-layout(set = 1, binding = 7, std430) buffer DepthMin { uint64_t depth_min[]; };  // t_min bits << 32 | Δn bits
-layout(set = 1, binding = 8, std430) buffer DepthMax { uint depth_max[]; };      // t_max bits
-layout(set = 1, binding = 9, std430) buffer Hist { uint hist[]; };               // [eye][HIST_M]
+layout(set = SET_SAMPLE_CACHE, binding = B_SAMPLE_CACHE_MASK_PREV, std430) buffer MaskPrev { uint mask_prev[]; };
+layout(set = SET_SAMPLE_CACHE, binding = B_SAMPLE_CACHE_MASK_CUR, std430) buffer MaskCur { uint mask_cur[]; };
+layout(set = SET_SAMPLE_CACHE, binding = B_SAMPLE_CACHE_FH_PREV, std430) buffer FhPrev { uvec4 fh_prev[]; };
+layout(set = SET_SAMPLE_CACHE, binding = B_SAMPLE_CACHE_FH_CUR, std430) buffer FhCur { uvec4 fh_cur[]; };
+layout(set = SET_SAMPLE_CACHE, binding = B_SAMPLE_CACHE_RAD_PREV, std430) buffer RadPrev { vec4 rad_prev[]; };
+layout(set = SET_SAMPLE_CACHE, binding = B_SAMPLE_CACHE_RAD_CUR, std430) buffer RadCur { vec4 rad_cur[]; };
+layout(set = SET_SAMPLE_CACHE, binding = B_SAMPLE_CACHE_DEPTH_MIN, std430) buffer DepthMin { uint64_t depth_min[]; };  // t_min bits << 32 | Δn bits
+layout(set = SET_SAMPLE_CACHE, binding = B_SAMPLE_CACHE_DEPTH_MAX, std430) buffer DepthMax { uint depth_max[]; };      // t_max bits
+layout(set = SET_SAMPLE_CACHE, binding = B_SAMPLE_CACHE_HIST, std430) buffer Hist { uint hist[]; };               // [eye][HIST_M]
 // state: [0..2) w_min prev, [2..4) w_max prev, [4..6) w_min next, [6..8) w_max next, [8] shade-list length,
 // [9] retrace-list length, [10..12) unshaded pixels, [12..14) base-rate pixels (shade_select.comp phase 0)
-layout(set = 1, binding = 10, std430) buffer State { uint state[]; };
-layout(set = 1, binding = 11, std430) buffer ShadeList { uint shade_list[]; };   // eye << 31 | slot << 26 | pixel
-layout(set = 1, binding = 12, std430) buffer TargetSrc { uint target_src[]; };   // two-pass: v << 31 | (source slot·npix + pixel + 1), reproject.comp
-layout(set = 1, binding = 13, std430) buffer OutColor { vec4 out_color[]; };
-layout(set = 1, binding = 14, std430) buffer OutM1 { vec4 out_m1[]; };
-layout(set = 1, binding = 15, std430) buffer OutM2 { vec4 out_m2[]; };
-layout(set = 1, binding = 16, std430) buffer OutDepth { float out_depth[]; };
-layout(set = 1, binding = 17, std430) buffer OutFh { uvec4 out_fh[]; };
-layout(set = 1, binding = 18, std430) buffer OutAlbedo { vec4 out_albedo[]; };
-layout(set = 1, binding = 19, std430) buffer Counters { uint counters[]; };
-layout(set = 1, binding = 20, std430) buffer PixelAction { uvec4 pixel_action[]; }; // select.comp → trace.comp: trace bits, add count, purge slot + 1, flags; then (adaptive shading) shade_select.comp phase 0 → 1: packed buckets (xy), shadeable visible bits, round robin | flags
-layout(set = 1, binding = 21, std430) buffer PixelStats { uvec4 pixel_stats[]; };   // traced bits, shaded count, fresh, unused
+layout(set = SET_SAMPLE_CACHE, binding = B_SAMPLE_CACHE_STATE, std430) buffer State { uint state[]; };
+layout(set = SET_SAMPLE_CACHE, binding = B_SAMPLE_CACHE_SHADE_LIST, std430) buffer ShadeList { uint shade_list[]; };   // eye << 31 | slot << 26 | pixel
+layout(set = SET_SAMPLE_CACHE, binding = B_SAMPLE_CACHE_TARGET_SRC, std430) buffer TargetSrc { uint target_src[]; };   // two-pass: v << 31 | (source slot·npix + pixel + 1), reproject.comp
+layout(set = SET_SAMPLE_CACHE, binding = B_SAMPLE_CACHE_OUT_COLOR, std430) buffer OutColor { vec4 out_color[]; };
+layout(set = SET_SAMPLE_CACHE, binding = B_SAMPLE_CACHE_OUT_M1, std430) buffer OutM1 { vec4 out_m1[]; };
+layout(set = SET_SAMPLE_CACHE, binding = B_SAMPLE_CACHE_OUT_M2, std430) buffer OutM2 { vec4 out_m2[]; };
+layout(set = SET_SAMPLE_CACHE, binding = B_SAMPLE_CACHE_OUT_DEPTH, std430) buffer OutDepth { float out_depth[]; };
+layout(set = SET_SAMPLE_CACHE, binding = B_SAMPLE_CACHE_OUT_FH, std430) buffer OutFh { uvec4 out_fh[]; };
+layout(set = SET_SAMPLE_CACHE, binding = B_SAMPLE_CACHE_OUT_ALBEDO, std430) buffer OutAlbedo { vec4 out_albedo[]; };
+layout(set = SET_SAMPLE_CACHE, binding = B_SAMPLE_CACHE_COUNTERS, std430) buffer Counters { uint counters[]; };
+layout(set = SET_SAMPLE_CACHE, binding = B_SAMPLE_CACHE_PIXEL_ACTION, std430) buffer PixelAction { uvec4 pixel_action[]; }; // select.comp → trace.comp: trace bits, add count, purge slot + 1, flags; then (adaptive shading) shade_select.comp phase 0 → 1: packed buckets (xy), shadeable visible bits, round robin | flags
+layout(set = SET_SAMPLE_CACHE, binding = B_SAMPLE_CACHE_PIXEL_STATS, std430) buffer PixelStats { uvec4 pixel_stats[]; };   // traced bits, shaded count, fresh, unused
 // Retracing (§3.4) as a compacted list: select.comp appends the slots to
 // retrace (eye << 31 | slot << 26 | pixel), retrace.comp traces them with
 // every lane busy and records per pixel in retrace_found, which trace.comp
@@ -69,10 +63,10 @@ layout(set = 1, binding = 21, std430) buffer PixelStats { uvec4 pixel_stats[]; }
 // (the sample is occluded). Neither bit: the ray found no hit near the
 // stored one (precision at triangle edges) and the slot keeps its
 // visibility, as §3.2 sets v_s = 0 only "if a closer hit is encountered".
-layout(set = 1, binding = 24, std430) buffer RetraceList { uint retrace_list[]; };
-layout(set = 1, binding = 25, std430) buffer RetraceFound { uint retrace_found[]; };  // [eye][pixel]
+layout(set = SET_SAMPLE_CACHE, binding = B_SAMPLE_CACHE_RETRACE_LIST, std430) buffer RetraceList { uint retrace_list[]; };
+layout(set = SET_SAMPLE_CACHE, binding = B_SAMPLE_CACHE_RETRACE_FOUND, std430) buffer RetraceFound { uint retrace_found[]; };  // [eye][pixel]
 // VkDispatchIndirectCommand per list: [0..3) retrace, [4..7) shade (indirect_args.comp).
-layout(set = 1, binding = 26, std430) buffer IndirectArgs { uint indirect_args[]; };
+layout(set = SET_SAMPLE_CACHE, binding = B_SAMPLE_CACHE_INDIRECT_ARGS, std430) buffer IndirectArgs { uint indirect_args[]; };
 // Global atomics, one per subgroup where subgroup operations are compiled in
 // (the `.subgroup` build of the shaders marked `// variant: SUBGROUP_OPS`,
 // chosen when the device supports subgroup arithmetic and ballot), else one
@@ -110,11 +104,18 @@ void list_decode(uint code, out uint eye, out uint slot, out uint pixel) {
     pixel = code & 0x3FFFFFFu;
 }
 
-// Counter slots (src/methods/sample_cache/mod.rs names them).
-const uint C_RETRACE_RAYS = 0u, C_NEW_RAYS = 1u, C_BOUNCE_RAYS = 2u, C_SHADOW_RAYS = 3u, C_HOLES = 4u,
-           C_ADDED = 5u, C_PURGED = 6u, C_REPROJECTED = 7u, C_REPROJECT_FULL = 8u, C_OFFSCREEN = 9u,
-           C_SHADED = 10u, C_REPLACED = 11u, C_EDGE_PIXELS = 12u, C_VISIBLE = 13u, C_BG_RAYS = 14u,
-           C_REPROJECTED_VISIBLE = 15u, C_REPROJECTED_BACKGROUND = 16u;
+// Counter slots: the generated C_SAMPLE_CACHE_* (SampleCacheCounter in
+// src/interface/sample_cache.rs, which names them in reports), under the
+// short names the shaders use.
+const uint C_RETRACE_RAYS = C_SAMPLE_CACHE_RETRACE_RAYS, C_NEW_RAYS = C_SAMPLE_CACHE_NEW_RAYS,
+           C_BOUNCE_RAYS = C_SAMPLE_CACHE_BOUNCE_RAYS, C_SHADOW_RAYS = C_SAMPLE_CACHE_SHADOW_RAYS,
+           C_HOLES = C_SAMPLE_CACHE_HOLES, C_ADDED = C_SAMPLE_CACHE_ADDED, C_PURGED = C_SAMPLE_CACHE_PURGED,
+           C_REPROJECTED = C_SAMPLE_CACHE_REPROJECTED, C_REPROJECT_FULL = C_SAMPLE_CACHE_REPROJECT_FULL,
+           C_OFFSCREEN = C_SAMPLE_CACHE_OFFSCREEN, C_SHADED = C_SAMPLE_CACHE_SHADED,
+           C_REPLACED = C_SAMPLE_CACHE_REPLACED, C_EDGE_PIXELS = C_SAMPLE_CACHE_EDGE_PIXELS,
+           C_VISIBLE = C_SAMPLE_CACHE_VISIBLE, C_BG_RAYS = C_SAMPLE_CACHE_BG_RAYS,
+           C_REPROJECTED_VISIBLE = C_SAMPLE_CACHE_REPROJECTED_VISIBLE,
+           C_REPROJECTED_BACKGROUND = C_SAMPLE_CACHE_REPROJECTED_BACKGROUND;
 
 uint npix() { return frame.size_seed.x * frame.size_seed.y; }
 uint slot_index(uint eye, uint s, uint pixel) { return (eye * N_SLOTS + s) * npix() + pixel; }

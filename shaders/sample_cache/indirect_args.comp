@@ -6,7 +6,7 @@
 // maxComputeWorkGroupCount[0] Vulkan allows; the list passes stride over
 // the rest.
 #include "sample_cache/common.glsl"
-layout(constant_id = 27) const uint ARGS_LIST = 0u;
+layout(constant_id = SPEC_SAMPLE_CACHE_ARGS_LIST) const uint ARGS_LIST = 0u;
 layout(local_size_x = 1) in;
 
 void main() {

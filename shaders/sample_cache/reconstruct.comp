@@ -14,10 +14,10 @@
 // visible sample, and the debug views.
 #include "sample_cache/common.glsl"
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
-layout(set = 1, binding = 22, std430) buffer Debug { vec4 debug_views[]; };   // [view][eye][pixel], 4 views
+layout(set = SET_SAMPLE_CACHE, binding = B_SAMPLE_CACHE_DEBUG, std430) buffer Debug { vec4 debug_views[]; };   // [view][eye][pixel], 4 views
 // The debug views are written only when requested (they are 64 B per pixel of
 // stores that nothing reads otherwise).
-layout(constant_id = 26) const bool DEBUG_VIEWS = false;
+layout(constant_id = SPEC_SAMPLE_CACHE_DEBUG_VIEWS) const bool DEBUG_VIEWS = false;
 
 // Issue 12 item 3 (adaptive shading): the mean demodulated radiance of the
 // shaded visible samples nearest to `px` — the ring of Chebyshev radius r =

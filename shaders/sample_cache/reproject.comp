@@ -7,7 +7,7 @@
 // Successful visible samples update the per-pixel t_min/Δn (64-bit atomicMin)
 // and t_max (atomicMax).
 #include "sample_cache/common.glsl"
-layout(constant_id = 24) const bool TWO_PASS = false;
+layout(constant_id = SPEC_SAMPLE_CACHE_TWO_PASS) const bool TWO_PASS = false;
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 
 // Listing 2's choose_target_slot: a free slot, else (visible samples only)

@@ -31,7 +31,7 @@
 // black: holding the requested rate is the point of adaptive shading.
 #include "sample_cache/common.glsl"
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
-layout(constant_id = 28) const uint SELECT_PHASE = 1u;
+layout(constant_id = SPEC_SAMPLE_CACHE_SELECT_PHASE) const uint SELECT_PHASE = 1u;
 
 // state[] entries written by phase 0 (reset by begin.comp), per eye.
 const uint S_UNSHADED = 10u;   // non-base pixels whose visible samples are all unshaded

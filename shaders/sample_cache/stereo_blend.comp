@@ -25,7 +25,7 @@
 // the sharpness parameter trades. CPU twin of the math: src/stereo/blend.rs.
 #include "sample_cache/common.glsl"
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
-layout(set = 1, binding = 23, std430) buffer OutBlended { vec4 out_blended[]; };
+layout(set = SET_SAMPLE_CACHE, binding = B_SAMPLE_CACHE_OUT_BLENDED, std430) buffer OutBlended { vec4 out_blended[]; };
 
 float dodgson(float s, float r) {
     float a = abs(s);

@@ -16,6 +16,7 @@ pub mod hash_table;
 pub mod hybrid;
 pub mod isrt;
 pub mod reference;
+pub mod sample_cache;
 pub mod scene;
 pub mod taa;
 mod types;
@@ -28,6 +29,7 @@ pub const ALL: &[&Interface] = &[
     &reference::INTERFACE,
     &taa::INTERFACE,
     &isrt::INTERFACE,
+    &sample_cache::INTERFACE,
     &bench::RAYS,
     &bench::SCATTER,
     &bench::SCATTER_SLOTS,

@@ -143,7 +143,7 @@ impl Method for Hybrid {
         let (p, t, scene_set) = (&this.pipes, &this.table, &this.scene.set);
         let px = t.pixels();
 
-        let cur = this.cache.record_visibility(rec, input);
+        let cur = this.cache.record_visibility(rec, input)?;
         let cache = this.cache.current_buffers(cur);
         let frame = this.cache.frame_buffer();
         t.record_clear(rec);

@@ -10,6 +10,9 @@
 //! Passes per frame (both eyes in one dispatch each, `z` = eye):
 //! `begin` → `clear` → `reproject` (→ `reproject.copy` for two-pass) →
 //! `select` → `trace` → (`shade.count` for adaptive shading →) `shade.select` → `shade` → `reconstruct`.
+//! Every pass binds the 27 buffers of src/interface/sample_cache.rs (one
+//! binding list for the group, declared in order by [`SampleCache::pass`]);
+//! the shared frame loop reads the outputs and counters back.
 //!
 //! **Visibility only** ([`SampleCache::visibility_only`], used by `hybrid`):
 //! the same cache without shading storage (specialization constant
@@ -17,7 +20,11 @@
 //! their buffers and the shading outputs are 16-byte placeholders). Another
 //! method records [`SampleCache::record_visibility`] (`begin` … `trace`) into
 //! its own recorder, then its own passes on the current cache
-//! ([`SampleCache::current_buffers`]), then calls [`SampleCache::end_frame`].
+//! ([`SampleCache::current_buffers`]), then calls [`SampleCache::end_frame`]
+//! — or, recording from `&'a mut self` for the shared frame loop,
+//! [`SampleCache::begin_frame`] then [`SampleCache::record_begun_visibility`];
+//! [`SampleCache::visibility_counter_output`] gives it the visibility counters
+//! for its own `FrameOutputs`.
 
 pub mod args;
 pub mod background;
@@ -28,56 +35,41 @@ pub use settings::{Accumulation, Reproject, Retrace, SampleCacheSettings, Shadin
 
 use super::reference::backend_shader;
 use super::{
-    named_counters, FrameInput, FrameParams, FrameStats, Method, OutputBuffers, RayCounts,
-    RenderSettings, StereoFrame,
+    Color, CounterOutput, FrameInput, FrameOutputs, FrameParams, Method, RaySlots, RenderSettings,
 };
 use crate::gpu::{
-    Buffer, ComputePipeline, DescriptorLayout, DescriptorSet, GpuContext, GpuError, GpuResult,
-    Recorder, Resource, SpecConstants,
+    Buffer, ComputePass, ComputePipeline, GpuContext, GpuError, GpuResult, HostReadback, Recorder,
+    SpecConstants,
 };
+use crate::interface::sample_cache::{
+    spec as spec_id, SampleCacheCounter, COUNTER_SLOTS, INTERFACE, PUSH,
+};
+use crate::interface::CounterSlot;
 use crate::rt::SceneGpu;
 use crate::scene::Environment;
+use bytemuck::{Pod, Zeroable};
 use std::sync::Arc;
-
-/// Specialization constant ids of shaders/sample_cache/common.glsl.
-mod spec_id {
-    pub const SLOTS: u32 = 20;
-    pub const RETRACE: u32 = 21;
-    pub const SHADING: u32 = 22;
-    pub const ACCUM: u32 = 23;
-    pub const TWO_PASS: u32 = 24;
-    pub const SHADING_STORAGE: u32 = 25;
-    pub const DEBUG_VIEWS: u32 = 26;
-    /// indirect_args.comp: which list's dispatch it writes (0 retrace, 1 shade).
-    pub const ARGS_LIST: u32 = 27;
-    /// shade_select.comp: 0 counts the importance histogram, 1 selects.
-    pub const SELECT_PHASE: u32 = 28;
-}
-
-/// Counter slots written by the shaders (common.glsl `C_*`), with report names.
-const COUNTERS: &[(usize, &str)] = &[
-    (0, "retrace_rays"),
-    (1, "new_sample_rays"),
-    (4, "holes_filled"),
-    (5, "samples_added"),
-    (6, "slots_purged"),
-    (7, "reprojected_samples"),
-    (8, "reproject_no_free_slot"),
-    (9, "reproject_offscreen"),
-    (10, "shaded_samples"),
-    (11, "last_visible_replaced"),
-    (12, "edge_pixels"),
-    (13, "visible_samples"),
-    (14, "background_rays"),
-    (15, "reprojected_visible"),
-    (16, "reprojected_visible_background"),
-];
 
 /// Names of the debug views, in the order the reconstruct pass writes them.
 pub const DEBUG_VIEWS: [&str; 4] = ["trace-mask", "spp", "shaded", "occupancy"];
 
 const LOCAL: u32 = 8;
 const HIST_M: u64 = heuristics::HIST_M as u64;
+
+/// Push constants of every pass (`SAMPLE_CACHE_PUSH`, src/interface/sample_cache.rs).
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct Push {
+    shading_rate: f32,
+    fixed_alpha: f32,
+    eps0: f32,
+    eps1: f32,
+    n_target: u32,
+    delta: u32,
+    blend_mode: u32,
+    sharpness: f32,
+}
+const _: () = assert!(std::mem::size_of::<Push>() == PUSH.size() as usize);
 
 /// The cache's contents read back from the GPU (current frame), for tests
 /// and debugging. Indices: mask `[eye][pixel]`, slots `[eye][slot][pixel]`.
@@ -183,8 +175,7 @@ pub struct SampleCache {
     settings: RenderSettings,
     cache: SampleCacheSettings,
     pipes: Pipelines,
-    /// sets[p] reads buffers[p] as "previous" and writes buffers[1 − p].
-    sets: [DescriptorSet; 2],
+    push: Push,
     frame: Buffer,
     masks: [Buffer; 2],
     first_hits: [Buffer; 2],
@@ -214,6 +205,7 @@ pub struct SampleCache {
     out_blended: Buffer,
     /// Frames rendered so far (selects the ping-pong parity).
     frames: u64,
+    readback: HostReadback,
 }
 
 impl SampleCache {
@@ -285,7 +277,7 @@ impl SampleCache {
         let out_depth = sb("depth", e2 * 4)?;
         let out_fh = sb("out_first_hit", e2 * 16)?;
         let out_albedo = sb("albedo", e2 * 16)?;
-        let counters = b("counters", 32 * 4)?;
+        let counters = b("counters", COUNTER_SLOTS * 4)?;
         let pixel_action = b("pixel_action", e2 * 16)?;
         let pixel_stats = b("pixel_stats", e2 * 16)?;
         let retrace_list = b("retrace_list", e2 * n * 4)?;
@@ -293,45 +285,6 @@ impl SampleCache {
         let indirect = Buffer::indirect_args(ctx, "sample_cache.indirect_args", 32)?;
         let debug = sb("debug", 4 * e2 * 16)?;
         let out_blended = sb("blended", e2 * 16)?;
-
-        let layout = DescriptorLayout::buffers(ctx, 27)?;
-        let make_set = |p: usize| {
-            let q = 1 - p;
-            DescriptorSet::new(
-                ctx,
-                &layout,
-                &[
-                    Resource::Buffer(&frame),
-                    Resource::Buffer(&masks[p]),
-                    Resource::Buffer(&masks[q]),
-                    Resource::Buffer(&first_hits[p]),
-                    Resource::Buffer(&first_hits[q]),
-                    Resource::Buffer(&radiance[p]),
-                    Resource::Buffer(&radiance[q]),
-                    Resource::Buffer(&depth_min),
-                    Resource::Buffer(&depth_max),
-                    Resource::Buffer(&hist),
-                    Resource::Buffer(&state),
-                    Resource::Buffer(&shade_list),
-                    Resource::Buffer(&target_src),
-                    Resource::Buffer(&out_color),
-                    Resource::Buffer(&out_m1),
-                    Resource::Buffer(&out_m2),
-                    Resource::Buffer(&out_depth),
-                    Resource::Buffer(&out_fh),
-                    Resource::Buffer(&out_albedo),
-                    Resource::Buffer(&counters),
-                    Resource::Buffer(&pixel_action),
-                    Resource::Buffer(&pixel_stats),
-                    Resource::Buffer(&debug),
-                    Resource::Buffer(&out_blended),
-                    Resource::Buffer(&retrace_list),
-                    Resource::Buffer(&retrace_found),
-                    Resource::Buffer(&indirect),
-                ],
-            )
-        };
-        let sets = [make_set(0)?, make_set(1)?];
 
         let mut spec = settings.spec_constants(scene, env);
         spec.set(spec_id::SLOTS, cache.slots)
@@ -344,8 +297,7 @@ impl SampleCache {
             .flag(spec_id::TWO_PASS, two_pass)
             .flag(spec_id::SHADING_STORAGE, shading)
             .flag(spec_id::DEBUG_VIEWS, cache.debug_views);
-        let layouts = [scene.layout.clone(), layout];
-        let push = 32;
+        let shared = [scene.layout.clone()];
         // The `.subgroup` build of a shader where it exists and the device
         // can run it (subgroup arithmetic and ballot in compute shaders).
         let subgroup =
@@ -360,12 +312,13 @@ impl SampleCache {
             backend_shader(&format!("sample_cache/{name}"), scene)
         };
         let pipe_with = |name: &str, label: &str, spec: &SpecConstants| {
-            ComputePipeline::new(
+            ComputePipeline::with_interface(
                 ctx,
                 &format!("sample_cache.{label}"),
                 shader(name)?,
-                &layouts,
-                push,
+                &shared,
+                &INTERFACE,
+                Some(&PUSH),
                 spec,
             )
         };
@@ -447,9 +400,9 @@ impl SampleCache {
             ctx: ctx.clone(),
             scene: scene.clone(),
             settings: settings.clone(),
+            push: push_constants(&cache),
             cache,
             pipes,
-            sets,
             frame,
             masks,
             first_hits,
@@ -476,28 +429,8 @@ impl SampleCache {
             out_blended,
             subgroup,
             frames: 0,
+            readback: HostReadback::new(),
         })
-    }
-
-    fn push_constants(&self) -> Vec<u8> {
-        let c = &self.cache;
-        let fixed = match c.accumulation {
-            Accumulation::FixedAlpha(a) => a,
-            Accumulation::RunningMean => 0.0,
-        };
-        let mut v = Vec::with_capacity(32);
-        for f in [c.shading_rate, fixed, c.eps0, c.eps1] {
-            v.extend_from_slice(&f.to_le_bytes());
-        }
-        let blend = match c.stereo_blend {
-            crate::stereo::BlendMode::None => 0u32,
-            crate::stereo::BlendMode::Moments => 1,
-            crate::stereo::BlendMode::Neighbourhood => 2,
-        };
-        for u in [c.n_target, c.delta, blend, c.sharpness.to_bits()] {
-            v.extend_from_slice(&u.to_le_bytes());
-        }
-        v
     }
 
     /// Index (0/1) of the buffers holding the current frame's cache.
@@ -558,39 +491,101 @@ impl SampleCache {
         })
     }
 
+    /// A compute pass of this group running `pipe`, with the scene's set
+    /// and all 27 buffers of src/interface/sample_cache.rs declared in
+    /// binding order — `prev` (0/1) the ping-pong half read as the previous
+    /// frame's cache, `1 − prev` the one written — and the push constants.
+    /// The group has one binding list, so every pass declares every buffer
+    /// (barriers are conservative: whatever a pass may write is declared
+    /// written).
+    fn pass<'r, 'a>(
+        &'a self,
+        rec: &'r mut Recorder<'a>,
+        name: &str,
+        pipe: &'a ComputePipeline,
+        prev: usize,
+    ) -> ComputePass<'r, 'a> {
+        let cur = 1 - prev;
+        rec.compute(name, pipe)
+            .shared(&self.scene.set)
+            .read(&self.frame)
+            .read(&self.masks[prev])
+            .write(&self.masks[cur])
+            .read(&self.first_hits[prev])
+            .write(&self.first_hits[cur])
+            .read(&self.radiance[prev])
+            .write(&self.radiance[cur])
+            .write(&self.depth_min)
+            .write(&self.depth_max)
+            .write(&self.hist)
+            .write(&self.state)
+            .write(&self.shade_list)
+            .write(&self.target_src)
+            .write(&self.out_color)
+            .write(&self.out_m1)
+            .write(&self.out_m2)
+            .write(&self.out_depth)
+            .write(&self.out_fh)
+            .write(&self.out_albedo)
+            .write(&self.counters)
+            .write(&self.pixel_action)
+            .write(&self.pixel_stats)
+            .write(&self.debug)
+            .write(&self.out_blended)
+            .write(&self.retrace_list)
+            .write(&self.retrace_found)
+            .write(&self.indirect)
+            .push(&self.push)
+    }
+
     /// Records this frame's visibility passes (`params`, `begin`, `clear`,
     /// `reproject`, `select`, `trace`) into `rec` and returns the index of the
     /// buffers that hold this frame's cache ([`Self::current_buffers`]).
     /// Writes `input` into [`Self::frame_buffer`]. Call [`Self::end_frame`]
     /// after the recorder has finished.
-    pub fn record_visibility(&self, rec: &mut Recorder, input: &FrameInput) -> usize {
-        let (w, h) = (self.settings.width, self.settings.height);
+    pub fn record_visibility<'a>(
+        &'a self,
+        rec: &mut Recorder<'a>,
+        input: &FrameInput,
+    ) -> GpuResult<usize> {
         // Frame f reads buffers[f % 2] ("previous") and writes buffers[1 − f % 2].
-        let parity = (self.frames % 2) as usize;
-        let (cur_mask, cur_fh, cur_rad) = (
-            &self.masks[1 - parity],
-            &self.first_hits[1 - parity],
-            &self.radiance[1 - parity],
-        );
-        let (prev_mask, prev_fh, prev_rad) = (
-            &self.masks[parity],
-            &self.first_hits[parity],
-            &self.radiance[parity],
-        );
+        let prev = (self.frames % 2) as usize;
+        self.record_visibility_from(rec, input, prev)?;
+        Ok(1 - prev)
+    }
+
+    /// [`Self::record_visibility`] for a method that records from
+    /// `&'a mut self` (the shared frame loop), where nothing can be changed
+    /// after recording: call [`Self::begin_frame`] first, then this. Returns
+    /// the index of the buffers that hold this frame's cache.
+    pub fn record_begun_visibility<'a>(
+        &'a self,
+        rec: &mut Recorder<'a>,
+        input: &FrameInput,
+    ) -> GpuResult<usize> {
+        let cur = self.cur();
+        self.record_visibility_from(rec, input, 1 - cur)?;
+        Ok(cur)
+    }
+
+    /// The visibility passes of a frame that reads the cache `prev` (0/1).
+    fn record_visibility_from<'a>(
+        &'a self,
+        rec: &mut Recorder<'a>,
+        input: &FrameInput,
+        prev: usize,
+    ) -> GpuResult<()> {
+        let (w, h) = (self.settings.width, self.settings.height);
+        let cur_mask = &self.masks[1 - prev];
         let mut params = FrameParams::new(input, w, h, self.settings.seed, self.scene.origin);
         params.size_seed[3] = input.index;
-        let push = self.push_constants();
-        let sets = [&self.scene.set, &self.sets[parity]];
         let groups = [w.div_ceil(LOCAL), h.div_ceil(LOCAL), 2];
         let p = &self.pipes;
         rec.pass("params")
             .write(&self.frame)
             .update(bytemuck::bytes_of(&params));
-        rec.pass("begin")
-            .write(&self.state)
-            .write(&self.hist)
-            .write(&self.counters)
-            .dispatch(&p.begin, &sets, &push, [1, 1, 1]);
+        self.pass(rec, "begin", &p.begin, prev)
+            .dispatch([1, 1, 1])?;
         rec.pass("clear")
             .write(cur_mask)
             .write(&self.depth_max)
@@ -601,67 +596,31 @@ impl SampleCache {
         if p.reproject_copy.is_some() {
             rec.pass("clear.targets").write(&self.target_src).fill(0);
         }
-        rec.pass("reproject")
-            .read(&self.frame)
-            .read(prev_mask)
-            .read(prev_fh)
-            .read(prev_rad)
-            .write(cur_mask)
-            .write(cur_fh)
-            .write(cur_rad)
-            .write(&self.depth_min)
-            .write(&self.depth_max)
-            .write(&self.hist)
-            .write(&self.state)
-            .write(&self.counters)
-            .write(&self.target_src)
-            .dispatch(&p.reproject, &sets, &push, groups);
+        self.pass(rec, "reproject", &p.reproject, prev)
+            .dispatch(groups)?;
         if let Some(copy) = &p.reproject_copy {
-            rec.pass("reproject.copy")
-                .write(cur_mask)
-                .read(&self.target_src)
-                .read(prev_fh)
-                .read(prev_rad)
-                .write(cur_fh)
-                .write(cur_rad)
-                .dispatch(copy, &sets, &push, groups);
+            self.pass(rec, "reproject.copy", copy, prev)
+                .dispatch(groups)?;
         }
-        rec.pass("select")
-            .read(cur_mask)
-            .read(&self.depth_min)
-            .read(&self.depth_max)
-            .write(&self.pixel_action)
-            .write(&self.state)
-            .write(&self.retrace_list)
-            .write(&self.retrace_found)
-            .dispatch(&p.select, &sets, &push, groups);
-        rec.pass("trace.args")
-            .read(&self.state)
-            .write(&self.indirect)
-            .dispatch(&p.retrace_args, &sets, &push, [1, 1, 1]);
-        rec.pass("trace.retrace")
-            .read(&self.frame)
-            .read(&self.state)
-            .read(&self.retrace_list)
-            .read(cur_fh)
-            .write(&self.retrace_found)
-            .write(&self.counters)
-            .dispatch_indirect(&p.retrace, &sets, &push, &self.indirect, 0);
-        rec.pass("trace")
-            .read(&self.pixel_action)
-            .read(&self.retrace_found)
-            .write(cur_mask)
-            .write(cur_fh)
-            .write(cur_rad)
-            .write(&self.pixel_stats)
-            .write(&self.counters)
-            .dispatch(&p.trace, &sets, &push, groups);
-        1 - parity
+        self.pass(rec, "select", &p.select, prev).dispatch(groups)?;
+        self.pass(rec, "trace.args", &p.retrace_args, prev)
+            .dispatch([1, 1, 1])?;
+        self.pass(rec, "trace.retrace", &p.retrace, prev)
+            .dispatch_indirect(&self.indirect, 0)?;
+        self.pass(rec, "trace", &p.trace, prev).dispatch(groups)?;
+        Ok(())
     }
 
     /// Ends a frame recorded with [`Self::record_visibility`] (flips the
     /// ping-pong parity; [`Self::snapshot`] then reads this frame's cache).
     pub fn end_frame(&mut self) {
+        self.frames += 1;
+    }
+
+    /// Starts a frame to be recorded with [`Self::record_begun_visibility`]
+    /// (flips the ping-pong parity before recording; [`Self::snapshot`]
+    /// reads this frame's cache once it has run).
+    pub fn begin_frame(&mut self) {
         self.frames += 1;
     }
 
@@ -686,20 +645,38 @@ impl SampleCache {
     /// (`retrace_rays`, `new_sample_rays`, `visible_samples`, ...), and the
     /// primary rays it traced (retrace + new samples + background).
     pub fn visibility_counters(&self) -> GpuResult<(u64, std::collections::BTreeMap<String, f64>)> {
+        use SampleCacheCounter::*;
         let counters: Vec<u32> = self.counters.download_pod()?;
+        let at = |c: SampleCacheCounter| counters[c.slot()] as u64;
         let mut named = std::collections::BTreeMap::new();
-        for (i, name) in COUNTERS {
-            if *name != "shaded_samples" {
-                named.insert(name.to_string(), counters[*i] as f64);
+        for &c in SampleCacheCounter::ALL {
+            match c.report_name() {
+                Some(name) if c != Shaded => {
+                    named.insert(name.to_string(), at(c) as f64);
+                }
+                _ => {}
             }
         }
         let npix = (self.settings.width * self.settings.height) as f64;
         named.insert(
             "visible_samples_per_pixel".into(),
-            counters[13] as f64 / (2.0 * npix),
+            at(Visible) as f64 / (2.0 * npix),
         );
-        let primary = counters[0] as u64 + counters[1] as u64 + counters[14] as u64;
-        Ok((primary, named))
+        Ok((at(RetraceRays) + at(NewRays) + at(BgRays), named))
+    }
+
+    /// The same visibility counters for the shared frame loop's readback, for
+    /// a method that records [`Self::record_visibility`] and returns its own
+    /// `FrameOutputs`: every reported slot but `shaded_samples`,
+    /// `visible_samples_per_pixel`, and retrace + new-sample + background
+    /// rays as primary rays.
+    pub fn visibility_counter_output(&self) -> CounterOutput<'_> {
+        use SampleCacheCounter::*;
+        let mut c = CounterOutput::of::<SampleCacheCounter>(&self.counters)
+            .rays(RaySlots::of(&[RetraceRays, NewRays, BgRays], &[], &[]))
+            .per_pixel(Visible, "visible_samples_per_pixel");
+        c.report.retain(|(slot, _)| *slot != Shaded.slot());
+        c
     }
 
     pub fn settings(&self) -> &SampleCacheSettings {
@@ -713,120 +690,99 @@ impl SampleCache {
     }
 }
 
+/// The push constants of `c` (the same for every pass and frame).
+fn push_constants(c: &SampleCacheSettings) -> Push {
+    let fixed_alpha = match c.accumulation {
+        Accumulation::FixedAlpha(a) => a,
+        Accumulation::RunningMean => 0.0,
+    };
+    let blend_mode = match c.stereo_blend {
+        crate::stereo::BlendMode::None => 0,
+        crate::stereo::BlendMode::Moments => 1,
+        crate::stereo::BlendMode::Neighbourhood => 2,
+    };
+    Push {
+        shading_rate: c.shading_rate,
+        fixed_alpha,
+        eps0: c.eps0,
+        eps1: c.eps1,
+        n_target: c.n_target,
+        delta: c.delta,
+        blend_mode,
+        sharpness: c.sharpness,
+    }
+}
+
 impl Method for SampleCache {
     fn name(&self) -> &'static str {
         "sample-cache"
     }
 
-    fn render_frame(&mut self, input: &FrameInput) -> GpuResult<StereoFrame> {
-        let (w, h) = (self.settings.width, self.settings.height);
-        let npix = (w * h) as usize;
-        let Some(sp) = &self.pipes.shading else {
+    fn context(&self) -> &Arc<GpuContext> {
+        &self.ctx
+    }
+
+    fn record<'a>(
+        &'a mut self,
+        rec: &mut Recorder<'a>,
+        input: &FrameInput,
+    ) -> GpuResult<FrameOutputs<'a>> {
+        if self.pipes.shading.is_none() {
             return Err(GpuError::Unsupported(
                 "a visibility-only sample cache does not shade; render it through `hybrid`".into(),
             ));
+        }
+        self.begin_frame();
+        let this: &'a SampleCache = self;
+        let Some(sp) = &this.pipes.shading else {
+            unreachable!("checked above")
         };
-        let mut rec = Recorder::new(&self.ctx, 20)?;
-        let cur = self.record_visibility(&mut rec, input);
-        let (cur_mask, cur_fh, cur_rad) =
-            (&self.masks[cur], &self.first_hits[cur], &self.radiance[cur]);
-        let push = self.push_constants();
-        let sets = [&self.scene.set, &self.sets[1 - cur]];
+        let (w, h) = (this.settings.width, this.settings.height);
+        let prev = 1 - this.record_begun_visibility(rec, input)?;
         let groups = [w.div_ceil(LOCAL), h.div_ceil(LOCAL), 2];
         if let Some(count) = &sp.shade_count {
-            rec.pass("shade.count")
-                .read(cur_mask)
-                .read(cur_fh)
-                .read(cur_rad)
-                .write(&self.pixel_action)
-                .write(&self.hist)
-                .write(&self.state)
-                .dispatch(count, &sets, &push, groups);
+            this.pass(rec, "shade.count", count, prev)
+                .dispatch(groups)?;
         }
-        rec.pass("shade.select")
-            .read(cur_mask)
-            .read(cur_fh)
-            .read(cur_rad)
-            .read(&self.pixel_action)
-            .read(&self.hist)
-            .write(&self.state)
-            .write(&self.shade_list)
-            .dispatch(&sp.shade_select, &sets, &push, groups);
+        this.pass(rec, "shade.select", &sp.shade_select, prev)
+            .dispatch(groups)?;
         // shade.comp runs over the list's length (indirect dispatch).
-        rec.pass("shade.args")
-            .read(&self.state)
-            .write(&self.indirect)
-            .dispatch(&sp.shade_args, &sets, &push, [1, 1, 1]);
-        rec.pass("shade")
-            .read(&self.shade_list)
-            .read(&self.state)
-            .read(cur_fh)
-            .write(cur_rad)
-            .write(&self.pixel_stats)
-            .write(&self.counters)
-            .dispatch_indirect(&sp.shade, &sets, &push, &self.indirect, 16);
-        rec.pass("reconstruct")
-            .read(cur_mask)
-            .read(cur_fh)
-            .read(cur_rad)
-            .read(&self.pixel_stats)
-            .write(&self.out_color)
-            .write(&self.out_m1)
-            .write(&self.out_m2)
-            .write(&self.out_depth)
-            .write(&self.out_fh)
-            .write(&self.out_albedo)
-            .write(&self.debug)
-            .dispatch(&sp.reconstruct, &sets, &push, groups);
-        let blend = self.cache.stereo_blend != crate::stereo::BlendMode::None;
+        this.pass(rec, "shade.args", &sp.shade_args, prev)
+            .dispatch([1, 1, 1])?;
+        this.pass(rec, "shade", &sp.shade, prev)
+            .dispatch_indirect(&this.indirect, 16)?;
+        this.pass(rec, "reconstruct", &sp.reconstruct, prev)
+            .dispatch(groups)?;
+        let blend = this.cache.stereo_blend != crate::stereo::BlendMode::None;
         if blend {
-            rec.pass("stereo.blend")
-                .read(&self.out_color)
-                .read(&self.out_m1)
-                .read(&self.out_m2)
-                .read(&self.out_depth)
-                .read(&self.out_fh)
-                .write(&self.out_blended)
-                .dispatch(&sp.stereo_blend, &sets, &push, groups);
+            this.pass(rec, "stereo.blend", &sp.stereo_blend, prev)
+                .dispatch(groups)?;
         }
-        let passes = rec.finish()?;
-        self.end_frame();
-
-        let outputs = OutputBuffers {
-            color: if blend {
-                &self.out_blended
-            } else {
-                &self.out_color
-            },
-            depth: &self.out_depth,
-            first_hit: &self.out_fh,
-            albedo: &self.out_albedo,
-            debug: self
-                .cache
-                .debug_views
-                .then_some((&self.debug, &DEBUG_VIEWS[..])),
-        };
-        let eyes = outputs.read(npix)?;
-        let counters: Vec<u32> = self.counters.download_pod()?;
-        let mut stats = FrameStats {
-            passes,
-            rays: RayCounts {
-                primary: counters[0] as u64 + counters[1] as u64 + counters[14] as u64,
-                bounce: counters[2] as u64,
-                shadow: counters[3] as u64,
-            },
-            counters: Default::default(),
-        };
-        stats.counters = named_counters(&counters, COUNTERS);
-        stats.counters.insert(
-            "visible_samples_per_pixel".into(),
-            counters[13] as f64 / (2 * npix) as f64,
-        );
-        Ok(StereoFrame {
+        use SampleCacheCounter::*;
+        Ok(FrameOutputs {
             width: w,
             height: h,
-            eyes,
-            stats,
+            color: Color::Radiance(if blend {
+                &this.out_blended
+            } else {
+                &this.out_color
+            }),
+            depth: &this.out_depth,
+            first_hit: &this.out_fh,
+            albedo: &this.out_albedo,
+            debug: this
+                .cache
+                .debug_views
+                .then_some((&this.debug, &DEBUG_VIEWS[..])),
+            counters: vec![CounterOutput::of::<SampleCacheCounter>(&this.counters)
+                .rays(RaySlots::of(
+                    &[RetraceRays, NewRays, BgRays],
+                    &[BounceRays],
+                    &[ShadowRays],
+                ))
+                .per_pixel(Visible, "visible_samples_per_pixel")],
+            host_counters: Default::default(),
+            readback: &this.readback,
         })
     }
 
