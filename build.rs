@@ -5,6 +5,14 @@
 //! `-DSUBGROUP_OPS` as `NAME.subgroup` (subgroup arithmetic and ballot, for
 //! devices that support them; the plain build is the fallback).
 //! A glslc error is printed with its file and line and stops the build.
+//! Before compiling, the shader interface written in Rust (src/interface/)
+//! becomes one GLSL header per group, `OUT_DIR/interface/<group>.glsl`, on
+//! glslc's include path: binding numbers, push-constant fields, counter
+//! slots and specialization-constant ids come from one place.
+
+#[allow(dead_code)]
+#[path = "src/interface/mod.rs"]
+mod interface;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -41,10 +49,24 @@ fn traces_rays(file: &Path, root: &Path, seen: &mut Vec<PathBuf>) -> bool {
 
 fn main() {
     println!("cargo:rerun-if-changed=shaders");
+    println!("cargo:rerun-if-changed=src/interface");
     println!("cargo:rerun-if-env-changed=GLSLC");
     let root = PathBuf::from(std::env::var("CARGO_MANIFEST_DIR").unwrap());
     let shader_dir = root.join("shaders");
     let out_dir = PathBuf::from(std::env::var("OUT_DIR").unwrap());
+    let header_dir = out_dir.join("interface");
+    std::fs::create_dir_all(&header_dir).unwrap();
+    let headers = interface::ALL
+        .iter()
+        .map(|i| (i.name, interface::glsl::header(i)))
+        .chain([("frame", interface::glsl::frame_header())]);
+    for (name, text) in headers {
+        let path = header_dir.join(format!("{name}.glsl"));
+        // Rewritten only when changed, so glslc's inputs keep their times.
+        if std::fs::read_to_string(&path).ok().as_deref() != Some(text.as_str()) {
+            std::fs::write(&path, text).unwrap();
+        }
+    }
     let glslc = std::env::var("GLSLC").unwrap_or_else(|_| "glslc".into());
 
     let mut sources = Vec::new();
@@ -101,6 +123,8 @@ fn main() {
                             .arg("-fshader-stage=compute")
                             .arg("-I")
                             .arg(&shader_dir)
+                            .arg("-I")
+                            .arg(&out_dir)
                             .args(&defs)
                             .arg(&src)
                             .arg("-o")

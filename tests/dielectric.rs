@@ -11,6 +11,7 @@ use glam::{DVec3, Mat4, Quat, Vec2, Vec3};
 use stereocache::gpu::{
     shaders, Buffer, ComputePipeline, DescriptorLayout, DescriptorSet, Recorder, Resource,
 };
+use stereocache::interface::dielectric;
 use stereocache::methods::RenderSettings;
 use stereocache::rt::RtChoice;
 use stereocache::scene::generate::{add_material, add_mesh, grid, uv_sphere};
@@ -83,6 +84,8 @@ fn run_kernel(cases: &[Case], roughness: f32) -> Vec<Sampled> {
     )
     .unwrap();
     let out = Buffer::storage(&ctx, "test.out", n as u64 * 32).unwrap();
+    // The kernel's buffers are set 1 (src/interface/dielectric.rs); set 0
+    // stands in for the scene's (bound, unused).
     let layout = DescriptorLayout::buffers(&ctx, 2).unwrap();
     let set = DescriptorSet::new(
         &ctx,
@@ -90,23 +93,24 @@ fn run_kernel(cases: &[Case], roughness: f32) -> Vec<Sampled> {
         &[Resource::Buffer(&inp), Resource::Buffer(&out)],
     )
     .unwrap();
-    // The kernel's buffers are set 1 (set 0 is the scene's, unused here).
-    let pipe = ComputePipeline::new(
+    let pipe = ComputePipeline::with_interface(
         &ctx,
         "dielectric_test",
         shaders::spirv("common/dielectric_test").expect("dielectric_test compiled"),
-        &[layout.clone(), layout],
-        4,
+        &[layout],
+        &dielectric::INTERFACE,
+        Some(&dielectric::PUSH),
         &Default::default(),
     )
     .unwrap();
     let mut rec = Recorder::new(&ctx, 1).unwrap();
-    rec.pass("dielectric_test").read(&inp).write(&out).dispatch(
-        &pipe,
-        &[&set, &set],
-        &n.to_le_bytes(),
-        [n.div_ceil(64), 1, 1],
-    );
+    rec.compute("dielectric_test", &pipe)
+        .shared(&set)
+        .read(&inp)
+        .write(&out)
+        .push(&n)
+        .dispatch([n.div_ceil(64), 1, 1])
+        .unwrap();
     rec.finish().unwrap();
     let got: Vec<[f32; 4]> = out.download_pod().unwrap();
     assert_no_validation_messages(&ctx);

@@ -6,11 +6,12 @@
 #include "common/random.glsl"
 #include "common/bsdf.glsl"
 #include "common/camera.glsl"
+#include "interface/bench_rays.glsl"
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
-layout(set = 1, binding = 1, std430) buffer Hits { vec4 hits[]; };        // position, 1 = hit
-layout(set = 1, binding = 2, std430) buffer Normals { vec4 normals[]; };
-layout(set = 1, binding = 3, std430) buffer Counters { uint counters[]; }; // primary, bounce, hits
-layout(push_constant) uniform Push { uint mode; } pc;
+layout(set = SET_BENCH_RAYS, binding = B_BENCH_RAYS_HITS, std430) buffer Hits { vec4 hits[]; };        // position, 1 = hit
+layout(set = SET_BENCH_RAYS, binding = B_BENCH_RAYS_NORMALS, std430) buffer Normals { vec4 normals[]; };
+layout(set = SET_BENCH_RAYS, binding = B_BENCH_RAYS_COUNTERS, std430) buffer Counters { uint counters[]; }; // BenchRaysCounter
+layout(push_constant) uniform Push { BENCH_RAYS_PUSH } pc;
 
 void main() {
     uvec2 size = frame_size();
@@ -30,7 +31,7 @@ void main() {
         } else {
             hits[idx] = vec4(0.0);
         }
-        atomicAdd(counters[0], 1u);
+        atomicAdd(counters[C_BENCH_RAYS_PRIMARY_RAYS], 1u);
     } else {
         vec4 p = hits[idx];
         if (p.w == 0.0) return;
@@ -39,7 +40,7 @@ void main() {
         vec3 d = to_world(frame_from(n), cosine_hemisphere(rng_next2(rng)));
         RtHit h;
         bool hit = rt_closest_hit(offset_ray(p.xyz, n), d, 0.0, 1e30, h);
-        atomicAdd(counters[1], 1u);
-        if (hit) atomicAdd(counters[2], 1u);
+        atomicAdd(counters[C_BENCH_RAYS_BOUNCE_RAYS], 1u);
+        if (hit) atomicAdd(counters[C_BENCH_RAYS_HITS], 1u);
     }
 }

@@ -5,9 +5,10 @@
 #include "common/scene.glsl"
 #include "common/packing.glsl"
 #include "common/camera.glsl"
+#include "interface/bench_scatter.glsl"
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
-layout(set = 1, binding = 1, std430) readonly buffer Src { uvec4 src[]; };
-layout(set = 1, binding = 2, std430) writeonly buffer Dst { uvec4 dst[]; };
+layout(set = SET_BENCH_SCATTER, binding = B_BENCH_SCATTER_SRC, std430) readonly buffer Src { uvec4 src[]; };
+layout(set = SET_BENCH_SCATTER, binding = B_BENCH_SCATTER_DST, std430) writeonly buffer Dst { uvec4 dst[]; };
 
 void main() {
     uvec2 size = frame_size();

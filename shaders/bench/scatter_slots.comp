@@ -10,13 +10,14 @@
 #include "common/packing.glsl"
 #include "common/camera.glsl"
 #include "common/first_hit.glsl"
+#include "interface/bench_scatter_slots.glsl"
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
-layout(push_constant) uniform Push { uint slots; } pc;
-layout(set = 1, binding = 1, std430) readonly buffer Masks { uint masks[]; };      // [eye][pixel]
-layout(set = 1, binding = 2, std430) readonly buffer SrcFh { uvec4 src_fh[]; };    // [eye][slot][pixel]
-layout(set = 1, binding = 3, std430) readonly buffer SrcRad { vec4 src_rad[]; };
-layout(set = 1, binding = 4, std430) writeonly buffer DstFh { uvec4 dst_fh[]; };
-layout(set = 1, binding = 5, std430) writeonly buffer DstRad { vec4 dst_rad[]; };
+layout(push_constant) uniform Push { BENCH_SCATTER_SLOTS_PUSH } pc;
+layout(set = SET_BENCH_SCATTER_SLOTS, binding = B_BENCH_SCATTER_SLOTS_MASKS, std430) readonly buffer Masks { uint masks[]; };      // [eye][pixel]
+layout(set = SET_BENCH_SCATTER_SLOTS, binding = B_BENCH_SCATTER_SLOTS_SRC_FH, std430) readonly buffer SrcFh { uvec4 src_fh[]; };    // [eye][slot][pixel]
+layout(set = SET_BENCH_SCATTER_SLOTS, binding = B_BENCH_SCATTER_SLOTS_SRC_RAD, std430) readonly buffer SrcRad { vec4 src_rad[]; };
+layout(set = SET_BENCH_SCATTER_SLOTS, binding = B_BENCH_SCATTER_SLOTS_DST_FH, std430) writeonly buffer DstFh { uvec4 dst_fh[]; };
+layout(set = SET_BENCH_SCATTER_SLOTS, binding = B_BENCH_SCATTER_SLOTS_DST_RAD, std430) writeonly buffer DstRad { vec4 dst_rad[]; };
 
 void main() {
     uvec2 size = frame_size();

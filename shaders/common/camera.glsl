@@ -3,13 +3,14 @@
 // pixel (0,0) is the top-left corner, +y down; symmetric per-eye frustum.
 #ifndef CAMERA_GLSL
 #define CAMERA_GLSL
+#include "interface/frame.glsl"
 struct EyeGpu {
     vec4 pos_tanx;    // eye position, tan(yfov/2)·aspect
     vec4 right_tany;  // eye +X in world, tan(yfov/2)
     vec4 up;          // eye +Y in world
     vec4 fwd;         // eye −Z in world (viewing direction)
 };
-layout(set = 1, binding = 0, std430) readonly buffer FrameBuf {
+layout(set = SET_FRAME, binding = B_FRAME, std430) readonly buffer FrameBuf {
     EyeGpu eyes[2];
     EyeGpu prev_eyes[2];
     uvec4 size_seed;  // width, height, run seed, frame index

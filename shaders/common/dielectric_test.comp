@@ -2,12 +2,13 @@
 // Test kernel: bsdf.glsl dielectric_sample_world for given world-space inputs,
 // compared with Snell's law, Fresnel and a CPU twin in tests/dielectric.rs.
 #include "common/bsdf.glsl"
+#include "interface/dielectric.glsl"
 layout(local_size_x = 64) in;
 // Per case: (n.xyz, front), (d.xyz, ior), (u.xyz, roughness).
-layout(set = 1, binding = 0, std430) readonly buffer Cases { vec4 cases[]; };
+layout(set = SET_DIELECTRIC, binding = B_DIELECTRIC_CASES, std430) readonly buffer Cases { vec4 cases[]; };
 // Per case: (wi.xyz, ok), (weight.xyz, delta).
-layout(set = 1, binding = 1, std430) writeonly buffer Outs { vec4 outs[]; };
-layout(push_constant) uniform Push { uint count; } pc;
+layout(set = SET_DIELECTRIC, binding = B_DIELECTRIC_OUTS, std430) writeonly buffer Outs { vec4 outs[]; };
+layout(push_constant) uniform Push { DIELECTRIC_PUSH } pc;
 
 void main() {
     uint i = gl_GlobalInvocationID.x;

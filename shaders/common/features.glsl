@@ -1,28 +1,29 @@
-// Scene features as specialization constants (ids shared with src/rt/features.rs):
+// Scene features as specialization constants (ids from src/interface/scene.rs):
 // a pipeline compiles only the code the scene needs (DESIGN.md, "Shaders").
 #ifndef FEATURES_GLSL
 #define FEATURES_GLSL
-layout(constant_id = 0) const bool SC_TEXTURES = true;
-layout(constant_id = 1) const bool SC_NORMAL_MAPS = true;
-layout(constant_id = 2) const bool SC_ALPHA_MASK = true;
-layout(constant_id = 3) const bool SC_TRANSMISSION = true;
-layout(constant_id = 4) const bool SC_EMISSIVE = true;
-layout(constant_id = 5) const bool SC_PUNCTUAL = true;
-layout(constant_id = 6) const bool SC_DIRECTIONAL = true;
+#include "interface/scene.glsl"
+layout(constant_id = SPEC_SC_TEXTURES) const bool SC_TEXTURES = true;
+layout(constant_id = SPEC_SC_NORMAL_MAPS) const bool SC_NORMAL_MAPS = true;
+layout(constant_id = SPEC_SC_ALPHA_MASK) const bool SC_ALPHA_MASK = true;
+layout(constant_id = SPEC_SC_TRANSMISSION) const bool SC_TRANSMISSION = true;
+layout(constant_id = SPEC_SC_EMISSIVE) const bool SC_EMISSIVE = true;
+layout(constant_id = SPEC_SC_PUNCTUAL) const bool SC_PUNCTUAL = true;
+layout(constant_id = SPEC_SC_DIRECTIONAL) const bool SC_DIRECTIONAL = true;
 // 0 none (black), 1 constant, 2 Preetham sky, 3 equirectangular map
-layout(constant_id = 7) const uint SC_ENV_KIND = 2;
+layout(constant_id = SPEC_SC_ENV_KIND) const uint SC_ENV_KIND = 2;
 // Maximum scattering events along a path (pbrt's maxdepth convention).
-layout(constant_id = 8) const uint SC_MAX_BOUNCES = 3;
-layout(constant_id = 9) const uint SC_TEXTURE_COUNT = 1;
+layout(constant_id = SPEC_SC_MAX_BOUNCES) const uint SC_MAX_BOUNCES = 3;
+layout(constant_id = SPEC_SC_TEXTURE_COUNT) const uint SC_TEXTURE_COUNT = 1;
 // false: every material is Lambertian (metallic 0, specular layer 0): the
 // opaque BSDF's GGX lobe and Fresnel terms are compiled out (they evaluate
 // to exactly 0 for such materials, and the random numbers are drawn alike).
-layout(constant_id = 10) const bool SC_VIEW_DEPENDENT = true;
+layout(constant_id = SPEC_SC_VIEW_DEPENDENT) const bool SC_VIEW_DEPENDENT = true;
 // How emissive triangles and the environment map are sampled (integrator.glsl;
 // src/methods/specialize.rs `LightSampling`): 0 both strategies combined by
 // MIS (the renderer), 1 next-event estimation only, 2 BSDF sampling only
 // (the estimator without light sampling; tests and benchmarks).
-layout(constant_id = 11) const uint SC_LIGHT_STRATEGY = 0;
+layout(constant_id = SPEC_SC_LIGHT_STRATEGY) const uint SC_LIGHT_STRATEGY = 0;
 const uint LIGHT_STRATEGY_MIS = 0u;
 const uint LIGHT_STRATEGY_NEE = 1u;
 const uint LIGHT_STRATEGY_BSDF = 2u;

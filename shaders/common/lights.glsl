@@ -21,7 +21,7 @@ struct EmitterGpu {
     vec3 p2; float pdf_area;     // pick probability / area
     uvec4 ids;                   // instance, primitive, unused, unused
 };
-layout(set = 0, binding = 12, std430) readonly buffer Emitters { uvec4 emitter_header; EmitterGpu emitters[]; };
+layout(set = SET_SCENE, binding = B_SCENE_EMITTERS, std430) readonly buffer Emitters { uvec4 emitter_header; EmitterGpu emitters[]; };
 
 struct EmitterSample {
     vec3 wi;      // world direction towards the sampled point

@@ -1,7 +1,8 @@
 // Ray-query backend: hardware (or driver) traversal of the TLAS/BLAS built by
 // src/gpu/accel.rs. Alpha-masked geometry is non-opaque and alpha-tested here.
 #extension GL_EXT_ray_query : require
-layout(set = 0, binding = 14) uniform accelerationStructureEXT tlas;   // gpu_scene.rs binding::TLAS
+#include "interface/scene.glsl"
+layout(set = SET_SCENE, binding = B_SCENE_TLAS) uniform accelerationStructureEXT tlas;
 
 bool rt_closest_hit(vec3 o, vec3 d, float tmin, float tmax, out RtHit h) {
     rayQueryEXT rq;

@@ -7,9 +7,10 @@
 //   n3 = same for y, n4 = same for z
 // Leaf triangles are stored in BVH order: tri_verts[3k..3k+3] = (v0, e1, e2)
 // and tri_ref[k] = (instance, primitive) for leaf slot k.
-layout(set = 0, binding = 7, std430) readonly buffer BvhNodes { uvec4 bvh_nodes[]; };
-layout(set = 0, binding = 8, std430) readonly buffer BvhTriRef { uvec2 tri_ref[]; };
-layout(set = 0, binding = 9, std430) readonly buffer BvhTriVerts { vec4 tri_verts[]; };
+#include "interface/scene.glsl"
+layout(set = SET_SCENE, binding = B_SCENE_BVH_NODES, std430) readonly buffer BvhNodes { uvec4 bvh_nodes[]; };
+layout(set = SET_SCENE, binding = B_SCENE_BVH_TRI_REF, std430) readonly buffer BvhTriRef { uvec2 tri_ref[]; };
+layout(set = SET_SCENE, binding = B_SCENE_BVH_TRI_VERTS, std430) readonly buffer BvhTriVerts { vec4 tri_verts[]; };
 
 const uint CWBVH_STACK_SIZE = 32u;
 

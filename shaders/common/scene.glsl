@@ -30,15 +30,15 @@ struct SceneParams {
     uvec4 counts;             // light count, env map width, env map height, instance count
 };
 
-layout(set = 0, binding = 0, std430) readonly buffer Vertices { Vertex vertices[]; };
-layout(set = 0, binding = 1, std430) readonly buffer Indices { uint indices[]; };
-layout(set = 0, binding = 2, std430) readonly buffer Meshes { MeshInfo meshes[]; };
-layout(set = 0, binding = 3, std430) readonly buffer Instances { InstanceInfo instances[]; };
-layout(set = 0, binding = 4, std430) readonly buffer Materials { MaterialGpu materials[]; };
-layout(set = 0, binding = 5, std430) readonly buffer Lights { LightGpu lights[]; };
-layout(set = 0, binding = 6, std430) readonly buffer Params { SceneParams scene; };
-layout(set = 0, binding = 10) uniform sampler2D textures[SC_TEXTURE_COUNT];
-layout(set = 0, binding = 11) uniform sampler2D env_map;
+layout(set = SET_SCENE, binding = B_SCENE_VERTICES, std430) readonly buffer Vertices { Vertex vertices[]; };
+layout(set = SET_SCENE, binding = B_SCENE_INDICES, std430) readonly buffer Indices { uint indices[]; };
+layout(set = SET_SCENE, binding = B_SCENE_MESHES, std430) readonly buffer Meshes { MeshInfo meshes[]; };
+layout(set = SET_SCENE, binding = B_SCENE_INSTANCES, std430) readonly buffer Instances { InstanceInfo instances[]; };
+layout(set = SET_SCENE, binding = B_SCENE_MATERIALS, std430) readonly buffer Materials { MaterialGpu materials[]; };
+layout(set = SET_SCENE, binding = B_SCENE_LIGHTS, std430) readonly buffer Lights { LightGpu lights[]; };
+layout(set = SET_SCENE, binding = B_SCENE_PARAMS, std430) readonly buffer Params { SceneParams scene; };
+layout(set = SET_SCENE, binding = B_SCENE_TEXTURES) uniform sampler2D textures[SC_TEXTURE_COUNT];
+layout(set = SET_SCENE, binding = B_SCENE_ENV_MAP) uniform sampler2D env_map;
 
 const float PI = 3.14159265358979323846;
 const float INV_PI = 0.31830988618379067154;

@@ -57,7 +57,7 @@ vec3 environment(vec3 dir) {
 // piecewise-constant distribution of src/scene/env_distribution.rs, with
 // header (width, height; width 0 = none), the marginal CDF over rows (h + 1
 // floats) and each row's conditional CDF over columns (w + 1 floats).
-layout(set = 0, binding = 13, std430) readonly buffer EnvDistribution { uvec4 env_header; float env_cdf[]; };
+layout(set = SET_SCENE, binding = B_SCENE_ENV_DISTRIBUTION, std430) readonly buffer EnvDistribution { uvec4 env_header; float env_cdf[]; };
 
 // Largest index k in [first, first + n) with env_cdf[k] <= x (env_cdf[first] = 0).
 uint env_cdf_find(uint first, uint n, float x) {

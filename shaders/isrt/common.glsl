@@ -8,37 +8,30 @@
 // Descriptor set 1 below; src/methods/isrt/ owns the buffers and the passes.
 #extension GL_EXT_shader_atomic_int64 : require
 #extension GL_ARB_gpu_shader_int64 : require
+#include "interface/isrt.glsl"
 #include "common/integrator.glsl"
 #include "common/packing.glsl"
 #include "common/camera.glsl"
 #include "common/first_hit.glsl"
 
-layout(constant_id = 30) const uint M = 3;   // cells per pixel side
+layout(constant_id = SPEC_ISRT_M) const uint M = 3;   // cells per pixel side
 const float C_MAX = 65535.0;                 // sample counts saturate here
 
-layout(push_constant) uniform Push {
-    float eps0;   // retrace tolerance, relative to the hit distance
-    uint pad0;
-    uint pad1;
-    uint pad2;
-} pc;
+layout(push_constant) uniform Push { ISRT_PUSH } pc;   // eps0: retrace tolerance, relative to the hit distance
 
-layout(set = 1, binding = 1, std430) buffer FhPrev { uvec4 fh_prev[]; };
-layout(set = 1, binding = 2, std430) buffer FhCur { uvec4 fh_cur[]; };
-layout(set = 1, binding = 3, std430) buffer RadPrev { vec4 rad_prev[]; };
-layout(set = 1, binding = 4, std430) buffer RadCur { vec4 rad_cur[]; };
+layout(set = SET_ISRT, binding = B_ISRT_FH_PREV, std430) buffer FhPrev { uvec4 fh_prev[]; };
+layout(set = SET_ISRT, binding = B_ISRT_FH_CUR, std430) buffer FhCur { uvec4 fh_cur[]; };
+layout(set = SET_ISRT, binding = B_ISRT_RAD_PREV, std430) buffer RadPrev { vec4 rad_prev[]; };
+layout(set = SET_ISRT, binding = B_ISRT_RAD_CUR, std430) buffer RadCur { vec4 rad_cur[]; };
 // Reservation per cell: view depth bits << 32 | source cell (within the eye); the closer sample wins.
-layout(set = 1, binding = 5, std430) buffer Claim { uint64_t claim[]; };
-layout(set = 1, binding = 6, std430) buffer OutColor { vec4 out_color[]; };
-layout(set = 1, binding = 7, std430) buffer OutDepth { float out_depth[]; };
-layout(set = 1, binding = 8, std430) buffer OutFh { uvec4 out_fh[]; };
-layout(set = 1, binding = 9, std430) buffer OutAlbedo { vec4 out_albedo[]; };
-layout(set = 1, binding = 10, std430) buffer Counters { uint counters[]; };
+layout(set = SET_ISRT, binding = B_ISRT_CLAIM, std430) buffer Claim { uint64_t claim[]; };
+layout(set = SET_ISRT, binding = B_ISRT_OUT_COLOR, std430) buffer OutColor { vec4 out_color[]; };
+layout(set = SET_ISRT, binding = B_ISRT_OUT_DEPTH, std430) buffer OutDepth { float out_depth[]; };
+layout(set = SET_ISRT, binding = B_ISRT_OUT_FH, std430) buffer OutFh { uvec4 out_fh[]; };
+layout(set = SET_ISRT, binding = B_ISRT_OUT_ALBEDO, std430) buffer OutAlbedo { vec4 out_albedo[]; };
+layout(set = SET_ISRT, binding = B_ISRT_COUNTERS, std430) buffer Counters { uint counters[]; };
 
-// Counter slots (src/methods/isrt/mod.rs names them).
-const uint C_REPROJECTED = 0u, C_OFFSCREEN = 1u, C_KEPT = 2u, C_RETRACE_RAYS = 3u, C_RETRACE_LOST = 4u,
-           C_NEW_RAYS = 5u, C_NEW_HITS = 6u, C_SHADED = 7u, C_BOUNCE_RAYS = 8u, C_SHADOW_RAYS = 9u,
-           C_SAMPLES = 10u, C_BACKGROUND = 11u;   // C_SAMPLES: surface samples; C_BACKGROUND: background ones
+// Counter slots: C_ISRT_* (src/interface/isrt.rs, IsrtCounter).
 
 uvec2 grid_size() { return frame_size() * M; }
 uint cells_per_eye() { uvec2 g = grid_size(); return g.x * g.y; }

@@ -18,5 +18,5 @@ void main() {
     uint src = eye * cells_per_eye() + uint(c & 0xFFFFFFFFul);
     fh_cur[dst] = fh_prev[src];
     rad_cur[dst] = rad_prev[src];
-    atomicAdd(counters[C_KEPT], 1u);
+    atomicAdd(counters[C_ISRT_KEPT], 1u);
 }

@@ -25,12 +25,12 @@ void main() {
     vec3 p = bg ? e.pos_tanx.xyz + background_direction(fh) : hit_position(fh);
     if (!project_to_eye(e, p, q, vd) || any(lessThan(q, vec2(0.0))) ||
         any(greaterThanEqual(q, size))) {
-        atomicAdd(counters[C_OFFSCREEN], 1u);
+        atomicAdd(counters[C_ISRT_OFFSCREEN], 1u);
         return;
     }
     uvec2 t = min(uvec2(q * float(M)), gs - 1u);
     uint local = src - eye * cells_per_eye();
     if (bg) vd = uintBitsToFloat(0x7F800000u);
     atomicMin(claim[cell_index(eye, t)], (uint64_t(floatBitsToUint(vd)) << 32) | uint64_t(local));
-    atomicAdd(counters[C_REPROJECTED], 1u);
+    atomicAdd(counters[C_ISRT_REPROJECTED], 1u);
 }

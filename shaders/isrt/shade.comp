@@ -54,7 +54,7 @@ void main() {
         }
     }
     rad_cur[idx] = vec4(mix(rec.rgb, demod, alpha), c);
-    atomicAdd(counters[C_SHADED], 1u);
-    atomicAdd(counters[C_BOUNCE_RAYS], rays.bounce);
-    atomicAdd(counters[C_SHADOW_RAYS], rays.shadow);
+    atomicAdd(counters[C_ISRT_SHADED], 1u);
+    atomicAdd(counters[C_ISRT_BOUNCE_RAYS], rays.bounce);
+    atomicAdd(counters[C_ISRT_SHADOW_RAYS], rays.shadow);
 }

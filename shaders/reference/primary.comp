@@ -16,7 +16,7 @@ void main() {
     vec3 d = eye_ray_dir(e, vec2(px) + 0.5);
     RtHit h;
     bool hit = rt_closest_hit(o, d, 0.0, 1e30, h);
-    atomicAdd(counters[0], 1u);
+    atomicAdd(counters[C_REFERENCE_PRIMARY_RAYS], 1u);
     if (hit) {
         vec3 p = o + h.t * d;
         uint mat = instance_material(h.instance);

@@ -6,7 +6,7 @@
 #include "common/integrator.glsl"
 #include "reference/bindings.glsl"
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
-layout(push_constant) uniform Push { uint sample_base; uint sample_count; uint fixed_jitter; uint pad; vec2 jitter; } pc;
+layout(push_constant) uniform Push { REFERENCE_TRACE_PUSH } pc;
 
 void main() {
     uvec2 size = frame_size();
@@ -32,7 +32,7 @@ void main() {
         sum += L;
     }
     accum[idx] += vec4(sum, float(pc.sample_count));
-    atomicAdd(counters[0], pc.sample_count);
-    atomicAdd(counters[1], rays.bounce);
-    atomicAdd(counters[2], rays.shadow);
+    atomicAdd(counters[C_REFERENCE_PRIMARY_RAYS], pc.sample_count);
+    atomicAdd(counters[C_REFERENCE_BOUNCE_RAYS], rays.bounce);
+    atomicAdd(counters[C_REFERENCE_SHADOW_RAYS], rays.shadow);
 }

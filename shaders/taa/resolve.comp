@@ -14,29 +14,23 @@
 //  5. blend (§3): fixed α, or α = max(1/(n+1), α_min) with the per-pixel
 //     history length n (our reading of Philippi et al. 2023).
 // Set 1 below; src/methods/taa/pass.rs (TaaPass) owns the buffers.
+#include "interface/taa.glsl"
 #include "common/camera.glsl"
 #include "common/packing.glsl"
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 
-layout(push_constant) uniform Push {
-    float alpha;      // fixed α, or α_min for the pfj23 weights
-    float gamma;      // clipping box half-width in standard deviations
-    uint weights;     // 0 fixed, 1 pfj23
-    uint flags;       // bit 0: a history exists; bit 1: reject disocclusions; bit 2: clip
-} pc;
+layout(push_constant) uniform Push { TAA_RESOLVE_PUSH } pc;   // src/interface/taa.rs
 
-layout(set = 1, binding = 1, std430) readonly buffer InColor { vec4 in_color[]; };     // rgb radiance (w ignored)
-layout(set = 1, binding = 2, std430) readonly buffer InDepth { float in_depth[]; };    // view depth, 0 = miss
-layout(set = 1, binding = 3, std430) readonly buffer InFh { uvec4 in_fh[]; };          // pixel-centre first hits
-layout(set = 1, binding = 4, std430) readonly buffer HistPrev { vec4 hist_prev[]; };   // rgb, history length n
-layout(set = 1, binding = 5, std430) writeonly buffer HistCur { vec4 hist_cur[]; };
-layout(set = 1, binding = 6, std430) readonly buffer PrevDepth { float prev_depth[]; };
-layout(set = 1, binding = 7, std430) readonly buffer PrevFh { uvec4 prev_fh[]; };
-layout(set = 1, binding = 8, std430) buffer Counters { uint counters[]; };
+layout(set = SET_TAA, binding = B_TAA_IN_COLOR, std430) readonly buffer InColor { vec4 in_color[]; };     // rgb radiance (w ignored)
+layout(set = SET_TAA, binding = B_TAA_IN_DEPTH, std430) readonly buffer InDepth { float in_depth[]; };    // view depth, 0 = miss
+layout(set = SET_TAA, binding = B_TAA_IN_FH, std430) readonly buffer InFh { uvec4 in_fh[]; };          // pixel-centre first hits
+layout(set = SET_TAA, binding = B_TAA_HIST_PREV, std430) readonly buffer HistPrev { vec4 hist_prev[]; };   // rgb, history length n
+layout(set = SET_TAA, binding = B_TAA_HIST_CUR, std430) writeonly buffer HistCur { vec4 hist_cur[]; };
+layout(set = SET_TAA, binding = B_TAA_PREV_DEPTH, std430) readonly buffer PrevDepth { float prev_depth[]; };
+layout(set = SET_TAA, binding = B_TAA_PREV_FH, std430) readonly buffer PrevFh { uvec4 prev_fh[]; };
+layout(set = SET_TAA, binding = B_TAA_COUNTERS, std430) buffer Counters { uint counters[]; };
 
-// Counter slots (src/methods/taa/pass.rs names them).
-const uint C_OFFSCREEN = 0u, C_DISOCCLUDED = 1u, C_NO_HISTORY = 2u, C_CLIPPED = 3u, C_ACCEPTED = 4u,
-           C_HISTORY_SUM = 5u;
+// Counter slots: C_TAA_* (src/interface/taa.rs, TaaCounter).
 const float N_MAX = 255.0;            // history lengths saturate here
 const float TOL_SAME_INSTANCE = 0.1;  // relative depth tolerance when the tap saw the same instance
 const float TOL_OTHER = 0.01;         // ... and when it saw another one
@@ -111,9 +105,9 @@ void main() {
     uint reason = 0u;   // 0 history used, else the C_* slot that rejected it
     vec4 hist = vec4(0.0);
     if ((pc.flags & 1u) == 0u) {
-        reason = C_NO_HISTORY;
+        reason = C_TAA_NO_HISTORY;
     } else if (!on_screen) {
-        reason = C_OFFSCREEN;
+        reason = C_TAA_OFFSCREEN;
     } else {
         vec2 f = q - 0.5;
         ivec2 b = ivec2(floor(f));
@@ -129,7 +123,7 @@ void main() {
             wsum += w;
         }
         if (wsum > 1e-4) hist /= wsum;
-        else reason = C_DISOCCLUDED;
+        else reason = C_TAA_DISOCCLUDED;
     }
 
     vec3 result;
@@ -146,9 +140,9 @@ void main() {
         float alpha = pc.weights == 1u ? max(1.0 / (n_prev + 1.0), pc.alpha) : pc.alpha;
         result = mix(max(h, vec3(0.0)), c, alpha);
         n = min(n_prev + 1.0, N_MAX);
-        atomicAdd(counters[C_ACCEPTED], 1u);
-        if (clipped) atomicAdd(counters[C_CLIPPED], 1u);
+        atomicAdd(counters[C_TAA_ACCEPTED], 1u);
+        if (clipped) atomicAdd(counters[C_TAA_CLIPPED], 1u);
     }
-    atomicAdd(counters[C_HISTORY_SUM], uint(n));
+    atomicAdd(counters[C_TAA_HISTORY_SUM], uint(n));
     hist_cur[idx] = vec4(result, n);
 }

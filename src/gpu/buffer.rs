@@ -191,6 +191,29 @@ impl Buffer {
         unsafe { std::ptr::copy_nonoverlapping(data.as_ptr(), ptr, data.len()) };
     }
 
+    /// Copies `len` bytes at `offset` out of a host-visible buffer's mapping
+    /// (the frame's staging buffer, src/gpu/readback.rs; the caller has
+    /// waited for the copies into it).
+    pub(crate) fn read_mapped(&self, offset: u64, len: u64) -> Vec<u8> {
+        assert!(
+            offset + len <= self.size,
+            "read_mapped outside {}",
+            self.name
+        );
+        let alloc = self.allocation.as_ref().unwrap();
+        let ptr = alloc
+            .mapped_ptr()
+            .expect("readback buffer is host visible")
+            .as_ptr() as *const u8;
+        let mut out = vec![0u8; len as usize];
+        // SAFETY: the mapping covers `size` bytes and the range lies inside it;
+        // no GPU work writes it any more (the submission was waited for).
+        unsafe {
+            std::ptr::copy_nonoverlapping(ptr.add(offset as usize), out.as_mut_ptr(), out.len())
+        };
+        out
+    }
+
     /// Reads the whole buffer back to the host (waits for the GPU).
     pub fn download(&self) -> GpuResult<Vec<u8>> {
         let staging = Self::new(

@@ -51,6 +51,48 @@ impl DescriptorLayout {
     pub fn buffers(ctx: &Arc<GpuContext>, n: usize) -> GpuResult<Arc<DescriptorLayout>> {
         Self::new(ctx, &vec![BindingKind::StorageBuffer; n])
     }
+
+    /// The per-pass set of `n` storage buffers that the pass builder binds
+    /// (src/gpu/compute_pass.rs): a push-descriptor layout with `push`, else
+    /// a plain one for per-pass sets.
+    pub(crate) fn pass_buffers(
+        ctx: &Arc<GpuContext>,
+        n: usize,
+        push: bool,
+    ) -> GpuResult<Arc<DescriptorLayout>> {
+        let bindings: Vec<vk::DescriptorSetLayoutBinding> = (0..n)
+            .map(|i| {
+                vk::DescriptorSetLayoutBinding::default()
+                    .binding(i as u32)
+                    .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                    .descriptor_count(1)
+                    .stage_flags(vk::ShaderStageFlags::COMPUTE)
+            })
+            .collect();
+        let mut info = vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings);
+        if push {
+            info = info.flags(vk::DescriptorSetLayoutCreateFlags::PUSH_DESCRIPTOR_KHR);
+        }
+        // SAFETY: `info` and the bindings it points at live across the call;
+        // the device is valid while `ctx` is.
+        let raw = unsafe { ctx.device.create_descriptor_set_layout(&info, None) }
+            .map_err(vk_err("vkCreateDescriptorSetLayout"))?;
+        Ok(Arc::new(DescriptorLayout {
+            ctx: ctx.clone(),
+            raw,
+            kinds: vec![BindingKind::StorageBuffer; n],
+        }))
+    }
+}
+
+/// True when a pipeline created now binds its per-pass buffers with push
+/// descriptors: the device has VK_KHR_push_descriptor and
+/// `STEREOCACHE_NO_PUSH_DESCRIPTOR` is not `1` (which forces the per-pass
+/// descriptor-set fallback, for tests of that path on devices that have
+/// the extension). Each pipeline keeps the answer it was created with.
+pub(crate) fn use_push_descriptors(ctx: &GpuContext) -> bool {
+    ctx.push_descriptor.is_some()
+        && !std::env::var("STEREOCACHE_NO_PUSH_DESCRIPTOR").is_ok_and(|v| v == "1")
 }
 
 impl Drop for DescriptorLayout {

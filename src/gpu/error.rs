@@ -26,6 +26,10 @@ pub enum GpuError {
     Hung { what: String, seconds: f64 },
     #[error("{0}")]
     Unsupported(String),
+    /// A pass's declarations differ from its pipeline's shader interface
+    /// (src/interface/): a programming error, caught at record time.
+    #[error("shader interface: {0}")]
+    Interface(String),
 }
 
 pub type GpuResult<T> = Result<T, GpuError>;

@@ -1,17 +1,30 @@
-//! The pass builder: every piece of GPU work is a named pass that declares the
+//! The recorder: every piece of GPU work is a named pass that declares the
 //! buffers it reads and writes. The recorder inserts the barriers those
-//! declarations imply and a pair of timestamps, so every pass is timed and
-//! named the same way in reports (DESIGN.md, "Passes").
+//! declarations imply, a pair of timestamps and a debug-utils label, so every
+//! pass is timed and named the same way in reports and in RenderDoc/Nsight
+//! captures (DESIGN.md, "Passes"). Compute passes are built with
+//! [`Recorder::compute`] (src/gpu/compute_pass.rs: the declarations are the
+//! bindings); [`Recorder::pass`] records fills, updates and copies, and the
+//! positional `Pass::dispatch` that methods not yet on the builder use.
+//!
+//! `Recorder<'a>` borrows every buffer, pipeline and set a compute pass
+//! references for `'a`, so safe code cannot drop one before the work is
+//! submitted and waited for ([`Recorder::finish`]).
 
 use super::buffer::Buffer;
 use super::context::GpuContext;
 use super::descriptors::DescriptorSet;
 use super::error::{vk_err, GpuResult};
 use super::pipeline::ComputePipeline;
+use super::readback::{HostReadback, ReadbackRange};
 use ash::vk;
 use serde::Serialize;
 use std::collections::HashSet;
+use std::marker::PhantomData;
 use std::sync::Arc;
+
+/// Timestamp pairs per query pool; the recorder adds pools as passes come.
+const PASSES_PER_POOL: u32 = 64;
 
 /// GPU time of one pass, from its timestamp pair.
 #[derive(Clone, Debug, Serialize)]
@@ -21,63 +34,106 @@ pub struct PassTiming {
 }
 
 /// Records passes into one command buffer; `finish` submits, waits and
-/// returns the timings.
-pub struct Recorder {
-    ctx: Arc<GpuContext>,
-    cb: vk::CommandBuffer,
-    queries: vk::QueryPool,
-    max_passes: u32,
+/// returns the timings. `'a` is the lifetime of the resources compute
+/// passes reference.
+pub struct Recorder<'a> {
+    pub(crate) ctx: Arc<GpuContext>,
+    pub(crate) cb: vk::CommandBuffer,
+    /// Query pools of `pool_sizes[i]` timestamp pairs each.
+    queries: Vec<vk::QueryPool>,
+    pool_sizes: Vec<u32>,
     names: Vec<String>,
     written: HashSet<vk::Buffer>,
     read: HashSet<vk::Buffer>,
     barriers: u32,
     finished: bool,
+    /// Pools of the per-pass descriptor sets where push descriptors are absent.
+    pub(crate) descriptor_pools: Vec<vk::DescriptorPool>,
+    read_back: bool,
+    _borrows: PhantomData<&'a Buffer>,
 }
 
 /// One pass being declared: `.read()`/`.write()` then an action.
-pub struct Pass<'r> {
-    rec: &'r mut Recorder,
+pub struct Pass<'r, 'a> {
+    rec: &'r mut Recorder<'a>,
     name: String,
     reads: Vec<vk::Buffer>,
     writes: Vec<vk::Buffer>,
 }
 
-impl Recorder {
-    pub fn new(ctx: &Arc<GpuContext>, max_passes: u32) -> GpuResult<Recorder> {
+impl<'a> Recorder<'a> {
+    /// A recorder with timestamps for `max_passes` passes to begin with
+    /// (more are added as needed).
+    pub fn new(ctx: &Arc<GpuContext>, max_passes: u32) -> GpuResult<Recorder<'a>> {
         let alloc = vk::CommandBufferAllocateInfo::default()
             .command_pool(ctx.command_pool)
             .level(vk::CommandBufferLevel::PRIMARY)
             .command_buffer_count(1);
+        // SAFETY: the pool belongs to this device; the buffer is freed in Drop.
         let cb = unsafe { ctx.device.allocate_command_buffers(&alloc) }
             .map_err(vk_err("vkAllocateCommandBuffers"))?[0];
-        let qinfo = vk::QueryPoolCreateInfo::default()
-            .query_type(vk::QueryType::TIMESTAMP)
-            .query_count(2 * max_passes.max(1));
-        let queries = unsafe { ctx.device.create_query_pool(&qinfo, None) }
-            .map_err(vk_err("vkCreateQueryPool"))?;
         let begin = vk::CommandBufferBeginInfo::default()
             .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
-        unsafe {
-            ctx.device
-                .begin_command_buffer(cb, &begin)
-                .map_err(vk_err("vkBeginCommandBuffer"))?;
-            ctx.device
-                .cmd_reset_query_pool(cb, queries, 0, 2 * max_passes.max(1));
-        }
-        Ok(Recorder {
+        // SAFETY: `cb` was just allocated and is not recording.
+        unsafe { ctx.device.begin_command_buffer(cb, &begin) }
+            .map_err(vk_err("vkBeginCommandBuffer"))?;
+        let mut rec = Recorder {
             ctx: ctx.clone(),
             cb,
-            queries,
-            max_passes,
+            queries: Vec::new(),
+            pool_sizes: Vec::new(),
             names: Vec::new(),
             written: HashSet::new(),
             read: HashSet::new(),
             barriers: 0,
             finished: false,
-        })
+            descriptor_pools: Vec::new(),
+            read_back: false,
+            _borrows: PhantomData,
+        };
+        rec.add_query_pool(max_passes.max(1))?;
+        Ok(rec)
     }
 
-    pub fn pass(&mut self, name: &str) -> Pass<'_> {
+    /// A query pool for `passes` more timestamp pairs, reset in the command
+    /// buffer before any of its queries is written.
+    fn add_query_pool(&mut self, passes: u32) -> GpuResult<()> {
+        let qinfo = vk::QueryPoolCreateInfo::default()
+            .query_type(vk::QueryType::TIMESTAMP)
+            .query_count(2 * passes);
+        // SAFETY: plain object creation; destroyed in Drop after the
+        // submission has been waited for (or never submitted).
+        let pool = unsafe { self.ctx.device.create_query_pool(&qinfo, None) }
+            .map_err(vk_err("vkCreateQueryPool"))?;
+        // SAFETY: `cb` is recording, outside any render pass.
+        unsafe {
+            self.ctx
+                .device
+                .cmd_reset_query_pool(self.cb, pool, 0, 2 * passes)
+        };
+        self.queries.push(pool);
+        self.pool_sizes.push(passes);
+        Ok(())
+    }
+
+    /// (pool, first query) of pass `idx`'s timestamp pair.
+    fn query_slot(&self, idx: u32) -> (vk::QueryPool, u32) {
+        let mut i = idx;
+        for (pool, &n) in self.queries.iter().zip(&self.pool_sizes) {
+            if i < n {
+                return (*pool, 2 * i);
+            }
+            i -= n;
+        }
+        unreachable!("query slot of pass {idx} not allocated")
+    }
+
+    /// The device this recorder records for.
+    pub fn context(&self) -> &Arc<GpuContext> {
+        &self.ctx
+    }
+
+    pub fn pass(&mut self, name: &str) -> Pass<'_, 'a> {
         Pass {
             rec: self,
             name: name.to_string(),
@@ -96,12 +152,22 @@ impl Recorder {
         self.barriers
     }
 
-    fn begin_pass(&mut self, name: &str, reads: &[vk::Buffer], writes: &[vk::Buffer]) -> u32 {
-        assert!(
-            (self.names.len() as u32) < self.max_passes,
-            "recorder: more than {} passes",
-            self.max_passes
-        );
+    pub(crate) fn begin_pass(
+        &mut self,
+        name: &str,
+        reads: &[vk::Buffer],
+        writes: &[vk::Buffer],
+    ) -> u32 {
+        let capacity: u32 = self.pool_sizes.iter().sum();
+        if self.names.len() as u32 >= capacity {
+            // Out of query-pool memory is the only failure; it is reported
+            // at `finish` as a missing pool would be (no timings), so the
+            // pass is still recorded.
+            if let Err(e) = self.add_query_pool(PASSES_PER_POOL) {
+                panic!("recorder: cannot add a query pool for pass {name}: {e}");
+            }
+        }
+        self.label_begin(name);
         let hazard = reads.iter().any(|b| self.written.contains(b))
             || writes
                 .iter()
@@ -147,26 +213,119 @@ impl Recorder {
         self.written.extend(writes.iter().copied());
         let idx = self.names.len() as u32;
         self.names.push(name.to_string());
+        let (pool, q) = self.query_slot(idx);
+        // SAFETY: `pool` was reset earlier in this command buffer; `q` < its size.
         unsafe {
             self.ctx.device.cmd_write_timestamp(
                 self.cb,
                 vk::PipelineStageFlags::TOP_OF_PIPE,
-                self.queries,
-                2 * idx,
+                pool,
+                q,
             )
         };
         idx
     }
 
-    fn end_pass(&mut self, idx: u32) {
+    pub(crate) fn end_pass(&mut self, idx: u32) {
+        let (pool, q) = self.query_slot(idx);
+        // SAFETY: as in `begin_pass`.
         unsafe {
             self.ctx.device.cmd_write_timestamp(
                 self.cb,
                 vk::PipelineStageFlags::BOTTOM_OF_PIPE,
-                self.queries,
-                2 * idx + 1,
+                pool,
+                q + 1,
             )
         };
+        self.label_end();
+    }
+
+    /// Opens a debug-utils label named after the pass (RenderDoc and Nsight
+    /// show it) where VK_EXT_debug_utils is enabled.
+    fn label_begin(&self, name: &str) {
+        if let Some(du) = &self.ctx.debug_utils_device {
+            let Ok(cname) = std::ffi::CString::new(name) else {
+                return;
+            };
+            let label = vk::DebugUtilsLabelEXT::default().label_name(&cname);
+            // SAFETY: `cb` is recording; the label's string outlives the call.
+            unsafe { du.cmd_begin_debug_utils_label(self.cb, &label) };
+        }
+    }
+
+    fn label_end(&self) {
+        if let Some(du) = &self.ctx.debug_utils_device {
+            // SAFETY: closes the label `label_begin` opened in this command buffer.
+            unsafe { du.cmd_end_debug_utils_label(self.cb) };
+        }
+    }
+
+    /// Records copies of `sources` into `staging` (packed one after the
+    /// other, each at a 16-byte aligned offset) after every pass recorded
+    /// so far, for the host to read after [`Recorder::finish`]: the frame's
+    /// one batched readback. Not a pass (no timestamps), so frame
+    /// statistics list the method's passes only.
+    pub fn read_back(
+        &mut self,
+        staging: &'a HostReadback,
+        sources: &[&'a Buffer],
+    ) -> GpuResult<Vec<ReadbackRange>> {
+        if self.read_back {
+            return Err(super::GpuError::Interface(
+                "Recorder::read_back called twice for one command buffer".into(),
+            ));
+        }
+        self.read_back = true;
+        let mut ranges = Vec::with_capacity(sources.len());
+        let mut offset = 0u64;
+        for b in sources {
+            ranges.push(ReadbackRange {
+                offset,
+                len: b.size,
+            });
+            offset += b.size.div_ceil(16) * 16;
+        }
+        let dst = staging.ensure(&self.ctx, offset)?;
+        let stages = vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER;
+        let before = vk::MemoryBarrier::default()
+            .src_access_mask(vk::AccessFlags::SHADER_WRITE | vk::AccessFlags::TRANSFER_WRITE)
+            .dst_access_mask(vk::AccessFlags::TRANSFER_READ);
+        let after = vk::MemoryBarrier::default()
+            .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
+            .dst_access_mask(vk::AccessFlags::HOST_READ);
+        // SAFETY: `cb` is recording; every source and `dst` are live buffers
+        // borrowed for 'a, and each region lies inside both.
+        unsafe {
+            let dev = &self.ctx.device;
+            dev.cmd_pipeline_barrier(
+                self.cb,
+                stages,
+                vk::PipelineStageFlags::TRANSFER,
+                vk::DependencyFlags::empty(),
+                &[before],
+                &[],
+                &[],
+            );
+            for (b, r) in sources.iter().zip(&ranges) {
+                let region = [vk::BufferCopy::default()
+                    .src_offset(0)
+                    .dst_offset(r.offset)
+                    .size(r.len)];
+                dev.cmd_copy_buffer(self.cb, b.raw, dst, &region);
+            }
+            dev.cmd_pipeline_barrier(
+                self.cb,
+                vk::PipelineStageFlags::TRANSFER,
+                vk::PipelineStageFlags::HOST,
+                vk::DependencyFlags::empty(),
+                &[after],
+                &[],
+                &[],
+            );
+        }
+        // Later passes that write a source must wait for the copy.
+        self.read.extend(sources.iter().map(|b| b.raw));
+        Ok(ranges)
     }
 
     /// Ends the command buffer, submits, waits, and returns one timing per pass.
@@ -179,15 +338,25 @@ impl Recorder {
         let mut timings = Vec::with_capacity(n);
         if n > 0 {
             let mut raw = vec![0u64; 2 * n];
-            unsafe {
-                self.ctx.device.get_query_pool_results(
-                    self.queries,
-                    0,
-                    &mut raw,
-                    vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT,
-                )
+            let mut done = 0usize;
+            for (pool, &size) in self.queries.iter().zip(&self.pool_sizes) {
+                let k = (size as usize).min(n - done);
+                if k == 0 {
+                    break;
+                }
+                // SAFETY: the first `k` pairs of `pool` were written by the
+                // submission just waited for.
+                unsafe {
+                    self.ctx.device.get_query_pool_results(
+                        *pool,
+                        0,
+                        &mut raw[2 * done..2 * (done + k)],
+                        vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT,
+                    )
+                }
+                .map_err(vk_err("vkGetQueryPoolResults"))?;
+                done += k;
             }
-            .map_err(vk_err("vkGetQueryPoolResults"))?;
             let bits = self.ctx.caps.timestamp_valid_bits;
             let mask = if bits >= 64 || bits == 0 {
                 u64::MAX
@@ -208,11 +377,13 @@ impl Recorder {
     }
 }
 
-impl Drop for Recorder {
+impl Drop for Recorder<'_> {
     fn drop(&mut self) {
         if self.ctx.is_abandoned() {
             return;
         }
+        // SAFETY: the command buffer is either finished and waited for or
+        // never submitted, so nothing in flight uses these objects.
         unsafe {
             if !self.finished {
                 let _ = self.ctx.device.end_command_buffer(self.cb);
@@ -220,12 +391,17 @@ impl Drop for Recorder {
             self.ctx
                 .device
                 .free_command_buffers(self.ctx.command_pool, &[self.cb]);
-            self.ctx.device.destroy_query_pool(self.queries, None);
+            for pool in &self.queries {
+                self.ctx.device.destroy_query_pool(*pool, None);
+            }
+            for pool in &self.descriptor_pools {
+                self.ctx.device.destroy_descriptor_pool(*pool, None);
+            }
         }
     }
 }
 
-impl<'r> Pass<'r> {
+impl Pass<'_, '_> {
     pub fn read(mut self, b: &Buffer) -> Self {
         self.reads.push(b.raw);
         self

@@ -3,6 +3,7 @@
 use super::context::GpuContext;
 use super::descriptors::DescriptorLayout;
 use super::error::{vk_err, GpuError, GpuResult};
+use crate::interface::{Interface, PushBlock};
 use ash::vk;
 use std::sync::Arc;
 
@@ -27,10 +28,68 @@ pub struct ComputePipeline {
     pub raw: vk::Pipeline,
     pub layout: vk::PipelineLayout,
     pub push_size: u32,
+    /// The shader interface the pass builder checks declarations against
+    /// (None for pipelines made with [`ComputePipeline::new`], bound by position).
+    pub interface: Option<&'static Interface>,
+    /// Number of persistent sets before the per-pass set.
+    pub shared_sets: u32,
+    /// The per-pass set is pushed (VK_KHR_push_descriptor), else allocated
+    /// per pass from the recorder's pools.
+    pub(crate) push_descriptors: bool,
     _set_layouts: Vec<Arc<DescriptorLayout>>,
 }
 
 impl ComputePipeline {
+    /// A pipeline whose per-pass buffers (set `interface.set`) are bound by
+    /// the pass builder (`Recorder::compute`) from the pass's declarations;
+    /// `shared` are the persistent sets before it (the scene's set 0), and
+    /// `push` the push-constant block (its size is the pipeline's).
+    pub fn with_interface(
+        ctx: &Arc<GpuContext>,
+        name: &str,
+        spirv: &[u8],
+        shared: &[Arc<DescriptorLayout>],
+        interface: &'static Interface,
+        push: Option<&'static PushBlock>,
+        spec: &SpecConstants,
+    ) -> GpuResult<ComputePipeline> {
+        if interface.set as usize != shared.len() {
+            return Err(GpuError::Interface(format!(
+                "pipeline {name}: interface {} binds its buffers at set {}, after {} shared set(s)",
+                interface.name,
+                interface.set,
+                shared.len()
+            )));
+        }
+        if let Some(p) = push {
+            if !interface.push.iter().any(|q| q.name == p.name) {
+                return Err(GpuError::Interface(format!(
+                    "pipeline {name}: push block {} is not part of interface {}",
+                    p.name, interface.name
+                )));
+            }
+        }
+        let push_descriptors = super::descriptors::use_push_descriptors(ctx);
+        let mut layouts = shared.to_vec();
+        layouts.push(DescriptorLayout::pass_buffers(
+            ctx,
+            interface.bindings.len(),
+            push_descriptors,
+        )?);
+        let mut p = Self::new(
+            ctx,
+            name,
+            spirv,
+            &layouts,
+            push.map_or(0, |p| p.size()),
+            spec,
+        )?;
+        p.interface = Some(interface);
+        p.shared_sets = shared.len() as u32;
+        p.push_descriptors = push_descriptors;
+        Ok(p)
+    }
+
     pub fn new(
         ctx: &Arc<GpuContext>,
         name: &str,
@@ -106,8 +165,25 @@ impl ComputePipeline {
             raw,
             layout,
             push_size,
+            interface: None,
+            push_descriptors: false,
+            shared_sets: set_layouts.len() as u32,
             _set_layouts: set_layouts.to_vec(),
         })
+    }
+}
+
+impl ComputePipeline {
+    /// True when the per-pass buffers are bound with push descriptors
+    /// (false: per-pass descriptor sets, or a pipeline without interface).
+    pub fn uses_push_descriptors(&self) -> bool {
+        self.push_descriptors
+    }
+
+    /// The per-pass set's layout (the last one) of a pipeline made
+    /// [`ComputePipeline::with_interface`].
+    pub(crate) fn pass_layout_raw(&self) -> vk::DescriptorSetLayout {
+        self._set_layouts.last().map(|l| l.raw).unwrap_or_default()
     }
 }
 

@@ -3,9 +3,11 @@
 
 pub mod baseline;
 pub mod frame;
+mod frame_loop;
 pub mod hash_cache;
 pub mod hybrid;
 pub mod isrt;
+pub mod outputs;
 pub mod reference;
 pub mod registry;
 pub mod sample_cache;
@@ -19,13 +21,15 @@ pub use frame::{
 pub use hash_cache::{HashCache, HashCacheSettings};
 pub use hybrid::Hybrid;
 pub use isrt::{Isrt, IsrtSettings};
+pub use outputs::{Color, CounterOutput, FrameOutputs, RaySlots};
 pub use reference::Reference;
 pub use registry::MethodKind;
 pub use sample_cache::{SampleCache, SampleCacheSettings};
 pub use specialize::LightSampling;
 pub use taa::{Taa, TaaPass, TaaSettings, TaaWeights};
 
-use crate::gpu::GpuResult;
+use crate::gpu::{GpuContext, GpuError, GpuResult, Recorder};
+use std::sync::Arc;
 
 /// Settings every method shares, so differences come from the method alone.
 #[derive(Clone, Debug, serde::Serialize)]
@@ -83,11 +87,49 @@ impl Default for RenderSettings {
     }
 }
 
+/// A rendering method. It records its passes for a frame into a
+/// [`Recorder`] and says which buffers are its outputs and counters
+/// ([`FrameOutputs`]); the provided [`Method::render_frame`] is the frame
+/// loop every method shares (src/methods/frame_loop.rs: one batched
+/// readback, one submit-and-wait, timestamps, frame statistics).
 pub trait Method {
     /// The method's name on the command line (`reference`, `sample-cache`, ...).
     fn name(&self) -> &'static str;
-    /// Renders both eyes of one frame.
-    fn render_frame(&mut self, frame: &FrameInput) -> GpuResult<StereoFrame>;
     /// GPU memory held by the method's own buffers (not the scene's).
     fn memory_bytes(&self) -> u64;
+
+    /// The device the method renders on.
+    ///
+    /// Transitional default (issue 14): methods that still override
+    /// `render_frame` do not need it; it becomes required once every
+    /// method records.
+    fn context(&self) -> &Arc<GpuContext> {
+        unimplemented!(
+            "method {} overrides render_frame and has no context()",
+            self.name()
+        )
+    }
+
+    /// Records this frame's passes into `rec` and returns what the frame
+    /// loop reads back. Everything the passes reference is borrowed from
+    /// `self` for `'a`, the recorder's lifetime.
+    ///
+    /// Transitional default (issue 14): an error, for methods that still
+    /// override `render_frame`; it becomes required once every method records.
+    fn record<'a>(
+        &'a mut self,
+        rec: &mut Recorder<'a>,
+        frame: &FrameInput,
+    ) -> GpuResult<FrameOutputs<'a>> {
+        let _ = (rec, frame);
+        Err(GpuError::Unsupported(format!(
+            "method {} does not record (it overrides render_frame)",
+            self.name()
+        )))
+    }
+
+    /// Renders both eyes of one frame: the shared frame loop.
+    fn render_frame(&mut self, frame: &FrameInput) -> GpuResult<StereoFrame> {
+        frame_loop::render(self, frame)
+    }
 }

@@ -3,19 +3,33 @@
 //! bounces, pixel-centre first hits in the Listing 1 encoding.
 
 use super::{
-    EyeImage, FrameInput, FrameParams, FrameStats, Method, RayCounts, RenderSettings, StereoFrame,
+    Color, CounterOutput, FrameInput, FrameOutputs, FrameParams, Method, RaySlots, RenderSettings,
 };
 use crate::gpu::{
-    shaders, Buffer, ComputePipeline, DescriptorLayout, DescriptorSet, GpuContext, GpuError,
-    GpuResult, Recorder, Resource,
+    shaders, Buffer, ComputePipeline, GpuContext, GpuError, GpuResult, HostReadback, Recorder,
 };
+use crate::interface::reference::{ReferenceCounter, INTERFACE, TRACE_PUSH};
+use crate::interface::CounterSlot;
 use crate::rt::SceneGpu;
 use crate::scene::Environment;
+use bytemuck::{Pod, Zeroable};
 use std::sync::Arc;
 
 const LOCAL: u32 = 8;
 /// Samples per dispatch.
 const CHUNK: u32 = 16;
+
+/// Push constants of reference/trace.comp (`REFERENCE_TRACE_PUSH`).
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct TracePush {
+    sample_base: u32,
+    sample_count: u32,
+    fixed_jitter: u32,
+    pad: u32,
+    jitter: [f32; 2],
+}
+const _: () = assert!(std::mem::size_of::<TracePush>() == TRACE_PUSH.size() as usize);
 
 pub struct Reference {
     name: &'static str,
@@ -24,13 +38,13 @@ pub struct Reference {
     settings: RenderSettings,
     primary: ComputePipeline,
     trace: ComputePipeline,
-    set: DescriptorSet,
     frame: Buffer,
     accum: Buffer,
     first_hit: Buffer,
     depth: Buffer,
     albedo: Buffer,
     counters: Buffer,
+    readback: HostReadback,
 }
 
 /// Loads a compiled shader of the scene's backend or says which is missing.
@@ -69,36 +83,29 @@ impl Reference {
         let first_hit = Buffer::storage(ctx, "reference.first_hit", n * 16)?;
         let depth = Buffer::storage(ctx, "reference.depth", n * 4)?;
         let albedo = Buffer::storage(ctx, "reference.albedo", n * 16)?;
-        let counters = Buffer::storage(ctx, "reference.counters", 16)?;
-        let layout = DescriptorLayout::buffers(ctx, 6)?;
-        let set = DescriptorSet::new(
+        let counters = Buffer::storage(
             ctx,
-            &layout,
-            &[
-                Resource::Buffer(&frame),
-                Resource::Buffer(&accum),
-                Resource::Buffer(&first_hit),
-                Resource::Buffer(&depth),
-                Resource::Buffer(&albedo),
-                Resource::Buffer(&counters),
-            ],
+            "reference.counters",
+            4 * ReferenceCounter::ALL.len() as u64,
         )?;
         let spec = settings.spec_constants(scene, env);
-        let layouts = [scene.layout.clone(), layout];
-        let primary = ComputePipeline::new(
+        let shared = [scene.layout.clone()];
+        let primary = ComputePipeline::with_interface(
             ctx,
             "reference.primary",
             backend_shader("reference/primary", scene)?,
-            &layouts,
-            0,
+            &shared,
+            &INTERFACE,
+            None,
             &spec,
         )?;
-        let trace = ComputePipeline::new(
+        let trace = ComputePipeline::with_interface(
             ctx,
             "reference.trace",
             backend_shader("reference/trace", scene)?,
-            &layouts,
-            24,
+            &shared,
+            &INTERFACE,
+            Some(&TRACE_PUSH),
             &spec,
         )?;
         Ok(Reference {
@@ -108,13 +115,13 @@ impl Reference {
             settings: settings.clone(),
             primary,
             trace,
-            set,
             frame,
             accum,
             first_hit,
             depth,
             albedo,
             counters,
+            readback: HostReadback::new(),
         })
     }
 }
@@ -149,7 +156,12 @@ impl Reference {
     /// Records one frame (params, clear, primary, trace) into `rec`. With
     /// `jitter = Some(j)` every sample goes through sub-pixel position `j`
     /// (in [0, 1)²) instead of a random one per sample.
-    pub fn record(&self, rec: &mut Recorder, input: &FrameInput, jitter: Option<[f32; 2]>) {
+    pub fn record_passes<'a>(
+        &'a self,
+        rec: &mut Recorder<'a>,
+        input: &FrameInput,
+        jitter: Option<[f32; 2]>,
+    ) -> GpuResult<()> {
         let (w, h) = (self.settings.width, self.settings.height);
         let spp = self.settings.spp.max(1);
         let chunks = spp.div_ceil(CHUNK);
@@ -163,89 +175,64 @@ impl Reference {
             .write(&self.accum)
             .write(&self.counters)
             .fill(0);
-        let sets = [&self.scene.set, &self.set];
-        rec.pass(&format!("{p}.primary"))
+        // Binding order: src/interface/reference.rs. `primary` writes no
+        // accumulator but binds it (one binding list for both shaders).
+        rec.compute(&format!("{p}.primary"), &self.primary)
+            .shared(&self.scene.set)
             .read(&self.frame)
+            .write(&self.accum)
             .write(&self.first_hit)
             .write(&self.depth)
             .write(&self.albedo)
             .write(&self.counters)
-            .dispatch(&self.primary, &sets, &[], groups);
-        let (fixed, j) = match jitter {
+            .dispatch(groups)?;
+        let (fixed_jitter, jitter) = match jitter {
             Some(j) => (1u32, j),
             None => (0, [0.0; 2]),
         };
         for c in 0..chunks {
-            let base = c * CHUNK;
-            let count = CHUNK.min(spp - base);
-            let mut push: Vec<u8> = [base, count, fixed, 0]
-                .iter()
-                .flat_map(|v| v.to_le_bytes())
-                .collect();
-            push.extend(j.iter().flat_map(|v| v.to_le_bytes()));
-            rec.pass(&format!("{p}.trace"))
+            let sample_base = c * CHUNK;
+            rec.compute(&format!("{p}.trace"), &self.trace)
+                .shared(&self.scene.set)
                 .read(&self.frame)
                 .write(&self.accum)
+                .write(&self.first_hit)
+                .write(&self.depth)
+                .write(&self.albedo)
                 .write(&self.counters)
-                .dispatch(&self.trace, &sets, &push, groups);
+                .push(&TracePush {
+                    sample_base,
+                    sample_count: CHUNK.min(spp - sample_base),
+                    fixed_jitter,
+                    pad: 0,
+                    jitter,
+                })
+                .dispatch(groups)?;
         }
+        Ok(())
     }
 
-    /// Ray counts of the last recorded frame.
-    pub fn ray_counts(&self) -> GpuResult<RayCounts> {
-        let counters: Vec<u32> = self.counters.download_pod()?;
-        Ok(RayCounts {
-            primary: counters[0] as u64,
-            bounce: counters[1] as u64,
-            shadow: counters[2] as u64,
-        })
-    }
-
-    /// Reads the last frame back; `radiance` overrides the accumulated mean
-    /// (`[eye][pixel]`, e.g. a TAA resolve of it).
-    pub fn read_frame(
-        &self,
-        passes: Vec<crate::gpu::PassTiming>,
-        radiance: Option<Vec<[f32; 4]>>,
-    ) -> GpuResult<StereoFrame> {
-        let (w, h) = (self.settings.width, self.settings.height);
-        let radiance = match radiance {
-            Some(r) => r,
-            None => {
-                let accum: Vec<[f32; 4]> = self.accum.download_pod()?;
-                accum
-                    .iter()
-                    .map(|a| {
-                        if a[3] > 0.0 {
-                            [a[0] / a[3], a[1] / a[3], a[2] / a[3], 1.0]
-                        } else {
-                            [0.0; 4]
-                        }
-                    })
-                    .collect()
-            }
-        };
-        let first_hit: Vec<[u32; 4]> = self.first_hit.download_pod()?;
-        let depth: Vec<f32> = self.depth.download_pod()?;
-        let albedo: Vec<[f32; 4]> = self.albedo.download_pod()?;
-        let npix = (w * h) as usize;
-        let eye = |e: usize| EyeImage {
-            radiance: radiance[e * npix..(e + 1) * npix].to_vec(),
-            depth: depth[e * npix..(e + 1) * npix].to_vec(),
-            first_hit: first_hit[e * npix..(e + 1) * npix].to_vec(),
-            albedo: albedo[e * npix..(e + 1) * npix].to_vec(),
-            debug: Vec::new(),
-        };
-        Ok(StereoFrame {
-            width: w,
-            height: h,
-            eyes: [eye(0), eye(1)],
-            stats: FrameStats {
-                passes,
-                rays: self.ray_counts()?,
-                counters: Default::default(),
-            },
-        })
+    /// The frame's outputs with `color` as its radiance (the accumulated
+    /// mean for `reference`; a TAA resolve of it for `taa`).
+    pub fn frame_outputs<'a>(
+        &'a self,
+        color: Color<'a>,
+        readback: &'a HostReadback,
+    ) -> FrameOutputs<'a> {
+        use ReferenceCounter::*;
+        FrameOutputs {
+            width: self.settings.width,
+            height: self.settings.height,
+            color,
+            depth: &self.depth,
+            first_hit: &self.first_hit,
+            albedo: &self.albedo,
+            debug: None,
+            counters: vec![CounterOutput::of::<ReferenceCounter>(&self.counters)
+                .rays(RaySlots::of(&[PrimaryRays], &[BounceRays], &[ShadowRays]))],
+            host_counters: Default::default(),
+            readback,
+        }
     }
 }
 
@@ -254,11 +241,18 @@ impl Method for Reference {
         self.name
     }
 
-    fn render_frame(&mut self, input: &FrameInput) -> GpuResult<StereoFrame> {
-        let mut rec = Recorder::new(&self.ctx, self.pass_count())?;
-        self.record(&mut rec, input, None);
-        let passes = rec.finish()?;
-        self.read_frame(passes, None)
+    fn context(&self) -> &Arc<GpuContext> {
+        &self.ctx
+    }
+
+    fn record<'a>(
+        &'a mut self,
+        rec: &mut Recorder<'a>,
+        frame: &FrameInput,
+    ) -> GpuResult<FrameOutputs<'a>> {
+        let this: &'a Reference = self;
+        this.record_passes(rec, frame, None)?;
+        Ok(this.frame_outputs(Color::SampleSum(&this.accum), &this.readback))
     }
 
     fn memory_bytes(&self) -> u64 {

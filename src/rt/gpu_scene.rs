@@ -20,28 +20,21 @@ use bytemuck::{Pod, Zeroable};
 use glam::{DVec3, Mat4, Vec3};
 use std::sync::Arc;
 
-/// Specialization constant ids (shaders/common/features.glsl).
-pub mod spec_id {
-    pub const TEXTURES: u32 = 0;
-    pub const NORMAL_MAPS: u32 = 1;
-    pub const ALPHA_MASK: u32 = 2;
-    pub const TRANSMISSION: u32 = 3;
-    pub const EMISSIVE: u32 = 4;
-    pub const PUNCTUAL: u32 = 5;
-    pub const DIRECTIONAL: u32 = 6;
-    pub const ENV_KIND: u32 = 7;
-    pub const MAX_BOUNCES: u32 = 8;
-    pub const TEXTURE_COUNT: u32 = 9;
-    pub const VIEW_DEPENDENT: u32 = 10;
-    pub const LIGHT_STRATEGY: u32 = 11;
-}
+/// Specialization constant ids (shaders/common/features.glsl), from the
+/// shader interface (src/interface/scene.rs).
+pub use crate::interface::scene::spec_id;
 
 /// Descriptor-set-0 bindings of the light-sampling data (lights.glsl, sky.glsl)
-/// and of the TLAS (rt_query.glsl, ray-query backend only).
+/// and of the TLAS (rt_query.glsl, ray-query backend only); the numbers are
+/// src/interface/scene.rs's.
 pub mod binding {
-    pub const EMITTERS: u32 = 12;
-    pub const ENV_DISTRIBUTION: u32 = 13;
-    pub const TLAS: u32 = 14;
+    use crate::interface::scene::INTERFACE as SCENE;
+    pub const EMITTERS: u32 = SCENE.binding("emitters");
+    pub const ENV_DISTRIBUTION: u32 = SCENE.binding("env_distribution");
+    pub const TLAS: u32 = SCENE.binding("tlas");
+    /// The sampled-image arrays: scene textures and the environment map.
+    pub const TEXTURES: u32 = SCENE.binding("textures");
+    pub const ENV_MAP: u32 = SCENE.binding("env_map");
 }
 
 #[repr(C)]
@@ -420,8 +413,10 @@ impl SceneGpu {
             }
         };
 
-        let mut kinds = vec![BindingKind::StorageBuffer; 10];
+        let mut kinds = vec![BindingKind::StorageBuffer; binding::TEXTURES as usize];
+        debug_assert_eq!(kinds.len(), binding::TEXTURES as usize);
         kinds.push(BindingKind::SampledImages(texture_count));
+        debug_assert_eq!(kinds.len(), binding::ENV_MAP as usize);
         kinds.push(BindingKind::SampledImages(1));
         kinds.push(BindingKind::StorageBuffer); // binding::EMITTERS
         kinds.push(BindingKind::StorageBuffer); // binding::ENV_DISTRIBUTION

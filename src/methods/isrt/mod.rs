@@ -52,34 +52,27 @@ pub mod settings {
 
 use super::reference::backend_shader;
 use super::{
-    named_counters, FrameInput, FrameParams, FrameStats, Method, OutputBuffers, RayCounts,
-    RenderSettings, StereoFrame,
+    Color, CounterOutput, FrameInput, FrameOutputs, FrameParams, Method, RaySlots, RenderSettings,
 };
 use crate::gpu::{
-    Buffer, ComputePipeline, DescriptorLayout, DescriptorSet, GpuContext, GpuError, GpuResult,
-    Recorder, Resource,
+    Buffer, ComputePass, ComputePipeline, GpuContext, GpuError, GpuResult, HostReadback, Recorder,
 };
+use crate::interface::isrt::{IsrtCounter, INTERFACE, PUSH, SPEC_M};
 use crate::rt::SceneGpu;
 use crate::scene::Environment;
+use bytemuck::{Pod, Zeroable};
 use std::sync::Arc;
 
-/// Specialization constant id of `M` in shaders/isrt/common.glsl.
-const SPEC_M: u32 = 30;
 const LOCAL: u32 = 8;
 
-/// Counter slots of common.glsl (`C_*`) with report names.
-const COUNTERS: &[(usize, &str)] = &[
-    (0, "reprojected_samples"),
-    (1, "reproject_offscreen"),
-    (2, "kept_samples"),
-    (3, "retrace_rays"),
-    (4, "retrace_lost"),
-    (5, "new_sample_rays"),
-    (6, "new_samples"),
-    (7, "shaded_samples"),
-    (10, "samples"),
-    (11, "background_samples"),
-];
+/// Push constants of every isrt pass (`ISRT_PUSH`).
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct IsrtPush {
+    eps0: f32,
+    pad: [u32; 3],
+}
+const _: () = assert!(std::mem::size_of::<IsrtPush>() == PUSH.size() as usize);
 
 /// The grid read back from the GPU (current frame), for tests and debugging.
 /// Cells are `[eye][gy][gx]` over a (W·M) × (H·M) grid per eye.
@@ -127,8 +120,6 @@ pub struct Isrt {
     settings: RenderSettings,
     isrt: IsrtSettings,
     pipes: Pipelines,
-    /// sets[p] reads fh/rad[p] as "previous" and writes [1 − p].
-    sets: [DescriptorSet; 2],
     frame: Buffer,
     first_hits: [Buffer; 2],
     radiance: [Buffer; 2],
@@ -138,6 +129,7 @@ pub struct Isrt {
     out_fh: Buffer,
     out_albedo: Buffer,
     counters: Buffer,
+    readback: HostReadback,
     frames: u64,
 }
 
@@ -174,38 +166,17 @@ impl Isrt {
         let out_fh = b("out_first_hit", 2 * npix * 16)?;
         let out_albedo = b("albedo", 2 * npix * 16)?;
         let counters = b("counters", 16 * 4)?;
-        let layout = DescriptorLayout::buffers(ctx, 11)?;
-        let make_set = |p: usize| {
-            let q = 1 - p;
-            DescriptorSet::new(
-                ctx,
-                &layout,
-                &[
-                    Resource::Buffer(&frame),
-                    Resource::Buffer(&first_hits[p]),
-                    Resource::Buffer(&first_hits[q]),
-                    Resource::Buffer(&radiance[p]),
-                    Resource::Buffer(&radiance[q]),
-                    Resource::Buffer(&claim),
-                    Resource::Buffer(&out_color),
-                    Resource::Buffer(&out_depth),
-                    Resource::Buffer(&out_fh),
-                    Resource::Buffer(&out_albedo),
-                    Resource::Buffer(&counters),
-                ],
-            )
-        };
-        let sets = [make_set(0)?, make_set(1)?];
         let mut spec = settings.spec_constants(scene, env);
         spec.set(SPEC_M, isrt.m);
-        let layouts = [scene.layout.clone(), layout];
+        let shared = [scene.layout.clone()];
         let pipe = |name: &str| -> GpuResult<ComputePipeline> {
-            ComputePipeline::new(
+            ComputePipeline::with_interface(
                 ctx,
                 &format!("isrt.{name}"),
                 backend_shader(&format!("isrt/{name}"), scene)?,
-                &layouts,
-                16,
+                &shared,
+                &INTERFACE,
+                Some(&PUSH),
                 &spec,
             )
         };
@@ -233,7 +204,6 @@ impl Isrt {
             settings: settings.clone(),
             isrt,
             pipes,
-            sets,
             frame,
             first_hits,
             radiance,
@@ -243,6 +213,7 @@ impl Isrt {
             out_fh,
             out_albedo,
             counters,
+            readback: HostReadback::new(),
             frames: 0,
         })
     }
@@ -264,95 +235,93 @@ impl Isrt {
     }
 }
 
+impl Isrt {
+    /// A pass of `pipeline` with every binding of src/interface/isrt.rs
+    /// declared (one binding list for all five shaders), `parity` choosing
+    /// which grid is the previous frame's.
+    fn pass<'r, 'a>(
+        &'a self,
+        rec: &'r mut Recorder<'a>,
+        name: &str,
+        pipeline: &'a ComputePipeline,
+        parity: usize,
+    ) -> ComputePass<'r, 'a> {
+        rec.compute(name, pipeline)
+            .shared(&self.scene.set)
+            .read(&self.frame)
+            .read(&self.first_hits[parity])
+            .write(&self.first_hits[1 - parity])
+            .read(&self.radiance[parity])
+            .write(&self.radiance[1 - parity])
+            .write(&self.claim)
+            .write(&self.out_color)
+            .write(&self.out_depth)
+            .write(&self.out_fh)
+            .write(&self.out_albedo)
+            .write(&self.counters)
+            .push(&IsrtPush {
+                eps0: self.isrt.eps0,
+                pad: [0; 3],
+            })
+    }
+}
+
 impl Method for Isrt {
     fn name(&self) -> &'static str {
         "isrt"
     }
 
-    fn render_frame(&mut self, input: &FrameInput) -> GpuResult<StereoFrame> {
-        let (w, h) = (self.settings.width, self.settings.height);
-        let npix = (w * h) as usize;
-        let m = self.isrt.m;
+    fn context(&self) -> &Arc<GpuContext> {
+        &self.ctx
+    }
+
+    fn record<'a>(
+        &'a mut self,
+        rec: &mut Recorder<'a>,
+        input: &FrameInput,
+    ) -> GpuResult<FrameOutputs<'a>> {
         let parity = (self.frames % 2) as usize;
-        let (prev_fh, prev_rad) = (&self.first_hits[parity], &self.radiance[parity]);
-        let (cur_fh, cur_rad) = (&self.first_hits[1 - parity], &self.radiance[1 - parity]);
-        let params = FrameParams::new(input, w, h, self.settings.seed, self.scene.origin);
-        let mut push = Vec::with_capacity(16);
-        push.extend(self.isrt.eps0.to_le_bytes());
-        push.extend([0u8; 12]);
-        let sets = [&self.scene.set, &self.sets[parity]];
+        self.frames += 1;
+        let this: &'a Isrt = self;
+        let (w, h) = (this.settings.width, this.settings.height);
+        let m = this.isrt.m;
+        let params = FrameParams::new(input, w, h, this.settings.seed, this.scene.origin);
         let pixel_groups = [w.div_ceil(LOCAL), h.div_ceil(LOCAL), 2];
         let cell_groups = [(w * m).div_ceil(LOCAL), (h * m).div_ceil(LOCAL), 2];
-        let p = &self.pipes;
-        let mut rec = Recorder::new(&self.ctx, 9)?;
+        let p = &this.pipes;
         rec.pass("params")
-            .write(&self.frame)
+            .write(&this.frame)
             .update(bytemuck::bytes_of(&params));
-        rec.pass("clear").write(&self.counters).fill(0);
-        rec.pass("clear.claims").write(&self.claim).fill(u32::MAX);
-        rec.pass("reproject")
-            .read(&self.frame)
-            .read(prev_fh)
-            .write(&self.claim)
-            .write(&self.counters)
-            .dispatch(&p.reproject, &sets, &push, cell_groups);
-        rec.pass("gather")
-            .read(&self.claim)
-            .read(prev_fh)
-            .read(prev_rad)
-            .write(cur_fh)
-            .write(cur_rad)
-            .write(&self.counters)
-            .dispatch(&p.gather, &sets, &push, cell_groups);
-        rec.pass("trace")
-            .write(cur_fh)
-            .write(cur_rad)
-            .write(&self.counters)
-            .dispatch(&p.trace, &sets, &push, cell_groups);
-        rec.pass("shade")
-            .read(cur_fh)
-            .write(cur_rad)
-            .write(&self.counters)
-            .dispatch(&p.shade, &sets, &push, pixel_groups);
-        rec.pass("reconstruct")
-            .read(cur_fh)
-            .read(cur_rad)
-            .write(&self.out_color)
-            .write(&self.out_depth)
-            .write(&self.out_fh)
-            .write(&self.out_albedo)
-            .dispatch(&p.reconstruct, &sets, &push, pixel_groups);
-        let passes = rec.finish()?;
-        self.frames += 1;
-
-        let outputs = OutputBuffers {
-            color: &self.out_color,
-            depth: &self.out_depth,
-            first_hit: &self.out_fh,
-            albedo: &self.out_albedo,
-            debug: None,
-        };
-        let eyes = outputs.read(npix)?;
-        let counters: Vec<u32> = self.counters.download_pod()?;
-        let mut stats = FrameStats {
-            passes,
-            rays: RayCounts {
-                primary: counters[3] as u64 + counters[5] as u64,
-                bounce: counters[8] as u64,
-                shadow: counters[9] as u64,
-            },
-            counters: Default::default(),
-        };
-        stats.counters = named_counters(&counters, COUNTERS);
-        stats.counters.insert(
-            "samples_per_pixel".into(),
-            counters[10] as f64 / (2 * npix) as f64,
-        );
-        Ok(StereoFrame {
+        rec.pass("clear").write(&this.counters).fill(0);
+        rec.pass("clear.claims").write(&this.claim).fill(u32::MAX);
+        this.pass(rec, "reproject", &p.reproject, parity)
+            .dispatch(cell_groups)?;
+        this.pass(rec, "gather", &p.gather, parity)
+            .dispatch(cell_groups)?;
+        this.pass(rec, "trace", &p.trace, parity)
+            .dispatch(cell_groups)?;
+        this.pass(rec, "shade", &p.shade, parity)
+            .dispatch(pixel_groups)?;
+        this.pass(rec, "reconstruct", &p.reconstruct, parity)
+            .dispatch(pixel_groups)?;
+        use IsrtCounter::*;
+        Ok(FrameOutputs {
             width: w,
             height: h,
-            eyes,
-            stats,
+            color: Color::Radiance(&this.out_color),
+            depth: &this.out_depth,
+            first_hit: &this.out_fh,
+            albedo: &this.out_albedo,
+            debug: None,
+            counters: vec![CounterOutput::of::<IsrtCounter>(&this.counters)
+                .rays(RaySlots::of(
+                    &[RetraceRays, NewRays],
+                    &[BounceRays],
+                    &[ShadowRays],
+                ))
+                .per_pixel(Samples, "samples_per_pixel")],
+            host_counters: Default::default(),
+            readback: &this.readback,
         })
     }
 

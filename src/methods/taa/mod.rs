@@ -12,8 +12,8 @@ pub mod settings;
 pub use pass::{TaaInputs, TaaPass};
 pub use settings::{halton_jitter, TaaSettings, TaaWeights};
 
-use super::{FrameInput, Method, Reference, RenderSettings, StereoFrame};
-use crate::gpu::{GpuContext, GpuResult, Recorder};
+use super::{Color, FrameInput, FrameOutputs, Method, Reference, RenderSettings};
+use crate::gpu::{GpuContext, GpuResult, HostReadback, Recorder};
 use crate::rt::SceneGpu;
 use crate::scene::Environment;
 use std::sync::Arc;
@@ -22,6 +22,7 @@ pub struct Taa {
     ctx: Arc<GpuContext>,
     source: Reference,
     pass: TaaPass,
+    readback: HostReadback,
 }
 
 impl Taa {
@@ -54,6 +55,7 @@ impl Taa {
             ctx: ctx.clone(),
             source,
             pass,
+            readback: HostReadback::new(),
         })
     }
 
@@ -67,29 +69,35 @@ impl Method for Taa {
         "taa"
     }
 
-    fn render_frame(&mut self, input: &FrameInput) -> GpuResult<StereoFrame> {
-        let mut rec = Recorder::new(&self.ctx, self.source.pass_count() + TaaPass::PASSES)?;
-        self.source
-            .record(&mut rec, input, Some(halton_jitter(input.index)));
-        let out = self.source.outputs();
-        self.pass.record(
-            &mut rec,
+    fn context(&self) -> &Arc<GpuContext> {
+        &self.ctx
+    }
+
+    fn record<'a>(
+        &'a mut self,
+        rec: &mut Recorder<'a>,
+        input: &FrameInput,
+    ) -> GpuResult<FrameOutputs<'a>> {
+        let Taa {
+            source,
+            pass,
+            readback,
+            ..
+        } = self;
+        let source: &'a Reference = source;
+        source.record_passes(rec, input, Some(halton_jitter(input.index)))?;
+        let out = source.outputs();
+        let (resolved, counters) = pass.record(
+            rec,
             input,
             TaaInputs {
                 color: out.accum,
                 depth: out.depth,
                 first_hit: out.first_hit,
             },
-        );
-        let passes = rec.finish()?;
-        let resolved: Vec<[f32; 4]> = self
-            .pass
-            .read_output()?
-            .into_iter()
-            .map(|c| [c[0], c[1], c[2], 1.0])
-            .collect();
-        let mut frame = self.source.read_frame(passes, Some(resolved))?;
-        frame.stats.counters = self.pass.counters()?;
+        )?;
+        let mut frame = source.frame_outputs(Color::Radiance(resolved), readback);
+        frame.counters.push(counters);
         Ok(frame)
     }
 

@@ -5,34 +5,35 @@
 //! depth and first-hit buffers (`[eye][pixel]`, both eyes). `taa` runs it on
 //! 1 spp Halton-jittered path tracing; `hash-cache` can run it on its output.
 //!
+//! Binding order and counter slots: src/interface/taa.rs.
 //! Passes (5): `taa.params` → `taa.clear` → `taa.resolve`
 //! (shaders/taa/resolve.comp) → `taa.keep.depth` → `taa.keep.first_hit`.
 
 use super::settings::{TaaSettings, TaaWeights};
-use crate::gpu::{
-    shaders, Buffer, ComputePipeline, DescriptorLayout, DescriptorSet, GpuContext, GpuError,
-    GpuResult, Recorder, Resource,
-};
-use crate::methods::{FrameInput, FrameParams};
+use crate::gpu::{shaders, Buffer, ComputePipeline, GpuContext, GpuError, GpuResult, Recorder};
+use crate::interface::taa::{TaaCounter, INTERFACE, RESOLVE_PUSH};
+use crate::methods::{CounterOutput, FrameInput, FrameParams};
 use crate::rt::SceneGpu;
-use std::collections::BTreeMap;
+use bytemuck::{Pod, Zeroable};
 use std::sync::Arc;
 
 const LOCAL: u32 = 8;
 
-/// Counter slots of resolve.comp (`C_*`) with their report names.
-const COUNTERS: &[(usize, &str)] = &[
-    (0, "taa_rejected_offscreen"),
-    (1, "taa_rejected_disocclusion"),
-    (2, "taa_no_history"),
-    (3, "taa_clipped"),
-    (4, "taa_history_used"),
-];
+/// Push constants of resolve.comp (`TAA_RESOLVE_PUSH`).
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct ResolvePush {
+    alpha: f32,
+    gamma: f32,
+    weights: u32,
+    flags: u32,
+}
+const _: () = assert!(std::mem::size_of::<ResolvePush>() == RESOLVE_PUSH.size() as usize);
 
 /// The caller's buffers the resolve reads, `[eye][pixel]`: colour (vec4, rgb =
 /// radiance, w ignored), view depth (f32, 0 = miss) and pixel-centre first hits
-/// (uvec4, Listing 1). They are bound when the pass is created, so the same
-/// buffers must be passed to every [`TaaPass::record`] and outlive the pass.
+/// (uvec4, Listing 1). They are bound per pass (push descriptors), so they
+/// may differ from frame to frame; each must hold both eyes' pixels.
 #[derive(Clone, Copy)]
 pub struct TaaInputs<'a> {
     pub color: &'a Buffer,
@@ -47,14 +48,11 @@ pub struct TaaPass {
     seed: u32,
     scene: Arc<SceneGpu>,
     pipeline: ComputePipeline,
-    /// sets[p] reads history[p] and writes history[1 − p].
-    sets: [DescriptorSet; 2],
     frame: Buffer,
     history: [Buffer; 2],
     prev_depth: Buffer,
     prev_first_hit: Buffer,
     counters: Buffer,
-    bound: [ash::vk::Buffer; 3],
     /// Frames recorded since creation or the last reset.
     frames: u64,
 }
@@ -73,50 +71,26 @@ impl TaaPass {
         inputs: TaaInputs<'_>,
     ) -> GpuResult<TaaPass> {
         settings.validate().map_err(GpuError::Unsupported)?;
-        let n = 2 * (width * height) as u64;
+        let n = pixels(width, height);
         let b = |name: &str, bytes: u64| Buffer::storage(ctx, &format!("taa.{name}"), bytes);
         let frame = b("frame", std::mem::size_of::<FrameParams>() as u64)?;
         let history = [b("history0", n * 16)?, b("history1", n * 16)?];
         let prev_depth = b("prev_depth", n * 4)?;
         let prev_first_hit = b("prev_first_hit", n * 16)?;
         let counters = b("counters", 8 * 4)?;
-        for (buf, bytes) in [
-            (inputs.color, n * 16),
-            (inputs.depth, n * 4),
-            (inputs.first_hit, n * 16),
-        ] {
-            if buf.size < bytes {
-                return Err(GpuError::Unsupported(format!(
-                    "taa: input buffer {} holds {} bytes, the resolve reads {bytes}",
-                    buf.name, buf.size
-                )));
-            }
-        }
-        let layout = DescriptorLayout::buffers(ctx, 9)?;
-        let make_set = |p: usize| {
-            DescriptorSet::new(
-                ctx,
-                &layout,
-                &[
-                    Resource::Buffer(&frame),
-                    Resource::Buffer(inputs.color),
-                    Resource::Buffer(inputs.depth),
-                    Resource::Buffer(inputs.first_hit),
-                    Resource::Buffer(&history[p]),
-                    Resource::Buffer(&history[1 - p]),
-                    Resource::Buffer(&prev_depth),
-                    Resource::Buffer(&prev_first_hit),
-                    Resource::Buffer(&counters),
-                ],
-            )
-        };
-        let sets = [make_set(0)?, make_set(1)?];
+        check_inputs(width, height, inputs)?;
         // camera.glsl lives in set 1, so set 0 is the scene's (bound, unused).
-        let layouts = [scene.layout.clone(), layout];
         let spirv = shaders::spirv("taa/resolve")
             .ok_or_else(|| GpuError::Unsupported("shader taa/resolve was not compiled".into()))?;
-        let pipeline =
-            ComputePipeline::new(ctx, "taa.resolve", spirv, &layouts, 16, &Default::default())?;
+        let pipeline = ComputePipeline::with_interface(
+            ctx,
+            "taa.resolve",
+            spirv,
+            &[scene.layout.clone()],
+            &INTERFACE,
+            Some(&RESOLVE_PUSH),
+            &Default::default(),
+        )?;
         Ok(TaaPass {
             settings: settings.clone(),
             width,
@@ -124,13 +98,11 @@ impl TaaPass {
             seed,
             scene: scene.clone(),
             pipeline,
-            sets,
             frame,
             history,
             prev_depth,
             prev_first_hit,
             counters,
-            bound: [inputs.color.raw, inputs.depth.raw, inputs.first_hit.raw],
             frames: 0,
         })
     }
@@ -145,80 +117,67 @@ impl TaaPass {
     }
 
     /// Records the resolve of one frame after the caller's passes that write
-    /// `inputs`. The resolved colour (rgb, w = history length in frames) is in
-    /// [`TaaPass::output`] once the recorder has finished.
-    pub fn record(&mut self, rec: &mut Recorder, input: &FrameInput, inputs: TaaInputs<'_>) {
-        assert_eq!(
-            [inputs.color.raw, inputs.depth.raw, inputs.first_hit.raw],
-            self.bound,
-            "TaaPass::record: inputs differ from the buffers bound at creation"
-        );
+    /// `inputs`, and returns the resolved colour (rgb, w = history length in
+    /// frames; 1 = no history used) with the pass's counters, to be read
+    /// back once the recorder has finished.
+    pub fn record<'a>(
+        &'a mut self,
+        rec: &mut Recorder<'a>,
+        input: &FrameInput,
+        inputs: TaaInputs<'a>,
+    ) -> GpuResult<(&'a Buffer, CounterOutput<'a>)> {
+        check_inputs(self.width, self.height, inputs)?;
         let p = (self.frames % 2) as usize;
-        let params = FrameParams::new(input, self.width, self.height, self.seed, self.scene.origin);
-        let flags = (self.frames > 0) as u32
-            | (self.settings.reject_disocclusions as u32) << 1
-            | (self.settings.clip as u32) << 2;
-        let weights = match self.settings.weights {
-            TaaWeights::Fixed => 0u32,
-            TaaWeights::Pfj23 => 1,
+        let has_history = self.frames > 0;
+        self.frames += 1;
+        let this: &'a TaaPass = self;
+        let params = FrameParams::new(input, this.width, this.height, this.seed, this.scene.origin);
+        let s = &this.settings;
+        let push = ResolvePush {
+            alpha: s.alpha,
+            gamma: s.gamma,
+            weights: match s.weights {
+                TaaWeights::Fixed => 0,
+                TaaWeights::Pfj23 => 1,
+            },
+            flags: has_history as u32 | (s.reject_disocclusions as u32) << 1 | (s.clip as u32) << 2,
         };
-        let mut push = Vec::with_capacity(16);
-        push.extend(self.settings.alpha.to_le_bytes());
-        push.extend(self.settings.gamma.to_le_bytes());
-        push.extend(weights.to_le_bytes());
-        push.extend(flags.to_le_bytes());
         rec.pass("taa.params")
-            .write(&self.frame)
+            .write(&this.frame)
             .update(bytemuck::bytes_of(&params));
-        rec.pass("taa.clear").write(&self.counters).fill(0);
-        let sets = [&self.scene.set, &self.sets[p]];
-        let groups = [self.width.div_ceil(LOCAL), self.height.div_ceil(LOCAL), 2];
-        rec.pass("taa.resolve")
-            .read(&self.frame)
+        rec.pass("taa.clear").write(&this.counters).fill(0);
+        let groups = [this.width.div_ceil(LOCAL), this.height.div_ceil(LOCAL), 2];
+        // Binding order: src/interface/taa.rs.
+        rec.compute("taa.resolve", &this.pipeline)
+            .shared(&this.scene.set)
+            .read(&this.frame)
             .read(inputs.color)
             .read(inputs.depth)
             .read(inputs.first_hit)
-            .read(&self.history[p])
-            .read(&self.prev_depth)
-            .read(&self.prev_first_hit)
-            .write(&self.history[1 - p])
-            .write(&self.counters)
-            .dispatch(&self.pipeline, &sets, &push, groups);
+            .read(&this.history[p])
+            .write(&this.history[1 - p])
+            .read(&this.prev_depth)
+            .read(&this.prev_first_hit)
+            .write(&this.counters)
+            .push(&push)
+            .dispatch(groups)?;
         rec.pass("taa.keep.depth")
             .read(inputs.depth)
-            .write(&self.prev_depth)
-            .copy(self.prev_depth.size.min(inputs.depth.size));
+            .write(&this.prev_depth)
+            .copy(this.prev_depth.size.min(inputs.depth.size));
         rec.pass("taa.keep.first_hit")
             .read(inputs.first_hit)
-            .write(&self.prev_first_hit)
-            .copy(self.prev_first_hit.size.min(inputs.first_hit.size));
-        self.frames += 1;
+            .write(&this.prev_first_hit)
+            .copy(this.prev_first_hit.size.min(inputs.first_hit.size));
+        let counters = CounterOutput::of::<TaaCounter>(&this.counters)
+            .per_pixel(TaaCounter::HistorySum, "taa_mean_history");
+        Ok((&this.history[1 - p], counters))
     }
 
     /// The resolved colour of the last recorded frame, `[eye][pixel]`:
     /// rgb, w = history length in frames (1 = no history used).
     pub fn output(&self) -> &Buffer {
         &self.history[(self.frames % 2) as usize]
-    }
-
-    /// Reads [`TaaPass::output`] back.
-    pub fn read_output(&self) -> GpuResult<Vec<[f32; 4]>> {
-        self.output().download_pod()
-    }
-
-    /// Per-frame counters of the last frame (pixels over both eyes), and the
-    /// mean history length.
-    pub fn counters(&self) -> GpuResult<BTreeMap<String, f64>> {
-        let c: Vec<u32> = self.counters.download_pod()?;
-        let mut m: BTreeMap<String, f64> = COUNTERS
-            .iter()
-            .map(|(i, name)| (name.to_string(), c[*i] as f64))
-            .collect();
-        m.insert(
-            "taa_mean_history".into(),
-            c[5] as f64 / (2 * self.width * self.height) as f64,
-        );
-        Ok(m)
     }
 
     /// GPU memory the pass owns.
@@ -230,4 +189,27 @@ impl TaaPass {
             + self.prev_first_hit.size
             + self.counters.size
     }
+}
+
+/// Pixels of both eyes.
+fn pixels(width: u32, height: u32) -> u64 {
+    2 * (width * height) as u64
+}
+
+/// Every input holds both eyes' pixels.
+fn check_inputs(width: u32, height: u32, inputs: TaaInputs<'_>) -> GpuResult<()> {
+    let n = pixels(width, height);
+    for (buf, bytes) in [
+        (inputs.color, n * 16),
+        (inputs.depth, n * 4),
+        (inputs.first_hit, n * 16),
+    ] {
+        if buf.size < bytes {
+            return Err(GpuError::Unsupported(format!(
+                "taa: input buffer {} holds {} bytes, the resolve reads {bytes}",
+                buf.name, buf.size
+            )));
+        }
+    }
+    Ok(())
 }

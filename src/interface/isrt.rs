@@ -1,0 +1,59 @@
+//! Interface of shaders/isrt/ (src/methods/isrt/).
+
+use super::{read, write, CounterSlot, Interface, PushBlock, PushType};
+
+crate::counter_slots! {
+    /// Slots of `isrt.counters`.
+    pub enum IsrtCounter("ISRT") {
+        Reprojected = "REPROJECTED" => "reprojected_samples",
+        Offscreen = "OFFSCREEN" => "reproject_offscreen",
+        Kept = "KEPT" => "kept_samples",
+        RetraceRays = "RETRACE_RAYS" => "retrace_rays",
+        RetraceLost = "RETRACE_LOST" => "retrace_lost",
+        NewRays = "NEW_RAYS" => "new_sample_rays",
+        NewHits = "NEW_HITS" => "new_samples",
+        Shaded = "SHADED" => "shaded_samples",
+        BounceRays = "BOUNCE_RAYS",
+        ShadowRays = "SHADOW_RAYS",
+        /// Surface samples in the grid.
+        Samples = "SAMPLES" => "samples",
+        /// Background samples (rays that missed the scene).
+        Background = "BACKGROUND" => "background_samples",
+    }
+}
+
+/// Push constants of every isrt pass.
+pub const PUSH: PushBlock = PushBlock {
+    name: "ISRT",
+    fields: &[
+        // retrace tolerance, relative to the hit distance
+        ("eps0", PushType::F32),
+        ("pad0", PushType::U32),
+        ("pad1", PushType::U32),
+        ("pad2", PushType::U32),
+    ],
+};
+
+/// Specialization constant id of `M` (cells per pixel side).
+pub const SPEC_M: u32 = 30;
+
+pub const INTERFACE: Interface = Interface {
+    name: "isrt",
+    set: 1,
+    bindings: &[
+        read("frame"),
+        read("fh_prev"),
+        write("fh_cur"),
+        read("rad_prev"),
+        write("rad_cur"),
+        write("claim"),
+        write("out_color"),
+        write("out_depth"),
+        write("out_fh"),
+        write("out_albedo"),
+        write("counters"),
+    ],
+    push: &[PUSH],
+    counters: &[IsrtCounter::TABLE],
+    spec: &[("ISRT_M", SPEC_M)],
+};
