@@ -10,6 +10,7 @@
 //! `.read()`/`.write()` declarations against the same table.
 
 pub mod bench;
+pub mod debug_normals;
 pub mod dielectric;
 pub mod glsl;
 pub mod isrt;
@@ -30,6 +31,7 @@ pub const ALL: &[&Interface] = &[
     &bench::SCATTER,
     &bench::SCATTER_SLOTS,
     &dielectric::INTERFACE,
+    &debug_normals::INTERFACE,
 ];
 
 /// camera.glsl's `FrameBuf` (the per-frame stereo camera, `FrameParams`):
