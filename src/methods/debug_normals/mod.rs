@@ -59,7 +59,7 @@ impl DebugNormals {
             ctx,
             "debug_normals.primary",
             backend_shader("debug_normals/primary", scene)?,
-            &[scene.layout.clone()],
+            std::slice::from_ref(&scene.layout),
             &INTERFACE,
             None,
             &settings.spec_constants(scene, env),
