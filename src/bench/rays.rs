@@ -1,9 +1,9 @@
 //! `bench rays`: primary and diffuse-bounce rays per second for each ray backend.
 
 use crate::error::Result;
-use crate::gpu::{
-    shaders, Buffer, ComputePipeline, DescriptorLayout, DescriptorSet, GpuError, Recorder, Resource,
-};
+use crate::gpu::{shaders, Buffer, ComputePipeline, DescriptorSet, GpuError, Recorder};
+use crate::interface::bench::{self, BenchRaysCounter};
+use crate::interface::CounterSlot;
 use crate::methods::{FrameInput, FrameParams};
 use crate::session::Session;
 use serde::Serialize;
@@ -48,34 +48,25 @@ pub fn bench_rays(
     let hits = Buffer::storage(ctx, "bench.hits", n * 16)?;
     let normals = Buffer::storage(ctx, "bench.normals", n * 16)?;
     let counters = Buffer::storage(ctx, "bench.counters", 16)?;
-    let layout = DescriptorLayout::buffers(ctx, 4)?;
-    let set = DescriptorSet::new(
-        ctx,
-        &layout,
-        &[
-            Resource::Buffer(&fbuf),
-            Resource::Buffer(&hits),
-            Resource::Buffer(&normals),
-            Resource::Buffer(&counters),
-        ],
-    )?;
     let name = format!("bench/rays.{}", session.backend.shader_suffix());
     let spirv = shaders::spirv(&name)
         .ok_or_else(|| GpuError::Unsupported(format!("shader {name} missing")))?;
     let spec = session
         .scene_gpu
         .spec_constants(&session.scene.environment, 1, false);
-    let pipe = ComputePipeline::new(
+    let pipe = ComputePipeline::with_interface(
         ctx,
         "bench.rays",
         spirv,
-        &[session.scene_gpu.layout.clone(), layout],
-        4,
+        std::slice::from_ref(&session.scene_gpu.layout),
+        &bench::RAYS,
+        Some(&bench::RAYS_PUSH),
         &spec,
     )?;
     let params = FrameParams::new(frame, width, height, 1, session.scene_gpu.origin);
     let groups = [width.div_ceil(8), height.div_ceil(8), 2];
-    let sets = [&session.scene_gpu.set, &set];
+    let bufs = [&fbuf, &hits, &normals, &counters];
+    let set = &session.scene_gpu.set;
     let mut rec = Recorder::new(ctx, 5 + 2 * repeats)?;
     rec.pass("bench.params")
         .write(&fbuf)
@@ -83,32 +74,12 @@ pub fn bench_rays(
     // One untimed round first: a CPU driver may compile (or load from its
     // disk cache) the pipeline at its first dispatch, which cost up to 5x
     // the round's time in the first run after a rebuild.
-    rec.pass("warmup.primary")
-        .read(&fbuf)
-        .write(&hits)
-        .write(&normals)
-        .write(&counters)
-        .dispatch(&pipe, &sets, &0u32.to_le_bytes(), groups);
-    rec.pass("warmup.bounce")
-        .read(&fbuf)
-        .read(&hits)
-        .read(&normals)
-        .write(&counters)
-        .dispatch(&pipe, &sets, &1u32.to_le_bytes(), groups);
+    rays_pass(&mut rec, "warmup.primary", &pipe, set, bufs, 0, groups)?;
+    rays_pass(&mut rec, "warmup.bounce", &pipe, set, bufs, 1, groups)?;
     rec.pass("bench.clear").write(&counters).fill(0);
     for _ in 0..repeats {
-        rec.pass("primary")
-            .read(&fbuf)
-            .write(&hits)
-            .write(&normals)
-            .write(&counters)
-            .dispatch(&pipe, &sets, &0u32.to_le_bytes(), groups);
-        rec.pass("bounce")
-            .read(&fbuf)
-            .read(&hits)
-            .read(&normals)
-            .write(&counters)
-            .dispatch(&pipe, &sets, &1u32.to_le_bytes(), groups);
+        rays_pass(&mut rec, "primary", &pipe, set, bufs, 0, groups)?;
+        rays_pass(&mut rec, "bounce", &pipe, set, bufs, 1, groups)?;
     }
     let timings = rec.finish()?;
     let c: Vec<u32> = counters.download_pod()?;
@@ -124,9 +95,31 @@ pub fn bench_rays(
         width,
         height,
         repeats,
-        primary_rays: c[0] as u64,
+        primary_rays: c[BenchRaysCounter::PrimaryRays.slot()] as u64,
         primary_ms: ms("primary"),
-        bounce_rays: c[1] as u64,
+        bounce_rays: c[BenchRaysCounter::BounceRays.slot()] as u64,
         bounce_ms: ms("bounce"),
     })
+}
+
+/// One pass of bench/rays.comp in mode 0 (primary) or 1 (bounce); `bufs`
+/// in the binding order of src/interface/bench.rs (frame, hits, normals,
+/// counters).
+fn rays_pass<'a>(
+    rec: &mut Recorder<'a>,
+    name: &str,
+    pipe: &'a ComputePipeline,
+    scene_set: &'a DescriptorSet,
+    bufs: [&'a Buffer; 4],
+    mode: u32,
+    groups: [u32; 3],
+) -> crate::gpu::GpuResult<()> {
+    rec.compute(name, pipe)
+        .shared(scene_set)
+        .read(bufs[0])
+        .write(bufs[1])
+        .write(bufs[2])
+        .write(bufs[3])
+        .push(&mode)
+        .dispatch(groups)
 }

@@ -3,9 +3,8 @@
 
 use super::interleave::{mean_pass_ms, run_interleaved};
 use crate::error::Result;
-use crate::gpu::{
-    shaders, Buffer, ComputePipeline, DescriptorLayout, DescriptorSet, GpuError, Recorder, Resource,
-};
+use crate::gpu::{shaders, Buffer, ComputePipeline, GpuError, Recorder};
+use crate::interface::bench;
 use crate::methods::MethodKind;
 use crate::methods::{FrameInput, FrameParams};
 use crate::session::Session;
@@ -263,49 +262,31 @@ fn scatter_baselines(
     )?;
     let dst_fh = Buffer::storage(ctx, "scatter.slots.dst_fh", n * slots as u64 * 16)?;
     let dst_rad = Buffer::storage(ctx, "scatter.slots.dst_rad", n * slots as u64 * 16)?;
-    let layout = DescriptorLayout::buffers(ctx, 3)?;
-    let set = DescriptorSet::new(
-        ctx,
-        &layout,
-        &[
-            Resource::Buffer(&fbuf),
-            Resource::Buffer(&src),
-            Resource::Buffer(&dst),
-        ],
-    )?;
-    let slots_layout = DescriptorLayout::buffers(ctx, 6)?;
-    let slots_set = DescriptorSet::new(
-        ctx,
-        &slots_layout,
-        &[
-            Resource::Buffer(&fbuf),
-            Resource::Buffer(&masks),
-            Resource::Buffer(&src_fh),
-            Resource::Buffer(&src_rad),
-            Resource::Buffer(&dst_fh),
-            Resource::Buffer(&dst_rad),
-        ],
-    )?;
     let spec = session
         .scene_gpu
         .spec_constants(&session.scene.environment, 1, false);
     let pipeline = |name: &str,
-                    layout: &std::sync::Arc<DescriptorLayout>,
-                    push: u32|
+                    interface: &'static crate::interface::Interface,
+                    push: Option<&'static crate::interface::PushBlock>|
      -> Result<ComputePipeline> {
         let spirv = shaders::spirv(name)
             .ok_or_else(|| GpuError::Unsupported(format!("shader {name} missing")))?;
-        Ok(ComputePipeline::new(
+        Ok(ComputePipeline::with_interface(
             ctx,
             name,
             spirv,
-            &[session.scene_gpu.layout.clone(), layout.clone()],
+            std::slice::from_ref(&session.scene_gpu.layout),
+            interface,
             push,
             &spec,
         )?)
     };
-    let pipe = pipeline("bench/scatter", &layout, 0)?;
-    let slots_pipe = pipeline("bench/scatter_slots", &slots_layout, 4)?;
+    let pipe = pipeline("bench/scatter", &bench::SCATTER, None)?;
+    let slots_pipe = pipeline(
+        "bench/scatter_slots",
+        &bench::SCATTER_SLOTS,
+        Some(&bench::SCATTER_SLOTS_PUSH),
+    )?;
     let groups = [w.div_ceil(8), h.div_ceil(8), 2];
     let (mut one, mut all) = (0.0, 0.0);
     for (i, cam) in cameras.iter().enumerate() {
@@ -329,24 +310,22 @@ fn scatter_baselines(
             .write(&dst_fh)
             .write(&dst_rad)
             .fill(0);
-        rec.pass("scatter")
+        rec.compute("scatter", &pipe)
+            .shared(&session.scene_gpu.set)
             .read(&fbuf)
             .read(&src)
             .write(&dst)
-            .dispatch(&pipe, &[&session.scene_gpu.set, &set], &[], groups);
-        rec.pass("scatter.slots")
+            .dispatch(groups)?;
+        rec.compute("scatter.slots", &slots_pipe)
+            .shared(&session.scene_gpu.set)
             .read(&fbuf)
             .read(&masks)
             .read(&src_fh)
             .read(&src_rad)
             .write(&dst_fh)
             .write(&dst_rad)
-            .dispatch(
-                &slots_pipe,
-                &[&session.scene_gpu.set, &slots_set],
-                &slots.to_le_bytes(),
-                groups,
-            );
+            .push(&slots)
+            .dispatch(groups)?;
         let t = rec.finish()?;
         if i > 0 {
             let ms = |name: &str| {

@@ -139,6 +139,7 @@ macro_rules! counter_slots {
         $(#[$m])*
         #[derive(Clone, Copy, Debug, PartialEq, Eq)]
         #[repr(u32)]
+        #[allow(clippy::enum_variant_names)]
         $vis enum $name { $($(#[$vm])* $v),* }
         impl $crate::interface::CounterSlot for $name {
             const ALL: &'static [$name] = &[$($name::$v),*];

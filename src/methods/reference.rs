@@ -138,11 +138,6 @@ pub struct ReferenceOutputs<'a> {
 }
 
 impl Reference {
-    /// Passes `record` adds to a recorder.
-    pub fn pass_count(&self) -> u32 {
-        3 + self.settings.spp.max(1).div_ceil(CHUNK)
-    }
-
     /// The buffers `record` fills.
     pub fn outputs(&self) -> ReferenceOutputs<'_> {
         ReferenceOutputs {

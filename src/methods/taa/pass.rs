@@ -58,9 +58,6 @@ pub struct TaaPass {
 }
 
 impl TaaPass {
-    /// Passes `record` adds to a recorder.
-    pub const PASSES: u32 = 5;
-
     pub fn new(
         ctx: &Arc<GpuContext>,
         scene: &Arc<SceneGpu>,
@@ -86,7 +83,7 @@ impl TaaPass {
             ctx,
             "taa.resolve",
             spirv,
-            &[scene.layout.clone()],
+            std::slice::from_ref(&scene.layout),
             &INTERFACE,
             Some(&RESOLVE_PUSH),
             &Default::default(),
