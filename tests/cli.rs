@@ -521,3 +521,53 @@ fn unusable_output_directories_are_refused_before_rendering() {
     assert!(!proc_dir.exists());
     let _ = std::fs::remove_dir_all(&base);
 }
+
+/// `debug-normals` is on the command line through the registry: an unknown
+/// `--method` lists it among the available ones, and a render writes the
+/// usual files with one primary ray per pixel and eye and nothing else.
+#[test]
+fn debug_normals_is_listed_and_renders() {
+    let e = fails(&["render", "--method", "nope", "--size", "8x8"]);
+    assert!(
+        e.contains("unknown method 'nope'") && e.contains("debug-normals"),
+        "{e}"
+    );
+    let out = out_dir("debug-normals");
+    let o = bin()
+        .args([
+            "render",
+            "--method",
+            "debug-normals",
+            "--scene",
+            "plane",
+            "--size",
+            "16x12",
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for f in [
+        "left.exr",
+        "right.png",
+        "left_depth.exr",
+        "left_firsthit.bin",
+    ] {
+        assert!(out.join(f).exists(), "{f} missing");
+    }
+    let stats: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("stats.json")).unwrap()).unwrap();
+    assert_eq!(stats["method"], "debug-normals", "{stats}");
+    let rays = &stats["rays"];
+    assert_eq!(
+        (
+            rays["primary"].as_u64(),
+            rays["bounce"].as_u64(),
+            rays["shadow"].as_u64()
+        ),
+        (Some(16 * 12 * 2), Some(0), Some(0)),
+        "{stats}"
+    );
+    let _ = std::fs::remove_dir_all(&out);
+}

@@ -10,6 +10,7 @@
 //! `.read()`/`.write()` declarations against the same table.
 
 pub mod bench;
+pub mod debug_normals;
 pub mod dielectric;
 pub mod glsl;
 pub mod hash_table;
@@ -38,6 +39,7 @@ pub const ALL: &[&Interface] = &[
     &hash_table::TEST,
     &hash_table::TAA,
     &hybrid::INTERFACE,
+    &debug_normals::INTERFACE,
 ];
 
 /// camera.glsl's `FrameBuf` (the per-frame stereo camera, `FrameParams`):

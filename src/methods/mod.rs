@@ -2,6 +2,7 @@
 //! [`StereoFrame`], so replay, compare, metrics and reports never special-case one.
 
 pub mod baseline;
+pub mod debug_normals;
 pub mod frame;
 mod frame_loop;
 pub mod hash_cache;
@@ -15,6 +16,7 @@ pub mod sample_cache;
 mod specialize;
 pub mod taa;
 
+pub use debug_normals::DebugNormals;
 pub use frame::{
     named_counters, EyeImage, FrameInput, FrameParams, FrameStats, OutputBuffers, RayCounts,
     StereoFrame,

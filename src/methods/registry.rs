@@ -9,7 +9,8 @@
 //! `pub mod` in `methods/mod.rs`, and one line in the `methods!` list below.
 
 use super::{
-    baseline, HashCache, Hybrid, Isrt, Method, Reference, RenderSettings, SampleCache, Taa,
+    baseline, DebugNormals, HashCache, Hybrid, Isrt, Method, Reference, RenderSettings,
+    SampleCache, Taa,
 };
 use crate::error::{Error, Result};
 use crate::session::Session;
@@ -71,6 +72,7 @@ methods! {
     Isrt = "isrt", Isrt::new, "Interleaved super-resolution ray tracing (M×M cells per pixel).";
     HashCache = "hash-cache", HashCache::new, "A world-space hash-grid radiance cache, with TAA on its output.";
     Hybrid = "hybrid", Hybrid::new, "Sample-cache visibility shaded from the hash-grid cache, with TAA.";
+    DebugNormals = "debug-normals", DebugNormals::new, "Scene check: the first hit's shading normal as colour (0.5·n + 0.5, world space; misses black).";
 }
 
 /// Every method's command-line name, in registry order.
