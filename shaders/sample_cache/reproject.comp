@@ -4,8 +4,8 @@
 // One thread per source pixel walks its occupied slots. One-pass (default)
 // writes the sample data right after a successful reservation; two-pass
 // (TWO_PASS) writes only the source address, copied by reproject_copy.comp.
-// Successful visible surface samples update the per-pixel t_min/Δn (64-bit
-// atomicMin) and t_max (atomicMax).
+// Successful visible samples update the per-pixel t_min/Δn (64-bit atomicMin)
+// and t_max (atomicMax).
 #include "sample_cache/common.glsl"
 layout(constant_id = SPEC_SAMPLE_CACHE_TWO_PASS) const bool TWO_PASS = false;
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
@@ -92,13 +92,14 @@ void main() {
         if (vis) {
             reprojected_visible++;
             if (bg) {
-                // Background samples (t = ∞) leave the depth bounds alone:
-                // Eq. 2 compares surface samples only, and select.comp
-                // retraces background samples by their own rule (the
-                // parallax of the nearest surface). t_min / t_max stay the
-                // visible surface samples' (unset: none, select.comp).
-                // They carry no radiance record to shade.
+                // Background samples (t = ∞) only raise t_max to ∞, so a
+                // pixel whose neighbourhood mixes surface and background
+                // fails Eq. 2 (a silhouette); t_min stays the closest surface
+                // sample's (unset: only background, select.comp). One atomic
+                // per pixel, not per sample, where t_max is ∞ already; they
+                // carry no radiance record to shade.
                 reprojected_bg++;
+                if (depth_max[tm] != 0x7F800000u) atomicMax(depth_max[tm], 0x7F800000u);
             } else {
                 vec3 to_eye = e.pos_tanx.xyz - wp;
                 float t = length(to_eye);

@@ -18,19 +18,17 @@ void main() {
     uint occ = occ_bits(m), vis = vis_bits(m);
     uint frame_index = frame.size_seed.w;
 
-    // 3×3 neighbourhood: visible-sample density and the farthest surface
-    // sample. Per appendix A, t_min and Δn are this pixel's own closest
-    // sample: every neighbour sample lies within 2φ of it, so on a flat
-    // surface the neighbourhood's t_max stays below t_min + 2Δn (Eq. 2).
-    // Both bounds are over visible *surface* samples only (reproject.comp):
-    // a background sample has no depth for Eq. 2 to compare (below).
+    // 3×3 neighbourhood: visible-sample density and the farthest sample. Per
+    // appendix A, t_min and Δn are this pixel's own closest sample: every
+    // neighbour sample lies within 2φ of it, so on a flat surface the
+    // neighbourhood's t_max stays below t_min + 2Δn (Eq. 2).
     uint vis_sum = 0u, count = 0u;
     uint64_t own = depth_min[pm];
     bool has_own = own != 0xFFFFFFFFFFFFFFFFul;
     float t_min = has_own ? uintBitsToFloat(uint(own >> 32)) : 0.0;
     float slope = has_own ? uintBitsToFloat(uint(own & 0xFFFFFFFFul)) : 0.0;
     float t_max = 0.0;
-    uint64_t near = 0xFFFFFFFFFFFFFFFFul;   // closest surface sample in the 3×3 neighbourhood: t bits << 32 | Δn bits
+    float t_near = uintBitsToFloat(0x7F800000u);   // closest sample in the 3×3 neighbourhood
     for (int dy = -1; dy <= 1; ++dy) {
         for (int dx = -1; dx <= 1; ++dx) {
             ivec2 q = ivec2(px) + ivec2(dx, dy);
@@ -40,10 +38,9 @@ void main() {
             count++;
             t_max = max(t_max, uintBitsToFloat(depth_max[qm]));
             uint64_t q_min = depth_min[qm];   // unset: no visible surface sample there
-            near = min(near, q_min);
+            if (q_min != 0xFFFFFFFFFFFFFFFFul) t_near = min(t_near, uintBitsToFloat(uint(q_min >> 32)));
         }
     }
-    bool has_near = near != 0xFFFFFFFFFFFFFFFFul;
     float density = float(vis_sum) / float(max(count, 1u));
 
     uint trace = 0u;
@@ -56,59 +53,21 @@ void main() {
         } else if (RETRACE_MODE == 1u) {
             trace = occ;
         } else {
-            // Adaptive retracing (§3.4) per slot class (issue 12; the paper
-            // has no background samples, so this is our reading, written
-            // down in docs/ARCHITECTURE.md):
-            // * Surface samples: Eq. 2 over the surface samples only
-            //   (reproject.comp); appendix A bounds the depth extent of a
-            //   flat surface in a pixel's neighbourhood, and a background
-            //   sample has no depth to compare (with t = ∞ every hair/sky
-            //   pixel failed Eq. 2 and retraced all its slots). Where it
-            //   fails, the surface slots are retraced, except visible ones
-            //   within the flat-surface extent (1 + ε1)(t_near + 2Δn) of the
-            //   neighbourhood's closest sample: no sample of the 3×3
-            //   neighbourhood lies in front of them, so none can have moved
-            //   over them (the same argument Eq. 2 makes for a flat
-            //   neighbourhood). Invisible ones are retraced: they may be
-            //   visible again.
-            // * Background samples (a direction at infinity) occlude nothing
-            //   and are occluded only by geometry moving across their
-            //   direction relative to infinity. The scenes are static and a
-            //   view rotation moves a background sample and the geometry
-            //   alike (reproject.comp), so only a translation of the eye
-            //   can. Where the eye moved, a pixel with its own visible
-            //   surface sample next to its background ones (a silhouette
-            //   crosses it) retraces all its background slots, as the paper
-            //   retraces all samples at a depth discontinuity; a pixel
-            //   without one whose neighbourhood holds a surface sample (the
-            //   sky side of a silhouette, where geometry can only enter
-            //   across its border) retraces one background slot per frame,
-            //   round robin, instead of waiting for the base rate. Where the
-            //   eye did not move, the retrace ray would be the ray that
-            //   missed (same origin, same direction), so neither is retraced
-            //   (a miss is still a miss). Away from surfaces (t_near = ∞)
-            //   background samples keep the 4×4 base rate. (One background
-            //   slot per frame in the silhouette pixels too made 1.9 % of the
-            //   visible samples stale on the fast head turn of
-            //   tests/sample_cache.rs, against a 1 % budget; all slots of the
-            //   sky side: 83 083 instead of 75 418 retrace rays per frame in
-            //   `bench sample-cache` on the hairball before this rule.)
-            uint bg = has_near ? occ & ~surface_slots(eye, pixel, occ) : 0u;
-            EyeGpu e = frame.eyes[eye];
+            // A pixel whose visible samples are all background (t_min = ∞:
+            // depth_min unset, reproject.comp) passes Eq. 2 trivially
+            // (nothing lies beyond infinity; IEEE's ∞ < ∞ would flag every
+            // sky pixel). Where a neighbour holds a surface sample (the sky
+            // side of a silhouette) it retraces one slot per frame, round
+            // robin, instead of waiting for the base rate: geometry moving
+            // in from that neighbour would otherwise leave its background
+            // samples visible for up to 16 frames (a covered pixel showing
+            // sky). (Retracing all its slots there: 83 083 instead of
+            // 75 418 retrace rays per frame in `bench sample-cache` on the
+            // hairball.) Away from silhouettes sky pixels keep the base rate.
+            bool sky_side = !has_own && vis != 0u && !isinf(t_near);
             edge = has_own && !depths_consistent(t_min, slope, t_max, pc.eps1);
-            if (edge) {
-                trace = occ & ~bg;
-                float front = (1.0 + pc.eps1) * (uintBitsToFloat(uint(near >> 32)) + 2.0 * uintBitsToFloat(uint(near & 0xFFFFFFFFul)));
-                uint b = trace & vis;
-                while (b != 0u) {
-                    uint s = uint(findLSB(b));
-                    b &= b - 1u;
-                    if (length(hit_position(fh_cur[slot_index(eye, s, pixel)]) - e.pos_tanx.xyz) < front) trace &= ~(1u << s);
-                }
-            }
-            if (bg != 0u && any(notEqual(e.pos_tanx.xyz, frame.prev_eyes[eye].pos_tanx.xyz)))
-                trace |= has_own ? bg : 1u << nth_set_bit(bg, frame_index % uint(bitCount(bg)));
-            if (is_sparse_base_pixel(px, frame_index, eye)) trace |= 1u << round_robin;
+            if (edge) trace = occ;
+            else if (sky_side || is_sparse_base_pixel(px, frame_index, eye)) trace = 1u << round_robin;
         }
     }
 
