@@ -4,8 +4,7 @@
 //! pass is timed and named the same way in reports and in RenderDoc/Nsight
 //! captures (DESIGN.md, "Passes"). Compute passes are built with
 //! [`Recorder::compute`] (src/gpu/compute_pass.rs: the declarations are the
-//! bindings); [`Recorder::pass`] records fills, updates and copies, and the
-//! positional `Pass::dispatch` that methods not yet on the builder use.
+//! bindings); [`Recorder::pass`] records fills, updates and copies.
 //!
 //! `Recorder<'a>` borrows every buffer, pipeline and set a compute pass
 //! references for `'a`, so safe code cannot drop one before the work is

@@ -97,6 +97,8 @@ pub struct FrameOutputs<'a> {
     pub albedo: &'a Buffer,
     /// Debug views `[view][eye][pixel]` (vec4) with their names.
     pub debug: Option<(&'a Buffer, &'a [&'a str])>,
+    /// Counter buffers, decoded in order: where two report the same name,
+    /// the later one's value is the frame's.
     pub counters: Vec<CounterOutput<'a>>,
     /// Values the method knows on the host (added to the frame's counters).
     pub host_counters: BTreeMap<String, f64>,
