@@ -435,7 +435,7 @@ impl SampleCache {
     /// Index (0/1) of the buffers holding the current frame's cache.
     fn cur(&self) -> usize {
         // Frame f reads buffers[f % 2] and writes buffers[1 − f % 2]; after
-        // render_frame increments `frames`, the latest cache is in:
+        // begin_frame increments `frames`, the current (latest) cache is in:
         (self.frames % 2) as usize
     }
 
