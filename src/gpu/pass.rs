@@ -398,12 +398,14 @@ impl Drop for Recorder<'_> {
     }
 }
 
-impl Pass<'_, '_> {
-    pub fn read(mut self, b: &Buffer) -> Self {
+/// The buffers are borrowed for the recorder's `'a`, as a compute pass's
+/// are: the commands reference them until the submit has been waited for.
+impl<'a> Pass<'_, 'a> {
+    pub fn read(mut self, b: &'a Buffer) -> Self {
         self.reads.push(b.raw);
         self
     }
-    pub fn write(mut self, b: &Buffer) -> Self {
+    pub fn write(mut self, b: &'a Buffer) -> Self {
         self.writes.push(b.raw);
         self
     }
