@@ -357,3 +357,44 @@ fn cli_compare_with_both_caches() {
     assert!(csv.lines().any(|l| l.starts_with("hybrid,")), "{csv}");
     let _ = std::fs::remove_dir_all(&out);
 }
+
+/// The shared frame loop reads every output and counter back in one
+/// batched readback: one submit-and-wait per frame (`hybrid` once added a
+/// second one of its own), and `table_occupancy` is live entries / capacity.
+#[test]
+fn one_submit_per_frame_and_occupancy_from_the_live_entries() {
+    let ctx = context();
+    let s = session(&ctx, shipped("cornell"), RtChoice::Software);
+    let (w, h) = (16, 12);
+    let hash = HashCacheSettings::default();
+    let capacity = hash.capacity as f64;
+    let mut m = hybrid(&s, &settings(w, h, hash));
+    let cam0 = default_camera(&s, w, h);
+    let mut prev = None;
+    for f in 0..3 {
+        let cam = moving(&cam0, f, 2.0);
+        let before = ctx.submit_count();
+        let fr = render_at(&mut m, f, cam, prev);
+        prev = Some(cam);
+        assert_eq!(
+            ctx.submit_count() - before,
+            1,
+            "frame {f}: submit-and-waits"
+        );
+        let live = fr.stats.counters["live_entries"];
+        assert!(live > 0.0, "frame {f}: the table holds entries");
+        assert_eq!(
+            fr.stats.counters["table_occupancy"],
+            live / capacity,
+            "frame {f}: occupancy"
+        );
+        // The primary rays are the sample cache's visibility rays.
+        let c = |k: &str| fr.stats.counters[k];
+        assert_eq!(
+            fr.stats.rays.primary as f64,
+            c("retrace_rays") + c("new_sample_rays") + c("background_rays"),
+            "frame {f}: primary rays"
+        );
+    }
+    assert_no_validation_messages(&ctx);
+}

@@ -9,9 +9,10 @@ use common::single_error_line;
 use glam::{EulerRot, Quat, Vec3};
 use std::path::{Path, PathBuf};
 use std::process::Command;
+use std::sync::Arc;
 use stereocache::camera::{HeadPose, PoseSample, PoseTrace, StereoCamera, DEFAULT_IPD};
-use stereocache::gpu::{GpuError, GpuResult};
-use stereocache::methods::{FrameInput, Method, RenderSettings, StereoFrame};
+use stereocache::gpu::{GpuContext, GpuError, GpuResult, Recorder};
+use stereocache::methods::{FrameInput, FrameOutputs, Method, RenderSettings, StereoFrame};
 use stereocache::replay::{replay, trace_cameras, ReplayOptions};
 use stereocache::rt::RtChoice;
 use stereocache::scene::DefaultLighting;
@@ -62,6 +63,16 @@ struct Probe {
 impl Method for Probe {
     fn name(&self) -> &'static str {
         "probe"
+    }
+    fn context(&self) -> &Arc<GpuContext> {
+        self.inner.context()
+    }
+    fn record<'a>(
+        &'a mut self,
+        rec: &mut Recorder<'a>,
+        frame: &FrameInput,
+    ) -> GpuResult<FrameOutputs<'a>> {
+        self.inner.record(rec, frame)
     }
     fn render_frame(&mut self, frame: &FrameInput) -> GpuResult<StereoFrame> {
         if Some(frame.index) == self.fail_at {

@@ -120,12 +120,7 @@ impl<'a> ComputePass<'_, 'a> {
     fn check(&self) -> GpuResult<()> {
         let p = self.pipeline;
         let pass = &self.name;
-        let Some(iface) = p.interface else {
-            return Err(GpuError::Interface(format!(
-                "pass {pass}: pipeline {} has no shader interface (made with ComputePipeline::new; use with_interface)",
-                p.name
-            )));
-        };
+        let iface = p.interface;
         if self.shared.len() as u32 != p.shared_sets {
             return Err(GpuError::Interface(format!(
                 "pass {pass}: {} shared set(s) given, pipeline {} has {}",
@@ -300,7 +295,7 @@ fn allocate_pass_set(
     pipeline: &ComputePipeline,
 ) -> GpuResult<vk::DescriptorSet> {
     let layout = [pipeline.pass_layout_raw()];
-    let n = pipeline.interface.map_or(0, |i| i.bindings.len()) as u32;
+    let n = pipeline.interface.bindings.len() as u32;
     if n > BUFFERS_PER_SET {
         return Err(GpuError::Interface(format!(
             "pipeline {}: {n} bindings, the fallback descriptor pools hold {BUFFERS_PER_SET} per set",

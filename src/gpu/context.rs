@@ -237,6 +237,12 @@ impl GpuContext {
         }
     }
 
+    /// Submit-and-wait rounds so far on this device (tests: the shared
+    /// frame loop submits once per frame).
+    pub fn submit_count(&self) -> u64 {
+        self.submits.load(std::sync::atomic::Ordering::SeqCst)
+    }
+
     /// True when VK_KHR_push_descriptor is enabled (`push_descriptor_fns`).
     pub fn push_descriptor_enabled(&self) -> bool {
         self.push_descriptor.is_some()

@@ -4,8 +4,7 @@
 //! pass is timed and named the same way in reports and in RenderDoc/Nsight
 //! captures (DESIGN.md, "Passes"). Compute passes are built with
 //! [`Recorder::compute`] (src/gpu/compute_pass.rs: the declarations are the
-//! bindings); [`Recorder::pass`] records fills, updates and copies, and the
-//! positional `Pass::dispatch` that methods not yet on the builder use.
+//! bindings); [`Recorder::pass`] records fills, updates and copies.
 //!
 //! `Recorder<'a>` borrows every buffer, pipeline and set a compute pass
 //! references for `'a`, so safe code cannot drop one before the work is
@@ -13,9 +12,7 @@
 
 use super::buffer::Buffer;
 use super::context::GpuContext;
-use super::descriptors::DescriptorSet;
 use super::error::{vk_err, GpuResult};
-use super::pipeline::ComputePipeline;
 use super::readback::{HostReadback, ReadbackRange};
 use ash::vk;
 use serde::Serialize;
@@ -401,102 +398,16 @@ impl Drop for Recorder<'_> {
     }
 }
 
-impl Pass<'_, '_> {
-    pub fn read(mut self, b: &Buffer) -> Self {
+/// The buffers are borrowed for the recorder's `'a`, as a compute pass's
+/// are: the commands reference them until the submit has been waited for.
+impl<'a> Pass<'_, 'a> {
+    pub fn read(mut self, b: &'a Buffer) -> Self {
         self.reads.push(b.raw);
         self
     }
-    pub fn write(mut self, b: &Buffer) -> Self {
+    pub fn write(mut self, b: &'a Buffer) -> Self {
         self.writes.push(b.raw);
         self
-    }
-
-    /// Dispatches `pipeline` with descriptor sets bound at 0.. and push constants.
-    pub fn dispatch(
-        self,
-        pipeline: &ComputePipeline,
-        sets: &[&DescriptorSet],
-        push: &[u8],
-        groups: [u32; 3],
-    ) {
-        self.record(pipeline, sets, push, |dev, cb| {
-            if groups.iter().all(|&g| g > 0) {
-                unsafe { dev.cmd_dispatch(cb, groups[0], groups[1], groups[2]) };
-            }
-        });
-    }
-
-    /// Like [`Self::dispatch`], with the workgroup counts read on the device
-    /// from the `VkDispatchIndirectCommand` at byte `offset` of `args` (a
-    /// [`Buffer::indirect_args`] written by an earlier pass; it is read by
-    /// this one). The writer keeps the counts within
-    /// `maxComputeWorkGroupCount`.
-    pub fn dispatch_indirect(
-        mut self,
-        pipeline: &ComputePipeline,
-        sets: &[&DescriptorSet],
-        push: &[u8],
-        args: &Buffer,
-        offset: u64,
-    ) {
-        assert!(
-            offset % 4 == 0 && offset + 12 <= args.size,
-            "pass {}: indirect arguments outside their buffer",
-            self.name
-        );
-        self.reads.push(args.raw);
-        let raw = args.raw;
-        self.record(pipeline, sets, push, |dev, cb| unsafe {
-            dev.cmd_dispatch_indirect(cb, raw, offset)
-        });
-    }
-
-    fn record(
-        self,
-        pipeline: &ComputePipeline,
-        sets: &[&DescriptorSet],
-        push: &[u8],
-        dispatch: impl FnOnce(&ash::Device, vk::CommandBuffer),
-    ) {
-        let Pass {
-            rec,
-            name,
-            reads,
-            writes,
-        } = self;
-        let idx = rec.begin_pass(&name, &reads, &writes);
-        let dev = &rec.ctx.device;
-        let raw_sets: Vec<vk::DescriptorSet> = sets.iter().map(|s| s.raw).collect();
-        unsafe {
-            dev.cmd_bind_pipeline(rec.cb, vk::PipelineBindPoint::COMPUTE, pipeline.raw);
-            if !raw_sets.is_empty() {
-                dev.cmd_bind_descriptor_sets(
-                    rec.cb,
-                    vk::PipelineBindPoint::COMPUTE,
-                    pipeline.layout,
-                    0,
-                    &raw_sets,
-                    &[],
-                );
-            }
-            if pipeline.push_size > 0 {
-                assert!(
-                    push.len() as u32 <= pipeline.push_size,
-                    "pass {name}: push constants larger than declared"
-                );
-                let mut data = push.to_vec();
-                data.resize(pipeline.push_size as usize, 0);
-                dev.cmd_push_constants(
-                    rec.cb,
-                    pipeline.layout,
-                    vk::ShaderStageFlags::COMPUTE,
-                    0,
-                    &data,
-                );
-            }
-        }
-        dispatch(dev, rec.cb);
-        rec.end_pass(idx);
     }
 
     /// Fills the whole of every written buffer with a 32-bit value.

@@ -28,9 +28,8 @@ pub struct ComputePipeline {
     pub raw: vk::Pipeline,
     pub layout: vk::PipelineLayout,
     pub push_size: u32,
-    /// The shader interface the pass builder checks declarations against
-    /// (None for pipelines made with [`ComputePipeline::new`], bound by position).
-    pub interface: Option<&'static Interface>,
+    /// The shader interface the pass builder checks declarations against.
+    pub interface: &'static Interface,
     /// Number of persistent sets before the per-pass set.
     pub shared_sets: u32,
     /// The per-pass set is pushed (VK_KHR_push_descriptor), else allocated
@@ -76,7 +75,7 @@ impl ComputePipeline {
             interface.bindings.len(),
             push_descriptors,
         )?);
-        let mut p = Self::new(
+        let (raw, layout) = create(
             ctx,
             name,
             spirv,
@@ -84,104 +83,102 @@ impl ComputePipeline {
             push.map_or(0, |p| p.size()),
             spec,
         )?;
-        p.interface = Some(interface);
-        p.shared_sets = shared.len() as u32;
-        p.push_descriptors = push_descriptors;
-        Ok(p)
-    }
-
-    pub fn new(
-        ctx: &Arc<GpuContext>,
-        name: &str,
-        spirv: &[u8],
-        set_layouts: &[Arc<DescriptorLayout>],
-        push_size: u32,
-        spec: &SpecConstants,
-    ) -> GpuResult<ComputePipeline> {
-        if spirv.len() % 4 != 0 || spirv.is_empty() {
-            return Err(GpuError::Unsupported(format!(
-                "shader {name}: SPIR-V size {} is not a multiple of 4",
-                spirv.len()
-            )));
-        }
-        let words: Vec<u32> = spirv
-            .chunks_exact(4)
-            .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
-            .collect();
-        let module_info = vk::ShaderModuleCreateInfo::default().code(&words);
-        let module = unsafe { ctx.device.create_shader_module(&module_info, None) }
-            .map_err(vk_err("vkCreateShaderModule"))?;
-
-        let raw_layouts: Vec<vk::DescriptorSetLayout> = set_layouts.iter().map(|l| l.raw).collect();
-        let ranges = [vk::PushConstantRange::default()
-            .stage_flags(vk::ShaderStageFlags::COMPUTE)
-            .offset(0)
-            .size(push_size)];
-        let mut layout_info = vk::PipelineLayoutCreateInfo::default().set_layouts(&raw_layouts);
-        if push_size > 0 {
-            layout_info = layout_info.push_constant_ranges(&ranges);
-        }
-        let layout = unsafe { ctx.device.create_pipeline_layout(&layout_info, None) }
-            .map_err(vk_err("vkCreatePipelineLayout"))?;
-
-        let entries: Vec<vk::SpecializationMapEntry> = spec
-            .0
-            .iter()
-            .enumerate()
-            .map(|(i, (id, _))| vk::SpecializationMapEntry {
-                constant_id: *id,
-                offset: (i * 4) as u32,
-                size: 4,
-            })
-            .collect();
-        let data: Vec<u8> = spec.0.iter().flat_map(|(_, v)| v.to_le_bytes()).collect();
-        let spec_info = vk::SpecializationInfo::default()
-            .map_entries(&entries)
-            .data(&data);
-        let stage = vk::PipelineShaderStageCreateInfo::default()
-            .stage(vk::ShaderStageFlags::COMPUTE)
-            .module(module)
-            .name(c"main")
-            .specialization_info(&spec_info);
-        let info = [vk::ComputePipelineCreateInfo::default()
-            .stage(stage)
-            .layout(layout)];
-        let result = unsafe {
-            ctx.device
-                .create_compute_pipelines(vk::PipelineCache::null(), &info, None)
-        };
-        unsafe { ctx.device.destroy_shader_module(module, None) };
-        let raw = match result {
-            Ok(p) => p[0],
-            Err((_, e)) => {
-                unsafe { ctx.device.destroy_pipeline_layout(layout, None) };
-                return Err(vk_err("vkCreateComputePipelines")(e));
-            }
-        };
-        ctx.set_name(raw, name);
         Ok(ComputePipeline {
             ctx: ctx.clone(),
             name: name.into(),
             raw,
             layout,
-            push_size,
-            interface: None,
-            push_descriptors: false,
-            shared_sets: set_layouts.len() as u32,
-            _set_layouts: set_layouts.to_vec(),
+            push_size: push.map_or(0, |p| p.size()),
+            interface,
+            shared_sets: shared.len() as u32,
+            push_descriptors,
+            _set_layouts: layouts,
         })
     }
 }
 
+/// The pipeline and its layout: `set_layouts` in order, one push-constant
+/// range of `push_size` bytes (none when 0), `spec` as specialization constants.
+fn create(
+    ctx: &Arc<GpuContext>,
+    name: &str,
+    spirv: &[u8],
+    set_layouts: &[Arc<DescriptorLayout>],
+    push_size: u32,
+    spec: &SpecConstants,
+) -> GpuResult<(vk::Pipeline, vk::PipelineLayout)> {
+    if spirv.len() % 4 != 0 || spirv.is_empty() {
+        return Err(GpuError::Unsupported(format!(
+            "shader {name}: SPIR-V size {} is not a multiple of 4",
+            spirv.len()
+        )));
+    }
+    let words: Vec<u32> = spirv
+        .chunks_exact(4)
+        .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+        .collect();
+    let module_info = vk::ShaderModuleCreateInfo::default().code(&words);
+    let module = unsafe { ctx.device.create_shader_module(&module_info, None) }
+        .map_err(vk_err("vkCreateShaderModule"))?;
+
+    let raw_layouts: Vec<vk::DescriptorSetLayout> = set_layouts.iter().map(|l| l.raw).collect();
+    let ranges = [vk::PushConstantRange::default()
+        .stage_flags(vk::ShaderStageFlags::COMPUTE)
+        .offset(0)
+        .size(push_size)];
+    let mut layout_info = vk::PipelineLayoutCreateInfo::default().set_layouts(&raw_layouts);
+    if push_size > 0 {
+        layout_info = layout_info.push_constant_ranges(&ranges);
+    }
+    let layout = unsafe { ctx.device.create_pipeline_layout(&layout_info, None) }
+        .map_err(vk_err("vkCreatePipelineLayout"))?;
+
+    let entries: Vec<vk::SpecializationMapEntry> = spec
+        .0
+        .iter()
+        .enumerate()
+        .map(|(i, (id, _))| vk::SpecializationMapEntry {
+            constant_id: *id,
+            offset: (i * 4) as u32,
+            size: 4,
+        })
+        .collect();
+    let data: Vec<u8> = spec.0.iter().flat_map(|(_, v)| v.to_le_bytes()).collect();
+    let spec_info = vk::SpecializationInfo::default()
+        .map_entries(&entries)
+        .data(&data);
+    let stage = vk::PipelineShaderStageCreateInfo::default()
+        .stage(vk::ShaderStageFlags::COMPUTE)
+        .module(module)
+        .name(c"main")
+        .specialization_info(&spec_info);
+    let info = [vk::ComputePipelineCreateInfo::default()
+        .stage(stage)
+        .layout(layout)];
+    let result = unsafe {
+        ctx.device
+            .create_compute_pipelines(vk::PipelineCache::null(), &info, None)
+    };
+    unsafe { ctx.device.destroy_shader_module(module, None) };
+    let raw = match result {
+        Ok(p) => p[0],
+        Err((_, e)) => {
+            unsafe { ctx.device.destroy_pipeline_layout(layout, None) };
+            return Err(vk_err("vkCreateComputePipelines")(e));
+        }
+    };
+    ctx.set_name(raw, name);
+    Ok((raw, layout))
+}
+
 impl ComputePipeline {
     /// True when the per-pass buffers are bound with push descriptors
-    /// (false: per-pass descriptor sets, or a pipeline without interface).
+    /// (false: per-pass descriptor sets).
     pub fn uses_push_descriptors(&self) -> bool {
         self.push_descriptors
     }
 
-    /// The per-pass set's layout (the last one) of a pipeline made
-    /// [`ComputePipeline::with_interface`].
+    /// The per-pass set's layout (the last one).
     pub(crate) fn pass_layout_raw(&self) -> vk::DescriptorSetLayout {
         self._set_layouts.last().map(|l| l.raw).unwrap_or_default()
     }

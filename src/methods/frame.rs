@@ -139,65 +139,6 @@ impl FrameParams {
     }
 }
 
-/// A method's per-pixel output buffers, each `[eye][pixel]`, and its
-/// optional debug views (`[view][eye][pixel]`, with their names).
-pub struct OutputBuffers<'a> {
-    /// RGBA32F; alpha is ignored.
-    pub color: &'a crate::gpu::Buffer,
-    pub depth: &'a crate::gpu::Buffer,
-    pub first_hit: &'a crate::gpu::Buffer,
-    pub albedo: &'a crate::gpu::Buffer,
-    pub debug: Option<(&'a crate::gpu::Buffer, &'a [&'a str])>,
-}
-
-impl OutputBuffers<'_> {
-    /// Reads both eyes of an image of `npix` pixels per eye back from the GPU.
-    pub fn read(&self, npix: usize) -> crate::gpu::GpuResult<[EyeImage; 2]> {
-        let color: Vec<[f32; 4]> = self.color.download_pod()?;
-        let depth: Vec<f32> = self.depth.download_pod()?;
-        let fh: Vec<[u32; 4]> = self.first_hit.download_pod()?;
-        let albedo: Vec<[f32; 4]> = self.albedo.download_pod()?;
-        let debug: Option<(Vec<[f32; 4]>, &[&str])> = match self.debug {
-            Some((b, names)) => Some((b.download_pod()?, names)),
-            None => None,
-        };
-        let eye = |e: usize| EyeImage {
-            radiance: color[e * npix..(e + 1) * npix]
-                .iter()
-                .map(|c| [c[0], c[1], c[2], 1.0])
-                .collect(),
-            depth: depth[e * npix..(e + 1) * npix].to_vec(),
-            first_hit: fh[e * npix..(e + 1) * npix].to_vec(),
-            albedo: albedo[e * npix..(e + 1) * npix].to_vec(),
-            debug: match &debug {
-                None => Vec::new(),
-                Some((d, names)) => names
-                    .iter()
-                    .enumerate()
-                    .map(|(v, name)| {
-                        (
-                            name.to_string(),
-                            d[(v * 2 + e) * npix..(v * 2 + e + 1) * npix].to_vec(),
-                        )
-                    })
-                    .collect(),
-            },
-        };
-        Ok([eye(0), eye(1)])
-    }
-}
-
-/// Counter values by report name, from a counter buffer read back from the GPU.
-pub fn named_counters(
-    values: &[u32],
-    names: &[(usize, &str)],
-) -> std::collections::BTreeMap<String, f64> {
-    names
-        .iter()
-        .map(|(i, n)| (n.to_string(), values.get(*i).copied().unwrap_or(0) as f64))
-        .collect()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

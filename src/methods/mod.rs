@@ -17,10 +17,7 @@ mod specialize;
 pub mod taa;
 
 pub use debug_normals::DebugNormals;
-pub use frame::{
-    named_counters, EyeImage, FrameInput, FrameParams, FrameStats, OutputBuffers, RayCounts,
-    StereoFrame,
-};
+pub use frame::{EyeImage, FrameInput, FrameParams, FrameStats, RayCounts, StereoFrame};
 pub use hash_cache::{HashCache, HashCacheSettings};
 pub use hybrid::Hybrid;
 pub use isrt::{Isrt, IsrtSettings};
@@ -31,7 +28,7 @@ pub use sample_cache::{SampleCache, SampleCacheSettings};
 pub use specialize::LightSampling;
 pub use taa::{Taa, TaaPass, TaaSettings, TaaWeights};
 
-use crate::gpu::{GpuContext, GpuError, GpuResult, Recorder};
+use crate::gpu::{GpuContext, GpuResult, Recorder};
 use std::sync::Arc;
 
 /// Settings every method shares, so differences come from the method alone.
@@ -102,34 +99,16 @@ pub trait Method {
     fn memory_bytes(&self) -> u64;
 
     /// The device the method renders on.
-    ///
-    /// Transitional default (issue 14): methods that still override
-    /// `render_frame` do not need it; it becomes required once every
-    /// method records.
-    fn context(&self) -> &Arc<GpuContext> {
-        unimplemented!(
-            "method {} overrides render_frame and has no context()",
-            self.name()
-        )
-    }
+    fn context(&self) -> &Arc<GpuContext>;
 
     /// Records this frame's passes into `rec` and returns what the frame
     /// loop reads back. Everything the passes reference is borrowed from
     /// `self` for `'a`, the recorder's lifetime.
-    ///
-    /// Transitional default (issue 14): an error, for methods that still
-    /// override `render_frame`; it becomes required once every method records.
     fn record<'a>(
         &'a mut self,
         rec: &mut Recorder<'a>,
         frame: &FrameInput,
-    ) -> GpuResult<FrameOutputs<'a>> {
-        let _ = (rec, frame);
-        Err(GpuError::Unsupported(format!(
-            "method {} does not record (it overrides render_frame)",
-            self.name()
-        )))
-    }
+    ) -> GpuResult<FrameOutputs<'a>>;
 
     /// Renders both eyes of one frame: the shared frame loop.
     fn render_frame(&mut self, frame: &FrameInput) -> GpuResult<StereoFrame> {

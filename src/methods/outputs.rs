@@ -43,6 +43,9 @@ pub struct CounterOutput<'a> {
     pub report: Vec<(usize, &'static str)>,
     /// (slot, report name) divided by the pixel count of both eyes.
     pub per_pixel: Vec<(usize, &'static str)>,
+    /// (slot, report name, divisor) reported as slot / divisor (e.g. the
+    /// hash table's occupancy: live entries / capacity).
+    pub ratios: Vec<(usize, &'static str, f64)>,
     pub rays: Option<RaySlots>,
 }
 
@@ -57,6 +60,7 @@ impl<'a> CounterOutput<'a> {
                 .filter_map(|c| c.report_name().map(|n| (c.slot(), n)))
                 .collect(),
             per_pixel: Vec::new(),
+            ratios: Vec::new(),
             rays: None,
         }
     }
@@ -70,6 +74,12 @@ impl<'a> CounterOutput<'a> {
     /// Reports `slot` / (2 · width · height) as `name` (a mean per pixel).
     pub fn per_pixel<C: CounterSlot>(mut self, slot: C, name: &'static str) -> Self {
         self.per_pixel.push((slot.slot(), name));
+        self
+    }
+
+    /// Reports `slot` / `divisor` as `name`.
+    pub fn ratio<C: CounterSlot>(mut self, slot: C, name: &'static str, divisor: f64) -> Self {
+        self.ratios.push((slot.slot(), name, divisor));
         self
     }
 }
@@ -87,6 +97,8 @@ pub struct FrameOutputs<'a> {
     pub albedo: &'a Buffer,
     /// Debug views `[view][eye][pixel]` (vec4) with their names.
     pub debug: Option<(&'a Buffer, &'a [&'a str])>,
+    /// Counter buffers, decoded in order: where two report the same name,
+    /// the later one's value is the frame's.
     pub counters: Vec<CounterOutput<'a>>,
     /// Values the method knows on the host (added to the frame's counters).
     pub host_counters: BTreeMap<String, f64>,
@@ -167,6 +179,9 @@ impl<'a> FrameOutputs<'a> {
             }
             for (slot, name) in &c.per_pixel {
                 counters.insert(name.to_string(), at(*slot) as f64 / (2 * npix) as f64);
+            }
+            for (slot, name, divisor) in &c.ratios {
+                counters.insert(name.to_string(), at(*slot) as f64 / divisor);
             }
             if let Some(r) = &c.rays {
                 rays.primary += r.primary.iter().map(|s| at(*s)).sum::<u64>();

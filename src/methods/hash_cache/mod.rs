@@ -21,9 +21,7 @@ pub use settings::{HashCacheSettings, HashLod};
 pub use taa::Taa;
 
 use super::hash_table::{self as table, HashTable, TableDesc};
-use super::{
-    frame_loop, Color, FrameInput, FrameOutputs, FrameParams, Method, RenderSettings, StereoFrame,
-};
+use super::{Color, FrameInput, FrameOutputs, FrameParams, Method, RenderSettings};
 use crate::gpu::{Buffer, ComputePipeline, GpuContext, GpuResult, HostReadback, Recorder};
 use crate::interface::hash_table::INTERFACE;
 use crate::rt::SceneGpu;
@@ -185,17 +183,10 @@ impl Method for HashCache {
                 .settings()
                 .debug_views
                 .then_some((t.debug(), &DEBUG_VIEWS[..])),
-            counters: vec![table::table_counters(t.counters())],
+            counters: vec![table::table_counters(t.counters(), t.settings().capacity)],
             host_counters: Default::default(),
             readback: &this.readback,
         })
-    }
-
-    /// The shared frame loop, plus `table_occupancy` from the live entries read back.
-    fn render_frame(&mut self, input: &FrameInput) -> GpuResult<StereoFrame> {
-        let mut frame = frame_loop::render(self, input)?;
-        table::add_occupancy(&mut frame.stats, self.table.settings().capacity);
-        Ok(frame)
     }
 
     fn memory_bytes(&self) -> u64 {

@@ -3,23 +3,34 @@
 //! read back by the shared frame loop, and the occupancy derived from them.
 
 use crate::interface::hash_table::TableCounter;
-use crate::methods::{CounterOutput, FrameStats, RaySlots};
+use crate::interface::CounterSlot;
+use crate::methods::{CounterOutput, RaySlots};
 
-/// The table's counter buffer as a frame output: every reported slot, and
-/// slots 0–2 as the frame's ray counts.
-pub fn table_counters(buffer: &crate::gpu::Buffer) -> CounterOutput<'_> {
+/// Report name of the table's occupancy: live entries / capacity.
+pub const OCCUPANCY: &str = "table_occupancy";
+
+/// The table's counter buffer as a frame output: every reported slot,
+/// slots 0–2 as the frame's ray counts, and [`OCCUPANCY`] (live entries /
+/// `capacity`).
+pub fn table_counters(buffer: &crate::gpu::Buffer, capacity: u32) -> CounterOutput<'_> {
     use TableCounter::*;
-    CounterOutput::of::<TableCounter>(buffer).rays(RaySlots::of(
-        &[PrimaryRays],
-        &[BounceRays],
-        &[ShadowRays],
-    ))
+    with_occupancy(
+        CounterOutput::of::<TableCounter>(buffer).rays(RaySlots::of(
+            &[PrimaryRays],
+            &[BounceRays],
+            &[ShadowRays],
+        )),
+        Live,
+        capacity,
+    )
 }
 
-/// Adds `table_occupancy` (live entries / capacity) to a frame's statistics.
-pub fn add_occupancy(stats: &mut FrameStats, capacity: u32) {
-    let live = stats.counters.get("live_entries").copied().unwrap_or(0.0);
-    stats
-        .counters
-        .insert("table_occupancy".into(), live / capacity as f64);
+/// Adds [`OCCUPANCY`] (`live` / `capacity`) to a counter output whose slot
+/// `live` counts the table's live entries (the `count` pass's result).
+pub fn with_occupancy<C: CounterSlot>(
+    counters: CounterOutput<'_>,
+    live: C,
+    capacity: u32,
+) -> CounterOutput<'_> {
+    counters.ratio(live, OCCUPANCY, capacity as f64)
 }

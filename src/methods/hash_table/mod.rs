@@ -26,7 +26,7 @@ mod pixels;
 mod push;
 mod table;
 
-pub use counters::{add_occupancy, table_counters};
+pub use counters::{table_counters, with_occupancy, OCCUPANCY};
 pub use pixels::PixelBuffers;
 pub use push::TablePush;
 pub use table::{stamp, HashTable, TableDesc, TableSnapshot, ENTRY_BYTES};

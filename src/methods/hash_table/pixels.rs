@@ -4,7 +4,6 @@
 
 use crate::gpu::{Buffer, DescriptorSet, GpuContext, GpuResult, Recorder};
 use crate::methods::hash_cache::taa::{Taa, TaaInputs};
-use crate::methods::OutputBuffers;
 use crate::rt::SceneGpu;
 use std::sync::Arc;
 
@@ -59,22 +58,6 @@ impl PixelBuffers {
             &self.albedo,
             &self.position,
         ]
-    }
-
-    /// The method's outputs, with `color` (this buffer's, or TAA's result)
-    /// and the optional debug views.
-    pub fn outputs<'a>(
-        &'a self,
-        color: &'a Buffer,
-        debug: Option<(&'a Buffer, &'a [&'a str])>,
-    ) -> OutputBuffers<'a> {
-        OutputBuffers {
-            color,
-            depth: &self.depth,
-            first_hit: &self.first_hit,
-            albedo: &self.albedo,
-            debug,
-        }
     }
 
     /// TAA history for these buffers.

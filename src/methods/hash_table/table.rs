@@ -231,7 +231,7 @@ impl HashTable {
     }
 
     /// `{p}clear`: zeroes the counters.
-    pub fn record_clear(&self, rec: &mut Recorder) {
+    pub fn record_clear<'a>(&'a self, rec: &mut Recorder<'a>) {
         rec.pass(&format!("{}clear", self.passes))
             .write(&self.counters)
             .fill(0);

@@ -33,8 +33,7 @@
 use super::hash_cache::{HashCacheSettings, Taa};
 use super::hash_table::{self as table, HashTable, TableDesc};
 use super::{
-    frame_loop, Color, CounterOutput, FrameInput, FrameOutputs, Method, RaySlots, RenderSettings,
-    SampleCache, StereoFrame,
+    Color, CounterOutput, FrameInput, FrameOutputs, Method, RaySlots, RenderSettings, SampleCache,
 };
 use crate::gpu::{ComputePipeline, GpuContext, GpuResult, HostReadback, Recorder};
 use crate::interface::hybrid::{HybridCounter, INTERFACE, SPEC_SLOTS};
@@ -132,6 +131,7 @@ impl Method for Hybrid {
         rec: &mut Recorder<'a>,
         input: &FrameInput,
     ) -> GpuResult<FrameOutputs<'a>> {
+        self.cache.begin_frame();
         self.table.begin_frame();
         let taa_on = self.table.settings().taa;
         if taa_on {
@@ -143,7 +143,7 @@ impl Method for Hybrid {
         let (p, t, scene_set) = (&this.pipes, &this.table, &this.scene.set);
         let px = t.pixels();
 
-        let cur = this.cache.record_visibility(rec, input)?;
+        let cur = this.cache.record_begun_visibility(rec, input)?;
         let cache = this.cache.current_buffers(cur);
         let frame = this.cache.frame_buffer();
         t.record_clear(rec);
@@ -167,33 +167,24 @@ impl Method for Hybrid {
             first_hit: &px.first_hit,
             albedo: &px.albedo,
             debug: None,
-            // Primary rays are the sample cache's (added in render_frame).
+            // Primary rays are the sample cache's visibility rays. The
+            // table's counters come last, so where both report a name,
+            // hybrid's value is the one in the frame's counters.
             counters: vec![
-                CounterOutput::of::<HybridCounter>(t.counters()).rays(RaySlots::of(
-                    &[],
-                    &[BounceRays],
-                    &[ShadowRays],
-                )),
+                this.cache.visibility_counter_output(),
+                table::with_occupancy(
+                    CounterOutput::of::<HybridCounter>(t.counters()).rays(RaySlots::of(
+                        &[],
+                        &[BounceRays],
+                        &[ShadowRays],
+                    )),
+                    Live,
+                    t.settings().capacity,
+                ),
             ],
             host_counters: Default::default(),
             readback: &this.readback,
         })
-    }
-
-    /// The shared frame loop, then the sample cache's visibility counters
-    /// and primary rays (read back from its own counters; not yet part of
-    /// the batched readback) and `table_occupancy`.
-    fn render_frame(&mut self, input: &FrameInput) -> GpuResult<StereoFrame> {
-        let mut frame = frame_loop::render(self, input)?;
-        self.cache.end_frame();
-        let (primary, visibility) = self.cache.visibility_counters()?;
-        let stats = &mut frame.stats;
-        stats.rays.primary = primary;
-        for (k, v) in visibility {
-            stats.counters.entry(k).or_insert(v);
-        }
-        table::add_occupancy(stats, self.table.settings().capacity);
-        Ok(frame)
     }
 
     fn memory_bytes(&self) -> u64 {

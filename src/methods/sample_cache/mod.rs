@@ -18,13 +18,12 @@
 //! the same cache without shading storage (specialization constant
 //! `SHADING_STORAGE` = false: radiance records are neither read nor written,
 //! their buffers and the shading outputs are 16-byte placeholders). Another
-//! method records [`SampleCache::record_visibility`] (`begin` … `trace`) into
-//! its own recorder, then its own passes on the current cache
-//! ([`SampleCache::current_buffers`]), then calls [`SampleCache::end_frame`]
-//! — or, recording from `&'a mut self` for the shared frame loop,
-//! [`SampleCache::begin_frame`] then [`SampleCache::record_begun_visibility`];
+//! method calls [`SampleCache::begin_frame`], records
+//! [`SampleCache::record_begun_visibility`] (`begin` … `trace`) into its own
+//! recorder, then its own passes on the current cache
+//! ([`SampleCache::current_buffers`]);
 //! [`SampleCache::visibility_counter_output`] gives it the visibility counters
-//! for its own `FrameOutputs`.
+//! for its own `FrameOutputs` (one batched readback).
 
 pub mod args;
 pub mod background;
@@ -436,7 +435,7 @@ impl SampleCache {
     /// Index (0/1) of the buffers holding the current frame's cache.
     fn cur(&self) -> usize {
         // Frame f reads buffers[f % 2] and writes buffers[1 − f % 2]; after
-        // render_frame increments `frames`, the latest cache is in:
+        // begin_frame increments `frames`, the current (latest) cache is in:
         (self.frames % 2) as usize
     }
 
@@ -541,23 +540,9 @@ impl SampleCache {
     /// Records this frame's visibility passes (`params`, `begin`, `clear`,
     /// `reproject`, `select`, `trace`) into `rec` and returns the index of the
     /// buffers that hold this frame's cache ([`Self::current_buffers`]).
-    /// Writes `input` into [`Self::frame_buffer`]. Call [`Self::end_frame`]
-    /// after the recorder has finished.
-    pub fn record_visibility<'a>(
-        &'a self,
-        rec: &mut Recorder<'a>,
-        input: &FrameInput,
-    ) -> GpuResult<usize> {
-        // Frame f reads buffers[f % 2] ("previous") and writes buffers[1 − f % 2].
-        let prev = (self.frames % 2) as usize;
-        self.record_visibility_from(rec, input, prev)?;
-        Ok(1 - prev)
-    }
-
-    /// [`Self::record_visibility`] for a method that records from
-    /// `&'a mut self` (the shared frame loop), where nothing can be changed
-    /// after recording: call [`Self::begin_frame`] first, then this. Returns
-    /// the index of the buffers that hold this frame's cache.
+    /// Writes `input` into [`Self::frame_buffer`]. For a method that records
+    /// from `&'a mut self` (the shared frame loop), where nothing can be
+    /// changed after recording: call [`Self::begin_frame`] first, then this.
     pub fn record_begun_visibility<'a>(
         &'a self,
         rec: &mut Recorder<'a>,
@@ -611,12 +596,6 @@ impl SampleCache {
         Ok(())
     }
 
-    /// Ends a frame recorded with [`Self::record_visibility`] (flips the
-    /// ping-pong parity; [`Self::snapshot`] then reads this frame's cache).
-    pub fn end_frame(&mut self) {
-        self.frames += 1;
-    }
-
     /// Starts a frame to be recorded with [`Self::record_begun_visibility`]
     /// (flips the ping-pong parity before recording; [`Self::snapshot`]
     /// reads this frame's cache once it has run).
@@ -625,7 +604,7 @@ impl SampleCache {
     }
 
     /// The mask and first-hit buffers with index `i` (0 or 1). During a frame
-    /// the current cache is the index [`Self::record_visibility`] returned;
+    /// the current cache is the index [`Self::record_begun_visibility`] returned;
     /// between frames it is `frames rendered % 2`. A method that binds them in
     /// descriptor sets builds one set per index.
     pub fn current_buffers(&self, i: usize) -> CacheBuffers<'_> {
@@ -636,38 +615,15 @@ impl SampleCache {
     }
 
     /// The per-frame camera buffer (`FrameBuf` of camera.glsl), written by
-    /// [`Self::record_visibility`]'s `params` pass.
+    /// [`Self::record_begun_visibility`]'s `params` pass.
     pub fn frame_buffer(&self) -> &Buffer {
         &self.frame
     }
 
-    /// The visibility counters of the last finished frame, by report name
-    /// (`retrace_rays`, `new_sample_rays`, `visible_samples`, ...), and the
-    /// primary rays it traced (retrace + new samples + background).
-    pub fn visibility_counters(&self) -> GpuResult<(u64, std::collections::BTreeMap<String, f64>)> {
-        use SampleCacheCounter::*;
-        let counters: Vec<u32> = self.counters.download_pod()?;
-        let at = |c: SampleCacheCounter| counters[c.slot()] as u64;
-        let mut named = std::collections::BTreeMap::new();
-        for &c in SampleCacheCounter::ALL {
-            match c.report_name() {
-                Some(name) if c != Shaded => {
-                    named.insert(name.to_string(), at(c) as f64);
-                }
-                _ => {}
-            }
-        }
-        let npix = (self.settings.width * self.settings.height) as f64;
-        named.insert(
-            "visible_samples_per_pixel".into(),
-            at(Visible) as f64 / (2.0 * npix),
-        );
-        Ok((at(RetraceRays) + at(NewRays) + at(BgRays), named))
-    }
-
-    /// The same visibility counters for the shared frame loop's readback, for
-    /// a method that records [`Self::record_visibility`] and returns its own
-    /// `FrameOutputs`: every reported slot but `shaded_samples`,
+    /// The visibility counters (`retrace_rays`, `new_sample_rays`,
+    /// `visible_samples`, ...) for the shared frame loop's readback, for a
+    /// method that records [`Self::record_begun_visibility`] and returns its
+    /// own `FrameOutputs`: every reported slot but `shaded_samples`,
     /// `visible_samples_per_pixel`, and retrace + new-sample + background
     /// rays as primary rays.
     pub fn visibility_counter_output(&self) -> CounterOutput<'_> {
