@@ -38,6 +38,8 @@ impl DescriptorLayout {
             })
             .collect();
         let info = vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings);
+        // SAFETY: `info` and the bindings it points at live across the call;
+        // the device is valid while `ctx` is.
         let raw = unsafe { ctx.device.create_descriptor_set_layout(&info, None) }
             .map_err(vk_err("vkCreateDescriptorSetLayout"))?;
         Ok(Arc::new(DescriptorLayout {
@@ -100,6 +102,9 @@ impl Drop for DescriptorLayout {
         if self.ctx.is_abandoned() {
             return;
         }
+        // SAFETY: every pipeline and set made with this layout holds an Arc of
+        // it, so they are gone; a layout may be destroyed while command buffers
+        // recorded with it are pending (only the sets and pipelines may not).
         unsafe {
             self.ctx
                 .device
@@ -156,12 +161,15 @@ impl DescriptorSet {
         let pool_info = vk::DescriptorPoolCreateInfo::default()
             .max_sets(1)
             .pool_sizes(&sizes);
+        // SAFETY: `pool_info` and `sizes` live across the call.
         let pool = unsafe { ctx.device.create_descriptor_pool(&pool_info, None) }
             .map_err(vk_err("vkCreateDescriptorPool"))?;
         let layouts = [layout.raw];
         let alloc = vk::DescriptorSetAllocateInfo::default()
             .descriptor_pool(pool)
             .set_layouts(&layouts);
+        // SAFETY: the pool was just created for exactly this one set of this
+        // layout (its sizes are the layout's), and `layouts` outlives the call.
         let raw = unsafe { ctx.device.allocate_descriptor_sets(&alloc) }
             .map_err(vk_err("vkAllocateDescriptorSets"))?[0];
 
@@ -238,6 +246,9 @@ impl DescriptorSet {
             };
             writes.push(w);
         }
+        // SAFETY: every write points into `buffer_infos`, `image_infos` or
+        // `accel_writes`, all alive and unmoved until after this call; each
+        // resource matched its binding's kind above, and the set is not in use.
         unsafe { ctx.device.update_descriptor_sets(&writes, &[]) };
         drop(writes);
         drop(accel_writes);
@@ -255,6 +266,9 @@ impl Drop for DescriptorSet {
         if self.ctx.is_abandoned() {
             return;
         }
+        // SAFETY: sets are bound only by recorders that borrow them until their
+        // submission finished (an abandoned context returned above), so no
+        // pending command buffer uses the set freed with its pool.
         unsafe { self.ctx.device.destroy_descriptor_pool(self.pool, None) };
     }
 }

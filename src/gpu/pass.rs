@@ -191,6 +191,8 @@ impl<'a> Recorder<'a> {
             let stages = vk::PipelineStageFlags::COMPUTE_SHADER
                 | vk::PipelineStageFlags::TRANSFER
                 | vk::PipelineStageFlags::DRAW_INDIRECT;
+            // SAFETY: `cb` is recording, outside any render pass; the barrier
+            // structs live across the call.
             unsafe {
                 self.ctx.device.cmd_pipeline_barrier(
                     self.cb,
@@ -328,6 +330,8 @@ impl<'a> Recorder<'a> {
     /// Ends the command buffer, submits, waits, and returns one timing per pass.
     pub fn finish(mut self) -> GpuResult<Vec<PassTiming>> {
         self.finished = true;
+        // SAFETY: `cb` is recording (begun in `new`, ended only here) and no
+        // debug label is left open (each pass closes its own).
         unsafe { self.ctx.device.end_command_buffer(self.cb) }
             .map_err(vk_err("vkEndCommandBuffer"))?;
         self.ctx.submit_and_wait(self.cb, "frame")?;
@@ -420,6 +424,8 @@ impl<'a> Pass<'_, 'a> {
         } = self;
         let idx = rec.begin_pass(&name, &reads, &writes);
         for b in &writes {
+            // SAFETY: `cb` is recording; `b` is a live buffer borrowed for 'a and
+            // the fill covers its whole size.
             unsafe {
                 rec.ctx
                     .device
@@ -443,6 +449,9 @@ impl<'a> Pass<'_, 'a> {
             "pass {name}: vkCmdUpdateBuffer size"
         );
         let idx = rec.begin_pass(&name, &reads, &writes);
+        // SAFETY: `cb` is recording; `data` is at most 65536 bytes, a multiple
+        // of 4 (asserted above); that it fits the buffer is the caller's
+        // contract (not checked here; the validation layer does in tests).
         unsafe { rec.ctx.device.cmd_update_buffer(rec.cb, writes[0], 0, data) };
         rec.end_pass(idx);
     }
@@ -457,6 +466,9 @@ impl<'a> Pass<'_, 'a> {
         } = self;
         let idx = rec.begin_pass(&name, &reads, &writes);
         let region = [vk::BufferCopy::default().size(bytes)];
+        // SAFETY: `cb` is recording; both buffers are live, borrowed for 'a,
+        // `bytes` within both is the caller's contract (not checked here; the
+        // validation layer does in tests).
         unsafe {
             rec.ctx
                 .device

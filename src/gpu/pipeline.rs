@@ -118,6 +118,8 @@ fn create(
         .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
         .collect();
     let module_info = vk::ShaderModuleCreateInfo::default().code(&words);
+    // SAFETY: `words` is whole 32-bit SPIR-V words (checked above) that outlive
+    // the call; the device is alive while `ctx` is.
     let module = unsafe { ctx.device.create_shader_module(&module_info, None) }
         .map_err(vk_err("vkCreateShaderModule"))?;
 
@@ -130,6 +132,8 @@ fn create(
     if push_size > 0 {
         layout_info = layout_info.push_constant_ranges(&ranges);
     }
+    // SAFETY: the set layouts are alive (`set_layouts` is borrowed and kept by
+    // the pipeline) and `ranges` outlives the call.
     let layout = unsafe { ctx.device.create_pipeline_layout(&layout_info, None) }
         .map_err(vk_err("vkCreatePipelineLayout"))?;
 
@@ -155,14 +159,19 @@ fn create(
     let info = [vk::ComputePipelineCreateInfo::default()
         .stage(stage)
         .layout(layout)];
+    // SAFETY: `module` and `layout` were just created on this device; the
+    // specialization entries and data (4 bytes per entry) outlive the call.
     let result = unsafe {
         ctx.device
             .create_compute_pipelines(vk::PipelineCache::null(), &info, None)
     };
+    // SAFETY: the module is only needed while the pipeline is created, which
+    // has returned; nothing else holds it.
     unsafe { ctx.device.destroy_shader_module(module, None) };
     let raw = match result {
         Ok(p) => p[0],
         Err((_, e)) => {
+            // SAFETY: pipeline creation failed, so no pipeline uses the layout.
             unsafe { ctx.device.destroy_pipeline_layout(layout, None) };
             return Err(vk_err("vkCreateComputePipelines")(e));
         }
@@ -189,6 +198,10 @@ impl Drop for ComputePipeline {
         if self.ctx.is_abandoned() {
             return;
         }
+        // SAFETY: recorders borrow the pipelines they record for their whole
+        // life and wait for their submission, so no pending command buffer
+        // uses this pipeline or its layout any more (an abandoned context,
+        // whose work may still run, returned above).
         unsafe {
             self.ctx.device.destroy_pipeline(self.raw, None);
             self.ctx.device.destroy_pipeline_layout(self.layout, None);
