@@ -21,7 +21,7 @@ pub use frame::{EyeImage, FrameInput, FrameParams, FrameStats, RayCounts, Stereo
 pub use hash_cache::{HashCache, HashCacheSettings};
 pub use hybrid::Hybrid;
 pub use isrt::{Isrt, IsrtSettings};
-pub use outputs::{Color, CounterOutput, FrameOutputs, RaySlots};
+pub use outputs::{Color, CounterOutput, FrameOutputs, PixelOutputs, RaySlots};
 pub use reference::Reference;
 pub use registry::MethodKind;
 pub use sample_cache::{SampleCache, SampleCacheSettings};

@@ -7,6 +7,38 @@ use crate::gpu::{Buffer, HostReadback, ReadbackRange};
 use crate::interface::CounterSlot;
 use std::collections::BTreeMap;
 
+/// The buffers of a method that writes one first hit per pixel and eye:
+/// the frame parameters (`FrameParams`), first hits (Listing 1, 16 B), view
+/// depth (4 B), base colour (16 B), each `[eye][pixel]`, and its
+/// `uint counters[]`. Named `PREFIX.frame`, `PREFIX.first_hit`, … (the names
+/// out-of-range errors and debuggers show).
+pub struct PixelOutputs {
+    pub frame: Buffer,
+    pub first_hit: Buffer,
+    pub depth: Buffer,
+    pub albedo: Buffer,
+    pub counters: Buffer,
+}
+
+impl PixelOutputs {
+    /// `pixels`: both eyes' pixels; `counter_slots`: the method's counter enum's length.
+    pub fn new(
+        ctx: &std::sync::Arc<crate::gpu::GpuContext>,
+        prefix: &str,
+        pixels: u64,
+        counter_slots: usize,
+    ) -> crate::gpu::GpuResult<Self> {
+        let buf = |name: &str, bytes: u64| Buffer::storage(ctx, &format!("{prefix}.{name}"), bytes);
+        Ok(PixelOutputs {
+            frame: buf("frame", std::mem::size_of::<super::FrameParams>() as u64)?,
+            first_hit: buf("first_hit", pixels * 16)?,
+            depth: buf("depth", pixels * 4)?,
+            albedo: buf("albedo", pixels * 16)?,
+            counters: buf("counters", 4 * counter_slots as u64)?,
+        })
+    }
+}
+
 /// How the colour buffer (`[eye][pixel]` vec4) encodes radiance.
 #[derive(Clone, Copy)]
 pub enum Color<'a> {

@@ -3,7 +3,8 @@
 //! bounces, pixel-centre first hits in the Listing 1 encoding.
 
 use super::{
-    Color, CounterOutput, FrameInput, FrameOutputs, FrameParams, Method, RaySlots, RenderSettings,
+    Color, CounterOutput, FrameInput, FrameOutputs, FrameParams, Method, PixelOutputs, RaySlots,
+    RenderSettings,
 };
 use crate::gpu::{
     shaders, Buffer, ComputePipeline, GpuContext, GpuError, GpuResult, HostReadback, Recorder,
@@ -74,20 +75,15 @@ impl Reference {
         settings: &RenderSettings,
     ) -> GpuResult<Self> {
         let n = (settings.width * settings.height * 2) as u64;
-        let frame = Buffer::storage(
-            ctx,
-            "reference.frame",
-            std::mem::size_of::<FrameParams>() as u64,
-        )?;
+        // Allocated first, as before: an over-range --size is refused naming it.
         let accum = Buffer::storage(ctx, "reference.accum", n * 16)?;
-        let first_hit = Buffer::storage(ctx, "reference.first_hit", n * 16)?;
-        let depth = Buffer::storage(ctx, "reference.depth", n * 4)?;
-        let albedo = Buffer::storage(ctx, "reference.albedo", n * 16)?;
-        let counters = Buffer::storage(
-            ctx,
-            "reference.counters",
-            4 * ReferenceCounter::ALL.len() as u64,
-        )?;
+        let PixelOutputs {
+            frame,
+            first_hit,
+            depth,
+            albedo,
+            counters,
+        } = PixelOutputs::new(ctx, "reference", n, ReferenceCounter::ALL.len())?;
         let spec = settings.spec_constants(scene, env);
         let shared = [scene.layout.clone()];
         let primary = ComputePipeline::with_interface(

@@ -7,7 +7,8 @@
 //! geometry (interpolated normals, glTF normal maps and their tangents).
 
 use super::{
-    Color, CounterOutput, FrameInput, FrameOutputs, FrameParams, Method, RaySlots, RenderSettings,
+    Color, CounterOutput, FrameInput, FrameOutputs, FrameParams, Method, PixelOutputs, RaySlots,
+    RenderSettings,
 };
 use crate::gpu::{Buffer, ComputePipeline, GpuContext, GpuResult, HostReadback, Recorder};
 use crate::interface::debug_normals::{DebugNormalsCounter, INTERFACE};
@@ -41,20 +42,14 @@ impl DebugNormals {
         settings: &RenderSettings,
     ) -> GpuResult<Self> {
         let n = (settings.width * settings.height * 2) as u64;
-        let frame = Buffer::storage(
-            ctx,
-            "debug_normals.frame",
-            std::mem::size_of::<FrameParams>() as u64,
-        )?;
         let color = Buffer::storage(ctx, "debug_normals.color", n * 16)?;
-        let first_hit = Buffer::storage(ctx, "debug_normals.first_hit", n * 16)?;
-        let depth = Buffer::storage(ctx, "debug_normals.depth", n * 4)?;
-        let albedo = Buffer::storage(ctx, "debug_normals.albedo", n * 16)?;
-        let counters = Buffer::storage(
-            ctx,
-            "debug_normals.counters",
-            4 * DebugNormalsCounter::ALL.len() as u64,
-        )?;
+        let PixelOutputs {
+            frame,
+            first_hit,
+            depth,
+            albedo,
+            counters,
+        } = PixelOutputs::new(ctx, "debug_normals", n, DebugNormalsCounter::ALL.len())?;
         let primary = ComputePipeline::with_interface(
             ctx,
             "debug_normals.primary",
