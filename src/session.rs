@@ -46,6 +46,10 @@ impl Session {
     pub fn new(gpu: &GpuOptions, scene: Scene, rt: RtChoice) -> Result<Session> {
         let mut opts = gpu.clone();
         opts.want_ray_query = rt != RtChoice::Software;
+        // `--rt query` needs ray queries: choose passes over devices without
+        // them (each rejected with its reason) instead of opening one and
+        // failing afterwards.
+        opts.require.ray_query |= rt == RtChoice::Query;
         let ctx = Arc::new(GpuContext::new(&opts)?);
         Self::with_context(ctx, scene, rt)
     }
