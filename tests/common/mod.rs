@@ -68,6 +68,40 @@ pub fn render_at<M: stereocache::methods::Method + ?Sized>(
     .expect("render")
 }
 
+/// What the shared frame loop promises a method built on the hash table,
+/// along 3 frames of `path`: one submit-and-wait per frame (the one batched
+/// readback) and `table_occupancy` = live entries / `capacity`; `each` adds
+/// the method's own per-frame checks. Ends with no validation message.
+pub fn check_one_submit_and_occupancy(
+    ctx: &GpuContext,
+    m: &mut dyn stereocache::methods::Method,
+    capacity: f64,
+    path: impl Fn(u32) -> StereoCamera,
+    mut each: impl FnMut(u32, &StereoFrame),
+) {
+    let mut prev = None;
+    for f in 0..3 {
+        let cam = path(f);
+        let before = ctx.submit_count();
+        let fr = render_at(m, f, cam, prev);
+        prev = Some(cam);
+        assert_eq!(
+            ctx.submit_count() - before,
+            1,
+            "frame {f}: submit-and-waits"
+        );
+        let live = fr.stats.counters["live_entries"];
+        assert!(live > 0.0, "frame {f}: the table holds entries");
+        assert_eq!(
+            fr.stats.counters["table_occupancy"],
+            live / capacity,
+            "frame {f}: occupancy"
+        );
+        each(f, &fr);
+    }
+    assert_no_validation_messages(ctx);
+}
+
 /// Every pixel's radiance in both eyes is finite and non-negative.
 pub fn assert_finite_non_negative(fr: &StereoFrame, what: &str) {
     for (e, eye) in fr.eyes.iter().enumerate() {
