@@ -1,6 +1,6 @@
 //! Helpers several subcommands share: the device line benchmarks print
 //! first, the validation verdict, the reference-noise line under a compare
-//! table, and scene lists.
+//! table, the trace-driven session of replay and compare, and scene lists.
 
 use anyhow::{bail, Result};
 use stereocache::gpu::{DeviceCaps, GpuContext};
@@ -13,6 +13,36 @@ pub fn device_line(c: &DeviceCaps) -> String {
         "device: {} ({}), driver {} {}",
         c.name, c.device_type, c.driver_name, c.driver_info
     )
+}
+
+/// Reads the trace at `trace` (its warnings on stderr), opens the device and
+/// the scene, and resamples the trace into one stereo camera per frame at
+/// `fps` — what `replay` and `compare` both start with.
+pub fn open_along_trace(
+    trace: &std::path::Path,
+    fps: f64,
+    size: stereocache::values::Size,
+    scene: &super::args::SceneArgs,
+    gpu: &super::args::GpuArgs,
+    camera: &super::args::CameraArgs,
+) -> Result<(Session, Vec<stereocache::camera::StereoCamera>)> {
+    let select = camera.select();
+    let trace = stereocache::camera::PoseTrace::read_csv(trace)?;
+    for w in &trace.warnings {
+        eprintln!("warning: {w}");
+    }
+    let session = scene.open(gpu)?;
+    let cameras = stereocache::replay::trace_cameras(
+        &session,
+        &trace,
+        fps,
+        size.width,
+        size.height,
+        &select,
+        camera.ipd,
+        camera.fov_radians(),
+    )?;
+    Ok((session, cameras))
 }
 
 /// Fails when the validation layer reported anything (the messages were printed).

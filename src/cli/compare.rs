@@ -2,12 +2,11 @@
 //! side by side, with metrics against a reference.
 
 use super::args::{self, CameraArgs, GpuArgs, MethodArgs, MethodList, SceneArgs};
-use super::common::{check_out, print_reference_noise, report_validation};
+use super::common::{check_out, open_along_trace, print_reference_noise, report_validation};
 use anyhow::{bail, Result};
 use clap::Args;
 use std::path::PathBuf;
-use stereocache::camera::PoseTrace;
-use stereocache::replay::{trace_cameras, DEFAULT_FPS};
+use stereocache::replay::DEFAULT_FPS;
 use stereocache::values::Size;
 
 #[derive(Args)]
@@ -82,23 +81,8 @@ pub fn run(a: CompareArgs) -> Result<()> {
         stereocache::evaluate::check_reference_spp(a.reference_spp)?;
     }
     check_out(&a.out)?;
-    let select = a.camera.select();
-    let trace = PoseTrace::read_csv(&a.trace)?;
-    for w in &trace.warnings {
-        eprintln!("warning: {w}");
-    }
-    let session = a.scene.open(&a.gpu)?;
-    let Size { width, height } = a.size;
-    let cameras = trace_cameras(
-        &session,
-        &trace,
-        a.fps,
-        width,
-        height,
-        &select,
-        a.camera.ipd,
-        a.camera.fov_radians(),
-    )?;
+    let (session, cameras) =
+        open_along_trace(&a.trace, a.fps, a.size, &a.scene, &a.gpu, &a.camera)?;
     if let Some(k) = a.frames {
         if k > cameras.len() {
             bail!(

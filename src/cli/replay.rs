@@ -2,14 +2,13 @@
 //! DIR/frames/, DIR/frames.jsonl and DIR/summary.json.
 
 use super::args::{self, CameraArgs, GpuArgs, MethodArgs, SceneArgs};
-use super::common::{check_out, report_validation};
+use super::common::{check_out, open_along_trace, report_validation};
 use super::render::method;
 use anyhow::Result;
 use clap::Args;
 use std::path::PathBuf;
-use stereocache::camera::PoseTrace;
 use stereocache::methods::MethodKind;
-use stereocache::replay::{replay, trace_cameras, ReplayOptions, DEFAULT_FPS};
+use stereocache::replay::{replay, ReplayOptions, DEFAULT_FPS};
 use stereocache::values::Size;
 
 #[derive(Args)]
@@ -76,23 +75,8 @@ pub fn run(a: ReplayArgs) -> Result<()> {
     };
     opts.validate()?;
     check_out(&a.out)?;
-    let select = a.camera.select();
-    let trace = PoseTrace::read_csv(&a.trace)?;
-    for w in &trace.warnings {
-        eprintln!("warning: {w}");
-    }
-    let session = a.scene.open(&a.gpu)?;
-    let Size { width, height } = a.size;
-    let cameras = trace_cameras(
-        &session,
-        &trace,
-        a.fps,
-        width,
-        height,
-        &select,
-        a.camera.ipd,
-        a.camera.fov_radians(),
-    )?;
+    let (session, cameras) =
+        open_along_trace(&a.trace, a.fps, a.size, &a.scene, &a.gpu, &a.camera)?;
     opts.frame_count(cameras.len())?;
     opts.settings = serde_json::to_value(&settings)?;
     let mut method = session.create(a.method, &settings)?;
