@@ -24,9 +24,8 @@
 //! the source are not co-visible. Source colours are sanitized (non-finite →
 //! 0).
 
-use glam::{UVec2, Vec2, Vec3};
-
 use super::check::{check_len, MetricsError};
+use super::covisibility::{Covisibility, Geometry};
 use super::image::{sanitize, LinearImage};
 use crate::camera::EyeView;
 
@@ -50,7 +49,19 @@ pub struct ViewBuffers<'a> {
     pub first_hits: Option<FirstHits<'a>>,
 }
 
-/// Reproject `src` into the destination view (see the module docs).
+impl<'a> ViewBuffers<'a> {
+    /// The geometry part (depth, view, ids) co-visibility is computed from.
+    pub fn geometry(&self) -> Geometry<'a> {
+        Geometry {
+            depth: self.depth,
+            view: self.view,
+            first_hits: self.first_hits,
+        }
+    }
+}
+
+/// Reproject `src` into the destination view (see the module docs): the
+/// [`Covisibility`] of the two geometries applied to `src`.
 ///
 /// Returns the reprojected image (destination size) and the co-visibility
 /// mask. `first_hits = Some((src_hits, dst_hits))` additionally requires the
@@ -74,79 +85,22 @@ pub fn reproject(
         check_len("reproject: source first hits", s.len(), w, h)?;
         check_len("reproject: destination first hits", d.len(), w, h)?;
     }
-    let tol = if depth_tolerance_rel.is_finite() {
-        depth_tolerance_rel.max(0.0)
-    } else {
-        0.0
-    };
-    let size = UVec2::new(w as u32, h as u32);
-    let forward = dst_view.orientation * Vec3::NEG_Z;
-    let valid = |d: f32| d > 0.0 && d.is_finite();
-    let mut out = LinearImage::filled(w, h, [0.0; 3]);
-    let mut covisible = vec![false; w * h];
-    for j in 0..h {
-        for i in 0..w {
-            let di = j * w + i;
-            let d = dst_depth[di];
-            if !valid(d) {
-                continue;
-            }
-            let dst_id = first_hits.map(|(_, dh)| dh[di]);
-            if dst_id.is_some_and(|id| id[3] == MISS_INSTANCE) {
-                continue;
-            }
-            let dir = dst_view.ray_direction(Vec2::new(i as f32 + 0.5, j as f32 + 0.5), size);
-            let cos = dir.dot(forward);
-            if cos <= 0.0 {
-                continue;
-            }
-            // The point relative to the source eye; the eyes' offset is taken
-            // in f64 so views far from the origin keep their precision.
-            let eyes = (dst_view.world - src_view.world).as_vec3();
-            let Some((p, d_s)) = src_view.project_offset(eyes + dir * (d / cos), size) else {
-                continue;
-            };
-            if !(p.x >= 0.0 && p.y >= 0.0 && p.x <= w as f32 && p.y <= h as f32) {
-                continue;
-            }
-            let (u, v) = (p.x - 0.5, p.y - 0.5);
-            let (x0, y0) = (u.floor(), v.floor());
-            let (fx, fy) = (u - x0, v - y0);
-            let mut acc = [0.0f32; 3];
-            let mut wsum = 0.0f32;
-            for (dx, dy, wt) in [
-                (0, 0, (1.0 - fx) * (1.0 - fy)),
-                (1, 0, fx * (1.0 - fy)),
-                (0, 1, (1.0 - fx) * fy),
-                (1, 1, fx * fy),
-            ] {
-                let (sx, sy) = (x0 as i64 + dx, y0 as i64 + dy);
-                if wt <= 0.0 || sx < 0 || sy < 0 || sx >= w as i64 || sy >= h as i64 {
-                    continue;
-                }
-                let si = sy as usize * w + sx as usize;
-                let ds = src_depth[si];
-                if !valid(ds) || (ds - d_s).abs() > tol * d_s {
-                    continue;
-                }
-                if let (Some((sh, _)), Some(id)) = (first_hits, dst_id) {
-                    if sh[si][2] != id[2] || sh[si][3] != id[3] {
-                        continue;
-                    }
-                }
-                let c = sanitize(src.rgb[si]);
-                for k in 0..3 {
-                    acc[k] += wt * c[k];
-                }
-                wsum += wt;
-            }
-            if wsum > 0.0 {
-                out.rgb[di] = acc.map(|a| a / wsum);
-                covisible[di] = true;
-            }
-        }
-    }
-    Ok((out, covisible))
+    let cov = Covisibility::new(
+        Geometry {
+            depth: src_depth,
+            view: src_view,
+            first_hits: first_hits.map(|(s, _)| s),
+        },
+        Geometry {
+            depth: dst_depth,
+            view: dst_view,
+            first_hits: first_hits.map(|(_, d)| d),
+        },
+        w,
+        h,
+        depth_tolerance_rel,
+    )?;
+    Ok((cov.warp(src)?, cov.mask()))
 }
 
 /// Per-pixel difference used by the temporal and stereo metrics: the mean
@@ -162,7 +116,7 @@ pub fn pixel_difference(a: [f32; 3], b: [f32; 3]) -> f32 {
 pub(crate) mod tests {
     use super::*;
     use crate::camera::{Eye, HeadPose, StereoCamera};
-    use glam::Quat;
+    use glam::{Quat, Vec3};
 
     /// 64 × 64 eyes, 90° fov, IPD 0.125 m: a fronto-parallel plane at depth
     /// `d` has a disparity of `32 · 0.125 / d` pixels (4 px at `d = 1`).

@@ -9,7 +9,9 @@
 use serde::Serialize;
 
 use super::check::MetricsError;
-use super::reproject::{pixel_difference, reproject, ViewBuffers};
+use super::covisibility::Covisibility;
+use super::image::LinearImage;
+use super::reproject::{pixel_difference, ViewBuffers};
 
 /// Stereo discrepancy of one stereo pair.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
@@ -23,8 +25,10 @@ pub struct StereoDiscrepancy {
 }
 
 /// Stereo discrepancy of a stereo pair (left reprojected into right), with
-/// relative depth tolerance `depth_tolerance_rel`; first-hit ids are
-/// compared when both eyes carry them.
+/// relative depth tolerance `depth_tolerance_rel`, on the co-visibility of
+/// the pair's **own** geometry; first-hit ids are compared when both eyes
+/// carry them. `compare` uses [`stereo_discrepancy_masked`] with the
+/// reference's geometry instead.
 pub fn stereo_discrepancy(
     left: &ViewBuffers,
     right: &ViewBuffers,
@@ -32,19 +36,30 @@ pub fn stereo_discrepancy(
 ) -> Result<StereoDiscrepancy, MetricsError> {
     left.image
         .check_same_size(right.image, "stereo: right image")?;
-    let ids = left.first_hits.zip(right.first_hits);
-    let (warped, cov) = reproject(
-        left.image,
-        left.depth,
-        left.view,
-        right.depth,
-        right.view,
+    let cov = Covisibility::new(
+        left.geometry(),
+        right.geometry(),
+        right.image.width,
+        right.image.height,
         depth_tolerance_rel,
-        ids,
     )?;
-    let mut diffs: Vec<f32> = (0..cov.len())
-        .filter(|&i| cov[i])
-        .map(|i| pixel_difference(warped.rgb[i], right.image.rgb[i]))
+    stereo_discrepancy_masked(left.image, right.image, &cov)
+}
+
+/// Stereo discrepancy of `left` reprojected into `right` through a given
+/// co-visibility (left view into right view): the same mask for every method
+/// when it comes from the reference's geometry.
+pub fn stereo_discrepancy_masked(
+    left: &LinearImage,
+    right: &LinearImage,
+    cov: &Covisibility,
+) -> Result<StereoDiscrepancy, MetricsError> {
+    left.check_same_size(right, "stereo: right image")?;
+    let warped = cov.warp(left)?;
+    let n = right.len();
+    let mut diffs: Vec<f32> = (0..n)
+        .filter(|&i| cov.is_covisible(i))
+        .map(|i| pixel_difference(warped.rgb[i], right.rgb[i]))
         .collect();
     if diffs.is_empty() {
         return Ok(StereoDiscrepancy {
@@ -59,13 +74,12 @@ pub fn stereo_discrepancy(
     Ok(StereoDiscrepancy {
         mean,
         p95: diffs[rank - 1],
-        covisible_fraction: diffs.len() as f32 / cov.len() as f32,
+        covisible_fraction: diffs.len() as f32 / n as f32,
     })
 }
 
 #[cfg(test)]
 mod tests {
-    use super::super::image::LinearImage;
     use super::super::reproject::tests::{rig, texture};
     use super::*;
     use crate::camera::Eye;

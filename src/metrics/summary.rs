@@ -22,8 +22,9 @@ pub struct ImageMetrics {
     pub psnr: f32,
     /// Mean SSIM on display luma.
     pub ssim: f32,
-    /// Mean **HDR-FLIP** at [`DEFAULT_PPD`] (the inputs are scene-referred
-    /// radiance).
+    /// Mean **HDR-FLIP** (the inputs are scene-referred radiance) at
+    /// [`DEFAULT_PPD`] ([`Self::compute`]) or the given pixels per degree
+    /// ([`Self::compute_at`]).
     pub flip: f32,
     /// CPBD sharpness of the test image.
     pub cpbd: f32,
@@ -37,13 +38,23 @@ impl ImageMetrics {
     /// All metrics of `x` against `reference`; errors when the sizes differ
     /// or the images are empty.
     pub fn compute(x: &LinearImage, reference: &LinearImage) -> Result<Self, MetricsError> {
+        Self::compute_at(x, reference, DEFAULT_PPD)
+    }
+
+    /// [`Self::compute`] with FLIP at `flip_ppd` pixels per degree
+    /// ([`super::ppd`]).
+    pub fn compute_at(
+        x: &LinearImage,
+        reference: &LinearImage,
+        flip_ppd: f32,
+    ) -> Result<Self, MetricsError> {
         reference.check_same_size(x, "metrics: test image")?;
         Ok(Self {
             rse: rse(x, reference, RSE_EPSILON)?,
             mse: mse(x, reference)?,
             psnr: psnr(x, reference)?,
             ssim: ssim(x, reference)?.mean,
-            flip: flip_hdr(x, reference, DEFAULT_PPD)?.flip.mean,
+            flip: flip_hdr(x, reference, flip_ppd)?.flip.mean,
             cpbd: cpbd(x)?.cpbd,
             cpbd_reference: cpbd(reference)?.cpbd,
             non_finite: x.non_finite_count(),

@@ -11,7 +11,8 @@ use serde::Serialize;
 
 use super::check::MetricsError;
 use super::image::LinearImage;
-use super::reproject::{pixel_difference, reproject, ViewBuffers};
+use super::covisibility::Covisibility;
+use super::reproject::{pixel_difference, ViewBuffers};
 
 /// Temporal instability of one frame pair.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -26,8 +27,10 @@ pub struct TemporalInstability {
 }
 
 /// Temporal instability between `prev` (frame `t − 1`) and `cur` (frame `t`),
-/// with relative depth tolerance `depth_tolerance_rel` (e.g. 0.01). First-hit
-/// ids are compared when both frames carry them.
+/// with relative depth tolerance `depth_tolerance_rel` (e.g. 0.01), on the
+/// co-visibility of the two frames' **own** geometry. First-hit ids are
+/// compared when both frames carry them. `compare` uses
+/// [`temporal_instability_masked`] with the reference's geometry instead.
 pub fn temporal_instability(
     prev: &ViewBuffers,
     cur: &ViewBuffers,
@@ -35,21 +38,31 @@ pub fn temporal_instability(
 ) -> Result<TemporalInstability, MetricsError> {
     prev.image
         .check_same_size(cur.image, "temporal: current frame")?;
-    let ids = prev.first_hits.zip(cur.first_hits);
-    let (warped, cov) = reproject(
-        prev.image,
-        prev.depth,
-        prev.view,
-        cur.depth,
-        cur.view,
+    let cov = Covisibility::new(
+        prev.geometry(),
+        cur.geometry(),
+        cur.image.width,
+        cur.image.height,
         depth_tolerance_rel,
-        ids,
     )?;
+    temporal_instability_masked(prev.image, cur.image, &cov)
+}
+
+/// Temporal instability of `prev` reprojected into `cur` through a given
+/// co-visibility (frame `t − 1` into frame `t`): the same mask for every
+/// method when it comes from the reference's geometry.
+pub fn temporal_instability_masked(
+    prev: &LinearImage,
+    cur: &LinearImage,
+    cov: &Covisibility,
+) -> Result<TemporalInstability, MetricsError> {
+    prev.check_same_size(cur, "temporal: current frame")?;
+    let warped = cov.warp(prev)?;
     let (mut sum, mut n) = (0.0f64, 0usize);
-    let map = LinearImage::from_fn(cur.image.width, cur.image.height, |x, y| {
-        let i = y * cur.image.width + x;
-        if cov[i] {
-            let d = pixel_difference(warped.rgb[i], cur.image.rgb[i]);
+    let map = LinearImage::from_fn(cur.width, cur.height, |x, y| {
+        let i = y * cur.width + x;
+        if cov.is_covisible(i) {
+            let d = pixel_difference(warped.rgb[i], cur.rgb[i]);
             sum += d as f64;
             n += 1;
             [d; 3]
@@ -59,7 +72,7 @@ pub fn temporal_instability(
     });
     Ok(TemporalInstability {
         mean: if n > 0 { (sum / n as f64) as f32 } else { 0.0 },
-        covisible_fraction: n as f32 / cov.len() as f32,
+        covisible_fraction: n as f32 / cur.len() as f32,
         map,
     })
 }
