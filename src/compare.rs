@@ -7,7 +7,18 @@
 //!   GPU ms per frame, mean ms per pass, rays, memory of the method's buffers,
 //!   and the `metrics` against the reference (with `rse_reference` and
 //!   `mse_reference`, the reference's own estimated error, beside `rse` and
-//!   `mse`); summary.json also has `reference` ([`ReferenceSummary`]).
+//!   `mse`), each metric's standard error over frames (`metrics_stderr`,
+//!   CSV columns `se:<metric>`) and the error figures' ratios to the
+//!   baseline with their standard errors (`ratios`, [`RATIO_METRICS`],
+//!   CSV columns `ratio:<metric>` and `ratio_se:<metric>`); summary.json also
+//!   has `reference` ([`ReferenceSummary`]), `baseline`, `flip` (the pixels
+//!   per degree FLIP used and where it came from) and `masks` (the
+//!   co-visible fractions of the one temporal and stereo mask, from the
+//!   reference's geometry: [`crate::evaluate`]).
+//!
+//! Uncertainty ([`crate::metrics::uncertainty`]): standard errors over
+//! frames treat frames as independent; ratios `x̄/ȳ` to the baseline use the
+//! delta method on the paired frames (both methods render the same frames).
 //!
 //! The reference is rendered as two independent halves of `spp/2` samples
 //! (different seeds) whose mean is the reference; their difference estimates
@@ -18,9 +29,9 @@
 
 use crate::camera::StereoCamera;
 use crate::error::{Error, Result};
-use crate::evaluate::{half_seeds, Evaluator, ReferenceCache, ReferenceFrame};
+use crate::evaluate::{flip_ppd, half_seeds, Evaluator, ReferenceCache, ReferenceFrame};
 use crate::methods::{MethodKind, RenderSettings, StereoFrame};
-use crate::metrics::ReferenceNoise;
+use crate::metrics::{ratio_of_means, MeanStderr, ReferenceNoise};
 use crate::output::{self, label, tonemap};
 use crate::replay::{replay_observed, ReplayOptions, ReplaySummary};
 use crate::session::Session;
@@ -47,7 +58,17 @@ pub struct CompareOptions {
     pub reference_spp: Option<u32>,
     /// Where reference frames are cached between runs.
     pub reference_cache: PathBuf,
+    /// FLIP's pixels per degree (`None`: from the eye's field of view and
+    /// width, [`crate::metrics::ppd`]).
+    pub flip_ppd: Option<f32>,
+    /// The configuration the error ratios divide by (`None`: `naive` when
+    /// compared, else the first).
+    pub baseline: Option<String>,
 }
+
+/// The error figures (lower is better, positive) whose ratios to the
+/// baseline `summary.json` and the table give.
+pub const RATIO_METRICS: &[&str] = &["rse", "mse", "flip", "temporal", "stereo_mean"];
 
 /// One method's row of `summary.csv` / `summary.json`.
 #[derive(Clone, Debug, Serialize)]
@@ -67,8 +88,18 @@ pub struct MethodRow {
     pub rays_per_frame: f64,
     pub rays_total: u64,
     pub method_memory_bytes: u64,
-    /// Error / stability / stereo metrics per method (filled by the metrics stage).
+    /// Error / stability / stereo metrics per method (filled by the metrics
+    /// stage): means over frames.
     pub metrics: BTreeMap<String, f64>,
+    /// Standard error over frames of each of `metrics` (`∞`, JSON `null`,
+    /// below two frames).
+    pub metrics_stderr: BTreeMap<String, f64>,
+    /// [`RATIO_METRICS`] of this row over the baseline's, with delta-method
+    /// standard errors (`mean` is the ratio).
+    pub ratios: BTreeMap<String, MeanStderr>,
+    /// Per-frame metric values (for the ratios), not written.
+    #[serde(skip)]
+    pub series: BTreeMap<String, Vec<f64>>,
 }
 
 impl MethodRow {
@@ -90,6 +121,9 @@ impl MethodRow {
             rays_total: s.rays.total,
             method_memory_bytes: s.method_memory_bytes,
             metrics: BTreeMap::new(),
+            metrics_stderr: BTreeMap::new(),
+            ratios: BTreeMap::new(),
+            series: BTreeMap::new(),
         }
     }
 }
@@ -121,6 +155,11 @@ pub struct ReferenceSummary {
     pub rse_stderr: f64,
     pub mse: f64,
     pub mse_stderr: f64,
+    /// HDR-FLIP of half A against half B, mean over frames and eyes: what
+    /// FLIP scores the noise of two independent `spp/2` references at (a
+    /// scale for the reference's part of every method's FLIP, not an
+    /// additive floor: [`ReferenceFrame::flip_halves`]).
+    pub flip_halves: f64,
     pub estimator: &'static str,
     /// The method with the lowest measured RSE, and that RSE.
     pub best_method: Option<String>,
@@ -157,8 +196,11 @@ pub fn suggested_reference_spp(spp: u32, rse_ref: f64, best: f64) -> u32 {
 }
 
 impl ReferenceSummary {
-    fn new(spp: u32, seed: u32, noise: &[ReferenceNoise], rows: &[MethodRow]) -> Self {
-        let n = ReferenceNoise::mean(noise);
+    fn new(spp: u32, seed: u32, references: &[ReferenceFrame], rows: &[MethodRow]) -> Self {
+        let noise: Vec<ReferenceNoise> = references.iter().map(|r| r.noise).collect();
+        let n = ReferenceNoise::mean(&noise);
+        let flip_halves =
+            references.iter().map(|r| r.flip_halves).sum::<f64>() / references.len().max(1) as f64;
         let best = rows
             .iter()
             .filter_map(|r| r.metrics.get("rse").map(|&v| (r.method.clone(), v)))
@@ -174,6 +216,7 @@ impl ReferenceSummary {
             rse_stderr: n.rse_stderr,
             mse: n.mse,
             mse_stderr: n.mse_stderr,
+            flip_halves,
             estimator: "two independent halves A, B of spp/2: per pixel and channel ((A-B)/2)^2 estimates Var((A+B)/2); rse = mean of ((A-B)/2)^2/(((A+B)/2)^2 + 0.01), mse = mean of ((A-B)/2)^2",
             best_method: best.as_ref().map(|b| b.0.clone()),
             best_method_rse: best.as_ref().map(|b| b.1),
@@ -202,6 +245,51 @@ impl ReferenceSummary {
 pub struct Comparison {
     pub rows: Vec<MethodRow>,
     pub reference: Option<ReferenceSummary>,
+    /// The label the ratios divide by.
+    pub baseline: String,
+    /// FLIP's pixels per degree and its source.
+    pub flip: FlipPpd,
+}
+
+/// The pixels per degree FLIP was computed at (`flip` in summary.json).
+#[derive(Clone, Debug, Serialize)]
+pub struct FlipPpd {
+    pub ppd: f32,
+    /// `"--flip-ppd"` or how it was derived.
+    pub source: String,
+}
+
+/// The baseline label: `requested` when it is one of `labels`, else
+/// `naive` when compared, else the first; an error names the labels.
+pub fn choose_baseline(labels: &[String], requested: Option<&str>) -> Result<String> {
+    match requested {
+        Some(b) if labels.iter().any(|l| l == b) => Ok(b.to_string()),
+        Some(b) => Err(Error::Usage(format!(
+            "bad --baseline '{b}': not among the compared configurations ({})",
+            labels.join(", ")
+        ))),
+        None => Ok(labels
+            .iter()
+            .find(|l| l.as_str() == "naive")
+            .unwrap_or(&labels[0])
+            .clone()),
+    }
+}
+
+/// Fills every row's [`MethodRow::ratios`] against the row labelled `baseline`.
+pub fn fill_ratios(rows: &mut [MethodRow], baseline: &str) {
+    let Some(base) = rows.iter().find(|r| r.method == baseline).cloned() else {
+        return;
+    };
+    for r in rows.iter_mut() {
+        r.ratios = RATIO_METRICS
+            .iter()
+            .filter_map(|&k| {
+                let (x, y) = (r.series.get(k)?, base.series.get(k)?);
+                ratio_of_means(x, y).map(|q| (k.to_string(), q))
+            })
+            .collect();
+    }
 }
 
 /// Default frames shown side by side: first, middle and last.
@@ -281,6 +369,10 @@ pub fn compare_configs(
     if let Some(spp) = opts.reference_spp {
         crate::evaluate::check_reference_spp(spp)?;
     }
+    let baseline = choose_baseline(&labels, opts.baseline.as_deref())?;
+    if let Some(p) = opts.flip_ppd {
+        check_flip_ppd(p)?;
+    }
     let n = opts.frames.unwrap_or(cameras.len()).min(cameras.len());
     if n == 0 {
         return Err(Error::Usage("compare: the trace gives no frames".into()));
@@ -316,6 +408,7 @@ pub fn compare_configs(
                 ..settings.clone()
             };
             let mut cache = ReferenceCache::new(opts.reference_cache.clone(), rs)?;
+            cache.flip_ppd = opts.flip_ppd;
             cameras[..n]
                 .iter()
                 .enumerate()
@@ -328,7 +421,7 @@ pub fn compare_configs(
     let mut kept: Vec<Vec<StereoFrame>> = vec![Vec::new(); shown.len()];
     let mut kept_cameras: Vec<Option<StereoCamera>> = vec![None; shown.len()];
     for ((name, config), method) in labels.iter().zip(configs).zip(methods.iter_mut()) {
-        let mut evaluator = Evaluator::default();
+        let mut evaluator = Evaluator::new(opts.flip_ppd);
         let ropts = ReplayOptions {
             frames: Some(n),
             fps: opts.fps,
@@ -355,8 +448,25 @@ pub fn compare_configs(
         row.method = name.clone();
         row.kind = config.method.name().to_string();
         row.metrics = evaluator.means();
+        row.metrics_stderr = evaluator.stderrs();
+        row.series = evaluator.series().clone();
         rows.push(row);
     }
+    fill_ratios(&mut rows, &baseline);
+    let flip = match opts.flip_ppd {
+        Some(ppd) => FlipPpd {
+            ppd,
+            source: "--flip-ppd".into(),
+        },
+        None => FlipPpd {
+            ppd: flip_ppd(&cameras[0], settings.width),
+            source: format!(
+                "derived: one pixel's angle at the centre of a {} px wide eye image, horizontal field of view {:.2} deg (metrics::ppd)",
+                settings.width,
+                (2.0 * cameras[0].eye(crate::camera::Eye::Left).tan_half_fov().x.atan()).to_degrees()
+            ),
+        },
+    };
     let sbs = opts.out.join("side-by-side");
     std::fs::create_dir_all(&sbs).map_err(|e| Error::io(&sbs, e))?;
     for (k, &f) in shown.iter().enumerate() {
@@ -370,12 +480,28 @@ pub fn compare_configs(
             opts.zoom.max(1),
         )?;
     }
-    let reference = opts.reference_spp.map(|spp| {
-        let noise: Vec<ReferenceNoise> = references.iter().map(|r| r.noise).collect();
-        ReferenceSummary::new(spp, reference_seed(settings.seed), &noise, &rows)
-    });
-    write_summaries(session, opts, settings, &rows, reference.as_ref())?;
-    Ok(Comparison { rows, reference })
+    let reference = opts
+        .reference_spp
+        .map(|spp| ReferenceSummary::new(spp, reference_seed(settings.seed), &references, &rows));
+    let cmp = Comparison {
+        rows,
+        reference,
+        baseline,
+        flip,
+    };
+    write_summaries(session, opts, settings, &cmp)?;
+    Ok(cmp)
+}
+
+/// `--flip-ppd` must be a finite positive number.
+pub fn check_flip_ppd(ppd: f32) -> Result<()> {
+    if ppd.is_finite() && ppd > 0.0 {
+        Ok(())
+    } else {
+        Err(Error::Usage(format!(
+            "bad --flip-ppd {ppd}: expected pixels per degree, a positive number (e.g. 67 for a desktop monitor at 0.7 m)"
+        )))
+    }
 }
 
 /// |left reprojected into the right view − right| on co-visible pixels
@@ -536,9 +662,10 @@ fn write_summaries(
     session: &Session,
     opts: &CompareOptions,
     settings: &RenderSettings,
-    rows: &[MethodRow],
-    reference: Option<&ReferenceSummary>,
+    cmp: &Comparison,
 ) -> Result<()> {
+    let rows = &cmp.rows;
+    let reference = cmp.reference.as_ref();
     let mut passes: Vec<String> = rows
         .iter()
         .flat_map(|r| r.pass_mean_ms.keys().cloned())
@@ -557,6 +684,12 @@ fn write_summaries(
     for m in &metric_names {
         csv.push_str(&format!(",{m}"));
     }
+    for m in &metric_names {
+        csv.push_str(&format!(",se:{m}"));
+    }
+    for m in RATIO_METRICS {
+        csv.push_str(&format!(",ratio:{m},ratio_se:{m}"));
+    }
     for p in &passes {
         csv.push_str(&format!(",pass_ms:{p}"));
     }
@@ -574,13 +707,20 @@ fn write_summaries(
             r.rays_total,
             r.method_memory_bytes
         ));
+        let num = |v: Option<f64>| match v {
+            Some(v) if v.is_finite() => format!(",{v:.6e}"),
+            _ => ",".into(),
+        };
         for m in &metric_names {
-            csv.push_str(
-                &r.metrics
-                    .get(m)
-                    .map(|v| format!(",{v:.6e}"))
-                    .unwrap_or_else(|| ",".into()),
-            );
+            csv.push_str(&num(r.metrics.get(m).copied()));
+        }
+        for m in &metric_names {
+            csv.push_str(&num(r.metrics_stderr.get(m).copied()));
+        }
+        for m in RATIO_METRICS {
+            let q = r.ratios.get(*m);
+            csv.push_str(&num(q.map(|q| q.mean)));
+            csv.push_str(&num(q.map(|q| q.stderr)));
         }
         for p in &passes {
             csv.push_str(&format!(
@@ -604,16 +744,34 @@ fn write_summaries(
         "fps": opts.fps,
         "settings": settings,
         "reference": reference,
+        "baseline": cmp.baseline,
+        "flip": cmp.flip,
+        "masks": masks(rows),
         "methods": rows,
     });
     output::write_json(&opts.out.join("summary.json"), &json)?;
     Ok(())
 }
 
-/// The short table printed at the end of a compare run.
+/// `masks` in summary.json: where the temporal and stereo masks come from
+/// and their co-visible fractions (the same for every row).
+fn masks(rows: &[MethodRow]) -> serde_json::Value {
+    let first = rows
+        .iter()
+        .find(|r| r.metrics.contains_key("stereo_covisible"));
+    serde_json::json!({
+        "source": "reference pixel-centre geometry (depth and first-hit ids of the reference frames), one mask per frame for every method",
+        "depth_tolerance_rel": crate::evaluate::DEPTH_TOLERANCE,
+        "temporal_covisible": first.and_then(|r| r.metrics.get("temporal_covisible")),
+        "stereo_covisible": first.and_then(|r| r.metrics.get("stereo_covisible")),
+    })
+}
+
+/// The short table printed at the end of a compare run: means over frames
+/// with their standard errors (`±`).
 pub fn summary_table(rows: &[MethodRow]) -> String {
     let mut s = format!(
-        "{:<16} {:>9} {:>9} {:>12} {:>10} {:>9} {:>9} {:>10} {:>10}\n",
+        "{:<16} {:>9} {:>9} {:>12} {:>10} {:>17} {:>17} {:>17} {:>17}\n",
         "method",
         "GPU ms",
         "p95 ms",
@@ -624,15 +782,16 @@ pub fn summary_table(rows: &[MethodRow]) -> String {
         "temporal+",
         "stereo+"
     );
-    let metric = |r: &MethodRow, k: &str| {
-        r.metrics
-            .get(k)
-            .map(|v| format!("{v:.4}"))
-            .unwrap_or_else(|| "-".into())
+    let metric = |r: &MethodRow, k: &str| match r.metrics.get(k) {
+        Some(v) => match r.metrics_stderr.get(k) {
+            Some(se) if se.is_finite() => format!("{v:.4}±{se:.4}"),
+            _ => format!("{v:.4}"),
+        },
+        None => "-".into(),
     };
     for r in rows {
         s.push_str(&format!(
-            "{:<16} {:>9.2} {:>9.2} {:>12.0} {:>10.1} {:>9} {:>9} {:>10} {:>10}\n",
+            "{:<16} {:>9.2} {:>9.2} {:>12.0} {:>10.1} {:>17} {:>17} {:>17} {:>17}\n",
             r.method,
             r.steady_mean_gpu_ms,
             r.steady_p95_gpu_ms,
@@ -643,6 +802,36 @@ pub fn summary_table(rows: &[MethodRow]) -> String {
             metric(r, "temporal_excess"),
             metric(r, "stereo_excess"),
         ));
+    }
+    s
+}
+
+/// The error figures' ratios to the baseline with their standard errors
+/// (delta method over the paired frames), printed under [`summary_table`];
+/// empty without metrics.
+pub fn ratio_table(cmp: &Comparison) -> String {
+    if cmp.rows.iter().all(|r| r.ratios.is_empty()) {
+        return String::new();
+    }
+    let mut s = format!(
+        "ratios to {} (mean over frames / the baseline's, ± delta-method SE over paired frames):\n{:<16}",
+        cmp.baseline, "method"
+    );
+    for k in RATIO_METRICS {
+        s.push_str(&format!(" {:>17}", format!("{k}/base")));
+    }
+    s.push('\n');
+    for r in &cmp.rows {
+        s.push_str(&format!("{:<16}", r.method));
+        for k in RATIO_METRICS {
+            let v = match r.ratios.get(*k) {
+                Some(q) if q.stderr.is_finite() => format!("{:.3}±{:.3}", q.mean, q.stderr),
+                Some(q) if q.mean.is_finite() => format!("{:.3}", q.mean),
+                _ => "-".into(),
+            };
+            s.push_str(&format!(" {v:>17}"));
+        }
+        s.push('\n');
     }
     s
 }

@@ -1,20 +1,31 @@
 //! Frames against a reference: the reference renders (cached on disk) and
 //! the per-frame metrics `compare` reports for every method (§5 of the paper):
-//! error (RSE, MSE, PSNR, SSIM, HDR-FLIP), sharpness (CPBD), temporal
-//! instability (frame t−1 reprojected into t, method minus reference) and
-//! stereo discrepancy (left reprojected into right, with the reference
-//! pair's own discrepancy beside it so view-dependent effects are not
-//! counted as error). The reference is rendered as two independent halves;
-//! their difference estimates its own error (`rse_reference`,
-//! `mse_reference`, [`crate::metrics::reference_noise`]), which every
-//! method's measured error contains.
+//! error (RSE, MSE, PSNR, SSIM, HDR-FLIP at the eye's pixels per degree,
+//! [`crate::metrics::ppd`]), sharpness (CPBD), temporal instability (frame
+//! t−1 reprojected into t, method minus reference) and stereo discrepancy
+//! (left reprojected into right, with the reference pair's own discrepancy
+//! beside it so view-dependent effects are not counted as error). The
+//! reference is rendered as two independent halves; their difference
+//! estimates its own error (`rse_reference`, `mse_reference`,
+//! [`crate::metrics::reference_noise`]), which every method's measured error
+//! contains, and their HDR-FLIP against each other (`flip_reference_halves`)
+//! is what FLIP scores the reference's noise alone at.
+//!
+//! **One mask for every method.** The temporal and stereo metrics reproject
+//! through a [`Covisibility`] built from the *reference's* pixel-centre
+//! geometry (its depth and first-hit ids, which do not depend on the seed
+//! and are cached with its radiance), never from a method's own hits: every
+//! method — and the reference's own instability and discrepancy beside it —
+//! is scored on the same pixels, `temporal_covisible` and `stereo_covisible`
+//! of them.
 
 use crate::camera::{Eye, StereoCamera};
 use crate::error::{Error, Result};
 use crate::methods::{EyeImage, FrameInput, Method, MethodKind, RenderSettings, StereoFrame};
 use crate::metrics::{
-    half_split_error, mean_of_halves, stereo::stereo_discrepancy, temporal::temporal_instability,
-    ImageMetrics, LinearImage, ReferenceNoise, ViewBuffers, RSE_EPSILON,
+    eye_pixels_per_degree, flip_hdr, half_split_error, mean_of_halves, stereo_discrepancy_masked,
+    temporal_instability_masked, Covisibility, Geometry, ImageMetrics, LinearImage, ReferenceNoise,
+    DEFAULT_PPD, RSE_EPSILON,
 };
 use crate::session::Session;
 use std::collections::BTreeMap;
@@ -42,11 +53,18 @@ pub struct ReferenceFrame {
     /// the pixel-centre primary hits, which do not depend on the seed.
     pub frame: StereoFrame,
     pub noise: ReferenceNoise,
+    /// HDR-FLIP of half A against half B (mean over both eyes) at the PPD
+    /// the methods are scored at: what FLIP scores the noise of two
+    /// independent `spp/2` references at. `(A + B)/2` has half their
+    /// variance, so this is a scale for the floor the reference's noise puts
+    /// under every method's FLIP (FLIP is not additive in the noise as RSE
+    /// is, so it is not subtracted from anything).
+    pub flip_halves: f64,
 }
 
 impl ReferenceFrame {
-    /// The mean of `halves` and its estimated error.
-    pub fn from_halves(halves: [StereoFrame; 2]) -> Result<Self> {
+    /// The mean of `halves` and its estimated error; FLIP at `flip_ppd`.
+    pub fn from_halves(halves: [StereoFrame; 2], flip_ppd: f32) -> Result<Self> {
         let [a, b] = halves;
         let (w, h) = (a.width, a.height);
         if (b.width, b.height) != (w, h) {
@@ -57,10 +75,12 @@ impl ReferenceFrame {
         }
         let m = |e: crate::metrics::MetricsError| Error::Usage(format!("metrics: {e}"));
         let mut noise = Vec::new();
+        let mut flip_halves = 0.0;
         let mut frame = a.clone();
         for e in 0..2 {
             let (ia, ib) = (image(&a.eyes[e], w, h)?, image(&b.eyes[e], w, h)?);
             noise.push(half_split_error(&ia, &ib, RSE_EPSILON).map_err(m)?);
+            flip_halves += 0.5 * flip_hdr(&ia, &ib, flip_ppd).map_err(m)?.flip.mean as f64;
             let mean = mean_of_halves(&ia, &ib).map_err(m)?;
             frame.eyes[e].radiance = mean.rgb.iter().map(|p| [p[0], p[1], p[2], 1.0]).collect();
         }
@@ -70,6 +90,7 @@ impl ReferenceFrame {
         Ok(ReferenceFrame {
             frame,
             noise: ReferenceNoise::mean(&noise),
+            flip_halves,
         })
     }
 }
@@ -81,6 +102,9 @@ impl ReferenceFrame {
 pub struct ReferenceCache {
     pub dir: PathBuf,
     pub settings: RenderSettings,
+    /// FLIP's pixels per degree for `flip_halves` (`None`: each frame's
+    /// [`flip_ppd`]).
+    pub flip_ppd: Option<f32>,
     /// The two half renderers, created on the first frame not in the cache.
     renderers: Option<[Box<dyn Method>; 2]>,
 }
@@ -92,6 +116,7 @@ impl ReferenceCache {
         Ok(ReferenceCache {
             dir,
             settings,
+            flip_ppd: None,
             renderers: None,
         })
     }
@@ -175,7 +200,10 @@ impl ReferenceCache {
                 halves
             }
         };
-        ReferenceFrame::from_halves(halves)
+        let ppd = self
+            .flip_ppd
+            .unwrap_or_else(|| flip_ppd(cam, self.settings.width));
+        ReferenceFrame::from_halves(halves, ppd)
     }
 }
 
@@ -254,32 +282,55 @@ fn image(e: &EyeImage, w: u32, h: u32) -> Result<LinearImage> {
         .map_err(|e| Error::Usage(format!("metrics: {e}")))
 }
 
+/// FLIP's pixels per degree for eye images `width` pixels wide seen through
+/// `cam`: the exact angle of one pixel at the image centre
+/// ([`crate::metrics::ppd`]; both eyes share one frustum), or
+/// [`DEFAULT_PPD`] for a degenerate camera.
+pub fn flip_ppd(cam: &StereoCamera, width: u32) -> f32 {
+    eye_pixels_per_degree(&cam.eye(Eye::Left), width).unwrap_or(DEFAULT_PPD)
+}
+
 /// Per-method running evaluation: call `frame` for every frame in order.
 #[derive(Default)]
 pub struct Evaluator {
-    prev: Option<(StereoFrame, StereoCamera)>,
+    /// The method's previous frame.
+    prev: Option<StereoFrame>,
+    /// The previous reference frame and camera: the geometry of the temporal mask.
     prev_ref: Option<(StereoFrame, StereoCamera)>,
-    sums: BTreeMap<String, (f64, usize)>,
+    /// FLIP's pixels per degree (`None`: [`flip_ppd`] of each frame's camera).
+    pub flip_ppd: Option<f32>,
+    /// Every metric's per-frame values, in frame order.
+    series: BTreeMap<String, Vec<f64>>,
 }
 
-fn views<'a>(
-    f: &'a StereoFrame,
-    img: &'a LinearImage,
-    cam: &'a crate::camera::EyeView,
+/// The reference's geometry of eye `eye`: what every method's mask is built from.
+fn geometry<'a>(
+    reference: &'a StereoFrame,
+    view: &'a crate::camera::EyeView,
     eye: usize,
-) -> ViewBuffers<'a> {
-    ViewBuffers {
-        image: img,
-        depth: &f.eyes[eye].depth,
-        view: cam,
-        first_hits: Some(&f.eyes[eye].first_hit),
+) -> Geometry<'a> {
+    Geometry {
+        depth: &reference.eyes[eye].depth,
+        view,
+        first_hits: Some(&reference.eyes[eye].first_hit),
     }
 }
 
 impl Evaluator {
+    /// An evaluator scoring FLIP at `flip_ppd` (`None`: derived per frame).
+    pub fn new(flip_ppd: Option<f32>) -> Self {
+        Evaluator {
+            flip_ppd,
+            ..Default::default()
+        }
+    }
+
     /// Metrics of `frame` (rendered at `cam`) against `reference`, averaged
     /// over both eyes, with the reference's own estimated error beside them
-    /// (`rse_reference`, `mse_reference`: the floor under `rse` and `mse`).
+    /// (`rse_reference`, `mse_reference`: the floor under `rse` and `mse`;
+    /// `flip_reference_halves`). The temporal and stereo metrics use masks
+    /// from the reference's geometry only (module documentation): the
+    /// method's own depth and first hits are not read.
     pub fn frame(
         &mut self,
         cam: &StereoCamera,
@@ -288,7 +339,15 @@ impl Evaluator {
     ) -> Result<BTreeMap<String, f64>> {
         let reference = &reference_frame.frame;
         let (w, h) = (frame.width, frame.height);
+        if (reference.width, reference.height) != (w, h) {
+            return Err(Error::Usage(format!(
+                "metrics: a {w}x{h} frame against a {}x{} reference",
+                reference.width, reference.height
+            )));
+        }
+        let (wu, hu) = (w as usize, h as usize);
         let m = |e: crate::metrics::MetricsError| Error::Usage(format!("metrics: {e}"));
+        let ppd = self.flip_ppd.unwrap_or_else(|| flip_ppd(cam, w));
         let views_now = cam.eyes();
         let imgs: Vec<LinearImage> = frame
             .eyes
@@ -303,7 +362,7 @@ impl Evaluator {
         let mut out: BTreeMap<String, f64> = BTreeMap::new();
         let mut add = |k: &str, v: f64| *out.entry(k.to_string()).or_insert(0.0) += v * 0.5;
         for e in 0..2 {
-            let im = ImageMetrics::compute(&imgs[e], &refs[e]).map_err(m)?;
+            let im = ImageMetrics::compute_at(&imgs[e], &refs[e], ppd).map_err(m)?;
             add("rse", im.rse as f64);
             add("mse", im.mse as f64);
             add(
@@ -319,69 +378,80 @@ impl Evaluator {
             add("cpbd", im.cpbd as f64);
             add("cpbd_reference", im.cpbd_reference as f64);
         }
-        // Temporal instability: t−1 reprojected into t, for the method and the reference.
-        if let (Some((pf, pc)), Some((rf, rc))) = (&self.prev, &self.prev_ref) {
-            let pviews = pc.eyes();
+        // Temporal instability: t−1 reprojected into t, for the method and
+        // the reference, through one mask from the reference's geometry.
+        if let (Some(pf), Some((rf, rc))) = (&self.prev, &self.prev_ref) {
             let rviews = rc.eyes();
             for e in 0..2 {
+                let cov = Covisibility::new(
+                    geometry(rf, &rviews[e], e),
+                    geometry(reference, &views_now[e], e),
+                    wu,
+                    hu,
+                    DEPTH_TOLERANCE,
+                )
+                .map_err(m)?;
                 let pimg = image(&pf.eyes[e], w, h)?;
                 let rimg = image(&rf.eyes[e], w, h)?;
-                let tm = temporal_instability(
-                    &views(pf, &pimg, &pviews[e], e),
-                    &views(frame, &imgs[e], &views_now[e], e),
-                    DEPTH_TOLERANCE,
-                )
-                .map_err(m)?;
-                let tr = temporal_instability(
-                    &views(rf, &rimg, &rviews[e], e),
-                    &views(reference, &refs[e], &views_now[e], e),
-                    DEPTH_TOLERANCE,
-                )
-                .map_err(m)?;
+                let tm = temporal_instability_masked(&pimg, &imgs[e], &cov).map_err(m)?;
+                let tr = temporal_instability_masked(&rimg, &refs[e], &cov).map_err(m)?;
                 add("temporal", tm.mean as f64);
                 add("temporal_reference", tr.mean as f64);
                 add("temporal_excess", (tm.mean - tr.mean) as f64);
+                add("temporal_covisible", cov.fraction() as f64);
             }
         }
-        // Stereo discrepancy: left into right.
+        // Stereo discrepancy: left into right, one mask from the reference pair.
         let (l, r) = (Eye::Left.index(), Eye::Right.index());
-        let sm = stereo_discrepancy(
-            &views(frame, &imgs[l], &views_now[l], l),
-            &views(frame, &imgs[r], &views_now[r], r),
+        let cov = Covisibility::new(
+            geometry(reference, &views_now[l], l),
+            geometry(reference, &views_now[r], r),
+            wu,
+            hu,
             DEPTH_TOLERANCE,
         )
         .map_err(m)?;
-        let sr = stereo_discrepancy(
-            &views(reference, &refs[l], &views_now[l], l),
-            &views(reference, &refs[r], &views_now[r], r),
-            DEPTH_TOLERANCE,
-        )
-        .map_err(m)?;
+        let sm = stereo_discrepancy_masked(&imgs[l], &imgs[r], &cov).map_err(m)?;
+        let sr = stereo_discrepancy_masked(&refs[l], &refs[r], &cov).map_err(m)?;
         out.insert("stereo_mean".into(), sm.mean as f64);
         out.insert("stereo_p95".into(), sm.p95 as f64);
-        out.insert("stereo_covisible".into(), sm.covisible_fraction as f64);
+        out.insert("stereo_covisible".into(), cov.fraction() as f64);
         out.insert("stereo_mean_reference".into(), sr.mean as f64);
         out.insert("stereo_p95_reference".into(), sr.p95 as f64);
         out.insert("stereo_excess".into(), (sm.mean - sr.mean) as f64);
-        // The reference's own error: the floor under `rse` and `mse`.
+        // The reference's own error: the floor under `rse` and `mse`; FLIP's scale.
         out.insert("rse_reference".into(), reference_frame.noise.rse);
         out.insert("mse_reference".into(), reference_frame.noise.mse);
+        out.insert("flip_reference_halves".into(), reference_frame.flip_halves);
         for (k, v) in &out {
-            let s = self.sums.entry(k.clone()).or_insert((0.0, 0));
-            s.0 += v;
-            s.1 += 1;
+            self.series.entry(k.clone()).or_default().push(*v);
         }
-        self.prev = Some((frame.clone(), *cam));
+        self.prev = Some(frame.clone());
         self.prev_ref = Some((reference.clone(), *cam));
         Ok(out)
     }
 
     /// Means over the frames evaluated so far.
     pub fn means(&self) -> BTreeMap<String, f64> {
-        self.sums
+        self.series
             .iter()
-            .map(|(k, (s, n))| (k.clone(), s / *n as f64))
+            .map(|(k, v)| (k.clone(), v.iter().sum::<f64>() / v.len() as f64))
             .collect()
+    }
+
+    /// Standard errors of [`Self::means`] over the frames
+    /// ([`crate::metrics::uncertainty`]; `∞` below two frames).
+    pub fn stderrs(&self) -> BTreeMap<String, f64> {
+        self.series
+            .iter()
+            .filter_map(|(k, v)| crate::metrics::mean_stderr(v).map(|s| (k.clone(), s.stderr)))
+            .collect()
+    }
+
+    /// Every metric's per-frame values in frame order (temporal ones from
+    /// the second frame on).
+    pub fn series(&self) -> &BTreeMap<String, Vec<f64>> {
+        &self.series
     }
 }
 

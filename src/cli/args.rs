@@ -50,6 +50,15 @@ pub fn exposure(s: &str) -> Result<f32, String> {
     )(s)
 }
 
+/// `--flip-ppd`: FLIP's pixels per degree, a positive number.
+pub fn flip_ppd(s: &str) -> Result<f32, String> {
+    float_with(
+        "--flip-ppd",
+        stereocache::values::positive_f32,
+        "pixels per degree, a positive number",
+    )(s)
+}
+
 /// `--reference-spp` of compare and `bench tradeoff`: 0 (none) or an even
 /// count up to [`MAX_SPP`] (checked for evenness where it is used, with the reason).
 pub fn reference_spp(s: &str) -> Result<u32, String> {

@@ -58,13 +58,28 @@ pub fn report_validation(ctx: &GpuContext) -> Result<()> {
 /// `warning:` line when it is not small against the best method's.
 pub fn print_reference_noise(cmp: &stereocache::compare::Comparison) {
     let Some(r) = &cmp.reference else { return };
+    let covisible = |k: &str| {
+        cmp.rows
+            .first()
+            .and_then(|row| row.metrics.get(k))
+            .map(|v| format!("{v:.3}"))
+            .unwrap_or_else(|| "-".into())
+    };
     println!(
-        "reference: {} spp (two independent halves of {}), estimated RSE {:.4} ± {:.1e}, MSE {:.3e} against the converged image{}",
+        "metrics: FLIP at {:.3} pixels per degree ({}); temporal and stereo on one mask from the reference's geometry, co-visible {} and {}",
+        cmp.flip.ppd,
+        cmp.flip.source,
+        covisible("temporal_covisible"),
+        covisible("stereo_covisible"),
+    );
+    println!(
+        "reference: {} spp (two independent halves of {}), estimated RSE {:.4} ± {:.1e}, MSE {:.3e} against the converged image, half-vs-half HDR-FLIP {:.4}{}",
         r.spp,
         r.half_spp,
         r.rse,
         r.rse_stderr,
         r.mse,
+        r.flip_halves,
         match (&r.best_method, r.ratio_to_best) {
             (Some(m), Some(x)) => format!(" ({x:.3}x the best method's RSE, {m})"),
             _ => String::new(),

@@ -46,6 +46,14 @@ pub struct CompareArgs {
     /// Where reference frames are cached between runs.
     #[arg(long, default_value = "out/reference-cache")]
     reference_cache: PathBuf,
+    /// FLIP's pixels per degree (default: one pixel's angle at the centre of
+    /// the eye image, from --fov and --size; 67 is a desktop monitor at 0.7 m).
+    #[arg(long, value_parser = args::flip_ppd)]
+    flip_ppd: Option<f32>,
+    /// The configuration error ratios are given against (default: naive
+    /// when compared, else the first of --methods).
+    #[arg(long)]
+    baseline: Option<String>,
     #[arg(long, default_value_t = 1, value_parser = args::spp)]
     spp: u32,
     #[arg(long, default_value = "160x120")]
@@ -105,9 +113,12 @@ pub fn run(a: CompareArgs) -> Result<()> {
         zoom: a.zoom,
         reference_spp: (a.reference_spp > 0).then_some(a.reference_spp),
         reference_cache: a.reference_cache.clone(),
+        flip_ppd: a.flip_ppd,
+        baseline: a.baseline.clone(),
     };
     let cmp = stereocache::compare::compare(&session, &cameras, &settings, &opts)?;
     print!("{}", stereocache::compare::summary_table(&cmp.rows));
+    print!("{}", stereocache::compare::ratio_table(&cmp));
     print_reference_noise(&cmp);
     let report = stereocache::report::write_report(&a.out)?;
     println!(

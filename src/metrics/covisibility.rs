@@ -168,7 +168,12 @@ impl Covisibility {
                 found_height: src.height,
             });
         }
-        check_len("co-visibility: source rgb", src.rgb.len(), src.width, src.height)?;
+        check_len(
+            "co-visibility: source rgb",
+            src.rgb.len(),
+            src.width,
+            src.height,
+        )?;
         let mut out = LinearImage::filled(self.width, self.height, [0.0; 3]);
         for (di, (taps, &n)) in self.taps.iter().zip(&self.count).enumerate() {
             let mut acc = [0.0f32; 3];

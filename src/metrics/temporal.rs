@@ -10,8 +10,8 @@
 use serde::Serialize;
 
 use super::check::MetricsError;
-use super::image::LinearImage;
 use super::covisibility::Covisibility;
+use super::image::LinearImage;
 use super::reproject::{pixel_difference, ViewBuffers};
 
 /// Temporal instability of one frame pair.

@@ -24,6 +24,15 @@ impl MethodData {
     pub fn metric(&self, k: &str) -> Option<f64> {
         self.row["metrics"][k].as_f64()
     }
+    /// The standard error over frames of metric `k` (absent or `null`: unknown).
+    pub fn metric_stderr(&self, k: &str) -> Option<f64> {
+        self.row["metrics_stderr"][k].as_f64()
+    }
+    /// The ratio of metric `k` to the baseline's and its standard error.
+    pub fn ratio(&self, k: &str) -> Option<(f64, Option<f64>)> {
+        let q = &self.row["ratios"][k];
+        Some((q["mean"].as_f64()?, q["stderr"].as_f64()))
+    }
     /// The rendering method behind the configuration (its label otherwise).
     pub fn kind(&self) -> String {
         self.row["kind"].as_str().unwrap_or(&self.name).to_string()

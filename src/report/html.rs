@@ -42,6 +42,38 @@ const METRICS: &[(&str, &str)] = &[
     ("stereo_p95", "95th percentile stereo discrepancy"),
 ];
 
+/// The error figures' ratios to the baseline with their standard errors
+/// (empty when the summary has none).
+fn ratios(d: &ReportData) -> String {
+    let keys = crate::compare::RATIO_METRICS;
+    if !d.methods.iter().any(|m| m.ratio(keys[0]).is_some()) {
+        return String::new();
+    }
+    let base = d.summary["baseline"].as_str().unwrap_or("the baseline");
+    let mut h = format!(
+        "<table id=\"ratios\"><caption>ratios to {} (mean over frames over the baseline's; ± delta-method standard error over the paired frames)</caption><tr><th>method</th>",
+        esc(base)
+    );
+    for k in keys {
+        h.push_str(&format!("<th>{k} / {}</th>", esc(base)));
+    }
+    h.push_str("</tr>\n");
+    for m in &d.methods {
+        h.push_str(&format!("<tr><td>{}</td>", esc(&m.name)));
+        for k in keys {
+            let v = match m.ratio(k) {
+                Some((r, Some(se))) => format!("{} ± {}", fmt(Some(r)), fmt(Some(se))),
+                Some((r, None)) => fmt(Some(r)),
+                None => "–".into(),
+            };
+            h.push_str(&format!("<td>{v}</td>"));
+        }
+        h.push_str("</tr>\n");
+    }
+    h.push_str("</table>\n");
+    h
+}
+
 pub fn page(d: &ReportData) -> Result<String> {
     let s = &d.summary;
     let mut h = String::new();
@@ -84,7 +116,11 @@ pub fn page(d: &ReportData) -> Result<String> {
                 .map(|b| b / (1u64 << 20) as f64))
         ));
         for (k, _) in METRICS {
-            h.push_str(&format!("<td>{}</td>", fmt(m.metric(k))));
+            let se = match (m.metric(k), m.metric_stderr(k)) {
+                (Some(_), Some(se)) => format!(" ± {}", fmt(Some(se))),
+                _ => String::new(),
+            };
+            h.push_str(&format!("<td>{}{se}</td>", fmt(m.metric(k))));
         }
         h.push_str("</tr>\n");
     }
@@ -108,7 +144,7 @@ pub fn page(d: &ReportData) -> Result<String> {
     h.push_str("</table>\n");
     if let Some(rse) = reference["rse"].as_f64() {
         h.push_str(&format!(
-            "<p id=\"reference-noise\">The reference: {} spp, rendered as two independent halves of {} spp whose difference estimates its own error: RSE {} ± {}, MSE {} against the converged image{}. Every method's RSE contains this much of the reference's noise.</p>\n",
+            "<p id=\"reference-noise\">The reference: {} spp, rendered as two independent halves of {} spp whose difference estimates its own error: RSE {} ± {}, MSE {} against the converged image{}. Every method's RSE contains this much of the reference's noise. HDR-FLIP of one half against the other: {} (what FLIP scores the reference's noise alone at, at half its samples).</p>\n",
             reference["spp"],
             reference["half_spp"],
             fmt(Some(rse)),
@@ -117,13 +153,24 @@ pub fn page(d: &ReportData) -> Result<String> {
             match (reference["best_method"].as_str(), reference["ratio_to_best"].as_f64()) {
                 (Some(m), Some(x)) => format!(", {x:.3}× the best method's RSE ({})", esc(m)),
                 _ => String::new(),
-            }
+            },
+            fmt(reference["flip_halves"].as_f64()),
         ));
     }
     if let Some(w) = reference["warning"].as_str() {
         h.push_str(&format!(
             "<p class=\"warning\" id=\"reference-warning\">warning: {}</p>\n",
             esc(w)
+        ));
+    }
+    h.push_str(&ratios(d));
+    if let Some(ppd) = s["flip"]["ppd"].as_f64() {
+        h.push_str(&format!(
+            "<p id=\"fair-metrics\">FLIP at {ppd:.3} pixels per degree ({}). Temporal and stereo metrics: one mask per frame for every method, from the {}: co-visible fraction temporal {}, stereo {}. ± = standard error over frames (frames taken as independent).</p>\n",
+            esc(s["flip"]["source"].as_str().unwrap_or("")),
+            esc(s["masks"]["source"].as_str().unwrap_or("reference geometry")),
+            fmt(s["masks"]["temporal_covisible"].as_f64()),
+            fmt(s["masks"]["stereo_covisible"].as_f64()),
         ));
     }
     h.push_str("<p class=\"note\">");

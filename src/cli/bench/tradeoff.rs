@@ -94,6 +94,8 @@ pub fn run(a: TradeoffArgs) -> Result<()> {
         zoom: 3,
         reference_spp: Some(reference_spp),
         reference_cache: a.reference_cache.clone(),
+        flip_ppd: None,
+        baseline: None,
     };
     let cmp = stereocache::compare::compare_configs(&session, &cameras, &configs, &base, &opts)?;
     let rows = &cmp.rows;
@@ -102,6 +104,7 @@ pub fn run(a: TradeoffArgs) -> Result<()> {
         .with_context(|| format!("{}: cannot read", summary_csv.display()))?;
     output::write_file(&out.join("tradeoff.csv"), &csv)?;
     print!("{}", stereocache::compare::summary_table(rows));
+    print!("{}", stereocache::compare::ratio_table(&cmp));
     print_reference_noise(&cmp);
     print!("{}", stereocache::bench::tradeoff_ratios(rows));
     let report = stereocache::report::write_report(out)?;
