@@ -1,0 +1,379 @@
+//! Fair metrics (issue 15): one co-visibility mask per frame for every
+//! method, from the reference's geometry; FLIP's pixels per degree from the
+//! eye's field of view and width; standard errors of the means and of the
+//! ratios to a baseline.
+
+mod common;
+use common::single_error_line;
+use glam::{Quat, Vec3};
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::process::Command;
+use stereocache::camera::{HeadPose, StereoCamera};
+use stereocache::evaluate::{flip_ppd, Evaluator, ReferenceFrame};
+use stereocache::methods::{EyeImage, StereoFrame};
+use stereocache::metrics::{
+    centre_pixels_per_degree, flip_hdr, mean_stderr, ratio_of_means, stereo_discrepancy,
+    LinearImage, ViewBuffers,
+};
+
+const W: usize = 64;
+const H: usize = 64;
+
+/// 64 × 64 eyes, 90° fov, IPD 0.125 m, looking down −Z at a fronto-parallel
+/// plane at view depth 1: the focal length is 32 px, so the stereo disparity
+/// is 32 · 0.125 = 4 px and a head step of 0.0625 m along +x shifts the
+/// image by 2 px.
+fn rig(x: f32) -> StereoCamera {
+    let mut c = StereoCamera::new(
+        HeadPose::new(Vec3::new(0.2 + x, 1.5, -0.3), Quat::IDENTITY),
+        90f32.to_radians(),
+        1.0,
+    );
+    c.ipd = 0.125;
+    c
+}
+
+/// A deterministic hash in [0, 1) (per pixel, eye, frame, variant).
+fn hash(mut v: u64) -> f32 {
+    v = v.wrapping_mul(0x9E37_79B9_7F4A_7C15);
+    v ^= v >> 29;
+    v = v.wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    v ^= v >> 32;
+    (v >> 40) as f32 / (1u64 << 24) as f32
+}
+
+/// Radiance varying per pixel, eye and frame, so per-pixel differences (and
+/// hence means over different pixel sets) differ.
+fn radiance(frame: u64, eye: u64, variant: u64) -> Vec<[f32; 4]> {
+    (0..W * H)
+        .map(|i| {
+            let (x, y) = (i % W, i / W);
+            let base = 0.2 + 0.5 * ((x * 7 + y * 3) % 11) as f32 / 10.0;
+            let n = hash(((frame * 2 + eye) * 8 + variant) << 32 | i as u64);
+            [base + 0.3 * n, base, 0.5 * base + 0.1 * n, 1.0]
+        })
+        .collect()
+}
+
+fn eye(radiance: Vec<[f32; 4]>, depth: Vec<f32>, first_hit: Vec<[u32; 4]>) -> EyeImage {
+    EyeImage {
+        radiance,
+        depth,
+        first_hit,
+        albedo: Vec::new(),
+        debug: Vec::new(),
+    }
+}
+
+fn stereo(eyes: [EyeImage; 2]) -> StereoFrame {
+    StereoFrame {
+        width: W as u32,
+        height: H as u32,
+        eyes,
+        stats: Default::default(),
+    }
+}
+
+/// The plane's true geometry: depth 1, primitive 3 of instance 1.
+fn plane_depth() -> Vec<f32> {
+    vec![1.0; W * H]
+}
+fn plane_ids() -> Vec<[u32; 4]> {
+    (0..W * H)
+        .map(|i| [(i % W) as u32, (i / W) as u32, 3, 1])
+        .collect()
+}
+
+/// The reference of frame `f`: two half renders (different noise) of the plane.
+fn reference(f: u64) -> ReferenceFrame {
+    let half = |v| {
+        stereo([
+            eye(radiance(f, 0, v), plane_depth(), plane_ids()),
+            eye(radiance(f, 1, v), plane_depth(), plane_ids()),
+        ])
+    };
+    ReferenceFrame::from_halves([half(1), half(2)], flip_ppd(&rig(0.0), W as u32)).unwrap()
+}
+
+/// A method's frame `f`: the same radiance for every method, with its own
+/// geometry: `true` = the plane's, `false` = wrong (the right eye's top
+/// quarter at depth 1.5, the left eye's left half on another primitive).
+fn method(f: u64, true_geometry: bool) -> StereoFrame {
+    let (mut dl, mut dr, mut il, ir) = (plane_depth(), plane_depth(), plane_ids(), plane_ids());
+    if !true_geometry {
+        for i in 0..W * H {
+            if i / W < H / 4 {
+                dr[i] = 1.5;
+            }
+            if i % W < W / 2 {
+                il[i][2] = 4;
+            }
+            if f == 1 && i % W >= W - 8 {
+                dl[i] = 0.0;
+            }
+        }
+    }
+    stereo([
+        eye(radiance(f, 0, 7), dl, il),
+        eye(radiance(f, 1, 7), dr, ir),
+    ])
+}
+
+/// Two frames of one method through an [`Evaluator`]: the per-frame metrics.
+fn evaluate(true_geometry: bool) -> Vec<BTreeMap<String, f64>> {
+    let mut ev = Evaluator::new(None);
+    let cams = [rig(0.0), rig(0.0625)];
+    (0..2)
+        .map(|f| {
+            ev.frame(
+                &cams[f],
+                &method(f as u64, true_geometry),
+                &reference(f as u64),
+            )
+            .unwrap()
+        })
+        .collect()
+}
+
+/// Two methods with identical images but different depth and first hits
+/// score identically (every metric of every frame, exactly), because the
+/// temporal and stereo masks come from the reference's geometry; the
+/// co-visible fractions are the plane's known ones (stereo: 4 px disparity
+/// leaves 60 of 64 columns, temporal: a 2 px shift leaves 62). With each
+/// method's own geometry (the old metric) the same images would score
+/// differently, on different pixels.
+#[test]
+fn identical_images_score_identically_whatever_their_own_geometry() {
+    let (a, b) = (evaluate(true), evaluate(false));
+    assert_eq!(a, b, "the methods' own geometry changed their scores");
+    for f in &a {
+        assert_eq!(f["stereo_covisible"], 60.0 / 64.0);
+        assert!(f["stereo_mean"] > 0.0 && f["stereo_mean_reference"] > 0.0);
+    }
+    assert!(!a[0].contains_key("temporal_covisible"));
+    assert_eq!(a[1]["temporal_covisible"], 62.0 / 64.0);
+    assert!(a[1]["temporal"] > 0.0);
+
+    // The mask bites: the old own-geometry stereo discrepancy of the same
+    // images differs between the two methods.
+    let cam = rig(0.0);
+    let views = cam.eyes();
+    let own = |f: &StereoFrame| {
+        let img = |e: usize| LinearImage::from_rgba(&f.eyes[e].radiance, W, H).unwrap();
+        let (li, ri) = (img(0), img(1));
+        let vb = |e: usize, image| ViewBuffers {
+            image,
+            depth: &f.eyes[e].depth,
+            view: &views[e],
+            first_hits: Some(&f.eyes[e].first_hit),
+        };
+        stereo_discrepancy(&vb(0, &li), &vb(1, &ri), 0.01).unwrap()
+    };
+    let (sa, sb) = (own(&method(0, true)), own(&method(0, false)));
+    eprintln!("own masks: true geometry {sa:?}, wrong geometry {sb:?}");
+    assert_eq!(sa.covisible_fraction, 60.0 / 64.0);
+    // Wrong ids on the left half and wrong depth on the top quarter remove pixels.
+    assert!(
+        sb.covisible_fraction < 0.5 * sa.covisible_fraction,
+        "{sb:?}"
+    );
+    assert_ne!(sa.mean, sb.mean);
+    // With the true geometry the own mask is the reference's: same figure.
+    assert_eq!(sa.mean as f64, a[0]["stereo_mean"]);
+}
+
+/// FLIP's pixels per degree: one pixel's angle at the image centre. By hand:
+/// 90° across 160 px is a focal length of 80 px, one pixel there subtends
+/// 2·atan(1/160) = 0.716 197°, PPD 1.396 28; a 60° vertical fov at aspect
+/// 4/3 is tan(hfov/2) = tan 30° · 4/3, f = 103.92 px, PPD 1.813 81. The
+/// evaluator scores FLIP at that value unless given one.
+#[test]
+fn flip_ppd_follows_from_fov_and_width() {
+    let p = centre_pixels_per_degree(160, 1.0).unwrap();
+    assert!((p - 1.396_28).abs() < 1e-5, "{p}");
+    let cam = StereoCamera::new(
+        HeadPose::new(Vec3::ZERO, Quat::IDENTITY),
+        60f32.to_radians(),
+        4.0 / 3.0,
+    );
+    let p = flip_ppd(&cam, 160);
+    assert!((p - 1.813_81).abs() < 1e-5, "{p}");
+
+    let img =
+        |f: &StereoFrame, e: usize| LinearImage::from_rgba(&f.eyes[e].radiance, W, H).unwrap();
+    let (m, r) = (method(0, true), reference(0));
+    let flip_at = |ppd: f32| {
+        (0..2)
+            .map(|e| {
+                0.5 * flip_hdr(&img(&m, e), &img(&r.frame, e), ppd)
+                    .unwrap()
+                    .flip
+                    .mean as f64
+            })
+            .sum::<f64>()
+    };
+    let derived = flip_ppd(&rig(0.0), W as u32);
+    assert!((derived - centre_pixels_per_degree(64, 1.0).unwrap()).abs() < 1e-6);
+    let got = Evaluator::new(None).frame(&rig(0.0), &m, &r).unwrap()["flip"];
+    assert_eq!(got, flip_at(derived));
+    let got67 = Evaluator::new(Some(67.0)).frame(&rig(0.0), &m, &r).unwrap()["flip"];
+    assert_eq!(got67, flip_at(67.0));
+    assert_ne!(got, got67);
+}
+
+/// Standard errors against hand-computed small cases.
+/// Mean of [1, 2, 3]: 2, s = 1, se = 1/√3. Ratio of means of x = [1, 2, 3, 4]
+/// over y = [2, 3, 5, 6] (delta method, paired): x̄ = 2.5, ȳ = 4, R = 0.625,
+/// s_xx = 5/3, s_yy = 10/3, s_xy = 7/3, Var R = (5/3 − 2R·7/3 + R²·10/3)/(4·16)
+/// = (5/96)/64 = 8.138e-4, se = 0.028 527; a series over itself: 1 ± 0.
+#[test]
+fn standard_errors_match_hand_computed_cases() {
+    let m = mean_stderr(&[1.0, 2.0, 3.0]).unwrap();
+    assert_eq!((m.mean, m.n), (2.0, 3));
+    assert!((m.stderr - 1.0 / 3f64.sqrt()).abs() < 1e-12);
+    assert!(mean_stderr(&[5.0]).unwrap().stderr.is_infinite());
+    assert!(mean_stderr(&[]).is_none());
+    let q = ratio_of_means(&[1.0, 2.0, 3.0, 4.0], &[2.0, 3.0, 5.0, 6.0]).unwrap();
+    assert!((q.mean - 0.625).abs() < 1e-12);
+    let var = (5.0 / 3.0 - 2.0 * 0.625 * 7.0 / 3.0 + 0.625f64.powi(2) * 10.0 / 3.0) / 64.0;
+    assert!((q.stderr - var.sqrt()).abs() < 1e-12, "{}", q.stderr);
+    assert!((q.stderr - 0.028_527).abs() < 1e-6);
+    let same = ratio_of_means(&[1.0, 2.0, 4.0], &[1.0, 2.0, 4.0]).unwrap();
+    assert_eq!((same.mean, same.stderr), (1.0, 0.0));
+    // Independent but unpaired-looking: x = [1, 2, 3] over y = 2 constant.
+    let q = ratio_of_means(&[1.0, 2.0, 3.0], &[2.0, 2.0, 2.0]).unwrap();
+    assert!((q.stderr - (1.0f64 / 12.0).sqrt()).abs() < 1e-12);
+    assert!(ratio_of_means(&[1.0], &[1.0, 2.0]).is_none());
+}
+
+/// `compare --scene plane` at 32×24 with a 90° vertical field of view, software
+/// backend, 3 frames of user1, naive and supersample, 4 spp references in
+/// `cache`, with `args` added.
+fn compare_plane(out: &Path, cache: &Path, args: &[&str]) -> std::process::Output {
+    let trace = Path::new(env!("CARGO_MANIFEST_DIR")).join("captures/mmsys18-user1.csv");
+    Command::new(env!("CARGO_BIN_EXE_stereocache"))
+        .env("STEREOCACHE_VALIDATE", "1")
+        .args(["compare", "--scene", "plane", "--trace"])
+        .arg(&trace)
+        .args(["--methods", "naive,supersample", "--spp", "2"])
+        .args([
+            "--frames", "3", "--every", "0", "--size", "32x24", "--fov", "90",
+        ])
+        .args(["--rt", "software", "--reference-spp", "4"])
+        .arg("--reference-cache")
+        .arg(cache)
+        .arg("--out")
+        .arg(out)
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+/// End to end: summary.json records the derived PPD (by hand: `--fov` is
+/// vertical, so 90° at 32×24 is tan(hfov/2) = 4/3, f = 16/(4/3) = 12 px, one
+/// centre pixel 2·atan(1/24) = 4.7719°, PPD 0.209 56) or the `--flip-ppd` given, the one mask's
+/// co-visible fractions (equal for both methods, frame by frame), standard
+/// errors, and ratios to `--baseline` (the baseline over itself 1 ± 0; the
+/// other the ratio of the two means); the CSV, the printed table and the
+/// report carry them; an unknown baseline is one `error:` line.
+#[test]
+fn compare_records_ppd_masks_standard_errors_and_ratios() {
+    let base = std::env::temp_dir().join(format!("stereocache-fair-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&base);
+    let cache = base.join("refs");
+    let out = base.join("derived");
+    let o = compare_plane(&out, &cache, &["--baseline", "supersample"]);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
+    let ppd = json["flip"]["ppd"].as_f64().unwrap();
+    assert!((ppd - 0.209_56).abs() < 1e-5, "{ppd}");
+    assert!(json["flip"]["source"]
+        .as_str()
+        .unwrap()
+        .starts_with("derived"));
+    assert_eq!(json["baseline"], "supersample");
+    let rows = json["methods"].as_array().unwrap();
+    let metric = |r: &serde_json::Value, k: &str| r["metrics"][k].as_f64().unwrap();
+    for k in ["stereo_covisible", "temporal_covisible"] {
+        let v = json["masks"][k].as_f64().unwrap();
+        assert!(v > 0.0 && v <= 1.0, "{k} {v}");
+        for r in rows {
+            assert_eq!(metric(r, k), v, "{k}");
+        }
+    }
+    let frames = |m: &str| -> Vec<serde_json::Value> {
+        std::fs::read_to_string(out.join(m).join("frames.jsonl"))
+            .unwrap()
+            .lines()
+            .map(|l| serde_json::from_str(l).unwrap())
+            .collect()
+    };
+    let (fa, fb) = (frames("naive"), frames("supersample"));
+    assert_eq!(fa.len(), 3);
+    for (i, (a, b)) in fa.iter().zip(&fb).enumerate() {
+        assert_eq!(
+            a["metrics"]["stereo_covisible"],
+            b["metrics"]["stereo_covisible"]
+        );
+        assert_eq!(
+            a["metrics"]["temporal_covisible"],
+            b["metrics"]["temporal_covisible"]
+        );
+        assert_eq!(a["metrics"]["temporal_covisible"].is_null(), i == 0);
+    }
+    // Standard errors over the 3 frames, by hand from frames.jsonl.
+    for (r, fr) in rows.iter().zip([&fa, &fb]) {
+        let v: Vec<f64> = fr
+            .iter()
+            .map(|f| f["metrics"]["rse"].as_f64().unwrap())
+            .collect();
+        let m = v.iter().sum::<f64>() / 3.0;
+        let se = (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / 2.0 / 3.0).sqrt();
+        let got = r["metrics_stderr"]["rse"].as_f64().unwrap();
+        assert!(
+            (got - se).abs() <= 1e-12 * se.max(1e-30) + 1e-15,
+            "{got} vs {se}"
+        );
+    }
+    let (naive, ss) = (&rows[0], &rows[1]);
+    assert_eq!(ss["ratios"]["rse"]["mean"].as_f64(), Some(1.0));
+    assert_eq!(ss["ratios"]["rse"]["stderr"].as_f64(), Some(0.0));
+    let q = naive["ratios"]["rse"]["mean"].as_f64().unwrap();
+    assert!((q - metric(naive, "rse") / metric(ss, "rse")).abs() < 1e-12 * q);
+    assert!(naive["ratios"]["rse"]["stderr"].as_f64().unwrap() > 0.0);
+    let csv = std::fs::read_to_string(out.join("summary.csv")).unwrap();
+    let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    for h in ["se:rse", "ratio:rse", "ratio_se:flip", "stereo_covisible"] {
+        assert!(header.contains(&h), "{h} missing: {header:?}");
+    }
+    assert!(stdout.contains("ratios to supersample"), "{stdout}");
+    assert!(stdout.contains("pixels per degree"), "{stdout}");
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    assert!(html.contains("id=\"ratios\"") && html.contains("id=\"fair-metrics\""));
+
+    // --flip-ppd overrides and is recorded; the references come from the cache.
+    let out67 = base.join("ppd67");
+    let o = compare_plane(&out67, &cache, &["--flip-ppd", "67"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let j67: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out67.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(j67["flip"]["ppd"].as_f64(), Some(67.0));
+    assert_eq!(j67["flip"]["source"], "--flip-ppd");
+    assert_eq!(j67["baseline"], "naive");
+    assert_eq!(j67["methods"][0]["metrics"]["rse"], naive["metrics"]["rse"]);
+    assert_ne!(
+        j67["methods"][0]["metrics"]["flip"],
+        naive["metrics"]["flip"]
+    );
+
+    let bad = compare_plane(&base.join("bad"), &cache, &["--baseline", "magic"]);
+    let e = single_error_line(&bad, "--baseline magic");
+    assert!(
+        e.contains("bad --baseline 'magic'") && e.contains("naive, supersample"),
+        "{e}"
+    );
+    let _ = std::fs::remove_dir_all(&base);
+}
