@@ -77,7 +77,7 @@ fn ratios(d: &ReportData) -> String {
 pub fn page(d: &ReportData) -> Result<String> {
     let s = &d.summary;
     let mut h = String::new();
-    h.push_str("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>stereocache report</title>\n<style>body{font-family:sans-serif;margin:2em;max-width:1100px}table{border-collapse:collapse}td,th{border:1px solid #bbb;padding:4px 8px;text-align:right}th{background:#eee}td:first-child{text-align:left}img{image-rendering:pixelated;max-width:100%}figure{margin:1em 0}.note{color:#555;font-size:90%}</style></head><body>\n");
+    h.push_str("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>stereocache report</title>\n<style>body{font-family:sans-serif;margin:2em;max-width:1100px}table{border-collapse:collapse}td,th{border:1px solid #bbb;padding:4px 8px;text-align:right}th{background:#eee}td:first-child{text-align:left}img{image-rendering:pixelated;max-width:100%}figure{margin:1em 0}.note{color:#555;font-size:90%}.se{color:#666;font-size:85%}</style></head><body>\n");
     h.push_str("<h1>stereocache comparison</h1>\n<p>");
     for (k, label) in [
         ("scene", "scene"),
@@ -99,7 +99,7 @@ pub fn page(d: &ReportData) -> Result<String> {
 
     h.push_str("<h2>Summary</h2>\n<table id=\"summary\"><tr><th>method</th><th>frames</th><th>mean GPU ms*</th><th>p95 GPU ms*</th><th>rays / frame</th><th>memory MiB</th>");
     for (m, _) in METRICS {
-        h.push_str(&format!("<th>{m}</th>"));
+        h.push_str(&format!("<th>{m}</th><th class=\"se\">±</th>"));
     }
     h.push_str("</tr>\n");
     for m in &d.methods {
@@ -116,11 +116,12 @@ pub fn page(d: &ReportData) -> Result<String> {
                 .map(|b| b / (1u64 << 20) as f64))
         ));
         for (k, _) in METRICS {
-            let se = match (m.metric(k), m.metric_stderr(k)) {
-                (Some(_), Some(se)) => format!(" ± {}", fmt(Some(se))),
-                _ => String::new(),
-            };
-            h.push_str(&format!("<td>{}{se}</td>", fmt(m.metric(k))));
+            // The value, then its standard error over frames in its own column.
+            h.push_str(&format!(
+                "<td>{}</td><td class=\"se\">{}</td>",
+                fmt(m.metric(k)),
+                fmt(m.metric_stderr(k))
+            ));
         }
         h.push_str("</tr>\n");
     }
@@ -132,12 +133,12 @@ pub fn page(d: &ReportData) -> Result<String> {
             reference["spp"], reference["frames"]
         ));
         for (k, _) in METRICS {
-            let v = if *k == "rse" {
-                fmt(Some(rse))
+            let (v, se) = if *k == "rse" {
+                (fmt(Some(rse)), fmt(reference["rse_stderr"].as_f64()))
             } else {
-                "–".into()
+                ("–".into(), "–".into())
             };
-            h.push_str(&format!("<td>{v}</td>"));
+            h.push_str(&format!("<td>{v}</td><td class=\"se\">{se}</td>"));
         }
         h.push_str("</tr>\n");
     }
@@ -177,6 +178,7 @@ pub fn page(d: &ReportData) -> Result<String> {
     for (k, v) in METRICS {
         h.push_str(&format!("<b>{k}</b>: {v}. "));
     }
+    h.push_str("<b>±</b>: standard error of the mean over frames (frames taken as independent; temporally accumulating methods' frames are correlated, so it understates run-to-run variation); the reference row's is that of its noise estimate. ");
     h.push_str("Times are GPU timestamps on the device named above; * = frames after the first (frame 0 carries one-time driver costs such as pipeline compilation).</p>\n");
 
     let has_metrics = d.methods.iter().any(|m| m.metric("rse").is_some());
