@@ -369,11 +369,16 @@ fn compare_records_ppd_masks_standard_errors_and_ratios() {
         naive["metrics"]["flip"]
     );
 
-    let bad = compare_plane(&base.join("bad"), &cache, &["--baseline", "magic"]);
+    let bad_out = base.join("bad");
+    let bad = compare_plane(&bad_out, &cache, &["--baseline", "magic"]);
     let e = single_error_line(&bad, "--baseline magic");
     assert!(
         e.contains("bad --baseline 'magic'") && e.contains("naive, supersample"),
         "{e}"
+    );
+    assert!(
+        !bad_out.exists(),
+        "output written before the baseline was checked"
     );
     let _ = std::fs::remove_dir_all(&base);
 }

@@ -88,6 +88,9 @@ pub fn run(a: CompareArgs) -> Result<()> {
     if a.reference_spp > 0 {
         stereocache::evaluate::check_reference_spp(a.reference_spp)?;
     }
+    // A baseline that is not compared fails before the device is opened.
+    let labels: Vec<String> = a.methods.0.iter().map(|m| m.name().to_string()).collect();
+    stereocache::compare::choose_baseline(&labels, a.baseline.as_deref())?;
     check_out(&a.out)?;
     let (session, cameras) =
         open_along_trace(&a.trace, a.fps, a.size, &a.scene, &a.gpu, &a.camera)?;
