@@ -268,11 +268,12 @@ pub fn choose_baseline(labels: &[String], requested: Option<&str>) -> Result<Str
             "bad --baseline '{b}': not among the compared configurations ({})",
             labels.join(", ")
         ))),
-        None => Ok(labels
+        None => labels
             .iter()
             .find(|l| l.as_str() == "naive")
-            .unwrap_or(&labels[0])
-            .clone()),
+            .or(labels.first())
+            .cloned()
+            .ok_or_else(|| Error::Usage("nothing to compare".into())),
     }
 }
 

@@ -382,3 +382,25 @@ fn compare_records_ppd_masks_standard_errors_and_ratios() {
     );
     let _ = std::fs::remove_dir_all(&base);
 }
+
+/// The default baseline is naive when compared, else the first
+/// configuration; a requested one must be compared.
+#[test]
+fn the_baseline_defaults_to_naive_else_the_first() {
+    use stereocache::compare::choose_baseline;
+    let l = |v: &[&str]| v.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+    assert_eq!(
+        choose_baseline(&l(&["taa", "naive"]), None).unwrap(),
+        "naive"
+    );
+    assert_eq!(
+        choose_baseline(&l(&["taa", "hybrid"]), None).unwrap(),
+        "taa"
+    );
+    assert_eq!(
+        choose_baseline(&l(&["taa", "hybrid"]), Some("hybrid")).unwrap(),
+        "hybrid"
+    );
+    assert!(choose_baseline(&l(&["taa"]), Some("naive")).is_err());
+    assert!(choose_baseline(&[], None).is_err());
+}
