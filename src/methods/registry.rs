@@ -241,6 +241,99 @@ pub fn parse_list(list: &str) -> Result<Vec<MethodKind>> {
 mod tests {
     use super::*;
 
+    /// `MethodArgs` as a command line would give it.
+    #[derive(clap::Parser)]
+    struct Cli {
+        #[command(flatten)]
+        methods: MethodArgs,
+    }
+
+    fn args(line: &[&str]) -> MethodArgs {
+        <Cli as clap::Parser>::try_parse_from(std::iter::once("x").chain(line.iter().copied()))
+            .unwrap()
+            .methods
+    }
+
+    #[test]
+    fn every_method_has_a_config_of_its_own_kind() {
+        let defaults = args(&[]);
+        for &k in MethodKind::ALL {
+            assert_eq!(k.default_config().kind(), k);
+            assert_eq!(MethodConfig::from(k).kind(), k);
+            assert_eq!(defaults.config(k, false).unwrap().kind(), k);
+        }
+        let c = MethodConfig::sample_cache(|c| c.slots = 8);
+        assert_eq!(c.kind(), MethodKind::SampleCache);
+        assert_eq!(c.options::<SampleCacheSettings>().unwrap().slots, 8);
+        assert!(c.options::<HashCacheSettings>().is_none());
+        let mut h = MethodKind::Hybrid.default_config();
+        h.options_mut::<HybridConfig>().unwrap().hash.capacity = 64;
+        h.enable_debug_views();
+        let hy = h.options::<HybridConfig>().unwrap();
+        assert!(hy.cache.debug_views && hy.hash.debug_views && hy.hash.capacity == 64);
+    }
+
+    #[test]
+    fn the_command_line_builds_the_chosen_methods_config() {
+        let a = args(&[
+            "--slots",
+            "6",
+            "--n-target",
+            "3",
+            "--hash-capacity",
+            "256",
+            "--isrt-m",
+            "2",
+        ]);
+        let sc = a.config(MethodKind::SampleCache, true).unwrap();
+        let sc = sc.options::<SampleCacheSettings>().unwrap();
+        assert_eq!((sc.slots, sc.n_target, sc.debug_views), (6, 3, true));
+        let hy = a.config(MethodKind::Hybrid, false).unwrap();
+        let hy = hy.options::<HybridConfig>().unwrap();
+        assert_eq!((hy.cache.slots, hy.hash.capacity), (6, 256));
+        let isrt = a.config(MethodKind::Isrt, false).unwrap();
+        assert_eq!(isrt.options::<IsrtSettings>().unwrap().m, 2);
+        // A bad option of one method is refused whichever method runs.
+        let bad = args(&["--slots", "2", "--n-target", "4"]);
+        assert!(bad.config(MethodKind::Reference, false).is_ok());
+        let e = bad
+            .settings(
+                crate::values::Size {
+                    width: 8,
+                    height: 8,
+                },
+                1,
+                1,
+                1,
+                false,
+            )
+            .unwrap_err();
+        assert!(e.contains("--n-target"), "{e}");
+    }
+
+    #[test]
+    fn a_runs_settings_record_has_the_methods_own_options_only() {
+        let st = RenderSettings::default();
+        let keys = |c: MethodConfig| -> Vec<String> {
+            let v = c.record(&st);
+            let m = v.as_object().unwrap();
+            assert_eq!(m["spp"], st.spp);
+            ["cache", "taa", "isrt", "hash"]
+                .iter()
+                .filter(|k| m.contains_key(**k))
+                .map(|k| k.to_string())
+                .collect()
+        };
+        assert!(keys(MethodKind::Reference.into()).is_empty());
+        assert_eq!(keys(MethodKind::SampleCache.into()), ["cache"]);
+        assert_eq!(keys(MethodKind::Taa.into()), ["taa"]);
+        assert_eq!(keys(MethodKind::Isrt.into()), ["isrt"]);
+        assert_eq!(keys(MethodKind::HashCache.into()), ["hash"]);
+        assert_eq!(keys(MethodKind::Hybrid.into()), ["cache", "hash"]);
+        let v = MethodConfig::sample_cache(|c| c.slots = 5).record(&st);
+        assert_eq!(v["cache"]["slots"], 5);
+    }
+
     #[test]
     fn names_round_trip_and_unknown_names_list_the_others() {
         for m in MethodKind::ALL {
