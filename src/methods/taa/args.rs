@@ -31,3 +31,12 @@ impl TaaArgs {
         Ok(s)
     }
 }
+
+impl crate::methods::MethodOptions for TaaSettings {
+    fn from_args(args: &crate::methods::MethodArgs, _debug_views: bool) -> Result<Self, String> {
+        args.taa.settings()
+    }
+    fn record(&self, settings: &mut serde_json::Map<String, serde_json::Value>) {
+        crate::methods::config::record_as(settings, "taa", self);
+    }
+}

@@ -31,6 +31,7 @@ impl Taa {
         scene: &Arc<SceneGpu>,
         env: &Option<Environment>,
         settings: &RenderSettings,
+        taa: &TaaSettings,
     ) -> GpuResult<Self> {
         let s = RenderSettings {
             spp: 1,
@@ -44,7 +45,7 @@ impl Taa {
             s.width,
             s.height,
             s.seed,
-            &settings.taa,
+            taa,
             TaaInputs {
                 color: out.accum,
                 depth: out.depth,
