@@ -152,10 +152,11 @@ impl Emit<'_> {
             "modulo" => format!("mx_modulo({}, {})", a(0), a(1)),
             "power" => format!("pow({}, {})", a(0), a(1)),
             "min" | "max" => format!("{}({}, {})", n.op(), a(0), a(1)),
-            "abs" | "floor" | "ceil" | "sign" | "sin" | "cos" | "sqrt" | "exp" => {
+            "floor" | "ceil" | "sign" | "sin" | "cos" | "sqrt" | "exp" => {
                 format!("{}({})", n.op(), a(0))
             }
             "ln" => format!("log({})", a(0)),
+            "absval" => format!("abs({})", a(0)),
             "fract" => format!("mx_fract({})", a(0)),
             "invert" => format!("{} - {}", a(1), a(0)),
             "mix" => format!("mx_mix({}, {}, {})", a(1), a(0), a(2)),

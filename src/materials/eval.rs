@@ -298,7 +298,7 @@ fn apply(node: &Node, a: &[Arg], geom: &Geom) -> Value {
         "power" => map2(out, v(0), v(1), f32::powf),
         "min" => map2(out, v(0), v(1), f32::min),
         "max" => map2(out, v(0), v(1), f32::max),
-        "abs" => map1(out, v(0), f32::abs),
+        "absval" => map1(out, v(0), f32::abs),
         "floor" => map1(out, v(0), f32::floor),
         "ceil" => map1(out, v(0), f32::ceil),
         "fract" => map1(out, v(0), |x| x - x.floor()),

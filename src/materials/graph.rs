@@ -465,7 +465,12 @@ impl<'a> Builder<'a> {
             .inputs
             .iter()
             .all(|s| matches!(s, Source::Const(_) | Source::Str(_)));
-        let src = if constant && sig.node != "heighttonormal" {
+        // Geometry nodes read the surface point, not their (uniform) inputs.
+        let reads_geometry = matches!(
+            sig.node,
+            "texcoord" | "position" | "normal" | "tangent" | "heighttonormal"
+        );
+        let src = if constant && !reads_geometry {
             Source::Const(eval::eval_constant(&node))
         } else {
             self.nodes.push(node);

@@ -43,6 +43,42 @@ pub fn candidates(node: &str, out: Type) -> impl Iterator<Item = &'static Sig> +
 
 pub static SIGNATURES: &[Sig] = &[
     Sig {
+        def: "ND_absval_float",
+        node: "absval",
+        out: Float,
+        inputs: &[("in", Float, "0.0")],
+    },
+    Sig {
+        def: "ND_absval_color3",
+        node: "absval",
+        out: Color3,
+        inputs: &[("in", Color3, "0.0, 0.0, 0.0")],
+    },
+    Sig {
+        def: "ND_absval_color4",
+        node: "absval",
+        out: Color4,
+        inputs: &[("in", Color4, "0.0, 0.0, 0.0, 0.0")],
+    },
+    Sig {
+        def: "ND_absval_vector2",
+        node: "absval",
+        out: Vector2,
+        inputs: &[("in", Vector2, "0.0, 0.0")],
+    },
+    Sig {
+        def: "ND_absval_vector3",
+        node: "absval",
+        out: Vector3,
+        inputs: &[("in", Vector3, "0.0, 0.0, 0.0")],
+    },
+    Sig {
+        def: "ND_absval_vector4",
+        node: "absval",
+        out: Vector4,
+        inputs: &[("in", Vector4, "0.0, 0.0, 0.0, 0.0")],
+    },
+    Sig {
         def: "ND_rotate2d_vector2",
         node: "rotate2d",
         out: Vector2,
