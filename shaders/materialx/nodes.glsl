@@ -23,16 +23,24 @@ float mx_dot(vec2 a, vec2 b) { precise float r = a.x * b.x + a.y * b.y; return r
 float mx_dot(vec3 a, vec3 b) { precise float r = a.x * b.x + a.y * b.y + a.z * b.z; return r; }
 float mx_dot(vec4 a, vec4 b) { precise float r = a.x * b.x + a.y * b.y + a.z * b.z + a.w * b.w; return r; }
 
+// 1 at or above hi, 0 at or below lo, the Hermite cubic between (as eval.rs).
+float mx_smoothstep1(float x, float lo, float hi) {
+    if (x >= hi) return 1.0;
+    if (x <= lo) return 0.0;
+    precise float t = (x - lo) / (hi - lo);
+    precise float r = t * t * (3.0 - 2.0 * t);
+    return r;
+}
+float mx_smoothstep(float x, float lo, float hi) { return mx_smoothstep1(x, lo, hi); }
+vec2 mx_smoothstep(vec2 x, vec2 lo, vec2 hi) { return vec2(mx_smoothstep1(x.x, lo.x, hi.x), mx_smoothstep1(x.y, lo.y, hi.y)); }
+vec3 mx_smoothstep(vec3 x, vec3 lo, vec3 hi) { return vec3(mx_smoothstep(x.xy, lo.xy, hi.xy), mx_smoothstep1(x.z, lo.z, hi.z)); }
+vec4 mx_smoothstep(vec4 x, vec4 lo, vec4 hi) { return vec4(mx_smoothstep(x.xyz, lo.xyz, hi.xyz), mx_smoothstep1(x.w, lo.w, hi.w)); }
+
 #define MX_PER_TYPE(T) \
     T mx_modulo(T a, T b) { precise T r = a - b * floor(a / b); return r; } \
     T mx_fract(T a) { precise T r = a - floor(a); return r; } \
     T mx_mix(T bg, T fg, T m) { precise T r = bg + (fg - bg) * m; return r; } \
     T mx_clamp(T x, T lo, T hi) { return min(max(x, lo), hi); } \
-    T mx_smoothstep(T x, T lo, T hi) { \
-        precise T t = min(max((x - lo) / (hi - lo), T(0.0)), T(1.0)); \
-        precise T r = t * t * (3.0 - 2.0 * t); \
-        return r; \
-    } \
     T mx_normalize(T v) { float l = sqrt(mx_dot(v, v)); precise T r = v / l; return l > 0.0 ? r : v; }
 MX_PER_TYPE(float)
 MX_PER_TYPE(vec2)

@@ -206,9 +206,17 @@ pub fn mix(bg: f32, fg: f32, m: f32) -> f32 {
     bg + (fg - bg) * m
 }
 
+/// 1 at or above `hi`, 0 at or below `lo`, the Hermite cubic between (no
+/// division when `lo == hi`).
 pub fn smoothstep(x: f32, lo: f32, hi: f32) -> f32 {
-    let t = ((x - lo) / (hi - lo)).clamp(0.0, 1.0);
-    t * t * (3.0 - 2.0 * t)
+    if x >= hi {
+        1.0
+    } else if x <= lo {
+        0.0
+    } else {
+        let t = (x - lo) / (hi - lo);
+        t * t * (3.0 - 2.0 * t)
+    }
 }
 
 fn sign(x: f32) -> f32 {
