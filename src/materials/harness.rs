@@ -69,13 +69,16 @@ pub fn source(graphs: &[Graph]) -> (String, Vec<(Layout, usize)>) {
     (s, layouts)
 }
 
+/// `values[graph][point]`: a graph's output floats at one point (Layout order).
+pub type GraphValues = Vec<Vec<Vec<f32>>>;
+
 /// GPU values of every graph at every point: `result[graph][point]` = the
 /// graph's output floats (Layout order). Also returns the compile outcome.
 pub fn evaluate(
     ctx: &Arc<GpuContext>,
     graphs: &[Graph],
     points: &[Geom],
-) -> Result<(Vec<Vec<Vec<f32>>>, Compiled), String> {
+) -> Result<(GraphValues, Compiled), String> {
     let (src, layouts) = source(graphs);
     let stride: usize = layouts.iter().map(|(l, _)| l.floats.max(1)).sum();
     let compiled = compile::compile("material graph harness", &src)?;
