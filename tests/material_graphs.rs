@@ -218,7 +218,7 @@ fn signatures_match_the_materialx_stdlib() {
 /// The MaterialX package's documents: every nodegraph whose nodes all have
 /// a supported signature loads (typed and ordered), and where such a graph
 /// defines a supported node (`nodedef=`), the node evaluated directly equals
-/// the library's graph on the grid.
+/// the library's graph on the grid; the GLSL of all of them equals the CPU.
 #[test]
 fn materialx_package_graphs_with_supported_nodes_load_and_match_their_nodes() {
     let Some(lib) = materialx_libraries() else {
@@ -233,6 +233,7 @@ fn materialx_package_graphs_with_supported_nodes_load_and_match_their_nodes() {
         .collect();
     let defs: Vec<&Document> = docs.iter().collect();
     let (mut loaded, mut compared) = (0, 0);
+    let mut all = Vec::new();
     for doc in &docs {
         for raw in &doc.graphs {
             let supported = raw.nodes.iter().all(|n| {
@@ -258,6 +259,7 @@ fn materialx_package_graphs_with_supported_nodes_load_and_match_their_nodes() {
             }
             let g = Graph::build(doc, &raw.name, &defs).unwrap_or_else(|e| panic!("{e}"));
             loaded += 1;
+            all.push(g.clone());
             let Some(nd) = raw
                 .nodedef
                 .as_deref()
@@ -293,6 +295,8 @@ fn materialx_package_graphs_with_supported_nodes_load_and_match_their_nodes() {
         loaded >= 10 && compared >= 1,
         "{loaded} loaded, {compared} compared"
     );
+    // And the GLSL of every one of them equals the CPU.
+    assert_gpu_equals_cpu(&all);
 }
 
 /// Topological order: every node reads only earlier nodes.
