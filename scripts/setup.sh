@@ -78,6 +78,18 @@ SRC
   log "installed; mesa-vulkan-drivers $(dpkg-query -W -f='${Version}' mesa-vulkan-drivers)"
 fi
 
+# The MaterialX Python package: its libraries/ are the import test corpus and
+# the reference node signatures of tests/material_graphs.rs.
+if command -v python3 >/dev/null && python3 -c "import MaterialX" 2>/dev/null; then
+  log "MaterialX Python package present ($(python3 -c 'import MaterialX; print(MaterialX.__version__)' 2>/dev/null || echo '?'))"
+elif command -v python3 >/dev/null; then
+  log "installing the MaterialX Python package (pip, 1.39.x): material-graph tests"
+  python3 -m pip install --quiet "MaterialX>=1.39,<1.40" || { echo "[setup] error: pip could not install MaterialX" >&2; exit 1; }
+else
+  echo "[setup] error: python3 not found (needed for the MaterialX package the material-graph tests read)" >&2
+  exit 1
+fi
+
 if ! command -v cargo >/dev/null; then
   echo "[setup] error: cargo not found; install a Rust toolchain (rustup) first" >&2
   exit 1

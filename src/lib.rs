@@ -18,6 +18,7 @@ pub mod evaluate;
 #[allow(unsafe_code)]
 pub mod gpu;
 pub mod interface;
+pub mod materials;
 pub mod methods;
 pub mod metrics;
 pub mod output;

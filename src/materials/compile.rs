@@ -1,0 +1,127 @@
+//! GLSL -> SPIR-V at scene load with glslc (the tool build.rs uses; `GLSLC`
+//! overrides it), cached on disk by content hash: the cache file is
+//! `<dir>/<hash>.spv` with `<dir>` = `$STEREOCACHE_SHADER_CACHE`, else
+//! `$XDG_CACHE_HOME/stereocache/spirv`, else `$HOME/.cache/stereocache/spirv`
+//! (else the system temporary directory). The hash covers the whole
+//! compiled text (the node library is inlined, no include path) and the
+//! glslc arguments, so an edit of a graph, of the node library or of the
+//! arguments compiles anew. Files are written to a temporary name and
+//! renamed, so concurrent loads never read a half-written file.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// The node library, inlined into every generated shader.
+pub const NOISE_GLSL: &str = include_str!("../../shaders/materialx/noise.glsl");
+pub const NODES_GLSL: &str = include_str!("../../shaders/materialx/nodes.glsl");
+
+/// The node library as one text (nodes.glsl with noise.glsl in place of its include).
+pub fn library() -> String {
+    NODES_GLSL.replace("#include \"materialx/noise.glsl\"", NOISE_GLSL)
+}
+
+const ARGS: &[&str] = &["--target-env=vulkan1.2", "-O", "-fshader-stage=compute"];
+
+/// The cache directory (see the module docs).
+pub fn cache_dir() -> PathBuf {
+    if let Some(d) = std::env::var_os("STEREOCACHE_SHADER_CACHE") {
+        return PathBuf::from(d);
+    }
+    if let Some(d) = std::env::var_os("XDG_CACHE_HOME").filter(|d| !d.is_empty()) {
+        return PathBuf::from(d).join("stereocache/spirv");
+    }
+    if let Some(h) = std::env::var_os("HOME").filter(|d| !d.is_empty()) {
+        return PathBuf::from(h).join(".cache/stereocache/spirv");
+    }
+    std::env::temp_dir().join("stereocache-spirv")
+}
+
+/// 128-bit content hash (two FNV-1a 64 streams with different offsets), hex.
+pub fn content_hash(parts: &[&str]) -> String {
+    let mut a: u64 = 0xcbf2_9ce4_8422_2325;
+    let mut b: u64 = 0x6c62_272e_07bb_0142;
+    for p in parts {
+        for &byte in p.as_bytes().iter().chain(&[0xffu8]) {
+            a = (a ^ byte as u64).wrapping_mul(0x0000_0100_0000_01b3);
+            b = (b ^ byte as u64)
+                .wrapping_mul(0x0000_0100_0000_01b3)
+                .rotate_left(5);
+        }
+    }
+    format!("{a:016x}{b:016x}")
+}
+
+/// Outcome of [`compile`].
+#[derive(Debug)]
+pub struct Compiled {
+    pub spirv: Vec<u8>,
+    pub path: PathBuf,
+    /// Whether the SPIR-V came from the cache.
+    pub cached: bool,
+}
+
+/// Compiles a compute shader's GLSL text (`what` names it in errors).
+pub fn compile(what: &str, source: &str) -> Result<Compiled, String> {
+    compile_in(&cache_dir(), what, source)
+}
+
+pub fn compile_in(dir: &Path, what: &str, source: &str) -> Result<Compiled, String> {
+    let glslc = std::env::var("GLSLC").unwrap_or_else(|_| "glslc".into());
+    let mut parts = vec![source];
+    parts.extend_from_slice(ARGS);
+    let hash = content_hash(&parts);
+    let spv = dir.join(format!("{hash}.spv"));
+    if let Ok(bytes) = std::fs::read(&spv) {
+        if bytes.len() >= 20 && bytes.len() % 4 == 0 && bytes[..4] == [0x03, 0x02, 0x23, 0x07] {
+            return Ok(Compiled {
+                spirv: bytes,
+                path: spv,
+                cached: true,
+            });
+        }
+    }
+    std::fs::create_dir_all(dir).map_err(|e| {
+        format!(
+            "{what}: cannot create the shader cache {} ({e})",
+            dir.display()
+        )
+    })?;
+    static SEQ: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    let seq = SEQ.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let tag = format!("{}-{seq}", std::process::id());
+    let src = dir.join(format!("{hash}.{tag}.comp"));
+    let tmp = dir.join(format!("{hash}.{tag}.spv.tmp"));
+    std::fs::write(&src, source)
+        .map_err(|e| format!("{what}: cannot write {} ({e})", src.display()))?;
+    let out = Command::new(&glslc)
+        .args(ARGS)
+        .arg(&src)
+        .arg("-o")
+        .arg(&tmp)
+        .output();
+    let res = match out {
+        Err(e) => Err(format!(
+            "{what}: cannot run glslc ({e}); install it with scripts/setup.sh or set GLSLC"
+        )),
+        Ok(o) if !o.status.success() => Err(format!(
+            "{what}: glslc failed ({}):\n{}{}",
+            src.display(),
+            String::from_utf8_lossy(&o.stdout),
+            String::from_utf8_lossy(&o.stderr)
+        )),
+        Ok(_) => std::fs::rename(&tmp, &spv)
+            .map_err(|e| format!("{what}: cannot store {} ({e})", spv.display())),
+    };
+    if res.is_ok() {
+        let _ = std::fs::remove_file(&src);
+    }
+    let _ = std::fs::remove_file(&tmp);
+    res?;
+    let spirv =
+        std::fs::read(&spv).map_err(|e| format!("{what}: cannot read {} ({e})", spv.display()))?;
+    Ok(Compiled {
+        spirv,
+        path: spv,
+        cached: false,
+    })
+}

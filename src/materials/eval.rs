@@ -1,0 +1,454 @@
+//! The CPU evaluator of a typed graph: the test oracle of the generated GLSL
+//! (shaders/materialx/nodes.glsl holds the same node implementations). Every
+//! node is evaluated channel by channel with the operations in the order the
+//! GLSL uses, in f32, without fused multiply-add.
+//!
+//! Node semantics follow the MaterialX 1.39 standard nodes; where the
+//! specification defines a node by a nodegraph in stdlib_ng.mtlx (checkerboard,
+//! place2d, hsvadjust, convert, ...) the implementation is that graph's
+//! arithmetic, and `tests/material_graphs.rs` evaluates both and compares.
+
+use super::graph::{GeomProp, Graph, Node, Source};
+use super::noise;
+use super::types::{Type, Value};
+
+/// The surface point a graph is evaluated at (world space; `tangent` may be
+/// zero where the mesh has none, then `normalmap` returns the normal).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Geom {
+    pub uv: [f32; 2],
+    pub position: [f32; 3],
+    pub normal: [f32; 3],
+    pub tangent: [f32; 3],
+}
+
+impl Geom {
+    fn prop(&self, g: GeomProp) -> Value {
+        match g {
+            GeomProp::Uv => Value::new(Type::Vector2, &self.uv),
+            GeomProp::Position => Value::new(Type::Vector3, &self.position),
+            GeomProp::Normal => Value::new(Type::Vector3, &self.normal),
+            GeomProp::Tangent => Value::new(Type::Vector3, &self.tangent),
+            GeomProp::Bitangent => Value::new(Type::Vector3, &cross(self.normal, self.tangent)),
+        }
+    }
+}
+
+/// Step in texture space of `heighttonormal`'s central differences (exact in binary).
+pub const HEIGHT_STEP: f32 = 1.0 / 1024.0;
+
+fn cross(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+/// One argument of a node: a number or a string (strings are uniform
+/// parameters no implemented node reads at evaluation time).
+#[derive(Clone, Copy)]
+enum Arg {
+    V(Value),
+    S,
+}
+
+impl Arg {
+    fn v(&self) -> Value {
+        match self {
+            Arg::V(v) => *v,
+            Arg::S => Value::float(0.0),
+        }
+    }
+}
+
+/// The outputs of `g` at `geom`, in `g.outputs` order.
+pub fn evaluate(g: &Graph, geom: &Geom) -> Vec<Value> {
+    let vals = eval_nodes(g, g.nodes.len(), geom);
+    g.outputs
+        .iter()
+        .map(|o| read(&o.source, &vals, geom))
+        .collect()
+}
+
+/// The values of the first `n` nodes of `g` at `geom`.
+fn eval_nodes(g: &Graph, n: usize, geom: &Geom) -> Vec<Value> {
+    let mut vals: Vec<Value> = Vec::with_capacity(n);
+    for (i, node) in g.nodes[..n].iter().enumerate() {
+        let v = if node.op() == "heighttonormal" {
+            height_to_normal(g, i, geom)
+        } else {
+            let args: Vec<Arg> = node
+                .inputs
+                .iter()
+                .map(|s| match s {
+                    Source::Str(_) => Arg::S,
+                    s => Arg::V(read(s, &vals, geom)),
+                })
+                .collect();
+            apply(node, &args, geom)
+        };
+        vals.push(v);
+    }
+    vals
+}
+
+fn read(s: &Source, vals: &[Value], geom: &Geom) -> Value {
+    match s {
+        Source::Const(v) => *v,
+        Source::Str(_) => Value::float(0.0),
+        Source::Geom(p) => geom.prop(*p),
+        Source::Node(i) => vals[*i],
+    }
+}
+
+/// A node whose inputs are all constants (constant folding at load).
+pub fn eval_constant(node: &Node) -> Value {
+    let args: Vec<Arg> = node
+        .inputs
+        .iter()
+        .map(|s| match s {
+            Source::Const(v) => Arg::V(*v),
+            Source::Str(_) => Arg::S,
+            _ => unreachable!("eval_constant on a varying node"),
+        })
+        .collect();
+    apply(node, &args, &Geom::default())
+}
+
+/// `heighttonormal` (node `i`): central differences of its height input in
+/// texture space at ±HEIGHT_STEP, the whole upstream graph re-evaluated at
+/// the shifted uv; out = normalize(−scale·∂h/∂u, −scale·∂h/∂v, 1)·0.5 + 0.5.
+fn height_to_normal(g: &Graph, i: usize, geom: &Geom) -> Value {
+    let node = &g.nodes[i];
+    let at = |du: f32, dv: f32| -> f32 {
+        let mut q = *geom;
+        // The texcoord input (the graph's uv unless connected elsewhere) is shifted.
+        q.uv = [geom.uv[0] + du, geom.uv[1] + dv];
+        let vals = eval_nodes(g, i, &q);
+        read(&node.inputs[0], &vals, &q).v[0]
+    };
+    let scale = match &node.inputs[1] {
+        Source::Const(v) => v.v[0],
+        s => read(s, &eval_nodes(g, i, geom), geom).v[0],
+    };
+    let inv = 1.0 / (2.0 * HEIGHT_STEP);
+    let du = (at(HEIGHT_STEP, 0.0) - at(-HEIGHT_STEP, 0.0)) * inv;
+    let dv = (at(0.0, HEIGHT_STEP) - at(0.0, -HEIGHT_STEP)) * inv;
+    let n = normalize3([-scale * du, -scale * dv, 1.0]);
+    Value::new(
+        Type::Vector3,
+        &[n[0] * 0.5 + 0.5, n[1] * 0.5 + 0.5, n[2] * 0.5 + 0.5],
+    )
+}
+
+fn dot(a: &[f32], b: &[f32]) -> f32 {
+    let mut s = a[0] * b[0];
+    for k in 1..a.len() {
+        s += a[k] * b[k];
+    }
+    s
+}
+
+fn normalize3(v: [f32; 3]) -> [f32; 3] {
+    let l = dot(&v, &v).sqrt();
+    if l > 0.0 {
+        [v[0] / l, v[1] / l, v[2] / l]
+    } else {
+        v
+    }
+}
+
+/// Broadcasts a float to `w` channels; passes a vector through.
+fn bc(v: Value, w: usize) -> [f32; 4] {
+    if v.ty.width() == 1 && w > 1 {
+        [v.v[0]; 4]
+    } else {
+        v.v
+    }
+}
+
+fn map1(out: Type, a: Value, f: impl Fn(f32) -> f32) -> Value {
+    let w = out.width();
+    let a = bc(a, w);
+    let mut r = [0.0; 4];
+    for k in 0..w {
+        r[k] = f(a[k]);
+    }
+    Value { ty: out, v: r }
+}
+
+fn map2(out: Type, a: Value, b: Value, f: impl Fn(f32, f32) -> f32) -> Value {
+    let w = out.width();
+    let (a, b) = (bc(a, w), bc(b, w));
+    let mut r = [0.0; 4];
+    for k in 0..w {
+        r[k] = f(a[k], b[k]);
+    }
+    Value { ty: out, v: r }
+}
+
+fn map3(out: Type, a: Value, b: Value, c: Value, f: impl Fn(f32, f32, f32) -> f32) -> Value {
+    let w = out.width();
+    let (a, b, c) = (bc(a, w), bc(b, w), bc(c, w));
+    let mut r = [0.0; 4];
+    for k in 0..w {
+        r[k] = f(a[k], b[k], c[k]);
+    }
+    Value { ty: out, v: r }
+}
+
+pub fn modulo(a: f32, b: f32) -> f32 {
+    a - b * (a / b).floor()
+}
+
+pub fn mix(bg: f32, fg: f32, m: f32) -> f32 {
+    bg + (fg - bg) * m
+}
+
+/// 1 at or above `hi`, 0 at or below `lo`, the Hermite cubic between (no
+/// division when `lo == hi`).
+pub fn smoothstep(x: f32, lo: f32, hi: f32) -> f32 {
+    if x >= hi {
+        1.0
+    } else if x <= lo {
+        0.0
+    } else {
+        let t = (x - lo) / (hi - lo);
+        t * t * (3.0 - 2.0 * t)
+    }
+}
+
+fn sign(x: f32) -> f32 {
+    if x > 0.0 {
+        1.0
+    } else if x < 0.0 {
+        -1.0
+    } else {
+        0.0
+    }
+}
+
+fn clamp(x: f32, lo: f32, hi: f32) -> f32 {
+    x.max(lo).min(hi)
+}
+
+/// RGB -> HSV (hue in [0, 1)), the hexcone model (Smith 1978).
+pub fn rgb_to_hsv(c: [f32; 3]) -> [f32; 3] {
+    let (r, g, b) = (c[0], c[1], c[2]);
+    let mx = r.max(g).max(b);
+    let mn = r.min(g).min(b);
+    let d = mx - mn;
+    let s = if mx > 0.0 { d / mx } else { 0.0 };
+    let mut h = 0.0;
+    if d > 0.0 {
+        h = if r >= mx {
+            (g - b) / d
+        } else if g >= mx {
+            2.0 + (b - r) / d
+        } else {
+            4.0 + (r - g) / d
+        };
+        h /= 6.0;
+        if h < 0.0 {
+            h += 1.0;
+        }
+    }
+    [h, s, mx]
+}
+
+/// HSV -> RGB (hue wraps).
+pub fn hsv_to_rgb(c: [f32; 3]) -> [f32; 3] {
+    let h = c[0] - c[0].floor();
+    let (s, v) = (c[1], c[2]);
+    let h6 = h * 6.0;
+    let sector = h6.floor();
+    let f = h6 - sector;
+    let p = v * (1.0 - s);
+    let q = v * (1.0 - s * f);
+    let t = v * (1.0 - s * (1.0 - f));
+    match sector as i32 {
+        0 => [v, t, p],
+        1 => [q, v, p],
+        2 => [p, v, t],
+        3 => [p, q, v],
+        4 => [t, p, v],
+        _ => [v, p, q],
+    }
+}
+
+/// Counter-clockwise rotation by `deg` degrees (rotate2d).
+fn rotate2d(p: [f32; 2], deg: f32) -> [f32; 2] {
+    let r = deg.to_radians();
+    let (s, c) = (r.sin(), r.cos());
+    [p[0] * c - p[1] * s, p[0] * s + p[1] * c]
+}
+
+fn apply(node: &Node, a: &[Arg], geom: &Geom) -> Value {
+    let out = node.ty();
+    let w = out.width();
+    let op = node.op();
+    let v = |i: usize| a[i].v();
+    let int = |i: usize| a[i].v().v[0] as i32;
+    let uv = |i: usize| [v(i).v[0], v(i).v[1]];
+    let p3 = |i: usize| [v(i).v[0], v(i).v[1], v(i).v[2]];
+    match op {
+        "constant" | "dot" => v(0),
+        "texcoord" => Value::new(out, &[geom.uv[0], geom.uv[1], 0.0][..w]),
+        "position" => geom.prop(GeomProp::Position),
+        "normal" => geom.prop(GeomProp::Normal),
+        "tangent" => geom.prop(GeomProp::Tangent),
+        "add" => map2(out, v(0), v(1), |x, y| x + y),
+        "subtract" => map2(out, v(0), v(1), |x, y| x - y),
+        "multiply" => map2(out, v(0), v(1), |x, y| x * y),
+        "divide" => map2(out, v(0), v(1), |x, y| x / y),
+        "modulo" => map2(out, v(0), v(1), modulo),
+        "power" => map2(out, v(0), v(1), f32::powf),
+        "min" => map2(out, v(0), v(1), f32::min),
+        "max" => map2(out, v(0), v(1), f32::max),
+        "absval" => map1(out, v(0), f32::abs),
+        "floor" => map1(out, v(0), f32::floor),
+        "ceil" => map1(out, v(0), f32::ceil),
+        "fract" => map1(out, v(0), |x| x - x.floor()),
+        "sign" => map1(out, v(0), sign),
+        "sin" => map1(out, v(0), f32::sin),
+        "cos" => map1(out, v(0), f32::cos),
+        "sqrt" => map1(out, v(0), f32::sqrt),
+        "exp" => map1(out, v(0), f32::exp),
+        "ln" => map1(out, v(0), f32::ln),
+        "invert" => map2(out, v(1), v(0), |amount, x| amount - x),
+        "mix" => map3(out, v(1), v(0), v(2), mix),
+        "clamp" => map3(out, v(0), v(1), v(2), clamp),
+        "smoothstep" => map3(out, v(0), v(1), v(2), smoothstep),
+        "ifgreater" | "ifgreatereq" => {
+            let (x, y) = (v(0).v[0], v(1).v[0]);
+            let take = if op == "ifgreater" { x > y } else { x >= y };
+            Value {
+                ty: out,
+                ..if take { v(2) } else { v(3) }
+            }
+        }
+        "ramplr" => {
+            let t = clamp(v(2).v[0], 0.0, 1.0);
+            map2(out, v(0), v(1), |l, r| mix(l, r, t))
+        }
+        "ramptb" => {
+            let t = clamp(v(2).v[1], 0.0, 1.0);
+            map2(out, v(1), v(0), |b, tp| mix(b, tp, t))
+        }
+        "checkerboard" => {
+            // NG_checkerboard_color3: mix(color2, color1, mod(dot(floor(uv·tiling − offset), 1), 2)).
+            let (t, tile, off) = (uv(4), uv(2), uv(3));
+            let fx = (t[0] * tile[0] - off[0]).floor();
+            let fy = (t[1] * tile[1] - off[1]).floor();
+            let m = modulo(fx + fy, 2.0);
+            map2(out, v(1), v(0), |c2, c1| mix(c2, c1, m))
+        }
+        "place2d" => {
+            // NG_place2d_vector2: SRT (order 0) or TRS (order 1).
+            let (t, pivot, scale, rot, off) = (uv(0), uv(1), uv(2), v(3).v[0], uv(4));
+            let sp = [t[0] - pivot[0], t[1] - pivot[1]];
+            let r = if int(5) == 0 {
+                let r = rotate2d([sp[0] / scale[0], sp[1] / scale[1]], rot);
+                [r[0] - off[0] + pivot[0], r[1] - off[1] + pivot[1]]
+            } else {
+                let r = rotate2d([sp[0] - off[0], sp[1] - off[1]], rot);
+                [r[0] / scale[0] + pivot[0], r[1] / scale[1] + pivot[1]]
+            };
+            Value::new(out, &r)
+        }
+        "rotate2d" => Value::new(out, &rotate2d(uv(0), v(1).v[0])),
+        "noise2d" | "noise3d" => {
+            let (amp, pivot) = (bc(v(0), w), v(1).v[0]);
+            let mut r = [0.0; 4];
+            for (c, o) in r.iter_mut().enumerate().take(w) {
+                let n = if op == "noise2d" {
+                    noise::perlin2(uv(2), c as u32)
+                } else {
+                    noise::perlin3(p3(2), c as u32)
+                };
+                *o = n * amp[c] + pivot;
+            }
+            Value { ty: out, v: r }
+        }
+        "fractal3d" => {
+            let (amp, oct, lac, dim) = (bc(v(0), w), int(1), v(2).v[0], v(3).v[0]);
+            let mut r = [0.0; 4];
+            for (c, o) in r.iter_mut().enumerate().take(w) {
+                *o = noise::fractal3(p3(4), c as u32, oct, lac, dim) * amp[c];
+            }
+            Value { ty: out, v: r }
+        }
+        "cellnoise2d" => Value::float(noise::cell2(uv(0), 0)),
+        "cellnoise3d" => Value::float(noise::cell3(p3(0), 0)),
+        "worleynoise2d" => Value {
+            ty: out,
+            v: noise::worley2(uv(0), v(1).v[0], int(2), w),
+        },
+        "worleynoise3d" => Value {
+            ty: out,
+            v: noise::worley3(p3(0), v(1).v[0], int(2), w),
+        },
+        "hsvadjust" => {
+            let (c, amt) = (v(0).v, v(1).v);
+            let hsv = rgb_to_hsv([c[0], c[1], c[2]]);
+            let rgb = hsv_to_rgb([hsv[0] + amt[0], hsv[1] * amt[1], hsv[2] * amt[2]]);
+            Value::new(out, &[rgb[0], rgb[1], rgb[2], c[3]][..w])
+        }
+        "luminance" => {
+            let (c, k) = (v(0).v, v(1).v);
+            let l = c[0] * k[0] + c[1] * k[1] + c[2] * k[2];
+            Value::new(out, &[l, l, l, c[3]][..w])
+        }
+        "normalmap" => {
+            // in: tangent-space normal encoded in [0, 1]; scale on x and y.
+            let (t, sc) = (v(0).v, bc(v(1), 2));
+            let (n, tg, bt) = (p3(2), p3(3), p3(4));
+            let m = [
+                (t[0] * 2.0 - 1.0) * sc[0],
+                (t[1] * 2.0 - 1.0) * sc[1],
+                t[2] * 2.0 - 1.0,
+            ];
+            let s = [
+                tg[0] * m[0] + bt[0] * m[1] + n[0] * m[2],
+                tg[1] * m[0] + bt[1] * m[1] + n[1] * m[2],
+                tg[2] * m[0] + bt[2] * m[1] + n[2] * m[2],
+            ];
+            Value::new(out, &normalize3(s))
+        }
+        "dotproduct" => Value::float(dot(v(0).channels(), v(1).channels())),
+        "crossproduct" => Value::new(out, &cross(p3(0), p3(1))),
+        "magnitude" => Value::float(dot(v(0).channels(), v(0).channels()).sqrt()),
+        "normalize" => {
+            let x = v(0);
+            let l = dot(x.channels(), x.channels()).sqrt();
+            map1(out, x, |c| if l > 0.0 { c / l } else { c })
+        }
+        "convert" => {
+            let x = v(0);
+            let iw = x.ty.width();
+            let mut r = [0.0, 0.0, 0.0, 1.0];
+            for (k, o) in r.iter_mut().enumerate().take(w) {
+                *o = if iw == 1 {
+                    x.v[0]
+                } else if k < iw {
+                    x.v[k]
+                } else if k == 3 {
+                    1.0
+                } else {
+                    0.0
+                };
+            }
+            Value { ty: out, v: r }
+        }
+        "extract" => Value::float(v(0).v[int(1) as usize]),
+        "combine2" | "combine3" => {
+            let mut r = Vec::with_capacity(4);
+            for x in &a[..if op == "combine2" { 2 } else { 3 }] {
+                r.extend_from_slice(x.v().channels());
+            }
+            Value::new(out, &r)
+        }
+        other => unreachable!("node `{other}` has a signature but no implementation"),
+    }
+}

@@ -1,0 +1,552 @@
+//! The typed node IR of one nodegraph: every node resolved to a standard-
+//! library signature (overload chosen by its output type and its inputs'
+//! types), every input a constant, a geometric property or an earlier node,
+//! nodes in topological order from the outputs (depth-first, as the thesis's
+//! compiler orders its SSA function, §4.2); nodes the outputs do not reach are
+//! dropped. Nodes whose inputs are all constants are folded into constants
+//! (so sin/cos of a constant `place2d` rotation are evaluated once, on the
+//! CPU, and the GPU sees the same numbers as the oracle).
+//!
+//! Restrictions (errors, documented in docs/MATERIALS.md): `integer`,
+//! `string` and `filename` inputs must be constants; an input may not use
+//! `channels` or connect to another nodegraph; multi-output nodes are not in
+//! the subset.
+
+use super::document::{Document, RawGraph, RawPort};
+use super::error::GraphError;
+use super::eval;
+use super::signatures::{self, Sig};
+use super::types::{Type, Value};
+use std::collections::HashMap;
+
+/// A geometric property a graph reads (MaterialX `defaultgeomprop` names
+/// and the texcoord/position/normal/tangent/bitangent nodes). stereocache
+/// scenes are flattened to world space, so object and world space coincide.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum GeomProp {
+    Uv,
+    Position,
+    Normal,
+    Tangent,
+    Bitangent,
+}
+
+impl GeomProp {
+    pub fn from_name(s: &str) -> Option<GeomProp> {
+        Some(match s {
+            "UV0" => GeomProp::Uv,
+            "Pobject" | "Pworld" | "Pmodel" => GeomProp::Position,
+            "Nobject" | "Nworld" | "Nmodel" => GeomProp::Normal,
+            "Tobject" | "Tworld" | "Tmodel" => GeomProp::Tangent,
+            "Bobject" | "Bworld" | "Bmodel" => GeomProp::Bitangent,
+            _ => return None,
+        })
+    }
+
+    pub fn ty(self) -> Type {
+        match self {
+            GeomProp::Uv => Type::Vector2,
+            _ => Type::Vector3,
+        }
+    }
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum Source {
+    Const(Value),
+    /// A string or filename constant.
+    Str(String),
+    Geom(GeomProp),
+    /// An earlier node of `Graph::nodes`.
+    Node(usize),
+}
+
+#[derive(Clone, Debug)]
+pub struct Node {
+    pub name: String,
+    pub sig: &'static Sig,
+    /// One source per signature input, in signature order.
+    pub inputs: Vec<Source>,
+}
+
+impl Node {
+    pub fn ty(&self) -> Type {
+        self.sig.out
+    }
+    pub fn op(&self) -> &'static str {
+        self.sig.node
+    }
+}
+
+#[derive(Clone, Debug)]
+pub struct Output {
+    pub name: String,
+    pub ty: Type,
+    pub source: Source,
+}
+
+/// A typed, ordered nodegraph: a function (uv, position, normal, tangent) -> outputs.
+#[derive(Clone, Debug)]
+pub struct Graph {
+    pub file: String,
+    pub name: String,
+    pub nodes: Vec<Node>,
+    pub outputs: Vec<Output>,
+}
+
+impl Graph {
+    pub fn output(&self, name: &str) -> Option<&Output> {
+        self.outputs.iter().find(|o| o.name == name)
+    }
+
+    /// The type of a source.
+    pub fn source_ty(&self, s: &Source) -> Type {
+        match s {
+            Source::Const(v) => v.ty,
+            Source::Str(_) => Type::String,
+            Source::Geom(g) => g.ty(),
+            Source::Node(i) => self.nodes[*i].ty(),
+        }
+    }
+
+    /// Loads graph `name` of `doc`; `libs` supply nodedefs (interfaces of graphs that implement one).
+    pub fn build(doc: &Document, name: &str, libs: &[&Document]) -> Result<Graph, GraphError> {
+        let raw = doc
+            .graph(name)
+            .ok_or_else(|| GraphError::file(&doc.file, format!("no nodegraph named `{name}`")))?;
+        Builder::new(doc, raw, libs)?.run()
+    }
+
+    /// Every nodegraph of a document.
+    pub fn build_all(doc: &Document, libs: &[&Document]) -> Result<Vec<Graph>, GraphError> {
+        doc.graphs
+            .iter()
+            .map(|g| Graph::build(doc, &g.name, libs))
+            .collect()
+    }
+}
+
+/// What an interface input resolves to.
+enum Iface {
+    Value(Source),
+}
+
+struct Builder<'a> {
+    doc: &'a Document,
+    raw: &'a RawGraph,
+    iface: HashMap<String, (Option<Type>, Iface)>,
+    by_name: HashMap<&'a str, usize>,
+    /// raw index -> its source once placed (a node or a folded constant).
+    placed: HashMap<usize, Source>,
+    on_stack: Vec<usize>,
+    nodes: Vec<Node>,
+}
+
+impl<'a> Builder<'a> {
+    fn err(&self, node: Option<&str>, line: u32, msg: impl Into<String>) -> GraphError {
+        GraphError {
+            file: self.doc.file.clone(),
+            graph: Some(self.raw.name.clone()),
+            node: node.map(str::to_string),
+            line: Some(line),
+            message: msg.into(),
+        }
+    }
+
+    fn new(
+        doc: &'a Document,
+        raw: &'a RawGraph,
+        libs: &[&'a Document],
+    ) -> Result<Self, GraphError> {
+        let mut b = Builder {
+            doc,
+            raw,
+            iface: HashMap::new(),
+            by_name: HashMap::new(),
+            placed: HashMap::new(),
+            on_stack: Vec::new(),
+            nodes: Vec::new(),
+        };
+        // The interface: the implemented nodedef's inputs (defaults), then the graph's own inputs.
+        if let Some(nd) = &raw.nodedef {
+            let def = std::iter::once(doc)
+                .chain(libs.iter().copied())
+                .flat_map(|d| d.nodedefs.iter())
+                .find(|d| &d.name == nd)
+                .ok_or_else(|| b.err(None, raw.line, format!("nodedef `{nd}` not found")))?;
+            for p in &def.inputs {
+                let v = b.constant_port(None, p)?;
+                b.iface.insert(
+                    p.name.clone(),
+                    (p.ty.as_deref().and_then(Type::from_name), Iface::Value(v)),
+                );
+            }
+        }
+        for p in &raw.inputs {
+            let v = b.constant_port(None, p)?;
+            b.iface.insert(
+                p.name.clone(),
+                (p.ty.as_deref().and_then(Type::from_name), Iface::Value(v)),
+            );
+        }
+        for (i, n) in raw.nodes.iter().enumerate() {
+            if b.by_name.insert(n.name.as_str(), i).is_some() {
+                return Err(b.err(Some(&n.name), n.line, "two nodes have this name"));
+            }
+        }
+        Ok(b)
+    }
+
+    /// A constant port (interface input): its value or default geometric property.
+    fn constant_port(&self, node: Option<&str>, p: &RawPort) -> Result<Source, GraphError> {
+        let ty = p.ty.as_deref().unwrap_or("");
+        let ty = Type::from_name(ty).ok_or_else(|| {
+            self.err(
+                node,
+                p.line,
+                format!("input `{}`: unsupported type `{ty}`", p.name),
+            )
+        })?;
+        if let Some(g) = &p.defaultgeomprop {
+            if p.value.is_none() {
+                return GeomProp::from_name(g).map(Source::Geom).ok_or_else(|| {
+                    self.err(
+                        node,
+                        p.line,
+                        format!("input `{}`: unknown geometric property `{g}`", p.name),
+                    )
+                });
+            }
+        }
+        self.parse_value(node, p, ty, p.value.as_deref().unwrap_or(""))
+    }
+
+    fn parse_value(
+        &self,
+        node: Option<&str>,
+        p: &RawPort,
+        ty: Type,
+        s: &str,
+    ) -> Result<Source, GraphError> {
+        if matches!(ty, Type::String | Type::Filename) {
+            return Ok(Source::Str(s.to_string()));
+        }
+        if s.trim().is_empty() {
+            return Ok(Source::Const(Value::new(ty, &[])));
+        }
+        Value::parse(ty, s).map(Source::Const).map_err(|e| {
+            self.err(
+                node,
+                p.line,
+                format!("input `{}`: bad {ty} value: {e}", p.name),
+            )
+        })
+    }
+
+    fn run(mut self) -> Result<Graph, GraphError> {
+        let raw = self.raw;
+        if raw.outputs.is_empty() {
+            return Err(self.err(None, raw.line, "the nodegraph has no outputs"));
+        }
+        let mut outputs = Vec::new();
+        for o in &raw.outputs {
+            let ty =
+                o.ty.as_deref()
+                    .and_then(Type::from_name)
+                    .filter(|t| t.is_varying())
+                    .ok_or_else(|| {
+                        self.err(
+                            None,
+                            o.line,
+                            format!(
+                                "output `{}`: unsupported type `{}`",
+                                o.name,
+                                o.ty.as_deref().unwrap_or("")
+                            ),
+                        )
+                    })?;
+            let source = self.connect(None, o, ty)?;
+            outputs.push(Output {
+                name: o.name.clone(),
+                ty,
+                source,
+            });
+        }
+        Ok(Graph {
+            file: self.doc.file.clone(),
+            name: raw.name.clone(),
+            nodes: self.nodes,
+            outputs,
+        })
+    }
+
+    /// The source of port `p` (of `node`, or a graph output), whose type must be `want`.
+    fn connect(
+        &mut self,
+        node: Option<&str>,
+        p: &RawPort,
+        want: Type,
+    ) -> Result<Source, GraphError> {
+        if let Some(a) = &p.unsupported {
+            return Err(self.err(
+                node,
+                p.line,
+                format!("input `{}`: attribute `{a}` is not supported", p.name),
+            ));
+        }
+        if let Some(g) = &p.nodegraph {
+            return Err(self.err(
+                node,
+                p.line,
+                format!(
+                    "input `{}`: connections to other nodegraphs (`{g}`) are not supported",
+                    p.name
+                ),
+            ));
+        }
+        let src = if let Some(up) = &p.nodename {
+            if p.output.is_some() {
+                return Err(self.err(
+                    node,
+                    p.line,
+                    format!(
+                        "input `{}`: node `{up}` has one output; `output=` is not supported",
+                        p.name
+                    ),
+                ));
+            }
+            let Some(&ri) = self.by_name.get(up.as_str()) else {
+                return Err(self.err(
+                    node,
+                    p.line,
+                    format!(
+                        "missing input: `{}` refers to node `{up}`, which is not in the graph",
+                        p.name
+                    ),
+                ));
+            };
+            self.place(ri)?
+        } else if let Some(i) = &p.interfacename {
+            match self.iface.get(i) {
+                Some((_, Iface::Value(v))) => v.clone(),
+                None => return Err(self.err(node, p.line, format!("missing input: `{}` refers to interface input `{i}`, which the graph does not declare", p.name))),
+            }
+        } else if let Some(v) = &p.value {
+            self.parse_value(node, p, want, v)?
+        } else {
+            return Err(self.err(
+                node,
+                p.line,
+                format!(
+                    "missing input: `{}` has no value, node or interface connection",
+                    p.name
+                ),
+            ));
+        };
+        let got = match &src {
+            Source::Str(_) if matches!(want, Type::String | Type::Filename) => want,
+            s => self.ty_of(s),
+        };
+        // An interface integer feeding a float input (and back) is the same number.
+        let same = got == want
+            || (got.width() == want.width()
+                && got.is_varying() == want.is_varying()
+                && want != Type::Integer
+                && got != Type::Integer);
+        if !same {
+            return Err(self.err(
+                node,
+                p.line,
+                format!(
+                    "bad type: input `{}` is {want}, its source is {got}",
+                    p.name
+                ),
+            ));
+        }
+        if !want.is_varying() && !matches!(src, Source::Const(_) | Source::Str(_)) {
+            return Err(self.err(
+                node,
+                p.line,
+                format!("input `{}` ({want}) must be a constant", p.name),
+            ));
+        }
+        Ok(match src {
+            Source::Const(v) => Source::Const(Value { ty: want, ..v }),
+            s => s,
+        })
+    }
+
+    fn ty_of(&self, s: &Source) -> Type {
+        match s {
+            Source::Const(v) => v.ty,
+            Source::Str(_) => Type::String,
+            Source::Geom(g) => g.ty(),
+            Source::Node(i) => self.nodes[*i].ty(),
+        }
+    }
+
+    /// Places raw node `ri` (and, first, everything it reads); returns its source.
+    fn place(&mut self, ri: usize) -> Result<Source, GraphError> {
+        if let Some(s) = self.placed.get(&ri) {
+            return Ok(s.clone());
+        }
+        let raw = &self.raw.nodes[ri];
+        if let Some(pos) = self.on_stack.iter().position(|&r| r == ri) {
+            let mut names: Vec<&str> = self.on_stack[pos..]
+                .iter()
+                .map(|&r| self.raw.nodes[r].name.as_str())
+                .collect();
+            names.push(&raw.name);
+            return Err(self.err(
+                Some(&raw.name),
+                raw.line,
+                format!("cycle: {}", names.join(" -> ")),
+            ));
+        }
+        let name = raw.name.as_str();
+        if !signatures::is_supported(&raw.category) {
+            return Err(self.err(
+                Some(name),
+                raw.line,
+                format!(
+                    "unknown node `{}` (not in the supported subset of the standard library)",
+                    raw.category
+                ),
+            ));
+        }
+        let out = raw.ty.as_deref().and_then(Type::from_name).ok_or_else(|| {
+            self.err(
+                Some(name),
+                raw.line,
+                format!(
+                    "bad type: `{}` is not a supported output type",
+                    raw.ty.as_deref().unwrap_or("")
+                ),
+            )
+        })?;
+        let sig = self.choose(ri, out)?;
+        self.on_stack.push(ri);
+        let mut inputs: Vec<Option<Source>> = vec![None; sig.inputs.len()];
+        for p in &raw.inputs {
+            let (k, t, _) = sig.input(&p.name).expect("checked by choose");
+            inputs[k] = Some(self.connect(Some(name), p, t)?);
+        }
+        self.on_stack.pop();
+        let mut resolved = Vec::with_capacity(inputs.len());
+        for (k, s) in inputs.into_iter().enumerate() {
+            let (iname, t, d) = sig.inputs[k];
+            resolved.push(match s {
+                Some(s) => s,
+                None => match d.strip_prefix('@') {
+                    Some(g) => Source::Geom(GeomProp::from_name(g).ok_or_else(|| {
+                        self.err(
+                            Some(name),
+                            raw.line,
+                            format!("input `{iname}`: unknown geometric property `{g}`"),
+                        )
+                    })?),
+                    None if matches!(t, Type::String | Type::Filename) => {
+                        Source::Str(d.to_string())
+                    }
+                    None => Source::Const(Value::parse(t, d).expect("library defaults parse")),
+                },
+            });
+        }
+        let node = Node {
+            name: raw.name.clone(),
+            sig,
+            inputs: resolved,
+        };
+        if let Some(e) = check_node(&node) {
+            return Err(self.err(Some(name), raw.line, e));
+        }
+        // Constant folding: a node with only constant inputs is a constant.
+        let constant = node
+            .inputs
+            .iter()
+            .all(|s| matches!(s, Source::Const(_) | Source::Str(_)));
+        // Geometry nodes read the surface point, not their (uniform) inputs.
+        let reads_geometry = matches!(
+            sig.node,
+            "texcoord" | "position" | "normal" | "tangent" | "heighttonormal"
+        );
+        let src = if constant && !reads_geometry {
+            Source::Const(eval::eval_constant(&node))
+        } else {
+            self.nodes.push(node);
+            Source::Node(self.nodes.len() - 1)
+        };
+        self.placed.insert(ri, src.clone());
+        Ok(src)
+    }
+
+    /// The overload of raw node `ri` with output `out` whose inputs match the
+    /// element's declared input types (and names).
+    fn choose(&self, ri: usize, out: Type) -> Result<&'static Sig, GraphError> {
+        let raw = &self.raw.nodes[ri];
+        let mut any = false;
+        let mut last_err = String::new();
+        'sig: for s in signatures::candidates(&raw.category, out) {
+            any = true;
+            for p in &raw.inputs {
+                let Some((_, t, _)) = s.input(&p.name) else {
+                    last_err = format!("node `{}` has no input `{}`", raw.category, p.name);
+                    continue 'sig;
+                };
+                let declared = match p.ty.as_deref() {
+                    Some(d) => Type::from_name(d),
+                    None => self.upstream_ty(p),
+                };
+                if let Some(d) = declared {
+                    if d != t {
+                        last_err = format!("bad type: input `{}` is {d}, no `{}` signature with output {out} takes that", p.name, raw.category);
+                        continue 'sig;
+                    }
+                }
+            }
+            return Ok(s);
+        }
+        let msg = if any {
+            last_err
+        } else {
+            format!(
+                "bad type: `{}` has no signature with output type {out}",
+                raw.category
+            )
+        };
+        Err(self.err(Some(&raw.name), raw.line, msg))
+    }
+
+    /// The declared type of the node an untyped port connects to.
+    fn upstream_ty(&self, p: &RawPort) -> Option<Type> {
+        let up = p.nodename.as_deref()?;
+        let ri = *self.by_name.get(up)?;
+        self.raw.nodes[ri].ty.as_deref().and_then(Type::from_name)
+    }
+}
+
+/// Checks constant inputs the implementations need in range.
+fn check_node(n: &Node) -> Option<String> {
+    let int = |name: &str| -> Option<i32> {
+        let (k, _, _) = n.sig.input(name)?;
+        match &n.inputs[k] {
+            Source::Const(v) => Some(v.v[0] as i32),
+            _ => None,
+        }
+    };
+    match n.op() {
+        "fractal3d" => int("octaves")
+            .filter(|o| !(0..=16).contains(o))
+            .map(|o| format!("input `octaves` is {o}; 0 to 16 are supported")),
+        "worleynoise2d" | "worleynoise3d" => int("style")
+            .filter(|s| !(0..=1).contains(s))
+            .map(|s| format!("input `style` is {s}; 0 (distance) or 1 (solid)")),
+        "extract" => int("index")
+            .filter(|i| *i < 0 || *i as usize >= n.sig.inputs[0].1.width())
+            .map(|i| format!("input `index` {i} is out of range")),
+        "image" => Some(
+            "image nodes are not supported yet (scene textures are not bound to graphs)".into(),
+        ),
+        _ => None,
+    }
+}

@@ -1,0 +1,30 @@
+//! Procedural material graphs (issue 17): MaterialX 1.39 documents read
+//! into a typed node IR, evaluated on the CPU (the test oracle) and compiled
+//! to GLSL (one SSA function per graph) and SPIR-V at load. A graph is a
+//! function (uv, position, normal, tangent) -> outputs, so a cache can later
+//! wrap it (the thesis's memoization keys it by graph id and uv).
+//! docs/MATERIALS.md describes the supported subset and the binding.
+//!
+//! One concept per file: `types` (data types, values), `signatures` (the
+//! stdlib nodedefs of the subset), `document` (XML -> element records),
+//! `graph` (typing, topological order, folding), `noise` and `eval` (CPU),
+//! `codegen` (GLSL), `compile` (glslc and the on-disk cache), `harness`
+//! (GPU evaluation at points), `library` (the shipped graphs).
+
+pub mod codegen;
+pub mod compile;
+pub mod document;
+pub mod error;
+pub mod eval;
+pub mod graph;
+pub mod harness;
+pub mod library;
+pub mod noise;
+pub mod signatures;
+pub mod types;
+
+pub use document::Document;
+pub use error::GraphError;
+pub use eval::{evaluate, Geom};
+pub use graph::Graph;
+pub use types::{Type, Value};

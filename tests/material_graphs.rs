@@ -1,0 +1,478 @@
+//! Material graphs (issue 17): MaterialX import, errors, the CPU evaluator
+//! against the standard library's own nodegraph definitions, and the
+//! generated GLSL against the CPU evaluator.
+
+mod common;
+
+use common::*;
+use std::path::PathBuf;
+use stereocache::materials::graph::Source;
+use stereocache::materials::signatures::{self, SIGNATURES};
+use stereocache::materials::{compile, evaluate, harness, library, Document, Geom, Graph, Type};
+
+/// The MaterialX Python package's `libraries/` folder (scripts/setup.sh
+/// installs the package with pip), or `$MATERIALX_LIBRARIES`.
+fn materialx_libraries() -> Option<PathBuf> {
+    if let Some(p) = std::env::var_os("MATERIALX_LIBRARIES") {
+        return Some(PathBuf::from(p));
+    }
+    let out = std::process::Command::new("python3")
+        .args([
+            "-c",
+            "import MaterialX, os; print(os.path.dirname(MaterialX.__file__))",
+        ])
+        .output()
+        .ok()?;
+    let dir = PathBuf::from(String::from_utf8_lossy(&out.stdout).trim()).join("libraries");
+    dir.join("stdlib/stdlib_defs.mtlx").exists().then_some(dir)
+}
+
+fn mtlx_files(dir: &std::path::Path, out: &mut Vec<PathBuf>) {
+    let mut v: Vec<PathBuf> = std::fs::read_dir(dir)
+        .unwrap()
+        .flatten()
+        .map(|e| e.path())
+        .collect();
+    v.sort();
+    for p in v {
+        if p.is_dir() {
+            mtlx_files(&p, out);
+        } else if p.extension().is_some_and(|e| e == "mtlx") {
+            out.push(p);
+        }
+    }
+}
+
+/// A grid of surface points: uv over [−1.5, 2.5)² in steps of 1/8 + 1/64
+/// (so both cell interiors and values past 1 are covered), positions over
+/// a few units, unit normals and tangents perpendicular to them.
+fn grid() -> Vec<Geom> {
+    let mut v = Vec::new();
+    for j in 0..24 {
+        for i in 0..24 {
+            let (u, w) = (
+                -1.5 + i as f32 * (9.0 / 64.0),
+                -1.5 + j as f32 * (9.0 / 64.0),
+            );
+            let a = (i * 7 + j * 3) as f32 * 0.1;
+            let n = [a.cos() * 0.6, 0.8, a.sin() * 0.6];
+            let t = [a.sin(), 0.0, -a.cos()];
+            v.push(Geom {
+                uv: [u, w],
+                position: [u * 1.7 - 0.3, w * 0.9 + 0.21, (u - w) * 1.3 + 0.05],
+                normal: n,
+                tangent: t,
+            });
+        }
+    }
+    v
+}
+
+fn err_of(text: &str) -> String {
+    let doc = Document::parse("bad.mtlx", text).map_err(|e| e.to_string());
+    match doc.and_then(|d| Graph::build_all(&d, &[]).map_err(|e| e.to_string())) {
+        Ok(_) => panic!("document loaded:\n{text}"),
+        Err(e) => e,
+    }
+}
+
+fn wrap(body: &str) -> String {
+    format!("<?xml version=\"1.0\"?>\n<materialx version=\"1.39\">\n<nodegraph name=\"g\">\n{body}\n</nodegraph>\n</materialx>\n")
+}
+
+/// Unknown node, bad type, cycle, missing input (node and interface), bad
+/// value and bad XML: one line each, naming file, graph and node.
+#[test]
+fn malformed_documents_give_one_line_errors() {
+    let cases: &[(&str, &[&str])] = &[
+        (
+            r#"<fancynoise name="n1" type="float" /><output name="out" type="float" nodename="n1" />"#,
+            &["bad.mtlx:4: graph `g`, node `n1`: unknown node `fancynoise`"],
+        ),
+        (
+            r#"<noise2d name="n1" type="float"><input name="texcoord" type="vector3" value="0,0,0" /></noise2d>
+               <output name="out" type="float" nodename="n1" />"#,
+            &["graph `g`, node `n1`: bad type: input `texcoord` is vector3"],
+        ),
+        (
+            r#"<add name="a" type="float"><input name="in1" type="float" nodename="b" /></add>
+               <add name="b" type="float"><input name="in1" type="float" nodename="a" /></add>
+               <output name="out" type="float" nodename="a" />"#,
+            &["graph `g`, node `a`: cycle: a -> b -> a"],
+        ),
+        (
+            r#"<add name="a" type="float"><input name="in1" type="float" nodename="zz" /></add>
+               <output name="out" type="float" nodename="a" />"#,
+            &["node `a`: missing input: `in1` refers to node `zz`"],
+        ),
+        (
+            r#"<add name="a" type="float"><input name="in1" type="float" interfacename="k" /></add>
+               <output name="out" type="float" nodename="a" />"#,
+            &["node `a`: missing input: `in1` refers to interface input `k`"],
+        ),
+        (
+            r#"<add name="a" type="float"><input name="in1" type="float" /></add>
+               <output name="out" type="float" nodename="a" />"#,
+            &["node `a`: missing input: `in1` has no value"],
+        ),
+        (
+            r#"<add name="a" type="color3"><input name="in1" type="color3" value="1, 2" /></add>
+               <output name="out" type="color3" nodename="a" />"#,
+            &["node `a`: input `in1`: bad color3 value"],
+        ),
+        (
+            r#"<add name="a" type="float"><input name="in1" type="float" value="1" /></add>
+               <multiply name="m" type="color3"><input name="in1" type="color3" nodename="a" /></multiply>
+               <output name="out" type="color3" nodename="m" />"#,
+            &["node `m`: bad type: input `in1` is color3, its source is float"],
+        ),
+        (
+            r#"<add name="a" type="float"><input name="bogus" type="float" value="1" /></add>
+               <output name="out" type="float" nodename="a" />"#,
+            &["node `a`: node `add` has no input `bogus`"],
+        ),
+        (
+            r#"<add name="a" type="float">"#,
+            &["bad.mtlx: not a valid XML document"],
+        ),
+    ];
+    for (body, want) in cases {
+        let e = err_of(&wrap(body));
+        assert_eq!(e.lines().count(), 1, "one line: {e}");
+        assert!(e.starts_with("bad.mtlx"), "names the file: {e}");
+        for w in *want {
+            assert!(e.contains(w), "error `{e}` lacks `{w}`");
+        }
+    }
+}
+
+/// Every graph of scenes/materials loads, has tens of nodes and noise.
+#[test]
+fn shipped_library_loads_with_realistic_cost() {
+    let graphs = library::load_all().unwrap_or_else(|e| panic!("{e}"));
+    assert!(graphs.len() >= 12, "{} graphs", graphs.len());
+    for g in &graphs {
+        let noise = g
+            .nodes
+            .iter()
+            .filter(|n| n.op().contains("noise") || n.op() == "fractal3d")
+            .count();
+        assert!(g.nodes.len() >= 15, "{}: {} nodes", g.name, g.nodes.len());
+        assert!(noise >= 1, "{}: no noise", g.name);
+        let base = g
+            .output("base_color")
+            .unwrap_or_else(|| panic!("{}: no base_color", g.name));
+        assert_eq!(base.ty, Type::Color3);
+        for p in grid() {
+            for (o, v) in g.outputs.iter().zip(evaluate(g, &p)) {
+                assert!(
+                    v.channels().iter().all(|x| x.is_finite()),
+                    "{} {}: {v:?} at {p:?}",
+                    g.name,
+                    o.name
+                );
+            }
+        }
+    }
+}
+
+/// The signature table equals the nodedefs of the package's stdlib_defs.mtlx
+/// (names, node, output type, input names, types and defaults).
+#[test]
+fn signatures_match_the_materialx_stdlib() {
+    let Some(lib) = materialx_libraries() else {
+        require(false, "the MaterialX Python package (scripts/setup.sh)");
+        return;
+    };
+    let doc = Document::load(&lib.join("stdlib/stdlib_defs.mtlx")).unwrap();
+    for s in SIGNATURES {
+        let nd = doc
+            .nodedefs
+            .iter()
+            .find(|d| d.name == s.def)
+            .unwrap_or_else(|| panic!("{} not in stdlib_defs", s.def));
+        assert_eq!(nd.node, s.node, "{}", s.def);
+        assert_eq!(nd.outputs.len(), 1, "{}", s.def);
+        assert_eq!(nd.outputs[0].ty.as_deref(), Some(s.out.name()), "{}", s.def);
+        let ins: Vec<(String, String, String)> = nd
+            .inputs
+            .iter()
+            .map(|p| {
+                let d = match (&p.value, &p.defaultgeomprop) {
+                    (Some(v), _) => v.clone(),
+                    (None, Some(g)) => format!("@{g}"),
+                    (None, None) => String::new(),
+                };
+                (p.name.clone(), p.ty.clone().unwrap_or_default(), d)
+            })
+            .collect();
+        let mine: Vec<(String, String, String)> = s
+            .inputs
+            .iter()
+            .map(|(n, t, d)| (n.to_string(), t.name().to_string(), d.to_string()))
+            .collect();
+        assert_eq!(ins, mine, "{}", s.def);
+    }
+}
+
+/// The MaterialX package's documents: every nodegraph whose nodes all have
+/// a supported signature loads (typed and ordered), and where such a graph
+/// defines a supported node (`nodedef=`), the node evaluated directly equals
+/// the library's graph on the grid; the GLSL of all of them equals the CPU.
+#[test]
+fn materialx_package_graphs_with_supported_nodes_load_and_match_their_nodes() {
+    let Some(lib) = materialx_libraries() else {
+        require(false, "the MaterialX Python package (scripts/setup.sh)");
+        return;
+    };
+    let mut files = Vec::new();
+    mtlx_files(&lib, &mut files);
+    let docs: Vec<Document> = files
+        .iter()
+        .map(|f| Document::load(f).unwrap_or_else(|e| panic!("{e}")))
+        .collect();
+    let defs: Vec<&Document> = docs.iter().collect();
+    let (mut loaded, mut compared) = (0, 0);
+    let mut all = Vec::new();
+    for doc in &docs {
+        for raw in &doc.graphs {
+            let supported = raw.nodes.iter().all(|n| {
+                n.ty.as_deref().and_then(Type::from_name).is_some_and(|t| {
+                    signatures::candidates(&n.category, t).any(|s| {
+                        n.inputs.iter().all(|p| {
+                            s.input(&p.name)
+                                .is_some_and(|(_, want, _)| p.ty.as_deref() == Some(want.name()))
+                        })
+                    })
+                }) && n
+                    .inputs
+                    .iter()
+                    .all(|p| p.output.is_none() && p.nodegraph.is_none())
+                    && n.category != "image"
+            }) && raw.outputs.iter().all(|o| {
+                o.ty.as_deref()
+                    .and_then(Type::from_name)
+                    .is_some_and(|t| t.is_varying())
+            });
+            if !supported {
+                continue;
+            }
+            let g = Graph::build(doc, &raw.name, &defs).unwrap_or_else(|e| panic!("{e}"));
+            loaded += 1;
+            all.push(g.clone());
+            let Some(nd) = raw
+                .nodedef
+                .as_deref()
+                .and_then(|d| SIGNATURES.iter().find(|s| s.def == d))
+            else {
+                continue;
+            };
+            // The node itself, all inputs at their defaults.
+            let text = format!(
+                "<materialx version=\"1.39\"><nodegraph name=\"direct\"><{0} name=\"n\" type=\"{1}\" /><output name=\"out\" type=\"{1}\" nodename=\"n\" /></nodegraph></materialx>",
+                nd.node,
+                nd.out.name()
+            );
+            let direct_doc = Document::parse("direct.mtlx", &text).unwrap();
+            let direct = Graph::build(&direct_doc, "direct", &[]).unwrap_or_else(|e| panic!("{e}"));
+            for p in grid() {
+                let (a, b) = (evaluate(&g, &p)[0], evaluate(&direct, &p)[0]);
+                for (x, y) in a.channels().iter().zip(b.channels()) {
+                    // Same operations in the same order: equal to one rounding of each input's magnitude.
+                    assert!(
+                        (x - y).abs() <= 2.0 * f32::EPSILON * x.abs().max(1.0),
+                        "{} vs node {}: {a:?} != {b:?} at {p:?}",
+                        raw.name,
+                        nd.def
+                    );
+                }
+            }
+            compared += 1;
+        }
+    }
+    eprintln!("{loaded} MaterialX library graphs loaded, {compared} compared with their node");
+    assert!(
+        loaded >= 10 && compared >= 1,
+        "{loaded} loaded, {compared} compared"
+    );
+    // And the GLSL of every one of them equals the CPU.
+    assert_gpu_equals_cpu(&all);
+}
+
+/// Topological order: every node reads only earlier nodes.
+#[test]
+fn nodes_are_ordered_from_the_outputs() {
+    for g in library::load_all().unwrap() {
+        for (i, n) in g.nodes.iter().enumerate() {
+            for s in &n.inputs {
+                if let Source::Node(j) = s {
+                    assert!(*j < i, "{}: node {} reads later node {j}", g.name, n.name);
+                }
+            }
+        }
+    }
+}
+
+/// The on-disk cache: a second compile of the same text is a cache hit with
+/// the same SPIR-V; another text compiles anew.
+#[test]
+fn compiled_spirv_is_cached_by_content() {
+    let dir = std::env::temp_dir().join(format!("stereocache-spv-test-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let src = "#version 460\nlayout(local_size_x = 1) in;\nvoid main() {}\n";
+    let a = compile::compile_in(&dir, "t", src).unwrap();
+    let b = compile::compile_in(&dir, "t", src).unwrap();
+    assert!(!a.cached && b.cached);
+    assert_eq!(a.spirv, b.spirv);
+    assert_eq!(a.path, b.path);
+    let c = compile::compile_in(&dir, "t", &src.replace("{}", "{ }")).unwrap();
+    assert!(!c.cached && c.path != a.path);
+    let e = compile::compile_in(&dir, "t", "#version 460\nvoid main() { nope; }\n").unwrap_err();
+    assert!(e.contains("glslc failed"), "{e}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// The generated GLSL of every shipped graph (and of the library graphs of
+/// the package test) evaluated by a compute shader equals the CPU evaluator
+/// on the grid.
+#[test]
+fn glsl_evaluation_equals_the_cpu_evaluator() {
+    assert_gpu_equals_cpu(&library::load_all().unwrap());
+}
+
+/// Evaluates `graphs` on the GPU (harness) and the CPU at the grid; every
+/// float agrees within TOLERANCE (NaN only where both are NaN).
+fn assert_gpu_equals_cpu(graphs: &[Graph]) {
+    let ctx = context();
+    let points = grid();
+    let (gpu, _) = harness::evaluate(&ctx, graphs, &points).unwrap_or_else(|e| panic!("{e}"));
+    let mut worst = (0.0f32, String::new());
+    let mut bad = Vec::new();
+    for (g, vals) in graphs.iter().zip(&gpu) {
+        for (p, got) in points.iter().zip(vals) {
+            let want: Vec<f32> = evaluate(g, p)
+                .iter()
+                .flat_map(|v| v.channels().to_vec())
+                .collect();
+            assert_eq!(want.len(), got.len(), "{}", g.name);
+            for (k, (x, y)) in want.iter().zip(got).enumerate() {
+                let err = match (x.is_nan(), y.is_nan()) {
+                    (true, true) => 0.0,
+                    (false, false) => (x - y).abs() / x.abs().max(1.0),
+                    _ => f32::INFINITY,
+                };
+                let what = || format!("{} float {k} at {p:?}: cpu {x} gpu {y}", g.name);
+                if err > worst.0 {
+                    worst = (err, what());
+                }
+                if err > TOLERANCE {
+                    bad.push(what());
+                }
+            }
+        }
+    }
+    eprintln!("largest relative difference {:e}: {}", worst.0, worst.1);
+    assert!(
+        bad.is_empty(),
+        "{} value(s) differ:\n{}",
+        bad.len(),
+        bad[..bad.len().min(30)].join("\n")
+    );
+    assert_no_validation_messages(&ctx);
+}
+
+/// One graph per supported signature: the node with each float/vector input
+/// connected to its own varying source (positive, distinct per input, from
+/// position and uv), `direct_<ND>`; integer and string inputs at their defaults.
+fn one_node_graphs() -> Vec<Graph> {
+    let mut text = String::from("<?xml version=\"1.0\"?>\n<materialx version=\"1.39\">\n");
+    let mut names = Vec::new();
+    // Nodes with no float/vector input (convert_integer_float, ...) are constants, folded at load.
+    let varying = |s: &&signatures::Sig| {
+        s.inputs.iter().any(|i| i.1.is_varying())
+            || matches!(s.node, "texcoord" | "position" | "normal" | "tangent")
+    };
+    for s in SIGNATURES
+        .iter()
+        .filter(|s| s.node != "image")
+        .filter(varying)
+    {
+        let mut g = format!("<nodegraph name=\"direct_{}\">\n", s.def);
+        g.push_str(
+            "<position name=\"p\" type=\"vector3\" /><texcoord name=\"t\" type=\"vector2\" />\n",
+        );
+        let mut inputs = String::new();
+        for (k, (name, ty, default)) in s.inputs.iter().enumerate() {
+            if !ty.is_varying() {
+                // Declared, so the overload is the one under test (ifgreater_floatI, ...).
+                inputs.push_str(&format!(
+                    "<input name=\"{name}\" type=\"{ty}\" value=\"{default}\" />"
+                ));
+                continue;
+            }
+            let c = 0.5 + 0.37 * k as f32;
+            // Base sources: |p| + 0.25 (vector3) and |t| + 0.25 (vector2).
+            g.push_str(&format!(
+                "<absval name=\"pa{k}\" type=\"vector3\"><input name=\"in\" type=\"vector3\" nodename=\"p\" /></absval>\n\
+                 <add name=\"v{k}\" type=\"vector3\"><input name=\"in1\" type=\"vector3\" nodename=\"pa{k}\" /><input name=\"in2\" type=\"float\" value=\"{c}\" /></add>\n\
+                 <absval name=\"ta{k}\" type=\"vector2\"><input name=\"in\" type=\"vector2\" nodename=\"t\" /></absval>\n\
+                 <add name=\"w{k}\" type=\"vector2\"><input name=\"in1\" type=\"vector2\" nodename=\"ta{k}\" /><input name=\"in2\" type=\"float\" value=\"{c}\" /></add>\n"
+            ));
+            let src = match ty {
+                Type::Vector3 => format!("v{k}"),
+                Type::Vector2 => format!("w{k}"),
+                Type::Float => {
+                    g.push_str(&format!("<extract name=\"s{k}\" type=\"float\"><input name=\"in\" type=\"vector3\" nodename=\"v{k}\" /><input name=\"index\" type=\"integer\" value=\"{}\" /></extract>\n", k % 3));
+                    format!("s{k}")
+                }
+                t => {
+                    g.push_str(&format!("<convert name=\"s{k}\" type=\"{t}\"><input name=\"in\" type=\"vector3\" nodename=\"v{k}\" /></convert>\n"));
+                    format!("s{k}")
+                }
+            };
+            inputs.push_str(&format!(
+                "<input name=\"{name}\" type=\"{ty}\" nodename=\"{src}\" />"
+            ));
+        }
+        g.push_str(&format!("<{0} name=\"n\" type=\"{1}\">{inputs}</{0}>\n<output name=\"out\" type=\"{1}\" nodename=\"n\" />\n</nodegraph>\n", s.node, s.out));
+        text.push_str(&g);
+        names.push(format!("direct_{}", s.def));
+    }
+    text.push_str("</materialx>\n");
+    let doc = Document::parse("one_node_graphs.mtlx", &text).unwrap();
+    names
+        .iter()
+        .map(|n| Graph::build(&doc, n, &[]).unwrap_or_else(|e| panic!("{e}")))
+        .collect()
+}
+
+/// Every supported signature, its node fed by varying inputs: the GLSL equals
+/// the CPU evaluator on the grid (NaN where both are NaN: ln, sqrt and pow
+/// are fed positive values, so none is expected).
+#[test]
+fn glsl_equals_the_cpu_for_every_signature() {
+    let graphs = one_node_graphs();
+    assert!(graphs.len() > 300, "{}", graphs.len());
+    for g in &graphs {
+        let n = g
+            .nodes
+            .last()
+            .unwrap_or_else(|| panic!("{}: no nodes, outputs {:?}", g.name, g.outputs));
+        assert_eq!(
+            format!("direct_{}", n.sig.def),
+            g.name,
+            "the node under test is not folded away: {:?}",
+            g.nodes.iter().map(|n| n.sig.def).collect::<Vec<_>>()
+        );
+    }
+    assert_gpu_equals_cpu(&graphs);
+}
+
+/// Relative tolerance (of max(1, |value|)) for GLSL against the CPU: 64 ulp.
+/// Additions, subtractions and multiplications are correctly rounded and
+/// unfused on both sides (`precise`), so they agree exactly; the difference
+/// comes from the GPU built-ins that are not (division, sqrt, sin/cos, pow,
+/// exp, log: a few ulp each on llvmpipe). An output passes through at most
+/// about eight of them, each error at most 4 ulp and amplified at most 2x by
+/// the arithmetic after it: 8 * 4 * 2 = 64 ulp = 64 * 2^-23.
+const TOLERANCE: f32 = 64.0 * f32::EPSILON;
