@@ -16,7 +16,9 @@ codename=$(. /etc/os-release && echo "${VERSION_CODENAME:-}")
 packages=(libvulkan1 libvulkan-dev vulkan-tools glslc vulkan-validationlayers mesa-vulkan-drivers)
 # `setup.sh --test` also installs what only the test suite needs: Debian's
 # chromium, to load the HTML report in a real headless browser.
-if [ "${1:-}" = "--test" ]; then packages+=(chromium); fi
+# and python3-venv, for the MaterialX Python package whose documents the
+# material-graph tests read.
+if [ "${1:-}" = "--test" ]; then packages+=(chromium python3 python3-venv); fi
 
 have_all() {
   for p in "${packages[@]}"; do
@@ -78,16 +80,24 @@ SRC
   log "installed; mesa-vulkan-drivers $(dpkg-query -W -f='${Version}' mesa-vulkan-drivers)"
 fi
 
-# The MaterialX Python package: its libraries/ are the import test corpus and
-# the reference node signatures of tests/material_graphs.rs.
-if command -v python3 >/dev/null && python3 -c "import MaterialX" 2>/dev/null; then
-  log "MaterialX Python package present ($(python3 -c 'import MaterialX; print(MaterialX.__version__)' 2>/dev/null || echo '?'))"
-elif command -v python3 >/dev/null; then
-  log "installing the MaterialX Python package (pip, 1.39.x): material-graph tests"
-  python3 -m pip install --quiet "MaterialX>=1.39,<1.40" || { echo "[setup] error: pip could not install MaterialX" >&2; exit 1; }
-else
-  echo "[setup] error: python3 not found (needed for the MaterialX package the material-graph tests read)" >&2
-  exit 1
+# The MaterialX Python package (tests only): its libraries/ are the import
+# test corpus and the reference node signatures of tests/material_graphs.rs.
+# Debian's python3 refuses system-wide pip installs (PEP 668), so it goes into
+# a virtual environment in the checkout, .tools/venv, which the tests look in
+# first; a python3 that already has the package is used as it is.
+if [ "${1:-}" = "--test" ]; then
+  root=$(cd "$(dirname "$0")/.." && pwd)
+  venv="$root/.tools/venv"
+  if [ -x "$venv/bin/python3" ] && "$venv/bin/python3" -c "import MaterialX" 2>/dev/null; then
+    log "MaterialX Python package present in .tools/venv"
+  elif python3 -c "import MaterialX" 2>/dev/null; then
+    log "MaterialX Python package present ($(python3 -c 'import MaterialX; print(MaterialX.__version__)'))"
+  else
+    log "installing the MaterialX Python package (1.39.x) into .tools/venv: material-graph tests"
+    python3 -m venv "$venv" || { echo "[setup] error: python3 -m venv failed (python3-venv missing?)" >&2; exit 1; }
+    "$venv/bin/python3" -m pip install --quiet "MaterialX>=1.39,<1.40" \
+      || { echo "[setup] error: pip could not install MaterialX into .tools/venv" >&2; exit 1; }
+  fi
 fi
 
 if ! command -v cargo >/dev/null; then

@@ -10,13 +10,17 @@ use stereocache::materials::graph::Source;
 use stereocache::materials::signatures::{self, SIGNATURES};
 use stereocache::materials::{compile, evaluate, harness, library, Document, Geom, Graph, Type};
 
-/// The MaterialX Python package's `libraries/` folder (scripts/setup.sh
-/// installs the package with pip), or `$MATERIALX_LIBRARIES`.
+/// The MaterialX Python package's `libraries/` folder, or
+/// `$MATERIALX_LIBRARIES`. `scripts/setup.sh --test` installs the package into
+/// the checkout's `.tools/venv` unless `python3` already has it; that
+/// environment's interpreter is asked first.
 fn materialx_libraries() -> Option<PathBuf> {
     if let Some(p) = std::env::var_os("MATERIALX_LIBRARIES") {
         return Some(PathBuf::from(p));
     }
-    let out = std::process::Command::new("python3")
+    let venv = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(".tools/venv/bin/python3");
+    let python = if venv.exists() { venv } else { PathBuf::from("python3") };
+    let out = std::process::Command::new(python)
         .args([
             "-c",
             "import MaterialX, os; print(os.path.dirname(MaterialX.__file__))",
