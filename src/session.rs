@@ -6,7 +6,7 @@ use crate::camera::{HeadPose, StereoCamera, DEFAULT_IPD};
 use crate::error::{Error, Result};
 use crate::gpu::{GpuContext, GpuOptions};
 use crate::methods::{Method, MethodKind, RenderSettings};
-use crate::rt::{RtBackend, RtChoice, SceneGpu};
+use crate::rt::{BvhLayout, RtBackend, RtChoice, SceneGpu};
 use crate::scene::{apply_default_lighting, load_scene, DefaultLighting, Scene};
 use glam::{Quat, Vec3};
 use std::sync::Arc;
@@ -56,8 +56,20 @@ impl Session {
 
     /// Uploads `scene` on an existing context (several backends on one device).
     pub fn with_context(ctx: Arc<GpuContext>, scene: Scene, rt: RtChoice) -> Result<Session> {
+        Self::with_layout(ctx, scene, rt, None)
+    }
+
+    /// As `with_context` with the software BVH layout forced (`None`: the
+    /// automatic choice, `BvhLayout::auto`).
+    pub fn with_layout(
+        ctx: Arc<GpuContext>,
+        scene: Scene,
+        rt: RtChoice,
+        layout: Option<BvhLayout>,
+    ) -> Result<Session> {
         let backend = rt.resolve(&ctx).map_err(Error::Usage)?;
-        let scene_gpu = Arc::new(SceneGpu::upload(&ctx, &scene, backend)?);
+        let layout = layout.unwrap_or_else(|| BvhLayout::auto(&scene));
+        let scene_gpu = Arc::new(SceneGpu::upload_with(&ctx, &scene, backend, layout)?);
         Ok(Session {
             ctx,
             scene,

@@ -475,16 +475,7 @@ impl SceneGpu {
                             == AlphaMode::Opaque,
                     })
                     .collect();
-                let tlas_instances: Vec<TlasInstance> = scene
-                    .instances
-                    .iter()
-                    .enumerate()
-                    .map(|(i, inst)| TlasInstance {
-                        transform: row_major_3x4(relative_transform(inst.transform, origin)),
-                        custom_index: i as u32,
-                        blas: inst.mesh as usize,
-                    })
-                    .collect();
+                let tlas_instances = tlas_instances(&rest, &instance_ids, origin);
                 let accel = AccelStructures::build(ctx, &inputs, &tlas_instances)?;
                 (
                     Buffer::storage(ctx, "bvh.nodes.unused", 16)?,
@@ -596,11 +587,12 @@ impl SceneGpu {
 
     /// Moves the instances to `transforms` (object-to-world, one per
     /// instance, e.g. `Scene::instance_transforms_at`): the instance buffer is
-    /// rewritten and the top level of the ray-tracing structure rebuilt —
+    /// rewritten and the top level of the ray-tracing structure rebuilt,
+    /// the BLAS untouched — ray queries: the TLAS on the device, in place;
     /// software two-level: the TLAS on the CPU, then the front of the BVH
-    /// buffers uploaded (the BLAS are untouched). Not yet: the ray-query
-    /// TLAS and emissive triangles on moving instances (their NEE samples
-    /// stay at rest); those are refused / documented (issue 16).
+    /// buffers uploaded. The flattened BVH cannot move instances (an error).
+    /// Not yet: emissive triangles on moving instances (their NEE samples
+    /// stay at rest, issue 16).
     pub fn set_instance_transforms(&mut self, transforms: &[Mat4]) -> GpuResult<()> {
         if transforms.len() != self.instance_ids.len() {
             return Err(GpuError::Unsupported(format!(
@@ -609,9 +601,14 @@ impl SceneGpu {
                 self.instance_ids.len()
             )));
         }
+        if let Some(accel) = self._accel.as_mut() {
+            accel.rebuild_tlas(&tlas_instances(transforms, &self.instance_ids, self.origin))?;
+            let records = instance_records(transforms, &self.instance_ids, self.origin);
+            return self._buffers[BUF_INSTANCES].upload(bytemuck::cast_slice(&records));
+        }
         let Some(bvh) = self.two_level.as_mut() else {
             return Err(GpuError::Unsupported(
-                "instances can move only with the software backend's two-level BVH".into(),
+                "the flattened software BVH cannot move instances; upload with BvhLayout::TwoLevel".into(),
             ));
         };
         bvh.rebuild_tlas(transforms);
@@ -629,6 +626,21 @@ impl SceneGpu {
         let records = instance_records(transforms, &self.instance_ids, self.origin);
         self._buffers[BUF_INSTANCES].upload(bytemuck::cast_slice(&records))
     }
+}
+
+/// The TLAS instances (custom index = instance, BLAS = its mesh) for
+/// transforms rebased on `origin`.
+fn tlas_instances(transforms: &[Mat4], ids: &[[u32; 4]], origin: DVec3) -> Vec<TlasInstance> {
+    transforms
+        .iter()
+        .zip(ids)
+        .enumerate()
+        .map(|(i, (t, id))| TlasInstance {
+            transform: row_major_3x4(relative_transform(*t, origin)),
+            custom_index: i as u32,
+            blas: id[0] as usize,
+        })
+        .collect()
 }
 
 /// Indices into `SceneGpu::_buffers` (the order `upload` keeps them in).
