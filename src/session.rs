@@ -78,6 +78,20 @@ impl Session {
         })
     }
 
+    /// Poses the scene's instances at time `t` (seconds: the replay's frame
+    /// time, so a 90 Hz and a 45 Hz replay see the same motion) and uploads
+    /// them (`SceneGpu::set_instance_transforms`). Nothing happens for a
+    /// static scene. Returns the wall time it took (animation sampling, TLAS
+    /// rebuild, upload).
+    pub fn pose_instances(&self, t: f64) -> Result<std::time::Duration> {
+        let start = std::time::Instant::now();
+        if self.scene.is_animated() {
+            let transforms = self.scene.instance_transforms_at(t as f32);
+            self.scene_gpu.set_instance_transforms(&transforms)?;
+        }
+        Ok(start.elapsed())
+    }
+
     /// Loads a scene by name or path and gives it default lighting when it has none.
     pub fn load_scene(spec: &str, lighting: &DefaultLighting) -> Result<Scene> {
         let mut scene = load_scene(spec)?;

@@ -224,8 +224,8 @@ fn moved_instances_agree_across_backends() {
     );
     let scene = cornell_instanced();
     let n = scene.instances.len();
-    let mut two = layout_session(&ctx, &scene, RtChoice::Software, BvhLayout::TwoLevel);
-    let mut rq = has_query.then(|| layout_session(&ctx, &scene, RtChoice::Query, BvhLayout::TwoLevel));
+    let two = layout_session(&ctx, &scene, RtChoice::Software, BvhLayout::TwoLevel);
+    let rq = has_query.then(|| layout_session(&ctx, &scene, RtChoice::Query, BvhLayout::TwoLevel));
     let cam = two.camera(&CameraSelect::Default, W, H, None, None).unwrap();
     for t in [0.25f32, 0.5, 1.0] {
         let moved: Vec<Mat4> = scene
@@ -244,8 +244,7 @@ fn moved_instances_agree_across_backends() {
                 }
             })
             .collect();
-        Arc::get_mut(&mut two.scene_gpu)
-            .expect("no method holds the scene yet")
+        two.scene_gpu
             .set_instance_transforms(&moved)
             .expect("software two-level instances move");
         let g2 = gpu_hits(&primary(&two, &cam));
@@ -259,9 +258,8 @@ fn moved_instances_agree_across_backends() {
         let flat = layout_session(&ctx, &at_pose, RtChoice::Software, BvhLayout::Flattened);
         let gf = gpu_hits(&primary(&flat, &cam));
         assert_agree(&format!("t = {t}: moved two-level vs flattened at the pose"), &g2, &gf);
-        if let Some(rq) = rq.as_mut() {
-            Arc::get_mut(&mut rq.scene_gpu)
-                .expect("no method holds the scene yet")
+        if let Some(rq) = rq.as_ref() {
+            rq.scene_gpu
                 .set_instance_transforms(&moved)
                 .expect("the ray-query TLAS is rebuilt");
             let gq = gpu_hits(&primary(rq, &cam));

@@ -18,7 +18,7 @@ use crate::scene::{
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
 use glam::{DVec3, Mat4, Vec3};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 
 /// Specialization constant ids (shaders/common/features.glsl), from the
 /// shader interface (src/interface/scene.rs).
@@ -161,13 +161,14 @@ pub struct SceneGpu {
     pub bytes: u64,
     texture_count: u32,
     /// The two-level structure, kept to rebuild its top level when instances move.
-    two_level: Option<TwoLevelBvh>,
+    /// (Behind a lock: methods share the scene through an `Arc`.)
+    two_level: Mutex<Option<TwoLevelBvh>>,
     /// Per instance, `InstanceGpu::mesh_pad` (mesh, 1 + first emitter).
     instance_ids: Vec<[u32; 4]>,
     _buffers: Vec<Buffer>,
     _textures: Vec<GpuTexture>,
     _samplers: Vec<Sampler>,
-    _accel: Option<AccelStructures>,
+    _accel: Mutex<Option<AccelStructures>>,
 }
 
 impl SceneGpu {
@@ -534,7 +535,7 @@ impl SceneGpu {
             triangle_count: scene.instanced_triangle_count(),
             bytes,
             texture_count,
-            two_level,
+            two_level: Mutex::new(two_level),
             instance_ids,
             _buffers: vec![
                 b_vertices,
@@ -552,7 +553,7 @@ impl SceneGpu {
             ],
             _textures: all_textures,
             _samplers: vec![tex_sampler, env_sampler],
-            _accel: accel,
+            _accel: Mutex::new(accel),
         })
     }
 
@@ -581,8 +582,13 @@ impl SceneGpu {
             .set(spec_id::ENV_KIND, env_kind(env))
             .set(spec_id::MAX_BOUNCES, max_bounces)
             .set(spec_id::TEXTURE_COUNT, self.texture_count)
-            .flag(spec_id::TWO_LEVEL, self.two_level.is_some());
+            .flag(spec_id::TWO_LEVEL, self.bvh_layout_in_use() == Some(BvhLayout::TwoLevel));
         s
+    }
+
+    /// The software layout the pipelines are compiled for (None: ray queries).
+    pub fn bvh_layout_in_use(&self) -> Option<BvhLayout> {
+        (self.backend == RtBackend::Software).then_some(self.bvh_layout)
     }
 
     /// Moves the instances to `transforms` (object-to-world, one per
@@ -593,7 +599,8 @@ impl SceneGpu {
     /// buffers uploaded. The flattened BVH cannot move instances (an error).
     /// Not yet: emissive triangles on moving instances (their NEE samples
     /// stay at rest, issue 16).
-    pub fn set_instance_transforms(&mut self, transforms: &[Mat4]) -> GpuResult<()> {
+    /// Call between frames (it submits and waits).
+    pub fn set_instance_transforms(&self, transforms: &[Mat4]) -> GpuResult<()> {
         if transforms.len() != self.instance_ids.len() {
             return Err(GpuError::Unsupported(format!(
                 "{} instance transforms for {} instances",
@@ -601,12 +608,13 @@ impl SceneGpu {
                 self.instance_ids.len()
             )));
         }
-        if let Some(accel) = self._accel.as_mut() {
+        if let Some(accel) = self._accel.lock().expect("accel lock").as_mut() {
             accel.rebuild_tlas(&tlas_instances(transforms, &self.instance_ids, self.origin))?;
             let records = instance_records(transforms, &self.instance_ids, self.origin);
             return self._buffers[BUF_INSTANCES].upload(bytemuck::cast_slice(&records));
         }
-        let Some(bvh) = self.two_level.as_mut() else {
+        let mut two_level = self.two_level.lock().expect("BVH lock");
+        let Some(bvh) = two_level.as_mut() else {
             return Err(GpuError::Unsupported(
                 "the flattened software BVH cannot move instances; upload with BvhLayout::TwoLevel".into(),
             ));
