@@ -17,7 +17,9 @@ use stereocache::scene::{load_gltf, AnimationSelection};
 const EPS: f32 = 1e-6;
 
 fn data(rel: &str) -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data").join(rel)
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data")
+        .join(rel)
 }
 
 fn close(a: Vec4, b: Vec4, what: &str) {
@@ -93,7 +95,11 @@ fn linear_rotation_is_slerp_along_the_shorter_arc() {
     close(c.sample(1.0), rot(y, 30.0), "a third");
     close(c.sample(2.0), rot(y, 60.0), "two thirds");
     // The same end orientation written as −q: the shorter arc is taken.
-    close(slerp(Vec4::W, -rot(y, 90.0), 0.5), rot(y, 45.0), "negated end");
+    close(
+        slerp(Vec4::W, -rot(y, 90.0), 0.5),
+        rot(y, 45.0),
+        "negated end",
+    );
     // 0° → 180° about +Z written exactly as (0, 0, 1, 0) (dot = 0; f32
     // cos 90° would make it −4e-8 and flip the arc): half way is 90°.
     close(
@@ -184,14 +190,7 @@ fn animations_loop_over_their_duration() {
 #[test]
 fn malformed_channels_are_refused() {
     let ch = |interp, times: Vec<f32>, n: usize| {
-        Channel::new(
-            0,
-            TrsPath::Translation,
-            interp,
-            times,
-            vec![Vec4::ZERO; n],
-        )
-        .map(|_| ())
+        Channel::new(0, TrsPath::Translation, interp, times, vec![Vec4::ZERO; n]).map(|_| ())
     };
     use Interpolation::*;
     assert_eq!(ch(Linear, vec![], 0), Err(ChannelError::NoKeys));
@@ -288,10 +287,17 @@ fn imported_animation_poses_instances_as_the_node_tree_says() {
     a.select(&AnimationSelection::Index(0)).unwrap();
     let m = s.instance_transforms_at(0.5);
     assert_eq!(m[1], s.instances[1].transform);
-    check(m[0], expect_moving(Vec3::new(0.5, 0.0, 0.0), 22.5), "slide only");
+    check(
+        m[0],
+        expect_moving(Vec3::new(0.5, 0.0, 0.0), 22.5),
+        "slide only",
+    );
     let a = s.animation.as_mut().unwrap();
     let e = a.select(&"jump".parse().unwrap()).unwrap_err();
-    assert!(e.contains("'jump'") && e.contains("0 'slide'") && e.contains("1 'hop'"), "{e}");
+    assert!(
+        e.contains("'jump'") && e.contains("0 'slide'") && e.contains("1 'hop'"),
+        "{e}"
+    );
     assert!(a.select(&AnimationSelection::Index(2)).is_err());
 }
 
@@ -310,7 +316,10 @@ fn expect_error(name: &str, phrases: &[&str]) {
         Ok(_) => panic!("{name}: loaded, expected an error"),
         Err(e) => e.to_string(),
     };
-    assert!(e.contains(name), "{name}: message does not name the file: {e}");
+    assert!(
+        e.contains(name),
+        "{name}: message does not name the file: {e}"
+    );
     for p in phrases {
         assert!(e.contains(p), "{name}: expected '{p}' in: {e}");
     }
@@ -322,6 +331,9 @@ fn malformed_animation_files_are_one_line_errors_naming_animation_and_channel() 
     let at = "animation 'slide' channel 0";
     expect_error("anim_not_increasing.gltf", &[at, "not strictly increasing"]);
     expect_error("anim_count_mismatch.gltf", &[at, "2 values for 3 keys"]);
-    expect_error("anim_unknown_path.gltf", &[at, "unknown target path 'colour'"]);
+    expect_error(
+        "anim_unknown_path.gltf",
+        &[at, "unknown target path 'colour'"],
+    );
     expect_error("anim_nan_key.gltf", &[at, "not finite"]);
 }

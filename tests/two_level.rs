@@ -87,7 +87,8 @@ fn cpu_hits(cam: &StereoCamera, trace: impl Fn(Vec3, Vec3) -> Option<CpuHit>) ->
         let v = cam.eye(eye);
         for y in 0..H {
             for x in 0..W {
-                let d = v.ray_direction(Vec2::new(x as f32 + 0.5, y as f32 + 0.5), UVec2::new(W, H));
+                let d =
+                    v.ray_direction(Vec2::new(x as f32 + 0.5, y as f32 + 0.5), UVec2::new(W, H));
                 out.push(match trace(v.position, d) {
                     Some(h) => [
                         h.instance as f32,
@@ -129,7 +130,11 @@ fn disagreements(a: &[[f32; 3]], b: &[[f32; 3]]) -> usize {
 
 fn assert_agree(what: &str, a: &[[f32; 3]], b: &[[f32; 3]]) {
     let hits = a.iter().filter(|h| h[0] >= 0.0).count();
-    assert!(hits > a.len() / 4, "{what}: only {hits} of {} pixels hit", a.len());
+    assert!(
+        hits > a.len() / 4,
+        "{what}: only {hits} of {} pixels hit",
+        a.len()
+    );
     let bad = disagreements(a, b);
     assert!(
         bad <= a.len() / 1000,
@@ -149,11 +154,16 @@ fn cpu_two_level_matches_flattened() {
         let cam = camera_of(&scene);
         let flat = SoftwareBvh::build(&scene);
         let two = TwoLevelBvh::build_at(&scene, flat.origin);
-        assert!(two.max_depth < stereocache::rt::TRAVERSAL_STACK_SIZE, "{name}");
+        assert!(
+            two.max_depth < stereocache::rt::TRAVERSAL_STACK_SIZE,
+            "{name}"
+        );
         let a = cpu_hits(&cam, |o, d| {
             flat.closest_hit(flat.to_local(o.as_dvec3()), d, 0.0, 1e30)
         });
-        let b = cpu_hits(&cam, |o, d| two.closest_hit(two.to_local(o.as_dvec3()), d, 0.0, 1e30));
+        let b = cpu_hits(&cam, |o, d| {
+            two.closest_hit(two.to_local(o.as_dvec3()), d, 0.0, 1e30)
+        });
         assert_agree(&format!("{name}: CPU flattened vs two-level"), &a, &b);
     }
 }
@@ -187,19 +197,22 @@ fn two_level_agrees_with_flattened_query_and_cpu() {
         ctx.ray_query_enabled(),
         "ray queries (the backend compared against)",
     );
-    for (name, scene) in [
-        ("cornell+copies", cornell_instanced()),
-        ("hairball", shipped("hairball")),
-    ] {
+    // (hairball: flattened vs query in tests/backends.rs, two-level vs
+    // flattened on the CPU above; its GPU sessions here cost minutes.)
+    for (name, scene) in [("cornell+copies", cornell_instanced())] {
         let two = layout_session(&ctx, &scene, RtChoice::Software, BvhLayout::TwoLevel);
         assert_eq!(two.scene_gpu.bvh_layout, BvhLayout::TwoLevel);
         let flat = layout_session(&ctx, &scene, RtChoice::Software, BvhLayout::Flattened);
-        let cam = two.camera(&CameraSelect::Default, W, H, None, None).unwrap();
+        let cam = two
+            .camera(&CameraSelect::Default, W, H, None, None)
+            .unwrap();
         let g2 = gpu_hits(&primary(&two, &cam));
         let gf = gpu_hits(&primary(&flat, &cam));
         assert_agree(&format!("{name}: GPU two-level vs flattened"), &g2, &gf);
         let cpu = TwoLevelBvh::build_at(&scene, two.scene_gpu.origin);
-        let c2 = cpu_hits(&cam, |o, d| cpu.closest_hit(cpu.to_local(o.as_dvec3()), d, 0.0, 1e30));
+        let c2 = cpu_hits(&cam, |o, d| {
+            cpu.closest_hit(cpu.to_local(o.as_dvec3()), d, 0.0, 1e30)
+        });
         assert_agree(&format!("{name}: GPU vs CPU two-level"), &g2, &c2);
         if has_query {
             let rq = layout_session(&ctx, &scene, RtChoice::Query, BvhLayout::TwoLevel);
@@ -210,7 +223,7 @@ fn two_level_agrees_with_flattened_query_and_cpu() {
     assert_no_validation_messages(&ctx);
 }
 
-/// The copies and a sphere move (translate, rotate, scale) over three
+/// The copies and a sphere move (translate, rotate, scale) at two
 /// times; after each `set_instance_transforms` the software two-level
 /// traversal agrees with its CPU twin at the moved pose, with the flattened
 /// BVH of the scene uploaded at that pose, and with ray queries whose TLAS
@@ -226,8 +239,10 @@ fn moved_instances_agree_across_backends() {
     let n = scene.instances.len();
     let two = layout_session(&ctx, &scene, RtChoice::Software, BvhLayout::TwoLevel);
     let rq = has_query.then(|| layout_session(&ctx, &scene, RtChoice::Query, BvhLayout::TwoLevel));
-    let cam = two.camera(&CameraSelect::Default, W, H, None, None).unwrap();
-    for t in [0.25f32, 0.5, 1.0] {
+    let cam = two
+        .camera(&CameraSelect::Default, W, H, None, None)
+        .unwrap();
+    for t in [0.5f32, 1.0] {
         let moved: Vec<Mat4> = scene
             .instances
             .iter()
@@ -249,7 +264,9 @@ fn moved_instances_agree_across_backends() {
             .expect("software two-level instances move");
         let g2 = gpu_hits(&primary(&two, &cam));
         let cpu = TwoLevelBvh::build_with(&scene, two.scene_gpu.origin, &moved);
-        let c2 = cpu_hits(&cam, |o, d| cpu.closest_hit(cpu.to_local(o.as_dvec3()), d, 0.0, 1e30));
+        let c2 = cpu_hits(&cam, |o, d| {
+            cpu.closest_hit(cpu.to_local(o.as_dvec3()), d, 0.0, 1e30)
+        });
         assert_agree(&format!("t = {t}: GPU vs CPU two-level"), &g2, &c2);
         let mut at_pose = scene.clone();
         for (inst, m) in at_pose.instances.iter_mut().zip(&moved) {
@@ -257,13 +274,21 @@ fn moved_instances_agree_across_backends() {
         }
         let flat = layout_session(&ctx, &at_pose, RtChoice::Software, BvhLayout::Flattened);
         let gf = gpu_hits(&primary(&flat, &cam));
-        assert_agree(&format!("t = {t}: moved two-level vs flattened at the pose"), &g2, &gf);
+        assert_agree(
+            &format!("t = {t}: moved two-level vs flattened at the pose"),
+            &g2,
+            &gf,
+        );
         if let Some(rq) = rq.as_ref() {
             rq.scene_gpu
                 .set_instance_transforms(&moved)
                 .expect("the ray-query TLAS is rebuilt");
             let gq = gpu_hits(&primary(rq, &cam));
-            assert_agree(&format!("t = {t}: moved two-level vs moved ray query"), &g2, &gq);
+            assert_agree(
+                &format!("t = {t}: moved two-level vs moved ray query"),
+                &g2,
+                &gq,
+            );
         }
     }
     assert_no_validation_messages(&ctx);

@@ -582,7 +582,10 @@ impl SceneGpu {
             .set(spec_id::ENV_KIND, env_kind(env))
             .set(spec_id::MAX_BOUNCES, max_bounces)
             .set(spec_id::TEXTURE_COUNT, self.texture_count)
-            .flag(spec_id::TWO_LEVEL, self.bvh_layout_in_use() == Some(BvhLayout::TwoLevel));
+            .flag(
+                spec_id::TWO_LEVEL,
+                self.bvh_layout_in_use() == Some(BvhLayout::TwoLevel),
+            );
         s
     }
 
@@ -616,7 +619,8 @@ impl SceneGpu {
         let mut two_level = self.two_level.lock().expect("BVH lock");
         let Some(bvh) = two_level.as_mut() else {
             return Err(GpuError::Unsupported(
-                "the flattened software BVH cannot move instances; upload with BvhLayout::TwoLevel".into(),
+                "the flattened software BVH cannot move instances; upload with BvhLayout::TwoLevel"
+                    .into(),
             ));
         };
         bvh.rebuild_tlas(transforms);

@@ -74,9 +74,21 @@ fn instance_bounds(object: &Aabb, m: Mat4) -> Aabb {
     let mut b = Aabb::empty();
     for i in 0..8 {
         let c = Vec3::new(
-            if i & 1 == 0 { object.min.x } else { object.max.x },
-            if i & 2 == 0 { object.min.y } else { object.max.y },
-            if i & 4 == 0 { object.min.z } else { object.max.z },
+            if i & 1 == 0 {
+                object.min.x
+            } else {
+                object.max.x
+            },
+            if i & 2 == 0 {
+                object.min.y
+            } else {
+                object.max.y
+            },
+            if i & 4 == 0 {
+                object.min.z
+            } else {
+                object.max.z
+            },
         );
         b.extend(Vec3A::from(m.transform_point3(c)));
     }
@@ -172,7 +184,11 @@ impl TwoLevelBvh {
     /// yet origin relative). Only the first `tlas_capacity` nodes and the
     /// first `tlas_slots` leaf slots change.
     pub fn rebuild_tlas(&mut self, transforms: &[Mat4]) {
-        assert_eq!(transforms.len(), self.mesh_of.len(), "one transform per instance");
+        assert_eq!(
+            transforms.len(),
+            self.mesh_of.len(),
+            "one transform per instance"
+        );
         self.world_from_object = transforms
             .iter()
             .map(|&m| relative_transform(m, self.origin))
@@ -241,7 +257,9 @@ impl TwoLevelBvh {
         let mut best: Option<CpuHit> = None;
         self.tlas.ray_traverse(ray, &mut hit, |r, k| {
             let [inst, _] = self.tri_ref[k];
-            let rows: Vec<Vec4> = (0..3).map(|i| Vec4::from(self.tri_verts[3 * k + i])).collect();
+            let rows: Vec<Vec4> = (0..3)
+                .map(|i| Vec4::from(self.tri_verts[3 * k + i]))
+                .collect();
             let xf = |p: Vec3, w: f32| {
                 let p = p.extend(w);
                 Vec3::new(rows[0].dot(p), rows[1].dot(p), rows[2].dot(p))

@@ -68,7 +68,11 @@ pub enum ChannelError {
     TimeNotFinite(usize),
     TimeNegative(usize),
     NotIncreasing(usize),
-    CountMismatch { keys: usize, values: usize, expected: usize },
+    CountMismatch {
+        keys: usize,
+        values: usize,
+        expected: usize,
+    },
     CubicNeedsTwoKeys,
     ValueNotFinite(usize),
 }
@@ -330,11 +334,17 @@ impl SceneAnimation {
             AnimationSelection::Index(i) => {
                 return Err(format!("no animation {i}; the file has: {}", list()))
             }
-            AnimationSelection::Name(n) => match self.animations.iter().position(|a| &a.name == n)
-            {
-                Some(i) => vec![i],
-                None => return Err(format!("no animation named '{n}'; the file has: {}", list())),
-            },
+            AnimationSelection::Name(n) => {
+                match self.animations.iter().position(|a| &a.name == n) {
+                    Some(i) => vec![i],
+                    None => {
+                        return Err(format!(
+                            "no animation named '{n}'; the file has: {}",
+                            list()
+                        ))
+                    }
+                }
+            }
         };
         Ok(())
     }

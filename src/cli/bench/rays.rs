@@ -106,6 +106,25 @@ pub fn run(a: RaysArgs) -> Result<()> {
         rate(f.2, f.3) / rate(t.2, t.3),
         a.interleave
     );
+    // Moving the instances: the TLAS rebuild (CPU for two-level, device for
+    // ray query) and the uploads, timed on the wall clock, every instance
+    // moved (to where it is: the cost does not depend on the motion).
+    let rest: Vec<glam::Mat4> = loaded.instances.iter().map(|i| i.transform).collect();
+    for (k, (_, _, label)) in configs.iter().enumerate().skip(1) {
+        let scene_gpu = &sessions[k].scene_gpu;
+        let start = std::time::Instant::now();
+        const MOVES: u32 = 8;
+        for _ in 0..MOVES {
+            scene_gpu.set_instance_transforms(&rest)?;
+        }
+        let ms = start.elapsed().as_secs_f64() * 1e3 / f64::from(MOVES);
+        println!(
+            "{label:>9}: moving {} instances (TLAS rebuild + upload) {ms:.2} ms wall per frame; \
+             one primary round traces in {:.2} ms",
+            rest.len(),
+            sums[k].1 / f64::from(a.interleave * repeats)
+        );
+    }
     if let Some(q) = sums.get(2) {
         println!(
             "software / ray query time per ray: primary {:.2}x, bounce {:.2}x",
