@@ -199,7 +199,8 @@ fn two_level_agrees_with_flattened_query_and_cpu() {
     );
     // (hairball: flattened vs query in tests/backends.rs, two-level vs
     // flattened on the CPU above; its GPU sessions here cost minutes.)
-    for (name, scene) in [("cornell+copies", cornell_instanced())] {
+    {
+        let (name, scene) = ("cornell+copies", cornell_instanced());
         let two = layout_session(&ctx, &scene, RtChoice::Software, BvhLayout::TwoLevel);
         assert_eq!(two.scene_gpu.bvh_layout, BvhLayout::TwoLevel);
         let flat = layout_session(&ctx, &scene, RtChoice::Software, BvhLayout::Flattened);
