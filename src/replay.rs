@@ -405,6 +405,7 @@ pub fn replay_observed(
             camera: *camera,
             prev_camera: i.checked_sub(1).map(|p| cameras[p]),
         };
+        session.pose_instances(i as f64 / opts.fps)?;
         let frame = method.render_frame(&input)?;
         let metrics = observer(i, camera, &frame)?;
         (width, height) = (frame.width, frame.height);

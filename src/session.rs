@@ -6,7 +6,7 @@ use crate::camera::{HeadPose, StereoCamera, DEFAULT_IPD};
 use crate::error::{Error, Result};
 use crate::gpu::{GpuContext, GpuOptions};
 use crate::methods::{Method, MethodConfig, MethodKind, RenderSettings};
-use crate::rt::{RtBackend, RtChoice, SceneGpu};
+use crate::rt::{BvhLayout, RtBackend, RtChoice, SceneGpu};
 use crate::scene::{apply_default_lighting, load_scene, DefaultLighting, Scene};
 use glam::{Quat, Vec3};
 use std::sync::Arc;
@@ -56,14 +56,40 @@ impl Session {
 
     /// Uploads `scene` on an existing context (several backends on one device).
     pub fn with_context(ctx: Arc<GpuContext>, scene: Scene, rt: RtChoice) -> Result<Session> {
+        Self::with_layout(ctx, scene, rt, None)
+    }
+
+    /// As `with_context` with the software BVH layout forced (`None`: the
+    /// automatic choice, `BvhLayout::auto`).
+    pub fn with_layout(
+        ctx: Arc<GpuContext>,
+        scene: Scene,
+        rt: RtChoice,
+        layout: Option<BvhLayout>,
+    ) -> Result<Session> {
         let backend = rt.resolve(&ctx).map_err(Error::Usage)?;
-        let scene_gpu = Arc::new(SceneGpu::upload(&ctx, &scene, backend)?);
+        let layout = layout.unwrap_or_else(|| BvhLayout::auto(&scene));
+        let scene_gpu = Arc::new(SceneGpu::upload_with(&ctx, &scene, backend, layout)?);
         Ok(Session {
             ctx,
             scene,
             scene_gpu,
             backend,
         })
+    }
+
+    /// Poses the scene's instances at time `t` (seconds: the replay's frame
+    /// time, so a 90 Hz and a 45 Hz replay see the same motion) and uploads
+    /// them (`SceneGpu::set_instance_transforms`). Nothing happens for a
+    /// static scene. Returns the wall time it took (animation sampling, TLAS
+    /// rebuild, upload).
+    pub fn pose_instances(&self, t: f64) -> Result<std::time::Duration> {
+        let start = std::time::Instant::now();
+        if self.scene.is_animated() {
+            let transforms = self.scene.instance_transforms_at(t as f32);
+            self.scene_gpu.set_instance_transforms(&transforms)?;
+        }
+        Ok(start.elapsed())
     }
 
     /// Loads a scene by name or path and gives it default lighting when it has none.

@@ -27,4 +27,7 @@ layout(constant_id = SPEC_SC_LIGHT_STRATEGY) const uint SC_LIGHT_STRATEGY = 0;
 const uint LIGHT_STRATEGY_MIS = 0u;
 const uint LIGHT_STRATEGY_NEE = 1u;
 const uint LIGHT_STRATEGY_BSDF = 2u;
+// Software backend only: true = the two-level BVH (per-mesh BLAS + TLAS over
+// instances, src/rt/two_level.rs), false = the flattened world-space BVH.
+layout(constant_id = SPEC_SC_TWO_LEVEL) const bool SC_TWO_LEVEL = false;
 #endif

@@ -1,6 +1,6 @@
 // Software backend: traversal of obvhs's compressed wide BVH8 (CWBVH, Ylitie,
-// Karras & Laine, HPG 2017) over all triangles in world space, from storage
-// buffers. Node layout = obvhs::cwbvh::CwBvhNode (80 bytes = 5 × uvec4):
+// Karras & Laine, HPG 2017) from storage buffers: over all triangles in world
+// space (flattened), or two-level (SC_TWO_LEVEL, cw_traverse_two_level). Node layout = obvhs::cwbvh::CwBvhNode (80 bytes = 5 × uvec4):
 //   n0 = (p.x, p.y, p.z, e0 | e1 << 8 | e2 << 16 | imask << 24)
 //   n1 = (child_base_idx, primitive_base_idx, child_meta[0..4], child_meta[4..8])
 //   n2 = (qlo_x[0..4], qlo_x[4..8], qhi_x[0..4], qhi_x[4..8])
@@ -77,6 +77,11 @@ vec3 safe_inverse(vec3 d) {
                             abs(d.z) > tiny ? d.z : (d.z < 0.0 ? -tiny : tiny));
 }
 
+// The ray's octant, inverted, in every byte (child slot order of a node).
+uint cw_octant_inv4(vec3 d) {
+    return (d.x < 0.0 ? 0u : 0x04040404u) | (d.y < 0.0 ? 0u : 0x02020202u) | (d.z < 0.0 ? 0u : 0x01010101u);
+}
+
 // any_hit = true returns at the first accepted triangle (shadow rays).
 bool cw_traverse(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out RtHit h) {
     h.t = tmax;
@@ -84,7 +89,7 @@ bool cw_traverse(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out RtHit
     h.prim = 0u;
     h.bary = vec2(0.0);
     vec3 inv_d = safe_inverse(d);
-    uint oct_inv4 = (d.x < 0.0 ? 0u : 0x04040404u) | (d.y < 0.0 ? 0u : 0x02020202u) | (d.z < 0.0 ? 0u : 0x01010101u);
+    uint oct_inv4 = cw_octant_inv4(d);
     uvec2 stack[CWBVH_STACK_SIZE];
     uint sp = 0u;
     uvec2 current = uvec2(0u, 0x80000000u);
@@ -136,11 +141,119 @@ bool cw_traverse(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out RtHit
     return found;
 }
 
+// Two-level traversal (src/rt/two_level.rs): the TLAS (root node 0) over
+// instance boxes in world space; at an instance leaf k, tri_ref[k] =
+// (instance, BLAS root) and tri_verts[3k..3k+3] = the rows of its
+// object-from-world matrix. The ray is taken to object space (direction not
+// normalized, so t is the same parameter in both spaces), the BLAS is walked
+// on the same stack above the TLAS entries, then the TLAS state and the
+// world ray are restored. Stack need: TLAS depth + 1 + BLAS depth (checked on
+// the CPU against CWBVH_STACK_SIZE).
+bool cw_traverse_two_level(vec3 wo, vec3 wd, float tmin, float tmax, bool any_hit, out RtHit h) {
+    h.t = tmax;
+    h.instance = 0xFFFFFFFFu;
+    h.prim = 0u;
+    h.bary = vec2(0.0);
+    vec3 w_inv_d = safe_inverse(wd);
+    uint w_oct = cw_octant_inv4(wd);
+    vec3 o = wo;
+    vec3 d = wd;
+    vec3 inv_d = w_inv_d;
+    uint oct_inv4 = w_oct;
+    uvec2 stack[CWBVH_STACK_SIZE];
+    uint sp = 0u;
+    uvec2 current = uvec2(0u, 0x80000000u);
+    uvec2 prims = uvec2(0u);
+    bool found = false;
+    // The TLAS state saved while a BLAS is walked.
+    bool in_blas = false;
+    uint inst = 0u;
+    uint tlas_sp = 0u;
+    uvec2 tlas_current = uvec2(0u);
+    uvec2 tlas_prims = uvec2(0u);
+    for (;;) {
+        while (prims.y != 0u) {
+            uint local = uint(findMSB(prims.y));
+            prims.y &= ~(1u << local);
+            uint k = prims.x + local;
+            if (in_blas) {
+                vec2 bary;
+                float t = intersect_triangle(o, d, tri_verts[3u * k].xyz, tri_verts[3u * k + 1u].xyz, tri_verts[3u * k + 2u].xyz, bary);
+                if (t > tmin && t < h.t) {
+                    uint prim = tri_ref[k].y;
+                    if (alpha_passes(inst, prim, bary)) {
+                        h.t = t;
+                        h.instance = inst;
+                        h.prim = prim;
+                        h.bary = bary;
+                        found = true;
+                        if (any_hit) return true;
+                    }
+                }
+            } else {
+                uvec2 ref = tri_ref[k];
+                vec4 r0 = tri_verts[3u * k];
+                vec4 r1 = tri_verts[3u * k + 1u];
+                vec4 r2 = tri_verts[3u * k + 2u];
+                o = vec3(dot(r0.xyz, wo) + r0.w, dot(r1.xyz, wo) + r1.w, dot(r2.xyz, wo) + r2.w);
+                d = vec3(dot(r0.xyz, wd), dot(r1.xyz, wd), dot(r2.xyz, wd));
+                inv_d = safe_inverse(d);
+                oct_inv4 = cw_octant_inv4(d);
+                tlas_current = current;
+                tlas_prims = prims;
+                tlas_sp = sp;
+                inst = ref.x;
+                current = uvec2(ref.y, 0x80000000u);
+                prims = uvec2(0u);
+                in_blas = true;
+                break;
+            }
+        }
+        if ((current.y & 0xFF000000u) != 0u) {
+            // The descent of cw_traverse, inlined (a function would copy the stack).
+            uint hits_imask = current.y;
+            uint child_offset = uint(findMSB(hits_imask));
+            uint child_base = current.x;
+            current.y &= ~(1u << child_offset);
+            if ((current.y & 0xFF000000u) != 0u) {
+                if (sp < CWBVH_STACK_SIZE) stack[sp++] = current;
+            }
+            uint slot = (child_offset - 24u) ^ (oct_inv4 & 0xFFu);
+            uint relative = bitCount(hits_imask & ~(0xFFFFFFFFu << slot));
+            uint node = child_base + relative;
+            uint hit_mask = cw_intersect_node(node, o, inv_d, oct_inv4, tmin, h.t);
+            uvec4 n0 = bvh_nodes[5u * node];
+            uvec4 n1 = bvh_nodes[5u * node + 1u];
+            current = uvec2(n1.x, (hit_mask & 0xFF000000u) | (n0.w >> 24));
+            prims = uvec2(n1.y, hit_mask & 0x00FFFFFFu);
+        } else {
+            current = uvec2(0u);
+        }
+        if (prims.y == 0u && (current.y & 0xFF000000u) == 0u) {
+            if (in_blas && sp == tlas_sp) {
+                in_blas = false;
+                o = wo;
+                d = wd;
+                inv_d = w_inv_d;
+                oct_inv4 = w_oct;
+                current = tlas_current;
+                prims = tlas_prims;
+                continue;
+            }
+            if (sp == 0u) break;
+            current = stack[--sp];
+        }
+    }
+    return found;
+}
+
 bool rt_closest_hit(vec3 o, vec3 d, float tmin, float tmax, out RtHit h) {
+    if (SC_TWO_LEVEL) return cw_traverse_two_level(o, d, tmin, tmax, false, h);
     return cw_traverse(o, d, tmin, tmax, false, h);
 }
 
 bool rt_occluded(vec3 o, vec3 d, float tmin, float tmax) {
     RtHit h;
+    if (SC_TWO_LEVEL) return cw_traverse_two_level(o, d, tmin, tmax, true, h);
     return cw_traverse(o, d, tmin, tmax, true, h);
 }

@@ -35,6 +35,9 @@ pub struct AccelStructures {
     ctx: Arc<GpuContext>,
     blases: Vec<Accel>,
     tlas: Accel,
+    /// Instances the TLAS was built for (a rebuild keeps the count).
+    tlas_count: u32,
+    scratch_align: u64,
 }
 
 impl AccelStructures {
@@ -149,6 +152,78 @@ impl AccelStructures {
         drop(scratch_buffers);
 
         // Instances and the TLAS.
+        let inst_buf = Self::instance_buffer(ctx, ext, &blases, instances)?;
+        let geometry = Self::tlas_geometry(&inst_buf);
+        let count = instances.len() as u32;
+        let (tlas, scratch_addr, scratch) = Self::create(
+            ctx,
+            ext,
+            "tlas",
+            vk::AccelerationStructureTypeKHR::TOP_LEVEL,
+            &geometry,
+            count,
+            scratch_align,
+        )?;
+        Self::record_tlas_build(ctx, ext, &geometry, count, tlas.raw, scratch_addr)?;
+        drop(scratch);
+        drop(inst_buf);
+        drop(inputs);
+        Ok(AccelStructures {
+            ctx: ctx.clone(),
+            blases,
+            tlas,
+            tlas_count: count,
+            scratch_align,
+        })
+    }
+
+    /// Rebuilds the TLAS in place for moved instances (same count and BLAS
+    /// references; the BLAS are untouched). The TLAS handle stays the same,
+    /// so descriptor sets that bind it stay valid. Call between frames: it
+    /// submits and waits.
+    pub fn rebuild_tlas(&mut self, instances: &[TlasInstance]) -> GpuResult<()> {
+        let ctx = self.ctx.clone();
+        let Some(ext) = ctx.accel.as_ref() else {
+            return Err(GpuError::Unsupported(
+                "ray queries are not enabled on this device".into(),
+            ));
+        };
+        if instances.len() as u32 != self.tlas_count {
+            return Err(GpuError::Unsupported(format!(
+                "TLAS rebuild with {} instances; it was built for {}",
+                instances.len(),
+                self.tlas_count
+            )));
+        }
+        let inst_buf = Self::instance_buffer(&ctx, ext, &self.blases, instances)?;
+        let geometry = Self::tlas_geometry(&inst_buf);
+        let sizes = Self::build_sizes(
+            ext,
+            vk::AccelerationStructureTypeKHR::TOP_LEVEL,
+            &geometry,
+            self.tlas_count,
+        );
+        let scratch = Buffer::new(
+            &ctx,
+            "tlas.rebuild.scratch",
+            sizes.build_scratch_size + self.scratch_align,
+            vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
+            MemoryLocation::GpuOnly,
+        )?;
+        let addr = scratch.device_address().div_ceil(self.scratch_align) * self.scratch_align;
+        Self::record_tlas_build(&ctx, ext, &geometry, self.tlas_count, self.tlas.raw, addr)?;
+        drop(scratch);
+        drop(inst_buf);
+        Ok(())
+    }
+
+    /// The instance records of `instances` in a build-input buffer.
+    fn instance_buffer(
+        ctx: &Arc<GpuContext>,
+        ext: &ash::khr::acceleration_structure::Device,
+        blases: &[Accel],
+        instances: &[TlasInstance],
+    ) -> GpuResult<Buffer> {
         let raw_instances: Vec<vk::AccelerationStructureInstanceKHR> = instances
             .iter()
             .map(|inst| {
@@ -185,34 +260,45 @@ impl AccelStructures {
                 std::mem::size_of_val(raw_instances.as_slice()),
             )
         };
-        let inst_buf = Buffer::with_data(ctx, "tlas.instances", inst_bytes, build_usage)?;
+        Buffer::with_data(
+            ctx,
+            "tlas.instances",
+            inst_bytes,
+            vk::BufferUsageFlags::ACCELERATION_STRUCTURE_BUILD_INPUT_READ_ONLY_KHR
+                | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
+        )
+    }
+
+    /// The TLAS's one geometry: the instance records in `inst_buf`.
+    fn tlas_geometry(inst_buf: &Buffer) -> vk::AccelerationStructureGeometryKHR<'static> {
         let inst_data = vk::AccelerationStructureGeometryInstancesDataKHR::default()
             .array_of_pointers(false)
             .data(vk::DeviceOrHostAddressConstKHR {
                 device_address: inst_buf.device_address(),
             });
-        let geometry = vk::AccelerationStructureGeometryKHR::default()
+        vk::AccelerationStructureGeometryKHR::default()
             .geometry_type(vk::GeometryTypeKHR::INSTANCES)
             .geometry(vk::AccelerationStructureGeometryDataKHR {
                 instances: inst_data,
-            });
-        let count = instances.len() as u32;
-        let (tlas, scratch_addr, scratch) = Self::create(
-            ctx,
-            ext,
-            "tlas",
-            vk::AccelerationStructureTypeKHR::TOP_LEVEL,
-            &geometry,
-            count,
-            scratch_align,
-        )?;
+            })
+    }
+
+    /// Builds the TLAS `dst` from `geometry` in one submission and waits.
+    fn record_tlas_build(
+        ctx: &Arc<GpuContext>,
+        ext: &ash::khr::acceleration_structure::Device,
+        geometry: &vk::AccelerationStructureGeometryKHR,
+        count: u32,
+        dst: vk::AccelerationStructureKHR,
+        scratch_addr: u64,
+    ) -> GpuResult<()> {
         ctx.submit_once("TLAS build", |cb| {
-            let geoms = [geometry];
+            let geoms = [*geometry];
             let info = vk::AccelerationStructureBuildGeometryInfoKHR::default()
                 .ty(vk::AccelerationStructureTypeKHR::TOP_LEVEL)
                 .flags(vk::BuildAccelerationStructureFlagsKHR::PREFER_FAST_TRACE)
                 .mode(vk::BuildAccelerationStructureModeKHR::BUILD)
-                .dst_acceleration_structure(tlas.raw)
+                .dst_acceleration_structure(dst)
                 .geometries(&geoms)
                 .scratch_data(vk::DeviceOrHostAddressKHR {
                     device_address: scratch_addr,
@@ -220,31 +306,20 @@ impl AccelStructures {
             let range =
                 [vk::AccelerationStructureBuildRangeInfoKHR::default().primitive_count(count)];
             // SAFETY: `cb` is recording after the BLAS build completed (its
-            // own submission); instances, TLAS and scratch live until
+            // own submission); the instance buffer behind `geometry`, the
+            // TLAS (sized for `count` instances) and the scratch live until
             // submit_once has waited.
             unsafe { ext.cmd_build_acceleration_structures(cb, &[info], &[&range]) };
-        })?;
-        drop(scratch);
-        drop(inst_buf);
-        drop(inputs);
-        Ok(AccelStructures {
-            ctx: ctx.clone(),
-            blases,
-            tlas,
         })
     }
 
-    /// Creates an acceleration structure sized for `geometry` and a scratch buffer;
-    /// returns the structure, the aligned scratch address and the scratch buffer.
-    fn create(
-        ctx: &Arc<GpuContext>,
+    /// Sizes the driver asks for to build `geometry` with `prim_count` primitives.
+    fn build_sizes(
         ext: &ash::khr::acceleration_structure::Device,
-        name: &str,
         ty: vk::AccelerationStructureTypeKHR,
         geometry: &vk::AccelerationStructureGeometryKHR,
         prim_count: u32,
-        scratch_align: u64,
-    ) -> GpuResult<(Accel, u64, Buffer)> {
+    ) -> vk::AccelerationStructureBuildSizesInfoKHR<'static> {
         let geoms = [*geometry];
         let info = vk::AccelerationStructureBuildGeometryInfoKHR::default()
             .ty(ty)
@@ -262,6 +337,21 @@ impl AccelStructures {
                 &mut sizes,
             )
         };
+        sizes
+    }
+
+    /// Creates an acceleration structure sized for `geometry` and a scratch buffer;
+    /// returns the structure, the aligned scratch address and the scratch buffer.
+    fn create(
+        ctx: &Arc<GpuContext>,
+        ext: &ash::khr::acceleration_structure::Device,
+        name: &str,
+        ty: vk::AccelerationStructureTypeKHR,
+        geometry: &vk::AccelerationStructureGeometryKHR,
+        prim_count: u32,
+        scratch_align: u64,
+    ) -> GpuResult<(Accel, u64, Buffer)> {
+        let sizes = Self::build_sizes(ext, ty, geometry, prim_count);
         let buffer = Buffer::new(
             ctx,
             &format!("{name}.storage"),

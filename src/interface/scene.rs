@@ -21,6 +21,7 @@ pub mod spec_id {
     pub const TEXTURE_COUNT: u32 = 9;
     pub const VIEW_DEPENDENT: u32 = 10;
     pub const LIGHT_STRATEGY: u32 = 11;
+    pub const TWO_LEVEL: u32 = 12;
 }
 
 pub const INTERFACE: Interface = Interface {
@@ -58,5 +59,6 @@ pub const INTERFACE: Interface = Interface {
         ("SC_TEXTURE_COUNT", spec_id::TEXTURE_COUNT),
         ("SC_VIEW_DEPENDENT", spec_id::VIEW_DEPENDENT),
         ("SC_LIGHT_STRATEGY", spec_id::LIGHT_STRATEGY),
+        ("SC_TWO_LEVEL", spec_id::TWO_LEVEL),
     ],
 };

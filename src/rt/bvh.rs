@@ -158,7 +158,7 @@ pub fn moller_trumbore(o: Vec3, d: Vec3, v0: Vec3, e1: Vec3, e2: Vec3) -> Option
 
 /// Depth of the deepest internal node, walked iteratively (obvhs's own check
 /// runs only in its debug builds).
-fn max_depth(bvh: &CwBvh) -> u32 {
+pub(crate) fn max_depth(bvh: &CwBvh) -> u32 {
     let mut deepest = 0;
     let mut stack = vec![(0usize, 0u32)];
     if bvh.nodes.is_empty() {

@@ -3,7 +3,7 @@
 //! chosen backend, and the specialization constants the scene implies.
 
 use super::origin::{relative_point, relative_transform, render_origin};
-use super::{RtBackend, SoftwareBvh, TRAVERSAL_STACK_SIZE};
+use super::{RtBackend, SoftwareBvh, TwoLevelBvh, TRAVERSAL_STACK_SIZE};
 use crate::gpu::{
     accel::{AccelStructures, BlasInput, TlasInstance},
     BindingKind, Buffer, DescriptorLayout, DescriptorSet, GpuContext, GpuError, GpuResult,
@@ -18,7 +18,7 @@ use crate::scene::{
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
 use glam::{DVec3, Mat4, Vec3};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 
 /// Specialization constant ids (shaders/common/features.glsl), from the
 /// shader interface (src/interface/scene.rs).
@@ -109,8 +109,48 @@ fn env_kind(env: &Option<Environment>) -> u32 {
     }
 }
 
+/// How the software backend holds the scene's triangles.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum BvhLayout {
+    /// One CWBVH over every triangle in world space (`SoftwareBvh`): the
+    /// fastest to trace, but moving an instance means rebuilding it all.
+    Flattened,
+    /// A CWBVH per mesh + one over the instances (`TwoLevelBvh`): a moved
+    /// instance costs a rebuild of the small top level.
+    TwoLevel,
+}
+
+impl BvhLayout {
+    /// The automatic choice: two-level where an instance moves, flattened
+    /// for static scenes (faster to trace, docs/PERFORMANCE.md "Two-level
+    /// BVH", and bit-identical to the renderer before animation existed).
+    pub fn auto(scene: &Scene) -> BvhLayout {
+        if scene.is_animated() {
+            BvhLayout::TwoLevel
+        } else {
+            BvhLayout::Flattened
+        }
+    }
+}
+
+impl std::str::FromStr for BvhLayout {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "flattened" => Ok(BvhLayout::Flattened),
+            "two-level" => Ok(BvhLayout::TwoLevel),
+            other => Err(format!(
+                "unknown BVH layout '{other}' (expected flattened or two-level)"
+            )),
+        }
+    }
+}
+
 pub struct SceneGpu {
     pub backend: RtBackend,
+    /// The software structure (meaningful with `RtBackend::Software`).
+    pub bvh_layout: BvhLayout,
     /// The render origin GPU positions are relative to (rt/origin.rs).
     pub origin: DVec3,
     pub features: SceneFeatures,
@@ -120,14 +160,29 @@ pub struct SceneGpu {
     /// Bytes of GPU memory the scene occupies (buffers, textures, BVH/AS).
     pub bytes: u64,
     texture_count: u32,
+    /// The two-level structure, kept to rebuild its top level when instances move.
+    /// (Behind a lock: methods share the scene through an `Arc`.)
+    two_level: Mutex<Option<TwoLevelBvh>>,
+    /// Per instance, `InstanceGpu::mesh_pad` (mesh, 1 + first emitter).
+    instance_ids: Vec<[u32; 4]>,
     _buffers: Vec<Buffer>,
     _textures: Vec<GpuTexture>,
     _samplers: Vec<Sampler>,
-    _accel: Option<AccelStructures>,
+    _accel: Mutex<Option<AccelStructures>>,
 }
 
 impl SceneGpu {
+    /// Uploads with the automatic software layout (`BvhLayout::auto`).
     pub fn upload(ctx: &Arc<GpuContext>, scene: &Scene, backend: RtBackend) -> GpuResult<SceneGpu> {
+        Self::upload_with(ctx, scene, backend, BvhLayout::auto(scene))
+    }
+
+    pub fn upload_with(
+        ctx: &Arc<GpuContext>,
+        scene: &Scene,
+        backend: RtBackend,
+        bvh_layout: BvhLayout,
+    ) -> GpuResult<SceneGpu> {
         let before = ctx.allocated_bytes();
         let features = SceneFeatures::of(scene);
         // Geometry.
@@ -163,18 +218,16 @@ impl SceneGpu {
         let emitters = Emitters::of(scene, |k| {
             relative_transform(scene.instances[k].transform, origin)
         });
-        let instances: Vec<InstanceGpu> = scene
+        // .y: 1 + index of the instance's first emitter triangle (0 = none),
+        // the MIS lookup of a BSDF-sampled emitter hit (lights.glsl).
+        let instance_ids: Vec<[u32; 4]> = scene
             .instances
             .iter()
             .zip(&emitters.first)
-            .map(|(i, first)| InstanceGpu {
-                object_to_world: relative_transform(i.transform, origin).to_cols_array(),
-                normal_to_world: i.transform.inverse().transpose().to_cols_array(),
-                // .y: 1 + index of the instance's first emitter triangle (0 = none),
-                // the MIS lookup of a BSDF-sampled emitter hit (lights.glsl).
-                mesh_pad: [i.mesh, first.map_or(0, |f| f + 1), 0, 0],
-            })
+            .map(|(i, first)| [i.mesh, first.map_or(0, |f| f + 1), 0, 0])
             .collect();
+        let rest: Vec<Mat4> = scene.instances.iter().map(|i| i.transform).collect();
+        let instances = instance_records(&rest, &instance_ids, origin);
         let emitter_bytes = emitter_buffer(&emitters);
 
         // Textures (descriptor array at binding 10; a 1×1 white stand-in when there are none).
@@ -349,7 +402,37 @@ impl SceneGpu {
         )?;
 
         // Ray-tracing structure of the backend; the other backend's bindings get 16-byte stand-ins.
+        let mut two_level = None;
         let (b_nodes, b_ref, b_verts, accel) = match backend {
+            RtBackend::Software if bvh_layout == BvhLayout::TwoLevel => {
+                let bvh = TwoLevelBvh::build_at(scene, origin);
+                if bvh.max_depth >= TRAVERSAL_STACK_SIZE {
+                    return Err(GpuError::Unsupported(format!(
+                        "the two-level BVH of {} needs {} stack levels (TLAS + BLAS); the GLSL \
+                         traversal stack holds {TRAVERSAL_STACK_SIZE}",
+                        scene.source.display(),
+                        bvh.max_depth
+                    )));
+                }
+                let bufs = (
+                    Buffer::with_data(ctx, "bvh.nodes", bytemuck::cast_slice(&bvh.nodes), none)?,
+                    Buffer::with_data(
+                        ctx,
+                        "bvh.tri_ref",
+                        bytemuck::cast_slice(&bvh.tri_ref),
+                        none,
+                    )?,
+                    Buffer::with_data(
+                        ctx,
+                        "bvh.tri_verts",
+                        bytemuck::cast_slice(&bvh.tri_verts),
+                        none,
+                    )?,
+                    None,
+                );
+                two_level = Some(bvh);
+                bufs
+            }
             RtBackend::Software => {
                 let bvh = SoftwareBvh::build_at(scene, origin);
                 if bvh.max_depth >= TRAVERSAL_STACK_SIZE {
@@ -393,16 +476,7 @@ impl SceneGpu {
                             == AlphaMode::Opaque,
                     })
                     .collect();
-                let tlas_instances: Vec<TlasInstance> = scene
-                    .instances
-                    .iter()
-                    .enumerate()
-                    .map(|(i, inst)| TlasInstance {
-                        transform: row_major_3x4(relative_transform(inst.transform, origin)),
-                        custom_index: i as u32,
-                        blas: inst.mesh as usize,
-                    })
-                    .collect();
+                let tlas_instances = tlas_instances(&rest, &instance_ids, origin);
                 let accel = AccelStructures::build(ctx, &inputs, &tlas_instances)?;
                 (
                     Buffer::storage(ctx, "bvh.nodes.unused", 16)?,
@@ -453,6 +527,7 @@ impl SceneGpu {
         let bytes = ctx.allocated_bytes().saturating_sub(before);
         Ok(SceneGpu {
             backend,
+            bvh_layout,
             origin,
             features,
             layout,
@@ -460,6 +535,8 @@ impl SceneGpu {
             triangle_count: scene.instanced_triangle_count(),
             bytes,
             texture_count,
+            two_level: Mutex::new(two_level),
+            instance_ids,
             _buffers: vec![
                 b_vertices,
                 b_indices,
@@ -476,7 +553,7 @@ impl SceneGpu {
             ],
             _textures: all_textures,
             _samplers: vec![tex_sampler, env_sampler],
-            _accel: accel,
+            _accel: Mutex::new(accel),
         })
     }
 
@@ -504,9 +581,98 @@ impl SceneGpu {
             .flag(spec_id::VIEW_DEPENDENT, f.view_dependent)
             .set(spec_id::ENV_KIND, env_kind(env))
             .set(spec_id::MAX_BOUNCES, max_bounces)
-            .set(spec_id::TEXTURE_COUNT, self.texture_count);
+            .set(spec_id::TEXTURE_COUNT, self.texture_count)
+            .flag(
+                spec_id::TWO_LEVEL,
+                self.bvh_layout_in_use() == Some(BvhLayout::TwoLevel),
+            );
         s
     }
+
+    /// The software layout the pipelines are compiled for (None: ray queries).
+    pub fn bvh_layout_in_use(&self) -> Option<BvhLayout> {
+        (self.backend == RtBackend::Software).then_some(self.bvh_layout)
+    }
+
+    /// Moves the instances to `transforms` (object-to-world, one per
+    /// instance, e.g. `Scene::instance_transforms_at`): the instance buffer is
+    /// rewritten and the top level of the ray-tracing structure rebuilt,
+    /// the BLAS untouched — ray queries: the TLAS on the device, in place;
+    /// software two-level: the TLAS on the CPU, then the front of the BVH
+    /// buffers uploaded. The flattened BVH cannot move instances (an error).
+    /// Not yet: emissive triangles on moving instances (their NEE samples
+    /// stay at rest, issue 16).
+    /// Call between frames (it submits and waits).
+    pub fn set_instance_transforms(&self, transforms: &[Mat4]) -> GpuResult<()> {
+        if transforms.len() != self.instance_ids.len() {
+            return Err(GpuError::Unsupported(format!(
+                "{} instance transforms for {} instances",
+                transforms.len(),
+                self.instance_ids.len()
+            )));
+        }
+        if let Some(accel) = self._accel.lock().expect("accel lock").as_mut() {
+            accel.rebuild_tlas(&tlas_instances(transforms, &self.instance_ids, self.origin))?;
+            let records = instance_records(transforms, &self.instance_ids, self.origin);
+            return self._buffers[BUF_INSTANCES].upload(bytemuck::cast_slice(&records));
+        }
+        let mut two_level = self.two_level.lock().expect("BVH lock");
+        let Some(bvh) = two_level.as_mut() else {
+            return Err(GpuError::Unsupported(
+                "the flattened software BVH cannot move instances; upload with BvhLayout::TwoLevel"
+                    .into(),
+            ));
+        };
+        bvh.rebuild_tlas(transforms);
+        if bvh.max_depth >= TRAVERSAL_STACK_SIZE {
+            return Err(GpuError::Unsupported(format!(
+                "the moved two-level BVH needs {} stack levels; the GLSL traversal stack holds \
+                 {TRAVERSAL_STACK_SIZE}",
+                bvh.max_depth
+            )));
+        }
+        let (nodes, refs, verts) = bvh.tlas_bytes();
+        self._buffers[BUF_NODES].upload(nodes)?;
+        self._buffers[BUF_TRI_REF].upload(refs)?;
+        self._buffers[BUF_TRI_VERTS].upload(verts)?;
+        let records = instance_records(transforms, &self.instance_ids, self.origin);
+        self._buffers[BUF_INSTANCES].upload(bytemuck::cast_slice(&records))
+    }
+}
+
+/// The TLAS instances (custom index = instance, BLAS = its mesh) for
+/// transforms rebased on `origin`.
+fn tlas_instances(transforms: &[Mat4], ids: &[[u32; 4]], origin: DVec3) -> Vec<TlasInstance> {
+    transforms
+        .iter()
+        .zip(ids)
+        .enumerate()
+        .map(|(i, (t, id))| TlasInstance {
+            transform: row_major_3x4(relative_transform(*t, origin)),
+            custom_index: i as u32,
+            blas: id[0] as usize,
+        })
+        .collect()
+}
+
+/// Indices into `SceneGpu::_buffers` (the order `upload` keeps them in).
+const BUF_INSTANCES: usize = 3;
+const BUF_NODES: usize = 7;
+const BUF_TRI_REF: usize = 8;
+const BUF_TRI_VERTS: usize = 9;
+
+/// The `instances` buffer records (scene.glsl `InstanceGpu`) for transforms
+/// rebased on `origin`.
+fn instance_records(transforms: &[Mat4], ids: &[[u32; 4]], origin: DVec3) -> Vec<InstanceGpu> {
+    transforms
+        .iter()
+        .zip(ids)
+        .map(|(t, &mesh_pad)| InstanceGpu {
+            object_to_world: relative_transform(*t, origin).to_cols_array(),
+            normal_to_world: t.inverse().transpose().to_cols_array(),
+            mesh_pad,
+        })
+        .collect()
 }
 
 /// The emitter buffer: a uvec4 header (triangle count, 0, 0, 0) and one

@@ -1,13 +1,17 @@
-//! Ray-tracing structures and the choice of backend: an obvhs CWBVH over all
-//! triangles in world space for the software path, BLAS per mesh + TLAS for
-//! ray queries (docs/ARCHITECTURE.md explains the flattened choice).
+//! Ray-tracing structures and the choice of backend: for the software path an
+//! obvhs CWBVH over all triangles in world space (flattened, static scenes)
+//! or a CWBVH per mesh + one over the instances (two-level, scenes that
+//! move; `BvhLayout`), BLAS per mesh + TLAS for ray queries
+//! (docs/ARCHITECTURE.md explains the choice).
 
 pub mod bvh;
 pub mod gpu_scene;
 pub mod origin;
+pub mod two_level;
 
 pub use bvh::{CpuHit, SoftwareBvh, TRAVERSAL_STACK_SIZE};
-pub use gpu_scene::SceneGpu;
+pub use gpu_scene::{BvhLayout, SceneGpu};
+pub use two_level::TwoLevelBvh;
 
 use crate::gpu::GpuContext;
 use std::str::FromStr;

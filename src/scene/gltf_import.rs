@@ -26,6 +26,7 @@
 //! The whole import runs under `catch_unwind` as defence in depth: should a
 //! dependency panic on a malformed file, the caller gets an error naming it.
 
+use super::gltf_animation::{check_animation_json, import_animations};
 use super::gltf_buffers::{load_buffers, split_container, AccessorReader};
 use super::gltf_textures::{decode_images, ImageUses};
 use super::mesh_ops::{drop_non_finite_triangles, generate_normals, generate_tangents};
@@ -98,10 +99,21 @@ fn load_gltf_unguarded(path: &Path) -> Result<Scene, SceneError> {
         instances_budget: MAX_INSTANCES,
         split_rm_materials: prepared.split_rm,
         sourceless_textures: prepared.sourceless,
+        record_paths: doc.animations().len() > 0,
+        node_path: Vec::new(),
+        instance_paths: Vec::new(),
     };
     importer.import_materials(&buffers);
     importer.import_nodes()?;
-    let scene = importer.scene;
+    let instance_paths = std::mem::take(&mut importer.instance_paths);
+    let mut scene = importer.scene;
+    scene.animation = import_animations(
+        &doc,
+        &importer.reader,
+        path,
+        instance_paths,
+        &mut scene.warnings,
+    )?;
     scene.validate()?;
     Ok(scene)
 }
@@ -168,6 +180,7 @@ fn parse_document(
         });
     let sourceless = patch_sourceless_textures(obj);
     check_position_accessors(path, obj)?;
+    check_animation_json(path, obj)?;
     let root: gltf::json::Root = serde_json::from_value(value)
         .map_err(|e| SceneError::invalid(path, format!("invalid glTF structure: {e}")))?;
     let doc = gltf::Document::from_json(root).map_err(|e| match e {
@@ -286,6 +299,12 @@ struct Importer<'a> {
     /// the `gltf` crate is built without its generic `extensions` accessors).
     split_rm_materials: usize,
     sourceless_textures: Vec<usize>,
+    /// Whether to record each instance's node path (files with animations).
+    record_paths: bool,
+    /// Nodes from the root to the one being visited.
+    node_path: Vec<u32>,
+    /// Per instance, its node path (for `SceneAnimation`).
+    instance_paths: Vec<Vec<u32>>,
 }
 
 fn named(kind: &str, index: usize, name: Option<&str>) -> String {
@@ -520,6 +539,7 @@ impl Importer<'_> {
             ));
             return Ok(());
         }
+        self.node_path.push(node.index() as u32);
         if let Some(mesh) = node.mesh() {
             let ids = self.mesh(mesh)?;
             if self.instances_budget < ids.len() {
@@ -529,6 +549,9 @@ impl Importer<'_> {
             }
             self.instances_budget -= ids.len();
             for id in ids {
+                if self.record_paths {
+                    self.instance_paths.push(self.node_path.clone());
+                }
                 self.scene.instances.push(Instance {
                     mesh: id,
                     transform: world,
@@ -550,6 +573,7 @@ impl Importer<'_> {
             self.visit(child, world, on_path, depth + 1)?;
         }
         on_path[node.index()] = false;
+        self.node_path.pop();
         Ok(())
     }
 

@@ -6,6 +6,7 @@
 //! `crate::rt` and `crate::methods`; nothing here touches Vulkan.
 
 pub mod alias;
+pub mod animation;
 pub mod default_lighting;
 pub mod emitters;
 pub mod env_distribution;
@@ -15,6 +16,7 @@ pub mod error;
 pub mod export;
 pub mod features;
 pub mod generate;
+mod gltf_animation;
 mod gltf_buffers;
 pub mod gltf_import;
 mod gltf_textures;
@@ -26,6 +28,7 @@ pub mod mesh_ops;
 pub mod preetham;
 pub mod texture;
 
+pub use animation::{AnimationSelection, SceneAnimation};
 pub use default_lighting::{apply_default_lighting, DefaultLighting};
 pub use environment::{Environment, SkyModel};
 pub use error::SceneError;
@@ -72,6 +75,8 @@ pub struct Scene {
     pub environment: Option<Environment>,
     /// Non-fatal problems met while loading (also printed once by the CLI).
     pub warnings: Vec<String>,
+    /// Node animation (glTF `animations`); `None` for a static scene.
+    pub animation: Option<SceneAnimation>,
 }
 
 impl Scene {
@@ -98,6 +103,23 @@ impl Scene {
             (Vec3::ZERO, Vec3::ZERO)
         } else {
             (lo, hi)
+        }
+    }
+
+    /// Whether any instance moves under the selected animations.
+    pub fn is_animated(&self) -> bool {
+        self.animation
+            .as_ref()
+            .is_some_and(|a| a.instance_moves().iter().any(|&m| m))
+    }
+
+    /// Object-to-world transform of every instance at time `t` (seconds, the
+    /// replay's frame time); a static scene's are `instances[i].transform`.
+    pub fn instance_transforms_at(&self, t: f32) -> Vec<Mat4> {
+        let rest: Vec<Mat4> = self.instances.iter().map(|i| i.transform).collect();
+        match &self.animation {
+            Some(a) => a.instance_transforms(t, &rest),
+            None => rest,
         }
     }
 

@@ -1,0 +1,178 @@
+//! glTF animations → [`SceneAnimation`] (sampling: `animation.rs`).
+//!
+//! Errors name the animation and the channel: an unknown target path
+//! (checked on the raw JSON, before the `gltf` crate would reject the whole
+//! document with a generic message), sampler data that breaks glTF's rules
+//! (`Channel::new`), and a channel on a node that has a `matrix`.
+//! Morph-target weight channels and channels driving skin joints are
+//! refused with one warning per animation.
+
+use super::animation::{Animation, Channel, Interpolation, LocalRest, SceneAnimation, TrsPath};
+use super::gltf_buffers::AccessorReader;
+use super::SceneError;
+use glam::{Mat4, Quat, Vec3, Vec4};
+use gltf::animation::{Interpolation as GltfInterp, Property};
+use std::path::Path;
+
+const KNOWN_PATHS: &[&str] = &["translation", "rotation", "scale", "weights"];
+
+fn label(index: usize, name: Option<&str>) -> String {
+    match name {
+        Some(n) => format!("animation '{n}'"),
+        None => format!("animation {index}"),
+    }
+}
+
+/// Rejects a channel whose `target.path` glTF does not define, naming the
+/// animation and channel.
+pub(crate) fn check_animation_json(
+    path: &Path,
+    root: &serde_json::Map<String, serde_json::Value>,
+) -> Result<(), SceneError> {
+    let Some(anims) = root.get("animations").and_then(|a| a.as_array()) else {
+        return Ok(());
+    };
+    for (ai, a) in anims.iter().enumerate() {
+        let name = a.get("name").and_then(|n| n.as_str());
+        let Some(channels) = a.get("channels").and_then(|c| c.as_array()) else {
+            continue;
+        };
+        for (ci, c) in channels.iter().enumerate() {
+            let p = c.pointer("/target/path").and_then(|p| p.as_str());
+            if let Some(p) = p.filter(|p| !KNOWN_PATHS.contains(p)) {
+                return Err(SceneError::invalid(
+                    path,
+                    format!(
+                        "{} channel {ci}: unknown target path '{p}' (expected translation, \
+                         rotation, scale or weights)",
+                        label(ai, name)
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The file's animations and node hierarchy; `None` when it has none.
+pub(crate) fn import_animations(
+    doc: &gltf::Document,
+    reader: &AccessorReader,
+    path: &Path,
+    instance_paths: Vec<Vec<u32>>,
+    warnings: &mut Vec<String>,
+) -> Result<Option<SceneAnimation>, SceneError> {
+    if doc.animations().len() == 0 {
+        return Ok(None);
+    }
+    let mut joint = vec![false; doc.nodes().len()];
+    for skin in doc.skins() {
+        for j in skin.joints() {
+            joint[j.index()] = true;
+        }
+    }
+    let nodes: Vec<LocalRest> = doc
+        .nodes()
+        .map(|n| match n.transform() {
+            gltf::scene::Transform::Matrix { matrix } => {
+                LocalRest::Matrix(Mat4::from_cols_array_2d(&matrix))
+            }
+            gltf::scene::Transform::Decomposed {
+                translation,
+                rotation,
+                scale,
+            } => LocalRest::Trs {
+                translation: Vec3::from(translation),
+                rotation: Quat::from_array(rotation),
+                scale: Vec3::from(scale),
+            },
+        })
+        .collect();
+    let mut animations = Vec::new();
+    for anim in doc.animations() {
+        let what = label(anim.index(), anim.name());
+        let mut channels = Vec::new();
+        let mut morph = false;
+        let mut skinned = false;
+        for (ci, ch) in anim.channels().enumerate() {
+            let err = |m: String| SceneError::invalid(path, format!("{what} channel {ci}: {m}"));
+            let target = ch.target();
+            let node = target.node().index();
+            let trs = match target.property() {
+                Property::Translation => TrsPath::Translation,
+                Property::Rotation => TrsPath::Rotation,
+                Property::Scale => TrsPath::Scale,
+                Property::MorphTargetWeights => {
+                    morph = true;
+                    continue;
+                }
+            };
+            if matches!(nodes[node], LocalRest::Matrix(_)) {
+                return Err(err(format!(
+                    "targets node {node}, which has a matrix (animated nodes must use \
+                     translation/rotation/scale)"
+                )));
+            }
+            skinned |= joint[node];
+            let sampler = ch.sampler();
+            let interpolation = match sampler.interpolation() {
+                GltfInterp::Step => Interpolation::Step,
+                GltfInterp::Linear => Interpolation::Linear,
+                GltfInterp::CubicSpline => Interpolation::CubicSpline,
+            };
+            let ctx = format!("{what} channel {ci}");
+            let times: Vec<f32> = reader
+                .read_vec::<1>(&sampler.input(), &format!("{ctx} input"))?
+                .into_iter()
+                .map(|[t]| t)
+                .collect();
+            let out = sampler.output();
+            let values: Vec<Vec4> = if trs == TrsPath::Rotation {
+                reader
+                    .read_vec::<4>(&out, &format!("{ctx} output"))?
+                    .into_iter()
+                    .map(Vec4::from)
+                    .collect()
+            } else {
+                reader
+                    .read_vec::<3>(&out, &format!("{ctx} output"))?
+                    .into_iter()
+                    .map(|v| Vec3::from(v).extend(0.0))
+                    .collect()
+            };
+            let c = Channel::new(node, trs, interpolation, times, values)
+                .map_err(|e| err(e.to_string()))?;
+            channels.push(c);
+        }
+        if morph {
+            warnings.push(format!(
+                "{}: {what} animates morph-target weights, which stereocache does not support; \
+                 those channels are ignored",
+                path.display()
+            ));
+        }
+        if skinned {
+            warnings.push(format!(
+                "{}: {what} drives skin joints; skinning is not supported, so skinned meshes \
+                 stay in their bind pose",
+                path.display()
+            ));
+        }
+        animations.push(Animation {
+            name: anim
+                .name()
+                .map(str::to_owned)
+                .unwrap_or_else(|| format!("animation{}", anim.index())),
+            channels,
+        });
+    }
+    let mut a = SceneAnimation {
+        nodes,
+        instance_paths,
+        animations,
+        active: Vec::new(),
+    };
+    a.select(&Default::default())
+        .expect("selecting all animations cannot fail");
+    Ok(Some(a))
+}

@@ -1,0 +1,339 @@
+//! glTF animation sampling (src/scene/animation.rs) against hand-computed
+//! values, and the import of tests/data/animation/animated.gltf against a
+//! CPU evaluation of the same node tree. CPU only, fast.
+//!
+//! Tolerances: every expected value is a short f32 expression of exactly
+//! representable inputs, so results agree to a few ulps; 1e-6 absolute on
+//! values of magnitude ≤ 5 is ~10 ulps (slerp goes through acos/sin, whose
+//! f32 error is ≤ 1 ulp each, times a handful of operations).
+
+use glam::{Mat4, Quat, Vec3, Vec4};
+use std::path::PathBuf;
+use stereocache::scene::animation::{
+    slerp, Animation, Channel, ChannelError, Interpolation, TrsPath,
+};
+use stereocache::scene::{load_gltf, AnimationSelection};
+
+const EPS: f32 = 1e-6;
+
+fn data(rel: &str) -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data")
+        .join(rel)
+}
+
+fn close(a: Vec4, b: Vec4, what: &str) {
+    assert!(
+        (a - b).abs().max_element() <= EPS,
+        "{what}: got {a}, expected {b}"
+    );
+}
+
+fn v3(x: f32, y: f32, z: f32) -> Vec4 {
+    Vec4::new(x, y, z, 0.0)
+}
+
+/// Quaternion (x, y, z, w) of `deg` degrees about `axis`.
+fn rot(axis: Vec3, deg: f32) -> Vec4 {
+    Vec4::from(Quat::from_axis_angle(axis, deg.to_radians()))
+}
+
+#[test]
+fn step_holds_each_key_until_the_next() {
+    let c = Channel::new(
+        0,
+        TrsPath::Translation,
+        Interpolation::Step,
+        vec![0.0, 1.0, 2.0],
+        vec![v3(1.0, 0.0, 0.0), v3(2.0, 0.0, 0.0), v3(3.0, 0.0, 0.0)],
+    )
+    .unwrap();
+    for (t, x) in [
+        (-1.0, 1.0),
+        (0.0, 1.0),
+        (0.5, 1.0),
+        (0.999, 1.0),
+        (1.0, 2.0),
+        (1.99, 2.0),
+        (2.0, 3.0),
+        (7.0, 3.0),
+    ] {
+        assert_eq!(c.sample(t), v3(x, 0.0, 0.0), "t = {t}");
+    }
+}
+
+#[test]
+fn linear_translation_and_scale_interpolate_between_keys() {
+    let c = Channel::new(
+        0,
+        TrsPath::Scale,
+        Interpolation::Linear,
+        vec![1.0, 3.0],
+        vec![v3(0.0, 0.0, 0.0), v3(2.0, 4.0, -6.0)],
+    )
+    .unwrap();
+    close(c.sample(0.0), v3(0.0, 0.0, 0.0), "before the first key");
+    close(c.sample(1.5), v3(0.5, 1.0, -1.5), "a quarter");
+    close(c.sample(2.0), v3(1.0, 2.0, -3.0), "half");
+    close(c.sample(3.0), v3(2.0, 4.0, -6.0), "last key");
+    close(c.sample(4.0), v3(2.0, 4.0, -6.0), "after the last key");
+}
+
+#[test]
+fn linear_rotation_is_slerp_along_the_shorter_arc() {
+    let y = Vec3::Y;
+    // 0° → 90° about +Y: s = 1/2 is 45°, s = 1/3 is 30° (a lerp would not be).
+    let c = Channel::new(
+        0,
+        TrsPath::Rotation,
+        Interpolation::Linear,
+        vec![0.0, 3.0],
+        vec![Vec4::W, rot(y, 90.0)],
+    )
+    .unwrap();
+    close(c.sample(1.5), rot(y, 45.0), "half way");
+    close(c.sample(1.0), rot(y, 30.0), "a third");
+    close(c.sample(2.0), rot(y, 60.0), "two thirds");
+    // The same end orientation written as −q: the shorter arc is taken.
+    close(
+        slerp(Vec4::W, -rot(y, 90.0), 0.5),
+        rot(y, 45.0),
+        "negated end",
+    );
+    // 0° → 180° about +Z written exactly as (0, 0, 1, 0) (dot = 0; f32
+    // cos 90° would make it −4e-8 and flip the arc): half way is 90°.
+    close(
+        slerp(Vec4::W, Vec4::Z, 0.5),
+        rot(Vec3::Z, 90.0),
+        "half turn",
+    );
+    // 10° → 10.01° (dot > 0.9995, the normalized-lerp branch): 10.005°.
+    close(
+        slerp(rot(y, 10.0), rot(y, 10.01), 0.5),
+        rot(y, 10.005),
+        "nearly parallel",
+    );
+}
+
+#[test]
+fn cubic_spline_scales_tangents_by_the_key_interval() {
+    // Keys at 0 and 2 (td = 2): v0 = (1,0,0), out-tangent b0 = (1,0,0),
+    // in-tangent a1 = (0,1,0), v1 = (3,0,0). Hermite basis at s:
+    //   s = 1/2: h00 = 1/2, h10 = 1/8, h01 = 1/2, h11 = −1/8
+    //     x = 1/2·1 + 2·1/8·1 + 1/2·3 = 2.25, y = 2·(−1/8)·1 = −0.25
+    //   s = 1/4: h00 = 27/32, h10 = 9/64, h01 = 5/32, h11 = −3/64
+    //     x = 27/32 + 2·9/64 + 3·5/32 = 1.59375, y = 2·(−3/64) = −0.09375
+    // (Unscaled tangents would give x = 2.125 and y = −0.125 at s = 1/2.)
+    let c = Channel::new(
+        0,
+        TrsPath::Translation,
+        Interpolation::CubicSpline,
+        vec![0.0, 2.0],
+        vec![
+            v3(9.0, 9.0, 9.0), // a0: unused (before the first key)
+            v3(1.0, 0.0, 0.0), // v0
+            v3(1.0, 0.0, 0.0), // b0
+            v3(0.0, 1.0, 0.0), // a1
+            v3(3.0, 0.0, 0.0), // v1
+            v3(9.0, 9.0, 9.0), // b1: unused (after the last key)
+        ],
+    )
+    .unwrap();
+    close(c.sample(1.0), v3(2.25, -0.25, 0.0), "s = 1/2");
+    close(c.sample(0.5), v3(1.59375, -0.09375, 0.0), "s = 1/4");
+    assert_eq!(c.sample(0.0), v3(1.0, 0.0, 0.0), "first key");
+    assert_eq!(c.sample(2.0), v3(3.0, 0.0, 0.0), "last key");
+}
+
+#[test]
+fn cubic_spline_rotation_comes_back_normalized() {
+    // Zero tangents: p(s) = h00 q0 + h01 q1, then normalized. At s = 1/2 the
+    // weights are equal, so the result is normalize(q0 + q1) = 45° about Z.
+    let c = Channel::new(
+        0,
+        TrsPath::Rotation,
+        Interpolation::CubicSpline,
+        vec![0.0, 1.0],
+        vec![
+            Vec4::ZERO,
+            Vec4::W,
+            Vec4::ZERO,
+            Vec4::ZERO,
+            rot(Vec3::Z, 90.0),
+            Vec4::ZERO,
+        ],
+    )
+    .unwrap();
+    close(c.sample(0.5), rot(Vec3::Z, 45.0), "s = 1/2");
+}
+
+#[test]
+fn animations_loop_over_their_duration() {
+    let c = Channel::new(
+        0,
+        TrsPath::Translation,
+        Interpolation::Linear,
+        vec![0.0, 2.0],
+        vec![v3(0.0, 0.0, 0.0), v3(2.0, 0.0, 0.0)],
+    )
+    .unwrap();
+    let a = Animation {
+        name: "a".into(),
+        channels: vec![c],
+    };
+    assert_eq!(a.duration(), 2.0);
+    assert_eq!(a.local_time(5.0), 1.0);
+    assert_eq!(a.local_time(1.5), 1.5);
+    assert_eq!(a.local_time(4.0), 0.0);
+}
+
+#[test]
+fn malformed_channels_are_refused() {
+    let ch = |interp, times: Vec<f32>, n: usize| {
+        Channel::new(0, TrsPath::Translation, interp, times, vec![Vec4::ZERO; n]).map(|_| ())
+    };
+    use Interpolation::*;
+    assert_eq!(ch(Linear, vec![], 0), Err(ChannelError::NoKeys));
+    assert_eq!(
+        ch(Linear, vec![0.0, 1.0, 1.0], 3),
+        Err(ChannelError::NotIncreasing(2))
+    );
+    assert_eq!(
+        ch(Linear, vec![0.0, f32::NAN], 2),
+        Err(ChannelError::TimeNotFinite(1))
+    );
+    assert_eq!(
+        ch(Step, vec![-1.0, 1.0], 2),
+        Err(ChannelError::TimeNegative(0))
+    );
+    assert_eq!(
+        ch(Linear, vec![0.0, 1.0], 3),
+        Err(ChannelError::CountMismatch {
+            keys: 2,
+            values: 3,
+            expected: 2
+        })
+    );
+    assert_eq!(
+        ch(CubicSpline, vec![0.0, 1.0], 2),
+        Err(ChannelError::CountMismatch {
+            keys: 2,
+            values: 2,
+            expected: 6
+        })
+    );
+    assert_eq!(
+        ch(CubicSpline, vec![0.0], 3),
+        Err(ChannelError::CubicNeedsTwoKeys)
+    );
+    let nan_value = Channel::new(
+        0,
+        TrsPath::Scale,
+        Interpolation::Step,
+        vec![0.0],
+        vec![Vec4::new(1.0, f32::NAN, 1.0, 0.0)],
+    );
+    assert_eq!(nan_value.map(|_| ()), Err(ChannelError::ValueNotFinite(0)));
+}
+
+/// animated.gltf (tests/data/animation/make.py): node "carrier" (animation
+/// "slide": translation LINEAR (0,0,0) → (1,0,0) → (1,2,0) at t = 0, 1, 2 and
+/// rotation LINEAR 0° → 90° about Z at t = 0, 2) holds "moving" (mesh,
+/// translation (0,0,−5)); "hopper" (mesh, rest translation (3,0,0)) is
+/// driven by "hop": STEP (3,0,0) → (3,1,0) at t = 0, 1.
+#[test]
+fn imported_animation_poses_instances_as_the_node_tree_says() {
+    let mut s = load_gltf(&data("animation/animated.gltf")).unwrap();
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    assert!(s.is_animated());
+    let names: Vec<&str> = s.instances.iter().map(|i| i.name.as_str()).collect();
+    assert_eq!(names, ["moving", "hopper"]);
+    let child = Mat4::from_translation(Vec3::new(0.0, 0.0, -5.0));
+    let expect_moving = |t: Vec3, deg: f32| {
+        Mat4::from_translation(t) * Mat4::from_quat(Quat::from_rotation_z(deg.to_radians())) * child
+    };
+    let check = |got: Mat4, want: Mat4, what: &str| {
+        let d = (got - want)
+            .to_cols_array()
+            .iter()
+            .fold(0f32, |m, x| m.max(x.abs()));
+        // Entries ≤ 5 in magnitude: 1e-6 relative to that is ~20 ulps.
+        assert!(d <= 5.0 * EPS, "{what}: {got} vs {want}");
+    };
+    for (t, tr, deg, hop) in [
+        (0.0, Vec3::ZERO, 0.0, 0.0),
+        (0.5, Vec3::new(0.5, 0.0, 0.0), 22.5, 0.0),
+        (1.5, Vec3::new(1.0, 1.0, 0.0), 67.5, 0.0), // hop wraps: local 0.5
+        (2.5, Vec3::new(0.5, 0.0, 0.0), 22.5, 0.0), // slide wraps: local 0.5
+        (1.0, Vec3::new(1.0, 0.0, 0.0), 45.0, 0.0), // hop wraps to local 0
+        (0.99, Vec3::new(0.99, 0.0, 0.0), 44.55, 0.0),
+    ] {
+        let m = s.instance_transforms_at(t);
+        check(m[0], expect_moving(tr, deg), &format!("moving at t = {t}"));
+        check(
+            m[1],
+            Mat4::from_translation(Vec3::new(3.0, hop, 0.0)),
+            &format!("hopper at t = {t}"),
+        );
+    }
+    // Only "hop": the carrier's instance keeps its import transform bit for bit.
+    let a = s.animation.as_mut().unwrap();
+    a.select(&"hop".parse().unwrap()).unwrap();
+    let rest = s.instances[0].transform;
+    let m = s.instance_transforms_at(0.5);
+    assert_eq!(m[0], rest);
+    // By index: 0 = "slide"; "hopper" then rests at its node's translation.
+    let a = s.animation.as_mut().unwrap();
+    a.select(&AnimationSelection::Index(0)).unwrap();
+    let m = s.instance_transforms_at(0.5);
+    assert_eq!(m[1], s.instances[1].transform);
+    check(
+        m[0],
+        expect_moving(Vec3::new(0.5, 0.0, 0.0), 22.5),
+        "slide only",
+    );
+    let a = s.animation.as_mut().unwrap();
+    let e = a.select(&"jump".parse().unwrap()).unwrap_err();
+    assert!(
+        e.contains("'jump'") && e.contains("0 'slide'") && e.contains("1 'hop'"),
+        "{e}"
+    );
+    assert!(a.select(&AnimationSelection::Index(2)).is_err());
+}
+
+#[test]
+fn a_90_hz_and_a_45_hz_replay_see_the_same_motion() {
+    let s = load_gltf(&data("animation/animated.gltf")).unwrap();
+    for k in 0..90u32 {
+        let t90 = (f64::from(2 * k) / 90.0) as f32;
+        let t45 = (f64::from(k) / 45.0) as f32;
+        assert_eq!(s.instance_transforms_at(t90), s.instance_transforms_at(t45));
+    }
+}
+
+fn expect_error(name: &str, phrases: &[&str]) {
+    let e = match load_gltf(&data(&format!("bad_scenes/{name}"))) {
+        Ok(_) => panic!("{name}: loaded, expected an error"),
+        Err(e) => e.to_string(),
+    };
+    assert!(
+        e.contains(name),
+        "{name}: message does not name the file: {e}"
+    );
+    for p in phrases {
+        assert!(e.contains(p), "{name}: expected '{p}' in: {e}");
+    }
+    assert!(!e.contains('\n'), "{name}: message should be one line: {e}");
+}
+
+#[test]
+fn malformed_animation_files_are_one_line_errors_naming_animation_and_channel() {
+    let at = "animation 'slide' channel 0";
+    expect_error("anim_not_increasing.gltf", &[at, "not strictly increasing"]);
+    expect_error("anim_count_mismatch.gltf", &[at, "2 values for 3 keys"]);
+    expect_error(
+        "anim_unknown_path.gltf",
+        &[at, "unknown target path 'colour'"],
+    );
+    expect_error("anim_nan_key.gltf", &[at, "not finite"]);
+}
