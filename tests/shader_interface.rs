@@ -278,3 +278,47 @@ fn a_binding_the_shader_writes_declared_read_fails_at_record_time() {
     rec.finish().unwrap();
     assert_no_validation_messages(&ctx);
 }
+
+/// A measurement, not a test: passes and barriers in the second frame of
+/// every method (cornell, 40×30). `cargo test --test shader_interface --
+/// --ignored --nocapture barriers`.
+#[test]
+#[ignore]
+fn barriers_per_frame() {
+    use stereocache::methods::{FrameInput, MethodKind, RenderSettings};
+    let ctx = context();
+    let s = session(
+        &ctx,
+        shipped("cornell"),
+        stereocache::rt::RtChoice::Software,
+    );
+    let settings = RenderSettings {
+        width: 40,
+        height: 30,
+        spp: 1,
+        max_bounces: 2,
+        seed: 1,
+        ..Default::default()
+    };
+    let camera = default_camera(&s, 40, 30);
+    for kind in MethodKind::ALL {
+        let mut m = s.method(kind.name(), &settings).unwrap();
+        render_at(m.as_mut(), 0, camera, None);
+        let mut rec = Recorder::new(&ctx, 32).unwrap();
+        let input = FrameInput {
+            index: 1,
+            camera: turning_head(&camera, 1, 2.0, 0.01),
+            prev_camera: Some(camera),
+        };
+        let outputs = m.record(&mut rec, &input).unwrap();
+        drop(outputs);
+        println!(
+            "{}: {} passes, {} barriers",
+            kind.name(),
+            rec.pass_count(),
+            rec.barrier_count()
+        );
+        rec.finish().unwrap();
+    }
+    assert_no_validation_messages(&ctx);
+}
