@@ -135,8 +135,8 @@ pub fn reflect(spirv: &[u8]) -> Result<ShaderUse, String> {
     let mut binding_of: HashMap<u32, u32> = HashMap::new();
     let mut non_writable: HashSet<u32> = HashSet::new();
     let mut non_readable: HashSet<u32> = HashSet::new();
-    // struct type -> (members decorated NonWritable, NonReadable)
-    let mut member_flags: HashMap<u32, (HashSet<u32>, HashSet<u32>)> = HashMap::new();
+    // struct type -> [members decorated NonWritable, NonReadable]
+    let mut member_flags: HashMap<u32, [HashSet<u32>; 2]> = HashMap::new();
     let mut member_count: HashMap<u32, u32> = HashMap::new();
     let mut pointee: HashMap<u32, u32> = HashMap::new();
     let mut var_type: HashMap<u32, u32> = HashMap::new();
@@ -174,10 +174,10 @@ pub fn reflect(spirv: &[u8]) -> Result<ShaderUse, String> {
                 let e = member_flags.entry(ins[1]).or_default();
                 match ins[3] {
                     decoration::NON_WRITABLE => {
-                        e.0.insert(ins[2]);
+                        e[0].insert(ins[2]);
                     }
                     decoration::NON_READABLE => {
-                        e.1.insert(ins[2]);
+                        e[1].insert(ins[2]);
                     }
                     _ => {}
                 }
@@ -341,19 +341,18 @@ pub fn reflect(spirv: &[u8]) -> Result<ShaderUse, String> {
         }
     }
 
-    let qualifier =
-        |v: u32, own: &HashSet<u32>, member: fn(&(HashSet<u32>, HashSet<u32>)) -> &HashSet<u32>| {
-            if own.contains(&v) {
-                return true;
-            }
-            let Some(block) = var_type.get(&v).and_then(|t| pointee.get(t)) else {
-                return false;
-            };
-            match (member_flags.get(block), member_count.get(block)) {
-                (Some(f), Some(&n)) => n > 0 && (0..n).all(|m| member(f).contains(&m)),
-                _ => false,
-            }
+    let qualifier = |v: u32, own: &HashSet<u32>, which: usize| {
+        if own.contains(&v) {
+            return true;
+        }
+        let Some(block) = var_type.get(&v).and_then(|t| pointee.get(t)) else {
+            return false;
         };
+        match (member_flags.get(block), member_count.get(block)) {
+            (Some(f), Some(&n)) => n > 0 && (0..n).all(|m| f[which].contains(&m)),
+            _ => false,
+        }
+    };
     let mut bindings: Vec<BindingUse> = vars
         .iter()
         .filter(|v| interface.contains(v) || touched.contains(v))
@@ -362,8 +361,8 @@ pub fn reflect(spirv: &[u8]) -> Result<ShaderUse, String> {
             binding: binding_of[&v],
             reads: reads.contains(&v),
             writes: writes.contains(&v),
-            non_writable: qualifier(v, &non_writable, |f| &f.0),
-            non_readable: qualifier(v, &non_readable, |f| &f.1),
+            non_writable: qualifier(v, &non_writable, 0),
+            non_readable: qualifier(v, &non_readable, 1),
         })
         .collect();
     bindings.sort_by_key(|b| (b.set, b.binding));
