@@ -5,7 +5,14 @@
 //! So a pass cannot use a buffer it did not declare. At `dispatch` the
 //! declarations are checked against the pipeline's shader interface
 //! (src/interface/: count, order by access, read versus write) and a
-//! mismatch fails, naming the pass and the binding. The buffers are bound
+//! mismatch fails, naming the pass and the binding. The pipeline knows from
+//! its SPIR-V which of those bindings the shader really uses and how
+//! (src/gpu/reflect.rs, checked against the interface when the pipeline is
+//! made): a binding the shader writes must be declared `.write()`, and only
+//! the bindings it uses are bound and tracked, each with its real access, so
+//! the recorder's barriers follow the pass's real hazards (read after write,
+//! write after read or write) rather than the group's whole binding list.
+//! The buffers are bound
 //! with push descriptors (VK_KHR_push_descriptor); without the extension
 //! (or with `STEREOCACHE_NO_PUSH_DESCRIPTOR=1`) each pass gets a descriptor
 //! set from a pool the recorder owns and frees after the frame.
@@ -24,6 +31,7 @@ use super::descriptors::DescriptorSet;
 use super::error::{vk_err, GpuError, GpuResult};
 use super::pass::Recorder;
 use super::pipeline::ComputePipeline;
+use super::reflect::PassUse;
 use crate::interface::Access;
 use ash::vk;
 
@@ -129,6 +137,20 @@ impl<'a> ComputePass<'_, 'a> {
                 p.shared_sets
             )));
         }
+        // What the shader really does (reflected from its SPIR-V when the
+        // pipeline was made) against the declarations: a binding it writes
+        // must be declared `.write()`; one it reads, `.read()` or `.write()`.
+        for (i, (u, (b, got))) in p.uses.iter().zip(&self.bindings).enumerate() {
+            if *u == PassUse::Write && *got != Access::Write {
+                return Err(GpuError::Interface(format!(
+                    "pass {pass}: binding {i} `{}` is written by shader {}, declared .{}({})",
+                    iface.bindings[i].name,
+                    p.name,
+                    got.word(),
+                    b.name
+                )));
+            }
+        }
         for (i, want) in iface.bindings.iter().enumerate() {
             match self.bindings.get(i) {
                 None => {
@@ -187,25 +209,35 @@ impl<'a> ComputePass<'_, 'a> {
             bindings,
             push,
         } = self;
-        let mut reads: Vec<vk::Buffer> = bindings
+        // Only the bindings the shader uses are bound, and the hazards are
+        // those of its real accesses (a buffer declared `.write()` that the
+        // shader only reads is tracked as read).
+        let used: Vec<(u32, &Buffer, PassUse)> = bindings
             .iter()
-            .filter(|(_, a)| *a == Access::Read)
-            .map(|(b, _)| b.raw)
+            .zip(&pipeline.uses)
+            .enumerate()
+            .filter(|(_, (_, u))| **u != PassUse::Unused)
+            .map(|(i, ((b, _), u))| (i as u32, *b, *u))
+            .collect();
+        let mut reads: Vec<vk::Buffer> = used
+            .iter()
+            .filter(|(_, _, u)| *u == PassUse::Read)
+            .map(|(_, b, _)| b.raw)
             .collect();
         reads.extend(indirect);
-        let writes: Vec<vk::Buffer> = bindings
+        let writes: Vec<vk::Buffer> = used
             .iter()
-            .filter(|(_, a)| *a == Access::Write)
-            .map(|(b, _)| b.raw)
+            .filter(|(_, _, u)| *u == PassUse::Write)
+            .map(|(_, b, _)| b.raw)
             .collect();
         let fallback_set = match pipeline.push_descriptors {
             true => None,
             false => Some(allocate_pass_set(rec, pipeline)?),
         };
         let idx = rec.begin_pass(&name, &reads, &writes);
-        let infos: Vec<[vk::DescriptorBufferInfo; 1]> = bindings
+        let infos: Vec<[vk::DescriptorBufferInfo; 1]> = used
             .iter()
-            .map(|(b, _)| {
+            .map(|(_, b, _)| {
                 [vk::DescriptorBufferInfo::default()
                     .buffer(b.raw)
                     .offset(0)
@@ -214,11 +246,11 @@ impl<'a> ComputePass<'_, 'a> {
             .collect();
         let writes: Vec<vk::WriteDescriptorSet> = infos
             .iter()
-            .enumerate()
-            .map(|(i, info)| {
+            .zip(&used)
+            .map(|(info, (i, _, _))| {
                 vk::WriteDescriptorSet::default()
                     .dst_set(fallback_set.unwrap_or_default())
-                    .dst_binding(i as u32)
+                    .dst_binding(*i)
                     .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
                     .buffer_info(info)
             })

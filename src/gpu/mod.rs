@@ -20,6 +20,7 @@ pub mod pass;
 pub mod pipeline;
 mod probe;
 pub mod readback;
+pub mod reflect;
 pub mod shaders;
 pub mod texture;
 pub mod validation;

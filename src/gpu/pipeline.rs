@@ -3,6 +3,7 @@
 use super::context::GpuContext;
 use super::descriptors::DescriptorLayout;
 use super::error::{vk_err, GpuError, GpuResult};
+use super::reflect::{self, PassUse};
 use crate::interface::{Interface, PushBlock};
 use ash::vk;
 use std::sync::Arc;
@@ -30,6 +31,10 @@ pub struct ComputePipeline {
     pub push_size: u32,
     /// The shader interface the pass builder checks declarations against.
     pub interface: &'static Interface,
+    /// What the shader does with each of `interface`'s bindings, reflected
+    /// from its SPIR-V (src/gpu/reflect.rs): the pass builder binds and
+    /// tracks only the bindings it uses, with the access it really makes.
+    pub uses: Vec<PassUse>,
     /// Number of persistent sets before the per-pass set.
     pub shared_sets: u32,
     /// The per-pass set is pushed (VK_KHR_push_descriptor), else allocated
@@ -68,6 +73,11 @@ impl ComputePipeline {
                 )));
             }
         }
+        // The shader's real accesses against the Rust interface: a binding
+        // it writes must be declared written, every one it uses must exist.
+        let used = reflect::reflect(spirv)
+            .map_err(|e| GpuError::Unsupported(format!("shader {name}: {e}")))?;
+        let uses = reflect::check_interface(name, &used, interface).map_err(GpuError::Interface)?;
         let push_descriptors = super::descriptors::use_push_descriptors(ctx);
         let mut layouts = shared.to_vec();
         layouts.push(DescriptorLayout::pass_buffers(
@@ -90,6 +100,7 @@ impl ComputePipeline {
             layout,
             push_size: push.map_or(0, |p| p.size()),
             interface,
+            uses,
             shared_sets: shared.len() as u32,
             push_descriptors,
             _set_layouts: layouts,
@@ -107,16 +118,8 @@ fn create(
     push_size: u32,
     spec: &SpecConstants,
 ) -> GpuResult<(vk::Pipeline, vk::PipelineLayout)> {
-    if spirv.len() % 4 != 0 || spirv.is_empty() {
-        return Err(GpuError::Unsupported(format!(
-            "shader {name}: SPIR-V size {} is not a multiple of 4",
-            spirv.len()
-        )));
-    }
-    let words: Vec<u32> = spirv
-        .chunks_exact(4)
-        .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
-        .collect();
+    let words =
+        reflect::words(spirv).map_err(|e| GpuError::Unsupported(format!("shader {name}: {e}")))?;
     let module_info = vk::ShaderModuleCreateInfo::default().code(&words);
     // SAFETY: `words` is whole 32-bit SPIR-V words (checked above) that outlive
     // the call; the device is alive while `ctx` is.

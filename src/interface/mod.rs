@@ -17,6 +17,7 @@ pub mod hash_table;
 pub mod hybrid;
 pub mod isrt;
 pub mod reference;
+pub mod reflect_test;
 pub mod sample_cache;
 pub mod scene;
 pub mod taa;
@@ -40,6 +41,7 @@ pub const ALL: &[&Interface] = &[
     &hash_table::TAA,
     &hybrid::INTERFACE,
     &debug_normals::INTERFACE,
+    &reflect_test::INTERFACE,
 ];
 
 /// camera.glsl's `FrameBuf` (the per-frame stereo camera, `FrameParams`):

@@ -1,6 +1,7 @@
 //! Interface of shaders/sample_cache/ (src/methods/sample_cache/): every
-//! pass of the sample cache binds the same 27 buffers of set 1 (one list for
-//! the whole group; a pass declares all of them, see `SampleCache::pass`).
+//! pass of the sample cache declares the same 27 buffers of set 1 (one list
+//! for the whole group, see `SampleCache::pass`); each pass binds and tracks
+//! only the ones its shader uses (src/gpu/reflect.rs).
 //! `_prev` / `_cur`: the previous frame's cache (read) and this frame's
 //! (written), the two halves of the ping-pong pair.
 

@@ -167,7 +167,8 @@ impl Reference {
             .write(&self.counters)
             .fill(0);
         // Binding order: src/interface/reference.rs. `primary` writes no
-        // accumulator but binds it (one binding list for both shaders).
+        // accumulator; it is declared (one binding list for both shaders) but
+        // neither bound nor tracked for `primary` (src/gpu/reflect.rs).
         rec.compute(&format!("{p}.primary"), &self.primary)
             .shared(&self.scene.set)
             .read(&self.frame)

@@ -497,9 +497,10 @@ impl SampleCache {
     /// and all 27 buffers of src/interface/sample_cache.rs declared in
     /// binding order — `prev` (0/1) the ping-pong half read as the previous
     /// frame's cache, `1 − prev` the one written — and the push constants.
-    /// The group has one binding list, so every pass declares every buffer
-    /// (barriers are conservative: whatever a pass may write is declared
-    /// written).
+    /// The group has one binding list, so every pass declares every buffer;
+    /// the pass builder binds and tracks only those its shader uses, with the
+    /// access the shader really makes (reflected from its SPIR-V), so the
+    /// barriers between passes are the real hazards.
     fn pass<'r, 'a>(
         &'a self,
         rec: &'r mut Recorder<'a>,
