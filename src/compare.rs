@@ -481,6 +481,16 @@ pub fn compare_configs(
             opts.zoom.max(1),
         )?;
     }
+    // The report's error maps, crops and viewer images (left eye).
+    crate::report::images::write(
+        &opts.out,
+        &labels,
+        &shown,
+        &kept,
+        &references,
+        opts.exposure,
+        flip.ppd,
+    )?;
     let reference = opts
         .reference_spp
         .map(|spp| ReferenceSummary::new(spp, reference_seed(settings.seed), &references, &rows));

@@ -7,6 +7,7 @@
 
 pub mod data;
 pub mod html;
+pub mod images;
 pub mod plots;
 
 pub use data::{load, ReportData};

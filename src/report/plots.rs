@@ -34,11 +34,13 @@ fn finite_max(v: impl Iterator<Item = f64>) -> f64 {
     v.filter(|x| x.is_finite()).fold(0.0f64, f64::max)
 }
 
-/// One line per method: `value(frame)` against the frame index.
+/// One line per method: `value(frame)` against the frame index, for the
+/// frames from index `first` on.
 pub fn per_frame(
     methods: &[MethodData],
     title: &str,
     y_label: &str,
+    first: usize,
     value: impl Fn(&super::data::FramePoint) -> Option<f64>,
 ) -> String {
     let mut svg = String::new();
@@ -54,7 +56,8 @@ pub fn per_frame(
         let ymax = finite_max(
             methods
                 .iter()
-                .flat_map(|m| m.frames.iter().filter_map(&value)),
+                .flat_map(|m| m.frames.iter().filter(|f| f.index >= first))
+                .filter_map(&value),
         )
         .max(1e-9)
             * 1.1;
@@ -63,7 +66,7 @@ pub fn per_frame(
             .margin(10)
             .x_label_area_size(30)
             .y_label_area_size(60)
-            .build_cartesian_2d(0f64..(n - 1) as f64, 0f64..ymax)
+            .build_cartesian_2d(first.min(n - 2) as f64..(n - 1) as f64, 0f64..ymax)
         {
             Ok(c) => c,
             Err(_) => return svg_error(title),
@@ -77,6 +80,7 @@ pub fn per_frame(
             let pts: Vec<(f64, f64)> = m
                 .frames
                 .iter()
+                .filter(|f| f.index >= first)
                 .filter_map(|f| {
                     value(f)
                         .filter(|v| v.is_finite())
