@@ -309,6 +309,10 @@ fn shown_frames(d: &ReportData) -> Vec<Shown<'_>> {
             .get(&format!("frame_{f:05}/{name}.png"))
             .map(Vec::as_slice)
     };
+    let ref_name = match d.summary["reference"]["spp"].as_u64() {
+        Some(spp) => format!("reference ({spp} spp)"),
+        None => "reference".to_string(),
+    };
     let mut out = Vec::new();
     for fr in index["frames"].as_array().into_iter().flatten() {
         let f = fr["frame"].as_u64().unwrap_or(0);
@@ -319,7 +323,7 @@ fn shown_frames(d: &ReportData) -> Vec<Shown<'_>> {
         let mut sources = Vec::new();
         if let Some(img) = file(f, "reference") {
             sources.push((
-                "reference".to_string(),
+                ref_name.clone(),
                 img,
                 None,
                 file(f, "reference.crop"),
