@@ -159,18 +159,14 @@ pub fn pass_breakdown(methods: &[MethodData]) -> String {
                     ))
                 })
                 .collect();
-            if let Ok(s) = chart.draw_series(bars) {
-                s.label(p.clone()).legend(move |(x, y)| {
-                    Rectangle::new([(x, y - 5), (x + 10, y + 5)], color.filled())
-                });
-            }
+            let _ = chart.draw_series(bars);
         }
-        let _ = chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::Coordinate(W as i32 - 10, 20))
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK)
-            .draw();
+        let entries: Vec<(String, RGBColor)> = passes
+            .iter()
+            .enumerate()
+            .map(|(i, p)| (p.clone(), palette(i)))
+            .collect();
+        side_legend(&root, &entries, W as i32 + 10, 20);
         let _ = root.present();
     }
     svg
@@ -236,11 +232,7 @@ pub fn pareto(methods: &[MethodData], metric: &str) -> String {
                     front.push(*p);
                 }
             }
-            if let Ok(s) = chart.draw_series(LineSeries::new(front, color.stroke_width(2))) {
-                s.label(k.clone()).legend(move |(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 16, y)], color.stroke_width(2))
-                });
-            }
+            let _ = chart.draw_series(LineSeries::new(front, color.stroke_width(2)));
             let _ = chart.draw_series(own.iter().map(|p| Circle::new(*p, 4, color.filled())));
         }
         for (i, x, y) in &pts {
@@ -250,15 +242,34 @@ pub fn pareto(methods: &[MethodData], metric: &str) -> String {
                 ("sans-serif", 11),
             )));
         }
-        let _ = chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::Coordinate(W as i32 - 10, 20))
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK)
-            .draw();
+        let entries: Vec<(String, RGBColor)> = seen
+            .iter()
+            .enumerate()
+            .map(|(i, k)| (k.clone(), palette(i)))
+            .collect();
+        side_legend(&root, &entries, W as i32 + 10, 20);
         let _ = root.present();
     }
     svg
+}
+
+/// A legend beside the plotting area (pixel coordinates of `root`): a
+/// colour swatch and the name of each series. Plotters' own series labels
+/// are drawn inside the plotting area and were clipped there.
+fn side_legend<DB: DrawingBackend>(
+    root: &DrawingArea<DB, plotters::coord::Shift>,
+    entries: &[(String, RGBColor)],
+    x: i32,
+    y: i32,
+) {
+    for (i, (name, color)) in entries.iter().enumerate() {
+        let yi = y + 16 * i as i32;
+        let _ = root.draw(&Rectangle::new(
+            [(x, yi), (x + 12, yi + 12)],
+            color.filled(),
+        ));
+        let _ = root.draw(&Text::new(name.clone(), (x + 18, yi), ("sans-serif", 12)));
+    }
 }
 
 fn svg_error(what: &str) -> String {

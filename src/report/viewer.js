@@ -2,7 +2,7 @@
   'use strict';
   var data = JSON.parse(document.getElementById('viewer-data').textContent);
   var fi = 0, si = 0, prev = 0, zoom = data.zoom, ev = 0, showErr = false;
-  var cv = document.getElementById('v-canvas'), ctx = cv.getContext('2d');
+  var cv = document.getElementById('v-canvas'), ctx = cv.getContext('2d', { willReadFrequently: true });
   var label = document.getElementById('v-name');
   function srgbDec(v) { return v <= 0.04045 ? v / 12.92 : Math.pow((v + 0.055) / 1.055, 2.4); }
   function srgbEnc(v) { return v <= 0.0031308 ? 12.92 * v : 1.055 * Math.pow(v, 1 / 2.4) - 0.055; }
