@@ -3,6 +3,8 @@
 //! - `<method>/` — what `replay` writes for that method (frames, frames.jsonl, summary.json);
 //! - `side-by-side/frame_<k>.png` — one column per method (labelled), rows:
 //!   left eye, right eye, and a zoomed crop of each, for the chosen frames;
+//! - `viewer/` — the report's error maps, crops and viewer images
+//!   ([`crate::report::images`]);
 //! - `summary.csv` and `summary.json` — one row per method: mean and p95
 //!   GPU ms per frame, mean ms per pass, rays, memory of the method's buffers,
 //!   and the `metrics` against the reference (with `rse_reference` and
