@@ -283,21 +283,24 @@ fn data_uri(bytes: &[u8]) -> String {
     )
 }
 
-/// One shown frame's images from `viewer/`: (element id, name, PNG) of the
-/// reference and each configuration, and their FLIP maps and crops.
+/// One image the report shows: (source name, image, FLIP map, crop, FLIP
+/// crop, FLIP mean), PNGs.
+type Source<'a> = (
+    String,
+    &'a [u8],
+    Option<&'a [u8]>,
+    Option<&'a [u8]>,
+    Option<&'a [u8]>,
+    Option<f64>,
+);
+
+/// One shown frame's images from `viewer/`: the reference's and each
+/// configuration's, with their FLIP maps and crops.
 struct Shown<'a> {
     frame: u64,
     width: u64,
     crop: Option<[u64; 4]>,
-    /// (source name, image, FLIP map, crop, FLIP crop, FLIP mean)
-    sources: Vec<(
-        String,
-        &'a [u8],
-        Option<&'a [u8]>,
-        Option<&'a [u8]>,
-        Option<&'a [u8]>,
-        Option<f64>,
-    )>,
+    sources: Vec<Source<'a>>,
 }
 
 fn shown_frames(d: &ReportData) -> Vec<Shown<'_>> {
