@@ -3,6 +3,8 @@
 //! - `<method>/` — what `replay` writes for that method (frames, frames.jsonl, summary.json);
 //! - `side-by-side/frame_<k>.png` — one column per method (labelled), rows:
 //!   left eye, right eye, and a zoomed crop of each, for the chosen frames;
+//! - `viewer/` — the report's error maps, crops and viewer images
+//!   ([`crate::report::images`]);
 //! - `summary.csv` and `summary.json` — one row per method: mean and p95
 //!   GPU ms per frame, mean ms per pass, rays, memory of the method's buffers,
 //!   and the `metrics` against the reference (with `rse_reference` and
@@ -480,6 +482,16 @@ pub fn compare_configs(
             opts.zoom.max(1),
         )?;
     }
+    // The report's error maps, crops and viewer images (left eye).
+    crate::report::images::write(
+        &opts.out,
+        &labels,
+        &shown,
+        &kept,
+        &references,
+        opts.exposure,
+        flip.ppd,
+    )?;
     let reference = opts
         .reference_spp
         .map(|spp| ReferenceSummary::new(spp, reference_seed(settings.seed), &references, &rows));

@@ -165,3 +165,122 @@ fn report_loads_in_headless_chromium() {
     );
     let _ = std::fs::remove_dir_all(&out);
 }
+
+/// The viewer in headless chromium: `report.html#selftest` switches the
+/// shown image by key (→), by button (the last source) and changes the
+/// exposure, and writes what the canvas showed after each into the DOM.
+/// Each switch must change the source and the canvas pixels; there must be
+/// no console message. Also: the error maps and crops are PNGs beside the
+/// report, and the page shows them with the reference column first.
+#[test]
+fn report_viewer_switches_method_in_headless_chromium() {
+    let chromium = ["/usr/bin/chromium", "/usr/bin/chromium-browser"]
+        .into_iter()
+        .find(|p| Path::new(p).exists());
+    if !require(
+        chromium.is_some(),
+        "chromium (scripts/setup.sh --test installs it)",
+    ) {
+        return;
+    }
+    let out = compare_run("viewer");
+    let index: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("viewer/index.json")).unwrap()).unwrap();
+    let frames = index["frames"].as_array().expect("viewer frames");
+    assert_eq!(frames.len(), 3, "first, middle and last frame shown");
+    for f in frames {
+        let dir = out.join(format!("viewer/frame_{:05}", f["frame"].as_u64().unwrap()));
+        for name in ["reference.png", "reference.crop.png"]
+            .into_iter()
+            .map(String::from)
+            .chain(["sample-cache", "reference"].iter().flat_map(|l| {
+                ["", ".flip", ".crop", ".flip.crop"].map(|s| format!("method-{l}{s}.png"))
+            }))
+        {
+            let img = image::open(dir.join(&name)).unwrap_or_else(|e| panic!("{name}: {e}"));
+            let crop = name.contains(".crop");
+            // 32x24 images: the crop window is the whole image.
+            assert_eq!(
+                (img.width(), img.height()),
+                (32, 24),
+                "{name} (crop {crop})"
+            );
+        }
+    }
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    let table = html
+        .split("<table class=\"imgs\"")
+        .nth(1)
+        .expect("error-map table");
+    assert!(
+        table.find("<th>reference (8 spp)</th>").unwrap()
+            < table.find("<th>sample-cache</th>").unwrap(),
+        "the reference column comes first"
+    );
+    assert!(table.contains("<th>HDR-FLIP</th>"), "no FLIP row");
+
+    let profile = out.join("profile");
+    let o = Command::new(chromium.expect("checked above"))
+        .args([
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--disable-quic",
+            "--no-first-run",
+            "--disable-background-networking",
+            "--disable-component-update",
+            "--disable-sync",
+            "--enable-logging=stderr",
+            "--v=0",
+            "--virtual-time-budget=5000",
+            "--dump-dom",
+        ])
+        .arg(format!("--user-data-dir={}", profile.display()))
+        .arg(format!(
+            "file://{}#selftest",
+            out.join("report.html").display()
+        ))
+        .output()
+        .unwrap();
+    let log = String::from_utf8_lossy(&o.stderr);
+    let console: Vec<&str> = log
+        .lines()
+        .filter(|l| l.contains("CONSOLE") || l.contains("Uncaught"))
+        .collect();
+    assert!(
+        console.is_empty(),
+        "console messages:\n{}",
+        console.join("\n")
+    );
+    let dom = String::from_utf8_lossy(&o.stdout);
+    let result = dom
+        .split("<pre id=\"v-selftest\">")
+        .nth(1)
+        .and_then(|r| r.split("</pre>").next())
+        .unwrap_or_else(|| panic!("no self-test output; chromium said:\n{log}"));
+    let r: serde_json::Value = serde_json::from_str(&result.replace("&quot;", "\""))
+        .unwrap_or_else(|e| panic!("self-test output {result}: {e}"));
+    assert_eq!(
+        r["sources"],
+        serde_json::json!(["reference (8 spp)", "sample-cache", "reference"]),
+        "{r}"
+    );
+    let (first, key, click, exposure) = (&r["first"], &r["key"], &r["click"], &r["exposure"]);
+    assert_eq!(first["source"], "reference (8 spp)", "{r}");
+    assert_eq!(key["source"], "sample-cache", "{r}");
+    assert_eq!(click["source"], "reference", "{r}");
+    assert_ne!(
+        first["hash"], key["hash"],
+        "→ did not change the canvas: {r}"
+    );
+    assert_ne!(
+        key["hash"], click["hash"],
+        "the button did not change the canvas: {r}"
+    );
+    assert_eq!(exposure["source"], "reference", "{r}");
+    assert_ne!(
+        click["hash"], exposure["hash"],
+        "EV +2 did not change the canvas: {r}"
+    );
+    let _ = std::fs::remove_dir_all(&out);
+}

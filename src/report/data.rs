@@ -62,6 +62,10 @@ pub struct ReportData {
     pub methods: Vec<MethodData>,
     /// Side-by-side grid images (file name, bytes).
     pub grids: Vec<(String, Vec<u8>)>,
+    /// `viewer/index.json` ([`super::images`]) when compare wrote one.
+    pub viewer: Option<serde_json::Value>,
+    /// The PNGs under `viewer/` by path relative to it (`frame_<f>/<name>.png`).
+    pub viewer_files: BTreeMap<String, Vec<u8>>,
 }
 
 fn bad(path: &Path, what: impl std::fmt::Display) -> Error {
@@ -128,10 +132,41 @@ pub fn load(dir: &Path) -> Result<ReportData> {
             grids.push((p.file_name().unwrap().to_string_lossy().into_owned(), bytes));
         }
     }
+    let (viewer, viewer_files) = load_viewer(dir)?;
     Ok(ReportData {
         dir: dir.to_path_buf(),
         summary,
         methods,
         grids,
+        viewer,
+        viewer_files,
     })
+}
+
+type ViewerFiles = (Option<serde_json::Value>, BTreeMap<String, Vec<u8>>);
+
+/// `viewer/index.json` and the PNGs of its frames (none: an older compare
+/// directory without them).
+fn load_viewer(dir: &Path) -> Result<ViewerFiles> {
+    let vdir = dir.join("viewer");
+    let ip = vdir.join("index.json");
+    let Ok(text) = std::fs::read_to_string(&ip) else {
+        return Ok((None, BTreeMap::new()));
+    };
+    let index: serde_json::Value =
+        serde_json::from_str(&text).map_err(|e| bad(&ip, format!("invalid JSON: {e}")))?;
+    let mut files = BTreeMap::new();
+    for f in index["frames"].as_array().into_iter().flatten() {
+        let sub = format!("frame_{:05}", f["frame"].as_u64().unwrap_or(0));
+        let fdir = vdir.join(&sub);
+        let rd = std::fs::read_dir(&fdir).map_err(|e| bad(&fdir, format!("cannot read ({e})")))?;
+        for p in rd.flatten().map(|e| e.path()) {
+            if p.extension().is_some_and(|e| e == "png") {
+                let bytes = std::fs::read(&p).map_err(|e| bad(&p, e))?;
+                let name = p.file_name().unwrap().to_string_lossy().into_owned();
+                files.insert(format!("{sub}/{name}"), bytes);
+            }
+        }
+    }
+    Ok((Some(index), files))
 }

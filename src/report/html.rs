@@ -77,7 +77,7 @@ fn ratios(d: &ReportData) -> String {
 pub fn page(d: &ReportData) -> Result<String> {
     let s = &d.summary;
     let mut h = String::new();
-    h.push_str("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>stereocache report</title>\n<style>body{font-family:sans-serif;margin:2em;max-width:1100px}table{border-collapse:collapse}td,th{border:1px solid #bbb;padding:4px 8px;text-align:right}th{background:#eee}td:first-child{text-align:left}img{image-rendering:pixelated;max-width:100%}figure{margin:1em 0}.note{color:#555;font-size:90%}.se{color:#666;font-size:85%}</style></head><body>\n");
+    h.push_str("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>stereocache report</title>\n<style>body{font-family:sans-serif;margin:2em;max-width:1100px}table{border-collapse:collapse}td,th{border:1px solid #bbb;padding:4px 8px;text-align:right}th{background:#eee}td:first-child{text-align:left}img{image-rendering:pixelated;max-width:100%}figure{margin:1em 0}table.imgs td,table.imgs th{text-align:center;vertical-align:top}table.imgs img{display:block}#v-sources button.on{background:#333;color:#fff}#v-wrap{overflow:auto;max-width:1060px;max-height:720px;border:1px solid #999;background:#222}#v-canvas{image-rendering:pixelated;display:block}.note{color:#555;font-size:90%}.se{color:#666;font-size:85%}</style></head><body>\n");
     h.push_str("<h1>stereocache comparison</h1>\n<p>");
     for (k, label) in [
         ("scene", "scene"),
@@ -186,16 +186,16 @@ pub fn page(d: &ReportData) -> Result<String> {
     if has_metrics {
         h.push_str(&format!(
             "<figure>{}</figure>\n",
-            plots::per_frame(&d.methods, "Relative squared error per frame", "RSE", |f| f
-                .metrics
-                .get("rse")
-                .copied())
+            plots::per_frame(
+                &d.methods,
+                "Relative squared error per frame",
+                "RSE",
+                0,
+                |f| f.metrics.get("rse").copied()
+            )
         ));
     }
-    h.push_str(&format!(
-        "<figure>{}</figure>\n",
-        plots::per_frame(&d.methods, "GPU time per frame", "ms", |f| Some(f.gpu_ms))
-    ));
+    h.push_str(&time_plot(d));
     h.push_str("<h2>Where the time goes</h2>\n");
     h.push_str(&format!(
         "<figure>{}</figure>\n",
@@ -233,6 +233,236 @@ pub fn page(d: &ReportData) -> Result<String> {
             ));
         }
     }
+    h.push_str(&error_maps(d));
+    h.push_str(&viewer(d));
     h.push_str("</body></html>\n");
     Ok(h)
+}
+
+/// GPU time per frame over the steady frames (after the first); the first
+/// frame's time (pipeline compilation and other one-time costs) in text, so
+/// it does not flatten the plot.
+fn time_plot(d: &ReportData) -> String {
+    let steady = d.methods.iter().any(|m| m.frames.len() > 1);
+    let first = usize::from(steady);
+    let mut h = format!(
+        "<figure>{}",
+        plots::per_frame(
+            &d.methods,
+            if steady {
+                "GPU time per frame (frames after the first)"
+            } else {
+                "GPU time per frame"
+            },
+            "ms",
+            first,
+            |f| Some(f.gpu_ms)
+        )
+    );
+    if steady {
+        let warm: Vec<String> = d
+            .methods
+            .iter()
+            .filter_map(|m| m.frames.iter().find(|f| f.index == 0))
+            .zip(&d.methods)
+            .map(|(f, m)| format!("{} {}", esc(&m.name), fmt(Some(f.gpu_ms))))
+            .collect();
+        h.push_str(&format!(
+            "<figcaption id=\"warm-up\">Frame 0 (warm-up: one-time driver costs such as pipeline compilation), not plotted, in ms: {}.</figcaption>",
+            warm.join(", ")
+        ));
+    }
+    h.push_str("</figure>\n");
+    h
+}
+
+fn data_uri(bytes: &[u8]) -> String {
+    format!(
+        "data:image/png;base64,{}",
+        base64::engine::general_purpose::STANDARD.encode(bytes)
+    )
+}
+
+/// One image the report shows: (source name, image, FLIP map, crop, FLIP
+/// crop, FLIP mean), PNGs.
+type Source<'a> = (
+    String,
+    &'a [u8],
+    Option<&'a [u8]>,
+    Option<&'a [u8]>,
+    Option<&'a [u8]>,
+    Option<f64>,
+);
+
+/// One shown frame's images from `viewer/`: the reference's and each
+/// configuration's, with their FLIP maps and crops.
+struct Shown<'a> {
+    frame: u64,
+    width: u64,
+    crop: Option<[u64; 4]>,
+    sources: Vec<Source<'a>>,
+}
+
+fn shown_frames(d: &ReportData) -> Vec<Shown<'_>> {
+    let Some(index) = &d.viewer else {
+        return Vec::new();
+    };
+    let file = |f: u64, name: &str| {
+        d.viewer_files
+            .get(&format!("frame_{f:05}/{name}.png"))
+            .map(Vec::as_slice)
+    };
+    let ref_name = match d.summary["reference"]["spp"].as_u64() {
+        Some(spp) => format!("reference ({spp} spp)"),
+        None => "reference".to_string(),
+    };
+    let mut out = Vec::new();
+    for fr in index["frames"].as_array().into_iter().flatten() {
+        let f = fr["frame"].as_u64().unwrap_or(0);
+        let crop = fr["crop"].as_array().and_then(|c| {
+            let v: Vec<u64> = c.iter().filter_map(|x| x.as_u64()).collect();
+            (v.len() == 4).then(|| [v[0], v[1], v[2], v[3]])
+        });
+        let mut sources = Vec::new();
+        if let Some(img) = file(f, "reference") {
+            sources.push((
+                ref_name.clone(),
+                img,
+                None,
+                file(f, "reference.crop"),
+                None,
+                None,
+            ));
+        }
+        for (j, l) in fr["labels"].as_array().into_iter().flatten().enumerate() {
+            let l = l.as_str().unwrap_or("");
+            let Some(img) = file(f, &format!("method-{l}")) else {
+                continue;
+            };
+            sources.push((
+                l.to_string(),
+                img,
+                file(f, &format!("method-{l}.flip")),
+                file(f, &format!("method-{l}.crop")),
+                file(f, &format!("method-{l}.flip.crop")),
+                fr["flip_means"][j].as_f64(),
+            ));
+        }
+        out.push(Shown {
+            frame: f,
+            width: fr["width"].as_u64().unwrap_or(1).max(1),
+            crop,
+            sources,
+        });
+    }
+    out
+}
+
+/// Per shown frame: the reference column, every configuration beside it,
+/// their HDR-FLIP maps, and crops where the configurations differ most.
+/// The images carry the ids the viewer draws from.
+fn error_maps(d: &ReportData) -> String {
+    let frames = shown_frames(d);
+    if frames.is_empty() {
+        return String::new();
+    }
+    let idx = d.viewer.as_ref().expect("frames come from the index");
+    let mut h = format!(
+        "<h2 id=\"error-maps\">Against the reference</h2>\n<p class=\"note\">{} of the left eye, at {} pixels per degree; colour ramp black (0) → purple → orange → pale yellow (1). Crops: {}, enlarged with nearest-neighbour pixels. Images tonemapped as the grids (exposure {}, ACES fit, sRGB). PNGs in <code>viewer/</code> beside this page.</p>\n",
+        esc(idx["error_map"].as_str().unwrap_or("")),
+        fmt(idx["ppd"].as_f64()),
+        esc(idx["crop_rule"].as_str().unwrap_or("")),
+        fmt(idx["exposure"].as_f64()),
+    );
+    for (k, f) in frames.iter().enumerate() {
+        let scale = (240 / f.width).max(1);
+        let shown_w = f.width * scale;
+        let img = |id: &str, bytes: &[u8], w: u64, alt: &str| {
+            format!(
+                "<img id=\"{id}\" alt=\"{}\" width=\"{w}\" src=\"{}\">",
+                esc(alt),
+                data_uri(bytes)
+            )
+        };
+        h.push_str(&format!(
+            "<h3>frame {}</h3>\n<table class=\"imgs\" id=\"errors-{}\"><tr><th></th>",
+            f.frame, f.frame
+        ));
+        for s in &f.sources {
+            h.push_str(&format!("<th>{}</th>", esc(&s.0)));
+        }
+        h.push_str("</tr>\n<tr><th>image</th>");
+        for (j, s) in f.sources.iter().enumerate() {
+            h.push_str(&format!(
+                "<td>{}</td>",
+                img(&format!("v{k}-{j}"), s.1, shown_w, &s.0)
+            ));
+        }
+        h.push_str("</tr>\n");
+        if f.sources.iter().any(|s| s.2.is_some()) {
+            h.push_str("<tr><th>HDR-FLIP</th>");
+            for (j, s) in f.sources.iter().enumerate() {
+                match s.2 {
+                    Some(b) => h.push_str(&format!(
+                        "<td>{}mean {}</td>",
+                        img(
+                            &format!("v{k}-{j}-flip"),
+                            b,
+                            shown_w,
+                            &format!("{} FLIP", s.0)
+                        ),
+                        fmt(s.5)
+                    )),
+                    None => h.push_str("<td></td>"),
+                }
+            }
+            h.push_str("</tr>\n");
+        }
+        if let Some([cx, cy, cw, ch]) = f.crop {
+            let cs = (192 / cw.max(1)).max(1) * cw;
+            h.push_str(&format!("<tr><th>crop<br>x {cx}, y {cy}<br>{cw}×{ch}</th>"));
+            for s in &f.sources {
+                match s.3 {
+                    Some(b) => h.push_str(&format!("<td>{}</td>", img("", b, cs, &s.0))),
+                    None => h.push_str("<td></td>"),
+                }
+            }
+            h.push_str("</tr>\n<tr><th>FLIP crop</th>");
+            for s in &f.sources {
+                match s.4 {
+                    Some(b) => h.push_str(&format!("<td>{}</td>", img("", b, cs, &s.0))),
+                    None => h.push_str("<td></td>"),
+                }
+            }
+            h.push_str("</tr>\n");
+        }
+        h.push_str("</table>\n");
+    }
+    h.replace(" id=\"\"", "")
+}
+
+/// The interactive viewer: one canvas showing the reference or a
+/// configuration on a shown frame, drawn from the images of
+/// [`error_maps`] (src/report/viewer.js).
+fn viewer(d: &ReportData) -> String {
+    let frames = shown_frames(d);
+    if frames.is_empty() {
+        return String::new();
+    }
+    let data = serde_json::json!({
+        "zoom": (480 / frames[0].width).clamp(1, 16).next_power_of_two(),
+        "frames": frames.iter().enumerate().map(|(k, f)| serde_json::json!({
+            "frame": f.frame,
+            "sources": f.sources.iter().enumerate().map(|(j, s)| serde_json::json!({
+                "name": s.0,
+                "id": format!("v{k}-{j}"),
+                "flip": s.2.map(|_| format!("v{k}-{j}-flip")),
+            })).collect::<Vec<_>>(),
+        })).collect::<Vec<_>>(),
+    });
+    format!(
+        "<h2 id=\"viewer\">Viewer</h2>\n<p class=\"note\">Switch between the reference and the configurations on the same frame: buttons or keys 1–9, ← →, <b>f</b> flips back to the previous one; <b>[</b> <b>]</b> change frame; zoom (nearest-neighbour pixels) with the wheel over the image, + and −; <b>e</b> shows the HDR-FLIP map instead. Exposure: the slider multiplies radiance by 2^EV on the tonemapped PNGs, undoing sRGB and the ACES fit per pixel in the canvas and applying them again (8-bit PNGs: highlights the ACES curve saturated at 255 stay saturated when darkened).</p>\n<div><select id=\"v-frame\"></select> <span id=\"v-sources\"></span> zoom <button id=\"v-zoom-out\">−</button> <span id=\"v-zoom\"></span> <button id=\"v-zoom-in\">+</button> EV <input type=\"range\" id=\"v-ev\" min=\"-6\" max=\"6\" step=\"0.5\" value=\"0\"> <span id=\"v-ev-val\"></span> <label><input type=\"checkbox\" id=\"v-err\"> FLIP map</label></div>\n<div id=\"v-name\"></div><div id=\"v-wrap\"><canvas id=\"v-canvas\"></canvas></div><pre id=\"v-selftest\"></pre>\n<script type=\"application/json\" id=\"viewer-data\">{}</script>\n<script>\n{}</script>\n",
+        data.to_string().replace("</", "<\\/"),
+        include_str!("viewer.js")
+    )
 }

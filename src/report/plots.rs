@@ -34,11 +34,13 @@ fn finite_max(v: impl Iterator<Item = f64>) -> f64 {
     v.filter(|x| x.is_finite()).fold(0.0f64, f64::max)
 }
 
-/// One line per method: `value(frame)` against the frame index.
+/// One line per method: `value(frame)` against the frame index, for the
+/// frames from index `first` on.
 pub fn per_frame(
     methods: &[MethodData],
     title: &str,
     y_label: &str,
+    first: usize,
     value: impl Fn(&super::data::FramePoint) -> Option<f64>,
 ) -> String {
     let mut svg = String::new();
@@ -54,7 +56,8 @@ pub fn per_frame(
         let ymax = finite_max(
             methods
                 .iter()
-                .flat_map(|m| m.frames.iter().filter_map(&value)),
+                .flat_map(|m| m.frames.iter().filter(|f| f.index >= first))
+                .filter_map(&value),
         )
         .max(1e-9)
             * 1.1;
@@ -63,7 +66,7 @@ pub fn per_frame(
             .margin(10)
             .x_label_area_size(30)
             .y_label_area_size(60)
-            .build_cartesian_2d(0f64..(n - 1) as f64, 0f64..ymax)
+            .build_cartesian_2d(first.min(n - 2) as f64..(n - 1) as f64, 0f64..ymax)
         {
             Ok(c) => c,
             Err(_) => return svg_error(title),
@@ -77,6 +80,7 @@ pub fn per_frame(
             let pts: Vec<(f64, f64)> = m
                 .frames
                 .iter()
+                .filter(|f| f.index >= first)
                 .filter_map(|f| {
                     value(f)
                         .filter(|v| v.is_finite())
@@ -155,18 +159,14 @@ pub fn pass_breakdown(methods: &[MethodData]) -> String {
                     ))
                 })
                 .collect();
-            if let Ok(s) = chart.draw_series(bars) {
-                s.label(p.clone()).legend(move |(x, y)| {
-                    Rectangle::new([(x, y - 5), (x + 10, y + 5)], color.filled())
-                });
-            }
+            let _ = chart.draw_series(bars);
         }
-        let _ = chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::Coordinate(W as i32 - 10, 20))
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK)
-            .draw();
+        let entries: Vec<(String, RGBColor)> = passes
+            .iter()
+            .enumerate()
+            .map(|(i, p)| (p.clone(), palette(i)))
+            .collect();
+        side_legend(&root, &entries, W as i32 + 10, 20);
         let _ = root.present();
     }
     svg
@@ -232,11 +232,7 @@ pub fn pareto(methods: &[MethodData], metric: &str) -> String {
                     front.push(*p);
                 }
             }
-            if let Ok(s) = chart.draw_series(LineSeries::new(front, color.stroke_width(2))) {
-                s.label(k.clone()).legend(move |(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 16, y)], color.stroke_width(2))
-                });
-            }
+            let _ = chart.draw_series(LineSeries::new(front, color.stroke_width(2)));
             let _ = chart.draw_series(own.iter().map(|p| Circle::new(*p, 4, color.filled())));
         }
         for (i, x, y) in &pts {
@@ -246,15 +242,34 @@ pub fn pareto(methods: &[MethodData], metric: &str) -> String {
                 ("sans-serif", 11),
             )));
         }
-        let _ = chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::Coordinate(W as i32 - 10, 20))
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK)
-            .draw();
+        let entries: Vec<(String, RGBColor)> = seen
+            .iter()
+            .enumerate()
+            .map(|(i, k)| (k.clone(), palette(i)))
+            .collect();
+        side_legend(&root, &entries, W as i32 + 10, 20);
         let _ = root.present();
     }
     svg
+}
+
+/// A legend beside the plotting area (pixel coordinates of `root`): a
+/// colour swatch and the name of each series. Plotters' own series labels
+/// are drawn inside the plotting area and were clipped there.
+fn side_legend<DB: DrawingBackend>(
+    root: &DrawingArea<DB, plotters::coord::Shift>,
+    entries: &[(String, RGBColor)],
+    x: i32,
+    y: i32,
+) {
+    for (i, (name, color)) in entries.iter().enumerate() {
+        let yi = y + 16 * i as i32;
+        let _ = root.draw(&Rectangle::new(
+            [(x, yi), (x + 12, yi + 12)],
+            color.filled(),
+        ));
+        let _ = root.draw(&Text::new(name.clone(), (x + 18, yi), ("sans-serif", 12)));
+    }
 }
 
 fn svg_error(what: &str) -> String {
