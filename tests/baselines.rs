@@ -320,6 +320,7 @@ fn taa_keeps_no_history_across_a_disocclusion() {
     let frames = run_taa(TaaSettings {
         clip: false,
         reject_disocclusions: false,
+        weights: TaaWeights::Fixed,
         ..Default::default()
     });
     let (max_red, checked, _) = disoccluded_red(&frames);

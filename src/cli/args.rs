@@ -184,6 +184,7 @@ impl MethodArgs {
             isrt: self.isrt.settings().map_err(|e| anyhow!(e))?,
             hash: self.hash.settings(debug_views).map_err(|e| anyhow!(e))?,
             light_sampling: Default::default(),
+            taa_output: self.taa.taa_output,
         })
     }
 }

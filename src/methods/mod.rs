@@ -26,7 +26,7 @@ pub use reference::Reference;
 pub use registry::MethodKind;
 pub use sample_cache::{SampleCache, SampleCacheSettings};
 pub use specialize::LightSampling;
-pub use taa::{Taa, TaaPass, TaaSettings, TaaWeights};
+pub use taa::{Taa, TaaOnOutput, TaaPass, TaaSettings, TaaWeights};
 
 use crate::gpu::{GpuContext, GpuResult, Recorder};
 use std::sync::Arc;
@@ -64,6 +64,10 @@ pub struct RenderSettings {
     pub hash: HashCacheSettings,
     /// Sampling of emissive triangles and environment maps (default MIS).
     pub light_sampling: LightSampling,
+    /// `--taa-output`: every method's image goes through the one TAA
+    /// ([`TaaOnOutput`], with `taa`'s options) unless it already ends in it
+    /// (the paper's Fig. 12, "TAA on top of all methods").
+    pub taa_output: bool,
 }
 
 impl Default for RenderSettings {
@@ -83,6 +87,7 @@ impl Default for RenderSettings {
             isrt: IsrtSettings::default(),
             hash: HashCacheSettings::default(),
             light_sampling: LightSampling::Mis,
+            taa_output: false,
         }
     }
 }
@@ -109,6 +114,12 @@ pub trait Method {
         rec: &mut Recorder<'a>,
         frame: &FrameInput,
     ) -> GpuResult<FrameOutputs<'a>>;
+
+    /// Whether the image the method shows is already the output of the one
+    /// TAA ([`TaaPass`]): `--taa-output` then leaves the method as it is.
+    fn resolves_with_taa(&self) -> bool {
+        false
+    }
 
     /// Renders both eyes of one frame: the shared frame loop.
     fn render_frame(&mut self, frame: &FrameInput) -> GpuResult<StereoFrame> {

@@ -10,7 +10,7 @@
 
 use super::{
     baseline, DebugNormals, HashCache, Hybrid, Isrt, Method, Reference, RenderSettings,
-    SampleCache, Taa,
+    SampleCache, Taa, TaaOnOutput,
 };
 use crate::error::{Error, Result};
 use crate::session::Session;
@@ -52,9 +52,14 @@ macro_rules! methods {
             /// Creates the method on `session`'s device and scene.
             pub fn create(self, session: &Session, settings: &RenderSettings) -> Result<Box<dyn Method>> {
                 let (ctx, scene, env) = (&session.ctx, &session.scene_gpu, &session.scene.environment);
-                let method: Box<dyn Method> = match self {
+                let mut method: Box<dyn Method> = match self {
                     $(MethodKind::$variant => Box::new($ctor(ctx, scene, env, settings)?),)+
                 };
+                // `--taa-output`: the one TAA on the output of every method
+                // that does not already end in it.
+                if settings.taa_output && !method.resolves_with_taa() {
+                    method = Box::new(TaaOnOutput::new(method, scene, settings, &settings.taa)?);
+                }
                 // The name a method reports (summary.json, stats.json) is its registry name.
                 debug_assert_eq!(method.name(), self.name());
                 Ok(method)
