@@ -19,7 +19,7 @@
 use crate::camera::StereoCamera;
 use crate::error::{Error, Result};
 use crate::evaluate::{half_seeds, Evaluator, ReferenceCache, ReferenceFrame};
-use crate::methods::{MethodKind, RenderSettings, StereoFrame};
+use crate::methods::{MethodConfig, RenderSettings, StereoFrame};
 use crate::metrics::ReferenceNoise;
 use crate::output::{self, label, tonemap};
 use crate::replay::{replay_observed, ReplayOptions, ReplaySummary};
@@ -30,7 +30,7 @@ use std::path::{Path, PathBuf};
 
 #[derive(Clone, Debug)]
 pub struct CompareOptions {
-    pub methods: Vec<MethodKind>,
+    pub methods: Vec<MethodConfig>,
     pub frames: Option<usize>,
     pub fps: f64,
     /// Per-method images every k-th frame (0 = none).
@@ -212,11 +212,11 @@ fn default_shown(n: usize) -> Vec<usize> {
 }
 
 /// One configuration of a comparison: a label (its folder and column name),
-/// the method, and the settings it runs with.
+/// the method with its own options, and the shared settings it runs with.
 #[derive(Clone, Debug)]
 pub struct Config {
     pub label: String,
-    pub method: MethodKind,
+    pub config: MethodConfig,
     pub settings: RenderSettings,
 }
 
@@ -235,9 +235,9 @@ pub fn compare(
     let configs: Vec<Config> = opts
         .methods
         .iter()
-        .map(|&m| Config {
-            label: m.name().to_string(),
-            method: m,
+        .map(|m| Config {
+            label: m.kind().name().to_string(),
+            config: m.clone(),
             settings: settings.clone(),
         })
         .collect();
@@ -300,10 +300,9 @@ pub fn compare_configs(
     // fail fast; debug views are on so the grids can show them.
     let mut methods = Vec::new();
     for c in configs {
-        let mut with_debug = c.settings.clone();
-        with_debug.cache.debug_views = true;
-        with_debug.hash.debug_views = true;
-        methods.push(session.create(c.method, &with_debug)?);
+        let mut with_debug = c.config.clone();
+        with_debug.enable_debug_views();
+        methods.push(session.create(with_debug, &c.settings)?);
     }
     // Reference frames (rendered once as two independent halves, cached on
     // disk) for the metrics.
@@ -337,7 +336,7 @@ pub fn compare_configs(
             exposure: opts.exposure,
             debug_views: false,
             trace: opts.trace.clone(),
-            settings: serde_json::to_value(settings).unwrap_or_default(),
+            settings: config.config.record(settings),
         };
         let mut observer =
             |i: usize, cam: &StereoCamera, f: &StereoFrame| -> Result<BTreeMap<String, f64>> {
@@ -353,7 +352,7 @@ pub fn compare_configs(
         let summary = replay_observed(session, method.as_mut(), cameras, &ropts, &mut observer)?;
         let mut row = MethodRow::from_summary(&summary);
         row.method = name.clone();
-        row.kind = config.method.name().to_string();
+        row.kind = config.config.kind().name().to_string();
         row.metrics = evaluator.means();
         rows.push(row);
     }

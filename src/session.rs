@@ -5,7 +5,7 @@
 use crate::camera::{HeadPose, StereoCamera, DEFAULT_IPD};
 use crate::error::{Error, Result};
 use crate::gpu::{GpuContext, GpuOptions};
-use crate::methods::{Method, MethodKind, RenderSettings};
+use crate::methods::{Method, MethodConfig, MethodKind, RenderSettings};
 use crate::rt::{RtBackend, RtChoice, SceneGpu};
 use crate::scene::{apply_default_lighting, load_scene, DefaultLighting, Scene};
 use glam::{Quat, Vec3};
@@ -131,15 +131,20 @@ impl Session {
         Ok(cam)
     }
 
-    /// Creates a rendering method (the registry's constructor).
-    pub fn create(&self, kind: MethodKind, settings: &RenderSettings) -> Result<Box<dyn Method>> {
-        kind.create(self, settings)
+    /// Creates a rendering method from its configuration (the registry's
+    /// constructor); a [`MethodKind`] is the method with default options.
+    pub fn create(
+        &self,
+        config: impl Into<MethodConfig>,
+        settings: &RenderSettings,
+    ) -> Result<Box<dyn Method>> {
+        config.into().create(self, settings)
     }
 
-    /// Creates a rendering method by its CLI name (an unknown name is a
-    /// usage error listing the registry's names).
+    /// Creates a rendering method by its CLI name, with default options (an
+    /// unknown name is a usage error listing the registry's names).
     pub fn method(&self, name: &str, settings: &RenderSettings) -> Result<Box<dyn Method>> {
-        self.create(name.parse()?, settings)
+        self.create(name.parse::<MethodKind>()?, settings)
     }
 }
 

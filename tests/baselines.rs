@@ -12,7 +12,7 @@ use std::collections::{HashMap, HashSet};
 use stereocache::camera::{Eye, StereoCamera};
 use stereocache::methods::isrt::IsrtSnapshot;
 use stereocache::methods::{
-    Isrt, IsrtSettings, Method, RenderSettings, StereoFrame, TaaSettings, TaaWeights,
+    Isrt, IsrtSettings, Method, MethodConfig, RenderSettings, StereoFrame, TaaSettings, TaaWeights,
 };
 use stereocache::rt::{RtChoice, SoftwareBvh};
 use stereocache::scene::{generate::*, Environment, Material, Scene};
@@ -136,15 +136,13 @@ fn supersample_naive_and_taa_against_the_reference() {
         const RUNS: u32 = 8;
         let mut e = vec![0.0; cams.len()];
         for run_k in 0..RUNS {
-            let st = RenderSettings {
-                taa: TaaSettings {
-                    weights,
-                    clip,
-                    ..Default::default()
-                },
-                ..settings(w, h, 1, 21 + run_k)
-            };
-            let mut m = s.method("taa", &st).unwrap();
+            let st = settings(w, h, 1, 21 + run_k);
+            let taa = MethodConfig::Taa(TaaSettings {
+                weights,
+                clip,
+                ..Default::default()
+            });
+            let mut m = s.create(taa, &st).unwrap();
             let frames = run(m.as_mut(), &cams);
             for (i, f) in frames.iter().enumerate() {
                 assert_rgb_finite_non_negative(f, "taa");
@@ -244,10 +242,9 @@ fn taa_keeps_no_history_across_a_disocclusion() {
     let run_taa = |taa: TaaSettings| {
         let st = RenderSettings {
             max_bounces: 1,
-            taa,
             ..settings(w, h, 1, 3)
         };
-        let mut m = s.method("taa", &st).unwrap();
+        let mut m = s.create(MethodConfig::Taa(taa), &st).unwrap();
         run(m.as_mut(), &cams)
     };
     let size = UVec2::new(w, h);
@@ -429,14 +426,12 @@ fn isrt_grid_invariants_on_a_moving_trace() {
     for (scene, m) in [("cornell", 3), ("hairball", 2)] {
         let s = session(&ctx, shipped(scene), RtChoice::Software);
         let (w, h) = (32, 24);
-        let st = RenderSettings {
-            isrt: IsrtSettings {
-                m,
-                ..Default::default()
-            },
-            ..settings(w, h, 1, 5)
+        let st = settings(w, h, 1, 5);
+        let isrt = IsrtSettings {
+            m,
+            ..Default::default()
         };
-        let mut method = Isrt::new(&s.ctx, &s.scene_gpu, &s.scene.environment, &st).unwrap();
+        let mut method = Isrt::new(&s.ctx, &s.scene_gpu, &s.scene.environment, &st, &isrt).unwrap();
         let bvh = SoftwareBvh::build(&s.scene);
         let hits = HitPositions::new(&bvh);
         let cam0 = default_camera(&s, w, h);

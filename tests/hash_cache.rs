@@ -19,21 +19,22 @@ use stereocache::rt::RtChoice;
 use stereocache::scene::Material;
 use stereocache::session::Session;
 
-fn settings(w: u32, h: u32, hash: HashCacheSettings) -> RenderSettings {
-    RenderSettings {
+/// The shared settings and the hash cache's own options (`hash`).
+fn settings(w: u32, h: u32, hash: HashCacheSettings) -> (RenderSettings, HashCacheSettings) {
+    let st = RenderSettings {
         width: w,
         height: h,
         spp: 1,
         max_bounces: 2,
         seed: 7,
         all_features: false,
-        hash,
         ..Default::default()
-    }
+    };
+    (st, hash)
 }
 
-fn hash_method(s: &Session, st: &RenderSettings) -> HashCache {
-    HashCache::new(&s.ctx, &s.scene_gpu, &s.scene.environment, st).expect("hash cache")
+fn hash_method(s: &Session, (st, hash): &(RenderSettings, HashCacheSettings)) -> HashCache {
+    HashCache::new(&s.ctx, &s.scene_gpu, &s.scene.environment, st, hash).expect("hash cache")
 }
 
 fn moving(start: &StereoCamera, frame: u32, deg_per_frame: f32) -> StereoCamera {

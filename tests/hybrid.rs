@@ -13,27 +13,31 @@ use stereocache::camera::{Eye, StereoCamera};
 use stereocache::methods::hash_cache::{HashCacheSettings, HashLod};
 use stereocache::methods::sample_cache::background::background_direction;
 use stereocache::methods::sample_cache::SampleCacheSettings;
-use stereocache::methods::{Hybrid, Method, RenderSettings};
+use stereocache::methods::{Hybrid, HybridConfig, Method, RenderSettings};
 use stereocache::rt::{RtChoice, SoftwareBvh};
 use stereocache::scene::Material;
 use stereocache::session::Session;
 
-fn settings(w: u32, h: u32, hash: HashCacheSettings) -> RenderSettings {
-    RenderSettings {
+/// The shared settings and hybrid's own options (default visibility, `hash`).
+fn settings(w: u32, h: u32, hash: HashCacheSettings) -> (RenderSettings, HybridConfig) {
+    let st = RenderSettings {
         width: w,
         height: h,
         spp: 1,
         max_bounces: 2,
         seed: 11,
         all_features: false,
+        ..Default::default()
+    };
+    let config = HybridConfig {
         cache: SampleCacheSettings::default(),
         hash,
-        ..Default::default()
-    }
+    };
+    (st, config)
 }
 
-fn hybrid(s: &Session, st: &RenderSettings) -> Hybrid {
-    Hybrid::new(&s.ctx, &s.scene_gpu, &s.scene.environment, st).expect("hybrid")
+fn hybrid(s: &Session, (st, config): &(RenderSettings, HybridConfig)) -> Hybrid {
+    Hybrid::new(&s.ctx, &s.scene_gpu, &s.scene.environment, st, config).expect("hybrid")
 }
 
 fn moving(start: &StereoCamera, frame: u32, deg_per_frame: f32) -> StereoCamera {

@@ -9,11 +9,10 @@ use stereocache::methods::sample_cache::background::background_direction;
 use stereocache::methods::sample_cache::{
     CacheSnapshot, Reproject, Retrace, SampleCache, SampleCacheSettings, Shading,
 };
-use stereocache::methods::RenderSettings;
 use stereocache::rt::{RtChoice, SoftwareBvh};
 use stereocache::session::{CameraSelect, Session};
 
-fn settings(w: u32, h: u32, cache: SampleCacheSettings) -> RenderSettings {
+fn settings(w: u32, h: u32, cache: SampleCacheSettings) -> CacheSetup {
     cache_settings(w, h, cache, 5)
 }
 
@@ -289,7 +288,7 @@ fn dump_debug_views() {
 }
 
 /// Renders `frames` frames of a moving head and returns the method.
-fn run_frames(s: &Session, st: &RenderSettings, frames: u32, deg_per_frame: f32) -> SampleCache {
+fn run_frames(s: &Session, st: &CacheSetup, frames: u32, deg_per_frame: f32) -> SampleCache {
     let mut m = cache_method(s, st);
     let cam0 = s
         .camera(&CameraSelect::Default, st.width, st.height, None, None)
@@ -425,19 +424,17 @@ fn adaptive_shading_dispatches_the_requested_rate() {
 fn adaptive_shading_rate(s: &Session, subgroup_ops: bool) {
     let (w, h) = (48, 36);
     let rate = 0.5f32;
-    let st = RenderSettings {
-        subgroup_ops,
-        ..settings(
-            w,
-            h,
-            SampleCacheSettings {
-                shading: Shading::Adaptive,
-                shading_rate: rate,
-                retrace: Retrace::Multi,
-                ..Default::default()
-            },
-        )
-    };
+    let mut st = settings(
+        w,
+        h,
+        SampleCacheSettings {
+            shading: Shading::Adaptive,
+            shading_rate: rate,
+            retrace: Retrace::Multi,
+            ..Default::default()
+        },
+    );
+    st.subgroup_ops = subgroup_ops;
     let mut m = cache_method(s, &st);
     eprintln!("subgroup builds: {}", m.uses_subgroup_ops());
     let cam0 = default_camera(s, w, h);
@@ -660,18 +657,16 @@ fn subgroup_and_plain_builds_agree() {
     let (w, h) = (48, 36);
     let cam0 = default_camera(&s, w, h);
     let run = |subgroup_ops: bool| {
-        let st = RenderSettings {
-            subgroup_ops,
-            ..settings(
-                w,
-                h,
-                SampleCacheSettings {
-                    shading: Shading::Adaptive,
-                    shading_rate: 0.75,
-                    ..Default::default()
-                },
-            )
-        };
+        let mut st = settings(
+            w,
+            h,
+            SampleCacheSettings {
+                shading: Shading::Adaptive,
+                shading_rate: 0.75,
+                ..Default::default()
+            },
+        );
+        st.subgroup_ops = subgroup_ops;
         let mut m = cache_method(&s, &st);
         assert_eq!(m.uses_subgroup_ops(), subgroup_ops);
         let mut out = Vec::new();

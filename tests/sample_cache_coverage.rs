@@ -11,7 +11,7 @@ use stereocache::camera::{Eye, EyeView, StereoCamera};
 use stereocache::methods::hash_cache::HashCacheSettings;
 use stereocache::methods::isrt::{Isrt, IsrtSettings};
 use stereocache::methods::sample_cache::{SampleCache, SampleCacheSettings};
-use stereocache::methods::{Hybrid, Method, RenderSettings, StereoFrame};
+use stereocache::methods::{Hybrid, HybridConfig, Method, RenderSettings, StereoFrame};
 use stereocache::rt::{RtChoice, SoftwareBvh};
 use stereocache::scene::generate::{add_material, add_mesh, grid};
 use stereocache::scene::{Environment, Material, Scene};
@@ -24,14 +24,19 @@ fn settings(w: u32, h: u32) -> RenderSettings {
         max_bounces: 2,
         seed: 5,
         all_features: false,
+        ..Default::default()
+    }
+}
+
+/// Hybrid's options in these tests: default visibility, a 2^14-entry table, no TAA.
+fn hybrid_config() -> HybridConfig {
+    HybridConfig {
         cache: SampleCacheSettings::default(),
         hash: HashCacheSettings {
             capacity: 1 << 14,
             taa: false,
             ..Default::default()
         },
-        isrt: IsrtSettings::default(),
-        ..Default::default()
     }
 }
 
@@ -137,8 +142,14 @@ fn half_covered_pixels_converge_to_their_coverage() {
         let st = settings(w, h);
         let (fr, counts): (StereoFrame, Vec<u32>) = match method {
             "sample-cache" => {
-                let mut m =
-                    SampleCache::new(&s.ctx, &s.scene_gpu, &s.scene.environment, &st).unwrap();
+                let mut m = SampleCache::new(
+                    &s.ctx,
+                    &s.scene_gpu,
+                    &s.scene.environment,
+                    &st,
+                    &SampleCacheSettings::default(),
+                )
+                .unwrap();
                 let fr = still(&mut m, cam, frames);
                 let snap = m.snapshot().unwrap();
                 let n = (0..2 * snap.npix())
@@ -147,7 +158,14 @@ fn half_covered_pixels_converge_to_their_coverage() {
                 (fr, n)
             }
             "isrt" => {
-                let mut m = Isrt::new(&s.ctx, &s.scene_gpu, &s.scene.environment, &st).unwrap();
+                let mut m = Isrt::new(
+                    &s.ctx,
+                    &s.scene_gpu,
+                    &s.scene.environment,
+                    &st,
+                    &IsrtSettings::default(),
+                )
+                .unwrap();
                 let fr = still(&mut m, cam, frames);
                 let snap = m.snapshot().unwrap();
                 let mm = snap.m;
@@ -166,7 +184,14 @@ fn half_covered_pixels_converge_to_their_coverage() {
                 (fr, n)
             }
             _ => {
-                let mut m = Hybrid::new(&s.ctx, &s.scene_gpu, &s.scene.environment, &st).unwrap();
+                let mut m = Hybrid::new(
+                    &s.ctx,
+                    &s.scene_gpu,
+                    &s.scene.environment,
+                    &st,
+                    &hybrid_config(),
+                )
+                .unwrap();
                 let fr = still(&mut m, cam, frames);
                 let snap = m.sample_cache().snapshot().unwrap();
                 let n = (0..2 * snap.npix())
@@ -219,8 +244,14 @@ fn hairball_edges_match_the_reference() {
     let cam = default_camera(&s, w, h);
     let bvh = SoftwareBvh::build(&s.scene);
     let reference = reference_frame(&s, cam, w, h, 128);
-    let mut m =
-        SampleCache::new(&s.ctx, &s.scene_gpu, &s.scene.environment, &settings(w, h)).unwrap();
+    let mut m = SampleCache::new(
+        &s.ctx,
+        &s.scene_gpu,
+        &s.scene.environment,
+        &settings(w, h),
+        &SampleCacheSettings::default(),
+    )
+    .unwrap();
     let fr = still(&mut m, cam, 24);
     let (mut edge, mut all) = (Vec::new(), Vec::new());
     let (mut edge_ref, mut all_ref) = (0.0, 0.0);
@@ -277,9 +308,9 @@ fn under_filled_pixels_recover_and_none_stays_black() {
         let cam = default_camera(&s, w, h);
         let bvh = SoftwareBvh::build(&s.scene);
         let st = settings(w, h);
-        let cs = st.cache.clone();
+        let cs = SampleCacheSettings::default();
         let floor = cs.n_target - cs.delta;
-        let mut m = SampleCache::new(&s.ctx, &s.scene_gpu, &s.scene.environment, &st).unwrap();
+        let mut m = SampleCache::new(&s.ctx, &s.scene_gpu, &s.scene.environment, &st, &cs).unwrap();
         let frames = 32;
         let mut last = None;
         let mut exempt_total = 0;
@@ -410,8 +441,14 @@ fn shading_normals_facing_away_do_not_make_black_pixels() {
         1.0,
     );
     let reference = reference_frame(&s, cam, w, h, 1);
-    let mut m =
-        SampleCache::new(&s.ctx, &s.scene_gpu, &s.scene.environment, &settings(w, h)).unwrap();
+    let mut m = SampleCache::new(
+        &s.ctx,
+        &s.scene_gpu,
+        &s.scene.environment,
+        &settings(w, h),
+        &SampleCacheSettings::default(),
+    )
+    .unwrap();
     let fr = still(&mut m, cam, 4);
     for (what, f) in [("reference", &reference), ("sample-cache", &fr)] {
         let mut plane = 0;
@@ -449,8 +486,14 @@ fn edge_bias_report() {
     let cam = default_camera(&s, w, h);
     let bvh = SoftwareBvh::build(&s.scene);
     let reference = reference_frame(&s, cam, w, h, 512);
-    let mut m =
-        SampleCache::new(&s.ctx, &s.scene_gpu, &s.scene.environment, &settings(w, h)).unwrap();
+    let mut m = SampleCache::new(
+        &s.ctx,
+        &s.scene_gpu,
+        &s.scene.environment,
+        &settings(w, h),
+        &SampleCacheSettings::default(),
+    )
+    .unwrap();
     let fr = still(&mut m, cam, 48);
     let (mut edge, mut all) = (Vec::new(), Vec::new());
     let (mut edge_ref, mut all_ref) = (0.0, 0.0);

@@ -18,7 +18,7 @@ use stereocache::scene::Material;
 use stereocache::session::CameraSelect;
 use stereocache::stereo::BlendMode;
 
-fn settings(w: u32, h: u32, cache: SampleCacheSettings) -> RenderSettings {
+fn settings(w: u32, h: u32, cache: SampleCacheSettings) -> CacheSetup {
     cache_settings(w, h, cache, 9)
 }
 
@@ -79,18 +79,16 @@ fn adaptive_shading_holds_the_rate_and_leaves_no_visible_pixel_black() {
     let trace = synth(SynthKind::HeadTurn, 0.6, 3, 1000.0);
     let cams = trace_cameras(&s, &trace, 30.0, w, h, &CameraSelect::Default, None, None).unwrap();
     for subgroup_ops in [true, false] {
-        let st = RenderSettings {
-            subgroup_ops,
-            ..settings(
-                w,
-                h,
-                SampleCacheSettings {
-                    shading: Shading::Adaptive,
-                    shading_rate: rate,
-                    ..Default::default()
-                },
-            )
-        };
+        let mut st = settings(
+            w,
+            h,
+            SampleCacheSettings {
+                shading: Shading::Adaptive,
+                shading_rate: rate,
+                ..Default::default()
+            },
+        );
+        st.subgroup_ops = subgroup_ops;
         let mut m = cache_method(&s, &st);
         let mut prev = None;
         for (f, cam) in cams.iter().enumerate() {
@@ -358,7 +356,7 @@ fn black_base_emitter_renders_its_emission_through_the_cache() {
         cam,
         &RenderSettings {
             spp: 4,
-            ..st.clone()
+            ..st.settings.clone()
         },
     );
     let mut m = cache_method(&s, &st);

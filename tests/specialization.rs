@@ -8,7 +8,7 @@
 
 mod common;
 use common::*;
-use stereocache::methods::{FrameInput, HashCacheSettings, RenderSettings, SampleCacheSettings};
+use stereocache::methods::{FrameInput, HashCacheSettings, MethodConfig, RenderSettings};
 use stereocache::rt::RtChoice;
 use stereocache::scene::{apply_default_lighting, load_scene, DefaultLighting};
 
@@ -55,7 +55,6 @@ fn specialized_and_all_features_pipelines_agree() {
                     max_bounces: 3,
                     seed: 9,
                     all_features,
-                    cache: SampleCacheSettings::default(),
                     ..Default::default()
                 };
                 render(&s, method, cam, &st)
@@ -103,24 +102,26 @@ fn zero_bounce_hash_cache_skips_update_with_identical_images() {
         let s = session(&ctx, shipped(name), RtChoice::Software);
         let (w, h) = (24, 16);
         let cam0 = default_camera(&s, w, h);
-        let settings = |bounces: u32, all_passes: bool, debug_views: bool| RenderSettings {
+        let settings = |bounces: u32, all_passes: bool| RenderSettings {
             width: w,
             height: h,
             spp: 1,
             max_bounces: bounces,
             seed: 3,
             all_passes,
-            hash: HashCacheSettings {
+            ..Default::default()
+        };
+        let hash = |debug_views: bool| {
+            MethodConfig::HashCache(HashCacheSettings {
                 capacity: 128,
                 max_probe: 4,
                 stale_frames: 2,
                 debug_views,
                 ..Default::default()
-            },
-            ..Default::default()
+            })
         };
-        let mut skip = s.method("hash-cache", &settings(0, false, false)).unwrap();
-        let mut every = s.method("hash-cache", &settings(0, true, false)).unwrap();
+        let mut skip = s.create(hash(false), &settings(0, false)).unwrap();
+        let mut every = s.create(hash(false), &settings(0, true)).unwrap();
         let mut failures = 0.0;
         let mut prev = None;
         for f in 0..4u32 {
@@ -170,9 +171,7 @@ fn zero_bounce_hash_cache_skips_update_with_identical_images() {
         assert!(failures > 0.0, "{name}: the tiny table never overflowed");
         // With bounces, or with debug views (they show cell sample counts), `update` stays.
         for (bounces, debug) in [(1, false), (0, true)] {
-            let mut m = s
-                .method("hash-cache", &settings(bounces, false, debug))
-                .unwrap();
+            let mut m = s.create(hash(debug), &settings(bounces, false)).unwrap();
             let fr = render_at(m.as_mut(), 0, cam0, None);
             assert!(
                 fr.stats.passes.iter().any(|p| p.name == "update"),

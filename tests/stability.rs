@@ -41,7 +41,7 @@ fn camera_transformed(c: &StereoCamera, scale: f32, offset: Vec3) -> StereoCamer
     c
 }
 
-fn settings(w: u32, h: u32, cache: SampleCacheSettings) -> RenderSettings {
+fn settings(w: u32, h: u32, cache: SampleCacheSettings) -> CacheSetup {
     cache_settings(w, h, cache, 5)
 }
 
@@ -107,7 +107,8 @@ struct CacheRun {
 fn cache_run(s: &Session, cam0: &StereoCamera, frames: u32, drift: f32, rel_eps: f32) -> CacheRun {
     let (w, h) = (32, 24);
     let st = settings(w, h, SampleCacheSettings::default());
-    let mut m = SampleCache::new(&s.ctx, &s.scene_gpu, &s.scene.environment, &st).unwrap();
+    let mut m =
+        SampleCache::new(&s.ctx, &s.scene_gpu, &s.scene.environment, &st, &st.cache).unwrap();
     let bvh = SoftwareBvh::build(&s.scene);
     let mut r = CacheRun {
         visible: 0,
@@ -177,7 +178,7 @@ fn error_against_reference(s: &Session, cam: &StereoCamera) -> (f64, f64) {
     let reference = reference_frame(s, *cam, w, h, 128);
     let mut st = settings(w, h, SampleCacheSettings::default());
     st.max_bounces = 2;
-    let mut m = s.method("sample-cache", &st).unwrap();
+    let mut m = s.create(st.config(), &st).unwrap();
     let mut last = None;
     for f in 0..8 {
         last = Some(render_at(m.as_mut(), f, *cam, Some(*cam)));
@@ -330,7 +331,8 @@ fn grazing_plane_adaptive_retrace() {
         ..Default::default()
     };
     let st = settings(w, h, cs);
-    let mut m = SampleCache::new(&s.ctx, &s.scene_gpu, &s.scene.environment, &st).unwrap();
+    let mut m =
+        SampleCache::new(&s.ctx, &s.scene_gpu, &s.scene.environment, &st, &st.cache).unwrap();
     // Eye 1 m above the plane, looking level along −Z: the horizon is the
     // middle row; the farthest plane point (2000 m) is at atan(2000) = 89.97°.
     let cam0 = look_at_camera(
@@ -450,8 +452,14 @@ fn degenerate_triangles_stay_finite() {
         st.max_bounces = 3;
         let fr = render(&sess, "reference", cam, &st);
         assert!(all_finite(&fr), "{rt:?}: reference output not finite");
-        let mut m =
-            SampleCache::new(&sess.ctx, &sess.scene_gpu, &sess.scene.environment, &st).unwrap();
+        let mut m = SampleCache::new(
+            &sess.ctx,
+            &sess.scene_gpu,
+            &sess.scene.environment,
+            &st,
+            &st.cache,
+        )
+        .unwrap();
         let mut prev = None;
         for f in 0..4 {
             let c = moving(&cam, f, 1.0, 0.01);
@@ -486,7 +494,8 @@ fn long_run(frames: u32, moving_head: bool) -> (f32, bool, u64, u64) {
     let s = session(&ctx, shipped("cornell"), RtChoice::Software);
     let (w, h) = (8, 6);
     let st = settings(w, h, SampleCacheSettings::default());
-    let mut m = SampleCache::new(&s.ctx, &s.scene_gpu, &s.scene.environment, &st).unwrap();
+    let mut m =
+        SampleCache::new(&s.ctx, &s.scene_gpu, &s.scene.environment, &st, &st.cache).unwrap();
     let cam0 = default_camera(&s, w, h);
     let (mut finite, mut at10) = (true, 0);
     let mut prev = None;

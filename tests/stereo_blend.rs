@@ -27,14 +27,15 @@ fn blending_lowers_stereo_discrepancy() {
             max_bounces: 2,
             seed: 3,
             all_features: false,
-            cache: SampleCacheSettings {
-                stereo_blend: mode,
-                sharpness: 0.5,
-                ..Default::default()
-            },
             ..Default::default()
         };
-        let mut m = SampleCache::new(&s.ctx, &s.scene_gpu, &s.scene.environment, &st).unwrap();
+        let cache = SampleCacheSettings {
+            stereo_blend: mode,
+            sharpness: 0.5,
+            ..Default::default()
+        };
+        let mut m =
+            SampleCache::new(&s.ctx, &s.scene_gpu, &s.scene.environment, &st, &cache).unwrap();
         render_still(&mut m, cam, 4)
     };
     let views = cam.eyes();

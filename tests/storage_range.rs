@@ -107,6 +107,7 @@ fn sample_cache_just_under_the_limit_builds_and_one_row_more_is_refused() {
         &s.scene_gpu,
         &s.scene.environment,
         &over,
+        &over.cache,
     );
     match r {
         Err(GpuError::StorageRange { what, bytes, .. }) => {

@@ -7,24 +7,36 @@
 mod common;
 use common::*;
 use stereocache::camera::StereoCamera;
-use stereocache::methods::hash_cache::HashCacheSettings;
-use stereocache::methods::{MethodKind, RenderSettings, StereoFrame, TaaSettings, TaaWeights};
+use stereocache::methods::{
+    MethodConfig, MethodKind, RenderSettings, StereoFrame, TaaSettings, TaaWeights,
+};
 use stereocache::rt::RtChoice;
 
-fn settings(w: u32, h: u32, taa_output: bool, hash_taa: bool) -> RenderSettings {
+fn settings(w: u32, h: u32, taa_output: Option<TaaSettings>) -> RenderSettings {
     RenderSettings {
         width: w,
         height: h,
         spp: 2,
         max_bounces: 1,
         seed: 7,
-        hash: HashCacheSettings {
-            capacity: 1 << 14,
-            taa: hash_taa,
-            ..Default::default()
-        },
         taa_output,
         ..Default::default()
+    }
+}
+
+/// `kind` with its default options, a small table for the hash-table
+/// methods, and their own TAA on or off.
+fn config(kind: MethodKind, hash_taa: bool) -> MethodConfig {
+    match kind {
+        MethodKind::HashCache => MethodConfig::hash_cache(|c| {
+            c.capacity = 1 << 14;
+            c.taa = hash_taa;
+        }),
+        MethodKind::Hybrid => MethodConfig::hybrid(|c| {
+            c.hash.capacity = 1 << 14;
+            c.hash.taa = hash_taa;
+        }),
+        other => other.into(),
     }
 }
 
@@ -60,8 +72,9 @@ fn taa_output_runs_once_per_frame_on_every_registry_method() {
     }
     for (kind, taa_output, hash_taa) in runs {
         let what = format!("{kind} (taa_output {taa_output}, hash taa {hash_taa})");
+        let taa = taa_output.then(TaaSettings::default);
         let mut m = s
-            .create(kind, &settings(w, h, taa_output, hash_taa))
+            .create(config(kind, hash_taa), &settings(w, h, taa))
             .unwrap_or_else(|e| panic!("{what}: {e}"));
         assert_eq!(m.name(), kind.name(), "{what}");
         let own_taa = matches!(kind, MethodKind::Taa)
@@ -131,13 +144,8 @@ fn still_view_taa_output_is_the_running_mean_of_the_method() {
         MethodKind::DebugNormals,
     ];
     for kind in deterministic {
-        let plain_settings = settings(w, h, false, true);
-        let taa_settings = RenderSettings {
-            taa: taa.clone(),
-            ..settings(w, h, true, true)
-        };
-        let mut plain = s.create(kind, &plain_settings).unwrap();
-        let mut resolved = s.create(kind, &taa_settings).unwrap();
+        let mut plain = s.create(kind, &settings(w, h, None)).unwrap();
+        let mut resolved = s.create(kind, &settings(w, h, Some(taa.clone()))).unwrap();
         let n = (w * h) as usize;
         let mut sum = vec![[0.0f64; 3]; 2 * n];
         let mut worst = 0.0f64;

@@ -31,6 +31,7 @@ pub fn bench_sample_cache(
     session: &Session,
     cameras: &[crate::camera::StereoCamera],
     base: &crate::methods::RenderSettings,
+    cache: &crate::methods::SampleCacheSettings,
 ) -> Result<(Vec<CacheBenchRow>, ScatterBaselines)> {
     use crate::methods::sample_cache::{Reproject, Retrace, SampleCacheSettings};
     let mut rows = Vec::new();
@@ -113,15 +114,15 @@ pub fn bench_sample_cache(
     let mut labels = Vec::new();
     for (label, retrace, reproject, subgroup_ops) in configs {
         let settings = crate::methods::RenderSettings {
-            cache: SampleCacheSettings {
-                retrace,
-                reproject,
-                ..base.cache.clone()
-            },
             subgroup_ops,
             ..base.clone()
         };
-        methods.push(session.create(MethodKind::SampleCache, &settings)?);
+        let config = crate::methods::MethodConfig::SampleCache(SampleCacheSettings {
+            retrace,
+            reproject,
+            ..cache.clone()
+        });
+        methods.push(session.create(config, &settings)?);
         labels.push(label);
     }
     // 1 spp path tracing: the reference method with one jittered sample.
@@ -169,7 +170,7 @@ pub fn bench_sample_cache(
             frame_ms_per_frame: frame_ms,
         });
     }
-    Ok((rows, scatter_baselines(session, cameras, base)?))
+    Ok((rows, scatter_baselines(session, cameras, base, cache)?))
 }
 
 /// GPU times of the two scatter baselines of `bench sample-cache` (mean ms
@@ -188,16 +189,17 @@ pub struct ScatterBaselines {
 
 /// Runs both scatter baselines in the same command buffer per frame over
 /// `cameras` (frame 0 not counted): sources are the reference's first hits of
-/// frame 0 and a sample cache (`base.cache`) after up to 10 frames.
+/// frame 0 and a sample cache (`cache`) after up to 10 frames.
 fn scatter_baselines(
     session: &Session,
     cameras: &[crate::camera::StereoCamera],
     base: &crate::methods::RenderSettings,
+    cache: &crate::methods::SampleCacheSettings,
 ) -> Result<ScatterBaselines> {
     let ctx = &session.ctx;
     let (w, h) = (base.width, base.height);
     let n = (w * h * 2) as u64;
-    let slots = base.cache.slots;
+    let slots = cache.slots;
     // First hits of frame 0 from the reference's pixel-centre rays.
     let mut reference = session.create(
         MethodKind::Reference,
@@ -224,6 +226,7 @@ fn scatter_baselines(
             &session.scene_gpu,
             &session.scene.environment,
             base,
+            cache,
         )?;
         use crate::methods::Method;
         let warm = cameras.len().min(11);

@@ -9,55 +9,47 @@ pub fn tradeoff_configs(base: &crate::methods::RenderSettings) -> Vec<crate::com
     use crate::compare::Config;
     use crate::methods::hash_cache::settings::HashLod;
     use crate::methods::sample_cache::{Reproject, Retrace, Shading};
-    use crate::methods::MethodKind;
+    use crate::methods::{MethodConfig, MethodKind};
     let mut v = Vec::new();
-    let cfg = |label: String, method: MethodKind, s: crate::methods::RenderSettings| Config {
+    let cfg = |label: String, config: MethodConfig, s: crate::methods::RenderSettings| Config {
         label,
-        method,
+        config,
         settings: s,
     };
     for n in [4u32, 8, 12, 16] {
-        let mut s = base.clone();
-        s.cache.slots = n;
-        s.cache.n_target = 4.min(n - 1).max(2);
-        s.cache.delta = 1;
-        v.push(cfg(format!("sc-N{n}"), MethodKind::SampleCache, s));
+        let c = MethodConfig::sample_cache(|c| {
+            c.slots = n;
+            c.n_target = 4.min(n - 1).max(2);
+            c.delta = 1;
+        });
+        v.push(cfg(format!("sc-N{n}"), c, base.clone()));
     }
     for nt in [2u32, 6] {
-        let mut s = base.clone();
-        s.cache.n_target = nt;
-        v.push(cfg(format!("sc-ntarget{nt}"), MethodKind::SampleCache, s));
+        let c = MethodConfig::sample_cache(|c| c.n_target = nt);
+        v.push(cfg(format!("sc-ntarget{nt}"), c, base.clone()));
     }
     for (name, r) in [("single", Retrace::Single), ("multi", Retrace::Multi)] {
-        let mut s = base.clone();
-        s.cache.retrace = r;
-        v.push(cfg(
-            format!("sc-retrace-{name}"),
-            MethodKind::SampleCache,
-            s,
-        ));
+        let c = MethodConfig::sample_cache(|c| c.retrace = r);
+        v.push(cfg(format!("sc-retrace-{name}"), c, base.clone()));
     }
     for rate in [0.25f32, 0.5, 1.0] {
-        let mut s = base.clone();
-        s.cache.shading = Shading::Adaptive;
-        s.cache.shading_rate = rate;
-        v.push(cfg(
-            format!("sc-adaptive-shading{rate}"),
-            MethodKind::SampleCache,
-            s,
-        ));
+        let c = MethodConfig::sample_cache(|c| {
+            c.shading = Shading::Adaptive;
+            c.shading_rate = rate;
+        });
+        v.push(cfg(format!("sc-adaptive-shading{rate}"), c, base.clone()));
     }
-    let mut s = base.clone();
-    s.cache.reproject = Reproject::TwoPass;
-    v.push(cfg("sc-two-pass".into(), MethodKind::SampleCache, s));
+    let c = MethodConfig::sample_cache(|c| c.reproject = Reproject::TwoPass);
+    v.push(cfg("sc-two-pass".into(), c, base.clone()));
     for (cap, lod) in [
         (1u32 << 16, HashLod::Distance),
         (1 << 20, HashLod::Distance),
         (1 << 20, HashLod::DistanceNormal),
     ] {
-        let mut s = base.clone();
-        s.hash.capacity = cap;
-        s.hash.lod = lod;
+        let c = MethodConfig::hash_cache(|c| {
+            c.capacity = cap;
+            c.lod = lod;
+        });
         let lname = if lod == HashLod::Distance {
             "dist"
         } else {
@@ -65,18 +57,22 @@ pub fn tradeoff_configs(base: &crate::methods::RenderSettings) -> Vec<crate::com
         };
         v.push(cfg(
             format!("hash-2e{}-{lname}", cap.trailing_zeros()),
-            MethodKind::HashCache,
-            s,
+            c,
+            base.clone(),
         ));
     }
-    v.push(cfg("hybrid".into(), MethodKind::Hybrid, base.clone()));
-    v.push(cfg("taa".into(), MethodKind::Taa, base.clone()));
-    v.push(cfg("isrt".into(), MethodKind::Isrt, base.clone()));
-    v.push(cfg("naive".into(), MethodKind::Naive, base.clone()));
+    v.push(cfg(
+        "hybrid".into(),
+        MethodKind::Hybrid.into(),
+        base.clone(),
+    ));
+    v.push(cfg("taa".into(), MethodKind::Taa.into(), base.clone()));
+    v.push(cfg("isrt".into(), MethodKind::Isrt.into(), base.clone()));
+    v.push(cfg("naive".into(), MethodKind::Naive.into(), base.clone()));
     for spp in [2u32, 4, 8] {
         v.push(cfg(
             format!("supersample-{spp}spp"),
-            MethodKind::Supersample,
+            MethodKind::Supersample.into(),
             crate::methods::RenderSettings {
                 spp,
                 ..base.clone()

@@ -6,16 +6,13 @@ use anyhow::{anyhow, Result};
 use clap::Args;
 use stereocache::camera::HeadPose;
 use stereocache::gpu::GpuOptions;
-use stereocache::methods::hash_cache::args::HashCacheArgs;
-use stereocache::methods::isrt::args::IsrtArgs;
-use stereocache::methods::sample_cache::args::SampleCacheArgs;
-use stereocache::methods::taa::args::TaaArgs;
-use stereocache::methods::{registry, MethodKind, RenderSettings};
+pub use stereocache::methods::MethodArgs;
+use stereocache::methods::{registry, MethodKind};
 use stereocache::replay::MAX_FPS;
 use stereocache::rt::RtChoice;
 use stereocache::scene::DefaultLighting;
 use stereocache::session::{parse_pose, CameraSelect, Session};
-use stereocache::values::{float_with, int_in, named, Size, MAX_BOUNCES, MAX_FRAMES, MAX_SPP};
+use stereocache::values::{float_with, int_in, named, MAX_BOUNCES, MAX_FRAMES, MAX_SPP};
 
 /// `--spp`: samples per pixel and frame, 1..=[`MAX_SPP`].
 pub fn spp(s: &str) -> Result<u32, String> {
@@ -138,54 +135,6 @@ impl SceneArgs {
             eprintln!("warning: {w}");
         }
         Ok(Session::new(&gpu.options()?, scene, self.rt)?)
-    }
-}
-
-/// Every method's options, each group defined in its method's folder,
-/// flattened into the commands that create methods.
-#[derive(Args, Clone)]
-pub struct MethodArgs {
-    #[command(flatten)]
-    pub cache: SampleCacheArgs,
-    #[command(flatten)]
-    pub taa: TaaArgs,
-    #[command(flatten)]
-    pub isrt: IsrtArgs,
-    #[command(flatten)]
-    pub hash: HashCacheArgs,
-    /// Use the plain shader builds even where the device supports subgroup
-    /// operations (the sample cache's counters, lists and histogram).
-    #[arg(long)]
-    pub no_subgroup_ops: bool,
-}
-
-impl MethodArgs {
-    /// The settings every method is created with (checked; one error line each).
-    pub fn settings(
-        &self,
-        size: Size,
-        spp: u32,
-        max_bounces: u32,
-        seed: u32,
-        debug_views: bool,
-    ) -> Result<RenderSettings> {
-        Ok(RenderSettings {
-            width: size.width,
-            height: size.height,
-            spp,
-            max_bounces,
-            seed,
-            all_features: false,
-            extra_features: Default::default(),
-            all_passes: false,
-            subgroup_ops: !self.no_subgroup_ops,
-            cache: self.cache.settings(debug_views).map_err(|e| anyhow!(e))?,
-            taa: self.taa.settings().map_err(|e| anyhow!(e))?,
-            isrt: self.isrt.settings().map_err(|e| anyhow!(e))?,
-            hash: self.hash.settings(debug_views).map_err(|e| anyhow!(e))?,
-            light_sampling: Default::default(),
-            taa_output: self.taa.taa_output,
-        })
     }
 }
 

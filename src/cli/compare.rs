@@ -3,7 +3,7 @@
 
 use super::args::{self, CameraArgs, GpuArgs, MethodArgs, MethodList, SceneArgs};
 use super::common::{check_out, open_along_trace, print_reference_noise, report_validation};
-use anyhow::{bail, Result};
+use anyhow::{anyhow, bail, Result};
 use clap::Args;
 use std::path::PathBuf;
 use stereocache::replay::DEFAULT_FPS;
@@ -76,7 +76,15 @@ fn show_frames(s: &str) -> Result<ShownFrames, String> {
 pub fn run(a: CompareArgs) -> Result<()> {
     let settings = a
         .method_opts
-        .settings(a.size, a.spp, a.bounces, a.seed, false)?;
+        .settings(a.size, a.spp, a.bounces, a.seed, false)
+        .map_err(|e| anyhow!(e))?;
+    let methods = a
+        .methods
+        .0
+        .iter()
+        .map(|&k| a.method_opts.config(k, false))
+        .collect::<Result<Vec<_>, String>>()
+        .map_err(|e| anyhow!(e))?;
     if a.reference_spp > 0 {
         stereocache::evaluate::check_reference_spp(a.reference_spp)?;
     }
@@ -94,7 +102,7 @@ pub fn run(a: CompareArgs) -> Result<()> {
         }
     }
     let opts = stereocache::compare::CompareOptions {
-        methods: a.methods.0,
+        methods,
         frames: a.frames,
         fps: a.fps,
         every: a.every,

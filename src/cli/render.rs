@@ -3,7 +3,7 @@
 
 use super::args::{self, CameraArgs, GpuArgs, MethodArgs, SceneArgs};
 use super::common::{check_out, report_validation};
-use anyhow::{Context, Result};
+use anyhow::{anyhow, Context, Result};
 use clap::Args;
 use std::path::PathBuf;
 use stereocache::methods::{FrameInput, MethodKind};
@@ -52,12 +52,17 @@ pub fn run(a: RenderArgs) -> Result<()> {
     } = a.size;
     let settings = a
         .method_opts
-        .settings(a.size, a.spp, a.bounces, a.seed, false)?;
+        .settings(a.size, a.spp, a.bounces, a.seed, false)
+        .map_err(|e| anyhow!(e))?;
+    let config = a
+        .method_opts
+        .config(a.method, false)
+        .map_err(|e| anyhow!(e))?;
     check_out(&a.out)?;
     let select = a.camera.select();
     let session = a.scene.open(&a.gpu)?;
     let cam = session.camera(&select, w, h, a.camera.ipd, a.camera.fov_radians())?;
-    let mut m = session.create(a.method, &settings)?;
+    let mut m = session.create(&config, &settings)?;
     let frame = m.render_frame(&FrameInput {
         index: 0,
         camera: cam,
@@ -76,7 +81,7 @@ pub fn run(a: RenderArgs) -> Result<()> {
         "scene": session.scene.source,
         "triangles": session.scene_gpu.triangle_count,
         "method": m.name(),
-        "settings": settings,
+        "settings": config.record(&settings),
         "camera": { "position": cam.world_position().to_array(), "orientation": cam.head.orientation.to_array(), "ipd": cam.ipd, "yfov_deg": cam.yfov.to_degrees() },
         "gpu_ms": frame.stats.gpu_ms(),
         "passes": frame.stats.passes,

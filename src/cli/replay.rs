@@ -4,7 +4,7 @@
 use super::args::{self, CameraArgs, GpuArgs, MethodArgs, SceneArgs};
 use super::common::{check_out, open_along_trace, report_validation};
 use super::render::method;
-use anyhow::Result;
+use anyhow::{anyhow, Result};
 use clap::Args;
 use std::path::PathBuf;
 use stereocache::methods::MethodKind;
@@ -62,7 +62,12 @@ pub struct ReplayArgs {
 pub fn run(a: ReplayArgs) -> Result<()> {
     let settings = a
         .method_opts
-        .settings(a.size, a.spp, a.bounces, a.seed, a.debug_views)?;
+        .settings(a.size, a.spp, a.bounces, a.seed, a.debug_views)
+        .map_err(|e| anyhow!(e))?;
+    let config = a
+        .method_opts
+        .config(a.method, a.debug_views)
+        .map_err(|e| anyhow!(e))?;
     let mut opts = ReplayOptions {
         frames: a.frames,
         fps: a.fps,
@@ -78,8 +83,8 @@ pub fn run(a: ReplayArgs) -> Result<()> {
     let (session, cameras) =
         open_along_trace(&a.trace, a.fps, a.size, &a.scene, &a.gpu, &a.camera)?;
     opts.frame_count(cameras.len())?;
-    opts.settings = serde_json::to_value(&settings)?;
-    let mut method = session.create(a.method, &settings)?;
+    opts.settings = config.record(&settings);
+    let mut method = session.create(&config, &settings)?;
     let summary = replay(&session, method.as_mut(), &cameras, &opts)?;
     println!("{summary}");
     report_validation(&session.ctx)

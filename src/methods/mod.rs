@@ -1,7 +1,9 @@
 //! Rendering methods. Every method implements [`Method`] and produces the same
 //! [`StereoFrame`], so replay, compare, metrics and reports never special-case one.
 
+pub mod args;
 pub mod baseline;
+pub mod config;
 pub mod debug_normals;
 pub mod frame;
 mod frame_loop;
@@ -16,14 +18,16 @@ pub mod sample_cache;
 mod specialize;
 pub mod taa;
 
+pub use args::MethodArgs;
+pub use config::{MethodOptions, NoOptions};
 pub use debug_normals::DebugNormals;
 pub use frame::{EyeImage, FrameInput, FrameParams, FrameStats, RayCounts, StereoFrame};
 pub use hash_cache::{HashCache, HashCacheSettings};
-pub use hybrid::Hybrid;
+pub use hybrid::{Hybrid, HybridConfig};
 pub use isrt::{Isrt, IsrtSettings};
 pub use outputs::{Color, CounterOutput, FrameOutputs, PixelOutputs, RaySlots};
 pub use reference::Reference;
-pub use registry::MethodKind;
+pub use registry::{MethodConfig, MethodKind};
 pub use sample_cache::{SampleCache, SampleCacheSettings};
 pub use specialize::LightSampling;
 pub use taa::{Taa, TaaOnOutput, TaaPass, TaaSettings, TaaWeights};
@@ -32,6 +36,7 @@ use crate::gpu::{GpuContext, GpuResult, Recorder};
 use std::sync::Arc;
 
 /// Settings every method shares, so differences come from the method alone.
+/// A method's own options are its [`MethodConfig`] (src/methods/config.rs).
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct RenderSettings {
     pub width: u32,
@@ -54,20 +59,12 @@ pub struct RenderSettings {
     /// the device supports subgroup arithmetic and ballot (default); false
     /// forces the plain builds (benchmarks and tests compare the two).
     pub subgroup_ops: bool,
-    /// Options of the `sample-cache` method (and of `hybrid`'s visibility).
-    pub cache: SampleCacheSettings,
-    /// Options of the `taa` method (and of TAA passes other methods run).
-    pub taa: TaaSettings,
-    /// Options of the `isrt` method.
-    pub isrt: IsrtSettings,
-    /// Options of the `hash-cache` method (and of `hybrid`'s table).
-    pub hash: HashCacheSettings,
     /// Sampling of emissive triangles and environment maps (default MIS).
     pub light_sampling: LightSampling,
     /// `--taa-output`: every method's image goes through the one TAA
-    /// ([`TaaOnOutput`], with `taa`'s options) unless it already ends in it
-    /// (the paper's Fig. 12, "TAA on top of all methods").
-    pub taa_output: bool,
+    /// ([`TaaOnOutput`], with these options: the `--taa-*` ones) unless it
+    /// already ends in it (the paper's Fig. 12, "TAA on top of all methods").
+    pub taa_output: Option<TaaSettings>,
 }
 
 impl Default for RenderSettings {
@@ -82,12 +79,8 @@ impl Default for RenderSettings {
             extra_features: Default::default(),
             all_passes: false,
             subgroup_ops: true,
-            cache: SampleCacheSettings::default(),
-            taa: TaaSettings::default(),
-            isrt: IsrtSettings::default(),
-            hash: HashCacheSettings::default(),
             light_sampling: LightSampling::Mis,
-            taa_output: false,
+            taa_output: None,
         }
     }
 }

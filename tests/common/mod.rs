@@ -6,7 +6,9 @@ use glam::{Mat4, Vec2, Vec3};
 use std::sync::Arc;
 use stereocache::camera::{HeadPose, StereoCamera};
 use stereocache::gpu::{GpuContext, GpuOptions};
-use stereocache::methods::{FrameInput, RenderSettings, StereoFrame};
+use stereocache::methods::{
+    FrameInput, MethodConfig, RenderSettings, SampleCacheSettings, StereoFrame,
+};
 use stereocache::rt::RtChoice;
 use stereocache::scene::{generate::*, Environment, Material, Scene};
 use stereocache::session::Session;
@@ -49,6 +51,18 @@ pub fn render(
     settings: &RenderSettings,
 ) -> StereoFrame {
     let mut m = s.method(method, settings).expect("method");
+    render_at(m.as_mut(), 0, camera, None)
+}
+
+/// As [`render`], for a method with its own options
+/// (`MethodConfig::taa(|c| c.alpha = 0.5)`; a `MethodKind` is the defaults).
+pub fn render_config(
+    s: &Session,
+    config: impl Into<MethodConfig>,
+    camera: StereoCamera,
+    settings: &RenderSettings,
+) -> StereoFrame {
+    let mut m = s.create(config, settings).expect("method");
     render_at(m.as_mut(), 0, camera, None)
 }
 
@@ -402,23 +416,48 @@ pub fn fresnel_dielectric(cos_i: f64, eta: f64) -> f64 {
     0.5 * (rs * rs + rp * rp)
 }
 
+/// What a sample-cache test creates its cache from: the shared settings and
+/// the cache's own options (`st.width` etc. read the shared settings).
+#[derive(Clone, Debug)]
+pub struct CacheSetup {
+    pub settings: RenderSettings,
+    pub cache: SampleCacheSettings,
+}
+
+impl std::ops::Deref for CacheSetup {
+    type Target = RenderSettings;
+    fn deref(&self) -> &RenderSettings {
+        &self.settings
+    }
+}
+
+impl std::ops::DerefMut for CacheSetup {
+    fn deref_mut(&mut self) -> &mut RenderSettings {
+        &mut self.settings
+    }
+}
+
+impl CacheSetup {
+    /// The `sample-cache` method with these options.
+    pub fn config(&self) -> MethodConfig {
+        MethodConfig::SampleCache(self.cache.clone())
+    }
+}
+
 /// Settings of the sample-cache tests: `w`×`h` per eye, 1 spp, 2 bounces,
 /// specialized pipelines, the given cache settings and seed.
-pub fn cache_settings(
-    w: u32,
-    h: u32,
-    cache: stereocache::methods::sample_cache::SampleCacheSettings,
-    seed: u32,
-) -> RenderSettings {
-    RenderSettings {
-        width: w,
-        height: h,
-        spp: 1,
-        max_bounces: 2,
-        seed,
-        all_features: false,
+pub fn cache_settings(w: u32, h: u32, cache: SampleCacheSettings, seed: u32) -> CacheSetup {
+    CacheSetup {
+        settings: RenderSettings {
+            width: w,
+            height: h,
+            spp: 1,
+            max_bounces: 2,
+            seed,
+            all_features: false,
+            ..Default::default()
+        },
         cache,
-        ..Default::default()
     }
 }
 
@@ -426,13 +465,14 @@ pub fn cache_settings(
 /// the `Method` trait).
 pub fn cache_method(
     s: &Session,
-    st: &RenderSettings,
+    st: &CacheSetup,
 ) -> stereocache::methods::sample_cache::SampleCache {
     stereocache::methods::sample_cache::SampleCache::new(
         &s.ctx,
         &s.scene_gpu,
         &s.scene.environment,
-        st,
+        &st.settings,
+        &st.cache,
     )
     .expect("sample cache")
 }

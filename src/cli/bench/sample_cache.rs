@@ -82,13 +82,14 @@ pub fn run(a: SampleCacheBenchArgs) -> Result<()> {
         max_bounces: bounces,
         seed: 1,
         all_features: false,
-        cache: SampleCacheSettings {
-            shading,
-            ..SampleCacheSettings::default()
-        },
         ..Default::default()
     };
-    let (rows, scatter) = stereocache::bench::bench_sample_cache(&session, &cameras, &base)?;
+    let cache = SampleCacheSettings {
+        shading,
+        ..SampleCacheSettings::default()
+    };
+    let (rows, scatter) =
+        stereocache::bench::bench_sample_cache(&session, &cameras, &base, &cache)?;
     print_table(&rows, &scatter);
     print_ratios(
         &rows,

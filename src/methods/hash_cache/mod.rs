@@ -55,8 +55,8 @@ impl HashCache {
         scene: &Arc<SceneGpu>,
         env: &Option<Environment>,
         settings: &RenderSettings,
+        hash: &HashCacheSettings,
     ) -> GpuResult<Self> {
-        let hash = &settings.hash;
         let e2 = 2 * (settings.width * settings.height) as u64;
         let frame = Buffer::storage(
             ctx,
@@ -91,7 +91,7 @@ impl HashCache {
             settings.width,
             settings.height,
             settings.seed,
-            &settings.taa,
+            &hash.taa_settings,
         )?;
         Ok(HashCache {
             ctx: ctx.clone(),

@@ -6,7 +6,7 @@
 //!
 //! Per frame (both eyes per dispatch, `z` = eye):
 //! * the sample cache's visibility passes (`params`, `begin`, `clear`,
-//!   `reproject`, `select`, `trace`; `RenderSettings.cache` applies);
+//!   `reproject`, `select`, `trace`; [`HybridConfig::cache`] applies);
 //! * `hybrid.clear` (counters);
 //! * `hybrid.reserve` (`shaders/hybrid/reserve.comp`): per pixel one
 //!   visible sample, round robin by frame index, and one of its two levels,
@@ -28,6 +28,10 @@
 //! secondary path per pixel at most. Memory: the visibility-only sample
 //! cache, the table ([`HashTable`]: 24 B per entry and its per-pixel buffers)
 //! and TAA history.
+
+pub mod config;
+
+pub use config::HybridConfig;
 
 use super::hash_cache::HashCacheSettings;
 use super::hash_table::{self as table, HashTable, TableDesc};
@@ -67,15 +71,16 @@ impl Hybrid {
         scene: &Arc<SceneGpu>,
         env: &Option<Environment>,
         settings: &RenderSettings,
+        config: &HybridConfig,
     ) -> GpuResult<Self> {
-        let mut hash = settings.hash.clone();
+        let mut hash = config.hash.clone();
         hash.validate().map_err(crate::gpu::GpuError::Unsupported)?;
         // The hash cache's debug views are not produced here.
         hash.debug_views = false;
-        let cache = SampleCache::visibility_only(ctx, scene, env, settings)?;
+        let cache = SampleCache::visibility_only(ctx, scene, env, settings, &config.cache)?;
         let e2 = 2 * (settings.width * settings.height) as u64;
         let mut spec = settings.spec_constants(scene, env);
-        spec.set(SPEC_SLOTS, settings.cache.slots);
+        spec.set(SPEC_SLOTS, config.cache.slots);
         let table = HashTable::new(
             ctx,
             scene,
@@ -99,7 +104,7 @@ impl Hybrid {
             settings.width,
             settings.height,
             settings.seed,
-            &settings.taa,
+            &hash.taa_settings,
         )?;
         Ok(Hybrid {
             ctx: ctx.clone(),

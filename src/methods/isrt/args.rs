@@ -22,3 +22,12 @@ impl IsrtArgs {
         Ok(s)
     }
 }
+
+impl crate::methods::MethodOptions for IsrtSettings {
+    fn from_args(args: &crate::methods::MethodArgs, _debug_views: bool) -> Result<Self, String> {
+        args.isrt.settings()
+    }
+    fn record(&self, settings: &mut serde_json::Map<String, serde_json::Value>) {
+        crate::methods::config::record_as(settings, "isrt", self);
+    }
+}

@@ -139,8 +139,9 @@ impl Isrt {
         scene: &Arc<SceneGpu>,
         env: &Option<Environment>,
         settings: &RenderSettings,
+        isrt: &IsrtSettings,
     ) -> GpuResult<Self> {
-        let isrt = settings.isrt.clone();
+        let isrt = isrt.clone();
         isrt.validate().map_err(GpuError::Unsupported)?;
         if !ctx.enabled.buffer_int64_atomics {
             return Err(GpuError::Unsupported(format!(

@@ -62,3 +62,15 @@ impl SampleCacheArgs {
         Ok(s)
     }
 }
+
+impl crate::methods::MethodOptions for SampleCacheSettings {
+    fn from_args(args: &crate::methods::MethodArgs, debug_views: bool) -> Result<Self, String> {
+        args.cache.settings(debug_views)
+    }
+    fn enable_debug_views(&mut self) {
+        self.debug_views = true;
+    }
+    fn record(&self, settings: &mut serde_json::Map<String, serde_json::Value>) {
+        crate::methods::config::record_as(settings, "cache", self);
+    }
+}

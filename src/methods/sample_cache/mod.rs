@@ -214,8 +214,9 @@ impl SampleCache {
         scene: &Arc<SceneGpu>,
         env: &Option<Environment>,
         settings: &RenderSettings,
+        cache: &SampleCacheSettings,
     ) -> GpuResult<Self> {
-        Self::build(ctx, scene, env, settings, true)
+        Self::build(ctx, scene, env, settings, cache, true)
     }
 
     /// The cache without shading storage: reprojection, adaptive retrace and
@@ -226,8 +227,9 @@ impl SampleCache {
         scene: &Arc<SceneGpu>,
         env: &Option<Environment>,
         settings: &RenderSettings,
+        cache: &SampleCacheSettings,
     ) -> GpuResult<Self> {
-        Self::build(ctx, scene, env, settings, false)
+        Self::build(ctx, scene, env, settings, cache, false)
     }
 }
 
@@ -237,9 +239,10 @@ impl SampleCache {
         scene: &Arc<SceneGpu>,
         env: &Option<Environment>,
         settings: &RenderSettings,
+        cache: &SampleCacheSettings,
         shading: bool,
     ) -> GpuResult<Self> {
-        let cache = settings.cache.clone();
+        let cache = cache.clone();
         cache.validate().map_err(GpuError::Unsupported)?;
         if !ctx.enabled.buffer_int64_atomics {
             return Err(GpuError::Unsupported(format!(

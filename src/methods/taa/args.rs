@@ -4,7 +4,7 @@
 use super::settings::{TaaSettings, TaaWeights};
 use crate::values::float_with;
 
-/// Options of the taa method (ignored by other methods).
+/// Options of the one TAA: the taa method's, hash-cache's and hybrid's TAA and --taa-output.
 #[derive(clap::Args, Clone, Debug)]
 pub struct TaaArgs {
     /// Blend factor of the new frame (fixed weights), or its lower bound α_min (pfj23).
@@ -34,5 +34,14 @@ impl TaaArgs {
         };
         s.validate()?;
         Ok(s)
+    }
+}
+
+impl crate::methods::MethodOptions for TaaSettings {
+    fn from_args(args: &crate::methods::MethodArgs, _debug_views: bool) -> Result<Self, String> {
+        args.taa.settings()
+    }
+    fn record(&self, settings: &mut serde_json::Map<String, serde_json::Value>) {
+        crate::methods::config::record_as(settings, "taa", self);
     }
 }

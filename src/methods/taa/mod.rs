@@ -33,13 +33,14 @@ impl Taa {
         scene: &Arc<SceneGpu>,
         env: &Option<Environment>,
         settings: &RenderSettings,
+        taa: &TaaSettings,
     ) -> GpuResult<Self> {
         let s = RenderSettings {
             spp: 1,
             ..settings.clone()
         };
         let source = Reference::with_name("taa.source", ctx, scene, env, &s)?;
-        let pass = TaaPass::new(ctx, scene, s.width, s.height, s.seed, &settings.taa)?;
+        let pass = TaaPass::new(ctx, scene, s.width, s.height, s.seed, taa)?;
         Ok(Taa {
             ctx: ctx.clone(),
             source,
