@@ -154,9 +154,9 @@ fn still_view_taa_output_is_the_running_mean_of_the_method() {
             let a = render_at(plain.as_mut(), f, cam, prev);
             let b = render_at(resolved.as_mut(), f, cam, prev);
             for e in 0..2 {
-                for i in 0..n {
-                    for c in 0..3 {
-                        sum[e * n + i][c] += a.eyes[e].radiance[i][c] as f64;
+                for (i, p) in a.eyes[e].radiance.iter().enumerate() {
+                    for (s, v) in sum[e * n + i].iter_mut().zip(p) {
+                        *s += *v as f64;
                     }
                 }
             }
