@@ -317,6 +317,7 @@ fn taa_keeps_no_history_across_a_disocclusion() {
     let frames = run_taa(TaaSettings {
         clip: false,
         reject_disocclusions: false,
+        weights: TaaWeights::Fixed,
         ..Default::default()
     });
     let (max_red, checked, _) = disoccluded_red(&frames);
@@ -465,6 +466,67 @@ fn isrt_grid_invariants_on_a_moving_trace() {
             kept > 0.5 * samples as f64,
             "few samples survive reprojection"
         );
+    }
+    assert_no_validation_messages(&ctx);
+}
+
+/// isrt in the paper's Fig. 10 configuration (`IsrtSettings::fig10`: one
+/// sample per pixel retraced, empty cells filled up to n_target = 4) on the
+/// Cornell box, M = 3: frame 0 starts from an empty grid, so nothing is
+/// retraced and every pixel gets exactly 4 new sample rays; on the still
+/// frame 1 every pixel holds samples, so exactly one retrace ray per pixel;
+/// then along a moving head no more than one per pixel. After every frame
+/// each pixel holds at least 4 samples (surface or background), the grid
+/// invariants of `check_isrt` hold (one cell per sample, in the cell its
+/// projection falls into, covered pixels have a sample) and the `samples`
+/// counter equals the read-back surface samples.
+#[test]
+fn isrt_fig10_configuration_retraces_one_sample_per_pixel() {
+    let ctx = context();
+    let s = session(&ctx, shipped("cornell"), RtChoice::Software);
+    let (w, h) = (32, 24);
+    let npix = (2 * w * h) as f64;
+    let st = settings(w, h, 1, 5);
+    let isrt = IsrtSettings::fig10(3);
+    let mut method = Isrt::new(&s.ctx, &s.scene_gpu, &s.scene.environment, &st, &isrt).unwrap();
+    let bvh = SoftwareBvh::build(&s.scene);
+    let hits = HitPositions::new(&bvh);
+    let cam0 = default_camera(&s, w, h);
+    let mut prev = None;
+    for f in 0..6u32 {
+        // Frames 0 and 1 still, then turning.
+        let cam = moving(&cam0, f.saturating_sub(1), 1.5);
+        let frame = render_at(&mut method, f, cam, prev);
+        prev = Some(cam);
+        assert_rgb_finite_non_negative(&frame, "isrt fig10");
+        let c = &frame.stats.counters;
+        match f {
+            0 => {
+                assert_eq!(c["retrace_rays"], 0.0);
+                assert_eq!(c["new_sample_rays"], 4.0 * npix);
+            }
+            1 => assert_eq!(c["retrace_rays"], npix),
+            _ => assert!(c["retrace_rays"] <= npix, "frame {f}: {c:?}"),
+        }
+        let snap = method.snapshot().unwrap();
+        let (n, _) = check_isrt(&snap, &frame, &cam, &bvh, &hits);
+        assert_eq!(c["samples"] as usize, n, "counted vs read-back samples");
+        for e in 0..2 {
+            for py in 0..h {
+                for px in 0..w {
+                    let held = (0..9)
+                        .filter(|k| {
+                            let cell = snap.cell(e, px * 3 + k % 3, py * 3 + k / 3);
+                            snap.occupied(cell) || snap.background(cell)
+                        })
+                        .count();
+                    assert!(
+                        held >= 4,
+                        "frame {f} eye {e} pixel ({px}, {py}): {held} samples"
+                    );
+                }
+            }
+        }
     }
     assert_no_validation_messages(&ctx);
 }

@@ -17,7 +17,7 @@
 layout(constant_id = SPEC_ISRT_M) const uint M = 3;   // cells per pixel side
 const float C_MAX = 65535.0;                 // sample counts saturate here
 
-layout(push_constant) uniform Push { ISRT_PUSH } pc;   // eps0: retrace tolerance, relative to the hit distance
+layout(push_constant) uniform Push { ISRT_PUSH } pc;   // eps0: retrace tolerance, relative to the hit distance; n_target: trace_pixel.comp's density target
 
 layout(set = SET_ISRT, binding = B_ISRT_FH_PREV, std430) buffer FhPrev { uvec4 fh_prev[]; };
 layout(set = SET_ISRT, binding = B_ISRT_FH_CUR, std430) buffer FhCur { uvec4 fh_cur[]; };
@@ -37,3 +37,53 @@ uvec2 grid_size() { return frame_size() * M; }
 uint cells_per_eye() { uvec2 g = grid_size(); return g.x * g.y; }
 uint cell_index(uint eye, uvec2 g) { return eye * cells_per_eye() + g.y * grid_size().x + g.x; }
 uint pixel_index(uint eye, uvec2 px) { return (eye * frame_size().y + px.y) * frame_size().x + px.x; }
+
+// Retraces the sample `fh` of a cell from the eye at `o` (trace.comp's rule,
+// after the sample cache's retrace): a background sample is kept while its
+// direction hits nothing; a surface sample is kept when the closest hit lies
+// within ε0·t of it or the ray finds neither, dropped behind a closer hit.
+// Counts the ray and the outcome. False: the cell is to be refilled.
+bool isrt_retrace(uvec4 fh, vec3 o) {
+    if (first_hit_is_background(fh)) {
+        atomicAdd(counters[C_ISRT_RETRACE_RAYS], 1u);
+        if (!rt_occluded(o, background_direction(fh), 0.0, 1e30)) {
+            atomicAdd(counters[C_ISRT_BACKGROUND], 1u);
+            return true;
+        }
+        atomicAdd(counters[C_ISRT_RETRACE_LOST], 1u);
+        return false;
+    }
+    vec3 wp = hit_position(fh);
+    vec3 d = wp - o;
+    float t = length(d);
+    d /= max(t, 1e-30);
+    RtHit h;
+    bool hit = rt_closest_hit(o, d, 0.0, t * (1.0 + 2.0 * pc.eps0), h);
+    atomicAdd(counters[C_ISRT_RETRACE_RAYS], 1u);
+    if (!hit || h.t >= t - pc.eps0 * t) {
+        atomicAdd(counters[C_ISRT_SAMPLES], 1u);
+        return true;
+    }
+    atomicAdd(counters[C_ISRT_RETRACE_LOST], 1u);
+    return false;
+}
+
+// A new sample in cell `idx` (grid position g of eye `eye`) through a
+// uniformly random point of the cell; a miss stores a background sample.
+void isrt_new_sample(uint idx, uint eye, uvec2 g, EyeGpu e) {
+    Rng r = rng_init(frame.size_seed.z, frame.size_seed.w, eye, g.y * grid_size().x + g.x, 0x15A70001u);
+    vec2 sub = (vec2(g) + rng_next2(r)) / float(M);
+    vec3 d = eye_ray_dir(e, sub);
+    RtHit h;
+    bool hit = rt_closest_hit(e.pos_tanx.xyz, d, 0.0, 1e30, h);
+    atomicAdd(counters[C_ISRT_NEW_RAYS], 1u);
+    if (hit) {
+        fh_cur[idx] = encode_first_hit(h.bary, h.instance, h.prim, instance_material(h.instance));
+        atomicAdd(counters[C_ISRT_NEW_HITS], 1u);
+        atomicAdd(counters[C_ISRT_SAMPLES], 1u);
+    } else {
+        fh_cur[idx] = encode_background(d);
+        atomicAdd(counters[C_ISRT_BACKGROUND], 1u);
+    }
+    rad_cur[idx] = vec4(0.0);
+}

@@ -1,6 +1,8 @@
 #version 460
 // Temporal antialiasing resolve (Yang, Liu & Salvi 2020, "A Survey of
-// Temporal Antialiasing Techniques"), one thread per pixel and eye:
+// Temporal Antialiasing Techniques"), the project's one TAA (`taa`, the TAA
+// of `hash-cache` and `hybrid`, and `--taa-output` on any method), one
+// thread per pixel and eye:
 //  1. reprojection (§4.1): the pixel centre's world point, rebuilt from the
 //     current view depth (a miss: its direction), projected into the previous
 //     eye pose gives the history position q;
@@ -21,7 +23,7 @@ layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 
 layout(push_constant) uniform Push { TAA_RESOLVE_PUSH } pc;   // src/interface/taa.rs
 
-layout(set = SET_TAA, binding = B_TAA_IN_COLOR, std430) readonly buffer InColor { vec4 in_color[]; };     // rgb radiance (w ignored)
+layout(set = SET_TAA, binding = B_TAA_IN_COLOR, std430) readonly buffer InColor { vec4 in_color[]; };     // rgb radiance (w ignored), or a sample sum (flag bit 3)
 layout(set = SET_TAA, binding = B_TAA_IN_DEPTH, std430) readonly buffer InDepth { float in_depth[]; };    // view depth, 0 = miss
 layout(set = SET_TAA, binding = B_TAA_IN_FH, std430) readonly buffer InFh { uvec4 in_fh[]; };          // pixel-centre first hits
 layout(set = SET_TAA, binding = B_TAA_HIST_PREV, std430) readonly buffer HistPrev { vec4 hist_prev[]; };   // rgb, history length n
@@ -54,6 +56,14 @@ vec3 clip_towards_mean(vec3 h, vec3 mu, vec3 ext, out bool clipped) {
 
 vec3 sanitize(vec3 c) { return (any(isnan(c)) || any(isinf(c))) ? vec3(0.0) : max(c, vec3(0.0)); }
 
+// The input radiance of entry i: rgb, or (flag bit 3, `Color::SampleSum`)
+// rgb / w with 0 where w = 0.
+vec3 input_color(uint i) {
+    vec4 v = in_color[i];
+    if ((pc.flags & 8u) != 0u) return v.w > 0.0 ? sanitize(v.rgb / v.w) : vec3(0.0);
+    return sanitize(v.rgb);
+}
+
 // Does the previous frame's tap (first hit, depth) show the current point,
 // whose view depth in the previous eye is `vd` (a miss: hit = false)?
 bool tap_consistent(bool hit, uvec4 fh, float vd, uvec4 pfh, float pdepth) {
@@ -70,14 +80,14 @@ void main() {
     if (any(greaterThanEqual(px, size))) return;
     uint base = eye * size.x * size.y;
     uint idx = base + px.y * size.x + px.x;
-    vec3 c = sanitize(in_color[idx].rgb);
+    vec3 c = input_color(idx);
 
     // 3×3 neighbourhood moments in YCoCg (clamped at the image border).
     vec3 m1 = vec3(0.0), m2 = vec3(0.0);
     for (int dy = -1; dy <= 1; ++dy) {
         for (int dx = -1; dx <= 1; ++dx) {
             ivec2 q = clamp(ivec2(px) + ivec2(dx, dy), ivec2(0), ivec2(size) - 1);
-            vec3 y = rgb_to_ycocg(sanitize(in_color[base + uint(q.y) * size.x + uint(q.x)].rgb));
+            vec3 y = rgb_to_ycocg(input_color(base + uint(q.y) * size.x + uint(q.x)));
             m1 += y;
             m2 += y * y;
         }

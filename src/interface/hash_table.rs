@@ -2,7 +2,7 @@
 //! set 1 of the table's passes (update.comp, count.comp) and of hash-cache's
 //! (shaders/hash_cache/primary.comp, resolve.comp); hybrid's shaders add
 //! their own bindings after these ([`super::hybrid`]). Also the test kernel
-//! hash_test.comp and hash-cache's TAA (shaders/hash_cache/taa.comp).
+//! hash_test.comp.
 
 use super::{read, write, Binding, CounterSlot, Interface, PushBlock, PushType};
 
@@ -85,37 +85,6 @@ pub const TEST: Interface = Interface {
     set: 0,
     bindings: &[read("keys"), write("outs")],
     push: &[TEST_PUSH],
-    counters: &[],
-    spec: &[],
-};
-
-/// Push constants of hash-cache's TAA.
-pub const TAA_PUSH: PushBlock = PushBlock {
-    name: "HASH_TAA",
-    fields: &[
-        ("alpha_min", PushType::F32),
-        ("gamma", PushType::F32),
-        ("depth_tolerance", PushType::F32),
-        // 1: ignore the history (first frame)
-        ("reset", PushType::U32),
-    ],
-};
-
-/// hash-cache's TAA (shaders/hash_cache/taa.comp, `hash_cache::Taa`).
-pub const TAA: Interface = Interface {
-    name: "hash_taa",
-    set: 1,
-    bindings: &[
-        read("frame"),
-        read("color_in"),
-        read("position_in"),
-        read("depth_in"),
-        read("hist_prev"),
-        write("hist_cur"),
-        read("hdepth_prev"),
-        write("hdepth_cur"),
-    ],
-    push: &[TAA_PUSH],
     counters: &[],
     spec: &[],
 };

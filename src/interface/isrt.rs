@@ -28,7 +28,8 @@ pub const PUSH: PushBlock = PushBlock {
     fields: &[
         // retrace tolerance, relative to the hit distance
         ("eps0", PushType::F32),
-        ("pad0", PushType::U32),
+        // trace_pixel.comp: samples per pixel to fill up to (0 = every cell)
+        ("n_target", PushType::U32),
         ("pad1", PushType::U32),
         ("pad2", PushType::U32),
     ],

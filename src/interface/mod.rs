@@ -38,7 +38,6 @@ pub const ALL: &[&Interface] = &[
     &dielectric::INTERFACE,
     &hash_table::INTERFACE,
     &hash_table::TEST,
-    &hash_table::TAA,
     &hybrid::INTERFACE,
     &debug_normals::INTERFACE,
     &reflect_test::INTERFACE,

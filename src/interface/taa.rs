@@ -25,7 +25,8 @@ pub const RESOLVE_PUSH: PushBlock = PushBlock {
         ("gamma", PushType::F32),
         // 0 fixed, 1 pfj23
         ("weights", PushType::U32),
-        // bit 0: a history exists; bit 1: reject disocclusions; bit 2: clip
+        // bit 0: a history exists; bit 1: reject disocclusions; bit 2: clip;
+        // bit 3: the input colour is a sample sum (rgb / w)
         ("flags", PushType::U32),
     ],
 };

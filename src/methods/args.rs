@@ -49,6 +49,10 @@ impl MethodArgs {
             all_passes: false,
             subgroup_ops: !self.no_subgroup_ops,
             light_sampling: Default::default(),
+            taa_output: match self.taa.taa_output {
+                true => Some(self.taa.settings()?),
+                false => None,
+            },
         })
     }
 

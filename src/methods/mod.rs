@@ -30,7 +30,7 @@ pub use reference::Reference;
 pub use registry::{MethodConfig, MethodKind};
 pub use sample_cache::{SampleCache, SampleCacheSettings};
 pub use specialize::LightSampling;
-pub use taa::{Taa, TaaPass, TaaSettings, TaaWeights};
+pub use taa::{Taa, TaaOnOutput, TaaPass, TaaSettings, TaaWeights};
 
 use crate::gpu::{GpuContext, GpuResult, Recorder};
 use std::sync::Arc;
@@ -61,6 +61,10 @@ pub struct RenderSettings {
     pub subgroup_ops: bool,
     /// Sampling of emissive triangles and environment maps (default MIS).
     pub light_sampling: LightSampling,
+    /// `--taa-output`: every method's image goes through the one TAA
+    /// ([`TaaOnOutput`], with these options: the `--taa-*` ones) unless it
+    /// already ends in it (the paper's Fig. 12, "TAA on top of all methods").
+    pub taa_output: Option<TaaSettings>,
 }
 
 impl Default for RenderSettings {
@@ -76,6 +80,7 @@ impl Default for RenderSettings {
             all_passes: false,
             subgroup_ops: true,
             light_sampling: LightSampling::Mis,
+            taa_output: None,
         }
     }
 }
@@ -102,6 +107,12 @@ pub trait Method {
         rec: &mut Recorder<'a>,
         frame: &FrameInput,
     ) -> GpuResult<FrameOutputs<'a>>;
+
+    /// Whether the image the method shows is already the output of the one
+    /// TAA ([`TaaPass`]): `--taa-output` then leaves the method as it is.
+    fn resolves_with_taa(&self) -> bool {
+        false
+    }
 
     /// Renders both eyes of one frame: the shared frame loop.
     fn render_frame(&mut self, frame: &FrameInput) -> GpuResult<StereoFrame> {

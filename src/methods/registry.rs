@@ -16,7 +16,7 @@ use super::config::{MethodOptions, NoOptions};
 use super::{
     baseline, DebugNormals, HashCache, HashCacheSettings, Hybrid, HybridConfig, Isrt, IsrtSettings,
     Method, MethodArgs, Reference, RenderSettings, SampleCache, SampleCacheSettings, Taa,
-    TaaSettings,
+    TaaOnOutput, TaaSettings,
 };
 use crate::error::{Error, Result};
 use crate::gpu::{GpuContext, GpuResult};
@@ -157,9 +157,16 @@ macro_rules! methods {
             /// Creates the method on `session`'s device and scene.
             pub fn create(&self, session: &Session, settings: &RenderSettings) -> Result<Box<dyn Method>> {
                 let (ctx, scene, env) = (&session.ctx, &session.scene_gpu, &session.scene.environment);
-                let method: Box<dyn Method> = match self {
+                let mut method: Box<dyn Method> = match self {
                     $(MethodConfig::$variant(o) => Box::new(($ctor)(ctx, scene, env, settings, o)?),)+
                 };
+                // `--taa-output`: the one TAA on the output of every method
+                // that does not already end in it.
+                if let Some(taa) = &settings.taa_output {
+                    if !method.resolves_with_taa() {
+                        method = Box::new(TaaOnOutput::new(method, scene, settings, taa)?);
+                    }
+                }
                 // The name a method reports (summary.json, stats.json) is its registry name.
                 debug_assert_eq!(method.name(), self.kind().name());
                 Ok(method)

@@ -46,6 +46,7 @@ impl HashCacheArgs {
             lod_scale: self.hash_lod_scale,
             max_samples: self.hash_max_samples,
             taa: !self.hash_no_taa,
+            taa_settings: Default::default(),
             debug_views,
         };
         s.validate()?;
@@ -54,8 +55,12 @@ impl HashCacheArgs {
 }
 
 impl crate::methods::MethodOptions for HashCacheSettings {
+    /// The `--hash-*` options with the one TAA's `--taa-*` ones.
     fn from_args(args: &crate::methods::MethodArgs, debug_views: bool) -> Result<Self, String> {
-        args.hash.settings(debug_views)
+        Ok(HashCacheSettings {
+            taa_settings: args.taa.settings()?,
+            ..args.hash.settings(debug_views)?
+        })
     }
     fn enable_debug_views(&mut self) {
         self.debug_views = true;

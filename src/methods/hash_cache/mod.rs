@@ -8,19 +8,19 @@
 //! first toucher of an entry this frame becomes its updater) → `update` (one
 //! secondary path per updated entry; own path for pixels whose lookup
 //! failed) → `resolve` (base colour × entry radiance + emission) → `diag.count`
-//! (live entries, a statistic: not counted in the frame time) → `taa`.
+//! (live entries, a statistic: not counted in the frame time) → the one TAA
+//! ([`TaaPass`], `--taa-*` options; unless `--hash-no-taa`).
 
 pub mod args;
 pub mod settings;
-pub mod taa;
 
 /// The table's keys and hashes, where they were before the table had its own module.
 pub use super::hash_table::hash;
 pub use super::hash_table::{TableSnapshot, ENTRY_BYTES};
 pub use settings::{HashCacheSettings, HashLod};
-pub use taa::Taa;
 
 use super::hash_table::{self as table, HashTable, TableDesc};
+use super::taa::TaaPass;
 use super::{Color, FrameInput, FrameOutputs, FrameParams, Method, RenderSettings};
 use crate::gpu::{Buffer, ComputePipeline, GpuContext, GpuResult, HostReadback, Recorder};
 use crate::interface::hash_table::INTERFACE;
@@ -45,7 +45,7 @@ pub struct HashCache {
     table: HashTable,
     pipes: Pipelines,
     frame: Buffer,
-    taa: Taa,
+    taa: TaaPass,
     readback: HostReadback,
 }
 
@@ -85,7 +85,14 @@ impl HashCache {
             primary: table.pipeline(ctx, scene, "hash_cache/primary", &INTERFACE)?,
             resolve: table.pipeline(ctx, scene, "hash_cache/resolve", &INTERFACE)?,
         };
-        let taa = table.pixels().taa(ctx, scene)?;
+        let taa = TaaPass::new(
+            ctx,
+            scene,
+            settings.width,
+            settings.height,
+            settings.seed,
+            &hash.taa_settings,
+        )?;
         Ok(HashCache {
             ctx: ctx.clone(),
             scene: scene.clone(),
@@ -143,35 +150,55 @@ impl Method for HashCache {
     ) -> GpuResult<FrameOutputs<'a>> {
         self.table.begin_frame();
         let taa_on = self.table.settings().taa;
-        if taa_on {
-            self.taa.begin_frame();
-        }
-        let this: &'a HashCache = self;
-        let (w, h) = (this.settings.width, this.settings.height);
-        let params = FrameParams::new(input, w, h, this.settings.seed, this.scene.origin);
+        let update = self.update_has_work();
+        let HashCache {
+            scene,
+            settings,
+            table,
+            pipes,
+            frame,
+            taa,
+            readback,
+            ..
+        } = self;
+        let (scene, settings, t, p, frame, readback): (
+            &'a _,
+            &'a RenderSettings,
+            &'a HashTable,
+            &'a Pipelines,
+            &'a Buffer,
+            &'a HostReadback,
+        ) = (scene, settings, table, pipes, frame, readback);
+        let (w, h) = (settings.width, settings.height);
+        let params = FrameParams::new(input, w, h, settings.seed, scene.origin);
         let groups = [w.div_ceil(LOCAL), h.div_ceil(LOCAL), 2];
-        let (p, t, scene_set) = (&this.pipes, &this.table, &this.scene.set);
+        let scene_set = &scene.set;
         let px = t.pixels();
 
         rec.pass("params")
-            .write(&this.frame)
+            .write(frame)
             .update(bytemuck::bytes_of(&params));
         t.record_clear(rec);
-        let update = this.update_has_work();
         if !update {
             // What `update` would leave in `fallback` for a probe failure
             // (rgb = 0); misses get theirs from `primary`, after this clear.
             rec.pass("clear.fallback").write(&px.fallback).fill(0);
         }
-        t.pass(rec, "primary", &p.primary, scene_set, &this.frame)
+        t.pass(rec, "primary", &p.primary, scene_set, frame)
             .dispatch(groups)?;
         if update {
-            t.record_update(rec, scene_set, &this.frame, groups)?;
+            t.record_update(rec, scene_set, frame, groups)?;
         }
-        t.pass(rec, "resolve", &p.resolve, scene_set, &this.frame)
+        t.pass(rec, "resolve", &p.resolve, scene_set, frame)
             .dispatch(groups)?;
-        t.record_count(rec, scene_set, &this.frame)?;
-        let shown = px.record_taa(&this.taa, taa_on, rec, scene_set, &this.frame, groups)?;
+        t.record_count(rec, scene_set, frame)?;
+        let mut counters = vec![table::table_counters(t.counters(), t.settings().capacity)];
+        let mut shown = &px.color;
+        if taa_on {
+            let (resolved, c) = taa.record(rec, input, px.taa_inputs())?;
+            shown = resolved;
+            counters.push(c);
+        }
         Ok(FrameOutputs {
             width: w,
             height: h,
@@ -183,10 +210,14 @@ impl Method for HashCache {
                 .settings()
                 .debug_views
                 .then_some((t.debug(), &DEBUG_VIEWS[..])),
-            counters: vec![table::table_counters(t.counters(), t.settings().capacity)],
+            counters,
             host_counters: Default::default(),
-            readback: &this.readback,
+            readback,
         })
+    }
+
+    fn resolves_with_taa(&self) -> bool {
+        self.table.settings().taa
     }
 
     fn memory_bytes(&self) -> u64 {

@@ -1,5 +1,6 @@
 //! Options of the `hash-cache` method and their command-line spellings.
 
+use crate::methods::TaaSettings;
 use serde::Serialize;
 use std::str::FromStr;
 
@@ -32,6 +33,8 @@ pub struct HashCacheSettings {
     pub max_samples: u32,
     /// Temporal antialiasing on the output (the paper applies it).
     pub taa: bool,
+    /// Options of that TAA: the one TAA's (`--taa-*`, [`TaaSettings`]).
+    pub taa_settings: TaaSettings,
     /// Download the debug views (voxel id, level of detail, samples).
     pub debug_views: bool,
 }
@@ -47,6 +50,7 @@ impl Default for HashCacheSettings {
             lod_scale: 1.0,
             max_samples: 1024,
             taa: true,
+            taa_settings: TaaSettings::default(),
             debug_views: false,
         }
     }
@@ -91,7 +95,7 @@ impl HashCacheSettings {
         if self.max_samples == 0 {
             return Err("bad --hash-max-samples 0: expected at least 1".into());
         }
-        Ok(())
+        self.taa_settings.validate()
     }
 }
 

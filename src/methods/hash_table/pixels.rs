@@ -2,9 +2,9 @@
 //! `shaders/hash_table/table.glsl`), each `[eye][pixel]`: the lookup
 //! requests the update pass reads and the method's outputs.
 
-use crate::gpu::{Buffer, DescriptorSet, GpuContext, GpuResult, Recorder};
-use crate::methods::hash_cache::taa::{Taa, TaaInputs};
-use crate::rt::SceneGpu;
+use crate::gpu::{Buffer, GpuContext, GpuResult};
+use crate::methods::taa::TaaInputs;
+use crate::methods::Color;
 use std::sync::Arc;
 
 pub struct PixelBuffers {
@@ -23,7 +23,8 @@ pub struct PixelBuffers {
     pub depth: Buffer,
     pub first_hit: Buffer,
     pub albedo: Buffer,
-    /// Hit point with w = 1; miss: direction with w = 0 (TAA's reprojection).
+    /// Hit point with w = 1; miss: direction with w = 0 (written for the
+    /// debuggers; TAA rebuilds points from `depth`).
     pub position: Buffer,
 }
 
@@ -60,31 +61,13 @@ impl PixelBuffers {
         ]
     }
 
-    /// TAA history for these buffers.
-    pub fn taa(&self, ctx: &Arc<GpuContext>, scene: &SceneGpu) -> GpuResult<Taa> {
-        Taa::new(ctx, scene, self.count)
-    }
-
-    /// Records `taa` over these buffers' colour, position and depth when
-    /// `on` (after [`Taa::begin_frame`]); returns the colour the frame shows.
-    pub fn record_taa<'a>(
-        &'a self,
-        taa: &'a Taa,
-        on: bool,
-        rec: &mut Recorder<'a>,
-        scene_set: &'a DescriptorSet,
-        frame: &'a Buffer,
-        groups: [u32; 3],
-    ) -> GpuResult<&'a Buffer> {
-        if !on {
-            return Ok(&self.color);
-        }
-        let inputs = TaaInputs {
-            frame,
-            color: &self.color,
-            position: &self.position,
+    /// The buffers the one TAA ([`crate::methods::TaaPass`]) resolves:
+    /// the resolved colour, the first hits and their view depth.
+    pub fn taa_inputs(&self) -> TaaInputs<'_> {
+        TaaInputs {
+            color: Color::Radiance(&self.color),
             depth: &self.depth,
-        };
-        taa.record(rec, scene_set, inputs, groups)
+            first_hit: &self.first_hit,
+        }
     }
 }

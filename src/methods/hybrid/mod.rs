@@ -20,9 +20,8 @@
 //!   the levels holding radiance + emission; pixel colour = mean over its
 //!   samples;
 //! * `diag.hybrid.count` (the table's `count.comp`, live entries; a statistic
-//!   left out of the frame time) → `taa`
-//!   ([`crate::methods::hash_cache::Taa`], as the hash cache, unless
-//!   `--hash-no-taa`).
+//!   left out of the frame time) → the one TAA ([`TaaPass`], `--taa-*`
+//!   options, as the hash cache; unless `--hash-no-taa`).
 //!
 //! Cost of the lookups: 2 × (visible samples per pixel) probe walks per
 //! pixel in `resolve` (≈ 8 at n_target = 4) and one in `reserve`; one
@@ -34,8 +33,9 @@ pub mod config;
 
 pub use config::HybridConfig;
 
-use super::hash_cache::{HashCacheSettings, Taa};
+use super::hash_cache::HashCacheSettings;
 use super::hash_table::{self as table, HashTable, TableDesc};
+use super::taa::TaaPass;
 use super::{
     Color, CounterOutput, FrameInput, FrameOutputs, Method, RaySlots, RenderSettings, SampleCache,
 };
@@ -61,7 +61,7 @@ pub struct Hybrid {
     cache: SampleCache,
     table: HashTable,
     pipes: Pipelines,
-    taa: Taa,
+    taa: TaaPass,
     readback: HostReadback,
 }
 
@@ -98,7 +98,14 @@ impl Hybrid {
             reserve: table.pipeline(ctx, scene, "hybrid/reserve", &INTERFACE)?,
             resolve: table.pipeline(ctx, scene, "hybrid/resolve", &INTERFACE)?,
         };
-        let taa = table.pixels().taa(ctx, scene)?;
+        let taa = TaaPass::new(
+            ctx,
+            scene,
+            settings.width,
+            settings.height,
+            settings.seed,
+            &hash.taa_settings,
+        )?;
         Ok(Hybrid {
             ctx: ctx.clone(),
             scene: scene.clone(),
@@ -139,18 +146,32 @@ impl Method for Hybrid {
         self.cache.begin_frame();
         self.table.begin_frame();
         let taa_on = self.table.settings().taa;
-        if taa_on {
-            self.taa.begin_frame();
-        }
-        let this: &'a Hybrid = self;
-        let (w, h) = (this.settings.width, this.settings.height);
+        let Hybrid {
+            scene,
+            settings,
+            cache: sample_cache,
+            table,
+            pipes,
+            taa,
+            readback,
+            ..
+        } = self;
+        let (scene, settings, sample_cache, t, p, readback): (
+            &'a Arc<SceneGpu>,
+            &'a RenderSettings,
+            &'a SampleCache,
+            &'a HashTable,
+            &'a Pipelines,
+            &'a HostReadback,
+        ) = (scene, settings, sample_cache, table, pipes, readback);
+        let (w, h) = (settings.width, settings.height);
         let groups = [w.div_ceil(LOCAL), h.div_ceil(LOCAL), 2];
-        let (p, t, scene_set) = (&this.pipes, &this.table, &this.scene.set);
+        let scene_set = &scene.set;
         let px = t.pixels();
 
-        let cur = this.cache.record_begun_visibility(rec, input)?;
-        let cache = this.cache.current_buffers(cur);
-        let frame = this.cache.frame_buffer();
+        let cur = sample_cache.record_begun_visibility(rec, input)?;
+        let cache = sample_cache.current_buffers(cur);
+        let frame = sample_cache.frame_buffer();
         t.record_clear(rec);
         t.pass(rec, "hybrid.reserve", &p.reserve, scene_set, frame)
             .read(cache.masks)
@@ -162,8 +183,28 @@ impl Method for Hybrid {
             .read(cache.first_hits)
             .dispatch(groups)?;
         t.record_count(rec, scene_set, frame)?;
-        let shown = px.record_taa(&this.taa, taa_on, rec, scene_set, frame, groups)?;
         use HybridCounter::*;
+        // Primary rays are the sample cache's visibility rays. The
+        // table's counters come after them, so where both report a name,
+        // hybrid's value is the one in the frame's counters.
+        let mut counters = vec![
+            sample_cache.visibility_counter_output(),
+            table::with_occupancy(
+                CounterOutput::of::<HybridCounter>(t.counters()).rays(RaySlots::of(
+                    &[],
+                    &[BounceRays],
+                    &[ShadowRays],
+                )),
+                Live,
+                t.settings().capacity,
+            ),
+        ];
+        let mut shown = &px.color;
+        if taa_on {
+            let (resolved, c) = taa.record(rec, input, px.taa_inputs())?;
+            shown = resolved;
+            counters.push(c);
+        }
         Ok(FrameOutputs {
             width: w,
             height: h,
@@ -172,24 +213,14 @@ impl Method for Hybrid {
             first_hit: &px.first_hit,
             albedo: &px.albedo,
             debug: None,
-            // Primary rays are the sample cache's visibility rays. The
-            // table's counters come last, so where both report a name,
-            // hybrid's value is the one in the frame's counters.
-            counters: vec![
-                this.cache.visibility_counter_output(),
-                table::with_occupancy(
-                    CounterOutput::of::<HybridCounter>(t.counters()).rays(RaySlots::of(
-                        &[],
-                        &[BounceRays],
-                        &[ShadowRays],
-                    )),
-                    Live,
-                    t.settings().capacity,
-                ),
-            ],
+            counters,
             host_counters: Default::default(),
-            readback: &this.readback,
+            readback,
         })
+    }
+
+    fn resolves_with_taa(&self) -> bool {
+        self.table.settings().taa
     }
 
     fn memory_bytes(&self) -> u64 {

@@ -7,21 +7,50 @@
 //! → `reproject` (one thread per previous cell; the sample lands in the cell
 //! its new sub-pixel position falls into; 64-bit `atomicMin` on
 //! depth | source index: the closest sample wins) → `gather` (copies the
-//! winners) → `trace` (every sample retraced; occluded ones dropped; every
-//! empty cell gets a new sample through a random point in it, a miss a
-//! background sample: the ray's direction, `sample_cache::background`) → `shade` (one
+//! winners) → `trace` (`--isrt-retrace every`, default: every sample
+//! retraced; occluded ones dropped; every empty cell gets a new sample
+//! through a random point in it, a miss a background sample: the ray's
+//! direction, `sample_cache::background`; `--isrt-retrace one`, the paper's
+//! Fig. 10 configuration: one sample per pixel retraced, empty cells filled
+//! up to `--isrt-n-target`, shaders/isrt/trace_pixel.comp) → `shade` (one
 //! sample per pixel, round robin; demodulated running mean) → `reconstruct`
 //! (mean over the pixel's shaded and background samples).
 //!
 //! Memory per pixel per eye: M² × (16 B first hit + 16 B radiance) × 2
 //! (previous / current) + M² × 8 B reservations, plus the per-pixel outputs.
 
-pub use settings::IsrtSettings;
+pub use settings::{IsrtRetrace, IsrtSettings};
 
 pub mod args;
 
 pub mod settings {
     use serde::Serialize;
+    use std::str::FromStr;
+
+    /// `--isrt-retrace`: which samples are retraced each frame.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+    #[serde(rename_all = "kebab-case")]
+    pub enum IsrtRetrace {
+        /// Every sample, every frame; every empty cell filled (trace.comp).
+        Every,
+        /// One sample per pixel per frame, round robin; empty cells filled
+        /// up to the density target `n_target` (trace_pixel.comp): the
+        /// sample-cache paper's Fig. 10 configuration.
+        OnePerPixel,
+    }
+
+    impl FromStr for IsrtRetrace {
+        type Err = String;
+        fn from_str(s: &str) -> Result<Self, String> {
+            match s {
+                "every" => Ok(IsrtRetrace::Every),
+                "one" => Ok(IsrtRetrace::OnePerPixel),
+                other => Err(format!(
+                    "bad --isrt-retrace '{other}': expected every or one"
+                )),
+            }
+        }
+    }
 
     #[derive(Clone, Debug, PartialEq, Serialize)]
     pub struct IsrtSettings {
@@ -29,21 +58,55 @@ pub mod settings {
         pub m: u32,
         /// Retrace tolerance relative to the hit distance (as the sample cache's ε0).
         pub eps0: f32,
+        pub retrace: IsrtRetrace,
+        /// With [`IsrtRetrace::OnePerPixel`]: empty cells are filled until the
+        /// pixel holds this many samples (0 = every cell; at most M²).
+        pub n_target: u32,
     }
 
     impl Default for IsrtSettings {
         fn default() -> Self {
-            IsrtSettings { m: 3, eps0: 1e-3 }
+            IsrtSettings {
+                m: 3,
+                eps0: 1e-3,
+                retrace: IsrtRetrace::Every,
+                n_target: 0,
+            }
         }
     }
 
     impl IsrtSettings {
+        /// The paper's Fig. 10 configuration for `m`: one sample per pixel
+        /// retraced, no adaptive sampling, fill to the density target
+        /// n_target = 4 (the caption's target for 9 samples per pixel, M = 3).
+        pub fn fig10(m: u32) -> Self {
+            IsrtSettings {
+                m,
+                retrace: IsrtRetrace::OnePerPixel,
+                n_target: 4,
+                ..Default::default()
+            }
+        }
+
         pub fn validate(&self) -> Result<(), String> {
             if !(2..=4).contains(&self.m) {
                 return Err(format!("bad --isrt-m {}: expected 2, 3 or 4", self.m));
             }
             if !(self.eps0 > 0.0 && self.eps0 < 0.1) {
                 return Err(format!("bad isrt ε0 {}: expected (0, 0.1)", self.eps0));
+            }
+            if self.n_target > self.m * self.m {
+                return Err(format!(
+                    "bad --isrt-n-target {}: expected at most M² = {} cells",
+                    self.n_target,
+                    self.m * self.m
+                ));
+            }
+            if self.n_target > 0 && self.retrace == IsrtRetrace::Every {
+                return Err(format!(
+                    "bad --isrt-n-target {}: a density target needs --isrt-retrace one (every fills every cell)",
+                    self.n_target
+                ));
             }
             Ok(())
         }
@@ -70,7 +133,9 @@ const LOCAL: u32 = 8;
 #[derive(Clone, Copy, Pod, Zeroable)]
 struct IsrtPush {
     eps0: f32,
-    pad: [u32; 3],
+    /// trace_pixel.comp's density target (0 = every cell).
+    n_target: u32,
+    pad: [u32; 2],
 }
 const _: () = assert!(std::mem::size_of::<IsrtPush>() == PUSH.size() as usize);
 
@@ -184,7 +249,10 @@ impl Isrt {
         let pipes = Pipelines {
             reproject: pipe("reproject")?,
             gather: pipe("gather")?,
-            trace: pipe("trace")?,
+            trace: match isrt.retrace {
+                IsrtRetrace::Every => pipe("trace")?,
+                IsrtRetrace::OnePerPixel => pipe("trace_pixel")?,
+            },
             shade: pipe("shade")?,
             reconstruct: pipe("reconstruct")?,
         };
@@ -262,7 +330,8 @@ impl Isrt {
             .write(&self.counters)
             .push(&IsrtPush {
                 eps0: self.isrt.eps0,
-                pad: [0; 3],
+                n_target: self.isrt.n_target,
+                pad: [0; 2],
             })
     }
 }
@@ -299,8 +368,12 @@ impl Method for Isrt {
             .dispatch(cell_groups)?;
         this.pass(rec, "gather", &p.gather, parity)
             .dispatch(cell_groups)?;
+        let trace_groups = match this.isrt.retrace {
+            IsrtRetrace::Every => cell_groups,
+            IsrtRetrace::OnePerPixel => pixel_groups,
+        };
         this.pass(rec, "trace", &p.trace, parity)
-            .dispatch(cell_groups)?;
+            .dispatch(trace_groups)?;
         this.pass(rec, "shade", &p.shade, parity)
             .dispatch(pixel_groups)?;
         this.pass(rec, "reconstruct", &p.reconstruct, parity)

@@ -1,21 +1,26 @@
-//! The `taa` method's command-line options (also those of the TAA passes
-//! `hash-cache` and `hybrid` run on their output).
+//! The one TAA's command-line options: the `taa` method's, and those of the
+//! TAA `hash-cache`, `hybrid` and `--taa-output` run on a method's output.
 
 use super::settings::{TaaSettings, TaaWeights};
 use crate::values::float_with;
 
-/// Options of the taa method (ignored by other methods).
+/// Options of the one TAA: the taa method's, hash-cache's and hybrid's TAA and --taa-output.
 #[derive(clap::Args, Clone, Debug)]
 pub struct TaaArgs {
     /// Blend factor of the new frame (fixed weights), or its lower bound α_min (pfj23).
     #[arg(long, default_value_t = 0.1, value_parser = float_with("--taa-alpha", |v: f32| v > 0.0 && v <= 1.0, "a number in (0, 1]"))]
     pub taa_alpha: f32,
-    /// fixed (EMA with --taa-alpha) | pfj23 (per-pixel sample-count weights, see docs)
-    #[arg(long, default_value = "fixed")]
+    /// pfj23 (per-pixel sample-count weights, the paper's; see docs) | fixed (EMA with --taa-alpha)
+    #[arg(long, default_value = "pfj23")]
     pub taa_weights: TaaWeights,
     /// Clipping box half-width in standard deviations of the 3×3 YCoCg neighbourhood.
     #[arg(long, default_value_t = 1.0, value_parser = float_with("--taa-gamma", crate::values::positive_f32, "a positive number"))]
     pub taa_gamma: f32,
+    /// Apply this TAA to the output of every method (the paper's Fig. 12,
+    /// "TAA on top of all methods"); methods that already end in it
+    /// (taa; hash-cache and hybrid unless --hash-no-taa) are left as they are.
+    #[arg(long)]
+    pub taa_output: bool,
 }
 
 impl TaaArgs {

@@ -6,9 +6,11 @@
 //! reprojection and disocclusion tests.
 
 pub mod args;
+pub mod output;
 pub mod pass;
 pub mod settings;
 
+pub use output::TaaOnOutput;
 pub use pass::{TaaInputs, TaaPass};
 pub use settings::{halton_jitter, TaaSettings, TaaWeights};
 
@@ -38,20 +40,7 @@ impl Taa {
             ..settings.clone()
         };
         let source = Reference::with_name("taa.source", ctx, scene, env, &s)?;
-        let out = source.outputs();
-        let pass = TaaPass::new(
-            ctx,
-            scene,
-            s.width,
-            s.height,
-            s.seed,
-            taa,
-            TaaInputs {
-                color: out.accum,
-                depth: out.depth,
-                first_hit: out.first_hit,
-            },
-        )?;
+        let pass = TaaPass::new(ctx, scene, s.width, s.height, s.seed, taa)?;
         Ok(Taa {
             ctx: ctx.clone(),
             source,
@@ -92,7 +81,7 @@ impl Method for Taa {
             rec,
             input,
             TaaInputs {
-                color: out.accum,
+                color: Color::Radiance(out.accum),
                 depth: out.depth,
                 first_hit: out.first_hit,
             },
@@ -100,6 +89,10 @@ impl Method for Taa {
         let mut frame = source.frame_outputs(Color::Radiance(resolved), readback);
         frame.counters.push(counters);
         Ok(frame)
+    }
+
+    fn resolves_with_taa(&self) -> bool {
+        true
     }
 
     fn memory_bytes(&self) -> u64 {

@@ -2,8 +2,11 @@
 //! (the kajiya style of DESIGN.md): it owns its temporal resources (two
 //! history buffers, the previous frame's depth and first hits) and records its
 //! passes into a caller's [`Recorder`], given the caller's per-pixel colour,
-//! depth and first-hit buffers (`[eye][pixel]`, both eyes). `taa` runs it on
-//! 1 spp Halton-jittered path tracing; `hash-cache` can run it on its output.
+//! depth and first-hit buffers (`[eye][pixel]`, both eyes). It is the
+//! project's one TAA: `taa` runs it on 1 spp Halton-jittered path tracing,
+//! `hash-cache` and `hybrid` on their output (paper §4: "TAA [YLS20] ... using
+//! temporal weights as derived by Philippi et al. [PFJ23]"), and
+//! [`super::TaaOnOutput`] on any other method's (`--taa-output`, Fig. 12).
 //!
 //! Binding order and counter slots: src/interface/taa.rs.
 //! Passes (5): `taa.params` → `taa.clear` → `taa.resolve`
@@ -12,7 +15,7 @@
 use super::settings::{TaaSettings, TaaWeights};
 use crate::gpu::{shaders, Buffer, ComputePipeline, GpuContext, GpuError, GpuResult, Recorder};
 use crate::interface::taa::{TaaCounter, INTERFACE, RESOLVE_PUSH};
-use crate::methods::{CounterOutput, FrameInput, FrameParams};
+use crate::methods::{Color, CounterOutput, FrameInput, FrameParams};
 use crate::rt::SceneGpu;
 use bytemuck::{Pod, Zeroable};
 use std::sync::Arc;
@@ -30,13 +33,14 @@ struct ResolvePush {
 }
 const _: () = assert!(std::mem::size_of::<ResolvePush>() == RESOLVE_PUSH.size() as usize);
 
-/// The caller's buffers the resolve reads, `[eye][pixel]`: colour (vec4, rgb =
-/// radiance, w ignored), view depth (f32, 0 = miss) and pixel-centre first hits
-/// (uvec4, Listing 1). They are bound per pass (push descriptors), so they
+/// The caller's buffers the resolve reads, `[eye][pixel]`: colour (vec4,
+/// either radiance or a sample sum, [`Color`]), view depth (f32, 0 = miss)
+/// and first hits (uvec4, Listing 1; the pixel centres' where the method has
+/// them, else its own). They are bound per pass (push descriptors), so they
 /// may differ from frame to frame; each must hold both eyes' pixels.
 #[derive(Clone, Copy)]
 pub struct TaaInputs<'a> {
-    pub color: &'a Buffer,
+    pub color: Color<'a>,
     pub depth: &'a Buffer,
     pub first_hit: &'a Buffer,
 }
@@ -65,7 +69,6 @@ impl TaaPass {
         height: u32,
         seed: u32,
         settings: &TaaSettings,
-        inputs: TaaInputs<'_>,
     ) -> GpuResult<TaaPass> {
         settings.validate().map_err(GpuError::Unsupported)?;
         let n = pixels(width, height);
@@ -75,7 +78,6 @@ impl TaaPass {
         let prev_depth = b("prev_depth", n * 4)?;
         let prev_first_hit = b("prev_first_hit", n * 16)?;
         let counters = b("counters", 8 * 4)?;
-        check_inputs(width, height, inputs)?;
         // camera.glsl lives in set 1, so set 0 is the scene's (bound, unused).
         let spirv = shaders::spirv("taa/resolve")
             .ok_or_else(|| GpuError::Unsupported("shader taa/resolve was not compiled".into()))?;
@@ -124,6 +126,10 @@ impl TaaPass {
         inputs: TaaInputs<'a>,
     ) -> GpuResult<(&'a Buffer, CounterOutput<'a>)> {
         check_inputs(self.width, self.height, inputs)?;
+        let (color, sample_sum) = match inputs.color {
+            Color::Radiance(b) => (b, false),
+            Color::SampleSum(b) => (b, true),
+        };
         let p = (self.frames % 2) as usize;
         let has_history = self.frames > 0;
         self.frames += 1;
@@ -137,7 +143,10 @@ impl TaaPass {
                 TaaWeights::Fixed => 0,
                 TaaWeights::Pfj23 => 1,
             },
-            flags: has_history as u32 | (s.reject_disocclusions as u32) << 1 | (s.clip as u32) << 2,
+            flags: has_history as u32
+                | (s.reject_disocclusions as u32) << 1
+                | (s.clip as u32) << 2
+                | (sample_sum as u32) << 3,
         };
         rec.pass("taa.params")
             .write(&this.frame)
@@ -148,7 +157,7 @@ impl TaaPass {
         rec.compute("taa.resolve", &this.pipeline)
             .shared(&this.scene.set)
             .read(&this.frame)
-            .read(inputs.color)
+            .read(color)
             .read(inputs.depth)
             .read(inputs.first_hit)
             .read(&this.history[p])
@@ -196,8 +205,11 @@ fn pixels(width: u32, height: u32) -> u64 {
 /// Every input holds both eyes' pixels.
 fn check_inputs(width: u32, height: u32, inputs: TaaInputs<'_>) -> GpuResult<()> {
     let n = pixels(width, height);
+    let color = match inputs.color {
+        Color::Radiance(b) | Color::SampleSum(b) => b,
+    };
     for (buf, bytes) in [
-        (inputs.color, n * 16),
+        (color, n * 16),
         (inputs.depth, n * 4),
         (inputs.first_hit, n * 16),
     ] {

@@ -1,4 +1,5 @@
-//! Options of the `taa` method (and of any method that runs [`super::TaaPass`]).
+//! Options of the one TAA ([`super::TaaPass`]): the `taa` method's, and those
+//! of the TAA `hash-cache`, `hybrid` and `--taa-output` run on their output.
 
 use serde::Serialize;
 use std::str::FromStr;
@@ -47,7 +48,9 @@ impl Default for TaaSettings {
     fn default() -> Self {
         TaaSettings {
             alpha: 0.1,
-            weights: TaaWeights::Fixed,
+            // The paper's TAA: Yang et al. 2020 "using temporal weights as
+            // derived by Philippi et al. [PFJ23]" (§4), our reading of them.
+            weights: TaaWeights::Pfj23,
             gamma: 1.0,
             clip: true,
             reject_disocclusions: true,

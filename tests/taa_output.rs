@@ -1,0 +1,205 @@
+//! The one TAA on any method's output (`--taa-output`, `RenderSettings::taa_output`;
+//! the paper's Fig. 12 applies TAA on top of all methods): it runs on every
+//! registry method exactly once per frame inside the frame's one submit, and
+//! on a still view with the running-mean weights (pfj23, no clipping) its
+//! output is the running mean of the method's own frames.
+
+mod common;
+use common::*;
+use stereocache::camera::StereoCamera;
+use stereocache::methods::{
+    MethodConfig, MethodKind, RenderSettings, StereoFrame, TaaSettings, TaaWeights,
+};
+use stereocache::rt::RtChoice;
+
+fn settings(w: u32, h: u32, taa_output: Option<TaaSettings>) -> RenderSettings {
+    RenderSettings {
+        width: w,
+        height: h,
+        spp: 2,
+        max_bounces: 1,
+        seed: 7,
+        taa_output,
+        ..Default::default()
+    }
+}
+
+/// `kind` with its default options, a small table for the hash-table
+/// methods, and their own TAA on or off.
+fn config(kind: MethodKind, hash_taa: bool) -> MethodConfig {
+    match kind {
+        MethodKind::HashCache => MethodConfig::hash_cache(|c| {
+            c.capacity = 1 << 14;
+            c.taa = hash_taa;
+        }),
+        MethodKind::Hybrid => MethodConfig::hybrid(|c| {
+            c.hash.capacity = 1 << 14;
+            c.hash.taa = hash_taa;
+        }),
+        other => other.into(),
+    }
+}
+
+/// Passes named `taa.resolve` in the frame (the one TAA's resolve).
+fn resolves(fr: &StereoFrame) -> usize {
+    fr.stats
+        .passes
+        .iter()
+        .filter(|p| p.name == "taa.resolve")
+        .count()
+}
+
+/// Every registry method (and hash-cache / hybrid with their own TAA off)
+/// along 3 moving frames of the Cornell box: with `taa_output` each frame
+/// runs the TAA resolve exactly once, in one submit-and-wait; frame 0 has no
+/// history for any pixel, later frames use it for some; the radiance is
+/// finite and non-negative and the method keeps its registry name. Without
+/// `taa_output` a method that has no TAA of its own runs none.
+#[test]
+fn taa_output_runs_once_per_frame_on_every_registry_method() {
+    let ctx = context();
+    let s = session(&ctx, shipped("cornell"), RtChoice::Software);
+    let (w, h) = (20, 16);
+    let npix = (2 * w * h) as f64;
+    let cam0 = default_camera(&s, w, h);
+    let path = |f: u32| turning_head(&cam0, f, 1.0, 0.01);
+    let mut runs: Vec<(MethodKind, bool, bool)> =
+        MethodKind::ALL.iter().map(|m| (*m, true, true)).collect();
+    runs.push((MethodKind::HashCache, true, false));
+    runs.push((MethodKind::Hybrid, true, false));
+    for m in MethodKind::ALL {
+        runs.push((*m, false, true));
+    }
+    for (kind, taa_output, hash_taa) in runs {
+        let what = format!("{kind} (taa_output {taa_output}, hash taa {hash_taa})");
+        let taa = taa_output.then(TaaSettings::default);
+        let mut m = s
+            .create(config(kind, hash_taa), &settings(w, h, taa))
+            .unwrap_or_else(|e| panic!("{what}: {e}"));
+        assert_eq!(m.name(), kind.name(), "{what}");
+        let own_taa = matches!(kind, MethodKind::Taa)
+            || (hash_taa && matches!(kind, MethodKind::HashCache | MethodKind::Hybrid));
+        let mut prev: Option<StereoCamera> = None;
+        for f in 0..3 {
+            let before = ctx.submit_count();
+            let fr = render_at(m.as_mut(), f, path(f), prev);
+            prev = Some(path(f));
+            assert_eq!(ctx.submit_count() - before, 1, "{what} frame {f}: submits");
+            assert_finite_non_negative(&fr, &what);
+            let expect = usize::from(taa_output || own_taa);
+            assert_eq!(resolves(&fr), expect, "{what} frame {f}: TAA resolves");
+            if expect == 0 {
+                assert!(
+                    !fr.stats.counters.contains_key("taa_history_used"),
+                    "{what}"
+                );
+                continue;
+            }
+            let c = &fr.stats.counters;
+            if f == 0 {
+                assert_eq!(c["taa_no_history"], npix, "{what} frame 0");
+                assert_eq!(c["taa_history_used"], 0.0, "{what} frame 0");
+            } else {
+                assert_eq!(c["taa_no_history"], 0.0, "{what} frame {f}");
+                assert!(c["taa_history_used"] > 0.0, "{what} frame {f}: {c:?}");
+            }
+        }
+    }
+    assert_no_validation_messages(&ctx);
+}
+
+/// Still view (Cornell box, 12 frames): with pfj23 weights, α_min = 1/32
+/// (so the weights stay 1/(n + 1) for all 12 frames) and no clipping, the
+/// TAA over a method's output at frame k is the running mean of that
+/// method's frames 0..=k, per pixel and channel. Checked against a second,
+/// plain run of the same method (same seed, so the same frames) for every
+/// deterministic registry method. Not here: `taa` (it is this TAA; its own
+/// tests are tests/baselines.rs) and `hash-cache`/`hybrid` (atomic update
+/// order makes two runs differ; their TAA is the same pass, checked above).
+///
+/// Tolerance: on a still view the history position is the pixel centre up
+/// to f32 rounding of the reprojection (~1e-6 px at these sizes), so the
+/// bilinear fetch leaks ≤ ~1e-5 of a neighbour's history; the running mean
+/// itself rounds ~k · 2^-24 relatively. 1e-4 · (1 + the largest mean in the
+/// 3×3 neighbourhood) is above both by an order of magnitude.
+#[test]
+fn still_view_taa_output_is_the_running_mean_of_the_method() {
+    let ctx = context();
+    let s = session(&ctx, shipped("cornell"), RtChoice::Software);
+    let (w, h) = (20, 16);
+    let cam = default_camera(&s, w, h);
+    let frames = 12u32;
+    let taa = TaaSettings {
+        weights: TaaWeights::Pfj23,
+        alpha: 1.0 / 32.0,
+        clip: false,
+        ..Default::default()
+    };
+    let deterministic = [
+        MethodKind::Reference,
+        MethodKind::SampleCache,
+        MethodKind::Naive,
+        MethodKind::Supersample,
+        MethodKind::Isrt,
+        MethodKind::DebugNormals,
+    ];
+    for kind in deterministic {
+        let mut plain = s.create(kind, &settings(w, h, None)).unwrap();
+        let mut resolved = s.create(kind, &settings(w, h, Some(taa.clone()))).unwrap();
+        let n = (w * h) as usize;
+        let mut sum = vec![[0.0f64; 3]; 2 * n];
+        let mut worst = 0.0f64;
+        for f in 0..frames {
+            let prev = (f > 0).then_some(cam);
+            let a = render_at(plain.as_mut(), f, cam, prev);
+            let b = render_at(resolved.as_mut(), f, cam, prev);
+            for e in 0..2 {
+                for (i, p) in a.eyes[e].radiance.iter().enumerate() {
+                    for (s, v) in sum[e * n + i].iter_mut().zip(p) {
+                        *s += *v as f64;
+                    }
+                }
+            }
+            let mean = |e: usize, i: usize, c: usize| sum[e * n + i][c] / (f + 1) as f64;
+            for e in 0..2 {
+                for y in 0..h as i32 {
+                    for x in 0..w as i32 {
+                        let i = (y * w as i32 + x) as usize;
+                        let mut local = 0.0f64;
+                        for dy in -1..=1 {
+                            for dx in -1..=1 {
+                                let (qx, qy) = (x + dx, y + dy);
+                                if qx >= 0 && qy >= 0 && qx < w as i32 && qy < h as i32 {
+                                    let q = (qy * w as i32 + qx) as usize;
+                                    for c in 0..3 {
+                                        local = local.max(mean(e, q, c));
+                                    }
+                                }
+                            }
+                        }
+                        for c in 0..3 {
+                            let d = (b.eyes[e].radiance[i][c] as f64 - mean(e, i, c)).abs();
+                            let tol = 1e-4 * (1.0 + local);
+                            worst = worst.max(d / tol);
+                            assert!(
+                                d <= tol,
+                                "{kind} frame {f} eye {e} pixel ({x}, {y}) channel {c}: TAA {} vs running mean {} (tolerance {tol:.1e})",
+                                b.eyes[e].radiance[i][c],
+                                mean(e, i, c)
+                            );
+                        }
+                    }
+                }
+            }
+            if f == frames - 1 {
+                assert_eq!(
+                    b.stats.counters["taa_history_used"],
+                    (2 * n) as f64,
+                    "{kind}"
+                );
+            }
+        }
+        eprintln!("{kind}: largest |TAA − running mean| / tolerance {worst:.3}");
+    }
+    assert_no_validation_messages(&ctx);
+}
