@@ -19,7 +19,11 @@ fn materialx_libraries() -> Option<PathBuf> {
         return Some(PathBuf::from(p));
     }
     let venv = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(".tools/venv/bin/python3");
-    let python = if venv.exists() { venv } else { PathBuf::from("python3") };
+    let python = if venv.exists() {
+        venv
+    } else {
+        PathBuf::from("python3")
+    };
     let out = std::process::Command::new(python)
         .args([
             "-c",
