@@ -9,6 +9,7 @@ use common::*;
 use glam::{Mat4, UVec2, Vec2, Vec3};
 use stereocache::camera::{Eye, EyeView, StereoCamera};
 use stereocache::methods::hash_cache::HashCacheSettings;
+use stereocache::methods::hybrid::HybridLookups;
 use stereocache::methods::isrt::{Isrt, IsrtSettings};
 use stereocache::methods::sample_cache::{SampleCache, SampleCacheSettings};
 use stereocache::methods::{Hybrid, HybridConfig, Method, RenderSettings, StereoFrame};
@@ -28,7 +29,10 @@ fn settings(w: u32, h: u32) -> RenderSettings {
     }
 }
 
-/// Hybrid's options in these tests: default visibility, a 2^14-entry table, no TAA.
+/// Hybrid's options in these tests: default visibility, a 2^14-entry table,
+/// no TAA, per-sample lookups (the pixel shows the mean over its samples,
+/// which the coverage test's variance assumes; the per-pixel default shows one
+/// sample a frame: tests/hybrid.rs).
 fn hybrid_config() -> HybridConfig {
     HybridConfig {
         cache: SampleCacheSettings::default(),
@@ -37,6 +41,7 @@ fn hybrid_config() -> HybridConfig {
             taa: false,
             ..Default::default()
         },
+        lookups: HybridLookups::PerSample,
     }
 }
 

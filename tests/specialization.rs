@@ -116,6 +116,8 @@ fn zero_bounce_hash_cache_skips_update_with_identical_images() {
                 capacity: 128,
                 max_probe: 4,
                 stale_frames: 2,
+                // 128 single entries, as before tiles became the default.
+                tiles: false,
                 debug_views,
                 ..Default::default()
             })

@@ -10,6 +10,11 @@
 #include "common/first_hit.glsl"
 
 layout(constant_id = SPEC_HYBRID_N_SLOTS) const uint N_SLOTS = 12;   // the sample cache's slot count
+// Lookups (HybridLookups, src/methods/hybrid/config.rs): false = per pixel,
+// the paper's three (§4, §5.1: one for shading, two for reconstruction, with
+// voxel jitter); true = per sample, every visible sample at both levels
+// without jitter (the variant before issue 15).
+layout(constant_id = SPEC_HYBRID_PER_SAMPLE) const bool PER_SAMPLE = false;
 layout(set = SET_HYBRID, binding = B_HYBRID_MASK_CUR, std430) readonly buffer MaskCur { uint mask_cur[]; };   // [eye][pixel]
 layout(set = SET_HYBRID, binding = B_HYBRID_FH_CUR, std430) readonly buffer FhCur { uvec4 fh_cur[]; };      // [eye][slot][pixel]
 
@@ -45,8 +50,8 @@ uint hy_nth_set_bit(uint bits, uint k) {
 uint hy_update_slot(uint vis) { return hy_nth_set_bit(vis, frame.size_seed.w % bitCount(vis)); }
 
 // Index hash, offset in the tile and checksum of the voxel holding p at
-// `level`. No voxel jitter: a cached sample maps to the same voxels every
-// frame (the "stable lookups" of the hybrid).
+// `level` (p as given: per-sample lookups use no voxel jitter, per-pixel
+// lookups pass hy_jittered's point).
 void hy_key(vec3 p, vec3 ng, int level, out uint h, out uint local_offset, out uint chk) {
     ivec3 coord;
     uint meta;
@@ -54,6 +59,27 @@ void hy_key(vec3 p, vec3 ng, int level, out uint h, out uint local_offset, out u
     h = hc_index_hash(coord, meta);
     local_offset = hc_meta_local(meta);
     chk = hc_checksum(coord, meta);
+}
+
+// Per-pixel lookups (paper §4): the pixel's sample this frame, drawn
+// uniformly from its visible samples `all_vis` (≠ 0; background samples
+// included, so coverage is resolved over frames like HashCache's jittered
+// 1 spp first hits, and TAA integrates it), and the voxel jitter j ∈
+// [-1/2, 1/2)². Reserve and resolve draw the same values.
+uint hy_pixel_sample(uint eye, uint pixel, uint all_vis, out vec2 j) {
+    Rng r = rng_init(frame.size_seed.z, pc.now, eye, pixel, 0x4B1D0002u);
+    uint n = uint(bitCount(all_vis));
+    uint k = min(uint(rng_next(r) * float(n)), n - 1u);
+    j = rng_next2(r) - 0.5;
+    return hy_nth_set_bit(all_vis, k);
+}
+
+// Voxel jitter as in HashCache (hash_cache/primary.comp, [BFK18]): p moved
+// by j voxels of `level` in the tangent plane of ng.
+vec3 hy_jittered(vec3 p, vec3 ng, int level, vec2 j) {
+    vec3 tu, tv;
+    hc_tangents(ng, tu, tv);
+    return p + exp2(float(level)) * (j.x * tu + j.y * tv);
 }
 
 // Finds the key within the probe window without inserting; refreshes the

@@ -1,10 +1,15 @@
 #version 460
-// Hybrid, first pass: per pixel one visible sample of the sample cache
-// (round robin, hy_update_slot) and one of its two levels — the hash cache's
-// level L or the parent L + 1, chosen by a coin toss — is looked up or
-// reserved in the table; the first toucher of an entry this frame becomes its
-// updater. Writes pix_hit / pix_ray / pix_cell in the hash cache's format, so
-// hash_table/update.comp then traces the secondary path unchanged.
+// Hybrid, first pass: per pixel one visible sample of the sample cache and
+// one of its two levels — the hash cache's level L or the parent L + 1,
+// chosen by a coin toss ("the update randomly updates one of the two
+// levels", §4) — is looked up or reserved in the table (the pixel's one
+// lookup for shading); the first toucher of an entry this frame becomes its
+// updater. The sample: per-pixel lookups (default) the pixel's sample of this
+// frame (hy_pixel_sample; a background one makes no lookup), its point
+// voxel-jittered; per-sample lookups round robin over the surface samples
+// (hy_update_slot), unjittered. Writes pix_hit / pix_ray / pix_cell in the
+// hash cache's format, so hash_table/update.comp then traces the secondary
+// path unchanged.
 #include "hybrid/common.glsl"
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 
@@ -15,13 +20,26 @@ void main() {
     if (any(greaterThanEqual(px, size))) return;
     uint pixel = px.y * size.x + px.x;
     uint pm = eye * npix() + pixel;
-    uint vis = hy_surface_bits(eye, pixel, hy_vis_bits(mask_cur[pm]));
+    uint all_vis = hy_vis_bits(mask_cur[pm]);
+    uint vis = hy_surface_bits(eye, pixel, all_vis);
     if (vis == 0u) {
         pix_cell[pm] = uvec4(NO_CELL, ST_MISS, 0u, 0u);
         atomicAdd(counters[C_HT_MISSES], 1u);
         return;
     }
-    uvec4 fh = fh_cur[hy_slot_index(eye, hy_update_slot(vis), pixel)];
+    uint sl;
+    vec2 j = vec2(0.0);
+    if (PER_SAMPLE) {
+        sl = hy_update_slot(vis);
+    } else {
+        sl = hy_pixel_sample(eye, pixel, all_vis, j);
+        if ((vis & (1u << sl)) == 0u) {   // a background sample: nothing to shade
+            pix_cell[pm] = uvec4(NO_CELL, ST_MISS, 0u, 0u);
+            atomicAdd(counters[C_HY_BACKGROUND], 1u);
+            return;
+        }
+    }
+    uvec4 fh = fh_cur[hy_slot_index(eye, sl, pixel)];
     EyeGpu e = frame.eyes[eye];
     vec3 o = e.pos_tanx.xyz;
     vec3 wp = hit_position(fh);
@@ -33,7 +51,7 @@ void main() {
     bool coarse = rng_next(r) < 0.5;
     int level = hc_level(t, d, s.ng, e) + (coarse ? 1 : 0);
     uint h, local_offset, chk;
-    hy_key(wp, s.ng, level, h, local_offset, chk);
+    hy_key(PER_SAMPLE ? wp : hy_jittered(wp, s.ng, level, j), s.ng, level, h, local_offset, chk);
     uint slot;
     bool winner;
     uint st = hc_find_or_insert(h, local_offset, chk, slot, winner);

@@ -1,18 +1,84 @@
 #version 460
-// Hybrid, last pass (after hash_table/update.comp): every visible sample of
-// the pixel looks up its voxel at the hash cache's level L and the parent
-// L + 1 (find only, no insertion); its colour is base colour × the mean of
-// the levels that hold radiance + emission (the updated sample falls back on
-// its own path when its reservation failed; a sample with no level holding
-// radiance does not contribute). Visible background samples (the sample
-// cache's rays that missed the scene, first_hit.glsl) contribute the
-// environment in their directions. Pixel colour = mean over the contributing
-// samples, so a partly covered pixel shows its coverage; depth, first hit,
-// albedo and the TAA position of the closest visible surface sample; a pixel
-// without visible surface samples shows the environment: the mean over its
-// background samples, or through its centre without any.
+// Hybrid, last pass (after hash_table/update.comp). Visible background
+// samples (the sample cache's rays that missed the scene, first_hit.glsl)
+// show the environment in their directions; depth, first hit, albedo and the
+// TAA position are those of the pixel's closest visible surface sample (a
+// pixel without one shows the environment: the mean over its background
+// samples, or through its centre without any). The colour:
+//  * per-pixel lookups (default; paper §4/§5.1, "three lookups per pixel
+//    (one for shading, two for reconstruction)"): the pixel's sample of this
+//    frame (hy_pixel_sample, the same as reserve.comp's) looks up (find
+//    only) its voxel-jittered point at the hash cache's level L and the
+//    parent L + 1 ("the hit voxel and its parent one level-of-detail above");
+//    colour = base colour × the mean of the levels that hold radiance +
+//    emission (the pixel's own path where its reservation failed; emission
+//    alone where neither level holds radiance). TAA integrates the samples.
+//  * per-sample lookups (the variant before issue 15): every visible sample
+//    finds both levels of its unjittered point; its colour as above (the
+//    updated sample falls back on its own path when its reservation failed;
+//    a sample with no level holding radiance does not contribute); pixel
+//    colour = mean over the contributing samples, so a partly covered pixel
+//    shows its coverage.
 #include "hybrid/common.glsl"
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
+
+// Per-pixel lookups: colour of the pixel's sample `sl` of this frame.
+void resolve_per_pixel(uint eye, uint pixel, uint pm, uint all_vis, uint vis, EyeGpu e, vec3 o) {
+    vec2 j;
+    uint sl = hy_pixel_sample(eye, pixel, all_vis, j);
+    uvec4 fh = fh_cur[hy_slot_index(eye, sl, pixel)];
+    vec3 c;
+    if ((vis & (1u << sl)) == 0u) {
+        vec3 db = background_direction(fh);
+        float lp;
+        c = environment(db) + sun_radiance(db, lp);
+    } else {
+        vec3 wp = hit_position(fh);
+        float t = length(wp - o);
+        vec3 d = (wp - o) / max(t, 1e-30);
+        Surface s = surface_at(fh.w, fh.z, first_hit_bary(fh), d);
+        ShadingMaterial m = material_at(s, d, t * eye_pixel_spread(e));
+        int level = hc_level(t, d, s.ng, e);
+        vec3 acc = vec3(0.0);
+        bool got[2] = bool[2](false, false);
+        for (int k = 0; k < 2; ++k) {
+            uint h, local_offset, chk, slot;
+            hy_key(hy_jittered(wp, s.ng, level + k, j), s.ng, level + k, h, local_offset, chk);
+            if (hy_find(h, local_offset, chk, slot)) {
+                vec4 cl = cells[slot];
+                if (cl.w > 0.0) { acc += cl.rgb; got[k] = true; }
+            }
+        }
+        float levels = float(got[0]) + float(got[1]);
+        uint which = got[0] && got[1] ? C_HY_BOTH : got[0] ? C_HY_FINE_ONLY : got[1] ? C_HY_COARSE_ONLY : C_HY_NO_LEVEL;
+        atomicAdd(counters[which], 1u);
+        atomicAdd(counters[C_HY_LOOKED_UP], 1u);
+        if (levels == 0.0 && (pix_cell[pm].y & 15u) == ST_FAILED) { acc = fallback[pm].rgb; levels = 1.0; }
+        vec3 Le = SC_EMISSIVE ? m.emissive : vec3(0.0);
+        c = m.base * (levels > 0.0 ? acc / levels : vec3(0.0)) + Le;
+    }
+    color[pm] = vec4(c, 1.0);
+    // Outputs of the closest visible surface sample.
+    float best_t = 3.4e38;
+    uvec4 best_fh = uvec4(0u, 0u, 0u, NO_HIT);
+    vec3 best_p = vec3(0.0);
+    uint bits = vis;
+    while (bits != 0u) {
+        uint b = uint(findLSB(bits));
+        bits &= bits - 1u;
+        uvec4 f = fh_cur[hy_slot_index(eye, b, pixel)];
+        vec3 wp = hit_position(f);
+        float t = length(wp - o);
+        if (t < best_t) { best_t = t; best_fh = f; best_p = wp; }
+    }
+    vec3 d = (best_p - o) / max(best_t, 1e-30);
+    Surface s = surface_at(best_fh.w, best_fh.z, first_hit_bary(best_fh), d);
+    ShadingMaterial m = material_at(s, d, best_t * eye_pixel_spread(e));
+    position[pm] = vec4(best_p, 1.0);
+    out_depth[pm] = view_depth(e, best_p);
+    out_fh[pm] = best_fh;
+    out_albedo[pm] = vec4(m.base, 1.0);
+}
 
 void main() {
     uvec2 size = frame_size();
@@ -45,6 +111,10 @@ void main() {
         out_depth[pm] = 0.0;
         out_fh[pm] = uvec4(0u, 0u, 0u, NO_HIT);
         out_albedo[pm] = vec4(0.0);
+        return;
+    }
+    if (!PER_SAMPLE) {
+        resolve_per_pixel(eye, pixel, pm, all_vis, vis, e, o);
         return;
     }
     float spread = eye_pixel_spread(e);

@@ -28,6 +28,9 @@ crate::counter_slots! {
         NoLevel = "NO_LEVEL" => "no_level_hits",
         UpdatesFine = "UPD_FINE" => "updates_fine_level",
         UpdatesCoarse = "UPD_COARSE" => "updates_coarse_level",
+        /// Per-pixel lookups: pixels whose sample of the frame is a
+        /// background one (no lookup; the environment is shown).
+        Background = "BACKGROUND" => "background_samples_shown",
     }
 }
 
@@ -45,6 +48,9 @@ const BINDINGS_HYBRID: [Binding; 16] = bindings();
 
 /// Specialization constant id of the sample cache's slot count (N_SLOTS).
 pub const SPEC_SLOTS: u32 = 20;
+/// Specialization constant id of the lookup variant (PER_SAMPLE:
+/// [`crate::methods::hybrid::HybridLookups::PerSample`]).
+pub const SPEC_PER_SAMPLE: u32 = 21;
 
 pub const INTERFACE: Interface = Interface {
     name: "hybrid",
@@ -52,7 +58,10 @@ pub const INTERFACE: Interface = Interface {
     bindings: &BINDINGS_HYBRID,
     push: &[PUSH],
     counters: &[HybridCounter::TABLE],
-    spec: &[("HYBRID_N_SLOTS", SPEC_SLOTS)],
+    spec: &[
+        ("HYBRID_N_SLOTS", SPEC_SLOTS),
+        ("HYBRID_PER_SAMPLE", SPEC_PER_SAMPLE),
+    ],
 };
 
 #[cfg(test)]

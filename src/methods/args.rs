@@ -3,6 +3,7 @@
 //! [`super::MethodOptions::from_args`] picks its group(s) out of it.
 
 use super::hash_cache::args::HashCacheArgs;
+use super::hybrid::args::HybridArgs;
 use super::isrt::args::IsrtArgs;
 use super::sample_cache::args::SampleCacheArgs;
 use super::taa::args::TaaArgs;
@@ -19,6 +20,8 @@ pub struct MethodArgs {
     pub isrt: IsrtArgs,
     #[command(flatten)]
     pub hash: HashCacheArgs,
+    #[command(flatten)]
+    pub hybrid: HybridArgs,
     /// Use the plain shader builds even where the device supports subgroup
     /// operations (the sample cache's counters, lists and histogram).
     #[arg(long)]

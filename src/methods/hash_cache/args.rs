@@ -13,10 +13,13 @@ pub struct HashCacheArgs {
     /// distance | distance-normal (level of detail also from the incidence angle)
     #[arg(long, default_value = "distance")]
     pub hash_lod: HashLod,
-    /// Store voxels in 4x4 tiles across the hit normal's major axis (GI-1.0).
-    #[arg(long)]
+    /// Store voxels in 4x4 tiles across the hit normal's major axis (GI-1.0): the default.
+    #[arg(long, conflicts_with = "hash_no_tiles")]
     pub hash_tiles: bool,
-    /// Linear-probing bound (entries, or tiles with --hash-tiles).
+    /// One entry per voxel instead of 4x4 tiles (the default before issue 15).
+    #[arg(long)]
+    pub hash_no_tiles: bool,
+    /// Linear-probing bound (tiles, or entries with --hash-no-tiles).
     #[arg(long, default_value_t = 16, value_parser = int_in("--hash-max-probe", 1u32, 64, "probes"))]
     pub hash_max_probe: u32,
     /// Entries untouched for more than this many frames may be overwritten.
@@ -42,7 +45,7 @@ impl HashCacheArgs {
             max_probe: self.hash_max_probe,
             stale_frames: self.hash_stale_frames,
             lod: self.hash_lod,
-            tiles: self.hash_tiles,
+            tiles: self.hash_tiles || !self.hash_no_tiles,
             lod_scale: self.hash_lod_scale,
             max_samples: self.hash_max_samples,
             taa: !self.hash_no_taa,

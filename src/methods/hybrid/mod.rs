@@ -1,37 +1,44 @@
 //! `hybrid`: the sample cache without shading storage and the hash cache
 //! (paper §4, "Hybrid"). The sample cache ([`SampleCache::visibility_only`])
 //! keeps stable, adaptively retraced first hits per pixel; their radiance
-//! comes from the hash cache's table, looked up per visible sample at the
-//! hash cache's level of detail L and at the parent level L + 1.
+//! comes from the hash cache's table at the hash cache's level of detail L
+//! and at the parent level L + 1.
 //!
 //! Per frame (both eyes per dispatch, `z` = eye):
 //! * the sample cache's visibility passes (`params`, `begin`, `clear`,
 //!   `reproject`, `select`, `trace`; [`HybridConfig::cache`] applies);
 //! * `hybrid.clear` (counters);
-//! * `hybrid.reserve` (`shaders/hybrid/reserve.comp`): per pixel one
-//!   visible sample, round robin by frame index, and one of its two levels,
-//!   chosen by a fair coin, is found or reserved in the table;
+//! * `hybrid.reserve` (`shaders/hybrid/reserve.comp`): per pixel one visible
+//!   sample and one of its two levels, chosen by a fair coin, is found or
+//!   reserved in the table — the pixel's lookup for shading. Which sample:
+//!   [`HybridLookups::PerPixel`] (default, §4) one drawn uniformly this frame,
+//!   its point voxel-jittered as in HashCache; [`HybridLookups::PerSample`]
+//!   round robin by frame index over the surface samples, unjittered;
 //! * `hybrid.update`: the hash table's update pass
 //!   ([`HashTable::record_update`], `shaders/hash_table/update.comp`) — the
 //!   updater of each touched entry traces one secondary path from the
 //!   sample's stored first hit (one path per pixel at most);
-//! * `hybrid.resolve` (`shaders/hybrid/resolve.comp`): every visible sample
-//!   finds (never inserts) both levels; sample colour = base colour × mean of
-//!   the levels holding radiance + emission; pixel colour = mean over its
-//!   samples;
+//! * `hybrid.resolve` (`shaders/hybrid/resolve.comp`): per-pixel lookups: the
+//!   pixel's drawn sample finds (never inserts) both levels of its jittered
+//!   point — the two lookups for reconstruction (§5.1: "three lookups per
+//!   pixel") — and the pixel shows base colour × mean of the levels holding
+//!   radiance + emission; per-sample lookups: every visible sample finds both
+//!   levels and the pixel shows the mean over its samples;
 //! * `diag.hybrid.count` (the table's `count.comp`, live entries; a statistic
 //!   left out of the frame time) → the one TAA ([`TaaPass`], `--taa-*`
-//!   options, as the hash cache; unless `--hash-no-taa`).
+//!   options, as the hash cache; unless `--hash-no-taa`), on the closest
+//!   visible surface sample's geometry.
 //!
-//! Cost of the lookups: 2 × (visible samples per pixel) probe walks per
-//! pixel in `resolve` (≈ 8 at n_target = 4) and one in `reserve`; one
-//! secondary path per pixel at most. Memory: the visibility-only sample
-//! cache, the table ([`HashTable`]: 24 B per entry and its per-pixel buffers)
-//! and TAA history.
+//! Cost of the lookups: per-pixel 3 probe walks per pixel; per-sample
+//! 2 × (visible samples per pixel) in `resolve` (≈ 8 at n_target = 4) and one
+//! in `reserve`; one secondary path per pixel at most. Memory: the
+//! visibility-only sample cache, the table ([`HashTable`]: 24 B per entry and
+//! its per-pixel buffers) and TAA history.
 
+pub mod args;
 pub mod config;
 
-pub use config::HybridConfig;
+pub use config::{HybridConfig, HybridLookups};
 
 use super::hash_cache::HashCacheSettings;
 use super::hash_table::{self as table, HashTable, TableDesc};
@@ -40,12 +47,12 @@ use super::{
     Color, CounterOutput, FrameInput, FrameOutputs, Method, RaySlots, RenderSettings, SampleCache,
 };
 use crate::gpu::{ComputePipeline, GpuContext, GpuResult, HostReadback, Recorder};
-use crate::interface::hybrid::{HybridCounter, INTERFACE, SPEC_SLOTS};
+use crate::interface::hybrid::{HybridCounter, INTERFACE, SPEC_PER_SAMPLE, SPEC_SLOTS};
 use crate::rt::SceneGpu;
 use crate::scene::Environment;
 use std::sync::Arc;
 
-/// Counter slots allocated (`C_HY_*` use the first 18).
+/// Counter slots allocated (`C_HY_*` use the first 19).
 const COUNTER_SLOTS: u64 = 32;
 const LOCAL: u32 = 8;
 
@@ -81,6 +88,7 @@ impl Hybrid {
         let e2 = 2 * (settings.width * settings.height) as u64;
         let mut spec = settings.spec_constants(scene, env);
         spec.set(SPEC_SLOTS, config.cache.slots);
+        spec.flag(SPEC_PER_SAMPLE, config.lookups == HybridLookups::PerSample);
         let table = HashTable::new(
             ctx,
             scene,
