@@ -2,9 +2,35 @@
 // Jittered 1 spp first hits; the hit's voxel (level of detail from distance,
 // optionally incidence; jittered by up to one voxel in the tangent plane) is
 // looked up or reserved. The first thread to touch an entry this frame
-// becomes its updater (winner). Also writes the per-pixel outputs.
+// becomes its updater (winner). Also writes the per-pixel outputs (of the
+// jittered hit) and, for TAA only, the view depth and first hit of a second,
+// unjittered ray through the pixel centre (as `taa`'s, reference/primary.comp):
+// TAA's reprojection and history rejection (taa/resolve.comp) then compare
+// the same surface point frame to frame. With the jittered hit's depth and
+// ids, a static view of the hairball rejected ≈ 30 % of its pixels as
+// disoccluded (a new jitter often lands on another strand or the sky).
 #include "hash_table/table.glsl"
+#include "interface/hash_cache.glsl"
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
+
+layout(set = SET_HASH_CACHE, binding = B_HASH_CACHE_TAA_DEPTH, std430) writeonly buffer TaaDepth { float taa_depth[]; };   // pixel-centre view depth, 0 = miss
+layout(set = SET_HASH_CACHE, binding = B_HASH_CACHE_TAA_FH, std430) writeonly buffer TaaFh { uvec4 taa_fh[]; };          // pixel-centre first hit
+
+// The pixel centre's first hit for TAA (one primary ray, counted).
+void write_centre_hit(EyeGpu e, vec3 o, uvec2 px, uint pm) {
+    vec3 d = eye_ray_dir(e, vec2(px) + 0.5);
+    RtHit h;
+    bool hit = rt_closest_hit(o, d, 0.0, 1e30, h);
+    atomicAdd(counters[C_HT_PRIMARY], 1u);
+    if (!hit) {
+        taa_depth[pm] = 0.0;
+        taa_fh[pm] = uvec4(0u, 0u, 0u, NO_HIT);
+        return;
+    }
+    Surface s = surface_at(h.instance, h.prim, h.bary, d);
+    taa_depth[pm] = view_depth(e, o + h.t * d);
+    taa_fh[pm] = encode_first_hit(h.bary, h.instance, h.prim, s.material);
+}
 
 void main() {
     uvec2 size = frame_size();
@@ -16,6 +42,7 @@ void main() {
     EyeGpu e = frame.eyes[eye];
     Rng r = rng_init(frame.size_seed.z, pc.now, eye, pixel, 0x4A5C0001u);
     vec3 o = e.pos_tanx.xyz;
+    write_centre_hit(e, o, px, pm);
     vec3 d = eye_ray_dir(e, vec2(px) + rng_next2(r));
     RtHit h;
     bool hit = rt_closest_hit(o, d, 0.0, 1e30, h);

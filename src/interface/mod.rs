@@ -13,6 +13,7 @@ pub mod bench;
 pub mod debug_normals;
 pub mod dielectric;
 pub mod glsl;
+pub mod hash_cache;
 pub mod hash_table;
 pub mod hybrid;
 pub mod isrt;
@@ -38,6 +39,7 @@ pub const ALL: &[&Interface] = &[
     &dielectric::INTERFACE,
     &hash_table::INTERFACE,
     &hash_table::TEST,
+    &hash_cache::INTERFACE,
     &hybrid::INTERFACE,
     &debug_normals::INTERFACE,
     &reflect_test::INTERFACE,

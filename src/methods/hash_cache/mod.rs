@@ -5,7 +5,10 @@
 //!
 //! Passes per frame (both eyes per dispatch, `z` = eye): `params` → `clear`
 //! → `primary` (jittered 1 spp first hits, voxel lookup / reservation, the
-//! first toucher of an entry this frame becomes its updater) → `update` (one
+//! first toucher of an entry this frame becomes its updater; and one
+//! unjittered ray through each pixel centre whose depth and first hit only
+//! TAA reads, so its history rejection sees the same surface every frame,
+//! [`CentreHits`]) → `update` (one
 //! secondary path per updated entry; own path for pixels whose lookup
 //! failed) → `resolve` (base colour × entry radiance + emission) → `diag.count`
 //! (live entries, a statistic: not counted in the frame time) → the one TAA
@@ -20,10 +23,10 @@ pub use super::hash_table::{TableSnapshot, ENTRY_BYTES};
 pub use settings::{HashCacheSettings, HashLod};
 
 use super::hash_table::{self as table, HashTable, TableDesc};
-use super::taa::TaaPass;
+use super::taa::{TaaInputs, TaaPass};
 use super::{Color, FrameInput, FrameOutputs, FrameParams, Method, RenderSettings};
 use crate::gpu::{Buffer, ComputePipeline, GpuContext, GpuResult, HostReadback, Recorder};
-use crate::interface::hash_table::INTERFACE;
+use crate::interface::{hash_cache, hash_table::INTERFACE};
 use crate::rt::SceneGpu;
 use crate::scene::Environment;
 use std::sync::Arc;
@@ -38,6 +41,15 @@ struct Pipelines {
     resolve: ComputePipeline,
 }
 
+/// The pixel centres' view depth and first hits (`[eye][pixel]`), written by
+/// `primary` for TAA's reprojection and rejection (bindings 14, 15 of
+/// src/interface/hash_cache.rs). The shown colour comes from the jittered
+/// hit, as do the method's depth / first-hit outputs.
+struct CentreHits {
+    depth: Buffer,
+    first_hit: Buffer,
+}
+
 pub struct HashCache {
     ctx: Arc<GpuContext>,
     scene: Arc<SceneGpu>,
@@ -45,6 +57,7 @@ pub struct HashCache {
     table: HashTable,
     pipes: Pipelines,
     frame: Buffer,
+    centre: CentreHits,
     taa: TaaPass,
     readback: HostReadback,
 }
@@ -82,8 +95,12 @@ impl HashCache {
             },
         )?;
         let pipes = Pipelines {
-            primary: table.pipeline(ctx, scene, "hash_cache/primary", &INTERFACE)?,
+            primary: table.pipeline(ctx, scene, "hash_cache/primary", &hash_cache::INTERFACE)?,
             resolve: table.pipeline(ctx, scene, "hash_cache/resolve", &INTERFACE)?,
+        };
+        let centre = CentreHits {
+            depth: Buffer::storage(ctx, "hash_cache.taa_depth", e2 * 4)?,
+            first_hit: Buffer::storage(ctx, "hash_cache.taa_fh", e2 * 16)?,
         };
         let taa = TaaPass::new(
             ctx,
@@ -100,6 +117,7 @@ impl HashCache {
             table,
             pipes,
             frame,
+            centre,
             taa,
             readback: HostReadback::new(),
         })
@@ -157,18 +175,20 @@ impl Method for HashCache {
             table,
             pipes,
             frame,
+            centre,
             taa,
             readback,
             ..
         } = self;
-        let (scene, settings, t, p, frame, readback): (
+        let (scene, settings, t, p, frame, centre, readback): (
             &'a _,
             &'a RenderSettings,
             &'a HashTable,
             &'a Pipelines,
             &'a Buffer,
+            &'a CentreHits,
             &'a HostReadback,
-        ) = (scene, settings, table, pipes, frame, readback);
+        ) = (scene, settings, table, pipes, frame, centre, readback);
         let (w, h) = (settings.width, settings.height);
         let params = FrameParams::new(input, w, h, settings.seed, scene.origin);
         let groups = [w.div_ceil(LOCAL), h.div_ceil(LOCAL), 2];
@@ -185,6 +205,8 @@ impl Method for HashCache {
             rec.pass("clear.fallback").write(&px.fallback).fill(0);
         }
         t.pass(rec, "primary", &p.primary, scene_set, frame)
+            .write(&centre.depth)
+            .write(&centre.first_hit)
             .dispatch(groups)?;
         if update {
             t.record_update(rec, scene_set, frame, groups)?;
@@ -195,7 +217,12 @@ impl Method for HashCache {
         let mut counters = vec![table::table_counters(t.counters(), t.settings().capacity)];
         let mut shown = &px.color;
         if taa_on {
-            let (resolved, c) = taa.record(rec, input, px.taa_inputs())?;
+            let inputs = TaaInputs {
+                depth: &centre.depth,
+                first_hit: &centre.first_hit,
+                ..px.taa_inputs()
+            };
+            let (resolved, c) = taa.record(rec, input, inputs)?;
             shown = resolved;
             counters.push(c);
         }
@@ -221,6 +248,10 @@ impl Method for HashCache {
     }
 
     fn memory_bytes(&self) -> u64 {
-        self.frame.size + self.table.memory_bytes() + self.taa.memory_bytes()
+        self.frame.size
+            + self.centre.depth.size
+            + self.centre.first_hit.size
+            + self.table.memory_bytes()
+            + self.taa.memory_bytes()
     }
 }
