@@ -7,7 +7,7 @@ use crate::error::{Error, Result};
 use crate::gpu::{GpuContext, GpuOptions};
 use crate::methods::{Method, MethodConfig, MethodKind, RenderSettings};
 use crate::rt::{BvhLayout, RtBackend, RtChoice, SceneGpu};
-use crate::scene::{apply_default_lighting, load_scene, DefaultLighting, Scene};
+use crate::scene::{load_scene, relight, DefaultLighting, Scene};
 use glam::{Quat, Vec3};
 use std::sync::Arc;
 
@@ -95,7 +95,7 @@ impl Session {
     /// Loads a scene by name or path and gives it default lighting when it has none.
     pub fn load_scene(spec: &str, lighting: &DefaultLighting) -> Result<Scene> {
         let mut scene = load_scene(spec)?;
-        apply_default_lighting(&mut scene, lighting)?;
+        relight(&mut scene, lighting)?;
         Ok(scene)
     }
 
