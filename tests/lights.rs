@@ -609,8 +609,8 @@ fn delta_directional_light_gives_e_cos_theta_over_pi_exactly() {
             let fr = render_with(&s, cam, (w, h), 2, 2, 3, ls);
             for eye in &fr.eyes {
                 for px in &eye.radiance {
-                    for c in 0..3 {
-                        let got = px[c] as f64;
+                    for v in &px[..3] {
+                        let got = *v as f64;
                         assert!(
                             (got - want).abs() <= 1e-5 * want,
                             "{lighting} {ls:?}: radiance {got} want E cos θ / π = {want}"

@@ -188,9 +188,9 @@ fn parse_part(input: &str, s: &str) -> Result<DefaultLighting, LightingParseErro
         ("directional", Some(a)) => {
             let v = numbers(input, a)?;
             let (elevation_deg, azimuth_deg, illuminance) =
-                match v.as_slice() {
-                    &[e, z] => (e, z, SUN_ILLUMINANCE),
-                    &[e, z, r, g, b] => (e, z, Vec3::new(r, g, b)),
+                match *v.as_slice() {
+                    [e, z] => (e, z, SUN_ILLUMINANCE),
+                    [e, z, r, g, b] => (e, z, Vec3::new(r, g, b)),
                     _ => return Err(err(
                         "directional takes elevation, azimuth and optionally an illuminance R,G,B",
                     )),
