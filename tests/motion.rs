@@ -198,9 +198,9 @@ fn taa_motion_vectors_leave_no_trail_behind_a_moving_quad() {
     // (pixels checked, pixels over the bound, worst red / bound).
     let check = |out: &[stereocache::methods::StereoFrame]| {
         let (mut checked, mut over, mut worst) = (0usize, 0usize, 0.0f32);
-        for f in 2..frames as usize {
+        for (f, frame) in out.iter().enumerate().skip(2) {
             for (e, eye) in Eye::BOTH.iter().enumerate() {
-                let img = &out[f].eyes[e];
+                let img = &frame.eyes[e];
                 for y in 0..h {
                     for x in 0..w {
                         let p = (y * w + x) as usize;
