@@ -142,8 +142,23 @@ impl ReferenceCache {
                 format!("{}@{:?}", m.len(), t.map(|d| d.as_nanos()))
             })
             .unwrap_or_default();
+        // A moving scene's frame depends on the instances' pose too (the
+        // animation selection and the replay's fps set it); static: no part.
+        let pose = if session.scene.is_animated() {
+            let h = fnv1a(
+                session
+                    .scene_gpu
+                    .posed_transforms()
+                    .iter()
+                    .flat_map(|m| m.to_cols_array())
+                    .flat_map(f32::to_le_bytes),
+            );
+            format!("|pose{h:016x}")
+        } else {
+            String::new()
+        };
         let text = format!(
-            "v2-halves|{code:016x}|{file}|{}|{}|{:?}|{:?}|{:?}|{}|{}|{}x{}|spp{}|b{}|seed{}|frame{}|{}",
+            "v2-halves|{code:016x}|{file}|{}|{}|{:?}|{:?}|{:?}|{}|{}|{}x{}|spp{}|b{}|seed{}|frame{}|{}{pose}",
             session.scene.source.display(),
             session.scene_gpu.triangle_count,
             cam.world_position().to_array().map(f64::to_bits),

@@ -405,7 +405,8 @@ pub fn replay_observed(
             camera: *camera,
             prev_camera: i.checked_sub(1).map(|p| cameras[p]),
         };
-        session.pose_instances(i as f64 / opts.fps)?;
+        let t = |k: usize| k as f64 / opts.fps;
+        session.pose_instances(t(i), i.checked_sub(1).map(t))?;
         let frame = method.render_frame(&input)?;
         let metrics = observer(i, camera, &frame)?;
         (width, height) = (frame.width, frame.height);

@@ -80,14 +80,20 @@ impl Session {
 
     /// Poses the scene's instances at time `t` (seconds: the replay's frame
     /// time, so a 90 Hz and a 45 Hz replay see the same motion) and uploads
-    /// them (`SceneGpu::set_instance_transforms`). Nothing happens for a
-    /// static scene. Returns the wall time it took (animation sampling, TLAS
-    /// rebuild, upload).
-    pub fn pose_instances(&self, t: f64) -> Result<std::time::Duration> {
+    /// them with the previous frame's pose at `prev_t` (`None`: the first
+    /// frame of a run, no motion) beside them for the motion vectors
+    /// (`SceneGpu::set_instance_motion`). The frame loop calls it once per
+    /// frame. Nothing happens for a static scene. Returns the wall time it
+    /// took (animation sampling, TLAS rebuild, upload).
+    pub fn pose_instances(&self, t: f64, prev_t: Option<f64>) -> Result<std::time::Duration> {
         let start = std::time::Instant::now();
         if self.scene.is_animated() {
             let transforms = self.scene.instance_transforms_at(t as f32);
-            self.scene_gpu.set_instance_transforms(&transforms)?;
+            let prev = match prev_t {
+                Some(p) => self.scene.instance_transforms_at(p as f32),
+                None => transforms.clone(),
+            };
+            self.scene_gpu.set_instance_motion(&prev, &transforms)?;
         }
         Ok(start.elapsed())
     }

@@ -30,4 +30,9 @@ const uint LIGHT_STRATEGY_BSDF = 2u;
 // Software backend only: true = the two-level BVH (per-mesh BLAS + TLAS over
 // instances, src/rt/two_level.rs), false = the flattened world-space BVH.
 layout(constant_id = SPEC_SC_TWO_LEVEL) const bool SC_TWO_LEVEL = false;
+// An instance moves (src/scene/features.rs `animated`): code that reads the
+// previous frame's instance transforms (InstanceInfo.prev_object_to_world,
+// motion vectors) is compiled in. Off for a static scene, which then renders
+// exactly as without animation support.
+layout(constant_id = SPEC_SC_ANIMATED) const bool SC_ANIMATED = false;
 #endif

@@ -30,6 +30,20 @@ void hit_position_and_normal(uvec4 fh, out vec3 p, out vec3 ng) {
     ng = l > 0.0 ? n / l : vec3(0.0, 1.0, 0.0);
 }
 
+// Motion of a stored first hit's surface point over the last frame (motion
+// vectors; appendix D: the instance ID fetches the transforms): the world
+// position the same object-space point had under the previous frame's
+// instance transform minus the one it has now. Exactly zero for an instance
+// that did not move (both products are the same float operations on equal
+// matrices), so static points keep camera-only reprojection bit for bit.
+vec3 hit_motion(uvec4 fh) {
+    vec2 b = first_hit_bary(fh);
+    uvec3 vi = triangle_indices(fh.w, fh.z);
+    vec3 w = vec3(1.0 - b.x - b.y, b.x, b.y);
+    vec4 p = vec4(w.x * vertices[vi.x].pos_u.xyz + w.y * vertices[vi.y].pos_u.xyz + w.z * vertices[vi.z].pos_u.xyz, 1.0);
+    return (instances[fh.w].prev_object_to_world * p).xyz - (instances[fh.w].object_to_world * p).xyz;
+}
+
 // Background samples (§3.3: "the environment is evaluated where the stored
 // samples represent the rendered background"). A new-sample ray that misses
 // the scene is a sample too: its record keeps the no-hit marker of Listing 1's

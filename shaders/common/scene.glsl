@@ -7,7 +7,9 @@
 
 struct Vertex { vec4 pos_u; vec4 normal_v; vec4 tangent; };
 struct MeshInfo { uint vertex_offset; uint index_offset; uint material; uint triangle_count; };
-struct InstanceInfo { mat4 object_to_world; mat4 normal_to_world; uvec4 mesh_pad; };
+// prev_object_to_world: the previous frame's object_to_world (motion vectors;
+// read only where SC_ANIMATED, equal to object_to_world for a static scene).
+struct InstanceInfo { mat4 object_to_world; mat4 normal_to_world; uvec4 mesh_pad; mat4 prev_object_to_world; };
 struct MaterialGpu {
     vec4 base_color;
     vec4 emissive_metallic;   // emissive rgb (× strength), metallic

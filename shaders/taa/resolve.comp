@@ -5,7 +5,10 @@
 // thread per pixel and eye:
 //  1. reprojection (§4.1): the pixel centre's world point, rebuilt from the
 //     current view depth (a miss: its direction), projected into the previous
-//     eye pose gives the history position q;
+//     eye pose gives the history position q; on a moving instance (SC_ANIMATED)
+//     the point is first moved back by its object motion (first_hit.glsl
+//     hit_motion: previous minus current instance transform of the first
+//     hit's object-space point), so q is where that surface point was;
 //  2. history rejection (§4.2): q off-screen, or no bilinear tap around q whose
 //     previous first hit and depth agree with the point (both misses, or both
 //     hits at the expected previous view depth) → disocclusion, history dropped;
@@ -19,6 +22,7 @@
 #include "interface/taa.glsl"
 #include "common/camera.glsl"
 #include "common/packing.glsl"
+#include "common/first_hit.glsl"
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 
 layout(push_constant) uniform Push { TAA_RESOLVE_PUSH } pc;   // src/interface/taa.rs
@@ -106,6 +110,7 @@ void main() {
     bool on_screen;
     if (hit) {
         vec3 p = e.pos_tanx.xyz + d * (in_depth[idx] / dot(d, e.fwd.xyz));
+        if (SC_ANIMATED && (pc.flags & 16u) != 0u) p += hit_motion(fh);
         on_screen = project_to_eye(pe, p, q, vd);
     } else {
         on_screen = project_to_eye(pe, pe.pos_tanx.xyz + d, q, vd);   // a direction: rotation only

@@ -10,7 +10,7 @@ pub use stereocache::methods::MethodArgs;
 use stereocache::methods::{registry, MethodKind};
 use stereocache::replay::MAX_FPS;
 use stereocache::rt::RtChoice;
-use stereocache::scene::DefaultLighting;
+use stereocache::scene::{AnimationSelection, DefaultLighting};
 use stereocache::session::{parse_pose, CameraSelect, Session};
 use stereocache::values::{float_with, int_in, named, MAX_BOUNCES, MAX_FRAMES, MAX_SPP};
 
@@ -125,9 +125,12 @@ pub fn rt(s: &str) -> Result<RtChoice, String> {
 
 #[derive(Args, Clone)]
 pub struct SceneArgs {
-    /// Scene: built-in name (cornell, hairball, plane), a .gltf/.glb file, or a directory holding one.
+    /// Scene: built-in name (cornell, hairball, plane, cornell-moving, hairball-rotating), a .gltf/.glb file, or a directory holding one.
     #[arg(long, default_value = "cornell")]
     pub scene: String,
+    /// Which of the scene's glTF animations play: all (looped), an index or a name.
+    #[arg(long, default_value = "all")]
+    pub animation: AnimationSelection,
     /// Lighting for scenes without lights: sun-sky[:ELEV,AZIM,TURB], constant:R,G,B, env:PATH.hdr|.exr
     #[arg(long, default_value = "sun-sky", value_parser = lighting)]
     pub lighting: DefaultLighting,
@@ -139,7 +142,14 @@ pub struct SceneArgs {
 impl SceneArgs {
     /// Loads the scene (warnings printed), then opens the GPU and uploads it.
     pub fn open(&self, gpu: &GpuArgs) -> Result<Session> {
-        let scene = Session::load_scene(&self.scene, &self.lighting)?;
+        let mut scene = Session::load_scene(&self.scene, &self.lighting)?;
+        if self.animation != AnimationSelection::All {
+            let a = scene.animation.as_mut().ok_or_else(|| {
+                anyhow!("{}: --animation: the scene has no animations", self.scene)
+            })?;
+            a.select(&self.animation)
+                .map_err(|m| anyhow!("{}: --animation: {m}", self.scene))?;
+        }
         for w in &scene.warnings {
             eprintln!("warning: {w}");
         }

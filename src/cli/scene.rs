@@ -7,7 +7,8 @@ use stereocache::scene::generate_to_dir;
 
 #[derive(Subcommand)]
 pub enum SceneCommand {
-    /// Write a generated scene (cornell, hairball, plane) as glTF into DIR.
+    /// Write a generated scene (cornell, hairball, plane, cornell-moving,
+    /// hairball-rotating; the moving ones with their glTF animation) into DIR.
     Generate {
         name: String,
         #[arg(long)]

@@ -22,6 +22,7 @@ pub mod spec_id {
     pub const VIEW_DEPENDENT: u32 = 10;
     pub const LIGHT_STRATEGY: u32 = 11;
     pub const TWO_LEVEL: u32 = 12;
+    pub const ANIMATED: u32 = 13;
 }
 
 pub const INTERFACE: Interface = Interface {
@@ -60,5 +61,6 @@ pub const INTERFACE: Interface = Interface {
         ("SC_VIEW_DEPENDENT", spec_id::VIEW_DEPENDENT),
         ("SC_LIGHT_STRATEGY", spec_id::LIGHT_STRATEGY),
         ("SC_TWO_LEVEL", spec_id::TWO_LEVEL),
+        ("SC_ANIMATED", spec_id::ANIMATED),
     ],
 };

@@ -26,7 +26,8 @@ pub const RESOLVE_PUSH: PushBlock = PushBlock {
         // 0 fixed, 1 pfj23
         ("weights", PushType::U32),
         // bit 0: a history exists; bit 1: reject disocclusions; bit 2: clip;
-        // bit 3: the input colour is a sample sum (rgb / w)
+        // bit 3: the input colour is a sample sum (rgb / w); bit 4: motion
+        // vectors of moving instances (where SC_ANIMATED)
         ("flags", PushType::U32),
     ],
 };

@@ -51,6 +51,9 @@ struct InstanceGpu {
     object_to_world: [f32; 16],
     normal_to_world: [f32; 16],
     mesh_pad: [u32; 4],
+    /// `object_to_world` of the previous frame (motion vectors, appendix D;
+    /// equal to it for a static scene and on a run's first frame).
+    prev_object_to_world: [f32; 16],
 }
 
 #[repr(C)]
@@ -163,6 +166,9 @@ pub struct SceneGpu {
     /// The two-level structure, kept to rebuild its top level when instances move.
     /// (Behind a lock: methods share the scene through an `Arc`.)
     two_level: Mutex<Option<TwoLevelBvh>>,
+    /// The instance transforms last uploaded (object-to-world, not origin
+    /// relative): the scene's at rest until the first `set_instance_motion`.
+    posed: Mutex<Vec<Mat4>>,
     /// Per instance, `InstanceGpu::mesh_pad` (mesh, 1 + first emitter).
     instance_ids: Vec<[u32; 4]>,
     _buffers: Vec<Buffer>,
@@ -227,7 +233,7 @@ impl SceneGpu {
             .map(|(i, first)| [i.mesh, first.map_or(0, |f| f + 1), 0, 0])
             .collect();
         let rest: Vec<Mat4> = scene.instances.iter().map(|i| i.transform).collect();
-        let instances = instance_records(&rest, &instance_ids, origin);
+        let instances = instance_records(&rest, &rest, &instance_ids, origin);
         let emitter_bytes = emitter_buffer(&emitters);
 
         // Textures (descriptor array at binding 10; a 1×1 white stand-in when there are none).
@@ -536,6 +542,7 @@ impl SceneGpu {
             bytes,
             texture_count,
             two_level: Mutex::new(two_level),
+            posed: Mutex::new(rest),
             instance_ids,
             _buffers: vec![
                 b_vertices,
@@ -585,7 +592,8 @@ impl SceneGpu {
             .flag(
                 spec_id::TWO_LEVEL,
                 self.bvh_layout_in_use() == Some(BvhLayout::TwoLevel),
-            );
+            )
+            .flag(spec_id::ANIMATED, f.animated);
         s
     }
 
@@ -602,9 +610,24 @@ impl SceneGpu {
     /// buffers uploaded. The flattened BVH cannot move instances (an error).
     /// Not yet: emissive triangles on moving instances (their NEE samples
     /// stay at rest, issue 16).
-    /// Call between frames (it submits and waits).
+    /// Call between frames (it submits and waits). The previous-frame
+    /// transforms become `transforms` too (no motion); a frame loop uses
+    /// [`Self::set_instance_motion`].
     pub fn set_instance_transforms(&self, transforms: &[Mat4]) -> GpuResult<()> {
-        if transforms.len() != self.instance_ids.len() {
+        self.set_instance_motion(transforms, transforms)
+    }
+
+    /// The instance transforms last uploaded (object-to-world).
+    pub fn posed_transforms(&self) -> Vec<Mat4> {
+        self.posed.lock().expect("pose lock").clone()
+    }
+
+    /// As [`Self::set_instance_transforms`] for one frame of a frame loop:
+    /// the instances move to `transforms` and `prev` (the previous frame's,
+    /// `InstanceInfo.prev_object_to_world`) is uploaded beside them for the
+    /// motion vectors (TAA, shaders/taa/resolve.comp).
+    pub fn set_instance_motion(&self, prev: &[Mat4], transforms: &[Mat4]) -> GpuResult<()> {
+        if transforms.len() != self.instance_ids.len() || prev.len() != transforms.len() {
             return Err(GpuError::Unsupported(format!(
                 "{} instance transforms for {} instances",
                 transforms.len(),
@@ -613,7 +636,8 @@ impl SceneGpu {
         }
         if let Some(accel) = self._accel.lock().expect("accel lock").as_mut() {
             accel.rebuild_tlas(&tlas_instances(transforms, &self.instance_ids, self.origin))?;
-            let records = instance_records(transforms, &self.instance_ids, self.origin);
+            let records = instance_records(transforms, prev, &self.instance_ids, self.origin);
+            *self.posed.lock().expect("pose lock") = transforms.to_vec();
             return self._buffers[BUF_INSTANCES].upload(bytemuck::cast_slice(&records));
         }
         let mut two_level = self.two_level.lock().expect("BVH lock");
@@ -635,7 +659,8 @@ impl SceneGpu {
         self._buffers[BUF_NODES].upload(nodes)?;
         self._buffers[BUF_TRI_REF].upload(refs)?;
         self._buffers[BUF_TRI_VERTS].upload(verts)?;
-        let records = instance_records(transforms, &self.instance_ids, self.origin);
+        let records = instance_records(transforms, prev, &self.instance_ids, self.origin);
+        *self.posed.lock().expect("pose lock") = transforms.to_vec();
         self._buffers[BUF_INSTANCES].upload(bytemuck::cast_slice(&records))
     }
 }
@@ -661,16 +686,23 @@ const BUF_NODES: usize = 7;
 const BUF_TRI_REF: usize = 8;
 const BUF_TRI_VERTS: usize = 9;
 
-/// The `instances` buffer records (scene.glsl `InstanceGpu`) for transforms
-/// rebased on `origin`.
-fn instance_records(transforms: &[Mat4], ids: &[[u32; 4]], origin: DVec3) -> Vec<InstanceGpu> {
+/// The `instances` buffer records (scene.glsl `InstanceInfo`) for transforms
+/// (this frame's and the previous frame's) rebased on `origin`.
+fn instance_records(
+    transforms: &[Mat4],
+    prev: &[Mat4],
+    ids: &[[u32; 4]],
+    origin: DVec3,
+) -> Vec<InstanceGpu> {
     transforms
         .iter()
+        .zip(prev)
         .zip(ids)
-        .map(|(t, &mesh_pad)| InstanceGpu {
+        .map(|((t, p), &mesh_pad)| InstanceGpu {
             object_to_world: relative_transform(*t, origin).to_cols_array(),
             normal_to_world: t.inverse().transpose().to_cols_array(),
             mesh_pad,
+            prev_object_to_world: relative_transform(*p, origin).to_cols_array(),
         })
         .collect()
 }

@@ -7,6 +7,10 @@
 //! camera; punctual lights go through `KHR_lights_punctual`. Emissive values
 //! above 1 are split into `emissiveFactor` ≤ 1 × `KHR_materials_emissive_strength`.
 //!
+//! Animation (glTF §3.11): a scene whose animation has one node per instance
+//! (the generated animated scenes) writes its animated instances as TRS
+//! nodes and its animations as samplers and channels on them.
+//!
 //! Not written: the environment (glTF has no sky or environment map) and the
 //! sun added by default lighting (named [`DEFAULT_SUN_NAME`]): a loaded file
 //! without lights gets the CLI's default lighting again, sun and sky together.
@@ -14,6 +18,7 @@
 //! All files are written under temporary names and renamed once complete, so
 //! an interrupted export never leaves a half-written `.gltf` behind.
 
+use super::animation::{Interpolation, LocalRest, SceneAnimation, TrsPath};
 use super::default_lighting::DEFAULT_SUN_NAME;
 use super::{AlphaMode, LightKind, Material, Scene, SceneError, TextureRef};
 use glam::{Mat4, Quat, Vec3};
@@ -204,6 +209,67 @@ fn matrix(m: &Mat4) -> Value {
 /// every file of the export is written.
 struct Staged(crate::output::AtomicFile);
 
+/// The rest nodes of an animated scene whose glTF nodes are its instances
+/// (node i = instance i, as the generated animated scenes are built); `None`
+/// for a static scene. An imported node hierarchy cannot be written (yet).
+fn animation_nodes<'a>(
+    scene: &'a Scene,
+    path: &Path,
+) -> Result<Option<&'a [LocalRest]>, SceneError> {
+    let Some(a) = &scene.animation else {
+        return Ok(None);
+    };
+    let flat = a.nodes.len() == scene.instances.len()
+        && a.instance_paths
+            .iter()
+            .enumerate()
+            .all(|(i, p)| p.as_slice() == [i as u32]);
+    if !flat {
+        return Err(SceneError::invalid(
+            path,
+            "cannot write the animation of a node hierarchy (only one node per instance)",
+        ));
+    }
+    Ok(Some(&a.nodes))
+}
+
+/// glTF `animations` (§3.11): one sampler per channel, key times as SCALAR
+/// accessors with min/max, values as VEC3 (translation, scale) or VEC4
+/// (rotation x, y, z, w); CUBICSPLINE values keep glTF's (in, value, out) order.
+fn animations_json(a: &SceneAnimation, bw: &mut BinWriter) -> Vec<Value> {
+    a.animations
+        .iter()
+        .map(|anim| {
+            let mut samplers = Vec::new();
+            let mut channels = Vec::new();
+            for (k, c) in anim.channels.iter().enumerate() {
+                let times: Vec<[f32; 1]> = c.times.iter().map(|&t| [t]).collect();
+                let input = bw.floats(&times, "SCALAR", true);
+                let output = if c.path == TrsPath::Rotation {
+                    let v: Vec<[f32; 4]> = c.values.iter().map(|v| v.to_array()).collect();
+                    bw.floats(&v, "VEC4", false)
+                } else {
+                    let v: Vec<[f32; 3]> =
+                        c.values.iter().map(|v| v.truncate().to_array()).collect();
+                    bw.floats(&v, "VEC3", false)
+                };
+                let interpolation = match c.interpolation {
+                    Interpolation::Step => "STEP",
+                    Interpolation::Linear => "LINEAR",
+                    Interpolation::CubicSpline => "CUBICSPLINE",
+                };
+                samplers.push(
+                    json!({ "input": input, "output": output, "interpolation": interpolation }),
+                );
+                channels.push(
+                    json!({ "sampler": k, "target": { "node": c.node, "path": c.path.name() } }),
+                );
+            }
+            json!({ "name": anim.name, "samplers": samplers, "channels": channels })
+        })
+        .collect()
+}
+
 fn write_error(e: crate::output::OutputError) -> SceneError {
     let (path, message) = e.into_parts();
     SceneError::Invalid { path, message }
@@ -292,10 +358,21 @@ pub fn write_gltf(scene: &Scene, path: &Path) -> Result<(), SceneError> {
     }
 
     // Nodes: instances, cameras, lights.
+    let anim_nodes = animation_nodes(scene, path)?;
     let mut nodes = Vec::new();
-    for inst in &scene.instances {
+    for (i, inst) in scene.instances.iter().enumerate() {
         let mut n = json!({ "name": inst.name, "mesh": inst.mesh });
-        if inst.transform != Mat4::IDENTITY {
+        if let Some(LocalRest::Trs {
+            translation,
+            rotation,
+            scale,
+        }) = anim_nodes.map(|a| a[i])
+        {
+            // An animated node: TRS (glTF §5.25 forbids animating a matrix).
+            n["translation"] = json!(translation.to_array());
+            n["rotation"] = json!(rotation.to_array());
+            n["scale"] = json!(scale.to_array());
+        } else if inst.transform != Mat4::IDENTITY {
             n["matrix"] = matrix(&inst.transform);
         }
         nodes.push(n);
@@ -355,6 +432,10 @@ pub fn write_gltf(scene: &Scene, path: &Path) -> Result<(), SceneError> {
         .map(|m| material_json(m, &mut used))
         .collect();
 
+    let animations = scene
+        .animation
+        .as_ref()
+        .map(|a| animations_json(a, &mut bw));
     let bin_file = format!("{stem}.bin");
     let mut root = json!({
         "asset": { "version": "2.0", "generator": concat!("stereocache ", env!("CARGO_PKG_VERSION")) },
@@ -369,6 +450,9 @@ pub fn write_gltf(scene: &Scene, path: &Path) -> Result<(), SceneError> {
     });
     if !cameras.is_empty() {
         root["cameras"] = json!(cameras);
+    }
+    if let Some(a) = animations {
+        root["animations"] = json!(a);
     }
     if !images.is_empty() {
         root["images"] = json!(images);

@@ -20,6 +20,10 @@ pub struct SceneFeatures {
     pub environment_map: bool,
     pub sky: bool,
     pub constant_environment: bool,
+    /// An instance moves under the selected animations (`Scene::is_animated`):
+    /// the previous-frame instance transforms are read (motion vectors,
+    /// appendix D). Off, a static scene compiles the motion code out.
+    pub animated: bool,
 }
 
 impl SceneFeatures {
@@ -43,6 +47,7 @@ impl SceneFeatures {
             environment_map: matches!(scene.environment, Some(Environment::Map { .. })),
             sky: matches!(scene.environment, Some(Environment::Sky { .. })),
             constant_environment: matches!(scene.environment, Some(Environment::Constant(_))),
+            animated: scene.is_animated(),
         }
     }
 
@@ -60,6 +65,7 @@ impl SceneFeatures {
             environment_map: true,
             sky: true,
             constant_environment: true,
+            animated: true,
         }
     }
 }

@@ -78,7 +78,8 @@ impl TaaPass {
         let prev_depth = b("prev_depth", n * 4)?;
         let prev_first_hit = b("prev_first_hit", n * 16)?;
         let counters = b("counters", 8 * 4)?;
-        // camera.glsl lives in set 1, so set 0 is the scene's (bound, unused).
+        // camera.glsl lives in set 1, so set 0 is the scene's: the instance
+        // transforms (motion vectors where the scene animates, SC_ANIMATED).
         let spirv = shaders::spirv("taa/resolve")
             .ok_or_else(|| GpuError::Unsupported("shader taa/resolve was not compiled".into()))?;
         let pipeline = ComputePipeline::with_interface(
@@ -88,7 +89,7 @@ impl TaaPass {
             std::slice::from_ref(&scene.layout),
             &INTERFACE,
             Some(&RESOLVE_PUSH),
-            &Default::default(),
+            &scene.spec_constants(&None, 0, false),
         )?;
         Ok(TaaPass {
             settings: settings.clone(),
@@ -146,7 +147,8 @@ impl TaaPass {
             flags: has_history as u32
                 | (s.reject_disocclusions as u32) << 1
                 | (s.clip as u32) << 2
-                | (sample_sum as u32) << 3,
+                | (sample_sum as u32) << 3
+                | (s.motion_vectors as u32) << 4,
         };
         rec.pass("taa.params")
             .write(&this.frame)

@@ -42,6 +42,11 @@ pub struct TaaSettings {
     pub clip: bool,
     /// Reject the history on disocclusion (off only for ablations and tests).
     pub reject_disocclusions: bool,
+    /// Reproject points on moving instances with their object motion
+    /// (previous → current instance transform; only where the scene
+    /// animates). Off only for ablations and tests: camera-only reprojection.
+    #[serde(skip)]
+    pub motion_vectors: bool,
 }
 
 impl Default for TaaSettings {
@@ -54,6 +59,7 @@ impl Default for TaaSettings {
             gamma: 1.0,
             clip: true,
             reject_disocclusions: true,
+            motion_vectors: true,
         }
     }
 }

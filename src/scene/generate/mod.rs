@@ -1,6 +1,8 @@
-//! Deterministic built-in scenes: `cornell`, `hairball` and `plane`. Each has a
+//! Deterministic built-in scenes: `cornell`, `hairball` and `plane`, and the
+//! animated `cornell-moving` and `hairball-rotating` (animated.rs). Each has a
 //! camera named `default`; the same name always gives bit-identical scenes.
 
+pub mod animated;
 pub mod cornell;
 pub mod hairball;
 pub mod plane;
@@ -11,7 +13,13 @@ use glam::{Mat4, Vec2, Vec3};
 use std::path::{Path, PathBuf};
 
 /// Names accepted by [`generate`].
-pub const NAMES: &[&str] = &["cornell", "hairball", "plane"];
+pub const NAMES: &[&str] = &[
+    "cornell",
+    "hairball",
+    "plane",
+    "cornell-moving",
+    "hairball-rotating",
+];
 
 /// Builds the named scene, or `None` for an unknown name. The result has passed
 /// `Scene::validate`.
@@ -20,6 +28,8 @@ pub fn generate(name: &str) -> Option<Scene> {
         "cornell" => cornell::cornell(),
         "hairball" => hairball::hairball(),
         "plane" => plane::plane(),
+        "cornell-moving" => animated::cornell_moving(),
+        "hairball-rotating" => animated::hairball_rotating(),
         _ => return None,
     };
     // Generators are code, not user input: a failure here is a bug.

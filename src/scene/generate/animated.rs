@@ -1,0 +1,188 @@
+//! Built-in scenes that move (issue 16, the paper's appendix D and Fig. 19):
+//!
+//! - `cornell-moving`: the Cornell box with a tilted cone that spins about
+//!   the vertical while it travels from the left wall to the right and back
+//!   (Fig. 19: "the rotating cone stays too bright where its surface turns
+//!   away from the sun" — here from the ceiling light), 4 s loop.
+//! - `hairball-rotating`: the hairball turning once about the vertical in 8 s.
+//!
+//! The animation is ordinary glTF node animation (LINEAR translation and
+//! rotation keys on the moving instance's node), so `scene generate` writes
+//! it into the file and loading the file plays the same motion. One glTF
+//! node per instance: `SceneAnimation::nodes[i]` is instance `i`'s node.
+
+use super::{add_material, add_mesh, cornell::cornell, hairball::hairball};
+use crate::scene::animation::{
+    Animation, Channel, Interpolation, LocalRest, SceneAnimation, TrsPath,
+};
+use crate::scene::{Material, Mesh, Scene};
+use glam::{Mat4, Quat, Vec2, Vec3, Vec4};
+
+/// Loop period of `cornell-moving` (s).
+pub const CONE_PERIOD: f32 = 4.0;
+/// Loop period of `hairball-rotating` (s).
+pub const HAIRBALL_PERIOD: f32 = 8.0;
+/// Cone base radius and height (m).
+pub const CONE_RADIUS: f32 = 0.12;
+pub const CONE_HEIGHT: f32 = 0.3;
+/// Tilt of the cone's axis away from the vertical.
+pub const CONE_TILT_DEG: f32 = 30.0;
+
+/// A cone along +Y: base disc of radius 1 at y = 0, apex at y = 1, smooth
+/// side normals, `segments` around. Every face points outwards.
+pub fn cone(name: &str, segments: u32) -> Mesh {
+    let mut m = Mesh {
+        name: name.into(),
+        ..Default::default()
+    };
+    // Side: one ring at the base and one apex vertex per segment (the apex
+    // normal differs per segment), normals ∝ (cos φ, r/h = 1, sin φ).
+    for s in 0..=segments {
+        let u = s as f32 / segments as f32;
+        let phi = u * std::f32::consts::TAU;
+        let (sin, cos) = phi.sin_cos();
+        let n = Vec3::new(sin, 1.0, cos).normalize();
+        m.positions.push(Vec3::new(sin, 0.0, cos));
+        m.normals.push(n);
+        m.uvs.push(Vec2::new(u, 1.0));
+        m.positions.push(Vec3::Y);
+        m.normals.push(n);
+        m.uvs.push(Vec2::new(u, 0.0));
+    }
+    for s in 0..segments {
+        let a = 2 * s;
+        m.indices.extend([a, a + 2, a + 1]);
+    }
+    // Base cap facing −Y.
+    let centre = m.positions.len() as u32;
+    m.positions.push(Vec3::ZERO);
+    m.normals.push(Vec3::NEG_Y);
+    m.uvs.push(Vec2::splat(0.5));
+    for s in 0..=segments {
+        let phi = s as f32 / segments as f32 * std::f32::consts::TAU;
+        let (sin, cos) = phi.sin_cos();
+        m.positions.push(Vec3::new(sin, 0.0, cos));
+        m.normals.push(Vec3::NEG_Y);
+        m.uvs.push(Vec2::new(0.5 + 0.5 * sin, 0.5 + 0.5 * cos));
+    }
+    for s in 0..segments {
+        let a = centre + 1 + s;
+        m.indices.extend([centre, a + 1, a]);
+    }
+    m
+}
+
+/// One node per instance, at rest as its import transform; `moving` get TRS
+/// nodes (identity scale) so glTF may animate them.
+fn flat_animation(scene: &Scene, animations: Vec<Animation>) -> SceneAnimation {
+    let mut moved = vec![false; scene.instances.len()];
+    for a in &animations {
+        for c in &a.channels {
+            moved[c.node] = true;
+        }
+    }
+    let nodes = scene
+        .instances
+        .iter()
+        .zip(&moved)
+        .map(|(inst, &m)| {
+            if m {
+                let (scale, rotation, translation) = inst.transform.to_scale_rotation_translation();
+                LocalRest::Trs {
+                    translation,
+                    rotation,
+                    scale,
+                }
+            } else {
+                LocalRest::Matrix(inst.transform)
+            }
+        })
+        .collect();
+    let mut a = SceneAnimation {
+        nodes,
+        instance_paths: (0..scene.instances.len() as u32).map(|i| vec![i]).collect(),
+        animations,
+        active: Vec::new(),
+    };
+    a.select(&Default::default())
+        .expect("all animations can be selected");
+    a
+}
+
+fn channel(node: usize, path: TrsPath, times: Vec<f32>, values: Vec<Vec4>) -> Channel {
+    Channel::new(node, path, Interpolation::Linear, times, values)
+        .expect("generated keys follow glTF's rules")
+}
+
+/// Quaternion keys of a full turn about `axis` (after a fixed `pre`
+/// rotation) at `keys + 1` evenly spaced times over `period`; neighbours are
+/// 360°/keys apart, so slerp turns the right way.
+fn turn_keys(axis: Vec3, pre: Quat, keys: u32, period: f32) -> (Vec<f32>, Vec<Vec4>) {
+    let times = (0..=keys)
+        .map(|k| period * k as f32 / keys as f32)
+        .collect();
+    let values = (0..=keys)
+        .map(|k| {
+            let q =
+                Quat::from_axis_angle(axis, std::f32::consts::TAU * k as f32 / keys as f32) * pre;
+            Vec4::from(q)
+        })
+        .collect();
+    (times, values)
+}
+
+/// `cornell-moving`: the Cornell box and a spinning, travelling cone.
+pub fn cornell_moving() -> Scene {
+    let mut s = cornell();
+    s.source = "generated:cornell-moving".into();
+    let orange = add_material(&mut s, Material::diffuse("cone", Vec3::new(0.8, 0.45, 0.1)));
+    let rest = Mat4::from_scale_rotation_translation(
+        Vec3::new(CONE_RADIUS, CONE_HEIGHT, CONE_RADIUS),
+        Quat::IDENTITY,
+        Vec3::new(-0.3, 0.45, 0.0),
+    );
+    add_mesh(&mut s, cone("cone", 48), orange, rest);
+    let node = s.instances.len() - 1;
+    // Left → right → left at mid height, in front of the spheres.
+    let p = |x: f32| Vec4::new(x, 0.45, 0.0, 0.0);
+    let translation = channel(
+        node,
+        TrsPath::Translation,
+        vec![0.0, CONE_PERIOD / 2.0, CONE_PERIOD],
+        vec![p(-0.3), p(0.3), p(-0.3)],
+    );
+    let (times, values) = turn_keys(
+        Vec3::Y,
+        Quat::from_rotation_z(CONE_TILT_DEG.to_radians()),
+        8,
+        CONE_PERIOD,
+    );
+    let rotation = channel(node, TrsPath::Rotation, times, values);
+    let animation = flat_animation(
+        &s,
+        vec![Animation {
+            name: "cone".into(),
+            channels: vec![translation, rotation],
+        }],
+    );
+    s.animation = Some(animation);
+    // The rest transform is the pose at t = 0 (what a static viewer sees).
+    s.instances[node].transform = s.instance_transforms_at(0.0)[node];
+    s
+}
+
+/// `hairball-rotating`: the hairball turning about the vertical.
+pub fn hairball_rotating() -> Scene {
+    let mut s = hairball();
+    s.source = "generated:hairball-rotating".into();
+    let (times, values) = turn_keys(Vec3::Y, Quat::IDENTITY, 8, HAIRBALL_PERIOD);
+    let rotation = channel(0, TrsPath::Rotation, times, values);
+    s.animation = Some(flat_animation(
+        &s,
+        vec![Animation {
+            name: "spin".into(),
+            channels: vec![rotation],
+        }],
+    ));
+    s
+}
