@@ -6,7 +6,7 @@
 //! [[claim]]
 //! text = "adaptive retrace traces far fewer rays than multi"
 //! paper = "tracing 1.46 ms vs 7.15 ms (0.20x), RTX 3060, 1080p"
-//! metric = "rays_per_frame"   # a summary.json row field, `pass:NAME` or a metric
+//! metric = "rays_per_frame"   # a summary.json row field, `pass:NAME[+NAME…]` (ms) or a metric
 //! of = "adaptive"             # configuration label
 //! over = "multi"              # optional: the measured figure is of / over
 //! expect = "< 1"              # optional: what the paper's claim means here
@@ -103,7 +103,12 @@ fn lookup(summary: &serde_json::Value, label: &str, metric: &str) -> Option<f64>
         .iter()
         .find(|r| r["method"].as_str() == Some(label))?;
     if let Some(p) = metric.strip_prefix("pass:") {
-        return row["pass_mean_ms"][p].as_f64();
+        // `pass:a+b`: the sum of the passes the row has (None: none of them).
+        let ms: Vec<f64> = p
+            .split('+')
+            .filter_map(|p| row["pass_mean_ms"][p.trim()].as_f64())
+            .collect();
+        return (!ms.is_empty()).then(|| ms.iter().sum());
     }
     row[metric]
         .as_f64()
