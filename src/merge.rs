@@ -273,7 +273,7 @@ fn merge_viewer(parts: &[PathBuf], labels: &[String], out: &Path) -> Result<()> 
         for name in ["reference.png", "reference.crop.png"] {
             if src0.join(name).exists() {
                 std::fs::copy(src0.join(name), dst.join(name))
-                    .map_err(|e| Error::io(&dst.join(name), e))?;
+                    .map_err(|e| Error::io(dst.join(name), e))?;
             }
         }
         for l in shown {
@@ -284,7 +284,7 @@ fn merge_viewer(parts: &[PathBuf], labels: &[String], out: &Path) -> Result<()> 
                     continue;
                 }
                 std::fs::copy(src.join(&full), dst.join(&full))
-                    .map_err(|e| Error::io(&dst.join(&full), e))?;
+                    .map_err(|e| Error::io(dst.join(&full), e))?;
                 if let Some(w) = window {
                     recrop(
                         &src.join(&full),
