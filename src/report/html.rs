@@ -111,11 +111,7 @@ fn experiment(d: &ReportData) -> String {
     if !claims.is_empty() {
         h.push_str("<table id=\"claims\"><tr><th>the paper's claim</th><th>paper</th><th>here</th><th>expected</th><th>verdict</th></tr>\n");
         for c in &claims {
-            let verdict = match c["holds"].as_bool() {
-                Some(true) => "reproduces",
-                Some(false) => "does not reproduce",
-                None => "–",
-            };
+            let verdict = esc(c["verdict"].as_str().unwrap_or("–"));
             h.push_str(&format!(
                 "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{verdict}</td></tr>\n",
                 s(&c["text"]),

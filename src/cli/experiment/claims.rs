@@ -90,10 +90,46 @@ pub struct ClaimResult {
     /// The comparison it was measured in.
     pub measured_in: Option<String>,
     pub value: Option<f64>,
+    /// The standard error of `value` over frames (delta method over the
+    /// paired frames for a ratio, [`stereocache::metrics::uncertainty`]),
+    /// where frames.jsonl has the per-frame figures.
+    pub stderr: Option<f64>,
     /// The measurement in words.
     pub here: String,
     /// Whether `value` meets `expect` (absent without one).
     pub holds: Option<bool>,
+    /// `reproduces`, `does not reproduce`, or `inconclusive` when the
+    /// threshold is within two standard errors of `value`; `-` without `expect`.
+    pub verdict: String,
+}
+
+/// Per-frame values of `metric` for configuration `label` of the comparison
+/// in `dir` (frames.jsonl): a metric where a frame has it, the GPU time and
+/// pass times over the frames after the first (as the summary's steady figures).
+fn per_frame(dir: &Path, label: &str, metric: &str) -> Option<Vec<f64>> {
+    let text = std::fs::read_to_string(dir.join(label).join("frames.jsonl")).ok()?;
+    let frames: Vec<serde_json::Value> = text
+        .lines()
+        .filter_map(|l| serde_json::from_str(l).ok())
+        .collect();
+    let steady = || frames.iter().skip(1);
+    let v: Vec<f64> = if metric == "steady_mean_gpu_ms" {
+        steady().filter_map(|f| f["gpu_ms"].as_f64()).collect()
+    } else if let Some(p) = metric.strip_prefix("pass:") {
+        steady()
+            .map(|f| {
+                p.split('+')
+                    .filter_map(|p| f["passes"][p.trim()].as_f64())
+                    .sum()
+            })
+            .collect()
+    } else {
+        frames
+            .iter()
+            .filter_map(|f| f["metrics"][metric].as_f64())
+            .collect()
+    };
+    (v.len() >= 2).then_some(v)
 }
 
 /// Field `metric` of the row labelled `label` in `summary`.
@@ -132,8 +168,10 @@ pub fn evaluate(claims: &[ClaimSpec], groups: &[String], out: &Path) -> Vec<Clai
                 spec: c.clone(),
                 measured_in: None,
                 value: None,
+                stderr: None,
                 here: "not measured here (see the comparison's tables and images)".into(),
                 holds: None,
+                verdict: "-".into(),
             };
             let (Some(metric), Some(of)) = (&c.metric, &c.of) else {
                 return r;
@@ -153,21 +191,39 @@ pub fn evaluate(claims: &[ClaimSpec], groups: &[String], out: &Path) -> Vec<Clai
                     None => (a, format!("{metric} of {of}")),
                 };
                 let device = s["device"].as_str().unwrap_or("?");
+                let dir = out.join(g);
+                let x = per_frame(&dir, of, metric);
+                let stderr = match &c.over {
+                    Some(over) => x
+                        .zip(per_frame(&dir, over, metric))
+                        .and_then(|(x, y)| stereocache::metrics::ratio_of_means(&x, &y)),
+                    None => x.and_then(|x| stereocache::metrics::mean_stderr(&x)),
+                }
+                .map(|q| q.stderr)
+                .filter(|se| se.is_finite());
                 r.measured_in = Some(g.clone());
                 r.value = Some(value);
-                r.holds = c
-                    .expect
-                    .as_deref()
-                    .and_then(parse_expect)
-                    .map(|(op, t)| match op {
-                        "<" => value < t,
-                        "<=" => value <= t,
-                        ">" => value > t,
-                        _ => value >= t,
-                    });
+                r.stderr = stderr;
+                let expect = c.expect.as_deref().and_then(parse_expect);
+                r.holds = expect.map(|(op, t)| match op {
+                    "<" => value < t,
+                    "<=" => value <= t,
+                    ">" => value > t,
+                    _ => value >= t,
+                });
+                let near = |t: f64| stderr.is_some_and(|se| (value - t).abs() < 2.0 * se);
+                r.verdict = match (expect, r.holds) {
+                    (Some((_, t)), Some(_)) if near(t) => "inconclusive".into(),
+                    (_, Some(true)) => "reproduces".into(),
+                    (_, Some(false)) => "does not reproduce".into(),
+                    _ => "-".into(),
+                };
                 r.here = format!(
-                    "{what} = {} ({g}, {device}, {} frames at {}x{})",
+                    "{what} = {}{} ({g}, {device}, {} frames at {}x{})",
                     fmt(value),
+                    stderr
+                        .map(|se| format!(" ± {}", fmt(se)))
+                        .unwrap_or_default(),
                     s["methods"][0]["frames"],
                     s["width"],
                     s["height"]
@@ -187,14 +243,6 @@ fn fmt(v: f64) -> String {
     }
 }
 
-fn verdict(r: &ClaimResult) -> &'static str {
-    match r.holds {
-        Some(true) => "reproduces",
-        Some(false) => "does not reproduce",
-        None => "-",
-    }
-}
-
 /// The claims as printed after a run.
 pub fn text(results: &[ClaimResult]) -> String {
     let mut s = String::new();
@@ -205,7 +253,7 @@ pub fn text(results: &[ClaimResult]) -> String {
             r.spec.paper,
             r.here,
             match (&r.spec.expect, r.holds) {
-                (Some(e), Some(_)) => format!(" (expected {e}: {})", verdict(r)),
+                (Some(e), Some(_)) => format!(" (expected {e}: {})", r.verdict),
                 _ => String::new(),
             }
         ));
@@ -216,7 +264,7 @@ pub fn text(results: &[ClaimResult]) -> String {
 /// claims.md: one row per claim.
 pub fn markdown(title: &str, results: &[ClaimResult]) -> String {
     let mut s = format!(
-        "# {title}\n\n| claim | paper | here | expected | verdict |\n|---|---|---|---|---|\n"
+        "# {title}\n\n± = standard error over frames (ratios: delta method over the paired frames); inconclusive = the expected bound lies within two standard errors.\n\n| claim | paper | here | expected | verdict |\n|---|---|---|---|---|\n"
     );
     let cell = |t: &str| t.replace('|', "\\|");
     for r in results {
@@ -226,7 +274,7 @@ pub fn markdown(title: &str, results: &[ClaimResult]) -> String {
             cell(&r.spec.paper),
             cell(&r.here),
             cell(r.spec.expect.as_deref().unwrap_or("-")),
-            verdict(r)
+            r.verdict
         ));
     }
     s
