@@ -17,8 +17,9 @@
 # Run there, from the repo root (root: unpacks the loader into /):
 #   scripts/gpu-check.sh [--out DIR] [--tiny]
 # DIR defaults to $OUT/gpu-check when $OUT is set, else out/gpu-check.
-# --tiny: the same steps at toy sizes (64x48, a few frames, CI scale) — to
-# check the script itself on lavapipe; the figures mean nothing then.
+# --tiny: the same steps at toy sizes (64x48, a few frames, CI scale, the
+# Cornell box for Sponza) — to check the script itself on lavapipe; the
+# figures mean nothing then. SPONZA=DIR: Sponza elsewhere than .gpu/sponza.
 # Each step has its own time limit; a step that fails or runs out is
 # recorded in DIR/steps.txt and the next one runs.
 set -uo pipefail
@@ -57,7 +58,7 @@ mkdir -p "$out"
 bin=${STEREOCACHE:-.gpu/stereocache}
 [ -x "$bin" ] || bin=target/release/stereocache
 [ -x "$bin" ] || { echo "error: no binary: run scripts/gpu-check.sh --prepare first" >&2; exit 1; }
-sponza=.gpu/sponza
+sponza=${SPONZA:-.gpu/sponza}
 [ -d "$sponza" ] || sponza=../shared/scenes/sponza
 
 # The Vulkan loader: carried packages when the system has none.
@@ -69,7 +70,9 @@ icd=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
 [ -f "$icd" ] && [ -z "${VK_DRIVER_FILES:-}" ] && export VK_DRIVER_FILES=$icd
 
 if [ $tiny = 1 ]; then
-  size=64x48; bench_size=64x48; frames=4; scale=ci; exp_frames=4; rays_size=64x64
+  # Plumbing only: the Cornell box instead of Sponza (its BVH build alone
+  # takes minutes on two CPU cores).
+  size=64x48; bench_size=64x48; frames=4; scale=ci; exp_frames=4; rays_size=64x64; sponza=cornell
 else
   size=256x144; bench_size=960x1080; frames=30; scale=paper; exp_frames=60; rays_size=1024x1024
 fi
