@@ -331,3 +331,61 @@ fn malformed_files_fail_with_one_error_line_naming_the_file_and_key() {
     );
     let _ = std::fs::remove_dir_all(&root);
 }
+
+#[test]
+fn a_sweep_gives_one_configuration_per_value_and_shards_deal_them_round_robin() {
+    let root = std::env::temp_dir().join(format!(
+        "stereocache-experiment-sweep-{}",
+        std::process::id()
+    ));
+    let _ = std::fs::remove_dir_all(&root);
+    std::fs::create_dir_all(&root).unwrap();
+    let text = tiny(&root.join("refs"))
+        .replace(
+            "slots = 8",
+            "slots = 8\nstereo-blend = \"moments\"\nsweep = { sharpness = [0.0, 0.5, 1.0] }",
+        )
+        .replace("of = \"sample-cache\"", "of = \"sample-cache-sharpness=0\"");
+    let file = root.join("tiny.toml");
+    std::fs::write(&file, text).unwrap();
+    let listed = |extra: &[&str]| -> Vec<String> {
+        let mut c = bin();
+        c.args(["experiment", "run"])
+            .arg(&file)
+            .arg("--check")
+            .args(extra);
+        run(&mut c, "experiment run --check")
+            .lines()
+            .filter_map(|l| l.strip_prefix("  cornell-synth-head-turn / "))
+            .map(str::to_string)
+            .collect()
+    };
+    let all = [
+        "naive",
+        "taa",
+        "sample-cache-sharpness=0",
+        "sample-cache-sharpness=0.5",
+        "sample-cache-sharpness=1",
+    ];
+    assert_eq!(listed(&[]), all);
+    assert_eq!(listed(&["--shard", "1/2"]), [all[0], all[2], all[4]]);
+    assert_eq!(listed(&["--shard", "2/2"]), [all[1], all[3]]);
+    // A bad sweep value is refused with its key.
+    std::fs::write(
+        &file,
+        tiny(&root.join("refs")).replace("slots = 8", "sweep = { sharpness = [0.5, 2.0] }"),
+    )
+    .unwrap();
+    let o = bin()
+        .args(["experiment", "run"])
+        .arg(&file)
+        .arg("--check")
+        .output()
+        .unwrap();
+    let line = single_error_line(&o, "sharpness 2");
+    assert!(
+        line.contains("'sharpness'") && line.contains("--sharpness"),
+        "{line}"
+    );
+    let _ = std::fs::remove_dir_all(&root);
+}
