@@ -105,6 +105,38 @@ pub struct MethodRow {
 }
 
 impl MethodRow {
+    /// A row of summary.json as written ([`Self::series`] empty; `null`
+    /// standard errors read back as `∞`); `None` when it is not one.
+    pub fn from_json(v: &serde_json::Value) -> Option<Self> {
+        let f = |k: &str| v[k].as_f64();
+        let map = |k: &str, null: Option<f64>| -> BTreeMap<String, f64> {
+            v[k].as_object()
+                .map(|m| {
+                    m.iter()
+                        .filter_map(|(k, x)| x.as_f64().or(null).map(|x| (k.clone(), x)))
+                        .collect()
+                })
+                .unwrap_or_default()
+        };
+        Some(MethodRow {
+            method: v["method"].as_str()?.to_string(),
+            kind: v["kind"].as_str()?.to_string(),
+            frames: v["frames"].as_u64()? as usize,
+            mean_gpu_ms: f("mean_gpu_ms")?,
+            p95_gpu_ms: f("p95_gpu_ms")?,
+            steady_mean_gpu_ms: f("steady_mean_gpu_ms")?,
+            steady_p95_gpu_ms: f("steady_p95_gpu_ms")?,
+            pass_mean_ms: map("pass_mean_ms", None),
+            rays_per_frame: f("rays_per_frame")?,
+            rays_total: v["rays_total"].as_u64()?,
+            method_memory_bytes: v["method_memory_bytes"].as_u64()?,
+            metrics: map("metrics", None),
+            metrics_stderr: map("metrics_stderr", Some(f64::INFINITY)),
+            ratios: BTreeMap::new(),
+            series: BTreeMap::new(),
+        })
+    }
+
     fn from_summary(s: &ReplaySummary) -> Self {
         MethodRow {
             method: s.method.clone(),
@@ -203,6 +235,20 @@ impl ReferenceSummary {
         let n = ReferenceNoise::mean(&noise);
         let flip_halves =
             references.iter().map(|r| r.flip_halves).sum::<f64>() / references.len().max(1) as f64;
+        Self::from_noise(spp, seed, n, flip_halves, noise.len(), rows)
+    }
+
+    /// The summary of a reference whose noise over `frames` frames was `n`
+    /// (and half-vs-half FLIP `flip_halves`), against `rows`: what
+    /// [`crate::merge`] rebuilds when the rows come from several parts.
+    pub fn from_noise(
+        spp: u32,
+        seed: u32,
+        n: ReferenceNoise,
+        flip_halves: f64,
+        frames: usize,
+        rows: &[MethodRow],
+    ) -> Self {
         let best = rows
             .iter()
             .filter_map(|r| r.metrics.get("rse").map(|&v| (r.method.clone(), v)))
@@ -213,7 +259,7 @@ impl ReferenceSummary {
             spp,
             half_spp: spp / 2,
             half_seeds: half_seeds(seed),
-            frames: noise.len(),
+            frames,
             rse: n.rse,
             rse_stderr: n.rse_stderr,
             mse: n.mse,
@@ -670,12 +716,66 @@ fn blit(
     }
 }
 
+/// What summary.json says about the run beside its rows: the device, the
+/// scene and trace, the size and the settings (a merge of parts copies it
+/// from the first part, [`crate::merge`]).
+#[derive(Clone, Debug)]
+pub struct SummaryHeader {
+    pub device: serde_json::Value,
+    pub driver: serde_json::Value,
+    pub backend: serde_json::Value,
+    pub scene: serde_json::Value,
+    pub trace: serde_json::Value,
+    pub width: serde_json::Value,
+    pub height: serde_json::Value,
+    pub fps: serde_json::Value,
+    pub settings: serde_json::Value,
+}
+
+impl SummaryHeader {
+    fn new(session: &Session, opts: &CompareOptions, settings: &RenderSettings) -> Self {
+        let caps = &session.ctx.caps;
+        let v = |x: serde_json::Result<serde_json::Value>| x.unwrap_or_default();
+        SummaryHeader {
+            device: caps.name.clone().into(),
+            driver: format!("{} {}", caps.driver_name, caps.driver_info).into(),
+            backend: v(serde_json::to_value(session.backend)),
+            scene: v(serde_json::to_value(&session.scene.source)),
+            trace: v(serde_json::to_value(&opts.trace)),
+            width: settings.width.into(),
+            height: settings.height.into(),
+            fps: opts.fps.into(),
+            settings: v(serde_json::to_value(settings)),
+        }
+    }
+
+    /// The header of a summary.json as written.
+    pub fn from_summary(s: &serde_json::Value) -> Self {
+        SummaryHeader {
+            device: s["device"].clone(),
+            driver: s["driver"].clone(),
+            backend: s["backend"].clone(),
+            scene: s["scene"].clone(),
+            trace: s["trace"].clone(),
+            width: s["width"].clone(),
+            height: s["height"].clone(),
+            fps: s["fps"].clone(),
+            settings: s["settings"].clone(),
+        }
+    }
+}
+
 fn write_summaries(
     session: &Session,
     opts: &CompareOptions,
     settings: &RenderSettings,
     cmp: &Comparison,
 ) -> Result<()> {
+    write_summary_files(&opts.out, &SummaryHeader::new(session, opts, settings), cmp)
+}
+
+/// Writes `out/summary.csv` and `out/summary.json` of `cmp`.
+pub fn write_summary_files(out: &Path, header: &SummaryHeader, cmp: &Comparison) -> Result<()> {
     let rows = &cmp.rows;
     let reference = cmp.reference.as_ref();
     let mut passes: Vec<String> = rows
@@ -742,26 +842,26 @@ fn write_summaries(
         }
         csv.push('\n');
     }
-    let csv_path = opts.out.join("summary.csv");
+    let csv_path = out.join("summary.csv");
     output::write_text(&csv_path, &csv)?;
-    let caps = &session.ctx.caps;
+    let h = header;
     let json = serde_json::json!({
-        "device": caps.name,
-        "driver": format!("{} {}", caps.driver_name, caps.driver_info),
-        "backend": session.backend,
-        "scene": session.scene.source,
-        "trace": opts.trace,
-        "width": settings.width,
-        "height": settings.height,
-        "fps": opts.fps,
-        "settings": settings,
+        "device": h.device,
+        "driver": h.driver,
+        "backend": h.backend,
+        "scene": h.scene,
+        "trace": h.trace,
+        "width": h.width,
+        "height": h.height,
+        "fps": h.fps,
+        "settings": h.settings,
         "reference": reference,
         "baseline": cmp.baseline,
         "flip": cmp.flip,
         "masks": masks(rows),
         "methods": rows,
     });
-    output::write_json(&opts.out.join("summary.json"), &json)?;
+    output::write_json(&out.join("summary.json"), &json)?;
     Ok(())
 }
 

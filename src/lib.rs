@@ -19,6 +19,7 @@ pub mod evaluate;
 pub mod gpu;
 pub mod interface;
 pub mod materials;
+pub mod merge;
 pub mod methods;
 pub mod metrics;
 pub mod output;

@@ -2,77 +2,78 @@
 //! side by side, with metrics against a reference.
 
 use super::args::{self, CameraArgs, GpuArgs, MethodArgs, MethodList, SceneArgs};
-use super::common::{check_out, open_along_trace, print_reference_noise, report_validation};
-use anyhow::{anyhow, bail, Result};
+use super::experiment::runner::run_comparison;
+use anyhow::{anyhow, Result};
 use clap::Args;
 use std::path::PathBuf;
+use stereocache::compare::Config;
 use stereocache::replay::DEFAULT_FPS;
 use stereocache::values::Size;
 
 #[derive(Args)]
 pub struct CompareArgs {
     #[command(flatten)]
-    gpu: GpuArgs,
+    pub(crate) gpu: GpuArgs,
     #[command(flatten)]
-    scene: SceneArgs,
+    pub(crate) scene: SceneArgs,
     #[command(flatten)]
-    camera: CameraArgs,
+    pub(crate) camera: CameraArgs,
     /// Head-pose trace in the project's CSV format.
     #[arg(long, default_value = "captures/mmsys18-user1.csv")]
-    trace: PathBuf,
+    pub(crate) trace: PathBuf,
     /// Comma-separated methods, e.g. sample-cache,reference.
     #[arg(long, default_value = "sample-cache,reference")]
-    methods: MethodList,
+    pub(crate) methods: MethodList,
     /// Render only the first K frames.
     #[arg(long, value_parser = args::frames)]
-    frames: Option<usize>,
+    pub(crate) frames: Option<usize>,
     #[arg(long, default_value_t = DEFAULT_FPS, value_parser = args::fps)]
-    fps: f64,
+    pub(crate) fps: f64,
     /// Per-method images every k-th frame (0 = none).
     #[arg(long, default_value_t = 1)]
-    every: usize,
+    pub(crate) every: usize,
     /// Frames shown side by side, comma-separated (default: first, middle, last).
     #[arg(long, value_parser = show_frames)]
-    show_frames: Option<ShownFrames>,
+    pub(crate) show_frames: Option<ShownFrames>,
     /// Magnification of the centre crop in the side-by-side grids.
     #[arg(long, default_value_t = 3)]
-    zoom: u32,
+    pub(crate) zoom: u32,
     /// Samples per pixel of the reference frames the metrics use (0 = no
     /// metrics; even: two independent halves). 128: the shipped scenes' main
     /// job then has a reference RSE below 0.1x the best method's (hairball
     /// 0.027x, Cornell box 0.091x; docs/PERFORMANCE.md has the rule).
     #[arg(long, default_value_t = 128, value_parser = args::reference_spp)]
-    reference_spp: u32,
+    pub(crate) reference_spp: u32,
     /// Where reference frames are cached between runs.
     #[arg(long, default_value = "out/reference-cache")]
-    reference_cache: PathBuf,
+    pub(crate) reference_cache: PathBuf,
     /// FLIP's pixels per degree (default: one pixel's angle at the centre of
     /// the eye image, from --fov and --size; 67 is a desktop monitor at 0.7 m).
     #[arg(long, value_parser = args::flip_ppd)]
-    flip_ppd: Option<f32>,
+    pub(crate) flip_ppd: Option<f32>,
     /// The configuration error ratios are given against (default: naive
     /// when compared, else the first of --methods).
     #[arg(long)]
-    baseline: Option<String>,
+    pub(crate) baseline: Option<String>,
     #[arg(long, default_value_t = 1, value_parser = args::spp)]
-    spp: u32,
+    pub(crate) spp: u32,
     #[arg(long, default_value = "160x120")]
-    size: Size,
+    pub(crate) size: Size,
     #[arg(long, default_value_t = 3, value_parser = args::bounces)]
-    bounces: u32,
+    pub(crate) bounces: u32,
     #[arg(long, default_value_t = 1)]
-    seed: u32,
+    pub(crate) seed: u32,
     #[arg(long, default_value_t = 1.0, value_parser = args::exposure)]
-    exposure: f32,
+    pub(crate) exposure: f32,
     #[command(flatten)]
-    method_opts: MethodArgs,
+    pub(crate) method_opts: MethodArgs,
     #[arg(long)]
-    out: PathBuf,
+    pub(crate) out: PathBuf,
 }
 
 /// `--show-frames 0,5,9`.
 #[derive(Clone, Debug)]
-pub struct ShownFrames(Vec<usize>);
+pub struct ShownFrames(pub(crate) Vec<usize>);
 
 fn show_frames(s: &str) -> Result<ShownFrames, String> {
     args::list_of(s, |s| {
@@ -81,61 +82,29 @@ fn show_frames(s: &str) -> Result<ShownFrames, String> {
     .map(ShownFrames)
 }
 
+/// One compare run: the methods of `--methods`, each labelled by its name,
+/// with the shared settings; run by the experiment runner as a one-comparison
+/// experiment ([`super::experiment::runner::run_comparison`]).
 pub fn run(a: CompareArgs) -> Result<()> {
     let settings = a
         .method_opts
         .settings(a.size, a.spp, a.bounces, a.seed, false)
         .map_err(|e| anyhow!(e))?;
-    let methods = a
+    let configs = a
         .methods
         .0
         .iter()
-        .map(|&k| a.method_opts.config(k, false))
+        .map(|&k| {
+            Ok(Config {
+                label: k.name().to_string(),
+                config: a.method_opts.config(k, false)?,
+                settings: settings.clone(),
+            })
+        })
         .collect::<Result<Vec<_>, String>>()
         .map_err(|e| anyhow!(e))?;
-    if a.reference_spp > 0 {
-        stereocache::evaluate::check_reference_spp(a.reference_spp)?;
-    }
-    // A baseline that is not compared fails before the device is opened.
-    let labels: Vec<String> = a.methods.0.iter().map(|m| m.name().to_string()).collect();
-    stereocache::compare::choose_baseline(&labels, a.baseline.as_deref())?;
-    check_out(&a.out)?;
-    let (session, cameras) =
-        open_along_trace(&a.trace, a.fps, a.size, &a.scene, &a.gpu, &a.camera)?;
-    if let Some(k) = a.frames {
-        if k > cameras.len() {
-            bail!(
-                "bad --frames {k}: {} gives only {} frames at {} fps",
-                a.trace.display(),
-                cameras.len(),
-                a.fps
-            );
-        }
-    }
-    let opts = stereocache::compare::CompareOptions {
-        methods,
-        frames: a.frames,
-        fps: a.fps,
-        every: a.every,
-        out: a.out.clone(),
-        exposure: a.exposure,
-        trace: a.trace.clone(),
-        shown_frames: a.show_frames.map(|s| s.0),
-        zoom: a.zoom,
-        reference_spp: (a.reference_spp > 0).then_some(a.reference_spp),
-        reference_cache: a.reference_cache.clone(),
-        flip_ppd: a.flip_ppd,
-        baseline: a.baseline.clone(),
-    };
-    let cmp = stereocache::compare::compare(&session, &cameras, &settings, &opts)?;
-    print!("{}", stereocache::compare::summary_table(&cmp.rows));
-    print!("{}", stereocache::compare::ratio_table(&cmp));
-    print_reference_noise(&cmp);
-    let report = stereocache::report::write_report(&a.out)?;
-    println!(
-        "wrote {} (summary.csv, summary.json, side-by-side/, one folder per method)",
-        a.out.display()
-    );
-    println!("report: {}", report.display());
-    report_validation(&session.ctx)
+    let out = a.out.clone();
+    let baseline = a.baseline.clone();
+    run_comparison(&a, &configs, &out, baseline.as_deref())?;
+    Ok(())
 }

@@ -4,7 +4,8 @@
 pub mod args;
 mod bench;
 pub mod common;
-mod compare;
+pub(crate) mod compare;
+mod experiment;
 mod info;
 mod render;
 mod replay;
@@ -34,6 +35,11 @@ enum Command {
     Render(Box<render::RenderArgs>),
     /// Render several methods along the same frames of a trace, side by side.
     Compare(Box<compare::CompareArgs>),
+    /// The paper's experiments as files: run one (or a shard of it), merge shards.
+    Experiment {
+        #[command(subcommand)]
+        which: experiment::ExperimentCommand,
+    },
     /// Write DIR/report.html from a compare output directory.
     Report(report::ReportArgs),
     /// Render a method along a head-pose trace: DIR/frames/, DIR/frames.jsonl, DIR/summary.json.
@@ -61,6 +67,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Info(a) => info::run(a),
         Command::Render(a) => render::run(*a),
         Command::Compare(a) => compare::run(*a),
+        Command::Experiment { which } => experiment::run(which),
         Command::Report(a) => report::run(a),
         Command::Replay(a) => replay::run(*a),
         Command::Bench { which } => bench::run(which),

@@ -66,6 +66,25 @@ pub struct ReportData {
     pub viewer: Option<serde_json::Value>,
     /// The PNGs under `viewer/` by path relative to it (`frame_<f>/<name>.png`).
     pub viewer_files: BTreeMap<String, Vec<u8>>,
+    /// `experiment.json` when the directory is one comparison of an
+    /// experiment (`stereocache experiment run`): its title, the paper's
+    /// claims with what was measured, and the figures to draw.
+    pub experiment: Option<serde_json::Value>,
+}
+
+impl ReportData {
+    /// Whether the report draws `section` ([`super::html::SECTIONS`]): all
+    /// of them unless an experiment names its figures.
+    pub fn draws(&self, section: &str) -> bool {
+        match self
+            .experiment
+            .as_ref()
+            .and_then(|e| e["figures"].as_array())
+        {
+            Some(f) if !f.is_empty() => f.iter().any(|x| x.as_str() == Some(section)),
+            _ => true,
+        }
+    }
 }
 
 fn bad(path: &Path, what: impl std::fmt::Display) -> Error {
@@ -133,7 +152,15 @@ pub fn load(dir: &Path) -> Result<ReportData> {
         }
     }
     let (viewer, viewer_files) = load_viewer(dir)?;
+    let ep = dir.join("experiment.json");
+    let experiment = match std::fs::read_to_string(&ep) {
+        Ok(text) => {
+            Some(serde_json::from_str(&text).map_err(|e| bad(&ep, format!("invalid JSON: {e}")))?)
+        }
+        Err(_) => None,
+    };
     Ok(ReportData {
+        experiment,
         dir: dir.to_path_buf(),
         summary,
         methods,

@@ -74,6 +74,57 @@ fn ratios(d: &ReportData) -> String {
     h
 }
 
+/// The report's sections by name, in page order: what an experiment's
+/// `figures` may list (the page draws them all otherwise).
+pub const SECTIONS: &[&str] = &[
+    "summary",
+    "ratios",
+    "per-frame",
+    "time-breakdown",
+    "error-vs-time",
+    "side-by-side",
+    "error-maps",
+    "viewer",
+];
+
+/// The experiment's title, what is not available yet, and each paper claim
+/// beside what was measured (an experiment's comparison only).
+fn experiment(d: &ReportData) -> String {
+    let Some(e) = &d.experiment else {
+        return String::new();
+    };
+    let s = |v: &serde_json::Value| esc(v.as_str().unwrap_or(""));
+    let mut h = format!(
+        "<h2 id=\"experiment\">Experiment {}: {}</h2>\n<p>{} &nbsp; <b>scale</b>: {}</p>\n",
+        s(&e["name"]),
+        s(&e["title"]),
+        s(&e["paper"]),
+        s(&e["scale"])
+    );
+    for m in e["missing"].as_array().into_iter().flatten() {
+        h.push_str(&format!(
+            "<p class=\"note\">Not yet available (run without it): {}</p>\n",
+            s(m)
+        ));
+    }
+    let claims = e["claims"].as_array().cloned().unwrap_or_default();
+    if !claims.is_empty() {
+        h.push_str("<table id=\"claims\"><tr><th>the paper's claim</th><th>paper</th><th>here</th><th>expected</th><th>verdict</th></tr>\n");
+        for c in &claims {
+            let verdict = esc(c["verdict"].as_str().unwrap_or("–"));
+            h.push_str(&format!(
+                "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{verdict}</td></tr>\n",
+                s(&c["text"]),
+                s(&c["paper"]),
+                s(&c["here"]),
+                esc(c["expect"].as_str().unwrap_or("–")),
+            ));
+        }
+        h.push_str("</table>\n");
+    }
+    h
+}
+
 pub fn page(d: &ReportData) -> Result<String> {
     let s = &d.summary;
     let mut h = String::new();
@@ -96,7 +147,10 @@ pub fn page(d: &ReportData) -> Result<String> {
         "<b>size</b>: {}×{} per eye &nbsp; <b>fps</b>: {}</p>\n",
         s["width"], s["height"], s["fps"]
     ));
+    h.push_str(&experiment(d));
 
+    // Each section is drawn, then dropped again when an experiment does not ask for it.
+    let mut mark = h.len();
     h.push_str("<h2>Summary</h2>\n<table id=\"summary\"><tr><th>method</th><th>frames</th><th>mean GPU ms*</th><th>p95 GPU ms*</th><th>rays / frame</th><th>memory MiB</th>");
     for (m, _) in METRICS {
         h.push_str(&format!("<th>{m}</th><th class=\"se\">±</th>"));
@@ -164,7 +218,16 @@ pub fn page(d: &ReportData) -> Result<String> {
             esc(w)
         ));
     }
-    h.push_str(&ratios(d));
+    let keep_summary = d.draws("summary");
+    let summary_part = h.split_off(mark);
+    let ratios_part = ratios(d);
+    if keep_summary {
+        h.push_str(&summary_part);
+    }
+    if d.draws("ratios") {
+        h.push_str(&ratios_part);
+    }
+    mark = h.len();
     if let Some(ppd) = s["flip"]["ppd"].as_f64() {
         h.push_str(&format!(
             "<p id=\"fair-metrics\">FLIP at {ppd:.3} pixels per degree ({}). Temporal and stereo metrics: one mask per frame for every method, from the {}: co-visible fraction temporal {}, stereo {}. ± = standard error over frames (frames taken as independent).</p>\n",
@@ -182,6 +245,15 @@ pub fn page(d: &ReportData) -> Result<String> {
     h.push_str("Times are GPU timestamps on the device named above; * = frames after the first (frame 0 carries one-time driver costs such as pipeline compilation).</p>\n");
 
     let has_metrics = d.methods.iter().any(|m| m.metric("rse").is_some());
+    if !keep_summary {
+        h.truncate(mark);
+    }
+    let section = |h: &mut String, name: &str, mark: usize| {
+        if !d.draws(name) {
+            h.truncate(mark);
+        }
+    };
+    mark = h.len();
     h.push_str("<h2>Per frame</h2>\n");
     if has_metrics {
         h.push_str(&format!(
@@ -196,11 +268,15 @@ pub fn page(d: &ReportData) -> Result<String> {
         ));
     }
     h.push_str(&time_plot(d));
+    section(&mut h, "per-frame", mark);
+    mark = h.len();
     h.push_str("<h2>Where the time goes</h2>\n");
     h.push_str(&format!(
         "<figure>{}</figure>\n",
         plots::pass_breakdown(&d.methods)
     ));
+    section(&mut h, "time-breakdown", mark);
+    mark = h.len();
     if has_metrics {
         h.push_str("<h2>Error against time</h2>\n");
         h.push_str(&format!(
@@ -212,6 +288,8 @@ pub fn page(d: &ReportData) -> Result<String> {
             plots::pareto(&d.methods, "flip")
         ));
     }
+    section(&mut h, "error-vs-time", mark);
+    mark = h.len();
     if !d.grids.is_empty() {
         h.push_str("<h2>Side by side</h2>\n<p class=\"note\">Columns: methods. Rows: left eye, right eye, centre crops of each (nearest-neighbour zoom).</p>\n");
         for (name, bytes) in &d.grids {
@@ -233,8 +311,13 @@ pub fn page(d: &ReportData) -> Result<String> {
             ));
         }
     }
-    h.push_str(&error_maps(d));
-    h.push_str(&viewer(d));
+    section(&mut h, "side-by-side", mark);
+    if d.draws("error-maps") {
+        h.push_str(&error_maps(d));
+    }
+    if d.draws("viewer") {
+        h.push_str(&viewer(d));
+    }
     h.push_str("</body></html>\n");
     Ok(h)
 }

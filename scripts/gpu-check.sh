@@ -1,0 +1,121 @@
+#!/usr/bin/env bash
+# One prepared check for a machine with an NVIDIA GPU that has no Rust
+# toolchain and no network. Writes every figure into one folder in under
+# 8 minutes: `info`, a render of every method on the GPU paths (the CLI
+# equivalent of the GPU-path tests: every method on both ray backends the
+# device offers, exit status checked), `bench rays`, `bench sample-cache`
+# at 2x960x1080 on Sponza, and the Fig. 12/13 experiment at paper scale
+# for 60 frames.
+#
+# Prepare here (a machine with the toolchain and network), from the repo root:
+#   scripts/gpu-check.sh --prepare
+# builds the release binary, strips it into .gpu/stereocache, downloads the
+# Vulkan loader packages (amd64 .debs) into .gpu/debs and copies Sponza
+# (../shared/scenes/sponza, 19 MB) into .gpu/sponza; .gpu/ is git-ignored
+# (.git/info/exclude), about 40 MB: carry it (device tool: carry [".gpu"]).
+#
+# Run there, from the repo root (root: unpacks the loader into /):
+#   scripts/gpu-check.sh [--out DIR] [--tiny]
+# DIR defaults to $OUT/gpu-check when $OUT is set, else out/gpu-check.
+# --tiny: the same steps at toy sizes (64x48, a few frames, CI scale, the
+# Cornell box for Sponza) — to check the script itself on lavapipe; the
+# figures mean nothing then. SPONZA=DIR: Sponza elsewhere than .gpu/sponza.
+# Each step has its own time limit; a step that fails or runs out is
+# recorded in DIR/steps.txt and the next one runs.
+set -uo pipefail
+cd "$(dirname "$0")/.."
+
+prepare() {
+  set -e
+  cargo build --release --locked
+  mkdir -p .gpu/debs
+  grep -qx '/.gpu/' .git/info/exclude 2>/dev/null || echo '/.gpu/' >>"$(git rev-parse --git-path info/exclude)"
+  strip -o .gpu/stereocache target/release/stereocache
+  local o='-oAPT::Architecture=amd64 -oAPT::Architectures=amd64 -oDir::State::Lists=/tmp/amd64'
+  mkdir -p /tmp/amd64/partial
+  # shellcheck disable=SC2086
+  apt-get $o update >/dev/null
+  # shellcheck disable=SC2086
+  (cd .gpu/debs && apt-get $o download libvulkan1)
+  rm -rf .gpu/sponza && cp -r ../shared/scenes/sponza .gpu/sponza
+  du -sh .gpu
+  echo "prepared .gpu/: carry it and run scripts/gpu-check.sh there"
+}
+
+out=""
+tiny=0
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --prepare) prepare; exit $? ;;
+    --out) out=$2; shift 2 ;;
+    --tiny) tiny=1; shift ;;
+    *) echo "error: gpu-check.sh: unknown argument '$1' (--prepare, --out DIR, --tiny)" >&2; exit 2 ;;
+  esac
+done
+out=${out:-${OUT:+$OUT/gpu-check}}
+out=${out:-out/gpu-check}
+mkdir -p "$out"
+bin=${STEREOCACHE:-.gpu/stereocache}
+[ -x "$bin" ] || bin=target/release/stereocache
+[ -x "$bin" ] || { echo "error: no binary: run scripts/gpu-check.sh --prepare first" >&2; exit 1; }
+sponza=${SPONZA:-.gpu/sponza}
+[ -d "$sponza" ] || sponza=../shared/scenes/sponza
+
+# The Vulkan loader: carried packages when the system has none.
+if ! ldconfig -p 2>/dev/null | grep -q libvulkan.so.1; then
+  for f in .gpu/debs/*.deb; do [ -f "$f" ] && dpkg -x "$f" /; done
+  ldconfig 2>/dev/null || true
+fi
+icd=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
+[ -f "$icd" ] && [ -z "${VK_DRIVER_FILES:-}" ] && export VK_DRIVER_FILES=$icd
+
+if [ $tiny = 1 ]; then
+  # Plumbing only: the Cornell box instead of Sponza (its BVH build alone
+  # takes minutes on two CPU cores).
+  size=64x48; bench_size=64x48; frames=4; scale=ci; exp_frames=4; rays_size=64x64; sponza=cornell
+else
+  size=256x144; bench_size=960x1080; frames=30; scale=paper; exp_frames=60; rays_size=1024x1024
+fi
+
+start=$(date +%s)
+: >"$out/steps.txt"
+# step NAME LIMIT_SECONDS COMMAND...: stdout+stderr into DIR/NAME.txt.
+step() {
+  local name=$1 limit=$2
+  shift 2
+  local t0 rc
+  t0=$(date +%s)
+  timeout "$limit" "$@" >"$out/$name.txt" 2>&1
+  rc=$?
+  printf '%-28s rc=%-3s %4ss  %s\n' "$name" "$rc" "$(($(date +%s) - t0))" "$*" | tee -a "$out/steps.txt"
+}
+
+step info 60 "$bin" info
+# Every method on every backend the device has (auto: ray queries where
+# present; software: the CWBVH compute path), one stereo frame each.
+for rt in auto software; do
+  for m in reference sample-cache naive supersample taa isrt hash-cache hybrid debug-normals; do
+    step "render-$rt-$m" 60 "$bin" render --scene cornell --method "$m" --rt "$rt" \
+      --size "$size" --spp 4 --out "$out/render/$rt-$m"
+  done
+done
+step bench-rays 90 "$bin" bench rays --size "$rays_size"
+step bench-sample-cache 120 "$bin" bench sample-cache --scene "$sponza" \
+  --size "$bench_size" --frames "$frames" --rt auto
+# Fig. 12/13 at paper scale, 60 frames, Sponza from the bundle; its claims are printed at the end.
+step fig12-13 300 "$bin" experiment run experiments/fig12-13-sponza.toml \
+  --scale "$scale" --set frames="$exp_frames" --set "scenes=[\"$sponza\"]" \
+  --set "reference-cache=\"$out/reference-cache\"" --out "$out/fig12-13"
+rm -rf "$out/reference-cache" "$out/render"/*/*.exr
+# The figures in one place: what the docs quote.
+{
+  echo "# gpu-check $(date -u +%FT%TZ), $(($(date +%s) - start)) s"
+  grep -m1 -i "device" "$out/info.txt"
+  cat "$out/steps.txt"
+  echo; echo "## bench rays"; cat "$out/bench-rays.txt"
+  echo; echo "## bench sample-cache ($bench_size per eye, Sponza)"; cat "$out/bench-sample-cache.txt"
+  echo; echo "## Fig. 12/13"; cat "$out/fig12-13/claims.md" 2>/dev/null
+  grep -A12 "^method" "$out/fig12-13.txt" 2>/dev/null
+} >"$out/figures.md"
+echo "wrote $out (figures.md, steps.txt, one log per step)"
+! grep -qv 'rc=0 ' "$out/steps.txt"

@@ -1,0 +1,391 @@
+//! `stereocache experiment run FILE`: an experiment file runs end to end and
+//! records the same tables as a direct `compare` of the same settings; two
+//! shards merged give the tables of one run; malformed files fail before
+//! rendering with one `error:` line naming the file and the key.
+
+mod common;
+use common::single_error_line;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn bin() -> Command {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_stereocache"));
+    c.env("STEREOCACHE_VALIDATE", "1");
+    c
+}
+
+fn trace() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("captures/synth-head-turn.csv")
+}
+
+fn run(c: &mut Command, what: &str) -> String {
+    let o = c.output().unwrap();
+    let stdout = String::from_utf8_lossy(&o.stdout).into_owned();
+    assert!(
+        o.status.success(),
+        "{what} failed:\n{stdout}\n{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    stdout
+}
+
+/// The tiny experiment: the Cornell box along the synthetic head turn, 4
+/// frames at 24×18, software backend, 8 spp references; three deterministic
+/// configurations (naive, taa, sample-cache with its own --slots), one claim.
+fn tiny(refs: &Path) -> String {
+    format!(
+        r#"name = "tiny"
+title = "a tiny experiment"
+paper = "none"
+figures = ["summary", "ratios", "per-frame"]
+
+[run]
+scenes = ["cornell"]
+traces = ["{}"]
+size = "24x18"
+rt = "software"
+reference-spp = 8
+reference-cache = "{}"
+baseline = "naive"
+
+[scale.ci]
+frames = 4
+
+[[method]]
+method = "naive"
+
+[[method]]
+method = "taa"
+
+[[method]]
+method = "sample-cache"
+slots = 8
+
+[[claim]]
+text = "the sample cache has a lower RSE than 1 spp"
+paper = "none"
+metric = "rse"
+of = "sample-cache"
+over = "naive"
+expect = "< 1"
+"#,
+        trace().display(),
+        refs.display()
+    )
+}
+
+/// What a summary.json records that does not depend on timing: per row its
+/// label, method, frames, rays, memory, metrics with standard errors and
+/// ratios to the baseline; the reference, baseline, FLIP and masks.
+fn tables(dir: &Path) -> serde_json::Value {
+    let p = dir.join("summary.json");
+    let s: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display())),
+    )
+    .unwrap();
+    let rows: Vec<serde_json::Value> = s["methods"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| {
+            let mut r = r.clone();
+            let o = r.as_object_mut().unwrap();
+            for k in [
+                "mean_gpu_ms",
+                "p95_gpu_ms",
+                "steady_mean_gpu_ms",
+                "steady_p95_gpu_ms",
+                "pass_mean_ms",
+            ] {
+                assert!(o.remove(k).is_some(), "row without {k}");
+            }
+            r
+        })
+        .collect();
+    serde_json::json!({
+        "rows": rows,
+        "reference": s["reference"],
+        "baseline": s["baseline"],
+        "flip": s["flip"],
+        "masks": s["masks"],
+        "scene": s["scene"],
+        "size": [s["width"], s["height"]],
+    })
+}
+
+fn labels(dir: &Path) -> Vec<String> {
+    tables(dir)["rows"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| r["method"].as_str().unwrap().to_string())
+        .collect()
+}
+
+#[test]
+fn an_experiment_equals_compare_and_two_merged_shards_equal_one_run() {
+    let root = std::env::temp_dir().join(format!("stereocache-experiment-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&root);
+    std::fs::create_dir_all(&root).unwrap();
+    let file = root.join("tiny.toml");
+    std::fs::write(&file, tiny(&root.join("refs"))).unwrap();
+    let exp = |out: &Path, extra: &[&str]| {
+        let mut c = bin();
+        c.args(["experiment", "run", file.to_str().unwrap(), "--out"])
+            .arg(out)
+            .args(extra);
+        run(&mut c, &format!("experiment run {extra:?}"))
+    };
+    let one = root.join("one");
+    let printed = exp(&one, &[]);
+    let group = "cornell-synth-head-turn";
+    // End to end: the comparison's files, its report with the claim, claims.md.
+    for f in [
+        "summary.json",
+        "summary.csv",
+        "report.html",
+        "experiment.json",
+        "naive/frames.jsonl",
+        "sample-cache/frames.jsonl",
+        "viewer/index.json",
+    ] {
+        assert!(one.join(group).join(f).exists(), "{group}/{f} missing");
+    }
+    let report = std::fs::read_to_string(one.join(group).join("report.html")).unwrap();
+    assert!(
+        report.contains("id=\"claims\""),
+        "the report shows the claims"
+    );
+    assert!(
+        !report.contains("<h2 id=\"viewer\">"),
+        "figures = [..] without the viewer: not drawn"
+    );
+    let claims = std::fs::read_to_string(one.join("claims.md")).unwrap();
+    assert!(
+        claims.contains("rse sample-cache / naive = "),
+        "claims.md: {claims}"
+    );
+    assert!(printed.contains("claim: the sample cache"), "{printed}");
+    let frames = std::fs::read_to_string(one.join(group).join("naive/frames.jsonl")).unwrap();
+    assert_eq!(frames.lines().count(), 4, "[scale.ci] frames = 4");
+
+    // The same settings as a direct compare: the same tables.
+    let direct = root.join("direct");
+    let mut c = bin();
+    c.args(["compare", "--scene", "cornell", "--trace"])
+        .arg(trace())
+        .args([
+            "--size",
+            "24x18",
+            "--rt",
+            "software",
+            "--reference-spp",
+            "8",
+            "--reference-cache",
+        ])
+        .arg(root.join("refs"))
+        .args([
+            "--baseline",
+            "naive",
+            "--frames",
+            "4",
+            "--methods",
+            "naive,taa,sample-cache",
+            "--slots",
+            "8",
+            "--out",
+        ])
+        .arg(&direct);
+    run(&mut c, "compare");
+    assert_eq!(tables(&one.join(group)), tables(&direct));
+
+    // Two shards: disjoint, together every configuration; merged = one run.
+    let (s1, s2, merged) = (root.join("s1"), root.join("s2"), root.join("merged"));
+    exp(&s1, &["--shard", "1/2"]);
+    exp(&s2, &["--shard", "2/2"]);
+    assert_eq!(labels(&s1.join(group)), ["naive", "sample-cache"]);
+    assert_eq!(labels(&s2.join(group)), ["taa"]);
+    let mut c = bin();
+    c.args(["experiment", "merge"])
+        .arg(&s1)
+        .arg(&s2)
+        .arg("--out")
+        .arg(&merged);
+    let printed = run(&mut c, "experiment merge");
+    assert_eq!(tables(&merged.join(group)), tables(&one.join(group)));
+    assert!(merged.join(group).join("report.html").exists());
+    assert!(merged.join(group).join("taa/frames.jsonl").exists());
+    let index: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(merged.join(group).join("viewer/index.json")).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(
+        index["frames"][0]["labels"],
+        serde_json::json!(["naive", "taa", "sample-cache"]),
+        "the merged viewer lists every configuration"
+    );
+    assert_eq!(
+        std::fs::read_to_string(merged.join("claims.md")).unwrap(),
+        claims,
+        "the merged claims equal one run's"
+    );
+    assert!(printed.contains("claim: the sample cache"), "{printed}");
+    let _ = std::fs::remove_dir_all(&root);
+}
+
+#[test]
+fn malformed_files_fail_with_one_error_line_naming_the_file_and_key() {
+    let root =
+        std::env::temp_dir().join(format!("stereocache-experiment-bad-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&root);
+    std::fs::create_dir_all(&root).unwrap();
+    let good = tiny(&root.join("refs"));
+    let cases: Vec<(&str, String, &[&str])> = vec![
+        (
+            "unknown top-level key",
+            good.replace(
+                "paper = \"none\"\nfigures",
+                "paper = \"none\"\ncolour = 3\nfigures",
+            ),
+            &["colour"],
+        ),
+        (
+            "bad value",
+            good.replace("reference-spp = 8", "spp = 0\nreference-spp = 8"),
+            &["'spp'", "--spp"],
+        ),
+        (
+            "odd reference spp",
+            good.replace("reference-spp = 8", "reference-spp = 7"),
+            &["reference-spp"],
+        ),
+        (
+            "unknown method option",
+            good.replace("slots = 8", "slot = 8"),
+            &["'slot'", "sample-cache"],
+        ),
+        (
+            "bad method option value",
+            good.replace("slots = 8", "retrace = \"sometimes\""),
+            &["'retrace'", "sometimes"],
+        ),
+        (
+            "unknown method",
+            good.replace("method = \"taa\"", "method = \"magic\""),
+            &["'method'", "magic"],
+        ),
+        (
+            "missing trace",
+            good.replace("synth-head-turn.csv", "no-such-trace.csv"),
+            &["traces", "no-such-trace.csv"],
+        ),
+        (
+            "TOML syntax",
+            good.replace("size = \"24x18\"", "size = \"24x18"),
+            &["tiny.toml:"],
+        ),
+        (
+            "unknown figure",
+            good.replace("\"per-frame\"]", "\"pie-chart\"]"),
+            &["figures", "pie-chart"],
+        ),
+        (
+            "not in files",
+            good.replace("size = \"24x18\"", "size = \"24x18\"\nout = \"x\""),
+            &["'out'"],
+        ),
+        (
+            "claim of an unknown configuration",
+            good.replace("of = \"sample-cache\"", "of = \"nobody\""),
+            &["'of'", "nobody"],
+        ),
+    ];
+    for (what, text, words) in cases {
+        let file = root.join("tiny.toml");
+        std::fs::write(&file, &text).unwrap();
+        let out = root.join("out");
+        let o = bin()
+            .args(["experiment", "run", file.to_str().unwrap(), "--out"])
+            .arg(&out)
+            .output()
+            .unwrap();
+        let line = single_error_line(&o, what);
+        assert!(line.contains("tiny.toml"), "{what}: names the file: {line}");
+        for w in words {
+            assert!(line.contains(w), "{what}: '{w}' in: {line}");
+        }
+        assert!(!out.exists(), "{what}: failed before writing anything");
+    }
+    // A scale the file does not have.
+    std::fs::write(root.join("tiny.toml"), &good).unwrap();
+    let o = bin()
+        .args(["experiment", "run"])
+        .arg(root.join("tiny.toml"))
+        .args(["--scale", "paper", "--check"])
+        .output()
+        .unwrap();
+    let line = single_error_line(&o, "unknown scale");
+    assert!(
+        line.contains("scale.paper") && line.contains("ci"),
+        "{line}"
+    );
+    let _ = std::fs::remove_dir_all(&root);
+}
+
+#[test]
+fn a_sweep_gives_one_configuration_per_value_and_shards_deal_them_round_robin() {
+    let root = std::env::temp_dir().join(format!(
+        "stereocache-experiment-sweep-{}",
+        std::process::id()
+    ));
+    let _ = std::fs::remove_dir_all(&root);
+    std::fs::create_dir_all(&root).unwrap();
+    let text = tiny(&root.join("refs"))
+        .replace(
+            "slots = 8",
+            "slots = 8\nstereo-blend = \"moments\"\nsweep = { sharpness = [0.0, 0.5, 1.0] }",
+        )
+        .replace("of = \"sample-cache\"", "of = \"sample-cache-sharpness=0\"");
+    let file = root.join("tiny.toml");
+    std::fs::write(&file, text).unwrap();
+    let listed = |extra: &[&str]| -> Vec<String> {
+        let mut c = bin();
+        c.args(["experiment", "run"])
+            .arg(&file)
+            .arg("--check")
+            .args(extra);
+        run(&mut c, "experiment run --check")
+            .lines()
+            .filter_map(|l| l.strip_prefix("  cornell-synth-head-turn / "))
+            .map(str::to_string)
+            .collect()
+    };
+    let all = [
+        "naive",
+        "taa",
+        "sample-cache-sharpness=0",
+        "sample-cache-sharpness=0.5",
+        "sample-cache-sharpness=1",
+    ];
+    assert_eq!(listed(&[]), all);
+    assert_eq!(listed(&["--shard", "1/2"]), [all[0], all[2], all[4]]);
+    assert_eq!(listed(&["--shard", "2/2"]), [all[1], all[3]]);
+    // A bad sweep value is refused with its key.
+    std::fs::write(
+        &file,
+        tiny(&root.join("refs")).replace("slots = 8", "sweep = { sharpness = [0.5, 2.0] }"),
+    )
+    .unwrap();
+    let o = bin()
+        .args(["experiment", "run"])
+        .arg(&file)
+        .arg("--check")
+        .output()
+        .unwrap();
+    let line = single_error_line(&o, "sharpness 2");
+    assert!(
+        line.contains("'sharpness'") && line.contains("--sharpness"),
+        "{line}"
+    );
+    let _ = std::fs::remove_dir_all(&root);
+}
