@@ -140,8 +140,12 @@ fn bind(path: &Path, edit: impl FnOnce(&mut serde_json::Value)) {
         serde_json::from_str::<serde_json::Value>(PROCEDURAL).unwrap()
     ] } });
     let m0 = &mut j["materials"][0];
-    m0["pbrMetallicRoughness"]["baseColorFactor"] =
-        serde_json::json!([KHR_BASE_FACTOR[0], KHR_BASE_FACTOR[1], KHR_BASE_FACTOR[2], 1.0]);
+    m0["pbrMetallicRoughness"]["baseColorFactor"] = serde_json::json!([
+        KHR_BASE_FACTOR[0],
+        KHR_BASE_FACTOR[1],
+        KHR_BASE_FACTOR[2],
+        1.0
+    ]);
     m0["pbrMetallicRoughness"]["baseColorTexture"] = khr(0);
     m0["emissiveTexture"] = khr(1);
     m0["emissiveFactor"] = serde_json::json!(KHR_EMISSIVE_FACTOR);
@@ -223,10 +227,18 @@ fn graph_bound_materials_render_the_cpu_evaluators_values() {
     let path = write_quads(&d);
     bind(&path, |_| {});
     let scene = stereocache::scene::load_gltf(&path).expect("bound scene loads");
-    assert_eq!(scene.graphs.graphs.len(), 2, "one KHR graph, one .mtlx graph");
+    assert_eq!(
+        scene.graphs.graphs.len(),
+        2,
+        "one KHR graph, one .mtlx graph"
+    );
     // The bound slots' textures are off (the graph stands in for them).
     assert!(scene.materials[0].base_color_texture.is_none());
-    assert_eq!(scene.materials[1].emissive, Vec3::ONE, "extras form: factors 1");
+    assert_eq!(
+        scene.materials[1].emissive,
+        Vec3::ONE,
+        "extras form: factors 1"
+    );
     let settings = RenderSettings {
         width: 40,
         height: 24,
@@ -241,7 +253,10 @@ fn graph_bound_materials_render_the_cpu_evaluators_values() {
             continue;
         }
         let s = session(&ctx, scene.clone(), rt);
-        assert!(s.scene_gpu.shaders.is_some(), "{rt:?}: graph scene has run-time shaders");
+        assert!(
+            s.scene_gpu.shaders.is_some(),
+            "{rt:?}: graph scene has run-time shaders"
+        );
         let f = render(&s, "reference", top_camera(), &settings);
         let (w, h) = (f.width as usize, f.height as usize);
         let mut checked = [0usize; 2];
@@ -293,10 +308,15 @@ fn graph_bound_materials_render_the_cpu_evaluators_values() {
             "{rt:?}: inner pixels per quad {checked:?}"
         );
         // The base colours vary across the quads (the probe is not vacuous).
-        let (lo, hi) = albedos.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(l, h), a| {
-            (l.min(*a), h.max(*a))
-        });
-        assert!((hi - lo).max_element() > 0.2, "{rt:?}: albedo range {lo}..{hi}");
+        let (lo, hi) = albedos
+            .iter()
+            .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(l, h), a| {
+                (l.min(*a), h.max(*a))
+            });
+        assert!(
+            (hi - lo).max_element() > 0.2,
+            "{rt:?}: albedo range {lo}..{hi}"
+        );
     }
     assert_no_validation_messages(&ctx);
     let _ = std::fs::remove_dir_all(&d);
@@ -351,10 +371,15 @@ fn malformed_bindings_error_clearly() {
         (
             "unknown node",
             Box::new(|j| {
-                j["extensions"]["KHR_texture_procedurals"]["procedurals"][0]["nodes"][2]["nodetype"] =
-                    "sine".into()
+                j["extensions"]["KHR_texture_procedurals"]["procedurals"][0]["nodes"][2]
+                    ["nodetype"] = "sine".into()
             }),
-            vec!["material 0 'khr'", "procedurals[0]", "graph `khr_test`", "node `s`"],
+            vec![
+                "material 0 'khr'",
+                "procedurals[0]",
+                "graph `khr_test`",
+                "node `s`",
+            ],
         ),
         (
             "procedural index",
@@ -362,7 +387,11 @@ fn malformed_bindings_error_clearly() {
                 j["materials"][0]["emissiveTexture"]["extensions"]["KHR_texture_procedurals"]
                     ["index"] = 4.into()
             }),
-            vec!["material 0 'khr'", "emissiveTexture", "index 4 is out of range"],
+            vec![
+                "material 0 'khr'",
+                "emissiveTexture",
+                "index 4 is out of range",
+            ],
         ),
         (
             "output index",
@@ -383,7 +412,13 @@ fn malformed_bindings_error_clearly() {
                 j["materials"][1]["extras"]["materialx"]["outputs"] =
                     serde_json::json!({ "roughness": "base_color" })
             }),
-            vec!["material 1 'extras'", "ball.mtlx", "graph `ball`", "node `base_color`", "roughness"],
+            vec![
+                "material 1 'extras'",
+                "ball.mtlx",
+                "graph `ball`",
+                "node `base_color`",
+                "roughness",
+            ],
         ),
         (
             "unknown graph",
@@ -405,4 +440,28 @@ fn malformed_bindings_error_clearly() {
         }
         let _ = std::fs::remove_dir_all(&d);
     }
+}
+
+/// `material-balls` binds a library graph to every material, and writing
+/// it as glTF (with the `.mtlx` files beside it) and loading it back gives
+/// the same bindings and graphs.
+#[test]
+fn material_balls_bind_every_material_and_round_trip() {
+    let s = stereocache::scene::generate("material-balls").unwrap();
+    assert_eq!(s.graphs.materials.len(), s.materials.len());
+    assert_eq!(s.graphs.graphs.len(), s.materials.len());
+    for (mi, binds) in &s.graphs.materials {
+        let slots: Vec<Slot> = binds.iter().map(|b| b.slot).collect();
+        assert!(slots.contains(&Slot::BaseColor), "material {mi}: {slots:?}");
+    }
+    let d = dir("balls");
+    let path = stereocache::scene::generate_to_dir("material-balls", &d).unwrap();
+    assert!(d.join("materials/bricks.mtlx").is_file());
+    let back = stereocache::scene::load_gltf(&path).unwrap();
+    assert_eq!(back.graphs.materials, s.graphs.materials);
+    for (a, b) in back.graphs.graphs.iter().zip(&s.graphs.graphs) {
+        assert_eq!(a.name, b.name);
+        assert_eq!(a.nodes.len(), b.nodes.len());
+    }
+    let _ = std::fs::remove_dir_all(&d);
 }

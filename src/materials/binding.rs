@@ -105,6 +105,9 @@ pub struct SceneGraphs {
     pub origins: Vec<Origin>,
     /// (scene material index, its bound inputs), by material index.
     pub materials: Vec<(u32, Vec<SlotBind>)>,
+    /// Text of each attached `.mtlx` by its path relative to the glTF (the
+    /// writer stores them beside the file it writes).
+    pub mtlx_texts: Vec<(PathBuf, String)>,
 }
 
 impl SceneGraphs {
@@ -123,6 +126,53 @@ impl SceneGraphs {
             .iter()
             .find(|(m, _)| *m == material)
             .map_or(&[], |(_, b)| b.as_slice())
+    }
+
+    /// Attaches the one nodegraph of the `.mtlx` text `text` (stored as
+    /// `file`, relative to the glTF) to `material` by the extras form's
+    /// output names — what a glTF material's `extras.materialx` does; the
+    /// generated scenes use it.
+    pub fn attach_mtlx(
+        &mut self,
+        material: u32,
+        m: &mut Material,
+        file: &str,
+        text: &str,
+    ) -> Result<(), GraphError> {
+        let doc = Document::parse(file, text)?;
+        let name = match doc.graphs.as_slice() {
+            [one] => one.name.clone(),
+            other => {
+                return Err(GraphError::file(
+                    file,
+                    format!("has {} nodegraphs, not one", other.len()),
+                ))
+            }
+        };
+        self.attach_doc(material, m, file, &doc, &name, text, &[])
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn attach_doc(
+        &mut self,
+        material: u32,
+        m: &mut Material,
+        file: &str,
+        doc: &Document,
+        graph: &str,
+        text: &str,
+        outputs: &[(String, String)],
+    ) -> Result<(), GraphError> {
+        let origin = Origin::Mtlx {
+            file: PathBuf::from(file),
+            graph: graph.to_string(),
+        };
+        let g = self.intern(origin, || Graph::build(doc, graph, &[]))?;
+        if !self.mtlx_texts.iter().any(|(p, _)| p == Path::new(file)) {
+            self.mtlx_texts
+                .push((PathBuf::from(file), text.to_string()));
+        }
+        self.bind_by_names(material, m, g, outputs)
     }
 
     /// Index of the graph from `origin`, loading it with `load` the first time.
@@ -286,7 +336,10 @@ pub fn from_gltf_json(
         if let Some(x) = mj.pointer("/extras/materialx") {
             let (file, graph, outputs) = parse_extras(x).map_err(|e| format!("{label}: {e}"))?;
             let path = dir.join(&file);
-            let doc = Document::load(&path).map_err(fail)?;
+            let shown = path.display().to_string();
+            let text = std::fs::read_to_string(&path)
+                .map_err(|e| fail(GraphError::file(&shown, format!("cannot read ({e})"))))?;
+            let doc = Document::parse(&shown, &text).map_err(fail)?;
             let name = match graph {
                 Some(g) => g,
                 None if doc.graphs.len() == 1 => doc.graphs[0].name.clone(),
@@ -300,15 +353,16 @@ pub fn from_gltf_json(
                     )))
                 }
             };
-            let origin = Origin::Mtlx {
-                file: PathBuf::from(&file),
-                graph: name.clone(),
-            };
-            let g = sg
-                .intern(origin, || Graph::build(&doc, &name, &[]))
-                .map_err(fail)?;
-            sg.bind_by_names(i as u32, &mut materials[i], g, &outputs)
-                .map_err(fail)?;
+            sg.attach_doc(
+                i as u32,
+                &mut materials[i],
+                &file,
+                &doc,
+                &name,
+                &text,
+                &outputs,
+            )
+            .map_err(fail)?;
         }
         // KHR_texture_procedurals on the texture references.
         let refs = [

@@ -7,6 +7,75 @@ use super::error::GraphError;
 use super::graph::Graph;
 use std::path::PathBuf;
 
+/// The shipped files' names and texts, embedded (the generated scenes use
+/// them wherever the binary runs).
+pub const EMBEDDED: &[(&str, &str)] = &[
+    (
+        "bricks.mtlx",
+        include_str!("../../scenes/materials/bricks.mtlx"),
+    ),
+    (
+        "cardboard.mtlx",
+        include_str!("../../scenes/materials/cardboard.mtlx"),
+    ),
+    (
+        "concrete.mtlx",
+        include_str!("../../scenes/materials/concrete.mtlx"),
+    ),
+    (
+        "fabric.mtlx",
+        include_str!("../../scenes/materials/fabric.mtlx"),
+    ),
+    (
+        "granite.mtlx",
+        include_str!("../../scenes/materials/granite.mtlx"),
+    ),
+    (
+        "lava.mtlx",
+        include_str!("../../scenes/materials/lava.mtlx"),
+    ),
+    (
+        "leather.mtlx",
+        include_str!("../../scenes/materials/leather.mtlx"),
+    ),
+    (
+        "marble.mtlx",
+        include_str!("../../scenes/materials/marble.mtlx"),
+    ),
+    (
+        "rust.mtlx",
+        include_str!("../../scenes/materials/rust.mtlx"),
+    ),
+    (
+        "terrazzo.mtlx",
+        include_str!("../../scenes/materials/terrazzo.mtlx"),
+    ),
+    (
+        "tiles.mtlx",
+        include_str!("../../scenes/materials/tiles.mtlx"),
+    ),
+    (
+        "wood.mtlx",
+        include_str!("../../scenes/materials/wood.mtlx"),
+    ),
+];
+
+/// The graph of an embedded file (its one nodegraph), named `materials/<file>` in errors.
+pub fn embedded(file: &str) -> Result<Graph, GraphError> {
+    let text = EMBEDDED
+        .iter()
+        .find(|(n, _)| *n == file)
+        .map(|(_, t)| *t)
+        .ok_or_else(|| GraphError::file(file, "not a shipped library file"))?;
+    let doc = Document::parse(&format!("materials/{file}"), text)?;
+    let name = doc
+        .graphs
+        .first()
+        .map(|g| g.name.clone())
+        .ok_or_else(|| GraphError::file(file, "has no nodegraph"))?;
+    Graph::build(&doc, &name, &[])
+}
+
 /// The library's folder.
 pub fn dir() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/materials")

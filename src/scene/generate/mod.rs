@@ -1,8 +1,10 @@
-//! Deterministic built-in scenes: `cornell`, `hairball` and `plane`. Each has a
+//! Deterministic built-in scenes: `cornell`, `hairball`, `plane` and
+//! `material-balls` (material graphs, issue 17). Each has a
 //! camera named `default`; the same name always gives bit-identical scenes.
 
 pub mod cornell;
 pub mod hairball;
+pub mod material_balls;
 pub mod plane;
 
 use super::export::write_gltf;
@@ -11,7 +13,7 @@ use glam::{Mat4, Vec2, Vec3};
 use std::path::{Path, PathBuf};
 
 /// Names accepted by [`generate`].
-pub const NAMES: &[&str] = &["cornell", "hairball", "plane"];
+pub const NAMES: &[&str] = &["cornell", "hairball", "plane", "material-balls"];
 
 /// Builds the named scene, or `None` for an unknown name. The result has passed
 /// `Scene::validate`.
@@ -20,6 +22,7 @@ pub fn generate(name: &str) -> Option<Scene> {
         "cornell" => cornell::cornell(),
         "hairball" => hairball::hairball(),
         "plane" => plane::plane(),
+        "material-balls" => material_balls::material_balls(),
         _ => return None,
     };
     // Generators are code, not user input: a failure here is a bug.
