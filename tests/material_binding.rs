@@ -465,3 +465,26 @@ fn material_balls_bind_every_material_and_round_trip() {
     }
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// `procedural:[SEED:]SCENE` binds a library graph to every material,
+/// deterministically for a seed, differently for another.
+#[test]
+fn procedural_scene_spec_assigns_seeded_library_graphs() {
+    let load = |spec: &str| stereocache::scene::load_scene(spec).unwrap();
+    let a = load("procedural:cornell");
+    let b = load("procedural:1:cornell");
+    let c = load("procedural:7:cornell");
+    assert_eq!(a.graphs.materials.len(), a.materials.len());
+    let names = |s: &Scene| -> Vec<String> {
+        s.graphs
+            .materials
+            .iter()
+            .map(|(_, b)| s.graphs.graphs[b[0].graph].name.clone())
+            .collect()
+    };
+    assert_eq!(names(&a), names(&b));
+    assert_ne!(names(&a), names(&c));
+    assert!(names(&a).iter().all(|n| n != "lava"));
+    let e = stereocache::scene::load_scene("procedural:3:nope.gltf").unwrap_err();
+    assert!(e.to_string().contains("nope.gltf"), "{e}");
+}

@@ -125,7 +125,7 @@ pub fn rt(s: &str) -> Result<RtChoice, String> {
 
 #[derive(Args, Clone)]
 pub struct SceneArgs {
-    /// Scene: built-in name (cornell, hairball, plane), a .gltf/.glb file, or a directory holding one.
+    /// Scene: built-in name (cornell, hairball, plane, material-balls), a .gltf/.glb file, or a directory holding one.
     #[arg(long, default_value = "cornell")]
     pub scene: String,
     /// Lighting for scenes without lights: sun-sky[:ELEV,AZIM,TURB], constant:R,G,B, env:PATH.hdr|.exr

@@ -7,7 +7,7 @@ use stereocache::scene::generate_to_dir;
 
 #[derive(Subcommand)]
 pub enum SceneCommand {
-    /// Write a generated scene (cornell, hairball, plane) as glTF into DIR.
+    /// Write a generated scene (cornell, hairball, plane, material-balls) as glTF into DIR.
     Generate {
         name: String,
         #[arg(long)]
