@@ -9,6 +9,9 @@
 //! becomes one GLSL header per group, `OUT_DIR/interface/<group>.glsl`, on
 //! glslc's include path: binding numbers, push-constant fields, counter
 //! slots and specialization-constant ids come from one place.
+//! For shaders recompiled at run time (a scene's material graphs,
+//! src/materials/scene_shaders.rs) the table also embeds every shader source,
+//! every interface header and each variant's (source, defines).
 
 #[allow(dead_code)]
 #[path = "src/interface/mod.rs"]
@@ -47,6 +50,22 @@ fn traces_rays(file: &Path, root: &Path, seen: &mut Vec<PathBuf>) -> bool {
         })
 }
 
+/// Every file under `dir` (shader sources and includes), as paths.
+fn collect_all(dir: &Path, out: &mut Vec<PathBuf>) {
+    let Ok(rd) = std::fs::read_dir(dir) else {
+        return;
+    };
+    let mut entries: Vec<_> = rd.flatten().map(|e| e.path()).collect();
+    entries.sort();
+    for p in entries {
+        if p.is_dir() {
+            collect_all(&p, out);
+        } else if p.extension().is_some_and(|e| e == "comp" || e == "glsl") {
+            out.push(p);
+        }
+    }
+}
+
 fn main() {
     println!("cargo:rerun-if-changed=shaders");
     println!("cargo:rerun-if-changed=src/interface");
@@ -56,11 +75,12 @@ fn main() {
     let out_dir = PathBuf::from(std::env::var("OUT_DIR").unwrap());
     let header_dir = out_dir.join("interface");
     std::fs::create_dir_all(&header_dir).unwrap();
-    let headers = interface::ALL
+    let headers: Vec<(&str, String)> = interface::ALL
         .iter()
         .map(|i| (i.name, interface::glsl::header(i)))
-        .chain([("frame", interface::glsl::frame_header())]);
-    for (name, text) in headers {
+        .chain([("frame", interface::glsl::frame_header())])
+        .collect();
+    for (name, text) in &headers {
         let path = header_dir.join(format!("{name}.glsl"));
         // Rewritten only when changed, so glslc's inputs keep their times.
         if std::fs::read_to_string(&path).ok().as_deref() != Some(text.as_str()) {
@@ -166,6 +186,43 @@ fn main() {
         let file = out_dir.join(format!("{}.spv", name.replace('/', "__")));
         table.push_str(&format!(
             "    ({name:?}, include_bytes!({:?})),\n",
+            file.to_string_lossy()
+        ));
+    }
+    table.push_str("];\n");
+    table.push_str(
+        "/// (variant name, source under shaders/, glslc defines) of every compiled shader.\n\
+         pub static VARIANTS: &[(&str, &str, &[&str])] = &[\n",
+    );
+    for (name, src, defs) in &jobs {
+        let rel = src.strip_prefix(&shader_dir).unwrap();
+        let rel = rel.to_string_lossy().replace('\\', "/");
+        table.push_str(&format!("    ({name:?}, {rel:?}, &{defs:?}),\n"));
+    }
+    table.push_str("];\n");
+    table.push_str(
+        "/// (path under shaders/, text) of every shader source and include.\n\
+         pub static SOURCES: &[(&str, &str)] = &[\n",
+    );
+    let mut all = Vec::new();
+    collect_all(&shader_dir, &mut all);
+    for f in &all {
+        let rel = f.strip_prefix(&shader_dir).unwrap();
+        let rel = rel.to_string_lossy().replace('\\', "/");
+        table.push_str(&format!(
+            "    ({rel:?}, include_str!({:?})),\n",
+            f.to_string_lossy()
+        ));
+    }
+    table.push_str("];\n");
+    table.push_str(
+        "/// (include name, text) of the generated interface headers (`interface/<group>.glsl`).\n\
+         pub static HEADERS: &[(&str, &str)] = &[\n",
+    );
+    for (name, _) in &headers {
+        let file = header_dir.join(format!("{name}.glsl"));
+        table.push_str(&format!(
+            "    (\"interface/{name}.glsl\", include_str!({:?})),\n",
             file.to_string_lossy()
         ));
     }

@@ -45,6 +45,11 @@ vec3 emitted_radiance(EmitterGpu e, vec2 bary, vec3 dir) {
         vec2 uv = triangle_uv(inst, prim, bary);
         Le *= sample_texture(g.tex0.w, uv, 0.0).rgb;
     }
+#ifdef SC_MATERIAL_GRAPHS
+    // The emission graph at the sampled point, as material_at evaluates it there.
+    Surface gs = surface_at(inst, prim, bary, dir);
+    Le *= sc_material_graphs(gs.material, gs.uv, gs.p, gs.n, gs.tangent).emission;
+#endif
     return Le;
 }
 

@@ -22,6 +22,15 @@ ShadingMaterial material_at(inout Surface s, vec3 ray_dir, float cone_width) {
     m.specular = g.extra.y;
     m.emissive = SC_EMISSIVE ? g.emissive_metallic.rgb : vec3(0.0);
     float cos_i = dot(s.ng, -ray_dir);
+#ifdef SC_MATERIAL_GRAPHS
+    // Bound graph outputs multiply the factors in place of the textures
+    // (whose indices are -1 then); unbound outputs are 1 (binding.rs).
+    ScGraphOutputs go = sc_material_graphs(s.material, s.uv, s.p, s.n, s.tangent);
+    m.base *= go.base_color;
+    m.metallic *= go.metallic;
+    m.roughness *= go.roughness;
+    m.emissive *= go.emission;
+#endif
     if (SC_TEXTURES) {
         if (g.tex0.x >= 0) m.base *= sample_texture(g.tex0.x, s.uv, texture_lod(g.tex0.x, s, cone_width, cos_i)).rgb;
         if (g.tex0.y >= 0) {
@@ -41,6 +50,23 @@ ShadingMaterial material_at(inout Surface s, vec3 ray_dir, float cone_width) {
             if (dot(n, s.ng) > 0.0 && all(equal(n, n))) s.n = n;
         }
     }
+#ifdef SC_MATERIAL_GRAPHS
+    // A world-space normal output replaces the shading normal; a
+    // tangent-space one (KHR_texture_procedurals normalTexture) is applied
+    // like a normal texture. Either only where it stays on the visible side.
+    if ((go.mask & 40u) != 0u) {
+        vec3 n = go.normal;
+        if ((go.mask & 32u) != 0u) {
+            vec3 tn = go.normal * 2.0 - 1.0;
+            tn.xy *= g.extra.x;
+            vec3 T = normalize(s.tangent - s.n * dot(s.n, s.tangent));
+            vec3 B = cross(s.n, T) * s.tangent_sign;
+            n = dot(s.tangent, s.tangent) > 0.0 ? tn.x * T + tn.y * B + tn.z * s.n : s.n;
+        }
+        n = normalize(n);
+        if (dot(n, s.ng) > 0.0 && all(equal(n, n))) s.n = n;
+    }
+#endif
     // Emission only from the front of single-sided emitters.
     if (!s.front && g.tex1.z == 0) m.emissive = vec3(0.0);
     m.roughness = clamp(m.roughness, 0.0, 1.0);

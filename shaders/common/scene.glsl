@@ -139,4 +139,10 @@ vec3 offset_ray(vec3 p, vec3 n) {
                 abs(p.y) < origin ? p.y + float_scale * n.y : p_i.y,
                 abs(p.z) < origin ? p.z + float_scale * n.z : p_i.z);
 }
+
+// A scene's material graphs (issue 17): generated at scene load and compiled
+// in only for scenes that have them (src/materials/scene_shaders.rs).
+#ifdef SC_MATERIAL_GRAPHS
+#include "materialx/scene_graphs.glsl"
+#endif
 #endif

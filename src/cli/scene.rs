@@ -8,7 +8,8 @@ use stereocache::scene::generate_to_dir;
 #[derive(Subcommand)]
 pub enum SceneCommand {
     /// Write a generated scene (cornell, hairball, plane, cornell-moving,
-    /// hairball-rotating; the moving ones with their glTF animation) into DIR.
+    /// hairball-rotating, material-balls; the moving ones with their glTF
+    /// animation, material-balls with its .mtlx files) into DIR.
     Generate {
         name: String,
         #[arg(long)]

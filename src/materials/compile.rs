@@ -125,3 +125,95 @@ pub fn compile_in(dir: &Path, what: &str, source: &str) -> Result<Compiled, Stri
         cached: false,
     })
 }
+
+/// Compiles `main` (a path inside the source tree `files`: (path, text)
+/// pairs written under `<dir>/tree-<hash>/`, glslc's include path) with
+/// `defines` (`-DNAME`), cached like [`compile_in`] by the hash of the whole
+/// tree, `main`, the defines and the arguments.
+pub fn compile_tree(
+    dir: &Path,
+    what: &str,
+    files: &[(&str, &str)],
+    main: &str,
+    defines: &[&str],
+) -> Result<Compiled, String> {
+    let glslc = std::env::var("GLSLC").unwrap_or_else(|_| "glslc".into());
+    let mut parts: Vec<&str> = Vec::new();
+    for (p, t) in files {
+        parts.push(p);
+        parts.push(t);
+    }
+    let tree_hash = content_hash(&parts);
+    let mut key = vec![tree_hash.as_str(), main];
+    key.extend_from_slice(defines);
+    key.extend_from_slice(ARGS);
+    let hash = content_hash(&key);
+    let spv = dir.join(format!("{hash}.spv"));
+    if let Ok(bytes) = std::fs::read(&spv) {
+        if bytes.len() >= 20 && bytes.len() % 4 == 0 && bytes[..4] == [0x03, 0x02, 0x23, 0x07] {
+            return Ok(Compiled {
+                spirv: bytes,
+                path: spv,
+                cached: true,
+            });
+        }
+    }
+    static SEQ: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    let seq = SEQ.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let tag = format!("{}-{seq}", std::process::id());
+    let tree = dir.join(format!("tree-{tree_hash}"));
+    if !tree.is_dir() {
+        // Written under a temporary name and renamed: a half-written tree is never used.
+        let tmp_tree = dir.join(format!("tree-{tree_hash}.{tag}.tmp"));
+        let write = || -> std::io::Result<()> {
+            for (p, t) in files {
+                let f = tmp_tree.join(p);
+                std::fs::create_dir_all(f.parent().unwrap_or(&tmp_tree))?;
+                std::fs::write(f, t)?;
+            }
+            Ok(())
+        };
+        write().map_err(|e| {
+            format!(
+                "{what}: cannot write the shader sources to {} ({e})",
+                tmp_tree.display()
+            )
+        })?;
+        if std::fs::rename(&tmp_tree, &tree).is_err() {
+            // Another process renamed its copy first: same content.
+            let _ = std::fs::remove_dir_all(&tmp_tree);
+        }
+    }
+    let tmp = dir.join(format!("{hash}.{tag}.spv.tmp"));
+    let out = Command::new(&glslc)
+        .args(ARGS)
+        .arg("-I")
+        .arg(&tree)
+        .args(defines)
+        .arg(tree.join(main))
+        .arg("-o")
+        .arg(&tmp)
+        .output();
+    let res = match out {
+        Err(e) => Err(format!(
+            "{what}: cannot run glslc ({e}); install it with scripts/setup.sh or set GLSLC"
+        )),
+        Ok(o) if !o.status.success() => Err(format!(
+            "{what}: glslc failed ({}):\n{}{}",
+            tree.join(main).display(),
+            String::from_utf8_lossy(&o.stdout),
+            String::from_utf8_lossy(&o.stderr)
+        )),
+        Ok(_) => std::fs::rename(&tmp, &spv)
+            .map_err(|e| format!("{what}: cannot store {} ({e})", spv.display())),
+    };
+    let _ = std::fs::remove_file(&tmp);
+    res?;
+    let spirv =
+        std::fs::read(&spv).map_err(|e| format!("{what}: cannot read {} ({e})", spv.display()))?;
+    Ok(Compiled {
+        spirv,
+        path: spv,
+        cached: false,
+    })
+}

@@ -15,7 +15,8 @@ pub struct GraphError {
 impl fmt::Display for GraphError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(f, "{}", self.file)?;
-        if let Some(l) = self.line {
+        // Line 0: a graph that did not come from XML (KHR_texture_procedurals JSON).
+        if let Some(l) = self.line.filter(|&l| l > 0) {
             write!(f, ":{l}")?;
         }
         write!(f, ":")?;

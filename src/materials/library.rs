@@ -7,6 +7,75 @@ use super::error::GraphError;
 use super::graph::Graph;
 use std::path::PathBuf;
 
+/// The shipped files' names and texts, embedded (the generated scenes use
+/// them wherever the binary runs).
+pub const EMBEDDED: &[(&str, &str)] = &[
+    (
+        "bricks.mtlx",
+        include_str!("../../scenes/materials/bricks.mtlx"),
+    ),
+    (
+        "cardboard.mtlx",
+        include_str!("../../scenes/materials/cardboard.mtlx"),
+    ),
+    (
+        "concrete.mtlx",
+        include_str!("../../scenes/materials/concrete.mtlx"),
+    ),
+    (
+        "fabric.mtlx",
+        include_str!("../../scenes/materials/fabric.mtlx"),
+    ),
+    (
+        "granite.mtlx",
+        include_str!("../../scenes/materials/granite.mtlx"),
+    ),
+    (
+        "lava.mtlx",
+        include_str!("../../scenes/materials/lava.mtlx"),
+    ),
+    (
+        "leather.mtlx",
+        include_str!("../../scenes/materials/leather.mtlx"),
+    ),
+    (
+        "marble.mtlx",
+        include_str!("../../scenes/materials/marble.mtlx"),
+    ),
+    (
+        "rust.mtlx",
+        include_str!("../../scenes/materials/rust.mtlx"),
+    ),
+    (
+        "terrazzo.mtlx",
+        include_str!("../../scenes/materials/terrazzo.mtlx"),
+    ),
+    (
+        "tiles.mtlx",
+        include_str!("../../scenes/materials/tiles.mtlx"),
+    ),
+    (
+        "wood.mtlx",
+        include_str!("../../scenes/materials/wood.mtlx"),
+    ),
+];
+
+/// The graph of an embedded file (its one nodegraph), named `materials/<file>` in errors.
+pub fn embedded(file: &str) -> Result<Graph, GraphError> {
+    let text = EMBEDDED
+        .iter()
+        .find(|(n, _)| *n == file)
+        .map(|(_, t)| *t)
+        .ok_or_else(|| GraphError::file(file, "not a shipped library file"))?;
+    let doc = Document::parse(&format!("materials/{file}"), text)?;
+    let name = doc
+        .graphs
+        .first()
+        .map(|g| g.name.clone())
+        .ok_or_else(|| GraphError::file(file, "has no nodegraph"))?;
+    Graph::build(&doc, &name, &[])
+}
+
 /// The library's folder.
 pub fn dir() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/materials")
@@ -34,4 +103,36 @@ pub fn load_all() -> Result<Vec<Graph>, GraphError> {
         out.extend(Graph::build_all(&doc, &[])?);
     }
     Ok(out)
+}
+
+/// The library files a random assignment picks from: all but `lava.mtlx`
+/// (emissive: a file with emissive materials gets no default lighting).
+pub fn pickable() -> impl Iterator<Item = &'static (&'static str, &'static str)> {
+    EMBEDDED.iter().filter(|(n, _)| *n != "lava.mtlx")
+}
+
+/// Replaces every material of `scene` by a library graph picked at random
+/// with `seed` (SplitMix64 of seed and material index), as the papers'
+/// PARTYTUG/Classroom setups do. The textures the graphs replace are no
+/// longer sampled (alpha-masked materials become opaque); alpha mode,
+/// double-sidedness, transmission and ior stay.
+pub fn assign_random(scene: &mut crate::scene::Scene, seed: u64) {
+    let files: Vec<_> = pickable().collect();
+    for mi in 0..scene.materials.len() {
+        let mut z = seed.wrapping_add((mi as u64 + 1).wrapping_mul(0x9e37_79b9_7f4a_7c15));
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        z ^= z >> 31;
+        let (file, text) = files[(z % files.len() as u64) as usize];
+        let mut m = scene.materials[mi].clone();
+        m.base_color_texture = None;
+        m.metallic_roughness_texture = None;
+        m.normal_texture = None;
+        m.emissive_texture = None;
+        scene
+            .graphs
+            .attach_mtlx(mi as u32, &mut m, &format!("materials/{file}"), text)
+            .unwrap_or_else(|e| panic!("library graph {file}: {e}"));
+        scene.materials[mi] = m;
+    }
 }

@@ -9,8 +9,12 @@
 //! stdlib nodedefs of the subset), `document` (XML -> element records),
 //! `graph` (typing, topological order, folding), `noise` and `eval` (CPU),
 //! `codegen` (GLSL), `compile` (glslc and the on-disk cache), `harness`
-//! (GPU evaluation at points), `library` (the shipped graphs).
+//! (GPU evaluation at points), `library` (the shipped graphs), `binding`
+//! (graphs bound to a scene's materials, from glTF) and `scene_shaders`
+//! (the scene's graphs as one GLSL include, and the hit-shading shaders
+//! recompiled with it at run time).
 
+pub mod binding;
 pub mod codegen;
 pub mod compile;
 pub mod document;
@@ -20,9 +24,11 @@ pub mod graph;
 pub mod harness;
 pub mod library;
 pub mod noise;
+pub mod scene_shaders;
 pub mod signatures;
 pub mod types;
 
+pub use binding::{SceneGraphs, Slot, SlotBind};
 pub use document::Document;
 pub use error::GraphError;
 pub use eval::{evaluate, Geom};

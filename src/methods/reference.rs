@@ -48,10 +48,13 @@ pub struct Reference {
     readback: HostReadback,
 }
 
-/// Loads a compiled shader of the scene's backend or says which is missing.
+/// Loads a compiled shader of the scene's backend or says which is missing:
+/// the scene's run-time build where it has one (material graphs,
+/// `SceneGpu::shaders`), else the build-time SPIR-V.
 pub(crate) fn backend_shader(name: &str, scene: &SceneGpu) -> GpuResult<&'static [u8]> {
     let full = format!("{name}.{}", scene.backend.shader_suffix());
-    shaders::spirv(&full)
+    shaders::lookup(&full, scene.shaders.as_deref())
+        .map_err(GpuError::Unsupported)?
         .ok_or_else(|| GpuError::Unsupported(format!("shader {full} was not compiled")))
 }
 

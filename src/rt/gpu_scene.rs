@@ -162,6 +162,9 @@ pub struct SceneGpu {
     pub triangle_count: usize,
     /// Bytes of GPU memory the scene occupies (buffers, textures, BVH/AS).
     pub bytes: u64,
+    /// Shaders rebuilt at load with the scene's material graphs
+    /// (src/materials/scene_shaders.rs); `None`: the build-time SPIR-V.
+    pub shaders: Option<Arc<dyn crate::gpu::shaders::ShaderOverride>>,
     texture_count: u32,
     /// The two-level structure, kept to rebuild its top level when instances move.
     /// (Behind a lock: methods share the scene through an `Arc`.)
@@ -540,6 +543,7 @@ impl SceneGpu {
             set,
             triangle_count: scene.instanced_triangle_count(),
             bytes,
+            shaders: crate::materials::scene_shaders::for_scene(&scene.graphs, origin),
             texture_count,
             two_level: Mutex::new(two_level),
             posed: Mutex::new(rest),

@@ -426,11 +426,30 @@ pub fn write_gltf(scene: &Scene, path: &Path) -> Result<(), SceneError> {
         used.push("KHR_lights_punctual");
     }
 
-    let materials: Vec<Value> = scene
+    let mut materials: Vec<Value> = scene
         .materials
         .iter()
         .map(|m| material_json(m, &mut used))
         .collect();
+    // Material graphs attached as .mtlx files (materials::binding's extras
+    // form) are written as such, the files beside the glTF. Graphs read from
+    // KHR_texture_procedurals are not written (the factors remain).
+    for (mi, binds) in &scene.graphs.materials {
+        let origin = binds.first().map(|b| &scene.graphs.origins[b.graph]);
+        if let Some(crate::materials::binding::Origin::Mtlx { file, graph }) = origin {
+            materials[*mi as usize]["extras"] = json!({ "materialx": {
+                "file": file.to_string_lossy().replace('\\', "/"),
+                "graph": graph,
+            } });
+        }
+    }
+    for (file, text) in &scene.graphs.mtlx_texts {
+        let dst = dir.join(file);
+        if let Some(parent) = dst.parent() {
+            std::fs::create_dir_all(parent).map_err(|e| SceneError::io(parent, e))?;
+        }
+        staged.push(stage(dst, text.as_bytes())?);
+    }
 
     let animations = scene
         .animation

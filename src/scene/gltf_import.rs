@@ -104,6 +104,15 @@ fn load_gltf_unguarded(path: &Path) -> Result<Scene, SceneError> {
         instance_paths: Vec::new(),
     };
     importer.import_materials(&buffers);
+    // Material graphs (KHR_texture_procedurals, or a .mtlx in a material's
+    // extras): read from the raw JSON, the gltf crate knows neither.
+    if has_material_graphs(&container.json) {
+        let root: serde_json::Value = serde_json::from_slice(&container.json)
+            .map_err(|e| SceneError::invalid(path, format!("invalid JSON: {e}")))?;
+        importer.scene.graphs =
+            crate::materials::binding::from_gltf_json(path, &root, &mut importer.scene.materials)
+                .map_err(|e| SceneError::invalid(path, e))?;
+    }
     importer.import_nodes()?;
     let instance_paths = std::mem::take(&mut importer.instance_paths);
     let mut scene = importer.scene;
@@ -116,6 +125,12 @@ fn load_gltf_unguarded(path: &Path) -> Result<Scene, SceneError> {
     )?;
     scene.validate()?;
     Ok(scene)
+}
+
+/// Whether the JSON may bind material graphs (a cheap test before parsing it again).
+fn has_material_graphs(json: &[u8]) -> bool {
+    let has = |pat: &[u8]| json.windows(pat.len()).any(|w| w == pat);
+    has(b"\"materialx\"") || has(b"KHR_texture_procedurals")
 }
 
 /// JSON → validated `gltf::Document`, after filtering `extensionsRequired`.
@@ -146,6 +161,8 @@ fn parse_document(
             })?;
             if gltf::json::extensions::ENABLED_EXTENSIONS.contains(&name) {
                 kept.push(ext);
+            } else if name == "KHR_texture_procedurals" {
+                // Read from the JSON by materials::binding (the crate does not know it).
             } else if APPEARANCE_ONLY_EXTENSIONS.contains(&name)
                 || name.starts_with("KHR_materials_")
             {

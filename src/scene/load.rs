@@ -15,7 +15,27 @@ fn is_gltf(p: &Path) -> bool {
 /// directory of that name in the working directory does not shadow them; write
 /// `./cornell` for that); a `.gltf`/`.glb` path loads it; a directory loads the
 /// single `.gltf`/`.glb` inside it.
+///
+/// `procedural:[SEED:]SPEC` loads SPEC and replaces every material by a
+/// library material graph picked at random with SEED (default 1), e.g.
+/// `procedural:../shared/scenes/sponza` (issue 17's procedural Sponza;
+/// `materials::library::assign_random`).
 pub fn load_scene(spec: &str) -> Result<Scene, SceneError> {
+    if let Some(rest) = spec.strip_prefix("procedural:") {
+        let (seed, inner) = match rest.split_once(':') {
+            Some((n, inner)) if !n.is_empty() && n.bytes().all(|b| b.is_ascii_digit()) => (
+                n.parse::<u64>().map_err(|e| {
+                    SceneError::invalid(Path::new(spec), format!("bad seed `{n}` ({e})"))
+                })?,
+                inner,
+            ),
+            _ => (1, rest),
+        };
+        let mut scene = load_scene(inner)?;
+        crate::materials::library::assign_random(&mut scene, seed);
+        scene.validate()?;
+        return Ok(scene);
+    }
     if let Some(scene) = generate(spec) {
         return Ok(scene);
     }

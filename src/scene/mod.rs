@@ -77,6 +77,9 @@ pub struct Scene {
     pub warnings: Vec<String>,
     /// Node animation (glTF `animations`); `None` for a static scene.
     pub animation: Option<SceneAnimation>,
+    /// Material graphs bound to materials (issue 17, src/materials/binding.rs);
+    /// empty for most scenes, whose shaders are then the build-time ones.
+    pub graphs: crate::materials::SceneGraphs,
 }
 
 impl Scene {
@@ -202,6 +205,16 @@ impl Scene {
                         ),
                     ));
                 }
+            }
+        }
+        for (mi, binds) in &self.graphs.materials {
+            if *mi as usize >= self.materials.len()
+                || binds.iter().any(|b| b.graph >= self.graphs.graphs.len())
+            {
+                return Err(SceneError::invalid(
+                    &src,
+                    format!("material graph binding of material {mi} is out of range"),
+                ));
             }
         }
         if self.instanced_triangle_count() == 0 {

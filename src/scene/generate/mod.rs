@@ -1,10 +1,12 @@
-//! Deterministic built-in scenes: `cornell`, `hairball` and `plane`, and the
-//! animated `cornell-moving` and `hairball-rotating` (animated.rs). Each has a
+//! Deterministic built-in scenes: `cornell`, `hairball` and `plane`, the
+//! animated `cornell-moving` and `hairball-rotating` (animated.rs), and
+//! `material-balls` (material graphs, issue 17). Each has a
 //! camera named `default`; the same name always gives bit-identical scenes.
 
 pub mod animated;
 pub mod cornell;
 pub mod hairball;
+pub mod material_balls;
 pub mod plane;
 
 use super::export::write_gltf;
@@ -19,6 +21,7 @@ pub const NAMES: &[&str] = &[
     "plane",
     "cornell-moving",
     "hairball-rotating",
+    "material-balls",
 ];
 
 /// Builds the named scene, or `None` for an unknown name. The result has passed
@@ -30,6 +33,7 @@ pub fn generate(name: &str) -> Option<Scene> {
         "plane" => plane::plane(),
         "cornell-moving" => animated::cornell_moving(),
         "hairball-rotating" => animated::hairball_rotating(),
+        "material-balls" => material_balls::material_balls(),
         _ => return None,
     };
     // Generators are code, not user input: a failure here is a bug.
