@@ -20,7 +20,8 @@ mod interface;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-fn collect(dir: &Path, out: &mut Vec<PathBuf>) {
+/// Every file under `dir` whose extension is one of `exts`, sorted by path.
+fn collect(dir: &Path, exts: &[&str], out: &mut Vec<PathBuf>) {
     let Ok(rd) = std::fs::read_dir(dir) else {
         return;
     };
@@ -28,8 +29,8 @@ fn collect(dir: &Path, out: &mut Vec<PathBuf>) {
     entries.sort();
     for p in entries {
         if p.is_dir() {
-            collect(&p, out);
-        } else if p.extension().is_some_and(|e| e == "comp") {
+            collect(&p, exts, out);
+        } else if p.extension().is_some_and(|e| exts.iter().any(|x| e == *x)) {
             out.push(p);
         }
     }
@@ -48,22 +49,6 @@ fn traces_rays(file: &Path, root: &Path, seen: &mut Vec<PathBuf>) -> bool {
             let name = rest.trim().trim_matches('"');
             name == "common/rt.glsl" || traces_rays(&root.join(name), root, seen)
         })
-}
-
-/// Every file under `dir` (shader sources and includes), as paths.
-fn collect_all(dir: &Path, out: &mut Vec<PathBuf>) {
-    let Ok(rd) = std::fs::read_dir(dir) else {
-        return;
-    };
-    let mut entries: Vec<_> = rd.flatten().map(|e| e.path()).collect();
-    entries.sort();
-    for p in entries {
-        if p.is_dir() {
-            collect_all(&p, out);
-        } else if p.extension().is_some_and(|e| e == "comp" || e == "glsl") {
-            out.push(p);
-        }
-    }
 }
 
 fn main() {
@@ -90,7 +75,7 @@ fn main() {
     let glslc = std::env::var("GLSLC").unwrap_or_else(|_| "glslc".into());
 
     let mut sources = Vec::new();
-    collect(&shader_dir, &mut sources);
+    collect(&shader_dir, &["comp"], &mut sources);
 
     // (name, source, defines)
     let mut jobs: Vec<(String, PathBuf, Vec<&str>)> = Vec::new();
@@ -205,7 +190,7 @@ fn main() {
          pub static SOURCES: &[(&str, &str)] = &[\n",
     );
     let mut all = Vec::new();
-    collect_all(&shader_dir, &mut all);
+    collect(&shader_dir, &["comp", "glsl"], &mut all);
     for f in &all {
         let rel = f.strip_prefix(&shader_dir).unwrap();
         let rel = rel.to_string_lossy().replace('\\', "/");

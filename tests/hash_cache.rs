@@ -16,7 +16,6 @@ use stereocache::methods::hash_cache::hash::{
 use stereocache::methods::hash_cache::{HashCache, HashCacheSettings, HashLod, ENTRY_BYTES};
 use stereocache::methods::{Method, RenderSettings, StereoFrame};
 use stereocache::rt::RtChoice;
-use stereocache::scene::Material;
 use stereocache::session::Session;
 
 /// The shared settings and the hash cache's own options (`hash`).
@@ -344,14 +343,8 @@ fn every_shipped_scene_renders_finite_radiance() {
 #[test]
 fn furnace_sphere_shows_its_albedo() {
     let ctx = context();
-    let albedo = Vec3::new(0.5, 0.25, 0.75);
-    let mut mat = Material::diffuse("grey", albedo);
-    mat.specular = 0.0;
-    let s = session(
-        &ctx,
-        faceted_sphere_in_environment(mat, Vec3::ONE),
-        RtChoice::Software,
-    );
+    let albedo = FURNACE_ALBEDO;
+    let s = session(&ctx, furnace_sphere(albedo), RtChoice::Software);
     let cam0 = look_at_camera(Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, 45.0, 1.0);
     for (tiles, taa) in [(false, false), (true, true)] {
         let hs = HashCacheSettings {

@@ -16,7 +16,6 @@ use stereocache::methods::sample_cache::background::background_direction;
 use stereocache::methods::sample_cache::SampleCacheSettings;
 use stereocache::methods::{Hybrid, HybridConfig, Method, RenderSettings};
 use stereocache::rt::{RtChoice, SoftwareBvh};
-use stereocache::scene::Material;
 use stereocache::session::Session;
 
 /// The shared settings and hybrid's own options (default visibility, `hash`)
@@ -190,14 +189,8 @@ fn invariants_hold_along_a_moving_trace() {
 #[test]
 fn furnace_sphere_shows_its_albedo() {
     let ctx = context();
-    let albedo = Vec3::new(0.5, 0.25, 0.75);
-    let mut mat = Material::diffuse("grey", albedo);
-    mat.specular = 0.0;
-    let s = session(
-        &ctx,
-        faceted_sphere_in_environment(mat, Vec3::ONE),
-        RtChoice::Software,
-    );
+    let albedo = FURNACE_ALBEDO;
+    let s = session(&ctx, furnace_sphere(albedo), RtChoice::Software);
     let cam0 = look_at_camera(Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, 45.0, 1.0);
     for tiles in [false, true] {
         let hs = HashCacheSettings {
@@ -510,14 +503,8 @@ fn per_pixel_lookups_are_three_per_pixel() {
 #[test]
 fn per_pixel_furnace_sphere_shows_its_albedo() {
     let ctx = context();
-    let albedo = Vec3::new(0.5, 0.25, 0.75);
-    let mut mat = Material::diffuse("grey", albedo);
-    mat.specular = 0.0;
-    let s = session(
-        &ctx,
-        faceted_sphere_in_environment(mat, Vec3::ONE),
-        RtChoice::Software,
-    );
+    let albedo = FURNACE_ALBEDO;
+    let s = session(&ctx, furnace_sphere(albedo), RtChoice::Software);
     let cam0 = look_at_camera(Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, 45.0, 1.0);
     for (tiles, taa) in [(false, false), (true, false), (true, true)] {
         let hs = HashCacheSettings {

@@ -28,17 +28,10 @@ fn lambert(rho: f32) -> Material {
     }
 }
 
-/// A large diffuse floor (y = 0, albedo ρ) under a square emitter of side
-/// `side` centred at height `c`; `up` turns the emitter to face +Y (away).
-fn floor_under_quad(rho: f32, side: f32, c: f32, emitter: Material, up: bool) -> Scene {
-    let mut s = Scene {
-        source: "test:floor-under-quad".into(),
-        ..Default::default()
-    };
-    let f = add_material(&mut s, lambert(rho));
-    let e = add_material(&mut s, emitter);
+/// A 40 m x 40 m floor at y = 0 facing up (+Y), centred on the origin.
+fn add_floor(s: &mut Scene, material: u32) {
     add_mesh(
-        &mut s,
+        s,
         grid(
             "floor",
             Vec3::new(-20.0, 0.0, 20.0),
@@ -48,9 +41,21 @@ fn floor_under_quad(rho: f32, side: f32, c: f32, emitter: Material, up: bool) ->
             2,
             Vec2::ONE,
         ),
-        f,
+        material,
         Mat4::IDENTITY,
     );
+}
+
+/// A large diffuse floor (y = 0, albedo ρ) under a square emitter of side
+/// `side` centred at height `c`; `up` turns the emitter to face +Y (away).
+fn floor_under_quad(rho: f32, side: f32, c: f32, emitter: Material, up: bool) -> Scene {
+    let mut s = Scene {
+        source: "test:floor-under-quad".into(),
+        ..Default::default()
+    };
+    let f = add_material(&mut s, lambert(rho));
+    let e = add_material(&mut s, emitter);
+    add_floor(&mut s, f);
     let h = 0.5 * side;
     // X × Z = −Y faces the floor; X × −Z = +Y faces away.
     let quad = if up {
@@ -566,20 +571,7 @@ fn white_floor_lit_by(lighting: &str) -> Scene {
         ..Default::default()
     };
     let f = add_material(&mut s, lambert(1.0));
-    add_mesh(
-        &mut s,
-        grid(
-            "floor",
-            Vec3::new(-20.0, 0.0, 20.0),
-            Vec3::X * 40.0,
-            Vec3::NEG_Z * 40.0,
-            2,
-            2,
-            Vec2::ONE,
-        ),
-        f,
-        Mat4::IDENTITY,
-    );
+    add_floor(&mut s, f);
     let choice: DefaultLighting = lighting.parse().expect("a valid --lighting string");
     apply_default_lighting(&mut s, &choice).unwrap();
     s

@@ -60,6 +60,27 @@ pub struct Compiled {
     pub cached: bool,
 }
 
+/// The SPIR-V stored at `spv` by an earlier compile, if it is whole (the
+/// magic number and a length of whole words).
+fn cached(spv: &Path) -> Option<Compiled> {
+    let bytes = std::fs::read(spv).ok()?;
+    (bytes.len() >= 20 && bytes.len() % 4 == 0 && bytes[..4] == [0x03, 0x02, 0x23, 0x07]).then(
+        || Compiled {
+            spirv: bytes,
+            path: spv.to_path_buf(),
+            cached: true,
+        },
+    )
+}
+
+/// A name part no other compile of this or another process uses, so
+/// concurrent compiles never write the same temporary file.
+fn unique_tag() -> String {
+    static SEQ: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    let seq = SEQ.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    format!("{}-{seq}", std::process::id())
+}
+
 /// Compiles a compute shader's GLSL text (`what` names it in errors).
 pub fn compile(what: &str, source: &str) -> Result<Compiled, String> {
     compile_in(&cache_dir(), what, source)
@@ -71,14 +92,8 @@ pub fn compile_in(dir: &Path, what: &str, source: &str) -> Result<Compiled, Stri
     parts.extend_from_slice(ARGS);
     let hash = content_hash(&parts);
     let spv = dir.join(format!("{hash}.spv"));
-    if let Ok(bytes) = std::fs::read(&spv) {
-        if bytes.len() >= 20 && bytes.len() % 4 == 0 && bytes[..4] == [0x03, 0x02, 0x23, 0x07] {
-            return Ok(Compiled {
-                spirv: bytes,
-                path: spv,
-                cached: true,
-            });
-        }
+    if let Some(hit) = cached(&spv) {
+        return Ok(hit);
     }
     std::fs::create_dir_all(dir).map_err(|e| {
         format!(
@@ -86,9 +101,7 @@ pub fn compile_in(dir: &Path, what: &str, source: &str) -> Result<Compiled, Stri
             dir.display()
         )
     })?;
-    static SEQ: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
-    let seq = SEQ.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-    let tag = format!("{}-{seq}", std::process::id());
+    let tag = unique_tag();
     let src = dir.join(format!("{hash}.{tag}.comp"));
     let tmp = dir.join(format!("{hash}.{tag}.spv.tmp"));
     std::fs::write(&src, source)
@@ -149,18 +162,10 @@ pub fn compile_tree(
     key.extend_from_slice(ARGS);
     let hash = content_hash(&key);
     let spv = dir.join(format!("{hash}.spv"));
-    if let Ok(bytes) = std::fs::read(&spv) {
-        if bytes.len() >= 20 && bytes.len() % 4 == 0 && bytes[..4] == [0x03, 0x02, 0x23, 0x07] {
-            return Ok(Compiled {
-                spirv: bytes,
-                path: spv,
-                cached: true,
-            });
-        }
+    if let Some(hit) = cached(&spv) {
+        return Ok(hit);
     }
-    static SEQ: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
-    let seq = SEQ.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-    let tag = format!("{}-{seq}", std::process::id());
+    let tag = unique_tag();
     let tree = dir.join(format!("tree-{tree_hash}"));
     if !tree.is_dir() {
         // Written under a temporary name and renamed: a half-written tree is never used.

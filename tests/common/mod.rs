@@ -186,6 +186,19 @@ pub fn faceted(mut m: stereocache::scene::Mesh) -> stereocache::scene::Mesh {
     out
 }
 
+/// Albedo of the furnace sphere of tests/hybrid.rs and tests/hash_cache.rs
+/// (distinct per channel, so a channel mix-up shows).
+pub const FURNACE_ALBEDO: Vec3 = Vec3::new(0.5, 0.25, 0.75);
+
+/// Furnace: a faceted grey Lambert sphere with no specular lobe in a
+/// constant white environment. Every path leaves the convex sphere after one
+/// bounce carrying `albedo` × 1.
+pub fn furnace_sphere(albedo: Vec3) -> Scene {
+    let mut mat = Material::diffuse("grey", albedo);
+    mat.specular = 0.0;
+    faceted_sphere_in_environment(mat, Vec3::ONE)
+}
+
 /// Like `sphere_in_environment` but faceted (see `faceted`).
 pub fn faceted_sphere_in_environment(m: Material, env: Vec3) -> Scene {
     let mut s = Scene {
