@@ -34,6 +34,9 @@ fn group_of(name: &str) -> String {
             let inc = rest.trim().trim_matches('"');
             match inc.strip_prefix("interface/") {
                 Some(g) => groups.push(g.trim_end_matches(".glsl").to_string()),
+                // Generated at scene load from the scene's material graphs
+                // (issue 17); it declares no bindings of its own.
+                None if inc == stereocache::materials::scene_shaders::INCLUDE => {}
                 None => walk(&root.join(inc), root, seen, groups),
             }
         }
