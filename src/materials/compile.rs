@@ -87,7 +87,6 @@ pub fn compile(what: &str, source: &str) -> Result<Compiled, String> {
 }
 
 pub fn compile_in(dir: &Path, what: &str, source: &str) -> Result<Compiled, String> {
-    let glslc = std::env::var("GLSLC").unwrap_or_else(|_| "glslc".into());
     let mut parts = vec![source];
     parts.extend_from_slice(ARGS);
     let hash = content_hash(&parts);
@@ -106,37 +105,11 @@ pub fn compile_in(dir: &Path, what: &str, source: &str) -> Result<Compiled, Stri
     let tmp = dir.join(format!("{hash}.{tag}.spv.tmp"));
     std::fs::write(&src, source)
         .map_err(|e| format!("{what}: cannot write {} ({e})", src.display()))?;
-    let out = Command::new(&glslc)
-        .args(ARGS)
-        .arg(&src)
-        .arg("-o")
-        .arg(&tmp)
-        .output();
-    let res = match out {
-        Err(e) => Err(format!(
-            "{what}: cannot run glslc ({e}); install it with scripts/setup.sh or set GLSLC"
-        )),
-        Ok(o) if !o.status.success() => Err(format!(
-            "{what}: glslc failed ({}):\n{}{}",
-            src.display(),
-            String::from_utf8_lossy(&o.stdout),
-            String::from_utf8_lossy(&o.stderr)
-        )),
-        Ok(_) => std::fs::rename(&tmp, &spv)
-            .map_err(|e| format!("{what}: cannot store {} ({e})", spv.display())),
-    };
+    let res = run_glslc(what, &[src.as_os_str()], &src, &tmp, &spv);
     if res.is_ok() {
         let _ = std::fs::remove_file(&src);
     }
-    let _ = std::fs::remove_file(&tmp);
-    res?;
-    let spirv =
-        std::fs::read(&spv).map_err(|e| format!("{what}: cannot read {} ({e})", spv.display()))?;
-    Ok(Compiled {
-        spirv,
-        path: spv,
-        cached: false,
-    })
+    res
 }
 
 /// Compiles `main` (a path inside the source tree `files`: (path, text)
@@ -150,7 +123,6 @@ pub fn compile_tree(
     main: &str,
     defines: &[&str],
 ) -> Result<Compiled, String> {
-    let glslc = std::env::var("GLSLC").unwrap_or_else(|_| "glslc".into());
     let mut parts: Vec<&str> = Vec::new();
     for (p, t) in files {
         parts.push(p);
@@ -190,14 +162,29 @@ pub fn compile_tree(
         }
     }
     let tmp = dir.join(format!("{hash}.{tag}.spv.tmp"));
+    let shown = tree.join(main);
+    let mut args = vec![std::ffi::OsStr::new("-I"), tree.as_os_str()];
+    args.extend(defines.iter().map(std::ffi::OsStr::new));
+    args.push(shown.as_os_str());
+    run_glslc(what, &args, &shown, &tmp, &spv)
+}
+
+/// Runs glslc with [`ARGS`], `args` and `-o tmp`, then stores its output as
+/// `spv` and returns it; `shown` names the source in errors. `tmp` is
+/// removed either way, so a failed compile leaves no SPIR-V behind.
+fn run_glslc(
+    what: &str,
+    args: &[&std::ffi::OsStr],
+    shown: &Path,
+    tmp: &Path,
+    spv: &Path,
+) -> Result<Compiled, String> {
+    let glslc = std::env::var("GLSLC").unwrap_or_else(|_| "glslc".into());
     let out = Command::new(&glslc)
         .args(ARGS)
-        .arg("-I")
-        .arg(&tree)
-        .args(defines)
-        .arg(tree.join(main))
+        .args(args)
         .arg("-o")
-        .arg(&tmp)
+        .arg(tmp)
         .output();
     let res = match out {
         Err(e) => Err(format!(
@@ -205,20 +192,20 @@ pub fn compile_tree(
         )),
         Ok(o) if !o.status.success() => Err(format!(
             "{what}: glslc failed ({}):\n{}{}",
-            tree.join(main).display(),
+            shown.display(),
             String::from_utf8_lossy(&o.stdout),
             String::from_utf8_lossy(&o.stderr)
         )),
-        Ok(_) => std::fs::rename(&tmp, &spv)
+        Ok(_) => std::fs::rename(tmp, spv)
             .map_err(|e| format!("{what}: cannot store {} ({e})", spv.display())),
     };
-    let _ = std::fs::remove_file(&tmp);
+    let _ = std::fs::remove_file(tmp);
     res?;
     let spirv =
-        std::fs::read(&spv).map_err(|e| format!("{what}: cannot read {} ({e})", spv.display()))?;
+        std::fs::read(spv).map_err(|e| format!("{what}: cannot read {} ({e})", spv.display()))?;
     Ok(Compiled {
         spirv,
-        path: spv,
+        path: spv.to_path_buf(),
         cached: false,
     })
 }
