@@ -102,14 +102,7 @@ impl HashCache {
             depth: Buffer::storage(ctx, "hash_cache.taa_depth", e2 * 4)?,
             first_hit: Buffer::storage(ctx, "hash_cache.taa_fh", e2 * 16)?,
         };
-        let taa = TaaPass::new(
-            ctx,
-            scene,
-            settings.width,
-            settings.height,
-            settings.seed,
-            &hash.taa_settings,
-        )?;
+        let taa = TaaPass::new(ctx, scene, settings, &hash.taa_settings)?;
         Ok(HashCache {
             ctx: ctx.clone(),
             scene: scene.clone(),

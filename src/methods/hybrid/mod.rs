@@ -106,14 +106,7 @@ impl Hybrid {
             reserve: table.pipeline(ctx, scene, "hybrid/reserve", &INTERFACE)?,
             resolve: table.pipeline(ctx, scene, "hybrid/resolve", &INTERFACE)?,
         };
-        let taa = TaaPass::new(
-            ctx,
-            scene,
-            settings.width,
-            settings.height,
-            settings.seed,
-            &hash.taa_settings,
-        )?;
+        let taa = TaaPass::new(ctx, scene, settings, &hash.taa_settings)?;
         Ok(Hybrid {
             ctx: ctx.clone(),
             scene: scene.clone(),

@@ -40,7 +40,7 @@ impl Taa {
             ..settings.clone()
         };
         let source = Reference::with_name("taa.source", ctx, scene, env, &s)?;
-        let pass = TaaPass::new(ctx, scene, s.width, s.height, s.seed, taa)?;
+        let pass = TaaPass::new(ctx, scene, &s, taa)?;
         Ok(Taa {
             ctx: ctx.clone(),
             source,

@@ -31,14 +31,7 @@ impl TaaOnOutput {
         settings: &RenderSettings,
         taa: &TaaSettings,
     ) -> GpuResult<Self> {
-        let pass = TaaPass::new(
-            inner.context(),
-            scene,
-            settings.width,
-            settings.height,
-            settings.seed,
-            taa,
-        )?;
+        let pass = TaaPass::new(inner.context(), scene, settings, taa)?;
         Ok(TaaOnOutput { inner, pass })
     }
 

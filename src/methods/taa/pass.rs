@@ -15,7 +15,7 @@
 use super::settings::{TaaSettings, TaaWeights};
 use crate::gpu::{shaders, Buffer, ComputePipeline, GpuContext, GpuError, GpuResult, Recorder};
 use crate::interface::taa::{TaaCounter, INTERFACE, RESOLVE_PUSH};
-use crate::methods::{Color, CounterOutput, FrameInput, FrameParams};
+use crate::methods::{Color, CounterOutput, FrameInput, FrameParams, RenderSettings};
 use crate::rt::SceneGpu;
 use bytemuck::{Pod, Zeroable};
 use std::sync::Arc;
@@ -65,12 +65,11 @@ impl TaaPass {
     pub fn new(
         ctx: &Arc<GpuContext>,
         scene: &Arc<SceneGpu>,
-        width: u32,
-        height: u32,
-        seed: u32,
+        render: &RenderSettings,
         settings: &TaaSettings,
     ) -> GpuResult<TaaPass> {
         settings.validate().map_err(GpuError::Unsupported)?;
+        let (width, height, seed) = (render.width, render.height, render.seed);
         let n = pixels(width, height);
         let b = |name: &str, bytes: u64| Buffer::storage(ctx, &format!("taa.{name}"), bytes);
         let frame = b("frame", std::mem::size_of::<FrameParams>() as u64)?;
