@@ -143,15 +143,7 @@ fn report_loads_in_headless_chromium() {
         .output()
         .unwrap();
     let log = String::from_utf8_lossy(&o.stderr);
-    let console: Vec<&str> = log
-        .lines()
-        .filter(|l| l.contains("CONSOLE") || l.contains("Uncaught"))
-        .collect();
-    assert!(
-        console.is_empty(),
-        "console messages:\n{}",
-        console.join("\n")
-    );
+    assert_no_console_messages(&log);
     let img = image::open(&shot)
         .unwrap_or_else(|e| panic!("no screenshot ({e}); chromium said:\n{log}"))
         .to_luma8();
@@ -243,15 +235,7 @@ fn report_viewer_switches_method_in_headless_chromium() {
         .output()
         .unwrap();
     let log = String::from_utf8_lossy(&o.stderr);
-    let console: Vec<&str> = log
-        .lines()
-        .filter(|l| l.contains("CONSOLE") || l.contains("Uncaught"))
-        .collect();
-    assert!(
-        console.is_empty(),
-        "console messages:\n{}",
-        console.join("\n")
-    );
+    assert_no_console_messages(&log);
     let dom = String::from_utf8_lossy(&o.stdout);
     let result = dom
         .split("<pre id=\"v-selftest\">")
@@ -283,4 +267,17 @@ fn report_viewer_switches_method_in_headless_chromium() {
         "EV +2 did not change the canvas: {r}"
     );
     let _ = std::fs::remove_dir_all(&out);
+}
+
+/// Chromium's stderr holds no page console message and no uncaught error.
+fn assert_no_console_messages(log: &str) {
+    let console: Vec<&str> = log
+        .lines()
+        .filter(|l| l.contains("CONSOLE") || l.contains("Uncaught"))
+        .collect();
+    assert!(
+        console.is_empty(),
+        "console messages:\n{}",
+        console.join("\n")
+    );
 }
