@@ -20,15 +20,16 @@ int memo_level(float cone_width, float uv_area_ratio, float bias) {
 }
 
 // Eqs. 5.6-5.7: the nearest texel centre, (û, v̂) = round(2^m (u, v))
-// (halves round up, the same on every device), clamped into int range.
+// (halves round up; ldexp is exact, so the same on every device and the
+// CPU), clamped into int range.
 ivec2 memo_quantise(vec2 uv, int level) {
-    vec2 x = clamp(uv * exp2(float(level)) + 0.5, vec2(-1073741824.0), vec2(1073741760.0));
+    vec2 x = clamp(ldexp(uv, ivec2(level)) + 0.5, vec2(-1073741824.0), vec2(1073741760.0));
     return ivec2(floor(x));
 }
 
 // The uv of a texel centre: where the graph is evaluated on a miss
 // (texel-centre snapping), at most 2^-(m+1) from the hit's uv per axis.
-vec2 memo_snapped_uv(ivec2 q, int level) { return vec2(q) * exp2(float(-level)); }
+vec2 memo_snapped_uv(ivec2 q, int level) { return ldexp(vec2(q), ivec2(-level)); }
 
 // Eqs. 2.10-2.11: the cone past a GGX surface of roughness alpha (GGX's
 // alpha): width w + spread * t at the next hit, spread grown by

@@ -5,9 +5,9 @@
 // The test then checks every entry left in the table holds f(its key).
 // MEMO_REREAD = false drops the reader's second key read, so the test can
 // show that torn reads happen without it. Mode 1 (`mode`): lavapipe runs a
-// subgroup's lanes in lockstep and its threads rarely meet inside the few
-// instructions of a read, so the natural mix tears nothing even without
-// the re-read; this mode forces the thesis's read-during-write sequence
+// subgroup's lanes in lockstep and its threads seldom meet inside the few
+// instructions of a read, so the natural mix tears too rarely to assert on
+// (0 or 1 of 262 144 lookups without the re-read); this mode forces the thesis's read-during-write sequence
 // (§5.3.4) with the protocol's own steps: even lanes read entry s, odd
 // lanes overwrite it with another key, the steps interleaved in program
 // order (reader key, writer lock + record, reader record, writer unlock,

@@ -16,9 +16,14 @@ pub fn level(cone_width: f32, uv_area_ratio: f32, bias: f32) -> i32 {
     ((-l.log2() + bias + 0.5).floor() as i32).clamp(MIN_LEVEL, MAX_LEVEL)
 }
 
+/// 2^level exactly (GLSL `ldexp`), for the levels in use.
+fn pow2(level: i32) -> f32 {
+    f32::from_bits(((level.clamp(-126, 127) + 127) as u32) << 23)
+}
+
 /// (û, v̂) = round(2^m (u, v)), halves up, clamped into int range.
 pub fn quantise(uv: [f32; 2], level: i32) -> [i32; 2] {
-    let s = (level as f32).exp2();
+    let s = pow2(level);
     uv.map(|x| {
         (x * s + 0.5)
             .clamp(-1_073_741_824.0, 1_073_741_760.0)
@@ -28,7 +33,7 @@ pub fn quantise(uv: [f32; 2], level: i32) -> [i32; 2] {
 
 /// The uv of texel centre `q` at `level`.
 pub fn snapped_uv(q: [i32; 2], level: i32) -> [f32; 2] {
-    let s = (-level as f32).exp2();
+    let s = pow2(-level);
     q.map(|x| x as f32 * s)
 }
 
