@@ -11,7 +11,8 @@
 // single-threaded model of find / insert / evict).
 #ifndef MEMO_TABLE_GLSL
 #define MEMO_TABLE_GLSL
-#include "hash_table/hash.glsl"   // pcg_hash, hc_xxhash32 (issue 14's hash table)
+// pcg_hash, hc_xxhash32: the hash functions of issue 14's hash table.
+#include "hash_table/hash.glsl"
 
 const uint MEMO_EMPTY = 0u;
 const uint MEMO_LOCK = 0xFFFFFFFFu;
