@@ -17,6 +17,7 @@ pub mod hash_cache;
 pub mod hash_table;
 pub mod hybrid;
 pub mod isrt;
+pub mod memo;
 pub mod reference;
 pub mod reflect_test;
 pub mod sample_cache;
@@ -43,6 +44,8 @@ pub const ALL: &[&Interface] = &[
     &hybrid::INTERFACE,
     &debug_normals::INTERFACE,
     &reflect_test::INTERFACE,
+    &memo::HASH_TEST,
+    &memo::STRESS,
 ];
 
 /// camera.glsl's `FrameBuf` (the per-frame stereo camera, `FrameParams`):

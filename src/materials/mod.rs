@@ -12,7 +12,8 @@
 //! (GPU evaluation at points), `library` (the shipped graphs), `binding`
 //! (graphs bound to a scene's materials, from glTF) and `scene_shaders`
 //! (the scene's graphs as one GLSL include, and the hit-shading shaders
-//! recompiled with it at run time).
+//! recompiled with it at run time); `memo` is the memoization cache of
+//! the graphs' outputs (thesis §5–6).
 
 pub mod binding;
 pub mod codegen;
@@ -23,6 +24,7 @@ pub mod eval;
 pub mod graph;
 pub mod harness;
 pub mod library;
+pub mod memo;
 pub mod noise;
 pub mod scene_shaders;
 pub mod signatures;

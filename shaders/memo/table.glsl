@@ -1,0 +1,137 @@
+// The memoization table of material-graph outputs (Urbach 2023, thesis
+// §5.3): one global hash table, open addressing, linear probing over D
+// entries, lock-and-validate. Pure functions over three buffers that the
+// including shader declares before including this file (coherent: other
+// invocations' writes must be seen; MEMO_HASHES_ONLY: only the hashes and
+// the probe sequence, no buffers):
+//   uint  memo_keys[]    H1 of the entry's key; MEMO_EMPTY, MEMO_LOCK
+//   uint  memo_stamps[]  eviction time (frame counter mod 2^32)
+//   uvec4 memo_values[]  MEMO_RECORD uvec4 per entry (the graph outputs)
+// CPU twin, bit for bit: src/materials/memo/table.rs (hashes, probing, the
+// single-threaded model of find / insert / evict).
+#ifndef MEMO_TABLE_GLSL
+#define MEMO_TABLE_GLSL
+// pcg_hash, hc_xxhash32: the hash functions of issue 14's hash table.
+#include "hash_table/hash.glsl"
+
+const uint MEMO_EMPTY = 0u;
+const uint MEMO_LOCK = 0xFFFFFFFFu;
+const uint MEMO_NONE = 0xFFFFFFFFu;
+const uint MEMO_RECORD = 3u;   // uvec4 per entry: 12 words, the thesis's 11 channels + mask
+const uint MEMO_RANDOM = 0u, MEMO_LRW = 1u, MEMO_LRU = 2u;
+// memo_insert results
+const uint MEMO_FILLED = 0u, MEMO_EVICTED = 1u, MEMO_PRESENT = 2u, MEMO_LOCK_FAILED = 3u;
+
+// The two graph hashes computed ahead of time (ID0, ID1 of eqs. 5.8-5.9).
+uint memo_id0(uint graph) { return pcg_hash(graph); }
+uint memo_id1(uint graph) { return hc_xxhash32(graph); }
+
+// Eq. 5.8: H0 = hash(m ^ hash(u ^ hash(v ^ ID0))) with PCG.
+uint memo_h0(uint graph, int level, ivec2 q) {
+    return pcg_hash(uint(level) ^ pcg_hash(uint(q.x) ^ pcg_hash(uint(q.y) ^ memo_id0(graph))));
+}
+
+// Eq. 5.9 with a different function (xxHash32) and ID1, never derived from
+// H0; remapped off the EMPTY and LOCK markers.
+uint memo_h1(uint graph, int level, ivec2 q) {
+    uint h = hc_xxhash32(uint(level) ^ hc_xxhash32(uint(q.x) ^ hc_xxhash32(uint(q.y) ^ memo_id1(graph))));
+    return h == MEMO_EMPTY ? 1u : (h == MEMO_LOCK ? 0xFFFFFFFEu : h);
+}
+
+// Eq. 5.10: probing starts at I = H0 mod (S - D); the i-th probe is I + i,
+// so a window never wraps. capacity > probe.
+uint memo_slot(uint h0, uint i, uint capacity, uint probe) { return h0 % (capacity - probe) + i; }
+
+#ifndef MEMO_HASHES_ONLY
+
+// The protocol's steps (thesis §5.3.4), composed by memo_find and
+// memo_insert; the stress test also runs them in a forced interleaving.
+// Reader: the key was seen holding h1 -> memo_read_record -> memo_validate.
+// Writer: memo_lock -> memo_write_record -> memo_unlock.
+void memo_read_record(uint s, out uvec4 r0, out uvec4 r1, out uvec4 r2) {
+    memoryBarrierBuffer();
+    r0 = memo_values[MEMO_RECORD * s];
+    r1 = memo_values[MEMO_RECORD * s + 1u];
+    r2 = memo_values[MEMO_RECORD * s + 2u];
+    memoryBarrierBuffer();
+}
+// The key read again: still h1, or the read is refused (a miss). `reread`
+// off only in the stress test, to show the test bites.
+bool memo_validate(uint s, uint h1, bool reread) { return !reread || memo_keys[s] == h1; }
+// Exchanges the key word `seen` for LOCK; false when it changed (never spin).
+bool memo_lock(uint s, uint seen) { return atomicCompSwap(memo_keys[s], seen, MEMO_LOCK) == seen; }
+void memo_write_record(uint s, uvec4 r0, uvec4 r1, uvec4 r2) {
+    memoryBarrierBuffer();
+    memo_values[MEMO_RECORD * s] = r0;
+    memo_values[MEMO_RECORD * s + 1u] = r1;
+    memo_values[MEMO_RECORD * s + 2u] = r2;
+}
+// Writing the key unlocks the entry, after the record and the stamp.
+void memo_unlock(uint s, uint h1, uint now) {
+    memo_stamps[s] = now;
+    memoryBarrierBuffer();
+    atomicExchange(memo_keys[s], h1);
+}
+
+// Linear search for h1 in the window (only the keys are read); on a match
+// the record is read and validated. Returns the slot, or MEMO_NONE for a
+// miss; `torn` tells a miss caused by a key that changed during the read.
+// LRU stamps the entry with `now` on a hit.
+uint memo_find(uint h0, uint h1, uint capacity, uint probe, bool reread, uint policy, uint now,
+               out uvec4 r0, out uvec4 r1, out uvec4 r2, out bool torn) {
+    torn = false;
+    r0 = uvec4(0u); r1 = uvec4(0u); r2 = uvec4(0u);
+    for (uint i = 0u; i < probe; ++i) {
+        uint s = memo_slot(h0, i, capacity, probe);
+        if (memo_keys[s] != h1) continue;
+        memo_read_record(s, r0, r1, r2);
+        if (!memo_validate(s, h1, reread)) { torn = true; return MEMO_NONE; }
+        if (policy == MEMO_LRU && memo_stamps[s] != now) memo_stamps[s] = now;
+        return s;
+    }
+    return MEMO_NONE;
+}
+
+// Wrapping age of a stamp: exact while real ages stay below 2^32 frames
+// (a frame counter, not the thesis's 32-bit per-access counter, eq. 5.11).
+uint memo_age(uint now, uint stamp) { return now - stamp; }
+
+// The victim of an insert in h1's window (§5.3.3): an empty entry if there
+// is one, else random (a hash of h1 and now picks the probe) or the oldest
+// stamp (LRW: set on write, LRU: also on read). Locked entries are skipped.
+// Returns MEMO_NONE when h1 is already present or every entry is locked;
+// `seen` is the key word the victim held.
+uint memo_victim(uint h0, uint h1, uint capacity, uint probe, uint policy, uint now, out uint seen, out bool present) {
+    uint victim = MEMO_NONE, best = 0u;
+    uint pick = pcg_hash(h1 ^ (now * 0x9E3779B9u)) % probe;
+    seen = MEMO_EMPTY;
+    present = false;
+    for (uint i = 0u; i < probe; ++i) {
+        uint s = memo_slot(h0, i, capacity, probe);
+        uint k = memo_keys[s];
+        if (k == h1) { present = true; return MEMO_NONE; }
+        if (k == MEMO_EMPTY) { seen = k; return s; }
+        if (k == MEMO_LOCK) continue;
+        uint score = policy == MEMO_RANDOM ? (i == pick ? 1u : 0u) : memo_age(now, memo_stamps[s]) + 1u;
+        if (victim == MEMO_NONE || score > best) { victim = s; best = score; seen = k; }
+    }
+    return victim;
+}
+
+// Inserts the record for h1 (thesis §5.3.4): the victim's key word is
+// exchanged for LOCK by compare-and-swap (never spin, never retry: on
+// failure the value is used by this thread only), the record and stamp are
+// written, then the key, which unlocks the entry.
+uint memo_insert(uint h0, uint h1, uint capacity, uint probe, uint policy, uint now,
+                 uvec4 r0, uvec4 r1, uvec4 r2) {
+    uint seen;
+    bool present;
+    uint s = memo_victim(h0, h1, capacity, probe, policy, now, seen, present);
+    if (present) return MEMO_PRESENT;
+    if (s == MEMO_NONE || !memo_lock(s, seen)) return MEMO_LOCK_FAILED;
+    memo_write_record(s, r0, r1, r2);
+    memo_unlock(s, h1, now);
+    return seen == MEMO_EMPTY ? MEMO_FILLED : MEMO_EVICTED;
+}
+#endif   // MEMO_HASHES_ONLY
+#endif

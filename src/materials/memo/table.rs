@@ -1,0 +1,220 @@
+//! CPU twin of the memoization table (`shaders/memo/table.glsl`), bit for
+//! bit: tests/memo.rs runs `shaders/memo/hash_test.comp` on random keys and
+//! compares. Also a single-threaded model of find / insert / evict, which
+//! the tests run for 10 000 frames to check the table stays consistent.
+//!
+//! * **Key** (thesis §5.3.2): graph id, mip level m (texel density 2^m per
+//!   unit of uv, any integer), quantised uv (û, v̂) = round(2^m (u, v)).
+//! * **H0** (eq. 5.8) = pcg(m ⊕ pcg(û ⊕ pcg(v̂ ⊕ ID0))), ID0 = pcg(graph):
+//!   picks the window.
+//! * **H1** (eq. 5.9) = the same chain with xxHash32 and ID1 = xxh(graph):
+//!   stored in the entry and compared. A different function and seed, never
+//!   derived from H0 (a collision in H0 is not one in H1). Remapped off the
+//!   markers: 0 (EMPTY) → 1, 0xFFFFFFFF (LOCK) → 0xFFFFFFFE.
+//! * **Probing** (eq. 5.10): I = H0 mod (S − D), probes I, I+1, …, I+D−1
+//!   (never wraps).
+//! * **Eviction** (§5.3.3), within the window: an empty entry if any, else
+//!   random (probe `pcg(H1 ⊕ now·0x9E3779B9) mod D`), LRW (oldest write
+//!   stamp) or LRU (oldest read-or-write stamp); locked entries are skipped.
+//!   Stamps are a frame counter mod 2^32 compared by wrapping age, exact
+//!   below 2^32 frames (18 months at 90 Hz), instead of the thesis's 32-bit
+//!   access counter that rolls over in seconds (eq. 5.11).
+
+use crate::methods::hash_table::hash::{pcg_hash, xxhash32};
+
+pub const EMPTY: u32 = 0;
+pub const LOCK: u32 = 0xFFFF_FFFF;
+/// 32-bit words of a record (the shader's `MEMO_RECORD` uvec4s).
+pub const RECORD_WORDS: usize = 12;
+/// Bytes per non-tiled entry: key word, stamp, record.
+pub const ENTRY_BYTES: u64 = 4 + 4 + 4 * RECORD_WORDS as u64;
+
+/// The eviction strategy (the shader's `MEMO_RANDOM`, `MEMO_LRW`, `MEMO_LRU`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Eviction {
+    Random = 0,
+    Lrw = 1,
+    Lru = 2,
+}
+
+/// A cache key (thesis §5.3.2).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct MemoKey {
+    pub graph: u32,
+    pub level: i32,
+    pub q: [i32; 2],
+}
+
+impl MemoKey {
+    /// Eq. 5.8.
+    pub fn h0(&self) -> u32 {
+        let id0 = pcg_hash(self.graph);
+        pcg_hash(
+            (self.level as u32) ^ pcg_hash((self.q[0] as u32) ^ pcg_hash((self.q[1] as u32) ^ id0)),
+        )
+    }
+
+    /// Eq. 5.9 (xxHash32, ID1), remapped off EMPTY and LOCK.
+    pub fn h1(&self) -> u32 {
+        let id1 = xxhash32(self.graph);
+        let h = xxhash32(
+            (self.level as u32) ^ xxhash32((self.q[0] as u32) ^ xxhash32((self.q[1] as u32) ^ id1)),
+        );
+        match h {
+            EMPTY => 1,
+            LOCK => LOCK - 1,
+            h => h,
+        }
+    }
+}
+
+/// Slot of the i-th probe (eq. 5.10); `capacity > probe`.
+pub fn slot(h0: u32, i: u32, capacity: u32, probe: u32) -> u32 {
+    h0 % (capacity - probe) + i
+}
+
+/// Wrapping age of a stamp.
+pub fn age(now: u32, stamp: u32) -> u32 {
+    now.wrapping_sub(stamp)
+}
+
+/// How an insert ended (the shader's `MEMO_FILLED` …).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Insert {
+    Filled(u32),
+    Evicted(u32),
+    Present,
+    LockFailed,
+}
+
+/// A single-threaded model of the GPU table: the same search, victim choice
+/// and stamps as the shader, without the races (so never LOCK).
+pub struct CpuMemo {
+    pub keys: Vec<u32>,
+    pub stamps: Vec<u32>,
+    pub records: Vec<[u32; RECORD_WORDS]>,
+    pub probe: u32,
+    pub policy: Eviction,
+}
+
+impl CpuMemo {
+    pub fn new(capacity: u32, probe: u32, policy: Eviction) -> CpuMemo {
+        assert!(
+            capacity > probe,
+            "capacity {capacity} must exceed the probe distance {probe}"
+        );
+        CpuMemo {
+            keys: vec![EMPTY; capacity as usize],
+            stamps: vec![0; capacity as usize],
+            records: vec![[0; RECORD_WORDS]; capacity as usize],
+            probe,
+            policy,
+        }
+    }
+
+    fn capacity(&self) -> u32 {
+        self.keys.len() as u32
+    }
+
+    /// The slot holding `k` and its record (memo_find); LRU stamps it.
+    pub fn find(&mut self, k: &MemoKey, now: u32) -> Option<(u32, [u32; RECORD_WORDS])> {
+        let (h0, h1) = (k.h0(), k.h1());
+        for i in 0..self.probe {
+            let s = slot(h0, i, self.capacity(), self.probe) as usize;
+            if self.keys[s] == h1 {
+                if self.policy == Eviction::Lru {
+                    self.stamps[s] = now;
+                }
+                return Some((s as u32, self.records[s]));
+            }
+        }
+        None
+    }
+
+    /// The victim in `k`'s window (memo_victim), or `None` when `k` is present.
+    fn victim(&self, k: &MemoKey, now: u32) -> Option<u32> {
+        let (h0, h1) = (k.h0(), k.h1());
+        let pick = pcg_hash(h1 ^ now.wrapping_mul(0x9E37_79B9)) % self.probe;
+        let (mut victim, mut best) = (None, 0u32);
+        for i in 0..self.probe {
+            let s = slot(h0, i, self.capacity(), self.probe);
+            let key = self.keys[s as usize];
+            if key == h1 {
+                return None;
+            }
+            if key == EMPTY {
+                return Some(s);
+            }
+            if key == LOCK {
+                continue;
+            }
+            let score = match self.policy {
+                Eviction::Random => (i == pick) as u32,
+                _ => age(now, self.stamps[s as usize]).wrapping_add(1),
+            };
+            if victim.is_none() || score > best {
+                victim = Some(s);
+                best = score;
+            }
+        }
+        victim
+    }
+
+    /// Inserts `record` for `k` (memo_insert).
+    pub fn insert(&mut self, k: &MemoKey, now: u32, record: [u32; RECORD_WORDS]) -> Insert {
+        let Some(s) = self.victim(k, now) else {
+            return if self.find_slot(k).is_some() {
+                Insert::Present
+            } else {
+                Insert::LockFailed
+            };
+        };
+        let was = self.keys[s as usize];
+        self.keys[s as usize] = k.h1();
+        self.stamps[s as usize] = now;
+        self.records[s as usize] = record;
+        if was == EMPTY {
+            Insert::Filled(s)
+        } else {
+            Insert::Evicted(s)
+        }
+    }
+
+    fn find_slot(&self, k: &MemoKey) -> Option<u32> {
+        let (h0, h1) = (k.h0(), k.h1());
+        (0..self.probe)
+            .map(|i| slot(h0, i, self.capacity(), self.probe))
+            .find(|&s| self.keys[s as usize] == h1)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn hashes_avoid_the_markers_and_are_independent() {
+        let mut same = 0;
+        for i in 0..20_000u32 {
+            let k = MemoKey {
+                graph: i % 7,
+                level: (i % 13) as i32 - 4,
+                q: [i as i32 * 31 - 9000, -(i as i32)],
+            };
+            let (h0, h1) = (k.h0(), k.h1());
+            assert!(h1 != EMPTY && h1 != LOCK);
+            same += (h0 == h1) as u32;
+        }
+        assert_eq!(same, 0, "H1 equals H0 for some keys");
+    }
+
+    #[test]
+    fn probes_stay_in_the_table_and_never_wrap() {
+        for h0 in [0u32, 1, 12345, u32::MAX] {
+            for i in 0..8 {
+                let s = slot(h0, i, 64, 8);
+                assert!(s < 64 && s >= slot(h0, 0, 64, 8));
+            }
+        }
+    }
+}
