@@ -137,6 +137,7 @@ impl GpuContext {
     pub fn new(options: &GpuOptions) -> GpuResult<Self> {
         let validation = Arc::new(ValidationLog::default());
         let request = FeatureRequest::new(options.want_ray_query, options.require);
+        let _serial = lifecycle_lock();
         let mut inst = super::instance::create(
             options.validate,
             options.sync_validation,
@@ -429,6 +430,23 @@ impl GpuContext {
     }
 }
 
+/// Serialises the creation and destruction of instances and devices in the
+/// process. The Khronos validation layer installed here (1.3.239) keeps every
+/// instance's and device's state in one global map that it reads on every
+/// call and inserts into / erases from at vkCreateInstance, vkCreateDevice,
+/// vkDestroyDevice and vkDestroyInstance without a lock (`GetLayerDataPtr`,
+/// "TODO: We probably should lock here"; Vulkan-ValidationLayers issue
+/// 4391). Test binaries open and close one context per test on parallel
+/// threads, so two of those calls could modify the map at once, a heap
+/// corruption. This lock makes the modifications one at a time; a lookup
+/// by another thread's ordinary call during one of them is still that
+/// layer's race (docs/ROBUSTNESS.md §5). Poisoning is ignored: the lock
+/// guards no data of ours.
+fn lifecycle_lock() -> std::sync::MutexGuard<'static, ()> {
+    static LIFECYCLE: Mutex<()> = Mutex::new(());
+    LIFECYCLE.lock().unwrap_or_else(|e| e.into_inner())
+}
+
 /// What `open_device` made, before it becomes a `GpuContext`.
 struct DeviceParts {
     physical: vk::PhysicalDevice,
@@ -453,6 +471,7 @@ impl Drop for GpuContext {
             std::mem::forget(self.entry.clone());
             return;
         }
+        let _serial = lifecycle_lock();
         // SAFETY: every Buffer, image, pipeline and recorder holds an
         // `Arc<GpuContext>`, so all of them are gone; after the idle wait no
         // work is pending. Objects are destroyed children first, the
