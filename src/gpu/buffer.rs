@@ -4,6 +4,7 @@
 
 use super::context::GpuContext;
 use super::error::{vk_err, GpuError, GpuResult};
+use super::guard::{self, Band};
 use ash::vk;
 use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
 use gpu_allocator::MemoryLocation;
@@ -15,6 +16,8 @@ pub struct Buffer {
     pub name: String,
     pub raw: vk::Buffer,
     pub size: u64,
+    /// Bytes of guard band after the buffer (0: none; src/gpu/guard.rs).
+    guard: u64,
     allocation: Option<Allocation>,
 }
 
@@ -56,7 +59,60 @@ impl Buffer {
     /// buffer; refused when larger than the device's `maxStorageBufferRange`.
     pub fn storage(ctx: &Arc<GpuContext>, name: &str, size: u64) -> GpuResult<Buffer> {
         check_storage_range(ctx, name, size)?;
-        Self::new(ctx, name, size, STORAGE_USAGE, MemoryLocation::GpuOnly)
+        Self::guarded(ctx, name, size, STORAGE_USAGE)
+    }
+
+    /// A device buffer that shaders write: with guard bands on
+    /// (src/gpu/guard.rs) it is allocated with a canary-filled band after
+    /// its `size` bytes and registered for `guard::check`; else as `new`.
+    fn guarded(
+        ctx: &Arc<GpuContext>,
+        name: &str,
+        size: u64,
+        usage: vk::BufferUsageFlags,
+    ) -> GpuResult<Buffer> {
+        let Some(guards) = &ctx.guards else {
+            return Self::new(ctx, name, size, usage, MemoryLocation::GpuOnly);
+        };
+        let size = size.max(16);
+        let (offset, len) = (guard::guard_offset(size), guard::guard_len(size));
+        let mut b = Self::create(ctx, name, offset + len, usage, MemoryLocation::GpuOnly)?;
+        b.size = size;
+        b.guard = offset + len - size;
+        let band = Band {
+            raw: b.raw,
+            name: name.to_string(),
+            size,
+            offset,
+            len,
+        };
+        guard::arm(ctx, &band)?;
+        guards
+            .lock()
+            .unwrap()
+            .insert(vk::Handle::as_raw(b.raw), band);
+        Ok(b)
+    }
+
+    /// The range a descriptor binds: the whole buffer, or with a guard band
+    /// exactly its `size` (the band stays outside every descriptor).
+    pub(crate) fn descriptor_range(&self) -> vk::DeviceSize {
+        if self.guard == 0 {
+            vk::WHOLE_SIZE
+        } else {
+            self.size
+        }
+    }
+
+    /// The byte count `vkCmdFillBuffer` covers to fill the whole buffer:
+    /// `VK_WHOLE_SIZE`, or with a guard band `size` rounded up to 4 bytes
+    /// (the band starts at a 16-byte boundary past it).
+    pub(crate) fn fill_range(&self) -> vk::DeviceSize {
+        if self.guard == 0 {
+            vk::WHOLE_SIZE
+        } else {
+            self.size.div_ceil(4) * 4
+        }
     }
 
     /// A buffer with exactly `usage` (plus device addresses when ray query is
@@ -65,6 +121,17 @@ impl Buffer {
     /// scratch), never bound as storage descriptors; those use
     /// [`Self::storage`], [`Self::indirect_args`] or [`Self::with_data`].
     pub fn new(
+        ctx: &Arc<GpuContext>,
+        name: &str,
+        size: u64,
+        usage: vk::BufferUsageFlags,
+        location: MemoryLocation,
+    ) -> GpuResult<Buffer> {
+        Self::create(ctx, name, size, usage, location)
+    }
+
+    /// `new` without a guard band (`guarded` adds one around it).
+    fn create(
         ctx: &Arc<GpuContext>,
         name: &str,
         size: u64,
@@ -138,6 +205,7 @@ impl Buffer {
             name: name.to_string(),
             raw,
             size,
+            guard: 0,
             allocation: Some(allocation),
         })
     }
@@ -146,12 +214,11 @@ impl Buffer {
     /// `VkDispatchIndirectCommand`s for [`super::pass::Pass::dispatch_indirect`].
     pub fn indirect_args(ctx: &Arc<GpuContext>, name: &str, size: u64) -> GpuResult<Buffer> {
         check_storage_range(ctx, name, size)?;
-        Self::new(
+        Self::guarded(
             ctx,
             name,
             size,
             STORAGE_USAGE | vk::BufferUsageFlags::INDIRECT_BUFFER,
-            MemoryLocation::GpuOnly,
         )
     }
 
@@ -306,6 +373,9 @@ impl Drop for Buffer {
         if self.ctx.is_abandoned() {
             return;
         }
+        if let Some(guards) = &self.ctx.guards {
+            guards.lock().unwrap().remove(&vk::Handle::as_raw(self.raw));
+        }
         // SAFETY: recorders and sets that use the buffer hold it (or finished
         // waiting) before it drops, and after an abandoned submission we
         // returned above; the allocation is freed after the buffer.
@@ -315,6 +385,6 @@ impl Drop for Buffer {
         }
         self.ctx
             .allocated_bytes
-            .fetch_sub(self.size, Ordering::Relaxed);
+            .fetch_sub(self.size + self.guard, Ordering::Relaxed);
     }
 }

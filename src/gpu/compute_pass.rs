@@ -241,7 +241,7 @@ impl<'a> ComputePass<'_, 'a> {
                 [vk::DescriptorBufferInfo::default()
                     .buffer(b.raw)
                     .offset(0)
-                    .range(vk::WHOLE_SIZE)]
+                    .range(b.descriptor_range())]
             })
             .collect();
         let writes: Vec<vk::WriteDescriptorSet> = infos

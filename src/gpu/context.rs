@@ -40,6 +40,11 @@ pub struct GpuOptions {
     /// Fault injection: the submission after this many successful ones
     /// reports a lost device, as a driver would (tests of the error path).
     pub lose_device_after: Option<u64>,
+    /// Debugging: canary-filled guard bands after every storage buffer,
+    /// checked after every frame (src/gpu/guard.rs; `with_env`:
+    /// `STEREOCACHE_GUARD_BANDS=1`). Adds a fill per buffer and a check
+    /// submission per frame.
+    pub guard_bands: bool,
 }
 
 impl GpuOptions {
@@ -47,8 +52,9 @@ impl GpuOptions {
     pub const DEFAULT_TIMEOUT_S: f64 = 600.0;
 
     /// Reads `STEREOCACHE_GPU_TIMEOUT_S` (seconds, default 600; 0 = wait
-    /// forever) and `STEREOCACHE_FAULT_DEVICE_LOST_AFTER` (a submission
-    /// count). A malformed value is an error naming the variable.
+    /// forever), `STEREOCACHE_FAULT_DEVICE_LOST_AFTER` (a submission
+    /// count) and `STEREOCACHE_GUARD_BANDS` (`1` turns guard bands on). A
+    /// malformed value is an error naming the variable.
     pub fn with_env(mut self) -> Result<Self, String> {
         let read = |name: &str| std::env::var(name).ok().map(|v| (name.to_string(), v));
         let timeout_s = match read("STEREOCACHE_GPU_TIMEOUT_S") {
@@ -65,6 +71,13 @@ impl GpuOptions {
                     .parse()
                     .map_err(|_| format!("{n}={v}: expected a submission count"))?,
             );
+        }
+        if let Some((n, v)) = read("STEREOCACHE_GUARD_BANDS") {
+            self.guard_bands |= match v.trim() {
+                "1" => true,
+                "0" | "" => false,
+                _ => return Err(format!("{n}={v}: expected 1 or 0")),
+            };
         }
         Ok(self)
     }
@@ -100,6 +113,8 @@ pub struct GpuContext {
     timeout: Option<std::time::Duration>,
     lose_device_after: Option<u64>,
     submits: std::sync::atomic::AtomicU64,
+    /// Submissions of guard-band work (not in `submit_count`).
+    guard_submits: std::sync::atomic::AtomicU64,
     /// A submission outlived the watchdog: its work may still run, so no
     /// object is destroyed any more (every `Drop` in src/gpu/ leaks instead
     /// of freeing memory the device may still write).
@@ -109,6 +124,9 @@ pub struct GpuContext {
     /// object names and command-buffer labels.
     pub(crate) debug_utils_device: Option<ash::ext::debug_utils::Device>,
     pub(crate) allocated_bytes: std::sync::atomic::AtomicU64,
+    /// The live guard bands by buffer handle (`Some` with
+    /// `GpuOptions::guard_bands`; src/gpu/guard.rs).
+    pub(crate) guards: Option<Mutex<std::collections::HashMap<u64, super::guard::Band>>>,
 }
 
 impl GpuContext {
@@ -119,6 +137,7 @@ impl GpuContext {
     pub fn new(options: &GpuOptions) -> GpuResult<Self> {
         let validation = Arc::new(ValidationLog::default());
         let request = FeatureRequest::new(options.want_ray_query, options.require);
+        let _serial = lifecycle_lock();
         let mut inst = super::instance::create(
             options.validate,
             options.sync_validation,
@@ -230,17 +249,33 @@ impl GpuContext {
             timeout: options.timeout,
             lose_device_after: options.lose_device_after,
             submits: Default::default(),
+            guard_submits: Default::default(),
             abandoned: Default::default(),
             lost: Default::default(),
             debug_utils_device: p.opened.debug_utils,
             allocated_bytes: Default::default(),
+            guards: options.guard_bands.then(Default::default),
         }
     }
 
     /// Submit-and-wait rounds so far on this device (tests: the shared
     /// frame loop submits once per frame).
+    /// Guard-band fills and checks (src/gpu/guard.rs) are not counted.
     pub fn submit_count(&self) -> u64 {
-        self.submits.load(std::sync::atomic::Ordering::SeqCst)
+        use std::sync::atomic::Ordering::SeqCst;
+        self.submits.load(SeqCst) - self.guard_submits.load(SeqCst)
+    }
+
+    /// `submit_once` for guard-band work: not counted in `submit_count`, so
+    /// the one-submit-per-frame checks hold with guard bands on.
+    pub(crate) fn submit_once_uncounted<F: FnOnce(vk::CommandBuffer)>(
+        &self,
+        what: &str,
+        f: F,
+    ) -> GpuResult<()> {
+        self.guard_submits
+            .fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+        self.submit_once(what, f)
     }
 
     /// True when VK_KHR_push_descriptor is enabled (`push_descriptor_fns`).
@@ -378,6 +413,11 @@ impl GpuContext {
         }
     }
 
+    /// True when storage buffers get guard bands (`GpuOptions::guard_bands`).
+    pub fn guard_bands_enabled(&self) -> bool {
+        self.guards.is_some()
+    }
+
     /// Bytes currently allocated through this context's buffers and images.
     pub fn allocated_bytes(&self) -> u64 {
         self.allocated_bytes
@@ -388,6 +428,23 @@ impl GpuContext {
         // SAFETY: waiting has no preconditions beyond a live device.
         let _ = unsafe { self.device.device_wait_idle() };
     }
+}
+
+/// Serialises the creation and destruction of instances and devices in the
+/// process. The Khronos validation layer installed here (1.3.239) keeps every
+/// instance's and device's state in one global map that it reads on every
+/// call and inserts into / erases from at vkCreateInstance, vkCreateDevice,
+/// vkDestroyDevice and vkDestroyInstance without a lock (`GetLayerDataPtr`,
+/// "TODO: We probably should lock here"; Vulkan-ValidationLayers issue
+/// 4391). Test binaries open and close one context per test on parallel
+/// threads, so two of those calls could modify the map at once, a heap
+/// corruption. This lock makes the modifications one at a time; a lookup
+/// by another thread's ordinary call during one of them is still that
+/// layer's race (docs/ROBUSTNESS.md §5). Poisoning is ignored: the lock
+/// guards no data of ours.
+fn lifecycle_lock() -> std::sync::MutexGuard<'static, ()> {
+    static LIFECYCLE: Mutex<()> = Mutex::new(());
+    LIFECYCLE.lock().unwrap_or_else(|e| e.into_inner())
 }
 
 /// What `open_device` made, before it becomes a `GpuContext`.
@@ -414,6 +471,7 @@ impl Drop for GpuContext {
             std::mem::forget(self.entry.clone());
             return;
         }
+        let _serial = lifecycle_lock();
         // SAFETY: every Buffer, image, pipeline and recorder holds an
         // `Arc<GpuContext>`, so all of them are gone; after the idle wait no
         // work is pending. Objects are destroyed children first, the

@@ -183,7 +183,7 @@ impl DescriptorSet {
                     buffer_infos.push([vk::DescriptorBufferInfo::default()
                         .buffer(b.raw)
                         .offset(0)
-                        .range(vk::WHOLE_SIZE)])
+                        .range(b.descriptor_range())])
                 }
                 (Resource::Images(list, sampler), BindingKind::SampledImages(n)) => {
                     assert!(

@@ -40,6 +40,10 @@ pub enum GpuError {
     /// (src/interface/): a programming error, caught at record time.
     #[error("shader interface: {0}")]
     Interface(String),
+    /// A guard band after a storage buffer was overwritten (src/gpu/guard.rs):
+    /// a shader wrote past the end of that buffer.
+    #[error("out-of-bounds GPU write past the end of storage buffer(s): {0}")]
+    OutOfBounds(String),
 }
 
 pub type GpuResult<T> = Result<T, GpuError>;

@@ -13,6 +13,7 @@ pub mod compute_pass;
 pub mod context;
 pub mod descriptors;
 pub mod error;
+pub mod guard;
 pub mod info;
 mod instance;
 pub mod open;

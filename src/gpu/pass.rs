@@ -56,6 +56,8 @@ pub struct Pass<'r, 'a> {
     name: String,
     reads: Vec<vk::Buffer>,
     writes: Vec<vk::Buffer>,
+    /// `fill`'s byte count per written buffer (`Buffer::fill_range`).
+    fill_ranges: Vec<vk::DeviceSize>,
 }
 
 impl<'a> Recorder<'a> {
@@ -136,6 +138,7 @@ impl<'a> Recorder<'a> {
             name: name.to_string(),
             reads: Vec::new(),
             writes: Vec::new(),
+            fill_ranges: Vec::new(),
         }
     }
 
@@ -411,6 +414,7 @@ impl<'a> Pass<'_, 'a> {
     }
     pub fn write(mut self, b: &'a Buffer) -> Self {
         self.writes.push(b.raw);
+        self.fill_ranges.push(b.fill_range());
         self
     }
 
@@ -421,16 +425,13 @@ impl<'a> Pass<'_, 'a> {
             name,
             reads,
             writes,
+            fill_ranges,
         } = self;
         let idx = rec.begin_pass(&name, &reads, &writes);
-        for b in &writes {
+        for (b, range) in writes.iter().zip(&fill_ranges) {
             // SAFETY: `cb` is recording; `b` is a live buffer borrowed for 'a and
-            // the fill covers its whole size.
-            unsafe {
-                rec.ctx
-                    .device
-                    .cmd_fill_buffer(rec.cb, *b, 0, vk::WHOLE_SIZE, value)
-            };
+            // the fill covers its whole size (short of a guard band).
+            unsafe { rec.ctx.device.cmd_fill_buffer(rec.cb, *b, 0, *range, value) };
         }
         rec.end_pass(idx);
     }
@@ -443,6 +444,7 @@ impl<'a> Pass<'_, 'a> {
             name,
             reads,
             writes,
+            ..
         } = self;
         assert!(
             data.len() <= 65536 && data.len() % 4 == 0,
@@ -463,6 +465,7 @@ impl<'a> Pass<'_, 'a> {
             name,
             reads,
             writes,
+            ..
         } = self;
         let idx = rec.begin_pass(&name, &reads, &writes);
         let region = [vk::BufferCopy::default().size(bytes)];

@@ -4,7 +4,7 @@
 //! the timestamps and statistics of the frame.
 
 use super::{FrameInput, FrameStats, Method, StereoFrame};
-use crate::gpu::{GpuResult, Recorder};
+use crate::gpu::{guard, GpuResult, Recorder};
 
 /// Timestamp pairs the recorder starts with (it adds more as needed).
 const INITIAL_PASSES: u32 = 32;
@@ -19,6 +19,9 @@ pub(crate) fn render<M: Method + ?Sized>(
     let sources = outputs.sources();
     let ranges = rec.read_back(outputs.readback, &sources)?;
     let passes = rec.finish()?;
+    // Debugging aid, off by default (`STEREOCACHE_GUARD_BANDS=1`): fail the
+    // frame when a pass wrote past the end of a storage buffer.
+    guard::check(&ctx)?;
     let (eyes, rays, counters) = outputs.decode(&ranges);
     Ok(StereoFrame {
         width: outputs.width,

@@ -14,11 +14,14 @@ use stereocache::scene::{generate::*, Environment, Material, Scene};
 use stereocache::session::Session;
 
 /// Validation always on; synchronization validation too when
-/// `STEREOCACHE_SYNC_VALIDATION=1` (slow; see docs/ROBUSTNESS.md).
+/// `STEREOCACHE_SYNC_VALIDATION=1` (slow; see docs/ROBUSTNESS.md), guard
+/// bands after every storage buffer when `STEREOCACHE_GUARD_BANDS=1`
+/// (src/gpu/guard.rs: a frame fails on an out-of-bounds write).
 pub fn gpu_options() -> GpuOptions {
     GpuOptions {
         validate: true,
         sync_validation: std::env::var("STEREOCACHE_SYNC_VALIDATION").is_ok_and(|v| v == "1"),
+        guard_bands: std::env::var("STEREOCACHE_GUARD_BANDS").is_ok_and(|v| v == "1"),
         device: None,
         want_ray_query: true,
         ..Default::default()
