@@ -24,12 +24,12 @@
 use crate::camera::{Eye, StereoCamera};
 use crate::error::{Error, Result};
 use crate::methods::{EyeImage, FrameInput, Method, MethodKind, RenderSettings, StereoFrame};
+use crate::metrics::ghosting::{ghost_mask, rse_on_mask};
 use crate::metrics::{
     eye_pixels_per_degree, flip_hdr, half_split_error, mean_of_halves, stereo_discrepancy_masked,
     temporal_instability_masked, Covisibility, Geometry, ImageMetrics, LinearImage, ReferenceNoise,
     DEFAULT_PPD, RSE_EPSILON,
 };
-use crate::metrics::ghosting::{ghost_mask, rse_on_mask};
 use crate::session::Session;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};

@@ -630,8 +630,17 @@ fn render_poses_an_animated_scene_at_the_given_time() {
         let out = out_dir(&format!("time-{t}"));
         let o = bin()
             .args([
-                "render", "--scene", "cornell-moving", "--size", "24x18", "--spp", "2",
-                "--time", t, "--out", out.to_str().unwrap(),
+                "render",
+                "--scene",
+                "cornell-moving",
+                "--size",
+                "24x18",
+                "--spp",
+                "2",
+                "--time",
+                t,
+                "--out",
+                out.to_str().unwrap(),
             ])
             .output()
             .unwrap();
@@ -659,6 +668,14 @@ fn render_poses_an_animated_scene_at_the_given_time() {
     let (c0, c1) = (cone_pixels(&t0), cone_pixels(&t1));
     assert!(!c0.is_empty() && !c1.is_empty(), "the cone is in view");
     assert_ne!(c0, c1, "the cone moved between T = 0 and T = 1");
-    let e = fails(&["render", "--scene", "cornell-moving", "--time", "nan", "--size", "8x8"]);
+    let e = fails(&[
+        "render",
+        "--scene",
+        "cornell-moving",
+        "--time",
+        "nan",
+        "--size",
+        "8x8",
+    ]);
     assert!(e.contains("bad --time"), "{e}");
 }

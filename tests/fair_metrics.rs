@@ -535,7 +535,10 @@ fn ghost_rse_is_the_error_on_the_pixels_the_mover_left() {
     }
     let want = sum / (3 * n) as f64;
     let got = m[1]["ghost_rse"];
-    assert!((got - want).abs() <= 1e-12 * want, "ghost_rse {got} vs {want}");
+    assert!(
+        (got - want).abs() <= 1e-12 * want,
+        "ghost_rse {got} vs {want}"
+    );
     // The whole image's RSE is dominated by the +2 pixels: far above.
     assert!(m[1]["rse"] > 4.0 * got);
     let still = run(vec![false, false, false]);

@@ -368,7 +368,10 @@ fn sample_cache_on_the_rotating_hairball_keeps_its_invariants() {
         "{stale} stale of {visible}"
     );
     assert!(on_hair > 300, "only {on_hair} samples on the hairball");
-    assert!(kept > 0, "no hairball sample carried over ({kept} of {on_hair})");
+    assert!(
+        kept > 0,
+        "no hairball sample carried over ({kept} of {on_hair})"
+    );
     assert_no_validation_messages(&ctx);
 }
 

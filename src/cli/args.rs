@@ -41,11 +41,7 @@ pub fn fps(s: &str) -> Result<f64, String> {
 /// `--time`: the scene time (seconds) animated instances are posed at, a
 /// finite number (looping animations wrap it).
 pub fn time(s: &str) -> Result<f64, String> {
-    float_with(
-        "--time",
-        |v: f64| v.is_finite(),
-        "seconds, a finite number",
-    )(s)
+    float_with("--time", |v: f64| v.is_finite(), "seconds, a finite number")(s)
 }
 
 /// `--exposure`: a positive multiplier.

@@ -50,7 +50,10 @@ pub fn ghost_mask(
     check_len("ghosting: previous depth", prev.depth.len(), w, h)?;
     check_len("ghosting: current depth", now.depth.len(), w, h)?;
     // Both frames need ids: a missing buffer is one of length 0.
-    let (prev_ids, now_ids) = (prev.first_hits.unwrap_or(&[]), now.first_hits.unwrap_or(&[]));
+    let (prev_ids, now_ids) = (
+        prev.first_hits.unwrap_or(&[]),
+        now.first_hits.unwrap_or(&[]),
+    );
     check_len("ghosting: previous first hits", prev_ids.len(), w, h)?;
     check_len("ghosting: current first hits", now_ids.len(), w, h)?;
     let moves = |inst: u32| inst != MISS_INSTANCE && moving.get(inst as usize) == Some(&true);
@@ -65,15 +68,9 @@ pub fn ghost_mask(
             }
             let d = now.depth[di];
             let hit = now_ids[di][3] != MISS_INSTANCE && d > 0.0 && d.is_finite();
-            let Some((p, _)) = project_into(
-                prev.view,
-                now.view,
-                forward,
-                i,
-                j,
-                hit.then_some(d),
-                size,
-            ) else {
+            let Some((p, _)) =
+                project_into(prev.view, now.view, forward, i, j, hit.then_some(d), size)
+            else {
                 continue;
             };
             if !(p.x >= 0.0 && p.y >= 0.0 && p.x < w as f32 && p.y < h as f32) {

@@ -545,7 +545,10 @@ pub fn bad_scene(name: &str) -> std::path::PathBuf {
 
 /// One glTF-style node per instance (node i = instance i) with identity rest
 /// TRS, and one animation of `channels`.
-pub fn flat_animation(n: usize, channels: Vec<stereocache::scene::animation::Channel>) -> stereocache::scene::animation::SceneAnimation {
+pub fn flat_animation(
+    n: usize,
+    channels: Vec<stereocache::scene::animation::Channel>,
+) -> stereocache::scene::animation::SceneAnimation {
     let mut a = stereocache::scene::animation::SceneAnimation {
         nodes: vec![
             stereocache::scene::animation::LocalRest::Trs {
@@ -566,7 +569,11 @@ pub fn flat_animation(n: usize, channels: Vec<stereocache::scene::animation::Cha
     a
 }
 
-pub fn linear(node: usize, times: Vec<f32>, values: Vec<glam::Vec4>) -> stereocache::scene::animation::Channel {
+pub fn linear(
+    node: usize,
+    times: Vec<f32>,
+    values: Vec<glam::Vec4>,
+) -> stereocache::scene::animation::Channel {
     stereocache::scene::animation::Channel::new(
         node,
         stereocache::scene::animation::TrsPath::Translation,
@@ -576,4 +583,3 @@ pub fn linear(node: usize, times: Vec<f32>, values: Vec<glam::Vec4>) -> stereoca
     )
     .unwrap()
 }
-
