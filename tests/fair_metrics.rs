@@ -450,7 +450,8 @@ fn the_pixels_a_moving_instance_left_are_ghosts_and_only_those() {
 
 /// The RSE on a mask sums only the masked pixels: reference 1, errors 0.5,
 /// 2 and 3 on pixels 0, 1, 2, mask {0, 2}: (3·0.25 + 3·9) / 1.01 over 2
-/// pixels; a mask of the wrong length is an error.
+/// pixels (ε the f32 0.01, as the metric widens it); a mask of the wrong
+/// length is an error.
 #[test]
 fn rse_on_a_mask_sums_only_the_masked_pixels() {
     use stereocache::metrics::ghosting::rse_on_mask;
@@ -458,7 +459,8 @@ fn rse_on_a_mask_sums_only_the_masked_pixels() {
     let x = LinearImage::new(3, 1, vec![[1.5; 3], [3.0; 3], [4.0; 3]]).unwrap();
     let (sum, n) = rse_on_mask(&x, &r, &[true, false, true], 0.01).unwrap();
     assert_eq!(n, 2);
-    let want = 3.0 * (0.25 + 9.0) / 1.01;
+    // ε is the f32 0.01 the metric takes, widened to f64 as it does.
+    let want = 3.0 * (0.25 + 9.0) / (1.0 + 0.01f32 as f64);
     assert!((sum - want).abs() < 1e-12 * want, "{sum} vs {want}");
     assert!(rse_on_mask(&x, &r, &[true], 0.01).is_err());
 }
@@ -476,6 +478,7 @@ fn rse_on_a_mask_sums_only_the_masked_pixels() {
 /// has neither either.
 #[test]
 fn ghost_rse_is_the_error_on_the_pixels_the_mover_left() {
+    use stereocache::metrics::RSE_EPSILON;
     let ids = |cols: std::ops::Range<usize>| -> Vec<[u32; 4]> {
         (0..W * H)
             .map(|i| {
@@ -528,7 +531,7 @@ fn ghost_rse_is_the_error_on_the_pixels_the_mover_left() {
             let (x, r) = (mf.eyes[e].radiance[i], refs[1].frame.eyes[e].radiance[i]);
             for c in 0..3 {
                 let d = x[c] as f64 - r[c] as f64;
-                sum += d * d / ((r[c] as f64).powi(2) + 0.01);
+                sum += d * d / ((r[c] as f64).powi(2) + RSE_EPSILON as f64);
             }
             n += 1;
         }
