@@ -457,10 +457,16 @@ pub fn compare_configs(
             };
             let mut cache = ReferenceCache::new(opts.reference_cache.clone(), rs)?;
             cache.flip_ppd = opts.flip_ppd;
+            // Each reference at its frame's pose (a moving scene's instances
+            // at frame i / fps, as the replay poses them; nothing for a
+            // static scene). The cache key includes the pose.
             cameras[..n]
                 .iter()
                 .enumerate()
-                .map(|(i, c)| cache.get(session, c, i as u32))
+                .map(|(i, c)| {
+                    session.pose_instances(i as f64 / opts.fps, None)?;
+                    cache.get(session, c, i as u32)
+                })
                 .collect::<Result<_>>()?
         }
     };
@@ -470,6 +476,7 @@ pub fn compare_configs(
     let mut kept_cameras: Vec<Option<StereoCamera>> = vec![None; shown.len()];
     for ((name, config), method) in labels.iter().zip(configs).zip(methods.iter_mut()) {
         let mut evaluator = Evaluator::new(opts.flip_ppd);
+        evaluator.moving = session.scene.instance_moves();
         let ropts = ReplayOptions {
             frames: Some(n),
             fps: opts.fps,

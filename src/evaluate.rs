@@ -17,11 +17,14 @@
 //! and are cached with its radiance), never from a method's own hits: every
 //! method — and the reference's own instability and discrepancy beside it —
 //! is scored on the same pixels, `temporal_covisible` and `stereo_covisible`
-//! of them.
+//! of them. On a scene with moving instances the same holds for the pixels
+//! a moving object has just left (`ghost_pixels`, both eyes together, and
+//! the error on them, `ghost_rse`; [`crate::metrics::ghosting`]).
 
 use crate::camera::{Eye, StereoCamera};
 use crate::error::{Error, Result};
 use crate::methods::{EyeImage, FrameInput, Method, MethodKind, RenderSettings, StereoFrame};
+use crate::metrics::ghosting::{ghost_mask, rse_on_mask};
 use crate::metrics::{
     eye_pixels_per_degree, flip_hdr, half_split_error, mean_of_halves, stereo_discrepancy_masked,
     temporal_instability_masked, Covisibility, Geometry, ImageMetrics, LinearImage, ReferenceNoise,
@@ -314,6 +317,10 @@ pub struct Evaluator {
     prev_ref: Option<(StereoFrame, StereoCamera)>,
     /// FLIP's pixels per degree (`None`: [`flip_ppd`] of each frame's camera).
     pub flip_ppd: Option<f32>,
+    /// Which instances move (`Scene::instance_moves`; empty: none): where one
+    /// does, each frame from the second on also reports `ghost_pixels` and
+    /// `ghost_rse` ([`crate::metrics::ghosting`]).
+    pub moving: Vec<bool>,
     /// Every metric's per-frame values, in frame order.
     series: BTreeMap<String, Vec<f64>>,
 }
@@ -414,6 +421,30 @@ impl Evaluator {
                 add("temporal_reference", tr.mean as f64);
                 add("temporal_excess", (tm.mean - tr.mean) as f64);
                 add("temporal_covisible", cov.fraction() as f64);
+            }
+        }
+        // Ghosting: the error on the pixels a moving instance has just left
+        // (reference geometry of t−1 and t), both eyes' pixels pooled;
+        // `ghost_rse` only on frames that have such pixels.
+        if let (true, Some((rf, rc))) = (self.moving.contains(&true), &self.prev_ref) {
+            let rviews = rc.eyes();
+            let (mut sum, mut count) = (0.0, 0usize);
+            for e in 0..2 {
+                let mask = ghost_mask(
+                    geometry(rf, &rviews[e], e),
+                    geometry(reference, &views_now[e], e),
+                    &self.moving,
+                    wu,
+                    hu,
+                )
+                .map_err(m)?;
+                let (s, c) = rse_on_mask(&imgs[e], &refs[e], &mask, RSE_EPSILON).map_err(m)?;
+                sum += s;
+                count += c;
+            }
+            out.insert("ghost_pixels".into(), count as f64);
+            if count > 0 {
+                out.insert("ghost_rse".into(), sum / (3 * count) as f64);
             }
         }
         // Stereo discrepancy: left into right, one mask from the reference pair.

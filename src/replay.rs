@@ -217,6 +217,12 @@ pub struct FrameRecord {
     #[serde(skip_serializing_if = "BTreeMap::is_empty")]
     pub metrics: BTreeMap<String, f64>,
     pub camera: CameraRecord,
+    /// Wall-clock milliseconds of posing the animated instances before the
+    /// frame (`Session::pose_instances`: sampling the animation, the TLAS
+    /// rebuild, the instance, BVH-top and emitter uploads); only on a scene
+    /// that animates.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub pose_ms: Option<f64>,
 }
 
 impl FrameRecord {
@@ -238,6 +244,7 @@ impl FrameRecord {
                 orientation: camera.head.orientation.to_array(),
                 ipd: camera.ipd,
             },
+            pose_ms: None,
         }
     }
 }
@@ -289,6 +296,11 @@ pub struct ReplaySummary {
     pub scene_memory_bytes: u64,
     /// Wall-clock seconds of the frame loop (rendering, read-back, writing).
     pub wall_s: f64,
+    /// Mean and maximum of the frames' `pose_ms` after the first (frame 0
+    /// poses nothing that moved), on a scene that animates: the per-frame
+    /// cost of the animation beside `steady_mean_gpu_ms`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub steady_pose_ms: Option<[f64; 2]>,
     pub out: PathBuf,
 }
 
@@ -323,6 +335,12 @@ impl std::fmt::Display for ReplaySummary {
             si(self.rays_per_frame),
             self.wall_s
         )?;
+        if let Some([mean, max]) = self.steady_pose_ms {
+            writeln!(
+                f,
+                "posing the animated instances: {mean:.2} ms/frame steady (max {max:.2} ms; wall clock, before each frame)"
+            )?;
+        }
         write!(
             f,
             "wrote {} (frames.jsonl, summary.json, images of {} frames)",
@@ -399,6 +417,8 @@ pub fn replay_observed(
     let mut rays = RayCounts::default();
     let mut images_written = 0;
     let (mut width, mut height) = (0, 0);
+    let animated = session.scene.is_animated();
+    let mut pose_ms: Vec<f64> = Vec::new();
     for (i, camera) in cameras.iter().enumerate() {
         let input = FrameInput {
             index: i as u32,
@@ -406,7 +426,7 @@ pub fn replay_observed(
             prev_camera: i.checked_sub(1).map(|p| cameras[p]),
         };
         let t = |k: usize| k as f64 / opts.fps;
-        session.pose_instances(t(i), i.checked_sub(1).map(t))?;
+        let posing = session.pose_instances(t(i), i.checked_sub(1).map(t))?;
         let frame = method.render_frame(&input)?;
         let metrics = observer(i, camera, &frame)?;
         (width, height) = (frame.width, frame.height);
@@ -417,6 +437,11 @@ pub fn replay_observed(
 
         let mut record = FrameRecord::new(i, opts.fps, camera, &frame.stats);
         record.metrics = metrics;
+        if animated {
+            let ms = posing.as_secs_f64() * 1e3;
+            record.pose_ms = Some(ms);
+            pose_ms.push(ms);
+        }
         let mut line = serde_json::to_string(&record).map_err(|e| {
             Error::io(
                 &jsonl,
@@ -490,6 +515,13 @@ pub fn replay_observed(
         method_memory_bytes: method.memory_bytes(),
         scene_memory_bytes: session.scene_gpu.bytes,
         wall_s,
+        steady_pose_ms: (pose_ms.len() > 1).then(|| {
+            let s = &pose_ms[1..];
+            [
+                s.iter().sum::<f64>() / s.len() as f64,
+                s.iter().cloned().fold(0.0, f64::max),
+            ]
+        }),
         out: out.clone(),
     };
     let value = serde_json::to_value(&summary).map_err(|e| {

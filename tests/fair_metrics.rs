@@ -404,3 +404,146 @@ fn the_baseline_defaults_to_naive_else_the_first() {
     assert!(choose_baseline(&l(&["taa"]), Some("naive")).is_err());
     assert!(choose_baseline(&[], None).is_err());
 }
+
+/// The ghost mask on 4×1 strips (one eye, still camera): instance 1 moves
+/// from pixels 0-1 to 1-2 over a static wall (instance 0), pixel 3 is sky.
+/// Only pixel 0 was left (1 stays covered, 2 is newly covered, 3 never was);
+/// with the object in front of the sky a frame ago the sky pixel is a ghost;
+/// with nothing moving there are none; without ids it is an error.
+#[test]
+fn the_pixels_a_moving_instance_left_are_ghosts_and_only_those() {
+    use stereocache::camera::EyeView;
+    use stereocache::metrics::ghosting::ghost_mask;
+    use stereocache::metrics::{Geometry, MISS_INSTANCE};
+    let strip = |ids: [u32; 4]| -> (Vec<f32>, Vec<[u32; 4]>) {
+        let depth = ids
+            .iter()
+            .map(|&k| if k == MISS_INSTANCE { 0.0 } else { 1.0 })
+            .collect();
+        (depth, ids.iter().map(|&k| [0, 0, 0, k]).collect())
+    };
+    let cam = StereoCamera::new(HeadPose::new(Vec3::ZERO, Quat::IDENTITY), 1.0, 4.0);
+    let view = cam.eyes()[0];
+    let before = strip([1, 1, 0, MISS_INSTANCE]);
+    let now = strip([0, 1, 1, MISS_INSTANCE]);
+    let sky = strip([0, 0, 0, 1]);
+    fn at<'a>(s: &'a (Vec<f32>, Vec<[u32; 4]>), view: &'a EyeView) -> Geometry<'a> {
+        Geometry {
+            depth: &s.0,
+            view,
+            first_hits: Some(&s.1),
+        }
+    }
+    let moving = [false, true];
+    let mask = ghost_mask(at(&before, &view), at(&now, &view), &moving, 4, 1).unwrap();
+    assert_eq!(mask, vec![true, false, false, false]);
+    let mask = ghost_mask(at(&sky, &view), at(&now, &view), &moving, 4, 1).unwrap();
+    assert_eq!(mask, vec![false, false, false, true]);
+    let mask = ghost_mask(at(&before, &view), at(&now, &view), &[false, false], 4, 1).unwrap();
+    assert_eq!(mask, vec![false; 4]);
+    let bare = Geometry {
+        first_hits: None,
+        ..at(&now, &view)
+    };
+    assert!(ghost_mask(at(&before, &view), bare, &moving, 4, 1).is_err());
+}
+
+/// The RSE on a mask sums only the masked pixels: reference 1, errors 0.5,
+/// 2 and 3 on pixels 0, 1, 2, mask {0, 2}: (3·0.25 + 3·9) / 1.01 over 2
+/// pixels (ε the f32 0.01, as the metric widens it); a mask of the wrong
+/// length is an error.
+#[test]
+fn rse_on_a_mask_sums_only_the_masked_pixels() {
+    use stereocache::metrics::ghosting::rse_on_mask;
+    let r = LinearImage::new(3, 1, vec![[1.0; 3]; 3]).unwrap();
+    let x = LinearImage::new(3, 1, vec![[1.5; 3], [3.0; 3], [4.0; 3]]).unwrap();
+    let (sum, n) = rse_on_mask(&x, &r, &[true, false, true], 0.01).unwrap();
+    assert_eq!(n, 2);
+    // ε is the f32 0.01 the metric takes, widened to f64 as it does.
+    let want = 3.0 * (0.25 + 9.0) / (1.0 + 0.01f32 as f64);
+    assert!((sum - want).abs() < 1e-12 * want, "{sum} vs {want}");
+    assert!(rse_on_mask(&x, &r, &[true], 0.01).is_err());
+}
+
+/// Ghosting through the Evaluator, with a head step between the frames:
+/// the plane (instance 1, static) and a mover (instance 2) at depth 1. The
+/// step of 0.0625 m shifts the image by −2 px (`rig`), so frame 1's pixel x
+/// saw what frame 0 had at x + 2. The mover covers columns [10, 20) of frame
+/// 0 and [14, 24) of frame 1: frame 1's ghost pixels are the columns
+/// [8, 14) (x + 2 in [10, 20), x not in [14, 24)) of every row of both eyes,
+/// 6 · 64 · 2 = 768. The method's frame 1 is the reference plus 0.5 there
+/// and plus 2 everywhere else, so `ghost_rse` is exactly the RSE of the
+/// +0.5 pixels (computed here from the same f32 values); frame 0 (no
+/// previous frame) has neither key, and without moving instances frame 1
+/// has neither either.
+#[test]
+fn ghost_rse_is_the_error_on_the_pixels_the_mover_left() {
+    use stereocache::metrics::RSE_EPSILON;
+    let ids = |cols: std::ops::Range<usize>| -> Vec<[u32; 4]> {
+        (0..W * H)
+            .map(|i| {
+                let inst = if cols.contains(&(i % W)) { 2 } else { 1 };
+                [(i % W) as u32, (i / W) as u32, 3, inst]
+            })
+            .collect()
+    };
+    let reference_with = |f: u64, cols: std::ops::Range<usize>| {
+        let half = |v| {
+            stereo([
+                eye(radiance(f, 0, v), plane_depth(), ids(cols.clone())),
+                eye(radiance(f, 1, v), plane_depth(), ids(cols.clone())),
+            ])
+        };
+        ReferenceFrame::from_halves([half(1), half(2)], flip_ppd(&rig(0.0), W as u32)).unwrap()
+    };
+    let refs = [reference_with(0, 10..20), reference_with(1, 14..24)];
+    let ghost = |i: usize| (8..14).contains(&(i % W));
+    let method_of = |r: &ReferenceFrame| {
+        let eye_of = |e: usize| {
+            let rad: Vec<[f32; 4]> = r.frame.eyes[e]
+                .radiance
+                .iter()
+                .enumerate()
+                .map(|(i, p)| {
+                    let d = if ghost(i) { 0.5 } else { 2.0 };
+                    [p[0] + d, p[1] + d, p[2] + d, 1.0]
+                })
+                .collect();
+            eye(rad, plane_depth(), plane_ids())
+        };
+        stereo([eye_of(0), eye_of(1)])
+    };
+    let cams = [rig(0.0), rig(0.0625)];
+    let run = |moving: Vec<bool>| {
+        let mut ev = Evaluator::new(None);
+        ev.moving = moving;
+        (0..2)
+            .map(|f| ev.frame(&cams[f], &method_of(&refs[f]), &refs[f]).unwrap())
+            .collect::<Vec<_>>()
+    };
+    let m = run(vec![false, false, true]);
+    assert!(!m[0].contains_key("ghost_pixels") && !m[0].contains_key("ghost_rse"));
+    assert_eq!(m[1]["ghost_pixels"], 768.0);
+    let (mut sum, mut n) = (0.0f64, 0usize);
+    let mf = method_of(&refs[1]);
+    for e in 0..2 {
+        for i in (0..W * H).filter(|&i| ghost(i)) {
+            let (x, r) = (mf.eyes[e].radiance[i], refs[1].frame.eyes[e].radiance[i]);
+            for c in 0..3 {
+                let d = x[c] as f64 - r[c] as f64;
+                sum += d * d / ((r[c] as f64).powi(2) + RSE_EPSILON as f64);
+            }
+            n += 1;
+        }
+    }
+    let want = sum / (3 * n) as f64;
+    let got = m[1]["ghost_rse"];
+    assert!(
+        (got - want).abs() <= 1e-12 * want,
+        "ghost_rse {got} vs {want}"
+    );
+    // The whole image's RSE is dominated by the +2 pixels: far above.
+    assert!(m[1]["rse"] > 4.0 * got);
+    let still = run(vec![false, false, false]);
+    assert!(!still[1].contains_key("ghost_pixels") && !still[1].contains_key("ghost_rse"));
+}

@@ -38,6 +38,12 @@ pub fn fps(s: &str) -> Result<f64, String> {
     )(s)
 }
 
+/// `--time`: the scene time (seconds) animated instances are posed at, a
+/// finite number (looping animations wrap it).
+pub fn time(s: &str) -> Result<f64, String> {
+    float_with("--time", |v: f64| v.is_finite(), "seconds, a finite number")(s)
+}
+
 /// `--exposure`: a positive multiplier.
 pub fn exposure(s: &str) -> Result<f32, String> {
     float_with(

@@ -1,5 +1,5 @@
 //! `stereocache render`: one stereo frame, written as DIR/{left,right}.{exr,png}
-//! and DIR/stats.json.
+//! and DIR/stats.json; an animated scene is posed at `--time` (default 0).
 
 use super::args::{self, CameraArgs, GpuArgs, MethodArgs, SceneArgs};
 use super::common::{check_out, report_validation};
@@ -31,6 +31,10 @@ pub struct RenderArgs {
     bounces: u32,
     #[arg(long, default_value_t = 1)]
     seed: u32,
+    /// Scene time in seconds: animated instances (see --animation) are
+    /// posed at it, as a replay poses them at its frame time.
+    #[arg(long, default_value_t = 0.0, value_parser = args::time)]
+    time: f64,
     /// Exposure multiplier for the PNG previews.
     #[arg(long, default_value_t = 1.0, value_parser = args::exposure)]
     exposure: f32,
@@ -63,6 +67,8 @@ pub fn run(a: RenderArgs) -> Result<()> {
     let session = a.scene.open(&a.gpu)?;
     let cam = session.camera(&select, w, h, a.camera.ipd, a.camera.fov_radians())?;
     let mut m = session.create(&config, &settings)?;
+    // One frame: previous and current pose are both those at --time.
+    session.pose_instances(a.time, None)?;
     let frame = m.render_frame(&FrameInput {
         index: 0,
         camera: cam,
@@ -81,6 +87,7 @@ pub fn run(a: RenderArgs) -> Result<()> {
         "scene": session.scene.source,
         "triangles": session.scene_gpu.triangle_count,
         "method": m.name(),
+        "time": a.time,
         "settings": config.record(&settings),
         "camera": { "position": cam.world_position().to_array(), "orientation": cam.head.orientation.to_array(), "ipd": cam.ipd, "yfov_deg": cam.yfov.to_degrees() },
         "gpu_ms": frame.stats.gpu_ms(),

@@ -37,6 +37,35 @@ pub struct Geometry<'a> {
     pub first_hits: Option<FirstHits<'a>>,
 }
 
+/// Where the centre of pixel `(i, j)` of `dst_view`, seen at view depth
+/// `depth` (`None`: a miss, the point at infinity along the pixel's ray), lies
+/// in `src_view`: its pixel position and source view depth (`None`: behind
+/// either eye). `forward` is `dst_view`'s −Z in world space. The step shared
+/// by [`Covisibility::new`] and [`super::ghosting`].
+pub(super) fn project_into(
+    src_view: &EyeView,
+    dst_view: &EyeView,
+    forward: Vec3,
+    i: usize,
+    j: usize,
+    depth: Option<f32>,
+    size: UVec2,
+) -> Option<(Vec2, f32)> {
+    let dir = dst_view.ray_direction(Vec2::new(i as f32 + 0.5, j as f32 + 0.5), size);
+    let cos = dir.dot(forward);
+    if cos <= 0.0 {
+        return None;
+    }
+    let Some(d) = depth else {
+        // A point at infinity: only the source eye's orientation matters.
+        return src_view.project_offset(dir, size);
+    };
+    // The point relative to the source eye; the eyes' offset is taken in
+    // f64 so views far from the origin keep their precision.
+    let eyes = (dst_view.world - src_view.world).as_vec3();
+    src_view.project_offset(eyes + dir * (d / cos), size)
+}
+
 /// The kept bilinear taps of every destination pixel (empty: not co-visible).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Covisibility {
@@ -90,15 +119,8 @@ impl Covisibility {
                 if dst_id.is_some_and(|id| id[3] == MISS_INSTANCE) {
                     continue;
                 }
-                let dir = dst_view.ray_direction(Vec2::new(i as f32 + 0.5, j as f32 + 0.5), size);
-                let cos = dir.dot(forward);
-                if cos <= 0.0 {
-                    continue;
-                }
-                // The point relative to the source eye; the eyes' offset is
-                // taken in f64 so views far from the origin keep their precision.
-                let eyes = (dst_view.world - src_view.world).as_vec3();
-                let Some((p, d_s)) = src_view.project_offset(eyes + dir * (d / cos), size) else {
+                let Some((p, d_s)) = project_into(src_view, dst_view, forward, i, j, Some(d), size)
+                else {
                     continue;
                 };
                 if !(p.x >= 0.0 && p.y >= 0.0 && p.x <= w as f32 && p.y <= h as f32) {

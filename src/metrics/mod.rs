@@ -12,6 +12,8 @@
 //! - [`covisibility`]: the co-visibility mask of one view in another from
 //!   geometry alone (depth, optionally first-hit ids), applicable to any
 //!   image — `compare` builds it from the reference, one mask for all methods.
+//! - [`ghosting`]: the pixels a moving object has just left (from the
+//!   reference's geometry, like co-visibility) and the error restricted to them.
 //! - [`reproject`](mod@reproject): backward reprojection between views with a
 //!   co-visibility mask (depth, optionally first-hit ids).
 //! - [`temporal`]: frame-to-frame reprojected difference.
@@ -34,6 +36,7 @@ pub mod cpbd;
 pub mod error;
 mod filter;
 pub mod flip;
+pub mod ghosting;
 pub mod image;
 pub mod ppd;
 pub mod reference_noise;

@@ -174,6 +174,9 @@ pub struct SceneGpu {
     posed: Mutex<Vec<Mat4>>,
     /// Per instance, `InstanceGpu::mesh_pad` (mesh, 1 + first emitter).
     instance_ids: Vec<[u32; 4]>,
+    /// The emissive triangles as last uploaded (render-origin relative),
+    /// moved with their instances by `set_instance_motion`.
+    emitters: Mutex<Emitters>,
     _buffers: Vec<Buffer>,
     _textures: Vec<GpuTexture>,
     _samplers: Vec<Sampler>,
@@ -548,6 +551,7 @@ impl SceneGpu {
             two_level: Mutex::new(two_level),
             posed: Mutex::new(rest),
             instance_ids,
+            emitters: Mutex::new(emitters),
             _buffers: vec![
                 b_vertices,
                 b_indices,
@@ -612,8 +616,8 @@ impl SceneGpu {
     /// the BLAS untouched — ray queries: the TLAS on the device, in place;
     /// software two-level: the TLAS on the CPU, then the front of the BVH
     /// buffers uploaded. The flattened BVH cannot move instances (an error).
-    /// Not yet: emissive triangles on moving instances (their NEE samples
-    /// stay at rest, issue 16).
+    /// Emissive triangles on instances that moved are moved with them
+    /// (their light samples: world vertices, areas, the pick-by-power table).
     /// Call between frames (it submits and waits). The previous-frame
     /// transforms become `transforms` too (no motion); a frame loop uses
     /// [`Self::set_instance_motion`].
@@ -638,6 +642,7 @@ impl SceneGpu {
                 self.instance_ids.len()
             )));
         }
+        self.pose_emitters(transforms)?;
         if let Some(accel) = self._accel.lock().expect("accel lock").as_mut() {
             accel.rebuild_tlas(&tlas_instances(transforms, &self.instance_ids, self.origin))?;
             let records = instance_records(transforms, prev, &self.instance_ids, self.origin);
@@ -669,6 +674,28 @@ impl SceneGpu {
     }
 }
 
+impl SceneGpu {
+    /// Moves the emissive triangles whose instance's transform differs from
+    /// the one last uploaded to `transforms` and re-uploads the emitter
+    /// buffer (NEE samples and the MIS pdf read world vertices, lights.glsl);
+    /// nothing when no emitter moved.
+    fn pose_emitters(&self, transforms: &[Mat4]) -> GpuResult<()> {
+        let posed = self.posed.lock().expect("pose lock");
+        let mut emitters = self.emitters.lock().expect("emitter lock");
+        let moved = emitters
+            .first
+            .iter()
+            .enumerate()
+            .any(|(k, f)| f.is_some() && transforms[k] != posed[k]);
+        if !moved {
+            return Ok(());
+        }
+        let origin = self.origin;
+        emitters.pose(|k| relative_transform(transforms[k], origin));
+        self._buffers[BUF_EMITTERS].upload(&emitter_buffer(&emitters))
+    }
+}
+
 /// The TLAS instances (custom index = instance, BLAS = its mesh) for
 /// transforms rebased on `origin`.
 fn tlas_instances(transforms: &[Mat4], ids: &[[u32; 4]], origin: DVec3) -> Vec<TlasInstance> {
@@ -689,6 +716,7 @@ const BUF_INSTANCES: usize = 3;
 const BUF_NODES: usize = 7;
 const BUF_TRI_REF: usize = 8;
 const BUF_TRI_VERTS: usize = 9;
+const BUF_EMITTERS: usize = 10;
 
 /// The `instances` buffer records (scene.glsl `InstanceInfo`) for transforms
 /// (this frame's and the previous frame's) rebased on `origin`.

@@ -31,6 +31,23 @@ pub struct EmitterTriangle {
     pub vertices: [Vec3; 3],
     pub area: f32,
     pub power: f64,
+    /// Object-space vertices and (luminance, sides) of the emission: what
+    /// [`Emitters::pose`] recomputes `vertices`, `area` and `power` from.
+    pub object_vertices: [Vec3; 3],
+    pub emission: (f64, f64),
+}
+
+impl EmitterTriangle {
+    /// World vertices, area and power under object-to-world `m`.
+    fn place(&mut self, m: Mat4) {
+        let v = self.object_vertices.map(|p| m.transform_point3(p));
+        let area = 0.5 * (v[1] - v[0]).cross(v[2] - v[0]).length();
+        let (lum, sides) = self.emission;
+        let power = std::f64::consts::PI * area as f64 * lum * sides;
+        self.vertices = v;
+        self.area = area;
+        self.power = if power.is_finite() { power } else { 0.0 };
+    }
 }
 
 #[derive(Clone, Debug, Default)]
@@ -91,20 +108,32 @@ impl Emitters {
             out.first[k] = Some(out.triangles.len() as u32);
             let m = transform(k);
             for (prim, tri) in mesh.indices.chunks_exact(3).enumerate() {
-                let v = [0, 1, 2].map(|j| m.transform_point3(mesh.positions[tri[j] as usize]));
-                let area = 0.5 * (v[1] - v[0]).cross(v[2] - v[0]).length();
-                let power = std::f64::consts::PI * area as f64 * lum * sides;
-                out.triangles.push(EmitterTriangle {
+                let mut t = EmitterTriangle {
                     instance: k as u32,
                     prim: prim as u32,
-                    vertices: v,
-                    area,
-                    power: if power.is_finite() { power } else { 0.0 },
-                });
+                    vertices: [Vec3::ZERO; 3],
+                    area: 0.0,
+                    power: 0.0,
+                    object_vertices: [0, 1, 2].map(|j| mesh.positions[tri[j] as usize]),
+                    emission: (lum, sides),
+                };
+                t.place(m);
+                out.triangles.push(t);
             }
         }
         let powers: Vec<f64> = out.triangles.iter().map(|t| t.power).collect();
         out.table = AliasTable::new(&powers);
         out
+    }
+
+    /// Moves every emitter with its instance to `transform(k)` (an animated
+    /// scene's pose, issue 16): world vertices, areas, powers and the
+    /// pick-by-power table as [`Self::of`] computes them at that pose.
+    pub fn pose(&mut self, transform: impl Fn(usize) -> Mat4) {
+        for t in &mut self.triangles {
+            t.place(transform(t.instance as usize));
+        }
+        let powers: Vec<f64> = self.triangles.iter().map(|t| t.power).collect();
+        self.table = AliasTable::new(&powers);
     }
 }

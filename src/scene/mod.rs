@@ -116,6 +116,15 @@ impl Scene {
             .is_some_and(|a| a.instance_moves().iter().any(|&m| m))
     }
 
+    /// Whether each instance moves under the selected animation (all false,
+    /// or empty, for a static scene).
+    pub fn instance_moves(&self) -> Vec<bool> {
+        match &self.animation {
+            Some(a) => a.instance_moves(),
+            None => Vec::new(),
+        }
+    }
+
     /// Object-to-world transform of every instance at time `t` (seconds, the
     /// replay's frame time); a static scene's are `instances[i].transform`.
     pub fn instance_transforms_at(&self, t: f32) -> Vec<Mat4> {

@@ -545,3 +545,44 @@ pub fn bad_scene(name: &str) -> std::path::PathBuf {
         .join("tests/data/bad_scenes")
         .join(name)
 }
+
+/// One glTF-style node per instance (node i = instance i) with identity rest
+/// TRS, and one animation of `channels`.
+pub fn flat_animation(
+    n: usize,
+    channels: Vec<stereocache::scene::animation::Channel>,
+) -> stereocache::scene::animation::SceneAnimation {
+    let mut a = stereocache::scene::animation::SceneAnimation {
+        nodes: vec![
+            stereocache::scene::animation::LocalRest::Trs {
+                translation: Vec3::ZERO,
+                rotation: glam::Quat::IDENTITY,
+                scale: Vec3::ONE,
+            };
+            n
+        ],
+        instance_paths: (0..n as u32).map(|i| vec![i]).collect(),
+        animations: vec![stereocache::scene::animation::Animation {
+            name: "test".into(),
+            channels,
+        }],
+        active: Vec::new(),
+    };
+    a.select(&Default::default()).unwrap();
+    a
+}
+
+pub fn linear(
+    node: usize,
+    times: Vec<f32>,
+    values: Vec<glam::Vec4>,
+) -> stereocache::scene::animation::Channel {
+    stereocache::scene::animation::Channel::new(
+        node,
+        stereocache::scene::animation::TrsPath::Translation,
+        stereocache::scene::animation::Interpolation::Linear,
+        times,
+        values,
+    )
+    .unwrap()
+}
