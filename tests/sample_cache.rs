@@ -771,7 +771,10 @@ fn skipped_shading_and_no_payload_keep_the_visibility() {
                 (0, 0),
                 "{label}, frame {f}: path rays"
             );
-            assert_eq!(stats.rays.primary, ref_stats.rays.primary, "{label}, frame {f}");
+            assert_eq!(
+                stats.rays.primary, ref_stats.rays.primary,
+                "{label}, frame {f}"
+            );
             assert!(
                 !stats.passes.iter().any(|p| p.name.starts_with("shade")),
                 "{label}, frame {f}: a shading pass ran"
