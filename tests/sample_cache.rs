@@ -7,7 +7,7 @@ use glam::UVec2;
 use stereocache::camera::{Eye, StereoCamera};
 use stereocache::methods::sample_cache::background::background_direction;
 use stereocache::methods::sample_cache::{
-    CacheSnapshot, Reproject, Retrace, SampleCache, SampleCacheSettings, Shading,
+    CacheSnapshot, Payload, Reproject, Retrace, SampleCache, SampleCacheSettings, Shading,
 };
 use stereocache::rt::{RtChoice, SoftwareBvh};
 use stereocache::session::{CameraSelect, Session};
@@ -695,4 +695,144 @@ fn subgroup_and_plain_builds_agree() {
         "the second frame reprojects samples into the histogram"
     );
     assert_no_validation_messages(&ctx);
+}
+
+/// Fig. 6's no-shade rows and Fig. 7's "shading is skipped" (issue 15): on a
+/// moving Cornell trace, `--shading skip` dispatches no shading pass and
+/// traces no path (0 shaded samples, bounce and shadow rays), and
+/// `--payload none` allocates 128-bit entries (first hits only: one half of
+/// the cache is the mask, the first hits and a 16-byte placeholder), while
+/// the visibility is that of the shaded cache with its payload: in every
+/// frame the visibility counters are equal and every pixel holds the same
+/// occupied-slot count and the same set of visible first hits.
+#[test]
+fn skipped_shading_and_no_payload_keep_the_visibility() {
+    let ctx = context();
+    let s = session(&ctx, shipped("cornell"), RtChoice::Software);
+    let (w, h) = (40, 30);
+    let cam0 = default_camera(&s, w, h);
+    let frames = 5;
+    let run = |shading: Shading, payload: Payload| {
+        let st = settings(
+            w,
+            h,
+            SampleCacheSettings {
+                shading,
+                payload,
+                ..Default::default()
+            },
+        );
+        let mut m = cache_method(&s, &st);
+        let mut out = Vec::new();
+        let mut prev = None;
+        for f in 0..frames {
+            let cam = moving(&cam0, f, 1.5);
+            let fr = render_at(&mut m, f, cam, prev);
+            prev = Some(cam);
+            out.push((fr.stats, m.snapshot().unwrap()));
+        }
+        (m.cache_bytes(), out)
+    };
+    let (bytes_full, full) = run(Shading::Uniform, Payload::Radiance);
+    let (bytes_skip, skip) = run(Shading::Skip, Payload::Radiance);
+    let (bytes_none, none) = run(Shading::Skip, Payload::None);
+    let entries = 2 * (w * h) as u64 * SampleCacheSettings::default().slots as u64;
+    let mask_bytes = 2 * (w * h) as u64 * 4;
+    assert_eq!(bytes_full, mask_bytes + entries * 32, "256-bit entries");
+    assert_eq!(bytes_skip, bytes_full);
+    assert_eq!(
+        bytes_none,
+        mask_bytes + entries * 16 + 16,
+        "128-bit entries"
+    );
+    let visible_hits = |snap: &CacheSnapshot, e: usize, p: usize| {
+        let mut v: Vec<[u32; 4]> = Vec::new();
+        let mut bits = snap.visible(snap.mask(e, p));
+        while bits != 0 {
+            let s = bits.trailing_zeros();
+            bits &= bits - 1;
+            v.push(snap.first_hits[snap.slot(e, s, p)]);
+        }
+        v.sort();
+        v
+    };
+    // Counters that shading writes (its paths' rays are in `stats.rays`).
+    let shading_only = ["shaded_samples"];
+    for f in 0..frames as usize {
+        let (ref_stats, ref_snap) = &full[f];
+        assert!(
+            ref_stats.counters["shaded_samples"] > 0.0,
+            "frame {f}: the full cache shades"
+        );
+        for (label, (stats, snap)) in [("skip", &skip[f]), ("no payload", &none[f])] {
+            assert_eq!(stats.counters["shaded_samples"], 0.0, "{label}, frame {f}");
+            assert_eq!(
+                (stats.rays.bounce, stats.rays.shadow),
+                (0, 0),
+                "{label}, frame {f}: path rays"
+            );
+            assert_eq!(
+                stats.rays.primary, ref_stats.rays.primary,
+                "{label}, frame {f}"
+            );
+            assert!(
+                !stats.passes.iter().any(|p| p.name.starts_with("shade")),
+                "{label}, frame {f}: a shading pass ran"
+            );
+            let mut a = ref_stats.counters.clone();
+            let mut b = stats.counters.clone();
+            for c in shading_only {
+                a.remove(c);
+                b.remove(c);
+            }
+            assert_eq!(a, b, "{label}, frame {f}: visibility counters");
+            let mut differ = 0;
+            for e in 0..2 {
+                for p in 0..snap.npix() {
+                    let (ma, mb) = (ref_snap.mask(e, p), snap.mask(e, p));
+                    if ref_snap.occupied(ma).count_ones() != snap.occupied(mb).count_ones()
+                        || visible_hits(ref_snap, e, p) != visible_hits(snap, e, p)
+                    {
+                        differ += 1;
+                    }
+                }
+            }
+            assert_eq!(differ, 0, "{label}, frame {f}: pixels whose samples differ");
+        }
+    }
+    assert_no_validation_messages(&ctx);
+}
+
+/// Appendix C's roughness sweep: the scene `cornell:alpha=A` is the Cornell
+/// box with both spheres at GGX α = A (glTF roughness √A, as the BSDF takes
+/// α = roughness²) and every other material as shipped; bad options are one
+/// clear error naming the scene.
+#[test]
+fn cornell_alpha_option_sets_the_spheres_roughness() {
+    let shipped_box = stereocache::scene::load_scene("cornell").unwrap();
+    for alpha in [0.0f32, 0.2, 0.4] {
+        let spec = format!("cornell:alpha={alpha}");
+        let sc = stereocache::scene::load_scene(&spec).unwrap();
+        assert_eq!(sc.materials.len(), shipped_box.materials.len());
+        for (m, m0) in sc.materials.iter().zip(&shipped_box.materials) {
+            if m.name == "metal" || m.name == "glass" {
+                assert_eq!(m.roughness, alpha.sqrt(), "{spec}: {}", m.name);
+                assert_eq!((m.metallic, m.transmission), (m0.metallic, m0.transmission));
+            } else {
+                assert_eq!(m.roughness, m0.roughness, "{spec}: {}", m.name);
+            }
+        }
+        assert_eq!(sc.meshes.len(), shipped_box.meshes.len());
+    }
+    for bad in [
+        "cornell:alpha=1.5",
+        "cornell:alpha=x",
+        "cornell:roughness=0.2",
+    ] {
+        let e = stereocache::scene::load_scene(bad).unwrap_err().to_string();
+        assert!(
+            e.contains(bad) && e.contains("cornell:alpha=A"),
+            "{bad}: {e}"
+        );
+    }
 }

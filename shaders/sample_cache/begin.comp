@@ -14,6 +14,7 @@ void main() {
     if (i == 0u) {
         state[8] = 0u;
         state[9] = 0u;
+        state[14] = 0u;
     }
     if (i < 4u) state[10u + i] = 0u;   // shade_select.comp's per-eye pixel counts
     if (i < 2u * HIST_M) hist[i] = 0u;

@@ -42,7 +42,8 @@ layout(set = SET_SAMPLE_CACHE, binding = B_SAMPLE_CACHE_DEPTH_MIN, std430) buffe
 layout(set = SET_SAMPLE_CACHE, binding = B_SAMPLE_CACHE_DEPTH_MAX, std430) buffer DepthMax { uint depth_max[]; };      // t_max bits
 layout(set = SET_SAMPLE_CACHE, binding = B_SAMPLE_CACHE_HIST, std430) buffer Hist { uint hist[]; };               // [eye][HIST_M]
 // state: [0..2) w_min prev, [2..4) w_max prev, [4..6) w_min next, [6..8) w_max next, [8] shade-list length,
-// [9] retrace-list length, [10..12) unshaded pixels, [12..14) base-rate pixels (shade_select.comp phase 0)
+// [9] retrace-list length (surface samples), [10..12) unshaded pixels, [12..14) base-rate pixels
+// (shade_select.comp phase 0), [14] retrace-list length (background samples)
 layout(set = SET_SAMPLE_CACHE, binding = B_SAMPLE_CACHE_STATE, std430) buffer State { uint state[]; };
 layout(set = SET_SAMPLE_CACHE, binding = B_SAMPLE_CACHE_SHADE_LIST, std430) buffer ShadeList { uint shade_list[]; };   // eye << 31 | slot << 26 | pixel
 layout(set = SET_SAMPLE_CACHE, binding = B_SAMPLE_CACHE_TARGET_SRC, std430) buffer TargetSrc { uint target_src[]; };   // two-pass: v << 31 | (source slot·npix + pixel + 1), reproject.comp
@@ -63,6 +64,11 @@ layout(set = SET_SAMPLE_CACHE, binding = B_SAMPLE_CACHE_PIXEL_STATS, std430) buf
 // (the sample is occluded). Neither bit: the ray found no hit near the
 // stored one (precision at triangle edges) and the slot keeps its
 // visibility, as §3.2 sets v_s = 0 only "if a closer hit is encountered".
+// The list holds the surface samples' entries from the front (state[9] of
+// them) and the background samples' from the back (state[14]), so that the
+// lanes of a SIMD group trace rays of one kind: a background sample's
+// occlusion query runs to infinity, a surface sample's ends at the sample,
+// and a group that mixes them waits for its longest ray.
 layout(set = SET_SAMPLE_CACHE, binding = B_SAMPLE_CACHE_RETRACE_LIST, std430) buffer RetraceList { uint retrace_list[]; };
 layout(set = SET_SAMPLE_CACHE, binding = B_SAMPLE_CACHE_RETRACE_FOUND, std430) buffer RetraceFound { uint retrace_found[]; };  // [eye][pixel]
 // VkDispatchIndirectCommand per list: [0..3) retrace, [4..7) shade (indirect_args.comp).
@@ -115,13 +121,25 @@ const uint C_RETRACE_RAYS = C_SAMPLE_CACHE_RETRACE_RAYS, C_NEW_RAYS = C_SAMPLE_C
            C_REPLACED = C_SAMPLE_CACHE_REPLACED, C_EDGE_PIXELS = C_SAMPLE_CACHE_EDGE_PIXELS,
            C_VISIBLE = C_SAMPLE_CACHE_VISIBLE, C_BG_RAYS = C_SAMPLE_CACHE_BG_RAYS,
            C_REPROJECTED_VISIBLE = C_SAMPLE_CACHE_REPROJECTED_VISIBLE,
-           C_REPROJECTED_BACKGROUND = C_SAMPLE_CACHE_REPROJECTED_BACKGROUND;
+           C_REPROJECTED_BACKGROUND = C_SAMPLE_CACHE_REPROJECTED_BACKGROUND,
+           C_RETRACE_BACKGROUND = C_SAMPLE_CACHE_RETRACE_BACKGROUND,
+           C_RETRACE_OCCLUSION = C_SAMPLE_CACHE_RETRACE_OCCLUSION,
+           C_RETRACE_OCCLUDED = C_SAMPLE_CACHE_RETRACE_OCCLUDED;
 
 uint npix() { return frame.size_seed.x * frame.size_seed.y; }
 uint slot_index(uint eye, uint s, uint pixel) { return (eye * N_SLOTS + s) * npix() + pixel; }
 uint full_bits() { return N_SLOTS >= 32u ? 0xFFFFFFFFu : (1u << N_SLOTS) - 1u; }
 uint occ_bits(uint m) { return m & full_bits(); }
 uint vis_bits(uint m) { return (m >> N_SLOTS) & full_bits(); }
+
+// Retrace list (see RetraceList): its length, and its i-th entry's index
+// (surface entries first, then the background entries from the back).
+uint retrace_list_capacity() { return 2u * N_SLOTS * npix(); }
+uint retrace_list_length() { return state[9] + state[14]; }
+uint retrace_list_index(uint i) {
+    uint n_surface = state[9];
+    return i < n_surface ? i : retrace_list_capacity() - 1u - (i - n_surface);
+}
 
 // Background samples (first_hit.glsl): slot s of `pixel` holds one.
 bool slot_is_background(uint eye, uint s, uint pixel) {

@@ -29,6 +29,8 @@ layout(constant_id = SPEC_SAMPLE_CACHE_DEBUG_VIEWS) const bool DEBUG_VIEWS = fal
 // Surface detail stays the pixel's own: the caller remodulates with its own
 // samples' base colour and emission.
 bool unshaded_fallback(uint eye, ivec2 px, ivec2 size, out vec3 demod) {
+    demod = vec3(0.0);
+    if (!SHADING_STORAGE) return false;   // --payload none: no radiance records
     for (int r = 1; r <= 4; ++r) {
         vec3 sum = vec3(0.0);
         float wsum = 0.0;
@@ -93,7 +95,8 @@ void main() {
         vec3 d = (wp - o) / max(t, 1e-30);
         Surface surf = surface_at(fh.w, fh.z, first_hit_bary(fh), d);
         ShadingMaterial mat = material_at(surf, d, t * spread);
-        vec4 rec = rad_cur[idx];
+        // (--payload none: no radiance record; every sample counts as unshaded.)
+        vec4 rec = SHADING_STORAGE ? rad_cur[idx] : vec4(0.0);
         if (t < best_t) { best_t = t; best_fh = fh; best_albedo = mat.base; best_p = wp; }
         factor_sum += demodulation_factor(mat);
         emission_sum += mat.emissive;

@@ -3,7 +3,10 @@
 // §3.2 step 3, first half: retrace the slots select.comp listed, with rays
 // from the eye to the stored hit; a sample is visible when the closest hit
 // lies within ε0·t of it and occluded when a closer hit is found; a ray that
-// finds neither leaves the slot's visibility as it was (trace.comp). A
+// finds neither leaves the slot's visibility as it was (trace.comp). For a
+// sample that is visible already only "occluded" changes anything, so it
+// gets an occlusion query that ends at the first hit before t − ε0·t (the
+// same answer; an invisible one needs the closest hit to become visible). A
 // background sample is retraced along its direction: visible when the ray
 // hits nothing, occluded otherwise. Run over the compacted list so every lane traces
 // (per pixel, only edge and base-rate pixels retrace under adaptive
@@ -13,11 +16,11 @@ layout(local_size_x = 64) in;
 
 void main() {
     uint stride = gl_NumWorkGroups.x * gl_WorkGroupSize.x;
-    uint count = state[9];
-    uint rays = 0u;
+    uint count = retrace_list_length();
+    uint rays = 0u, bg_rays = 0u, occlusion_rays = 0u, occluded = 0u;
     for (uint i = gl_GlobalInvocationID.x; i < count; i += stride) {
         uint eye, s, pixel;
-        list_decode(retrace_list[i], eye, s, pixel);
+        list_decode(retrace_list[retrace_list_index(i)], eye, s, pixel);
         vec3 o = frame.eyes[eye].pos_tanx.xyz;
         uvec4 fh = fh_cur[slot_index(eye, s, pixel)];
         RtHit h;
@@ -25,17 +28,34 @@ void main() {
         if (first_hit_is_background(fh)) {
             // Any hit occludes it: an occlusion query suffices.
             bit = rt_occluded(o, background_direction(fh), 0.0, 1e30) ? 1u << (s + N_SLOTS) : 1u << s;
+            bg_rays++;
         } else {
             vec3 d = hit_position(fh) - o;
             float t = length(d);
             d /= max(t, 1e-30);
-            if (rt_closest_hit(o, d, 0.0, t * (1.0 + 2.0 * pc.eps0), h)) {
+            bool was_visible = ((mask_cur[eye * npix() + pixel] >> (s + N_SLOTS)) & 1u) != 0u;
+            if (was_visible) {
+                occlusion_rays++;
+                // A visible sample keeps its bit whether the ray finds it
+                // (within ε0) or nothing near it; only a closer hit changes
+                // it. The closest-hit rule below marks it occluded exactly
+                // when some hit lies before t − ε0·t, so an occlusion query
+                // (first hit ends it) over [0, t − ε0·t) gives the same
+                // answer and stops at the first occluder.
+                if (rt_occluded(o, d, 0.0, t - pc.eps0 * t)) bit = 1u << (s + N_SLOTS);
+            } else if (rt_closest_hit(o, d, 0.0, t * (1.0 + 2.0 * pc.eps0), h)) {
+                // An invisible sample becomes visible again when the closest
+                // hit is within ε0·t of it: that needs the closest hit.
                 if (abs(h.t - t) <= pc.eps0 * t) bit = 1u << s;
                 else if (h.t < t) bit = 1u << (s + N_SLOTS);
             }
         }
         rays++;
+        if ((bit >> N_SLOTS) != 0u) occluded++;
         if (bit != 0u) atomicOr(retrace_found[eye * npix() + pixel], bit);
     }
     count_add(C_RETRACE_RAYS, rays);
+    count_add(C_RETRACE_BACKGROUND, bg_rays);
+    count_add(C_RETRACE_OCCLUSION, occlusion_rays);
+    count_add(C_RETRACE_OCCLUDED, occluded);
 }

@@ -95,12 +95,27 @@ void main() {
         trace &= ~(1u << (purge - 1u));
     }
     pixel_action[pm] = uvec4(trace, add, purge, edge ? 1u : 0u);
-    // The slots to retrace go to the compacted list (one reservation per pixel).
+    // The slots to retrace go to the compacted list (one reservation per
+    // pixel and kind): surface samples from the front, background samples
+    // from the back (RetraceList in common.glsl).
     retrace_found[pm] = 0u;
-    uint i = list_reserve(9u, bitCount(trace));
-    while (trace != 0u) {
-        uint s = uint(findLSB(trace));
-        trace &= trace - 1u;
+    uint trace_bg = 0u, b = trace;
+    while (b != 0u) {
+        uint s = uint(findLSB(b));
+        b &= b - 1u;
+        if (slot_is_background(eye, s, pixel)) trace_bg |= 1u << s;
+    }
+    uint trace_surface = trace & ~trace_bg;
+    uint i = list_reserve(9u, bitCount(trace_surface));
+    while (trace_surface != 0u) {
+        uint s = uint(findLSB(trace_surface));
+        trace_surface &= trace_surface - 1u;
         retrace_list[i++] = list_entry(eye, s, pixel);
+    }
+    uint j = list_reserve(14u, bitCount(trace_bg));
+    while (trace_bg != 0u) {
+        uint s = uint(findLSB(trace_bg));
+        trace_bg &= trace_bg - 1u;
+        retrace_list[retrace_list_capacity() - 1u - j++] = list_entry(eye, s, pixel);
     }
 }

@@ -74,11 +74,17 @@ pub fn bench_sample_cache(
         };
         eprintln!(
             "passes ({label}), mean/median ms: {}; per pixel: {:.2} reprojected, \
-             {:.2} visible, {:.2} shaded",
+             {:.2} visible, {:.2} shaded; retrace rays per pixel: {:.3} \
+             ({:.3} background, {:.3} occlusion queries of visible samples, \
+             {:.3} found occluded)",
             profile.join(", "),
             per_pixel("reprojected_samples"),
             per_pixel("reprojected_visible"),
             per_pixel("shaded_samples"),
+            per_pixel("retrace_rays"),
+            per_pixel("retrace_background_rays"),
+            per_pixel("retrace_occlusion_rays"),
+            per_pixel("retrace_occluded"),
         );
     };
     // The last row: the default configuration with the plain shader builds

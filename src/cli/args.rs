@@ -131,7 +131,7 @@ pub fn rt(s: &str) -> Result<RtChoice, String> {
 
 #[derive(Args, Clone)]
 pub struct SceneArgs {
-    /// Scene: built-in name (cornell, hairball, plane, cornell-moving, hairball-rotating, material-balls), a .gltf/.glb file, or a directory holding one.
+    /// Scene: built-in name (cornell, hairball, plane, cornell-moving, hairball-rotating, material-balls; cornell:alpha=A sets both spheres to GGX alpha A), a .gltf/.glb file, or a directory holding one.
     #[arg(long, default_value = "cornell")]
     pub scene: String,
     /// Which of the scene's glTF animations play: all (looped), an index or a name.

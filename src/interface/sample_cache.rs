@@ -33,6 +33,14 @@ crate::counter_slots! {
         BgRays = "BG_RAYS" => "background_rays",
         ReprojectedVisible = "REPROJECTED_VISIBLE" => "reprojected_visible",
         ReprojectedBackground = "REPROJECTED_BACKGROUND" => "reprojected_visible_background",
+        /// Retrace rays of background samples (occlusion queries to infinity).
+        RetraceBackground = "RETRACE_BACKGROUND" => "retrace_background_rays",
+        /// Retrace rays of visible surface samples (occlusion queries that
+        /// end before the sample); the rest of `retrace_rays` are
+        /// closest-hit rays of invisible surface samples.
+        RetraceOcclusion = "RETRACE_OCCLUSION" => "retrace_occlusion_rays",
+        /// Retraced samples found behind a closer hit.
+        RetraceOccluded = "RETRACE_OCCLUDED" => "retrace_occluded",
     }
 }
 

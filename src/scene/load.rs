@@ -16,6 +16,9 @@ fn is_gltf(p: &Path) -> bool {
 /// `./cornell` for that); a `.gltf`/`.glb` path loads it; a directory loads the
 /// single `.gltf`/`.glb` inside it.
 ///
+/// `cornell:alpha=A` is the Cornell box with both spheres at GGX roughness
+/// α_GGX = A ∈ [0, 1] (appendix C's sweep; generate::cornell).
+///
 /// `procedural:[SEED:]SPEC` loads SPEC and replaces every material by a
 /// library material graph picked at random with SEED (default 1), e.g.
 /// `procedural:../shared/scenes/sponza` (issue 17's procedural Sponza;
@@ -33,6 +36,24 @@ pub fn load_scene(spec: &str) -> Result<Scene, SceneError> {
         };
         let mut scene = load_scene(inner)?;
         crate::materials::library::assign_random(&mut scene, seed);
+        scene.validate()?;
+        return Ok(scene);
+    }
+    if let Some(opts) = spec.strip_prefix("cornell:") {
+        let bad = |why: &str| {
+            SceneError::invalid(
+                Path::new(spec),
+                format!("{why}; expected cornell:alpha=A with the spheres' GGX alpha A in [0, 1]"),
+            )
+        };
+        let a = opts
+            .strip_prefix("alpha=")
+            .ok_or_else(|| bad("unknown Cornell box option"))?;
+        let alpha: f32 = a.parse().map_err(|_| bad("alpha is not a number"))?;
+        if !(0.0..=1.0).contains(&alpha) {
+            return Err(bad("alpha out of range"));
+        }
+        let scene = super::generate::cornell::cornell_with_sphere_alpha(alpha);
         scene.validate()?;
         return Ok(scene);
     }

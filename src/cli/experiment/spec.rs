@@ -79,6 +79,11 @@ struct File {
     claims: Vec<ClaimSpec>,
 }
 
+/// A scene entry that names a file or folder (not a built-in generator).
+fn is_scene_path(s: &str) -> bool {
+    s.contains('/') || s.ends_with(".gltf") || s.ends_with(".glb")
+}
+
 /// One comparison of an experiment: a scene along a trace, with its configurations.
 pub struct Group {
     /// `<scene>-<trace>` (file stems): its folder under the output.
@@ -308,8 +313,7 @@ pub fn read(
     let traces = strings(run.get("traces"), "traces").map_err(at)?;
     for s in &scenes {
         let p = Path::new(s);
-        let is_path = s.contains('/') || s.ends_with(".gltf") || s.ends_with(".glb");
-        if is_path && !p.exists() {
+        if is_scene_path(s) && !p.exists() {
             return Err(at(format!(
                 "[run]: key 'scenes': {s}: no such file or directory (paths are relative to the current directory: run from the repository root)"
             )));
@@ -430,7 +434,14 @@ pub fn read(
                     .map(|x| x.to_string_lossy().into_owned())
                     .unwrap_or_else(|| s.to_string())
             };
-            let label = format!("{}-{}", stem(scene), stem(trace));
+            // A built-in scene with options (`cornell:alpha=0.2`) is no file:
+            // its whole spec names it, `:` and `=` as `-`.
+            let scene_name = if is_scene_path(scene) {
+                stem(scene)
+            } else {
+                scene.replace([':', '='], "-")
+            };
+            let label = format!("{}-{}", scene_name, stem(trace));
             let base: Vec<String> = [
                 "--scene",
                 scene,

@@ -1,7 +1,7 @@
 //! The `sample-cache` method's command-line options (flattened into every
 //! command that creates methods; `hybrid` takes its visibility from them).
 
-use super::settings::{Accumulation, Reproject, Retrace, SampleCacheSettings, Shading};
+use super::settings::{Accumulation, Payload, Reproject, Retrace, SampleCacheSettings, Shading};
 use crate::stereo::BlendMode;
 use crate::values::{float_with, int_in};
 
@@ -20,9 +20,12 @@ pub struct SampleCacheArgs {
     /// single | multi | adaptive
     #[arg(long, default_value = "adaptive")]
     pub retrace: Retrace,
-    /// uniform | adaptive
+    /// uniform | adaptive | skip (no shading: visibility and reconstruction only, Fig. 7's timing)
     #[arg(long, default_value = "uniform")]
     pub shading: Shading,
+    /// radiance (256-bit entries: first hit + radiance record) | none (128-bit first hits only, Fig. 6's no-shade rows; needs --shading skip)
+    #[arg(long, default_value = "radiance")]
+    pub payload: Payload,
     /// Shading invocations per pixel and frame for adaptive shading (1.0 = 100 %).
     #[arg(long, default_value_t = 1.0, value_parser = float_with("--shading-rate", |v: f32| v.is_finite() && v > 0.0 && v <= 16.0, "a fraction in (0, 16] (at most --slots)"))]
     pub shading_rate: f32,
@@ -50,6 +53,7 @@ impl SampleCacheArgs {
             delta: self.delta,
             retrace: self.retrace,
             shading: self.shading,
+            payload: self.payload,
             shading_rate: self.shading_rate,
             reproject: self.reproject,
             accumulation: self.accumulation,

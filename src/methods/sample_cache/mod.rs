@@ -30,7 +30,7 @@ pub mod background;
 pub mod heuristics;
 pub mod settings;
 
-pub use settings::{Accumulation, Reproject, Retrace, SampleCacheSettings, Shading};
+pub use settings::{Accumulation, Payload, Reproject, Retrace, SampleCacheSettings, Shading};
 
 use super::reference::backend_shader;
 use super::{
@@ -150,13 +150,19 @@ struct Pipelines {
 }
 
 struct ShadingPipelines {
-    /// shade_select.comp phase 0 (adaptive shading only): the importance histogram.
-    shade_count: Option<ComputePipeline>,
-    shade_select: ComputePipeline,
-    shade_args: ComputePipeline,
-    shade: ComputePipeline,
+    /// None with `--shading skip` (nothing is shaded).
+    shade: Option<ShadePipelines>,
     reconstruct: ComputePipeline,
     stereo_blend: ComputePipeline,
+}
+
+/// The passes that shade samples (§3.3, §3.5).
+struct ShadePipelines {
+    /// shade_select.comp phase 0 (adaptive shading only): the importance histogram.
+    count: Option<ComputePipeline>,
+    select: ComputePipeline,
+    args: ComputePipeline,
+    shade: ComputePipeline,
 }
 
 /// The current frame's cache buffers (see [`SampleCache::current_buffers`]).
@@ -261,12 +267,15 @@ impl SampleCache {
         let two_pass = cache.reproject == Reproject::TwoPass;
         let b =
             |name: &str, bytes: u64| Buffer::storage(ctx, &format!("sample_cache.{name}"), bytes);
-        // Buffers only the shading passes use: placeholders when visibility only.
+        // Buffers only the shading passes use: placeholders when visibility
+        // only; the radiance records also without a payload (`--payload none`).
         let sb = |name: &str, bytes: u64| b(name, if shading { bytes } else { 16 });
+        let storage = shading && cache.payload == Payload::Radiance;
         let frame = b("frame", std::mem::size_of::<FrameParams>() as u64)?;
         let masks = [b("mask0", e2 * 4)?, b("mask1", e2 * 4)?];
         let first_hits = [b("first_hit0", e2 * n * 16)?, b("first_hit1", e2 * n * 16)?];
-        let radiance = [sb("radiance0", e2 * n * 16)?, sb("radiance1", e2 * n * 16)?];
+        let rb = |name: &str| b(name, if storage { e2 * n * 16 } else { 16 });
+        let radiance = [rb("radiance0")?, rb("radiance1")?];
         let depth_min = b("depth_min", e2 * 8)?;
         let depth_max = b("depth_max", e2 * 4)?;
         let hist = b("histogram", 2 * HIST_M * 4)?;
@@ -297,7 +306,7 @@ impl SampleCache {
                 matches!(cache.accumulation, Accumulation::FixedAlpha(_)) as u32,
             )
             .flag(spec_id::TWO_PASS, two_pass)
-            .flag(spec_id::SHADING_STORAGE, shading)
+            .flag(spec_id::SHADING_STORAGE, storage)
             .flag(spec_id::DEBUG_VIEWS, cache.debug_views);
         let shared = [scene.layout.clone()];
         // The `.subgroup` build of a shader where it exists and the device
@@ -344,16 +353,22 @@ impl SampleCache {
             trace: pipe("trace")?,
             shading: if shading {
                 Some(ShadingPipelines {
-                    shade_count: if cache.shading == Shading::Adaptive {
-                        let mut s = spec.clone();
-                        s.set(spec_id::SELECT_PHASE, 0);
-                        Some(pipe_with("shade_select", "shade_count", &s)?)
-                    } else {
+                    shade: if cache.shading == Shading::Skip {
                         None
+                    } else {
+                        Some(ShadePipelines {
+                            count: if cache.shading == Shading::Adaptive {
+                                let mut s = spec.clone();
+                                s.set(spec_id::SELECT_PHASE, 0);
+                                Some(pipe_with("shade_select", "shade_count", &s)?)
+                            } else {
+                                None
+                            },
+                            select: pipe("shade_select")?,
+                            args: args_pipe(1, "shade_args")?,
+                            shade: pipe("shade")?,
+                        })
                     },
-                    shade_select: pipe("shade_select")?,
-                    shade_args: args_pipe(1, "shade_args")?,
-                    shade: pipe("shade")?,
                     reconstruct: pipe("reconstruct")?,
                     stereo_blend: pipe("stereo_blend")?,
                 })
@@ -471,7 +486,7 @@ impl SampleCache {
         let n = expect * self.cache.slots as usize;
         if snap.masks.len() != expect
             || snap.first_hits.len() != n
-            || (self.pipes.shading.is_some() && snap.radiance.len() != n)
+            || (self.has_radiance() && snap.radiance.len() != n)
         {
             return Err(GpuError::Unsupported(
                 "SampleCache::load: the snapshot's size does not match the cache".into(),
@@ -479,7 +494,7 @@ impl SampleCache {
         }
         self.masks[c].upload(bytemuck::cast_slice(&snap.masks))?;
         self.first_hits[c].upload(bytemuck::cast_slice(&snap.first_hits))?;
-        if self.pipes.shading.is_some() {
+        if self.has_radiance() {
             self.radiance[c].upload(bytemuck::cast_slice(&snap.radiance))?;
         }
         Ok(())
@@ -643,6 +658,20 @@ impl SampleCache {
         &self.cache
     }
 
+    /// True when the cache entries carry the radiance record (a shading
+    /// cache with `--payload radiance`); false for a visibility-only cache
+    /// and `--payload none`, whose entries are the 128-bit first hits alone.
+    pub fn has_radiance(&self) -> bool {
+        self.pipes.shading.is_some() && self.cache.payload == Payload::Radiance
+    }
+
+    /// Bytes of one ping-pong half of the cache (mask, first hits and
+    /// radiance records as allocated: a 16-byte placeholder for the records
+    /// without radiance).
+    pub fn cache_bytes(&self) -> u64 {
+        self.masks[0].size + self.first_hits[0].size + self.radiance[0].size
+    }
+
     /// True when the pipelines use the subgroup-operation builds (the
     /// settings allow it and the device supports subgroup arithmetic and ballot).
     pub fn uses_subgroup_ops(&self) -> bool {
@@ -700,17 +729,19 @@ impl Method for SampleCache {
         let (w, h) = (this.settings.width, this.settings.height);
         let prev = 1 - this.record_begun_visibility(rec, input)?;
         let groups = [w.div_ceil(LOCAL), h.div_ceil(LOCAL), 2];
-        if let Some(count) = &sp.shade_count {
-            this.pass(rec, "shade.count", count, prev)
+        if let Some(shade) = &sp.shade {
+            if let Some(count) = &shade.count {
+                this.pass(rec, "shade.count", count, prev)
+                    .dispatch(groups)?;
+            }
+            this.pass(rec, "shade.select", &shade.select, prev)
                 .dispatch(groups)?;
+            // shade.comp runs over the list's length (indirect dispatch).
+            this.pass(rec, "shade.args", &shade.args, prev)
+                .dispatch([1, 1, 1])?;
+            this.pass(rec, "shade", &shade.shade, prev)
+                .dispatch_indirect(&this.indirect, 16)?;
         }
-        this.pass(rec, "shade.select", &sp.shade_select, prev)
-            .dispatch(groups)?;
-        // shade.comp runs over the list's length (indirect dispatch).
-        this.pass(rec, "shade.args", &sp.shade_args, prev)
-            .dispatch([1, 1, 1])?;
-        this.pass(rec, "shade", &sp.shade, prev)
-            .dispatch_indirect(&this.indirect, 16)?;
         this.pass(rec, "reconstruct", &sp.reconstruct, prev)
             .dispatch(groups)?;
         let blend = this.cache.stereo_blend != crate::stereo::BlendMode::None;

@@ -21,6 +21,24 @@ pub enum Retrace {
 pub enum Shading {
     Uniform,
     Adaptive,
+    /// No sample is shaded: the frame is the visibility passes and the
+    /// reconstruction alone, as the paper times its retrace modes (Fig. 7:
+    /// "shading is skipped in this test"). Surface samples keep no radiance,
+    /// so the image shows the background samples and the surfaces' emission.
+    Skip,
+}
+
+/// `--payload`: what a cache entry holds besides its 128-bit first hit
+/// (Listing 1). `radiance`: the 128-bit radiance record (demodulated mean,
+/// effective count), 256 bits per entry, what shading accumulates into.
+/// `none`: the first hit alone, the paper's "no-shade" rows of Fig. 6 /
+/// Table 1 (reprojection without a shading payload); nothing can be shaded
+/// into it, so it needs `--shading skip`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Payload {
+    Radiance,
+    None,
 }
 
 /// `--reproject`: one pass with racy sample writes (default) or two passes.
@@ -51,6 +69,7 @@ pub struct SampleCacheSettings {
     pub delta: u32,
     pub retrace: Retrace,
     pub shading: Shading,
+    pub payload: Payload,
     /// 1.0 = one shading invocation per pixel (adaptive shading).
     pub shading_rate: f32,
     pub reproject: Reproject,
@@ -75,6 +94,7 @@ impl Default for SampleCacheSettings {
             delta: 1,
             retrace: Retrace::Adaptive,
             shading: Shading::Uniform,
+            payload: Payload::Radiance,
             shading_rate: 1.0,
             reproject: Reproject::OnePass,
             accumulation: Accumulation::RunningMean,
@@ -123,6 +143,13 @@ impl SampleCacheSettings {
                 self.sharpness
             ));
         }
+        if self.payload == Payload::None && self.shading != Shading::Skip {
+            return Err(
+                "bad --payload none: a cache without the radiance record cannot be shaded; \
+                 use it with --shading skip"
+                    .into(),
+            );
+        }
         if let Accumulation::FixedAlpha(a) = self.accumulation {
             if !(a > 0.0 && a <= 1.0) {
                 return Err(format!("bad --accumulation fixed:{a}: α must be in (0, 1]"));
@@ -152,7 +179,21 @@ impl FromStr for Shading {
         match s {
             "uniform" => Ok(Shading::Uniform),
             "adaptive" => Ok(Shading::Adaptive),
-            _ => Err(format!("bad --shading '{s}': expected uniform or adaptive")),
+            "skip" => Ok(Shading::Skip),
+            _ => Err(format!(
+                "bad --shading '{s}': expected uniform, adaptive or skip"
+            )),
+        }
+    }
+}
+
+impl FromStr for Payload {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "radiance" => Ok(Payload::Radiance),
+            "none" => Ok(Payload::None),
+            _ => Err(format!("bad --payload '{s}': expected radiance or none")),
         }
     }
 }

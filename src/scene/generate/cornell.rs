@@ -18,10 +18,27 @@ pub const LIGHT_GAP: f32 = 0.001;
 pub const SPHERE_RADIUS: f32 = 0.18;
 
 pub fn cornell() -> Scene {
+    build(None)
+}
+
+/// The Cornell box with both spheres at GGX roughness α_GGX = `alpha`
+/// (appendix C sweeps α_GGX ∈ {0, 0.2, 0.4}): glTF roughness √α, since the
+/// BSDF uses α = roughness² (bsdf.glsl `ggx_alpha`). The scene spec
+/// `cornell:alpha=A` (scene::load).
+pub fn cornell_with_sphere_alpha(alpha: f32) -> Scene {
+    build(Some(alpha))
+}
+
+/// `sphere_alpha`: None = the shipped spheres (metal roughness 0.1, smooth glass).
+fn build(sphere_alpha: Option<f32>) -> Scene {
     let mut s = Scene {
-        source: "generated:cornell".into(),
+        source: match sphere_alpha {
+            None => "generated:cornell".into(),
+            Some(a) => format!("generated:cornell:alpha={a}").into(),
+        },
         ..Default::default()
     };
+    let sphere_roughness = |shipped: f32| sphere_alpha.map_or(shipped, f32::sqrt);
     let white = add_material(
         &mut s,
         Material::diffuse("white", Vec3::new(0.725, 0.71, 0.68)),
@@ -47,7 +64,7 @@ pub fn cornell() -> Scene {
             name: "metal".into(),
             base_color: Vec3::new(0.95, 0.93, 0.88).extend(1.0),
             metallic: 1.0,
-            roughness: 0.1,
+            roughness: sphere_roughness(0.1),
             ..Default::default()
         },
     );
@@ -57,7 +74,7 @@ pub fn cornell() -> Scene {
             name: "glass".into(),
             base_color: glam::Vec4::ONE,
             metallic: 0.0,
-            roughness: 0.0,
+            roughness: sphere_roughness(0.0),
             transmission: 1.0,
             ior: 1.5,
             ..Default::default()
