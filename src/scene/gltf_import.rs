@@ -141,6 +141,8 @@ fn parse_document(
 ) -> Result<Prepared, SceneError> {
     let mut value: serde_json::Value = serde_json::from_slice(json)
         .map_err(|e| SceneError::invalid(path, format!("invalid JSON: {e}")))?;
+    // One warning per feature used that is not implemented (gltf_features.rs).
+    warnings.extend(super::gltf_features::warn_unsupported(path, &value));
     let Some(obj) = value.as_object_mut() else {
         return Err(SceneError::invalid(
             path,
@@ -166,6 +168,13 @@ fn parse_document(
             } else if APPEARANCE_ONLY_EXTENSIONS.contains(&name)
                 || name.starts_with("KHR_materials_")
             {
+                // The feature table's warning (above) already names it and
+                // says what is done instead.
+                if super::gltf_features::feature(name)
+                    .is_some_and(|f| !f.warned_elsewhere)
+                {
+                    continue;
+                }
                 warnings.push(format!(
                     "{}: required extension {name} is not supported; it only affects appearance, \
                      so it is ignored",

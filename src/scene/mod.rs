@@ -18,6 +18,7 @@ pub mod features;
 pub mod generate;
 mod gltf_animation;
 mod gltf_buffers;
+pub mod gltf_features;
 pub mod gltf_import;
 mod gltf_textures;
 pub mod light;

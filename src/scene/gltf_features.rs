@@ -1,0 +1,606 @@
+//! What of glTF 2.0 the importer implements, and one warning for whatever a
+//! file uses that it does not.
+//!
+//! [`FEATURES`] is the one table of glTF features and extensions: each is
+//! implemented ([`Support::Full`]), implemented in part ([`Support::Partly`],
+//! saying how), not applicable to a path tracer ([`Support::NotApplicable`]),
+//! or not implemented ([`Support::Ignored`], saying what is done instead).
+//! README's "glTF support" table is this table (tests/gltf_features.rs checks
+//! that they agree).
+//!
+//! [`warn_unsupported`] walks a document's JSON before import and emits one
+//! warning per feature used that is not fully implemented, naming the file,
+//! the items that use it (materials, meshes, nodes) and what is done instead.
+//! Features whose importer code already warns at the point where it drops
+//! them (`warned_elsewhere`) are left to that code, so nothing is said twice.
+
+use serde_json::Value;
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// How far the importer implements a feature.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Support {
+    /// Implemented as the specification says (the note says how, if needed).
+    Full,
+    /// Implemented in part; the note says which part.
+    Partly,
+    /// Nothing to do for a path tracer (metadata, or a raster approximation of
+    /// what the path tracer computes); the note says why.
+    NotApplicable,
+    /// Not implemented; the note says what is done instead.
+    Ignored,
+}
+
+impl Support {
+    /// The word README's table uses.
+    pub fn word(self) -> &'static str {
+        match self {
+            Support::Full => "supported",
+            Support::Partly => "partly",
+            Support::NotApplicable => "not applicable",
+            Support::Ignored => "warned",
+        }
+    }
+}
+
+/// One glTF feature or extension.
+#[derive(Clone, Copy, Debug)]
+pub struct Feature {
+    /// The extension's name, or a core feature's name as README writes it.
+    pub name: &'static str,
+    pub support: Support,
+    /// How it is implemented, or what is done instead.
+    pub note: &'static str,
+    /// The importer warns at the place where it drops this feature (so the
+    /// walk here stays silent about it).
+    pub warned_elsewhere: bool,
+}
+
+const fn f(name: &'static str, support: Support, note: &'static str) -> Feature {
+    Feature {
+        name,
+        support,
+        note,
+        warned_elsewhere: false,
+    }
+}
+
+const fn elsewhere(name: &'static str, support: Support, note: &'static str) -> Feature {
+    Feature {
+        name,
+        support,
+        note,
+        warned_elsewhere: true,
+    }
+}
+
+use Support::{Full, Ignored, NotApplicable, Partly};
+
+/// Every glTF feature and extension the importer knows of. Core features
+/// first, then extensions in alphabetical order.
+pub const FEATURES: &[Feature] = &[
+    f("triangles", Full, "indexed and non-indexed triangle lists"),
+    elsewhere(
+        "triangle strips and fans",
+        Ignored,
+        "the primitive is skipped",
+    ),
+    elsewhere(
+        "points and lines",
+        Ignored,
+        "the primitive is skipped (a path tracer has no width for them)",
+    ),
+    f(
+        "POSITION, NORMAL",
+        Full,
+        "missing normals are generated (area-weighted); NaN/Inf vertices drop their triangles",
+    ),
+    f(
+        "TANGENT",
+        Full,
+        "missing tangents are generated from uv derivatives where a material has a normal map",
+    ),
+    f("TEXCOORD_0", Full, "missing uvs are zeros"),
+    elsewhere(
+        "TEXCOORD_1 and texCoord",
+        Ignored,
+        "textures that name another uv set read TEXCOORD_0",
+    ),
+    f(
+        "COLOR_0",
+        Ignored,
+        "vertex colours are not applied: base colour is the material's alone",
+    ),
+    f(
+        "skins (JOINTS_0, WEIGHTS_0)",
+        Ignored,
+        "skinned meshes render in their bind pose",
+    ),
+    f(
+        "morph targets",
+        Ignored,
+        "meshes render without their targets, whatever their default weights",
+    ),
+    f(
+        "animation (translation, rotation, scale)",
+        Full,
+        "STEP, LINEAR and CUBICSPLINE samplers; several animations, picked by --animation",
+    ),
+    elsewhere(
+        "animation of morph weights",
+        Ignored,
+        "those channels are ignored",
+    ),
+    f(
+        "sparse accessors",
+        Full,
+        "substituted into the base data (or zeros)",
+    ),
+    f(
+        "normalized integer attributes",
+        Full,
+        "mapped to floats as glTF §3.11 says",
+    ),
+    f(
+        "node hierarchy (matrix or TRS)",
+        Full,
+        "flattened into instances; a mesh used by several nodes is stored once",
+    ),
+    f(
+        "several scenes",
+        Partly,
+        "the default scene (or the first) is imported; the others are not",
+    ),
+    f(
+        "perspective cameras",
+        Full,
+        "yfov, aspectRatio and znear; zfar is not needed by a ray tracer",
+    ),
+    elsewhere(
+        "orthographic cameras",
+        Ignored,
+        "the camera is skipped",
+    ),
+    f(
+        "metallic-roughness materials",
+        Full,
+        "factors and textures (base colour, metallic-roughness, normal with scale, emissive)",
+    ),
+    f(
+        "occlusionTexture",
+        NotApplicable,
+        "a path tracer computes occlusion; the texture would count it twice",
+    ),
+    elsewhere(
+        "alphaMode BLEND",
+        Partly,
+        "rendered as MASK with cutoff 0.5",
+    ),
+    f("alphaMode MASK", Full, "alphaCutoff against base colour alpha"),
+    f(
+        "single-sided materials (doubleSided false)",
+        Partly,
+        "emission is front-only, but back faces are not culled: rays hit them as front faces \
+         (differs from a rasterizer only where a back face can be seen)",
+    ),
+    f(
+        "texture samplers (wrap modes, filters)",
+        Ignored,
+        "every texture samples with REPEAT and trilinear filtering",
+    ),
+    f(
+        "extras",
+        NotApplicable,
+        "application data; stereocache reads only its own material-graph bindings",
+    ),
+    elsewhere(
+        "AMD_split_roughnessMetallic",
+        Ignored,
+        "the separate roughness/metallic textures are ignored; factors are used",
+    ),
+    f(
+        "EXT_lights_image_based",
+        Ignored,
+        "the image-based light is not read; default lighting applies",
+    ),
+    f(
+        "EXT_mesh_gpu_instancing",
+        Ignored,
+        "each node renders once, at its own transform",
+    ),
+    f(
+        "EXT_meshopt_compression",
+        Partly,
+        "not decoded: the uncompressed fallback buffers are read; a file that requires it is refused",
+    ),
+    elsewhere(
+        "EXT_texture_webp",
+        Partly,
+        "the PNG/JPEG fallback source is used; a texture without one falls back to its factor",
+    ),
+    f(
+        "KHR_animation_pointer",
+        Ignored,
+        "those animation channels are ignored",
+    ),
+    f(
+        "KHR_draco_mesh_compression",
+        Partly,
+        "not decoded: the uncompressed fallback is read; a file that requires it is refused",
+    ),
+    f(
+        "KHR_lights_punctual",
+        Full,
+        "point, spot and directional lights; intensities as linear radiometric units",
+    ),
+    f(
+        "KHR_materials_anisotropy",
+        Ignored,
+        "rendered isotropic",
+    ),
+    f(
+        "KHR_materials_clearcoat",
+        Ignored,
+        "the clearcoat layer is not rendered; the base layer alone is",
+    ),
+    f(
+        "KHR_materials_diffuse_transmission",
+        Ignored,
+        "rendered without diffuse transmission",
+    ),
+    f(
+        "KHR_materials_dispersion",
+        Ignored,
+        "rendered without dispersion",
+    ),
+    f("KHR_materials_emissive_strength", Full, ""),
+    f("KHR_materials_ior", Full, ""),
+    f(
+        "KHR_materials_iridescence",
+        Ignored,
+        "rendered without iridescence",
+    ),
+    f("KHR_materials_sheen", Ignored, "rendered without sheen"),
+    f(
+        "KHR_materials_specular",
+        Partly,
+        "specularFactor scales the dielectric Fresnel; specularTexture, specularColorFactor \
+         and specularColorTexture are ignored",
+    ),
+    f(
+        "KHR_materials_transmission",
+        Full,
+        "transmissionFactor and transmissionTexture, refracting with the ior",
+    ),
+    f(
+        "KHR_materials_unlit",
+        Ignored,
+        "shaded as a lit metallic-roughness material",
+    ),
+    f(
+        "KHR_materials_variants",
+        Ignored,
+        "the primitives' default materials are used",
+    ),
+    f(
+        "KHR_materials_volume",
+        Ignored,
+        "refraction at each interface is kept; thickness and Beer–Lambert attenuation are ignored",
+    ),
+    f(
+        "KHR_mesh_quantization",
+        Full,
+        "integer and normalized attributes are read as glTF §3.11 says",
+    ),
+    elsewhere(
+        "KHR_texture_basisu",
+        Partly,
+        "KTX2 images are not decoded: the PNG/JPEG fallback source is used, or the factor",
+    ),
+    f(
+        "KHR_texture_procedurals",
+        Full,
+        "MaterialX graphs bound to materials (docs/MATERIALS.md)",
+    ),
+    f(
+        "KHR_texture_transform",
+        Ignored,
+        "textures are read without offset, rotation, scale or texCoord override",
+    ),
+    f(
+        "KHR_xmp_json_ld",
+        NotApplicable,
+        "metadata; nothing to render",
+    ),
+    elsewhere(
+        "MSFT_texture_dds",
+        Partly,
+        "DDS images are not decoded: the PNG/JPEG fallback source is used, or the factor",
+    ),
+];
+
+/// The table's row for `name`.
+pub fn feature(name: &str) -> Option<&'static Feature> {
+    FEATURES.iter().find(|f| f.name == name)
+}
+
+/// One warning per feature `json` uses that the importer does not implement
+/// fully and does not already warn about elsewhere: "FILE: FEATURE (used by
+/// ITEMS): WHAT IS DONE INSTEAD". Extensions the table does not know get a
+/// warning of their own.
+pub fn warn_unsupported(path: &Path, json: &Value) -> Vec<String> {
+    let mut out = Vec::new();
+    for (name, items) in features_used(json) {
+        let (support, note) = match feature(&name) {
+            Some(f) if f.warned_elsewhere => continue,
+            Some(f) => (f.support, f.note),
+            None => (Ignored, "stereocache does not know this extension; it is ignored"),
+        };
+        if matches!(support, Full | NotApplicable) {
+            continue;
+        }
+        let what = if support == Partly {
+            "is supported in part"
+        } else {
+            "is not supported"
+        };
+        out.push(format!(
+            "{}: {name} {what} (used by {}): {note}",
+            path.display(),
+            summarize(&items)
+        ));
+    }
+    out
+}
+
+/// Lists up to four items and counts the rest.
+fn summarize(items: &[String]) -> String {
+    const SHOWN: usize = 4;
+    let mut s = items
+        .iter()
+        .take(SHOWN)
+        .cloned()
+        .collect::<Vec<_>>()
+        .join(", ");
+    if items.len() > SHOWN {
+        s.push_str(&format!(" and {} more", items.len() - SHOWN));
+    }
+    s
+}
+
+/// Every feature of [`FEATURES`] (by name) or unknown extension that `json`
+/// uses, with the items that use it. Only the uses that change what is
+/// rendered count: an extension listed in `extensionsUsed` but found on no
+/// item is listed against "extensionsUsed".
+pub fn features_used(json: &Value) -> BTreeMap<String, Vec<String>> {
+    let mut used: BTreeMap<String, Vec<String>> = BTreeMap::new();
+    fn add_to(used: &mut BTreeMap<String, Vec<String>>, name: &str, item: String) {
+        let v = used.entry(name.to_owned()).or_default();
+        if !v.contains(&item) {
+            v.push(item);
+        }
+    }
+    macro_rules! add {
+        ($name:expr, $item:expr $(,)?) => {
+            add_to(&mut used, $name, $item)
+        };
+    }
+    let array = |key: &str| json.get(key).and_then(Value::as_array).cloned().unwrap_or_default();
+    let label = |kind: &str, i: usize, v: &Value| match v.get("name").and_then(Value::as_str) {
+        Some(n) => format!("{kind} {i} '{n}'"),
+        None => format!("{kind} {i}"),
+    };
+
+    // Extensions wherever they are attached, by the item that carries them.
+    let mut extension_items: BTreeMap<String, Vec<String>> = BTreeMap::new();
+    collect_extensions(json, "the document", &mut extension_items, &label);
+    for name in array("extensionsUsed")
+        .iter()
+        .chain(array("extensionsRequired").iter())
+        .filter_map(Value::as_str)
+    {
+        if !extension_items.contains_key(name) {
+            add!(name, "extensionsUsed".into());
+        }
+    }
+    for (name, items) in &extension_items {
+        items.iter().for_each(|i| add!(name, i.clone()));
+    }
+
+    for (mi, mesh) in array("meshes").iter().enumerate() {
+        let mesh_label = label("mesh", mi, mesh);
+        let prims = mesh.get("primitives").and_then(Value::as_array);
+        for p in prims.into_iter().flatten() {
+            if let Some(attrs) = p.get("attributes").and_then(Value::as_object) {
+                for key in attrs.keys() {
+                    if key.starts_with("COLOR_") {
+                        add!("COLOR_0", mesh_label.clone());
+                    } else if key.starts_with("JOINTS_") || key.starts_with("WEIGHTS_") {
+                        add!("skins (JOINTS_0, WEIGHTS_0)", mesh_label.clone());
+                    }
+                }
+            }
+            if p.get("targets")
+                .and_then(Value::as_array)
+                .is_some_and(|t| !t.is_empty())
+            {
+                add!("morph targets", mesh_label.clone());
+            }
+        }
+    }
+    for (si, skin) in array("skins").iter().enumerate() {
+        add!("skins (JOINTS_0, WEIGHTS_0)", label("skin", si, skin));
+    }
+    let scenes = array("scenes");
+    if scenes.len() > 1 {
+        add!("several scenes", format!("{} scenes", scenes.len()));
+    }
+    // KHR_materials_specular counts only where it uses more than the
+    // specularFactor that is implemented.
+    let specular = "KHR_materials_specular";
+    used.remove(specular);
+    for (mi, m) in array("materials").iter().enumerate() {
+        if !m.get("doubleSided").and_then(Value::as_bool).unwrap_or(false) {
+            add!(
+                "single-sided materials (doubleSided false)",
+                label("material", mi, m),
+            );
+        }
+        let ext = m.pointer("/extensions/KHR_materials_specular");
+        if let Some(e) = ext.and_then(Value::as_object) {
+            let white = |v: &Value| {
+                v.as_array()
+                    .is_some_and(|c| c.iter().all(|x| x.as_f64() == Some(1.0)))
+            };
+            let unsupported = e.contains_key("specularTexture")
+                || e.contains_key("specularColorTexture")
+                || e.get("specularColorFactor").is_some_and(|c| !white(c));
+            if unsupported {
+                add!(specular, label("material", mi, m));
+            }
+        }
+    }
+    for (si, s) in array("samplers").iter().enumerate() {
+        const REPEAT: u64 = 10497;
+        const LINEAR: u64 = 9729;
+        const LINEAR_MIPMAP_LINEAR: u64 = 9987;
+        let is = |key: &str, default: u64| {
+            s.get(key).and_then(Value::as_u64).is_none_or(|v| v == default)
+        };
+        // The one sampler every texture gets: repeat, linear magnification,
+        // trilinear minification (a missing filter lets the viewer choose).
+        let default = is("wrapS", REPEAT)
+            && is("wrapT", REPEAT)
+            && is("magFilter", LINEAR)
+            && is("minFilter", LINEAR_MIPMAP_LINEAR);
+        if !default {
+            add!(
+                "texture samplers (wrap modes, filters)",
+                label("sampler", si, s),
+            );
+        }
+    }
+    used
+}
+
+/// Every `extensions` object below `v`, by the name of the nearest item
+/// (material, mesh, node, texture, …) that holds it.
+fn collect_extensions(
+    v: &Value,
+    item: &str,
+    out: &mut BTreeMap<String, Vec<String>>,
+    label: &dyn Fn(&str, usize, &Value) -> String,
+) {
+    const ITEMS: &[(&str, &str)] = &[
+        ("materials", "material"),
+        ("meshes", "mesh"),
+        ("nodes", "node"),
+        ("textures", "texture"),
+        ("images", "image"),
+        ("cameras", "camera"),
+        ("animations", "animation"),
+        ("scenes", "scene"),
+        ("samplers", "sampler"),
+        ("accessors", "accessor"),
+        ("bufferViews", "bufferView"),
+        ("buffers", "buffer"),
+        ("skins", "skin"),
+    ];
+    match v {
+        Value::Object(map) => {
+            for (key, child) in map {
+                if key == "extensions" {
+                    if let Some(exts) = child.as_object() {
+                        for name in exts.keys() {
+                            let items = out.entry(name.clone()).or_default();
+                            if !items.iter().any(|i| i == item) {
+                                items.push(item.to_owned());
+                            }
+                        }
+                    }
+                    // Extensions nest (an extension's own textureInfo may
+                    // carry KHR_texture_transform).
+                    collect_extensions(child, item, out, label);
+                } else if key == "extras" {
+                    continue;
+                } else if let (Some((_, kind)), Some(list)) =
+                    (ITEMS.iter().find(|(k, _)| k == key), child.as_array())
+                {
+                    for (i, elem) in list.iter().enumerate() {
+                        collect_extensions(elem, &label(kind, i, elem), out, label);
+                    }
+                } else {
+                    collect_extensions(child, item, out, label);
+                }
+            }
+        }
+        Value::Array(list) => {
+            for elem in list {
+                collect_extensions(elem, item, out, label);
+            }
+        }
+        _ => {}
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    #[test]
+    fn names_are_unique_and_notes_say_what_is_done_instead() {
+        for (i, a) in FEATURES.iter().enumerate() {
+            assert!(
+                FEATURES[i + 1..].iter().all(|b| b.name != a.name),
+                "{} twice",
+                a.name
+            );
+            if matches!(a.support, Partly | Ignored | NotApplicable) {
+                assert!(!a.note.is_empty(), "{} needs a note", a.name);
+            }
+        }
+    }
+
+    #[test]
+    fn a_texture_transform_inside_a_material_names_the_material() {
+        let doc = json!({
+            "extensionsUsed": ["KHR_texture_transform", "KHR_materials_emissive_strength"],
+            "materials": [
+                {"name": "label", "doubleSided": true,
+                 "pbrMetallicRoughness": {"baseColorTexture": {"index": 0,
+                    "extensions": {"KHR_texture_transform": {"scale": [2, 2]}}}}},
+                {"doubleSided": true,
+                 "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 4}}}
+            ]
+        });
+        let w = warn_unsupported(Path::new("a.gltf"), &doc);
+        assert_eq!(w.len(), 1, "{w:?}");
+        assert!(
+            w[0].starts_with("a.gltf: KHR_texture_transform is not supported (used by material 0 'label')"),
+            "{}",
+            w[0]
+        );
+    }
+
+    #[test]
+    fn unknown_extensions_and_silent_core_features_are_warned() {
+        let doc = json!({
+            "extensionsUsed": ["VENDOR_magic"],
+            "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "COLOR_0": 1},
+                                        "targets": [{"POSITION": 2}]}]}],
+            "materials": [{}],
+            "samplers": [{"wrapS": 33071}, {"magFilter": 9729}]
+        });
+        let w = warn_unsupported(Path::new("b.glb"), &doc);
+        let has = |s: &str| w.iter().any(|x| x.contains(s));
+        assert!(has("VENDOR_magic is not supported (used by extensionsUsed)"), "{w:?}");
+        assert!(has("COLOR_0 is not supported (used by mesh 0)"), "{w:?}");
+        assert!(has("morph targets"), "{w:?}");
+        assert!(has("single-sided materials"), "{w:?}");
+        // Only sampler 0 differs from the one sampler used for every texture.
+        assert!(has("(used by sampler 0)"), "{w:?}");
+        assert_eq!(w.len(), 5, "{w:?}");
+    }
+}
