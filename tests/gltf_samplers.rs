@@ -288,12 +288,14 @@ fn hit_uv(scene: &Scene, fh: [u32; 4]) -> (u32, Vec2) {
 const DECODE_TOL: f32 = 1.0 / 4096.0;
 
 /// Per quad: pixels compared, pixels whose expected colour differs from
-/// what repeat wrapping would give, pixels with a blended channel.
+/// what repeat wrapping would give, pixels with a blended channel, and the
+/// largest |albedo − expected| (printed: the measured error).
 #[derive(Default, Debug, Clone, Copy)]
 struct Tally {
     checked: usize,
     not_repeat: usize,
     blended: usize,
+    max_err: f32,
 }
 
 /// Renders `scene` with `method` on `rt` and compares every hit pixel's
@@ -336,6 +338,7 @@ fn check_albedo(
             );
             let t = &mut tally[mat as usize];
             t.checked += 1;
+            t.max_err = t.max_err.max((got - want).abs().max_element());
             t.not_repeat += ((want - repeat).abs().max_element() > 0.5) as usize;
             t.blended += want.to_array().iter().any(|c| *c > 0.1 && *c < 0.9) as usize;
         }
