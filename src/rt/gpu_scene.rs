@@ -277,9 +277,7 @@ impl SceneGpu {
             .materials
             .iter()
             .map(|m| {
-                let t = |r: Option<crate::scene::TextureRef>| {
-                    r.map(|r| slots.slot(r) as i32).unwrap_or(-1)
-                };
+                let t = |r: Option<TextureRef>| r.map(|r| slots.slot(r) as i32).unwrap_or(-1);
                 MaterialGpu {
                     base_color: m.base_color.to_array(),
                     emissive_metallic: [m.emissive.x, m.emissive.y, m.emissive.z, m.metallic],
