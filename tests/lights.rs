@@ -199,7 +199,7 @@ fn floor_under_an_emissive_quad_receives_the_form_factor_irradiance() {
     };
     let mut textured = floor_under_quad(rho, side, c, emissive(le), false);
     textured.textures.push(tex);
-    textured.materials[1].emissive_texture = Some(TextureRef { texture: 0 });
+    textured.materials[1].emissive_texture = Some(TextureRef::new(0));
     let two_sided = floor_under_quad(
         rho,
         side,

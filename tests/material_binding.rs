@@ -105,7 +105,7 @@ fn write_quads(d: &Path) -> PathBuf {
     let m0 = add_material(
         &mut s,
         Material {
-            base_color_texture: Some(TextureRef { texture: 0 }),
+            base_color_texture: Some(TextureRef::new(0)),
             ..Material::diffuse("khr", Vec3::ONE)
         },
     );

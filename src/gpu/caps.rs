@@ -158,6 +158,10 @@ pub struct DeviceCaps {
     /// `maxPushDescriptors` (0 without VK_KHR_push_descriptor).
     pub max_push_descriptors: u32,
     pub max_compute_work_group_invocations: u32,
+    /// `subTexelPrecisionBits`: linear filter weights are exact to
+    /// 2^-bits (tests derive their tolerances from it; ≥ 4 by the spec).
+    #[serde(skip)]
+    pub sub_texel_precision_bits: u32,
     /// The largest device-local heap.
     pub device_local_bytes: u64,
     pub memory_heaps: Vec<MemoryHeap>,

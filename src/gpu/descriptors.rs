@@ -124,7 +124,8 @@ fn descriptor_type(k: BindingKind) -> (vk::DescriptorType, u32) {
 /// What to bind at one binding of a set.
 pub enum Resource<'a> {
     Buffer(&'a Buffer),
-    Images(Vec<&'a GpuTexture>, &'a Sampler),
+    /// An image array: each element's image and the sampler it is read with.
+    Images(Vec<(&'a GpuTexture, &'a Sampler)>),
     Accel(vk::AccelerationStructureKHR),
 }
 
@@ -185,14 +186,14 @@ impl DescriptorSet {
                         .offset(0)
                         .range(b.descriptor_range())])
                 }
-                (Resource::Images(list, sampler), BindingKind::SampledImages(n)) => {
+                (Resource::Images(list), BindingKind::SampledImages(n)) => {
                     assert!(
                         !list.is_empty() && list.len() as u32 <= (*n).max(1),
                         "image array size"
                     );
                     let mut v: Vec<vk::DescriptorImageInfo> = list
                         .iter()
-                        .map(|t| {
+                        .map(|(t, sampler)| {
                             vk::DescriptorImageInfo::default()
                                 .sampler(sampler.raw)
                                 .image_view(t.view)

@@ -258,9 +258,21 @@ impl Sampler {
             .address_mode_v(v)
             .address_mode_w(vk::SamplerAddressMode::REPEAT)
             .max_lod(vk::LOD_CLAMP_NONE);
-        // SAFETY: a valid create-info on the live device.
+        Self::from_info(ctx, &info)
+    }
+
+    /// A sampler of the given settings (filters, address modes, LOD range;
+    /// no extension structures in its chain).
+    pub fn from_info(
+        ctx: &Arc<GpuContext>,
+        info: &vk::SamplerCreateInfo<'_>,
+    ) -> GpuResult<Sampler> {
+        assert!(info.p_next.is_null(), "Sampler::from_info: no p_next chain");
+        // SAFETY: a create-info with no extension chain (checked above) on
+        // the live device; its fields are plain values, validated by the
+        // driver (and the validation layer in tests).
         let raw =
-            unsafe { ctx.device.create_sampler(&info, None) }.map_err(vk_err("vkCreateSampler"))?;
+            unsafe { ctx.device.create_sampler(info, None) }.map_err(vk_err("vkCreateSampler"))?;
         Ok(Sampler {
             ctx: ctx.clone(),
             raw,

@@ -13,7 +13,8 @@ use crate::scene::emitters::Emitters;
 use crate::scene::env_distribution::EnvDistribution;
 use crate::scene::preetham::preetham_params;
 use crate::scene::{
-    AlphaMode, Environment, LightKind, Scene, SceneFeatures, SkyModel, TextureEncoding,
+    AlphaMode, Environment, Filter, LightKind, Scene, SceneFeatures, SkyModel, TextureEncoding,
+    TextureRef, TextureSampler, Wrap,
 };
 use ash::vk;
 use bytemuck::{Pod, Zeroable};
@@ -269,14 +270,14 @@ impl SceneGpu {
                 &[&[255, 255, 255, 255]],
             )?);
         }
-        let texture_count = scene.textures.len().max(1) as u32;
+        let slots = TextureSlots::of(scene);
+        let texture_count = slots.pairs.len().max(1) as u32;
 
         let materials: Vec<MaterialGpu> = scene
             .materials
             .iter()
             .map(|m| {
-                let t =
-                    |r: Option<crate::scene::TextureRef>| r.map(|r| r.texture as i32).unwrap_or(-1);
+                let t = |r: Option<TextureRef>| r.map(|r| slots.slot(r) as i32).unwrap_or(-1);
                 MaterialGpu {
                     base_color: m.base_color.to_array(),
                     emissive_metallic: [m.emissive.x, m.emissive.y, m.emissive.z, m.metallic],
@@ -511,8 +512,34 @@ impl SceneGpu {
             kinds.push(BindingKind::AccelerationStructure);
         }
         let layout = DescriptorLayout::new(ctx, &kinds)?;
-        let tex_sampler = Sampler::new(ctx, true)?;
+        // One Vulkan sampler per distinct setting; slot k reads image
+        // `pairs[k].0` through the sampler of `pairs[k].1`.
+        let mut samplers: Vec<Sampler> = Vec::new();
+        let mut sampler_of: Vec<usize> = Vec::new();
+        let mut distinct: Vec<TextureSampler> = Vec::new();
+        let defaults = [(0, TextureSampler::default())];
+        let pairs = if slots.pairs.is_empty() {
+            &defaults[..]
+        } else {
+            &slots.pairs[..]
+        };
+        for (_, s) in pairs {
+            let k = match distinct.iter().position(|d| d == s) {
+                Some(k) => k,
+                None => {
+                    samplers.push(Sampler::from_info(ctx, &sampler_info(s))?);
+                    distinct.push(*s);
+                    samplers.len() - 1
+                }
+            };
+            sampler_of.push(k);
+        }
         let env_sampler = Sampler::new(ctx, false)?;
+        let slot_images: Vec<(&GpuTexture, &Sampler)> = pairs
+            .iter()
+            .zip(&sampler_of)
+            .map(|(&(t, _), &k)| (&textures[t as usize], &samplers[k]))
+            .collect();
         let mut resources = vec![
             Resource::Buffer(&b_vertices),
             Resource::Buffer(&b_indices),
@@ -524,8 +551,8 @@ impl SceneGpu {
             Resource::Buffer(&b_nodes),
             Resource::Buffer(&b_ref),
             Resource::Buffer(&b_verts),
-            Resource::Images(textures.iter().collect(), &tex_sampler),
-            Resource::Images(vec![&env_texture], &env_sampler),
+            Resource::Images(slot_images),
+            Resource::Images(vec![(&env_texture, &env_sampler)]),
             Resource::Buffer(&b_emitters),
             Resource::Buffer(&b_env_dist),
         ];
@@ -567,7 +594,10 @@ impl SceneGpu {
                 b_env_dist,
             ],
             _textures: all_textures,
-            _samplers: vec![tex_sampler, env_sampler],
+            _samplers: {
+                samplers.push(env_sampler);
+                samplers
+            },
             _accel: Mutex::new(accel),
         })
     }
@@ -603,6 +633,19 @@ impl SceneGpu {
             )
             .flag(spec_id::ANIMATED, f.animated);
         s
+    }
+
+    /// Elements of the scene's texture array (`SC_TEXTURE_COUNT`): one per
+    /// (texture, sampler) pair the materials use, at least one per texture
+    /// ([`TextureSlots`]).
+    pub fn texture_slots(&self) -> u32 {
+        self.texture_count
+    }
+
+    /// Vulkan samplers the texture array uses (one per distinct sampler
+    /// setting; the environment map's own sampler not counted).
+    pub fn texture_sampler_count(&self) -> usize {
+        self._samplers.len() - 1
     }
 
     /// The software layout the pipelines are compiled for (None: ray queries).
@@ -709,6 +752,81 @@ fn tlas_instances(transforms: &[Mat4], ids: &[[u32; 4]], origin: DVec3) -> Vec<T
             blas: id[0] as usize,
         })
         .collect()
+}
+
+/// The elements of the scene's texture array: slot i < `scene.textures.len()`
+/// is texture i read with the sampler of its first reference (the default
+/// sampler when no material uses it), then one slot per further (texture,
+/// sampler) pair in the order the materials first use them. A scene whose
+/// texture references all use the default sampler therefore binds exactly
+/// one slot per texture, slot i = texture i, as before samplers were read;
+/// an image read with two samplers is uploaded once and bound twice.
+pub struct TextureSlots {
+    /// (texture, sampler) per slot.
+    pub pairs: Vec<(u32, TextureSampler)>,
+}
+
+impl TextureSlots {
+    pub fn of(scene: &Scene) -> TextureSlots {
+        let refs = || scene.materials.iter().flat_map(|m| m.texture_refs());
+        let mut first: Vec<Option<TextureSampler>> = vec![None; scene.textures.len()];
+        for r in refs() {
+            if let Some(f) = first.get_mut(r.texture as usize) {
+                f.get_or_insert(r.sampler);
+            }
+        }
+        let mut pairs: Vec<(u32, TextureSampler)> = first
+            .iter()
+            .enumerate()
+            .map(|(i, s)| (i as u32, s.unwrap_or_default()))
+            .collect();
+        for r in refs() {
+            if !pairs.contains(&(r.texture, r.sampler)) {
+                pairs.push((r.texture, r.sampler));
+            }
+        }
+        TextureSlots { pairs }
+    }
+
+    /// The slot of a texture reference (one `of` made it).
+    pub fn slot(&self, r: TextureRef) -> u32 {
+        self.pairs
+            .iter()
+            .position(|&p| p == (r.texture, r.sampler))
+            .unwrap_or(r.texture as usize) as u32
+    }
+}
+
+/// The Vulkan sampler of a glTF sampler. Not mipmapped (`mipmap: None`,
+/// glTF minFilter NEAREST/LINEAR): level 0 only, with the minification
+/// filter still chosen over the magnification one when minified — the
+/// setting VkSamplerCreateInfo's specification gives for OpenGL's
+/// non-mipmapped filters (mipmapMode NEAREST, minLod 0, maxLod 0.25).
+/// The default sampler gives exactly `Sampler::new(ctx, true)`'s settings.
+pub fn sampler_info(s: &TextureSampler) -> vk::SamplerCreateInfo<'static> {
+    let filter = |f: Filter| match f {
+        Filter::Nearest => vk::Filter::NEAREST,
+        Filter::Linear => vk::Filter::LINEAR,
+    };
+    let wrap = |w: Wrap| match w {
+        Wrap::Repeat => vk::SamplerAddressMode::REPEAT,
+        Wrap::ClampToEdge => vk::SamplerAddressMode::CLAMP_TO_EDGE,
+        Wrap::MirroredRepeat => vk::SamplerAddressMode::MIRRORED_REPEAT,
+    };
+    let (mipmap_mode, max_lod) = match s.mipmap {
+        Some(Filter::Nearest) => (vk::SamplerMipmapMode::NEAREST, vk::LOD_CLAMP_NONE),
+        Some(Filter::Linear) => (vk::SamplerMipmapMode::LINEAR, vk::LOD_CLAMP_NONE),
+        None => (vk::SamplerMipmapMode::NEAREST, 0.25),
+    };
+    vk::SamplerCreateInfo::default()
+        .mag_filter(filter(s.mag_filter))
+        .min_filter(filter(s.min_filter))
+        .mipmap_mode(mipmap_mode)
+        .address_mode_u(wrap(s.wrap_s))
+        .address_mode_v(wrap(s.wrap_t))
+        .address_mode_w(vk::SamplerAddressMode::REPEAT)
+        .min_lod(0.0)
+        .max_lod(max_lod)
 }
 
 /// Indices into `SceneGpu::_buffers` (the order `upload` keeps them in).

@@ -20,7 +20,7 @@
 
 use super::animation::{Interpolation, LocalRest, SceneAnimation, TrsPath};
 use super::default_lighting::DEFAULT_SUN_NAME;
-use super::{AlphaMode, LightKind, Material, Scene, SceneError, TextureRef};
+use super::{AlphaMode, LightKind, Material, Scene, SceneError, TextureRef, TextureSampler};
 use glam::{Mat4, Quat, Vec3};
 use serde_json::{json, Map, Value};
 use std::path::{Path, PathBuf};
@@ -106,11 +106,44 @@ impl BinWriter {
     }
 }
 
-fn tex(t: Option<TextureRef>) -> Option<Value> {
-    t.map(|t| json!({ "index": t.texture }))
+/// The glTF `textures` and `samplers` the materials refer to: texture i
+/// (i < the scene's texture count) is scene texture i with the default
+/// sampler (sampler 0); a texture reference with another sampler gets a
+/// further glTF texture on the same image (one per distinct pair).
+struct TextureTable {
+    samplers: Vec<TextureSampler>,
+    /// (image, sampler) per glTF texture.
+    textures: Vec<(u32, usize)>,
 }
 
-fn material_json(m: &Material, used: &mut Vec<&'static str>) -> Value {
+impl TextureTable {
+    fn new(count: usize) -> TextureTable {
+        TextureTable {
+            samplers: vec![TextureSampler::default()],
+            textures: (0..count as u32).map(|i| (i, 0)).collect(),
+        }
+    }
+
+    fn index(&mut self, t: TextureRef) -> usize {
+        let s = match self.samplers.iter().position(|s| *s == t.sampler) {
+            Some(s) => s,
+            None => {
+                self.samplers.push(t.sampler);
+                self.samplers.len() - 1
+            }
+        };
+        match self.textures.iter().position(|&p| p == (t.texture, s)) {
+            Some(k) => k,
+            None => {
+                self.textures.push((t.texture, s));
+                self.textures.len() - 1
+            }
+        }
+    }
+}
+
+fn material_json(m: &Material, used: &mut Vec<&'static str>, table: &mut TextureTable) -> Value {
+    let mut tex = |t: Option<TextureRef>| t.map(|t| json!({ "index": table.index(t) }));
     let mut pbr = Map::new();
     pbr.insert("baseColorFactor".into(), json!(m.base_color.to_array()));
     pbr.insert("metallicFactor".into(), json!(m.metallic));
@@ -127,7 +160,7 @@ fn material_json(m: &Material, used: &mut Vec<&'static str>) -> Value {
     if let Some(t) = m.normal_texture {
         out.insert(
             "normalTexture".into(),
-            json!({ "index": t.texture, "scale": m.normal_scale }),
+            json!({ "index": tex(Some(t)).map(|j| j["index"].clone()), "scale": m.normal_scale }),
         );
     }
     let mut ext = Map::new();
@@ -322,9 +355,7 @@ pub fn write_gltf(scene: &Scene, path: &Path) -> Result<(), SceneError> {
         staged.push(stage(dir.join(&file), &png)?);
         images.push(json!({ "name": t.name, "uri": uri_escape(&file), "mimeType": "image/png" }));
     }
-    let textures: Vec<Value> = (0..scene.textures.len())
-        .map(|i| json!({ "source": i, "sampler": 0 }))
-        .collect();
+    let mut table = TextureTable::new(scene.textures.len());
 
     // Geometry → one buffer.
     let mut bw = BinWriter {
@@ -429,7 +460,7 @@ pub fn write_gltf(scene: &Scene, path: &Path) -> Result<(), SceneError> {
     let mut materials: Vec<Value> = scene
         .materials
         .iter()
-        .map(|m| material_json(m, &mut used))
+        .map(|m| material_json(m, &mut used, &mut table))
         .collect();
     // Material graphs attached as .mtlx files (materials::binding's extras
     // form) are written as such, the files beside the glTF. Graphs read from
@@ -475,10 +506,15 @@ pub fn write_gltf(scene: &Scene, path: &Path) -> Result<(), SceneError> {
     }
     if !images.is_empty() {
         root["images"] = json!(images);
+        let textures: Vec<Value> = table
+            .textures
+            .iter()
+            .map(|&(source, sampler)| json!({ "source": source, "sampler": sampler }))
+            .collect();
         root["textures"] = json!(textures);
-        // Repeat wrapping, trilinear filtering.
-        root["samplers"] =
-            json!([{ "magFilter": 9729, "minFilter": 9987, "wrapS": 10497, "wrapT": 10497 }]);
+        // Sampler 0: repeat wrapping, trilinear filtering (the default).
+        let samplers: Vec<Value> = table.samplers.iter().map(|s| s.to_gltf_json()).collect();
+        root["samplers"] = json!(samplers);
     }
     if !lights.is_empty() {
         root["extensions"] = json!({ "KHR_lights_punctual": { "lights": lights } });

@@ -21,14 +21,16 @@
 //!    **Vertices with a NaN/Inf attribute**: every triangle using such a vertex
 //!    is dropped and one warning per primitive names the mesh and the count.
 //! 6. Images are decoded once each; a missing/undecodable image is a warning and
-//!    the material falls back to its factor.
+//!    the material falls back to its factor. Each texture reference carries its
+//!    glTF sampler (wrap modes, filters); a sampler field with a value glTF does
+//!    not define is a warning and that field's default is used.
 //!
 //! The whole import runs under `catch_unwind` as defence in depth: should a
 //! dependency panic on a malformed file, the caller gets an error naming it.
 
 use super::gltf_animation::{check_animation_json, import_animations};
 use super::gltf_buffers::{load_buffers, split_container, AccessorReader};
-use super::gltf_textures::{decode_images, ImageUses};
+use super::gltf_textures::{decode_images, patch_invalid_samplers, texture_sampler, ImageUses};
 use super::mesh_ops::{drop_non_finite_triangles, generate_normals, generate_tangents};
 use super::{
     AlphaMode, Instance, Light, LightKind, Material, Mesh, Scene, SceneCamera, SceneError,
@@ -205,6 +207,7 @@ fn parse_document(
                 .count()
         });
     let sourceless = patch_sourceless_textures(obj);
+    warnings.extend(patch_invalid_samplers(path, obj));
     check_position_accessors(path, obj)?;
     check_animation_json(path, obj)?;
     let root: gltf::json::Root = serde_json::from_value(value)
@@ -395,9 +398,10 @@ impl Importer<'_> {
         }
         let tex_ref = |t: gltf::texture::Texture, enc| {
             src(t.clone()).and_then(|image| {
-                lookup
-                    .get(&(image, enc))
-                    .map(|&texture| TextureRef { texture })
+                lookup.get(&(image, enc)).map(|&texture| TextureRef {
+                    texture,
+                    sampler: texture_sampler(&t),
+                })
             })
         };
 

@@ -5,9 +5,14 @@
 //!
 //! A missing or undecodable image is not an error: it yields a warning and no
 //! texture, and the materials that use it fall back to their factors.
+//!
+//! Samplers (wrap modes, filters) are not part of the image: they go into
+//! each material's `TextureRef` (`texture_sampler`), so one image read with
+//! two samplers is still decoded and uploaded once.
 
 use super::gltf_buffers::read_uri;
-use super::{Texture, TextureEncoding};
+use super::texture::gl;
+use super::{Filter, Texture, TextureEncoding, TextureSampler, Wrap};
 use std::collections::BTreeMap;
 use std::path::Path;
 
@@ -157,4 +162,117 @@ pub(crate) fn decode_images(
         }
     }
     out
+}
+
+/// The sampler a glTF texture is read with ([`TextureSampler::default`]
+/// for a texture without one, and for each field a sampler leaves out:
+/// the Khronos sample viewer's defaults). Call on a document whose
+/// samplers went through [`patch_invalid_samplers`].
+pub(crate) fn texture_sampler(texture: &gltf::texture::Texture) -> TextureSampler {
+    let s = texture.sampler();
+    let d = TextureSampler::default();
+    let (min_filter, mipmap) = s
+        .min_filter()
+        .and_then(|m| TextureSampler::min_from_gl(m.as_gl_enum()))
+        .unwrap_or((d.min_filter, d.mipmap));
+    TextureSampler {
+        wrap_s: Wrap::from_gl(s.wrap_s().as_gl_enum()).unwrap_or(d.wrap_s),
+        wrap_t: Wrap::from_gl(s.wrap_t().as_gl_enum()).unwrap_or(d.wrap_t),
+        mag_filter: s
+            .mag_filter()
+            .and_then(|m| Filter::from_gl_mag(m.as_gl_enum()))
+            .unwrap_or(d.mag_filter),
+        min_filter,
+        mipmap,
+    }
+}
+
+/// Sampler fields whose value glTF does not define (e.g. `magFilter: 9987`,
+/// a string, a negative number) would make the `gltf` crate reject the
+/// whole file. Each such field is removed from the raw JSON, so that the
+/// default for that field applies, and each sampler with such fields gets
+/// one warning naming the file, the sampler, the textures using it and the
+/// value used instead. A whole-number float (`9729.0`) is read as the integer.
+pub(crate) fn patch_invalid_samplers(
+    path: &Path,
+    obj: &mut serde_json::Map<String, serde_json::Value>,
+) -> Vec<String> {
+    use serde_json::Value;
+    let mut users: BTreeMap<u64, Vec<String>> = BTreeMap::new();
+    if let Some(Value::Array(textures)) = obj.get("textures") {
+        for (i, t) in textures.iter().enumerate() {
+            if let Some(s) = t.get("sampler").and_then(Value::as_u64) {
+                let label = match t.get("name").and_then(Value::as_str) {
+                    Some(n) => format!("texture {i} '{n}'"),
+                    None => format!("texture {i}"),
+                };
+                users.entry(s).or_default().push(label);
+            }
+        }
+    }
+    let Some(Value::Array(samplers)) = obj.get_mut("samplers") else {
+        return Vec::new();
+    };
+    let mut warnings = Vec::new();
+    for (si, s) in samplers.iter_mut().enumerate() {
+        let Value::Object(s) = s else { continue };
+        let mut bad = Vec::new();
+        for (key, valid, fallback) in [
+            ("magFilter", &[gl::NEAREST, gl::LINEAR][..], "LINEAR (9729)"),
+            (
+                "minFilter",
+                &[
+                    gl::NEAREST,
+                    gl::LINEAR,
+                    gl::NEAREST_MIPMAP_NEAREST,
+                    gl::LINEAR_MIPMAP_NEAREST,
+                    gl::NEAREST_MIPMAP_LINEAR,
+                    gl::LINEAR_MIPMAP_LINEAR,
+                ][..],
+                "LINEAR_MIPMAP_LINEAR (9987)",
+            ),
+            (
+                "wrapS",
+                &[gl::REPEAT, gl::CLAMP_TO_EDGE, gl::MIRRORED_REPEAT][..],
+                "REPEAT (10497)",
+            ),
+            (
+                "wrapT",
+                &[gl::REPEAT, gl::CLAMP_TO_EDGE, gl::MIRRORED_REPEAT][..],
+                "REPEAT (10497)",
+            ),
+        ] {
+            let Some(v) = s.get(key) else { continue };
+            let as_int = v.as_u64().or_else(|| {
+                v.as_f64()
+                    .filter(|f| f.fract() == 0.0 && *f >= 0.0 && *f <= f64::from(u32::MAX))
+                    .map(|f| f as u64)
+            });
+            match as_int {
+                Some(n) if valid.iter().any(|&g| u64::from(g) == n) => {
+                    s.insert(key.into(), Value::from(n));
+                }
+                _ => {
+                    bad.push(format!("{key} {v} is not a glTF value, {fallback} is used"));
+                    s.remove(key);
+                }
+            }
+        }
+        if !bad.is_empty() {
+            let name = match s.get("name").and_then(Value::as_str) {
+                Some(n) => format!("sampler {si} '{n}'"),
+                None => format!("sampler {si}"),
+            };
+            let used = match users.get(&(si as u64)) {
+                Some(u) => format!("used by {}", u.join(", ")),
+                None => "used by no texture".into(),
+            };
+            warnings.push(format!(
+                "{}: {name} ({used}): {}",
+                path.display(),
+                bad.join("; ")
+            ));
+        }
+    }
+    warnings
 }

@@ -1,6 +1,7 @@
 //! glTF metallic-roughness materials with the extensions stereocache supports
 //! (emissive strength, transmission, ior).
 
+use super::texture::TextureSampler;
 use glam::{Vec3, Vec4};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -12,10 +13,24 @@ pub enum AlphaMode {
     Blend,
 }
 
-/// A texture binding: index into `Scene::textures` and the uv set (only 0 is supported).
+/// A texture binding: index into `Scene::textures` (the uv set is always 0)
+/// and the sampler it is read with (glTF `texture.sampler`). Two references
+/// to one texture with different samplers share the image; the GPU scene
+/// gives each (texture, sampler) pair its own descriptor slot.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TextureRef {
     pub texture: u32,
+    pub sampler: TextureSampler,
+}
+
+impl TextureRef {
+    /// `texture` read with the default sampler (repeat, trilinear).
+    pub fn new(texture: u32) -> TextureRef {
+        TextureRef {
+            texture,
+            sampler: TextureSampler::default(),
+        }
+    }
 }
 
 #[derive(Clone, Debug)]

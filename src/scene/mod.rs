@@ -41,7 +41,7 @@ pub use light::{Light, LightKind};
 pub use load::load_scene;
 pub use material::{AlphaMode, Material, TextureRef};
 pub use mesh::{Instance, Mesh};
-pub use texture::{Texture, TextureEncoding};
+pub use texture::{Filter, Texture, TextureEncoding, TextureSampler, Wrap};
 
 use glam::{Mat4, Vec3};
 use std::path::PathBuf;

@@ -99,3 +99,142 @@ impl Texture {
         self.mips.len() as u32
     }
 }
+
+/// How a texture coordinate outside [0, 1] is mapped back into the image
+/// (glTF `sampler.wrapS` / `wrapT`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Wrap {
+    /// GL `REPEAT` (10497): the image tiles.
+    Repeat,
+    /// GL `CLAMP_TO_EDGE` (33071): the edge texel continues.
+    ClampToEdge,
+    /// GL `MIRRORED_REPEAT` (33648): every other tile is mirrored.
+    MirroredRepeat,
+}
+
+/// Texel filter (within a mip level, or between levels).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Filter {
+    Nearest,
+    Linear,
+}
+
+/// A glTF sampler as a texture reference uses it. The default is what the
+/// Khronos sample viewer uses when a texture has no sampler or a sampler
+/// leaves a field out: repeat in both directions, LINEAR magnification and
+/// LINEAR_MIPMAP_LINEAR (trilinear) minification.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct TextureSampler {
+    pub wrap_s: Wrap,
+    pub wrap_t: Wrap,
+    pub mag_filter: Filter,
+    /// The filter within a level when minified.
+    pub min_filter: Filter,
+    /// The filter between mip levels; `None`: the texture is not mipmapped
+    /// (glTF minFilter NEAREST or LINEAR) and only level 0 is sampled.
+    pub mipmap: Option<Filter>,
+}
+
+impl Default for TextureSampler {
+    fn default() -> Self {
+        TextureSampler {
+            wrap_s: Wrap::Repeat,
+            wrap_t: Wrap::Repeat,
+            mag_filter: Filter::Linear,
+            min_filter: Filter::Linear,
+            mipmap: Some(Filter::Linear),
+        }
+    }
+}
+
+/// The GL enum values glTF samplers use (glTF 2.0 §5.26).
+pub mod gl {
+    pub const NEAREST: u32 = 9728;
+    pub const LINEAR: u32 = 9729;
+    pub const NEAREST_MIPMAP_NEAREST: u32 = 9984;
+    pub const LINEAR_MIPMAP_NEAREST: u32 = 9985;
+    pub const NEAREST_MIPMAP_LINEAR: u32 = 9986;
+    pub const LINEAR_MIPMAP_LINEAR: u32 = 9987;
+    pub const REPEAT: u32 = 10497;
+    pub const CLAMP_TO_EDGE: u32 = 33071;
+    pub const MIRRORED_REPEAT: u32 = 33648;
+}
+
+impl Wrap {
+    /// From a glTF `wrapS`/`wrapT` value; `None` for a value glTF does not define.
+    pub fn from_gl(v: u32) -> Option<Wrap> {
+        match v {
+            gl::REPEAT => Some(Wrap::Repeat),
+            gl::CLAMP_TO_EDGE => Some(Wrap::ClampToEdge),
+            gl::MIRRORED_REPEAT => Some(Wrap::MirroredRepeat),
+            _ => None,
+        }
+    }
+
+    pub fn to_gl(self) -> u32 {
+        match self {
+            Wrap::Repeat => gl::REPEAT,
+            Wrap::ClampToEdge => gl::CLAMP_TO_EDGE,
+            Wrap::MirroredRepeat => gl::MIRRORED_REPEAT,
+        }
+    }
+}
+
+impl Filter {
+    /// From a glTF `magFilter` value; `None` for a value glTF does not define.
+    pub fn from_gl_mag(v: u32) -> Option<Filter> {
+        match v {
+            gl::NEAREST => Some(Filter::Nearest),
+            gl::LINEAR => Some(Filter::Linear),
+            _ => None,
+        }
+    }
+}
+
+impl TextureSampler {
+    /// (filter within a level, filter between levels) of a glTF `minFilter`
+    /// value; `None` for a value glTF does not define.
+    pub fn min_from_gl(v: u32) -> Option<(Filter, Option<Filter>)> {
+        use Filter::{Linear, Nearest};
+        match v {
+            gl::NEAREST => Some((Nearest, None)),
+            gl::LINEAR => Some((Linear, None)),
+            gl::NEAREST_MIPMAP_NEAREST => Some((Nearest, Some(Nearest))),
+            gl::LINEAR_MIPMAP_NEAREST => Some((Linear, Some(Nearest))),
+            gl::NEAREST_MIPMAP_LINEAR => Some((Nearest, Some(Linear))),
+            gl::LINEAR_MIPMAP_LINEAR => Some((Linear, Some(Linear))),
+            _ => None,
+        }
+    }
+
+    /// The glTF `minFilter` value of this sampler.
+    pub fn min_to_gl(&self) -> u32 {
+        use Filter::{Linear, Nearest};
+        match (self.min_filter, self.mipmap) {
+            (Nearest, None) => gl::NEAREST,
+            (Linear, None) => gl::LINEAR,
+            (Nearest, Some(Nearest)) => gl::NEAREST_MIPMAP_NEAREST,
+            (Linear, Some(Nearest)) => gl::LINEAR_MIPMAP_NEAREST,
+            (Nearest, Some(Linear)) => gl::NEAREST_MIPMAP_LINEAR,
+            (Linear, Some(Linear)) => gl::LINEAR_MIPMAP_LINEAR,
+        }
+    }
+
+    /// The glTF `magFilter` value of this sampler.
+    pub fn mag_to_gl(&self) -> u32 {
+        match self.mag_filter {
+            Filter::Nearest => gl::NEAREST,
+            Filter::Linear => gl::LINEAR,
+        }
+    }
+
+    /// The glTF sampler object of this sampler (all four fields written).
+    pub fn to_gltf_json(&self) -> serde_json::Value {
+        serde_json::json!({
+            "magFilter": self.mag_to_gl(),
+            "minFilter": self.min_to_gl(),
+            "wrapS": self.wrap_s.to_gl(),
+            "wrapT": self.wrap_t.to_gl(),
+        })
+    }
+}

@@ -47,7 +47,7 @@ pub fn plane() -> Scene {
     let mat = add_material(
         &mut s,
         Material {
-            base_color_texture: Some(TextureRef { texture: 0 }),
+            base_color_texture: Some(TextureRef::new(0)),
             ..Material::diffuse("checker", Vec3::ONE)
         },
     );
