@@ -19,6 +19,7 @@ pub mod generate;
 mod gltf_animation;
 mod gltf_buffers;
 pub mod gltf_import;
+mod gltf_instancing;
 mod gltf_textures;
 pub mod light;
 pub mod load;
