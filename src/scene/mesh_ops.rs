@@ -392,6 +392,60 @@ mod tests {
     }
 
     #[test]
+    fn tangents_stay_finite_unit_and_perpendicular_on_messy_meshes() {
+        // Deterministic pseudo-random meshes: repeated indices (zero-area
+        // triangles), snapped coincident/collinear points, zero uvs and
+        // shared vertices whose faces disagree on uv orientation.
+        let mut state = 0x2545_f491_u32;
+        let mut rnd = move || {
+            state ^= state << 13;
+            state ^= state >> 17;
+            state ^= state << 5;
+            state as f32 / u32::MAX as f32
+        };
+        for case in 0..60 {
+            let nv = 3 + (rnd() * 40.0) as usize;
+            let mut p = Vec::with_capacity(nv);
+            let mut uv = Vec::with_capacity(nv);
+            for _ in 0..nv {
+                let q = Vec3::new(rnd(), rnd(), rnd());
+                p.push(if rnd() < 0.2 { q.round() } else { q });
+                uv.push(if rnd() < 0.3 {
+                    Vec2::ZERO
+                } else {
+                    Vec2::new(4.0 * rnd() - 2.0, rnd())
+                });
+            }
+            let nt = 1 + (rnd() * 60.0) as usize;
+            let idx: Vec<u32> = (0..3 * nt)
+                .map(|_| (rnd() * nv as f32) as u32 % nv as u32)
+                .collect();
+            let mut m = mesh(p, uv, idx);
+            let before: Vec<[Vec3; 3]> = (0..m.triangle_count()).map(|t| m.triangle(t)).collect();
+            generate_tangents(&mut m);
+            let n = m.positions.len();
+            assert!(n >= nv, "case {case}");
+            assert_eq!((m.normals.len(), m.uvs.len(), m.tangents.len()), (n, n, n));
+            assert!(m.indices.iter().all(|&i| (i as usize) < n), "case {case}");
+            let after: Vec<[Vec3; 3]> = (0..m.triangle_count()).map(|t| m.triangle(t)).collect();
+            assert_eq!(before, after, "case {case}: splitting moved a triangle");
+            for (t, nrm) in m.tangents.iter().zip(&m.normals) {
+                assert!(t.is_finite(), "case {case}: {t}");
+                // Unit and perpendicular up to f32 rounding of a normalisation.
+                assert!(
+                    (t.truncate().length() - 1.0).abs() < 1e-5,
+                    "case {case}: {t}"
+                );
+                assert!(
+                    t.truncate().dot(*nrm).abs() < 1e-5,
+                    "case {case}: {t} vs {nrm}"
+                );
+                assert_eq!(t.w.abs(), 1.0, "case {case}");
+            }
+        }
+    }
+
+    #[test]
     fn strips_and_fans_follow_the_gltf_topology_rules() {
         // glTF-Sample-Assets MeshPrimitiveModes: a hexagon around vertex 0,
         // vertex k at angle 60°·(k − 1) − 30°; each mode's indices cover it
