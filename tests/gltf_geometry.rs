@@ -84,6 +84,18 @@ impl Builder {
         self.accessors.len() - 1
     }
 
+    /// A normalized signed-short accessor (value = i16 / 32767).
+    fn normalized_shorts(&mut self, data: &[i16], ty: &str) -> usize {
+        let n = components(ty);
+        let bytes: Vec<u8> = data.iter().flat_map(|i| i.to_le_bytes()).collect();
+        let view = self.view(&bytes);
+        self.accessors.push(json!({
+            "bufferView": view, "componentType": 5122, "normalized": true,
+            "count": data.len() / n, "type": ty,
+        }));
+        self.accessors.len() - 1
+    }
+
     /// A VEC3 float accessor of `count` zeros except `values` at `at` (sparse, no bufferView).
     fn sparse_vec3(&mut self, count: usize, at: &[u32], values: &[Vec3]) -> usize {
         let ib: Vec<u8> = at.iter().flat_map(|i| i.to_le_bytes()).collect();
@@ -417,6 +429,28 @@ fn weight_count_mismatch_warns_and_animated_weights_warn_once_naming_the_animati
     assert_eq!(s.meshes[0].positions[2], Vec3::new(0.0, 1.0, 1.0));
 }
 
+#[test]
+fn tangent_targets_move_supplied_tangents_and_keep_w() {
+    // A triangle shipping tangents (1,0,0,−1); target 0 adds (0,1,0) to
+    // vertex 0's, default weight 1: (1,1,0)/√2, w still −1.
+    let mut b = Builder::default();
+    let pos = b.vec3(&[Vec3::ZERO, Vec3::X, Vec3::Y]);
+    let tan = b.floats(&[1.0, 0.0, 0.0, -1.0].repeat(3), "VEC4");
+    let d_tan = b.vec3(&[Vec3::Y, Vec3::ZERO, Vec3::ZERO]);
+    let root = json!({
+        "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+        "meshes": [{"weights": [1.0], "primitives": [{
+            "attributes": {"POSITION": pos, "TANGENT": tan},
+            "targets": [{"TANGENT": d_tan}],
+        }]}],
+    });
+    let s = b.load(root, "morph-tangent").unwrap();
+    let t = &s.meshes[0].tangents;
+    let want = Vec3::new(1.0, 1.0, 0.0).normalize().extend(-1.0);
+    assert!((t[0] - want).length() < 1e-6, "{}", t[0]);
+    assert_eq!(t[1], Vec4::new(1.0, 0.0, 0.0, -1.0));
+}
+
 // ---------------------------------------------------------------- EXT_mesh_gpu_instancing
 
 const NODE_T: [f32; 3] = [0.0, 1.0, 0.0];
@@ -531,6 +565,32 @@ fn gpu_instancing_attributes_are_each_optional() {
     assert_eq!(s.instances.len(), 2);
     let want = Mat4::from_translation(Vec3::new(3.0, 1.0, 0.0));
     assert!(s.instances[1].transform.abs_diff_eq(want, 1e-6));
+}
+
+#[test]
+fn gpu_instancing_reads_normalized_short_rotations_and_warns_on_unknown_attributes() {
+    // 90° about Z as normalized shorts: (0, 0, 23170, 23170) / 32767 =
+    // 0.70711 each, renormalised by the importer.
+    let s = instancing_file("instancing-shorts", false, |b| {
+        json!({
+            "ROTATION": b.normalized_shorts(&[0, 0, 0, 32767, 0, 0, 23170, 23170], "VEC4"),
+            "COLOR": b.floats(&[1.0, 0.0, 0.0, 1.0, 0.0, 0.0], "VEC3"),
+        })
+    })
+    .unwrap();
+    assert_eq!(s.instances.len(), 2);
+    let want = Mat4::from_translation(Vec3::from(NODE_T))
+        * Mat4::from_quat(Quat::from_rotation_z(std::f32::consts::FRAC_PI_2));
+    // Quantisation: 23170/32767 is within 1.5e-5 of √½ and both components
+    // err alike, so the renormalised quaternion is exact to ~1e-6.
+    assert!(
+        s.instances[1].transform.abs_diff_eq(want, 1e-5),
+        "{}",
+        s.instances[1].transform
+    );
+    let w = s.warnings.join("\n");
+    assert_eq!(s.warnings.len(), 1, "{w}");
+    assert!(w.contains("node 0 'forest'") && w.contains("COLOR"), "{w}");
 }
 
 fn expect_instancing_error(tag: &str, attrs: impl FnOnce(&mut Builder) -> Value, phrase: &str) {
