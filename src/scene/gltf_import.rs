@@ -50,7 +50,7 @@ use super::{
     TextureEncoding, TextureRef,
 };
 use glam::{Mat4, Vec2, Vec3, Vec4};
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 use std::path::Path;
 
 /// Required extensions that only affect appearance; ignoring them degrades
@@ -112,6 +112,7 @@ fn load_gltf_unguarded(path: &Path) -> Result<Scene, SceneError> {
         mesh_map: HashMap::new(),
         instancing: prepared.instancing,
         instance_offsets: Vec::new(),
+        morph_warnings: HashSet::new(),
         default_material: None,
         instances_budget: MAX_INSTANCES,
         split_rm_materials: prepared.split_rm,
@@ -340,6 +341,9 @@ struct Importer<'a> {
     /// Per instance, its EXT_mesh_gpu_instancing T·R·S (identity otherwise),
     /// for `SceneAnimation`; filled only when `record_paths`.
     instance_offsets: Vec<Mat4>,
+    /// Morph-weight warnings already given (a mesh's weights are seen once
+    /// per node that uses it).
+    morph_warnings: HashSet<String>,
     /// Index of the glTF default material, appended on first use.
     default_material: Option<u32>,
     instances_budget: usize,
@@ -765,15 +769,21 @@ impl Importer<'_> {
             (None, Some(w)) => (w, named("mesh", mesh.index(), mesh.name())),
             (None, None) => return None,
         };
+        let mut problems = Vec::new();
         if given.len() != targets {
-            self.warn(format!(
+            problems.push(format!(
                 "{source}: {} morph weights for {targets} morph targets; missing weights \
                  count as 0, extra ones are ignored",
                 given.len()
             ));
         }
         if given.iter().any(|w| !w.is_finite()) {
-            self.warn(format!("{source}: non-finite morph weights count as 0"));
+            problems.push(format!("{source}: non-finite morph weights count as 0"));
+        }
+        for p in problems {
+            if self.morph_warnings.insert(p.clone()) {
+                self.warn(p);
+            }
         }
         let weights: Vec<f32> = (0..targets)
             .map(|k| {
