@@ -175,7 +175,7 @@ fn used_by(doc: &Value) -> Vec<String> {
 /// code (not by the feature table's walk) is dropped.
 fn elsewhere_keyword(name: &str) -> &'static str {
     match name {
-        "triangle strips and fans" | "points and lines" => "is not supported (triangles only)",
+        "points and lines" => "triangle strips and triangle fans only",
         "TEXCOORD_1 and texCoord" => "only TEXCOORD_0 is supported",
         "orthographic cameras" => "orthographic camera",
         "alphaMode BLEND" => "alphaMode BLEND",

@@ -311,6 +311,9 @@ pub struct SceneAnimation {
     pub nodes: Vec<LocalRest>,
     /// Per instance, the node path from its root to its node.
     pub instance_paths: Vec<Vec<u32>>,
+    /// Per instance, a transform applied after its path's (glTF
+    /// EXT_mesh_gpu_instancing's T·R·S); empty means identity for all.
+    pub instance_offsets: Vec<Mat4>,
     pub animations: Vec<Animation>,
     /// Indices into `animations` that play.
     pub active: Vec<usize>,
@@ -413,10 +416,16 @@ impl SceneAnimation {
             .iter()
             .zip(rest)
             .zip(moves)
-            .map(|((path, &r), m)| {
+            .enumerate()
+            .map(|(i, ((path, &r), m))| {
                 if m {
-                    path.iter()
-                        .fold(Mat4::IDENTITY, |acc, &n| acc * local[n as usize])
+                    let world = path
+                        .iter()
+                        .fold(Mat4::IDENTITY, |acc, &n| acc * local[n as usize]);
+                    match self.instance_offsets.get(i) {
+                        Some(offset) => world * *offset,
+                        None => world,
+                    }
                 } else {
                     r
                 }

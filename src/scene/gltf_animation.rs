@@ -60,6 +60,7 @@ pub(crate) fn import_animations(
     reader: &AccessorReader,
     path: &Path,
     instance_paths: Vec<Vec<u32>>,
+    instance_offsets: Vec<Mat4>,
     warnings: &mut Vec<String>,
 ) -> Result<Option<SceneAnimation>, SceneError> {
     if doc.animations().len() == 0 {
@@ -147,7 +148,7 @@ pub(crate) fn import_animations(
         if morph {
             warnings.push(format!(
                 "{}: {what} animates morph-target weights, which stereocache does not support; \
-                 those channels are ignored",
+                 those channels are ignored (meshes keep their default weights)",
                 path.display()
             ));
         }
@@ -169,6 +170,7 @@ pub(crate) fn import_animations(
     let mut a = SceneAnimation {
         nodes,
         instance_paths,
+        instance_offsets,
         animations,
         active: Vec::new(),
     };

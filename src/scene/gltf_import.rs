@@ -13,11 +13,22 @@
 //! 3. Buffers and accessors are read by `gltf_buffers` with checked ranges.
 //! 4. The default scene's node tree is flattened into [`Instance`]s; a glTF mesh
 //!    used by several nodes maps to the same [`Mesh`]es (instancing). Cycles and
-//!    absurd depths are errors.
-//! 5. Every triangle-list primitive becomes one [`Mesh`]; other modes are skipped
-//!    with a warning. Missing indices are generated, missing normals are
-//!    generated (area-weighted), missing uvs are zeros, missing tangents are
-//!    generated from uv derivatives when the material has a normal map.
+//!    absurd depths are errors. A node with `EXT_mesh_gpu_instancing` (read from
+//!    the raw JSON, `gltf_instancing`) yields one [`Instance`] per element of its
+//!    TRANSLATION/ROTATION/SCALE accessors, transform node_world × T·R·S, all
+//!    sharing the node's meshes; its children are not instanced.
+//! 5. Every triangle primitive becomes one [`Mesh`]: TRIANGLES as is,
+//!    TRIANGLE_STRIP and TRIANGLE_FAN converted to lists with the winding the
+//!    glTF topology rules define; points and lines are skipped with a warning.
+//!    Missing indices are generated, missing normals are generated
+//!    (area-weighted), missing uvs are zeros, missing tangents are generated
+//!    with MikkTSpace (`mesh_ops::generate_tangents`, which may split vertices)
+//!    when the material has a normal map; supplied tangents are kept as they are.
+//!    **Morph targets**: the default weights (`node.weights`, else
+//!    `mesh.weights`) are applied to POSITION, NORMAL and TANGENT (sparse
+//!    accessors too) at import, normals and tangents renormalised; a glTF mesh
+//!    used with different weights becomes different [`Mesh`]es. Animated
+//!    weights are not supported (one warning per animation, `gltf_animation`).
 //!    **Vertices with a NaN/Inf attribute**: every triangle using such a vertex
 //!    is dropped and one warning per primitive names the mesh and the count.
 //! 6. Images are decoded once each; a missing/undecodable image is a warning and
@@ -30,14 +41,18 @@
 
 use super::gltf_animation::{check_animation_json, import_animations};
 use super::gltf_buffers::{load_buffers, split_container, AccessorReader};
+use super::gltf_instancing::{instancing_json, NodeInstancing, INSTANCING_EXTENSION};
 use super::gltf_textures::{decode_images, patch_invalid_samplers, texture_sampler, ImageUses};
-use super::mesh_ops::{drop_non_finite_triangles, generate_normals, generate_tangents};
+use super::mesh_ops::{
+    drop_non_finite_triangles, fan_to_triangles, generate_normals, generate_tangents,
+    strip_to_triangles,
+};
 use super::{
     AlphaMode, Instance, Light, LightKind, Material, Mesh, Scene, SceneCamera, SceneError,
     TextureEncoding, TextureRef,
 };
 use glam::{Mat4, Vec2, Vec3, Vec4};
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 use std::path::Path;
 
 /// Required extensions that only affect appearance; ignoring them degrades
@@ -97,6 +112,9 @@ fn load_gltf_unguarded(path: &Path) -> Result<Scene, SceneError> {
             ..Default::default()
         },
         mesh_map: HashMap::new(),
+        instancing: prepared.instancing,
+        instance_offsets: Vec::new(),
+        morph_warnings: HashSet::new(),
         default_material: None,
         instances_budget: MAX_INSTANCES,
         split_rm_materials: prepared.split_rm,
@@ -117,12 +135,14 @@ fn load_gltf_unguarded(path: &Path) -> Result<Scene, SceneError> {
     }
     importer.import_nodes()?;
     let instance_paths = std::mem::take(&mut importer.instance_paths);
+    let instance_offsets = std::mem::take(&mut importer.instance_offsets);
     let mut scene = importer.scene;
     scene.animation = import_animations(
         &doc,
         &importer.reader,
         path,
         instance_paths,
+        instance_offsets,
         &mut scene.warnings,
     )?;
     scene.validate()?;
@@ -165,6 +185,8 @@ fn parse_document(
             })?;
             if gltf::json::extensions::ENABLED_EXTENSIONS.contains(&name) {
                 kept.push(ext);
+            } else if name == INSTANCING_EXTENSION {
+                // Read from the JSON (gltf_instancing; the crate does not know it).
             } else if name == "KHR_texture_procedurals" {
                 // Read from the JSON by materials::binding (the crate does not know it).
             } else if APPEARANCE_ONLY_EXTENSIONS.contains(&name)
@@ -209,6 +231,7 @@ fn parse_document(
     let sourceless = patch_sourceless_textures(obj);
     warnings.extend(patch_invalid_samplers(path, obj));
     check_position_accessors(path, obj)?;
+    let instancing = instancing_json(path, obj, warnings)?;
     check_animation_json(path, obj)?;
     let root: gltf::json::Root = serde_json::from_value(value)
         .map_err(|e| SceneError::invalid(path, format!("invalid glTF structure: {e}")))?;
@@ -233,6 +256,7 @@ fn parse_document(
         doc,
         split_rm,
         sourceless,
+        instancing,
     })
 }
 
@@ -312,6 +336,8 @@ struct Prepared {
     split_rm: usize,
     /// Textures that had no core `source` (see `patch_sourceless_textures`).
     sourceless: Vec<usize>,
+    /// Nodes with EXT_mesh_gpu_instancing, by node index.
+    instancing: HashMap<usize, NodeInstancing>,
 }
 
 struct Importer<'a> {
@@ -319,8 +345,17 @@ struct Importer<'a> {
     doc: &'a gltf::Document,
     reader: AccessorReader<'a>,
     scene: Scene,
-    /// glTF mesh index → our mesh indices (one per triangle primitive).
-    mesh_map: HashMap<usize, Vec<u32>>,
+    /// (glTF mesh index, default morph weights as bits; empty when they are
+    /// all zero) → our mesh indices (one per triangle primitive).
+    mesh_map: HashMap<(usize, Vec<u32>), Vec<u32>>,
+    /// Nodes with EXT_mesh_gpu_instancing, by node index.
+    instancing: HashMap<usize, NodeInstancing>,
+    /// Per instance, its EXT_mesh_gpu_instancing T·R·S (identity otherwise),
+    /// for `SceneAnimation`; filled only when `record_paths`.
+    instance_offsets: Vec<Mat4>,
+    /// Morph-weight warnings already given (a mesh's weights are seen once
+    /// per node that uses it).
+    morph_warnings: HashSet<String>,
     /// Index of the glTF default material, appended on first use.
     default_material: Option<u32>,
     instances_budget: usize,
@@ -571,26 +606,42 @@ impl Importer<'_> {
         }
         self.node_path.push(node.index() as u32);
         if let Some(mesh) = node.mesh() {
-            let ids = self.mesh(mesh)?;
-            if self.instances_budget < ids.len() {
+            let weights = self.morph_weights(&node, &mesh, &label);
+            let ids = self.mesh(mesh, weights)?;
+            // EXT_mesh_gpu_instancing: one instance per element, node_world × T·R·S.
+            let offsets = match self.instancing.get(&node.index()) {
+                Some(inst) => inst.transforms(&self.reader, self.doc, &label)?,
+                None => vec![Mat4::IDENTITY],
+            };
+            let total = ids.len().saturating_mul(offsets.len());
+            if self.instances_budget < total {
                 return Err(self.err(format!(
                     "the node hierarchy expands to more than {MAX_INSTANCES} instances"
                 )));
             }
-            self.instances_budget -= ids.len();
-            for id in ids {
-                if self.record_paths {
-                    self.instance_paths.push(self.node_path.clone());
+            self.instances_budget -= total;
+            let name = node
+                .name()
+                .map(str::to_owned)
+                .unwrap_or_else(|| label.clone());
+            for offset in offsets {
+                let transform = world * offset;
+                for &id in &ids {
+                    if self.record_paths {
+                        self.instance_paths.push(self.node_path.clone());
+                        self.instance_offsets.push(offset);
+                    }
+                    self.scene.instances.push(Instance {
+                        mesh: id,
+                        transform,
+                        name: name.clone(),
+                    });
                 }
-                self.scene.instances.push(Instance {
-                    mesh: id,
-                    transform: world,
-                    name: node
-                        .name()
-                        .map(str::to_owned)
-                        .unwrap_or_else(|| label.clone()),
-                });
             }
+        } else if self.instancing.contains_key(&node.index()) {
+            self.warn(format!(
+                "{label} has {INSTANCING_EXTENSION} but no mesh; the extension is ignored"
+            ));
         }
         if let Some(camera) = node.camera() {
             self.camera(&node, camera, world);
@@ -707,9 +758,74 @@ impl Importer<'_> {
         });
     }
 
-    /// Our meshes for one glTF mesh, converted on first use.
-    fn mesh(&mut self, mesh: gltf::Mesh) -> Result<Vec<u32>, SceneError> {
-        if let Some(ids) = self.mesh_map.get(&mesh.index()) {
+    /// The default morph weights a node's mesh is shown with: `node.weights`
+    /// when present, else `mesh.weights` (glTF 2.0, "Morph Targets"); `None`
+    /// when the mesh has no targets or every weight is zero. A weight list
+    /// whose length differs from the target count, or a non-finite weight, is
+    /// a warning; missing and non-finite weights count as 0.
+    fn morph_weights(
+        &mut self,
+        node: &gltf::Node,
+        mesh: &gltf::Mesh,
+        label: &str,
+    ) -> Option<Vec<f32>> {
+        let targets = mesh
+            .primitives()
+            .map(|p| p.morph_targets().len())
+            .max()
+            .unwrap_or(0);
+        if targets == 0 {
+            return None;
+        }
+        let (given, source) = match (node.weights(), mesh.weights()) {
+            (Some(w), _) => (w, label.to_owned()),
+            (None, Some(w)) => (w, named("mesh", mesh.index(), mesh.name())),
+            (None, None) => return None,
+        };
+        let mut problems = Vec::new();
+        if given.len() != targets {
+            problems.push(format!(
+                "{source}: {} morph weights for {targets} morph targets; missing weights \
+                 count as 0, extra ones are ignored",
+                given.len()
+            ));
+        }
+        if given.iter().any(|w| !w.is_finite()) {
+            problems.push(format!("{source}: non-finite morph weights count as 0"));
+        }
+        for p in problems {
+            if self.morph_warnings.insert(p.clone()) {
+                self.warn(p);
+            }
+        }
+        let weights: Vec<f32> = (0..targets)
+            .map(|k| {
+                given
+                    .get(k)
+                    .copied()
+                    .filter(|w| w.is_finite())
+                    .unwrap_or(0.0)
+            })
+            .collect();
+        weights.iter().any(|&w| w != 0.0).then_some(weights)
+    }
+
+    /// Our meshes for one glTF mesh shown with `weights`, converted on first use.
+    fn mesh(
+        &mut self,
+        mesh: gltf::Mesh,
+        weights: Option<Vec<f32>>,
+    ) -> Result<Vec<u32>, SceneError> {
+        let key = (
+            mesh.index(),
+            weights
+                .as_deref()
+                .unwrap_or(&[])
+                .iter()
+                .map(|w| w.to_bits())
+                .collect::<Vec<u32>>(),
+        );
+        if let Some(ids) = self.mesh_map.get(&key) {
             return Ok(ids.clone());
         }
         let mut ids = Vec::new();
@@ -719,12 +835,12 @@ impl Importer<'_> {
                 named("mesh", mesh.index(), mesh.name()),
                 prim.index()
             );
-            if let Some(m) = self.primitive(&prim, &label, mesh.name())? {
+            if let Some(m) = self.primitive(&prim, &label, mesh.name(), weights.as_deref())? {
                 ids.push(self.scene.meshes.len() as u32);
                 self.scene.meshes.push(m);
             }
         }
-        self.mesh_map.insert(mesh.index(), ids.clone());
+        self.mesh_map.insert(key, ids.clone());
         Ok(ids)
     }
 
@@ -733,12 +849,17 @@ impl Importer<'_> {
         prim: &gltf::Primitive,
         label: &str,
         mesh_name: Option<&str>,
+        morph_weights: Option<&[f32]>,
     ) -> Result<Option<Mesh>, SceneError> {
         use gltf::mesh::Mode;
-        if prim.mode() != Mode::Triangles {
+        let mode = prim.mode();
+        if !matches!(
+            mode,
+            Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
+        ) {
             self.warn(format!(
-                "{label}: mode {:?} is not supported (triangles only); skipped",
-                prim.mode()
+                "{label}: mode {mode:?} is not supported (triangles, triangle strips and \
+                 triangle fans only); skipped"
             ));
             return Ok(None);
         }
@@ -747,7 +868,7 @@ impl Importer<'_> {
             return Ok(None);
         };
         let r = &self.reader;
-        let positions: Vec<Vec3> = r
+        let mut positions: Vec<Vec3> = r
             .read_vec::<3>(&pos_acc, &format!("POSITION of {label}"))?
             .into_iter()
             .map(Vec3::from)
@@ -766,7 +887,7 @@ impl Importer<'_> {
                 Ok(())
             }
         };
-        let normals: Vec<Vec3> = match prim.get(&gltf::Semantic::Normals) {
+        let mut normals: Vec<Vec3> = match prim.get(&gltf::Semantic::Normals) {
             Some(a) => {
                 let v = r.read_vec::<3>(&a, &format!("NORMAL of {label}"))?;
                 same_len("NORMAL", v.len())?;
@@ -782,7 +903,7 @@ impl Importer<'_> {
             }
             None => vec![Vec2::ZERO; n],
         };
-        let tangents: Vec<Vec4> = match prim.get(&gltf::Semantic::Tangents) {
+        let mut tangents: Vec<Vec4> = match prim.get(&gltf::Semantic::Tangents) {
             Some(a) => {
                 let v = r.read_vec::<4>(&a, &format!("TANGENT of {label}"))?;
                 same_len("TANGENT", v.len())?;
@@ -790,6 +911,46 @@ impl Importer<'_> {
             }
             None => Vec::new(),
         };
+        // Default morph weights: attribute += Σ weight × target delta. Deltas
+        // of attributes the primitive lacks are ignored (normals are then
+        // generated from the morphed positions, tangents from both).
+        let mut morphed = false;
+        let (has_normals, has_tangents) = (!normals.is_empty(), !tangents.is_empty());
+        for (k, target) in prim.morph_targets().enumerate() {
+            let w = morph_weights.and_then(|w| w.get(k)).copied().unwrap_or(0.0);
+            if w == 0.0 {
+                continue;
+            }
+            morphed = true;
+            let read = |a: gltf::Accessor, what: &str| -> Result<Vec<Vec3>, SceneError> {
+                let v = r.read_vec::<3>(&a, &format!("morph target {k} {what} of {label}"))?;
+                same_len(&format!("morph target {k} {what}"), v.len())?;
+                Ok(v.into_iter().map(Vec3::from).collect())
+            };
+            if let Some(a) = target.positions() {
+                for (p, d) in positions.iter_mut().zip(read(a, "POSITION")?) {
+                    *p += w * d;
+                }
+            }
+            if let Some(a) = target.normals().filter(|_| has_normals) {
+                for (v, d) in normals.iter_mut().zip(read(a, "NORMAL")?) {
+                    *v += w * d;
+                }
+            }
+            if let Some(a) = target.tangents().filter(|_| has_tangents) {
+                for (t, d) in tangents.iter_mut().zip(read(a, "TANGENT")?) {
+                    *t += (w * d).extend(0.0);
+                }
+            }
+        }
+        if morphed {
+            // Normals are renormalised below with the file's own.
+            for t in &mut tangents {
+                if let Some(xyz) = t.truncate().try_normalize() {
+                    *t = xyz.extend(t.w);
+                }
+            }
+        }
         let mut indices = match prim.indices() {
             Some(a) => r.read_indices(&a, &format!("indices of {label}"))?,
             None => (0..n as u32).collect(),
@@ -798,6 +959,11 @@ impl Importer<'_> {
             return Err(self.err(format!(
                 "{label}: index {k} has value {bad}, out of range for {n} vertices"
             )));
+        }
+        match mode {
+            Mode::TriangleStrip => indices = strip_to_triangles(&indices),
+            Mode::TriangleFan => indices = fan_to_triangles(&indices),
+            _ => {}
         }
         if indices.len() % 3 != 0 {
             self.warn(format!(
@@ -845,8 +1011,7 @@ impl Importer<'_> {
             .get(material as usize)
             .is_some_and(|m| m.normal_texture.is_some());
         if mesh.tangents.is_empty() && needs_tangents {
-            mesh.tangents =
-                generate_tangents(&mesh.positions, &mesh.normals, &mesh.uvs, &mesh.indices);
+            generate_tangents(&mut mesh);
         }
         Ok(Some(mesh))
     }

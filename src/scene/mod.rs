@@ -20,6 +20,7 @@ mod gltf_animation;
 mod gltf_buffers;
 pub mod gltf_features;
 pub mod gltf_import;
+mod gltf_instancing;
 mod gltf_textures;
 pub mod light;
 pub mod load;

@@ -562,6 +562,7 @@ pub fn flat_animation(
             n
         ],
         instance_paths: (0..n as u32).map(|i| vec![i]).collect(),
+        instance_offsets: Vec::new(),
         animations: vec![stereocache::scene::animation::Animation {
             name: "test".into(),
             channels,

@@ -101,6 +101,7 @@ fn flat_animation(scene: &Scene, animations: Vec<Animation>) -> SceneAnimation {
     let mut a = SceneAnimation {
         nodes,
         instance_paths: (0..scene.instances.len() as u32).map(|i| vec![i]).collect(),
+        instance_offsets: Vec::new(),
         animations,
         active: Vec::new(),
     };
