@@ -269,7 +269,7 @@ fn quad_file(mirror: bool, tangents: Option<&[f32]>, tag: &str) -> Scene {
     let root = json!({
         "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
         "meshes": [{"primitives": [{"attributes": attributes, "indices": idx, "material": 0}]}],
-        "materials": [{"normalTexture": {"index": 0}}],
+        "materials": [{"normalTexture": {"index": 0}, "doubleSided": true}],
         "textures": [{"source": 0}],
         "images": [{"uri": png_data_uri()}],
     });
