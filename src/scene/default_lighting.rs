@@ -447,8 +447,13 @@ impl LightingDecision {
                     1 => "the scene's 1 emissive material is a glow ≤ 1, not a light".to_string(),
                     n => format!("the scene's {n} emissive materials are glows ≤ 1, not lights"),
                 };
+                let replaced = if own.default_only && explicit {
+                    "; the scene's stand-in default lighting replaced"
+                } else {
+                    ""
+                };
                 if explicit {
-                    format!("lighting: {l} (--lighting; {why})")
+                    format!("lighting: {l} (--lighting; {why}{replaced})")
                 } else {
                     format!("lighting: {l} (default: {why})")
                 }
@@ -871,6 +876,10 @@ mod tests {
         let c: DefaultLighting = "constant:0.5".parse().unwrap();
         let d = light_scene(&mut s, Some(&c)).unwrap();
         assert!(!d.replaces_environment && d.own.default_only);
+        assert_eq!(
+            d.line(),
+            "lighting: constant:0.5 (--lighting; the scene's 1 emissive material is a glow ≤ 1, not a light; the scene's stand-in default lighting replaced)"
+        );
         assert!(s.lights.is_empty());
         assert!(matches!(s.environment, Some(Environment::Constant(v)) if v == Vec3::splat(0.5)));
     }
