@@ -2,19 +2,22 @@
 //! on the GPU for the chosen ray backend, and the methods that render it.
 //! The CLI and the tests open sessions the same way.
 
-use crate::camera::{HeadPose, StereoCamera, DEFAULT_IPD};
+use crate::camera::{frame_bounds, HeadPose, StereoCamera, DEFAULT_IPD};
 use crate::error::{Error, Result};
 use crate::gpu::{GpuContext, GpuOptions};
 use crate::methods::{Method, MethodConfig, MethodKind, RenderSettings};
 use crate::rt::{BvhLayout, RtBackend, RtChoice, SceneGpu};
-use crate::scene::{load_scene, relight, DefaultLighting, Scene};
+use crate::scene::{light_scene, load_scene, DefaultLighting, LightingDecision, Scene};
 use glam::{Quat, Vec3};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
 /// Which camera the head sits at.
 #[derive(Clone, Debug, Default)]
 pub enum CameraSelect {
-    /// The scene camera named `default`, else the first camera, else a view framing the scene.
+    /// The scene camera named `default`, else the first camera, else a view
+    /// framing the scene's bounds ([`crate::camera::framing`]; the chosen
+    /// camera and any warning printed on stderr once per session).
     #[default]
     Default,
     /// A scene camera by name.
@@ -39,6 +42,8 @@ pub struct Session {
     pub scene: Scene,
     pub scene_gpu: Arc<SceneGpu>,
     pub backend: RtBackend,
+    /// Whether the automatic framing's camera line was printed.
+    framing_reported: AtomicBool,
 }
 
 impl Session {
@@ -75,6 +80,7 @@ impl Session {
             scene,
             scene_gpu,
             backend,
+            framing_reported: AtomicBool::new(false),
         })
     }
 
@@ -98,11 +104,23 @@ impl Session {
         Ok(start.elapsed())
     }
 
-    /// Loads a scene by name or path and gives it default lighting when it has none.
-    pub fn load_scene(spec: &str, lighting: &DefaultLighting) -> Result<Scene> {
+    /// Loads a scene by name or path and lights it by the rule of
+    /// [`crate::scene::default_lighting`]: `lighting` is an explicit choice
+    /// (`--lighting`), always added; `None` adds the default sun and sky to
+    /// a scene without lighting of its own.
+    pub fn load_scene(spec: &str, lighting: Option<&DefaultLighting>) -> Result<Scene> {
+        Ok(Self::load_scene_lit(spec, lighting)?.0)
+    }
+
+    /// As [`Self::load_scene`], with the lighting decision (commands print
+    /// its [`LightingDecision::line`]).
+    pub fn load_scene_lit(
+        spec: &str,
+        lighting: Option<&DefaultLighting>,
+    ) -> Result<(Scene, LightingDecision)> {
         let mut scene = load_scene(spec)?;
-        relight(&mut scene, lighting)?;
-        Ok(scene)
+        let decision = light_scene(&mut scene, lighting)?;
+        Ok((scene, decision))
     }
 
     /// The stereo camera for a selection, image aspect and IPD.
@@ -138,16 +156,21 @@ impl Session {
                 match self.scene.camera("default").or(self.scene.cameras.first()) {
                     Some(c) => StereoCamera::from_scene_camera(c.transform, c.yfov, aspect),
                     None => {
-                        // Frame the bounds from +Z, looking down −Z.
                         let (lo, hi) = self.scene.world_bounds();
-                        let centre = 0.5 * (lo + hi);
-                        let radius = 0.5 * (hi - lo).length().max(1e-3);
-                        let dist = radius / (0.5 * default_fov).sin();
-                        StereoCamera::new(
-                            HeadPose::new(centre + Vec3::Z * dist, Quat::IDENTITY),
-                            default_fov,
+                        let framing = frame_bounds(
+                            lo,
+                            hi,
+                            yfov_override.unwrap_or(default_fov),
                             aspect,
-                        )
+                            ipd.unwrap_or(DEFAULT_IPD),
+                        );
+                        if !self.framing_reported.swap(true, Ordering::Relaxed) {
+                            eprintln!("{}", framing.line());
+                            if let Some(w) = &framing.warning {
+                                eprintln!("warning: {}: {w}", self.scene.source.display());
+                            }
+                        }
+                        framing.camera
                     }
                 }
             }

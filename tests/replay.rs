@@ -15,7 +15,6 @@ use stereocache::gpu::{GpuContext, GpuError, GpuResult, Recorder};
 use stereocache::methods::{FrameInput, FrameOutputs, Method, RenderSettings, StereoFrame};
 use stereocache::replay::{replay, trace_cameras, ReplayOptions};
 use stereocache::rt::RtChoice;
-use stereocache::scene::DefaultLighting;
 use stereocache::session::{CameraSelect, Session};
 
 const W: u32 = 16;
@@ -32,7 +31,7 @@ fn out_dir(tag: &str) -> PathBuf {
 }
 
 fn cornell(ctx: &std::sync::Arc<stereocache::gpu::GpuContext>) -> Session {
-    let scene = Session::load_scene("cornell", &DefaultLighting::default()).unwrap();
+    let scene = Session::load_scene("cornell", None).unwrap();
     common::session(ctx, scene, RtChoice::Auto)
 }
 

@@ -12,6 +12,7 @@
 //! - [`trace`]: [`PoseTrace`] and the project's CSV format, repairs,
 //!   hemisphere continuity, resampling to the render rate.
 //! - [`stage`]: [`Stage`], placing a trace's stage in a scene.
+//! - [`framing`]: [`frame_bounds`], the camera for a scene without one.
 //! - Recording importers, one per format, all converting to the project's
 //!   trace ([`import`] dispatches and checks the result):
 //!   - [`mmsys18`]: the MMSys'18 multi-viewpoint 360° video head-orientation
@@ -29,6 +30,7 @@
 //!   with [`pcg`], the small PCG32 generator they use.
 
 pub mod convention;
+pub mod framing;
 pub mod generic_csv;
 pub mod import;
 pub mod mmsys17;
@@ -46,6 +48,7 @@ pub mod time_unit;
 pub mod trace;
 
 pub use convention::{AxisConvention, Handedness, SignedAxis};
+pub use framing::{frame_bounds, Framing, FRAMING_MARGIN};
 pub use generic_csv::{parse_generic_csv, read_generic_csv, ColumnMap, CsvOptions};
 pub use import::{convert_trace, import_trace, TraceFormat};
 pub use mmsys17::{parse_mmsys17, read_mmsys17, Mmsys17Options};

@@ -137,9 +137,9 @@ pub struct SceneArgs {
     /// Which of the scene's glTF animations play: all (looped), an index or a name.
     #[arg(long, default_value = "all")]
     pub animation: AnimationSelection,
-    /// Lighting for scenes without lights: sun-sky[:ELEV,AZIM,TURB], constant:R,G,B, env:PATH.hdr|.exr
-    #[arg(long, default_value = "sun-sky", value_parser = lighting)]
-    pub lighting: DefaultLighting,
+    /// Lighting added to the scene, even one with lights of its own (whose environment it replaces): sun-sky[:ELEV,AZIM,TURB], constant:R,G,B, env:PATH.hdr|.exr, directional:ELEV,AZIM[,R,G,B], A+B. Default: sun-sky, only where the scene has no punctual light, environment or emitter brighter than 1 (glows ≤ 1 do not count)
+    #[arg(long, value_parser = lighting)]
+    pub lighting: Option<DefaultLighting>,
     /// Ray backend.
     #[arg(long, default_value = "auto", value_parser = rt)]
     pub rt: RtChoice,
@@ -148,7 +148,8 @@ pub struct SceneArgs {
 impl SceneArgs {
     /// Loads the scene (warnings printed), then opens the GPU and uploads it.
     pub fn open(&self, gpu: &GpuArgs) -> Result<Session> {
-        let mut scene = Session::load_scene(&self.scene, &self.lighting)?;
+        let (mut scene, lit) = Session::load_scene_lit(&self.scene, self.lighting.as_ref())?;
+        eprintln!("{}", lit.line());
         if self.animation != AnimationSelection::All {
             let a = scene.animation.as_mut().ok_or_else(|| {
                 anyhow!("{}: --animation: the scene has no animations", self.scene)

@@ -100,14 +100,16 @@ pub fn environment_kind(e: &Environment) -> &'static str {
 }
 
 /// The scenes of a comma-separated `--scenes` list, each labelled by its file
-/// stem (or its name), their warnings printed.
+/// stem (or its name), their lighting (`--lighting`, `None` without one) and
+/// warnings printed.
 pub fn load_labelled_scenes(
     list: &str,
-    lighting: &DefaultLighting,
+    lighting: Option<&DefaultLighting>,
 ) -> Result<Vec<(String, Scene)>> {
     let mut scenes = Vec::new();
     for spec in list.split(',').map(str::trim) {
-        let scene = Session::load_scene(spec, lighting)?;
+        let (scene, lit) = Session::load_scene_lit(spec, lighting)?;
+        eprintln!("{spec}: {}", lit.line());
         for warning in &scene.warnings {
             eprintln!("warning: {warning}");
         }

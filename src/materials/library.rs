@@ -106,7 +106,9 @@ pub fn load_all() -> Result<Vec<Graph>, GraphError> {
 }
 
 /// The library files a random assignment picks from: all but `lava.mtlx`
-/// (emissive: a file with emissive materials gets no default lighting).
+/// (emissive; left out when any emissive material switched the default
+/// lighting off; bound with emissive factor 1 it is now a glow, see
+/// `scene::default_lighting`).
 pub fn pickable() -> impl Iterator<Item = &'static (&'static str, &'static str)> {
     EMBEDDED.iter().filter(|(n, _)| *n != "lava.mtlx")
 }

@@ -31,7 +31,10 @@ pub mod preetham;
 pub mod texture;
 
 pub use animation::{AnimationSelection, SceneAnimation};
-pub use default_lighting::{apply_default_lighting, relight, DefaultLighting};
+pub use default_lighting::{
+    apply_default_lighting, decide_lighting, light_scene, relight, DefaultLighting,
+    LightingDecision, OwnLighting,
+};
 pub use environment::{Environment, SkyModel};
 pub use error::SceneError;
 pub use export::write_gltf;

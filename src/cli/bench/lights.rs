@@ -19,9 +19,9 @@ pub struct BenchLightsArgs {
     /// Scenes, comma-separated: built-in names, .gltf/.glb files or directories.
     #[arg(long, default_value = "cornell,plane")]
     scenes: String,
-    /// Lighting for scenes without lights (see `render --lighting`).
-    #[arg(long, default_value = "sun-sky", value_parser = args::lighting)]
-    lighting: DefaultLighting,
+    /// Lighting added to every scene (see `render --lighting`; default: sun-sky where a scene has no lighting of its own).
+    #[arg(long, value_parser = args::lighting)]
+    lighting: Option<DefaultLighting>,
     /// Ray backend.
     #[arg(long, default_value = "auto", value_parser = args::rt)]
     rt: RtChoice,
@@ -69,7 +69,7 @@ pub fn run(a: BenchLightsArgs) -> Result<()> {
         width: w,
         height: h,
     } = a.size;
-    let (rt, lighting, strategies) = (a.rt, &a.lighting, &a.strategies.0);
+    let (rt, lighting, strategies) = (a.rt, a.lighting.as_ref(), &a.strategies.0);
     let scenes = load_labelled_scenes(&a.scenes, lighting)?;
     let ctx = std::sync::Arc::new(GpuContext::new(&a.gpu.options()?)?);
     println!("{}", device_line(&ctx.caps));

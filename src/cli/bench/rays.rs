@@ -18,8 +18,9 @@ pub struct RaysArgs {
     gpu: GpuArgs,
     #[arg(long, default_value = "hairball")]
     scene: String,
-    #[arg(long, default_value = "sun-sky", value_parser = args::lighting)]
-    lighting: DefaultLighting,
+    /// Lighting added to the scene (see `render --lighting`; default: sun-sky where it has no lighting of its own).
+    #[arg(long, value_parser = args::lighting)]
+    lighting: Option<DefaultLighting>,
     #[arg(long, default_value = "256x256")]
     size: Size,
     /// Rounds of primary + bounce rays.
@@ -37,7 +38,8 @@ pub fn run(a: RaysArgs) -> Result<()> {
         height: h,
     } = a.size;
     let repeats = a.repeats;
-    let loaded = Session::load_scene(&a.scene, &a.lighting)?;
+    let (loaded, lit) = Session::load_scene_lit(&a.scene, a.lighting.as_ref())?;
+    eprintln!("{}", lit.line());
     let ctx = Arc::new(GpuContext::new(&a.gpu.options()?)?);
     println!("{}", device_line(&ctx.caps));
     println!(

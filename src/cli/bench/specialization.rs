@@ -26,9 +26,9 @@ pub struct BenchSpecArgs {
     /// Scenes, comma-separated: built-in names, .gltf/.glb files or directories.
     #[arg(long, default_value = "cornell,hairball,plane")]
     scenes: String,
-    /// Lighting for scenes without lights (see `render --lighting`).
-    #[arg(long, default_value = "sun-sky", value_parser = args::lighting)]
-    lighting: DefaultLighting,
+    /// Lighting added to every scene (see `render --lighting`; default: sun-sky where a scene has no lighting of its own).
+    #[arg(long, value_parser = args::lighting)]
+    lighting: Option<DefaultLighting>,
     /// Ray backend.
     #[arg(long, default_value = "auto", value_parser = args::rt)]
     rt: RtChoice,
@@ -71,7 +71,7 @@ pub fn run(a: BenchSpecArgs) -> Result<()> {
         width: w,
         height: h,
     } = a.size;
-    let (rt, lighting) = (a.rt, &a.lighting);
+    let (rt, lighting) = (a.rt, a.lighting.as_ref());
     let (methods, bounces) = (&a.methods.0, &a.bounces.0);
     let trace = PoseTrace::read_csv(&a.trace)?;
     let scenes = load_labelled_scenes(&a.scenes, lighting)?;
