@@ -44,7 +44,12 @@ fn readme_rows() -> Vec<(String, String, String)> {
 fn expected_table() -> String {
     let mut s = String::from("| feature | support | what stereocache does |\n|---|---|---|\n");
     for f in FEATURES {
-        s.push_str(&format!("| `{}` | {} | {} |\n", f.name, f.support.word(), f.note));
+        s.push_str(&format!(
+            "| `{}` | {} | {} |\n",
+            f.name,
+            f.support.word(),
+            f.note
+        ));
     }
     s
 }
@@ -54,7 +59,13 @@ fn readme_table_is_the_importers_feature_table() {
     let rows = readme_rows();
     let want: Vec<(String, String, String)> = FEATURES
         .iter()
-        .map(|f| (f.name.to_owned(), f.support.word().to_owned(), f.note.to_owned()))
+        .map(|f| {
+            (
+                f.name.to_owned(),
+                f.support.word().to_owned(),
+                f.note.to_owned(),
+            )
+        })
         .collect();
     assert_eq!(
         rows,
@@ -157,13 +168,19 @@ fn used_by(doc: &Value) -> Vec<String> {
             &m["emissiveTexture"],
         ];
         infos.retain(|t| t.is_object());
-        if infos.iter().any(|t| t["texCoord"].as_u64().unwrap_or(0) != 0) {
+        if infos
+            .iter()
+            .any(|t| t["texCoord"].as_u64().unwrap_or(0) != 0)
+        {
             add("TEXCOORD_1 and texCoord");
         }
     }
     for s in list("samplers") {
         let is = |k: &str, d: u64| s[k].as_u64().is_none_or(|v| v == d);
-        if !(is("wrapS", 10497) && is("wrapT", 10497) && is("magFilter", 9729) && is("minFilter", 9987))
+        if !(is("wrapS", 10497)
+            && is("wrapT", 10497)
+            && is("magFilter", 9729)
+            && is("minFilter", 9987))
         {
             add("texture samplers (wrap modes, filters)");
         }
@@ -273,7 +290,8 @@ impl Buffer {
             "MAT4" => 16,
             _ => unreachable!(),
         };
-        self.views.push(json!({"buffer": 0, "byteOffset": offset, "byteLength": data.len() * 4}));
+        self.views
+            .push(json!({"buffer": 0, "byteOffset": offset, "byteLength": data.len() * 4}));
         let mut acc = json!({"bufferView": self.views.len() - 1, "componentType": 5126,
                              "count": data.len() / per, "type": ty});
         if ty == "VEC3" && per == 3 {
@@ -301,9 +319,12 @@ impl Buffer {
     fn u8x4(&mut self, data: &[u8]) -> usize {
         let offset = self.bytes.len();
         self.bytes.extend_from_slice(data);
-        self.views.push(json!({"buffer": 0, "byteOffset": offset, "byteLength": data.len()}));
-        self.accessors.push(json!({"bufferView": self.views.len() - 1, "componentType": 5121,
-                                   "count": data.len() / 4, "type": "VEC4"}));
+        self.views
+            .push(json!({"buffer": 0, "byteOffset": offset, "byteLength": data.len()}));
+        self.accessors.push(
+            json!({"bufferView": self.views.len() - 1, "componentType": 5121,
+                                   "count": data.len() / 4, "type": "VEC4"}),
+        );
         self.accessors.len() - 1
     }
 }
@@ -318,8 +339,14 @@ fn kitchen_sink() -> Value {
     };
     let tri = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0];
     let pos = b.f32s(&tri, "VEC3");
-    let strip_pos = b.f32s(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 1.0, 1.0, 0.0], "VEC3");
-    let color = b.f32s(&[1.0, 0.0, 0.0, 1.0, 0.0, 1.0, 0.0, 1.0, 0.0, 0.0, 1.0, 1.0], "VEC4");
+    let strip_pos = b.f32s(
+        &[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 1.0, 1.0, 0.0],
+        "VEC3",
+    );
+    let color = b.f32s(
+        &[1.0, 0.0, 0.0, 1.0, 0.0, 1.0, 0.0, 1.0, 0.0, 0.0, 1.0, 1.0],
+        "VEC4",
+    );
     let uv = b.f32s(&[0.0, 0.0, 1.0, 0.0, 0.0, 1.0], "VEC2");
     let target = b.f32s(&[0.0, 0.0, 0.5, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0], "VEC3");
     let times = b.f32s(&[0.0, 1.0], "SCALAR");
@@ -417,22 +444,38 @@ fn a_document_using_every_unimplemented_feature_warns_each_once() {
         "texture samplers (wrap modes, filters)",
         "VENDOR_unknown_thing",
     ] {
-        assert!(used.iter().any(|u| u == name), "walk missed {name}: {used:?}");
+        assert!(
+            used.iter().any(|u| u == name),
+            "walk missed {name}: {used:?}"
+        );
     }
     // One line each, each naming the file.
     for w in &warnings {
         assert!(!w.contains('\n'), "multi-line warning: {w}");
-        assert!(w.contains("kitchen_sink.gltf"), "warning without the file: {w}");
+        assert!(
+            w.contains("kitchen_sink.gltf"),
+            "warning without the file: {w}"
+        );
     }
     let mut sorted = warnings.clone();
     sorted.sort();
     sorted.dedup();
-    assert_eq!(sorted.len(), warnings.len(), "a warning twice: {warnings:#?}");
+    assert_eq!(
+        sorted.len(),
+        warnings.len(),
+        "a warning twice: {warnings:#?}"
+    );
     // The items are named: the transformed texture's material, the unlit one.
     let said = |s: &str| warnings.iter().any(|w| w.contains(s));
-    assert!(said("KHR_texture_transform is not supported (used by material 0 'transformed')"));
-    assert!(said("KHR_materials_unlit is not supported (used by material 3 'flat')"));
-    assert!(said("KHR_materials_specular is supported in part (used by material 1 'coated')"));
+    assert!(said(
+        "KHR_texture_transform is not supported (used by material 0 'transformed')"
+    ));
+    assert!(said(
+        "KHR_materials_unlit is not supported (used by material 3 'flat')"
+    ));
+    assert!(said(
+        "KHR_materials_specular is supported in part (used by material 1 'coated')"
+    ));
     std::fs::remove_dir_all(&dir).ok();
 }
 

@@ -339,7 +339,10 @@ pub fn warn_unsupported(path: &Path, json: &Value) -> Vec<String> {
         let (support, note) = match feature(&name) {
             Some(f) if f.warned_elsewhere => continue,
             Some(f) => (f.support, f.note),
-            None => (Ignored, "stereocache does not know this extension; it is ignored"),
+            None => (
+                Ignored,
+                "stereocache does not know this extension; it is ignored",
+            ),
         };
         if matches!(support, Full | NotApplicable) {
             continue;
@@ -390,7 +393,12 @@ pub fn features_used(json: &Value) -> BTreeMap<String, Vec<String>> {
             add_to(&mut used, $name, $item)
         };
     }
-    let array = |key: &str| json.get(key).and_then(Value::as_array).cloned().unwrap_or_default();
+    let array = |key: &str| {
+        json.get(key)
+            .and_then(Value::as_array)
+            .cloned()
+            .unwrap_or_default()
+    };
     let label = |kind: &str, i: usize, v: &Value| match v.get("name").and_then(Value::as_str) {
         Some(n) => format!("{kind} {i} '{n}'"),
         None => format!("{kind} {i}"),
@@ -445,7 +453,11 @@ pub fn features_used(json: &Value) -> BTreeMap<String, Vec<String>> {
     let specular = "KHR_materials_specular";
     used.remove(specular);
     for (mi, m) in array("materials").iter().enumerate() {
-        if !m.get("doubleSided").and_then(Value::as_bool).unwrap_or(false) {
+        if !m
+            .get("doubleSided")
+            .and_then(Value::as_bool)
+            .unwrap_or(false)
+        {
             add!(
                 "single-sided materials (doubleSided false)",
                 label("material", mi, m),
@@ -470,7 +482,9 @@ pub fn features_used(json: &Value) -> BTreeMap<String, Vec<String>> {
         const LINEAR: u64 = 9729;
         const LINEAR_MIPMAP_LINEAR: u64 = 9987;
         let is = |key: &str, default: u64| {
-            s.get(key).and_then(Value::as_u64).is_none_or(|v| v == default)
+            s.get(key)
+                .and_then(Value::as_u64)
+                .is_none_or(|v| v == default)
         };
         // The one sampler every texture gets: repeat, linear magnification,
         // trilinear minification (a missing filter lets the viewer choose).
@@ -582,7 +596,9 @@ mod tests {
         let w = warn_unsupported(Path::new("a.gltf"), &doc);
         assert_eq!(w.len(), 1, "{w:?}");
         assert!(
-            w[0].starts_with("a.gltf: KHR_texture_transform is not supported (used by material 0 'label')"),
+            w[0].starts_with(
+                "a.gltf: KHR_texture_transform is not supported (used by material 0 'label')"
+            ),
             "{}",
             w[0]
         );
@@ -599,7 +615,10 @@ mod tests {
         });
         let w = warn_unsupported(Path::new("b.glb"), &doc);
         let has = |s: &str| w.iter().any(|x| x.contains(s));
-        assert!(has("VENDOR_magic is not supported (used by extensionsUsed)"), "{w:?}");
+        assert!(
+            has("VENDOR_magic is not supported (used by extensionsUsed)"),
+            "{w:?}"
+        );
         assert!(has("COLOR_0 is not supported (used by mesh 0)"), "{w:?}");
         assert!(!has("morph targets"), "{w:?}");
         assert!(has("single-sided materials"), "{w:?}");

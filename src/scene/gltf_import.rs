@@ -194,9 +194,7 @@ fn parse_document(
             {
                 // The feature table's warning (above) already names it and
                 // says what is done instead.
-                if super::gltf_features::feature(name)
-                    .is_some_and(|f| !f.warned_elsewhere)
-                {
+                if super::gltf_features::feature(name).is_some_and(|f| !f.warned_elsewhere) {
                     continue;
                 }
                 warnings.push(format!(
