@@ -3,6 +3,8 @@
 //! Every file is written by the test (JSON with one base64 data-URI buffer);
 //! CPU only, fast.
 
+mod common;
+use common::world_triangles;
 use glam::{Mat4, Quat, Vec3, Vec4};
 use serde_json::{json, Value};
 use std::path::PathBuf;
@@ -136,17 +138,6 @@ impl Builder {
         std::fs::write(&path, serde_json::to_vec_pretty(&root).unwrap()).unwrap();
         path
     }
-}
-
-fn world_triangles(s: &Scene) -> Vec<[Vec3; 3]> {
-    s.instances
-        .iter()
-        .flat_map(|i| {
-            let m = &s.meshes[i.mesh as usize];
-            (0..m.triangle_count())
-                .map(move |t| m.triangle(t).map(|p| i.transform.transform_point3(p)))
-        })
-        .collect()
 }
 
 // ---------------------------------------------------------------- strips and fans

@@ -275,12 +275,8 @@ fn the_oracle_follows_the_gltf_wrap_rules() {
 
 /// Rebuilds the uv of a stored first hit (Listing 1: bary in 24 bits).
 fn hit_uv(scene: &Scene, fh: [u32; 4]) -> (u32, Vec2) {
-    let inst = &scene.instances[fh[3] as usize];
-    let mesh = &scene.meshes[inst.mesh as usize];
-    let t = fh[2] as usize;
-    let idx = [0, 1, 2].map(|k| mesh.indices[3 * t + k] as usize);
-    let b = Vec2::new((fh[0] & 0xFF_FFFF) as f32, (fh[1] & 0xFF_FFFF) as f32) / 16_777_215.0;
-    let w = [1.0 - b.x - b.y, b.x, b.y];
+    let mesh = &scene.meshes[scene.instances[fh[3] as usize].mesh as usize];
+    let (idx, w) = first_hit_weights(scene, fh);
     let uv: Vec2 = (0..3).map(|k| mesh.uvs[idx[k]] * w[k]).sum();
     (mesh.material, uv)
 }

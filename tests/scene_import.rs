@@ -1,11 +1,9 @@
 //! Scene import, generators and the glTF writer. CPU only, fast.
 
 mod common;
-use common::{bad_scene as bad, require_file};
+use common::{bad_scene as bad, require_file, world_triangles};
 use std::path::{Path, PathBuf};
-use stereocache::scene::{
-    generate, load_gltf, load_scene, write_gltf, Environment, Material, Scene,
-};
+use stereocache::scene::{generate, load_gltf, load_scene, write_gltf, Environment, Material};
 
 fn temp_dir(tag: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("stereocache-{tag}-{}", std::process::id()));
@@ -104,17 +102,6 @@ fn assert_materials_equal(a: &Material, b: &Material, ctx: &str) {
         "{ctx}"
     );
     assert_eq!(a.transmission_texture, b.transmission_texture, "{ctx}");
-}
-
-fn world_triangles(s: &Scene) -> Vec<[glam::Vec3; 3]> {
-    s.instances
-        .iter()
-        .flat_map(|i| {
-            let m = &s.meshes[i.mesh as usize];
-            (0..m.triangle_count())
-                .map(move |t| m.triangle(t).map(|p| i.transform.transform_point3(p)))
-        })
-        .collect()
 }
 
 #[test]

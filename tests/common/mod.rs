@@ -299,6 +299,30 @@ pub fn stored_position(bvh: &stereocache::rt::SoftwareBvh, fh: [u32; 4]) -> Vec3
     v0 + b.x * e1 + b.y * e2
 }
 
+/// The barycentric weights of a stored first hit (Listing 1: barycentrics in
+/// 24 bits each, then primitive and instance) and the vertex indices of its
+/// triangle in the scene's mesh.
+pub fn first_hit_weights(scene: &Scene, fh: [u32; 4]) -> ([usize; 3], [f32; 3]) {
+    let inst = &scene.instances[fh[3] as usize];
+    let mesh = &scene.meshes[inst.mesh as usize];
+    let t = fh[2] as usize;
+    let idx = [0, 1, 2].map(|k| mesh.indices[3 * t + k] as usize);
+    let b = Vec2::new((fh[0] & 0xFF_FFFF) as f32, (fh[1] & 0xFF_FFFF) as f32) / 16_777_215.0;
+    (idx, [1.0 - b.x - b.y, b.x, b.y])
+}
+
+/// Every instance's triangles in world space.
+pub fn world_triangles(s: &Scene) -> Vec<[Vec3; 3]> {
+    s.instances
+        .iter()
+        .flat_map(|i| {
+            let m = &s.meshes[i.mesh as usize];
+            (0..m.triangle_count())
+                .map(move |t| m.triangle(t).map(|p| i.transform.transform_point3(p)))
+        })
+        .collect()
+}
+
 /// A shipped scene (built-in name or path) with default lighting where it has none.
 pub fn shipped(name: &str) -> Scene {
     let mut s = stereocache::scene::load_scene(name).unwrap();
