@@ -44,7 +44,12 @@ fn readme_rows() -> Vec<(String, String, String)> {
 fn expected_table() -> String {
     let mut s = String::from("| feature | support | what stereocache does |\n|---|---|---|\n");
     for f in FEATURES {
-        s.push_str(&format!("| `{}` | {} | {} |\n", f.name, f.support.word(), f.note));
+        s.push_str(&format!(
+            "| `{}` | {} | {} |\n",
+            f.name,
+            f.support.word(),
+            f.note
+        ));
     }
     s
 }
@@ -54,7 +59,13 @@ fn readme_table_is_the_importers_feature_table() {
     let rows = readme_rows();
     let want: Vec<(String, String, String)> = FEATURES
         .iter()
-        .map(|f| (f.name.to_owned(), f.support.word().to_owned(), f.note.to_owned()))
+        .map(|f| {
+            (
+                f.name.to_owned(),
+                f.support.word().to_owned(),
+                f.note.to_owned(),
+            )
+        })
         .collect();
     assert_eq!(
         rows,
@@ -78,7 +89,9 @@ fn used_by(doc: &Value) -> Vec<String> {
         let name = e.as_str().unwrap();
         // specularFactor is implemented; the extension counts as used (in
         // its unimplemented part) only where a material has more of it.
-        if name != "KHR_materials_specular" {
+        // Likewise a texture transform: only where a material's textures
+        // have different ones (one transform per material is implemented).
+        if name != "KHR_materials_specular" && name != "KHR_texture_transform" {
             add(name);
         }
     }
@@ -150,20 +163,45 @@ fn used_by(doc: &Value) -> Vec<String> {
         if m.get("occlusionTexture").is_some() {
             add("occlusionTexture");
         }
+        // The textureInfos the renderer samples; one uv set and one
+        // transform per material are implemented, so different ones count.
         let mut infos = vec![
             &m["pbrMetallicRoughness"]["baseColorTexture"],
             &m["pbrMetallicRoughness"]["metallicRoughnessTexture"],
             &m["normalTexture"],
             &m["emissiveTexture"],
+            &m["extensions"]["KHR_materials_transmission"]["transmissionTexture"],
         ];
         infos.retain(|t| t.is_object());
-        if infos.iter().any(|t| t["texCoord"].as_u64().unwrap_or(0) != 0) {
+        let uv_set = |t: &Value| {
+            let ext = &t["extensions"]["KHR_texture_transform"];
+            ext["texCoord"]
+                .as_u64()
+                .or(t["texCoord"].as_u64())
+                .unwrap_or(0)
+        };
+        let transform = |t: &Value| {
+            let ext = &t["extensions"]["KHR_texture_transform"];
+            let pair = |k: &str, d: f64| {
+                let v = &ext[k];
+                [v[0].as_f64().unwrap_or(d), v[1].as_f64().unwrap_or(d)]
+            };
+            let r = ext["rotation"].as_f64().unwrap_or(0.0);
+            (pair("offset", 0.0), r, pair("scale", 1.0))
+        };
+        if infos.iter().any(|t| uv_set(t) != uv_set(infos[0])) {
             add("TEXCOORD_1 and texCoord");
+        }
+        if infos.iter().any(|t| transform(t) != transform(infos[0])) {
+            add("KHR_texture_transform");
         }
     }
     for s in list("samplers") {
         let is = |k: &str, d: u64| s[k].as_u64().is_none_or(|v| v == d);
-        if !(is("wrapS", 10497) && is("wrapT", 10497) && is("magFilter", 9729) && is("minFilter", 9987))
+        if !(is("wrapS", 10497)
+            && is("wrapT", 10497)
+            && is("magFilter", 9729)
+            && is("minFilter", 9987))
         {
             add("texture samplers (wrap modes, filters)");
         }
@@ -176,7 +214,8 @@ fn used_by(doc: &Value) -> Vec<String> {
 fn elsewhere_keyword(name: &str) -> &'static str {
     match name {
         "points and lines" => "triangle strips and triangle fans only",
-        "TEXCOORD_1 and texCoord" => "only TEXCOORD_0 is supported",
+        "TEXCOORD_1 and texCoord" => "its textures use different uv sets (texCoord)",
+        "KHR_texture_transform" => "texture transforms (KHR_texture_transform)",
         "orthographic cameras" => "orthographic camera",
         "alphaMode BLEND" => "alphaMode BLEND",
         "animation of morph weights" => "morph-target weights",
@@ -273,7 +312,8 @@ impl Buffer {
             "MAT4" => 16,
             _ => unreachable!(),
         };
-        self.views.push(json!({"buffer": 0, "byteOffset": offset, "byteLength": data.len() * 4}));
+        self.views
+            .push(json!({"buffer": 0, "byteOffset": offset, "byteLength": data.len() * 4}));
         let mut acc = json!({"bufferView": self.views.len() - 1, "componentType": 5126,
                              "count": data.len() / per, "type": ty});
         if ty == "VEC3" && per == 3 {
@@ -301,9 +341,12 @@ impl Buffer {
     fn u8x4(&mut self, data: &[u8]) -> usize {
         let offset = self.bytes.len();
         self.bytes.extend_from_slice(data);
-        self.views.push(json!({"buffer": 0, "byteOffset": offset, "byteLength": data.len()}));
-        self.accessors.push(json!({"bufferView": self.views.len() - 1, "componentType": 5121,
-                                   "count": data.len() / 4, "type": "VEC4"}));
+        self.views
+            .push(json!({"buffer": 0, "byteOffset": offset, "byteLength": data.len()}));
+        self.accessors.push(
+            json!({"bufferView": self.views.len() - 1, "componentType": 5121,
+                                   "count": data.len() / 4, "type": "VEC4"}),
+        );
         self.accessors.len() - 1
     }
 }
@@ -318,8 +361,14 @@ fn kitchen_sink() -> Value {
     };
     let tri = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0];
     let pos = b.f32s(&tri, "VEC3");
-    let strip_pos = b.f32s(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 1.0, 1.0, 0.0], "VEC3");
-    let color = b.f32s(&[1.0, 0.0, 0.0, 1.0, 0.0, 1.0, 0.0, 1.0, 0.0, 0.0, 1.0, 1.0], "VEC4");
+    let strip_pos = b.f32s(
+        &[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 1.0, 1.0, 0.0],
+        "VEC3",
+    );
+    let color = b.f32s(
+        &[1.0, 0.0, 0.0, 1.0, 0.0, 1.0, 0.0, 1.0, 0.0, 0.0, 1.0, 1.0],
+        "VEC4",
+    );
     let uv = b.f32s(&[0.0, 0.0, 1.0, 0.0, 0.0, 1.0], "VEC2");
     let target = b.f32s(&[0.0, 0.0, 0.5, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0], "VEC3");
     let times = b.f32s(&[0.0, 1.0], "SCALAR");
@@ -347,7 +396,8 @@ fn kitchen_sink() -> Value {
         "materials": [
             {"name": "transformed", "alphaMode": "BLEND",
              "pbrMetallicRoughness": {"baseColorTexture": {"index": 0, "texCoord": 1,
-                "extensions": {"KHR_texture_transform": {"offset": [0.5, 0.0]}}}}},
+                "extensions": {"KHR_texture_transform": {"offset": [0.5, 0.0]}}}},
+             "normalTexture": {"index": 0}},
             {"name": "coated", "doubleSided": true,
              "extensions": {"KHR_materials_clearcoat": {"clearcoatFactor": 1.0},
                             "KHR_materials_specular": {"specularColorFactor": [1.0, 0.5, 0.5]}}},
@@ -406,6 +456,7 @@ fn a_document_using_every_unimplemented_feature_warns_each_once() {
     let used = used_by(&doc);
     for name in [
         "KHR_texture_transform",
+        "TEXCOORD_1 and texCoord",
         "KHR_materials_clearcoat",
         "KHR_materials_volume",
         "KHR_materials_unlit",
@@ -417,22 +468,45 @@ fn a_document_using_every_unimplemented_feature_warns_each_once() {
         "texture samplers (wrap modes, filters)",
         "VENDOR_unknown_thing",
     ] {
-        assert!(used.iter().any(|u| u == name), "walk missed {name}: {used:?}");
+        assert!(
+            used.iter().any(|u| u == name),
+            "walk missed {name}: {used:?}"
+        );
     }
     // One line each, each naming the file.
     for w in &warnings {
         assert!(!w.contains('\n'), "multi-line warning: {w}");
-        assert!(w.contains("kitchen_sink.gltf"), "warning without the file: {w}");
+        assert!(
+            w.contains("kitchen_sink.gltf"),
+            "warning without the file: {w}"
+        );
     }
     let mut sorted = warnings.clone();
     sorted.sort();
     sorted.dedup();
-    assert_eq!(sorted.len(), warnings.len(), "a warning twice: {warnings:#?}");
+    assert_eq!(
+        sorted.len(),
+        warnings.len(),
+        "a warning twice: {warnings:#?}"
+    );
     // The items are named: the transformed texture's material, the unlit one.
     let said = |s: &str| warnings.iter().any(|w| w.contains(s));
-    assert!(said("KHR_texture_transform is not supported (used by material 0 'transformed')"));
-    assert!(said("KHR_materials_unlit is not supported (used by material 3 'flat')"));
-    assert!(said("KHR_materials_specular is supported in part (used by material 1 'coated')"));
+    // One uv set and transform per material: its normal texture (TEXCOORD_0,
+    // untransformed) reads the base colour texture's uvs.
+    assert!(said(
+        "material 0 'transformed': its textures use different uv sets (texCoord) and texture \
+         transforms (KHR_texture_transform)"
+    ));
+    assert!(said(
+        "all read the base colour texture's uvs (TEXCOORD_1, offset (0.5, 0)), so the normal \
+         texture (TEXCOORD_0, no transform) reads the wrong uvs"
+    ));
+    assert!(said(
+        "KHR_materials_unlit is not supported (used by material 3 'flat')"
+    ));
+    assert!(said(
+        "KHR_materials_specular is supported in part (used by material 1 'coated')"
+    ));
     std::fs::remove_dir_all(&dir).ok();
 }
 
