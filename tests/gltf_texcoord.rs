@@ -322,6 +322,14 @@ fn offset_rotation_and_scale_give_the_uvs_of_the_spec_matrix() {
     );
     let want: Vec<[f32; 2]> = unit_uvs().iter().map(|v| [v[0], v[1]]).collect();
     assert_uvs(&scene.meshes[2].uvs, &want, "identity");
+    // The writer stores the baked uvs as TEXCOORD_0 (no extension): read
+    // back, the same uvs.
+    let out = d.join("out.gltf");
+    stereocache::scene::write_gltf(&scene, &out).unwrap();
+    let back = load_gltf(&out).unwrap();
+    for (a, b) in scene.meshes.iter().zip(&back.meshes) {
+        assert_eq!(a.uvs, b.uvs, "{}", a.name);
+    }
     // The ray-cone lod reads the uv area per world area of a triangle from
     // the mesh uvs: ×4 under scale 2, ×¼ under scale ½ (the quads are 1 m²).
     for (m, ratio) in [(0, 4.0), (1, 0.25), (2, 1.0)] {
@@ -627,12 +635,8 @@ fn a_transformed_texture_shows_the_texel_of_the_transformed_uv() {
             }
         }
         eprintln!("{rt:?}: checked {checked:?}, differing from untransformed {differs:?}, texels seen {seen:?}");
-        for k in 0..3 {
-            assert!(
-                checked[k] > 1000,
-                "{rt:?}: quad {k} has {} checked pixels",
-                checked[k]
-            );
+        for (k, c) in checked.iter().enumerate() {
+            assert!(*c > 1000, "{rt:?}: quad {k} has {c} checked pixels");
         }
         // The transforms change what most pixels show, so reading the
         // untransformed uvs would fail: quad 1 repeats the texture 4 times
