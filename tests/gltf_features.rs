@@ -89,7 +89,9 @@ fn used_by(doc: &Value) -> Vec<String> {
         let name = e.as_str().unwrap();
         // specularFactor is implemented; the extension counts as used (in
         // its unimplemented part) only where a material has more of it.
-        if name != "KHR_materials_specular" {
+        // Likewise a texture transform: only where a material's textures
+        // have different ones (one transform per material is implemented).
+        if name != "KHR_materials_specular" && name != "KHR_texture_transform" {
             add(name);
         }
     }
@@ -161,18 +163,37 @@ fn used_by(doc: &Value) -> Vec<String> {
         if m.get("occlusionTexture").is_some() {
             add("occlusionTexture");
         }
+        // The textureInfos the renderer samples; one uv set and one
+        // transform per material are implemented, so different ones count.
         let mut infos = vec![
             &m["pbrMetallicRoughness"]["baseColorTexture"],
             &m["pbrMetallicRoughness"]["metallicRoughnessTexture"],
             &m["normalTexture"],
             &m["emissiveTexture"],
+            &m["extensions"]["KHR_materials_transmission"]["transmissionTexture"],
         ];
         infos.retain(|t| t.is_object());
-        if infos
-            .iter()
-            .any(|t| t["texCoord"].as_u64().unwrap_or(0) != 0)
-        {
+        let uv_set = |t: &Value| {
+            let ext = &t["extensions"]["KHR_texture_transform"];
+            ext["texCoord"]
+                .as_u64()
+                .or(t["texCoord"].as_u64())
+                .unwrap_or(0)
+        };
+        let transform = |t: &Value| {
+            let ext = &t["extensions"]["KHR_texture_transform"];
+            let pair = |k: &str, d: f64| {
+                let v = &ext[k];
+                [v[0].as_f64().unwrap_or(d), v[1].as_f64().unwrap_or(d)]
+            };
+            let r = ext["rotation"].as_f64().unwrap_or(0.0);
+            (pair("offset", 0.0), r, pair("scale", 1.0))
+        };
+        if infos.iter().any(|t| uv_set(t) != uv_set(infos[0])) {
             add("TEXCOORD_1 and texCoord");
+        }
+        if infos.iter().any(|t| transform(t) != transform(infos[0])) {
+            add("KHR_texture_transform");
         }
     }
     for s in list("samplers") {
@@ -193,7 +214,8 @@ fn used_by(doc: &Value) -> Vec<String> {
 fn elsewhere_keyword(name: &str) -> &'static str {
     match name {
         "points and lines" => "triangle strips and triangle fans only",
-        "TEXCOORD_1 and texCoord" => "only TEXCOORD_0 is supported",
+        "TEXCOORD_1 and texCoord" => "its textures use different uv sets (texCoord)",
+        "KHR_texture_transform" => "texture transforms (KHR_texture_transform)",
         "orthographic cameras" => "orthographic camera",
         "alphaMode BLEND" => "alphaMode BLEND",
         "animation of morph weights" => "morph-target weights",
@@ -374,7 +396,8 @@ fn kitchen_sink() -> Value {
         "materials": [
             {"name": "transformed", "alphaMode": "BLEND",
              "pbrMetallicRoughness": {"baseColorTexture": {"index": 0, "texCoord": 1,
-                "extensions": {"KHR_texture_transform": {"offset": [0.5, 0.0]}}}}},
+                "extensions": {"KHR_texture_transform": {"offset": [0.5, 0.0]}}}},
+             "normalTexture": {"index": 0}},
             {"name": "coated", "doubleSided": true,
              "extensions": {"KHR_materials_clearcoat": {"clearcoatFactor": 1.0},
                             "KHR_materials_specular": {"specularColorFactor": [1.0, 0.5, 0.5]}}},
@@ -433,6 +456,7 @@ fn a_document_using_every_unimplemented_feature_warns_each_once() {
     let used = used_by(&doc);
     for name in [
         "KHR_texture_transform",
+        "TEXCOORD_1 and texCoord",
         "KHR_materials_clearcoat",
         "KHR_materials_volume",
         "KHR_materials_unlit",
@@ -467,8 +491,15 @@ fn a_document_using_every_unimplemented_feature_warns_each_once() {
     );
     // The items are named: the transformed texture's material, the unlit one.
     let said = |s: &str| warnings.iter().any(|w| w.contains(s));
+    // One uv set and transform per material: its normal texture (TEXCOORD_0,
+    // untransformed) reads the base colour texture's uvs.
     assert!(said(
-        "KHR_texture_transform is not supported (used by material 0 'transformed')"
+        "material 0 'transformed': its textures use different uv sets (texCoord) and texture \
+         transforms (KHR_texture_transform)"
+    ));
+    assert!(said(
+        "all read the base colour texture's uvs (TEXCOORD_1, offset (0.5, 0)), so the normal \
+         texture (TEXCOORD_0, no transform) reads the wrong uvs"
     ));
     assert!(said(
         "KHR_materials_unlit is not supported (used by material 3 'flat')"

@@ -21,9 +21,16 @@
 //!    TRIANGLE_STRIP and TRIANGLE_FAN converted to lists with the winding the
 //!    glTF topology rules define; points and lines are skipped with a warning.
 //!    Missing indices are generated, missing normals are generated
-//!    (area-weighted), missing uvs are zeros, missing tangents are generated
-//!    with MikkTSpace (`mesh_ops::generate_tangents`, which may split vertices)
-//!    when the material has a normal map; supplied tangents are kept as they are.
+//!    (area-weighted). The mesh's uvs are the uv set its material's textures
+//!    read (`texCoord`, or the `KHR_texture_transform` override) with that
+//!    extension's offset, rotation and scale applied (`gltf_uv`: one uv set
+//!    and one transform per material; slots that disagree are warned); a
+//!    missing uv set is zeros (warned where the material has textures).
+//!    Missing tangents are generated with MikkTSpace
+//!    (`mesh_ops::generate_tangents`, which may split vertices, on the
+//!    transformed uvs) when the material has a normal map; supplied tangents
+//!    are kept, turned in the tangent plane to follow a transform's rotation
+//!    (and flipped by a mirroring scale).
 //!    **Morph targets**: the default weights (`node.weights`, else
 //!    `mesh.weights`) are applied to POSITION, NORMAL and TANGENT (sparse
 //!    accessors too) at import, normals and tangents renormalised; a glTF mesh
@@ -43,6 +50,7 @@ use super::gltf_animation::{check_animation_json, import_animations};
 use super::gltf_buffers::{load_buffers, split_container, AccessorReader};
 use super::gltf_instancing::{instancing_json, NodeInstancing, INSTANCING_EXTENSION};
 use super::gltf_textures::{decode_images, patch_invalid_samplers, texture_sampler, ImageUses};
+use super::gltf_uv::{choose, texture_transforms_json, SlotUv, UvChoice, SLOTS, TEXTURE_TRANSFORM};
 use super::mesh_ops::{
     drop_non_finite_triangles, fan_to_triangles, generate_normals, generate_tangents,
     strip_to_triangles,
@@ -52,7 +60,7 @@ use super::{
     TextureEncoding, TextureRef,
 };
 use glam::{Mat4, Vec2, Vec3, Vec4};
-use std::collections::{HashMap, HashSet};
+use std::collections::{BTreeMap, HashMap, HashSet};
 use std::path::Path;
 
 /// Required extensions that only affect appearance; ignoring them degrades
@@ -60,7 +68,6 @@ use std::path::Path;
 const APPEARANCE_ONLY_EXTENSIONS: &[&str] = &[
     "AMD_split_roughnessMetallic",
     "MSFT_texture_dds",
-    "KHR_texture_transform",
     "KHR_materials_variants",
     "EXT_texture_webp",
     "KHR_texture_basisu",
@@ -119,6 +126,9 @@ fn load_gltf_unguarded(path: &Path) -> Result<Scene, SceneError> {
         instances_budget: MAX_INSTANCES,
         split_rm_materials: prepared.split_rm,
         sourceless_textures: prepared.sourceless,
+        slot_uvs: prepared.slot_uvs,
+        material_uvs: Vec::new(),
+        missing_uvs: BTreeMap::new(),
         record_paths: doc.animations().len() > 0,
         node_path: Vec::new(),
         instance_paths: Vec::new(),
@@ -134,6 +144,7 @@ fn load_gltf_unguarded(path: &Path) -> Result<Scene, SceneError> {
                 .map_err(|e| SceneError::invalid(path, e))?;
     }
     importer.import_nodes()?;
+    importer.warn_missing_uvs();
     let instance_paths = std::mem::take(&mut importer.instance_paths);
     let instance_offsets = std::mem::take(&mut importer.instance_offsets);
     let mut scene = importer.scene;
@@ -187,6 +198,8 @@ fn parse_document(
                 kept.push(ext);
             } else if name == INSTANCING_EXTENSION {
                 // Read from the JSON (gltf_instancing; the crate does not know it).
+            } else if name == TEXTURE_TRANSFORM {
+                // Applied to the mesh uvs at import (gltf_uv; read from the JSON).
             } else if name == "KHR_texture_procedurals" {
                 // Read from the JSON by materials::binding (the crate does not know it).
             } else if APPEARANCE_ONLY_EXTENSIONS.contains(&name)
@@ -230,6 +243,7 @@ fn parse_document(
     warnings.extend(patch_invalid_samplers(path, obj));
     check_position_accessors(path, obj)?;
     let instancing = instancing_json(path, obj, warnings)?;
+    let slot_uvs = texture_transforms_json(path, obj, warnings);
     check_animation_json(path, obj)?;
     let root: gltf::json::Root = serde_json::from_value(value)
         .map_err(|e| SceneError::invalid(path, format!("invalid glTF structure: {e}")))?;
@@ -255,6 +269,7 @@ fn parse_document(
         split_rm,
         sourceless,
         instancing,
+        slot_uvs,
     })
 }
 
@@ -336,6 +351,16 @@ struct Prepared {
     sourceless: Vec<usize>,
     /// Nodes with EXT_mesh_gpu_instancing, by node index.
     instancing: HashMap<usize, NodeInstancing>,
+    /// Per material, per texture slot (`gltf_uv::SLOTS`): its KHR_texture_transform.
+    slot_uvs: Vec<[Option<SlotUv>; 5]>,
+}
+
+/// The uvs a material's textures read, as decided at import (`gltf_uv`).
+struct MaterialUv {
+    choice: UvChoice,
+    /// Whether any texture slot is bound (so missing uvs matter).
+    textured: bool,
+    label: String,
 }
 
 struct Importer<'a> {
@@ -361,6 +386,12 @@ struct Importer<'a> {
     /// the `gltf` crate is built without its generic `extensions` accessors).
     split_rm_materials: usize,
     sourceless_textures: Vec<usize>,
+    /// Per material, its KHR_texture_transform per slot (raw JSON).
+    slot_uvs: Vec<[Option<SlotUv>; 5]>,
+    /// Per material (by index), the uv set and transform its meshes get.
+    material_uvs: Vec<MaterialUv>,
+    /// Materials whose uv set some primitive lacks → those primitives.
+    missing_uvs: BTreeMap<u32, Vec<String>>,
     /// Whether to record each instance's node path (files with animations).
     record_paths: bool,
     /// Nodes from the root to the one being visited.
@@ -440,16 +471,19 @@ impl Importer<'_> {
 
         let split_rm = self.split_rm_materials;
         let mut blend = Vec::new();
-        let mut other_uv = Vec::new();
         let mut no_source = Vec::new();
-        for m in self.doc.materials() {
+        let doc = self.doc;
+        for m in doc.materials() {
             let pbr = m.pbr_metallic_roughness();
             let label = named("material", m.index().unwrap_or(0), m.name());
-            let infos = [
+            let tex_coords = [
                 pbr.base_color_texture().map(|t| t.tex_coord()),
                 pbr.metallic_roughness_texture().map(|t| t.tex_coord()),
                 m.normal_texture().map(|t| t.tex_coord()),
                 m.emissive_texture().map(|t| t.tex_coord()),
+                m.transmission()
+                    .and_then(|t| t.transmission_texture())
+                    .map(|t| t.tex_coord()),
             ];
             let core_textures = [
                 pbr.base_color_texture().map(|t| t.texture().index()),
@@ -464,9 +498,6 @@ impl Importer<'_> {
                 .any(|t| self.sourceless_textures.contains(&t))
             {
                 no_source.push(label.clone());
-            }
-            if infos.into_iter().flatten().any(|c| c != 0) {
-                other_uv.push(label.clone());
             }
             let mut alpha_mode = match m.alpha_mode() {
                 gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
@@ -514,6 +545,14 @@ impl Importer<'_> {
                 ior: m.ior().unwrap_or(1.5),
                 specular: m.specular().map_or(1.0, |s| s.specular_factor()),
             };
+            let bound = [
+                material.base_color_texture.is_some(),
+                material.metallic_roughness_texture.is_some(),
+                material.normal_texture.is_some(),
+                material.emissive_texture.is_some(),
+                material.transmission_texture.is_some(),
+            ];
+            self.choose_uvs(label, bound, tex_coords);
             self.scene.materials.push(sanitize_material(material));
         }
         if split_rm > 0 {
@@ -535,11 +574,67 @@ impl Importer<'_> {
                 no_source.join(", ")
             ));
         }
-        if !other_uv.is_empty() {
+    }
+
+    /// Decides the uv set and transform of the material being imported (the
+    /// next index of `material_uvs`) from its bound slots; warns when the
+    /// slots disagree (one uv set and one transform per material).
+    fn choose_uvs(&mut self, label: String, bound: [bool; 5], tex_coords: [Option<u32>; 5]) {
+        let index = self.material_uvs.len();
+        let ext = self.slot_uvs.get(index).copied().unwrap_or_default();
+        let slots: [Option<(u32, Option<SlotUv>)>; 5] =
+            std::array::from_fn(|k| bound[k].then(|| (tex_coords[k].unwrap_or(0), ext[k])));
+        let (choice, wrong) = choose(&slots);
+        if !wrong.is_empty() {
+            let winner = slots.iter().position(Option::is_some).unwrap_or(0);
+            let sets = wrong.iter().any(|(_, c)| c.set != choice.set);
+            let transforms = wrong
+                .iter()
+                .any(|(_, c)| !c.transform.same_as(&choice.transform));
+            let what = match (sets, transforms) {
+                (true, true) => "uv sets (texCoord) and texture transforms (KHR_texture_transform)",
+                (true, false) => "uv sets (texCoord)",
+                _ => "texture transforms (KHR_texture_transform)",
+            };
+            let losers: Vec<String> = wrong
+                .iter()
+                .map(|(k, c)| format!("the {} ({})", SLOTS[*k].0, c.describe()))
+                .collect();
             self.warn(format!(
-                "only TEXCOORD_0 is supported; textures of {} read uv0",
-                other_uv.join(", ")
+                "{label}: its textures use different {what}, but a material gets one uv set \
+                 and one transform: all read the {}'s uvs ({}), so {} {} the wrong uvs",
+                SLOTS[winner].0,
+                choice.describe(),
+                losers.join(" and "),
+                if losers.len() == 1 { "reads" } else { "read" }
             ));
+        }
+        self.material_uvs.push(MaterialUv {
+            choice,
+            textured: bound.iter().any(|&b| b),
+            label,
+        });
+    }
+
+    /// One warning per textured material used by primitives that lack the
+    /// uv set it reads (their uvs are zeros: the texture shows one texel).
+    fn warn_missing_uvs(&mut self) {
+        for (material, prims) in std::mem::take(&mut self.missing_uvs) {
+            let Some(m) = self.material_uvs.get(material as usize) else {
+                continue;
+            };
+            const SHOWN: usize = 4;
+            let mut list = prims[..prims.len().min(SHOWN)].join(", ");
+            if prims.len() > SHOWN {
+                list.push_str(&format!(" and {} more", prims.len() - SHOWN));
+            }
+            let msg = format!(
+                "{}: its textures read TEXCOORD_{}, which {list} {}; those uvs are zeros",
+                m.label,
+                m.choice.set,
+                if prims.len() == 1 { "lacks" } else { "lack" }
+            );
+            self.warn(msg);
         }
     }
 
@@ -865,6 +960,14 @@ impl Importer<'_> {
             self.warn(format!("{label} has no POSITION attribute; skipped"));
             return Ok(None);
         };
+        let material = match prim.material().index() {
+            Some(i) => i as u32,
+            None => self.default_material(),
+        };
+        let (choice, textured) = self
+            .material_uvs
+            .get(material as usize)
+            .map_or((UvChoice::default(), false), |m| (m.choice, m.textured));
         let r = &self.reader;
         let mut positions: Vec<Vec3> = r
             .read_vec::<3>(&pos_acc, &format!("POSITION of {label}"))?
@@ -893,13 +996,29 @@ impl Importer<'_> {
             }
             None => Vec::new(),
         };
-        let uvs: Vec<Vec2> = match prim.get(&gltf::Semantic::TexCoords(0)) {
+        // The uv set the material's textures read, transformed as its
+        // KHR_texture_transform says (gltf_uv).
+        let uvs: Vec<Vec2> = match prim.get(&gltf::Semantic::TexCoords(choice.set)) {
             Some(a) => {
-                let v = r.read_vec::<2>(&a, &format!("TEXCOORD_0 of {label}"))?;
-                same_len("TEXCOORD_0", v.len())?;
-                v.into_iter().map(Vec2::from).collect()
+                let name = format!("TEXCOORD_{}", choice.set);
+                let v = r.read_vec::<2>(&a, &format!("{name} of {label}"))?;
+                same_len(&name, v.len())?;
+                let t = choice.transform;
+                if t.is_identity() {
+                    v.into_iter().map(Vec2::from).collect()
+                } else {
+                    v.into_iter().map(|uv| t.apply(Vec2::from(uv))).collect()
+                }
             }
-            None => vec![Vec2::ZERO; n],
+            None => {
+                if textured {
+                    self.missing_uvs
+                        .entry(material)
+                        .or_default()
+                        .push(label.to_owned());
+                }
+                vec![Vec2::ZERO; n]
+            }
         };
         let mut tangents: Vec<Vec4> = match prim.get(&gltf::Semantic::Tangents) {
             Some(a) => {
@@ -970,10 +1089,6 @@ impl Importer<'_> {
             ));
             indices.truncate(indices.len() / 3 * 3);
         }
-        let material = match prim.material().index() {
-            Some(i) => i as u32,
-            None => self.default_material(),
-        };
         let mut mesh = Mesh {
             name: mesh_name
                 .map(str::to_owned)
@@ -1001,6 +1116,14 @@ impl Importer<'_> {
         } else {
             for v in &mut mesh.normals {
                 *v = v.normalize();
+            }
+        }
+        // Supplied tangents belong to the untransformed uvs: turn them to
+        // the direction of increasing transformed u (generated ones below
+        // come from the transformed uvs already).
+        if !mesh.tangents.is_empty() && !choice.transform.is_identity() {
+            for (t, nrm) in mesh.tangents.iter_mut().zip(&mesh.normals) {
+                *t = choice.transform.tangent(*nrm, *t);
             }
         }
         let needs_tangents = self

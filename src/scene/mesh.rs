@@ -9,7 +9,8 @@ pub struct Mesh {
     pub positions: Vec<Vec3>,
     /// Unit normals; generated (area-weighted) when the file has none.
     pub normals: Vec<Vec3>,
-    /// uv0; zeros when the file has none.
+    /// The uv set the material's textures read (glTF: TEXCOORD_n with its
+    /// KHR_texture_transform applied at import); zeros when the file has none.
     pub uvs: Vec<Vec2>,
     /// xyz tangent, w handedness; empty when neither the file nor a normal map needs them.
     pub tangents: Vec<Vec4>,

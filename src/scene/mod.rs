@@ -22,6 +22,7 @@ pub mod gltf_features;
 pub mod gltf_import;
 mod gltf_instancing;
 mod gltf_textures;
+mod gltf_uv;
 pub mod light;
 pub mod load;
 pub mod material;

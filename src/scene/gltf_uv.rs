@@ -1,0 +1,347 @@
+//! Which uv set, under which `KHR_texture_transform`, a material's textures
+//! read (issue 18). Done at import: the shaders sample every texture of a
+//! material with the one uv of the hit, so each primitive's mesh gets the uv
+//! set its material's textures name (`texCoord`, or the extension's
+//! `texCoord` override), with the extension's offset, rotation and scale
+//! applied. One uv set and one transform per material: where the bound
+//! texture slots of a material disagree, the base colour slot's choice is
+//! used for all and the importer warns naming the slots that read the wrong
+//! uvs.
+//!
+//! The `gltf` crate is built without its `KHR_texture_transform` feature, so
+//! the extension is read here from the raw JSON.
+//!
+//! **Rotation sign.** The extension's GLSL listing builds its rotation with
+//! GLSL's column-major `mat3(cos, sin, 0, -sin, cos, 0, 0, 0, 1)`, i.e.
+//! u' = cos·u − sin·v. Its own example ("the lower left quadrant of the
+//! source image, rotated": offset (0, 1), rotation π/2, scale ½), its text
+//! ("counter-clockwise" in the v-down uv space), the sample model
+//! TextureTransformTest and the implementations (Babylon.js, three.js,
+//! Blender) all use the transpose, as KhronosGroup/glTF issue #1563 says:
+//!
+//! ```text
+//! u' = sx·cos r·u + sy·sin r·v + ox
+//! v' = −sx·sin r·u + sy·cos r·v + oy      (T · R · S, R = [cos sin; −sin cos])
+//! ```
+//!
+//! That is what is implemented here.
+
+use glam::{Mat2, Vec2, Vec3, Vec4};
+use serde_json::Value;
+use std::path::Path;
+
+/// The extension's name.
+pub const TEXTURE_TRANSFORM: &str = "KHR_texture_transform";
+
+/// The texture slots a material binds, in the order that picks the winner
+/// when they disagree (base colour first): name for messages, JSON pointer
+/// of the textureInfo inside a material.
+pub const SLOTS: [(&str, &str); 5] = [
+    (
+        "base colour texture",
+        "/pbrMetallicRoughness/baseColorTexture",
+    ),
+    (
+        "metallic-roughness texture",
+        "/pbrMetallicRoughness/metallicRoughnessTexture",
+    ),
+    ("normal texture", "/normalTexture"),
+    ("emissive texture", "/emissiveTexture"),
+    (
+        "transmission texture",
+        "/extensions/KHR_materials_transmission/transmissionTexture",
+    ),
+];
+
+/// A `KHR_texture_transform`: uv' = T(offset) · R(rotation) · S(scale) · uv.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct UvTransform {
+    pub offset: Vec2,
+    /// Radians.
+    pub rotation: f32,
+    pub scale: Vec2,
+}
+
+impl Default for UvTransform {
+    fn default() -> Self {
+        UvTransform::IDENTITY
+    }
+}
+
+impl UvTransform {
+    pub const IDENTITY: UvTransform = UvTransform {
+        offset: Vec2::ZERO,
+        rotation: 0.0,
+        scale: Vec2::ONE,
+    };
+
+    /// The linear part R · S (columns), see the module documentation.
+    pub fn linear(&self) -> Mat2 {
+        let (s, c) = self.rotation.sin_cos();
+        let r = Mat2::from_cols(Vec2::new(c, -s), Vec2::new(s, c));
+        r * Mat2::from_diagonal(self.scale)
+    }
+
+    pub fn apply(&self, uv: Vec2) -> Vec2 {
+        self.linear() * uv + self.offset
+    }
+
+    /// Whether it changes no uv (compared as the matrix it gives, so an
+    /// explicit identity equals no extension).
+    pub fn is_identity(&self) -> bool {
+        self.same_as(&UvTransform::IDENTITY)
+    }
+
+    /// Whether both give the same affine map.
+    pub fn same_as(&self, other: &UvTransform) -> bool {
+        self.linear() == other.linear() && self.offset == other.offset
+    }
+
+    /// Re-expresses a supplied tangent (xyz the surface direction of
+    /// increasing u, w the handedness: the bitangent w · normal × xyz points
+    /// up the image, towards −v, as glTF and `mesh_ops::generate_tangents`
+    /// have it) for the transformed uvs: the direction of increasing u' is
+    /// ∂P/∂u' = (M⁻¹)₀₀ · ∂P/∂u + (M⁻¹)₁₀ · ∂P/∂v with M = R · S,
+    /// ∂P/∂u = T and ∂P/∂v = −w · N × T: a turn of the tangent within the
+    /// tangent plane; w flips when M mirrors (det M < 0). A singular M (a
+    /// zero scale) leaves the tangent as it is.
+    pub fn tangent(&self, normal: Vec3, tangent: Vec4) -> Vec4 {
+        let m = self.linear();
+        let det = m.determinant();
+        if det == 0.0 || !det.is_finite() {
+            return tangent;
+        }
+        let inv = m.inverse();
+        let t = tangent.truncate();
+        let w = if tangent.w < 0.0 { -1.0 } else { 1.0 };
+        let dpdv = -w * normal.cross(t);
+        // Column 0 of M⁻¹: ∂(u, v)/∂u'.
+        let d = inv.x_axis;
+        let turned = d.x * t + d.y * dpdv;
+        match turned.try_normalize() {
+            Some(xyz) => xyz.extend(if det < 0.0 { -w } else { w }),
+            None => tangent,
+        }
+    }
+
+    /// "offset (0.5, 0), rotation 1.5708, scale (2, 2)", the non-default parts.
+    pub fn describe(&self) -> String {
+        let mut parts = Vec::new();
+        if self.offset != Vec2::ZERO {
+            parts.push(format!("offset ({}, {})", self.offset.x, self.offset.y));
+        }
+        if self.rotation != 0.0 {
+            parts.push(format!("rotation {}", self.rotation));
+        }
+        if self.scale != Vec2::ONE {
+            parts.push(format!("scale ({}, {})", self.scale.x, self.scale.y));
+        }
+        if parts.is_empty() {
+            "no transform".into()
+        } else {
+            parts.join(", ")
+        }
+    }
+}
+
+/// What one textureInfo asks for beyond the core `texCoord`: the
+/// extension's transform and its `texCoord` override.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SlotUv {
+    pub transform: UvTransform,
+    pub tex_coord: Option<u32>,
+}
+
+/// A uv set and the transform applied to it.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct UvChoice {
+    pub set: u32,
+    pub transform: UvTransform,
+}
+
+impl UvChoice {
+    pub fn same_as(&self, other: &UvChoice) -> bool {
+        self.set == other.set && self.transform.same_as(&other.transform)
+    }
+
+    /// "TEXCOORD_1, offset (0.5, 0)".
+    pub fn describe(&self) -> String {
+        format!("TEXCOORD_{}, {}", self.set, self.transform.describe())
+    }
+}
+
+/// Per material (by index), per slot of [`SLOTS`]: its `KHR_texture_transform`
+/// as read from the raw JSON (`None` where the slot has no extension). A
+/// field of the wrong type or a non-finite value is one warning naming the
+/// material and slot, and that field takes its default.
+pub fn texture_transforms_json(
+    path: &Path,
+    root: &serde_json::Map<String, Value>,
+    warnings: &mut Vec<String>,
+) -> Vec<[Option<SlotUv>; 5]> {
+    let Some(materials) = root.get("materials").and_then(Value::as_array) else {
+        return Vec::new();
+    };
+    materials
+        .iter()
+        .enumerate()
+        .map(|(mi, m)| {
+            let mut out = [None; 5];
+            for (k, (slot, pointer)) in SLOTS.iter().enumerate() {
+                let Some(ext) = m
+                    .pointer(pointer)
+                    .and_then(|info| info.pointer(&format!("/extensions/{TEXTURE_TRANSFORM}")))
+                else {
+                    continue;
+                };
+                let label = match m.get("name").and_then(Value::as_str) {
+                    Some(n) if !n.is_empty() => format!("material {mi} '{n}'"),
+                    _ => format!("material {mi}"),
+                };
+                let mut bad = Vec::new();
+                out[k] = Some(parse_slot(ext, &mut bad));
+                if !bad.is_empty() {
+                    warnings.push(format!(
+                        "{}: {label}: {slot}: {TEXTURE_TRANSFORM} has {}; the default is used \
+                         for {}",
+                        path.display(),
+                        bad.join(", "),
+                        if bad.len() == 1 { "it" } else { "them" }
+                    ));
+                }
+            }
+            out
+        })
+        .collect()
+}
+
+fn parse_slot(ext: &Value, bad: &mut Vec<String>) -> SlotUv {
+    let mut uv = SlotUv::default();
+    let vec2 = |key: &str, default: Vec2, bad: &mut Vec<String>| -> Vec2 {
+        let Some(v) = ext.get(key) else {
+            return default;
+        };
+        let parsed = v.as_array().filter(|a| a.len() == 2).and_then(|a| {
+            let x = a[0].as_f64()? as f32;
+            let y = a[1].as_f64()? as f32;
+            (x.is_finite() && y.is_finite()).then_some(Vec2::new(x, y))
+        });
+        parsed.unwrap_or_else(|| {
+            bad.push(format!("{key} {v} (not two finite numbers)"));
+            default
+        })
+    };
+    uv.transform.offset = vec2("offset", Vec2::ZERO, bad);
+    uv.transform.scale = vec2("scale", Vec2::ONE, bad);
+    if let Some(v) = ext.get("rotation") {
+        match v.as_f64().map(|r| r as f32).filter(|r| r.is_finite()) {
+            Some(r) => uv.transform.rotation = r,
+            None => bad.push(format!("rotation {v} (not a finite number)")),
+        }
+    }
+    if let Some(v) = ext.get("texCoord") {
+        match v.as_u64().filter(|&n| n <= u32::MAX as u64) {
+            Some(n) => uv.tex_coord = Some(n as u32),
+            None => bad.push(format!("texCoord {v} (not a non-negative integer)")),
+        }
+    }
+    uv
+}
+
+/// The choice for one material from its bound slots (`Some((core texCoord,
+/// extension))` per slot of [`SLOTS`], `None` where the slot binds no
+/// texture): the first bound slot's (base colour first), and the slots that
+/// disagree with it. No bound slot: TEXCOORD_0 untransformed.
+pub fn choose(slots: &[Option<(u32, Option<SlotUv>)>; 5]) -> (UvChoice, Vec<(usize, UvChoice)>) {
+    let choices: Vec<(usize, UvChoice)> = slots
+        .iter()
+        .enumerate()
+        .filter_map(|(k, s)| {
+            s.map(|(core, ext)| {
+                let ext = ext.unwrap_or_default();
+                (
+                    k,
+                    UvChoice {
+                        set: ext.tex_coord.unwrap_or(core),
+                        transform: ext.transform,
+                    },
+                )
+            })
+        })
+        .collect();
+    let Some(&(_, first)) = choices.first() else {
+        return (UvChoice::default(), Vec::new());
+    };
+    let wrong = choices
+        .into_iter()
+        .filter(|(_, c)| !c.same_as(&first))
+        .collect();
+    (first, wrong)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::f32::consts::FRAC_PI_2;
+
+    fn close(a: Vec2, b: Vec2) -> bool {
+        // sin/cos of π/2 in f32: cos is −4.4·10⁻⁸, times |uv| ≤ 4.
+        (a - b).abs().max_element() < 1e-6
+    }
+
+    #[test]
+    fn the_spec_example_maps_the_unit_square_to_the_lower_left_quadrant() {
+        // KHR_texture_transform README, "Example JSON": offset (0, 1),
+        // rotation π/2, scale ½ "utilizes only the lower left quadrant"
+        // (v points down: the lower half is v in [0.5, 1]).
+        let t = UvTransform {
+            offset: Vec2::new(0.0, 1.0),
+            rotation: FRAC_PI_2,
+            scale: Vec2::splat(0.5),
+        };
+        // u' = ½v, v' = 1 − ½u.
+        for (uv, want) in [
+            (Vec2::new(0.0, 0.0), Vec2::new(0.0, 1.0)),
+            (Vec2::new(1.0, 0.0), Vec2::new(0.0, 0.5)),
+            (Vec2::new(0.0, 1.0), Vec2::new(0.5, 1.0)),
+            (Vec2::new(1.0, 1.0), Vec2::new(0.5, 0.5)),
+        ] {
+            assert!(
+                close(t.apply(uv), want),
+                "{uv} → {} not {want}",
+                t.apply(uv)
+            );
+        }
+    }
+
+    #[test]
+    fn tangents_turn_with_the_uvs_and_flip_under_a_mirror() {
+        let n = Vec3::Z;
+        // ∂P/∂u = +x; w = +1: the bitangent +z × +x = +y points up the
+        // image (−v), so ∂P/∂v = −y.
+        let t = Vec4::new(1.0, 0.0, 0.0, 1.0);
+        // A quarter turn, u' = v: u' grows along −y.
+        let q = UvTransform {
+            rotation: FRAC_PI_2,
+            ..UvTransform::IDENTITY
+        };
+        let got = q.tangent(n, t);
+        assert!(
+            (got - Vec4::new(0.0, -1.0, 0.0, 1.0)).abs().max_element() < 1e-6,
+            "{got}"
+        );
+        // u' = −u (scale (−1, 1)): u' grows along −x, and the frame mirrors.
+        let m = UvTransform {
+            scale: Vec2::new(-1.0, 1.0),
+            ..UvTransform::IDENTITY
+        };
+        assert_eq!(m.tangent(n, t), Vec4::new(-1.0, 0.0, 0.0, -1.0));
+        // Offsets and uniform scales change no direction.
+        let o = UvTransform {
+            offset: Vec2::new(0.3, 0.7),
+            scale: Vec2::splat(3.0),
+            ..UvTransform::IDENTITY
+        };
+        assert!((o.tangent(n, t) - t).abs().max_element() < 1e-6);
+    }
+}

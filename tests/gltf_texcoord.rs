@@ -1,0 +1,679 @@
+//! glTF texCoord / TEXCOORD_1 and KHR_texture_transform (issue 18), done at
+//! import: each primitive's mesh gets the uv set its material's textures
+//! name, with the extension's offset, rotation and scale applied.
+//!
+//! Known answers: the mesh uvs a quad gets are computed by hand from the
+//! extension's T · R · S (rotation as the extension's own example, the
+//! sample model TextureTransformTest and glTF issue 1563 have it:
+//! u' = sx·cos r·u + sy·sin r·v + ox, v' = −sx·sin r·u + sy·cos r·v + oy;
+//! the README's literal GLSL listing has the opposite sign, which these
+//! values tell apart). On the GPU (lavapipe, validation on), a transformed
+//! 2×2 texture shows the texel that uv' predicts, uv' computed here from
+//! the hit's position on the quad.
+
+mod common;
+use base64::Engine;
+use common::*;
+use glam::{Vec2, Vec3, Vec4};
+use serde_json::{json, Value};
+use std::f32::consts::FRAC_PI_2;
+use std::path::{Path, PathBuf};
+use stereocache::methods::RenderSettings;
+use stereocache::rt::RtChoice;
+use stereocache::scene::{load_gltf, Scene};
+
+fn dir(name: &str) -> PathBuf {
+    let d = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("gltf_texcoord-{name}"));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// 2×2 image, row 0 first (glTF v = 0 is the top): red, green / blue, white.
+const TEXELS: [[u8; 4]; 4] = [
+    [255, 0, 0, 255],
+    [0, 255, 0, 255],
+    [0, 0, 255, 255],
+    [255, 255, 255, 255],
+];
+
+fn png_data_uri() -> String {
+    let img = image::RgbaImage::from_raw(2, 2, TEXELS.concat()).unwrap();
+    let mut png = Vec::new();
+    img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+        .unwrap();
+    format!(
+        "data:image/png;base64,{}",
+        base64::engine::general_purpose::STANDARD.encode(png)
+    )
+}
+
+/// One quad: its rectangle (x0, y0, x1, y1) in z = 0 facing +z, vertex
+/// attributes beyond POSITION/NORMAL (name → 4 values), and its material.
+struct Quad {
+    rect: (f32, f32, f32, f32),
+    attrs: Vec<(&'static str, Vec<Vec<f32>>)>,
+    material: usize,
+}
+
+/// The corner uvs every test quad uses: u along +x, v along −y, 0..1.
+fn unit_uvs() -> Vec<Vec<f32>> {
+    vec![
+        vec![0.0, 1.0],
+        vec![1.0, 1.0],
+        vec![1.0, 0.0],
+        vec![0.0, 0.0],
+    ]
+}
+
+/// Quad k of a row of three 1 m squares 0.1 m apart.
+fn rect(k: usize) -> (f32, f32, f32, f32) {
+    let cx = k as f32 * 1.1 - 1.1;
+    (cx - 0.5, -0.5, cx + 0.5, 0.5)
+}
+
+#[derive(Default)]
+struct Buffer {
+    bin: Vec<u8>,
+    views: Vec<Value>,
+    accessors: Vec<Value>,
+}
+
+impl Buffer {
+    /// An f32 accessor of `count` elements of type `ty` over `data`.
+    fn floats(
+        &mut self,
+        data: &[f32],
+        ty: &str,
+        count: usize,
+        minmax: Option<(Vec<f32>, Vec<f32>)>,
+    ) -> usize {
+        let offset = self.bin.len();
+        for x in data {
+            self.bin.extend_from_slice(&x.to_le_bytes());
+        }
+        self.views
+            .push(json!({ "buffer": 0, "byteOffset": offset, "byteLength": data.len() * 4 }));
+        let mut a = json!({ "bufferView": self.views.len() - 1, "componentType": 5126,
+                            "count": count, "type": ty });
+        if let Some((lo, hi)) = minmax {
+            a["min"] = json!(lo);
+            a["max"] = json!(hi);
+        }
+        self.accessors.push(a);
+        self.accessors.len() - 1
+    }
+}
+
+/// A glTF of `quads` with `materials`, every texture image 0 through a
+/// NEAREST/REPEAT sampler; `extra` is merged into the root.
+fn write_doc(
+    d: &Path,
+    quads: &[Quad],
+    materials: Vec<Value>,
+    textures: usize,
+    extra: Value,
+) -> PathBuf {
+    let mut b = Buffer::default();
+    let mut meshes = Vec::new();
+    for q in quads {
+        let (x0, y0, x1, y1) = q.rect;
+        let pos = [x0, y0, 0.0, x1, y0, 0.0, x1, y1, 0.0, x0, y1, 0.0];
+        let mut attributes = serde_json::Map::new();
+        attributes.insert(
+            "POSITION".into(),
+            json!(b.floats(
+                &pos,
+                "VEC3",
+                4,
+                Some((vec![x0, y0, 0.0], vec![x1, y1, 0.0]))
+            )),
+        );
+        attributes.insert(
+            "NORMAL".into(),
+            json!(b.floats(&[0.0, 0.0, 1.0].repeat(4), "VEC3", 4, None)),
+        );
+        for (name, values) in &q.attrs {
+            let ty = if values[0].len() == 2 { "VEC2" } else { "VEC4" };
+            let flat: Vec<f32> = values.iter().flatten().copied().collect();
+            attributes.insert((*name).into(), json!(b.floats(&flat, ty, 4, None)));
+        }
+        // 12 bytes of u16 indices keep the next view 4-aligned.
+        let offset = b.bin.len();
+        for i in [0u16, 1, 2, 0, 2, 3] {
+            b.bin.extend_from_slice(&i.to_le_bytes());
+        }
+        b.views
+            .push(json!({ "buffer": 0, "byteOffset": offset, "byteLength": 12 }));
+        b.accessors.push(
+            json!({ "bufferView": b.views.len() - 1, "componentType": 5123,
+                                 "count": 6, "type": "SCALAR" }),
+        );
+        meshes.push(json!({ "primitives": [{ "attributes": attributes,
+            "indices": b.accessors.len() - 1, "material": q.material }] }));
+    }
+    let n = quads.len();
+    let mut root = json!({
+        "asset": { "version": "2.0" },
+        "scene": 0,
+        "scenes": [{ "nodes": (0..n).collect::<Vec<_>>() }],
+        "nodes": (0..n).map(|k| json!({ "mesh": k })).collect::<Vec<_>>(),
+        "meshes": meshes,
+        "materials": materials,
+        "samplers": [{ "magFilter": 9728, "minFilter": 9728, "wrapS": 10497, "wrapT": 10497 }],
+        "textures": (0..textures).map(|_| json!({ "source": 0, "sampler": 0 })).collect::<Vec<_>>(),
+        "images": [{ "uri": png_data_uri() }],
+        "accessors": b.accessors, "bufferViews": b.views,
+        "buffers": [{ "byteLength": b.bin.len(), "uri": format!("data:application/octet-stream;base64,{}",
+            base64::engine::general_purpose::STANDARD.encode(&b.bin)) }],
+    });
+    if let (Value::Object(r), Value::Object(e)) = (&mut root, extra) {
+        r.extend(e);
+    }
+    let path = d.join("quads.gltf");
+    std::fs::write(&path, serde_json::to_string_pretty(&root).unwrap()).unwrap();
+    path
+}
+
+/// A double-sided material (no culling warning) with the given texture slots.
+fn material(name: &str, slots: Value) -> Value {
+    let mut m = json!({ "name": name, "doubleSided": true,
+        "pbrMetallicRoughness": { "metallicFactor": 0.0, "roughnessFactor": 1.0 } });
+    for (k, v) in slots.as_object().unwrap() {
+        match k.as_str() {
+            "baseColorTexture" | "metallicRoughnessTexture" => {
+                m["pbrMetallicRoughness"][k] = v.clone()
+            }
+            _ => m[k] = v.clone(),
+        }
+    }
+    m
+}
+
+fn transform(offset: [f32; 2], rotation: f32, scale: [f32; 2]) -> Value {
+    json!({ "KHR_texture_transform": { "offset": offset, "rotation": rotation, "scale": scale } })
+}
+
+/// The hand-worked transform of the brief: offset (0.5, 0), rotation π/2,
+/// scale (2, 2): u' = 2v + 0.5, v' = −2u.
+fn brief_transform() -> Value {
+    transform([0.5, 0.0], FRAC_PI_2, [2.0, 2.0])
+}
+
+/// The extension README's example: offset (0, 1), rotation π/2, scale ½:
+/// u' = ½v, v' = 1 − ½u ("the lower left quadrant").
+fn spec_example() -> Value {
+    transform([0.0, 1.0], FRAC_PI_2, [0.5, 0.5])
+}
+
+/// cos(π/2) in f32 is −4.4·10⁻⁸: times scale 2 and |uv| ≤ 1, plus rounding
+/// of values ≤ 2.5 (2⁻²² each): well under 10⁻⁶.
+const UV_TOL: f32 = 1e-6;
+
+fn assert_uvs(got: &[Vec2], want: &[[f32; 2]], what: &str) {
+    assert_eq!(got.len(), want.len(), "{what}");
+    for (g, w) in got.iter().zip(want) {
+        assert!(
+            (*g - Vec2::from(*w)).abs().max_element() < UV_TOL,
+            "{what}: uvs {got:?}, expected {want:?}"
+        );
+    }
+}
+
+#[test]
+fn a_texture_reading_texcoord_1_gives_the_mesh_texcoord_1() {
+    let d = dir("set1");
+    let uv1 = vec![
+        vec![0.1, 0.2],
+        vec![0.3, 0.4],
+        vec![0.5, 0.6],
+        vec![0.7, 0.8],
+    ];
+    let quads = [
+        Quad {
+            rect: rect(0),
+            attrs: vec![("TEXCOORD_0", unit_uvs()), ("TEXCOORD_1", uv1.clone())],
+            material: 0,
+        },
+        // The extension's texCoord overrides the textureInfo's.
+        Quad {
+            rect: rect(1),
+            attrs: vec![("TEXCOORD_0", unit_uvs()), ("TEXCOORD_1", uv1.clone())],
+            material: 1,
+        },
+    ];
+    let mats = vec![
+        material(
+            "one",
+            json!({ "baseColorTexture": { "index": 0, "texCoord": 1 } }),
+        ),
+        material(
+            "override",
+            json!({ "baseColorTexture": { "index": 0, "texCoord": 1,
+                "extensions": { "KHR_texture_transform": { "texCoord": 0 } } } }),
+        ),
+    ];
+    let path = write_doc(
+        &d,
+        &quads,
+        mats,
+        1,
+        json!({ "extensionsUsed": ["KHR_texture_transform"] }),
+    );
+    let scene = load_gltf(&path).unwrap();
+    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+    let want1: Vec<[f32; 2]> = uv1.iter().map(|v| [v[0], v[1]]).collect();
+    assert_eq!(
+        scene.meshes[0].uvs,
+        want1.iter().map(|&v| Vec2::from(v)).collect::<Vec<_>>()
+    );
+    let want0: Vec<Vec2> = unit_uvs().iter().map(|v| Vec2::new(v[0], v[1])).collect();
+    assert_eq!(scene.meshes[1].uvs, want0);
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn offset_rotation_and_scale_give_the_uvs_of_the_spec_matrix() {
+    let d = dir("matrix");
+    let quad = |k: usize| Quad {
+        rect: rect(k),
+        attrs: vec![("TEXCOORD_0", unit_uvs())],
+        material: k,
+    };
+    let mats = vec![
+        material(
+            "brief",
+            json!({ "baseColorTexture": { "index": 0, "extensions": brief_transform() } }),
+        ),
+        material(
+            "example",
+            json!({ "emissiveTexture": { "index": 0, "extensions": spec_example() } }),
+        ),
+        // Only an explicit identity: the uvs as they are.
+        material(
+            "identity",
+            json!({ "baseColorTexture": { "index": 0, "extensions": transform([0.0, 0.0], 0.0, [1.0, 1.0]) },
+                    "normalTexture": { "index": 0 } }),
+        ),
+    ];
+    let path = write_doc(
+        &d,
+        &[quad(0), quad(1), quad(2)],
+        mats,
+        1,
+        json!({ "extensionsUsed": ["KHR_texture_transform"],
+                "extensionsRequired": ["KHR_texture_transform"] }),
+    );
+    let scene = load_gltf(&path).unwrap();
+    // Required and implemented: not a word.
+    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+    // Corners (0,1), (1,1), (1,0), (0,0): u' = 2v + 0.5, v' = −2u.
+    assert_uvs(
+        &scene.meshes[0].uvs,
+        &[[2.5, 0.0], [2.5, -2.0], [0.5, -2.0], [0.5, 0.0]],
+        "offset (0.5, 0), rotation π/2, scale 2",
+    );
+    // u' = ½v, v' = 1 − ½u: inside u' ∈ [0, ½], v' ∈ [½, 1], the lower left
+    // quadrant the README's example says.
+    assert_uvs(
+        &scene.meshes[1].uvs,
+        &[[0.5, 1.0], [0.5, 0.5], [0.0, 0.5], [0.0, 1.0]],
+        "the README's example",
+    );
+    let want: Vec<[f32; 2]> = unit_uvs().iter().map(|v| [v[0], v[1]]).collect();
+    assert_uvs(&scene.meshes[2].uvs, &want, "identity");
+    // The writer stores the baked uvs as TEXCOORD_0 (no extension): read
+    // back, the same uvs.
+    let out = d.join("out.gltf");
+    stereocache::scene::write_gltf(&scene, &out).unwrap();
+    let back = load_gltf(&out).unwrap();
+    for (a, b) in scene.meshes.iter().zip(&back.meshes) {
+        assert_eq!(a.uvs, b.uvs, "{}", a.name);
+    }
+    // The ray-cone lod reads the uv area per world area of a triangle from
+    // the mesh uvs: ×4 under scale 2, ×¼ under scale ½ (the quads are 1 m²).
+    for (m, ratio) in [(0, 4.0), (1, 0.25), (2, 1.0)] {
+        let mesh = &scene.meshes[m];
+        for t in 0..mesh.triangle_count() {
+            let i = &mesh.indices[3 * t..3 * t + 3];
+            let [a, b, c] = [0, 1, 2].map(|k| mesh.uvs[i[k] as usize]);
+            let uv_area = (b - a).perp_dot(c - a).abs();
+            let [p, q, r] = mesh.triangle(t);
+            let area = (q - p).cross(r - p).length();
+            assert!(
+                (uv_area / area - ratio).abs() < 1e-5,
+                "mesh {m} triangle {t}: uv area ratio {} not {ratio}",
+                uv_area / area
+            );
+        }
+    }
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn tangents_follow_the_transformed_uvs() {
+    let d = dir("tangents");
+    // Quad 0: no tangents, generated (MikkTSpace) from the transformed uvs;
+    // quad 1: tangents supplied for the untransformed uvs: ∂P/∂u = +x, and
+    // w = +1 since the bitangent w · N × T = +y points up the image (−v;
+    // glTF's convention, that of mesh_ops::generate_tangents).
+    let quads = [
+        Quad {
+            rect: rect(0),
+            attrs: vec![("TEXCOORD_0", unit_uvs())],
+            material: 0,
+        },
+        Quad {
+            rect: rect(1),
+            attrs: vec![
+                ("TEXCOORD_0", unit_uvs()),
+                ("TANGENT", vec![vec![1.0, 0.0, 0.0, 1.0]; 4]),
+            ],
+            material: 0,
+        },
+    ];
+    let mats = vec![material(
+        "bumpy",
+        json!({ "baseColorTexture": { "index": 0, "extensions": brief_transform() },
+                "normalTexture": { "index": 0, "extensions": brief_transform() } }),
+    )];
+    let path = write_doc(
+        &d,
+        &quads,
+        mats,
+        1,
+        json!({ "extensionsUsed": ["KHR_texture_transform"] }),
+    );
+    let scene = load_gltf(&path).unwrap();
+    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+    // u' = 2v + 0.5 grows where v does, along −y; v' = −2u grows along −x,
+    // so up the image (−v') is +x = w · (+z × −y) with w = +1: a rotation
+    // keeps the handedness.
+    let want = Vec4::new(0.0, -1.0, 0.0, 1.0);
+    for (m, how) in [(0, "generated"), (1, "supplied")] {
+        for t in &scene.meshes[m].tangents {
+            assert!(
+                (*t - want).abs().max_element() < 1e-5,
+                "{how} tangent {t}, expected {want}"
+            );
+        }
+        assert!(!scene.meshes[m].tangents.is_empty(), "{how}");
+    }
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn slots_that_disagree_use_the_base_colour_choice_and_warn_once() {
+    let d = dir("disagree");
+    let quads = [Quad {
+        rect: rect(0),
+        attrs: vec![("TEXCOORD_0", unit_uvs()), ("TEXCOORD_1", unit_uvs())],
+        material: 0,
+    }];
+    let mats = vec![material(
+        "mixed",
+        json!({
+            "baseColorTexture": { "index": 0, "texCoord": 1, "extensions": brief_transform() },
+            // Agrees with the base colour: not named.
+            "emissiveTexture": { "index": 0, "texCoord": 1, "extensions": brief_transform() },
+            "metallicRoughnessTexture": { "index": 0 },
+            "normalTexture": { "index": 0, "texCoord": 1 }
+        }),
+    )];
+    let path = write_doc(
+        &d,
+        &quads,
+        mats,
+        1,
+        json!({ "extensionsUsed": ["KHR_texture_transform"] }),
+    );
+    let scene = load_gltf(&path).unwrap();
+    assert_eq!(scene.warnings.len(), 1, "{:#?}", scene.warnings);
+    let w = &scene.warnings[0];
+    for part in [
+        path.display().to_string().as_str(),
+        "material 0 'mixed'",
+        "different uv sets (texCoord) and texture transforms (KHR_texture_transform)",
+        "all read the base colour texture's uvs (TEXCOORD_1, offset (0.5, 0), rotation 1.5707964, \
+         scale (2, 2))",
+        "the metallic-roughness texture (TEXCOORD_0, no transform)",
+        "the normal texture (TEXCOORD_1, no transform)",
+    ] {
+        assert!(w.contains(part), "warning lacks '{part}': {w}");
+    }
+    assert!(!w.contains("emissive"), "the emissive texture agrees: {w}");
+    // Every slot reads the base colour's uvs.
+    assert_uvs(
+        &scene.meshes[0].uvs,
+        &[[2.5, 0.0], [2.5, -2.0], [0.5, -2.0], [0.5, 0.0]],
+        "base colour's choice",
+    );
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn a_missing_uv_set_is_zeros_and_warned_and_bad_transforms_are_warned() {
+    let d = dir("missing");
+    let quads = [
+        Quad {
+            rect: rect(0),
+            attrs: vec![("TEXCOORD_0", unit_uvs())],
+            material: 0,
+        },
+        Quad {
+            rect: rect(1),
+            attrs: vec![("TEXCOORD_0", unit_uvs())],
+            material: 1,
+        },
+    ];
+    let mats = vec![
+        material(
+            "wants1",
+            json!({ "baseColorTexture": { "index": 0, "texCoord": 1 } }),
+        ),
+        material(
+            "bad",
+            json!({ "baseColorTexture": { "index": 0, "extensions":
+                { "KHR_texture_transform": { "scale": "big", "rotation": [1], "offset": [0.25, 0.0] } } } }),
+        ),
+    ];
+    let path = write_doc(
+        &d,
+        &quads,
+        mats,
+        1,
+        json!({ "extensionsUsed": ["KHR_texture_transform"] }),
+    );
+    let scene = load_gltf(&path).unwrap();
+    assert_eq!(scene.warnings.len(), 2, "{:#?}", scene.warnings);
+    let has = |parts: &[&str]| {
+        scene
+            .warnings
+            .iter()
+            .any(|w| parts.iter().all(|p| w.contains(p)))
+    };
+    assert!(
+        has(&[
+            "material 0 'wants1'",
+            "TEXCOORD_1",
+            "mesh 0 primitive 0",
+            "zeros"
+        ]),
+        "{:#?}",
+        scene.warnings
+    );
+    assert!(
+        has(&[
+            "material 1 'bad'",
+            "base colour texture",
+            "scale \"big\"",
+            "rotation [1]",
+            "default"
+        ]),
+        "{:#?}",
+        scene.warnings
+    );
+    assert!(scene.meshes[0].uvs.iter().all(|&uv| uv == Vec2::ZERO));
+    // The valid offset is kept, the bad fields take their defaults.
+    assert_uvs(
+        &scene.meshes[1].uvs,
+        &[[0.25, 1.0], [1.25, 1.0], [1.25, 0.0], [0.25, 0.0]],
+        "offset only",
+    );
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// uv' of a point by the formula of the module documentation, written here
+/// apart from the importer's.
+fn spec_uv(offset: Vec2, r: f32, scale: Vec2, uv: Vec2) -> Vec2 {
+    let (s, c) = (r as f64).sin_cos();
+    let (u, v) = (uv.x as f64 * scale.x as f64, uv.y as f64 * scale.y as f64);
+    Vec2::new(
+        (c * u + s * v + offset.x as f64) as f32,
+        (-s * u + c * v + offset.y as f64) as f32,
+    )
+}
+
+#[test]
+fn a_transformed_texture_shows_the_texel_of_the_transformed_uv() {
+    let ctx = context();
+    let d = dir("gpu");
+    let quad = |k: usize| Quad {
+        rect: rect(k),
+        attrs: vec![("TEXCOORD_0", unit_uvs())],
+        material: k,
+    };
+    let transforms = [
+        (Vec2::ZERO, 0.0, Vec2::ONE),
+        (Vec2::new(0.5, 0.0), FRAC_PI_2, Vec2::splat(2.0)),
+        (Vec2::new(0.0, 1.0), FRAC_PI_2, Vec2::splat(0.5)),
+    ];
+    let mats = transforms
+        .iter()
+        .enumerate()
+        .map(|(k, (o, r, s))| {
+            material(
+                &format!("m{k}"),
+                json!({ "baseColorTexture": { "index": 0, "extensions":
+                    transform([o.x, o.y], *r, [s.x, s.y]) } }),
+            )
+        })
+        .collect();
+    let path = write_doc(
+        &d,
+        &[quad(0), quad(1), quad(2)],
+        mats,
+        1,
+        json!({ "extensionsUsed": ["KHR_texture_transform"] }),
+    );
+    let scene = load_gltf(&path).unwrap();
+    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+    let texel = |uv: Vec2| -> Vec3 {
+        // NEAREST + REPEAT on 2×2: texel ⌊2u⌋ mod 2, ⌊2v⌋ mod 2.
+        let i = ((uv.x as f64 * 2.0).floor() as i64).rem_euclid(2);
+        let j = ((uv.y as f64 * 2.0).floor() as i64).rem_euclid(2);
+        let t = TEXELS[(j * 2 + i) as usize];
+        Vec3::new(t[0] as f32, t[1] as f32, t[2] as f32) / 255.0
+    };
+    // Pixels whose uv' lies this close to a texel edge may show either
+    // texel: the sampler's sub-texel snapping (2^-bits of a texel) plus the
+    // rebuilt hit's error (barycentrics to 2⁻²⁴ over a 3-unit span, and
+    // the f32 position, ×2 texels per uv).
+    let q = 0.5f32.powi(ctx.caps.sub_texel_precision_bits.max(4) as i32);
+    let e = 2.0 * 16.0 * 3.0 / 16_777_216.0;
+    let near_edge = |x: f32| {
+        let t = x * 2.0;
+        (t - t.round()).abs() < q + e
+    };
+    // 0 or 255 decodes from sRGB to exactly 0 or 1; 2⁻¹² is below the first step.
+    let tol = 1.0 / 4096.0;
+    let settings = RenderSettings {
+        width: 192,
+        height: 128,
+        spp: 1,
+        max_bounces: 1,
+        seed: 1,
+        all_features: false,
+        ..Default::default()
+    };
+    let cam = look_at_camera(Vec3::new(0.0, 0.0, 2.0), Vec3::ZERO, 60.0, 1.5);
+    let mut backends = vec![RtChoice::Software];
+    if require(ctx.ray_query_enabled(), "ray queries") {
+        backends.push(RtChoice::Query);
+    }
+    for rt in backends {
+        let s = session(&ctx, scene.clone(), rt);
+        let f = render(&s, "reference", cam, &settings);
+        let mut checked = [0usize; 3];
+        let mut differs = [0usize; 3];
+        let mut seen = [[false; 4]; 3];
+        for (e_i, eye) in f.eyes.iter().enumerate() {
+            for (i, fh) in eye.first_hit.iter().enumerate() {
+                if fh[3] == u32::MAX {
+                    continue;
+                }
+                let (k, p) = hit_point(&s.scene, *fh);
+                let (x0, y0, x1, y1) = rect(k);
+                // The quad's own uvs at p (u along +x, v along −y).
+                let uv = Vec2::new((p.x - x0) / (x1 - x0), (y1 - p.y) / (y1 - y0));
+                let (o, r, sc) = transforms[k];
+                let uvt = spec_uv(o, r, sc, uv);
+                if near_edge(uvt.x) || near_edge(uvt.y) || near_edge(uv.x) || near_edge(uv.y) {
+                    continue;
+                }
+                let want = texel(uvt);
+                let got = Vec3::from_slice(&eye.albedo[i][..3]);
+                assert!(
+                    (got - want).abs().max_element() <= tol,
+                    "{rt:?}: eye {e_i} pixel {i} quad {k} uv {uv} → uv' {uvt}: albedo {got}, \
+                     expected {want}"
+                );
+                checked[k] += 1;
+                differs[k] += ((texel(uv) - want).abs().max_element() > 0.5) as usize;
+                let ti = (want.x > 0.5) as usize + 2 * (want.z > 0.5) as usize;
+                seen[k][ti] = true;
+            }
+        }
+        eprintln!("{rt:?}: checked {checked:?}, differing from untransformed {differs:?}, texels seen {seen:?}");
+        for (k, c) in checked.iter().enumerate() {
+            assert!(*c > 1000, "{rt:?}: quad {k} has {c} checked pixels");
+        }
+        // The transforms change what most pixels show, so reading the
+        // untransformed uvs would fail: quad 1 repeats the texture 4 times
+        // rotated, quad 2 shows one texel (blue) where the plain quad shows four.
+        for k in 1..3 {
+            assert!(
+                differs[k] * 2 > checked[k],
+                "{rt:?}: quad {k}: {} of {}",
+                differs[k],
+                checked[k]
+            );
+        }
+        assert_eq!(
+            seen[0], [true; 4],
+            "{rt:?}: the plain quad shows all four texels"
+        );
+        assert_eq!(seen[1], [true; 4], "{rt:?}: quad 1 shows all four texels");
+        assert_eq!(
+            seen[2].iter().filter(|&&s| s).count(),
+            1,
+            "{rt:?}: quad 2: {:?}",
+            seen[2]
+        );
+    }
+    assert_no_validation_messages(&ctx);
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// The mesh (= quad) index and world position of a stored first hit
+/// (Listing 1: barycentrics in 24 bits); nodes carry no transform.
+fn hit_point(scene: &Scene, fh: [u32; 4]) -> (usize, Vec3) {
+    let inst = &scene.instances[fh[3] as usize];
+    let mesh = &scene.meshes[inst.mesh as usize];
+    let t = fh[2] as usize;
+    let idx = [0, 1, 2].map(|k| mesh.indices[3 * t + k] as usize);
+    let b = Vec2::new((fh[0] & 0xFF_FFFF) as f32, (fh[1] & 0xFF_FFFF) as f32) / 16_777_215.0;
+    let w = [1.0 - b.x - b.y, b.x, b.y];
+    let p: Vec3 = (0..3).map(|k| mesh.positions[idx[k]] * w[k]).sum();
+    (inst.mesh as usize, p)
+}
