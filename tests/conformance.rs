@@ -311,7 +311,7 @@ fn mesh_primitive_modes_fill_the_triangle_cells_and_warn_the_rest() {
     // README's hexagon (positions accessor: x = ±0.866, y = ±0.5, ±1):
     // vertex 0 at the centre, 1..6 counter-clockwise around it from (0.866, −0.5).
     let x = 0.866f32;
-    let hexagon = vec![
+    let hexagon = [
         Vec3::new(x, -0.5, 0.0),
         Vec3::new(x, 0.5, 0.0),
         Vec3::new(0.0, 1.0, 0.0),
