@@ -11,6 +11,11 @@
 //! * MeshPrimitiveModes: the TRIANGLES, TRIANGLE_STRIP and TRIANGLE_FAN cells
 //!   are each a full hexagon facing +z (the topology rules' winding); the
 //!   POINTS and LINES cells are skipped with one warning each.
+//! * TextureCoordinateTest: each quad shows the quadrant of the image its
+//!   uvs name (v = 0 at the image's top), tinted by its factor.
+//! * TextureSettingsTest: the six wrap-mode boxes (REPEAT, CLAMP_TO_EDGE,
+//!   MIRRORED_REPEAT in s and t) show none of the README's red failure
+//!   marks; read with the failing wrap modes the README names, they do.
 //! * BoxVertexColors: COLOR_0 is not supported: the importer warns about it
 //!   (and nothing else), and the box shows the default material's white.
 //!
@@ -567,6 +572,116 @@ fn texture_coordinate_test_shows_each_quadrant_of_the_image_where_its_uvs_say() 
                     );
                 }
             }
+        }
+    }
+    assert_no_validation_messages(&ctx);
+}
+
+/// Linear albedo the README's red failure marks have and nothing in a
+/// passing render does: red high, green and blue low. (A red texel filtered
+/// with the green marks or the white ground is olive or pink: g ≥ 0.25.)
+fn is_red(c: Vec3) -> bool {
+    c.x > 0.5 && c.y < 0.25 && c.z < 0.25
+}
+
+/// Per sampler-test material (by name): (pixels hit, red pixels).
+fn red_per_test_box(
+    ctx: &std::sync::Arc<stereocache::gpu::GpuContext>,
+    scene: &Scene,
+    rt: RtChoice,
+    cam: StereoCamera,
+    boxes: &[&str],
+) -> Vec<(usize, usize)> {
+    let (f, s) = first_hits(ctx, scene, rt, cam, 128, 256);
+    let mut out = vec![(0, 0); boxes.len()];
+    for eye in Eye::BOTH {
+        let e = f.eye(eye);
+        for (i, fh) in e.first_hit.iter().enumerate() {
+            if fh[3] == u32::MAX {
+                continue;
+            }
+            let (mat, _) = hit_uv(&s, *fh);
+            let name = &s.materials[mat as usize].name;
+            if let Some(k) = boxes.iter().position(|b| b == name) {
+                out[k].0 += 1;
+                out[k].1 += is_red(Vec3::from_slice(&e.albedo[i][..3])) as usize;
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn texture_settings_test_shows_no_red_in_the_wrap_mode_boxes() {
+    let Some((path, scene)) = load("TextureSettingsTest.gltf") else {
+        return;
+    };
+    // Every material but DoubleSidedMaterial is single-sided (the default):
+    // the one unsupported feature. The samplers are supported: no warning.
+    let warned = warned_features(&path, &scene);
+    assert_eq!(
+        warned,
+        BTreeMap::from([("single-sided materials (doubleSided false)", 1)]),
+        "{:?}",
+        scene.warnings
+    );
+    // The six wrap-mode boxes (README: "Test" column). The double/single-
+    // sided pair is not judged: back faces are not culled (README's table,
+    // "single-sided materials": partly), so its red X shows by design here.
+    let boxes = [
+        "TextureMirrorMaterialT",
+        "TextureMirrorMaterialS",
+        "TextureRepeatMaterialT",
+        "TextureRepeatMaterialS",
+        "TextureClampMaterialT",
+        "TextureClampMaterialS",
+    ];
+    // The root node maps (x, y, z) to (−x, z, y): the boxes face −z, at
+    // world x −3.05..0, y −5.16..0.92 (their POSITION bounds), z ≈ 0.
+    let cam = look_at_camera(
+        Vec3::new(-1.5, -2.1, -9.5),
+        Vec3::new(-1.5, -2.1, 0.0),
+        40.0,
+        0.5,
+    );
+    // The same boxes read with the wrap mode each README paragraph names as
+    // the failure: mirror and clamp read as repeat ("a red X"), repeat read
+    // as clamp ("the test box will turn solid red"). Shows the test can fail.
+    let mut wrong = scene.clone();
+    for m in wrong.materials.iter_mut() {
+        let Some(t) = m.base_color_texture.as_mut() else {
+            continue;
+        };
+        use stereocache::scene::Wrap::{ClampToEdge, Repeat};
+        let swap = |w| if w == Repeat { ClampToEdge } else { Repeat };
+        if m.name.starts_with("TextureRepeat") {
+            t.sampler.wrap_s = swap(t.sampler.wrap_s);
+            t.sampler.wrap_t = swap(t.sampler.wrap_t);
+        } else if m.name.starts_with("TextureMirror") || m.name.starts_with("TextureClamp") {
+            t.sampler.wrap_s = Repeat;
+            t.sampler.wrap_t = Repeat;
+        }
+    }
+    let ctx = context();
+    for rt in backends(&ctx) {
+        let right = red_per_test_box(&ctx, &scene, rt, cam, &boxes);
+        let failed = red_per_test_box(&ctx, &wrong, rt, cam, &boxes);
+        eprintln!(
+            "TextureSettingsTest {rt:?}: (pixels, red) per box {boxes:?}: as the file says \
+             {right:?}, with the failing wrap modes {failed:?}"
+        );
+        for (k, b) in boxes.iter().enumerate() {
+            // Each box's triangles (within its 3 m × 0.9 m bounds, at 9.5 m:
+            // 37 px per metre) cover ~2200 pixels per eye (4422 to 4556
+            // over both eyes measured); 2000 says the box is in view.
+            assert!(right[k].0 > 2000, "{rt:?} {b}: {right:?}");
+            assert_eq!(right[k].1, 0, "{rt:?} {b}: red pixels {right:?}");
+            // A red X (or a solid red box) is dozens of pixels at least
+            // (measured 421 to 2278 over both eyes).
+            assert!(
+                failed[k].1 >= 20,
+                "{rt:?} {b}: wrong wrap shows no red: {failed:?}"
+            );
         }
     }
     assert_no_validation_messages(&ctx);
