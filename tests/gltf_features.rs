@@ -513,13 +513,22 @@ fn a_document_using_every_unimplemented_feature_warns_each_once() {
 #[test]
 fn a_required_appearance_extension_is_warned_once() {
     let mut doc = kitchen_sink();
-    doc["extensionsRequired"] = json!(["KHR_texture_transform", "KHR_materials_clearcoat"]);
+    doc["extensionsRequired"] = json!([
+        "KHR_texture_transform",
+        "KHR_materials_clearcoat",
+        "AMD_split_roughnessMetallic"
+    ]);
+    doc["materials"][3]["extensions"]["AMD_split_roughnessMetallic"] = json!({});
     let dir = std::env::temp_dir().join(format!("stereocache-features-req-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("required.gltf");
     std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
     let warnings = check_implemented_or_warned(&path, &doc);
-    for name in ["KHR_texture_transform", "KHR_materials_clearcoat"] {
+    for name in [
+        "KHR_texture_transform",
+        "KHR_materials_clearcoat",
+        "AMD_split_roughnessMetallic",
+    ] {
         let n = warnings.iter().filter(|w| w.contains(name)).count();
         assert_eq!(n, 1, "{name} warned {n} times: {warnings:#?}");
     }

@@ -205,9 +205,10 @@ fn parse_document(
             } else if APPEARANCE_ONLY_EXTENSIONS.contains(&name)
                 || name.starts_with("KHR_materials_")
             {
-                // The feature table's warning (above) already names it and
-                // says what is done instead.
-                if super::gltf_features::feature(name).is_some_and(|f| !f.warned_elsewhere) {
+                // A feature the table knows is warned by its walk (above) or
+                // by the import code where it drops it, naming the items and
+                // what is done instead: one warning, not two.
+                if super::gltf_features::feature(name).is_some() {
                     continue;
                 }
                 warnings.push(format!(
