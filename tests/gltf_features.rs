@@ -489,7 +489,7 @@ fn a_document_using_every_unimplemented_feature_warns_each_once() {
         warnings.len(),
         "a warning twice: {warnings:#?}"
     );
-    // The items are named: the transformed texture's material, the unlit one.
+    // The items are named: the transformed texture's material, the coated one.
     let said = |s: &str| warnings.iter().any(|w| w.contains(s));
     // One uv set and transform per material: its normal texture (TEXCOORD_0,
     // untransformed) reads the base colour texture's uvs.
@@ -502,7 +502,7 @@ fn a_document_using_every_unimplemented_feature_warns_each_once() {
          texture (TEXCOORD_0, no transform) reads the wrong uvs"
     ));
     assert!(said(
-        "KHR_materials_unlit is not supported (used by material 3 'flat')"
+        "KHR_materials_clearcoat is not supported (used by material 1 'coated')"
     ));
     assert!(said(
         "KHR_materials_specular is supported in part (used by material 1 'coated')"

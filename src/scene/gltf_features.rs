@@ -286,8 +286,10 @@ pub const FEATURES: &[Feature] = &[
     ),
     f(
         "KHR_materials_unlit",
-        Ignored,
-        "shaded as a lit metallic-roughness material",
+        Full,
+        "an emitter of the base colour (factor × texture) with a black BSDF: the surface shows \
+         exactly its base colour and reflects nothing; as any emitter it also lights its \
+         surroundings",
     ),
     f(
         "KHR_materials_variants",

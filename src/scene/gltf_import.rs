@@ -125,6 +125,7 @@ fn load_gltf_unguarded(path: &Path) -> Result<Scene, SceneError> {
         default_material: None,
         instances_budget: MAX_INSTANCES,
         split_rm_materials: prepared.split_rm,
+        unlit_materials: prepared.unlit,
         sourceless_textures: prepared.sourceless,
         slot_uvs: prepared.slot_uvs,
         material_uvs: Vec::new(),
@@ -240,6 +241,15 @@ fn parse_document(
                 })
                 .count()
         });
+    // KHR_materials_unlit, per material (read on the raw JSON like the above).
+    let unlit = obj
+        .get("materials")
+        .and_then(|m| m.as_array())
+        .map_or_else(Vec::new, |ms| {
+            ms.iter()
+                .map(|m| m.pointer("/extensions/KHR_materials_unlit").is_some())
+                .collect()
+        });
     let sourceless = patch_sourceless_textures(obj);
     warnings.extend(patch_invalid_samplers(path, obj));
     check_position_accessors(path, obj)?;
@@ -268,6 +278,7 @@ fn parse_document(
     Ok(Prepared {
         doc,
         split_rm,
+        unlit,
         sourceless,
         instancing,
         slot_uvs,
@@ -348,6 +359,8 @@ struct Prepared {
     doc: gltf::Document,
     /// Materials carrying AMD_split_roughnessMetallic.
     split_rm: usize,
+    /// Per material: whether it carries KHR_materials_unlit.
+    unlit: Vec<bool>,
     /// Textures that had no core `source` (see `patch_sourceless_textures`).
     sourceless: Vec<usize>,
     /// Nodes with EXT_mesh_gpu_instancing, by node index.
@@ -386,6 +399,8 @@ struct Importer<'a> {
     /// Materials carrying AMD_split_roughnessMetallic (counted on the raw JSON:
     /// the `gltf` crate is built without its generic `extensions` accessors).
     split_rm_materials: usize,
+    /// Per material: KHR_materials_unlit ([`unlit`]).
+    unlit_materials: Vec<bool>,
     sourceless_textures: Vec<usize>,
     /// Per material, its KHR_texture_transform per slot (raw JSON).
     slot_uvs: Vec<[Option<SlotUv>; 5]>,
@@ -554,6 +569,10 @@ impl Importer<'_> {
                 material.transmission_texture.is_some(),
             ];
             self.choose_uvs(label, bound, tex_coords);
+            let material = match self.unlit_materials.get(m.index().unwrap_or(usize::MAX)) {
+                Some(true) => unlit(material),
+                _ => material,
+            };
             self.scene.materials.push(sanitize_material(material));
         }
         if split_rm > 0 {
@@ -1137,6 +1156,27 @@ impl Importer<'_> {
         }
         Ok(Some(mesh))
     }
+}
+
+/// KHR_materials_unlit translated to a path tracer: the surface shows its
+/// base colour (factor × texture, as the extension's `color = baseColor`) and
+/// reflects nothing — an emitter of radiance base colour with a black BSDF
+/// (no diffuse, no specular, no transmission). The alpha (factor and texture)
+/// still drives MASK cutoffs. Like any emitter it is also sampled as a light,
+/// so it lights its surroundings as a surface of that radiance would (a
+/// rasterizer's unlit surface lights nothing: a path tracer's choice, README).
+fn unlit(mut m: Material) -> Material {
+    m.emissive = m.base_color.truncate();
+    m.emissive_texture = m.base_color_texture;
+    m.base_color = Vec4::new(0.0, 0.0, 0.0, m.base_color.w);
+    m.metallic = 0.0;
+    m.metallic_roughness_texture = None;
+    m.roughness = 1.0;
+    m.specular = 0.0;
+    m.transmission = 0.0;
+    m.transmission_texture = None;
+    m.normal_texture = None;
+    m
 }
 
 /// Clamps material parameters to their glTF ranges (files in the wild carry
