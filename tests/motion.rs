@@ -381,9 +381,10 @@ fn sample_cache_on_the_rotating_hairball_keeps_its_invariants() {
 /// are on, motion vectors are computed (and are exactly zero) and the frame
 /// loop uploads instance transforms every frame. Both on the two-level BVH
 /// (the layout an animated scene gets), along a turning head; `taa` (the one
-/// TAA, where the motion vectors are compiled in) and `sample-cache` (the
-/// other methods share its scene data; hash-cache and hybrid accumulate with
-/// atomics in a run-dependent order, so they are not bit-reproducible).
+/// TAA, where the motion vectors are compiled in), `sample-cache` and `isrt`
+/// (its own layout and reprojection; the other methods share their scene
+/// data; hash-cache and hybrid accumulate with atomics in a run-dependent
+/// order, so they are not bit-reproducible).
 #[test]
 fn static_scene_is_bit_identical_with_the_animation_path_compiled_in() {
     let ctx = context();
@@ -418,7 +419,7 @@ fn static_scene_is_bit_identical_with_the_animation_path_compiled_in() {
         all_features: false,
         ..Default::default()
     };
-    for kind in [MethodKind::Taa, MethodKind::SampleCache] {
+    for kind in [MethodKind::Taa, MethodKind::SampleCache, MethodKind::Isrt] {
         let mut ma = a.create(kind, &st).unwrap();
         let mut mb = b.create(kind, &st).unwrap();
         let mut prev = None;
