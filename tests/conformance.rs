@@ -857,10 +857,10 @@ fn texture_transform_test_shows_the_offset_checks_and_arrows_at_the_green_marker
         remap_uvs(&mut not_applied, node, 1.0, &|uv| uv);
     }
     let mut reversed = scene.clone();
-    // The file's rotation, 0.392699 rad (22.5°), applied as −0.392699 with
+    // The file's rotation, 0.39269908169872414 rad = π/8 (22.5°), applied as −π/8 with
     // the extension's formula (src/scene/gltf_uv.rs): u' = cos r·u + sin r·v,
     // v' = −sin r·u + cos r·v.
-    let r = -0.392_699_08_f32;
+    let r = -std::f32::consts::FRAC_PI_8;
     remap_uvs(&mut reversed, "Rotation", 1.0, &|uv| {
         Vec2::new(
             r.cos() * uv.x + r.sin() * uv.y,
