@@ -18,6 +18,13 @@
 //!   marks; read with the failing wrap modes the README names, they do.
 //! * BoxVertexColors: COLOR_0 is not supported: the importer warns about it
 //!   (and nothing else), and the box shows the default material's white.
+//! * TextureTransformTest (KHR_texture_transform): the three offset quads
+//!   show the UV image's green "U", blue "V" and cyan "UV" quadrants, never
+//!   its yellow "offset was not applied" one; the rotation, scale and
+//!   combined arrows end at their green markers, not at the yellow ("not
+//!   applied") or red ("opposite direction") ones. The same quads given the
+//!   uvs of an importer that ignores the extension, or turns the other way,
+//!   show the README's failures.
 //!
 //! Warnings are attributed to README's "glTF support" table
 //! (src/scene/gltf_features.rs): a test fails if a model's unsupported
@@ -683,6 +690,256 @@ fn texture_settings_test_shows_no_red_in_the_wrap_mode_boxes() {
                 "{rt:?} {b}: wrong wrap shows no red: {failed:?}"
             );
         }
+    }
+    assert_no_validation_messages(&ctx);
+}
+
+/// The instance, material and world point of a stored first hit.
+fn hit_point(scene: &Scene, fh: [u32; 4]) -> (usize, u32, Vec3) {
+    let inst = &scene.instances[fh[3] as usize];
+    let mesh = &scene.meshes[inst.mesh as usize];
+    let t = fh[2] as usize;
+    let idx = [0, 1, 2].map(|k| mesh.indices[3 * t + k] as usize);
+    let b = Vec2::new((fh[0] & 0xFF_FFFF) as f32, (fh[1] & 0xFF_FFFF) as f32) / 16_777_215.0;
+    let w = [1.0 - b.x - b.y, b.x, b.y];
+    let local: Vec3 = (0..3).map(|k| mesh.positions[idx[k]] * w[k]).sum();
+    (
+        fh[3] as usize,
+        mesh.material,
+        inst.transform.transform_point3(local),
+    )
+}
+
+/// The linear albedo of the UV image's four quadrants (sRGB 192 decodes to
+/// 0.527): yellow (top left, "offset was not applied"), green "U" (top
+/// right), blue "V" (bottom left), cyan "UV" (bottom right). A pixel is of
+/// a quadrant's colour when its 192 channels are within 0.01 of 0.527 and
+/// its 0 channels below 0.01 (the white check marks, the grey border and
+/// filtered mixtures are none).
+fn uv_quadrant_colour(c: Vec3) -> Option<usize> {
+    let on = |x: f32| (x - 0.527).abs() < 0.01;
+    let off = |x: f32| x < 0.01;
+    [
+        [true, true, false],  // yellow
+        [false, true, false], // green
+        [false, false, true], // blue
+        [false, true, true],  // cyan
+    ]
+    .iter()
+    .position(|p| (0..3).all(|k| if p[k] { on(c[k]) } else { off(c[k]) }))
+}
+
+/// Replaces the uvs of the instance named `node`'s mesh by the file's uvs
+/// (as the quad's local position gives them, scaled by `uv_scale`: the
+/// accessors run 0..1 or 0..0.5 over the quad) mapped by `map`: how the
+/// quad would look if the importer applied that transform instead.
+fn remap_uvs(scene: &mut Scene, node: &str, uv_scale: f32, map: &dyn Fn(Vec2) -> Vec2) {
+    let inst = scene
+        .instances
+        .iter()
+        .find(|i| i.name == node)
+        .unwrap_or_else(|| panic!("no instance '{node}'"));
+    let mesh = &mut scene.meshes[inst.mesh as usize];
+    let uvs: Vec<Vec2> = mesh
+        .positions
+        .iter()
+        .map(|p| map(Vec2::new(p.x + 0.5, 0.5 - p.y) * uv_scale))
+        .collect();
+    mesh.uvs = uvs;
+}
+
+/// What one render of TextureTransformTest shows (both eyes together):
+/// per top-row quad, (pixels, pixels per UV-quadrant colour); per
+/// (arrow quad, marker) pair, the distance in metres from the marker's
+/// square to the nearest dark arrow pixel of that quad.
+struct TransformView {
+    offsets: Vec<(usize, [usize; 4])>,
+    tips: Vec<f32>,
+}
+
+/// The top-row quads (node names) and the quadrant colour each must show.
+const OFFSET_QUADS: [(&str, usize); 3] = [("Offset U", 1), ("Offset V", 2), ("Offset UV", 3)];
+
+/// The arrow quads and their markers (node names; README: green "correct",
+/// yellow "not applied", red "applied in the opposite direction").
+const ARROW_MARKERS: [(&str, &str); 6] = [
+    ("Rotation", "Rotation - Correct"),
+    ("Rotation", "Rotation - Not Supported"),
+    ("Rotation", "Rotation - Error"),
+    ("Scale", "Scale - Correct"),
+    ("Scale", "Scale - Not Supported"),
+    ("All", "All - Correct"),
+];
+
+fn texture_transform_view(
+    ctx: &std::sync::Arc<stereocache::gpu::GpuContext>,
+    scene: &Scene,
+    rt: RtChoice,
+    cam: StereoCamera,
+) -> TransformView {
+    let (f, s) = first_hits(ctx, scene, rt, cam, 800, 500);
+    let by_name = |n: &str| {
+        s.instances
+            .iter()
+            .position(|i| i.name == n)
+            .unwrap_or_else(|| panic!("no instance '{n}'"))
+    };
+    let offset_insts: Vec<usize> = OFFSET_QUADS.iter().map(|(n, _)| by_name(n)).collect();
+    let mut offsets = vec![(0, [0; 4]); OFFSET_QUADS.len()];
+    // Marker squares: centre and half-size in the quads' plane (z = 0.01,
+    // unrotated: the node's translation and uniform scale of the unit quad).
+    let markers: Vec<(usize, Vec2, f32)> = ARROW_MARKERS
+        .iter()
+        .map(|(quad, marker)| {
+            let m = s.instances[by_name(marker)].transform;
+            (
+                by_name(quad),
+                m.w_axis.truncate().truncate(),
+                0.5 * m.x_axis.length(),
+            )
+        })
+        .collect();
+    let mut tips = vec![f32::INFINITY; ARROW_MARKERS.len()];
+    for eye in Eye::BOTH {
+        let e = f.eye(eye);
+        for (i, fh) in e.first_hit.iter().enumerate() {
+            if fh[3] == u32::MAX {
+                continue;
+            }
+            let (inst, _, p) = hit_point(&s, *fh);
+            let c = Vec3::from_slice(&e.albedo[i][..3]);
+            if let Some(k) = offset_insts.iter().position(|&q| q == inst) {
+                offsets[k].0 += 1;
+                if let Some(q) = uv_quadrant_colour(c) {
+                    offsets[k].1[q] += 1;
+                }
+            }
+            // The arrow is black (0) on white: a pixel ≥ 95% black after
+            // bilinear filtering is part of it.
+            if c.max_element() < 0.05 {
+                for (k, (quad, centre, half)) in markers.iter().enumerate() {
+                    if *quad == inst {
+                        let d =
+                            ((p.truncate() - *centre).abs() - Vec2::splat(*half)).max(Vec2::ZERO);
+                        tips[k] = tips[k].min(d.length());
+                    }
+                }
+            }
+        }
+    }
+    TransformView { offsets, tips }
+}
+
+#[test]
+fn texture_transform_test_shows_the_offset_checks_and_arrows_at_the_green_markers() {
+    let Some((path, scene)) = load("TextureTransformTest/TextureTransformTest.gltf") else {
+        return;
+    };
+    // KHR_texture_transform is supported; the materials are single-sided
+    // (the default), the one unsupported feature.
+    let warned = warned_features(&path, &scene);
+    assert_eq!(
+        warned,
+        BTreeMap::from([("single-sided materials (doubleSided false)", 1)]),
+        "{:?}",
+        scene.warnings
+    );
+    // The README's failures, made by giving the quads the uvs an importer
+    // that ignores the extension (or turns the other way) would give: the
+    // offset quads read the image's top-left quadrant ("a yellow image
+    // indicates that offset was not applied"); the arrows point to the
+    // yellow markers; the rotation turned the opposite way points to the red.
+    let mut not_applied = scene.clone();
+    for (node, _) in OFFSET_QUADS {
+        remap_uvs(&mut not_applied, node, 0.5, &|uv| uv);
+    }
+    for node in ["Rotation", "Scale", "All"] {
+        remap_uvs(&mut not_applied, node, 1.0, &|uv| uv);
+    }
+    let mut reversed = scene.clone();
+    // The file's rotation, 0.39269908169872414 rad = π/8 (22.5°), applied as −π/8 with
+    // the extension's formula (src/scene/gltf_uv.rs): u' = cos r·u + sin r·v,
+    // v' = −sin r·u + cos r·v.
+    let r = -std::f32::consts::FRAC_PI_8;
+    remap_uvs(&mut reversed, "Rotation", 1.0, &|uv| {
+        Vec2::new(
+            r.cos() * uv.x + r.sin() * uv.y,
+            -r.sin() * uv.x + r.cos() * uv.y,
+        )
+    });
+
+    let ctx = context();
+    // Facing the quads (+z normals; x −1.6..1.6, y −1.05..1.05) from 3.5 m:
+    // 500 px over 2.55 m, 5.1 mm per pixel; the arrow image's texels are
+    // 7.8 mm (1/128 of the 1 m quad), 5.2 mm under the 1.5 scale.
+    let cam = look_at_camera(Vec3::new(0.0, 0.0, 3.5), Vec3::ZERO, 40.0, 1.6);
+    for rt in backends(&ctx) {
+        let right = texture_transform_view(&ctx, &scene, rt, cam);
+        let off = texture_transform_view(&ctx, &not_applied, rt, cam);
+        let rev = texture_transform_view(&ctx, &reversed, rt, cam);
+        eprintln!(
+            "TextureTransformTest {rt:?}: offset quads (pixels, [yellow, green, blue, cyan]) \
+             {:?}; not applied {:?}",
+            right.offsets, off.offsets
+        );
+        eprintln!(
+            "TextureTransformTest {rt:?}: arrow tip to marker (m) {ARROW_MARKERS:?}: {:?}; \
+             not applied {:?}; rotation reversed {:?}",
+            right.tips, off.tips, rev.tips
+        );
+        for (k, (node, want)) in OFFSET_QUADS.iter().enumerate() {
+            let (n, colours) = right.offsets[k];
+            // Each quad: 1.1 m less its gaps, ~200 px square per eye. The
+            // quadrant's background is 86% of its texels (counted from the
+            // PNG: 14128 of 16384 for green); filtering at the check mark's
+            // and border's edges takes a few percent: at least 70%.
+            // (Measured: 76832 pixels over both eyes, 63602 to 65128 of
+            // the quadrant's colour, none yellow.)
+            assert!(n > 50_000, "{rt:?} {node}: {n} pixels");
+            assert!(
+                colours[*want] as f32 > 0.7 * n as f32,
+                "{rt:?} {node}: {colours:?} of {n}"
+            );
+            assert_eq!(colours[0], 0, "{rt:?} {node}: yellow (offset not applied)");
+            // Not applied: the yellow quadrant (75% of its texels) shows
+            // (measured 56364 to 56391 of 76832).
+            let (n_off, c_off) = off.offsets[k];
+            assert!(
+                c_off[0] as f32 > 0.5 * n_off as f32,
+                "{rt:?} {node} not applied: {c_off:?} of {n_off}"
+            );
+        }
+        // Where the arrow's tip lands, from the file's transforms and the
+        // PNG (the README's marker positions agree): 45, 17 and 26 mm from
+        // the green markers' squares; ≥ 315 mm from every other marker. The
+        // render shifts these by under two arrow texels (bilinear filtering
+        // and the 95% threshold) and a pixel's footprint per eye: 25 mm.
+        // (Measured on both backends: 56, 24 and 34 mm; ≥ 318 mm.)
+        let tip = |v: &TransformView, marker: &str| {
+            v.tips[ARROW_MARKERS
+                .iter()
+                .position(|(_, m)| *m == marker)
+                .unwrap()]
+        };
+        for (k, (quad, marker)) in ARROW_MARKERS.iter().enumerate() {
+            let d = right.tips[k];
+            if marker.ends_with("Correct") {
+                assert!(d < 0.07, "{rt:?} {quad}: arrow {d} m from {marker}");
+            } else {
+                assert!(d > 0.25, "{rt:?} {quad}: arrow {d} m from {marker}");
+            }
+        }
+        // The failures show: not applied, the rotation and scale arrows end
+        // 23 mm from the yellow markers, the rotation arrow 300 mm from the
+        // green; reversed, it ends 45 mm from the red and 575 mm from the green
+        // (measured 38 and 37 mm, 305 mm; 58 mm and 582 mm).
+        for marker in ["Rotation - Not Supported", "Scale - Not Supported"] {
+            let d = tip(&off, marker);
+            assert!(d < 0.07, "{rt:?} not applied: arrow {d} m from {marker}");
+        }
+        assert!(tip(&off, "Rotation - Correct") > 0.25, "{:?}", off.tips);
+        assert!(tip(&rev, "Rotation - Error") < 0.07, "{:?}", rev.tips);
+        assert!(tip(&rev, "Rotation - Correct") > 0.25, "{:?}", rev.tips);
     }
     assert_no_validation_messages(&ctx);
 }
