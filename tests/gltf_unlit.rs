@@ -66,7 +66,10 @@ fn quad(unlit: bool) -> Scene {
         "scenes": [{"nodes": [0]}],
         "scene": 0
     });
-    let dir = std::env::temp_dir().join(format!("stereocache-unlit-{}", std::process::id()));
+    // One folder per call: the tests run in parallel and each removes its own.
+    static CALLS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let call = CALLS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    let dir = std::env::temp_dir().join(format!("stereocache-unlit-{}-{call}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join(format!("unlit-{unlit}.gltf"));
     std::fs::write(&path, serde_json::to_vec(&doc).unwrap()).unwrap();
