@@ -8,7 +8,6 @@ use common::*;
 use glam::Vec3;
 use std::collections::HashMap;
 use stereocache::camera::StereoCamera;
-use stereocache::gpu::{shaders, Buffer, ComputePipeline, Recorder};
 use stereocache::interface::hash_table;
 use stereocache::methods::hash_cache::hash::{
     entry_checksum, entry_frame, pack_meta, pcg_hash, share_probe_window, VoxelKey, NO_AXIS,
@@ -87,38 +86,29 @@ fn glsl_hashes_and_probe_sequence_match_the_cpu() {
             VoxelKey { coord, meta }
         })
         .collect();
-    let raw: Vec<[i32; 4]> = keys
+    let raw: Vec<[u32; 4]> = keys
         .iter()
-        .map(|k| [k.coord[0], k.coord[1], k.coord[2], k.meta as i32])
+        .map(|k| {
+            [
+                k.coord[0] as u32,
+                k.coord[1] as u32,
+                k.coord[2] as u32,
+                k.meta,
+            ]
+        })
         .collect();
-    let key_buf = Buffer::with_data(
+    let capacities = [1u32 << 16, 16 * 37];
+    let pushes: Vec<[u32; 2]> = capacities.iter().map(|&c| [n, c]).collect();
+    let outs = run_key_kernel(
         &ctx,
-        "test.keys",
-        bytemuck::cast_slice(&raw),
-        Default::default(),
-    )
-    .unwrap();
-    let out = Buffer::storage(&ctx, "test.out", n as u64 * 18 * 4).unwrap();
-    let pipe = ComputePipeline::with_interface(
-        &ctx,
-        "hash_test",
-        shaders::spirv("hash_table/hash_test").expect("hash_test compiled"),
-        &[],
+        "hash_table/hash_test",
         &hash_table::TEST,
-        Some(&hash_table::TEST_PUSH),
-        &Default::default(),
-    )
-    .unwrap();
-    for capacity in [1u32 << 16, 16 * 37] {
-        let mut rec = Recorder::new(&ctx, 1).unwrap();
-        rec.compute("hash_test", &pipe)
-            .read(&key_buf)
-            .write(&out)
-            .push(&[n, capacity])
-            .dispatch([n.div_ceil(64), 1, 1])
-            .unwrap();
-        rec.finish().unwrap();
-        let got: Vec<u32> = out.download_pod().unwrap();
+        &hash_table::TEST_PUSH,
+        &raw,
+        18,
+        &pushes,
+    );
+    for (&capacity, got) in capacities.iter().zip(outs) {
         for (i, k) in keys.iter().enumerate() {
             let g = &got[18 * i..18 * i + 18];
             assert_eq!(g[0], k.index_hash(), "key {k:?}: index hash");

@@ -39,34 +39,18 @@ fn glsl_hashes_and_probe_sequence_match_the_cpu() {
         .iter()
         .map(|k| [k.graph, k.level as u32, k.q[0] as u32, k.q[1] as u32])
         .collect();
-    let key_buf = Buffer::with_data(
+    let sizes = [(1u32 << 20, 8u32), (37, 8)];
+    let pushes: Vec<[u32; 4]> = sizes.iter().map(|&(c, p)| [n, c, p, 0]).collect();
+    let outs = run_key_kernel(
         &ctx,
-        "test.keys",
-        bytemuck::cast_slice(&raw),
-        Default::default(),
-    )
-    .unwrap();
-    let out = Buffer::storage(&ctx, "test.out", n as u64 * 12 * 4).unwrap();
-    let pipe = ComputePipeline::with_interface(
-        &ctx,
-        "memo_hash_test",
-        shaders::spirv("memo/hash_test").expect("memo/hash_test compiled"),
-        &[],
+        "memo/hash_test",
         &memo::HASH_TEST,
-        Some(&memo::HASH_TEST_PUSH),
-        &Default::default(),
-    )
-    .unwrap();
-    for (capacity, probe) in [(1u32 << 20, 8u32), (37, 8)] {
-        let mut rec = Recorder::new(&ctx, 1).unwrap();
-        rec.compute("memo_hash_test", &pipe)
-            .read(&key_buf)
-            .write(&out)
-            .push(&[n, capacity, probe, 0])
-            .dispatch([n.div_ceil(64), 1, 1])
-            .unwrap();
-        rec.finish().unwrap();
-        let got: Vec<u32> = out.download_pod().unwrap();
+        &memo::HASH_TEST_PUSH,
+        &raw,
+        12,
+        &pushes,
+    );
+    for (&(capacity, probe), got) in sizes.iter().zip(outs) {
         for (i, k) in keys.iter().enumerate() {
             let g = &got[12 * i..12 * i + 12];
             assert_eq!(g[0], k.h0(), "key {k:?}: H0");

@@ -323,6 +323,56 @@ pub fn world_triangles(s: &Scene) -> Vec<[Vec3; 3]> {
         .collect()
 }
 
+/// Runs a one-key-per-lane test kernel (`shaders/<spirv>.comp`, interface
+/// `interface` with push block `push_block`): binding 0 reads `keys` (four
+/// words a key), binding 1 receives `words` u32 per key, one dispatch of
+/// 64-lane workgroups per push constant block of `pushes`. Returns the outputs, one
+/// `Vec<u32>` per entry of `pushes`.
+pub fn run_key_kernel<P: bytemuck::Pod>(
+    ctx: &Arc<GpuContext>,
+    spirv: &str,
+    interface: &'static stereocache::interface::Interface,
+    push_block: &'static stereocache::interface::PushBlock,
+    keys: &[[u32; 4]],
+    words: usize,
+    pushes: &[P],
+) -> Vec<Vec<u32>> {
+    use stereocache::gpu::{shaders, Buffer, ComputePipeline, Recorder};
+    let n = keys.len() as u32;
+    let key_buf = Buffer::with_data(
+        ctx,
+        "test.keys",
+        bytemuck::cast_slice(keys),
+        Default::default(),
+    )
+    .unwrap();
+    let out = Buffer::storage(ctx, "test.out", (keys.len() * words * 4) as u64).unwrap();
+    let pipe = ComputePipeline::with_interface(
+        ctx,
+        spirv,
+        shaders::spirv(spirv).unwrap_or_else(|| panic!("{spirv} compiled")),
+        &[],
+        interface,
+        Some(push_block),
+        &Default::default(),
+    )
+    .unwrap();
+    pushes
+        .iter()
+        .map(|push| {
+            let mut rec = Recorder::new(ctx, 1).unwrap();
+            rec.compute(spirv, &pipe)
+                .read(&key_buf)
+                .write(&out)
+                .push(push)
+                .dispatch([n.div_ceil(64), 1, 1])
+                .unwrap();
+            rec.finish().unwrap();
+            out.download_pod().unwrap()
+        })
+        .collect()
+}
+
 /// A shipped scene (built-in name or path) with default lighting where it has none.
 pub fn shipped(name: &str) -> Scene {
     let mut s = stereocache::scene::load_scene(name).unwrap();
