@@ -173,6 +173,28 @@ fn project(cam: &StereoCamera, eye: Eye, points: &[Vec3], size: UVec2) -> Vec<Ve
 /// edge, where unjudged pixel centres lie).
 type Coverage = [(usize, usize, usize, f32); 2];
 
+/// [`check_coverage`] of `polys` on every ray backend: renders the first
+/// hits from `cam` at w × h and returns each backend's coverage (printed).
+fn coverage_on_backends(
+    ctx: &std::sync::Arc<stereocache::gpu::GpuContext>,
+    scene: &Scene,
+    cam: StereoCamera,
+    (w, h): (u32, u32),
+    polys: &[Vec<Vec3>],
+    owner: &dyn Fn(&Scene, u32) -> Option<usize>,
+    what: &str,
+) -> Vec<Coverage> {
+    backends(ctx)
+        .into_iter()
+        .map(|rt| {
+            let (f, s) = first_hits(ctx, scene, rt, cam, w, h);
+            let cov = check_coverage(&f, &s, &cam, polys, owner, &format!("{what} {rt:?}"));
+            eprintln!("{what} {rt:?}: (inside, outside, unjudged) per eye {cov:?}");
+            cov
+        })
+        .collect()
+}
+
 /// Checks each eye's first hits against convex world polygons: a pixel
 /// whose centre is inside polygon k by more than [`EDGE_MARGIN`] is hit by
 /// an instance `owner(instance) == k`; one outside every polygon by that
@@ -272,17 +294,16 @@ fn simple_morph_shows_the_triangle_at_its_default_weights() {
         40.0,
         1.0,
     );
-    for rt in backends(&ctx) {
-        let (f, s) = first_hits(&ctx, &scene, rt, cam, w, h);
-        let cov = check_coverage(
-            &f,
-            &s,
-            &cam,
-            std::slice::from_ref(&morphed),
-            &|_, _| Some(0),
-            &format!("SimpleMorph {rt:?}"),
-        );
-        eprintln!("SimpleMorph {rt:?}: (inside, outside, unjudged) per eye {cov:?}");
+    let outline = std::slice::from_ref(&morphed);
+    for cov in coverage_on_backends(
+        &ctx,
+        &scene,
+        cam,
+        (w, h),
+        outline,
+        &|_, _| Some(0),
+        "SimpleMorph",
+    ) {
         for (inside, outside, unjudged, band) in cov {
             // The triangle (area 0.75 m² at 3 m, 96 px over 2.18 m): ~1450
             // pixels; the unmorphed one (area 0.25) would miss 2/3 of them.
@@ -377,17 +398,15 @@ fn mesh_primitive_modes_fill_the_triangle_cells_and_warn_the_rest() {
     let ctx = context();
     let (w, h) = (96, 128);
     let cam = look_at_camera(Vec3::new(0.0, 0.0, 12.0), Vec3::ZERO, 45.0, 0.75);
-    for rt in backends(&ctx) {
-        let (f, s) = first_hits(&ctx, &scene, rt, cam, w, h);
-        let cov = check_coverage(
-            &f,
-            &s,
-            &cam,
-            &polys,
-            &owner,
-            &format!("MeshPrimitiveModes {rt:?}"),
-        );
-        eprintln!("MeshPrimitiveModes {rt:?}: (inside, outside, unjudged) per eye {cov:?}");
+    for cov in coverage_on_backends(
+        &ctx,
+        &scene,
+        cam,
+        (w, h),
+        &polys,
+        &owner,
+        "MeshPrimitiveModes",
+    ) {
         for (inside, outside, unjudged, band) in cov {
             // Three hexagons of 2.6 m² at 12 m (128 px over 9.94 m): ~1300 px.
             assert!(inside > 1000 && outside > 8000, "{cov:?}");
