@@ -429,3 +429,100 @@ fn every_shipped_experiment_file_parses_at_both_scales() {
         }
     }
 }
+
+/// `bench tradeoff` is a thin front-end over the same runner: its 22
+/// configurations come out in the sweep's order, tradeoff.csv is the run's
+/// summary.csv, and the configurations that are also plain methods
+/// (deterministic ones: naive, taa, isrt) record exactly the tables a direct
+/// `compare` of the same settings records (timings aside).
+#[test]
+fn bench_tradeoff_records_through_the_compare_runner() {
+    let root = std::env::temp_dir().join(format!("stereocache-tradeoff-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&root);
+    let refs = root.join("refs");
+    let common = |c: &mut Command| {
+        c.args(["--scene", "cornell", "--rt", "software", "--frames", "2"])
+            .args(["--size", "16x12", "--reference-spp", "4"])
+            .arg("--trace")
+            .arg(trace())
+            .arg("--reference-cache")
+            .arg(&refs);
+    };
+    let t = root.join("tradeoff");
+    let mut c = bin();
+    c.args(["bench", "tradeoff"]).arg("--out").arg(&t);
+    common(&mut c);
+    let stdout = run(&mut c, "bench tradeoff");
+    assert!(stdout.contains("sc-N12 / naive:"), "{stdout}");
+    let d = root.join("compare");
+    let mut c = bin();
+    c.args(["compare", "--methods", "naive,taa,isrt", "--every", "0"])
+        .arg("--out")
+        .arg(&d);
+    common(&mut c);
+    run(&mut c, "compare");
+
+    let expected: Vec<&str> = vec![
+        "sc-N4",
+        "sc-N8",
+        "sc-N12",
+        "sc-N16",
+        "sc-ntarget2",
+        "sc-ntarget6",
+        "sc-retrace-single",
+        "sc-retrace-multi",
+        "sc-adaptive-shading0.25",
+        "sc-adaptive-shading0.5",
+        "sc-adaptive-shading1",
+        "sc-two-pass",
+        "hash-2e16-dist",
+        "hash-2e20-dist",
+        "hash-2e20-distnormal",
+        "hybrid",
+        "taa",
+        "isrt",
+        "naive",
+        "supersample-2spp",
+        "supersample-4spp",
+        "supersample-8spp",
+    ];
+    assert_eq!(labels(&t), expected, "tradeoff configurations");
+    assert_eq!(
+        std::fs::read(t.join("tradeoff.csv")).unwrap(),
+        std::fs::read(t.join("summary.csv")).unwrap(),
+        "tradeoff.csv is the run's summary.csv"
+    );
+    assert!(t.join("report.html").is_file());
+
+    let (mut tt, mut tc) = (tables(&t), tables(&d));
+    // The reference's own estimate is the same; what it is set against (the
+    // best configuration of the run) differs with the configurations run.
+    for v in [&mut tt, &mut tc] {
+        let r = v["reference"].as_object_mut().unwrap();
+        for k in [
+            "best_method",
+            "best_method_rse",
+            "ratio_to_best",
+            "suggested_spp",
+            "warning",
+        ] {
+            r.remove(k);
+        }
+    }
+    for k in ["reference", "baseline", "flip", "masks", "scene", "size"] {
+        assert_eq!(tt[k], tc[k], "{k}");
+    }
+    let row = |v: &serde_json::Value, label: &str| {
+        v["rows"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|r| r["method"] == label)
+            .unwrap_or_else(|| panic!("no row {label}"))
+            .clone()
+    };
+    for label in ["naive", "taa", "isrt"] {
+        assert_eq!(row(&tt, label), row(&tc, label), "row {label}");
+    }
+    let _ = std::fs::remove_dir_all(&root);
+}

@@ -154,7 +154,7 @@ fn words(key: &str, v: &toml::Value) -> Result<Vec<String>, String> {
 }
 
 /// Parses compare's command line `argv`; clap's message cut to its first line.
-fn parse(argv: &[String]) -> Result<CompareArgs, String> {
+pub(crate) fn parse(argv: &[String]) -> Result<CompareArgs, String> {
     Line::try_parse_from(argv).map(|l| l.compare).map_err(|e| {
         let text = e.to_string();
         let line = text.lines().next().unwrap_or("").trim();
