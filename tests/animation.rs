@@ -337,3 +337,69 @@ fn malformed_animation_files_are_one_line_errors_naming_animation_and_channel() 
     );
     expect_error("anim_nan_key.gltf", &[at, "not finite"]);
 }
+
+/// `spin:NODE:SCENE`: the named node's instances turn about the world
+/// vertical through their node origin, one turn in 4 s (8 LINEAR keys, so a
+/// key time is an exact quaternion); every other instance keeps its rest
+/// transform bit for bit, and t = 0 is the static scene.
+#[test]
+fn spin_turns_the_named_instances_about_the_vertical_through_their_origin() {
+    use stereocache::scene::load_scene;
+    let rest = load_scene("cornell").unwrap();
+    let s = load_scene("spin:glass sphere:cornell").unwrap();
+    assert!(s.is_animated());
+    let moves = s.instance_moves();
+    let picked: Vec<usize> = (0..rest.instances.len())
+        .filter(|&i| rest.instances[i].name == "glass sphere")
+        .collect();
+    assert_eq!(picked.len(), 1);
+    for (i, m) in moves.iter().enumerate() {
+        assert_eq!(*m, picked.contains(&i), "instance {i} moves: {m}");
+    }
+    let at0 = s.instance_transforms_at(0.0);
+    // A quarter turn (key 2 of 8) and three eighths (key 3): exact keys.
+    for (t, deg) in [(1.0f32, 90.0f32), (1.5, 135.0), (4.0, 0.0)] {
+        let at = s.instance_transforms_at(t);
+        for i in 0..rest.instances.len() {
+            let r = rest.instances[i].transform;
+            if picked.contains(&i) {
+                // Node origin stays; the object turns about +Y through it.
+                let o = r.w_axis.truncate();
+                let expect = Mat4::from_translation(o)
+                    * Mat4::from_rotation_y(deg.to_radians())
+                    * Mat4::from_translation(-o)
+                    * r;
+                for c in 0..4 {
+                    close(at[i].col(c), expect.col(c), &format!("t = {t}, column {c}"));
+                }
+                for c in 0..4 {
+                    close(at0[i].col(c), r.col(c), "rest pose");
+                }
+            } else {
+                assert_eq!(at[i], r, "instance {i} (static) at t = {t}");
+            }
+        }
+    }
+    // Errors name the spec and the problem, on one line.
+    for (spec, phrase) in [
+        (
+            "spin:no such node:cornell",
+            "no instance of a node named 'no such node'",
+        ),
+        ("spin:cone:cornell-moving", "animations of its own"),
+        ("spin:cornell", "expected spin:NODE:SCENE"),
+    ] {
+        let e = match load_scene(spec) {
+            Ok(_) => panic!("{spec}: loaded, expected an error"),
+            Err(e) => e.to_string(),
+        };
+        assert!(e.contains(spec) && e.contains(phrase), "{spec}: {e}");
+        assert!(!e.contains('\n'), "{spec}: {e}");
+    }
+    // The unknown-node error lists the scene's node names.
+    let e = load_scene("spin:x:cornell").err().unwrap().to_string();
+    assert!(
+        e.contains("glass sphere") && e.contains("metal sphere"),
+        "{e}"
+    );
+}

@@ -23,7 +23,25 @@ fn is_gltf(p: &Path) -> bool {
 /// library material graph picked at random with SEED (default 1), e.g.
 /// `procedural:../shared/scenes/sponza` (issue 17's procedural Sponza;
 /// `materials::library::assign_random`).
+///
+/// `spin:NODE:SPEC` loads the static scene SPEC and makes the instances of
+/// its glTF node NODE turn about the vertical through their node origin
+/// (one turn in 4 s; `generate::animated::spin_named_instances`), e.g.
+/// `spin:VaseRound.006:../shared/scenes/sponza`, Sponza with one animated instance.
 pub fn load_scene(spec: &str) -> Result<Scene, SceneError> {
+    if let Some(rest) = spec.strip_prefix("spin:") {
+        let (node, inner) = rest.split_once(':').ok_or_else(|| {
+            SceneError::invalid(
+                Path::new(spec),
+                "expected spin:NODE:SCENE (a glTF node name, then a scene)",
+            )
+        })?;
+        let mut scene = load_scene(inner)?;
+        super::generate::animated::spin_named_instances(&mut scene, node)
+            .map_err(|why| SceneError::invalid(Path::new(spec), why))?;
+        scene.validate()?;
+        return Ok(scene);
+    }
     if let Some(rest) = spec.strip_prefix("procedural:") {
         let (seed, inner) = match rest.split_once(':') {
             Some((n, inner)) if !n.is_empty() && n.bytes().all(|b| b.is_ascii_digit()) => (

@@ -5,6 +5,10 @@
 //!   (Fig. 19: "the rotating cone stays too bright where its surface turns
 //!   away from the sun" — here from the ceiling light), 4 s loop.
 //! - `hairball-rotating`: the hairball turning once about the vertical in 8 s.
+//! - `spin:NODE:SCENE` ([`spin_named_instances`]): any static scene with the
+//!   instances of one named glTF node turning about the vertical through
+//!   their node origin, e.g. Sponza with one animated instance
+//!   (`spin:VaseRound.006:../shared/scenes/sponza`), for the animation benchmarks.
 //!
 //! The animation is ordinary glTF node animation (LINEAR translation and
 //! rotation keys on the moving instance's node), so `scene generate` writes
@@ -170,6 +174,66 @@ pub fn cornell_moving() -> Scene {
     // The rest transform is the pose at t = 0 (what a static viewer sees).
     s.instances[node].transform = s.instance_transforms_at(0.0)[node];
     s
+}
+
+/// Loop period of a `spin:NODE:SCENE` turn (s).
+pub const SPIN_PERIOD: f32 = 4.0;
+
+/// Makes the instances of glTF node `node` (every primitive of it) turn once
+/// every [`SPIN_PERIOD`] about the world vertical through their node origin,
+/// starting from their rest pose (t = 0 is the static scene exactly). An
+/// error, naming the scene, when the scene already animates or has no
+/// instance of that name.
+pub fn spin_named_instances(s: &mut Scene, node: &str) -> Result<(), String> {
+    if s.animation.is_some() {
+        return Err(
+            "the scene has animations of its own; spin: adds one only to a static scene".into(),
+        );
+    }
+    let picked: Vec<usize> = (0..s.instances.len())
+        .filter(|&i| s.instances[i].name == node)
+        .collect();
+    if picked.is_empty() {
+        let mut names: Vec<&str> = s.instances.iter().map(|i| i.name.as_str()).collect();
+        names.sort_unstable();
+        names.dedup();
+        let shown = names
+            .iter()
+            .take(12)
+            .copied()
+            .collect::<Vec<_>>()
+            .join(", ");
+        let more = names.len().saturating_sub(12);
+        return Err(format!(
+            "no instance of a node named '{node}'; the scene's nodes: {shown}{}",
+            if more > 0 {
+                format!(" and {more} more")
+            } else {
+                String::new()
+            }
+        ));
+    }
+    let channels = picked
+        .iter()
+        .map(|&i| {
+            let (_, rest, _) = s.instances[i].transform.to_scale_rotation_translation();
+            let (times, values) = turn_keys(Vec3::Y, rest, 8, SPIN_PERIOD);
+            channel(i, TrsPath::Rotation, times, values)
+        })
+        .collect();
+    s.animation = Some(flat_animation(
+        s,
+        vec![Animation {
+            name: format!("spin {node}"),
+            channels,
+        }],
+    ));
+    // The rest transforms become the pose at t = 0 (what a static viewer sees).
+    let posed = s.instance_transforms_at(0.0);
+    for &i in &picked {
+        s.instances[i].transform = posed[i];
+    }
+    Ok(())
 }
 
 /// `hairball-rotating`: the hairball turning about the vertical.
