@@ -225,11 +225,18 @@ impl<'a> ComputePass<'_, 'a> {
             .map(|(_, b, _)| b.raw)
             .collect();
         reads.extend(indirect);
-        let writes: Vec<vk::Buffer> = used
+        let mut writes: Vec<vk::Buffer> = used
             .iter()
             .filter(|(_, _, u)| *u == PassUse::Write)
             .map(|(_, b, _)| b.raw)
             .collect();
+        // A pipeline that writes a persistent set (the scene's memoization
+        // table) writes the buffers that set lists as written.
+        if pipeline.writes_persistent {
+            for s in &shared {
+                writes.extend(s.written.iter().copied());
+            }
+        }
         let fallback_set = match pipeline.push_descriptors {
             true => None,
             false => Some(allocate_pass_set(rec, pipeline)?),

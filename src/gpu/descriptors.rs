@@ -135,6 +135,10 @@ pub struct DescriptorSet {
     pool: vk::DescriptorPool,
     pub raw: vk::DescriptorSet,
     pub layout: Arc<DescriptorLayout>,
+    /// Buffers of this persistent set that shaders write (the scene's
+    /// memoization table): a pass whose pipeline writes the set counts
+    /// them as written for the recorder's barriers. Empty: read-only.
+    pub written: Vec<vk::Buffer>,
 }
 
 impl DescriptorSet {
@@ -258,6 +262,7 @@ impl DescriptorSet {
             pool,
             raw,
             layout: layout.clone(),
+            written: Vec::new(),
         })
     }
 }

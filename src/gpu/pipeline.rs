@@ -35,6 +35,10 @@ pub struct ComputePipeline {
     /// from its SPIR-V (src/gpu/reflect.rs): the pass builder binds and
     /// tracks only the bindings it uses, with the access it really makes.
     pub uses: Vec<PassUse>,
+    /// The shader writes bindings of a persistent set (the scene's
+    /// memoization table, `reflect::persistent_writable`): its passes add
+    /// the set's written buffers to their hazards.
+    pub writes_persistent: bool,
     /// Number of persistent sets before the per-pass set.
     pub shared_sets: u32,
     /// The per-pass set is pushed (VK_KHR_push_descriptor), else allocated
@@ -78,6 +82,7 @@ impl ComputePipeline {
         let used = reflect::reflect(spirv)
             .map_err(|e| GpuError::Unsupported(format!("shader {name}: {e}")))?;
         let uses = reflect::check_interface(name, &used, interface).map_err(GpuError::Interface)?;
+        let writes_persistent = reflect::writes_persistent(&used, interface);
         let push_descriptors = super::descriptors::use_push_descriptors(ctx);
         let mut layouts = shared.to_vec();
         layouts.push(DescriptorLayout::pass_buffers(
@@ -101,6 +106,7 @@ impl ComputePipeline {
             push_size: push.map_or(0, |p| p.size()),
             interface,
             uses,
+            writes_persistent,
             shared_sets: shared.len() as u32,
             push_descriptors,
             _set_layouts: layouts,

@@ -391,6 +391,25 @@ impl PassUse {
     }
 }
 
+/// The persistent bindings a shader may write: the scene set's bindings
+/// that its interface declares `write` (the material-graph memoization
+/// table, src/rt/memo.rs). A pipeline that writes them marks the set's
+/// written buffers for the recorder's hazard tracking (ComputePass).
+pub fn persistent_writable(set: u32, binding: u32) -> bool {
+    let scene = &crate::interface::scene::INTERFACE;
+    set == scene.set
+        && scene
+            .bindings
+            .get(binding as usize)
+            .is_some_and(|b| b.access == crate::interface::Access::Write)
+}
+
+/// Whether the shader writes a binding of a persistent set (one allowed by
+/// [`persistent_writable`]).
+pub fn writes_persistent(used: &ShaderUse, iface: &Interface) -> bool {
+    used.bindings.iter().any(|b| b.set < iface.set && b.writes)
+}
+
 /// The shader `pipeline`'s use against `iface`, whose bindings are set
 /// `iface.set`; the sets before it are persistent (the scene's) and must
 /// not be written (the recorder tracks no hazards on them). Returns the
@@ -405,7 +424,7 @@ pub fn check_interface(
     let mut uses = vec![PassUse::Unused; iface.bindings.len()];
     for b in &used.bindings {
         if b.set < iface.set {
-            if b.writes {
+            if b.writes && !persistent_writable(b.set, b.binding) {
                 return Err(format!(
                     "pipeline {pipeline}: the shader writes binding {} of persistent set {}, which passes only read",
                     b.binding, b.set
