@@ -226,6 +226,24 @@ pub struct FrameRecord {
 }
 
 impl FrameRecord {
+    /// The memoization cache's counters of the frame, as `memo_*` counters.
+    fn add_memo_counters(&mut self, c: &crate::materials::memo::state::MemoCounters) {
+        for (k, v) in [
+            ("memo_hits", c.hits),
+            ("memo_misses", c.misses),
+            ("memo_fills", c.fills),
+            ("memo_evictions", c.evictions),
+            ("memo_lock_failures", c.lock_failures),
+            ("memo_refused", c.refused),
+            ("memo_bypassed", c.bypassed),
+        ] {
+            self.counters.insert(k.to_string(), v as f64);
+        }
+        if let Some(r) = c.hit_rate() {
+            self.counters.insert("memo_hit_rate".to_string(), r);
+        }
+    }
+
     fn new(index: usize, fps: f64, camera: &StereoCamera, stats: &FrameStats) -> Self {
         let mut passes = BTreeMap::new();
         for p in &stats.passes {
@@ -419,6 +437,12 @@ pub fn replay_observed(
     let (mut width, mut height) = (0, 0);
     let animated = session.scene.is_animated();
     let mut pose_ms: Vec<f64> = Vec::new();
+    // A memoized scene's table starts empty for every run (methods compared
+    // one after another must not inherit each other's entries).
+    let memo = session.scene_gpu.memo.as_ref();
+    if let Some(m) = memo {
+        m.reset()?;
+    }
     for (i, camera) in cameras.iter().enumerate() {
         let input = FrameInput {
             index: i as u32,
@@ -427,6 +451,9 @@ pub fn replay_observed(
         };
         let t = |k: usize| k as f64 / opts.fps;
         let posing = session.pose_instances(t(i), i.checked_sub(1).map(t))?;
+        if let Some(m) = memo {
+            m.begin_frame(i as u32)?;
+        }
         let frame = method.render_frame(&input)?;
         let metrics = observer(i, camera, &frame)?;
         (width, height) = (frame.width, frame.height);
@@ -436,6 +463,9 @@ pub fn replay_observed(
         }
 
         let mut record = FrameRecord::new(i, opts.fps, camera, &frame.stats);
+        if let Some(m) = memo {
+            record.add_memo_counters(&m.counters()?);
+        }
         record.metrics = metrics;
         if animated {
             let ms = posing.as_secs_f64() * 1e3;

@@ -485,3 +485,144 @@ fn procedural_scene_spec_assigns_seeded_library_graphs() {
     let e = stereocache::scene::load_scene("procedural:3:nope.gltf").unwrap_err();
     assert!(e.to_string().contains("nope.gltf"), "{e}");
 }
+
+/// Memoization (issue 17; thesis §5.3, non-tiled nearest-neighbour with
+/// texel-centre snapping): with `--memo primary`, a first hit of a material
+/// whose graphs read only the uv gets the graph outputs at the centre of its
+/// texel, (û, v̂)/2^m with m from the hit's ray cone (lod.rs, the CPU twin),
+/// whether its lookup hit or missed; a material whose graph reads the
+/// position or normal is evaluated at the hit, never cached. Checked on the
+/// albedo output (the base colour at each pixel-centre hit, through
+/// material_at with the pixel's cone) against the CPU evaluator at the
+/// snapped uv, on both backends, with the table's counters.
+#[test]
+fn memoized_hits_return_the_graph_at_their_texel_centre() {
+    use stereocache::materials::memo::lod;
+    use stereocache::materials::memo::{MemoHits, MemoSettings};
+    let ctx = context();
+    let d = dir("memo");
+    let path = write_quads(&d);
+    // Material 0's graph made uv-only: its emission reads (u, v, 0) instead
+    // of the normal. Material 1's .mtlx reads the position and the normal.
+    bind(&path, |j| {
+        j["extensions"]["KHR_texture_procedurals"]["procedurals"][0]["nodes"][6]["nodetype"] =
+            "texcoord".into();
+    });
+    let mut scene = stereocache::scene::load_gltf(&path).expect("bound scene loads");
+    assert!(scene.graphs.graphs[0].reads_only_uv(), "edited KHR graph");
+    assert!(
+        !scene.graphs.graphs[1].reads_only_uv(),
+        ".mtlx graph reads P and N"
+    );
+    scene.graphs.memo = MemoSettings {
+        hits: MemoHits::Primary,
+        ..Default::default()
+    };
+    let settings = RenderSettings {
+        width: 40,
+        height: 24,
+        spp: 2,
+        max_bounces: 2,
+        seed: 3,
+        all_features: false,
+        ..Default::default()
+    };
+    let camera = top_camera();
+    let size = glam::UVec2::new(40, 24);
+    for rt in [RtChoice::Software, RtChoice::Query] {
+        if rt == RtChoice::Query && !require(ctx.ray_query_enabled(), "ray queries") {
+            continue;
+        }
+        let s = session(&ctx, scene.clone(), rt);
+        let memo = s
+            .scene_gpu
+            .memo
+            .as_ref()
+            .expect("memo table in the scene set");
+        let f = render(&s, "reference", camera, &settings);
+        let c = memo.counters().unwrap();
+        let (mut snapped_px, mut moved, mut bypassed_px) = (0usize, 0usize, 0usize);
+        for (e, eye) in f.eyes.iter().enumerate() {
+            let view = camera.eyes()[e];
+            let spread = 2.0 * view.tan_half_fov().y / 24.0;
+            for (i, fh) in eye.first_hit.iter().enumerate() {
+                if fh[3] == u32::MAX {
+                    continue;
+                }
+                let (mat, geom) = hit_geom(&s.scene, *fh);
+                let albedo = Vec3::from_slice(&eye.albedo[i][..3]);
+                if mat == 1 {
+                    let want = cpu_slot(&s.scene, 1, Slot::BaseColor, &geom);
+                    assert!(
+                        (albedo - want).abs().max_element() <= TOL,
+                        "{rt:?}: bypassed pixel {i}: {albedo} vs CPU at the hit {want}"
+                    );
+                    bypassed_px += 1;
+                    continue;
+                }
+                // The pixel-centre ray's hit distance: the cone at the hit.
+                let px = glam::Vec2::new((i % 40) as f32 + 0.5, (i / 40) as f32 + 0.5);
+                let dir = view.ray_direction(px, size);
+                let t = -view.position.y / dir.y;
+                // The quad's uv spans 1 m: uv area / world area = 1.
+                let m = lod::level(t * spread, 1.0, 0.0);
+                // Texels whose centre the GPU may have snapped to: the CPU's
+                // uv is rebuilt from 24-bit barycentrics (2^-24 of the quad),
+                // so a hit within that of a texel edge may go either way.
+                let eps = 2.0f32.powi(-20);
+                let mut candidates = Vec::new();
+                for du in [-eps, 0.0, eps] {
+                    for dv in [-eps, 0.0, eps] {
+                        let q = lod::quantise([geom.uv[0] + du, geom.uv[1] + dv], m);
+                        if !candidates.contains(&q) {
+                            candidates.push(q);
+                        }
+                    }
+                }
+                let at = |q: [i32; 2]| {
+                    let g = Geom {
+                        uv: lod::snapped_uv(q, m),
+                        ..geom
+                    };
+                    cpu_slot(&s.scene, 0, Slot::BaseColor, &g)
+                };
+                assert!(
+                    candidates
+                        .iter()
+                        .any(|&q| (albedo - at(q)).abs().max_element() <= TOL),
+                    "{rt:?}: pixel {i} (uv {:?}, level {m}): albedo {albedo}, CPU at the texel centre {}",
+                    geom.uv,
+                    at(candidates[0])
+                );
+                snapped_px += 1;
+                let direct = cpu_slot(&s.scene, 0, Slot::BaseColor, &geom);
+                if (albedo - direct).abs().max_element() > 0.02 {
+                    moved += 1;
+                }
+            }
+        }
+        assert!(
+            snapped_px > 150 && bypassed_px > 150,
+            "{rt:?}: {snapped_px}, {bypassed_px}"
+        );
+        // Not vacuous: snapping to 2^-m texels moves the base colour visibly.
+        assert!(
+            moved > snapped_px / 10,
+            "{rt:?}: {moved} of {snapped_px} moved by snapping"
+        );
+        // Every lookup hit or missed; misses were stored (or raced); the
+        // position-reading material was never looked up.
+        assert!(c.hits > c.misses && c.misses > 0, "{rt:?}: {c:?}");
+        assert_eq!(c.refused, 0, "{rt:?}: {c:?}");
+        assert!(
+            c.fills + c.evictions + c.lock_failures <= c.misses,
+            "{rt:?}: {c:?}"
+        );
+        assert!(
+            c.fills > 0 && c.bypassed as usize >= bypassed_px,
+            "{rt:?}: {c:?}"
+        );
+    }
+    assert_no_validation_messages(&ctx);
+    let _ = std::fs::remove_dir_all(&d);
+}

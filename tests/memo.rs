@@ -402,3 +402,56 @@ fn snapping_error_and_level_bounds() {
     }
     assert_eq!(lod::level(0.0, 1.0, 0.0), lod::MAX_LEVEL);
 }
+
+/// Which graphs the rendering cache may key by texel
+/// (`Graph::reads_only_uv`): a graph that reads only texcoord (terrazzo)
+/// may; one that reads the position (marble's 3D noise), or maps a normal
+/// with normalmap (whose N and T default to the surface's), may not. The
+/// uv-only verdict is checked against the CPU evaluator: the outputs do not
+/// move when the position, normal and tangent do.
+#[test]
+fn only_graphs_of_the_uv_alone_are_memoizable() {
+    use stereocache::materials::{evaluate, library, Geom};
+    let terrazzo = library::embedded("terrazzo.mtlx").unwrap();
+    let marble = library::embedded("marble.mtlx").unwrap();
+    let bricks = library::embedded("bricks.mtlx").unwrap();
+    assert!(terrazzo.reads_only_uv());
+    assert!(!marble.reads_only_uv());
+    assert!(!bricks.reads_only_uv());
+    let at = |g: &stereocache::materials::Graph, p: [f32; 3], n: [f32; 3]| {
+        evaluate(
+            g,
+            &Geom {
+                uv: [0.3, 0.7],
+                position: p,
+                normal: n,
+                tangent: [n[1], n[2], n[0]],
+            },
+        )
+        .iter()
+        .flat_map(|v| v.channels().to_vec())
+        .collect::<Vec<f32>>()
+    };
+    let (p0, p1) = ([0.1, 0.2, 0.3], [4.0, -2.0, 7.5]);
+    let (n0, n1) = ([0.0, 1.0, 0.0], [1.0, 0.0, 0.0]);
+    assert_eq!(
+        at(&terrazzo, p0, n0),
+        at(&terrazzo, p1, n1),
+        "terrazzo depends on P or N"
+    );
+    assert_ne!(
+        at(&marble, p0, n0),
+        at(&marble, p1, n0),
+        "marble should follow P"
+    );
+    for g in library::load_all().unwrap() {
+        if g.reads_only_uv() {
+            assert_eq!(
+                at(&g, p0, n0),
+                at(&g, p1, n1),
+                "{}: reads more than the uv",
+                g.name
+            );
+        }
+    }
+}

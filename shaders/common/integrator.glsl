@@ -97,6 +97,13 @@ vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, float cone_width, inout Rn
     bool specular_prev = true;   // camera rays and delta events see the sun disc directly
     float pdf_prev = 0.0;
     float cone = cone_width;
+#ifdef SC_MATERIAL_MEMO
+    // The memoization cache's cone past the first hit (thesis eqs.
+    // 2.10-2.11: width grown by the spread, the spread by each surface's
+    // roughness); the texture filtering's `cone` stays 0 there.
+    float memo_w = cone_width;
+    float memo_spread = hit && h.t > 0.0 ? cone_width / h.t : 0.0;
+#endif
     for (uint bounce = 0u;; ++bounce) {
         if (!hit) {
             L += beta * environment(d) * env_mis_weight(d, specular_prev, pdf_prev);
@@ -106,7 +113,15 @@ vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, float cone_width, inout Rn
             break;
         }
         Surface s = surface_at(h.instance, h.prim, h.bary, d);
+#ifdef SC_MATERIAL_MEMO
+        if (bounce > 0u) memo_w += memo_spread * h.t;
+        sc_memo_cone = bounce > 0u && cone_width > 0.0 ? memo_w : -1.0;
+#endif
         ShadingMaterial m = material_at(s, d, cone);
+#ifdef SC_MATERIAL_MEMO
+        sc_memo_cone = -1.0;
+        memo_spread += memo_roughness_spread(m.roughness * m.roughness);
+#endif
         // Shading normal facing away from the ray (interpolated or mapped
         // normals at grazing hits: s.ng faces the ray, s.n only shares its
         // hemisphere): wo.z ≤ 0 below would end every path here black, so

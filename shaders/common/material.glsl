@@ -25,7 +25,11 @@ ShadingMaterial material_at(inout Surface s, vec3 ray_dir, float cone_width) {
 #ifdef SC_MATERIAL_GRAPHS
     // Bound graph outputs multiply the factors in place of the textures
     // (whose indices are -1 then); unbound outputs are 1 (binding.rs).
+#ifdef SC_MATERIAL_MEMO
+    ScGraphOutputs go = sc_material_graphs_at(s.material, s.uv, s.p, s.n, s.tangent, cone_width, s.uv_area_ratio);
+#else
     ScGraphOutputs go = sc_material_graphs(s.material, s.uv, s.p, s.n, s.tangent);
+#endif
     m.base *= go.base_color;
     m.metallic *= go.metallic;
     m.roughness *= go.roughness;

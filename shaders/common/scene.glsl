@@ -144,5 +144,8 @@ vec3 offset_ray(vec3 p, vec3 n) {
 // in only for scenes that have them (src/materials/scene_shaders.rs).
 #ifdef SC_MATERIAL_GRAPHS
 #include "materialx/scene_graphs.glsl"
+#ifdef SC_MATERIAL_MEMO
+#include "common/memo.glsl"
+#endif
 #endif
 #endif

@@ -6,6 +6,8 @@ use anyhow::{anyhow, Result};
 use clap::Args;
 use stereocache::camera::HeadPose;
 use stereocache::gpu::GpuOptions;
+use stereocache::materials::memo::table::Eviction;
+use stereocache::materials::memo::{MemoHits, MemoSettings};
 pub use stereocache::methods::MethodArgs;
 use stereocache::methods::{registry, MethodKind};
 use stereocache::replay::MAX_FPS;
@@ -143,11 +145,29 @@ pub struct SceneArgs {
     /// Ray backend.
     #[arg(long, default_value = "auto", value_parser = rt)]
     pub rt: RtChoice,
+    /// Memoize the scene's material-graph outputs in a texture-space cache
+    /// shared by both eyes and every pass (Urbach 2023; non-tiled,
+    /// nearest texel with centre snapping): off, primary, secondary or both hits.
+    #[arg(long, default_value = "off")]
+    pub memo: MemoHits,
+    /// Entries of the memoization table (56 B each).
+    #[arg(long, default_value_t = MemoSettings::default().entries)]
+    pub memo_entries: u32,
+    /// Its linear-probing window.
+    #[arg(long, default_value_t = MemoSettings::default().probe)]
+    pub memo_probe: u32,
+    /// Its eviction policy: random, lrw (least recently written) or lru.
+    #[arg(long, default_value = "lru")]
+    pub memo_eviction: Eviction,
+    /// Levels added to its level of detail (+1: texels half the size).
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    pub memo_bias: f32,
 }
 
 impl SceneArgs {
     /// Loads the scene (warnings printed), then opens the GPU and uploads it.
     pub fn open(&self, gpu: &GpuArgs) -> Result<Session> {
+        let memo = self.memo_settings()?;
         let (mut scene, lit) = Session::load_scene_lit(&self.scene, self.lighting.as_ref())?;
         eprintln!("{}", lit.line());
         if self.animation != AnimationSelection::All {
@@ -160,7 +180,37 @@ impl SceneArgs {
         for w in &scene.warnings {
             eprintln!("warning: {w}");
         }
+        if memo.enabled() && scene.graphs.is_empty() {
+            eprintln!(
+                "warning: {}: --memo {}: the scene has no material graphs; nothing is memoized",
+                self.scene,
+                self.memo_name()
+            );
+        }
+        scene.graphs.memo = memo;
         Ok(Session::new(&gpu.options()?, scene, self.rt)?)
+    }
+
+    fn memo_name(&self) -> &'static str {
+        match self.memo {
+            MemoHits::Off => "off",
+            MemoHits::Primary => "primary",
+            MemoHits::Secondary => "secondary",
+            MemoHits::Both => "both",
+        }
+    }
+
+    /// The memoization settings, checked (one line naming the option).
+    pub fn memo_settings(&self) -> Result<MemoSettings> {
+        let s = MemoSettings {
+            hits: self.memo,
+            entries: self.memo_entries,
+            probe: self.memo_probe,
+            eviction: self.memo_eviction,
+            bias: self.memo_bias,
+        };
+        s.validate().map_err(|e| anyhow!(e))?;
+        Ok(s)
     }
 }
 

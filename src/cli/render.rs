@@ -96,6 +96,12 @@ pub fn run(a: RenderArgs) -> Result<()> {
         "method_memory_bytes": m.memory_bytes(),
         "scene_memory_bytes": session.scene_gpu.bytes,
     });
+    let mut stats = stats;
+    if let Some(memo) = &session.scene_gpu.memo {
+        let c = memo.counters()?;
+        println!("{}", memo_line(&c));
+        stats["memo"] = serde_json::to_value(c)?;
+    }
     output::write_json(&out.join("stats.json"), &stats)?;
     println!(
         "rendered {} ({}x{} per eye, {} spp, {} backend) in {:.1} GPU ms on {}: {}",
@@ -109,4 +115,18 @@ pub fn run(a: RenderArgs) -> Result<()> {
         out.display()
     );
     report_validation(&session.ctx)
+}
+
+/// One line of the memoization cache's counters.
+pub fn memo_line(c: &stereocache::materials::memo::state::MemoCounters) -> String {
+    format!(
+        "memo: {} lookups, hit rate {}, {} fills, {} evictions, {} lock failures, {} refused reads, {} hits not memoizable (graphs read more than the uv)",
+        c.hits + c.misses,
+        c.hit_rate().map_or("-".into(), |r| format!("{:.2} %", 100.0 * r)),
+        c.fills,
+        c.evictions,
+        c.lock_failures,
+        c.refused,
+        c.bypassed
+    )
 }

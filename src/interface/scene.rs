@@ -5,7 +5,7 @@
 //! (buffers, image arrays, the TLAS) are gpu_scene.rs's; this table names
 //! the binding numbers once for both sides.
 
-use super::{read, Interface};
+use super::{read, write, Interface};
 
 /// Specialization constant ids of the scene features (features.glsl `SC_*`).
 pub mod spec_id {
@@ -44,6 +44,12 @@ pub const INTERFACE: Interface = Interface {
         read("emitters"),
         read("env_distribution"),
         read("tlas"),
+        // The material-graph memoization cache (only in the set of a scene
+        // whose graphs are memoized: gpu_scene.rs; shaders/common/memo.glsl).
+        write("memo_keys"),
+        write("memo_stamps"),
+        write("memo_values"),
+        write("memo_state"),
     ],
     push: &[],
     counters: &[],

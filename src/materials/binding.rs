@@ -108,6 +108,9 @@ pub struct SceneGraphs {
     /// Text of each attached `.mtlx` by its path relative to the glTF (the
     /// writer stores them beside the file it writes).
     pub mtlx_texts: Vec<(PathBuf, String)>,
+    /// Whether and how the graphs' outputs are memoized in rendering
+    /// (`--memo …`; off by default). Set by the command line, not the file.
+    pub memo: crate::materials::memo::MemoSettings,
 }
 
 impl SceneGraphs {

@@ -95,6 +95,24 @@ pub struct Graph {
 }
 
 impl Graph {
+    /// Whether the graph's outputs are a function of the uv alone: no node
+    /// reads the position, normal, tangent or bitangent, directly or
+    /// through a default geometric property (heighttonormal differentiates
+    /// its height input in uv, so it reads geometry only if that input
+    /// does; normalmap's N and T inputs are default geometric properties).
+    /// Only such graphs can be memoized by texel (thesis §5.3.2's key).
+    pub fn reads_only_uv(&self) -> bool {
+        self.nodes.iter().all(|n| {
+            !matches!(n.op(), "position" | "normal" | "tangent" | "bitangent")
+                && n.inputs
+                    .iter()
+                    .all(|s| !matches!(s, Source::Geom(g) if *g != GeomProp::Uv))
+        }) && self
+            .outputs
+            .iter()
+            .all(|o| !matches!(&o.source, Source::Geom(g) if *g != GeomProp::Uv))
+    }
+
     pub fn output(&self, name: &str) -> Option<&Output> {
         self.outputs.iter().find(|o| o.name == name)
     }

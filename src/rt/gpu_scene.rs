@@ -33,6 +33,7 @@ pub mod binding {
     pub const EMITTERS: u32 = SCENE.binding("emitters");
     pub const ENV_DISTRIBUTION: u32 = SCENE.binding("env_distribution");
     pub const TLAS: u32 = SCENE.binding("tlas");
+    pub const MEMO_KEYS: u32 = SCENE.binding("memo_keys");
     /// The sampled-image arrays: scene textures and the environment map.
     pub const TEXTURES: u32 = SCENE.binding("textures");
     pub const ENV_MAP: u32 = SCENE.binding("env_map");
@@ -166,6 +167,9 @@ pub struct SceneGpu {
     /// Shaders rebuilt at load with the scene's material graphs
     /// (src/materials/scene_shaders.rs); `None`: the build-time SPIR-V.
     pub shaders: Option<Arc<dyn crate::gpu::shaders::ShaderOverride>>,
+    /// The memoization table of the scene's graphs (`--memo …`), bound in
+    /// set 0 after the TLAS slot; `None`: not memoized (the set as before).
+    pub memo: Option<super::MemoGpu>,
     texture_count: u32,
     /// The two-level structure, kept to rebuild its top level when instances move.
     /// (Behind a lock: methods share the scene through an `Arc`.)
@@ -500,6 +504,18 @@ impl SceneGpu {
             }
         };
 
+        // The memoization table (only for a scene with graphs and --memo on):
+        // its four buffers follow the TLAS slot, which the software backend
+        // then fills with a stand-in.
+        let memo = if scene.graphs.memo.enabled() && !scene.graphs.is_empty() {
+            Some(super::MemoGpu::new(ctx, &scene.graphs.memo)?)
+        } else {
+            None
+        };
+        let tlas_stand_in = match (&memo, backend) {
+            (Some(_), RtBackend::Software) => Some(Buffer::storage(ctx, "tlas.unused", 16)?),
+            _ => None,
+        };
         let mut kinds = vec![BindingKind::StorageBuffer; binding::TEXTURES as usize];
         debug_assert_eq!(kinds.len(), binding::TEXTURES as usize);
         kinds.push(BindingKind::SampledImages(texture_count));
@@ -510,6 +526,12 @@ impl SceneGpu {
         debug_assert_eq!(kinds.len(), binding::TLAS as usize);
         if backend == RtBackend::Query {
             kinds.push(BindingKind::AccelerationStructure);
+        } else if tlas_stand_in.is_some() {
+            kinds.push(BindingKind::StorageBuffer);
+        }
+        if memo.is_some() {
+            debug_assert_eq!(kinds.len(), binding::MEMO_KEYS as usize);
+            kinds.extend([BindingKind::StorageBuffer; 4]);
         }
         let layout = DescriptorLayout::new(ctx, &kinds)?;
         // One Vulkan sampler per distinct setting; slot k reads image
@@ -558,9 +580,22 @@ impl SceneGpu {
         ];
         if let Some(a) = &accel {
             resources.push(Resource::Accel(a.tlas()));
+        } else if let Some(b) = &tlas_stand_in {
+            resources.push(Resource::Buffer(b));
         }
-        let set = DescriptorSet::new(ctx, &layout, &resources)?;
+        if let Some(m) = &memo {
+            for b in [&m.keys, &m.stamps, &m.values, &m.state] {
+                resources.push(Resource::Buffer(b));
+            }
+        }
+        let mut set = DescriptorSet::new(ctx, &layout, &resources)?;
         drop(resources);
+        if let Some(m) = &memo {
+            set.written = [&m.keys, &m.stamps, &m.values, &m.state]
+                .iter()
+                .map(|b| b.raw)
+                .collect();
+        }
         let mut all_textures = textures;
         all_textures.push(env_texture);
         let bytes = ctx.allocated_bytes().saturating_sub(before);
@@ -573,7 +608,12 @@ impl SceneGpu {
             set,
             triangle_count: scene.instanced_triangle_count(),
             bytes,
-            shaders: crate::materials::scene_shaders::for_scene(&scene.graphs, origin),
+            shaders: crate::materials::scene_shaders::for_scene(
+                &scene.graphs,
+                origin,
+                memo.is_some(),
+            ),
+            memo,
             texture_count,
             two_level: Mutex::new(two_level),
             posed: Mutex::new(rest),
@@ -592,7 +632,10 @@ impl SceneGpu {
                 b_verts,
                 b_emitters,
                 b_env_dist,
-            ],
+            ]
+            .into_iter()
+            .chain(tlas_stand_in)
+            .collect(),
             _textures: all_textures,
             _samplers: {
                 samplers.push(env_sampler);

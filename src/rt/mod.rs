@@ -6,11 +6,13 @@
 
 pub mod bvh;
 pub mod gpu_scene;
+pub mod memo;
 pub mod origin;
 pub mod two_level;
 
 pub use bvh::{CpuHit, SoftwareBvh, TRAVERSAL_STACK_SIZE};
 pub use gpu_scene::{BvhLayout, SceneGpu};
+pub use memo::MemoGpu;
 pub use two_level::TwoLevelBvh;
 
 use crate::gpu::GpuContext;

@@ -3,7 +3,13 @@
 //! `table` (keys, the two hashes, probing, eviction: the CPU twin of
 //! shaders/memo/table.glsl and a single-threaded model of the table) and
 //! `lod` (the level of detail from ray cones and texel-centre snapping,
-//! twin of shaders/memo/lod.glsl).
+//! twin of shaders/memo/lod.glsl), `settings` (what `--memo …` asks of the
+//! cache in rendering) and `state` (the per-frame parameters and counters
+//! the rendering shaders share with the host).
 
 pub mod lod;
+pub mod settings;
+pub mod state;
 pub mod table;
+
+pub use settings::{MemoHits, MemoSettings};

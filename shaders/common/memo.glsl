@@ -1,0 +1,87 @@
+// Memoized material-graph outputs in rendering (Urbach 2023, thesis §5-6;
+// issue 17): material_at looks a hit's graph outputs up in one global table
+// keyed by (material, level of detail, texel of the hit's uv), shared by
+// both eyes and every method's passes; a miss evaluates the graphs at the
+// texel centre (nearest-neighbour with texel-centre snapping, the thesis's
+// non-tiled variant) and stores them. Compiled only into the run-time
+// shaders of a scene whose graphs are memoized (-DSC_MATERIAL_MEMO,
+// src/materials/scene_shaders.rs); the table's buffers are then bindings of
+// the scene's set 0 (src/rt/gpu_scene.rs, MemoGpu).
+#ifndef COMMON_MEMO_GLSL
+#define COMMON_MEMO_GLSL
+layout(set = SET_SCENE, binding = B_SCENE_MEMO_KEYS, std430) coherent buffer MemoKeys { uint memo_keys[]; };
+layout(set = SET_SCENE, binding = B_SCENE_MEMO_STAMPS, std430) coherent buffer MemoStamps { uint memo_stamps[]; };
+layout(set = SET_SCENE, binding = B_SCENE_MEMO_VALUES, std430) coherent buffer MemoValues { uvec4 memo_values[]; };
+// Parameters, then this frame's counters: src/materials/memo/state.rs.
+layout(set = SET_SCENE, binding = B_SCENE_MEMO_STATE, std430) coherent buffer MemoState { uint memo_state[]; };
+#include "memo/table.glsl"
+#include "memo/lod.glsl"
+
+const uint MEMO_S_NOW = 0u, MEMO_S_CAPACITY = 1u, MEMO_S_PROBE = 2u, MEMO_S_POLICY = 3u,
+           MEMO_S_FLAGS = 4u, MEMO_S_BIAS = 5u;
+const uint MEMO_C_HITS = 8u, MEMO_C_MISSES = 9u, MEMO_C_FILLS = 10u, MEMO_C_EVICTIONS = 11u,
+           MEMO_C_LOCK_FAILURES = 12u, MEMO_C_REFUSED = 13u, MEMO_C_BYPASSED = 14u;
+
+// The ray-cone width at a secondary hit of path_radiance (thesis eqs.
+// 2.10-2.11, grown along the path); < 0 where the caller has none: then
+// secondary hits are evaluated directly.
+float sc_memo_cone = -1.0;
+
+// The 12 record words: base colour, metallic, roughness, normal, emission, mask.
+void memo_pack(ScGraphOutputs o, out uvec4 r0, out uvec4 r1, out uvec4 r2) {
+    r0 = uvec4(floatBitsToUint(o.base_color), floatBitsToUint(o.metallic));
+    r1 = uvec4(floatBitsToUint(o.roughness), floatBitsToUint(o.normal));
+    r2 = uvec4(floatBitsToUint(o.emission), o.mask);
+}
+// An unbound normal is the hit's own (the generated function's default),
+// never the one stored with another hit.
+ScGraphOutputs memo_unpack(uvec4 r0, uvec4 r1, uvec4 r2, vec3 normal) {
+    ScGraphOutputs o;
+    o.base_color = uintBitsToFloat(r0.xyz);
+    o.metallic = uintBitsToFloat(r0.w);
+    o.roughness = uintBitsToFloat(r1.x);
+    o.normal = uintBitsToFloat(r1.yzw);
+    o.emission = uintBitsToFloat(r2.xyz);
+    o.mask = r2.w;
+    if ((o.mask & 40u) == 0u) o.normal = normal;
+    return o;
+}
+
+// The graph outputs at a hit, through the cache where this kind of hit is
+// memoized (primary: the caller's cone_width > 0; secondary: path_radiance's
+// sc_memo_cone ≥ 0) and the material's graphs read only the uv.
+ScGraphOutputs sc_material_graphs_at(uint material, vec2 uv, vec3 p, vec3 n, vec3 t,
+                                     float cone_width, float uv_area_ratio) {
+    uint flags = memo_state[MEMO_S_FLAGS];
+    bool primary = cone_width > 0.0;
+    bool use = primary ? (flags & 1u) != 0u : ((flags & 2u) != 0u && sc_memo_cone >= 0.0);
+    if (!use) return sc_material_graphs(material, uv, p, n, t);
+    if (!sc_material_memoizable(material)) {
+        atomicAdd(memo_state[MEMO_C_BYPASSED], 1u);
+        return sc_material_graphs(material, uv, p, n, t);
+    }
+    float w = primary ? cone_width : sc_memo_cone;
+    int level = memo_level(w, uv_area_ratio, uintBitsToFloat(memo_state[MEMO_S_BIAS]));
+    ivec2 q = memo_quantise(uv, level);
+    uint h0 = memo_h0(material, level, q), h1 = memo_h1(material, level, q);
+    uint cap = memo_state[MEMO_S_CAPACITY], probe = memo_state[MEMO_S_PROBE];
+    uint policy = memo_state[MEMO_S_POLICY], now = memo_state[MEMO_S_NOW];
+    uvec4 r0, r1, r2;
+    bool torn;
+    if (memo_find(h0, h1, cap, probe, true, policy, now, r0, r1, r2, torn) != MEMO_NONE) {
+        atomicAdd(memo_state[MEMO_C_HITS], 1u);
+        return memo_unpack(r0, r1, r2, n);
+    }
+    atomicAdd(memo_state[MEMO_C_MISSES], 1u);
+    if (torn) atomicAdd(memo_state[MEMO_C_REFUSED], 1u);
+    ScGraphOutputs o = sc_material_graphs(material, memo_snapped_uv(q, level), p, n, t);
+    memo_pack(o, r0, r1, r2);
+    uint res = memo_insert(h0, h1, cap, probe, policy, now, r0, r1, r2);
+    if (res == MEMO_FILLED) atomicAdd(memo_state[MEMO_C_FILLS], 1u);
+    else if (res == MEMO_EVICTED) atomicAdd(memo_state[MEMO_C_EVICTIONS], 1u);
+    else if (res == MEMO_LOCK_FAILED) atomicAdd(memo_state[MEMO_C_LOCK_FAILURES], 1u);
+    // The value returned is the one stored, so a hit and a miss of one
+    // texel shade alike.
+    return memo_unpack(r0, r1, r2, n);
+}
+#endif

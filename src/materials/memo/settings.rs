@@ -1,0 +1,127 @@
+//! What the memoization cache does in rendering (`--memo …`, issue 17):
+//! which hits look graph outputs up, the table's size, its probe window,
+//! the eviction policy and the level-of-detail bias. Off by default: a
+//! scene's graphs are then evaluated at every hit, as before.
+
+use super::table::{Eviction, ENTRY_BYTES};
+
+/// Which hits go through the cache (thesis §6: the error comes almost
+/// entirely from primary hits, the time from all of them).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum MemoHits {
+    #[default]
+    Off,
+    /// First hits only (those shaded with a pixel's ray cone).
+    Primary,
+    /// Hits after the first bounce only.
+    Secondary,
+    Both,
+}
+
+impl MemoHits {
+    /// Bit 0: primary hits, bit 1: secondary hits (the shader's flags).
+    pub fn flags(self) -> u32 {
+        match self {
+            MemoHits::Off => 0,
+            MemoHits::Primary => 1,
+            MemoHits::Secondary => 2,
+            MemoHits::Both => 3,
+        }
+    }
+}
+
+impl std::str::FromStr for MemoHits {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        Ok(match s {
+            "off" => MemoHits::Off,
+            "primary" => MemoHits::Primary,
+            "secondary" => MemoHits::Secondary,
+            "both" => MemoHits::Both,
+            _ => {
+                return Err(format!(
+                    "bad --memo '{s}': expected off, primary, secondary or both"
+                ))
+            }
+        })
+    }
+}
+
+impl std::str::FromStr for Eviction {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        Ok(match s {
+            "random" => Eviction::Random,
+            "lrw" => Eviction::Lrw,
+            "lru" => Eviction::Lru,
+            _ => {
+                return Err(format!(
+                    "bad --memo-eviction '{s}': expected random, lrw or lru"
+                ))
+            }
+        })
+    }
+}
+
+/// The largest table `--memo-entries` accepts (2^24 entries, 0.9 GiB).
+pub const MAX_ENTRIES: u32 = 1 << 24;
+/// The widest probe window `--memo-probe` accepts.
+pub const MAX_PROBE: u32 = 64;
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MemoSettings {
+    pub hits: MemoHits,
+    /// Entries of the table (S of eq. 5.10).
+    pub entries: u32,
+    /// Linear-probing window D (thesis default 8).
+    pub probe: u32,
+    pub eviction: Eviction,
+    /// Added to the level of detail (eq. 5.5's bias; + = finer texels).
+    pub bias: f32,
+}
+
+impl Default for MemoSettings {
+    fn default() -> Self {
+        MemoSettings {
+            hits: MemoHits::Off,
+            entries: 1 << 20,
+            probe: 8,
+            eviction: Eviction::Lru,
+            bias: 0.0,
+        }
+    }
+}
+
+impl MemoSettings {
+    pub fn enabled(&self) -> bool {
+        self.hits != MemoHits::Off
+    }
+
+    /// Bytes of the table's buffers (keys, stamps, records).
+    pub fn table_bytes(&self) -> u64 {
+        self.entries as u64 * ENTRY_BYTES
+    }
+
+    /// One line naming the option at fault.
+    pub fn validate(&self) -> Result<(), String> {
+        if self.probe == 0 || self.probe > MAX_PROBE {
+            return Err(format!(
+                "bad --memo-probe {}: expected 1 to {MAX_PROBE} entries",
+                self.probe
+            ));
+        }
+        if self.entries <= self.probe || self.entries > MAX_ENTRIES {
+            return Err(format!(
+                "bad --memo-entries {}: expected more than --memo-probe ({}) and at most {MAX_ENTRIES}",
+                self.entries, self.probe
+            ));
+        }
+        if !self.bias.is_finite() || self.bias.abs() > 16.0 {
+            return Err(format!(
+                "bad --memo-bias {}: expected a number of levels in [-16, 16]",
+                self.bias
+            ));
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,82 @@
+//! The memoization cache's state word array, shared by the host and every
+//! rendering shader of a scene whose graphs are memoized (descriptor set 0,
+//! `memo_state` in shaders/common/memo.glsl): the frame's parameters, then
+//! the frame's counters, which the shaders count atomically and the host
+//! reads back after each frame.
+
+use super::settings::MemoSettings;
+
+/// Words of parameters before the counters (the shader's `MEMO_S_*`).
+pub const PARAM_WORDS: usize = 8;
+
+/// Per-frame counters (the shader's `MEMO_C_*`, in this order).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+pub struct MemoCounters {
+    /// Lookups that found their texel (record read and validated).
+    pub hits: u64,
+    /// Lookups that did not (the graph was evaluated at the texel centre).
+    pub misses: u64,
+    /// Misses stored into an empty entry.
+    pub fills: u64,
+    /// Misses stored over another key's entry.
+    pub evictions: u64,
+    /// Misses whose store found the entry locked or changed (the value was
+    /// used by that hit only).
+    pub lock_failures: u64,
+    /// Hits refused because the key changed during the read (counted in
+    /// `misses` as well).
+    pub refused: u64,
+    /// Hits of memoized kind whose material's graphs read more than the uv
+    /// (position, normal, tangent): evaluated directly, never cached.
+    pub bypassed: u64,
+}
+
+impl MemoCounters {
+    pub const WORDS: usize = 7;
+
+    pub fn from_words(w: &[u32]) -> MemoCounters {
+        let g = |k: usize| w.get(k).copied().unwrap_or(0) as u64;
+        MemoCounters {
+            hits: g(0),
+            misses: g(1),
+            fills: g(2),
+            evictions: g(3),
+            lock_failures: g(4),
+            refused: g(5),
+            bypassed: g(6),
+        }
+    }
+
+    /// hits / (hits + misses), `None` without lookups.
+    pub fn hit_rate(&self) -> Option<f64> {
+        let n = self.hits + self.misses;
+        (n > 0).then(|| self.hits as f64 / n as f64)
+    }
+
+    pub fn add(&mut self, o: &MemoCounters) {
+        self.hits += o.hits;
+        self.misses += o.misses;
+        self.fills += o.fills;
+        self.evictions += o.evictions;
+        self.lock_failures += o.lock_failures;
+        self.refused += o.refused;
+        self.bypassed += o.bypassed;
+    }
+}
+
+/// The state words at the start of a frame: `now` (the frame counter the
+/// eviction stamps use, from 1), the table's shape and policy, which hits
+/// look up, the level-of-detail bias, and zeroed counters.
+pub fn frame_words(s: &MemoSettings, now: u32) -> Vec<u32> {
+    let mut w = vec![0u32; PARAM_WORDS + MemoCounters::WORDS];
+    w[0] = now;
+    w[1] = s.entries;
+    w[2] = s.probe;
+    w[3] = s.eviction as u32;
+    w[4] = s.hits.flags();
+    w[5] = s.bias.to_bits();
+    w
+}
+
+/// Bytes of the state buffer.
+pub const STATE_BYTES: u64 = ((PARAM_WORDS + MemoCounters::WORDS) * 4) as u64;
