@@ -455,3 +455,77 @@ fn only_graphs_of_the_uv_alone_are_memoizable() {
         }
     }
 }
+
+/// The library in texture space (`library::texture_space`, the
+/// `procedural-uv:` scenes): every graph converts, reads only the uv
+/// afterwards, and computes what the world-space graph computes at the
+/// point (u, v, 0) — the CPU evaluator of both at a grid of points. The
+/// normal: the `normalmap` output of the uv-driven graph (positions
+/// rewritten, output kept) through the surface frame N = (0, 0, 1),
+/// T = (1, 0, 0) is the normalised decoded `normal_tangent`. (The solid's
+/// own normal is not comparable: heighttonormal differentiates in uv, and
+/// a height driven by the position does not change with the uv.)
+#[test]
+fn the_library_in_texture_space_reads_only_the_uv_and_equals_the_solid_at_uv0() {
+    use stereocache::materials::{evaluate, library, Document, Geom, Graph};
+    let mut converted_normals = 0;
+    for (file, text) in library::EMBEDDED {
+        let uv_text = library::texture_space(file, text).unwrap();
+        let world = Graph::build_all(&Document::parse(file, text).unwrap(), &[]).unwrap();
+        let uvg = Graph::build_all(&Document::parse(file, &uv_text).unwrap(), &[]).unwrap();
+        let mapped = Graph::build_all(
+            &Document::parse(file, &text.replace("<position ", "<texcoord ")).unwrap(),
+            &[],
+        )
+        .unwrap();
+        let (w, g, mg) = (&world[0], &uvg[0], &mapped[0]);
+        assert!(
+            g.reads_only_uv(),
+            "{file}: still reads the geometry in texture space"
+        );
+        let out =
+            |g: &Graph, vals: &[stereocache::materials::Value], name: &str| -> Option<Vec<f32>> {
+                let k = g.outputs.iter().position(|o| o.name == name)?;
+                Some(vals[k].channels().to_vec())
+            };
+        for i in 0..7 {
+            for j in 0..7 {
+                let uv = [i as f32 * 0.37 - 0.4, j as f32 * 0.29 + 0.1];
+                let geom = |p: [f32; 3]| Geom {
+                    uv,
+                    position: p,
+                    normal: [0.0, 0.0, 1.0],
+                    tangent: [1.0, 0.0, 0.0],
+                };
+                let vw = evaluate(w, &geom([uv[0], uv[1], 0.0]));
+                // The texture-space graph ignores the position: any will do.
+                let vg = evaluate(g, &geom([5.0, -3.0, 2.0]));
+                for name in ["base_color", "roughness", "metallic", "emission"] {
+                    assert_eq!(
+                        out(w, &vw, name),
+                        out(g, &vg, name),
+                        "{file} {name} at {uv:?}"
+                    );
+                }
+                if let Some(nt) = out(g, &vg, "normal_tangent") {
+                    let vm = evaluate(mg, &geom([5.0, -3.0, 2.0]));
+                    let n = out(mg, &vm, "normal").expect("converted from a normal output");
+                    let v = glam::Vec3::new(nt[0], nt[1], nt[2]) * 2.0 - 1.0;
+                    let want = v.normalize();
+                    let got = glam::Vec3::new(n[0], n[1], n[2]);
+                    assert!(
+                        (got - want).abs().max_element() < 1e-5,
+                        "{file} normal at {uv:?}: {got} vs {want}"
+                    );
+                    if i == 0 && j == 0 {
+                        converted_normals += 1;
+                    }
+                }
+            }
+        }
+    }
+    assert!(
+        converted_normals >= 6,
+        "{converted_normals} normal outputs converted"
+    );
+}

@@ -75,7 +75,8 @@ impl Slot {
             Slot::BaseColor => "base_color",
             Slot::Metallic => "metallic",
             Slot::Roughness => "roughness",
-            Slot::Normal | Slot::NormalTangent => "normal",
+            Slot::Normal => "normal",
+            Slot::NormalTangent => "normal_tangent",
             Slot::Emission => "emission",
         }
     }
@@ -209,6 +210,7 @@ impl SceneGraphs {
             Slot::Metallic,
             Slot::Roughness,
             Slot::Normal,
+            Slot::NormalTangent,
             Slot::Emission,
         ];
         for (k, _) in outputs {
@@ -217,7 +219,7 @@ impl SceneGraphs {
                     g,
                     None,
                     format!(
-                        "`{k}` is not a material input (base_color, metallic, roughness, normal, emission)"
+                        "`{k}` is not a material input (base_color, metallic, roughness, normal, normal_tangent, emission)"
                     ),
                 ));
             }
@@ -241,7 +243,16 @@ impl SceneGraphs {
             return Err(graph_err(
                 g,
                 None,
-                "no output named base_color, metallic, roughness, normal or emission",
+                "no output named base_color, metallic, roughness, normal, normal_tangent or emission",
+            ));
+        }
+        if binds.iter().any(|b| b.slot == Slot::Normal)
+            && binds.iter().any(|b| b.slot == Slot::NormalTangent)
+        {
+            return Err(graph_err(
+                g,
+                None,
+                "both `normal` (world space) and `normal_tangent` are bound; bind one",
             ));
         }
         for b in &binds {

@@ -119,6 +119,59 @@ pub fn pickable() -> impl Iterator<Item = &'static (&'static str, &'static str)>
 /// longer sampled (alpha-masked materials become opaque); alpha mode,
 /// double-sidedness, transmission and ior stay.
 pub fn assign_random(scene: &mut crate::scene::Scene, seed: u64) {
+    assign_random_in(scene, seed, false)
+}
+
+/// A library graph in texture space (the thesis's materials are
+/// procedural textures over the uv; the library's are world-space solids):
+/// every `position` node reads the uv as (u, v, 0) instead, and a `normal`
+/// output made by a final `normalmap` node (with the surface's own N, T, B
+/// and unit scale) becomes a `normal_tangent` output of the node's input,
+/// which material_at maps with the surface's frame as it does a normal
+/// texture. The result reads only the uv unless other nodes read the
+/// geometry (`Graph::reads_only_uv`), so the memoization cache can key it
+/// by texel. A text rewrite, so a scene using it writes and reloads as is.
+pub fn texture_space(file: &str, text: &str) -> Result<String, GraphError> {
+    let doc = Document::parse(file, text)?;
+    let mut out = text.replace("<position ", "<texcoord ");
+    for g in &doc.graphs {
+        let Some(o) = g.outputs.iter().find(|o| o.name == "normal") else {
+            continue;
+        };
+        let Some(nm) = &o.nodename else { continue };
+        let Some(node) = g
+            .nodes
+            .iter()
+            .find(|n| &n.name == nm && n.category == "normalmap")
+        else {
+            continue;
+        };
+        let plain = node.inputs.iter().all(|i| match i.name.as_str() {
+            "in" => i.nodename.is_some(),
+            "scale" => matches!(i.value.as_deref(), Some("1" | "1.0" | "1.0, 1.0")),
+            _ => false,
+        });
+        let input = node
+            .inputs
+            .iter()
+            .find(|i| i.name == "in")
+            .and_then(|i| i.nodename.as_ref());
+        let (true, Some(input)) = (plain, input) else {
+            continue;
+        };
+        let ty = o.ty.as_deref().unwrap_or("vector3");
+        let from = format!(r#"<output name="normal" type="{ty}" nodename="{nm}" />"#);
+        let to = format!(r#"<output name="normal_tangent" type="{ty}" nodename="{input}" />"#);
+        if out.matches(&from).count() == 1 {
+            out = out.replace(&from, &to);
+        }
+    }
+    Ok(out)
+}
+
+/// [`assign_random`], with the graphs in texture space when `texture_space`
+/// ([`texture_space`]; the `procedural-uv:` scenes).
+pub fn assign_random_in(scene: &mut crate::scene::Scene, seed: u64, texture_space: bool) {
     let files: Vec<_> = pickable().collect();
     for mi in 0..scene.materials.len() {
         let mut z = seed.wrapping_add((mi as u64 + 1).wrapping_mul(0x9e37_79b9_7f4a_7c15));
@@ -126,6 +179,13 @@ pub fn assign_random(scene: &mut crate::scene::Scene, seed: u64) {
         z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
         z ^= z >> 31;
         let (file, text) = files[(z % files.len() as u64) as usize];
+        let (path, text) = if texture_space {
+            let t = self::texture_space(file, text)
+                .unwrap_or_else(|e| panic!("library graph {file}: {e}"));
+            (format!("materials/uv/{file}"), t)
+        } else {
+            (format!("materials/{file}"), text.to_string())
+        };
         let mut m = scene.materials[mi].clone();
         m.base_color_texture = None;
         m.metallic_roughness_texture = None;
@@ -133,7 +193,7 @@ pub fn assign_random(scene: &mut crate::scene::Scene, seed: u64) {
         m.emissive_texture = None;
         scene
             .graphs
-            .attach_mtlx(mi as u32, &mut m, &format!("materials/{file}"), text)
+            .attach_mtlx(mi as u32, &mut m, &path, &text)
             .unwrap_or_else(|e| panic!("library graph {file}: {e}"));
         scene.materials[mi] = m;
     }

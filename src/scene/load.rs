@@ -22,7 +22,9 @@ fn is_gltf(p: &Path) -> bool {
 /// `procedural:[SEED:]SPEC` loads SPEC and replaces every material by a
 /// library material graph picked at random with SEED (default 1), e.g.
 /// `procedural:../shared/scenes/sponza` (issue 17's procedural Sponza;
-/// `materials::library::assign_random`).
+/// `materials::library::assign_random`). `procedural-uv:[SEED:]SPEC`
+/// picks the same graphs in texture space (`library::texture_space`: the
+/// uv drives them, so the memoization cache can key them by texel).
 ///
 /// `spin:NODE:SPEC` loads the static scene SPEC and makes the instances of
 /// its glTF node NODE turn about the vertical through their node origin
@@ -42,7 +44,11 @@ pub fn load_scene(spec: &str) -> Result<Scene, SceneError> {
         scene.validate()?;
         return Ok(scene);
     }
-    if let Some(rest) = spec.strip_prefix("procedural:") {
+    let procedural = spec
+        .strip_prefix("procedural:")
+        .map(|r| (r, false))
+        .or_else(|| spec.strip_prefix("procedural-uv:").map(|r| (r, true)));
+    if let Some((rest, texture_space)) = procedural {
         let (seed, inner) = match rest.split_once(':') {
             Some((n, inner)) if !n.is_empty() && n.bytes().all(|b| b.is_ascii_digit()) => (
                 n.parse::<u64>().map_err(|e| {
@@ -53,7 +59,7 @@ pub fn load_scene(spec: &str) -> Result<Scene, SceneError> {
             _ => (1, rest),
         };
         let mut scene = load_scene(inner)?;
-        crate::materials::library::assign_random(&mut scene, seed);
+        crate::materials::library::assign_random_in(&mut scene, seed, texture_space);
         scene.validate()?;
         return Ok(scene);
     }
