@@ -107,7 +107,8 @@ fn used_by(doc: &Value) -> Vec<String> {
                     "POSITION" | "NORMAL" => add("POSITION, NORMAL"),
                     "TANGENT" => add("TANGENT"),
                     "TEXCOORD_0" => add("TEXCOORD_0"),
-                    k if k.starts_with("COLOR_") => add("COLOR_0"),
+                    "COLOR_0" => add("COLOR_0"),
+                    k if k.starts_with("COLOR_") => add("COLOR_1 and further colour sets"),
                     k if k.starts_with("JOINTS_") || k.starts_with("WEIGHTS_") => {
                         add("skins (JOINTS_0, WEIGHTS_0)")
                     }

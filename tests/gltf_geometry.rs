@@ -660,3 +660,110 @@ fn animated_instanced_node_keeps_each_instance_offset() {
     assert!(posed[0].abs_diff_eq(Mat4::from_translation(Vec3::new(0.0, 5.0, 0.0)), 1e-6));
     assert!(posed[1].abs_diff_eq(Mat4::from_translation(Vec3::new(3.0, 5.0, 0.0)), 1e-6));
 }
+
+// ---------------------------------------------------------------- vertex colours
+
+/// COLOR_0 as the glTF specification allows it: float VEC3 (alpha 1), float
+/// VEC4, normalized unsigned byte and short VEC4 (value = i / 255, i / 65535);
+/// a wrong element count is one error naming the attribute; the glTF writer
+/// keeps the colours through a round trip.
+#[test]
+fn color_0_in_every_allowed_encoding_and_through_the_writer() {
+    let pos = [Vec3::ZERO, Vec3::X, Vec3::Y];
+    let want3 = [
+        Vec4::new(0.25, 0.5, 1.0, 1.0),
+        Vec4::new(1.0, 0.0, 0.125, 1.0),
+        Vec4::new(0.0, 0.75, 0.5, 1.0),
+    ];
+    let unorm = |bytes: Vec<u8>, ct: u32, n: usize, b: &mut Builder| -> usize {
+        let view = b.view(&bytes);
+        b.accessors.push(json!({
+            "bufferView": view, "componentType": ct, "normalized": true, "count": n, "type": "VEC4",
+        }));
+        b.accessors.len() - 1
+    };
+    let u8s: [u8; 12] = [0, 51, 102, 255, 255, 0, 17, 128, 34, 68, 136, 0];
+    let u16s: [u16; 12] = [
+        0, 13107, 26214, 65535, 65535, 0, 4369, 32768, 8738, 17476, 34952, 0,
+    ];
+    for (tag, want) in [
+        ("vec3", want3.to_vec()),
+        (
+            "vec4",
+            want3
+                .iter()
+                .map(|c| c.truncate().extend(0.5))
+                .collect::<Vec<_>>(),
+        ),
+        (
+            "u8",
+            u8s.chunks(4)
+                .map(|c| Vec4::new(c[0] as f32, c[1] as f32, c[2] as f32, c[3] as f32) / 255.0)
+                .collect(),
+        ),
+        (
+            "u16",
+            u16s.chunks(4)
+                .map(|c| Vec4::new(c[0] as f32, c[1] as f32, c[2] as f32, c[3] as f32) / 65535.0)
+                .collect(),
+        ),
+    ] {
+        let mut b = Builder::default();
+        let p = b.vec3(&pos);
+        let c = match tag {
+            "vec3" => b.floats(
+                &want
+                    .iter()
+                    .flat_map(|c| c.truncate().to_array())
+                    .collect::<Vec<_>>(),
+                "VEC3",
+            ),
+            "vec4" => b.floats(
+                &want.iter().flat_map(|c| c.to_array()).collect::<Vec<_>>(),
+                "VEC4",
+            ),
+            "u8" => unorm(u8s.to_vec(), 5121, 3, &mut b),
+            _ => unorm(
+                u16s.iter().flat_map(|x| x.to_le_bytes()).collect(),
+                5123,
+                3,
+                &mut b,
+            ),
+        };
+        let root = json!({
+            "meshes": [{"primitives": [{"attributes": {"POSITION": p, "COLOR_0": c}}]}],
+            "nodes": [{"mesh": 0}], "scenes": [{"nodes": [0]}], "scene": 0
+        });
+        let s = b.load(root, &format!("color-{tag}")).unwrap();
+        assert!(
+            s.warnings.iter().all(|w| !w.contains("COLOR")),
+            "{tag}: {:?}",
+            s.warnings
+        );
+        let got = &s.meshes[0].colors;
+        assert_eq!(got.len(), 3, "{tag}");
+        for (g, w) in got.iter().zip(&want) {
+            // Exact for floats; one rounding of i / (2^k − 1) for the integers.
+            assert!((*g - *w).abs().max_element() <= 1e-7, "{tag}: {g} vs {w}");
+        }
+        // Through the writer and back.
+        let d = temp_dir(&format!("color-rt-{tag}"));
+        let path = d.join("rt.gltf");
+        stereocache::scene::write_gltf(&s, &path).unwrap();
+        let back = load_gltf(&path).unwrap();
+        assert_eq!(&back.meshes[0].colors, got, "{tag}: round trip");
+    }
+    // Two colours for three positions.
+    let mut b = Builder::default();
+    let p = b.vec3(&pos);
+    let c = b.floats(&[1.0; 6], "VEC3");
+    let root = json!({
+        "meshes": [{"primitives": [{"attributes": {"POSITION": p, "COLOR_0": c}}]}],
+        "nodes": [{"mesh": 0}], "scenes": [{"nodes": [0]}], "scene": 0
+    });
+    let e = b.load(root, "color-short").unwrap_err();
+    assert!(
+        e.contains("COLOR_0 has 2 elements but POSITION has 3") && !e.contains('\n'),
+        "{e}"
+    );
+}

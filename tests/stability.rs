@@ -425,6 +425,7 @@ fn degenerate_triangles_stay_finite() {
         positions,
         uvs: vec![Vec2::ZERO; n],
         tangents: Vec::new(),
+        colors: Vec::new(),
         indices,
         material: 0,
     };

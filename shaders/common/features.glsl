@@ -35,4 +35,7 @@ layout(constant_id = SPEC_SC_TWO_LEVEL) const bool SC_TWO_LEVEL = false;
 // motion vectors) is compiled in. Off for a static scene, which then renders
 // exactly as without animation support.
 layout(constant_id = SPEC_SC_ANIMATED) const bool SC_ANIMATED = false;
+// A mesh has vertex colours (glTF COLOR_0, src/scene/features.rs
+// `vertex_colors`): they multiply the base colour and its alpha.
+layout(constant_id = SPEC_SC_VERTEX_COLORS) const bool SC_VERTEX_COLORS = true;
 #endif

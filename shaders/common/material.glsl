@@ -14,7 +14,8 @@ float texture_lod(int tex, Surface s, float cone_width, float cos_incidence) {
 ShadingMaterial material_at(inout Surface s, vec3 ray_dir, float cone_width) {
     MaterialGpu g = materials[s.material];
     ShadingMaterial m;
-    m.base = g.base_color.rgb;
+    // glTF: COLOR_0 multiplies the base colour factor (and texture).
+    m.base = g.base_color.rgb * s.color.rgb;
     m.metallic = g.emissive_metallic.w;
     m.roughness = g.params.x;
     m.transmission = SC_TRANSMISSION ? g.params.y : 0.0;

@@ -41,6 +41,8 @@ layout(set = SET_SCENE, binding = B_SCENE_LIGHTS, std430) readonly buffer Lights
 layout(set = SET_SCENE, binding = B_SCENE_PARAMS, std430) readonly buffer Params { SceneParams scene; };
 layout(set = SET_SCENE, binding = B_SCENE_TEXTURES) uniform sampler2D textures[SC_TEXTURE_COUNT];
 layout(set = SET_SCENE, binding = B_SCENE_ENV_MAP) uniform sampler2D env_map;
+// Linear RGBA vertex colours parallel to `vertices` (read only where SC_VERTEX_COLORS).
+layout(set = SET_SCENE, binding = B_SCENE_COLORS, std430) readonly buffer Colors { vec4 colors[]; };
 
 const float PI = 3.14159265358979323846;
 const float INV_PI = 0.31830988618379067154;
@@ -66,12 +68,20 @@ vec2 triangle_uv(uint inst, uint prim, vec2 bary) {
          + w.z * vec2(vertices[vi.z].pos_u.w, vertices[vi.z].normal_v.w);
 }
 
+// The vertex colour (COLOR_0) at barycentrics `bary`; white without.
+vec4 triangle_color(uint inst, uint prim, vec2 bary) {
+    if (!SC_VERTEX_COLORS) return vec4(1.0);
+    uvec3 vi = triangle_indices(inst, prim);
+    vec3 w = vec3(1.0 - bary.x - bary.y, bary.x, bary.y);
+    return w.x * colors[vi.x] + w.y * colors[vi.y] + w.z * colors[vi.z];
+}
+
 // Alpha test used by both ray backends for masked materials.
 bool alpha_passes(uint inst, uint prim, vec2 bary) {
     if (!SC_ALPHA_MASK) return true;
     MaterialGpu m = materials[instance_material(inst)];
     if (m.tex1.y != 1) return true;
-    float a = m.base_color.a;
+    float a = m.base_color.a * triangle_color(inst, prim, bary).a;
     if (SC_TEXTURES && m.tex0.x >= 0) {
         vec2 uv = triangle_uv(inst, prim, bary);
         a *= sample_texture(m.tex0.x, uv, 0.0).a;
@@ -90,6 +100,7 @@ struct Surface {
     float uv_area_ratio; // texture-space area / world area of the triangle (ray-cone LOD)
     vec3 tangent;
     float tangent_sign;
+    vec4 color;    // vertex colour (COLOR_0), white without
 };
 
 Surface surface_at(uint inst, uint prim, vec2 bary, vec3 ray_dir) {
@@ -124,6 +135,7 @@ Surface surface_at(uint inst, uint prim, vec2 bary, vec3 ray_dir) {
     s.tangent_sign = t.w < 0.0 ? -1.0 : 1.0;
     s.ng = gn;
     s.n = n;
+    s.color = SC_VERTEX_COLORS ? w.x * colors[vi.x] + w.y * colors[vi.y] + w.z * colors[vi.z] : vec4(1.0);
     return s;
 }
 

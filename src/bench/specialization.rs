@@ -18,6 +18,7 @@ pub const FEATURE_FLAGS: &[&str] = &[
     "punctual_lights",
     "directional_lights",
     "view_dependent",
+    "vertex_colors",
 ];
 
 /// Whether flag `name` of [`FEATURE_FLAGS`] is on in `f`; with `set`, turns it on.
@@ -31,6 +32,7 @@ fn feature_flag(f: &mut crate::scene::SceneFeatures, name: &str, set: bool) -> b
         "punctual_lights" => &mut f.punctual_lights,
         "directional_lights" => &mut f.directional_lights,
         "view_dependent" => &mut f.view_dependent,
+        "vertex_colors" => &mut f.vertex_colors,
         _ => unreachable!("FEATURE_FLAGS names every flag"),
     };
     if set {

@@ -23,6 +23,7 @@ pub mod spec_id {
     pub const LIGHT_STRATEGY: u32 = 11;
     pub const TWO_LEVEL: u32 = 12;
     pub const ANIMATED: u32 = 13;
+    pub const VERTEX_COLORS: u32 = 14;
 }
 
 pub const INTERFACE: Interface = Interface {
@@ -43,6 +44,9 @@ pub const INTERFACE: Interface = Interface {
         read("env_map"),
         read("emitters"),
         read("env_distribution"),
+        // Linear RGBA per vertex (COLOR_0), parallel to `vertices`; a white
+        // stand-in when no mesh has colours (SC_VERTEX_COLORS off).
+        read("colors"),
         read("tlas"),
         // The material-graph memoization cache (only in the set of a scene
         // whose graphs are memoized: gpu_scene.rs; shaders/common/memo.glsl).
@@ -68,5 +72,6 @@ pub const INTERFACE: Interface = Interface {
         ("SC_LIGHT_STRATEGY", spec_id::LIGHT_STRATEGY),
         ("SC_TWO_LEVEL", spec_id::TWO_LEVEL),
         ("SC_ANIMATED", spec_id::ANIMATED),
+        ("SC_VERTEX_COLORS", spec_id::VERTEX_COLORS),
     ],
 };

@@ -25,6 +25,7 @@ impl RenderSettings {
             (spec_id::PUNCTUAL, x.punctual_lights),
             (spec_id::DIRECTIONAL, x.directional_lights),
             (spec_id::VIEW_DEPENDENT, x.view_dependent),
+            (spec_id::VERTEX_COLORS, x.vertex_colors),
         ] {
             if on {
                 s.flag(id, true);

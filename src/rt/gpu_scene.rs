@@ -32,6 +32,7 @@ pub mod binding {
     use crate::interface::scene::INTERFACE as SCENE;
     pub const EMITTERS: u32 = SCENE.binding("emitters");
     pub const ENV_DISTRIBUTION: u32 = SCENE.binding("env_distribution");
+    pub const COLORS: u32 = SCENE.binding("colors");
     pub const TLAS: u32 = SCENE.binding("tlas");
     pub const MEMO_KEYS: u32 = SCENE.binding("memo_keys");
     /// The sampled-image arrays: scene textures and the environment map.
@@ -417,6 +418,26 @@ impl SceneGpu {
             &env_distribution_buffer(env_dist.as_ref()),
             none,
         )?;
+        // Vertex colours parallel to `vertices` (white for meshes without),
+        // or one white stand-in when no mesh has any (never read then).
+        let colors: Vec<[f32; 4]> = if features.vertex_colors {
+            scene
+                .meshes
+                .iter()
+                .flat_map(|m| {
+                    (0..m.positions.len()).map(|i| {
+                        m.colors
+                            .get(i)
+                            .copied()
+                            .unwrap_or(glam::Vec4::ONE)
+                            .to_array()
+                    })
+                })
+                .collect()
+        } else {
+            vec![[1.0; 4]]
+        };
+        let b_colors = Buffer::with_data(ctx, "scene.colors", bytemuck::cast_slice(&colors), none)?;
 
         // Ray-tracing structure of the backend; the other backend's bindings get 16-byte stand-ins.
         let mut two_level = None;
@@ -523,6 +544,7 @@ impl SceneGpu {
         kinds.push(BindingKind::SampledImages(1));
         kinds.push(BindingKind::StorageBuffer); // binding::EMITTERS
         kinds.push(BindingKind::StorageBuffer); // binding::ENV_DISTRIBUTION
+        kinds.push(BindingKind::StorageBuffer); // binding::COLORS
         debug_assert_eq!(kinds.len(), binding::TLAS as usize);
         if backend == RtBackend::Query {
             kinds.push(BindingKind::AccelerationStructure);
@@ -577,6 +599,7 @@ impl SceneGpu {
             Resource::Images(vec![(&env_texture, &env_sampler)]),
             Resource::Buffer(&b_emitters),
             Resource::Buffer(&b_env_dist),
+            Resource::Buffer(&b_colors),
         ];
         if let Some(a) = &accel {
             resources.push(Resource::Accel(a.tlas()));
@@ -632,6 +655,7 @@ impl SceneGpu {
                 b_verts,
                 b_emitters,
                 b_env_dist,
+                b_colors,
             ]
             .into_iter()
             .chain(tlas_stand_in)
@@ -674,7 +698,8 @@ impl SceneGpu {
                 spec_id::TWO_LEVEL,
                 self.bvh_layout_in_use() == Some(BvhLayout::TwoLevel),
             )
-            .flag(spec_id::ANIMATED, f.animated);
+            .flag(spec_id::ANIMATED, f.animated)
+            .flag(spec_id::VERTEX_COLORS, f.vertex_colors);
         s
     }
 

@@ -2,7 +2,7 @@
 //! texture (`NAME_texN.png`, level 0 only; mips are rebuilt on load).
 //!
 //! Mapping: every `Mesh` becomes a glTF mesh with one primitive (POSITION,
-//! NORMAL, TEXCOORD_0, TANGENT when present, u32 indices); every `Instance` a
+//! NORMAL, TEXCOORD_0, TANGENT and COLOR_0 when present, u32 indices); every `Instance` a
 //! node with that mesh and its matrix; every camera a node with a perspective
 //! camera; punctual lights go through `KHR_lights_punctual`. Emissive values
 //! above 1 are split into `emissiveFactor` ≤ 1 × `KHR_materials_emissive_strength`.
@@ -375,6 +375,10 @@ pub fn write_gltf(scene: &Scene, path: &Path) -> Result<(), SceneError> {
         if !m.tangents.is_empty() {
             let tan: Vec<[f32; 4]> = m.tangents.iter().map(|v| v.to_array()).collect();
             attributes.insert("TANGENT".into(), json!(bw.floats(&tan, "VEC4", false)));
+        }
+        if !m.colors.is_empty() {
+            let col: Vec<[f32; 4]> = m.colors.iter().map(|v| v.to_array()).collect();
+            attributes.insert("COLOR_0".into(), json!(bw.floats(&col, "VEC4", false)));
         }
         let indices = bw.indices(&m.indices);
         meshes.push(json!({

@@ -24,6 +24,9 @@ pub struct SceneFeatures {
     /// the previous-frame instance transforms are read (motion vectors,
     /// appendix D). Off, a static scene compiles the motion code out.
     pub animated: bool,
+    /// A mesh has vertex colours (glTF COLOR_0): they multiply the base
+    /// colour and its alpha. Off, the colour buffer is never read.
+    pub vertex_colors: bool,
 }
 
 impl SceneFeatures {
@@ -48,6 +51,7 @@ impl SceneFeatures {
             sky: matches!(scene.environment, Some(Environment::Sky { .. })),
             constant_environment: matches!(scene.environment, Some(Environment::Constant(_))),
             animated: scene.is_animated(),
+            vertex_colors: scene.meshes.iter().any(|m| !m.colors.is_empty()),
         }
     }
 
@@ -66,6 +70,7 @@ impl SceneFeatures {
             sky: true,
             constant_environment: true,
             animated: true,
+            vertex_colors: true,
         }
     }
 }

@@ -117,8 +117,13 @@ pub const FEATURES: &[Feature] = &[
     ),
     f(
         "COLOR_0",
+        Full,
+        "vertex colours (RGB or RGBA; float, normalized byte or short) multiply the base colour and its alpha",
+    ),
+    f(
+        "COLOR_1 and further colour sets",
         Ignored,
-        "vertex colours are not applied: base colour is the material's alone",
+        "only COLOR_0 multiplies the base colour (as the glTF specification says)",
     ),
     f(
         "skins (JOINTS_0, WEIGHTS_0)",
@@ -438,8 +443,8 @@ pub fn features_used(json: &Value) -> BTreeMap<String, Vec<String>> {
         for p in prims.into_iter().flatten() {
             if let Some(attrs) = p.get("attributes").and_then(Value::as_object) {
                 for key in attrs.keys() {
-                    if key.starts_with("COLOR_") {
-                        add!("COLOR_0", mesh_label.clone());
+                    if key.starts_with("COLOR_") && key != "COLOR_0" {
+                        add!("COLOR_1 and further colour sets", mesh_label.clone());
                     } else if key.starts_with("JOINTS_") || key.starts_with("WEIGHTS_") {
                         add!("skins (JOINTS_0, WEIGHTS_0)", mesh_label.clone());
                     }
@@ -619,7 +624,7 @@ mod tests {
     fn unknown_extensions_and_silent_core_features_are_warned() {
         let doc = json!({
             "extensionsUsed": ["VENDOR_magic"],
-            "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "COLOR_0": 1},
+            "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "COLOR_0": 1, "COLOR_1": 3},
                                         "targets": [{"POSITION": 2}]}]}],
             "materials": [{}],
             "samplers": [{"wrapS": 33071}, {"magFilter": 9729}]
@@ -630,7 +635,11 @@ mod tests {
             has("VENDOR_magic is not supported (used by extensionsUsed)"),
             "{w:?}"
         );
-        assert!(has("COLOR_0 is not supported (used by mesh 0)"), "{w:?}");
+        assert!(!has("COLOR_0"), "{w:?}");
+        assert!(
+            has("COLOR_1 and further colour sets is not supported (used by mesh 0)"),
+            "{w:?}"
+        );
         assert!(!has("morph targets"), "{w:?}");
         assert!(has("single-sided materials"), "{w:?}");
         // Samplers are implemented: no word about them.

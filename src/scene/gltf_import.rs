@@ -1040,6 +1040,28 @@ impl Importer<'_> {
                 vec![Vec2::ZERO; n]
             }
         };
+        // COLOR_0: linear RGB or RGBA (float, or normalized unsigned byte /
+        // short: read_vec normalizes), alpha 1 for VEC3 (glTF §3.7.2.1).
+        let colors: Vec<Vec4> = match prim.get(&gltf::Semantic::Colors(0)) {
+            Some(a) => {
+                let what = format!("COLOR_0 of {label}");
+                let v: Vec<Vec4> = match a.dimensions() {
+                    gltf::accessor::Dimensions::Vec3 => r
+                        .read_vec::<3>(&a, &what)?
+                        .into_iter()
+                        .map(|c| Vec3::from(c).extend(1.0))
+                        .collect(),
+                    _ => r
+                        .read_vec::<4>(&a, &what)?
+                        .into_iter()
+                        .map(Vec4::from)
+                        .collect(),
+                };
+                same_len("COLOR_0", v.len())?;
+                v
+            }
+            None => Vec::new(),
+        };
         let mut tangents: Vec<Vec4> = match prim.get(&gltf::Semantic::Tangents) {
             Some(a) => {
                 let v = r.read_vec::<4>(&a, &format!("TANGENT of {label}"))?;
@@ -1117,6 +1139,7 @@ impl Importer<'_> {
             normals,
             uvs,
             tangents,
+            colors,
             indices,
             material,
         };

@@ -14,6 +14,9 @@ pub struct Mesh {
     pub uvs: Vec<Vec2>,
     /// xyz tangent, w handedness; empty when neither the file nor a normal map needs them.
     pub tangents: Vec<Vec4>,
+    /// Linear RGBA vertex colours (glTF COLOR_0, alpha 1 for a VEC3
+    /// accessor), multiplying the base colour and its alpha; empty: white.
+    pub colors: Vec<Vec4>,
     pub indices: Vec<u32>,
     pub material: u32,
 }

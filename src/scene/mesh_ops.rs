@@ -125,6 +125,9 @@ pub fn generate_tangents(mesh: &mut Mesh) {
                     mesh.positions.push(mesh.positions[v]);
                     mesh.normals.push(mesh.normals[v]);
                     mesh.uvs.push(mesh.uvs[v]);
+                    if !mesh.colors.is_empty() {
+                        mesh.colors.push(mesh.colors[v]);
+                    }
                     tangents.push(t);
                     next
                 });
@@ -164,7 +167,7 @@ pub fn fan_to_triangles(fan: &[u32]) -> Vec<u32> {
 }
 
 /// Removes every triangle that references a vertex with a non-finite attribute
-/// (position, normal, uv or tangent), then drops the vertices no triangle uses
+/// (position, normal, uv, tangent or colour), then drops the vertices no triangle uses
 /// any more, so no NaN or Inf reaches the GPU or the BVH builder.
 /// Returns the number of triangles removed (0 leaves the mesh untouched).
 pub fn drop_non_finite_triangles(mesh: &mut Mesh) -> usize {
@@ -174,6 +177,7 @@ pub fn drop_non_finite_triangles(mesh: &mut Mesh) -> usize {
                 || mesh.normals.get(v).is_some_and(|n| !n.is_finite())
                 || mesh.uvs.get(v).is_some_and(|n| !n.is_finite())
                 || mesh.tangents.get(v).is_some_and(|n| !n.is_finite())
+                || mesh.colors.get(v).is_some_and(|n| !n.is_finite())
         })
         .collect();
     if !bad.iter().any(|&b| b) {
@@ -208,6 +212,7 @@ pub fn drop_non_finite_triangles(mesh: &mut Mesh) -> usize {
     mesh.normals = pick(&mesh.normals, &order);
     mesh.uvs = pick(&mesh.uvs, &order);
     mesh.tangents = pick(&mesh.tangents, &order);
+    mesh.colors = pick(&mesh.colors, &order);
     mesh.indices = kept.iter().map(|&i| remap[i as usize]).collect();
     removed
 }
