@@ -68,12 +68,16 @@ vec2 triangle_uv(uint inst, uint prim, vec2 bary) {
          + w.z * vec2(vertices[vi.z].pos_u.w, vertices[vi.z].normal_v.w);
 }
 
+// Vertex v's colour: white past the buffer (a scene without colours binds
+// one white stand-in, which the all-features build reads too).
+vec4 vertex_color(uint v) { return v < uint(colors.length()) ? colors[v] : vec4(1.0); }
+
 // The vertex colour (COLOR_0) at barycentrics `bary`; white without.
 vec4 triangle_color(uint inst, uint prim, vec2 bary) {
     if (!SC_VERTEX_COLORS) return vec4(1.0);
     uvec3 vi = triangle_indices(inst, prim);
     vec3 w = vec3(1.0 - bary.x - bary.y, bary.x, bary.y);
-    return w.x * colors[vi.x] + w.y * colors[vi.y] + w.z * colors[vi.z];
+    return w.x * vertex_color(vi.x) + w.y * vertex_color(vi.y) + w.z * vertex_color(vi.z);
 }
 
 // Alpha test used by both ray backends for masked materials.
@@ -135,7 +139,7 @@ Surface surface_at(uint inst, uint prim, vec2 bary, vec3 ray_dir) {
     s.tangent_sign = t.w < 0.0 ? -1.0 : 1.0;
     s.ng = gn;
     s.n = n;
-    s.color = SC_VERTEX_COLORS ? w.x * colors[vi.x] + w.y * colors[vi.y] + w.z * colors[vi.z] : vec4(1.0);
+    s.color = SC_VERTEX_COLORS ? w.x * vertex_color(vi.x) + w.y * vertex_color(vi.y) + w.z * vertex_color(vi.z) : vec4(1.0);
     return s;
 }
 

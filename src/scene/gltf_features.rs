@@ -635,7 +635,7 @@ mod tests {
             has("VENDOR_magic is not supported (used by extensionsUsed)"),
             "{w:?}"
         );
-        assert!(!has("COLOR_0"), "{w:?}");
+        assert!(!has("COLOR_0 is not supported"), "{w:?}");
         assert!(
             has("COLOR_1 and further colour sets is not supported (used by mesh 0)"),
             "{w:?}"
