@@ -682,3 +682,96 @@ fn render_poses_an_animated_scene_at_the_given_time() {
     ]);
     assert!(e.contains("bad --time"), "{e}");
 }
+
+/// `bench materials` (issue 17): bad sizes and a scene without graphs are
+/// one error line before any rendering; a tiny sweep writes one CSV row per
+/// configuration whose counters are consistent: "off" looks nothing up,
+/// every memoized run does; hit rates lie in [0, 1]; fills and evictions
+/// never exceed the lookups; a 64-entry table must evict (a 16×12 view of
+/// the procedural Cornell box touches more texels than that), the 2^20
+/// default never does.
+#[test]
+fn bench_materials_checks_input_and_sweeps_the_table() {
+    for (args, phrase) in [
+        (vec!["--sizes", "4"], "bad --sizes"),
+        (vec!["--frames", "0"], "bad --frames"),
+        (vec!["--scene", "cornell"], "no material graphs"),
+    ] {
+        let mut a = vec!["bench", "materials", "--rt", "software"];
+        a.extend(args.iter().copied());
+        let line = fails(&a);
+        assert!(line.contains(phrase), "{a:?}: '{line}' lacks '{phrase}'");
+    }
+    let out = out_dir("bench-materials");
+    std::fs::create_dir_all(&out).unwrap();
+    let csv = out.join("memo.csv");
+    let o = cli(1200)
+        .args([
+            "bench",
+            "materials",
+            "--scene",
+            "procedural-uv:cornell",
+            "--rt",
+            "software",
+        ])
+        .args([
+            "--frames",
+            "3",
+            "--size",
+            "16x12",
+            "--sizes",
+            "64,4096",
+            "--repeats",
+            "1",
+        ])
+        .arg("--out")
+        .arg(&csv)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    let labels: Vec<&str> = rows.iter().map(|r| r[0]).collect();
+    assert_eq!(
+        labels,
+        [
+            "off",
+            "primary",
+            "secondary",
+            "both",
+            "both S=64",
+            "both S=4096",
+            "both S=64 random",
+            "both S=64 lrw"
+        ]
+    );
+    let f = |r: &[&str], name: &str| -> f64 { r[col(name)].parse().unwrap() };
+    for r in &rows {
+        let lookups = f(r, "lookups_per_frame");
+        let hr = f(r, "hit_rate");
+        assert!((0.0..=1.0).contains(&hr), "{r:?}");
+        if r[0] == "off" {
+            assert_eq!(lookups, 0.0, "{r:?}");
+            assert_eq!(f(r, "ratio_to_off"), 1.0, "{r:?}");
+        } else {
+            assert!(lookups > 0.0 && hr > 0.0, "{r:?}");
+        }
+        assert!(
+            f(r, "fills_per_frame") + f(r, "evictions_per_frame") <= lookups,
+            "{r:?}"
+        );
+        assert!(f(r, "frame_ms") > 0.0, "{r:?}");
+    }
+    let row = |l: &str| rows.iter().find(|r| r[0] == l).unwrap();
+    assert!(f(row("both S=64"), "evictions_per_frame") > 0.0);
+    assert_eq!(f(row("both"), "evictions_per_frame"), 0.0);
+    let _ = std::fs::remove_dir_all(&out);
+}

@@ -7,6 +7,7 @@
 
 pub mod interleave;
 pub mod lights;
+pub mod materials;
 pub mod rays;
 pub mod sample_cache;
 pub mod scaling;
@@ -15,6 +16,7 @@ pub mod tradeoff;
 
 pub use interleave::{paired_ratio, run_interleaved};
 pub use lights::{bench_lights, light_table, LightBenchRow};
+pub use materials::{bench_materials, memo_configs, memo_csv, memo_table, MemoBenchRow};
 pub use rays::{bench_rays, RayBench};
 pub use sample_cache::{bench_sample_cache, CacheBenchRow, ScatterBaselines};
 pub use scaling::{fit_slope, steady_frame_ms};

@@ -2,6 +2,7 @@
 //! file per benchmark; the measuring code is in the library's `bench` module.
 
 mod lights;
+mod materials;
 mod rays;
 mod sample_cache;
 mod scaling;
@@ -31,6 +32,10 @@ pub enum BenchCommand {
     Lights(lights::BenchLightsArgs),
     /// Primary and diffuse-bounce rays per second for each ray backend.
     Rays(rays::RaysArgs),
+    /// Issue 17: the material-graph memoization cache off and on (primary,
+    /// secondary, both hits), a table-size sweep and the eviction policies:
+    /// frame-time ratios, hit rates, fills and evictions per frame.
+    Materials(materials::BenchMaterialsArgs),
 }
 
 pub fn run(which: BenchCommand) -> Result<()> {
@@ -41,5 +46,6 @@ pub fn run(which: BenchCommand) -> Result<()> {
         BenchCommand::Specialization(a) => specialization::run(a),
         BenchCommand::Lights(a) => lights::run(a),
         BenchCommand::Rays(a) => rays::run(a),
+        BenchCommand::Materials(a) => materials::run(a),
     }
 }

@@ -1,0 +1,243 @@
+//! `bench materials` (issue 17): the material-graph memoization cache in
+//! rendering, measured as the thesis measures it (Urbach 2023, §6): frame
+//! time with and without the cache, which hits use it (primary, secondary,
+//! both), a table-size sweep (Table 6.3's analogue) and the eviction
+//! policies (Table 6.2's analogue), with per-frame hit rates, fills,
+//! evictions and lock failures. Every configuration renders the same
+//! cameras from an empty table on its own upload of the scene (the table
+//! belongs to the scene's set 0); the configurations alternate in rotating
+//! order over `repeats` rounds, and each round's frame times are paired
+//! with the same round's "off" run for the ratio.
+
+use super::interleave::paired_ratio;
+use crate::camera::StereoCamera;
+use crate::error::Result;
+use crate::gpu::GpuContext;
+use crate::materials::memo::state::MemoCounters;
+use crate::materials::memo::table::{Eviction, ENTRY_BYTES};
+use crate::materials::memo::{MemoHits, MemoSettings};
+use crate::methods::{FrameInput, MethodConfig, RenderSettings};
+use crate::rt::RtChoice;
+use crate::scene::Scene;
+use crate::session::Session;
+use std::sync::Arc;
+
+/// The configurations: off; primary, secondary and both with the default
+/// table; both at each of `sizes` entries (LRU); each eviction policy at the
+/// smallest size (where eviction happens).
+pub fn memo_configs(sizes: &[u32]) -> Vec<(String, MemoSettings)> {
+    let d = MemoSettings::default();
+    let mut v = vec![("off".to_string(), d)];
+    for (name, hits) in [
+        ("primary", MemoHits::Primary),
+        ("secondary", MemoHits::Secondary),
+        ("both", MemoHits::Both),
+    ] {
+        v.push((name.into(), MemoSettings { hits, ..d }));
+    }
+    for &entries in sizes {
+        if entries != d.entries {
+            v.push((
+                format!("both S={entries}"),
+                MemoSettings {
+                    hits: MemoHits::Both,
+                    entries,
+                    ..d
+                },
+            ));
+        }
+    }
+    if let Some(&small) = sizes.iter().min() {
+        for (name, eviction) in [("random", Eviction::Random), ("lrw", Eviction::Lrw)] {
+            v.push((
+                format!("both S={small} {name}"),
+                MemoSettings {
+                    hits: MemoHits::Both,
+                    entries: small,
+                    eviction,
+                    ..d
+                },
+            ));
+        }
+    }
+    v
+}
+
+/// One configuration's figures, over the steady frames (frame 0 is the
+/// warm-up: pipeline creation and the first fills) of every round.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct MemoBenchRow {
+    pub label: String,
+    pub hits: String,
+    pub entries: u32,
+    pub eviction: String,
+    pub table_bytes: u64,
+    pub frame_ms: f64,
+    /// Frame time over the "off" run's, paired per frame and round.
+    pub ratio_to_off: f64,
+    pub ratio_se: f64,
+    /// hits / lookups over the steady frames, and in the last frame.
+    pub hit_rate: f64,
+    pub last_hit_rate: f64,
+    pub lookups_per_frame: f64,
+    pub fills_per_frame: f64,
+    pub evictions_per_frame: f64,
+    pub lock_failures_per_frame: f64,
+    pub bypassed_per_frame: f64,
+}
+
+/// Renders `cameras` with `method` once per configuration and round.
+#[allow(clippy::too_many_arguments)]
+pub fn bench_materials(
+    ctx: &Arc<GpuContext>,
+    scene: &Scene,
+    rt: RtChoice,
+    method: &MethodConfig,
+    settings: &RenderSettings,
+    cameras: &[StereoCamera],
+    configs: &[(String, MemoSettings)],
+    repeats: usize,
+) -> Result<Vec<MemoBenchRow>> {
+    // [config][round] -> per-frame (ms, counters)
+    let mut runs: Vec<Vec<Vec<(f64, MemoCounters)>>> = vec![Vec::new(); configs.len()];
+    for round in 0..repeats.max(1) {
+        for k in 0..configs.len() {
+            let c = (k + round) % configs.len();
+            let mut s = scene.clone();
+            s.graphs.memo = configs[c].1;
+            let session = Session::with_context(ctx.clone(), s, rt)?;
+            let mut m = method.create(&session, settings)?;
+            let memo = session.scene_gpu.memo.as_ref();
+            let mut frames = Vec::with_capacity(cameras.len());
+            for (i, cam) in cameras.iter().enumerate() {
+                if let Some(t) = memo {
+                    t.begin_frame(i as u32)?;
+                }
+                let input = FrameInput {
+                    index: i as u32,
+                    camera: *cam,
+                    prev_camera: i.checked_sub(1).map(|p| cameras[p]),
+                };
+                let f = m.render_frame(&input)?;
+                let counters = match memo {
+                    Some(t) => t.counters()?,
+                    None => MemoCounters::default(),
+                };
+                frames.push((f.stats.gpu_ms(), counters));
+            }
+            runs[c].push(frames);
+        }
+    }
+    let steady_ms = |r: &Vec<Vec<(f64, MemoCounters)>>| -> Vec<f64> {
+        r.iter()
+            .flat_map(|f| f.iter().skip(1).map(|x| x.0))
+            .collect()
+    };
+    let off = steady_ms(&runs[0]);
+    Ok(configs
+        .iter()
+        .zip(&runs)
+        .map(|((label, s), r)| {
+            let ms = steady_ms(r);
+            let (ratio, se) = paired_ratio(&ms, &off);
+            let mut total = MemoCounters::default();
+            let mut n = 0usize;
+            for f in r.iter().flat_map(|f| f.iter().skip(1)) {
+                total.add(&f.1);
+                n += 1;
+            }
+            let per = |x: u64| x as f64 / n.max(1) as f64;
+            let last = r
+                .last()
+                .and_then(|f| f.last())
+                .map(|x| x.1)
+                .unwrap_or_default();
+            MemoBenchRow {
+                label: label.clone(),
+                hits: format!("{:?}", s.hits).to_lowercase(),
+                entries: s.entries,
+                eviction: format!("{:?}", s.eviction).to_lowercase(),
+                table_bytes: if s.enabled() {
+                    s.entries as u64 * ENTRY_BYTES
+                } else {
+                    0
+                },
+                frame_ms: ms.iter().sum::<f64>() / ms.len().max(1) as f64,
+                ratio_to_off: ratio,
+                ratio_se: se,
+                hit_rate: total.hit_rate().unwrap_or(0.0),
+                last_hit_rate: last.hit_rate().unwrap_or(0.0),
+                lookups_per_frame: per(total.hits + total.misses),
+                fills_per_frame: per(total.fills),
+                evictions_per_frame: per(total.evictions),
+                lock_failures_per_frame: per(total.lock_failures),
+                bypassed_per_frame: per(total.bypassed),
+            }
+        })
+        .collect())
+}
+
+/// The table `bench materials` prints.
+pub fn memo_table(rows: &[MemoBenchRow]) -> String {
+    let mut s = format!(
+        "{:<24} {:>9} {:>10} {:>10} {:>13} {:>9} {:>9} {:>10} {:>9} {:>10} {:>9} {:>9}\n",
+        "configuration",
+        "hits",
+        "entries",
+        "eviction",
+        "table MiB",
+        "frame ms",
+        "ratio",
+        "± se",
+        "hit rate",
+        "last frame",
+        "fills/fr",
+        "evict/fr"
+    );
+    for r in rows {
+        s.push_str(&format!(
+            "{:<24} {:>9} {:>10} {:>10} {:>13.1} {:>9.2} {:>9.3} {:>10.3} {:>9.4} {:>10.4} {:>9.0} {:>9.0}\n",
+            r.label,
+            r.hits,
+            r.entries,
+            r.eviction,
+            r.table_bytes as f64 / (1u64 << 20) as f64,
+            r.frame_ms,
+            r.ratio_to_off,
+            r.ratio_se,
+            r.hit_rate,
+            r.last_hit_rate,
+            r.fills_per_frame,
+            r.evictions_per_frame
+        ));
+    }
+    s
+}
+
+/// The rows as CSV (one header line).
+pub fn memo_csv(rows: &[MemoBenchRow]) -> String {
+    let mut s = String::from(
+        "label,hits,entries,eviction,table_bytes,frame_ms,ratio_to_off,ratio_se,hit_rate,last_hit_rate,lookups_per_frame,fills_per_frame,evictions_per_frame,lock_failures_per_frame,bypassed_per_frame\n",
+    );
+    for r in rows {
+        s.push_str(&format!(
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
+            r.label,
+            r.hits,
+            r.entries,
+            r.eviction,
+            r.table_bytes,
+            r.frame_ms,
+            r.ratio_to_off,
+            r.ratio_se,
+            r.hit_rate,
+            r.last_hit_rate,
+            r.lookups_per_frame,
+            r.fills_per_frame,
+            r.evictions_per_frame,
+            r.lock_failures_per_frame,
+            r.bypassed_per_frame
+        ));
+    }
+    s
+}

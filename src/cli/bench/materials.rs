@@ -1,0 +1,151 @@
+//! `bench materials`: the material-graph memoization cache (issue 17) off,
+//! on primary, secondary and all hits, over a table-size sweep and the
+//! eviction policies; frame time ratios to "off", hit rates, fills and
+//! evictions per frame (library: `stereocache::bench::materials`).
+
+use crate::cli::args::{self, GpuArgs};
+use crate::cli::common::{device_line, report_validation};
+use anyhow::{bail, Result};
+use clap::Args;
+use std::path::PathBuf;
+use stereocache::camera::PoseTrace;
+use stereocache::gpu::GpuContext;
+use stereocache::materials::memo::settings::MAX_ENTRIES;
+use stereocache::methods::{MethodConfig, MethodKind, RenderSettings};
+use stereocache::replay::{trace_cameras, DEFAULT_FPS};
+use stereocache::rt::RtChoice;
+use stereocache::scene::DefaultLighting;
+use stereocache::session::{CameraSelect, Session};
+use stereocache::values::Size;
+
+#[derive(Args)]
+pub struct BenchMaterialsArgs {
+    #[command(flatten)]
+    gpu: GpuArgs,
+    /// A scene with material graphs; texture-space graphs (procedural-uv:)
+    /// are the ones the cache can hold.
+    #[arg(long, default_value = "procedural-uv:cornell")]
+    scene: String,
+    #[arg(long, value_parser = args::lighting)]
+    lighting: Option<DefaultLighting>,
+    #[arg(long, default_value = "auto", value_parser = args::rt)]
+    rt: RtChoice,
+    #[arg(long, default_value = "captures/synth-head-turn.csv")]
+    trace: PathBuf,
+    /// Frames per run (frame 0 is the warm-up, not counted).
+    #[arg(long, default_value_t = 12, value_parser = args::frames)]
+    frames: usize,
+    #[arg(long, default_value = "96x72")]
+    size: Size,
+    /// The method whose path tracing shades through the cache.
+    #[arg(long, default_value = "reference")]
+    method: MethodKind,
+    #[arg(long, default_value_t = 1, value_parser = args::spp)]
+    spp: u32,
+    #[arg(long, default_value_t = 2, value_parser = args::bounces)]
+    bounces: u32,
+    /// Table sizes of the sweep (entries); the smallest also gets each
+    /// eviction policy.
+    #[arg(long, default_value = "4096,65536,1048576", value_delimiter = ',')]
+    sizes: Vec<u32>,
+    /// Rounds over all configurations (alternating, rotating order).
+    #[arg(long, default_value_t = 2)]
+    repeats: usize,
+    /// Write the rows as CSV here.
+    #[arg(long)]
+    out: Option<PathBuf>,
+}
+
+pub fn run(a: BenchMaterialsArgs) -> Result<()> {
+    let configs = stereocache::bench::memo_configs(&a.sizes);
+    for (label, s) in &configs {
+        s.validate()
+            .map_err(|e| anyhow::anyhow!("bad --sizes ({label}): {e}"))?;
+    }
+    if a.sizes.iter().any(|&s| s > MAX_ENTRIES) || a.repeats == 0 {
+        bail!("bad --sizes or --repeats: sizes up to {MAX_ENTRIES} entries, at least one round");
+    }
+    let trace = PoseTrace::read_csv(&a.trace)?;
+    let (scene, lit) = Session::load_scene_lit(&a.scene, a.lighting.as_ref())?;
+    eprintln!("{}", lit.line());
+    if scene.graphs.is_empty() {
+        bail!(
+            "{}: the scene has no material graphs: nothing to memoize (try procedural-uv:{})",
+            a.scene,
+            a.scene
+        );
+    }
+    let mut opts = a.gpu.options()?;
+    opts.want_ray_query = a.rt != RtChoice::Software;
+    opts.require.ray_query |= a.rt == RtChoice::Query;
+    let ctx = std::sync::Arc::new(GpuContext::new(&opts)?);
+    let probe = Session::with_context(ctx.clone(), scene.clone(), a.rt)?;
+    let mut cameras = trace_cameras(
+        &probe,
+        &trace,
+        DEFAULT_FPS,
+        a.size.width,
+        a.size.height,
+        &CameraSelect::Default,
+        None,
+        None,
+    )?;
+    drop(probe);
+    if cameras.len() < a.frames {
+        bail!(
+            "bad --frames {}: {} gives {} frames",
+            a.frames,
+            a.trace.display(),
+            cameras.len()
+        );
+    }
+    cameras.truncate(a.frames);
+    println!("{}", device_line(&ctx.caps));
+    let memoizable = scene
+        .graphs
+        .materials
+        .iter()
+        .filter(|(_, b)| {
+            b.iter()
+                .all(|b| scene.graphs.graphs[b.graph].reads_only_uv())
+        })
+        .count();
+    println!(
+        "scene: {} ({} of {} graph-bound materials read only the uv), method {}, trace {} ({} frames at {DEFAULT_FPS} Hz, 1 warm-up), {}x{} per eye, {} spp, {} bounces, {} rounds",
+        a.scene,
+        memoizable,
+        scene.graphs.materials.len(),
+        a.method.name(),
+        a.trace.display(),
+        a.frames,
+        a.size.width,
+        a.size.height,
+        a.spp,
+        a.bounces,
+        a.repeats
+    );
+    let settings = RenderSettings {
+        width: a.size.width,
+        height: a.size.height,
+        spp: a.spp,
+        max_bounces: a.bounces,
+        seed: 1,
+        ..Default::default()
+    };
+    let rows = stereocache::bench::bench_materials(
+        &ctx,
+        &scene,
+        a.rt,
+        &MethodConfig::from(a.method),
+        &settings,
+        &cameras,
+        &configs,
+        a.repeats,
+    )?;
+    print!("{}", stereocache::bench::memo_table(&rows));
+    if let Some(p) = &a.out {
+        stereocache::output::write_file(p, stereocache::bench::memo_csv(&rows).as_bytes())?;
+        println!("wrote {}", p.display());
+    }
+    report_validation(&ctx)
+}
