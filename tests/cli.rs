@@ -18,6 +18,22 @@ fn out_dir(tag: &str) -> PathBuf {
     d
 }
 
+/// Runs `c` and expects success: returns its standard output.
+fn succeeds(c: &mut std::process::Command) -> String {
+    succeeded(&c.output().unwrap())
+}
+
+/// The standard output of a run that must have succeeded (else both streams).
+fn succeeded(o: &std::process::Output) -> String {
+    let stdout = String::from_utf8_lossy(&o.stdout).into_owned();
+    assert!(
+        o.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    stdout
+}
+
 /// Runs and expects failure: returns the single error line.
 fn fails(args: &[&str]) -> String {
     fails_with(args, &[])
@@ -395,12 +411,7 @@ fn bench_specialization_checks_input_and_writes_csv() {
         ])
         .output()
         .unwrap();
-    let stdout = String::from_utf8_lossy(&o.stdout);
-    assert!(
-        o.status.success(),
-        "{stdout}\n{}",
-        String::from_utf8_lossy(&o.stderr)
-    );
+    let stdout = succeeded(&o);
     assert!(stdout.starts_with("device: "), "{stdout}");
     let text = std::fs::read_to_string(&csv).unwrap();
     let mut lines = text.lines();
@@ -705,35 +716,28 @@ fn bench_materials_checks_input_and_sweeps_the_table() {
     let out = out_dir("bench-materials");
     std::fs::create_dir_all(&out).unwrap();
     let csv = out.join("memo.csv");
-    let o = cli(1200)
-        .args([
-            "bench",
-            "materials",
-            "--scene",
-            "procedural-uv:cornell",
-            "--rt",
-            "software",
-        ])
-        .args([
-            "--frames",
-            "3",
-            "--size",
-            "16x12",
-            "--sizes",
-            "64,4096",
-            "--repeats",
-            "1",
-        ])
-        .arg("--out")
-        .arg(&csv)
-        .output()
-        .unwrap();
-    let stdout = String::from_utf8_lossy(&o.stdout);
-    assert!(
-        o.status.success(),
-        "{stdout}\n{}",
-        String::from_utf8_lossy(&o.stderr)
-    );
+    let mut o = cli(1200);
+    o.args([
+        "bench",
+        "materials",
+        "--scene",
+        "procedural-uv:cornell",
+        "--rt",
+        "software",
+    ])
+    .args([
+        "--frames",
+        "3",
+        "--size",
+        "16x12",
+        "--sizes",
+        "64,4096",
+        "--repeats",
+        "1",
+    ])
+    .arg("--out")
+    .arg(&csv);
+    succeeds(&mut o);
     let text = std::fs::read_to_string(&csv).unwrap();
     let mut lines = text.lines();
     let header: Vec<&str> = lines.next().unwrap().split(',').collect();

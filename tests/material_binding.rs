@@ -209,6 +209,19 @@ fn top_camera() -> StereoCamera {
     StereoCamera::from_scene_camera(c.transform, c.yfov, 40.0 / 24.0)
 }
 
+/// 40×24 per eye (the top camera's aspect), 2 spp, 2 bounces, seed 3.
+fn probe_settings() -> RenderSettings {
+    RenderSettings {
+        width: 40,
+        height: 24,
+        spp: 2,
+        max_bounces: 2,
+        seed: 3,
+        all_features: false,
+        ..Default::default()
+    }
+}
+
 /// Tolerance: the GPU and CPU agree to 64 ulp relative to max(1, |v|) at
 /// the same point (tests/material_graphs.rs: built-ins that are not
 /// correctly rounded), 64·2⁻²³ = 7.6·10⁻⁶; the CPU rebuilds the point from
@@ -236,15 +249,7 @@ fn graph_bound_materials_render_the_cpu_evaluators_values() {
         Vec3::ONE,
         "extras form: factors 1"
     );
-    let settings = RenderSettings {
-        width: 40,
-        height: 24,
-        spp: 2,
-        max_bounces: 2,
-        seed: 3,
-        all_features: false,
-        ..Default::default()
-    };
+    let settings = probe_settings();
     for rt in [RtChoice::Software, RtChoice::Query] {
         if rt == RtChoice::Query && !require(ctx.ray_query_enabled(), "ray queries") {
             continue;
@@ -518,15 +523,7 @@ fn memoized_hits_return_the_graph_at_their_texel_centre() {
         hits: MemoHits::Primary,
         ..Default::default()
     };
-    let settings = RenderSettings {
-        width: 40,
-        height: 24,
-        spp: 2,
-        max_bounces: 2,
-        seed: 3,
-        all_features: false,
-        ..Default::default()
-    };
+    let settings = probe_settings();
     let camera = top_camera();
     let size = glam::UVec2::new(40, 24);
     for rt in [RtChoice::Software, RtChoice::Query] {
