@@ -226,8 +226,19 @@ pub struct FrameRecord {
 }
 
 impl FrameRecord {
-    /// The memoization cache's counters of the frame, as `memo_*` counters.
-    fn add_memo_counters(&mut self, c: &crate::materials::memo::state::MemoCounters) {
+    /// The memoization cache's counters of the frame, as `memo_*` counters,
+    /// and `memo_live_entries`: entries holding a key after the frame.
+    /// Entries only ever go from empty to filled (an eviction replaces a
+    /// key, nothing empties one until the next run's reset), so that is
+    /// the fills since the reset, `live` (updated here).
+    fn add_memo_counters(
+        &mut self,
+        c: &crate::materials::memo::state::MemoCounters,
+        live: &mut u64,
+    ) {
+        *live += c.fills;
+        self.counters
+            .insert("memo_live_entries".to_string(), *live as f64);
         for (k, v) in [
             ("memo_hits", c.hits),
             ("memo_misses", c.misses),
@@ -440,6 +451,7 @@ pub fn replay_observed(
     // A memoized scene's table starts empty for every run (methods compared
     // one after another must not inherit each other's entries).
     let memo = session.scene_gpu.memo.as_ref();
+    let mut memo_live = 0u64;
     if let Some(m) = memo {
         m.reset()?;
     }
@@ -464,7 +476,7 @@ pub fn replay_observed(
 
         let mut record = FrameRecord::new(i, opts.fps, camera, &frame.stats);
         if let Some(m) = memo {
-            record.add_memo_counters(&m.counters()?);
+            record.add_memo_counters(&m.counters()?, &mut memo_live);
         }
         record.metrics = metrics;
         if animated {

@@ -619,6 +619,11 @@ fn memoized_hits_return_the_graph_at_their_texel_centre() {
             c.fills > 0 && c.bypassed as usize >= bypassed_px,
             "{rt:?}: {c:?}"
         );
+        // Live entries = fills since the reset (replay's memo_live_entries):
+        // entries go only from empty to filled; no eviction in a 2^20 table.
+        let keys: Vec<u32> = memo.keys.download_pod().unwrap();
+        let live = keys.iter().filter(|&&k| k != 0).count() as u64;
+        assert_eq!((live, c.evictions), (c.fills, 0), "{rt:?}: {c:?}");
     }
     assert_no_validation_messages(&ctx);
     let _ = std::fs::remove_dir_all(&d);
