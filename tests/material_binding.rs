@@ -628,3 +628,107 @@ fn memoized_hits_return_the_graph_at_their_texel_centre() {
     assert_no_validation_messages(&ctx);
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// Memoized against direct rendering, same seed, where the answer is known
+/// (issue 17, the snapping bound of docs/MATERIALS.md): material 0 emits its
+/// uv-only base-colour function (|fg − bg| ≤ 0.8, mix weight
+/// ¼ sin 6u + ¼ sin 4v + ½, so |Δ| ≤ 0.8 (1.5 δu + δv) per channel) on a
+/// black background with no bounce, so a pixel is the mean over its samples
+/// of the emission at each sample's hit (direct) or at the centre of its
+/// texel (memoized, `--memo both`): per pixel the two differ by at most
+/// 0.8 · 2.5 · 2^-(m+1) = 2^-m times the emissive factor, m the coarsest
+/// level over the quad (from its nearest and farthest points, lod.rs), plus
+/// float rounding. With `--memo secondary` and no bounce nothing is looked
+/// up: the image equals the direct one bit for bit.
+#[test]
+fn memoized_images_stay_within_the_snapping_bound_of_direct_ones() {
+    use stereocache::materials::memo::lod;
+    use stereocache::materials::memo::{MemoHits, MemoSettings};
+    let ctx = context();
+    let d = dir("memo-image");
+    let path = write_quads(&d);
+    bind(&path, |j| {
+        // Emission := the uv-only base-colour node (5).
+        j["extensions"]["KHR_texture_procedurals"]["procedurals"][0]["outputs"][1]["node"] =
+            5.into();
+    });
+    let scene = stereocache::scene::load_gltf(&path).expect("bound scene loads");
+    assert!(scene.graphs.graphs[0].reads_only_uv());
+    let settings = RenderSettings {
+        max_bounces: 0,
+        spp: 4,
+        ..probe_settings()
+    };
+    let camera = top_camera();
+    // The quad of material 0 spans x ∈ [−1.05, −0.05], z ∈ [−0.5, 0.5] at
+    // y = 0; the eyes sit 2.2 m above the origin, ± half the IPD in x.
+    let view = camera.eyes()[0];
+    let spread = 2.0 * view.tan_half_fov().y / 24.0;
+    let far = Vec3::new(-1.05, 0.0, 0.5).distance(view.position) + camera.ipd;
+    let m = lod::level(far * spread, 1.0, 0.0);
+    let near = lod::level(2.2 * spread, 1.0, 0.0);
+    assert!(m <= near, "{m} {near}");
+    let factor = KHR_EMISSIVE_FACTOR.iter().copied().fold(0.0f32, f32::max);
+    let bound = factor * 2f32.powi(-m) + TOL;
+    for rt in [RtChoice::Software, RtChoice::Query] {
+        if rt == RtChoice::Query && !require(ctx.ray_query_enabled(), "ray queries") {
+            continue;
+        }
+        let image = |hits: MemoHits| {
+            let mut s = scene.clone();
+            s.graphs.memo = MemoSettings {
+                hits,
+                ..Default::default()
+            };
+            let session = session(&ctx, s, rt);
+            let f = render(&session, "reference", camera, &settings);
+            let lookups = session.scene_gpu.memo.as_ref().map_or(0, |t| {
+                let c = t.counters().unwrap();
+                c.hits + c.misses
+            });
+            (f, lookups)
+        };
+        let (direct, _) = image(MemoHits::Off);
+        let (memo, lookups) = image(MemoHits::Both);
+        let (secondary, none) = image(MemoHits::Secondary);
+        assert!(lookups > 0, "{rt:?}: nothing was looked up");
+        assert_eq!(none, 0, "{rt:?}: secondary-only looked up a first hit");
+        let mut worst = 0.0f32;
+        let mut checked = 0;
+        for e in 0..2 {
+            let (a, b, c) = (&direct.eyes[e], &memo.eyes[e], &secondary.eyes[e]);
+            assert_eq!(
+                a.radiance, c.radiance,
+                "{rt:?}: secondary-only with no bounce"
+            );
+            for i in 0..a.radiance.len() {
+                // Pixels of material 1 (not memoizable) or the background:
+                // identical; material 0's: within the bound.
+                let diff = (Vec3::from_slice(&a.radiance[i][..3])
+                    - Vec3::from_slice(&b.radiance[i][..3]))
+                .abs()
+                .max_element();
+                assert!(
+                    diff <= bound,
+                    "{rt:?}: eye {e} pixel {i}: |memo − direct| = {diff} > {bound}"
+                );
+                if a.first_hit[i][3] != u32::MAX && hit_geom(&scene, a.first_hit[i]).0 == 0 {
+                    worst = worst.max(diff);
+                    checked += 1;
+                }
+            }
+        }
+        assert!(
+            checked > 150,
+            "{rt:?}: {checked} pixels of the memoized quad"
+        );
+        // Not vacuous: snapping shows, at a sizeable share of the bound.
+        eprintln!("{rt:?}: worst {worst}, bound {bound} (level {m}), {checked} pixels");
+        assert!(
+            worst > 0.1 * bound,
+            "{rt:?}: worst {worst} of bound {bound}"
+        );
+    }
+    assert_no_validation_messages(&ctx);
+    let _ = std::fs::remove_dir_all(&d);
+}
