@@ -253,6 +253,10 @@ impl FrameRecord {
         if let Some(r) = c.hit_rate() {
             self.counters.insert("memo_hit_rate".to_string(), r);
         }
+        if let Some(r) = c.second_eye_hit_rate() {
+            self.counters
+                .insert("memo_second_eye_hit_rate".to_string(), r);
+        }
     }
 
     fn new(index: usize, fps: f64, camera: &StereoCamera, stats: &FrameStats) -> Self {

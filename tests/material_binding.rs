@@ -610,6 +610,11 @@ fn memoized_hits_return_the_graph_at_their_texel_centre() {
         // Every lookup hit or missed; misses were stored (or raced); the
         // position-reading material was never looked up.
         assert!(c.hits > c.misses && c.misses > 0, "{rt:?}: {c:?}");
+        // The right eye's lookups are a part of them, and some hit.
+        assert!(
+            c.second_eye_hits > 0 && c.second_eye_hits <= c.hits && c.second_eye_misses <= c.misses,
+            "{rt:?}: {c:?}"
+        );
         assert_eq!(c.refused, 0, "{rt:?}: {c:?}");
         assert!(
             c.fills + c.evictions + c.lock_failures <= c.misses,

@@ -20,7 +20,16 @@ layout(set = SET_SCENE, binding = B_SCENE_MEMO_STATE, std430) coherent buffer Me
 const uint MEMO_S_NOW = 0u, MEMO_S_CAPACITY = 1u, MEMO_S_PROBE = 2u, MEMO_S_POLICY = 3u,
            MEMO_S_FLAGS = 4u, MEMO_S_BIAS = 5u;
 const uint MEMO_C_HITS = 8u, MEMO_C_MISSES = 9u, MEMO_C_FILLS = 10u, MEMO_C_EVICTIONS = 11u,
-           MEMO_C_LOCK_FAILURES = 12u, MEMO_C_REFUSED = 13u, MEMO_C_BYPASSED = 14u;
+           MEMO_C_LOCK_FAILURES = 12u, MEMO_C_REFUSED = 13u, MEMO_C_BYPASSED = 14u,
+           MEMO_C_SECOND_EYE_HITS = 15u, MEMO_C_SECOND_EYE_MISSES = 16u;
+
+// The eye of the pass's current work item (0 left, 1 right, 2 unknown),
+// set by each hit-shading pass where it knows it. Both eyes render in one
+// dispatch with the eye in z, so the right eye's work groups run after the
+// left eye's: the right eye is the second eye, and its hit rate measures
+// what it reuses of the first eye's fills (thesis: the cache is
+// view-independent, so the second eye shares it).
+uint sc_memo_eye = 2u;
 
 // The ray-cone width at a secondary hit of path_radiance (thesis eqs.
 // 2.10-2.11, grown along the path); < 0 where the caller has none: then
@@ -70,9 +79,11 @@ ScGraphOutputs sc_material_graphs_at(uint material, vec2 uv, vec3 p, vec3 n, vec
     bool torn;
     if (memo_find(h0, h1, cap, probe, true, policy, now, r0, r1, r2, torn) != MEMO_NONE) {
         atomicAdd(memo_state[MEMO_C_HITS], 1u);
+        if (sc_memo_eye == 1u) atomicAdd(memo_state[MEMO_C_SECOND_EYE_HITS], 1u);
         return memo_unpack(r0, r1, r2, n);
     }
     atomicAdd(memo_state[MEMO_C_MISSES], 1u);
+    if (sc_memo_eye == 1u) atomicAdd(memo_state[MEMO_C_SECOND_EYE_MISSES], 1u);
     if (torn) atomicAdd(memo_state[MEMO_C_REFUSED], 1u);
     ScGraphOutputs o = sc_material_graphs(material, memo_snapped_uv(q, level), p, n, t);
     memo_pack(o, r0, r1, r2);

@@ -12,6 +12,9 @@ layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 void main() {
     uvec2 px = gl_GlobalInvocationID.xy;
     uint eye = gl_GlobalInvocationID.z;
+#ifdef SC_MATERIAL_MEMO
+    sc_memo_eye = eye;
+#endif
     if (any(greaterThanEqual(px, frame_size()))) return;
     uint pm = pixel_index(eye, px);
     EyeGpu e = frame.eyes[eye];

@@ -13,6 +13,9 @@ bool view_dependent(ShadingMaterial m) { return m.metallic > 0.5 || m.transmissi
 void main() {
     uvec2 px = gl_GlobalInvocationID.xy;
     uint eye = gl_GlobalInvocationID.z;
+#ifdef SC_MATERIAL_MEMO
+    sc_memo_eye = eye;
+#endif
     if (any(greaterThanEqual(px, frame_size()))) return;
     uint occupied = 0u;
     for (uint k = 0u; k < M * M; ++k) {

@@ -12,6 +12,9 @@ void main() {
     uvec2 size = frame_size();
     uvec2 px = gl_GlobalInvocationID.xy;
     uint eye = gl_GlobalInvocationID.z;
+#ifdef SC_MATERIAL_MEMO
+    sc_memo_eye = eye;
+#endif
     if (any(greaterThanEqual(px, size))) return;
     uint idx = (eye * size.y + px.y) * size.x + px.x;
     EyeGpu e = frame.eyes[eye];

@@ -59,6 +59,9 @@ void main() {
     uvec2 size = frame_size();
     uvec2 px = gl_GlobalInvocationID.xy;
     uint eye = gl_GlobalInvocationID.z;
+#ifdef SC_MATERIAL_MEMO
+    sc_memo_eye = eye;
+#endif
     if (any(greaterThanEqual(px, size))) return;
     uint pixel = px.y * size.x + px.x;
     uint pm = eye * npix() + pixel;

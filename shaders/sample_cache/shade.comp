@@ -27,6 +27,9 @@ void main() {
         uint code = shade_list[i];
         uint eye, slot, pixel;
         list_decode(code, eye, slot, pixel);
+#ifdef SC_MATERIAL_MEMO
+        sc_memo_eye = eye;
+#endif
         uint idx = slot_index(eye, slot, pixel);
         uvec4 fh = fh_cur[idx];
         EyeGpu e = frame.eyes[eye];

@@ -79,6 +79,8 @@ pub struct MemoBenchRow {
     /// hits / lookups over the steady frames, and in the last frame.
     pub hit_rate: f64,
     pub last_hit_rate: f64,
+    /// The second (right) eye's hit rate over the steady frames.
+    pub second_eye_hit_rate: f64,
     pub lookups_per_frame: f64,
     pub fills_per_frame: f64,
     pub evictions_per_frame: f64,
@@ -167,6 +169,7 @@ pub fn bench_materials(
                 ratio_se: se,
                 hit_rate: total.hit_rate().unwrap_or(0.0),
                 last_hit_rate: last.hit_rate().unwrap_or(0.0),
+                second_eye_hit_rate: total.second_eye_hit_rate().unwrap_or(0.0),
                 lookups_per_frame: per(total.hits + total.misses),
                 fills_per_frame: per(total.fills),
                 evictions_per_frame: per(total.evictions),
@@ -180,7 +183,7 @@ pub fn bench_materials(
 /// The table `bench materials` prints.
 pub fn memo_table(rows: &[MemoBenchRow]) -> String {
     let mut s = format!(
-        "{:<24} {:>9} {:>10} {:>10} {:>13} {:>9} {:>9} {:>10} {:>9} {:>10} {:>9} {:>9}\n",
+        "{:<24} {:>9} {:>10} {:>10} {:>10} {:>9} {:>9} {:>8} {:>9} {:>10} {:>10} {:>9} {:>9}\n",
         "configuration",
         "hits",
         "entries",
@@ -191,12 +194,13 @@ pub fn memo_table(rows: &[MemoBenchRow]) -> String {
         "± se",
         "hit rate",
         "last frame",
+        "second eye",
         "fills/fr",
         "evict/fr"
     );
     for r in rows {
         s.push_str(&format!(
-            "{:<24} {:>9} {:>10} {:>10} {:>13.1} {:>9.2} {:>9.3} {:>10.3} {:>9.4} {:>10.4} {:>9.0} {:>9.0}\n",
+            "{:<24} {:>9} {:>10} {:>10} {:>10.1} {:>9.2} {:>9.3} {:>8.3} {:>9.4} {:>10.4} {:>10.4} {:>9.0} {:>9.0}\n",
             r.label,
             r.hits,
             r.entries,
@@ -207,6 +211,7 @@ pub fn memo_table(rows: &[MemoBenchRow]) -> String {
             r.ratio_se,
             r.hit_rate,
             r.last_hit_rate,
+            r.second_eye_hit_rate,
             r.fills_per_frame,
             r.evictions_per_frame
         ));
@@ -217,11 +222,11 @@ pub fn memo_table(rows: &[MemoBenchRow]) -> String {
 /// The rows as CSV (one header line).
 pub fn memo_csv(rows: &[MemoBenchRow]) -> String {
     let mut s = String::from(
-        "label,hits,entries,eviction,table_bytes,frame_ms,ratio_to_off,ratio_se,hit_rate,last_hit_rate,lookups_per_frame,fills_per_frame,evictions_per_frame,lock_failures_per_frame,bypassed_per_frame\n",
+        "label,hits,entries,eviction,table_bytes,frame_ms,ratio_to_off,ratio_se,hit_rate,last_hit_rate,second_eye_hit_rate,lookups_per_frame,fills_per_frame,evictions_per_frame,lock_failures_per_frame,bypassed_per_frame\n",
     );
     for r in rows {
         s.push_str(&format!(
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
             r.label,
             r.hits,
             r.entries,
@@ -232,6 +237,7 @@ pub fn memo_csv(rows: &[MemoBenchRow]) -> String {
             r.ratio_se,
             r.hit_rate,
             r.last_hit_rate,
+            r.second_eye_hit_rate,
             r.lookups_per_frame,
             r.fills_per_frame,
             r.evictions_per_frame,

@@ -120,9 +120,11 @@ pub fn run(a: RenderArgs) -> Result<()> {
 /// One line of the memoization cache's counters.
 pub fn memo_line(c: &stereocache::materials::memo::state::MemoCounters) -> String {
     format!(
-        "memo: {} lookups, hit rate {}, {} fills, {} evictions, {} lock failures, {} refused reads, {} hits not memoizable (graphs read more than the uv)",
+        "memo: {} lookups, hit rate {} (second eye {}), {} fills, {} evictions, {} lock failures, {} refused reads, {} hits not memoizable (graphs read more than the uv)",
         c.hits + c.misses,
         c.hit_rate().map_or("-".into(), |r| format!("{:.2} %", 100.0 * r)),
+        c.second_eye_hit_rate()
+            .map_or("-".into(), |r| format!("{:.2} %", 100.0 * r)),
         c.fills,
         c.evictions,
         c.lock_failures,

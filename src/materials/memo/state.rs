@@ -29,10 +29,14 @@ pub struct MemoCounters {
     /// Hits of memoized kind whose material's graphs read more than the uv
     /// (position, normal, tangent): evaluated directly, never cached.
     pub bypassed: u64,
+    /// The right (second) eye's hits and misses, counted in `hits` and
+    /// `misses` too (shaders/common/memo.glsl `sc_memo_eye`).
+    pub second_eye_hits: u64,
+    pub second_eye_misses: u64,
 }
 
 impl MemoCounters {
-    pub const WORDS: usize = 7;
+    pub const WORDS: usize = 9;
 
     pub fn from_words(w: &[u32]) -> MemoCounters {
         let g = |k: usize| w.get(k).copied().unwrap_or(0) as u64;
@@ -44,6 +48,8 @@ impl MemoCounters {
             lock_failures: g(4),
             refused: g(5),
             bypassed: g(6),
+            second_eye_hits: g(7),
+            second_eye_misses: g(8),
         }
     }
 
@@ -51,6 +57,12 @@ impl MemoCounters {
     pub fn hit_rate(&self) -> Option<f64> {
         let n = self.hits + self.misses;
         (n > 0).then(|| self.hits as f64 / n as f64)
+    }
+
+    /// The second eye's hits / lookups, `None` without lookups.
+    pub fn second_eye_hit_rate(&self) -> Option<f64> {
+        let n = self.second_eye_hits + self.second_eye_misses;
+        (n > 0).then(|| self.second_eye_hits as f64 / n as f64)
     }
 
     pub fn add(&mut self, o: &MemoCounters) {
@@ -61,6 +73,8 @@ impl MemoCounters {
         self.lock_failures += o.lock_failures;
         self.refused += o.refused;
         self.bypassed += o.bypassed;
+        self.second_eye_hits += o.second_eye_hits;
+        self.second_eye_misses += o.second_eye_misses;
     }
 }
 
