@@ -753,6 +753,7 @@ fn bench_materials_checks_input_and_sweeps_the_table() {
             "both",
             "both S=64",
             "both S=4096",
+            "both tile 4x4",
             "both S=64 random",
             "both S=64 lrw"
         ]

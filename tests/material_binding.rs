@@ -519,17 +519,27 @@ fn memoized_hits_return_the_graph_at_their_texel_centre() {
         !scene.graphs.graphs[1].reads_only_uv(),
         ".mtlx graph reads P and N"
     );
-    scene.graphs.memo = MemoSettings {
-        hits: MemoHits::Primary,
-        ..Default::default()
-    };
     let settings = probe_settings();
     let camera = top_camera();
     let size = glam::UVec2::new(40, 24);
-    for rt in [RtChoice::Software, RtChoice::Query] {
+    // Non-tiled, and the tiled variant (4×4 texels an entry): a texel's
+    // value is the graph at its centre either way.
+    for (rt, tile) in [
+        (RtChoice::Software, 1),
+        (RtChoice::Query, 1),
+        (RtChoice::Software, 4),
+        (RtChoice::Query, 4),
+    ] {
         if rt == RtChoice::Query && !require(ctx.ray_query_enabled(), "ray queries") {
             continue;
         }
+        // The same texel capacity: 2^20 texels.
+        scene.graphs.memo = MemoSettings {
+            hits: MemoHits::Primary,
+            tile,
+            entries: (1 << 20) / (tile * tile),
+            ..Default::default()
+        };
         let s = session(&ctx, scene.clone(), rt);
         let memo = s
             .scene_gpu
@@ -628,7 +638,11 @@ fn memoized_hits_return_the_graph_at_their_texel_centre() {
         // entries go only from empty to filled; no eviction in a 2^20 table.
         let keys: Vec<u32> = memo.keys.download_pod().unwrap();
         let live = keys.iter().filter(|&&k| k != 0).count() as u64;
-        assert_eq!((live, c.evictions), (c.fills, 0), "{rt:?}: {c:?}");
+        assert_eq!(
+            (live, c.evictions),
+            (c.fills, 0),
+            "{rt:?} tile {tile}: {c:?}"
+        );
     }
     assert_no_validation_messages(&ctx);
     let _ = std::fs::remove_dir_all(&d);

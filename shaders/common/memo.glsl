@@ -18,7 +18,7 @@ layout(set = SET_SCENE, binding = B_SCENE_MEMO_STATE, std430) coherent buffer Me
 #include "memo/lod.glsl"
 
 const uint MEMO_S_NOW = 0u, MEMO_S_CAPACITY = 1u, MEMO_S_PROBE = 2u, MEMO_S_POLICY = 3u,
-           MEMO_S_FLAGS = 4u, MEMO_S_BIAS = 5u;
+           MEMO_S_FLAGS = 4u, MEMO_S_BIAS = 5u, MEMO_S_TILE_SHIFT = 6u;
 const uint MEMO_C_HITS = 8u, MEMO_C_MISSES = 9u, MEMO_C_FILLS = 10u, MEMO_C_EVICTIONS = 11u,
            MEMO_C_LOCK_FAILURES = 12u, MEMO_C_REFUSED = 13u, MEMO_C_BYPASSED = 14u,
            MEMO_C_SECOND_EYE_HITS = 15u, MEMO_C_SECOND_EYE_MISSES = 16u;
@@ -56,6 +56,67 @@ ScGraphOutputs memo_unpack(uvec4 r0, uvec4 r1, uvec4 r2, vec3 normal) {
     return o;
 }
 
+// A texel's record in a tiled entry: texel `idx` of the (2^shift)² of
+// entry `slot` (non-tiled: shift 0, idx 0, the table.glsl layout).
+uint memo_texel_base(uint slot, uint shift, uint idx) { return MEMO_RECORD * ((slot << (2u * shift)) + idx); }
+void memo_read_texel(uint b, out uvec4 r0, out uvec4 r1, out uvec4 r2) {
+    memoryBarrierBuffer();
+    r0 = memo_values[b]; r1 = memo_values[b + 1u]; r2 = memo_values[b + 2u];
+    memoryBarrierBuffer();
+}
+void memo_write_texel(uint b, uvec4 r0, uvec4 r1, uvec4 r2) {
+    memo_values[b] = r0; memo_values[b + 1u] = r1; memo_values[b + 2u] = r2;
+}
+
+// The tiled variant (thesis §5.3, s×s texels an entry, nearest texel): the
+// key is the tile's, a hit reads its one texel between the two key reads,
+// a miss evaluates the whole tile at its texel centres (the plain fill: one
+// lane, s² graph evaluations) and stores it under the lock.
+ScGraphOutputs memo_tiled(uint material, int level, ivec2 q, uint shift, vec3 p, vec3 n, vec3 t,
+                          uint cap, uint probe, uint policy, uint now) {
+    ivec2 tq = q >> int(shift);                        // floor division by s (arithmetic shift)
+    ivec2 o = q - (tq << int(shift));                 // texel within the tile, in [0, s)
+    uint s = 1u << shift, idx = uint(o.y) * s + uint(o.x);
+    uint key = material | (shift << 28);              // tiles and texels never share a key
+    uint h0 = memo_h0(key, level, tq), h1 = memo_h1(key, level, tq);
+    uvec4 r0, r1, r2;
+    for (uint i = 0u; i < probe; ++i) {
+        uint sl = memo_slot(h0, i, cap, probe);
+        if (memo_keys[sl] != h1) continue;
+        memo_read_texel(memo_texel_base(sl, shift, idx), r0, r1, r2);
+        if (memo_validate(sl, h1, true)) {
+            if (policy == MEMO_LRU && memo_stamps[sl] != now) memo_stamps[sl] = now;
+            atomicAdd(memo_state[MEMO_C_HITS], 1u);
+            if (sc_memo_eye == 1u) atomicAdd(memo_state[MEMO_C_SECOND_EYE_HITS], 1u);
+            return memo_unpack(r0, r1, r2, n);
+        }
+        atomicAdd(memo_state[MEMO_C_REFUSED], 1u);
+        break;
+    }
+    atomicAdd(memo_state[MEMO_C_MISSES], 1u);
+    if (sc_memo_eye == 1u) atomicAdd(memo_state[MEMO_C_SECOND_EYE_MISSES], 1u);
+    uint seen;
+    bool present;
+    uint victim = memo_victim(h0, h1, cap, probe, policy, now, seen, present);
+    bool locked = !present && victim != MEMO_NONE && memo_lock(victim, seen);
+    if (locked) memoryBarrierBuffer();
+    ScGraphOutputs mine;
+    for (uint k = 0u; k < s * s; ++k) {
+        ivec2 tk = (tq << int(shift)) + ivec2(int(k % s), int(k / s));
+        ScGraphOutputs v = sc_material_graphs(material, memo_snapped_uv(tk, level), p, n, t);
+        memo_pack(v, r0, r1, r2);
+        if (locked) memo_write_texel(memo_texel_base(victim, shift, k), r0, r1, r2);
+        if (k == idx) mine = memo_unpack(r0, r1, r2, n);
+    }
+    if (locked) {
+        memo_unlock(victim, h1, now);
+        atomicAdd(memo_state[seen == MEMO_EMPTY ? MEMO_C_FILLS : MEMO_C_EVICTIONS], 1u);
+    } else if (!present) {
+        atomicAdd(memo_state[MEMO_C_LOCK_FAILURES], 1u);
+    }
+    return mine;
+}
+
 // The graph outputs at a hit, through the cache where this kind of hit is
 // memoized (primary: the caller's cone_width > 0; secondary: path_radiance's
 // sc_memo_cone ≥ 0) and the material's graphs read only the uv.
@@ -72,9 +133,11 @@ ScGraphOutputs sc_material_graphs_at(uint material, vec2 uv, vec3 p, vec3 n, vec
     float w = primary ? cone_width : sc_memo_cone;
     int level = memo_level(w, uv_area_ratio, uintBitsToFloat(memo_state[MEMO_S_BIAS]));
     ivec2 q = memo_quantise(uv, level);
-    uint h0 = memo_h0(material, level, q), h1 = memo_h1(material, level, q);
     uint cap = memo_state[MEMO_S_CAPACITY], probe = memo_state[MEMO_S_PROBE];
     uint policy = memo_state[MEMO_S_POLICY], now = memo_state[MEMO_S_NOW];
+    uint shift = memo_state[MEMO_S_TILE_SHIFT];
+    if (shift > 0u) return memo_tiled(material, level, q, shift, p, n, t, cap, probe, policy, now);
+    uint h0 = memo_h0(material, level, q), h1 = memo_h1(material, level, q);
     uvec4 r0, r1, r2;
     bool torn;
     if (memo_find(h0, h1, cap, probe, true, policy, now, r0, r1, r2, torn) != MEMO_NONE) {

@@ -14,7 +14,7 @@ use crate::camera::StereoCamera;
 use crate::error::Result;
 use crate::gpu::GpuContext;
 use crate::materials::memo::state::MemoCounters;
-use crate::materials::memo::table::{Eviction, ENTRY_BYTES};
+use crate::materials::memo::table::Eviction;
 use crate::materials::memo::{MemoHits, MemoSettings};
 use crate::methods::{FrameInput, MethodConfig, RenderSettings};
 use crate::rt::RtChoice;
@@ -47,6 +47,17 @@ pub fn memo_configs(sizes: &[u32]) -> Vec<(String, MemoSettings)> {
             ));
         }
     }
+    // The tiled variant (4×4 texels an entry) with the default table's
+    // texel capacity.
+    v.push((
+        "both tile 4x4".to_string(),
+        MemoSettings {
+            hits: MemoHits::Both,
+            entries: d.entries / 16,
+            tile: 4,
+            ..d
+        },
+    ));
     if let Some(&small) = sizes.iter().min() {
         for (name, eviction) in [("random", Eviction::Random), ("lrw", Eviction::Lrw)] {
             v.push((
@@ -159,11 +170,7 @@ pub fn bench_materials(
                 hits: format!("{:?}", s.hits).to_lowercase(),
                 entries: s.entries,
                 eviction: format!("{:?}", s.eviction).to_lowercase(),
-                table_bytes: if s.enabled() {
-                    s.entries as u64 * ENTRY_BYTES
-                } else {
-                    0
-                },
+                table_bytes: if s.enabled() { s.table_bytes() } else { 0 },
                 frame_ms: ms.iter().sum::<f64>() / ms.len().max(1) as f64,
                 ratio_to_off: ratio,
                 ratio_se: se,

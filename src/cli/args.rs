@@ -162,6 +162,10 @@ pub struct SceneArgs {
     /// Levels added to its level of detail (+1: texels half the size).
     #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
     pub memo_bias: f32,
+    /// Texels per entry edge: 1 (non-tiled) or the tiled variant's s = 2, 4, 8
+    /// (s×s texels an entry, nearest texel, filled whole on a miss).
+    #[arg(long, default_value_t = 1)]
+    pub memo_tile: u32,
 }
 
 impl SceneArgs {
@@ -208,6 +212,7 @@ impl SceneArgs {
             probe: self.memo_probe,
             eviction: self.memo_eviction,
             bias: self.memo_bias,
+            tile: self.memo_tile,
         };
         s.validate().map_err(|e| anyhow!(e))?;
         Ok(s)

@@ -34,7 +34,10 @@ impl MemoGpu {
             ctx: ctx.clone(),
             keys: b("keys", n * 4)?,
             stamps: b("stamps", n * 4)?,
-            values: b("values", n * 4 * RECORD_WORDS as u64)?,
+            values: b(
+                "values",
+                n * (settings.tile as u64).pow(2) * 4 * RECORD_WORDS as u64,
+            )?,
             state: b("state", STATE_BYTES)?,
         };
         m.reset()?;

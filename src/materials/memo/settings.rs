@@ -78,6 +78,9 @@ pub struct MemoSettings {
     pub eviction: Eviction,
     /// Added to the level of detail (eq. 5.5's bias; + = finer texels).
     pub bias: f32,
+    /// Texels per entry edge: 1 non-tiled, else s×s texels an entry (the
+    /// thesis's tiled variant, nearest texel; a power of two up to 8).
+    pub tile: u32,
 }
 
 impl Default for MemoSettings {
@@ -88,6 +91,7 @@ impl Default for MemoSettings {
             probe: 8,
             eviction: Eviction::Lru,
             bias: 0.0,
+            tile: 1,
         }
     }
 }
@@ -97,9 +101,14 @@ impl MemoSettings {
         self.hits != MemoHits::Off
     }
 
+    /// Bytes of one entry: key, stamp and its tile² records.
+    pub fn entry_bytes(&self) -> u64 {
+        ENTRY_BYTES + (ENTRY_BYTES - 8) * (self.tile as u64 * self.tile as u64 - 1)
+    }
+
     /// Bytes of the table's buffers (keys, stamps, records).
     pub fn table_bytes(&self) -> u64 {
-        self.entries as u64 * ENTRY_BYTES
+        self.entries as u64 * self.entry_bytes()
     }
 
     /// One line naming the option at fault.
@@ -114,6 +123,21 @@ impl MemoSettings {
             return Err(format!(
                 "bad --memo-entries {}: expected more than --memo-probe ({}) and at most {MAX_ENTRIES}",
                 self.entries, self.probe
+            ));
+        }
+        if !matches!(self.tile, 1 | 2 | 4 | 8) {
+            return Err(format!(
+                "bad --memo-tile {}: expected 1 (one texel an entry), 2, 4 or 8",
+                self.tile
+            ));
+        }
+        if self.table_bytes() > MAX_ENTRIES as u64 * ENTRY_BYTES * 4 {
+            return Err(format!(
+                "bad --memo-entries {} with --memo-tile {}: {} MiB of records, more than {} MiB",
+                self.entries,
+                self.tile,
+                self.table_bytes() >> 20,
+                (MAX_ENTRIES as u64 * ENTRY_BYTES * 4) >> 20
             ));
         }
         if !self.bias.is_finite() || self.bias.abs() > 16.0 {
