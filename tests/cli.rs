@@ -754,6 +754,7 @@ fn bench_materials_checks_input_and_sweeps_the_table() {
             "both S=64",
             "both S=4096",
             "both tile 4x4",
+            "both tile 4x4 bilinear",
             "both S=64 random",
             "both S=64 lrw"
         ]

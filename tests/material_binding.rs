@@ -524,11 +524,13 @@ fn memoized_hits_return_the_graph_at_their_texel_centre() {
     let size = glam::UVec2::new(40, 24);
     // Non-tiled, and the tiled variant (4×4 texels an entry): a texel's
     // value is the graph at its centre either way.
-    for (rt, tile) in [
-        (RtChoice::Software, 1),
-        (RtChoice::Query, 1),
-        (RtChoice::Software, 4),
-        (RtChoice::Query, 4),
+    for (rt, tile, bilinear) in [
+        (RtChoice::Software, 1, false),
+        (RtChoice::Query, 1, false),
+        (RtChoice::Software, 4, false),
+        (RtChoice::Query, 4, false),
+        (RtChoice::Software, 4, true),
+        (RtChoice::Query, 4, true),
     ] {
         if rt == RtChoice::Query && !require(ctx.ray_query_enabled(), "ray queries") {
             continue;
@@ -537,6 +539,7 @@ fn memoized_hits_return_the_graph_at_their_texel_centre() {
         scene.graphs.memo = MemoSettings {
             hits: MemoHits::Primary,
             tile,
+            bilinear,
             entries: (1 << 20) / (tile * tile),
             ..Default::default()
         };
@@ -593,6 +596,30 @@ fn memoized_hits_return_the_graph_at_their_texel_centre() {
                     };
                     cpu_slot(&s.scene, 0, Slot::BaseColor, &g)
                 };
+                if bilinear {
+                    // The bilinear blend of the four centres around 2^m uv
+                    // (continuous, so no candidates): the uv's rounding
+                    // moves it by ≤ 3·2^-24 and the GPU's f32 weights by
+                    // ≤ ulp(2^m uv) × the texels' spread (≤ 0.5): 1e-6.
+                    let x = glam::Vec2::from(geom.uv) * 2f32.powi(m);
+                    let q0 = x.floor();
+                    let fr = x - q0;
+                    let (qx, qy) = (q0.x as i32, q0.y as i32);
+                    let v = |dx: i32, dy: i32| at([qx + dx, qy + dy]);
+                    let want = (v(0, 0) * (1.0 - fr.x) + v(1, 0) * fr.x) * (1.0 - fr.y)
+                        + (v(0, 1) * (1.0 - fr.x) + v(1, 1) * fr.x) * fr.y;
+                    assert!(
+                        (albedo - want).abs().max_element() <= TOL + 1e-6,
+                        "{rt:?}: pixel {i} (uv {:?}, level {m}): albedo {albedo}, bilinear CPU {want}",
+                        geom.uv
+                    );
+                    snapped_px += 1;
+                    // Not the nearest texel's value: it interpolates.
+                    if (albedo - at(candidates[0])).abs().max_element() > 0.01 {
+                        moved += 1;
+                    }
+                    continue;
+                }
                 assert!(
                     candidates
                         .iter()

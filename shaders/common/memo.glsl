@@ -18,7 +18,7 @@ layout(set = SET_SCENE, binding = B_SCENE_MEMO_STATE, std430) coherent buffer Me
 #include "memo/lod.glsl"
 
 const uint MEMO_S_NOW = 0u, MEMO_S_CAPACITY = 1u, MEMO_S_PROBE = 2u, MEMO_S_POLICY = 3u,
-           MEMO_S_FLAGS = 4u, MEMO_S_BIAS = 5u, MEMO_S_TILE_SHIFT = 6u;
+           MEMO_S_FLAGS = 4u, MEMO_S_BIAS = 5u, MEMO_S_TILE_SHIFT = 6u, MEMO_S_BILINEAR = 7u;
 const uint MEMO_C_HITS = 8u, MEMO_C_MISSES = 9u, MEMO_C_FILLS = 10u, MEMO_C_EVICTIONS = 11u,
            MEMO_C_LOCK_FAILURES = 12u, MEMO_C_REFUSED = 13u, MEMO_C_BYPASSED = 14u,
            MEMO_C_SECOND_EYE_HITS = 15u, MEMO_C_SECOND_EYE_MISSES = 16u;
@@ -117,6 +117,79 @@ ScGraphOutputs memo_tiled(uint material, int level, ivec2 q, uint shift, vec3 p,
     return mine;
 }
 
+ScGraphOutputs memo_lerp(ScGraphOutputs a, ScGraphOutputs b, float f) {
+    ScGraphOutputs o = a;
+    o.base_color = mix(a.base_color, b.base_color, f);
+    o.metallic = mix(a.metallic, b.metallic, f);
+    o.roughness = mix(a.roughness, b.roughness, f);
+    o.normal = mix(a.normal, b.normal, f);
+    o.emission = mix(a.emission, b.emission, f);
+    return o;
+}
+
+// Bilinear lookup in tiles with a one-texel overlap (thesis §5.3, tiled
+// bilinear): in texel space X = 2^m uv the centres are the integers; the
+// footprint is texels q0 = floor(X) and q0 + 1, in the tile of q0, whose
+// (s+1)² records cover its s texels and the next tile's first row and
+// column. A hit reads the four records between the two key reads; a miss
+// fills the (s+1)² texel centres in the one lane and blends its own.
+ScGraphOutputs memo_tiled_bilinear(uint material, int level, vec2 uv, uint shift, vec3 p, vec3 n, vec3 t,
+                                   uint cap, uint probe, uint policy, uint now) {
+    vec2 x = ldexp(uv, ivec2(level));
+    vec2 fl = floor(clamp(x, vec2(-1073741824.0), vec2(1073741760.0)));
+    vec2 f = x - fl;
+    ivec2 q0 = ivec2(fl);
+    ivec2 tq = q0 >> int(shift);
+    ivec2 o = q0 - (tq << int(shift));
+    uint s = 1u << shift, e = s + 1u;
+    uint key = material | (shift << 28) | (1u << 27);   // bilinear tiles have their own keys
+    uint h0 = memo_h0(key, level, tq), h1 = memo_h1(key, level, tq);
+    uvec4 r0, r1, r2;
+    ScGraphOutputs c[4];
+    uvec2 ko[4] = uvec2[4](uvec2(0u, 0u), uvec2(1u, 0u), uvec2(0u, 1u), uvec2(1u, 1u));
+    for (uint i = 0u; i < probe; ++i) {
+        uint sl = memo_slot(h0, i, cap, probe);
+        if (memo_keys[sl] != h1) continue;
+        for (uint k = 0u; k < 4u; ++k) {
+            uint idx = (uint(o.y) + ko[k].y) * e + uint(o.x) + ko[k].x;
+            memo_read_texel(MEMO_RECORD * (sl * e * e + idx), r0, r1, r2);
+            c[k] = memo_unpack(r0, r1, r2, n);
+        }
+        if (memo_validate(sl, h1, true)) {
+            if (policy == MEMO_LRU && memo_stamps[sl] != now) memo_stamps[sl] = now;
+            atomicAdd(memo_state[MEMO_C_HITS], 1u);
+            if (sc_memo_eye == 1u) atomicAdd(memo_state[MEMO_C_SECOND_EYE_HITS], 1u);
+            return memo_lerp(memo_lerp(c[0], c[1], f.x), memo_lerp(c[2], c[3], f.x), f.y);
+        }
+        atomicAdd(memo_state[MEMO_C_REFUSED], 1u);
+        break;
+    }
+    atomicAdd(memo_state[MEMO_C_MISSES], 1u);
+    if (sc_memo_eye == 1u) atomicAdd(memo_state[MEMO_C_SECOND_EYE_MISSES], 1u);
+    uint seen;
+    bool present;
+    uint victim = memo_victim(h0, h1, cap, probe, policy, now, seen, present);
+    bool locked = !present && victim != MEMO_NONE && memo_lock(victim, seen);
+    if (locked) memoryBarrierBuffer();
+    for (uint k = 0u; k < e * e; ++k) {
+        uvec2 kk = uvec2(k % e, k / e);
+        ivec2 tk = (tq << int(shift)) + ivec2(kk);
+        ScGraphOutputs v = sc_material_graphs(material, memo_snapped_uv(tk, level), p, n, t);
+        memo_pack(v, r0, r1, r2);
+        if (locked) memo_write_texel(MEMO_RECORD * (victim * e * e + k), r0, r1, r2);
+        ivec2 d = ivec2(kk) - o;
+        if (all(greaterThanEqual(d, ivec2(0))) && all(lessThanEqual(d, ivec2(1))))
+            c[uint(d.y) * 2u + uint(d.x)] = memo_unpack(r0, r1, r2, n);
+    }
+    if (locked) {
+        memo_unlock(victim, h1, now);
+        atomicAdd(memo_state[seen == MEMO_EMPTY ? MEMO_C_FILLS : MEMO_C_EVICTIONS], 1u);
+    } else if (!present) {
+        atomicAdd(memo_state[MEMO_C_LOCK_FAILURES], 1u);
+    }
+    return memo_lerp(memo_lerp(c[0], c[1], f.x), memo_lerp(c[2], c[3], f.x), f.y);
+}
+
 // The graph outputs at a hit, through the cache where this kind of hit is
 // memoized (primary: the caller's cone_width > 0; secondary: path_radiance's
 // sc_memo_cone ≥ 0) and the material's graphs read only the uv.
@@ -136,6 +209,8 @@ ScGraphOutputs sc_material_graphs_at(uint material, vec2 uv, vec3 p, vec3 n, vec
     uint cap = memo_state[MEMO_S_CAPACITY], probe = memo_state[MEMO_S_PROBE];
     uint policy = memo_state[MEMO_S_POLICY], now = memo_state[MEMO_S_NOW];
     uint shift = memo_state[MEMO_S_TILE_SHIFT];
+    if (shift > 0u && memo_state[MEMO_S_BILINEAR] != 0u)
+        return memo_tiled_bilinear(material, level, uv, shift, p, n, t, cap, probe, policy, now);
     if (shift > 0u) return memo_tiled(material, level, q, shift, p, n, t, cap, probe, policy, now);
     uint h0 = memo_h0(material, level, q), h1 = memo_h1(material, level, q);
     uvec4 r0, r1, r2;

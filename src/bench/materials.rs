@@ -58,6 +58,16 @@ pub fn memo_configs(sizes: &[u32]) -> Vec<(String, MemoSettings)> {
             ..d
         },
     ));
+    v.push((
+        "both tile 4x4 bilinear".to_string(),
+        MemoSettings {
+            hits: MemoHits::Both,
+            entries: d.entries / 16,
+            tile: 4,
+            bilinear: true,
+            ..d
+        },
+    ));
     if let Some(&small) = sizes.iter().min() {
         for (name, eviction) in [("random", Eviction::Random), ("lrw", Eviction::Lrw)] {
             v.push((

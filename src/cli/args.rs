@@ -166,6 +166,10 @@ pub struct SceneArgs {
     /// (s×s texels an entry, nearest texel, filled whole on a miss).
     #[arg(long, default_value_t = 1)]
     pub memo_tile: u32,
+    /// Bilinear lookup between the four nearest texel centres (with
+    /// --memo-tile: tiles then hold (s+1)² texels, the one-texel overlap).
+    #[arg(long)]
+    pub memo_bilinear: bool,
 }
 
 impl SceneArgs {
@@ -213,6 +217,7 @@ impl SceneArgs {
             eviction: self.memo_eviction,
             bias: self.memo_bias,
             tile: self.memo_tile,
+            bilinear: self.memo_bilinear,
         };
         s.validate().map_err(|e| anyhow!(e))?;
         Ok(s)

@@ -36,7 +36,7 @@ impl MemoGpu {
             stamps: b("stamps", n * 4)?,
             values: b(
                 "values",
-                n * (settings.tile as u64).pow(2) * 4 * RECORD_WORDS as u64,
+                n * settings.texels_per_entry() * 4 * RECORD_WORDS as u64,
             )?,
             state: b("state", STATE_BYTES)?,
         };

@@ -81,6 +81,9 @@ pub struct MemoSettings {
     /// Texels per entry edge: 1 non-tiled, else s×s texels an entry (the
     /// thesis's tiled variant, nearest texel; a power of two up to 8).
     pub tile: u32,
+    /// Bilinear lookup between the four nearest texel centres (tiled only:
+    /// tiles then hold (s+1)² texels, the one-texel overlap).
+    pub bilinear: bool,
 }
 
 impl Default for MemoSettings {
@@ -92,6 +95,7 @@ impl Default for MemoSettings {
             eviction: Eviction::Lru,
             bias: 0.0,
             tile: 1,
+            bilinear: false,
         }
     }
 }
@@ -101,9 +105,15 @@ impl MemoSettings {
         self.hits != MemoHits::Off
     }
 
-    /// Bytes of one entry: key, stamp and its tile² records.
+    /// Texel records an entry holds: 1, s², or (s+1)² with bilinear tiles.
+    pub fn texels_per_entry(&self) -> u64 {
+        let e = self.tile as u64 + u64::from(self.bilinear);
+        e * e
+    }
+
+    /// Bytes of one entry: key, stamp and its texel records.
     pub fn entry_bytes(&self) -> u64 {
-        ENTRY_BYTES + (ENTRY_BYTES - 8) * (self.tile as u64 * self.tile as u64 - 1)
+        8 + (ENTRY_BYTES - 8) * self.texels_per_entry()
     }
 
     /// Bytes of the table's buffers (keys, stamps, records).
@@ -124,6 +134,12 @@ impl MemoSettings {
                 "bad --memo-entries {}: expected more than --memo-probe ({}) and at most {MAX_ENTRIES}",
                 self.entries, self.probe
             ));
+        }
+        if self.bilinear && self.tile == 1 {
+            return Err(
+                "bad --memo-bilinear: bilinear lookup needs tiles (--memo-tile 2, 4 or 8), whose overlap holds the footprint"
+                    .into(),
+            );
         }
         if !matches!(self.tile, 1 | 2 | 4 | 8) {
             return Err(format!(

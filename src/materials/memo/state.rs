@@ -90,6 +90,7 @@ pub fn frame_words(s: &MemoSettings, now: u32) -> Vec<u32> {
     w[4] = s.hits.flags();
     w[5] = s.bias.to_bits();
     w[6] = s.tile.trailing_zeros();
+    w[7] = u32::from(s.bilinear);
     w
 }
 
