@@ -146,11 +146,13 @@ pub struct SceneArgs {
     #[arg(long, default_value = "auto", value_parser = rt)]
     pub rt: RtChoice,
     /// Memoize the scene's material-graph outputs in a texture-space cache
-    /// shared by both eyes and every pass (Urbach 2023; non-tiled,
-    /// nearest texel with centre snapping): off, primary, secondary or both hits.
+    /// shared by both eyes and every pass (Urbach 2023; nearest texel with
+    /// centre snapping, or the tiled and bilinear variants below): off,
+    /// primary, secondary or both hits.
     #[arg(long, default_value = "off")]
     pub memo: MemoHits,
-    /// Entries of the memoization table (56 B each).
+    /// Entries of the memoization table (56 B each; with --memo-tile s, s²
+    /// texel records of 48 B an entry, (s+1)² with --memo-bilinear).
     #[arg(long, default_value_t = MemoSettings::default().entries)]
     pub memo_entries: u32,
     /// Its linear-probing window.
