@@ -68,6 +68,37 @@ void memo_write_texel(uint b, uvec4 r0, uvec4 r1, uvec4 r2) {
     memo_values[b] = r0; memo_values[b + 1u] = r1; memo_values[b + 2u] = r2;
 }
 
+// A tiled hit in slot `sl`: LRU's stamp and the counters.
+void memo_count_hit(uint sl, uint policy, uint now) {
+    if (policy == MEMO_LRU && memo_stamps[sl] != now) memo_stamps[sl] = now;
+    atomicAdd(memo_state[MEMO_C_HITS], 1u);
+    if (sc_memo_eye == 1u) atomicAdd(memo_state[MEMO_C_SECOND_EYE_HITS], 1u);
+}
+
+// A tiled miss: counted, then the victim of h1's window locked for the
+// fill (the table's memo_victim and memo_lock). Returns the locked slot, or
+// MEMO_NONE when the key is present already (`present`) or no entry could
+// be locked: the lane then evaluates for itself and stores nothing.
+uint memo_begin_fill(uint h0, uint h1, uint cap, uint probe, uint policy, uint now,
+                     out uint seen, out bool present) {
+    atomicAdd(memo_state[MEMO_C_MISSES], 1u);
+    if (sc_memo_eye == 1u) atomicAdd(memo_state[MEMO_C_SECOND_EYE_MISSES], 1u);
+    uint victim = memo_victim(h0, h1, cap, probe, policy, now, seen, present);
+    if (present || victim == MEMO_NONE || !memo_lock(victim, seen)) return MEMO_NONE;
+    memoryBarrierBuffer();
+    return victim;
+}
+
+// After the records are written: unlock (stamp, then the key) and count.
+void memo_end_fill(uint victim, uint h1, uint now, uint seen, bool present) {
+    if (victim != MEMO_NONE) {
+        memo_unlock(victim, h1, now);
+        atomicAdd(memo_state[seen == MEMO_EMPTY ? MEMO_C_FILLS : MEMO_C_EVICTIONS], 1u);
+    } else if (!present) {
+        atomicAdd(memo_state[MEMO_C_LOCK_FAILURES], 1u);
+    }
+}
+
 // The tiled variant (thesis §5.3, s×s texels an entry, nearest texel): the
 // key is the tile's, a hit reads its one texel between the two key reads,
 // a miss evaluates the whole tile at its texel centres (the plain fill: one
@@ -85,21 +116,16 @@ ScGraphOutputs memo_tiled(uint material, int level, ivec2 q, uint shift, vec3 p,
         if (memo_keys[sl] != h1) continue;
         memo_read_texel(memo_texel_base(sl, shift, idx), r0, r1, r2);
         if (memo_validate(sl, h1, true)) {
-            if (policy == MEMO_LRU && memo_stamps[sl] != now) memo_stamps[sl] = now;
-            atomicAdd(memo_state[MEMO_C_HITS], 1u);
-            if (sc_memo_eye == 1u) atomicAdd(memo_state[MEMO_C_SECOND_EYE_HITS], 1u);
+            memo_count_hit(sl, policy, now);
             return memo_unpack(r0, r1, r2, n);
         }
         atomicAdd(memo_state[MEMO_C_REFUSED], 1u);
         break;
     }
-    atomicAdd(memo_state[MEMO_C_MISSES], 1u);
-    if (sc_memo_eye == 1u) atomicAdd(memo_state[MEMO_C_SECOND_EYE_MISSES], 1u);
     uint seen;
     bool present;
-    uint victim = memo_victim(h0, h1, cap, probe, policy, now, seen, present);
-    bool locked = !present && victim != MEMO_NONE && memo_lock(victim, seen);
-    if (locked) memoryBarrierBuffer();
+    uint victim = memo_begin_fill(h0, h1, cap, probe, policy, now, seen, present);
+    bool locked = victim != MEMO_NONE;
     ScGraphOutputs mine;
     for (uint k = 0u; k < s * s; ++k) {
         ivec2 tk = (tq << int(shift)) + ivec2(int(k % s), int(k / s));
@@ -108,12 +134,7 @@ ScGraphOutputs memo_tiled(uint material, int level, ivec2 q, uint shift, vec3 p,
         if (locked) memo_write_texel(memo_texel_base(victim, shift, k), r0, r1, r2);
         if (k == idx) mine = memo_unpack(r0, r1, r2, n);
     }
-    if (locked) {
-        memo_unlock(victim, h1, now);
-        atomicAdd(memo_state[seen == MEMO_EMPTY ? MEMO_C_FILLS : MEMO_C_EVICTIONS], 1u);
-    } else if (!present) {
-        atomicAdd(memo_state[MEMO_C_LOCK_FAILURES], 1u);
-    }
+    memo_end_fill(victim, h1, now, seen, present);
     return mine;
 }
 
@@ -156,21 +177,16 @@ ScGraphOutputs memo_tiled_bilinear(uint material, int level, vec2 uv, uint shift
             c[k] = memo_unpack(r0, r1, r2, n);
         }
         if (memo_validate(sl, h1, true)) {
-            if (policy == MEMO_LRU && memo_stamps[sl] != now) memo_stamps[sl] = now;
-            atomicAdd(memo_state[MEMO_C_HITS], 1u);
-            if (sc_memo_eye == 1u) atomicAdd(memo_state[MEMO_C_SECOND_EYE_HITS], 1u);
+            memo_count_hit(sl, policy, now);
             return memo_lerp(memo_lerp(c[0], c[1], f.x), memo_lerp(c[2], c[3], f.x), f.y);
         }
         atomicAdd(memo_state[MEMO_C_REFUSED], 1u);
         break;
     }
-    atomicAdd(memo_state[MEMO_C_MISSES], 1u);
-    if (sc_memo_eye == 1u) atomicAdd(memo_state[MEMO_C_SECOND_EYE_MISSES], 1u);
     uint seen;
     bool present;
-    uint victim = memo_victim(h0, h1, cap, probe, policy, now, seen, present);
-    bool locked = !present && victim != MEMO_NONE && memo_lock(victim, seen);
-    if (locked) memoryBarrierBuffer();
+    uint victim = memo_begin_fill(h0, h1, cap, probe, policy, now, seen, present);
+    bool locked = victim != MEMO_NONE;
     for (uint k = 0u; k < e * e; ++k) {
         uvec2 kk = uvec2(k % e, k / e);
         ivec2 tk = (tq << int(shift)) + ivec2(kk);
@@ -181,12 +197,7 @@ ScGraphOutputs memo_tiled_bilinear(uint material, int level, vec2 uv, uint shift
         if (all(greaterThanEqual(d, ivec2(0))) && all(lessThanEqual(d, ivec2(1))))
             c[uint(d.y) * 2u + uint(d.x)] = memo_unpack(r0, r1, r2, n);
     }
-    if (locked) {
-        memo_unlock(victim, h1, now);
-        atomicAdd(memo_state[seen == MEMO_EMPTY ? MEMO_C_FILLS : MEMO_C_EVICTIONS], 1u);
-    } else if (!present) {
-        atomicAdd(memo_state[MEMO_C_LOCK_FAILURES], 1u);
-    }
+    memo_end_fill(victim, h1, now, seen, present);
     return memo_lerp(memo_lerp(c[0], c[1], f.x), memo_lerp(c[2], c[3], f.x), f.y);
 }
 
