@@ -475,10 +475,7 @@ fn box_vertex_colors_shows_its_vertex_colours() {
 fn hit_uv(scene: &Scene, fh: [u32; 4]) -> (u32, Vec2) {
     let inst = &scene.instances[fh[3] as usize];
     let mesh = &scene.meshes[inst.mesh as usize];
-    let t = fh[2] as usize;
-    let idx = [0, 1, 2].map(|k| mesh.indices[3 * t + k] as usize);
-    let b = Vec2::new((fh[0] & 0xFF_FFFF) as f32, (fh[1] & 0xFF_FFFF) as f32) / 16_777_215.0;
-    let w = [1.0 - b.x - b.y, b.x, b.y];
+    let (idx, w) = first_hit_weights(scene, fh);
     let uv: Vec2 = (0..3).map(|k| mesh.uvs[idx[k]] * w[k]).sum();
     (mesh.material, uv)
 }
@@ -722,10 +719,7 @@ fn texture_settings_test_shows_no_red_in_the_wrap_mode_boxes() {
 fn hit_point(scene: &Scene, fh: [u32; 4]) -> (usize, u32, Vec3) {
     let inst = &scene.instances[fh[3] as usize];
     let mesh = &scene.meshes[inst.mesh as usize];
-    let t = fh[2] as usize;
-    let idx = [0, 1, 2].map(|k| mesh.indices[3 * t + k] as usize);
-    let b = Vec2::new((fh[0] & 0xFF_FFFF) as f32, (fh[1] & 0xFF_FFFF) as f32) / 16_777_215.0;
-    let w = [1.0 - b.x - b.y, b.x, b.y];
+    let (idx, w) = first_hit_weights(scene, fh);
     let local: Vec3 = (0..3).map(|k| mesh.positions[idx[k]] * w[k]).sum();
     (
         fh[3] as usize,

@@ -670,10 +670,7 @@ fn a_transformed_texture_shows_the_texel_of_the_transformed_uv() {
 fn hit_point(scene: &Scene, fh: [u32; 4]) -> (usize, Vec3) {
     let inst = &scene.instances[fh[3] as usize];
     let mesh = &scene.meshes[inst.mesh as usize];
-    let t = fh[2] as usize;
-    let idx = [0, 1, 2].map(|k| mesh.indices[3 * t + k] as usize);
-    let b = Vec2::new((fh[0] & 0xFF_FFFF) as f32, (fh[1] & 0xFF_FFFF) as f32) / 16_777_215.0;
-    let w = [1.0 - b.x - b.y, b.x, b.y];
+    let (idx, w) = first_hit_weights(scene, fh);
     let p: Vec3 = (0..3).map(|k| mesh.positions[idx[k]] * w[k]).sum();
     (inst.mesh as usize, p)
 }
