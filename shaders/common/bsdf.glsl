@@ -2,6 +2,10 @@
 // diffuse lobe is scaled by 1 − F(n·wo)), and smooth/rough dielectrics for
 // KHR_materials_transmission (Walter et al. 2007). All in a local frame
 // with the shading normal at +Z; wo points away from the surface.
+// KHR_materials_specular tints and scales the dielectric Fresnel layer;
+// KHR_materials_clearcoat adds a GGX coat (ior 1.5, own roughness and
+// normal) over the base, layered as the extension says:
+// f = f_coat + (1 − clearcoat·Fc(|nc·wo|))·f_base.
 #ifndef BSDF_GLSL
 #define BSDF_GLSL
 #include "common/scene.glsl"
@@ -26,6 +30,13 @@ struct ShadingMaterial {
     float ior;
     float specular;   // KHR_materials_specular factor: F90 of the dielectric layer
     vec3 emissive;
+    vec3 specular_color;      // KHR_materials_specular colour: tints the dielectric F0
+    float clearcoat;          // KHR_materials_clearcoat factor (0 = no coat)
+    float clearcoat_roughness;
+    // The coat's normal: world space out of material_at; the integrator
+    // re-expresses it in the shading frame (coat_in_frame) before the BSDF
+    // functions below read it.
+    vec3 coat_n;
 };
 
 float ggx_alpha(float roughness) { return max(roughness * roughness, 1e-3); }
@@ -77,10 +88,72 @@ float fresnel_dielectric(float cos_i, float eta) {
 // specular factor, which is also the dielectric F90), metal F0 = base colour.
 vec3 opaque_f0(ShadingMaterial m) {
     float r = (m.ior - 1.0) / (m.ior + 1.0);
-    return mix(vec3(min(r * r, 1.0) * m.specular), m.base, m.metallic);
+    // KHR_materials_specular: dielectric F0 = min(F0(ior)·specularColor, 1)·specular.
+    return mix(min(vec3(r * r) * m.specular_color, vec3(1.0)) * m.specular, m.base, m.metallic);
 }
 vec3 opaque_f90(ShadingMaterial m) { return vec3(mix(m.specular, 1.0, m.metallic)); }
 vec3 opaque_fresnel(ShadingMaterial m, float c) { return fresnel_schlick(opaque_f0(m), opaque_f90(m), c); }
+
+// ---- KHR_materials_clearcoat ----
+// The coat is a dielectric of ior 1.5 (F0 = 0.04, the extension's fixed
+// value) with GGX roughness clearcoat_roughness around coat_n (shading frame).
+const float COAT_F0 = 0.04;
+float coat_fresnel(float c) { return fresnel_schlick(vec3(COAT_F0), vec3(1.0), c).x; }
+
+ShadingMaterial coat_in_frame(ShadingMaterial m, Frame f) {
+    if (SC_CLEARCOAT && m.clearcoat > 0.0) m.coat_n = normalize(to_local(f, m.coat_n));
+    return m;
+}
+
+// clearcoat·Fc(|nc·wo|): the share of the coat layer seen from wo; the base
+// below is weighted by one minus it (the extension's fresnel_coat).
+float coat_weight(ShadingMaterial m, vec3 wo) {
+    if (!SC_CLEARCOAT || m.clearcoat <= 0.0) return 0.0;
+    return m.clearcoat * coat_fresnel(abs(dot(m.coat_n, wo)));
+}
+
+// The coat lobe's f·cos θi (microfacet GGX with its own Fresnel at the half
+// vector) and its VNDF sampling pdf; wo, wi in the shading frame.
+float coat_eval(ShadingMaterial m, vec3 wo, vec3 wi, out float pdf) {
+    pdf = 0.0;
+    Frame fc = frame_from(m.coat_n);
+    vec3 o = to_local(fc, wo), i = to_local(fc, wi);
+    if (o.z <= 0.0 || i.z <= 0.0) return 0.0;
+    float a = ggx_alpha(m.clearcoat_roughness);
+    vec3 h = normalize(o + i);
+    float D = ggx_d(h, a);
+    pdf = smith_g1(o, a) * D / (4.0 * o.z);
+    return m.clearcoat * coat_fresnel(dot(i, h)) * D * smith_g2(o, i, a) / (4.0 * o.z);
+}
+
+// Samples the coat's visible normals; `ratio` = the sample's coat
+// reflectance over coat_weight (F(wi·h)/Fc(nc·wo)·G2/G1; 1 for a smooth coat).
+bool coat_sample(ShadingMaterial m, vec3 wo, vec2 u, out vec3 wi, out float ratio) {
+    ratio = 0.0;
+    wi = vec3(0.0);
+    Frame fc = frame_from(m.coat_n);
+    vec3 o = to_local(fc, wo);
+    if (o.z <= 0.0) return false;
+    float a = ggx_alpha(m.clearcoat_roughness);
+    vec3 h = sample_vndf(o, a, u);
+    vec3 i = reflect(-o, h);
+    if (i.z <= 0.0) return false;
+    wi = to_world(fc, i);
+    ratio = coat_fresnel(dot(i, h)) / coat_fresnel(o.z) * smith_g2(o, i, a) / smith_g1(o, a);
+    return true;
+}
+
+float luminance(vec3 c) { return dot(c, vec3(0.2126, 0.7152, 0.0722)); }
+
+// Probability of sampling the coat lobe: its share of the reflectance
+// estimate (coat weight against the attenuated base's Fresnel and albedo),
+// kept in [0.1, 0.9] so neither part is starved; 0 without a coat.
+float coat_prob(ShadingMaterial m, vec3 wo) {
+    float wc = coat_weight(m, wo);
+    if (wc <= 0.0) return 0.0;
+    float rb = (1.0 - wc) * (luminance(opaque_fresnel(m, max(wo.z, 0.0))) + (1.0 - m.metallic) * luminance(m.base));
+    return clamp(wc / max(wc + rb, 1e-6), 0.1, 0.9);
+}
 
 // Probability of sampling the specular lobe of the opaque BSDF.
 float opaque_spec_prob(ShadingMaterial m, vec3 wo) {
@@ -92,8 +165,8 @@ float opaque_spec_prob(ShadingMaterial m, vec3 wo) {
     return clamp(mix(lf, 1.0, m.metallic), 0.1, 0.9);
 }
 
-// f(wo, wi)·|cos θi| and the sampling pdf of the opaque BSDF (both local).
-vec3 opaque_eval(ShadingMaterial m, vec3 wo, vec3 wi, out float pdf) {
+// f(wo, wi)·|cos θi| and the sampling pdf of the base below the coat (both local).
+vec3 base_eval(ShadingMaterial m, vec3 wo, vec3 wi, out float pdf) {
     pdf = 0.0;
     if (wo.z <= 0.0 || wi.z <= 0.0) return vec3(0.0);
     if (!SC_VIEW_DEPENDENT) {
@@ -114,6 +187,20 @@ vec3 opaque_eval(ShadingMaterial m, vec3 wo, vec3 wi, out float pdf) {
     return spec + diff;
 }
 
+// f(wo, wi)·|cos θi| and the sampling pdf of the opaque BSDF (both local):
+// the base, and over it the clearcoat where there is one.
+vec3 opaque_eval(ShadingMaterial m, vec3 wo, vec3 wi, out float pdf) {
+    vec3 f = base_eval(m, wo, wi, pdf);
+    if (SC_CLEARCOAT && SC_VIEW_DEPENDENT && m.clearcoat > 0.0) {
+        float pc = coat_prob(m, wo);
+        float pdf_c;
+        float fc = coat_eval(m, wo, wi, pdf_c);
+        f = f * (1.0 - coat_weight(m, wo)) + vec3(fc);
+        pdf = pc * pdf_c + (1.0 - pc) * pdf;
+    }
+    return f;
+}
+
 vec3 cosine_hemisphere(vec2 u) {
     float r = sqrt(u.x);
     float phi = 2.0 * PI * u.y;
@@ -121,16 +208,25 @@ vec3 cosine_hemisphere(vec2 u) {
 }
 
 // Samples the opaque BSDF; returns false when the sample is below the surface.
+// The coat is picked first (probability coat_prob, from the lobe number
+// u.z, which is then rescaled for the base's choice: unchanged without a coat).
 bool opaque_sample(ShadingMaterial m, vec3 wo, vec3 u, out vec3 wi, out vec3 weight, out float pdf) {
     float a = ggx_alpha(m.roughness);
+    float pc = SC_CLEARCOAT && SC_VIEW_DEPENDENT ? coat_prob(m, wo) : 0.0;
     float ps = opaque_spec_prob(m, wo);
-    if (u.z < ps) {
-        vec3 h = sample_vndf(wo, a, u.xy);
-        wi = reflect(-wo, h);
+    if (u.z < pc) {
+        float ratio;
+        if (!coat_sample(m, wo, u.xy, wi, ratio)) { weight = vec3(0.0); pdf = 0.0; return false; }
     } else {
-        wi = cosine_hemisphere(u.xy);
+        float uz = pc > 0.0 ? (u.z - pc) / (1.0 - pc) : u.z;
+        if (uz < ps) {
+            vec3 h = sample_vndf(wo, a, u.xy);
+            wi = reflect(-wo, h);
+        } else {
+            wi = cosine_hemisphere(u.xy);
+        }
     }
-    if (wi.z <= 0.0) { weight = vec3(0.0); pdf = 0.0; return false; }
+    if (pc <= 0.0 && wi.z <= 0.0) { weight = vec3(0.0); pdf = 0.0; return false; }
     vec3 fc = opaque_eval(m, wo, wi, pdf);
     weight = pdf > 0.0 ? fc / pdf : vec3(0.0);
     return pdf > 0.0;

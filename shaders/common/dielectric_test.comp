@@ -22,6 +22,10 @@ void main() {
     m.ior = b.w;
     m.specular = 1.0;
     m.emissive = vec3(0.0);
+    m.specular_color = vec3(1.0);
+    m.clearcoat = 0.0;
+    m.clearcoat_roughness = 0.0;
+    m.coat_n = a.xyz;
     vec3 wi, w;
     bool delta;
     bool ok = dielectric_sample_world(m, a.xyz, a.w > 0.5, b.xyz, c.xyz, wi, w, delta);

@@ -38,4 +38,8 @@ layout(constant_id = SPEC_SC_ANIMATED) const bool SC_ANIMATED = false;
 // A mesh has vertex colours (glTF COLOR_0, src/scene/features.rs
 // `vertex_colors`): they multiply the base colour and its alpha.
 layout(constant_id = SPEC_SC_VERTEX_COLORS) const bool SC_VERTEX_COLORS = true;
+// A material has a clearcoat (KHR_materials_clearcoat, src/scene/features.rs
+// `clearcoat`): the coat lobe of the opaque BSDF and the coat reflection
+// over transmission are compiled in.
+layout(constant_id = SPEC_SC_CLEARCOAT) const bool SC_CLEARCOAT = true;
 #endif

@@ -16,6 +16,12 @@
 // Constant and Preetham skies are left to BSDF sampling (cosine sampling is
 // already proportional to a constant sky; the sun is the sky's bright part).
 //
+// KHR_materials_volume: a path that refracts into a volume boundary carries
+// the volume's absorption σ_a until it refracts out again; every segment
+// inside (to the next hit, to a light sampled from inside, or out to the sky)
+// is attenuated by Beer–Lambert exp(−σ_a·t). Media do not nest: leaving any
+// transmissive surface from its back returns to vacuum.
+//
 // Random numbers: the BSDF / Russian-roulette / punctual-light numbers come
 // from the bounce's stream `r` and are drawn whether or not lights are
 // compiled in, so that stream does not depend on the specialization constants.
@@ -53,7 +59,12 @@ float env_mis_weight(vec3 d, bool specular_prev, float pdf_prev) {
 // Light-sampling estimates (before the path throughput) at a non-delta vertex
 // of the opaque BSDF: one emissive-triangle sample and one map sample, each
 // weighted against BSDF sampling by the power heuristic.
-vec3 nee_area_lights(Surface s, ShadingMaterial m, Frame f, vec3 wo, vec4 u_emitter, vec2 u_env, inout RayCounts rays) {
+// Beer–Lambert transmittance over distance t in a medium of absorption σ_a
+// (0 outside any volume: then exactly 1, the caller skips it).
+vec3 medium_transmittance(vec3 sigma_a, float t) { return exp(-sigma_a * t); }
+bool in_medium(vec3 sigma_a) { return SC_TRANSMISSION && any(greaterThan(sigma_a, vec3(0.0))); }
+
+vec3 nee_area_lights(Surface s, ShadingMaterial m, Frame f, vec3 wo, vec4 u_emitter, vec2 u_env, vec3 sigma_a, inout RayCounts rays) {
     vec3 L = vec3(0.0);
     if (SC_LIGHT_STRATEGY == LIGHT_STRATEGY_BSDF) return L;
     if (SC_EMISSIVE) {
@@ -65,7 +76,9 @@ vec3 nee_area_lights(Surface s, ShadingMaterial m, Frame f, vec3 wo, vec4 u_emit
                 rays.shadow++;
                 if (!rt_occluded(offset_ray(s.p, s.ng), es.wi, 0.0, es.dist * (1.0 - 1e-4))) {
                     float w = SC_LIGHT_STRATEGY == LIGHT_STRATEGY_NEE ? 1.0 : power_heuristic(es.pdf, pdf_b);
-                    L += fc * es.Le * (w / es.pdf);
+                    vec3 c = fc * es.Le * (w / es.pdf);
+                    if (in_medium(sigma_a)) c *= medium_transmittance(sigma_a, es.dist);
+                    L += c;
                 }
             }
         }
@@ -80,7 +93,9 @@ vec3 nee_area_lights(Surface s, ShadingMaterial m, Frame f, vec3 wo, vec4 u_emit
                 rays.shadow++;
                 if (!rt_occluded(offset_ray(s.p, s.ng), wi, 0.0, 1e30)) {
                     float w = SC_LIGHT_STRATEGY == LIGHT_STRATEGY_NEE ? 1.0 : power_heuristic(pdf_e, pdf_b);
-                    L += fc * environment(wi) * (w / pdf_e);
+                    vec3 c = fc * environment(wi) * (w / pdf_e);
+                    if (in_medium(sigma_a)) c *= medium_transmittance(sigma_a, 1e30);
+                    L += c;
                 }
             }
         }
@@ -97,6 +112,7 @@ vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, float cone_width, inout Rn
     bool specular_prev = true;   // camera rays and delta events see the sun disc directly
     float pdf_prev = 0.0;
     float cone = cone_width;
+    vec3 sigma_a = vec3(0.0);    // absorption of the volume the ray travels in
 #ifdef SC_MATERIAL_MEMO
     // The memoization cache's cone past the first hit (thesis eqs.
     // 2.10-2.11: width grown by the spread, the spread by each surface's
@@ -105,6 +121,9 @@ vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, float cone_width, inout Rn
     float memo_spread = hit && h.t > 0.0 ? cone_width / h.t : 0.0;
 #endif
     for (uint bounce = 0u;; ++bounce) {
+        // Beer–Lambert over this segment (a ray escaping an open mesh from
+        // inside travels on forever: absorbed wherever σ_a > 0).
+        if (in_medium(sigma_a)) beta *= medium_transmittance(sigma_a, hit ? h.t : 1e30);
         if (!hit) {
             L += beta * environment(d) * env_mis_weight(d, specular_prev, pdf_prev);
             float lp;
@@ -133,6 +152,7 @@ vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, float cone_width, inout Rn
 
         Frame f = frame_from(s.n);
         vec3 wo = to_local(f, -d);
+        m = coat_in_frame(m, f);
         Rng r = rng_fork(rng, bounce);
         Rng rl = rng_fork(r, 0x4C696768u);   // light-sampling stream (does not advance r)
         vec3 wi_world;
@@ -143,8 +163,24 @@ vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, float cone_width, inout Rn
             // seen through it counts in full).
             vec3 w;
             bool delta;
-            if (!dielectric_sample_world(m, s.n, s.front, d, vec3(rng_next2(r), rng_next(r)), wi_world, w, delta)) break;
-            beta *= w;
+            // A clearcoat over glass (outside only) reflects its share
+            // coat_weight, picked with that probability; the rest goes to
+            // the dielectric below unweighted ((1 − w)/(1 − w) = 1).
+            float wc = s.front ? coat_weight(m, wo) : 0.0;
+            if (wc > 0.0 && rng_next(r) < wc) {
+                vec3 wi;
+                float ratio;
+                if (!coat_sample(m, wo, rng_next2(r), wi, ratio)) break;
+                wi_world = to_world(f, wi);
+                if (dot(wi_world, s.ng) <= 0.0) break;
+                beta *= ratio;
+            } else {
+                if (!dielectric_sample_world(m, s.n, s.front, d, vec3(rng_next2(r), rng_next(r)), wi_world, w, delta)) break;
+                beta *= w;
+                // Refraction crosses the boundary: into the material's
+                // volume from the front, out to vacuum from the back.
+                if (dot(wi_world, s.ng) < 0.0) sigma_a = s.front ? materials[s.material].attenuation.rgb : vec3(0.0);
+            }
             specular_prev = true;
             pdf_prev = 0.0;
         } else {
@@ -163,14 +199,15 @@ vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, float cone_width, inout Rn
                     vec3 so = offset_ray(s.p, s.ng);
                     if (!rt_occluded(so, ls.wi, 0.0, ls.dist * (1.0 - 1e-4))) {
                         float w = ls.pdf > 0.0 ? power_heuristic(ls.pdf, pdf_b) : 1.0;
-                        L += beta * fc * ls.L * w;
+                        if (!in_medium(sigma_a)) L += beta * fc * ls.L * w;
+                        else L += beta * fc * ls.L * w * medium_transmittance(sigma_a, ls.dist);
                     }
                 }
             }
             // Emissive triangles and the environment map (stream rl, drawn in full).
             vec4 u_emitter = vec4(rng_next2(rl), rng_next2(rl));
             vec2 u_env = rng_next2(rl);
-            L += beta * nee_area_lights(s, m, f, wo, u_emitter, u_env, rays);
+            L += beta * nee_area_lights(s, m, f, wo, u_emitter, u_env, sigma_a, rays);
             vec3 wi, w;
             float pdf;
             if (!opaque_sample(m, wo, vec3(rng_next2(r), rng_next(r)), wi, w, pdf)) break;

@@ -22,6 +22,12 @@ ShadingMaterial material_at(inout Surface s, vec3 ray_dir, float cone_width) {
     m.ior = g.params.z;
     m.specular = g.extra.y;
     m.emissive = SC_EMISSIVE ? g.emissive_metallic.rgb : vec3(0.0);
+    m.specular_color = g.specular_color.rgb;
+    m.clearcoat = SC_CLEARCOAT ? g.coat.x : 0.0;
+    m.clearcoat_roughness = g.coat.y;
+    // The coat follows the interpolated normal, not the base's normal map
+    // (KHR_materials_clearcoat), unless it has a normal texture of its own.
+    m.coat_n = s.n;
     float cos_i = dot(s.ng, -ray_dir);
 #ifdef SC_MATERIAL_GRAPHS
     // Bound graph outputs multiply the factors in place of the textures
@@ -45,6 +51,21 @@ ShadingMaterial material_at(inout Surface s, vec3 ray_dir, float cone_width) {
         }
         if (SC_EMISSIVE && g.tex0.w >= 0) m.emissive *= sample_texture(g.tex0.w, s.uv, texture_lod(g.tex0.w, s, cone_width, cos_i)).rgb;
         if (SC_TRANSMISSION && g.tex1.x >= 0) m.transmission *= sample_texture(g.tex1.x, s.uv, 0.0).r;
+        // KHR_materials_specular: A of the specular texture, RGB of the colour texture.
+        if (g.tex2.w >= 0) m.specular *= sample_texture(g.tex2.w, s.uv, texture_lod(g.tex2.w, s, cone_width, cos_i)).a;
+        if (g.tex3.x >= 0) m.specular_color *= sample_texture(g.tex3.x, s.uv, texture_lod(g.tex3.x, s, cone_width, cos_i)).rgb;
+        if (SC_CLEARCOAT && m.clearcoat > 0.0) {
+            if (g.tex2.x >= 0) m.clearcoat *= sample_texture(g.tex2.x, s.uv, texture_lod(g.tex2.x, s, cone_width, cos_i)).r;
+            if (g.tex2.y >= 0) m.clearcoat_roughness *= sample_texture(g.tex2.y, s.uv, texture_lod(g.tex2.y, s, cone_width, cos_i)).g;
+            if (SC_NORMAL_MAPS && g.tex2.z >= 0 && dot(s.tangent, s.tangent) > 0.0) {
+                vec3 tn = sample_texture(g.tex2.z, s.uv, texture_lod(g.tex2.z, s, cone_width, cos_i)).xyz * 2.0 - 1.0;
+                tn.xy *= g.coat.z;
+                vec3 T = normalize(s.tangent - s.n * dot(s.n, s.tangent));
+                vec3 B = cross(s.n, T) * s.tangent_sign;
+                vec3 n = normalize(tn.x * T + tn.y * B + tn.z * s.n);
+                if (dot(n, s.ng) > 0.0 && all(equal(n, n))) m.coat_n = n;
+            }
+        }
         if (SC_NORMAL_MAPS && g.tex0.z >= 0 && dot(s.tangent, s.tangent) > 0.0) {
             vec3 tn = sample_texture(g.tex0.z, s.uv, texture_lod(g.tex0.z, s, cone_width, cos_i)).xyz * 2.0 - 1.0;
             tn.xy *= g.extra.x;
@@ -76,6 +97,8 @@ ShadingMaterial material_at(inout Surface s, vec3 ray_dir, float cone_width) {
     if (!s.front && g.tex1.z == 0) m.emissive = vec3(0.0);
     m.roughness = clamp(m.roughness, 0.0, 1.0);
     m.metallic = clamp(m.metallic, 0.0, 1.0);
+    m.clearcoat = clamp(m.clearcoat, 0.0, 1.0);
+    m.clearcoat_roughness = clamp(m.clearcoat_roughness, 0.0, 1.0);
     return m;
 }
 #endif

@@ -4,6 +4,7 @@
 #define SCENE_GLSL
 #extension GL_EXT_nonuniform_qualifier : require
 #include "common/features.glsl"
+#include "common/random.glsl"
 
 struct Vertex { vec4 pos_u; vec4 normal_v; vec4 tangent; };
 struct MeshInfo { uint vertex_offset; uint index_offset; uint material; uint triangle_count; };
@@ -15,8 +16,13 @@ struct MaterialGpu {
     vec4 emissive_metallic;   // emissive rgb (× strength), metallic
     vec4 params;              // roughness, transmission, ior, alpha cutoff
     ivec4 tex0;               // base colour, metallic-roughness, normal, emissive (-1 = none)
-    ivec4 tex1;               // transmission, alpha mode (0 opaque, 1 mask), double sided, unused
+    ivec4 tex1;               // transmission, alpha mode (0 opaque, 1 mask, 2 blend), double sided, unused
     vec4 extra;               // normal scale, specular factor (KHR_materials_specular), unused, unused
+    vec4 specular_color;      // KHR_materials_specular colour factor rgb, unused
+    vec4 coat;                // KHR_materials_clearcoat factor, roughness, normal scale, unused
+    vec4 attenuation;         // KHR_materials_volume σ_a rgb (per world unit, 0 = none), unused
+    ivec4 tex2;               // clearcoat (R), clearcoat roughness (G), clearcoat normal, specular (A)
+    ivec4 tex3;               // specular colour (RGB), unused, unused, unused
 };
 struct LightGpu {
     vec4 radiant_kind;        // rgb, kind (0 point, 1 spot, 2 directional)
@@ -80,16 +86,49 @@ vec4 triangle_color(uint inst, uint prim, vec2 bary) {
     return w.x * vertex_color(vi.x) + w.y * vertex_color(vi.y) + w.z * vertex_color(vi.z);
 }
 
-// Alpha test used by both ray backends for masked materials.
-bool alpha_passes(uint inst, uint prim, vec2 bary) {
-    if (!SC_ALPHA_MASK) return true;
-    MaterialGpu m = materials[instance_material(inst)];
-    if (m.tex1.y != 1) return true;
+// Alpha modes (MaterialGpu.tex1.y): 0 opaque, 1 MASK, 2 BLEND.
+const int ALPHA_OPAQUE = 0;
+const int ALPHA_MASK = 1;
+const int ALPHA_BLEND = 2;
+
+// The alpha of a material at a point: base colour factor × COLOR_0 × texture (mip 0).
+float surface_alpha(MaterialGpu m, uint inst, uint prim, vec2 bary) {
     float a = m.base_color.a * triangle_color(inst, prim, bary).a;
     if (SC_TEXTURES && m.tex0.x >= 0) {
         vec2 uv = triangle_uv(inst, prim, bary);
         a *= sample_texture(m.tex0.x, uv, 0.0).a;
     }
+    return a;
+}
+
+// BLEND as stochastic coverage, a screen door fixed on the surface: each
+// triangle is cut into 2^16 × 2^16 barycentric cells, and a cell is solid
+// when a hash of (instance, triangle, cell) falls below the alpha there. A
+// ray finds the surface with probability alpha (over the hash), so paths
+// average to the alpha blend (alpha·surface + (1 − alpha)·behind) without
+// sorting; the cells are far below a pixel's footprint on any triangle of
+// realistic size. Being fixed on the surface, the door is the same for every
+// ray that crosses a point: camera rays, shadow rays, light sampling of a
+// blended emitter, and the sample cache's retrace of a sample seen through
+// it (a per-ray coin would hide such a sample again with probability alpha
+// at each retrace, and bias the pixel towards the surface).
+float coverage_coin(uint inst, uint prim, vec2 bary) {
+    uvec2 cell = uvec2(clamp(bary, 0.0, 1.0) * 65536.0);
+    uint h = pcg_hash(inst * 0x9E3779B9u ^ 0x626C656Eu);
+    h = pcg_hash(h ^ prim);
+    h = pcg_hash(h ^ (cell.x | (cell.y << 16)));
+    h = pcg_hash(h ^ (cell.y >> 16) ^ (cell.x >> 16) * 0x85EBCA6Bu);
+    return float(h >> 8) * (1.0 / 16777216.0);
+}
+
+// Alpha test used by both ray backends: MASK keeps alpha ≥ cutoff; BLEND
+// keeps the solid cells of its screen door (coverage_coin).
+bool alpha_passes(uint inst, uint prim, vec2 bary) {
+    if (!SC_ALPHA_MASK) return true;
+    MaterialGpu m = materials[instance_material(inst)];
+    if (m.tex1.y == ALPHA_OPAQUE) return true;
+    float a = surface_alpha(m, inst, prim, bary);
+    if (m.tex1.y == ALPHA_BLEND) return coverage_coin(inst, prim, bary) < a;
     return a >= m.params.w;
 }
 

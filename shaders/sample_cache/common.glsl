@@ -234,7 +234,13 @@ vec3 remodulate(vec3 demod, ShadingMaterial m) { return demodulation_factor(m) *
 // layer (KHR_materials_specular factor > 0; glTF's default is 1). Only pure
 // Lambert materials (metallic 0, specular 0, no transmission) lack one.
 bool has_specular_lobe(ShadingMaterial m) {
-    return m.transmission > 0.0 || (SC_VIEW_DEPENDENT && (m.metallic > 0.0 || m.specular > 0.0));
+    return m.transmission > 0.0 || (SC_VIEW_DEPENDENT && (m.metallic > 0.0 || m.specular > 0.0 || m.clearcoat > 0.0));
+}
+
+// The GGX roughness of the sharpest specular lobe: the base's, or the
+// clearcoat's where it is smoother (appendix C's α_GGX for a coated surface).
+float specular_roughness(ShadingMaterial m) {
+    return SC_CLEARCOAT && m.clearcoat > 0.0 ? min(m.roughness, m.clearcoat_roughness) : m.roughness;
 }
 
 // Appendix C: α_min = (1 − α_GGX)·0.5 + α_GGX·0.1, α_GGX the BSDF's GGX

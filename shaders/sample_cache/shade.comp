@@ -53,7 +53,7 @@ void main() {
         float c = rec.w;
         float alpha = 1.0 / (c + 1.0);   // running mean
         float alpha_floor = ACCUM_MODE == 1u ? pc.fixed_alpha
-                          : has_specular_lobe(m) ? alpha_min(ggx_alpha(m.roughness)) : 0.0;
+                          : has_specular_lobe(m) ? alpha_min(ggx_alpha(specular_roughness(m))) : 0.0;
         bool clamped = alpha < alpha_floor;
         if (clamped) alpha = alpha_floor;
         float c_next = clamped ? accumulated_count(c, alpha) : min(c + 1.0, C_MAX);

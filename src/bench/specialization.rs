@@ -19,6 +19,7 @@ pub const FEATURE_FLAGS: &[&str] = &[
     "directional_lights",
     "view_dependent",
     "vertex_colors",
+    "clearcoat",
 ];
 
 /// Whether flag `name` of [`FEATURE_FLAGS`] is on in `f`; with `set`, turns it on.
@@ -33,6 +34,7 @@ fn feature_flag(f: &mut crate::scene::SceneFeatures, name: &str, set: bool) -> b
         "directional_lights" => &mut f.directional_lights,
         "view_dependent" => &mut f.view_dependent,
         "vertex_colors" => &mut f.vertex_colors,
+        "clearcoat" => &mut f.clearcoat,
         _ => unreachable!("FEATURE_FLAGS names every flag"),
     };
     if set {

@@ -24,6 +24,7 @@ pub mod spec_id {
     pub const TWO_LEVEL: u32 = 12;
     pub const ANIMATED: u32 = 13;
     pub const VERTEX_COLORS: u32 = 14;
+    pub const CLEARCOAT: u32 = 15;
 }
 
 pub const INTERFACE: Interface = Interface {
@@ -73,5 +74,6 @@ pub const INTERFACE: Interface = Interface {
         ("SC_TWO_LEVEL", spec_id::TWO_LEVEL),
         ("SC_ANIMATED", spec_id::ANIMATED),
         ("SC_VERTEX_COLORS", spec_id::VERTEX_COLORS),
+        ("SC_CLEARCOAT", spec_id::CLEARCOAT),
     ],
 };

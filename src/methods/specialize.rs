@@ -26,6 +26,7 @@ impl RenderSettings {
             (spec_id::DIRECTIONAL, x.directional_lights),
             (spec_id::VIEW_DEPENDENT, x.view_dependent),
             (spec_id::VERTEX_COLORS, x.vertex_colors),
+            (spec_id::CLEARCOAT, x.clearcoat),
         ] {
             if on {
                 s.flag(id, true);

@@ -68,6 +68,16 @@ struct MaterialGpu {
     tex0: [i32; 4],
     tex1: [i32; 4],
     extra: [f32; 4],
+    /// KHR_materials_specular colour factor (rgb), unused.
+    specular_color: [f32; 4],
+    /// KHR_materials_clearcoat factor, roughness, normal scale; unused.
+    coat: [f32; 4],
+    /// KHR_materials_volume absorption σ_a (rgb, per world unit); unused.
+    attenuation: [f32; 4],
+    /// Clearcoat (R), clearcoat roughness (G), clearcoat normal, specular (A).
+    tex2: [i32; 4],
+    /// Specular colour (RGB), unused ×3.
+    tex3: [i32; 4],
 }
 
 #[repr(C)]
@@ -295,11 +305,35 @@ impl SceneGpu {
                     ],
                     tex1: [
                         t(m.transmission_texture),
-                        (m.alpha_mode != AlphaMode::Opaque) as i32,
+                        // scene.glsl ALPHA_OPAQUE / ALPHA_MASK / ALPHA_BLEND
+                        match m.alpha_mode {
+                            AlphaMode::Opaque => 0,
+                            AlphaMode::Mask => 1,
+                            AlphaMode::Blend => 2,
+                        },
                         m.double_sided as i32,
                         0,
                     ],
                     extra: [m.normal_scale, m.specular, 0.0, 0.0],
+                    specular_color: m.specular_color.extend(0.0).to_array(),
+                    coat: [
+                        m.clearcoat.factor,
+                        m.clearcoat.roughness,
+                        m.clearcoat.normal_scale,
+                        0.0,
+                    ],
+                    attenuation: m
+                        .volume
+                        .map_or(Vec3::ZERO, |v| v.sigma_a())
+                        .extend(0.0)
+                        .to_array(),
+                    tex2: [
+                        t(m.clearcoat.texture),
+                        t(m.clearcoat.roughness_texture),
+                        t(m.clearcoat.normal_texture),
+                        t(m.specular_texture),
+                    ],
+                    tex3: [t(m.specular_color_texture), -1, -1, -1],
                 }
             })
             .collect();
@@ -699,7 +733,8 @@ impl SceneGpu {
                 self.bvh_layout_in_use() == Some(BvhLayout::TwoLevel),
             )
             .flag(spec_id::ANIMATED, f.animated)
-            .flag(spec_id::VERTEX_COLORS, f.vertex_colors);
+            .flag(spec_id::VERTEX_COLORS, f.vertex_colors)
+            .flag(spec_id::CLEARCOAT, f.clearcoat);
         s
     }
 

@@ -207,11 +207,59 @@ fn material_json(m: &Material, used: &mut Vec<&'static str>, table: &mut Texture
         }
         ext.insert("KHR_materials_transmission".into(), Value::Object(t));
     }
-    if m.specular != 1.0 {
-        ext.insert(
-            "KHR_materials_specular".into(),
-            json!({ "specularFactor": m.specular }),
+    if m.specular != 1.0
+        || m.specular_color != Vec3::ONE
+        || m.specular_texture.is_some()
+        || m.specular_color_texture.is_some()
+    {
+        let mut sp = Map::new();
+        sp.insert("specularFactor".into(), json!(m.specular));
+        if m.specular_color != Vec3::ONE {
+            sp.insert(
+                "specularColorFactor".into(),
+                json!(m.specular_color.to_array()),
+            );
+        }
+        if let Some(t) = tex(m.specular_texture) {
+            sp.insert("specularTexture".into(), t);
+        }
+        if let Some(t) = tex(m.specular_color_texture) {
+            sp.insert("specularColorTexture".into(), t);
+        }
+        ext.insert("KHR_materials_specular".into(), Value::Object(sp));
+    }
+    let c = &m.clearcoat;
+    if c.factor > 0.0 || c.texture.is_some() {
+        let mut cc = Map::new();
+        cc.insert("clearcoatFactor".into(), json!(c.factor));
+        cc.insert("clearcoatRoughnessFactor".into(), json!(c.roughness));
+        if let Some(t) = tex(c.texture) {
+            cc.insert("clearcoatTexture".into(), t);
+        }
+        if let Some(t) = tex(c.roughness_texture) {
+            cc.insert("clearcoatRoughnessTexture".into(), t);
+        }
+        if let Some(t) = c.normal_texture {
+            cc.insert(
+                "clearcoatNormalTexture".into(),
+                json!({ "index": tex(Some(t)).map(|j| j["index"].clone()), "scale": c.normal_scale }),
+            );
+        }
+        ext.insert("KHR_materials_clearcoat".into(), Value::Object(cc));
+    }
+    if let Some(v) = &m.volume {
+        // A volume boundary: any thickness > 0 (stereocache traces the real
+        // distance; the factor is for rasterizers).
+        let mut vol = Map::new();
+        vol.insert("thicknessFactor".into(), json!(1.0));
+        vol.insert(
+            "attenuationColor".into(),
+            json!(v.attenuation_color.to_array()),
         );
+        if v.attenuation_distance.is_finite() {
+            vol.insert("attenuationDistance".into(), json!(v.attenuation_distance));
+        }
+        ext.insert("KHR_materials_volume".into(), Value::Object(vol));
     }
     if m.ior != 1.5 {
         ext.insert("KHR_materials_ior".into(), json!({ "ior": m.ior }));
@@ -221,6 +269,8 @@ fn material_json(m: &Material, used: &mut Vec<&'static str>, table: &mut Texture
             "KHR_materials_emissive_strength" => "KHR_materials_emissive_strength",
             "KHR_materials_transmission" => "KHR_materials_transmission",
             "KHR_materials_specular" => "KHR_materials_specular",
+            "KHR_materials_clearcoat" => "KHR_materials_clearcoat",
+            "KHR_materials_volume" => "KHR_materials_volume",
             _ => "KHR_materials_ior",
         };
         if !used.contains(&name) {

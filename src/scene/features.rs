@@ -27,6 +27,9 @@ pub struct SceneFeatures {
     /// A mesh has vertex colours (glTF COLOR_0): they multiply the base
     /// colour and its alpha. Off, the colour buffer is never read.
     pub vertex_colors: bool,
+    /// A material has a clearcoat (KHR_materials_clearcoat factor > 0; its
+    /// texture only multiplies the factor). Off, the coat is compiled out.
+    pub clearcoat: bool,
 }
 
 impl SceneFeatures {
@@ -34,7 +37,9 @@ impl SceneFeatures {
         let mats = &scene.materials;
         SceneFeatures {
             textures: !scene.textures.is_empty(),
-            normal_maps: mats.iter().any(|m| m.normal_texture.is_some()),
+            normal_maps: mats
+                .iter()
+                .any(|m| m.normal_texture.is_some() || m.clearcoat.normal_texture.is_some()),
             alpha_mask: mats.iter().any(|m| m.alpha_mode != AlphaMode::Opaque),
             transmission: mats.iter().any(|m| m.transmission > 0.0),
             emissive_triangles: scene.has_emissive_triangles(),
@@ -46,12 +51,15 @@ impl SceneFeatures {
                 .lights
                 .iter()
                 .any(|l| matches!(l.kind, LightKind::Directional { .. })),
-            view_dependent: mats.iter().any(|m| m.metallic > 0.0 || m.specular > 0.0),
+            view_dependent: mats
+                .iter()
+                .any(|m| m.metallic > 0.0 || m.specular > 0.0 || m.clearcoat.factor > 0.0),
             environment_map: matches!(scene.environment, Some(Environment::Map { .. })),
             sky: matches!(scene.environment, Some(Environment::Sky { .. })),
             constant_environment: matches!(scene.environment, Some(Environment::Constant(_))),
             animated: scene.is_animated(),
             vertex_colors: scene.meshes.iter().any(|m| !m.colors.is_empty()),
+            clearcoat: mats.iter().any(|m| m.clearcoat.factor > 0.0),
         }
     }
 
@@ -71,6 +79,7 @@ impl SceneFeatures {
             constant_environment: true,
             animated: true,
             vertex_colors: true,
+            clearcoat: true,
         }
     }
 }

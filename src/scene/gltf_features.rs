@@ -186,10 +186,12 @@ pub const FEATURES: &[Feature] = &[
         NotApplicable,
         "a path tracer computes occlusion; the texture would count it twice",
     ),
-    elsewhere(
+    f(
         "alphaMode BLEND",
-        Partly,
-        "rendered as MASK with cutoff 0.5",
+        Full,
+        "stochastic coverage: a screen door of 2^16 × 2^16 barycentric cells per triangle, each \
+         solid with probability alpha, fixed on the surface for every ray (camera, shadow, \
+         light sampling, the sample cache's retrace), so paths average to the alpha blend",
     ),
     f("alphaMode MASK", Full, "alphaCutoff against base colour alpha"),
     f(
@@ -257,8 +259,10 @@ pub const FEATURES: &[Feature] = &[
     ),
     f(
         "KHR_materials_clearcoat",
-        Ignored,
-        "the clearcoat layer is not rendered; the base layer alone is",
+        Full,
+        "a GGX coat of ior 1.5 over the base (factor, roughness and their textures; its own \
+         normal texture, else the interpolated normal), layered as the extension's fresnel_coat: \
+         f_coat + (1 − clearcoat·Fc(n_c·v))·f_base; over transmission it reflects on the outside",
     ),
     f(
         "KHR_materials_diffuse_transmission",
@@ -281,8 +285,10 @@ pub const FEATURES: &[Feature] = &[
     f(
         "KHR_materials_specular",
         Partly,
-        "specularFactor scales the dielectric Fresnel; specularTexture, specularColorFactor \
-         and specularColorTexture are ignored",
+        "opaque surfaces: specularFactor × specularTexture (A) scales the dielectric Fresnel \
+         layer and specularColorFactor × specularColorTexture tints its F0 \
+         (min(F0(ior)·colour, 1)·factor); transmissive surfaces split reflection and refraction \
+         by the exact dielectric Fresnel of the ior, without the factor and colour",
     ),
     f(
         "KHR_materials_transmission",
@@ -303,8 +309,11 @@ pub const FEATURES: &[Feature] = &[
     ),
     f(
         "KHR_materials_volume",
-        Ignored,
-        "refraction at each interface is kept; thickness and Beer–Lambert attenuation are ignored",
+        Partly,
+        "thicknessFactor > 0: a volume boundary whose inside absorbs by Beer–Lambert \
+         (attenuationColor, attenuationDistance) along the traced path (the thickness itself \
+         and its texture are for rasterizers); media do not nest; thin-walled volumes \
+         (thicknessFactor 0) refract like boundaries, without absorption",
     ),
     f(
         "KHR_mesh_quantization",
@@ -465,10 +474,13 @@ pub fn features_used(json: &Value) -> BTreeMap<String, Vec<String>> {
     if scenes.len() > 1 {
         add!("several scenes", format!("{} scenes", scenes.len()));
     }
-    // KHR_materials_specular counts only where it uses more than the
-    // specularFactor that is implemented.
+    // KHR_materials_specular counts only on transmissive materials (where its
+    // factor and colour are not applied), KHR_materials_volume only where it
+    // is thin-walled (thicknessFactor 0, the default).
     let specular = "KHR_materials_specular";
     used.remove(specular);
+    let volume = "KHR_materials_volume";
+    used.remove(volume);
     for (mi, m) in array("materials").iter().enumerate() {
         if !m
             .get("doubleSided")
@@ -480,6 +492,15 @@ pub fn features_used(json: &Value) -> BTreeMap<String, Vec<String>> {
                 label("material", mi, m),
             );
         }
+        let transmissive = m
+            .pointer("/extensions/KHR_materials_transmission")
+            .is_some_and(|t| {
+                t.get("transmissionFactor")
+                    .and_then(Value::as_f64)
+                    .unwrap_or(0.0)
+                    > 0.0
+                    || t.get("transmissionTexture").is_some()
+            });
         let ext = m.pointer("/extensions/KHR_materials_specular");
         if let Some(e) = ext.and_then(Value::as_object) {
             let white = |v: &Value| {
@@ -488,10 +509,23 @@ pub fn features_used(json: &Value) -> BTreeMap<String, Vec<String>> {
             };
             let unsupported = e.contains_key("specularTexture")
                 || e.contains_key("specularColorTexture")
-                || e.get("specularColorFactor").is_some_and(|c| !white(c));
-            if unsupported {
+                || e.get("specularColorFactor").is_some_and(|c| !white(c))
+                || e.get("specularFactor")
+                    .is_some_and(|f| f.as_f64() != Some(1.0));
+            if unsupported && transmissive {
                 add!(specular, label("material", mi, m));
             }
+        }
+        let thin = m
+            .pointer("/extensions/KHR_materials_volume")
+            .is_some_and(|v| {
+                v.get("thicknessFactor")
+                    .and_then(Value::as_f64)
+                    .unwrap_or(0.0)
+                    <= 0.0
+            });
+        if thin {
+            add!(volume, label("material", mi, m));
         }
     }
     for (si, s) in array("samplers").iter().enumerate() {

@@ -50,14 +50,16 @@ use super::gltf_animation::{check_animation_json, import_animations};
 use super::gltf_buffers::{load_buffers, split_container, AccessorReader};
 use super::gltf_instancing::{instancing_json, NodeInstancing, INSTANCING_EXTENSION};
 use super::gltf_textures::{decode_images, patch_invalid_samplers, texture_sampler, ImageUses};
-use super::gltf_uv::{choose, texture_transforms_json, SlotUv, UvChoice, SLOTS, TEXTURE_TRANSFORM};
+use super::gltf_uv::{
+    choose, texture_transforms_json, SlotUv, UvChoice, SLOTS, SLOT_COUNT, TEXTURE_TRANSFORM,
+};
 use super::mesh_ops::{
     drop_non_finite_triangles, fan_to_triangles, generate_normals, generate_tangents,
     strip_to_triangles,
 };
 use super::{
-    AlphaMode, Instance, Light, LightKind, Material, Mesh, Scene, SceneCamera, SceneError,
-    TextureEncoding, TextureRef,
+    AlphaMode, Clearcoat, Instance, Light, LightKind, Material, Mesh, Scene, SceneCamera,
+    SceneError, TextureEncoding, TextureRef, Volume,
 };
 use glam::{Mat4, Vec2, Vec3, Vec4};
 use std::collections::{BTreeMap, HashMap, HashSet};
@@ -366,7 +368,7 @@ struct Prepared {
     /// Nodes with EXT_mesh_gpu_instancing, by node index.
     instancing: HashMap<usize, NodeInstancing>,
     /// Per material, per texture slot (`gltf_uv::SLOTS`): its KHR_texture_transform.
-    slot_uvs: Vec<[Option<SlotUv>; 5]>,
+    slot_uvs: Vec<[Option<SlotUv>; SLOT_COUNT]>,
 }
 
 /// The uvs a material's textures read, as decided at import (`gltf_uv`).
@@ -403,7 +405,7 @@ struct Importer<'a> {
     unlit_materials: Vec<bool>,
     sourceless_textures: Vec<usize>,
     /// Per material, its KHR_texture_transform per slot (raw JSON).
-    slot_uvs: Vec<[Option<SlotUv>; 5]>,
+    slot_uvs: Vec<[Option<SlotUv>; SLOT_COUNT]>,
     /// Per material (by index), the uv set and transform its meshes get.
     material_uvs: Vec<MaterialUv>,
     /// Materials whose uv set some primitive lacks → those primitives.
@@ -414,6 +416,87 @@ struct Importer<'a> {
     node_path: Vec<u32>,
     /// Per instance, its node path (for `SceneAnimation`).
     instance_paths: Vec<Vec<u32>>,
+}
+
+/// KHR_materials_clearcoat of one material, read from its raw JSON (the
+/// `gltf` crate does not know the extension): factors, and each texture with
+/// its `texCoord`. A field of the wrong type, out of range, or a texture
+/// index past the file's textures is listed in `bad` and takes its default.
+struct CoatJson<'a> {
+    factor: f32,
+    roughness: f32,
+    normal_scale: f32,
+    texture: Option<(gltf::texture::Texture<'a>, u32)>,
+    roughness_texture: Option<(gltf::texture::Texture<'a>, u32)>,
+    normal_texture: Option<(gltf::texture::Texture<'a>, u32)>,
+    bad: Vec<String>,
+}
+
+fn coat_json<'a>(doc: &'a gltf::Document, m: &gltf::Material<'a>) -> CoatJson<'a> {
+    let mut c = CoatJson {
+        factor: 0.0,
+        roughness: 0.0,
+        normal_scale: 1.0,
+        texture: None,
+        roughness_texture: None,
+        normal_texture: None,
+        bad: Vec::new(),
+    };
+    let Some(ext) = m.extension_value("KHR_materials_clearcoat") else {
+        return c;
+    };
+    let number = |key: &str, default: f32, unit: bool, bad: &mut Vec<String>| -> f32 {
+        let Some(v) = ext.get(key) else {
+            return default;
+        };
+        match v.as_f64().map(|x| x as f32).filter(|x| x.is_finite()) {
+            Some(x) if !unit || (0.0..=1.0).contains(&x) => x,
+            _ => {
+                bad.push(format!("{key} {v}"));
+                default
+            }
+        }
+    };
+    let mut bad = Vec::new();
+    c.factor = number("clearcoatFactor", 0.0, true, &mut bad);
+    c.roughness = number("clearcoatRoughnessFactor", 0.0, true, &mut bad);
+    let texture = |key: &str, bad: &mut Vec<String>| {
+        let info = ext.get(key)?;
+        let found = info
+            .get("index")
+            .and_then(serde_json::Value::as_u64)
+            .and_then(|i| doc.textures().nth(i as usize));
+        let tex_coord = info.get("texCoord").map_or(Some(0), |t| {
+            t.as_u64()
+                .filter(|&n| n <= u32::MAX as u64)
+                .map(|n| n as u32)
+        });
+        match (found, tex_coord) {
+            (Some(t), Some(set)) => Some((t, set)),
+            _ => {
+                bad.push(format!("{key} {info} (no such texture or texCoord)"));
+                None
+            }
+        }
+    };
+    c.texture = texture("clearcoatTexture", &mut bad);
+    c.roughness_texture = texture("clearcoatRoughnessTexture", &mut bad);
+    c.normal_texture = texture("clearcoatNormalTexture", &mut bad);
+    if let Some(info) = ext.get("clearcoatNormalTexture") {
+        c.normal_scale = match info.get("scale") {
+            None => 1.0,
+            Some(v) => v
+                .as_f64()
+                .map(|x| x as f32)
+                .filter(|x| x.is_finite())
+                .unwrap_or_else(|| {
+                    bad.push(format!("clearcoatNormalTexture.scale {v}"));
+                    1.0
+                }),
+        };
+    }
+    c.bad = bad;
+    c
 }
 
 fn named(kind: &str, index: usize, name: Option<&str>) -> String {
@@ -450,9 +533,13 @@ impl Importer<'_> {
         let mut uses = ImageUses::new();
         for m in self.doc.materials() {
             let pbr = m.pbr_metallic_roughness();
+            let coat = coat_json(self.doc, &m);
             let srgb = [
                 pbr.base_color_texture().and_then(|t| src(t.texture())),
                 m.emissive_texture().and_then(|t| src(t.texture())),
+                m.specular()
+                    .and_then(|t| t.specular_color_texture())
+                    .and_then(|t| src(t.texture())),
             ];
             let linear = [
                 pbr.metallic_roughness_texture()
@@ -461,6 +548,16 @@ impl Importer<'_> {
                 m.transmission()
                     .and_then(|t| t.transmission_texture())
                     .and_then(|t| src(t.texture())),
+                m.specular()
+                    .and_then(|t| t.specular_texture())
+                    .and_then(|t| src(t.texture())),
+                coat.texture.as_ref().and_then(|(t, _)| src(t.clone())),
+                coat.roughness_texture
+                    .as_ref()
+                    .and_then(|(t, _)| src(t.clone())),
+                coat.normal_texture
+                    .as_ref()
+                    .and_then(|(t, _)| src(t.clone())),
             ];
             for i in srgb.into_iter().flatten() {
                 encoding_slot(&mut uses, i, TextureEncoding::Srgb);
@@ -486,12 +583,13 @@ impl Importer<'_> {
         };
 
         let split_rm = self.split_rm_materials;
-        let mut blend = Vec::new();
+
         let mut no_source = Vec::new();
         let doc = self.doc;
         for m in doc.materials() {
             let pbr = m.pbr_metallic_roughness();
             let label = named("material", m.index().unwrap_or(0), m.name());
+            let coat = coat_json(doc, &m);
             let tex_coords = [
                 pbr.base_color_texture().map(|t| t.tex_coord()),
                 pbr.metallic_roughness_texture().map(|t| t.tex_coord()),
@@ -500,6 +598,15 @@ impl Importer<'_> {
                 m.transmission()
                     .and_then(|t| t.transmission_texture())
                     .map(|t| t.tex_coord()),
+                m.specular()
+                    .and_then(|t| t.specular_texture())
+                    .map(|t| t.tex_coord()),
+                m.specular()
+                    .and_then(|t| t.specular_color_texture())
+                    .map(|t| t.tex_coord()),
+                coat.texture.as_ref().map(|(_, c)| *c),
+                coat.roughness_texture.as_ref().map(|(_, c)| *c),
+                coat.normal_texture.as_ref().map(|(_, c)| *c),
             ];
             let core_textures = [
                 pbr.base_color_texture().map(|t| t.texture().index()),
@@ -515,20 +622,23 @@ impl Importer<'_> {
             {
                 no_source.push(label.clone());
             }
-            let mut alpha_mode = match m.alpha_mode() {
+            let alpha_mode = match m.alpha_mode() {
                 gltf::material::AlphaMode::Opaque => AlphaMode::Opaque,
                 gltf::material::AlphaMode::Mask => AlphaMode::Mask,
                 gltf::material::AlphaMode::Blend => AlphaMode::Blend,
             };
-            let mut alpha_cutoff = m.alpha_cutoff().unwrap_or(0.5);
-            if alpha_mode == AlphaMode::Blend {
-                blend.push(label.clone());
-                alpha_mode = AlphaMode::Mask;
-                alpha_cutoff = 0.5;
-            }
+            let alpha_cutoff = m.alpha_cutoff().unwrap_or(0.5);
             let transmission = m.transmission();
             let emissive = Vec3::from(m.emissive_factor()) * m.emissive_strength().unwrap_or(1.0);
             let normal = m.normal_texture();
+            let specular = m.specular();
+            let volume = m
+                .volume()
+                .filter(|v| v.thickness_factor() > 0.0)
+                .map(|v| Volume {
+                    attenuation_color: Vec3::from(v.attenuation_color()),
+                    attenuation_distance: v.attenuation_distance(),
+                });
             let material = Material {
                 name: m.name().map(str::to_owned).unwrap_or_else(|| label.clone()),
                 base_color: Vec4::from(pbr.base_color_factor()),
@@ -559,14 +669,51 @@ impl Importer<'_> {
                     .and_then(|t| t.transmission_texture())
                     .and_then(|t| tex_ref(t.texture(), TextureEncoding::Linear)),
                 ior: m.ior().unwrap_or(1.5),
-                specular: m.specular().map_or(1.0, |s| s.specular_factor()),
+                specular: specular.as_ref().map_or(1.0, |s| s.specular_factor()),
+                specular_texture: specular
+                    .as_ref()
+                    .and_then(|s| s.specular_texture())
+                    .and_then(|t| tex_ref(t.texture(), TextureEncoding::Linear)),
+                specular_color: specular
+                    .as_ref()
+                    .map_or(Vec3::ONE, |s| Vec3::from(s.specular_color_factor())),
+                specular_color_texture: specular
+                    .as_ref()
+                    .and_then(|s| s.specular_color_texture())
+                    .and_then(|t| tex_ref(t.texture(), TextureEncoding::Srgb)),
+                clearcoat: Clearcoat {
+                    factor: coat.factor,
+                    texture: coat
+                        .texture
+                        .and_then(|(t, _)| tex_ref(t, TextureEncoding::Linear)),
+                    roughness: coat.roughness,
+                    roughness_texture: coat
+                        .roughness_texture
+                        .and_then(|(t, _)| tex_ref(t, TextureEncoding::Linear)),
+                    normal_texture: coat
+                        .normal_texture
+                        .and_then(|(t, _)| tex_ref(t, TextureEncoding::Linear)),
+                    normal_scale: coat.normal_scale,
+                },
+                volume,
             };
+            if !coat.bad.is_empty() {
+                self.warn(format!(
+                    "{label}: KHR_materials_clearcoat has {}; the default is used",
+                    coat.bad.join(", ")
+                ));
+            }
             let bound = [
                 material.base_color_texture.is_some(),
                 material.metallic_roughness_texture.is_some(),
                 material.normal_texture.is_some(),
                 material.emissive_texture.is_some(),
                 material.transmission_texture.is_some(),
+                material.specular_texture.is_some(),
+                material.specular_color_texture.is_some(),
+                material.clearcoat.texture.is_some(),
+                material.clearcoat.roughness_texture.is_some(),
+                material.clearcoat.normal_texture.is_some(),
             ];
             self.choose_uvs(label, bound, tex_coords);
             let material = match self.unlit_materials.get(m.index().unwrap_or(usize::MAX)) {
@@ -581,13 +728,6 @@ impl Importer<'_> {
                  textures are ignored and the roughness/metallic factors are used"
             ));
         }
-        if !blend.is_empty() {
-            self.warn(format!(
-                "alphaMode BLEND is rendered as MASK with cutoff 0.5 in {} materials ({})",
-                blend.len(),
-                blend.join(", ")
-            ));
-        }
         if !no_source.is_empty() {
             self.warn(format!(
                 "textures without a PNG/JPEG source (e.g. DDS only) fall back to factors in {}",
@@ -599,10 +739,15 @@ impl Importer<'_> {
     /// Decides the uv set and transform of the material being imported (the
     /// next index of `material_uvs`) from its bound slots; warns when the
     /// slots disagree (one uv set and one transform per material).
-    fn choose_uvs(&mut self, label: String, bound: [bool; 5], tex_coords: [Option<u32>; 5]) {
+    fn choose_uvs(
+        &mut self,
+        label: String,
+        bound: [bool; SLOT_COUNT],
+        tex_coords: [Option<u32>; SLOT_COUNT],
+    ) {
         let index = self.material_uvs.len();
         let ext = self.slot_uvs.get(index).copied().unwrap_or_default();
-        let slots: [Option<(u32, Option<SlotUv>)>; 5] =
+        let slots: [Option<(u32, Option<SlotUv>)>; SLOT_COUNT] =
             std::array::from_fn(|k| bound[k].then(|| (tex_coords[k].unwrap_or(0), ext[k])));
         let (choice, wrong) = choose(&slots);
         if !wrong.is_empty() {
@@ -1173,7 +1318,7 @@ impl Importer<'_> {
             .scene
             .materials
             .get(material as usize)
-            .is_some_and(|m| m.normal_texture.is_some());
+            .is_some_and(|m| m.normal_texture.is_some() || m.clearcoat.normal_texture.is_some());
         if mesh.tangents.is_empty() && needs_tangents {
             generate_tangents(&mut mesh);
         }
@@ -1199,6 +1344,10 @@ fn unlit(mut m: Material) -> Material {
     m.transmission = 0.0;
     m.transmission_texture = None;
     m.normal_texture = None;
+    m.specular_texture = None;
+    m.specular_color_texture = None;
+    m.clearcoat = Clearcoat::default();
+    m.volume = None;
     m
 }
 
@@ -1220,6 +1369,24 @@ fn sanitize_material(mut m: Material) -> Material {
     // KHR_materials_ior: ior = 0 is a legal "no refraction" marker; keep ≥ 1 otherwise.
     m.ior = finite_or(m.ior, 1.5);
     m.specular = finite_or(m.specular, 1.0).clamp(0.0, 1.0);
+    m.specular_color = Vec3::from_array(
+        m.specular_color
+            .to_array()
+            .map(|c| finite_or(c, 1.0).max(0.0)),
+    );
+    m.clearcoat.factor = finite_or(m.clearcoat.factor, 0.0).clamp(0.0, 1.0);
+    m.clearcoat.roughness = finite_or(m.clearcoat.roughness, 0.0).clamp(0.0, 1.0);
+    m.clearcoat.normal_scale = finite_or(m.clearcoat.normal_scale, 1.0);
+    if let Some(v) = &mut m.volume {
+        v.attenuation_color = Vec3::from_array(
+            v.attenuation_color
+                .to_array()
+                .map(|c| finite_or(c, 1.0).clamp(0.0, 1.0)),
+        );
+        if v.attenuation_distance.is_nan() || v.attenuation_distance <= 0.0 {
+            v.attenuation_distance = f32::INFINITY;
+        }
+    }
     if m.ior != 0.0 {
         m.ior = m.ior.max(1.0);
     }

@@ -36,7 +36,7 @@ pub const TEXTURE_TRANSFORM: &str = "KHR_texture_transform";
 /// The texture slots a material binds, in the order that picks the winner
 /// when they disagree (base colour first): name for messages, JSON pointer
 /// of the textureInfo inside a material.
-pub const SLOTS: [(&str, &str); 5] = [
+pub const SLOTS: [(&str, &str); SLOT_COUNT] = [
     (
         "base colour texture",
         "/pbrMetallicRoughness/baseColorTexture",
@@ -51,7 +51,30 @@ pub const SLOTS: [(&str, &str); 5] = [
         "transmission texture",
         "/extensions/KHR_materials_transmission/transmissionTexture",
     ),
+    (
+        "specular texture",
+        "/extensions/KHR_materials_specular/specularTexture",
+    ),
+    (
+        "specular colour texture",
+        "/extensions/KHR_materials_specular/specularColorTexture",
+    ),
+    (
+        "clearcoat texture",
+        "/extensions/KHR_materials_clearcoat/clearcoatTexture",
+    ),
+    (
+        "clearcoat roughness texture",
+        "/extensions/KHR_materials_clearcoat/clearcoatRoughnessTexture",
+    ),
+    (
+        "clearcoat normal texture",
+        "/extensions/KHR_materials_clearcoat/clearcoatNormalTexture",
+    ),
 ];
+
+/// How many texture slots a material has ([`SLOTS`]).
+pub const SLOT_COUNT: usize = 10;
 
 /// A `KHR_texture_transform`: uv' = T(offset) · R(rotation) · S(scale) · uv.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -178,7 +201,7 @@ pub fn texture_transforms_json(
     path: &Path,
     root: &serde_json::Map<String, Value>,
     warnings: &mut Vec<String>,
-) -> Vec<[Option<SlotUv>; 5]> {
+) -> Vec<[Option<SlotUv>; SLOT_COUNT]> {
     let Some(materials) = root.get("materials").and_then(Value::as_array) else {
         return Vec::new();
     };
@@ -186,7 +209,7 @@ pub fn texture_transforms_json(
         .iter()
         .enumerate()
         .map(|(mi, m)| {
-            let mut out = [None; 5];
+            let mut out = [None; SLOT_COUNT];
             for (k, (slot, pointer)) in SLOTS.iter().enumerate() {
                 let Some(ext) = m
                     .pointer(pointer)
@@ -252,7 +275,9 @@ fn parse_slot(ext: &Value, bad: &mut Vec<String>) -> SlotUv {
 /// extension))` per slot of [`SLOTS`], `None` where the slot binds no
 /// texture): the first bound slot's (base colour first), and the slots that
 /// disagree with it. No bound slot: TEXCOORD_0 untransformed.
-pub fn choose(slots: &[Option<(u32, Option<SlotUv>)>; 5]) -> (UvChoice, Vec<(usize, UvChoice)>) {
+pub fn choose(
+    slots: &[Option<(u32, Option<SlotUv>)>; SLOT_COUNT],
+) -> (UvChoice, Vec<(usize, UvChoice)>) {
     let choices: Vec<(usize, UvChoice)> = slots
         .iter()
         .enumerate()

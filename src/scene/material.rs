@@ -1,5 +1,5 @@
 //! glTF metallic-roughness materials with the extensions stereocache supports
-//! (emissive strength, transmission, ior).
+//! (emissive strength, transmission, ior, specular, clearcoat, volume).
 
 use super::texture::TextureSampler;
 use glam::{Vec3, Vec4};
@@ -9,7 +9,9 @@ pub enum AlphaMode {
     Opaque,
     /// Alpha-tested against `Material::alpha_cutoff`.
     Mask,
-    /// Rendered as Mask with cutoff 0.5 (a path tracer has no sorted blending); warned at load.
+    /// Stochastic coverage: a ray finds the surface with probability alpha
+    /// (a screen door of fine cells fixed on the surface, scene.glsl
+    /// `coverage_coin`), so paths average to the alpha blend.
     Blend,
 }
 
@@ -63,6 +65,82 @@ pub struct Material {
     /// KHR_materials_specular `specularFactor` (default 1): scales the dielectric
     /// Fresnel layer; 0 leaves a pure Lambertian diffuse (furnace tests).
     pub specular: f32,
+    /// KHR_materials_specular `specularTexture` (linear, A channel): multiplies `specular`.
+    pub specular_texture: Option<TextureRef>,
+    /// KHR_materials_specular `specularColorFactor` (linear, default 1): tints
+    /// the dielectric F0 (F0 = min(F0(ior)·colour, 1)·specular).
+    pub specular_color: Vec3,
+    /// sRGB-encoded texture (RGB), multiplied with `specular_color`.
+    pub specular_color_texture: Option<TextureRef>,
+    /// KHR_materials_clearcoat (factor 0 = no coat).
+    pub clearcoat: Clearcoat,
+    /// KHR_materials_volume with a thickness > 0: the surface bounds a
+    /// homogeneous absorbing volume (Beer–Lambert). `None`: no absorption.
+    pub volume: Option<Volume>,
+}
+
+/// KHR_materials_clearcoat: a GGX dielectric coat (ior 1.5) over the base
+/// material, with its own roughness and normal.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Clearcoat {
+    /// `clearcoatFactor` (0 = no coat).
+    pub factor: f32,
+    /// Linear texture, R = coat factor (multiplied with `factor`).
+    pub texture: Option<TextureRef>,
+    /// `clearcoatRoughnessFactor`.
+    pub roughness: f32,
+    /// Linear texture, G = coat roughness (multiplied with `roughness`).
+    pub roughness_texture: Option<TextureRef>,
+    /// Tangent-space normal map of the coat (linear); without one the coat
+    /// follows the interpolated normal, not the base's normal map (the
+    /// extension's rule).
+    pub normal_texture: Option<TextureRef>,
+    pub normal_scale: f32,
+}
+
+impl Default for Clearcoat {
+    fn default() -> Self {
+        Clearcoat {
+            factor: 0.0,
+            texture: None,
+            roughness: 0.0,
+            roughness_texture: None,
+            normal_texture: None,
+            normal_scale: 1.0,
+        }
+    }
+}
+
+/// KHR_materials_volume: the medium inside a closed transmissive mesh.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Volume {
+    /// `attenuationColor`: the colour white light turns into after
+    /// `attenuation_distance` inside the medium.
+    pub attenuation_color: Vec3,
+    /// `attenuationDistance` in world units (+∞ = no absorption).
+    pub attenuation_distance: f32,
+}
+
+impl Volume {
+    /// The absorption coefficient σ_a = −ln(colour) / distance per world
+    /// unit (the extension's definition): transmittance over a path of
+    /// length t inside is exp(−σ_a·t). A zero colour channel absorbs
+    /// everything; it is clamped to 1e30 (finite for the GPU).
+    pub fn sigma_a(&self) -> Vec3 {
+        let d = self.attenuation_distance;
+        if d.is_nan() || d <= 0.0 || !d.is_finite() {
+            return Vec3::ZERO;
+        }
+        Vec3::from_array(self.attenuation_color.to_array().map(|c| {
+            if c >= 1.0 {
+                0.0
+            } else if c > 0.0 {
+                (-c.ln() / d).min(1e30)
+            } else {
+                1e30
+            }
+        }))
+    }
 }
 
 impl Default for Material {
@@ -86,6 +164,11 @@ impl Default for Material {
             transmission_texture: None,
             ior: 1.5,
             specular: 1.0,
+            specular_texture: None,
+            specular_color: Vec3::ONE,
+            specular_color_texture: None,
+            clearcoat: Clearcoat::default(),
+            volume: None,
         }
     }
 }
@@ -109,19 +192,25 @@ impl Material {
             self.normal_texture,
             self.emissive_texture,
             self.transmission_texture,
+            self.specular_texture,
+            self.specular_color_texture,
+            self.clearcoat.texture,
+            self.clearcoat.roughness_texture,
+            self.clearcoat.normal_texture,
         ]
         .into_iter()
         .flatten()
     }
 
-    /// Whether the BSDF has a specular lobe (metal, transmission, or a
-    /// dielectric specular layer), i.e. the appearance depends on the view
+    /// Whether the BSDF has a specular lobe (metal, transmission, a
+    /// dielectric specular layer or a clearcoat), i.e. the appearance depends on the view
     /// direction beyond Lambert: appendix C's α_min clamp applies to such
     /// materials (shaders/sample_cache/common.glsl `has_specular_lobe`).
     pub fn is_view_dependent(&self) -> bool {
         self.metallic > 0.0
             || self.specular > 0.0
             || self.transmission > 0.0
+            || self.clearcoat.factor > 0.0
             || self.metallic_roughness_texture.is_some()
     }
 }

@@ -44,7 +44,7 @@ pub use generate::{generate, generate_to_dir};
 pub use gltf_import::load_gltf;
 pub use light::{Light, LightKind};
 pub use load::load_scene;
-pub use material::{AlphaMode, Material, TextureRef};
+pub use material::{AlphaMode, Clearcoat, Material, TextureRef, Volume};
 pub use mesh::{Instance, Mesh};
 pub use texture::{Filter, Texture, TextureEncoding, TextureSampler, Wrap};
 
