@@ -27,6 +27,7 @@ fn glass() -> Material {
         roughness: 0.0,
         transmission: 1.0,
         ior: IOR as f32,
+        volume: Some(stereocache::scene::Volume::CLEAR),
         ..Default::default()
     }
 }

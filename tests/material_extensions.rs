@@ -209,6 +209,10 @@ fn volume_absorbs_by_beer_lambert_along_the_chord() {
 fn specular_clearcoat_and_volume_survive_the_gltf_writer() {
     let mut a = stereocache::scene::generate("plane").unwrap();
     assert!(!a.textures.is_empty(), "the plane scene has a texture");
+    // A second material: transmission without a volume (thin-walled).
+    let mut sheet = Material::diffuse("sheet", Vec3::ONE);
+    sheet.transmission = 1.0;
+    a.materials.push(sheet);
     let t = stereocache::scene::TextureRef::new(0);
     let m = &mut a.materials[0];
     m.specular = 0.7;
@@ -262,6 +266,8 @@ fn specular_clearcoat_and_volume_survive_the_gltf_writer() {
     assert_eq!(enc(mb.specular_texture), Linear);
     assert_eq!(enc(mb.clearcoat.texture), Linear);
     assert_eq!(enc(mb.clearcoat.normal_texture), Linear);
+    assert!(!mb.is_thin_walled(), "transmission 0 with a volume");
+    assert!(b.materials[1].is_thin_walled() && b.materials[1].volume.is_none());
     let mc = &c.materials[0];
     assert_eq!(format!("{mb:?}"), format!("{mc:?}"));
     // Every new extension is now implemented: no warning names one.
@@ -356,6 +362,95 @@ fn alpha_blend_is_stochastic_coverage_in_every_method() {
             assert!(
                 (mean - 0.7).abs() <= 5.0 * se + 3e-3,
                 "{rt:?} {what}: mean {mean:.4} ± {se:.4}, expected 0.7"
+            );
+        }
+    }
+    assert_no_validation_messages(&ctx);
+}
+
+/// KHR_materials_transmission without KHR_materials_volume is thin-walled:
+/// a smooth sheet (ior 1.5) turned 45° to the view, in front of a small
+/// emitter (radiance 1) on black, passes each camera ray on undeviated with
+/// probability 1 − F(45°) and reflects it into the black otherwise: every
+/// pixel that sees the emitter through the sheet has expectation 1 − F.
+/// The same sheet as a volume boundary bends the rays by 17° into the
+/// "glass", and they miss the emitter: 0. The camera sees only the emitter.
+#[test]
+fn transmission_without_a_volume_is_a_thin_sheet() {
+    let ctx = context();
+    let build = |volume: Option<Volume>| {
+        let mut s = Scene {
+            source: "test:thin-sheet".into(),
+            ..Default::default()
+        };
+        let mut glass = Material::diffuse("sheet", Vec3::ONE);
+        glass.transmission = 1.0;
+        glass.roughness = 0.0;
+        glass.volume = volume;
+        let g = add_material(&mut s, glass);
+        let mut light = Material::diffuse("light", Vec3::ZERO);
+        light.specular = 0.0;
+        light.emissive = Vec3::ONE;
+        let l = add_material(&mut s, light);
+        use stereocache::scene::generate::grid;
+        let sheet = grid(
+            "sheet",
+            Vec3::new(-1.0, -1.0, 0.0),
+            Vec3::X * 2.0,
+            Vec3::Y * 2.0,
+            2,
+            2,
+            glam::Vec2::ONE,
+        );
+        add_mesh(
+            &mut s,
+            sheet,
+            g,
+            Mat4::from_rotation_y(std::f32::consts::FRAC_PI_4),
+        );
+        let emitter = grid(
+            "emitter",
+            Vec3::new(-0.5, -0.5, -5.0),
+            Vec3::X,
+            Vec3::Y,
+            1,
+            1,
+            glam::Vec2::ONE,
+        );
+        add_mesh(&mut s, emitter, l, Mat4::IDENTITY);
+        s.environment = None;
+        s.validate().unwrap();
+        s
+    };
+    let f45 = fresnel_dielectric(std::f64::consts::FRAC_1_SQRT_2, 1.5);
+    let cam = look_at_camera(Vec3::new(0.0, 0.0, 10.0), Vec3::ZERO, 2.0, 1.0);
+    let settings = RenderSettings {
+        width: 16,
+        height: 16,
+        spp: 16,
+        max_bounces: 3,
+        seed: 21,
+        all_features: false,
+        ..Default::default()
+    };
+    for rt in backends(&ctx) {
+        for (volume, expected) in [(None, 1.0 - f45), (Some(Volume::CLEAR), 0.0)] {
+            let s = session(&ctx, build(volume), rt);
+            let f = render(&s, "reference", cam, &settings);
+            let v: Vec<f64> = f
+                .eyes
+                .iter()
+                .flat_map(|e| e.radiance.iter().map(|p| p[1] as f64))
+                .collect();
+            let (mean, se) = mean_and_standard_error(&v);
+            eprintln!(
+                "{rt:?} volume {}: {mean:.4} ± {se:.4} (expected {expected:.4})",
+                volume.is_some()
+            );
+            assert!(
+                (mean - expected).abs() <= 5.0 * se + 1e-4,
+                "{rt:?} volume {}: mean {mean:.4} ± {se:.4}, expected {expected:.4}",
+                volume.is_some()
             );
         }
     }

@@ -37,6 +37,9 @@ struct ShadingMaterial {
     // re-expresses it in the shading frame (coat_in_frame) before the BSDF
     // functions below read it.
     vec3 coat_n;
+    // Transmission without a volume (glTF's default): an infinitely thin
+    // sheet, passed straight through (dielectric_sample).
+    bool thin;
 };
 
 float ggx_alpha(float roughness) { return max(roughness * roughness, 1e-3); }
@@ -235,9 +238,14 @@ bool opaque_sample(ShadingMaterial m, vec3 wo, vec3 u, out vec3 wi, out vec3 wei
 // Samples the dielectric BSDF (smooth below roughness 0.02, else rough GGX).
 // wo may be on either side (wo.z < 0 = inside); `weight` = f·|cos|/pdf.
 // `delta` reports a specular event (no light sampling possible).
+// Thin-walled (m.thin, KHR_materials_transmission without a volume): both
+// sides face air; the light refracted in at one face leaves the parallel
+// other face undeviated, so the transmitted direction is the reflected one
+// mirrored through the surface (−wo for a smooth sheet; the rough sheet's
+// lobe is its reflection lobe turned over), chosen with 1 − F of the ior.
 bool dielectric_sample(ShadingMaterial m, vec3 wo, vec3 u, out vec3 wi, out vec3 weight, out bool delta) {
     bool entering = wo.z > 0.0;
-    float eta = entering ? m.ior : 1.0 / m.ior;   // n_t / n_i
+    float eta = entering || m.thin ? m.ior : 1.0 / m.ior;   // n_t / n_i
     vec3 wo_up = entering ? wo : -wo;               // work in the hemisphere of wo
     delta = m.roughness < 0.02;
     vec3 h;
@@ -251,6 +259,11 @@ bool dielectric_sample(ShadingMaterial m, vec3 wo, vec3 u, out vec3 wi, out vec3
     if (u.z < F) {
         wi_up = reflect(-wo_up, h);
         if (wi_up.z <= 0.0) { weight = vec3(0.0); return false; }
+    } else if (m.thin) {
+        wi_up = reflect(-wo_up, h);
+        if (wi_up.z <= 0.0) { weight = vec3(0.0); return false; }
+        wi_up.z = -wi_up.z;
+        refracted = true;
     } else {
         wi_up = refract(-wo_up, h, 1.0 / eta);
         if (dot(wi_up, wi_up) == 0.0 || wi_up.z >= 0.0) { weight = vec3(0.0); return false; }

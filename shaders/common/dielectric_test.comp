@@ -26,6 +26,7 @@ void main() {
     m.clearcoat = 0.0;
     m.clearcoat_roughness = 0.0;
     m.coat_n = a.xyz;
+    m.thin = false;
     vec3 wi, w;
     bool delta;
     bool ok = dielectric_sample_world(m, a.xyz, a.w > 0.5, b.xyz, c.xyz, wi, w, delta);

@@ -178,8 +178,9 @@ vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, float cone_width, inout Rn
                 if (!dielectric_sample_world(m, s.n, s.front, d, vec3(rng_next2(r), rng_next(r)), wi_world, w, delta)) break;
                 beta *= w;
                 // Refraction crosses the boundary: into the material's
-                // volume from the front, out to vacuum from the back.
-                if (dot(wi_world, s.ng) < 0.0) sigma_a = s.front ? materials[s.material].attenuation.rgb : vec3(0.0);
+                // volume from the front, out to vacuum from the back (a
+                // thin-walled sheet bounds no volume).
+                if (dot(wi_world, s.ng) < 0.0 && !m.thin) sigma_a = s.front ? materials[s.material].attenuation.rgb : vec3(0.0);
             }
             specular_prev = true;
             pdf_prev = 0.0;

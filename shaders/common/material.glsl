@@ -28,6 +28,7 @@ ShadingMaterial material_at(inout Surface s, vec3 ray_dir, float cone_width) {
     // The coat follows the interpolated normal, not the base's normal map
     // (KHR_materials_clearcoat), unless it has a normal texture of its own.
     m.coat_n = s.n;
+    m.thin = SC_TRANSMISSION && g.attenuation.w > 0.5;
     float cos_i = dot(s.ng, -ray_dir);
 #ifdef SC_MATERIAL_GRAPHS
     // Bound graph outputs multiply the factors in place of the textures

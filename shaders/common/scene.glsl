@@ -20,7 +20,7 @@ struct MaterialGpu {
     vec4 extra;               // normal scale, specular factor (KHR_materials_specular), unused, unused
     vec4 specular_color;      // KHR_materials_specular colour factor rgb, unused
     vec4 coat;                // KHR_materials_clearcoat factor, roughness, normal scale, unused
-    vec4 attenuation;         // KHR_materials_volume σ_a rgb (per world unit, 0 = none), unused
+    vec4 attenuation;         // KHR_materials_volume σ_a rgb (per world unit, 0 = none), thin-walled (1: transmission without a volume)
     ivec4 tex2;               // clearcoat (R), clearcoat roughness (G), clearcoat normal, specular (A)
     ivec4 tex3;               // specular colour (RGB), unused, unused, unused
 };

@@ -72,7 +72,8 @@ struct MaterialGpu {
     specular_color: [f32; 4],
     /// KHR_materials_clearcoat factor, roughness, normal scale; unused.
     coat: [f32; 4],
-    /// KHR_materials_volume absorption σ_a (rgb, per world unit); unused.
+    /// KHR_materials_volume absorption σ_a (rgb, per world unit); 1 for a
+    /// thin-walled transmissive surface (no volume), else 0.
     attenuation: [f32; 4],
     /// Clearcoat (R), clearcoat roughness (G), clearcoat normal, specular (A).
     tex2: [i32; 4],
@@ -325,7 +326,7 @@ impl SceneGpu {
                     attenuation: m
                         .volume
                         .map_or(Vec3::ZERO, |v| v.sigma_a())
-                        .extend(0.0)
+                        .extend(m.is_thin_walled() as i32 as f32)
                         .to_array(),
                     tex2: [
                         t(m.clearcoat.texture),

@@ -293,7 +293,9 @@ pub const FEATURES: &[Feature] = &[
     f(
         "KHR_materials_transmission",
         Full,
-        "transmissionFactor and transmissionTexture, refracting with the ior",
+        "transmissionFactor and transmissionTexture; without KHR_materials_volume the surface is \
+         thin-walled (light passes straight through or reflects, split by the Fresnel of the ior), \
+         with it a boundary that refracts with the ior",
     ),
     f(
         "KHR_materials_unlit",
@@ -309,11 +311,11 @@ pub const FEATURES: &[Feature] = &[
     ),
     f(
         "KHR_materials_volume",
-        Partly,
-        "thicknessFactor > 0: a volume boundary whose inside absorbs by Beer–Lambert \
-         (attenuationColor, attenuationDistance) along the traced path (the thickness itself \
-         and its texture are for rasterizers); media do not nest; thin-walled volumes \
-         (thicknessFactor 0) refract like boundaries, without absorption",
+        Full,
+        "thicknessFactor > 0: a volume boundary that refracts and whose inside absorbs by \
+         Beer–Lambert (attenuationColor, attenuationDistance) along the traced path (the \
+         thickness value and its texture are for rasterizers); thicknessFactor 0 is thin-walled; \
+         media do not nest (leaving any volume returns to vacuum)",
     ),
     f(
         "KHR_mesh_quantization",
@@ -475,12 +477,9 @@ pub fn features_used(json: &Value) -> BTreeMap<String, Vec<String>> {
         add!("several scenes", format!("{} scenes", scenes.len()));
     }
     // KHR_materials_specular counts only on transmissive materials (where its
-    // factor and colour are not applied), KHR_materials_volume only where it
-    // is thin-walled (thicknessFactor 0, the default).
+    // factor and colour are not applied).
     let specular = "KHR_materials_specular";
     used.remove(specular);
-    let volume = "KHR_materials_volume";
-    used.remove(volume);
     for (mi, m) in array("materials").iter().enumerate() {
         if !m
             .get("doubleSided")
@@ -515,17 +514,6 @@ pub fn features_used(json: &Value) -> BTreeMap<String, Vec<String>> {
             if unsupported && transmissive {
                 add!(specular, label("material", mi, m));
             }
-        }
-        let thin = m
-            .pointer("/extensions/KHR_materials_volume")
-            .is_some_and(|v| {
-                v.get("thicknessFactor")
-                    .and_then(Value::as_f64)
-                    .unwrap_or(0.0)
-                    <= 0.0
-            });
-        if thin {
-            add!(volume, label("material", mi, m));
         }
     }
     for (si, s) in array("samplers").iter().enumerate() {

@@ -75,7 +75,10 @@ pub struct Material {
     /// KHR_materials_clearcoat (factor 0 = no coat).
     pub clearcoat: Clearcoat,
     /// KHR_materials_volume with a thickness > 0: the surface bounds a
-    /// homogeneous absorbing volume (Beer–Lambert). `None`: no absorption.
+    /// homogeneous (absorbing) volume, refracting at the boundary with the
+    /// ior and attenuating inside by Beer–Lambert. `None` (glTF's default):
+    /// a transmissive surface is thin-walled — an infinitely thin sheet that
+    /// light passes straight through (no net refraction) or reflects off.
     pub volume: Option<Volume>,
 }
 
@@ -122,6 +125,12 @@ pub struct Volume {
 }
 
 impl Volume {
+    /// A volume boundary that absorbs nothing (solid clear glass).
+    pub const CLEAR: Volume = Volume {
+        attenuation_color: Vec3::ONE,
+        attenuation_distance: f32::INFINITY,
+    };
+
     /// The absorption coefficient σ_a = −ln(colour) / distance per world
     /// unit (the extension's definition): transmittance over a path of
     /// length t inside is exp(−σ_a·t). A zero colour channel absorbs
@@ -183,6 +192,11 @@ impl Material {
             roughness: 1.0,
             ..Default::default()
         }
+    }
+
+    /// A transmissive surface without a volume: a thin sheet (see `volume`).
+    pub fn is_thin_walled(&self) -> bool {
+        (self.transmission > 0.0 || self.transmission_texture.is_some()) && self.volume.is_none()
     }
 
     pub fn texture_refs(&self) -> impl Iterator<Item = TextureRef> + '_ {

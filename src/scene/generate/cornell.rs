@@ -7,7 +7,7 @@
 //! scene files), converted to linear RGB.
 
 use super::{add_material, add_mesh, grid, look_at, uv_sphere};
-use crate::scene::{Material, Scene};
+use crate::scene::{Material, Scene, Volume};
 use glam::{Mat4, Quat, Vec2, Vec3};
 
 /// Linear RGB radiance of the ceiling light (warm white, classic ratio 17:12:4).
@@ -77,6 +77,9 @@ fn build(sphere_alpha: Option<f32>) -> Scene {
             roughness: sphere_roughness(0.0),
             transmission: 1.0,
             ior: 1.5,
+            // A solid glass ball: a volume boundary (glTF's transmission
+            // alone would make it a thin soap bubble).
+            volume: Some(Volume::CLEAR),
             ..Default::default()
         },
     );
