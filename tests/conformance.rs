@@ -640,22 +640,18 @@ fn red_per_test_box(
 }
 
 #[test]
-fn texture_settings_test_shows_no_red_in_the_wrap_mode_boxes() {
+fn texture_settings_test_shows_no_red_in_its_wrap_mode_and_sidedness_boxes() {
     let Some((path, scene)) = load("TextureSettingsTest.gltf") else {
         return;
     };
-    // Every material but DoubleSidedMaterial is single-sided (the default):
-    // the one unsupported feature. The samplers are supported: no warning.
+    // Every material but DoubleSidedMaterial is single-sided (the default),
+    // and back faces are culled; the samplers are supported: no warning.
     let warned = warned_features(&path, &scene);
-    assert_eq!(
-        warned,
-        BTreeMap::from([("single-sided materials (doubleSided false)", 1)]),
-        "{:?}",
-        scene.warnings
-    );
-    // The six wrap-mode boxes (README: "Test" column). The double/single-
-    // sided pair is not judged: back faces are not culled (README's table,
-    // "single-sided materials": partly), so its red X shows by design here.
+    assert_eq!(warned, BTreeMap::new(), "{:?}", scene.warnings);
+    // The six wrap-mode boxes (README: "Test" column), then the double- and
+    // single-sided pair: "a polygon facing the wrong way in front of another
+    // test polygon ... the green checkmarks are placed such that they will
+    // be visible so long as the flag is respected, else some red X marks".
     let boxes = [
         "TextureMirrorMaterialT",
         "TextureMirrorMaterialS",
@@ -664,6 +660,7 @@ fn texture_settings_test_shows_no_red_in_the_wrap_mode_boxes() {
         "TextureClampMaterialT",
         "TextureClampMaterialS",
     ];
+    let pair = ["DoubleSidedMaterial", "SingleSidedMaterial"];
     // The root node maps (x, y, z) to (−x, z, y): the boxes face −z, at
     // world x −3.05..0, y −5.16..0.92 (their POSITION bounds), z ≈ 0.
     let cam = look_at_camera(
@@ -682,6 +679,8 @@ fn texture_settings_test_shows_no_red_in_the_wrap_mode_boxes() {
         };
         use stereocache::scene::Wrap::{ClampToEdge, Repeat};
         let swap = |w| if w == Repeat { ClampToEdge } else { Repeat };
+        // The sidedness test fails where the flag is not respected.
+        m.double_sided ^= m.name == "DoubleSidedMaterial" || m.name == "SingleSidedMaterial";
         if m.name.starts_with("TextureRepeat") {
             t.sampler.wrap_s = swap(t.sampler.wrap_s);
             t.sampler.wrap_t = swap(t.sampler.wrap_t);
@@ -699,9 +698,9 @@ fn texture_settings_test_shows_no_red_in_the_wrap_mode_boxes() {
              {right:?}, with the failing wrap modes {failed:?}"
         );
         for (k, b) in boxes.iter().enumerate() {
-            // Each box's triangles (within its 3 m × 0.9 m bounds, at 9.5 m:
-            // 37 px per metre) cover ~2200 pixels per eye (4422 to 4556
-            // over both eyes measured); 2000 says the box is in view.
+            // Each wrap box's triangles (within its 3 m × 0.9 m bounds, at
+            // 9.5 m: 37 px per metre) cover ~2200 pixels per eye (4422 to
+            // 4556 over both eyes measured); 2000 says the box is in view.
             assert!(right[k].0 > 2000, "{rt:?} {b}: {right:?}");
             assert_eq!(right[k].1, 0, "{rt:?} {b}: red pixels {right:?}");
             // A red X (or a solid red box) is dozens of pixels at least
@@ -711,6 +710,30 @@ fn texture_settings_test_shows_no_red_in_the_wrap_mode_boxes() {
                 "{rt:?} {b}: wrong wrap shows no red: {failed:?}"
             );
         }
+        // The sided pair, above the wrap boxes (world y 1.07..2.99): what
+        // the camera sees of it is the pair's own materials (the wrong-way
+        // polygons and the test polygons behind them). No red while the
+        // flags are respected; red X marks where they are not (the pair's
+        // flags swapped).
+        let cam2 = look_at_camera(
+            Vec3::new(-1.5, 2.03, -9.5),
+            Vec3::new(-1.5, 2.03, 0.0),
+            40.0,
+            0.5,
+        );
+        let right = red_per_test_box(&ctx, &scene, rt, cam2, &pair);
+        let failed = red_per_test_box(&ctx, &wrong, rt, cam2, &pair);
+        eprintln!(
+            "TextureSettingsTest {rt:?}: sided pair {pair:?}: {right:?}, flags swapped {failed:?}"
+        );
+        for (k, b) in pair.iter().enumerate() {
+            assert!(right[k].0 > 500, "{rt:?} {b}: {right:?}");
+            assert_eq!(right[k].1, 0, "{rt:?} {b}: red pixels {right:?}");
+        }
+        assert!(
+            failed.iter().map(|f| f.1).sum::<usize>() >= 20,
+            "{rt:?}: swapped sidedness shows no red: {failed:?}"
+        );
     }
     assert_no_validation_messages(&ctx);
 }
@@ -853,15 +876,10 @@ fn texture_transform_test_shows_the_offset_checks_and_arrows_at_the_green_marker
     let Some((path, scene)) = load("TextureTransformTest/TextureTransformTest.gltf") else {
         return;
     };
-    // KHR_texture_transform is supported; the materials are single-sided
-    // (the default), the one unsupported feature.
+    // KHR_texture_transform and single-sided materials are supported: no
+    // warning.
     let warned = warned_features(&path, &scene);
-    assert_eq!(
-        warned,
-        BTreeMap::from([("single-sided materials (doubleSided false)", 1)]),
-        "{:?}",
-        scene.warnings
-    );
+    assert_eq!(warned, BTreeMap::new(), "{:?}", scene.warnings);
     // The README's failures, made by giving the quads the uvs an importer
     // that ignores the extension (or turns the other way) would give: the
     // offset quads read the image's top-left quadrant ("a yellow image

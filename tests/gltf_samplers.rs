@@ -144,8 +144,7 @@ fn write_quads(
         .collect();
     let materials: Vec<Value> = (0..n)
         .map(|k| {
-            // Double-sided: the quads are seen from the front anyway, and
-            // single-sided ones would add the (unrelated) culling warning.
+            // Double-sided (the quads are seen from the front anyway).
             json!({ "name": format!("m{k}"), "doubleSided": true, "pbrMetallicRoughness": {
                 "baseColorTexture": { "index": k }, "metallicFactor": 0.0, "roughnessFactor": 1.0 } })
         })

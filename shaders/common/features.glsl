@@ -42,4 +42,7 @@ layout(constant_id = SPEC_SC_VERTEX_COLORS) const bool SC_VERTEX_COLORS = true;
 // `clearcoat`): the coat lobe of the opaque BSDF and the coat reflection
 // over transmission are compiled in.
 layout(constant_id = SPEC_SC_CLEARCOAT) const bool SC_CLEARCOAT = true;
+// A mesh has a single-sided material (src/scene/features.rs
+// `backface_culling`): the traversals pass through its back faces.
+layout(constant_id = SPEC_SC_BACKFACE_CULLING) const bool SC_BACKFACE_CULLING = true;
 #endif

@@ -37,7 +37,9 @@ struct EmitterSample {
 vec3 emitted_radiance(EmitterGpu e, vec2 bary, vec3 dir) {
     uint inst = e.ids.x, prim = e.ids.y;
     MaterialGpu g = materials[instance_material(inst)];
-    vec3 gn = cross(e.p1 - e.p0, e.p2 - e.p0);
+    // The front normal: e1 × e2 times the sign of the instance's determinant
+    // (glTF's counter-clockwise front is in object space; surface_at).
+    vec3 gn = cross(e.p1 - e.p0, e.p2 - e.p0) * sign(determinant(mat3(instances[inst].object_to_world)));
     if (dot(gn, dir) >= 0.0 && g.tex1.z == 0) return vec3(0.0);
     if (!alpha_passes(inst, prim, bary)) return vec3(0.0);
     vec3 Le = g.emissive_metallic.rgb;

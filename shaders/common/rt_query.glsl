@@ -4,9 +4,14 @@
 #include "interface/scene.glsl"
 layout(set = SET_SCENE, binding = B_SCENE_TLAS) uniform accelerationStructureEXT tlas;
 
+// Back-face culling (glTF doubleSided false): instances whose material does
+// not cull carry TRIANGLE_FACING_CULL_DISABLE, the others counter-clockwise
+// front faces in world space (src/gpu/accel.rs `facing_flags`).
+uint cull_flags() { return SC_BACKFACE_CULLING ? gl_RayFlagsCullBackFacingTrianglesEXT : gl_RayFlagsNoneEXT; }
+
 bool rt_closest_hit(vec3 o, vec3 d, float tmin, float tmax, out RtHit h) {
     rayQueryEXT rq;
-    rayQueryInitializeEXT(rq, tlas, gl_RayFlagsNoneEXT, 0xFFu, o, tmin, d, tmax);
+    rayQueryInitializeEXT(rq, tlas, cull_flags(), 0xFFu, o, tmin, d, tmax);
     while (rayQueryProceedEXT(rq)) {
         if (rayQueryGetIntersectionTypeEXT(rq, false) == gl_RayQueryCandidateIntersectionTriangleEXT) {
             uint inst = uint(rayQueryGetIntersectionInstanceCustomIndexEXT(rq, false));
@@ -29,7 +34,7 @@ bool rt_closest_hit(vec3 o, vec3 d, float tmin, float tmax, out RtHit h) {
 
 bool rt_occluded(vec3 o, vec3 d, float tmin, float tmax) {
     rayQueryEXT rq;
-    rayQueryInitializeEXT(rq, tlas, gl_RayFlagsTerminateOnFirstHitEXT, 0xFFu, o, tmin, d, tmax);
+    rayQueryInitializeEXT(rq, tlas, gl_RayFlagsTerminateOnFirstHitEXT | cull_flags(), 0xFFu, o, tmin, d, tmax);
     while (rayQueryProceedEXT(rq)) {
         if (rayQueryGetIntersectionTypeEXT(rq, false) == gl_RayQueryCandidateIntersectionTriangleEXT) {
             uint inst = uint(rayQueryGetIntersectionInstanceCustomIndexEXT(rq, false));

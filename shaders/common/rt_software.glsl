@@ -33,6 +33,16 @@ float intersect_triangle(vec3 o, vec3 d, vec3 v0, vec3 e1, vec3 e2, out vec2 bar
     return dot(e2, qv) * inv;
 }
 
+// Back-face culling (glTF doubleSided false): v0.w is 0, or for a culling
+// material the sign that makes w·(e1 × e2) the front normal (src/rt/bvh.rs:
+// the instance determinant's sign for world-space triangles; 1 in a BLAS,
+// whose object space is where glTF's counter-clockwise front is defined).
+// The ray passes through a triangle it meets from behind. CPU twin: bvh.rs
+// `closest_hit`.
+bool culled(vec4 v0, vec3 e1, vec3 e2, vec3 d) {
+    return SC_BACKFACE_CULLING && dot(cross(e1, e2), d) * v0.w > 0.0;
+}
+
 // Child hit mask of one node for the ray: bits 24..31 = internal children
 // (slot order permuted by octant), bits 0..23 = leaf triangles (unary counts).
 uint cw_intersect_node(uint node, vec3 o, vec3 inv_d, uint oct_inv4, float tmin, float tmax) {
@@ -101,8 +111,10 @@ bool cw_traverse(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out RtHit
             prims.y &= ~(1u << local);
             uint k = prims.x + local;
             vec2 bary;
-            float t = intersect_triangle(o, d, tri_verts[3u * k].xyz, tri_verts[3u * k + 1u].xyz, tri_verts[3u * k + 2u].xyz, bary);
-            if (t > tmin && t < h.t) {
+            vec4 v0 = tri_verts[3u * k];
+            vec3 e1 = tri_verts[3u * k + 1u].xyz, e2 = tri_verts[3u * k + 2u].xyz;
+            float t = intersect_triangle(o, d, v0.xyz, e1, e2, bary);
+            if (t > tmin && t < h.t && !culled(v0, e1, e2, d)) {
                 uvec2 ref = tri_ref[k];
                 if (alpha_passes(ref.x, ref.y, bary)) {
                     h.t = t;
@@ -178,8 +190,10 @@ bool cw_traverse_two_level(vec3 wo, vec3 wd, float tmin, float tmax, bool any_hi
             uint k = prims.x + local;
             if (in_blas) {
                 vec2 bary;
-                float t = intersect_triangle(o, d, tri_verts[3u * k].xyz, tri_verts[3u * k + 1u].xyz, tri_verts[3u * k + 2u].xyz, bary);
-                if (t > tmin && t < h.t) {
+                vec4 v0 = tri_verts[3u * k];
+                vec3 e1 = tri_verts[3u * k + 1u].xyz, e2 = tri_verts[3u * k + 2u].xyz;
+                float t = intersect_triangle(o, d, v0.xyz, e1, e2, bary);
+                if (t > tmin && t < h.t && !culled(v0, e1, e2, d)) {
                     uint prim = tri_ref[k].y;
                     if (alpha_passes(inst, prim, bary)) {
                         h.t = t;

@@ -170,7 +170,10 @@ Surface surface_at(uint inst, uint prim, vec2 bary, vec3 ray_dir) {
     float uv_area2 = abs(duv1.x * duv2.y - duv1.y * duv2.x);
     s.uv_area_ratio = area2 > 0.0 ? uv_area2 / area2 : 0.0;
     s.material = meshes[I.mesh_pad.x].material;
-    s.front = dot(gn, ray_dir) < 0.0;
+    // glTF's front is counter-clockwise in object space: the world-space
+    // e1 × e2 is the front normal times the sign of the transform's
+    // determinant (a mirroring node keeps its faces' sides).
+    s.front = dot(gn, ray_dir) * determinant(mat3(I.object_to_world)) < 0.0;
     if (!s.front) gn = -gn;
     if (dot(n, gn) < 0.0) n = -n;
     vec4 t = w.x * a.tangent + w.y * b.tangent + w.z * c.tangent;

@@ -20,6 +20,7 @@ pub const FEATURE_FLAGS: &[&str] = &[
     "view_dependent",
     "vertex_colors",
     "clearcoat",
+    "backface_culling",
 ];
 
 /// Whether flag `name` of [`FEATURE_FLAGS`] is on in `f`; with `set`, turns it on.
@@ -35,6 +36,7 @@ fn feature_flag(f: &mut crate::scene::SceneFeatures, name: &str, set: bool) -> b
         "view_dependent" => &mut f.view_dependent,
         "vertex_colors" => &mut f.vertex_colors,
         "clearcoat" => &mut f.clearcoat,
+        "backface_culling" => &mut f.backface_culling,
         _ => unreachable!("FEATURE_FLAGS names every flag"),
     };
     if set {

@@ -17,6 +17,21 @@ pub struct BlasInput<'a> {
     pub opaque: bool,
 }
 
+/// The facing flags of an instance. glTF's front faces are counter-clockwise
+/// in object space (a mirroring node transform keeps the object-space
+/// winding: glTF §3.7.2.1's determinant rule), and Vulkan decides facing in
+/// object space too, with the same counter-clockwise front unless the flip
+/// bit is set (tests/culling.rs checks this on lavapipe, mirrored instances
+/// included): culling instances get no facing flag, the others
+/// TRIANGLE_FACING_CULL_DISABLE.
+fn facing_flags(inst: &TlasInstance) -> vk::GeometryInstanceFlagsKHR {
+    if inst.cull_back_faces {
+        vk::GeometryInstanceFlagsKHR::empty()
+    } else {
+        vk::GeometryInstanceFlagsKHR::TRIANGLE_FACING_CULL_DISABLE
+    }
+}
+
 /// One TLAS instance.
 pub struct TlasInstance {
     /// Row-major 3×4 object-to-world matrix.
@@ -24,6 +39,9 @@ pub struct TlasInstance {
     /// Returned by `rayQueryGetIntersectionInstanceCustomIndexEXT` (24 bits).
     pub custom_index: u32,
     pub blas: usize,
+    /// Rays with `gl_RayFlagsCullBackFacingTrianglesEXT` pass through the
+    /// back faces (glTF's, counter-clockwise front in world space).
+    pub cull_back_faces: bool,
 }
 
 struct Accel {
@@ -242,7 +260,7 @@ impl AccelStructures {
                     instance_custom_index_and_mask: vk::Packed24_8::new(inst.custom_index, 0xff),
                     instance_shader_binding_table_record_offset_and_flags: vk::Packed24_8::new(
                         0,
-                        vk::GeometryInstanceFlagsKHR::TRIANGLE_FACING_CULL_DISABLE.as_raw() as u8,
+                        facing_flags(inst).as_raw() as u8,
                     ),
                     acceleration_structure_reference: vk::AccelerationStructureReferenceKHR {
                         device_handle: addr,

@@ -25,6 +25,7 @@ pub mod spec_id {
     pub const ANIMATED: u32 = 13;
     pub const VERTEX_COLORS: u32 = 14;
     pub const CLEARCOAT: u32 = 15;
+    pub const BACKFACE_CULLING: u32 = 16;
 }
 
 pub const INTERFACE: Interface = Interface {
@@ -75,5 +76,6 @@ pub const INTERFACE: Interface = Interface {
         ("SC_ANIMATED", spec_id::ANIMATED),
         ("SC_VERTEX_COLORS", spec_id::VERTEX_COLORS),
         ("SC_CLEARCOAT", spec_id::CLEARCOAT),
+        ("SC_BACKFACE_CULLING", spec_id::BACKFACE_CULLING),
     ],
 };

@@ -27,6 +27,7 @@ impl RenderSettings {
             (spec_id::VIEW_DEPENDENT, x.view_dependent),
             (spec_id::VERTEX_COLORS, x.vertex_colors),
             (spec_id::CLEARCOAT, x.clearcoat),
+            (spec_id::BACKFACE_CULLING, x.backface_culling),
         ] {
             if on {
                 s.flag(id, true);

@@ -29,7 +29,12 @@ pub struct SoftwareBvh {
     pub max_depth: u32,
     /// (instance, primitive within its mesh) per leaf slot.
     pub tri_ref: Vec<[u32; 2]>,
-    /// 3 × vec4 per leaf slot: v0, e1 = v1 − v0, e2 = v2 − v0 (w unused).
+    /// 3 × vec4 per leaf slot: v0, e1 = v1 − v0, e2 = v2 − v0 (world). v0's
+    /// w is 0 unless the triangle's material culls back faces
+    /// (`culls_back_faces`); then it is the sign of its instance transform's
+    /// determinant: glTF's front is counter-clockwise in object space, so in
+    /// world space e1 × e2 is the front normal times that sign, and a ray
+    /// with dot(e1 × e2, d)·w > 0 meets the back and passes through.
     pub tri_verts: Vec<[f32; 4]>,
 }
 
@@ -53,8 +58,18 @@ impl SoftwareBvh {
     pub fn build_at(scene: &Scene, origin: DVec3) -> SoftwareBvh {
         let mut tris = Vec::with_capacity(scene.instanced_triangle_count());
         let mut refs = Vec::with_capacity(tris.capacity());
+        let mut culls = Vec::with_capacity(tris.capacity());
         for (ii, inst) in scene.instances.iter().enumerate() {
             let mesh = &scene.meshes[inst.mesh as usize];
+            let cull = scene
+                .materials
+                .get(mesh.material as usize)
+                .is_some_and(|m| m.culls_back_faces());
+            let cull = match (cull, inst.transform.determinant() < 0.0) {
+                (false, _) => 0.0,
+                (true, false) => 1.0,
+                (true, true) => -1.0,
+            };
             for prim in 0..mesh.triangle_count() {
                 let [a, b, c] = mesh.triangle(prim);
                 let m = inst.transform.as_dmat4();
@@ -66,6 +81,7 @@ impl SoftwareBvh {
                     v2: t(c),
                 });
                 refs.push([ii as u32, prim as u32]);
+                culls.push(cull);
             }
         }
         let mut build_time = Duration::ZERO;
@@ -77,7 +93,7 @@ impl SoftwareBvh {
             tri_ref.push(refs[pi as usize]);
             let e1 = t.v1 - t.v0;
             let e2 = t.v2 - t.v0;
-            tri_verts.push([t.v0.x, t.v0.y, t.v0.z, 0.0]);
+            tri_verts.push([t.v0.x, t.v0.y, t.v0.z, culls[pi as usize]]);
             tri_verts.push([e1.x, e1.y, e1.z, 0.0]);
             tri_verts.push([e2.x, e2.y, e2.z, 0.0]);
         }
@@ -117,8 +133,9 @@ impl SoftwareBvh {
                 Vec3::from_slice(&v[1][..3]),
                 Vec3::from_slice(&v[2][..3]),
             );
+            let back = e1.cross(e2).dot(Vec3::from(r.direction)) * v[0][3] > 0.0;
             match moller_trumbore(Vec3::from(r.origin), Vec3::from(r.direction), v0, e1, e2) {
-                Some((t, u, w)) if t > tmin && t < r.tmax => {
+                Some((t, u, w)) if t > tmin && t < r.tmax && !back => {
                     let [inst, prim] = self.tri_ref[k];
                     best = Some(CpuHit {
                         t,

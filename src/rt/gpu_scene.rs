@@ -189,7 +189,8 @@ pub struct SceneGpu {
     /// The instance transforms last uploaded (object-to-world, not origin
     /// relative): the scene's at rest until the first `set_instance_motion`.
     posed: Mutex<Vec<Mat4>>,
-    /// Per instance, `InstanceGpu::mesh_pad` (mesh, 1 + first emitter).
+    /// Per instance, `InstanceGpu::mesh_pad` (mesh, 1 + first emitter,
+    /// 1 where its material culls back faces).
     instance_ids: Vec<[u32; 4]>,
     /// The emissive triangles as last uploaded (render-origin relative),
     /// moved with their instances by `set_instance_motion`.
@@ -253,7 +254,14 @@ impl SceneGpu {
             .instances
             .iter()
             .zip(&emitters.first)
-            .map(|(i, first)| [i.mesh, first.map_or(0, |f| f + 1), 0, 0])
+            .map(|(i, first)| {
+                let culls = scene.meshes[i.mesh as usize].material as usize;
+                let culls = scene
+                    .materials
+                    .get(culls)
+                    .is_some_and(|m| m.culls_back_faces());
+                [i.mesh, first.map_or(0, |f| f + 1), culls as u32, 0]
+            })
             .collect();
         let rest: Vec<Mat4> = scene.instances.iter().map(|i| i.transform).collect();
         let instances = instance_records(&rest, &rest, &instance_ids, origin);
@@ -735,7 +743,8 @@ impl SceneGpu {
             )
             .flag(spec_id::ANIMATED, f.animated)
             .flag(spec_id::VERTEX_COLORS, f.vertex_colors)
-            .flag(spec_id::CLEARCOAT, f.clearcoat);
+            .flag(spec_id::CLEARCOAT, f.clearcoat)
+            .flag(spec_id::BACKFACE_CULLING, f.backface_culling);
         s
     }
 
@@ -854,6 +863,7 @@ fn tlas_instances(transforms: &[Mat4], ids: &[[u32; 4]], origin: DVec3) -> Vec<T
             transform: row_major_3x4(relative_transform(*t, origin)),
             custom_index: i as u32,
             blas: id[0] as usize,
+            cull_back_faces: id[2] != 0,
         })
         .collect()
 }

@@ -115,6 +115,14 @@ impl TwoLevelBvh {
         let mut blas = Vec::with_capacity(scene.meshes.len());
         let mut blas_depth = 0;
         for mesh in &scene.meshes {
+            // v0's w: 1 where the mesh's material culls back faces (object
+            // space, where glTF's front is counter-clockwise whatever the
+            // instance transform: no sign as in the flattened BVH).
+            let cull = scene
+                .materials
+                .get(mesh.material as usize)
+                .is_some_and(|m| m.culls_back_faces());
+            let cull = if cull { 1.0 } else { 0.0 };
             let tris: Vec<Triangle> = (0..mesh.triangle_count())
                 .map(|p| {
                     let [a, b, c] = mesh.triangle(p);
@@ -143,7 +151,7 @@ impl TwoLevelBvh {
                 let tri = &tris[pi as usize];
                 let (e1, e2) = (tri.v1 - tri.v0, tri.v2 - tri.v0);
                 tri_ref.push([0, pi]);
-                tri_verts.push([tri.v0.x, tri.v0.y, tri.v0.z, 0.0]);
+                tri_verts.push([tri.v0.x, tri.v0.y, tri.v0.z, cull]);
                 tri_verts.push([e1.x, e1.y, e1.z, 0.0]);
                 tri_verts.push([e2.x, e2.y, e2.z, 0.0]);
             }
@@ -277,8 +285,10 @@ impl TwoLevelBvh {
                     Vec3::from_slice(&v[1][..3]),
                     Vec3::from_slice(&v[2][..3]),
                 );
+                // Back-face culling in object space (rt_software.glsl `culled`).
+                let back = e1.cross(e2).dot(d) * v[0][3] > 0.0;
                 match moller_trumbore(o, d, v0, e1, e2) {
-                    Some((t, u, w)) if t > tmin && t < best_t => {
+                    Some((t, u, w)) if t > tmin && t < best_t && !back => {
                         best_t = t;
                         best = Some(CpuHit {
                             t,

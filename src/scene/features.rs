@@ -30,6 +30,10 @@ pub struct SceneFeatures {
     /// A material has a clearcoat (KHR_materials_clearcoat factor > 0; its
     /// texture only multiplies the factor). Off, the coat is compiled out.
     pub clearcoat: bool,
+    /// A mesh has a single-sided material (glTF doubleSided false, not a
+    /// volume boundary): rays pass through its back faces. Off, the
+    /// traversals skip the facing test.
+    pub backface_culling: bool,
 }
 
 impl SceneFeatures {
@@ -60,6 +64,10 @@ impl SceneFeatures {
             animated: scene.is_animated(),
             vertex_colors: scene.meshes.iter().any(|m| !m.colors.is_empty()),
             clearcoat: mats.iter().any(|m| m.clearcoat.factor > 0.0),
+            backface_culling: scene.meshes.iter().any(|m| {
+                mats.get(m.material as usize)
+                    .is_some_and(|m| m.culls_back_faces())
+            }),
         }
     }
 
@@ -80,6 +88,7 @@ impl SceneFeatures {
             animated: true,
             vertex_colors: true,
             clearcoat: true,
+            backface_culling: true,
         }
     }
 }

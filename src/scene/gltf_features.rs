@@ -196,9 +196,10 @@ pub const FEATURES: &[Feature] = &[
     f("alphaMode MASK", Full, "alphaCutoff against base colour alpha"),
     f(
         "single-sided materials (doubleSided false)",
-        Partly,
-        "emission is front-only, but back faces are not culled: rays hit them as front faces \
-         (differs from a rasterizer only where a back face can be seen)",
+        Full,
+        "back faces are culled for every ray (camera, path, shadow, the caches' retraces): a ray \
+         meeting one from behind passes through; the front is counter-clockwise in object space, \
+         so mirrored nodes keep theirs; emission is front-only; volume boundaries never cull",
     ),
     f(
         "texture samplers (wrap modes, filters)",
@@ -649,6 +650,7 @@ mod tests {
             "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "COLOR_0": 1, "COLOR_1": 3},
                                         "targets": [{"POSITION": 2}]}]}],
             "materials": [{}],
+            "skins": [{"joints": [0]}],
             "samplers": [{"wrapS": 33071}, {"magFilter": 9729}]
         });
         let w = warn_unsupported(Path::new("b.glb"), &doc);
@@ -663,8 +665,13 @@ mod tests {
             "{w:?}"
         );
         assert!(!has("morph targets"), "{w:?}");
-        assert!(has("single-sided materials"), "{w:?}");
-        // Samplers are implemented: no word about them.
+        assert!(
+            has("skins (JOINTS_0, WEIGHTS_0) is not supported (used by skin 0)"),
+            "{w:?}"
+        );
+        // Samplers and single-sided materials (back-face culling) are
+        // implemented: no word about them.
+        assert!(!has("single-sided"), "{w:?}");
         assert!(!has("sampler"), "{w:?}");
         assert_eq!(w.len(), 3, "{w:?}");
     }

@@ -194,6 +194,15 @@ impl Material {
         }
     }
 
+    /// Whether rays meeting this material's triangles from behind pass
+    /// through (glTF: "when doubleSided is false, back-face culling is
+    /// enabled"). Volume boundaries never cull (KHR_materials_volume: "the
+    /// doubleSided property has no effect on volume boundaries"): a ray
+    /// inside must find the way out.
+    pub fn culls_back_faces(&self) -> bool {
+        !self.double_sided && self.volume.is_none()
+    }
+
     /// A transmissive surface without a volume: a thin sheet (see `volume`).
     pub fn is_thin_walled(&self) -> bool {
         (self.transmission > 0.0 || self.transmission_texture.is_some()) && self.volume.is_none()
