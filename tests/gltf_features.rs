@@ -87,12 +87,10 @@ fn used_by(doc: &Value) -> Vec<String> {
     let list = |key: &str| doc[key].as_array().cloned().unwrap_or_default();
     for e in list("extensionsUsed") {
         let name = e.as_str().unwrap();
-        // KHR_materials_specular is implemented on opaque surfaces; it
-        // counts as used (in its unimplemented part) only on a transmissive
-        // material that sets more than the defaults. A texture transform:
+        // A texture transform:
         // only where a material's textures have different ones (one
         // transform per material is implemented).
-        if name != "KHR_materials_specular" && name != "KHR_texture_transform" {
+        if name != "KHR_texture_transform" {
             add(name);
         }
     }
@@ -152,22 +150,6 @@ fn used_by(doc: &Value) -> Vec<String> {
         }
         if m["doubleSided"] != true {
             add("single-sided materials (doubleSided false)");
-        }
-        let spec = &m["extensions"]["KHR_materials_specular"];
-        let transmission = &m["extensions"]["KHR_materials_transmission"];
-        let transmissive = transmission["transmissionFactor"].as_f64().unwrap_or(0.0) > 0.0
-            || transmission.get("transmissionTexture").is_some();
-        if transmissive
-            && (spec.get("specularTexture").is_some()
-                || spec.get("specularColorTexture").is_some()
-                || spec
-                    .get("specularColorFactor")
-                    .is_some_and(|c| c != &json!([1.0, 1.0, 1.0]))
-                || spec
-                    .get("specularFactor")
-                    .is_some_and(|f| f.as_f64() != Some(1.0)))
-        {
-            add("KHR_materials_specular");
         }
         if m.get("occlusionTexture").is_some() {
             add("occlusionTexture");

@@ -254,9 +254,26 @@ bool dielectric_sample(ShadingMaterial m, vec3 wo, vec3 u, out vec3 wi, out vec3
     else h = sample_vndf(wo_up, a, u.xy);
     float c = dot(wo_up, h);
     float F = fresnel_dielectric(c, eta);
+    // KHR_materials_specular on the dielectric (its fresnel_mix): the
+    // reflected layer is specular·Fr with Fr's F0 tinted,
+    // min(F0(ior)·specularColor, 1), and F90 = 1; the transmitted base keeps
+    // 1 − specular·max(Fr). Fr follows the exact Fresnel's shape between
+    // its F0 and 1 (total internal reflection stays total). Reflection is
+    // picked with probability max(Fr) (weights Fr/max(Fr) and 1); without
+    // the extension's values exactly the plain dielectric.
+    vec3 Fr = vec3(F);
+    float p_reflect = F;
+    if (F < 1.0 && (m.specular != 1.0 || m.specular_color != vec3(1.0))) {
+        float r = (m.ior - 1.0) / (m.ior + 1.0);
+        float f0 = r * r;
+        vec3 f0t = min(vec3(f0) * m.specular_color, vec3(1.0));
+        float shape = clamp((F - f0) / max(1.0 - f0, 1e-6), 0.0, 1.0);
+        Fr = m.specular * (f0t + (1.0 - f0t) * shape);
+        p_reflect = max(Fr.r, max(Fr.g, Fr.b));
+    }
     vec3 wi_up;
     bool refracted = false;
-    if (u.z < F) {
+    if (u.z < p_reflect) {
         wi_up = reflect(-wo_up, h);
         if (wi_up.z <= 0.0) { weight = vec3(0.0); return false; }
     } else if (m.thin) {
@@ -272,6 +289,7 @@ bool dielectric_sample(ShadingMaterial m, vec3 wo, vec3 u, out vec3 wi, out vec3
     // VNDF sampling with Fresnel-chosen lobes: weight = G2 / G1(wo).
     weight = delta ? vec3(1.0) : vec3(smith_g2(wo_up, vec3(wi_up.xy, abs(wi_up.z)), a) / smith_g1(wo_up, a));
     if (refracted) weight *= m.base;   // glTF: transmission is tinted by the base colour
+    else if (p_reflect != F) weight *= Fr / p_reflect;
     wi = entering ? wi_up : -wi_up;
     return true;
 }

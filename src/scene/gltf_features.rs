@@ -285,11 +285,11 @@ pub const FEATURES: &[Feature] = &[
     f("KHR_materials_sheen", Ignored, "rendered without sheen"),
     f(
         "KHR_materials_specular",
-        Partly,
-        "opaque surfaces: specularFactor × specularTexture (A) scales the dielectric Fresnel \
-         layer and specularColorFactor × specularColorTexture tints its F0 \
-         (min(F0(ior)·colour, 1)·factor); transmissive surfaces split reflection and refraction \
-         by the exact dielectric Fresnel of the ior, without the factor and colour",
+        Full,
+        "specularFactor × specularTexture (A) weighs the dielectric Fresnel layer and \
+         specularColorFactor × specularColorTexture tints its F0 (min(F0(ior)·colour, 1)); on \
+         transmissive surfaces the transmitted part keeps 1 − specular·max(Fr) (the extension's \
+         fresnel_mix, with the exact Fresnel's shape between F0 and 1)",
     ),
     f(
         "KHR_materials_transmission",
@@ -477,10 +477,6 @@ pub fn features_used(json: &Value) -> BTreeMap<String, Vec<String>> {
     if scenes.len() > 1 {
         add!("several scenes", format!("{} scenes", scenes.len()));
     }
-    // KHR_materials_specular counts only on transmissive materials (where its
-    // factor and colour are not applied).
-    let specular = "KHR_materials_specular";
-    used.remove(specular);
     for (mi, m) in array("materials").iter().enumerate() {
         if !m
             .get("doubleSided")
@@ -491,30 +487,6 @@ pub fn features_used(json: &Value) -> BTreeMap<String, Vec<String>> {
                 "single-sided materials (doubleSided false)",
                 label("material", mi, m),
             );
-        }
-        let transmissive = m
-            .pointer("/extensions/KHR_materials_transmission")
-            .is_some_and(|t| {
-                t.get("transmissionFactor")
-                    .and_then(Value::as_f64)
-                    .unwrap_or(0.0)
-                    > 0.0
-                    || t.get("transmissionTexture").is_some()
-            });
-        let ext = m.pointer("/extensions/KHR_materials_specular");
-        if let Some(e) = ext.and_then(Value::as_object) {
-            let white = |v: &Value| {
-                v.as_array()
-                    .is_some_and(|c| c.iter().all(|x| x.as_f64() == Some(1.0)))
-            };
-            let unsupported = e.contains_key("specularTexture")
-                || e.contains_key("specularColorTexture")
-                || e.get("specularColorFactor").is_some_and(|c| !white(c))
-                || e.get("specularFactor")
-                    .is_some_and(|f| f.as_f64() != Some(1.0));
-            if unsupported && transmissive {
-                add!(specular, label("material", mi, m));
-            }
         }
     }
     for (si, s) in array("samplers").iter().enumerate() {
