@@ -154,14 +154,20 @@ fn used_by(doc: &Value) -> Vec<String> {
         if m.get("occlusionTexture").is_some() {
             add("occlusionTexture");
         }
-        // The textureInfos the renderer samples; one uv set and one
-        // transform per material are implemented, so different ones count.
+        // The textureInfos the renderer samples; two (uv set, transform)
+        // choices per material are implemented (two uv channels), so the
+        // slots that name a third count.
         let mut infos = vec![
             &m["pbrMetallicRoughness"]["baseColorTexture"],
             &m["pbrMetallicRoughness"]["metallicRoughnessTexture"],
             &m["normalTexture"],
             &m["emissiveTexture"],
             &m["extensions"]["KHR_materials_transmission"]["transmissionTexture"],
+            &m["extensions"]["KHR_materials_specular"]["specularTexture"],
+            &m["extensions"]["KHR_materials_specular"]["specularColorTexture"],
+            &m["extensions"]["KHR_materials_clearcoat"]["clearcoatTexture"],
+            &m["extensions"]["KHR_materials_clearcoat"]["clearcoatRoughnessTexture"],
+            &m["extensions"]["KHR_materials_clearcoat"]["clearcoatNormalTexture"],
         ];
         infos.retain(|t| t.is_object());
         let uv_set = |t: &Value| {
@@ -180,10 +186,24 @@ fn used_by(doc: &Value) -> Vec<String> {
             let r = ext["rotation"].as_f64().unwrap_or(0.0);
             (pair("offset", 0.0), r, pair("scale", 1.0))
         };
-        if infos.iter().any(|t| uv_set(t) != uv_set(infos[0])) {
+        let choice = |t: &Value| (uv_set(t), transform(t));
+        let mut channels = Vec::new();
+        let mut third = Vec::new();
+        for t in &infos {
+            let c = choice(t);
+            if channels.contains(&c) {
+                continue;
+            }
+            if channels.len() < 2 {
+                channels.push(c);
+            } else {
+                third.push(c);
+            }
+        }
+        if third.iter().any(|c| c.0 != channels[0].0) {
             add("TEXCOORD_1 and texCoord");
         }
-        if infos.iter().any(|t| transform(t) != transform(infos[0])) {
+        if third.iter().any(|c| c.1 != channels[0].1) {
             add("KHR_texture_transform");
         }
     }
@@ -205,7 +225,7 @@ fn used_by(doc: &Value) -> Vec<String> {
 fn elsewhere_keyword(name: &str) -> &'static str {
     match name {
         "points and lines" => "triangle strips and triangle fans only",
-        "TEXCOORD_1 and texCoord" => "its textures use different uv sets (texCoord)",
+        "TEXCOORD_1 and texCoord" => "different uv sets (texCoord)",
         "KHR_texture_transform" => "texture transforms (KHR_texture_transform)",
         "orthographic cameras" => "orthographic camera",
         "animation of morph weights" => "morph-target weights",
@@ -387,7 +407,9 @@ fn kitchen_sink() -> Value {
             {"name": "transformed", "alphaMode": "BLEND",
              "pbrMetallicRoughness": {"baseColorTexture": {"index": 0, "texCoord": 1,
                 "extensions": {"KHR_texture_transform": {"offset": [0.5, 0.0]}}}},
-             "normalTexture": {"index": 0}},
+             "normalTexture": {"index": 0},
+             "emissiveTexture": {"index": 0,
+                "extensions": {"KHR_texture_transform": {"scale": [2.0, 2.0]}}}},
             {"name": "coated", "doubleSided": true,
              "extensions": {"KHR_materials_clearcoat": {"clearcoatFactor": 1.0},
                             "KHR_materials_specular": {"specularColorFactor": [1.0, 0.5, 0.5]}}},
@@ -484,15 +506,17 @@ fn a_document_using_every_unimplemented_feature_warns_each_once() {
     );
     // The items are named: the transformed texture's material, the coated one.
     let said = |s: &str| warnings.iter().any(|w| w.contains(s));
-    // One uv set and transform per material: its normal texture (TEXCOORD_0,
-    // untransformed) reads the base colour texture's uvs.
+    // Two uv channels per material: the base colour's (TEXCOORD_1, offset)
+    // and the normal texture's (TEXCOORD_0, untransformed); the emissive
+    // texture's third choice reads the base colour texture's uvs.
     assert!(said(
-        "material 0 'transformed': its textures use different uv sets (texCoord) and texture \
-         transforms (KHR_texture_transform)"
+        "material 0 'transformed': its textures use more than two different uv sets (texCoord) \
+         and texture transforms (KHR_texture_transform), but a material gets two uv channels \
+         (TEXCOORD_1, offset (0.5, 0) and TEXCOORD_0, no transform)"
     ));
     assert!(said(
-        "all read the base colour texture's uvs (TEXCOORD_1, offset (0.5, 0)), so the normal \
-         texture (TEXCOORD_0, no transform) reads the wrong uvs"
+        "the others read the base colour texture's uvs, so the emissive texture (TEXCOORD_0, \
+         scale (2, 2)) reads the wrong uvs"
     ));
     // Clearcoat, the specular colour on an opaque material and a volume with
     // a thickness are implemented: not a word about them.

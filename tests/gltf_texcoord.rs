@@ -402,8 +402,10 @@ fn tangents_follow_the_transformed_uvs() {
     let _ = std::fs::remove_dir_all(&d);
 }
 
+/// Two (uv set, transform) choices per material are two uv channels; a
+/// slot naming a third reads the base colour's channel and is warned.
 #[test]
-fn slots_that_disagree_use_the_base_colour_choice_and_warn_once() {
+fn a_third_uv_choice_reads_the_base_colour_channel_and_warns_once() {
     let d = dir("disagree");
     let quads = [Quad {
         rect: rect(0),
@@ -433,21 +435,42 @@ fn slots_that_disagree_use_the_base_colour_choice_and_warn_once() {
     for part in [
         path.display().to_string().as_str(),
         "material 0 'mixed'",
-        "different uv sets (texCoord) and texture transforms (KHR_texture_transform)",
-        "all read the base colour texture's uvs (TEXCOORD_1, offset (0.5, 0), rotation 1.5707964, \
-         scale (2, 2))",
-        "the metallic-roughness texture (TEXCOORD_0, no transform)",
-        "the normal texture (TEXCOORD_1, no transform)",
+        // The third (the normal texture's) differs from the first in its
+        // transform only.
+        "more than two different texture transforms (KHR_texture_transform)",
+        "two uv channels (TEXCOORD_1, offset (0.5, 0), rotation 1.5707964, scale (2, 2) and \
+         TEXCOORD_0, no transform)",
+        "the others read the base colour texture's uvs, so the normal texture (TEXCOORD_1, no \
+         transform) reads the wrong uvs",
     ] {
         assert!(w.contains(part), "warning lacks '{part}': {w}");
     }
     assert!(!w.contains("emissive"), "the emissive texture agrees: {w}");
-    // Every slot reads the base colour's uvs.
+    assert!(
+        !w.contains("metallic-roughness"),
+        "it has the second channel: {w}"
+    );
+    // Channel 1: the base colour's choice (emissive and normal read it);
+    // channel 2: TEXCOORD_0 untransformed, for the metallic-roughness slot.
     assert_uvs(
         &scene.meshes[0].uvs,
         &[[2.5, 0.0], [2.5, -2.0], [0.5, -2.0], [0.5, 0.0]],
         "base colour's choice",
     );
+    assert_uvs(
+        &scene.meshes[0].uvs2,
+        &[[0.0, 1.0], [1.0, 1.0], [1.0, 0.0], [0.0, 0.0]],
+        "the second channel",
+    );
+    assert_eq!(scene.materials[0].second_uv_slots, 1 << 1);
+    // The writer keeps both channels (TEXCOORD_0/1, texCoord 1 on the slots
+    // of the second) and they read back the same.
+    let out = d.join("written.gltf");
+    stereocache::scene::write_gltf(&scene, &out).unwrap();
+    let back = load_gltf(&out).unwrap();
+    assert_eq!(back.meshes[0].uvs, scene.meshes[0].uvs);
+    assert_eq!(back.meshes[0].uvs2, scene.meshes[0].uvs2);
+    assert_eq!(back.materials[0].second_uv_slots, 1 << 1);
     let _ = std::fs::remove_dir_all(&d);
 }
 
@@ -673,4 +696,114 @@ fn hit_point(scene: &Scene, fh: [u32; 4]) -> (usize, Vec3) {
     let (idx, w) = first_hit_weights(scene, fh);
     let p: Vec3 = (0..3).map(|k| mesh.positions[idx[k]] * w[k]).sum();
     (inst.mesh as usize, p)
+}
+
+/// A texture on the second uv channel is sampled there: a black,
+/// non-reflecting quad (specularFactor 0) whose base colour texture reads
+/// TEXCOORD_0 as is and whose emissive texture reads TEXCOORD_1 under the
+/// brief's transform, with emissive factor 1 and one bounce: every pixel's
+/// radiance is exactly the emissive texel at the transformed TEXCOORD_1
+/// (sRGB 0 and 255 decode to 0 and 1), which differs from the texel at the
+/// untransformed uvs on most of the quad — on both backends.
+#[test]
+fn an_emissive_texture_on_the_second_channel_shows_its_own_uvs() {
+    let ctx = context();
+    let d = dir("second-channel");
+    // TEXCOORD_1 = TEXCOORD_0 mirrored in u, so a mix-up of the sets shows too.
+    let mirrored: Vec<Vec<f32>> = unit_uvs()
+        .into_iter()
+        .map(|uv| vec![1.0 - uv[0], uv[1]])
+        .collect();
+    let quads = [Quad {
+        rect: rect(0),
+        attrs: vec![("TEXCOORD_0", unit_uvs()), ("TEXCOORD_1", mirrored)],
+        material: 0,
+    }];
+    let mut m = material(
+        "two channels",
+        json!({
+            "baseColorTexture": { "index": 0 },
+            "emissiveTexture": { "index": 0, "texCoord": 1, "extensions": brief_transform() },
+        }),
+    );
+    m["pbrMetallicRoughness"]["baseColorFactor"] = json!([0.0, 0.0, 0.0, 1.0]);
+    m["emissiveFactor"] = json!([1.0, 1.0, 1.0]);
+    m["extensions"] = json!({ "KHR_materials_specular": { "specularFactor": 0.0 } });
+    let path = write_doc(
+        &d,
+        &quads,
+        vec![m],
+        1,
+        json!({ "extensionsUsed": ["KHR_texture_transform", "KHR_materials_specular"] }),
+    );
+    let scene = load_gltf(&path).unwrap();
+    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+    assert_eq!(
+        scene.materials[0].second_uv_slots,
+        1 << 3,
+        "the emissive slot"
+    );
+    let texel = |uv: Vec2| -> Vec3 {
+        let i = ((uv.x as f64 * 2.0).floor() as i64).rem_euclid(2);
+        let j = ((uv.y as f64 * 2.0).floor() as i64).rem_euclid(2);
+        let t = TEXELS[(j * 2 + i) as usize];
+        Vec3::new(t[0] as f32, t[1] as f32, t[2] as f32) / 255.0
+    };
+    // Which channel a slot reads is what is checked here, not the sampler's
+    // precision at a texel edge (the previous test's business): pixels
+    // within 1/64 of a texel of an edge are left out (llvmpipe rounded one
+    // 0.0040 from an edge, beyond its reported 2^-8, to the neighbour).
+    let near_edge = |x: f32| {
+        let t = x * 2.0;
+        (t - t.round()).abs() < 1.0 / 64.0
+    };
+    let settings = RenderSettings {
+        width: 96,
+        height: 96,
+        spp: 1,
+        max_bounces: 1,
+        seed: 1,
+        all_features: false,
+        ..Default::default()
+    };
+    let (x0, y0, x1, y1) = rect(0);
+    let c = Vec3::new(0.5 * (x0 + x1), 0.5 * (y0 + y1), 0.0);
+    let cam = look_at_camera(c + Vec3::new(0.0, 0.0, 1.5), c, 30.0, 1.0);
+    let mut backends = vec![RtChoice::Software];
+    if require(ctx.ray_query_enabled(), "ray queries") {
+        backends.push(RtChoice::Query);
+    }
+    for rt in backends {
+        let s = session(&ctx, scene.clone(), rt);
+        let f = render(&s, "reference", cam, &settings);
+        let (mut checked, mut differs) = (0usize, 0usize);
+        for eye in &f.eyes {
+            for (i, fh) in eye.first_hit.iter().enumerate() {
+                if fh[3] == u32::MAX {
+                    continue;
+                }
+                let (_, p) = hit_point(&s.scene, *fh);
+                let uv0 = Vec2::new((p.x - x0) / (x1 - x0), (y1 - p.y) / (y1 - y0));
+                let uv1 = Vec2::new(1.0 - uv0.x, uv0.y);
+                let uvt = spec_uv(Vec2::new(0.5, 0.0), FRAC_PI_2, Vec2::splat(2.0), uv1);
+                if near_edge(uvt.x) || near_edge(uvt.y) || near_edge(uv0.x) || near_edge(uv0.y) {
+                    continue;
+                }
+                let want = texel(uvt);
+                let got = Vec3::from_slice(&eye.radiance[i][..3]);
+                assert!(
+                    (got - want).abs().max_element() <= 1.0 / 4096.0,
+                    "{rt:?}: pixel {i} uv0 {uv0} → uv' {uvt}: radiance {got}, expected {want}"
+                );
+                assert_eq!(Vec3::from_slice(&eye.albedo[i][..3]), Vec3::ZERO);
+                checked += 1;
+                differs += ((texel(uv0) - want).abs().max_element() > 0.5) as usize;
+            }
+        }
+        eprintln!("{rt:?}: checked {checked}, differing from channel 1's uvs {differs}");
+        assert!(checked > 5000, "{rt:?}: {checked} pixels checked");
+        assert!(differs * 3 > checked, "{rt:?}: {differs} of {checked}");
+    }
+    assert_no_validation_messages(&ctx);
+    let _ = std::fs::remove_dir_all(&d);
 }

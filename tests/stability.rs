@@ -428,6 +428,7 @@ fn degenerate_triangles_stay_finite() {
         colors: Vec::new(),
         indices,
         material: 0,
+        ..Default::default()
     };
     stereocache::scene::generate::add_mesh(&mut s, mesh, mat, Mat4::IDENTITY);
     s.environment = Some(Environment::Constant(Vec3::splat(0.8)));

@@ -45,4 +45,7 @@ layout(constant_id = SPEC_SC_CLEARCOAT) const bool SC_CLEARCOAT = true;
 // A mesh has a single-sided material (src/scene/features.rs
 // `backface_culling`): the traversals pass through its back faces.
 layout(constant_id = SPEC_SC_BACKFACE_CULLING) const bool SC_BACKFACE_CULLING = true;
+// A mesh has a second uv channel (src/scene/features.rs `second_uv`): the
+// texture slots in MaterialGpu.tex3.y read it (material.glsl `slot_uv`).
+layout(constant_id = SPEC_SC_SECOND_UV) const bool SC_SECOND_UV = true;
 #endif

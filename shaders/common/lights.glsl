@@ -45,6 +45,11 @@ vec3 emitted_radiance(EmitterGpu e, vec2 bary, vec3 dir) {
     vec3 Le = g.emissive_metallic.rgb;
     if (SC_TEXTURES && g.tex0.w >= 0) {
         vec2 uv = triangle_uv(inst, prim, bary);
+        if (slot_on_second_uv(g.tex3.y, 3)) {
+            uvec3 vi = triangle_indices(inst, prim);
+            vec3 w = vec3(1.0 - bary.x - bary.y, bary.x, bary.y);
+            uv = w.x * vertex_uv2(vi.x) + w.y * vertex_uv2(vi.y) + w.z * vertex_uv2(vi.z);
+        }
         Le *= sample_texture(g.tex0.w, uv, 0.0).rgb;
     }
 #ifdef SC_MATERIAL_GRAPHS

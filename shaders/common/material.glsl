@@ -3,12 +3,25 @@
 #define MATERIAL_GLSL
 #include "common/bsdf.glsl"
 
-// Mip level from a ray cone of width `cone_width` at the hit (Akenine-Möller et al. 2019, Eq. 34).
-float texture_lod(int tex, Surface s, float cone_width, float cos_incidence) {
-    if (cone_width <= 0.0 || s.uv_area_ratio <= 0.0) return 0.0;
+// Mip level from a ray cone of width `cone_width` at the hit (Akenine-Möller
+// et al. 2019, Eq. 34), for a texture read through uvs of `uv_area_ratio`.
+float texture_lod_at(int tex, float uv_area_ratio, float cone_width, float cos_incidence) {
+    if (cone_width <= 0.0 || uv_area_ratio <= 0.0) return 0.0;
     vec2 size = vec2(textureSize(textures[nonuniformEXT(tex)], 0));
-    float lambda = 0.5 * log2(s.uv_area_ratio * size.x * size.y) + log2(cone_width / max(abs(cos_incidence), 1e-3));
+    float lambda = 0.5 * log2(uv_area_ratio * size.x * size.y) + log2(cone_width / max(abs(cos_incidence), 1e-3));
     return max(lambda, 0.0);
+}
+float texture_lod(int tex, Surface s, float cone_width, float cos_incidence) {
+    return texture_lod_at(tex, s.uv_area_ratio, cone_width, cos_incidence);
+}
+
+// Texture `tex` of material slot `slot` (scene.glsl slot_on_second_uv) at the
+// hit, filtered for the ray cone; `lod0` samples mip 0.
+vec4 slot_texture(MaterialGpu g, int slot, int tex, Surface s, float cone_width, float cos_incidence, bool lod0) {
+    bool second = slot_on_second_uv(g.tex3.y, slot);
+    vec2 uv = second ? s.uv2 : s.uv;
+    float lod = lod0 ? 0.0 : texture_lod_at(tex, second ? s.uv2_area_ratio : s.uv_area_ratio, cone_width, cos_incidence);
+    return sample_texture(tex, uv, lod);
 }
 
 ShadingMaterial material_at(inout Surface s, vec3 ray_dir, float cone_width) {
@@ -44,22 +57,22 @@ ShadingMaterial material_at(inout Surface s, vec3 ray_dir, float cone_width) {
     m.emissive *= go.emission;
 #endif
     if (SC_TEXTURES) {
-        if (g.tex0.x >= 0) m.base *= sample_texture(g.tex0.x, s.uv, texture_lod(g.tex0.x, s, cone_width, cos_i)).rgb;
+        if (g.tex0.x >= 0) m.base *= slot_texture(g, 0, g.tex0.x, s, cone_width, cos_i, false).rgb;
         if (g.tex0.y >= 0) {
-            vec4 mr = sample_texture(g.tex0.y, s.uv, texture_lod(g.tex0.y, s, cone_width, cos_i));
+            vec4 mr = slot_texture(g, 1, g.tex0.y, s, cone_width, cos_i, false);
             m.roughness *= mr.g;
             m.metallic *= mr.b;
         }
-        if (SC_EMISSIVE && g.tex0.w >= 0) m.emissive *= sample_texture(g.tex0.w, s.uv, texture_lod(g.tex0.w, s, cone_width, cos_i)).rgb;
-        if (SC_TRANSMISSION && g.tex1.x >= 0) m.transmission *= sample_texture(g.tex1.x, s.uv, 0.0).r;
+        if (SC_EMISSIVE && g.tex0.w >= 0) m.emissive *= slot_texture(g, 3, g.tex0.w, s, cone_width, cos_i, false).rgb;
+        if (SC_TRANSMISSION && g.tex1.x >= 0) m.transmission *= slot_texture(g, 4, g.tex1.x, s, cone_width, cos_i, true).r;
         // KHR_materials_specular: A of the specular texture, RGB of the colour texture.
-        if (g.tex2.w >= 0) m.specular *= sample_texture(g.tex2.w, s.uv, texture_lod(g.tex2.w, s, cone_width, cos_i)).a;
-        if (g.tex3.x >= 0) m.specular_color *= sample_texture(g.tex3.x, s.uv, texture_lod(g.tex3.x, s, cone_width, cos_i)).rgb;
+        if (g.tex2.w >= 0) m.specular *= slot_texture(g, 5, g.tex2.w, s, cone_width, cos_i, false).a;
+        if (g.tex3.x >= 0) m.specular_color *= slot_texture(g, 6, g.tex3.x, s, cone_width, cos_i, false).rgb;
         if (SC_CLEARCOAT && m.clearcoat > 0.0) {
-            if (g.tex2.x >= 0) m.clearcoat *= sample_texture(g.tex2.x, s.uv, texture_lod(g.tex2.x, s, cone_width, cos_i)).r;
-            if (g.tex2.y >= 0) m.clearcoat_roughness *= sample_texture(g.tex2.y, s.uv, texture_lod(g.tex2.y, s, cone_width, cos_i)).g;
+            if (g.tex2.x >= 0) m.clearcoat *= slot_texture(g, 7, g.tex2.x, s, cone_width, cos_i, false).r;
+            if (g.tex2.y >= 0) m.clearcoat_roughness *= slot_texture(g, 8, g.tex2.y, s, cone_width, cos_i, false).g;
             if (SC_NORMAL_MAPS && g.tex2.z >= 0 && dot(s.tangent, s.tangent) > 0.0) {
-                vec3 tn = sample_texture(g.tex2.z, s.uv, texture_lod(g.tex2.z, s, cone_width, cos_i)).xyz * 2.0 - 1.0;
+                vec3 tn = slot_texture(g, 9, g.tex2.z, s, cone_width, cos_i, false).xyz * 2.0 - 1.0;
                 tn.xy *= g.coat.z;
                 vec3 T = normalize(s.tangent - s.n * dot(s.n, s.tangent));
                 vec3 B = cross(s.n, T) * s.tangent_sign;
@@ -68,7 +81,7 @@ ShadingMaterial material_at(inout Surface s, vec3 ray_dir, float cone_width) {
             }
         }
         if (SC_NORMAL_MAPS && g.tex0.z >= 0 && dot(s.tangent, s.tangent) > 0.0) {
-            vec3 tn = sample_texture(g.tex0.z, s.uv, texture_lod(g.tex0.z, s, cone_width, cos_i)).xyz * 2.0 - 1.0;
+            vec3 tn = slot_texture(g, 2, g.tex0.z, s, cone_width, cos_i, false).xyz * 2.0 - 1.0;
             tn.xy *= g.extra.x;
             vec3 T = normalize(s.tangent - s.n * dot(s.n, s.tangent));
             vec3 B = cross(s.n, T) * s.tangent_sign;

@@ -49,6 +49,8 @@ layout(set = SET_SCENE, binding = B_SCENE_TEXTURES) uniform sampler2D textures[S
 layout(set = SET_SCENE, binding = B_SCENE_ENV_MAP) uniform sampler2D env_map;
 // Linear RGBA vertex colours parallel to `vertices` (read only where SC_VERTEX_COLORS).
 layout(set = SET_SCENE, binding = B_SCENE_COLORS, std430) readonly buffer Colors { vec4 colors[]; };
+// The second uv channel parallel to `vertices` (read only where SC_SECOND_UV).
+layout(set = SET_SCENE, binding = B_SCENE_UVS2, std430) readonly buffer Uvs2 { vec2 uvs2[]; };
 
 const float PI = 3.14159265358979323846;
 const float INV_PI = 0.31830988618379067154;
@@ -73,6 +75,17 @@ vec2 triangle_uv(uint inst, uint prim, vec2 bary) {
          + w.y * vec2(vertices[vi.y].pos_u.w, vertices[vi.y].normal_v.w)
          + w.z * vec2(vertices[vi.z].pos_u.w, vertices[vi.z].normal_v.w);
 }
+
+// Vertex v's second-channel uv: zero past the buffer (a scene without a
+// second channel binds one stand-in, which the all-features build reads too).
+vec2 vertex_uv2(uint v) { return v < uint(uvs2.length()) ? uvs2[v] : vec2(0.0); }
+
+// The uv a material's texture slot reads at barycentrics `bary`: the
+// second channel where the slot's bit is set in MaterialGpu.tex3.y
+// (slots as gltf_uv::SLOTS: 0 base colour, 1 metallic-roughness, 2 normal,
+// 3 emissive, 4 transmission, 5 specular, 6 specular colour, 7 clearcoat,
+// 8 clearcoat roughness, 9 clearcoat normal).
+bool slot_on_second_uv(int mask, int slot) { return SC_SECOND_UV && ((mask >> slot) & 1) != 0; }
 
 // Vertex v's colour: white past the buffer (a scene without colours binds
 // one white stand-in, which the all-features build reads too).
@@ -138,9 +151,11 @@ struct Surface {
     vec3 ng;       // geometric normal, facing the incoming ray
     vec3 n;        // shading normal (interpolated, normal-mapped), same side as ng
     vec2 uv;
+    vec2 uv2;      // second uv channel (zero without one)
     uint material;
     bool front;    // the ray hit the side the winding order calls front
     float uv_area_ratio; // texture-space area / world area of the triangle (ray-cone LOD)
+    float uv2_area_ratio; // the same for the second uv channel
     vec3 tangent;
     float tangent_sign;
     vec4 color;    // vertex colour (COLOR_0), white without
@@ -169,6 +184,14 @@ Surface surface_at(uint inst, uint prim, vec2 bary, vec3 ray_dir) {
     vec2 duv2 = vec2(c.pos_u.w, c.normal_v.w) - vec2(a.pos_u.w, a.normal_v.w);
     float uv_area2 = abs(duv1.x * duv2.y - duv1.y * duv2.x);
     s.uv_area_ratio = area2 > 0.0 ? uv_area2 / area2 : 0.0;
+    s.uv2 = vec2(0.0);
+    s.uv2_area_ratio = 0.0;
+    if (SC_SECOND_UV) {
+        vec2 ta = vertex_uv2(vi.x), tb = vertex_uv2(vi.y), tc = vertex_uv2(vi.z);
+        s.uv2 = w.x * ta + w.y * tb + w.z * tc;
+        vec2 d1 = tb - ta, d2 = tc - ta;
+        s.uv2_area_ratio = area2 > 0.0 ? abs(d1.x * d2.y - d1.y * d2.x) / area2 : 0.0;
+    }
     s.material = meshes[I.mesh_pad.x].material;
     // glTF's front is counter-clockwise in object space: the world-space
     // e1 × e2 is the front normal times the sign of the transform's

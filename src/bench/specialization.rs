@@ -21,6 +21,7 @@ pub const FEATURE_FLAGS: &[&str] = &[
     "vertex_colors",
     "clearcoat",
     "backface_culling",
+    "second_uv",
 ];
 
 /// Whether flag `name` of [`FEATURE_FLAGS`] is on in `f`; with `set`, turns it on.
@@ -37,6 +38,7 @@ fn feature_flag(f: &mut crate::scene::SceneFeatures, name: &str, set: bool) -> b
         "vertex_colors" => &mut f.vertex_colors,
         "clearcoat" => &mut f.clearcoat,
         "backface_culling" => &mut f.backface_culling,
+        "second_uv" => &mut f.second_uv,
         _ => unreachable!("FEATURE_FLAGS names every flag"),
     };
     if set {

@@ -26,6 +26,7 @@ pub mod spec_id {
     pub const VERTEX_COLORS: u32 = 14;
     pub const CLEARCOAT: u32 = 15;
     pub const BACKFACE_CULLING: u32 = 16;
+    pub const SECOND_UV: u32 = 17;
 }
 
 pub const INTERFACE: Interface = Interface {
@@ -49,6 +50,10 @@ pub const INTERFACE: Interface = Interface {
         // Linear RGBA per vertex (COLOR_0), parallel to `vertices`; a white
         // stand-in when no mesh has colours (SC_VERTEX_COLORS off).
         read("colors"),
+        // The second uv channel (vec2 per vertex, parallel to `vertices`) of
+        // texture slots that read another uv set or transform; a stand-in
+        // when no mesh has one (SC_SECOND_UV off).
+        read("uvs2"),
         read("tlas"),
         // The material-graph memoization cache (only in the set of a scene
         // whose graphs are memoized: gpu_scene.rs; shaders/common/memo.glsl).
@@ -77,5 +82,6 @@ pub const INTERFACE: Interface = Interface {
         ("SC_VERTEX_COLORS", spec_id::VERTEX_COLORS),
         ("SC_CLEARCOAT", spec_id::CLEARCOAT),
         ("SC_BACKFACE_CULLING", spec_id::BACKFACE_CULLING),
+        ("SC_SECOND_UV", spec_id::SECOND_UV),
     ],
 };

@@ -28,6 +28,7 @@ impl RenderSettings {
             (spec_id::VERTEX_COLORS, x.vertex_colors),
             (spec_id::CLEARCOAT, x.clearcoat),
             (spec_id::BACKFACE_CULLING, x.backface_culling),
+            (spec_id::SECOND_UV, x.second_uv),
         ] {
             if on {
                 s.flag(id, true);

@@ -33,6 +33,7 @@ pub mod binding {
     pub const EMITTERS: u32 = SCENE.binding("emitters");
     pub const ENV_DISTRIBUTION: u32 = SCENE.binding("env_distribution");
     pub const COLORS: u32 = SCENE.binding("colors");
+    pub const UVS2: u32 = SCENE.binding("uvs2");
     pub const TLAS: u32 = SCENE.binding("tlas");
     pub const MEMO_KEYS: u32 = SCENE.binding("memo_keys");
     /// The sampled-image arrays: scene textures and the environment map.
@@ -77,7 +78,8 @@ struct MaterialGpu {
     attenuation: [f32; 4],
     /// Clearcoat (R), clearcoat roughness (G), clearcoat normal, specular (A).
     tex2: [i32; 4],
-    /// Specular colour (RGB), unused ×3.
+    /// Specular colour (RGB); the slots reading the second uv channel (bit
+    /// k = gltf_uv::SLOTS[k], `Material::second_uv_slots`); unused ×2.
     tex3: [i32; 4],
 }
 
@@ -342,7 +344,12 @@ impl SceneGpu {
                         t(m.clearcoat.normal_texture),
                         t(m.specular_texture),
                     ],
-                    tex3: [t(m.specular_color_texture), -1, -1, -1],
+                    tex3: [
+                        t(m.specular_color_texture),
+                        m.second_uv_slots as i32,
+                        -1,
+                        -1,
+                    ],
                 }
             })
             .collect();
@@ -481,6 +488,21 @@ impl SceneGpu {
             vec![[1.0; 4]]
         };
         let b_colors = Buffer::with_data(ctx, "scene.colors", bytemuck::cast_slice(&colors), none)?;
+        // The second uv channel parallel to `vertices` (zeros for meshes
+        // without), or one stand-in when no mesh has one (never read then).
+        let uvs2: Vec<[f32; 2]> = if features.second_uv {
+            scene
+                .meshes
+                .iter()
+                .flat_map(|m| {
+                    (0..m.positions.len())
+                        .map(|i| m.uvs2.get(i).copied().unwrap_or_default().to_array())
+                })
+                .collect()
+        } else {
+            vec![[0.0; 2]]
+        };
+        let b_uvs2 = Buffer::with_data(ctx, "scene.uvs2", bytemuck::cast_slice(&uvs2), none)?;
 
         // Ray-tracing structure of the backend; the other backend's bindings get 16-byte stand-ins.
         let mut two_level = None;
@@ -588,6 +610,7 @@ impl SceneGpu {
         kinds.push(BindingKind::StorageBuffer); // binding::EMITTERS
         kinds.push(BindingKind::StorageBuffer); // binding::ENV_DISTRIBUTION
         kinds.push(BindingKind::StorageBuffer); // binding::COLORS
+        kinds.push(BindingKind::StorageBuffer); // binding::UVS2
         debug_assert_eq!(kinds.len(), binding::TLAS as usize);
         if backend == RtBackend::Query {
             kinds.push(BindingKind::AccelerationStructure);
@@ -643,6 +666,7 @@ impl SceneGpu {
             Resource::Buffer(&b_emitters),
             Resource::Buffer(&b_env_dist),
             Resource::Buffer(&b_colors),
+            Resource::Buffer(&b_uvs2),
         ];
         if let Some(a) = &accel {
             resources.push(Resource::Accel(a.tlas()));
@@ -699,6 +723,7 @@ impl SceneGpu {
                 b_emitters,
                 b_env_dist,
                 b_colors,
+                b_uvs2,
             ]
             .into_iter()
             .chain(tlas_stand_in)
@@ -744,7 +769,8 @@ impl SceneGpu {
             .flag(spec_id::ANIMATED, f.animated)
             .flag(spec_id::VERTEX_COLORS, f.vertex_colors)
             .flag(spec_id::CLEARCOAT, f.clearcoat)
-            .flag(spec_id::BACKFACE_CULLING, f.backface_culling);
+            .flag(spec_id::BACKFACE_CULLING, f.backface_culling)
+            .flag(spec_id::SECOND_UV, f.second_uv);
         s
     }
 

@@ -280,7 +280,16 @@ fn material_json(m: &Material, used: &mut Vec<&'static str>, table: &mut Texture
     if !ext.is_empty() {
         out.insert("extensions".into(), Value::Object(ext));
     }
-    Value::Object(out)
+    let mut out = Value::Object(out);
+    // Slots reading the second uv channel (Mesh::uvs2, written as TEXCOORD_1).
+    for (k, (_, pointer)) in super::gltf_uv::SLOTS.iter().enumerate() {
+        if m.second_uv_slots & (1 << k) != 0 {
+            if let Some(info) = out.pointer_mut(pointer).and_then(Value::as_object_mut) {
+                info.insert("texCoord".into(), json!(1));
+            }
+        }
+    }
+    out
 }
 
 fn matrix(m: &Mat4) -> Value {
@@ -429,6 +438,12 @@ pub fn write_gltf(scene: &Scene, path: &Path) -> Result<(), SceneError> {
         if !m.colors.is_empty() {
             let col: Vec<[f32; 4]> = m.colors.iter().map(|v| v.to_array()).collect();
             attributes.insert("COLOR_0".into(), json!(bw.floats(&col, "VEC4", false)));
+        }
+        // The second uv channel as TEXCOORD_1 (its material's slots that
+        // read it name texCoord 1: material_json).
+        if !m.uvs2.is_empty() {
+            let uv2: Vec<[f32; 2]> = m.uvs2.iter().map(|v| v.to_array()).collect();
+            attributes.insert("TEXCOORD_1".into(), json!(bw.floats(&uv2, "VEC2", false)));
         }
         let indices = bw.indices(&m.indices);
         meshes.push(json!({

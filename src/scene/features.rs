@@ -34,6 +34,9 @@ pub struct SceneFeatures {
     /// volume boundary): rays pass through its back faces. Off, the
     /// traversals skip the facing test.
     pub backface_culling: bool,
+    /// A mesh has a second uv channel (`Mesh::uvs2`: some texture slots read
+    /// another uv set or transform). Off, only the first is read.
+    pub second_uv: bool,
 }
 
 impl SceneFeatures {
@@ -68,6 +71,7 @@ impl SceneFeatures {
                 mats.get(m.material as usize)
                     .is_some_and(|m| m.culls_back_faces())
             }),
+            second_uv: scene.meshes.iter().any(|m| !m.uvs2.is_empty()),
         }
     }
 
@@ -89,6 +93,7 @@ impl SceneFeatures {
             vertex_colors: true,
             clearcoat: true,
             backface_culling: true,
+            second_uv: true,
         }
     }
 }

@@ -111,9 +111,10 @@ pub const FEATURES: &[Feature] = &[
     elsewhere(
         "TEXCOORD_1 and texCoord",
         Partly,
-        "one uv set per material: a primitive's uvs are the set its material's textures name \
-         (texCoord, or the KHR_texture_transform override); where a material's textures name \
-         different sets, all read the base colour texture's and a warning names the others",
+        "two uv channels per material: each texture reads the set it names (texCoord, or the \
+         KHR_texture_transform override) under its transform, as long as a material's textures \
+         name at most two (set, transform) pairs; slots naming a third read the base colour \
+         texture's and a warning names them",
     ),
     f(
         "COLOR_0",
@@ -336,10 +337,10 @@ pub const FEATURES: &[Feature] = &[
     elsewhere(
         "KHR_texture_transform",
         Partly,
-        "one transform per material: offset, rotation and scale applied to the mesh uvs at \
-         import (rotation as the spec's example and sample model, glTF issue 1563); where a \
-         material's textures have different transforms, all use the base colour texture's and \
-         a warning names the others",
+        "per texture: offset, rotation and scale applied to the uvs of its channel at import \
+         (rotation as the spec's example and sample model, glTF issue 1563); at most two \
+         (set, transform) pairs per material (two uv channels): slots naming a third use the \
+         base colour texture's and a warning names them",
     ),
     f(
         "KHR_xmp_json_ld",

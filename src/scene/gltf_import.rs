@@ -51,10 +51,11 @@ use super::gltf_buffers::{load_buffers, split_container, AccessorReader};
 use super::gltf_instancing::{instancing_json, NodeInstancing, INSTANCING_EXTENSION};
 use super::gltf_textures::{decode_images, patch_invalid_samplers, texture_sampler, ImageUses};
 use super::gltf_uv::{
-    choose, texture_transforms_json, SlotUv, UvChoice, SLOTS, SLOT_COUNT, TEXTURE_TRANSFORM,
+    choose, texture_transforms_json, SlotUv, UvChannels, UvChoice, SLOTS, SLOT_COUNT,
+    TEXTURE_TRANSFORM,
 };
 use super::mesh_ops::{
-    drop_non_finite_triangles, fan_to_triangles, generate_normals, generate_tangents,
+    drop_non_finite_triangles, fan_to_triangles, generate_normals, generate_tangents_for,
     strip_to_triangles,
 };
 use super::{
@@ -373,7 +374,7 @@ struct Prepared {
 
 /// The uvs a material's textures read, as decided at import (`gltf_uv`).
 struct MaterialUv {
-    choice: UvChoice,
+    channels: UvChannels,
     /// Whether any texture slot is bound (so missing uvs matter).
     textured: bool,
     label: String,
@@ -696,6 +697,7 @@ impl Importer<'_> {
                     normal_scale: coat.normal_scale,
                 },
                 volume,
+                second_uv_slots: 0,
             };
             if !coat.bad.is_empty() {
                 self.warn(format!(
@@ -715,7 +717,11 @@ impl Importer<'_> {
                 material.clearcoat.roughness_texture.is_some(),
                 material.clearcoat.normal_texture.is_some(),
             ];
-            self.choose_uvs(label, bound, tex_coords);
+            let second_uv_slots = self.choose_uvs(label, bound, tex_coords);
+            let material = Material {
+                second_uv_slots,
+                ..material
+            };
             let material = match self.unlit_materials.get(m.index().unwrap_or(usize::MAX)) {
                 Some(true) => unlit(material),
                 _ => material,
@@ -736,20 +742,22 @@ impl Importer<'_> {
         }
     }
 
-    /// Decides the uv set and transform of the material being imported (the
-    /// next index of `material_uvs`) from its bound slots; warns when the
-    /// slots disagree (one uv set and one transform per material).
+    /// Decides the uv channels of the material being imported (the next
+    /// index of `material_uvs`) from its bound slots and returns the slots
+    /// that read the second (`Material::second_uv_slots`); warns when the
+    /// slots name more than two (uv set, transform) choices.
     fn choose_uvs(
         &mut self,
         label: String,
         bound: [bool; SLOT_COUNT],
         tex_coords: [Option<u32>; SLOT_COUNT],
-    ) {
+    ) -> u32 {
         let index = self.material_uvs.len();
         let ext = self.slot_uvs.get(index).copied().unwrap_or_default();
         let slots: [Option<(u32, Option<SlotUv>)>; SLOT_COUNT] =
             std::array::from_fn(|k| bound[k].then(|| (tex_coords[k].unwrap_or(0), ext[k])));
-        let (choice, wrong) = choose(&slots);
+        let channels = choose(&slots);
+        let (choice, wrong) = (channels.first, &channels.wrong);
         if !wrong.is_empty() {
             let winner = slots.iter().position(Option::is_some).unwrap_or(0);
             let sets = wrong.iter().any(|(_, c)| c.set != choice.set);
@@ -765,20 +773,25 @@ impl Importer<'_> {
                 .iter()
                 .map(|(k, c)| format!("the {} ({})", SLOTS[*k].0, c.describe()))
                 .collect();
+            let second = channels
+                .second
+                .map_or(String::new(), |c| format!(" and {}", c.describe()));
             self.warn(format!(
-                "{label}: its textures use different {what}, but a material gets one uv set \
-                 and one transform: all read the {}'s uvs ({}), so {} {} the wrong uvs",
-                SLOTS[winner].0,
+                "{label}: its textures use more than two different {what}, but a material gets \
+                 two uv channels ({}{second}): the others read the {}'s uvs, so {} {} the wrong uvs",
                 choice.describe(),
+                SLOTS[winner].0,
                 losers.join(" and "),
                 if losers.len() == 1 { "reads" } else { "read" }
             ));
         }
+        let second_slots = channels.second_slots;
         self.material_uvs.push(MaterialUv {
-            choice,
+            channels,
             textured: bound.iter().any(|&b| b),
             label,
         });
+        second_slots
     }
 
     /// One warning per textured material used by primitives that lack the
@@ -793,10 +806,15 @@ impl Importer<'_> {
             if prims.len() > SHOWN {
                 list.push_str(&format!(" and {} more", prims.len() - SHOWN));
             }
+            let sets = match m.channels.second {
+                Some(s) if s.set != m.channels.first.set => {
+                    format!("TEXCOORD_{} and TEXCOORD_{}", m.channels.first.set, s.set)
+                }
+                _ => format!("TEXCOORD_{}", m.channels.first.set),
+            };
             let msg = format!(
-                "{}: its textures read TEXCOORD_{}, which {list} {}; those uvs are zeros",
+                "{}: its textures read {sets}, which {list} {}; those uvs are zeros",
                 m.label,
-                m.choice.set,
                 if prims.len() == 1 { "lacks" } else { "lack" }
             );
             self.warn(msg);
@@ -1129,10 +1147,13 @@ impl Importer<'_> {
             Some(i) => i as u32,
             None => self.default_material(),
         };
-        let (choice, textured) = self
+        let (channels, textured) = self
             .material_uvs
             .get(material as usize)
-            .map_or((UvChoice::default(), false), |m| (m.choice, m.textured));
+            .map_or((UvChannels::default(), false), |m| {
+                (m.channels.clone(), m.textured)
+            });
+        let choice = channels.first;
         let r = &self.reader;
         let mut positions: Vec<Vec3> = r
             .read_vec::<3>(&pos_acc, &format!("POSITION of {label}"))?
@@ -1161,29 +1182,37 @@ impl Importer<'_> {
             }
             None => Vec::new(),
         };
-        // The uv set the material's textures read, transformed as its
-        // KHR_texture_transform says (gltf_uv).
-        let uvs: Vec<Vec2> = match prim.get(&gltf::Semantic::TexCoords(choice.set)) {
-            Some(a) => {
-                let name = format!("TEXCOORD_{}", choice.set);
-                let v = r.read_vec::<2>(&a, &format!("{name} of {label}"))?;
-                same_len(&name, v.len())?;
-                let t = choice.transform;
-                if t.is_identity() {
-                    v.into_iter().map(Vec2::from).collect()
-                } else {
-                    v.into_iter().map(|uv| t.apply(Vec2::from(uv))).collect()
+        // The uv sets the material's textures read, each transformed as its
+        // KHR_texture_transform says (gltf_uv): channel 1, and channel 2
+        // where some slots read another set or transform.
+        let mut read_uvs = |c: UvChoice| -> Result<Vec<Vec2>, SceneError> {
+            Ok(match prim.get(&gltf::Semantic::TexCoords(c.set)) {
+                Some(a) => {
+                    let name = format!("TEXCOORD_{}", c.set);
+                    let v = r.read_vec::<2>(&a, &format!("{name} of {label}"))?;
+                    same_len(&name, v.len())?;
+                    let t = c.transform;
+                    if t.is_identity() {
+                        v.into_iter().map(Vec2::from).collect()
+                    } else {
+                        v.into_iter().map(|uv| t.apply(Vec2::from(uv))).collect()
+                    }
                 }
-            }
-            None => {
-                if textured {
-                    self.missing_uvs
-                        .entry(material)
-                        .or_default()
-                        .push(label.to_owned());
+                None => {
+                    if textured {
+                        let prims = self.missing_uvs.entry(material).or_default();
+                        if !prims.iter().any(|p| p == label) {
+                            prims.push(label.to_owned());
+                        }
+                    }
+                    vec![Vec2::ZERO; n]
                 }
-                vec![Vec2::ZERO; n]
-            }
+            })
+        };
+        let uvs = read_uvs(choice)?;
+        let uvs2 = match channels.second {
+            Some(c) => read_uvs(c)?,
+            None => Vec::new(),
         };
         // COLOR_0: linear RGB or RGBA (float, or normalized unsigned byte /
         // short: read_vec normalizes), alpha 1 for VEC3 (glTF §3.7.2.1).
@@ -1283,6 +1312,7 @@ impl Importer<'_> {
             positions,
             normals,
             uvs,
+            uvs2,
             tangents,
             colors,
             indices,
@@ -1306,12 +1336,29 @@ impl Importer<'_> {
                 *v = v.normalize();
             }
         }
-        // Supplied tangents belong to the untransformed uvs: turn them to
-        // the direction of increasing transformed u (generated ones below
-        // come from the transformed uvs already).
-        if !mesh.tangents.is_empty() && !choice.transform.is_identity() {
+        // The tangent frame belongs to the uv channel the normal texture
+        // reads (else the clearcoat normal texture's; both share the one
+        // tangent per vertex). Supplied tangents belong to the untransformed
+        // uvs: turn them to the direction of increasing transformed u
+        // (generated ones below come from the transformed uvs already).
+        let normal_slot = if self
+            .scene
+            .materials
+            .get(material as usize)
+            .is_some_and(|m| m.normal_texture.is_none())
+        {
+            9
+        } else {
+            2
+        };
+        let tangent_second = channels.second_slots & (1 << normal_slot) != 0;
+        let tangent_choice = match channels.second {
+            Some(c) if tangent_second => c,
+            _ => choice,
+        };
+        if !mesh.tangents.is_empty() && !tangent_choice.transform.is_identity() {
             for (t, nrm) in mesh.tangents.iter_mut().zip(&mesh.normals) {
-                *t = choice.transform.tangent(*nrm, *t);
+                *t = tangent_choice.transform.tangent(*nrm, *t);
             }
         }
         let needs_tangents = self
@@ -1320,7 +1367,7 @@ impl Importer<'_> {
             .get(material as usize)
             .is_some_and(|m| m.normal_texture.is_some() || m.clearcoat.normal_texture.is_some());
         if mesh.tangents.is_empty() && needs_tangents {
-            generate_tangents(&mut mesh);
+            generate_tangents_for(&mut mesh, tangent_second);
         }
         Ok(Some(mesh))
     }

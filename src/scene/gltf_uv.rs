@@ -1,12 +1,12 @@
 //! Which uv set, under which `KHR_texture_transform`, a material's textures
-//! read (issue 18). Done at import: the shaders sample every texture of a
-//! material with the one uv of the hit, so each primitive's mesh gets the uv
-//! set its material's textures name (`texCoord`, or the extension's
-//! `texCoord` override), with the extension's offset, rotation and scale
-//! applied. One uv set and one transform per material: where the bound
-//! texture slots of a material disagree, the base colour slot's choice is
-//! used for all and the importer warns naming the slots that read the wrong
-//! uvs.
+//! read (issue 18). Done at import: each primitive's mesh gets up to two uv
+//! channels, each a uv set its material's textures name (`texCoord`, or the
+//! extension's `texCoord` override) with that slot's offset, rotation and
+//! scale applied; the material says which slots read the second channel.
+//! Two (set, transform) choices per material: the first bound slot's (base
+//! colour first) and the first different one. Where a material's slots name
+//! a third, those slots read the first channel and the importer warns naming
+//! them.
 //!
 //! The `gltf` crate is built without its `KHR_texture_transform` feature, so
 //! the extension is read here from the raw JSON.
@@ -271,13 +271,23 @@ fn parse_slot(ext: &Value, bad: &mut Vec<String>) -> SlotUv {
     uv
 }
 
-/// The choice for one material from its bound slots (`Some((core texCoord,
+/// The uv channels of one material: the first bound slot's (set,
+/// transform) choice (base colour first) is channel 1 (`Mesh::uvs`), the
+/// first different one channel 2 (`Mesh::uvs2`); `second_slots` has bit k
+/// set where slot k of [`SLOTS`] reads channel 2; `wrong` lists the slots
+/// whose choice is neither (they read channel 1, and the importer warns).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct UvChannels {
+    pub first: UvChoice,
+    pub second: Option<UvChoice>,
+    pub second_slots: u32,
+    pub wrong: Vec<(usize, UvChoice)>,
+}
+
+/// The channels of one material from its bound slots (`Some((core texCoord,
 /// extension))` per slot of [`SLOTS`], `None` where the slot binds no
-/// texture): the first bound slot's (base colour first), and the slots that
-/// disagree with it. No bound slot: TEXCOORD_0 untransformed.
-pub fn choose(
-    slots: &[Option<(u32, Option<SlotUv>)>; SLOT_COUNT],
-) -> (UvChoice, Vec<(usize, UvChoice)>) {
+/// texture). No bound slot: TEXCOORD_0 untransformed, one channel.
+pub fn choose(slots: &[Option<(u32, Option<SlotUv>)>; SLOT_COUNT]) -> UvChannels {
     let choices: Vec<(usize, UvChoice)> = slots
         .iter()
         .enumerate()
@@ -295,13 +305,26 @@ pub fn choose(
         })
         .collect();
     let Some(&(_, first)) = choices.first() else {
-        return (UvChoice::default(), Vec::new());
+        return UvChannels::default();
     };
-    let wrong = choices
-        .into_iter()
-        .filter(|(_, c)| !c.same_as(&first))
-        .collect();
-    (first, wrong)
+    let mut out = UvChannels {
+        first,
+        ..Default::default()
+    };
+    for (k, c) in choices {
+        if c.same_as(&first) {
+            continue;
+        }
+        match out.second {
+            None => {
+                out.second = Some(c);
+                out.second_slots |= 1 << k;
+            }
+            Some(second) if c.same_as(&second) => out.second_slots |= 1 << k,
+            Some(_) => out.wrong.push((k, c)),
+        }
+    }
+    out
 }
 
 #[cfg(test)]

@@ -74,6 +74,11 @@ pub struct Material {
     pub specular_color_texture: Option<TextureRef>,
     /// KHR_materials_clearcoat (factor 0 = no coat).
     pub clearcoat: Clearcoat,
+    /// Bit k set: texture slot k (`gltf_uv::SLOTS` order: base colour,
+    /// metallic-roughness, normal, emissive, transmission, specular, specular
+    /// colour, clearcoat, clearcoat roughness, clearcoat normal) reads the
+    /// meshes' second uv channel (`Mesh::uvs2`), else `Mesh::uvs`.
+    pub second_uv_slots: u32,
     /// KHR_materials_volume with a thickness > 0: the surface bounds a
     /// homogeneous (absorbing) volume, refracting at the boundary with the
     /// ior and attenuating inside by Beer–Lambert. `None` (glTF's default):
@@ -177,6 +182,7 @@ impl Default for Material {
             specular_color: Vec3::ONE,
             specular_color_texture: None,
             clearcoat: Clearcoat::default(),
+            second_uv_slots: 0,
             volume: None,
         }
     }

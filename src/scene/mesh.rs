@@ -12,6 +12,10 @@ pub struct Mesh {
     /// The uv set the material's textures read (glTF: TEXCOORD_n with its
     /// KHR_texture_transform applied at import); zeros when the file has none.
     pub uvs: Vec<Vec2>,
+    /// A second uv channel (another TEXCOORD_n or another transform) for
+    /// the texture slots in its material's `second_uv_slots`; empty when
+    /// every slot reads `uvs`.
+    pub uvs2: Vec<Vec2>,
     /// xyz tangent, w handedness; empty when neither the file nor a normal map needs them.
     pub tangents: Vec<Vec4>,
     /// Linear RGBA vertex colours (glTF COLOR_0, alpha 1 for a VEC3

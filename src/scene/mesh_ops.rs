@@ -43,6 +43,12 @@ pub fn generate_normals(positions: &[Vec3], indices: &[u32]) -> Vec<Vec3> {
 /// uvs) falls back to a unit vector perpendicular to the normal with w = +1.
 /// Requires `mesh.normals` (unit) and `mesh.uvs`, one per position.
 pub fn generate_tangents(mesh: &mut Mesh) {
+    generate_tangents_for(mesh, false);
+}
+
+/// As [`generate_tangents`], for the uvs of the second channel
+/// (`mesh.uvs2`) where `second` (a normal texture that reads it).
+pub fn generate_tangents_for(mesh: &mut Mesh, second: bool) {
     struct Corners<'a> {
         positions: &'a [Vec3],
         normals: &'a [Vec3],
@@ -81,7 +87,7 @@ pub fn generate_tangents(mesh: &mut Mesh) {
     let mut geo = Corners {
         positions: &mesh.positions,
         normals: &mesh.normals,
-        uvs: &mesh.uvs,
+        uvs: if second { &mesh.uvs2 } else { &mesh.uvs },
         indices: &mesh.indices[..corners],
         out: vec![[f32::NAN; 4]; corners],
     };
@@ -125,6 +131,9 @@ pub fn generate_tangents(mesh: &mut Mesh) {
                     mesh.positions.push(mesh.positions[v]);
                     mesh.normals.push(mesh.normals[v]);
                     mesh.uvs.push(mesh.uvs[v]);
+                    if !mesh.uvs2.is_empty() {
+                        mesh.uvs2.push(mesh.uvs2[v]);
+                    }
                     if !mesh.colors.is_empty() {
                         mesh.colors.push(mesh.colors[v]);
                     }
@@ -176,6 +185,7 @@ pub fn drop_non_finite_triangles(mesh: &mut Mesh) -> usize {
             !mesh.positions[v].is_finite()
                 || mesh.normals.get(v).is_some_and(|n| !n.is_finite())
                 || mesh.uvs.get(v).is_some_and(|n| !n.is_finite())
+                || mesh.uvs2.get(v).is_some_and(|n| !n.is_finite())
                 || mesh.tangents.get(v).is_some_and(|n| !n.is_finite())
                 || mesh.colors.get(v).is_some_and(|n| !n.is_finite())
         })
@@ -211,6 +221,7 @@ pub fn drop_non_finite_triangles(mesh: &mut Mesh) -> usize {
     mesh.positions = pick(&mesh.positions, &order);
     mesh.normals = pick(&mesh.normals, &order);
     mesh.uvs = pick(&mesh.uvs, &order);
+    mesh.uvs2 = pick(&mesh.uvs2, &order);
     mesh.tangents = pick(&mesh.tangents, &order);
     mesh.colors = pick(&mesh.colors, &order);
     mesh.indices = kept.iter().map(|&i| remap[i as usize]).collect();
