@@ -108,7 +108,8 @@ fn run_stress(
 ) -> Stress {
     let ctx = context();
     let keys = Buffer::storage(&ctx, "memo.keys", capacity as u64 * 4).unwrap();
-    let stamps = Buffer::storage(&ctx, "memo.stamps", capacity as u64 * 4).unwrap();
+    // Two words per entry: stamp, write version (table.glsl).
+    let stamps = Buffer::storage(&ctx, "memo.stamps", capacity as u64 * 8).unwrap();
     let values = Buffer::storage(
         &ctx,
         "memo.values",
@@ -120,7 +121,7 @@ fn run_stress(
     for b in [&stamps, &counters] {
         b.upload(&vec![0u8; b.size as usize]).unwrap();
     }
-    // Mode 1 starts with every entry s holding key A(s) and its record.
+    // Modes 1 and 2 start with every entry s holding key A(s) and its record.
     let a = |s: u32| {
         MemoKey {
             graph: 1,
@@ -130,7 +131,7 @@ fn run_stress(
         .h1()
     };
     let init: Vec<u32> = (0..capacity)
-        .map(|s| if mode == 1 { a(s) } else { EMPTY })
+        .map(|s| if mode == 1 || mode == 2 { a(s) } else { EMPTY })
         .collect();
     keys.upload(bytemuck::cast_slice(&init)).unwrap();
     let rec0: Vec<u32> = init
@@ -228,6 +229,42 @@ fn lock_and_validate_never_tears() {
 /// mode 1, 2048 reader/writer lane pairs, barriers between the steps): with
 /// the re-read every reader refuses and none tears; without it every reader
 /// accepts a torn record — the test bites.
+/// The ABA of the thesis's key-only validation, forced (stress.comp mode 2,
+/// 2048 reader/writer lane pairs): the reader sees key A, the writer evicts
+/// the entry for B and back to A around the reader's record read. The key
+/// reads A both times, so a key-only check accepts B's record for A: every
+/// pair tears that way. The entry's write version (table.glsl) refuses
+/// every one. Natural runs of the LRU stress met this once in the suite
+/// (one torn read in `gpu_frames_keep_the_table_consistent`): LRU and LRW
+/// evict the same entry again and again within a frame, its stamps equal.
+#[test]
+fn forced_aba_is_refused_by_the_version() {
+    let pairs = 2048u32;
+    let s = run_stress(true, 0, 1, 2, pairs, 1);
+    eprintln!("forced ABA: {:?}", s.counters);
+    assert_eq!(
+        c(&s, StressCounter::Evicted),
+        pairs,
+        "every writer evicted twice"
+    );
+    assert_eq!(
+        c(&s, StressCounter::AbaKeyOnly),
+        pairs,
+        "a key-only validation accepts every ABA read"
+    );
+    assert_eq!(
+        c(&s, StressCounter::TornReads),
+        0,
+        "torn reads with the version"
+    );
+    assert_eq!(
+        c(&s, StressCounter::Refused),
+        pairs,
+        "every ABA read refused"
+    );
+    assert_eq!((s.torn_entries, s.locked), (0, 0));
+}
+
 #[test]
 fn forced_read_during_write_is_refused_and_tears_without_the_reread() {
     let pairs = 2048u32;

@@ -70,7 +70,7 @@ void memo_write_texel(uint b, uvec4 r0, uvec4 r1, uvec4 r2) {
 
 // A tiled hit in slot `sl`: LRU's stamp and the counters.
 void memo_count_hit(uint sl, uint policy, uint now) {
-    if (policy == MEMO_LRU && memo_stamps[sl] != now) memo_stamps[sl] = now;
+    if (policy == MEMO_LRU && memo_stamps[memo_stamp_at(sl)] != now) memo_stamps[memo_stamp_at(sl)] = now;
     atomicAdd(memo_state[MEMO_C_HITS], 1u);
     if (sc_memo_eye == 1u) atomicAdd(memo_state[MEMO_C_SECOND_EYE_HITS], 1u);
 }
@@ -114,8 +114,9 @@ ScGraphOutputs memo_tiled(uint material, int level, ivec2 q, uint shift, vec3 p,
     for (uint i = 0u; i < probe; ++i) {
         uint sl = memo_slot(h0, i, cap, probe);
         if (memo_keys[sl] != h1) continue;
+        uint v0 = memo_version(sl);
         memo_read_texel(memo_texel_base(sl, shift, idx), r0, r1, r2);
-        if (memo_validate(sl, h1, true)) {
+        if (memo_validate(sl, h1, v0, true)) {
             memo_count_hit(sl, policy, now);
             return memo_unpack(r0, r1, r2, n);
         }
@@ -171,12 +172,13 @@ ScGraphOutputs memo_tiled_bilinear(uint material, int level, vec2 uv, uint shift
     for (uint i = 0u; i < probe; ++i) {
         uint sl = memo_slot(h0, i, cap, probe);
         if (memo_keys[sl] != h1) continue;
+        uint v0 = memo_version(sl);
         for (uint k = 0u; k < 4u; ++k) {
             uint idx = (uint(o.y) + ko[k].y) * e + uint(o.x) + ko[k].x;
             memo_read_texel(MEMO_RECORD * (sl * e * e + idx), r0, r1, r2);
             c[k] = memo_unpack(r0, r1, r2, n);
         }
-        if (memo_validate(sl, h1, true)) {
+        if (memo_validate(sl, h1, v0, true)) {
             memo_count_hit(sl, policy, now);
             return memo_lerp(memo_lerp(c[0], c[1], f.x), memo_lerp(c[2], c[3], f.x), f.y);
         }

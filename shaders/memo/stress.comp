@@ -12,7 +12,11 @@
 // lanes overwrite it with another key, the steps interleaved in program
 // order (reader key, writer lock + record, reader record, writer unlock,
 // reader validate), a workgroup barrier between steps, so the sequence is
-// exact on any device. Each lane pair has its own entry.
+// exact on any device. Each lane pair has its own entry. Mode 2 forces the
+// ABA of the key-only protocol: the reader sees key A, the writer evicts
+// the entry for B (lock, record, unlock), the reader reads B's record, the
+// writer evicts it back to A, the reader validates: the key is A again, so
+// only the version (table.glsl) tells the read was torn.
 #include "interface/memo_stress.glsl"
 layout(local_size_x = 64) in;
 layout(set = SET_MEMO_STRESS, binding = B_MEMO_STRESS_MEMO_KEYS, std430) coherent buffer K { uint memo_keys[]; };
@@ -35,8 +39,12 @@ void interleaved(uint lane) {
     bool reader = (lane & 1u) == 0u, writer = !reader;
     uint a = ha(s), b = hb(s);
     bool seen = false, locked = false, valid = false;
+    uint v0 = 0u;
     uvec4 r0, r1, r2;
-    if (reader) seen = memo_keys[s] == a;
+    if (reader) {
+        seen = memo_keys[s] == a;
+        v0 = memo_version(s);
+    }
     barrier();
     if (writer) locked = memo_lock(s, a);
     barrier();
@@ -48,7 +56,7 @@ void interleaved(uint lane) {
     barrier();
     if (writer && locked) memo_unlock(s, b, pc.now);
     barrier();
-    if (reader && seen) valid = memo_validate(s, a, REREAD);
+    if (reader && seen) valid = memo_validate(s, a, v0, REREAD);
     if (writer) atomicAdd(counters[locked ? C_MEMO_STRESS_EVICTED : C_MEMO_STRESS_LOCK_FAILED], 1u);
     if (!reader) return;
     if (!seen) { atomicAdd(counters[C_MEMO_STRESS_MISSES], 1u); return; }
@@ -58,9 +66,55 @@ void interleaved(uint lane) {
     atomicAdd(counters[ok ? C_MEMO_STRESS_HITS : C_MEMO_STRESS_TORN_READS], 1u);
 }
 
+// f(h1)'s record.
+void record_of(uint h1, out uvec4 r0, out uvec4 r1, out uvec4 r2) {
+    r0 = uvec4(f(h1, 0u), f(h1, 1u), f(h1, 2u), f(h1, 3u));
+    r1 = uvec4(f(h1, 4u), f(h1, 5u), f(h1, 6u), f(h1, 7u));
+    r2 = uvec4(f(h1, 8u), f(h1, 9u), f(h1, 10u), f(h1, 11u));
+}
+
+// Mode 2 (the entry filled with ha(s) as in mode 1).
+void aba(uint lane) {
+    uint s = lane >> 1;
+    bool reader = (lane & 1u) == 0u, writer = !reader;
+    uint a = ha(s), b = hb(s);
+    bool seen = false, locked = false, back = false;
+    uint v0 = 0u;
+    uvec4 r0, r1, r2, w0, w1, w2;
+    if (reader) {
+        seen = memo_keys[s] == a;
+        v0 = memo_version(s);
+    }
+    barrier();
+    if (writer) {
+        locked = memo_lock(s, a);
+        record_of(b, w0, w1, w2);
+        if (locked) { memo_write_record(s, w0, w1, w2); memo_unlock(s, b, pc.now); }
+    }
+    barrier();
+    if (reader && seen) memo_read_record(s, r0, r1, r2);
+    barrier();
+    if (writer && locked) {
+        back = memo_lock(s, b);
+        record_of(a, w0, w1, w2);
+        if (back) { memo_write_record(s, w0, w1, w2); memo_unlock(s, a, pc.now); }
+    }
+    barrier();
+    if (writer) atomicAdd(counters[locked && back ? C_MEMO_STRESS_EVICTED : C_MEMO_STRESS_LOCK_FAILED], 1u);
+    if (!reader) return;
+    if (!seen) { atomicAdd(counters[C_MEMO_STRESS_MISSES], 1u); return; }
+    bool ok = true;
+    for (uint j = 0u; j < 4u; ++j) ok = ok && r0[j] == f(a, j) && r1[j] == f(a, 4u + j) && r2[j] == f(a, 8u + j);
+    bool key_only = memo_keys[s] == a;
+    if (key_only && !ok) atomicAdd(counters[C_MEMO_STRESS_ABA_KEY_ONLY], 1u);
+    if (!memo_validate(s, a, v0, REREAD)) { atomicAdd(counters[C_MEMO_STRESS_REFUSED], 1u); atomicAdd(counters[C_MEMO_STRESS_MISSES], 1u); return; }
+    atomicAdd(counters[ok ? C_MEMO_STRESS_HITS : C_MEMO_STRESS_TORN_READS], 1u);
+}
+
 void main() {
     uint lane = gl_GlobalInvocationID.x;
     if (pc.mode == 1u) { interleaved(lane); return; }
+    if (pc.mode == 2u) { aba(lane); return; }
     uint hits = 0u, torn = 0u, refused = 0u, misses = 0u;
     uint results[4] = uint[4](0u, 0u, 0u, 0u);
     for (uint it = 0u; it < pc.iterations; ++it) {

@@ -5,7 +5,9 @@
 // invocations' writes must be seen; MEMO_HASHES_ONLY: only the hashes and
 // the probe sequence, no buffers):
 //   uint  memo_keys[]    H1 of the entry's key; MEMO_EMPTY, MEMO_LOCK
-//   uint  memo_stamps[]  eviction time (frame counter mod 2^32)
+//   uint  memo_stamps[]  two words per entry: the eviction time (frame
+//                        counter mod 2^32), then the entry's write version
+//                        (odd while a writer holds the lock)
 //   uvec4 memo_values[]  MEMO_RECORD uvec4 per entry (the graph outputs)
 // CPU twin, bit for bit: src/materials/memo/table.rs (hashes, probing, the
 // single-threaded model of find / insert / evict).
@@ -46,8 +48,19 @@ uint memo_slot(uint h0, uint i, uint capacity, uint probe) { return h0 % (capaci
 
 // The protocol's steps (thesis §5.3.4), composed by memo_find and
 // memo_insert; the stress test also runs them in a forced interleaving.
-// Reader: the key was seen holding h1 -> memo_read_record -> memo_validate.
-// Writer: memo_lock -> memo_write_record -> memo_unlock.
+// Reader: the key was seen holding h1 -> its version v0 -> memo_read_record
+// -> memo_validate (key still h1, version still v0 and even).
+// Writer: memo_lock (version odd) -> memo_write_record -> memo_unlock
+// (version even again, then the key).
+// The version closes the thesis protocol's ABA hole: between a reader's two
+// key reads the entry can be evicted for another key and filled with h1
+// again (LRU and LRW pick the same victim over and over within a frame, all
+// its stamps being equal), the key then reads h1 both times while the
+// record read in between mixes two writes; any write in between moves the
+// version (tests/memo.rs saw one such torn read in a stress run without it).
+uint memo_stamp_at(uint s) { return 2u * s; }
+uint memo_version_at(uint s) { return 2u * s + 1u; }
+uint memo_version(uint s) { return memo_stamps[memo_version_at(s)]; }
 void memo_read_record(uint s, out uvec4 r0, out uvec4 r1, out uvec4 r2) {
     memoryBarrierBuffer();
     r0 = memo_values[MEMO_RECORD * s];
@@ -55,20 +68,33 @@ void memo_read_record(uint s, out uvec4 r0, out uvec4 r1, out uvec4 r2) {
     r2 = memo_values[MEMO_RECORD * s + 2u];
     memoryBarrierBuffer();
 }
-// The key read again: still h1, or the read is refused (a miss). `reread`
-// off only in the stress test, to show the test bites.
-bool memo_validate(uint s, uint h1, bool reread) { return !reread || memo_keys[s] == h1; }
-// Exchanges the key word `seen` for LOCK; false when it changed (never spin).
-bool memo_lock(uint s, uint seen) { return atomicCompSwap(memo_keys[s], seen, MEMO_LOCK) == seen; }
+// The key read again: still h1 with the version `v0` read before the record
+// (even: no write was under way), or the read is refused (a miss).
+// `reread` off only in the stress test, to show the test bites.
+bool memo_validate(uint s, uint h1, uint v0, bool reread) {
+    memoryBarrierBuffer();
+    return !reread || (memo_keys[s] == h1 && (v0 & 1u) == 0u && memo_version(s) == v0);
+}
+// Exchanges the key word `seen` for LOCK (false when it changed: never
+// spin), then makes the version odd.
+bool memo_lock(uint s, uint seen) {
+    if (atomicCompSwap(memo_keys[s], seen, MEMO_LOCK) != seen) return false;
+    atomicAdd(memo_stamps[memo_version_at(s)], 1u);
+    memoryBarrierBuffer();
+    return true;
+}
 void memo_write_record(uint s, uvec4 r0, uvec4 r1, uvec4 r2) {
     memoryBarrierBuffer();
     memo_values[MEMO_RECORD * s] = r0;
     memo_values[MEMO_RECORD * s + 1u] = r1;
     memo_values[MEMO_RECORD * s + 2u] = r2;
 }
-// Writing the key unlocks the entry, after the record and the stamp.
+// Writing the key unlocks the entry, after the record, the stamp and the
+// version (even again).
 void memo_unlock(uint s, uint h1, uint now) {
-    memo_stamps[s] = now;
+    memo_stamps[memo_stamp_at(s)] = now;
+    memoryBarrierBuffer();
+    atomicAdd(memo_stamps[memo_version_at(s)], 1u);
     memoryBarrierBuffer();
     atomicExchange(memo_keys[s], h1);
 }
@@ -84,9 +110,10 @@ uint memo_find(uint h0, uint h1, uint capacity, uint probe, bool reread, uint po
     for (uint i = 0u; i < probe; ++i) {
         uint s = memo_slot(h0, i, capacity, probe);
         if (memo_keys[s] != h1) continue;
+        uint v0 = memo_version(s);
         memo_read_record(s, r0, r1, r2);
-        if (!memo_validate(s, h1, reread)) { torn = true; return MEMO_NONE; }
-        if (policy == MEMO_LRU && memo_stamps[s] != now) memo_stamps[s] = now;
+        if (!memo_validate(s, h1, v0, reread)) { torn = true; return MEMO_NONE; }
+        if (policy == MEMO_LRU && memo_stamps[memo_stamp_at(s)] != now) memo_stamps[memo_stamp_at(s)] = now;
         return s;
     }
     return MEMO_NONE;
@@ -112,7 +139,7 @@ uint memo_victim(uint h0, uint h1, uint capacity, uint probe, uint policy, uint 
         if (k == h1) { present = true; return MEMO_NONE; }
         if (k == MEMO_EMPTY) { seen = k; return s; }
         if (k == MEMO_LOCK) continue;
-        uint score = policy == MEMO_RANDOM ? (i == pick ? 1u : 0u) : memo_age(now, memo_stamps[s]) + 1u;
+        uint score = policy == MEMO_RANDOM ? (i == pick ? 1u : 0u) : memo_age(now, memo_stamps[memo_stamp_at(s)]) + 1u;
         if (victim == MEMO_NONE || score > best) { victim = s; best = score; seen = k; }
     }
     return victim;

@@ -151,7 +151,7 @@ pub struct SceneArgs {
     /// primary, secondary or both hits.
     #[arg(long, default_value = "off")]
     pub memo: MemoHits,
-    /// Entries of the memoization table (56 B each; with --memo-tile s, s²
+    /// Entries of the memoization table (60 B each: key, stamp, write version, one 48 B record; with --memo-tile s, s²
     /// texel records of 48 B an entry, (s+1)² with --memo-bilinear).
     #[arg(long, default_value_t = MemoSettings::default().entries)]
     pub memo_entries: u32,

@@ -18,6 +18,9 @@ crate::counter_slots! {
         Evicted = "EVICTED",
         Present = "PRESENT",
         LockFailed = "LOCK_FAILED",
+        /// Mode 2 (forced ABA): torn reads a validation by the key alone
+        /// (the thesis's) would have accepted; the version refuses them.
+        AbaKeyOnly = "ABA_KEY_ONLY",
     }
 }
 

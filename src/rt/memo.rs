@@ -33,7 +33,8 @@ impl MemoGpu {
             settings: *settings,
             ctx: ctx.clone(),
             keys: b("keys", n * 4)?,
-            stamps: b("stamps", n * 4)?,
+            // Two words per entry: stamp, write version (table.glsl).
+            stamps: b("stamps", n * 8)?,
             values: b(
                 "values",
                 n * settings.texels_per_entry() * 4 * RECORD_WORDS as u64,

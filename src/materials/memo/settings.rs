@@ -3,7 +3,7 @@
 //! the eviction policy and the level-of-detail bias. Off by default: a
 //! scene's graphs are then evaluated at every hit, as before.
 
-use super::table::{Eviction, ENTRY_BYTES};
+use super::table::{Eviction, ENTRY_BYTES, ENTRY_HEADER_BYTES};
 
 /// Which hits go through the cache (thesis §6: the error comes almost
 /// entirely from primary hits, the time from all of them).
@@ -111,9 +111,9 @@ impl MemoSettings {
         e * e
     }
 
-    /// Bytes of one entry: key, stamp and its texel records.
+    /// Bytes of one entry: key, stamp, version and its texel records.
     pub fn entry_bytes(&self) -> u64 {
-        8 + (ENTRY_BYTES - 8) * self.texels_per_entry()
+        ENTRY_HEADER_BYTES + (ENTRY_BYTES - ENTRY_HEADER_BYTES) * self.texels_per_entry()
     }
 
     /// Bytes of the table's buffers (keys, stamps, records).

@@ -26,8 +26,11 @@ pub const EMPTY: u32 = 0;
 pub const LOCK: u32 = 0xFFFF_FFFF;
 /// 32-bit words of a record (the shader's `MEMO_RECORD` uvec4s).
 pub const RECORD_WORDS: usize = 12;
-/// Bytes per non-tiled entry: key word, stamp, record.
-pub const ENTRY_BYTES: u64 = 4 + 4 + 4 * RECORD_WORDS as u64;
+/// Bytes of an entry besides its records: key word, stamp, write version
+/// (the shader's seqlock word against the protocol's ABA, table.glsl).
+pub const ENTRY_HEADER_BYTES: u64 = 4 + 4 + 4;
+/// Bytes per non-tiled entry: the header and one record.
+pub const ENTRY_BYTES: u64 = ENTRY_HEADER_BYTES + 4 * RECORD_WORDS as u64;
 
 /// The eviction strategy (the shader's `MEMO_RANDOM`, `MEMO_LRW`, `MEMO_LRU`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
