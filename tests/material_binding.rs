@@ -527,6 +527,8 @@ fn memoized_hits_return_the_graph_at_their_texel_centre() {
     for (rt, tile, bilinear) in [
         (RtChoice::Software, 1, false),
         (RtChoice::Query, 1, false),
+        (RtChoice::Software, 1, true),
+        (RtChoice::Query, 1, true),
         (RtChoice::Software, 4, false),
         (RtChoice::Query, 4, false),
         (RtChoice::Software, 4, true),

@@ -203,6 +203,33 @@ ScGraphOutputs memo_tiled_bilinear(uint material, int level, vec2 uv, uint shift
     return memo_lerp(memo_lerp(c[0], c[1], f.x), memo_lerp(c[2], c[3], f.x), f.y);
 }
 
+// The non-tiled variant (one texel an entry): texel q's outputs from the
+// table, or evaluated at its centre and stored on a miss. The value
+// returned is the one stored, so a hit and a miss of one texel shade alike.
+ScGraphOutputs memo_texel(uint material, int level, ivec2 q, vec3 p, vec3 n, vec3 t,
+                          uint cap, uint probe, uint policy, uint now) {
+    uint h0 = memo_h0(material, level, q), h1 = memo_h1(material, level, q);
+    uvec4 r0, r1, r2;
+    bool torn;
+    if (memo_find(h0, h1, cap, probe, true, policy, now, r0, r1, r2, torn) != MEMO_NONE) {
+        atomicAdd(memo_state[MEMO_C_HITS], 1u);
+        if (sc_memo_eye == 1u) atomicAdd(memo_state[MEMO_C_SECOND_EYE_HITS], 1u);
+        return memo_unpack(r0, r1, r2, n);
+    }
+    atomicAdd(memo_state[MEMO_C_MISSES], 1u);
+    if (sc_memo_eye == 1u) atomicAdd(memo_state[MEMO_C_SECOND_EYE_MISSES], 1u);
+    if (torn) atomicAdd(memo_state[MEMO_C_REFUSED], 1u);
+    ScGraphOutputs o = sc_material_graphs(material, memo_snapped_uv(q, level), p, n, t);
+    memo_pack(o, r0, r1, r2);
+    uint res = memo_insert(h0, h1, cap, probe, policy, now, r0, r1, r2);
+    if (res == MEMO_FILLED) atomicAdd(memo_state[MEMO_C_FILLS], 1u);
+    else if (res == MEMO_EVICTED) atomicAdd(memo_state[MEMO_C_EVICTIONS], 1u);
+    else if (res == MEMO_LOCK_FAILED) atomicAdd(memo_state[MEMO_C_LOCK_FAILURES], 1u);
+    // The value returned is the one stored, so a hit and a miss of one
+    // texel shade alike.
+    return memo_unpack(r0, r1, r2, n);
+}
+
 // The graph outputs at a hit, through the cache where this kind of hit is
 // memoized (primary: the caller's cone_width > 0; secondary: path_radiance's
 // sc_memo_cone ≥ 0) and the material's graphs read only the uv.
@@ -225,25 +252,19 @@ ScGraphOutputs sc_material_graphs_at(uint material, vec2 uv, vec3 p, vec3 n, vec
     if (shift > 0u && memo_state[MEMO_S_BILINEAR] != 0u)
         return memo_tiled_bilinear(material, level, uv, shift, p, n, t, cap, probe, policy, now);
     if (shift > 0u) return memo_tiled(material, level, q, shift, p, n, t, cap, probe, policy, now);
-    uint h0 = memo_h0(material, level, q), h1 = memo_h1(material, level, q);
-    uvec4 r0, r1, r2;
-    bool torn;
-    if (memo_find(h0, h1, cap, probe, true, policy, now, r0, r1, r2, torn) != MEMO_NONE) {
-        atomicAdd(memo_state[MEMO_C_HITS], 1u);
-        if (sc_memo_eye == 1u) atomicAdd(memo_state[MEMO_C_SECOND_EYE_HITS], 1u);
-        return memo_unpack(r0, r1, r2, n);
+    if (memo_state[MEMO_S_BILINEAR] != 0u) {
+        // Non-tiled bilinear: the four texel centres around X = 2^m uv,
+        // four lookups (each a hit or a fill), blended.
+        vec2 x = ldexp(uv, ivec2(level));
+        vec2 fl = floor(clamp(x, vec2(-1073741824.0), vec2(1073741760.0)));
+        vec2 f = x - fl;
+        ivec2 q0 = ivec2(fl);
+        ScGraphOutputs c00 = memo_texel(material, level, q0, p, n, t, cap, probe, policy, now);
+        ScGraphOutputs c10 = memo_texel(material, level, q0 + ivec2(1, 0), p, n, t, cap, probe, policy, now);
+        ScGraphOutputs c01 = memo_texel(material, level, q0 + ivec2(0, 1), p, n, t, cap, probe, policy, now);
+        ScGraphOutputs c11 = memo_texel(material, level, q0 + ivec2(1, 1), p, n, t, cap, probe, policy, now);
+        return memo_lerp(memo_lerp(c00, c10, f.x), memo_lerp(c01, c11, f.x), f.y);
     }
-    atomicAdd(memo_state[MEMO_C_MISSES], 1u);
-    if (sc_memo_eye == 1u) atomicAdd(memo_state[MEMO_C_SECOND_EYE_MISSES], 1u);
-    if (torn) atomicAdd(memo_state[MEMO_C_REFUSED], 1u);
-    ScGraphOutputs o = sc_material_graphs(material, memo_snapped_uv(q, level), p, n, t);
-    memo_pack(o, r0, r1, r2);
-    uint res = memo_insert(h0, h1, cap, probe, policy, now, r0, r1, r2);
-    if (res == MEMO_FILLED) atomicAdd(memo_state[MEMO_C_FILLS], 1u);
-    else if (res == MEMO_EVICTED) atomicAdd(memo_state[MEMO_C_EVICTIONS], 1u);
-    else if (res == MEMO_LOCK_FAILED) atomicAdd(memo_state[MEMO_C_LOCK_FAILURES], 1u);
-    // The value returned is the one stored, so a hit and a miss of one
-    // texel shade alike.
-    return memo_unpack(r0, r1, r2, n);
+    return memo_texel(material, level, q, p, n, t, cap, probe, policy, now);
 }
 #endif

@@ -169,7 +169,8 @@ pub struct SceneArgs {
     #[arg(long, default_value_t = 1)]
     pub memo_tile: u32,
     /// Bilinear lookup between the four nearest texel centres (with
-    /// --memo-tile: tiles then hold (s+1)² texels, the one-texel overlap).
+    /// --memo-tile: tiles then hold (s+1)² texels, the one-texel overlap;
+    /// without: four lookups of single texels).
     #[arg(long)]
     pub memo_bilinear: bool,
 }

@@ -81,8 +81,9 @@ pub struct MemoSettings {
     /// Texels per entry edge: 1 non-tiled, else s×s texels an entry (the
     /// thesis's tiled variant, nearest texel; a power of two up to 8).
     pub tile: u32,
-    /// Bilinear lookup between the four nearest texel centres (tiled only:
-    /// tiles then hold (s+1)² texels, the one-texel overlap).
+    /// Bilinear lookup between the four nearest texel centres: in tiles of
+    /// (s+1)² texels (the one-texel overlap, one lookup), or without tiles
+    /// four lookups of single texels.
     pub bilinear: bool,
 }
 
@@ -105,8 +106,12 @@ impl MemoSettings {
         self.hits != MemoHits::Off
     }
 
-    /// Texel records an entry holds: 1, s², or (s+1)² with bilinear tiles.
+    /// Texel records an entry holds: 1 (non-tiled, nearest or bilinear),
+    /// s², or (s+1)² with bilinear tiles.
     pub fn texels_per_entry(&self) -> u64 {
+        if self.tile <= 1 {
+            return 1;
+        }
         let e = self.tile as u64 + u64::from(self.bilinear);
         e * e
     }
@@ -134,12 +139,6 @@ impl MemoSettings {
                 "bad --memo-entries {}: expected more than --memo-probe ({}) and at most {MAX_ENTRIES}",
                 self.entries, self.probe
             ));
-        }
-        if self.bilinear && self.tile == 1 {
-            return Err(
-                "bad --memo-bilinear: bilinear lookup needs tiles (--memo-tile 2, 4 or 8), whose overlap holds the footprint"
-                    .into(),
-            );
         }
         if !matches!(self.tile, 1 | 2 | 4 | 8) {
             return Err(format!(
