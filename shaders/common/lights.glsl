@@ -37,19 +37,14 @@ struct EmitterSample {
 vec3 emitted_radiance(EmitterGpu e, vec2 bary, vec3 dir) {
     uint inst = e.ids.x, prim = e.ids.y;
     MaterialGpu g = materials[instance_material(inst)];
-    // The front normal: e1 × e2 times the sign of the instance's determinant
-    // (glTF's counter-clockwise front is in object space; surface_at).
-    vec3 gn = cross(e.p1 - e.p0, e.p2 - e.p0) * sign(determinant(mat3(instances[inst].object_to_world)));
+    // The front normal: e1 × e2 times instance_front_sign (glTF's
+    // counter-clockwise front is in object space; surface_at).
+    vec3 gn = cross(e.p1 - e.p0, e.p2 - e.p0) * instance_front_sign(inst);
     if (dot(gn, dir) >= 0.0 && g.tex1.z == 0) return vec3(0.0);
     if (!alpha_passes(inst, prim, bary)) return vec3(0.0);
     vec3 Le = g.emissive_metallic.rgb;
     if (SC_TEXTURES && g.tex0.w >= 0) {
-        vec2 uv = triangle_uv(inst, prim, bary);
-        if (slot_on_second_uv(g.tex3.y, 3)) {
-            uvec3 vi = triangle_indices(inst, prim);
-            vec3 w = vec3(1.0 - bary.x - bary.y, bary.x, bary.y);
-            uv = w.x * vertex_uv2(vi.x) + w.y * vertex_uv2(vi.y) + w.z * vertex_uv2(vi.z);
-        }
+        vec2 uv = slot_on_second_uv(g.tex3.y, 3) ? triangle_uv2(inst, prim, bary) : triangle_uv(inst, prim, bary);
         Le *= sample_texture(g.tex0.w, uv, 0.0).rgb;
     }
 #ifdef SC_MATERIAL_GRAPHS

@@ -24,6 +24,18 @@ vec4 slot_texture(MaterialGpu g, int slot, int tex, Surface s, float cone_width,
     return sample_texture(tex, uv, lod);
 }
 
+// A tangent-space normal `tn` (components in [−1, 1], xy scaled by
+// `scale`, glTF normalTexture.scale) in the surface's tangent frame;
+// not normalized.
+vec3 tangent_space_normal(Surface s, vec3 tn, float scale) {
+    tn.xy *= scale;
+    vec3 T = normalize(s.tangent - s.n * dot(s.n, s.tangent));
+    vec3 B = cross(s.n, T) * s.tangent_sign;
+    return tn.x * T + tn.y * B + tn.z * s.n;
+}
+// Whether a mapped normal may be used: finite, on the visible side of the geometry.
+bool mapped_normal_usable(Surface s, vec3 n) { return dot(n, s.ng) > 0.0 && all(equal(n, n)); }
+
 ShadingMaterial material_at(inout Surface s, vec3 ray_dir, float cone_width) {
     MaterialGpu g = materials[s.material];
     ShadingMaterial m;
@@ -73,21 +85,14 @@ ShadingMaterial material_at(inout Surface s, vec3 ray_dir, float cone_width) {
             if (g.tex2.y >= 0) m.clearcoat_roughness *= slot_texture(g, 8, g.tex2.y, s, cone_width, cos_i, false).g;
             if (SC_NORMAL_MAPS && g.tex2.z >= 0 && dot(s.tangent, s.tangent) > 0.0) {
                 vec3 tn = slot_texture(g, 9, g.tex2.z, s, cone_width, cos_i, false).xyz * 2.0 - 1.0;
-                tn.xy *= g.coat.z;
-                vec3 T = normalize(s.tangent - s.n * dot(s.n, s.tangent));
-                vec3 B = cross(s.n, T) * s.tangent_sign;
-                vec3 n = normalize(tn.x * T + tn.y * B + tn.z * s.n);
-                if (dot(n, s.ng) > 0.0 && all(equal(n, n))) m.coat_n = n;
+                vec3 n = normalize(tangent_space_normal(s, tn, g.coat.z));
+                if (mapped_normal_usable(s, n)) m.coat_n = n;
             }
         }
         if (SC_NORMAL_MAPS && g.tex0.z >= 0 && dot(s.tangent, s.tangent) > 0.0) {
             vec3 tn = slot_texture(g, 2, g.tex0.z, s, cone_width, cos_i, false).xyz * 2.0 - 1.0;
-            tn.xy *= g.extra.x;
-            vec3 T = normalize(s.tangent - s.n * dot(s.n, s.tangent));
-            vec3 B = cross(s.n, T) * s.tangent_sign;
-            vec3 n = normalize(tn.x * T + tn.y * B + tn.z * s.n);
-            // Keep the mapped normal on the visible side of the geometry.
-            if (dot(n, s.ng) > 0.0 && all(equal(n, n))) s.n = n;
+            vec3 n = normalize(tangent_space_normal(s, tn, g.extra.x));
+            if (mapped_normal_usable(s, n)) s.n = n;
         }
     }
 #ifdef SC_MATERIAL_GRAPHS
@@ -96,15 +101,10 @@ ShadingMaterial material_at(inout Surface s, vec3 ray_dir, float cone_width) {
     // like a normal texture. Either only where it stays on the visible side.
     if ((go.mask & 40u) != 0u) {
         vec3 n = go.normal;
-        if ((go.mask & 32u) != 0u) {
-            vec3 tn = go.normal * 2.0 - 1.0;
-            tn.xy *= g.extra.x;
-            vec3 T = normalize(s.tangent - s.n * dot(s.n, s.tangent));
-            vec3 B = cross(s.n, T) * s.tangent_sign;
-            n = dot(s.tangent, s.tangent) > 0.0 ? tn.x * T + tn.y * B + tn.z * s.n : s.n;
-        }
+        if ((go.mask & 32u) != 0u)
+            n = dot(s.tangent, s.tangent) > 0.0 ? tangent_space_normal(s, go.normal * 2.0 - 1.0, g.extra.x) : s.n;
         n = normalize(n);
-        if (dot(n, s.ng) > 0.0 && all(equal(n, n))) s.n = n;
+        if (mapped_normal_usable(s, n)) s.n = n;
     }
 #endif
     // Emission only from the front of single-sided emitters.

@@ -57,6 +57,11 @@ const float INV_PI = 0.31830988618379067154;
 
 uint instance_material(uint inst) { return meshes[instances[inst].mesh_pad.x].material; }
 
+// −1 where the instance's transform mirrors (negative determinant), else 1:
+// glTF's counter-clockwise front is in object space, so the world-space
+// e1 × e2 of a mirrored instance's triangle points to its back.
+float instance_front_sign(uint inst) { return instances[inst].mesh_pad.w != 0u ? -1.0 : 1.0; }
+
 uvec3 triangle_indices(uint inst, uint prim) {
     MeshInfo m = meshes[instances[inst].mesh_pad.x];
     uint base = m.index_offset + 3u * prim;
@@ -79,6 +84,13 @@ vec2 triangle_uv(uint inst, uint prim, vec2 bary) {
 // Vertex v's second-channel uv: zero past the buffer (a scene without a
 // second channel binds one stand-in, which the all-features build reads too).
 vec2 vertex_uv2(uint v) { return v < uint(uvs2.length()) ? uvs2[v] : vec2(0.0); }
+
+// The second-channel uv at barycentrics `bary` of a triangle.
+vec2 triangle_uv2(uint inst, uint prim, vec2 bary) {
+    uvec3 vi = triangle_indices(inst, prim);
+    vec3 w = vec3(1.0 - bary.x - bary.y, bary.x, bary.y);
+    return w.x * vertex_uv2(vi.x) + w.y * vertex_uv2(vi.y) + w.z * vertex_uv2(vi.z);
+}
 
 // The uv a material's texture slot reads at barycentrics `bary`: the
 // second channel where the slot's bit is set in MaterialGpu.tex3.y
@@ -194,9 +206,9 @@ Surface surface_at(uint inst, uint prim, vec2 bary, vec3 ray_dir) {
     }
     s.material = meshes[I.mesh_pad.x].material;
     // glTF's front is counter-clockwise in object space: the world-space
-    // e1 × e2 is the front normal times the sign of the transform's
-    // determinant (a mirroring node keeps its faces' sides).
-    s.front = dot(gn, ray_dir) * determinant(mat3(I.object_to_world)) < 0.0;
+    // e1 × e2 is the front normal times instance_front_sign (a mirroring
+    // node keeps its faces' sides).
+    s.front = dot(gn, ray_dir) * instance_front_sign(inst) < 0.0;
     if (!s.front) gn = -gn;
     if (dot(n, gn) < 0.0) n = -n;
     vec4 t = w.x * a.tangent + w.y * b.tangent + w.z * c.tangent;

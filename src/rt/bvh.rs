@@ -61,11 +61,10 @@ impl SoftwareBvh {
         let mut culls = Vec::with_capacity(tris.capacity());
         for (ii, inst) in scene.instances.iter().enumerate() {
             let mesh = &scene.meshes[inst.mesh as usize];
-            let cull = scene
-                .materials
-                .get(mesh.material as usize)
-                .is_some_and(|m| m.culls_back_faces());
-            let cull = match (cull, inst.transform.determinant() < 0.0) {
+            let cull = match (
+                scene.mesh_culls_back_faces(mesh),
+                inst.transform.determinant() < 0.0,
+            ) {
                 (false, _) => 0.0,
                 (true, false) => 1.0,
                 (true, true) => -1.0,

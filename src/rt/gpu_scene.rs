@@ -192,7 +192,8 @@ pub struct SceneGpu {
     /// relative): the scene's at rest until the first `set_instance_motion`.
     posed: Mutex<Vec<Mat4>>,
     /// Per instance, `InstanceGpu::mesh_pad` (mesh, 1 + first emitter,
-    /// 1 where its material culls back faces).
+    /// 1 where its material culls back faces); `instance_records` adds w,
+    /// 1 where the instance's transform mirrors.
     instance_ids: Vec<[u32; 4]>,
     /// The emissive triangles as last uploaded (render-origin relative),
     /// moved with their instances by `set_instance_motion`.
@@ -257,11 +258,7 @@ impl SceneGpu {
             .iter()
             .zip(&emitters.first)
             .map(|(i, first)| {
-                let culls = scene.meshes[i.mesh as usize].material as usize;
-                let culls = scene
-                    .materials
-                    .get(culls)
-                    .is_some_and(|m| m.culls_back_faces());
+                let culls = scene.mesh_culls_back_faces(&scene.meshes[i.mesh as usize]);
                 [i.mesh, first.map_or(0, |f| f + 1), culls as u32, 0]
             })
             .collect();
@@ -988,10 +985,11 @@ fn instance_records(
         .iter()
         .zip(prev)
         .zip(ids)
-        .map(|((t, p), &mesh_pad)| InstanceGpu {
+        .map(|((t, p), &ids)| InstanceGpu {
             object_to_world: relative_transform(*t, origin).to_cols_array(),
             normal_to_world: t.inverse().transpose().to_cols_array(),
-            mesh_pad,
+            // w: 1 where the transform mirrors (scene.glsl instance_front_sign).
+            mesh_pad: [ids[0], ids[1], ids[2], (t.determinant() < 0.0) as u32],
             prev_object_to_world: relative_transform(*p, origin).to_cols_array(),
         })
         .collect()

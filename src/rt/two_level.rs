@@ -118,11 +118,11 @@ impl TwoLevelBvh {
             // v0's w: 1 where the mesh's material culls back faces (object
             // space, where glTF's front is counter-clockwise whatever the
             // instance transform: no sign as in the flattened BVH).
-            let cull = scene
-                .materials
-                .get(mesh.material as usize)
-                .is_some_and(|m| m.culls_back_faces());
-            let cull = if cull { 1.0 } else { 0.0 };
+            let cull = if scene.mesh_culls_back_faces(mesh) {
+                1.0
+            } else {
+                0.0
+            };
             let tris: Vec<Triangle> = (0..mesh.triangle_count())
                 .map(|p| {
                     let [a, b, c] = mesh.triangle(p);

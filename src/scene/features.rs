@@ -67,10 +67,7 @@ impl SceneFeatures {
             animated: scene.is_animated(),
             vertex_colors: scene.meshes.iter().any(|m| !m.colors.is_empty()),
             clearcoat: mats.iter().any(|m| m.clearcoat.factor > 0.0),
-            backface_culling: scene.meshes.iter().any(|m| {
-                mats.get(m.material as usize)
-                    .is_some_and(|m| m.culls_back_faces())
-            }),
+            backface_culling: scene.meshes.iter().any(|m| scene.mesh_culls_back_faces(m)),
             second_uv: scene.meshes.iter().any(|m| !m.uvs2.is_empty()),
         }
     }

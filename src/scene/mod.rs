@@ -90,6 +90,14 @@ pub struct Scene {
 
 impl Scene {
     /// Total number of triangles over all instances.
+    /// Whether rays pass through the back faces of `mesh` (its material's
+    /// `Material::culls_back_faces`; a dangling material index culls nothing).
+    pub fn mesh_culls_back_faces(&self, mesh: &Mesh) -> bool {
+        self.materials
+            .get(mesh.material as usize)
+            .is_some_and(|m| m.culls_back_faces())
+    }
+
     pub fn instanced_triangle_count(&self) -> usize {
         self.instances
             .iter()
