@@ -194,6 +194,7 @@ fn hit_geom(scene: &Scene, fh: [u32; 4]) -> (u32, Geom) {
             position: p.to_array(),
             normal: [0.0, 1.0, 0.0],
             tangent: [0.0; 3],
+            footprint: 0.0,
         },
     )
 }
@@ -862,6 +863,127 @@ fn secondary_only_memoization_is_identical_within_noise() {
         mean_diff.abs() <= 3.0 * se_mean,
         "mean shift {mean_diff} beyond 3 SE {}",
         3.0 * se_mean
+    );
+    assert_no_validation_messages(&ctx);
+}
+
+/// Emission seen by light sampling goes through the table like emission a
+/// BSDF-sampled ray hits, so both MIS strategies estimate the same light.
+/// A white floor under a 1 m emissive square 0.5 m above it (black
+/// environment, 1 bounce): the square's emission graph is 2 for u ≤ ½ and
+/// 0 beyond (mean 1). With `--memo secondary` every light point is a
+/// secondary hit whose cone (grown by the floor's roughness-1 spread, thesis
+/// eq. 2.11: ≥ 22 m at 0.5 m) gives level round(−log2 22) = −4: one texel
+/// of 16 uv units, centre uv (0, 0), where the graph is 2. So the memoized
+/// light is a uniform Le = 2 and the floor's radiance is exactly
+/// ρ·Le·F(x), F the form factor to the square (Howell B-3). Were light
+/// samples evaluated directly (mean 1), the floor would sit well below.
+#[test]
+fn light_sampled_emission_goes_through_the_table() {
+    use stereocache::materials::memo::{MemoHits, MemoSettings};
+    let ctx = context();
+    let half = r#"<?xml version="1.0"?>
+<materialx version="1.39">
+  <nodegraph name="half">
+    <texcoord name="uv" type="vector2" />
+    <extract name="u" type="float"><input name="in" type="vector2" nodename="uv" /><input name="index" type="integer" value="0" /></extract>
+    <ifgreater name="e" type="color3"><input name="value1" type="float" nodename="u" /><input name="value2" type="float" value="0.5" /><input name="in1" type="color3" value="0, 0, 0" /><input name="in2" type="color3" value="2, 2, 2" /></ifgreater>
+    <output name="emission" type="color3" nodename="e" />
+  </nodegraph>
+</materialx>
+"#;
+    let mut s = Scene {
+        source: "test:light-through-the-table".into(),
+        ..Default::default()
+    };
+    let albedo = 0.5f32;
+    // specular 0: a pure Lambertian floor (no dielectric layer).
+    let floor = add_material(
+        &mut s,
+        Material {
+            specular: 0.0,
+            ..Material::diffuse("floor", Vec3::splat(albedo))
+        },
+    );
+    let mut lm = Material {
+        emissive: Vec3::ONE,
+        ..Material::diffuse("light", Vec3::ZERO)
+    };
+    s.graphs
+        .attach_mtlx(1, &mut lm, "half.mtlx", half)
+        .expect("graph binds");
+    let light = add_material(&mut s, lm);
+    assert_eq!(light, 1);
+    let g = grid(
+        "floor",
+        Vec3::new(-0.5, 0.0, 0.5),
+        Vec3::X,
+        Vec3::NEG_Z,
+        1,
+        1,
+        Vec2::ONE,
+    );
+    add_mesh(&mut s, g, floor, Mat4::IDENTITY);
+    let g = grid(
+        "light",
+        Vec3::new(-0.5, 0.5, -0.5),
+        Vec3::X,
+        Vec3::Z,
+        1,
+        1,
+        Vec2::ONE,
+    );
+    add_mesh(&mut s, g, light, Mat4::IDENTITY);
+    s.validate().unwrap();
+    s.graphs.memo = MemoSettings {
+        hits: MemoHits::Secondary,
+        ..Default::default()
+    };
+    let (w, h) = (24u32, 16u32);
+    let settings = RenderSettings {
+        width: w,
+        height: h,
+        spp: 64,
+        max_bounces: 1,
+        seed: 5,
+        all_features: false,
+        ..Default::default()
+    };
+    let c = look_at("down", Vec3::new(0.0, 0.3, 0.0), Vec3::ZERO, Vec3::Z, 60.0);
+    let camera = StereoCamera::from_scene_camera(c.transform, c.yfov, w as f32 / h as f32);
+    let sess = session(&ctx, s, RtChoice::Software);
+    let f = render(&sess, "reference", camera, &settings);
+    let counters = sess.scene_gpu.memo.as_ref().unwrap().counters().unwrap();
+    let mut diffs = Vec::new();
+    let mut direct_gap = Vec::new();
+    for eye in &f.eyes {
+        for (i, fh) in eye.first_hit.iter().enumerate() {
+            assert_ne!(fh[3], u32::MAX, "pixel {i} sees the floor");
+            let inst = &sess.scene.instances[fh[3] as usize];
+            assert_eq!(sess.scene.meshes[inst.mesh as usize].material, floor);
+            let (mat, geom) = hit_geom(&sess.scene, *fh);
+            assert_eq!(mat, floor);
+            let (x, z) = (geom.position[0] as f64, geom.position[2] as f64);
+            let ff = form_factor_to_parallel_rect(-0.5 - x, 0.5 - x, -0.5 - z, 0.5 - z, 0.5);
+            // ρ/π · E with E = π·Le·F.
+            let want = albedo as f64 * 2.0 * ff;
+            let got = eye.radiance[i][0] as f64;
+            diffs.push(got - want);
+            // What light samples of the direct graph (mean 1) would pull towards.
+            direct_gap.push(want * 0.5);
+        }
+    }
+    let (mean, se) = mean_and_standard_error(&diffs);
+    let gap = direct_gap.iter().sum::<f64>() / direct_gap.len() as f64;
+    eprintln!("floor − ρ·2·F: mean {mean:.5} ± {se:.5} (direct light samples would be ≈ {gap:.3} lower); {counters:?}");
+    assert!(counters.hits > 0, "the light was looked up: {counters:?}");
+    assert!(
+        mean.abs() <= 4.0 * se,
+        "floor radiance off the uniform-2 light by {mean} (SE {se})"
+    );
+    assert!(
+        gap > 20.0 * se,
+        "the test separates the two answers: gap {gap}, SE {se}"
     );
     assert_no_validation_messages(&ctx);
 }

@@ -70,6 +70,7 @@ fn grid() -> Vec<Geom> {
                 position: [u * 1.7 - 0.3, w * 0.9 + 0.21, (u - w) * 1.3 + 0.05],
                 normal: n,
                 tangent: t,
+                footprint: 0.0,
             });
         }
     }

@@ -208,7 +208,19 @@ vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, float cone_width, inout Rn
             // Emissive triangles and the environment map (stream rl, drawn in full).
             vec4 u_emitter = vec4(rng_next2(rl), rng_next2(rl));
             vec2 u_env = rng_next2(rl);
+#ifdef SC_MATERIAL_MEMO
+            // Light samples are secondary hits of this path too: their
+            // cone is the one a BSDF-sampled ray reaching the same point
+            // would have (memo_w + memo_spread · distance, as the next
+            // bounce grows it), so both strategies see the same memoized
+            // emission (lights.glsl sample_emitter).
+            sc_memo_nee_w = cone_width > 0.0 ? memo_w : -1.0;
+            sc_memo_nee_spread = memo_spread;
+#endif
             L += beta * nee_area_lights(s, m, f, wo, u_emitter, u_env, sigma_a, rays);
+#ifdef SC_MATERIAL_MEMO
+            sc_memo_nee_w = -1.0;
+#endif
             vec3 wi, w;
             float pdf;
             if (!opaque_sample(m, wo, vec3(rng_next2(r), rng_next(r)), wi, w, pdf)) break;

@@ -48,9 +48,15 @@ vec3 emitted_radiance(EmitterGpu e, vec2 bary, vec3 dir) {
         Le *= sample_texture(g.tex0.w, uv, 0.0).rgb;
     }
 #ifdef SC_MATERIAL_GRAPHS
-    // The emission graph at the sampled point, as material_at evaluates it there.
+    // The emission graph at the sampled point, as material_at evaluates it
+    // there: through the memoization table where the caller set the light
+    // sample's cone (sc_memo_cone, sample_emitter), else directly.
     Surface gs = surface_at(inst, prim, bary, dir);
-    Le *= sc_material_graphs(gs.material, gs.uv, gs.p, gs.n, gs.tangent).emission;
+#ifdef SC_MATERIAL_MEMO
+    Le *= sc_material_graphs_at(gs.material, gs.uv, gs.p, gs.n, gs.tangent, 0.0, gs.uv_area_ratio, 0.0).emission;
+#else
+    Le *= sc_material_graphs(gs.material, gs.uv, gs.p, gs.n, gs.tangent, 0.0).emission;
+#endif
 #endif
     return Le;
 }
@@ -79,7 +85,15 @@ bool sample_emitter(vec3 p, vec4 u, out EmitterSample es) {
     float cos_l = abs(dot(gn / gl, es.wi));
     if (cos_l <= 0.0) return false;
     es.pdf = e.pdf_area * dist2 / cos_l;
+#ifdef SC_MATERIAL_MEMO
+    // The sampled point's memoization cone (integrator.glsl sets the
+    // vertex's width and spread; −1: no cone, the graph is evaluated directly).
+    sc_memo_cone = sc_memo_nee_w >= 0.0 ? sc_memo_nee_w + sc_memo_nee_spread * es.dist : -1.0;
+#endif
     es.Le = emitted_radiance(e, bary, es.wi);
+#ifdef SC_MATERIAL_MEMO
+    sc_memo_cone = -1.0;
+#endif
     return es.pdf > 0.0 && any(greaterThan(es.Le, vec3(0.0)));
 }
 

@@ -11,6 +11,13 @@ float texture_lod_at(int tex, float uv_area_ratio, float cone_width, float cos_i
     float lambda = 0.5 * log2(uv_area_ratio * size.x * size.y) + log2(cone_width / max(abs(cos_incidence), 1e-3));
     return max(lambda, 0.0);
 }
+// The uv width a ray cone's footprint covers (the ellipse's isotropic
+// stand-in texture_lod_at uses): what a material graph's image nodes filter
+// over (src/materials/image.rs); 0 without a cone (level 0).
+float graph_footprint(float uv_area_ratio, float cone_width, float cos_incidence) {
+    if (cone_width <= 0.0 || uv_area_ratio <= 0.0) return 0.0;
+    return cone_width / max(abs(cos_incidence), 1e-3) * sqrt(uv_area_ratio);
+}
 float texture_lod(int tex, Surface s, float cone_width, float cos_incidence) {
     return texture_lod_at(tex, s.uv_area_ratio, cone_width, cos_incidence);
 }
@@ -58,10 +65,11 @@ ShadingMaterial material_at(inout Surface s, vec3 ray_dir, float cone_width) {
 #ifdef SC_MATERIAL_GRAPHS
     // Bound graph outputs multiply the factors in place of the textures
     // (whose indices are -1 then); unbound outputs are 1 (binding.rs).
+    float fp = graph_footprint(s.uv_area_ratio, cone_width, cos_i);
 #ifdef SC_MATERIAL_MEMO
-    ScGraphOutputs go = sc_material_graphs_at(s.material, s.uv, s.p, s.n, s.tangent, cone_width, s.uv_area_ratio);
+    ScGraphOutputs go = sc_material_graphs_at(s.material, s.uv, s.p, s.n, s.tangent, cone_width, s.uv_area_ratio, fp);
 #else
-    ScGraphOutputs go = sc_material_graphs(s.material, s.uv, s.p, s.n, s.tangent);
+    ScGraphOutputs go = sc_material_graphs(s.material, s.uv, s.p, s.n, s.tangent, fp);
 #endif
     m.base *= go.base_color;
     m.metallic *= go.metallic;

@@ -36,6 +36,13 @@ uint sc_memo_eye = 2u;
 // secondary hits are evaluated directly.
 float sc_memo_cone = -1.0;
 
+// The cone of light samples taken from the current path vertex: width
+// sc_memo_nee_w (< 0: none, evaluate directly) grown by sc_memo_nee_spread
+// per unit distance to the sampled point (integrator.glsl sets them around
+// next-event estimation; lights.glsl sample_emitter reads them).
+float sc_memo_nee_w = -1.0;
+float sc_memo_nee_spread = 0.0;
+
 // The 12 record words: base colour, metallic, roughness, normal, emission, mask.
 void memo_pack(ScGraphOutputs o, out uvec4 r0, out uvec4 r1, out uvec4 r2) {
     r0 = uvec4(floatBitsToUint(o.base_color), floatBitsToUint(o.metallic));
@@ -130,7 +137,7 @@ ScGraphOutputs memo_tiled(uint material, int level, ivec2 q, uint shift, vec3 p,
     ScGraphOutputs mine;
     for (uint k = 0u; k < s * s; ++k) {
         ivec2 tk = (tq << int(shift)) + ivec2(int(k % s), int(k / s));
-        ScGraphOutputs v = sc_material_graphs(material, memo_snapped_uv(tk, level), p, n, t);
+        ScGraphOutputs v = sc_material_graphs(material, memo_snapped_uv(tk, level), p, n, t, memo_texel_width(level));
         memo_pack(v, r0, r1, r2);
         if (locked) memo_write_texel(memo_texel_base(victim, shift, k), r0, r1, r2);
         if (k == idx) mine = memo_unpack(r0, r1, r2, n);
@@ -192,7 +199,7 @@ ScGraphOutputs memo_tiled_bilinear(uint material, int level, vec2 uv, uint shift
     for (uint k = 0u; k < e * e; ++k) {
         uvec2 kk = uvec2(k % e, k / e);
         ivec2 tk = (tq << int(shift)) + ivec2(kk);
-        ScGraphOutputs v = sc_material_graphs(material, memo_snapped_uv(tk, level), p, n, t);
+        ScGraphOutputs v = sc_material_graphs(material, memo_snapped_uv(tk, level), p, n, t, memo_texel_width(level));
         memo_pack(v, r0, r1, r2);
         if (locked) memo_write_texel(MEMO_RECORD * (victim * e * e + k), r0, r1, r2);
         ivec2 d = ivec2(kk) - o;
@@ -219,7 +226,7 @@ ScGraphOutputs memo_texel(uint material, int level, ivec2 q, vec3 p, vec3 n, vec
     atomicAdd(memo_state[MEMO_C_MISSES], 1u);
     if (sc_memo_eye == 1u) atomicAdd(memo_state[MEMO_C_SECOND_EYE_MISSES], 1u);
     if (torn) atomicAdd(memo_state[MEMO_C_REFUSED], 1u);
-    ScGraphOutputs o = sc_material_graphs(material, memo_snapped_uv(q, level), p, n, t);
+    ScGraphOutputs o = sc_material_graphs(material, memo_snapped_uv(q, level), p, n, t, memo_texel_width(level));
     memo_pack(o, r0, r1, r2);
     uint res = memo_insert(h0, h1, cap, probe, policy, now, r0, r1, r2);
     if (res == MEMO_FILLED) atomicAdd(memo_state[MEMO_C_FILLS], 1u);
@@ -233,15 +240,17 @@ ScGraphOutputs memo_texel(uint material, int level, ivec2 q, vec3 p, vec3 n, vec
 // The graph outputs at a hit, through the cache where this kind of hit is
 // memoized (primary: the caller's cone_width > 0; secondary: path_radiance's
 // sc_memo_cone ≥ 0) and the material's graphs read only the uv.
+// `footprint`: the uv width a direct evaluation stands for (material.glsl
+// graph_footprint); a texel of level m stands for 2^-m.
 ScGraphOutputs sc_material_graphs_at(uint material, vec2 uv, vec3 p, vec3 n, vec3 t,
-                                     float cone_width, float uv_area_ratio) {
+                                     float cone_width, float uv_area_ratio, float footprint) {
     uint flags = memo_state[MEMO_S_FLAGS];
     bool primary = cone_width > 0.0;
     bool use = primary ? (flags & 1u) != 0u : ((flags & 2u) != 0u && sc_memo_cone >= 0.0);
-    if (!use) return sc_material_graphs(material, uv, p, n, t);
+    if (!use) return sc_material_graphs(material, uv, p, n, t, footprint);
     if (!sc_material_memoizable(material)) {
         atomicAdd(memo_state[MEMO_C_BYPASSED], 1u);
-        return sc_material_graphs(material, uv, p, n, t);
+        return sc_material_graphs(material, uv, p, n, t, footprint);
     }
     float w = primary ? cone_width : sc_memo_cone;
     int level = memo_level(w, uv_area_ratio, uintBitsToFloat(memo_state[MEMO_S_BIAS]));

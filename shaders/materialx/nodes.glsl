@@ -9,7 +9,8 @@
 #include "materialx/noise.glsl"
 
 // The surface point a graph is evaluated at (world space).
-struct MxGeom { vec2 uv; vec3 position; vec3 normal; vec3 tangent; };
+// footprint: the uv width the value stands for (image nodes' mip level; 0 = level 0).
+struct MxGeom { vec2 uv; vec3 position; vec3 normal; vec3 tangent; float footprint; };
 
 vec3 mx_cross(vec3 a, vec3 b) {
     precise vec3 r = vec3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);

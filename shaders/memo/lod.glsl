@@ -27,6 +27,10 @@ ivec2 memo_quantise(vec2 uv, int level) {
     return ivec2(floor(x));
 }
 
+// The uv width of a texel of level m, 2^-m: the footprint its value stands
+// for (image nodes in graphs read the matching mip level).
+float memo_texel_width(int level) { return ldexp(1.0, -level); }
+
 // The uv of a texel centre: where the graph is evaluated on a miss
 // (texel-centre snapping), at most 2^-(m+1) from the hit's uv per axis.
 vec2 memo_snapped_uv(ivec2 q, int level) { return ldexp(vec2(q), ivec2(-level)); }

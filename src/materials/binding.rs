@@ -119,6 +119,39 @@ impl SceneGraphs {
         self.materials.is_empty()
     }
 
+    /// The graphs' image nodes, graph by graph in node order: image k of
+    /// this list is texture `scene.textures.len() + k` of the scene's GPU
+    /// texture list (rt/gpu_scene.rs uploads them after the scene's own).
+    pub fn images(&self) -> impl Iterator<Item = &super::image::GraphImage> + '_ {
+        self.graphs.iter().flat_map(|g| g.images.iter())
+    }
+
+    /// Texture references of the images (as [`SceneGraphs::images`], the
+    /// first at texture `first`), per graph.
+    pub fn image_refs(&self, first: u32) -> Vec<Vec<crate::scene::TextureRef>> {
+        let mut k = first;
+        self.graphs
+            .iter()
+            .map(|g| {
+                g.images
+                    .iter()
+                    .map(|im| {
+                        k += 1;
+                        crate::scene::TextureRef {
+                            texture: k - 1,
+                            sampler: im.sampler,
+                        }
+                    })
+                    .collect()
+            })
+            .collect()
+    }
+
+    /// Fallbacks the graphs' loading took, one line each.
+    pub fn warnings(&self) -> impl Iterator<Item = &String> + '_ {
+        self.graphs.iter().flat_map(|g| g.warnings.iter())
+    }
+
     pub fn binds(&self, slot: Slot) -> bool {
         self.materials
             .iter()
@@ -583,8 +616,18 @@ pub fn procedural_graph(
         let mut r = RawPort {
             name: pname,
             ty: str_of(p, "type"),
+            colorspace: str_of(p, "colorspace"),
             ..Default::default()
         };
+        if p.get("texture").is_some() {
+            return Err(err(
+                owner.clone(),
+                format!(
+                    "input `{}` refers to a glTF texture; image inputs take the file as `value` (relative to the glTF)",
+                    r.name
+                ),
+            ));
+        }
         if let Some(v) = p.get("value") {
             r.value = Some(value_string(v).ok_or_else(|| {
                 err(
@@ -682,6 +725,12 @@ pub fn procedural_graph(
     }
     let doc = Document {
         file: file.clone(),
+        dir: Some(
+            Path::new(gltf)
+                .parent()
+                .map(Path::to_path_buf)
+                .unwrap_or_default(),
+        ),
         graphs: vec![raw],
         ..Default::default()
     };

@@ -9,7 +9,10 @@
 //! ```
 //!
 //! `heighttonormal` gets a helper function per node that evaluates its
-//! height input (the nodes it reads) at a shifted uv.
+//! height input (the nodes it reads) at a shifted uv; so does an `image`
+//! node whose texture coordinate is not the uv (its scale against the uv
+//! sets the mip level, image.rs). An image node reads texture `slots[k]`
+//! of the scene's array, k its index in `Graph::images`.
 
 use super::eval::HEIGHT_STEP;
 use super::graph::{GeomProp, Graph, Node, Source};
@@ -74,8 +77,11 @@ struct Emit<'a> {
     graph: &'a Graph,
     geom: &'a str,
     prefix: String,
-    /// Base name of the heighttonormal helpers (`<hfn>_<node>`).
+    /// Base name of the heighttonormal helpers (`<hfn>_<node>`) and the
+    /// image texcoord helpers (`<hfn>_t<node>`).
     hfn: String,
+    /// Texture slot of each of the graph's images.
+    slots: &'a [u32],
 }
 
 impl Emit<'_> {
@@ -295,6 +301,46 @@ impl Emit<'_> {
                     self.raw(n, 1)
                 )
             }
+            "image" => {
+                let g = self.geom;
+                let (k, im) = self.graph.image_of(i).expect("image nodes have an image");
+                let _ = writeln!(out, "    float fp{i} = {g}.footprint;");
+                if n.inputs[3] != Source::Geom(GeomProp::Uv) {
+                    let f = format!("{}_t{i}", self.hfn);
+                    let st = Value::float(HEIGHT_STEP).glsl();
+                    let _ = writeln!(out, "    if (fp{i} > 0.0) {{\n        MxGeom q{i} = {g};");
+                    for (name, d) in [
+                        ("tu1", format!("{st}, 0.0")),
+                        ("tu0", format!("-{st}, 0.0")),
+                        ("tv1", format!("0.0, {st}")),
+                        ("tv0", format!("0.0, -{st}")),
+                    ] {
+                        let _ = writeln!(
+                            out,
+                            "        q{i}.uv = {g}.uv + vec2({d}); vec2 {name}_{i} = {f}(q{i});"
+                        );
+                    }
+                    let _ = writeln!(
+                        out,
+                        "        fp{i} *= mx_texcoord_scale(tu1_{i}, tu0_{i}, tv1_{i}, tv0_{i}, {st});\n    }}"
+                    );
+                }
+                let d = self.raw(n, 2);
+                let d4 = match self.graph.source_ty(&n.inputs[2]).width() {
+                    1 => format!("vec4({d})"),
+                    2 => format!("vec4({d}, 0.0, 0.0)"),
+                    3 => format!("vec4({d}, 0.0)"),
+                    _ => d,
+                };
+                format!(
+                    "mx_image({}, vec2({}), fp{i}, {}, {}, {d4}).{}",
+                    self.slots.get(k).copied().unwrap_or(0),
+                    self.raw(n, 3),
+                    im.constant[0],
+                    im.constant[1],
+                    swz(t.width())
+                )
+            }
             "dotproduct" => format!("mx_dot({}, {})", self.raw(n, 0), self.raw(n, 1)),
             "crossproduct" => format!("mx_cross({}, {})", self.raw(n, 0), self.raw(n, 1)),
             "magnitude" => format!("sqrt(mx_dot({0}, {0}))", self.raw(n, 0)),
@@ -370,8 +416,9 @@ fn cone(g: &Graph, s: &Source, n: usize) -> Vec<bool> {
     used
 }
 
-/// The GLSL of graph `g` as function `mxg_<symbol>`.
-pub fn glsl(g: &Graph, symbol: &str) -> String {
+/// The GLSL of graph `g` as function `mxg_<symbol>`; its image nodes read
+/// texture slots `slots` (one per `g.images`).
+pub fn glsl(g: &Graph, symbol: &str, slots: &[u32]) -> String {
     let layout = Layout::of(g);
     let mut s = format!(
         "// MaterialX nodegraph `{}` of {} ({} nodes)\n",
@@ -388,6 +435,7 @@ pub fn glsl(g: &Graph, symbol: &str) -> String {
                 geom: "g",
                 prefix,
                 hfn: format!("mxh_{symbol}"),
+                slots,
             };
             let _ = writeln!(s, "float mxh_{symbol}_{i}(MxGeom g) {{");
             let used = cone(g, &n.inputs[0], i);
@@ -396,12 +444,28 @@ pub fn glsl(g: &Graph, symbol: &str) -> String {
             s.push_str(&body);
             let _ = writeln!(s, "    return float({});\n}}", e.src(&n.inputs[0]));
         }
+        if n.op() == "image" && n.inputs[3] != Source::Geom(GeomProp::Uv) {
+            let e = Emit {
+                graph: g,
+                geom: "g",
+                prefix: format!("t{i}_"),
+                hfn: format!("mxh_{symbol}"),
+                slots,
+            };
+            let _ = writeln!(s, "vec2 mxh_{symbol}_t{i}(MxGeom g) {{");
+            let used = cone(g, &n.inputs[3], i);
+            let mut body = String::new();
+            e.body(&g.nodes[..i], &used, &mut body);
+            s.push_str(&body);
+            let _ = writeln!(s, "    return vec2({});\n}}", e.src(&n.inputs[3]));
+        }
     }
     let e = Emit {
         graph: g,
         geom: "g",
         prefix: "n".into(),
         hfn: format!("mxh_{symbol}"),
+        slots,
     };
     let _ = writeln!(
         s,

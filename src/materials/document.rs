@@ -16,6 +16,12 @@ pub struct RawPort {
     pub interfacename: Option<String>,
     pub nodegraph: Option<String>,
     pub defaultgeomprop: Option<String>,
+    /// The colour space of the port's value (`colorspace`, inherited from
+    /// the nearest enclosing element that sets it; MaterialX §Color Spaces).
+    pub colorspace: Option<String>,
+    /// The `fileprefix` in scope (inherited likewise), prepended to a
+    /// filename value.
+    pub fileprefix: Option<String>,
     /// An attribute stereocache does not support (`channels`, ...), by name.
     pub unsupported: Option<String>,
     pub line: u32,
@@ -53,6 +59,8 @@ pub struct RawNodeDef {
 #[derive(Clone, Debug, Default)]
 pub struct Document {
     pub file: String,
+    /// The folder image files are relative to; `None`: the folder of `file`.
+    pub dir: Option<std::path::PathBuf>,
     pub graphs: Vec<RawGraph>,
     pub nodedefs: Vec<RawNodeDef>,
     /// Nodes outside any nodegraph (surface shaders, materials, loose nodes).
@@ -87,6 +95,14 @@ const NOT_NODES: &[&str] = &[
     "member",
 ];
 
+/// The value of attribute `k` on `n` or the nearest ancestor that sets it.
+fn inherited(n: roxmltree::Node, k: &str) -> Option<String> {
+    n.ancestors()
+        .find_map(|e| e.attribute(k))
+        .filter(|v| !v.is_empty())
+        .map(str::to_string)
+}
+
 fn port(n: roxmltree::Node, line: u32) -> RawPort {
     let a = |k: &str| n.attribute(k).map(str::to_string);
     let unsupported = ["channels", "nodegraph_output"]
@@ -102,6 +118,8 @@ fn port(n: roxmltree::Node, line: u32) -> RawPort {
         interfacename: a("interfacename").filter(|s| !s.is_empty()),
         nodegraph: a("nodegraph").filter(|s| !s.is_empty()),
         defaultgeomprop: a("defaultgeomprop"),
+        colorspace: inherited(n, "colorspace"),
+        fileprefix: inherited(n, "fileprefix"),
         unsupported,
         line,
     }
@@ -173,6 +191,17 @@ impl Document {
         let text = std::fs::read_to_string(path)
             .map_err(|e| GraphError::file(&file, format!("cannot read ({e})")))?;
         Document::parse(&file, &text)
+    }
+
+    /// Where a filename value `f` of this document points.
+    pub fn resolve(&self, f: &str) -> std::path::PathBuf {
+        let dir = self.dir.clone().unwrap_or_else(|| {
+            std::path::Path::new(&self.file)
+                .parent()
+                .map(std::path::Path::to_path_buf)
+                .unwrap_or_default()
+        });
+        dir.join(f)
     }
 
     pub fn graph(&self, name: &str) -> Option<&RawGraph> {

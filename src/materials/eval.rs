@@ -20,6 +20,9 @@ pub struct Geom {
     pub position: [f32; 3],
     pub normal: [f32; 3],
     pub tangent: [f32; 3],
+    /// The width in uv the value stands for (image nodes pick their mip
+    /// level from it, image.rs); 0: a point, level 0.
+    pub footprint: f32,
 }
 
 impl Geom {
@@ -77,6 +80,8 @@ fn eval_nodes(g: &Graph, n: usize, geom: &Geom) -> Vec<Value> {
     for (i, node) in g.nodes[..n].iter().enumerate() {
         let v = if node.op() == "heighttonormal" {
             height_to_normal(g, i, geom)
+        } else if node.op() == "image" {
+            image_node(g, i, geom, &vals)
         } else {
             let args: Vec<Arg> = node
                 .inputs
@@ -140,6 +145,47 @@ fn height_to_normal(g: &Graph, i: usize, geom: &Geom) -> Value {
         Type::Vector3,
         &[n[0] * 0.5 + 0.5, n[1] * 0.5 + 0.5, n[2] * 0.5 + 0.5],
     )
+}
+
+/// `image` (node `i`): the file's texel filtering at the texture
+/// coordinate (input 3), for the footprint scaled by the coordinate's
+/// Jacobian (central differences at ±HEIGHT_STEP unless it is the uv).
+fn image_node(g: &Graph, i: usize, geom: &Geom, vals: &[Value]) -> Value {
+    let node = &g.nodes[i];
+    let (_, im) = g.image_of(i).expect("image nodes have an image");
+    let tc = read(&node.inputs[3], vals, geom).v;
+    let mut footprint = geom.footprint;
+    if footprint > 0.0 && node.inputs[3] != Source::Geom(super::graph::GeomProp::Uv) {
+        let at = |du: f32, dv: f32| -> [f32; 4] {
+            let mut q = *geom;
+            q.uv = [geom.uv[0] + du, geom.uv[1] + dv];
+            read(&node.inputs[3], &eval_nodes(g, i, &q), &q).v
+        };
+        let (u1, u0) = (at(HEIGHT_STEP, 0.0), at(-HEIGHT_STEP, 0.0));
+        let (v1, v0) = (at(0.0, HEIGHT_STEP), at(0.0, -HEIGHT_STEP));
+        footprint *= texcoord_scale(u1, u0, v1, v0, HEIGHT_STEP);
+    }
+    let d = read(&node.inputs[2], vals, geom);
+    let dflt = bc(d, 4);
+    let r = super::image::evaluate(im, [tc[0], tc[1]], footprint, dflt);
+    let w = node.ty().width();
+    let mut v = [0.0; 4];
+    v[..w].copy_from_slice(&r[..w]);
+    Value { ty: node.ty(), v }
+}
+
+/// √|det J| of a texture coordinate's Jacobian from central differences
+/// (shaders/materialx/image.glsl `mx_texcoord_scale`).
+fn texcoord_scale(u1: [f32; 4], u0: [f32; 4], v1: [f32; 4], v0: [f32; 4], step: f32) -> f32 {
+    let du = [
+        (u1[0] - u0[0]) / (2.0 * step),
+        (u1[1] - u0[1]) / (2.0 * step),
+    ];
+    let dv = [
+        (v1[0] - v0[0]) / (2.0 * step),
+        (v1[1] - v0[1]) / (2.0 * step),
+    ];
+    (du[0] * dv[1] - du[1] * dv[0]).abs().sqrt()
 }
 
 fn dot(a: &[f32], b: &[f32]) -> f32 {

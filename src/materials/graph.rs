@@ -15,6 +15,7 @@
 use super::document::{Document, RawGraph, RawPort};
 use super::error::GraphError;
 use super::eval;
+use super::image::{self, GraphImage};
 use super::signatures::{self, Sig};
 use super::types::{Type, Value};
 use std::collections::HashMap;
@@ -92,9 +93,19 @@ pub struct Graph {
     pub name: String,
     pub nodes: Vec<Node>,
     pub outputs: Vec<Output>,
+    /// The image nodes' files (image.rs), in node order.
+    pub images: Vec<GraphImage>,
+    /// Fallbacks taken while loading (e.g. a cubic filter read as linear),
+    /// each naming the file, graph and node.
+    pub warnings: Vec<String>,
 }
 
 impl Graph {
+    /// The image of node `i` (an `image` node).
+    pub fn image_of(&self, i: usize) -> Option<(usize, &GraphImage)> {
+        self.images.iter().enumerate().find(|(_, im)| im.node == i)
+    }
+
     /// Whether the graph's outputs are a function of the uv alone: no node
     /// reads the position, normal, tangent or bitangent, directly or
     /// through a default geometric property (heighttonormal differentiates
@@ -158,6 +169,8 @@ struct Builder<'a> {
     placed: HashMap<usize, Source>,
     on_stack: Vec<usize>,
     nodes: Vec<Node>,
+    images: Vec<GraphImage>,
+    warnings: Vec<String>,
 }
 
 impl<'a> Builder<'a> {
@@ -184,6 +197,8 @@ impl<'a> Builder<'a> {
             placed: HashMap::new(),
             on_stack: Vec::new(),
             nodes: Vec::new(),
+            images: Vec::new(),
+            warnings: Vec::new(),
         };
         // The interface: the implemented nodedef's inputs (defaults), then the graph's own inputs.
         if let Some(nd) = &raw.nodedef {
@@ -295,6 +310,8 @@ impl<'a> Builder<'a> {
             name: raw.name.clone(),
             nodes: self.nodes,
             outputs,
+            images: self.images,
+            warnings: self.warnings,
         })
     }
 
@@ -483,11 +500,16 @@ impl<'a> Builder<'a> {
             .inputs
             .iter()
             .all(|s| matches!(s, Source::Const(_) | Source::Str(_)));
-        // Geometry nodes read the surface point, not their (uniform) inputs.
+        // Geometry nodes read the surface point, not their (uniform) inputs;
+        // an image node reads its file (and the footprint).
         let reads_geometry = matches!(
             sig.node,
-            "texcoord" | "position" | "normal" | "tangent" | "heighttonormal"
+            "texcoord" | "position" | "normal" | "tangent" | "heighttonormal" | "image"
         );
+        if sig.node == "image" {
+            let im = self.image(ri, &node)?;
+            self.images.push(im);
+        }
         let src = if constant && !reads_geometry {
             Source::Const(eval::eval_constant(&node))
         } else {
@@ -496,6 +518,50 @@ impl<'a> Builder<'a> {
         };
         self.placed.insert(ri, src.clone());
         Ok(src)
+    }
+
+    /// The file and settings of image node `node` (raw node `ri`), which
+    /// becomes `self.nodes[self.nodes.len()]`.
+    fn image(&mut self, ri: usize, node: &Node) -> Result<GraphImage, GraphError> {
+        let raw = &self.raw.nodes[ri];
+        let err = |m: String| self.err(Some(&raw.name), raw.line, m);
+        let text = |name: &str| -> String {
+            match node.sig.input(name).map(|(k, _, _)| &node.inputs[k]) {
+                Some(Source::Str(s)) => s.clone(),
+                _ => String::new(),
+            }
+        };
+        let file_port = raw.inputs.iter().find(|p| p.name == "file");
+        let attr = |f: fn(&RawPort) -> Option<String>| file_port.and_then(f).unwrap_or_default();
+        let colorspace = attr(|p| p.colorspace.clone());
+        let set = image::settings(|k| {
+            if k == "colorspace" {
+                colorspace.clone()
+            } else {
+                text(k)
+            }
+        })
+        .map_err(err)?;
+        let file = format!("{}{}", attr(|p| p.fileprefix.clone()), text("file"));
+        if file.is_empty() {
+            return Err(err("input `file` is empty".into()));
+        }
+        let path = self.doc.resolve(&file);
+        let texture = image::read(&path, set.encoding).map_err(err)?;
+        if let Some(w) = set.warning {
+            self.warnings.push(format!(
+                "{}: graph `{}`, node `{}`: {w}",
+                self.doc.file, self.raw.name, raw.name
+            ));
+        }
+        Ok(GraphImage {
+            node: self.nodes.len(),
+            file,
+            path,
+            texture: std::sync::Arc::new(texture),
+            sampler: set.sampler,
+            constant: set.constant,
+        })
     }
 
     /// The overload of raw node `ri` with output `out` whose inputs match the
@@ -562,9 +628,6 @@ fn check_node(n: &Node) -> Option<String> {
         "extract" => int("index")
             .filter(|i| *i < 0 || *i as usize >= n.sig.inputs[0].1.width())
             .map(|i| format!("input `index` {i} is out of range")),
-        "image" => Some(
-            "image nodes are not supported yet (scene textures are not bound to graphs)".into(),
-        ),
         _ => None,
     }
 }

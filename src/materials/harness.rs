@@ -40,7 +40,7 @@ pub fn source(graphs: &[Graph]) -> (String, Vec<(Layout, usize)>) {
     let mut calls = String::new();
     for (i, g) in graphs.iter().enumerate() {
         let sym = codegen::symbol(g, i);
-        s.push_str(&codegen::glsl(g, &sym));
+        s.push_str(&codegen::glsl(g, &sym, &[]));
         let l = Layout::of(g);
         let n = l.floats.max(1);
         calls.push_str(&format!(
@@ -62,7 +62,8 @@ pub fn source(graphs: &[Graph]) -> (String, Vec<(Layout, usize)>) {
          \x20   g.uv = vec2(pts[b], pts[b + 1u]);\n\
          \x20   g.position = vec3(pts[b + 2u], pts[b + 3u], pts[b + 4u]);\n\
          \x20   g.normal = vec3(pts[b + 5u], pts[b + 6u], pts[b + 7u]);\n\
-         \x20   g.tangent = vec3(pts[b + 8u], pts[b + 9u], pts[b + 10u]);\n",
+         \x20   g.tangent = vec3(pts[b + 8u], pts[b + 9u], pts[b + 10u]);\n\
+         \x20   g.footprint = 0.0;\n",
     );
     s.push_str(&calls);
     s.push_str("}\n");
@@ -79,6 +80,12 @@ pub fn evaluate(
     graphs: &[Graph],
     points: &[Geom],
 ) -> Result<(GraphValues, Compiled), String> {
+    if let Some(g) = graphs.iter().find(|g| !g.images.is_empty()) {
+        return Err(format!(
+            "{}: graph `{}` has image nodes; the harness binds no textures (they are checked through rendering, tests/material_images.rs)",
+            g.file, g.name
+        ));
+    }
     let (src, layouts) = source(graphs);
     let stride: usize = layouts.iter().map(|(l, _)| l.floats.max(1)).sum();
     let compiled = compile::compile("material graph harness", &src)?;

@@ -8,7 +8,7 @@
 //! One concept per file: `types` (data types, values), `signatures` (the
 //! stdlib nodedefs of the subset), `document` (XML -> element records),
 //! `graph` (typing, topological order, folding), `noise` and `eval` (CPU),
-//! `codegen` (GLSL), `compile` (glslc and the on-disk cache), `harness`
+//! `image` (the `image` node: files, sampling twin), `codegen` (GLSL), `compile` (glslc and the on-disk cache), `harness`
 //! (GPU evaluation at points), `library` (the shipped graphs), `binding`
 //! (graphs bound to a scene's materials, from glTF) and `scene_shaders`
 //! (the scene's graphs as one GLSL include, and the hit-shading shaders
@@ -23,6 +23,7 @@ pub mod error;
 pub mod eval;
 pub mod graph;
 pub mod harness;
+pub mod image;
 pub mod library;
 pub mod memo;
 pub mod noise;

@@ -267,8 +267,11 @@ impl SceneGpu {
         let emitter_bytes = emitter_buffer(&emitters);
 
         // Textures (descriptor array at binding 10; a 1×1 white stand-in when there are none).
+        // The scene's textures, then the material graphs' image files
+        // (SceneGraphs::images: texture scene.textures.len() + k).
         let mut textures = Vec::new();
-        for (ti, t) in scene.textures.iter().enumerate() {
+        let graph_images = scene.graphs.images().map(|im| &*im.texture);
+        for (ti, t) in scene.textures.iter().chain(graph_images).enumerate() {
             let format = match t.encoding {
                 TextureEncoding::Srgb => vk::Format::R8G8B8A8_SRGB,
                 TextureEncoding::Linear => vk::Format::R8G8B8A8_UNORM,
@@ -699,6 +702,7 @@ impl SceneGpu {
                 &scene.graphs,
                 origin,
                 memo.is_some(),
+                &slots.graph_image_slots(scene),
             ),
             memo,
             texture_count,
@@ -905,8 +909,21 @@ pub struct TextureSlots {
 
 impl TextureSlots {
     pub fn of(scene: &Scene) -> TextureSlots {
-        let refs = || scene.materials.iter().flat_map(|m| m.texture_refs());
-        let mut first: Vec<Option<TextureSampler>> = vec![None; scene.textures.len()];
+        let graph_refs: Vec<TextureRef> = scene
+            .graphs
+            .image_refs(scene.textures.len() as u32)
+            .into_iter()
+            .flatten()
+            .collect();
+        let refs = || {
+            scene
+                .materials
+                .iter()
+                .flat_map(|m| m.texture_refs())
+                .chain(graph_refs.iter().copied())
+        };
+        let count = scene.textures.len() + graph_refs.len();
+        let mut first: Vec<Option<TextureSampler>> = vec![None; count];
         for r in refs() {
             if let Some(f) = first.get_mut(r.texture as usize) {
                 f.get_or_insert(r.sampler);
@@ -923,6 +940,16 @@ impl TextureSlots {
             }
         }
         TextureSlots { pairs }
+    }
+
+    /// The slot of each material graph's images (`SceneGraphs::image_refs`), per graph.
+    pub fn graph_image_slots(&self, scene: &Scene) -> Vec<Vec<u32>> {
+        scene
+            .graphs
+            .image_refs(scene.textures.len() as u32)
+            .into_iter()
+            .map(|g| g.into_iter().map(|r| self.slot(r)).collect())
+            .collect()
     }
 
     /// The slot of a texture reference (one `of` made it).

@@ -550,6 +550,30 @@ pub fn write_gltf(scene: &Scene, path: &Path) -> Result<(), SceneError> {
         }
         staged.push(stage(dst, text.as_bytes())?);
     }
+    // The image files the attached documents read (MaterialX `image`
+    // nodes), copied to the same place relative to the written document;
+    // an absolute filename stays where it is.
+    let mut copied: Vec<PathBuf> = Vec::new();
+    for (g, origin) in scene.graphs.graphs.iter().zip(&scene.graphs.origins) {
+        let crate::materials::binding::Origin::Mtlx { file, .. } = origin else {
+            continue;
+        };
+        for im in &g.images {
+            if Path::new(&im.file).is_absolute() {
+                continue;
+            }
+            let dst = dir.join(file).parent().unwrap_or(dir).join(&im.file);
+            if copied.contains(&dst) || dst == im.path {
+                continue;
+            }
+            let bytes = std::fs::read(&im.path).map_err(|e| SceneError::io(&im.path, e))?;
+            if let Some(parent) = dst.parent() {
+                std::fs::create_dir_all(parent).map_err(|e| SceneError::io(parent, e))?;
+            }
+            staged.push(stage(dst.clone(), &bytes)?);
+            copied.push(dst);
+        }
+    }
 
     let animations = scene
         .animation

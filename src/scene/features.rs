@@ -43,7 +43,7 @@ impl SceneFeatures {
     pub fn of(scene: &Scene) -> Self {
         let mats = &scene.materials;
         SceneFeatures {
-            textures: !scene.textures.is_empty(),
+            textures: !scene.textures.is_empty() || scene.graphs.images().next().is_some(),
             normal_maps: mats
                 .iter()
                 .any(|m| m.normal_texture.is_some() || m.clearcoat.normal_texture.is_some()),

@@ -146,6 +146,8 @@ fn load_gltf_unguarded(path: &Path) -> Result<Scene, SceneError> {
         importer.scene.graphs =
             crate::materials::binding::from_gltf_json(path, &root, &mut importer.scene.materials)
                 .map_err(|e| SceneError::invalid(path, e))?;
+        let w: Vec<String> = importer.scene.graphs.warnings().cloned().collect();
+        importer.scene.warnings.extend(w);
     }
     importer.import_nodes()?;
     importer.warn_missing_uvs();
