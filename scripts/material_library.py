@@ -1,8 +1,13 @@
 #!/usr/bin/env python3
 # Writes the shipped material graph library scenes/materials/*.mtlx (issue 17):
 # python3 scripts/material_library.py scenes/materials
+# and its compute-heavy variant (every position/texcoord domain-warped by two
+# 8-octave vector3 fractal3d layers, every fractal six octaves more, up to 16;
+# the thesis's Classroom graphs dominate its frame time):
+# python3 scripts/material_library.py scenes/materials/heavy --heavy
 import os, sys
 OUT = sys.argv[1]
+HEAVY = sys.argv[2:] == ['--heavy']
 class N:
     def __init__(s, name, ty): s.name, s.ty = name, ty
 def F(x): return ('float', f'{x}')
@@ -12,9 +17,21 @@ def V3(a,b,c): return ('vector3', f'{a}, {b}, {c}')
 def C3(a,b,c): return ('color3', f'{a}, {b}, {c}')
 class G:
     def __init__(s, name, doc):
+        if HEAVY:
+            name, doc = name + '_heavy', 'Compute-heavy variant (domain warp, more octaves) of: ' + doc
         s.name, s.doc, s.lines, s.n, s.outs = name, doc, [], {}, []
+        s.warping = False
     def __getattr__(s, cat):
+        if cat.startswith('__'):
+            raise AttributeError(cat)
         def mk(ty, **inputs):
+            node = mk_plain(ty, **inputs)
+            if HEAVY and cat in ('position', 'texcoord') and not s.warping:
+                s.warping = True
+                node = warp(s, node)
+                s.warping = False
+            return node
+        def mk_plain(ty, **inputs):
             k = s.n.get(cat, 0) + 1; s.n[cat] = k
             name = f'{cat}{k}'
             body = []
@@ -39,7 +56,20 @@ class G:
         open(os.path.join(OUT, s.name + '.mtlx'), 'w').write(text)
         print(s.name, len(s.lines), 'nodes')
 
+def warp(g, p):
+    # Two layers of domain warping by a vector3 fractal (8 octaves each).
+    p3 = p if p.ty == 'vector3' else g.combine3('vector3', in1=g.extract('float', in_=p, index=I(0)), in2=g.extract('float', in_=p, index=I(1)), in3=F(0.0))
+    for k in range(2):
+        q = g.multiply('vector3', in1=p3, in2=F(2.0 + k))
+        w = g.fractal3d('vector3', position=q, octaves=I(8), amplitude=F(1.0), lacunarity=F(2.0), diminish=F(0.5))
+        p3 = g.add('vector3', in1=p3, in2=g.multiply('vector3', in1=w, in2=F(0.02)))
+    if p.ty == 'vector3':
+        return p3
+    return g.combine2('vector2', in1=g.extract('float', in_=p3, index=I(0)), in2=g.extract('float', in_=p3, index=I(1)))
+
 def fbm(g, p, octaves, freq, amp=1.0):
+    if HEAVY:
+        octaves = min(16, octaves + 6)
     q = g.multiply('vector3', in1=p, in2=F(freq))
     return g.fractal3d('float', position=q, octaves=I(octaves), amplitude=F(amp), lacunarity=F(2.0), diminish=F(0.5))
 

@@ -247,6 +247,7 @@ impl FrameRecord {
             ("memo_lock_failures", c.lock_failures),
             ("memo_refused", c.refused),
             ("memo_bypassed", c.bypassed),
+            ("memo_cooperative_fills", c.cooperative_fills),
         ] {
             self.counters.insert(k.to_string(), v as f64);
         }

@@ -755,6 +755,7 @@ fn bench_materials_checks_input_and_sweeps_the_table() {
             "both S=4096",
             "both tile 4x4",
             "both tile 4x4 bilinear",
+            "both tile 4x4 plain fill",
             "both S=64 random",
             "both S=64 lrw"
         ]
@@ -777,6 +778,17 @@ fn bench_materials_checks_input_and_sweeps_the_table() {
         assert!(f(r, "frame_ms") > 0.0, "{r:?}");
     }
     let row = |l: &str| rows.iter().find(|r| r[0] == l).unwrap();
+    // Tiles are filled cooperatively by default (lavapipe has subgroup
+    // ballot and shuffle), by the missing lane alone with the plain fill.
+    assert!(f(row("both tile 4x4"), "cooperative_fills_per_frame") > 0.0);
+    assert_eq!(
+        f(
+            row("both tile 4x4 plain fill"),
+            "cooperative_fills_per_frame"
+        ),
+        0.0
+    );
+    assert_eq!(f(row("both"), "cooperative_fills_per_frame"), 0.0);
     assert!(f(row("both S=64"), "evictions_per_frame") > 0.0);
     assert_eq!(f(row("both"), "evictions_per_frame"), 0.0);
     let _ = std::fs::remove_dir_all(&out);

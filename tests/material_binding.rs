@@ -490,6 +490,46 @@ fn procedural_scene_spec_assigns_seeded_library_graphs() {
     assert!(names(&a).iter().all(|n| n != "lava"));
     let e = stereocache::scene::load_scene("procedural:3:nope.gltf").unwrap_err();
     assert!(e.to_string().contains("nope.gltf"), "{e}");
+    // The compute-heavy variants: the same picks, material for material, in
+    // texture space (memoizable), and several times the noise evaluations
+    // (noise lattice lookups: one per noise node and channel, one per
+    // fractal octave and channel).
+    let uv = load("procedural-uv:cornell");
+    let heavy = load("procedural-heavy-uv:cornell");
+    let plain_names: Vec<String> = names(&uv).iter().map(|n| format!("{n}_heavy")).collect();
+    assert_eq!(names(&heavy), plain_names);
+    let cost = |g: &stereocache::materials::Graph| -> usize {
+        g.nodes
+            .iter()
+            .map(|n| {
+                let channels = n.ty().width();
+                match n.op() {
+                    "fractal3d" => match &n.inputs[1] {
+                        stereocache::materials::graph::Source::Const(v) => {
+                            v.v[0] as usize * channels
+                        }
+                        _ => 0,
+                    },
+                    op if op.contains("noise") => channels,
+                    _ => 0,
+                }
+            })
+            .sum()
+    };
+    for ((_, b), (_, hb)) in uv.graphs.materials.iter().zip(&heavy.graphs.materials) {
+        let (g, h) = (
+            &uv.graphs.graphs[b[0].graph],
+            &heavy.graphs.graphs[hb[0].graph],
+        );
+        assert!(h.reads_only_uv(), "{}", h.name);
+        assert!(
+            cost(h) >= 3 * cost(g).max(1),
+            "{}: {} vs {} noise lookups",
+            h.name,
+            cost(h),
+            cost(g)
+        );
+    }
 }
 
 /// Memoization (issue 17; thesis §5.3, non-tiled nearest-neighbour with
@@ -523,19 +563,33 @@ fn memoized_hits_return_the_graph_at_their_texel_centre() {
     let settings = probe_settings();
     let camera = top_camera();
     let size = glam::UVec2::new(40, 24);
-    // Non-tiled, and the tiled variant (4×4 texels an entry): a texel's
+    // Non-tiled, and the tiled variant (4×4 texels an entry) with the
+    // subgroup-cooperative fill (the default where the device has subgroup
+    // ballot and shuffle, as lavapipe has) and the plain one: a texel's
     // value is the graph at its centre either way.
-    for (rt, tile, bilinear) in [
-        (RtChoice::Software, 1, false),
-        (RtChoice::Query, 1, false),
-        (RtChoice::Software, 1, true),
-        (RtChoice::Query, 1, true),
-        (RtChoice::Software, 4, false),
-        (RtChoice::Query, 4, false),
-        (RtChoice::Software, 4, true),
-        (RtChoice::Query, 4, true),
+    use stereocache::materials::memo::MemoFill::{Plain, Subgroup};
+    for (rt, tile, bilinear, fill) in [
+        (RtChoice::Software, 1, false, Subgroup),
+        (RtChoice::Query, 1, false, Subgroup),
+        (RtChoice::Software, 1, true, Subgroup),
+        (RtChoice::Query, 1, true, Subgroup),
+        (RtChoice::Software, 4, false, Subgroup),
+        (RtChoice::Query, 4, false, Subgroup),
+        (RtChoice::Software, 4, true, Subgroup),
+        (RtChoice::Query, 4, true, Subgroup),
+        (RtChoice::Software, 4, false, Plain),
+        (RtChoice::Software, 4, true, Plain),
     ] {
         if rt == RtChoice::Query && !require(ctx.ray_query_enabled(), "ray queries") {
+            continue;
+        }
+        let cooperative = tile > 1 && fill == Subgroup;
+        if cooperative
+            && !require(
+                ctx.caps.has_subgroup_ops(&["ballot", "shuffle"]),
+                "subgroup ballot and shuffle",
+            )
+        {
             continue;
         }
         // The same texel capacity: 2^20 texels.
@@ -544,9 +598,14 @@ fn memoized_hits_return_the_graph_at_their_texel_centre() {
             tile,
             bilinear,
             entries: (1 << 20) / (tile * tile),
+            fill,
             ..Default::default()
         };
         let s = session(&ctx, scene.clone(), rt);
+        assert_eq!(
+            s.scene_gpu.cooperative_fill, cooperative,
+            "{rt:?} {tile} {fill:?}"
+        );
         let memo = s
             .scene_gpu
             .memo
@@ -664,6 +723,16 @@ fn memoized_hits_return_the_graph_at_their_texel_centre() {
             c.fills > 0 && c.bypassed as usize >= bypassed_px,
             "{rt:?}: {c:?}"
         );
+        // The cooperative fill filled every stored tile (one round each;
+        // a round whose tile was present or could not be locked stores none).
+        if cooperative {
+            assert!(
+                c.cooperative_fills > 0 && c.cooperative_fills >= c.fills + c.evictions,
+                "{rt:?} {fill:?}: {c:?}"
+            );
+        } else {
+            assert_eq!(c.cooperative_fills, 0, "{rt:?} {fill:?}: {c:?}");
+        }
         // Live entries = fills since the reset (replay's memo_live_entries):
         // entries go only from empty to filled; no eviction in a 2^20 table.
         let keys: Vec<u32> = memo.keys.download_pod().unwrap();

@@ -21,7 +21,7 @@ const uint MEMO_S_NOW = 0u, MEMO_S_CAPACITY = 1u, MEMO_S_PROBE = 2u, MEMO_S_POLI
            MEMO_S_FLAGS = 4u, MEMO_S_BIAS = 5u, MEMO_S_TILE_SHIFT = 6u, MEMO_S_BILINEAR = 7u;
 const uint MEMO_C_HITS = 8u, MEMO_C_MISSES = 9u, MEMO_C_FILLS = 10u, MEMO_C_EVICTIONS = 11u,
            MEMO_C_LOCK_FAILURES = 12u, MEMO_C_REFUSED = 13u, MEMO_C_BYPASSED = 14u,
-           MEMO_C_SECOND_EYE_HITS = 15u, MEMO_C_SECOND_EYE_MISSES = 16u;
+           MEMO_C_SECOND_EYE_HITS = 15u, MEMO_C_SECOND_EYE_MISSES = 16u, MEMO_C_COOPERATIVE_FILLS = 17u;
 
 // The eye of the pass's current work item (0 left, 1 right, 2 unknown),
 // set by each hit-shading pass where it knows it. Both eyes render in one
@@ -86,14 +86,21 @@ void memo_count_hit(uint sl, uint policy, uint now) {
 // fill (the table's memo_victim and memo_lock). Returns the locked slot, or
 // MEMO_NONE when the key is present already (`present`) or no entry could
 // be locked: the lane then evaluates for itself and stores nothing.
-uint memo_begin_fill(uint h0, uint h1, uint cap, uint probe, uint policy, uint now,
-                     out uint seen, out bool present) {
+void memo_count_miss() {
     atomicAdd(memo_state[MEMO_C_MISSES], 1u);
     if (sc_memo_eye == 1u) atomicAdd(memo_state[MEMO_C_SECOND_EYE_MISSES], 1u);
+}
+uint memo_lock_victim(uint h0, uint h1, uint cap, uint probe, uint policy, uint now,
+                      out uint seen, out bool present) {
     uint victim = memo_victim(h0, h1, cap, probe, policy, now, seen, present);
     if (present || victim == MEMO_NONE || !memo_lock(victim, seen)) return MEMO_NONE;
     memoryBarrierBuffer();
     return victim;
+}
+uint memo_begin_fill(uint h0, uint h1, uint cap, uint probe, uint policy, uint now,
+                     out uint seen, out bool present) {
+    memo_count_miss();
+    return memo_lock_victim(h0, h1, cap, probe, policy, now, seen, present);
 }
 
 // After the records are written: unlock (stamp, then the key) and count.
@@ -105,6 +112,93 @@ void memo_end_fill(uint victim, uint h1, uint now, uint seen, bool present) {
         atomicAdd(memo_state[MEMO_C_LOCK_FAILURES], 1u);
     }
 }
+
+#ifdef SC_MEMO_SUBGROUP
+#extension GL_KHR_shader_subgroup_basic : require
+#extension GL_KHR_shader_subgroup_ballot : require
+#extension GL_KHR_shader_subgroup_shuffle : require
+// The lane of the j-th set bit of ballot `act`.
+uint memo_nth_lane(uvec4 act, uint j) {
+    for (uint w = 0u; w < 4u; ++w) {
+        uint c = uint(bitCount(act[w]));
+        if (j < c) {
+            uint m = act[w];
+            for (uint k = 0u; k < j; ++k) m &= m - 1u;   // clear the lowest j set bits
+            return 32u * w + uint(findLSB(m));
+        }
+        j -= c;
+    }
+    return 0u;
+}
+
+// The subgroup-cooperative tile fill (thesis §5.4.3, Fig. 5.2), for the
+// tiled variants; compiled in where the device has subgroup ballot and
+// shuffle (-DSC_MEMO_SUBGROUP, scene_shaders.rs). Every lane that looked a
+// tile up calls it, hit or miss (`need`: this lane's tile was missing), so
+// lanes that hit still evaluate texels. Each round: the lowest requesting
+// lane leads (ballot); it broadcasts its tile (material key, level, tile
+// position) and locks a victim entry; the active lanes evaluate the tile's
+// e² texels, lane of rank r texel r, r + n, … (n active lanes); each writes
+// its texels under the leader's lock; the lanes that requested this tile
+// read the texels they need (`want[0..cnt)`) from the lanes that evaluated
+// them (shuffle, thesis step 8: also when no lock was obtained); after a
+// buffer barrier the leader unlocks and counts. Deviation: one tile per
+// round (the thesis pairs tiles of one material when two fit a 32-lane
+// wave; lavapipe's subgroups have 8 lanes, fewer than a 4×4 tile's texels).
+void memo_fill_cooperative(bool need, uint key, int level, ivec2 tq, uint shift, uint e,
+                           uint want[4], uint cnt, vec3 p, vec3 n, vec3 t,
+                           uint cap, uint probe, uint policy, uint now, inout ScGraphOutputs c[4]) {
+    if (need) memo_count_miss();
+    uvec4 act = subgroupBallot(true);
+    uint n_act = subgroupBallotBitCount(act);
+    uint rank = subgroupBallotExclusiveBitCount(act);
+    for (;;) {
+        uvec4 req = subgroupBallot(need);
+        if (all(equal(req, uvec4(0u)))) break;
+        uint leader = subgroupBallotFindLSB(req);
+        bool lead = gl_SubgroupInvocationID == leader;
+        uint l_key = subgroupShuffle(key, leader);
+        int l_level = subgroupShuffle(level, leader);
+        ivec2 l_tq = subgroupShuffle(tq, leader);
+        bool mine = need && key == l_key && level == l_level && all(equal(tq, l_tq));
+        uint l_h1 = memo_h1(l_key, l_level, l_tq);
+        uint seen = 0u;
+        bool present = false;
+        uint victim = MEMO_NONE;
+        if (lead) victim = memo_lock_victim(memo_h0(l_key, l_level, l_tq), l_h1, cap, probe, policy, now, seen, present);
+        victim = subgroupShuffle(victim, leader);
+        uint l_mat = l_key & 0x07FFFFFFu;
+        uvec4 g0[4], g1[4], g2[4];
+        for (uint base = 0u; base < e * e; base += n_act) {
+            uint k = base + rank;
+            uvec4 r0 = uvec4(0u), r1 = uvec4(0u), r2 = uvec4(0u);
+            if (k < e * e) {
+                ivec2 tk = (l_tq << int(shift)) + ivec2(int(k % e), int(k / e));
+                ScGraphOutputs v = sc_material_graphs(l_mat, memo_snapped_uv(tk, l_level), p, n, t, memo_texel_width(l_level));
+                memo_pack(v, r0, r1, r2);
+                if (victim != MEMO_NONE) memo_write_texel(MEMO_RECORD * (victim * e * e + k), r0, r1, r2);
+            }
+            for (uint j = 0u; j < cnt; ++j) {
+                bool here = mine && want[j] >= base && want[j] < base + n_act;
+                uint src = memo_nth_lane(act, here ? want[j] - base : 0u);
+                uvec4 a0 = subgroupShuffle(r0, src), a1 = subgroupShuffle(r1, src), a2 = subgroupShuffle(r2, src);
+                if (here) { g0[j] = a0; g1[j] = a1; g2[j] = a2; }
+            }
+        }
+        // Every lane's records are written (and visible) before the key returns.
+        memoryBarrierBuffer();
+        subgroupBallot(true);
+        if (lead) {
+            memo_end_fill(victim, l_h1, now, seen, present);
+            atomicAdd(memo_state[MEMO_C_COOPERATIVE_FILLS], 1u);
+        }
+        if (mine) {
+            for (uint j = 0u; j < cnt; ++j) c[j] = memo_unpack(g0[j], g1[j], g2[j], n);
+            need = false;
+        }
+    }
+}
+#endif
 
 // The tiled variant (thesis §5.3, s×s texels an entry, nearest texel): the
 // key is the tile's, a hit reads its one texel between the two key reads,
@@ -118,6 +212,8 @@ ScGraphOutputs memo_tiled(uint material, int level, ivec2 q, uint shift, vec3 p,
     uint key = material | (shift << 28);              // tiles and texels never share a key
     uint h0 = memo_h0(key, level, tq), h1 = memo_h1(key, level, tq);
     uvec4 r0, r1, r2;
+    ScGraphOutputs mine;
+    bool found = false;
     for (uint i = 0u; i < probe; ++i) {
         uint sl = memo_slot(h0, i, cap, probe);
         if (memo_keys[sl] != h1) continue;
@@ -125,16 +221,25 @@ ScGraphOutputs memo_tiled(uint material, int level, ivec2 q, uint shift, vec3 p,
         memo_read_texel(memo_texel_base(sl, shift, idx), r0, r1, r2);
         if (memo_validate(sl, h1, v0, true)) {
             memo_count_hit(sl, policy, now);
-            return memo_unpack(r0, r1, r2, n);
+            mine = memo_unpack(r0, r1, r2, n);
+            found = true;
+        } else {
+            atomicAdd(memo_state[MEMO_C_REFUSED], 1u);
         }
-        atomicAdd(memo_state[MEMO_C_REFUSED], 1u);
         break;
     }
+#ifdef SC_MEMO_SUBGROUP
+    ScGraphOutputs c[4];
+    c[0] = mine;
+    memo_fill_cooperative(!found, key, level, tq, shift, s, uint[4](idx, 0u, 0u, 0u), 1u, p, n, t,
+                          cap, probe, policy, now, c);
+    return c[0];
+#else
+    if (found) return mine;
     uint seen;
     bool present;
     uint victim = memo_begin_fill(h0, h1, cap, probe, policy, now, seen, present);
     bool locked = victim != MEMO_NONE;
-    ScGraphOutputs mine;
     for (uint k = 0u; k < s * s; ++k) {
         ivec2 tk = (tq << int(shift)) + ivec2(int(k % s), int(k / s));
         ScGraphOutputs v = sc_material_graphs(material, memo_snapped_uv(tk, level), p, n, t, memo_texel_width(level));
@@ -144,6 +249,7 @@ ScGraphOutputs memo_tiled(uint material, int level, ivec2 q, uint shift, vec3 p,
     }
     memo_end_fill(victim, h1, now, seen, present);
     return mine;
+#endif
 }
 
 ScGraphOutputs memo_lerp(ScGraphOutputs a, ScGraphOutputs b, float f) {
@@ -176,6 +282,7 @@ ScGraphOutputs memo_tiled_bilinear(uint material, int level, vec2 uv, uint shift
     uvec4 r0, r1, r2;
     ScGraphOutputs c[4];
     uvec2 ko[4] = uvec2[4](uvec2(0u, 0u), uvec2(1u, 0u), uvec2(0u, 1u), uvec2(1u, 1u));
+    bool found = false;
     for (uint i = 0u; i < probe; ++i) {
         uint sl = memo_slot(h0, i, cap, probe);
         if (memo_keys[sl] != h1) continue;
@@ -187,11 +294,19 @@ ScGraphOutputs memo_tiled_bilinear(uint material, int level, vec2 uv, uint shift
         }
         if (memo_validate(sl, h1, v0, true)) {
             memo_count_hit(sl, policy, now);
-            return memo_lerp(memo_lerp(c[0], c[1], f.x), memo_lerp(c[2], c[3], f.x), f.y);
+            found = true;
+        } else {
+            atomicAdd(memo_state[MEMO_C_REFUSED], 1u);
         }
-        atomicAdd(memo_state[MEMO_C_REFUSED], 1u);
         break;
     }
+#ifdef SC_MEMO_SUBGROUP
+    uint want[4];
+    for (uint k = 0u; k < 4u; ++k) want[k] = (uint(o.y) + ko[k].y) * e + uint(o.x) + ko[k].x;
+    memo_fill_cooperative(!found, key, level, tq, shift, e, want, 4u, p, n, t, cap, probe, policy, now, c);
+    return memo_lerp(memo_lerp(c[0], c[1], f.x), memo_lerp(c[2], c[3], f.x), f.y);
+#else
+    if (found) return memo_lerp(memo_lerp(c[0], c[1], f.x), memo_lerp(c[2], c[3], f.x), f.y);
     uint seen;
     bool present;
     uint victim = memo_begin_fill(h0, h1, cap, probe, policy, now, seen, present);
@@ -208,6 +323,7 @@ ScGraphOutputs memo_tiled_bilinear(uint material, int level, vec2 uv, uint shift
     }
     memo_end_fill(victim, h1, now, seen, present);
     return memo_lerp(memo_lerp(c[0], c[1], f.x), memo_lerp(c[2], c[3], f.x), f.y);
+#endif
 }
 
 // The non-tiled variant (one texel an entry): texel q's outputs from the

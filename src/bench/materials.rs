@@ -23,7 +23,8 @@ use crate::session::Session;
 use std::sync::Arc;
 
 /// The configurations: off; primary, secondary and both with the default
-/// table; both at each of `sizes` entries (LRU); each eviction policy at the
+/// table; both at each of `sizes` entries (LRU); 4×4 tiles (nearest with the
+/// cooperative and the plain fill, bilinear); each eviction policy at the
 /// smallest size (where eviction happens).
 pub fn memo_configs(sizes: &[u32]) -> Vec<(String, MemoSettings)> {
     let d = MemoSettings::default();
@@ -68,6 +69,18 @@ pub fn memo_configs(sizes: &[u32]) -> Vec<(String, MemoSettings)> {
             ..d
         },
     ));
+    // The same with the plain fill (the default is the subgroup-cooperative
+    // one where the device has subgroup ballot and shuffle).
+    v.push((
+        "both tile 4x4 plain fill".to_string(),
+        MemoSettings {
+            hits: MemoHits::Both,
+            entries: d.entries / 16,
+            tile: 4,
+            fill: crate::materials::memo::MemoFill::Plain,
+            ..d
+        },
+    ));
     if let Some(&small) = sizes.iter().min() {
         for (name, eviction) in [("random", Eviction::Random), ("lrw", Eviction::Lrw)] {
             v.push((
@@ -107,6 +120,8 @@ pub struct MemoBenchRow {
     pub evictions_per_frame: f64,
     pub lock_failures_per_frame: f64,
     pub bypassed_per_frame: f64,
+    /// Tiles filled by the subgroup-cooperative fill, per frame.
+    pub cooperative_fills_per_frame: f64,
 }
 
 /// Renders `cameras` with `method` once per configuration and round.
@@ -192,6 +207,7 @@ pub fn bench_materials(
                 evictions_per_frame: per(total.evictions),
                 lock_failures_per_frame: per(total.lock_failures),
                 bypassed_per_frame: per(total.bypassed),
+                cooperative_fills_per_frame: per(total.cooperative_fills),
             }
         })
         .collect())
@@ -239,11 +255,11 @@ pub fn memo_table(rows: &[MemoBenchRow]) -> String {
 /// The rows as CSV (one header line).
 pub fn memo_csv(rows: &[MemoBenchRow]) -> String {
     let mut s = String::from(
-        "label,hits,entries,eviction,table_bytes,frame_ms,ratio_to_off,ratio_se,hit_rate,last_hit_rate,second_eye_hit_rate,lookups_per_frame,fills_per_frame,evictions_per_frame,lock_failures_per_frame,bypassed_per_frame\n",
+        "label,hits,entries,eviction,table_bytes,frame_ms,ratio_to_off,ratio_se,hit_rate,last_hit_rate,second_eye_hit_rate,lookups_per_frame,fills_per_frame,evictions_per_frame,lock_failures_per_frame,bypassed_per_frame,cooperative_fills_per_frame\n",
     );
     for r in rows {
         s.push_str(&format!(
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
             r.label,
             r.hits,
             r.entries,
@@ -259,7 +275,8 @@ pub fn memo_csv(rows: &[MemoBenchRow]) -> String {
             r.fills_per_frame,
             r.evictions_per_frame,
             r.lock_failures_per_frame,
-            r.bypassed_per_frame
+            r.bypassed_per_frame,
+            r.cooperative_fills_per_frame
         ));
     }
     s

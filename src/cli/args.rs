@@ -7,7 +7,7 @@ use clap::Args;
 use stereocache::camera::HeadPose;
 use stereocache::gpu::GpuOptions;
 use stereocache::materials::memo::table::Eviction;
-use stereocache::materials::memo::{MemoHits, MemoSettings};
+use stereocache::materials::memo::{MemoFill, MemoHits, MemoSettings};
 pub use stereocache::methods::MethodArgs;
 use stereocache::methods::{registry, MethodKind};
 use stereocache::replay::MAX_FPS;
@@ -173,6 +173,12 @@ pub struct SceneArgs {
     /// without: four lookups of single texels).
     #[arg(long)]
     pub memo_bilinear: bool,
+    /// How the tiled variants fill a missing tile: subgroup (the subgroup's
+    /// lanes evaluate its texels together, thesis §5.4.3; the plain fill on
+    /// devices without subgroup ballot and shuffle) or plain (the lane that
+    /// missed evaluates the whole tile).
+    #[arg(long, default_value = "subgroup")]
+    pub memo_fill: MemoFill,
 }
 
 impl SceneArgs {
@@ -221,6 +227,7 @@ impl SceneArgs {
             bias: self.memo_bias,
             tile: self.memo_tile,
             bilinear: self.memo_bilinear,
+            fill: self.memo_fill,
         };
         s.validate().map_err(|e| anyhow!(e))?;
         Ok(s)

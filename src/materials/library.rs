@@ -60,6 +60,63 @@ pub const EMBEDDED: &[(&str, &str)] = &[
     ),
 ];
 
+/// The compute-heavy variants (`scenes/materials/heavy/`, written by
+/// `scripts/material_library.py … --heavy`): the same materials with every
+/// position or texcoord domain-warped by two 8-octave vector3 fractal
+/// layers and every fractal six octaves more (at most 16): graphs whose
+/// evaluation dominates a frame, as the thesis's Classroom graphs do (the
+/// `procedural-heavy-uv:` scenes; the memoization benchmark's heavy case).
+pub const HEAVY: &[(&str, &str)] = &[
+    (
+        "bricks.mtlx",
+        include_str!("../../scenes/materials/heavy/bricks_heavy.mtlx"),
+    ),
+    (
+        "cardboard.mtlx",
+        include_str!("../../scenes/materials/heavy/cardboard_heavy.mtlx"),
+    ),
+    (
+        "concrete.mtlx",
+        include_str!("../../scenes/materials/heavy/concrete_heavy.mtlx"),
+    ),
+    (
+        "fabric.mtlx",
+        include_str!("../../scenes/materials/heavy/fabric_heavy.mtlx"),
+    ),
+    (
+        "granite.mtlx",
+        include_str!("../../scenes/materials/heavy/granite_heavy.mtlx"),
+    ),
+    (
+        "lava.mtlx",
+        include_str!("../../scenes/materials/heavy/lava_heavy.mtlx"),
+    ),
+    (
+        "leather.mtlx",
+        include_str!("../../scenes/materials/heavy/leather_heavy.mtlx"),
+    ),
+    (
+        "marble.mtlx",
+        include_str!("../../scenes/materials/heavy/marble_heavy.mtlx"),
+    ),
+    (
+        "rust.mtlx",
+        include_str!("../../scenes/materials/heavy/rust_heavy.mtlx"),
+    ),
+    (
+        "terrazzo.mtlx",
+        include_str!("../../scenes/materials/heavy/terrazzo_heavy.mtlx"),
+    ),
+    (
+        "tiles.mtlx",
+        include_str!("../../scenes/materials/heavy/tiles_heavy.mtlx"),
+    ),
+    (
+        "wood.mtlx",
+        include_str!("../../scenes/materials/heavy/wood_heavy.mtlx"),
+    ),
+];
+
 /// The graph of an embedded file (its one nodegraph), named `materials/<file>` in errors.
 pub fn embedded(file: &str) -> Result<Graph, GraphError> {
     let text = EMBEDDED
@@ -81,9 +138,16 @@ pub fn dir() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scenes/materials")
 }
 
-/// Every shipped .mtlx file, sorted by name.
+/// Every shipped .mtlx file, sorted by name: the library's, then the
+/// heavy variants'.
 pub fn files() -> Vec<PathBuf> {
-    let mut v: Vec<PathBuf> = std::fs::read_dir(dir())
+    let mut v = mtlx_in(&dir());
+    v.extend(mtlx_in(&dir().join("heavy")));
+    v
+}
+
+fn mtlx_in(d: &std::path::Path) -> Vec<PathBuf> {
+    let mut v: Vec<PathBuf> = std::fs::read_dir(d)
         .map(|rd| {
             rd.flatten()
                 .map(|e| e.path())
@@ -110,7 +174,13 @@ pub fn load_all() -> Result<Vec<Graph>, GraphError> {
 /// lighting off; bound with emissive factor 1 it is now a glow, see
 /// `scene::default_lighting`).
 pub fn pickable() -> impl Iterator<Item = &'static (&'static str, &'static str)> {
-    EMBEDDED.iter().filter(|(n, _)| *n != "lava.mtlx")
+    pickable_in(EMBEDDED)
+}
+
+fn pickable_in(
+    set: &'static [(&'static str, &'static str)],
+) -> impl Iterator<Item = &'static (&'static str, &'static str)> {
+    set.iter().filter(|(n, _)| *n != "lava.mtlx")
 }
 
 /// Replaces every material of `scene` by a library graph picked at random
@@ -172,7 +242,20 @@ pub fn texture_space(file: &str, text: &str) -> Result<String, GraphError> {
 /// [`assign_random`], with the graphs in texture space when `texture_space`
 /// ([`texture_space`]; the `procedural-uv:` scenes).
 pub fn assign_random_in(scene: &mut crate::scene::Scene, seed: u64, texture_space: bool) {
-    let files: Vec<_> = pickable().collect();
+    assign_random_from(scene, seed, texture_space, false)
+}
+
+/// [`assign_random_in`] from the library (`heavy` false) or its
+/// compute-heavy variants ([`HEAVY`]; the same picks, material for
+/// material, so the two scenes differ only in the graphs' cost).
+pub fn assign_random_from(
+    scene: &mut crate::scene::Scene,
+    seed: u64,
+    texture_space: bool,
+    heavy: bool,
+) {
+    let files: Vec<_> = pickable_in(if heavy { HEAVY } else { EMBEDDED }).collect();
+    let sub = if heavy { "heavy/" } else { "" };
     for mi in 0..scene.materials.len() {
         let mut z = seed.wrapping_add((mi as u64 + 1).wrapping_mul(0x9e37_79b9_7f4a_7c15));
         z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
@@ -182,9 +265,9 @@ pub fn assign_random_in(scene: &mut crate::scene::Scene, seed: u64, texture_spac
         let (path, text) = if texture_space {
             let t = self::texture_space(file, text)
                 .unwrap_or_else(|e| panic!("library graph {file}: {e}"));
-            (format!("materials/uv/{file}"), t)
+            (format!("materials/{sub}uv/{file}"), t)
         } else {
-            (format!("materials/{file}"), text.to_string())
+            (format!("materials/{sub}{file}"), text.to_string())
         };
         let mut m = scene.materials[mi].clone();
         m.base_color_texture = None;

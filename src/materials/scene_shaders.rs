@@ -36,6 +36,11 @@ pub const DEFINE: &str = "-DSC_MATERIAL_GRAPHS";
 /// The define that memoizes the graphs' outputs (shaders/common/memo.glsl).
 pub const MEMO_DEFINE: &str = "-DSC_MATERIAL_MEMO";
 
+/// The define of the subgroup-cooperative tile fill (memo.glsl
+/// `memo_fill_cooperative`): added for tiled tables when the settings ask
+/// for it and the device has subgroup ballot and shuffle.
+pub const COOPERATIVE_DEFINE: &str = "-DSC_MEMO_SUBGROUP";
+
 /// The include for `sg`. `origin` is the render origin GPU positions are
 /// relative to (rt/origin.rs): graphs see world positions. With `memo`, it
 /// also defines `bool sc_material_memoizable(uint material_id)`: whether
@@ -160,15 +165,24 @@ pub struct GraphShaders {
     pub include: String,
     /// Compiled with the memoization cache (`MEMO_DEFINE`).
     memo: bool,
+    /// With the cooperative tile fill (`COOPERATIVE_DEFINE`).
+    pub cooperative: bool,
     dir: std::path::PathBuf,
     built: Mutex<HashMap<String, Result<&'static [u8], String>>>,
 }
 
 impl GraphShaders {
-    pub fn new(sg: &SceneGraphs, origin: DVec3, memo: bool, slots: &[Vec<u32>]) -> GraphShaders {
+    pub fn new(
+        sg: &SceneGraphs,
+        origin: DVec3,
+        memo: bool,
+        slots: &[Vec<u32>],
+        cooperative: bool,
+    ) -> GraphShaders {
         GraphShaders {
             include: include(sg, origin, memo, slots),
             memo,
+            cooperative: memo && cooperative,
             dir: compile::cache_dir(),
             built: Mutex::new(HashMap::new()),
         }
@@ -185,6 +199,9 @@ impl GraphShaders {
         defs.push(DEFINE);
         if self.memo {
             defs.push(MEMO_DEFINE);
+        }
+        if self.cooperative {
+            defs.push(COOPERATIVE_DEFINE);
         }
         let what = format!("shader {name} with the scene's material graphs");
         compile::compile_tree(&self.dir, &what, &files, src, &defs).map(keep)
@@ -206,15 +223,23 @@ impl ShaderOverride for GraphShaders {
 }
 
 /// The run-time shaders of `sg`, or `None` (build-time SPIR-V) when it
-/// binds nothing; `memo`: with the memoization cache; `slots`: as for [`include`].
+/// binds nothing; `memo`: with the memoization cache; `slots`: as for
+/// [`include`]; `cooperative`: with the cooperative tile fill.
 pub fn for_scene(
     sg: &SceneGraphs,
     origin: DVec3,
     memo: bool,
     slots: &[Vec<u32>],
+    cooperative: bool,
 ) -> Option<Arc<dyn ShaderOverride>> {
     if sg.is_empty() {
         return None;
     }
-    Some(Arc::new(GraphShaders::new(sg, origin, memo, slots)))
+    Some(Arc::new(GraphShaders::new(
+        sg,
+        origin,
+        memo,
+        slots,
+        cooperative,
+    )))
 }

@@ -184,6 +184,9 @@ pub struct SceneGpu {
     /// The memoization table of the scene's graphs (`--memo …`), bound in
     /// set 0 after the TLAS slot; `None`: not memoized (the set as before).
     pub memo: Option<super::MemoGpu>,
+    /// The memo's tiled fill is the subgroup-cooperative one (memo.glsl
+    /// `memo_fill_cooperative`); false: the plain fill, or no tiles.
+    pub cooperative_fill: bool,
     texture_count: u32,
     /// The two-level structure, kept to rebuild its top level when instances move.
     /// (Behind a lock: methods share the scene through an `Arc`.)
@@ -686,6 +689,13 @@ impl SceneGpu {
                 .map(|b| b.raw)
                 .collect();
         }
+        // The subgroup-cooperative tile fill: tiled tables, asked for, and
+        // a device with subgroup ballot and shuffle (else the plain fill).
+        let m = &scene.graphs.memo;
+        let cooperative_fill = memo.is_some()
+            && m.tile > 1
+            && m.fill == crate::materials::memo::MemoFill::Subgroup
+            && ctx.caps.has_subgroup_ops(&["ballot", "shuffle"]);
         let mut all_textures = textures;
         all_textures.push(env_texture);
         let bytes = ctx.allocated_bytes().saturating_sub(before);
@@ -703,8 +713,10 @@ impl SceneGpu {
                 origin,
                 memo.is_some(),
                 &slots.graph_image_slots(scene),
+                cooperative_fill,
             ),
             memo,
+            cooperative_fill,
             texture_count,
             two_level: Mutex::new(two_level),
             posed: Mutex::new(rest),

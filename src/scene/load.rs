@@ -25,6 +25,8 @@ fn is_gltf(p: &Path) -> bool {
 /// `materials::library::assign_random`). `procedural-uv:[SEED:]SPEC`
 /// picks the same graphs in texture space (`library::texture_space`: the
 /// uv drives them, so the memoization cache can key them by texel).
+/// `procedural-heavy-uv:[SEED:]SPEC` makes the same picks from the
+/// compute-heavy variants (`library::HEAVY`) in texture space.
 ///
 /// `spin:NODE:SPEC` loads the static scene SPEC and makes the instances of
 /// its glTF node NODE turn about the vertical through their node origin
@@ -46,9 +48,16 @@ pub fn load_scene(spec: &str) -> Result<Scene, SceneError> {
     }
     let procedural = spec
         .strip_prefix("procedural:")
-        .map(|r| (r, false))
-        .or_else(|| spec.strip_prefix("procedural-uv:").map(|r| (r, true)));
-    if let Some((rest, texture_space)) = procedural {
+        .map(|r| (r, false, false))
+        .or_else(|| {
+            spec.strip_prefix("procedural-uv:")
+                .map(|r| (r, true, false))
+        })
+        .or_else(|| {
+            spec.strip_prefix("procedural-heavy-uv:")
+                .map(|r| (r, true, true))
+        });
+    if let Some((rest, texture_space, heavy)) = procedural {
         let (seed, inner) = match rest.split_once(':') {
             Some((n, inner)) if !n.is_empty() && n.bytes().all(|b| b.is_ascii_digit()) => (
                 n.parse::<u64>().map_err(|e| {
@@ -59,7 +68,7 @@ pub fn load_scene(spec: &str) -> Result<Scene, SceneError> {
             _ => (1, rest),
         };
         let mut scene = load_scene(inner)?;
-        crate::materials::library::assign_random_in(&mut scene, seed, texture_space);
+        crate::materials::library::assign_random_from(&mut scene, seed, texture_space, heavy);
         scene.validate()?;
         return Ok(scene);
     }

@@ -12,4 +12,4 @@ pub mod settings;
 pub mod state;
 pub mod table;
 
-pub use settings::{MemoHits, MemoSettings};
+pub use settings::{MemoFill, MemoHits, MemoSettings};

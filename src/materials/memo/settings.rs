@@ -68,6 +68,29 @@ pub const MAX_ENTRIES: u32 = 1 << 24;
 /// The widest probe window `--memo-probe` accepts.
 pub const MAX_PROBE: u32 = 64;
 
+/// How a missing tile is filled (the tiled variants; thesis §5.4.3).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum MemoFill {
+    /// The lane that missed evaluates the whole tile.
+    Plain,
+    /// The subgroup's lanes evaluate each missing tile together (ballot,
+    /// shuffle) where the device supports subgroup ballot and shuffle; the
+    /// plain fill elsewhere.
+    #[default]
+    Subgroup,
+}
+
+impl std::str::FromStr for MemoFill {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        Ok(match s {
+            "plain" => MemoFill::Plain,
+            "subgroup" => MemoFill::Subgroup,
+            _ => return Err(format!("bad --memo-fill '{s}': expected plain or subgroup")),
+        })
+    }
+}
+
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MemoSettings {
     pub hits: MemoHits,
@@ -85,6 +108,8 @@ pub struct MemoSettings {
     /// (s+1)² texels (the one-texel overlap, one lookup), or without tiles
     /// four lookups of single texels.
     pub bilinear: bool,
+    /// How the tiled variants fill a missing tile.
+    pub fill: MemoFill,
 }
 
 impl Default for MemoSettings {
@@ -97,6 +122,7 @@ impl Default for MemoSettings {
             bias: 0.0,
             tile: 1,
             bilinear: false,
+            fill: MemoFill::Subgroup,
         }
     }
 }

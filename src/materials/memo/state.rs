@@ -33,10 +33,15 @@ pub struct MemoCounters {
     /// `misses` too (shaders/common/memo.glsl `sc_memo_eye`).
     pub second_eye_hits: u64,
     pub second_eye_misses: u64,
+    /// Tiles filled by the subgroup-cooperative fill (one per round: the
+    /// subgroup's lanes evaluate one tile's texels together; 0 with the
+    /// plain fill).
+    #[serde(default)]
+    pub cooperative_fills: u64,
 }
 
 impl MemoCounters {
-    pub const WORDS: usize = 9;
+    pub const WORDS: usize = 10;
 
     pub fn from_words(w: &[u32]) -> MemoCounters {
         let g = |k: usize| w.get(k).copied().unwrap_or(0) as u64;
@@ -50,6 +55,7 @@ impl MemoCounters {
             bypassed: g(6),
             second_eye_hits: g(7),
             second_eye_misses: g(8),
+            cooperative_fills: g(9),
         }
     }
 
@@ -75,6 +81,7 @@ impl MemoCounters {
         self.bypassed += o.bypassed;
         self.second_eye_hits += o.second_eye_hits;
         self.second_eye_misses += o.second_eye_misses;
+        self.cooperative_fills += o.cooperative_fills;
     }
 }
 
