@@ -22,6 +22,13 @@ pub fn library() -> String {
 
 const ARGS: &[&str] = &["--target-env=vulkan1.2", "-O", "-fshader-stage=compute"];
 
+/// The arguments of the second attempt when the optimizer runs out of
+/// SPIR-V ids ("ID overflow": spirv-opt inlines every function, and a
+/// shader that calls compute-heavy graphs from many sites — material_at,
+/// the memo's fills, light sampling — exceeds the id bound). Unoptimized
+/// SPIR-V is valid and the driver's compiler optimizes it anyway.
+const ARGS_UNOPTIMIZED: &[&str] = &["--target-env=vulkan1.2", "-O0", "-fshader-stage=compute"];
+
 /// The cache directory (see the module docs).
 pub fn cache_dir() -> PathBuf {
     if let Some(d) = std::env::var_os("STEREOCACHE_SHADER_CACHE") {
@@ -180,12 +187,20 @@ fn run_glslc(
     spv: &Path,
 ) -> Result<Compiled, String> {
     let glslc = std::env::var("GLSLC").unwrap_or_else(|_| "glslc".into());
-    let out = Command::new(&glslc)
-        .args(ARGS)
-        .args(args)
-        .arg("-o")
-        .arg(tmp)
-        .output();
+    let run = |base: &[&str]| {
+        Command::new(&glslc)
+            .args(base)
+            .args(args)
+            .arg("-o")
+            .arg(tmp)
+            .output()
+    };
+    let mut out = run(ARGS);
+    if let Ok(o) = &out {
+        if !o.status.success() && String::from_utf8_lossy(&o.stderr).contains("ID overflow") {
+            out = run(ARGS_UNOPTIMIZED);
+        }
+    }
     let res = match out {
         Err(e) => Err(format!(
             "{what}: cannot run glslc ({e}); install it with scripts/setup.sh or set GLSLC"
