@@ -149,11 +149,13 @@ void memo_fill_cooperative(bool need, uint key, int level, ivec2 tq, uint shift,
                            uint want[4], uint cnt, vec3 p, vec3 n, vec3 t,
                            uint cap, uint probe, uint policy, uint now, inout ScGraphOutputs c[4]) {
     if (need) memo_count_miss();
+    // A subgroup whose lanes all hit (the common case) pays one ballot.
+    uvec4 req = subgroupBallot(need);
+    if (all(equal(req, uvec4(0u)))) return;
     uvec4 act = subgroupBallot(true);
     uint n_act = subgroupBallotBitCount(act);
     uint rank = subgroupBallotExclusiveBitCount(act);
     for (;;) {
-        uvec4 req = subgroupBallot(need);
         if (all(equal(req, uvec4(0u)))) break;
         uint leader = subgroupBallotFindLSB(req);
         bool lead = gl_SubgroupInvocationID == leader;
@@ -196,6 +198,7 @@ void memo_fill_cooperative(bool need, uint key, int level, ivec2 tq, uint shift,
             for (uint j = 0u; j < cnt; ++j) c[j] = memo_unpack(g0[j], g1[j], g2[j], n);
             need = false;
         }
+        req = subgroupBallot(need);
     }
 }
 #endif
