@@ -664,3 +664,145 @@ fn texture_procedurals_read_image_files_beside_the_gltf() {
     );
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// Image nodes read through the memoization table (`--memo primary`): a
+/// memoized texel of level m holds the graph evaluated at the texel's
+/// centre for the footprint 2^-m, which the image turns into a mip level
+/// (×3, the texture coordinate's scale). A 64×64 image of checkers (whose
+/// mips differ from level 0) read trilinearly through texcoord 3·uv − 1
+/// puts those levels at λ ≈ 3–4 here, so the footprint passed through the
+/// table decides the value.
+/// Known answer: the CPU evaluator at the snapped uv with that footprint.
+/// Tolerance: bilinear weights to q = 2^-subTexelPrecisionBits per axis
+/// (2q), the blend of two levels snapped to 2^-mipmapPrecisionBits (values
+/// in [0, 1]), f32 rounding 10⁻⁶.
+#[test]
+fn image_graphs_read_through_the_memo_table_at_texel_centres() {
+    use stereocache::materials::memo::{lod, MemoHits, MemoSettings};
+    let ctx = context();
+    let d = dir("memo");
+    let mut px = Vec::new();
+    for y in 0..64u32 {
+        for x in 0..64u32 {
+            // Red: a one-texel checker (0/255; its mips are grey), green: a ramp,
+            // blue: a 4-texel checker — so every level reads differently.
+            let r = if (x + y) % 2 == 0 { 255 } else { 0 };
+            let b = if (x / 4 + y / 4) % 2 == 0 { 255 } else { 0 };
+            px.extend_from_slice(&[r, (y * 4) as u8, b, 255]);
+        }
+    }
+    write_png(&d.join("ramp.png"), 64, 64, px);
+    let mut s = Scene {
+        source: "test:image-memo".into(),
+        ..Default::default()
+    };
+    let mut m = Material::diffuse("ramp", Vec3::ONE);
+    let pre = r#"<texcoord name="uv" type="vector2" />
+    <multiply name="s" type="vector2"><input name="in1" type="vector2" nodename="uv" /><input name="in2" type="float" value="3.0" /></multiply>
+    <subtract name="tc" type="vector2"><input name="in1" type="vector2" nodename="s" /><input name="in2" type="float" value="1.0" /></subtract>"#;
+    let text = image_doc(
+        r#"value="ramp.png""#,
+        "color3",
+        r#"<input name="texcoord" type="vector2" nodename="tc" />"#,
+        pre,
+    );
+    let file = d.join("g.mtlx").display().to_string();
+    s.graphs
+        .attach_mtlx(0, &mut m, &file, &text)
+        .expect("binds");
+    let mat = add_material(&mut s, m);
+    let g = grid(
+        "quad",
+        Vec3::new(-0.5, 0.0, 0.5),
+        Vec3::X,
+        Vec3::NEG_Z,
+        1,
+        1,
+        Vec2::ONE,
+    );
+    add_mesh(&mut s, g, mat, Mat4::IDENTITY);
+    s.validate().unwrap();
+    s.graphs.memo = MemoSettings {
+        hits: MemoHits::Primary,
+        ..Default::default()
+    };
+    let (w, h) = (40u32, 24u32);
+    let settings = RenderSettings {
+        width: w,
+        height: h,
+        spp: 1,
+        max_bounces: 1,
+        seed: 1,
+        all_features: false,
+        ..Default::default()
+    };
+    let camera = top_camera();
+    let q = 0.5f32.powi(ctx.caps.sub_texel_precision_bits.max(4) as i32);
+    let qm = 0.5f32.powi(ctx.caps.mipmap_precision_bits.max(4) as i32);
+    let tol = 2.0 * q + qm + 1e-6;
+    for rt in [RtChoice::Software, RtChoice::Query] {
+        if rt == RtChoice::Query && !require(ctx.ray_query_enabled(), "ray queries") {
+            continue;
+        }
+        let sess = session(&ctx, s.clone(), rt);
+        let f = render(&sess, "reference", camera, &settings);
+        let c = sess.scene_gpu.memo.as_ref().unwrap().counters().unwrap();
+        assert!(c.hits + c.misses > 0 && c.bypassed == 0, "{rt:?}: {c:?}");
+        let graph = &sess.scene.graphs.graphs[0];
+        let (mut checked, mut lambdas) = (0usize, Vec::new());
+        for (e, eye) in f.eyes.iter().enumerate() {
+            let view = camera.eyes()[e];
+            let spread = 2.0 * view.tan_half_fov().y / h as f32;
+            for (i, fh) in eye.first_hit.iter().enumerate() {
+                if fh[3] == u32::MAX {
+                    continue;
+                }
+                let (_, uv) = hit_uv(&sess.scene, *fh);
+                let pxc = Vec2::new((i as u32 % w) as f32 + 0.5, (i as u32 / w) as f32 + 0.5);
+                let dir = view.ray_direction(pxc, glam::UVec2::new(w, h));
+                let t = -view.position.y / dir.y;
+                let cone = t * spread;
+                // The level (and, within 2^-20 of a texel edge, the texel)
+                // the GPU may have chosen from its own f32 cone and uv.
+                let mut levels = vec![lod::level(cone, 1.0, 0.0)];
+                for k in [0.999f32, 1.001] {
+                    let l = lod::level(cone * k, 1.0, 0.0);
+                    if !levels.contains(&l) {
+                        levels.push(l);
+                    }
+                }
+                let got = Vec3::from_slice(&eye.albedo[i][..3]);
+                let eps = 2.0f32.powi(-20);
+                let ok = levels.iter().any(|&m| {
+                    [-eps, 0.0, eps].iter().any(|du| {
+                        [-eps, 0.0, eps].iter().any(|dv| {
+                            let qq = lod::quantise([uv.x + du, uv.y + dv], m);
+                            let at = lod::snapped_uv(qq, m);
+                            let want = Vec3::from_slice(&super_at(graph, at, 2f32.powi(-m))[..3]);
+                            (got - want).abs().max_element() <= tol
+                        })
+                    })
+                });
+                let m0 = levels[0];
+                lambdas.push((2f32.powi(-m0) * 3.0 * 64.0).log2());
+                assert!(
+                    ok,
+                    "{rt:?}: eye {e} pixel {i} (uv {uv}, level {m0}): GPU {got}"
+                );
+                checked += 1;
+            }
+        }
+        // The 1 m quad covers about 9.4 × 9.4 pixels an eye at 2.2 m.
+        assert!(checked > 150, "{rt:?}: {checked}");
+        // The footprint mattered: the levels read lie between mips, above 0.
+        let lo = lambdas.iter().cloned().fold(f32::INFINITY, f32::min);
+        assert!(lo > 1.0, "{rt:?}: image levels from {lo}");
+    }
+    assert_no_validation_messages(&ctx);
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// [`at`] under another name (the memo test's closure shadows it).
+fn super_at(g: &Graph, uv: [f32; 2], footprint: f32) -> [f32; 4] {
+    at(g, uv, footprint)
+}

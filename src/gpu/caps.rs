@@ -162,6 +162,10 @@ pub struct DeviceCaps {
     /// 2^-bits (tests derive their tolerances from it; ≥ 4 by the spec).
     #[serde(skip)]
     pub sub_texel_precision_bits: u32,
+    /// `mipmapPrecisionBits`: the fraction that blends two mip levels is
+    /// snapped to 2^-bits (≥ 4 by the spec).
+    #[serde(skip)]
+    pub mipmap_precision_bits: u32,
     /// The largest device-local heap.
     pub device_local_bytes: u64,
     pub memory_heaps: Vec<MemoryHeap>,

@@ -92,6 +92,7 @@ fn probe(
         max_push_constants_size: props.limits.max_push_constants_size,
         max_compute_work_group_invocations: props.limits.max_compute_work_group_invocations,
         sub_texel_precision_bits: props.limits.sub_texel_precision_bits,
+        mipmap_precision_bits: props.limits.mipmap_precision_bits,
         ..Default::default()
     };
     if api < (1, 2) {
