@@ -170,7 +170,7 @@ fn srgb_to_linear(c: f32) -> f32 {
     }
 }
 
-/// Vulkan's wrapping of an integer texel coordinate (spec §16.x "Wrapping Operation").
+/// Vulkan's wrapping of an integer texel coordinate (the specification's "Wrapping Operation").
 fn wrap(i: i64, size: i64, w: Wrap) -> i64 {
     match w {
         Wrap::Repeat => i.rem_euclid(size),
