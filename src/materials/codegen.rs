@@ -416,6 +416,34 @@ fn cone(g: &Graph, s: &Source, n: usize) -> Vec<bool> {
     used
 }
 
+/// A function `<ty> mxh_<symbol>_<name><i>(MxGeom g)` returning input `k`
+/// of node `i` (the nodes it reads re-evaluated for `g`): heighttonormal's
+/// height and an image's texture coordinate at shifted uvs.
+fn input_helper(
+    s: &mut String,
+    g: &Graph,
+    symbol: &str,
+    slots: &[u32],
+    i: usize,
+    k: usize,
+    (ty, name, prefix): (&str, &str, &str),
+) {
+    let e = Emit {
+        graph: g,
+        geom: "g",
+        prefix: format!("{prefix}{i}_"),
+        hfn: format!("mxh_{symbol}"),
+        slots,
+    };
+    let _ = writeln!(s, "{ty} mxh_{symbol}_{name}{i}(MxGeom g) {{");
+    let src = &g.nodes[i].inputs[k];
+    let used = cone(g, src, i);
+    let mut body = String::new();
+    e.body(&g.nodes[..i], &used, &mut body);
+    s.push_str(&body);
+    let _ = writeln!(s, "    return {ty}({});\n}}", e.src(src));
+}
+
 /// The GLSL of graph `g` as function `mxg_<symbol>`; its image nodes read
 /// texture slots `slots` (one per `g.images`).
 pub fn glsl(g: &Graph, symbol: &str, slots: &[u32]) -> String {
@@ -429,35 +457,10 @@ pub fn glsl(g: &Graph, symbol: &str, slots: &[u32]) -> String {
     // Helpers for heighttonormal: the height input's cone, as its own function.
     for (i, n) in g.nodes.iter().enumerate() {
         if n.op() == "heighttonormal" {
-            let prefix = format!("h{i}_");
-            let e = Emit {
-                graph: g,
-                geom: "g",
-                prefix,
-                hfn: format!("mxh_{symbol}"),
-                slots,
-            };
-            let _ = writeln!(s, "float mxh_{symbol}_{i}(MxGeom g) {{");
-            let used = cone(g, &n.inputs[0], i);
-            let mut body = String::new();
-            e.body(&g.nodes[..i], &used, &mut body);
-            s.push_str(&body);
-            let _ = writeln!(s, "    return float({});\n}}", e.src(&n.inputs[0]));
+            input_helper(&mut s, g, symbol, slots, i, 0, ("float", "", "h"));
         }
         if n.op() == "image" && n.inputs[3] != Source::Geom(GeomProp::Uv) {
-            let e = Emit {
-                graph: g,
-                geom: "g",
-                prefix: format!("t{i}_"),
-                hfn: format!("mxh_{symbol}"),
-                slots,
-            };
-            let _ = writeln!(s, "vec2 mxh_{symbol}_t{i}(MxGeom g) {{");
-            let used = cone(g, &n.inputs[3], i);
-            let mut body = String::new();
-            e.body(&g.nodes[..i], &used, &mut body);
-            s.push_str(&body);
-            let _ = writeln!(s, "    return vec2({});\n}}", e.src(&n.inputs[3]));
+            input_helper(&mut s, g, symbol, slots, i, 3, ("vec2", "t", "t"));
         }
     }
     let e = Emit {

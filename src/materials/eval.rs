@@ -126,13 +126,8 @@ pub fn eval_constant(node: &Node) -> Value {
 /// the shifted uv; out = normalize(−scale·∂h/∂u, −scale·∂h/∂v, 1)·0.5 + 0.5.
 fn height_to_normal(g: &Graph, i: usize, geom: &Geom) -> Value {
     let node = &g.nodes[i];
-    let at = |du: f32, dv: f32| -> f32 {
-        let mut q = *geom;
-        // The texcoord input (the graph's uv unless connected elsewhere) is shifted.
-        q.uv = [geom.uv[0] + du, geom.uv[1] + dv];
-        let vals = eval_nodes(g, i, &q);
-        read(&node.inputs[0], &vals, &q).v[0]
-    };
+    // The texcoord input (the graph's uv unless connected elsewhere) is shifted.
+    let at = |du: f32, dv: f32| shifted_input(g, i, 0, geom, du, dv).v[0];
     let scale = match &node.inputs[1] {
         Source::Const(v) => v.v[0],
         s => read(s, &eval_nodes(g, i, geom), geom).v[0],
@@ -147,6 +142,14 @@ fn height_to_normal(g: &Graph, i: usize, geom: &Geom) -> Value {
     )
 }
 
+/// Input `k` of node `i` with the graph re-evaluated at the uv shifted by
+/// (du, dv): heighttonormal's and the image texcoord's central differences.
+fn shifted_input(g: &Graph, i: usize, k: usize, geom: &Geom, du: f32, dv: f32) -> Value {
+    let mut q = *geom;
+    q.uv = [geom.uv[0] + du, geom.uv[1] + dv];
+    read(&g.nodes[i].inputs[k], &eval_nodes(g, i, &q), &q)
+}
+
 /// `image` (node `i`): the file's texel filtering at the texture
 /// coordinate (input 3), for the footprint scaled by the coordinate's
 /// Jacobian (central differences at ±HEIGHT_STEP unless it is the uv).
@@ -156,11 +159,7 @@ fn image_node(g: &Graph, i: usize, geom: &Geom, vals: &[Value]) -> Value {
     let tc = read(&node.inputs[3], vals, geom).v;
     let mut footprint = geom.footprint;
     if footprint > 0.0 && node.inputs[3] != Source::Geom(super::graph::GeomProp::Uv) {
-        let at = |du: f32, dv: f32| -> [f32; 4] {
-            let mut q = *geom;
-            q.uv = [geom.uv[0] + du, geom.uv[1] + dv];
-            read(&node.inputs[3], &eval_nodes(g, i, &q), &q).v
-        };
+        let at = |du: f32, dv: f32| shifted_input(g, i, 3, geom, du, dv).v;
         let (u1, u0) = (at(HEIGHT_STEP, 0.0), at(-HEIGHT_STEP, 0.0));
         let (v1, v0) = (at(0.0, HEIGHT_STEP), at(0.0, -HEIGHT_STEP));
         footprint *= texcoord_scale(u1, u0, v1, v0, HEIGHT_STEP);
