@@ -513,6 +513,10 @@ pub fn compare_configs(
             ppd,
             source: "--flip-ppd".into(),
         },
+        None if cameras[0].projection != crate::camera::Projection::Perspective => FlipPpd {
+            ppd: flip_ppd(&cameras[0], settings.width),
+            source: "default: an orthographic camera's pixels subtend no angle (metrics::flip::DEFAULT_PPD)".into(),
+        },
         None => FlipPpd {
             ppd: flip_ppd(&cameras[0], settings.width),
             source: format!(

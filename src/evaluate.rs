@@ -160,8 +160,15 @@ impl ReferenceCache {
         } else {
             String::new()
         };
+        // Perspective keys are those of before orthographic cameras existed.
+        let projection = match cam.projection {
+            crate::camera::Projection::Perspective => String::new(),
+            crate::camera::Projection::Orthographic { ymag } => {
+                format!("|ortho{:08x}", ymag.to_bits())
+            }
+        };
         let text = format!(
-            "v2-halves|{code:016x}|{file}|{}|{}|{:?}|{:?}|{:?}|{}|{}|{}x{}|spp{}|b{}|seed{}|frame{}|{}{pose}",
+            "v2-halves|{code:016x}|{file}|{}|{}|{:?}|{:?}|{:?}|{}|{}|{}x{}|spp{}|b{}|seed{}|frame{}|{}{pose}{projection}",
             session.scene.source.display(),
             session.scene_gpu.triangle_count,
             cam.world_position().to_array().map(f64::to_bits),

@@ -164,6 +164,7 @@ pub fn trace_cameras(
         .iter()
         .map(|s| StereoCamera {
             anchor: base.anchor,
+            projection: base.projection,
             ..stage.eye_camera(s, base.yfov, base.aspect, base.ipd)
         })
         .collect())

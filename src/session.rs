@@ -150,11 +150,11 @@ impl Session {
                         }
                     ))
                 })?;
-                StereoCamera::from_scene_camera(c.transform, c.yfov, aspect)
+                StereoCamera::from_scene(c, aspect)
             }
             CameraSelect::Default => {
                 match self.scene.camera("default").or(self.scene.cameras.first()) {
-                    Some(c) => StereoCamera::from_scene_camera(c.transform, c.yfov, aspect),
+                    Some(c) => StereoCamera::from_scene(c, aspect),
                     None => {
                         let (lo, hi) = self.scene.world_bounds();
                         let framing = frame_bounds(

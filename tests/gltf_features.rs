@@ -227,7 +227,6 @@ fn elsewhere_keyword(name: &str) -> &'static str {
         "points and lines" => "triangle strips and triangle fans only",
         "TEXCOORD_1 and texCoord" => "different uv sets (texCoord)",
         "KHR_texture_transform" => "texture transforms (KHR_texture_transform)",
-        "orthographic cameras" => "orthographic camera",
         "animation of morph weights" => "morph-target weights",
         "AMD_split_roughnessMetallic" => "AMD_split_roughnessMetallic",
         _ => panic!("no keyword for the feature warned elsewhere '{name}'"),

@@ -23,7 +23,7 @@ void main() {
     if (pc.mode == 0u) {
         vec3 d = eye_ray_dir(e, vec2(px) + 0.5);
         RtHit h;
-        bool hit = rt_closest_hit(e.pos_tanx.xyz, d, 0.0, 1e30, h);
+        bool hit = rt_closest_hit(eye_ray_origin(e, vec2(px) + 0.5), d, 0.0, 1e30, h);
         if (hit) {
             Surface s = surface_at(h.instance, h.prim, h.bary, d);
             hits[idx] = vec4(s.p, 1.0);

@@ -24,11 +24,9 @@ void main() {
     vec3 p = w.x * vertices[vi.x].pos_u.xyz + w.y * vertices[vi.y].pos_u.xyz + w.z * vertices[vi.z].pos_u.xyz;
     p = (instances[fh.w].object_to_world * vec4(p, 1.0)).xyz;
     EyeGpu e = frame.eyes[eye];
-    vec3 d = p - e.pos_tanx.xyz;
-    float vd = dot(d, e.fwd.xyz);
-    if (!(vd > 0.0)) return;
-    vec2 ndc = vec2(dot(d, e.right_tany.xyz) / (vd * e.pos_tanx.w), dot(d, e.up.xyz) / (vd * e.right_tany.w));
-    vec2 q = vec2(0.5 * (ndc.x + 1.0) * float(size.x), 0.5 * (1.0 - ndc.y) * float(size.y));
+    vec2 q;
+    float vd;
+    if (!project_to_eye(e, p, q, vd)) return;
     if (any(lessThan(q, vec2(0.0))) || any(greaterThanEqual(q, vec2(size)))) return;
     uvec2 qi = uvec2(q);
     dst[eye * npix + qi.y * size.x + qi.x] = fh;

@@ -104,9 +104,11 @@ vec3 nee_area_lights(Surface s, ShadingMaterial m, Frame f, vec3 wo, vec4 u_emit
 }
 
 // Radiance towards the origin of ray (o, d) whose closest hit is `h` (`hit` =
-// false for a miss). `cone_width` is the ray-cone width at the hit, used for
+// false for a miss). `eye_cone` is the camera ray's cone at the hit (width,
+// spread angle: camera.glsl eye_cone; 0 for a miss): the width is used for
 // texture filtering at the first hit; later hits use mip 0 plus growth.
-vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, float cone_width, inout Rng rng, inout RayCounts rays) {
+vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, vec2 eye_cone, inout Rng rng, inout RayCounts rays) {
+    float cone_width = eye_cone.x;
     vec3 L = vec3(0.0);
     vec3 beta = vec3(1.0);
     bool specular_prev = true;   // camera rays and delta events see the sun disc directly
@@ -118,7 +120,9 @@ vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, float cone_width, inout Rn
     // 2.10-2.11: width grown by the spread, the spread by each surface's
     // roughness); the texture filtering's `cone` stays 0 there.
     float memo_w = cone_width;
-    float memo_spread = hit && h.t > 0.0 ? cone_width / h.t : 0.0;
+    // (A perspective cone's spread is its width over the distance;
+    // an orthographic one's is 0: parallel rays.)
+    float memo_spread = hit && h.t > 0.0 && eye_cone.y > 0.0 ? cone_width / h.t : 0.0;
 #endif
     for (uint bounce = 0u;; ++bounce) {
         // Beer–Lambert over this segment (a ray escaping an open mesh from

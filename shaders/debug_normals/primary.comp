@@ -27,19 +27,19 @@ void main() {
     if (any(greaterThanEqual(px, size))) return;
     uint idx = (eye * size.y + px.y) * size.x + px.x;
     EyeGpu e = frame.eyes[eye];
-    vec3 o = e.pos_tanx.xyz;
+    vec3 o = eye_ray_origin(e, vec2(px) + 0.5);
     vec3 d = eye_ray_dir(e, vec2(px) + 0.5);
     RtHit h;
     bool hit = rt_closest_hit(o, d, 0.0, 1e30, h);
     atomicAdd(counters[C_DEBUG_NORMALS_PRIMARY_RAYS], 1u);
     if (hit) {
         Surface s = surface_at(h.instance, h.prim, h.bary, d);
-        ShadingMaterial m = material_at(s, d, h.t * eye_pixel_spread(e));
+        ShadingMaterial m = material_at(s, d, eye_cone(e, h.t).x);
         if (dot(s.n, d) >= 0.0) s.n = s.ng;
         uint mat = instance_material(h.instance);
         color[idx] = vec4(0.5 * s.n + 0.5, 1.0);
         first_hit[idx] = encode_first_hit(h.bary, h.instance, h.prim, mat);
-        depth[idx] = view_depth(e, o + h.t * d);
+        depth[idx] = eye_hit_depth(e, d, h.t);
         albedo[idx] = vec4(m.base, 1.0);
     } else {
         color[idx] = vec4(0.0, 0.0, 0.0, 1.0);

@@ -17,7 +17,8 @@ layout(set = SET_HASH_CACHE, binding = B_HASH_CACHE_TAA_DEPTH, std430) writeonly
 layout(set = SET_HASH_CACHE, binding = B_HASH_CACHE_TAA_FH, std430) writeonly buffer TaaFh { uvec4 taa_fh[]; };          // pixel-centre first hit
 
 // The pixel centre's first hit for TAA (one primary ray, counted).
-void write_centre_hit(EyeGpu e, vec3 o, uvec2 px, uint pm) {
+void write_centre_hit(EyeGpu e, uvec2 px, uint pm) {
+    vec3 o = eye_ray_origin(e, vec2(px) + 0.5);
     vec3 d = eye_ray_dir(e, vec2(px) + 0.5);
     RtHit h;
     bool hit = rt_closest_hit(o, d, 0.0, 1e30, h);
@@ -28,7 +29,7 @@ void write_centre_hit(EyeGpu e, vec3 o, uvec2 px, uint pm) {
         return;
     }
     Surface s = surface_at(h.instance, h.prim, h.bary, d);
-    taa_depth[pm] = view_depth(e, o + h.t * d);
+    taa_depth[pm] = eye_hit_depth(e, d, h.t);
     taa_fh[pm] = encode_first_hit(h.bary, h.instance, h.prim, s.material);
 }
 
@@ -44,16 +45,17 @@ void main() {
     uint pm = eye * npix() + pixel;
     EyeGpu e = frame.eyes[eye];
     Rng r = rng_init(frame.size_seed.z, pc.now, eye, pixel, 0x4A5C0001u);
-    vec3 o = e.pos_tanx.xyz;
-    write_centre_hit(e, o, px, pm);
-    vec3 d = eye_ray_dir(e, vec2(px) + rng_next2(r));
+    write_centre_hit(e, px, pm);
+    vec2 at = vec2(px) + rng_next2(r);
+    vec3 o = eye_ray_origin(e, at);
+    vec3 d = eye_ray_dir(e, at);
     RtHit h;
     bool hit = rt_closest_hit(o, d, 0.0, 1e30, h);
     atomicAdd(counters[C_HT_PRIMARY], 1u);
     if (!hit) {
         RayCounts rays = RayCounts(0u, 0u);
         Rng rr = r;
-        vec3 L = path_radiance(o, d, false, h, 0.0, rr, rays);   // environment and sun: no rays
+        vec3 L = path_radiance(o, d, false, h, vec2(0.0), rr, rays);   // environment and sun: no rays
         if (any(isnan(L)) || any(isinf(L))) L = vec3(0.0);
         pix_ray[pm] = vec4(d, -1.0);
         pix_hit[pm] = uvec4(0u, 0u, 0u, NO_HIT);
@@ -66,7 +68,7 @@ void main() {
         atomicAdd(counters[C_HT_MISSES], 1u);
         return;
     }
-    float cone = h.t * eye_pixel_spread(e);
+    float cone = eye_cone(e, h.t).x;
     Surface s = surface_at(h.instance, h.prim, h.bary, d);
     ShadingMaterial m = material_at(s, d, cone);
     vec3 p = o + h.t * d;

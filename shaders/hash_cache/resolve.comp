@@ -28,7 +28,7 @@ void main() {
         vec4 ray = pix_ray[pm];
         uvec4 ph = pix_hit[pm];
         Surface s = surface_at(ph.w, ph.z, uintBitsToFloat(ph.xy), ray.xyz);
-        ShadingMaterial m = material_at(s, ray.xyz, ray.w * eye_pixel_spread(e));
+        ShadingMaterial m = material_at(s, ray.xyz, eye_cone(e, ray.w).x);
         vec3 Le = SC_EMISSIVE ? m.emissive : vec3(0.0);
         rec = st == ST_FAILED ? fallback[pm] : cells[cell.x];
         c = m.base * rec.rgb + Le;

@@ -115,7 +115,7 @@ uint hc_find_or_insert(uint h, uint local_offset, uint c, out uint slot, out boo
 // Level of detail: voxel edge 2^level ≤ footprint (the pixel footprint at the
 // hit, × lod_scale; with distance-normal LoD divided by |cos θ| ≥ 1/16).
 int hc_level(float t, vec3 d, vec3 ng, EyeGpu e) {
-    float footprint = t * eye_pixel_spread(e) * pc.lod_scale;
+    float footprint = eye_cone(e, t).x * pc.lod_scale;
     if (hc_lod_normal()) footprint /= max(abs(dot(d, ng)), 1.0 / 16.0);
     return clamp(int(floor(log2(max(footprint, 1e-30)))), -24, 23);   // 60 nm .. 8 km
 }

@@ -24,7 +24,6 @@ void main() {
     bool winner = (cell.y & 16u) != 0u;
     if (st == ST_MISS || (st != ST_FAILED && !winner)) return;
     EyeGpu e = frame.eyes[eye];
-    vec3 o = e.pos_tanx.xyz;
     vec4 ray = pix_ray[pm];
     uvec4 ph = pix_hit[pm];
     RtHit h;
@@ -33,13 +32,15 @@ void main() {
     h.prim = ph.z;
     h.instance = ph.w;
     vec3 d = ray.xyz;
-    float cone = h.t * eye_pixel_spread(e);
+    // The ray's origin (path_radiance takes the first hit from h).
+    vec3 o = position[pm].xyz - h.t * d;
+    vec2 cone = eye_cone(e, h.t);
     Rng rng = rng_init(frame.size_seed.z, pc.now, eye, pixel, 0x4A5C0002u);
     RayCounts rays = RayCounts(0u, 0u);
     vec3 L = path_radiance(o, d, true, h, cone, rng, rays);
     if (any(isnan(L)) || any(isinf(L))) L = vec3(0.0);
     Surface s = surface_at(h.instance, h.prim, h.bary, d);
-    ShadingMaterial m = material_at(s, d, cone);
+    ShadingMaterial m = material_at(s, d, cone.x);
     vec3 Le = SC_EMISSIVE ? m.emissive : vec3(0.0);
     vec3 demod = max(L - Le, vec3(0.0)) / max(m.base, vec3(1e-3));
     if (st == ST_FAILED) {

@@ -41,10 +41,9 @@ void main() {
     }
     uvec4 fh = fh_cur[hy_slot_index(eye, sl, pixel)];
     EyeGpu e = frame.eyes[eye];
-    vec3 o = e.pos_tanx.xyz;
-    vec3 wp = hit_position(fh);
-    float t = length(wp - o);
-    vec3 d = (wp - o) / max(t, 1e-30);
+    vec3 wp = hit_position(fh), o, d;
+    float t;
+    eye_ray_to(e, wp, o, d, t);
     vec2 bary = first_hit_bary(fh);
     Surface s = surface_at(fh.w, fh.z, bary, d);
     Rng r = rng_init(frame.size_seed.z, pc.now, eye, pixel, 0x4B1D0001u);

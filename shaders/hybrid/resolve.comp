@@ -23,7 +23,7 @@
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 
 // Per-pixel lookups: colour of the pixel's sample `sl` of this frame.
-void resolve_per_pixel(uint eye, uint pixel, uint pm, uint all_vis, uint vis, EyeGpu e, vec3 o) {
+void resolve_per_pixel(uint eye, uint pixel, uint pm, uint all_vis, uint vis, EyeGpu e) {
     vec2 j;
     uint sl = hy_pixel_sample(eye, pixel, all_vis, j);
     uvec4 fh = fh_cur[hy_slot_index(eye, sl, pixel)];
@@ -33,11 +33,11 @@ void resolve_per_pixel(uint eye, uint pixel, uint pm, uint all_vis, uint vis, Ey
         float lp;
         c = environment(db) + sun_radiance(db, lp);
     } else {
-        vec3 wp = hit_position(fh);
-        float t = length(wp - o);
-        vec3 d = (wp - o) / max(t, 1e-30);
+        vec3 wp = hit_position(fh), o, d;
+        float t;
+        eye_ray_to(e, wp, o, d, t);
         Surface s = surface_at(fh.w, fh.z, first_hit_bary(fh), d);
-        ShadingMaterial m = material_at(s, d, t * eye_pixel_spread(e));
+        ShadingMaterial m = material_at(s, d, eye_cone(e, t).x);
         int level = hc_level(t, d, s.ng, e);
         vec3 acc = vec3(0.0);
         bool got[2] = bool[2](false, false);
@@ -67,13 +67,15 @@ void resolve_per_pixel(uint eye, uint pixel, uint pm, uint all_vis, uint vis, Ey
         uint b = uint(findLSB(bits));
         bits &= bits - 1u;
         uvec4 f = fh_cur[hy_slot_index(eye, b, pixel)];
-        vec3 wp = hit_position(f);
-        float t = length(wp - o);
+        vec3 wp = hit_position(f), o, d;
+        float t;
+        eye_ray_to(e, wp, o, d, t);
         if (t < best_t) { best_t = t; best_fh = f; best_p = wp; }
     }
-    vec3 d = (best_p - o) / max(best_t, 1e-30);
+    vec3 o, d;
+    eye_ray_to(e, best_p, o, d, best_t);
     Surface s = surface_at(best_fh.w, best_fh.z, first_hit_bary(best_fh), d);
-    ShadingMaterial m = material_at(s, d, best_t * eye_pixel_spread(e));
+    ShadingMaterial m = material_at(s, d, eye_cone(e, best_t).x);
     position[pm] = vec4(best_p, 1.0);
     out_depth[pm] = view_depth(e, best_p);
     out_fh[pm] = best_fh;
@@ -93,7 +95,6 @@ void main() {
     uint all_vis = hy_vis_bits(mask_cur[pm]);
     uint vis = hy_surface_bits(eye, pixel, all_vis);
     EyeGpu e = frame.eyes[eye];
-    vec3 o = e.pos_tanx.xyz;
     // Background samples: sum of their environment radiance and count.
     vec3 bg_sum = vec3(0.0);
     float n_bg = 0.0;
@@ -117,10 +118,9 @@ void main() {
         return;
     }
     if (!PER_SAMPLE) {
-        resolve_per_pixel(eye, pixel, pm, all_vis, vis, e, o);
+        resolve_per_pixel(eye, pixel, pm, all_vis, vis, e);
         return;
     }
-    float spread = eye_pixel_spread(e);
     uint upd_slot = hy_update_slot(vis);
     bool upd_failed = (pix_cell[pm].y & 15u) == ST_FAILED;
     vec3 sum = vec3(0.0);
@@ -134,11 +134,11 @@ void main() {
         uint sl = uint(findLSB(bits));
         bits &= bits - 1u;
         uvec4 fh = fh_cur[hy_slot_index(eye, sl, pixel)];
-        vec3 wp = hit_position(fh);
-        float t = length(wp - o);
-        vec3 d = (wp - o) / max(t, 1e-30);
+        vec3 wp = hit_position(fh), o, d;
+        float t;
+        eye_ray_to(e, wp, o, d, t);
         Surface s = surface_at(fh.w, fh.z, first_hit_bary(fh), d);
-        ShadingMaterial m = material_at(s, d, t * spread);
+        ShadingMaterial m = material_at(s, d, eye_cone(e, t).x);
         if (t < best_t) { best_t = t; best_fh = fh; best_albedo = m.base; best_p = wp; }
         int level = hc_level(t, d, s.ng, e);
         vec3 acc = vec3(0.0);

@@ -43,20 +43,19 @@ uint pixel_index(uint eye, uvec2 px) { return (eye * frame_size().y + px.y) * fr
 // direction hits nothing; a surface sample is kept when the closest hit lies
 // within ε0·t of it or the ray finds neither, dropped behind a closer hit.
 // Counts the ray and the outcome. False: the cell is to be refilled.
-bool isrt_retrace(uvec4 fh, vec3 o) {
+bool isrt_retrace(uvec4 fh, EyeGpu e, vec2 at) {
     if (first_hit_is_background(fh)) {
         atomicAdd(counters[C_ISRT_RETRACE_RAYS], 1u);
-        if (!rt_occluded(o, background_direction(fh), 0.0, 1e30)) {
+        if (!rt_occluded(eye_ray_origin(e, at), background_direction(fh), 0.0, 1e30)) {
             atomicAdd(counters[C_ISRT_BACKGROUND], 1u);
             return true;
         }
         atomicAdd(counters[C_ISRT_RETRACE_LOST], 1u);
         return false;
     }
-    vec3 wp = hit_position(fh);
-    vec3 d = wp - o;
-    float t = length(d);
-    d /= max(t, 1e-30);
+    vec3 o, d;
+    float t;
+    eye_ray_to(e, hit_position(fh), o, d, t);
     RtHit h;
     bool hit = rt_closest_hit(o, d, 0.0, t * (1.0 + 2.0 * pc.eps0), h);
     atomicAdd(counters[C_ISRT_RETRACE_RAYS], 1u);
@@ -75,7 +74,7 @@ void isrt_new_sample(uint idx, uint eye, uvec2 g, EyeGpu e) {
     vec2 sub = (vec2(g) + rng_next2(r)) / float(M);
     vec3 d = eye_ray_dir(e, sub);
     RtHit h;
-    bool hit = rt_closest_hit(e.pos_tanx.xyz, d, 0.0, 1e30, h);
+    bool hit = rt_closest_hit(eye_ray_origin(e, sub), d, 0.0, 1e30, h);
     atomicAdd(counters[C_ISRT_NEW_RAYS], 1u);
     if (hit) {
         fh_cur[idx] = encode_first_hit(h.bary, h.instance, h.prim, instance_material(h.instance));

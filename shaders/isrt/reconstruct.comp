@@ -18,8 +18,6 @@ void main() {
     if (any(greaterThanEqual(px, frame_size()))) return;
     uint pm = pixel_index(eye, px);
     EyeGpu e = frame.eyes[eye];
-    vec3 o = e.pos_tanx.xyz;
-    float spread = eye_pixel_spread(e);
     vec3 sum = vec3(0.0);
     float shaded = 0.0, samples = 0.0;
     float best_t = 3.4e38;
@@ -39,11 +37,11 @@ void main() {
         }
         if (!first_hit_valid(fh)) continue;
         samples += 1.0;
-        vec3 wp = hit_position(fh);
-        float t = length(wp - o);
-        vec3 d = (wp - o) / max(t, 1e-30);
+        vec3 wp = hit_position(fh), o, d;
+        float t;
+        eye_ray_to(e, wp, o, d, t);
         Surface surf = surface_at(fh.w, fh.z, first_hit_bary(fh), d);
-        ShadingMaterial mat = material_at(surf, d, t * spread);
+        ShadingMaterial mat = material_at(surf, d, eye_cone(e, t).x);
         if (t < best_t) { best_t = t; best_fh = fh; best_albedo = mat.base; best_p = wp; }
         vec4 rec = rad_cur[idx];
         if (rec.w > 0.0) {

@@ -14,16 +14,18 @@ void main() {
     uint src = cell_index(eye, g);
     uvec4 fh = fh_prev[src];
     // A background sample (first_hit.glsl) reprojects as a direction at
-    // infinity: through the point one unit along it from the new eye, with
-    // view depth ∞ in the claim, so any surface sample wins its cell.
+    // infinity: through the point one unit along it from the new eye
+    // (camera.glsl background_offset), with view depth ∞ in the
+    // claim, so any surface sample wins its cell.
     bool bg = first_hit_is_background(fh);
     if (!first_hit_valid(fh) && !bg) return;
     vec2 q;
     float vd;
     vec2 size = vec2(frame_size());
     EyeGpu e = frame.eyes[eye];
-    vec3 p = bg ? e.pos_tanx.xyz + background_direction(fh) : hit_position(fh);
-    if (!project_to_eye(e, p, q, vd) || any(lessThan(q, vec2(0.0))) ||
+    vec3 offset = bg ? vec3(0.0) : hit_position(fh) - e.pos_tanx.xyz;   // from e's position
+    bool kept = !bg || background_offset(e, frame.prev_eyes[eye], (vec2(g) + 0.5) / float(M), background_direction(fh), offset);
+    if (!kept || !project_offset_to_eye(e, offset, q, vd) || any(lessThan(q, vec2(0.0))) ||
         any(greaterThanEqual(q, size))) {
         atomicAdd(counters[C_ISRT_OFFSCREEN], 1u);
         return;

@@ -29,10 +29,9 @@ void main() {
     uint idx = cell_index(eye, px * M + uvec2(k % M, k / M));
     uvec4 fh = fh_cur[idx];
     EyeGpu e = frame.eyes[eye];
-    vec3 o = e.pos_tanx.xyz;
-    vec3 wp = hit_position(fh);
-    float t = length(wp - o);
-    vec3 d = (wp - o) / max(t, 1e-30);
+    vec3 o, d;
+    float t;
+    eye_ray_to(e, hit_position(fh), o, d, t);
     RtHit h;
     h.t = t;
     h.instance = fh.w;
@@ -40,10 +39,10 @@ void main() {
     h.bary = first_hit_bary(fh);
     Rng rng = rng_init(frame.size_seed.z, frame.size_seed.w, eye, px.y * frame_size().x + px.x, 0x15A70002u + k);
     RayCounts rays = RayCounts(0u, 0u);
-    vec3 L = path_radiance(o, d, true, h, t * eye_pixel_spread(e), rng, rays);
+    vec3 L = path_radiance(o, d, true, h, eye_cone(e, t), rng, rays);
     if (any(isnan(L)) || any(isinf(L))) L = vec3(0.0);
     Surface s = surface_at(h.instance, h.prim, h.bary, d);
-    ShadingMaterial m = material_at(s, d, t * eye_pixel_spread(e));
+    ShadingMaterial m = material_at(s, d, eye_cone(e, t).x);
     vec3 demod = L / max(m.base, vec3(1e-3));
     vec4 rec = rad_cur[idx];
     float c = min(rec.w + 1.0, C_MAX);

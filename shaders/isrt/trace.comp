@@ -20,6 +20,6 @@ void main() {
     uint idx = cell_index(eye, g);
     EyeGpu e = frame.eyes[eye];
     uvec4 fh = fh_cur[idx];
-    if ((first_hit_is_background(fh) || first_hit_valid(fh)) && isrt_retrace(fh, e.pos_tanx.xyz)) return;
+    if ((first_hit_is_background(fh) || first_hit_valid(fh)) && isrt_retrace(fh, e, (vec2(g) + 0.5) / float(M))) return;
     isrt_new_sample(idx, eye, g, e);
 }

@@ -29,7 +29,7 @@ void main() {
         for (uint i = 0u; i < pick; ++i) rest &= rest - 1u;
         uint k = uint(findLSB(rest));
         uint idx = cell_index(eye, px * M + uvec2(k % M, k / M));
-        if (!isrt_retrace(fh_cur[idx], e.pos_tanx.xyz)) {
+        if (!isrt_retrace(fh_cur[idx], e, (vec2(px * M + uvec2(k % M, k / M)) + 0.5) / float(M))) {
             fh_cur[idx] = uvec4(0u, 0u, 0u, NO_HIT);
             rad_cur[idx] = vec4(0.0);
             occupied &= ~(1u << k);

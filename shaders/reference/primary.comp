@@ -15,17 +15,16 @@ void main() {
     if (any(greaterThanEqual(px, size))) return;
     uint idx = (eye * size.y + px.y) * size.x + px.x;
     EyeGpu e = frame.eyes[eye];
-    vec3 o = e.pos_tanx.xyz;
+    vec3 o = eye_ray_origin(e, vec2(px) + 0.5);
     vec3 d = eye_ray_dir(e, vec2(px) + 0.5);
     RtHit h;
     bool hit = rt_closest_hit(o, d, 0.0, 1e30, h);
     atomicAdd(counters[C_REFERENCE_PRIMARY_RAYS], 1u);
     if (hit) {
-        vec3 p = o + h.t * d;
         uint mat = instance_material(h.instance);
         first_hit[idx] = encode_first_hit(h.bary, h.instance, h.prim, mat);
-        depth[idx] = view_depth(e, p);
-        albedo[idx] = vec4(first_hit_albedo(h, d, h.t * eye_pixel_spread(e)), 1.0);
+        depth[idx] = eye_hit_depth(e, d, h.t);
+        albedo[idx] = vec4(first_hit_albedo(h, d, eye_cone(e, h.t).x), 1.0);
     } else {
         first_hit[idx] = uvec4(0u, 0u, 0u, NO_HIT);
         depth[idx] = 0.0;

@@ -25,11 +25,11 @@ void main() {
         Rng rng = rng_init(frame.size_seed.z, frame.size_seed.w, eye, px.y * size.x + px.x, sample_index);
         vec2 jitter = rng_next2(rng);
         if (pc.fixed_jitter != 0u) jitter = pc.jitter;
-        vec3 o = e.pos_tanx.xyz;
+        vec3 o = eye_ray_origin(e, vec2(px) + jitter);
         vec3 d = eye_ray_dir(e, vec2(px) + jitter);
         RtHit h;
         bool hit = rt_closest_hit(o, d, 0.0, 1e30, h);
-        vec3 L = path_radiance(o, d, hit, h, hit ? h.t * eye_pixel_spread(e) : 0.0, rng, rays);
+        vec3 L = path_radiance(o, d, hit, h, hit ? eye_cone(e, h.t) : vec2(0.0), rng, rays);
         // A non-finite sample is dropped (counted as black) rather than poisoning the mean.
         if (any(isnan(L)) || any(isinf(L))) L = vec3(0.0);
         sum += L;

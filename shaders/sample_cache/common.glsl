@@ -171,13 +171,19 @@ uint nth_set_bit(uint bits, uint k) {
     return uint(findLSB(bits));
 }
 
+// The length of a pixel's diagonal on the image plane: at distance 1 in
+// tangent units (perspective), in metres (orthographic).
+float pixel_diagonal(EyeGpu e) {
+    vec2 pix = vec2(2.0 * e.pos_tanx.w / float(frame.size_seed.x), 2.0 * e.right_tany.w / float(frame.size_seed.y));
+    return length(pix);
+}
+
 // cos φ and sin φ of the angle φ subtended by a pixel's diagonal (Eq. 1):
 // φ = atan(L) for the diagonal's tangent-plane length L, so
 // cos φ = 1/√(1 + L²) and sin φ = L/√(1 + L²).
 // CPU twin: src/methods/sample_cache/heuristics.rs `pixel_diagonal_cos_sin`.
 vec2 pixel_diagonal_cos_sin(EyeGpu e) {
-    vec2 pix = vec2(2.0 * e.pos_tanx.w / float(frame.size_seed.x), 2.0 * e.right_tany.w / float(frame.size_seed.y));
-    float l = length(pix);
+    float l = pixel_diagonal(e);
     float inv = inversesqrt(1.0 + l * l);
     return vec2(inv, l * inv);
 }
@@ -191,6 +197,16 @@ float normal_slope(float t, float cos_theta, vec2 cs_phi) {
     float c = clamp(cos_theta, 0.0, 1.0);
     float sin_theta = sqrt((1.0 - c) * (1.0 + c));
     return t * abs(1.0 - c / (c * cs_phi.x + sin_theta * cs_phi.y));
+}
+
+// Eq. 1 for an orthographic eye's parallel rays: its limit as t → ∞ with
+// t·tan φ held at the pixel diagonal's length L on the image plane,
+// Δn = L tan θ, capped at t as Eq. 1 is at θ = π/2 (Δn = t there).
+// CPU twin: src/methods/sample_cache/heuristics.rs `normal_slope_parallel`.
+float normal_slope_parallel(float t, float cos_theta, float diag) {
+    float c = clamp(cos_theta, 0.0, 1.0);
+    float sin_theta = sqrt((1.0 - c) * (1.0 + c));
+    return min(diag * sin_theta / c, t);   // c = 0: ∞, so t
 }
 
 // Eq. 2 with ε1: true when the depths are consistent with one flat surface.

@@ -68,8 +68,6 @@ void main() {
     uint m = mask_cur[pm];
     uint vis = vis_bits(m);
     EyeGpu e = frame.eyes[eye];
-    vec3 o = e.pos_tanx.xyz;
-    float spread = eye_pixel_spread(e);
 
     vec3 sum = vec3(0.0), m1 = vec3(0.0), m2 = vec3(0.0);
     float shaded = 0.0, c_total = 0.0;
@@ -93,11 +91,11 @@ void main() {
             n_bg += 1.0;
             continue;
         }
-        vec3 wp = hit_position(fh);
-        float t = length(wp - o);
-        vec3 d = (wp - o) / max(t, 1e-30);
+        vec3 wp = hit_position(fh), o, d;
+        float t;
+        eye_ray_to(e, wp, o, d, t);
         Surface surf = surface_at(fh.w, fh.z, first_hit_bary(fh), d);
-        ShadingMaterial mat = material_at(surf, d, t * spread);
+        ShadingMaterial mat = material_at(surf, d, eye_cone(e, t).x);
         // (--payload none: no radiance record; every sample counts as unshaded.)
         vec4 rec = SHADING_STORAGE ? rad_cur[idx] : vec4(0.0);
         if (t < best_t) { best_t = t; best_fh = fh; best_albedo = mat.base; best_p = wp; }

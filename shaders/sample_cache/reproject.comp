@@ -33,6 +33,8 @@ void main() {
     if (occ == 0u) return;
     EyeGpu e = frame.eyes[eye];
     vec2 cs_phi = pixel_diagonal_cos_sin(e);
+    bool ortho = eye_is_ortho(e);
+    float diag = pixel_diagonal(e);
     uint reprojected = 0u, reprojected_visible = 0u, full = 0u, offscreen = 0u, reprojected_bg = 0u;
     while (occ != 0u) {
         uint s = uint(findLSB(occ));
@@ -42,13 +44,21 @@ void main() {
         vec3 wp, ng;
         // Background sample (§3.3): a direction at infinity, projected
         // through the point one unit along it from the new eye (only the
-        // view rotation moves it); its distance is t = ∞ (below).
+        // view rotation moves it; an orthographic eye drops it once the
+        // view turns: camera.glsl background_offset); its distance is t = ∞
+        // (below).
         bool bg = first_hit_is_background(fh);
-        if (bg) wp = e.pos_tanx.xyz + background_direction(fh);
-        else hit_position_and_normal(fh, wp, ng);
+        bool kept = true;
+        vec3 offset;   // from e's position
+        if (bg) {
+            kept = background_offset(e, frame.prev_eyes[eye], vec2(px) + 0.5, background_direction(fh), offset);
+        } else {
+            hit_position_and_normal(fh, wp, ng);
+            offset = wp - e.pos_tanx.xyz;
+        }
         vec2 q;
         float vd;
-        if (!project_to_eye(e, wp, q, vd) || any(lessThan(q, vec2(0.0))) || any(greaterThanEqual(q, vec2(size)))) {
+        if (!kept || !project_offset_to_eye(e, offset, q, vd) || any(lessThan(q, vec2(0.0))) || any(greaterThanEqual(q, vec2(size)))) {
             offscreen++;
             continue;
         }
@@ -101,10 +111,11 @@ void main() {
                 reprojected_bg++;
                 if (depth_max[tm] != 0x7F800000u) atomicMax(depth_max[tm], 0x7F800000u);
             } else {
-                vec3 to_eye = e.pos_tanx.xyz - wp;
-                float t = length(to_eye);
-                float cos_theta = abs(dot(ng, to_eye / max(t, 1e-30)));
-                float slope = normal_slope(t, cos_theta, cs_phi);
+                vec3 o, d;
+                float t;
+                eye_ray_to(e, wp, o, d, t);
+                float cos_theta = abs(dot(ng, d));
+                float slope = ortho ? normal_slope_parallel(t, cos_theta, diag) : normal_slope(t, cos_theta, cs_phi);
                 atomicMin(depth_min[tm], (uint64_t(floatBitsToUint(t)) << 32) | uint64_t(floatBitsToUint(slope)));
                 atomicMax(depth_max[tm], floatBitsToUint(t));
             }

@@ -21,18 +21,20 @@ void main() {
     for (uint i = gl_GlobalInvocationID.x; i < count; i += stride) {
         uint eye, s, pixel;
         list_decode(retrace_list[retrace_list_index(i)], eye, s, pixel);
-        vec3 o = frame.eyes[eye].pos_tanx.xyz;
+        EyeGpu e = frame.eyes[eye];
         uvec4 fh = fh_cur[slot_index(eye, s, pixel)];
         RtHit h;
         uint bit = 0u;
         if (first_hit_is_background(fh)) {
             // Any hit occludes it: an occlusion query suffices.
-            bit = rt_occluded(o, background_direction(fh), 0.0, 1e30) ? 1u << (s + N_SLOTS) : 1u << s;
+            // (Orthographic: from the pixel centre's place on the image plane.)
+            vec2 centre = vec2(pixel % frame_size().x, pixel / frame_size().x) + 0.5;
+            bit = rt_occluded(eye_ray_origin(e, centre), background_direction(fh), 0.0, 1e30) ? 1u << (s + N_SLOTS) : 1u << s;
             bg_rays++;
         } else {
-            vec3 d = hit_position(fh) - o;
-            float t = length(d);
-            d /= max(t, 1e-30);
+            vec3 o, d;
+            float t;
+            eye_ray_to(e, hit_position(fh), o, d, t);
             bool was_visible = ((mask_cur[eye * npix() + pixel] >> (s + N_SLOTS)) & 1u) != 0u;
             if (was_visible) {
                 occlusion_rays++;

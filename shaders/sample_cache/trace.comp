@@ -13,8 +13,9 @@ layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 // first hit, or a background sample when the ray misses the scene. Returns
 // true when it hit geometry.
 bool new_sample(EyeGpu e, uvec2 px, uint eye, uint pixel, uint slot, inout Rng r, inout uint m) {
-    vec3 o = e.pos_tanx.xyz;
-    vec3 d = eye_ray_dir(e, vec2(px) + rng_next2(r));
+    vec2 at = vec2(px) + rng_next2(r);
+    vec3 o = eye_ray_origin(e, at);
+    vec3 d = eye_ray_dir(e, at);
     RtHit h;
     bool hit = rt_closest_hit(o, d, 0.0, 1e30, h);
     uint o_bit = 1u << slot, v_bit = 1u << (slot + N_SLOTS);

@@ -110,10 +110,14 @@ void main() {
     bool on_screen;
     if (hit) {
         vec3 p = e.pos_tanx.xyz + d * (in_depth[idx] / dot(d, e.fwd.xyz));
+        if (eye_is_ortho(e)) p += eye_plane_offset(e, vec2(px) + 0.5);   // its ray's origin
         if (SC_ANIMATED && (pc.flags & 16u) != 0u) p += hit_motion(fh);
         on_screen = project_to_eye(pe, p, q, vd);
     } else {
-        on_screen = project_to_eye(pe, pe.pos_tanx.xyz + d, q, vd);   // a direction: rotation only
+        // A direction: rotation only (camera.glsl; an orthographic eye has
+        // no history for it once the view has turned).
+        vec3 off;
+        on_screen = background_offset(pe, e, vec2(px) + 0.5, d, off) && project_offset_to_eye(pe, off, q, vd);
     }
     on_screen = on_screen && all(greaterThanEqual(q, vec2(0.0))) && all(lessThan(q, vec2(size)));
 

@@ -58,7 +58,7 @@ pub use neck::HeadNeckModel;
 pub use openxr::{parse_openxr, read_openxr};
 pub use pose::HeadPose;
 pub use stage::Stage;
-pub use stereo::{Eye, EyeView, StereoCamera, DEFAULT_IPD, DEFAULT_ZNEAR};
+pub use stereo::{Eye, EyeView, Projection, StereoCamera, DEFAULT_IPD, DEFAULT_ZNEAR};
 pub use synth::{synth, SynthKind};
 pub use time_unit::{RawTime, TimeUnit, TimeWindow};
 pub use trace::{PoseSample, PoseTrace, TraceError};

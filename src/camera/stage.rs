@@ -93,6 +93,7 @@ impl Stage {
             yfov,
             aspect,
             znear: DEFAULT_ZNEAR,
+            projection: Default::default(),
         }
     }
 }

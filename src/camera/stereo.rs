@@ -14,6 +14,12 @@
 //!   per-eye frusta; the symmetric parallel-axis pair is what a glTF
 //!   perspective camera describes and keeps reprojection between the eyes a
 //!   pure horizontal shift for a fronto-parallel plane.
+//! - An **orthographic** camera (glTF `orthographic`, [`Projection`]) has
+//!   parallel rays along −Z: the ray through a pixel starts on the eye's
+//!   image plane, `ndc.x · xmag` along +X and `ndc.y · ymag` along +Y from the
+//!   eye, with `xmag = ymag · aspect` (the image's aspect wins, as for a
+//!   perspective camera's `aspectRatio`). Both eyes keep their `∓ipd/2`
+//!   offset, so a point's disparity is the same at every depth.
 //! - Pixel coordinates are continuous: `(0, 0)` is the top-left corner of the
 //!   top-left pixel, `+x` right, `+y` down; pixel `(i, j)` has its centre at
 //!   `(i + 0.5, j + 0.5)`.
@@ -27,6 +33,18 @@ use super::pose::HeadPose;
 pub const DEFAULT_IPD: f32 = 0.063;
 /// Default near distance for raster-style projections and ray `t_min`, metres.
 pub const DEFAULT_ZNEAR: f32 = 0.01;
+
+/// How an eye maps pixels to rays (glTF `camera.type`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub enum Projection {
+    /// A pinhole at the eye with the camera's `yfov`.
+    #[default]
+    Perspective,
+    /// Parallel rays along the eye's −Z from its image plane; `ymag` is half
+    /// the view's height in metres (glTF `orthographic.ymag`), `ymag ·
+    /// aspect` half its width.
+    Orthographic { ymag: f32 },
+}
 
 /// One eye of a stereo pair.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -78,12 +96,15 @@ pub struct StereoCamera {
     pub anchor: DVec3,
     /// Interpupillary distance, metres.
     pub ipd: f32,
-    /// Vertical field of view of each eye, radians.
+    /// Vertical field of view of each eye, radians (perspective only).
     pub yfov: f32,
     /// Width / height of each eye's image.
     pub aspect: f32,
     /// Near distance, metres (ray `t_min`, raster near plane).
     pub znear: f32,
+    /// Perspective (the default) or orthographic.
+    #[serde(default)]
+    pub projection: Projection,
 }
 
 impl StereoCamera {
@@ -96,6 +117,7 @@ impl StereoCamera {
             yfov,
             aspect,
             znear: DEFAULT_ZNEAR,
+            projection: Projection::Perspective,
         }
     }
 
@@ -108,6 +130,16 @@ impl StereoCamera {
         let mut c = Self::new(HeadPose::new(Vec3::ZERO, pose.orientation), yfov, aspect);
         c.anchor = pose.position.as_dvec3();
         c
+    }
+
+    /// [`Self::from_scene_camera`] for a scene's camera, perspective or
+    /// orthographic (`ymag` and the image's `aspect`).
+    pub fn from_scene(c: &crate::scene::SceneCamera, aspect: f32) -> Self {
+        let mut cam = Self::from_scene_camera(c.transform, c.yfov, aspect);
+        if let Some(mag) = c.orthographic {
+            cam.projection = Projection::Orthographic { ymag: mag.y };
+        }
+        cam
     }
 
     /// The head (eye midpoint) position in world space.
@@ -129,6 +161,7 @@ impl StereoCamera {
             world_from_eye: Mat4::from_rotation_translation(orientation, position),
             yfov: self.yfov,
             aspect: self.aspect,
+            projection: self.projection,
         }
     }
 
@@ -138,7 +171,8 @@ impl StereoCamera {
     }
 }
 
-/// One eye's view: a pinhole camera with a symmetric frustum.
+/// One eye's view: a pinhole camera with a symmetric frustum, or parallel
+/// rays from a centred image rectangle ([`Projection::Orthographic`]).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct EyeView {
     /// Which eye.
@@ -156,9 +190,47 @@ pub struct EyeView {
     pub yfov: f32,
     /// Width / height.
     pub aspect: f32,
+    /// Perspective or orthographic.
+    pub projection: Projection,
 }
 
 impl EyeView {
+    /// True for parallel rays ([`Projection::Orthographic`]).
+    pub fn is_orthographic(&self) -> bool {
+        matches!(self.projection, Projection::Orthographic { .. })
+    }
+
+    /// Half extents of the image: `(tan(yfov/2) · aspect, tan(yfov/2))` at
+    /// distance 1 along −Z for a perspective eye, `(ymag · aspect, ymag)`
+    /// in metres for an orthographic one. `camera.glsl` holds them in
+    /// `pos_tanx.w` and `right_tany.w`.
+    pub fn half_extents(&self) -> Vec2 {
+        match self.projection {
+            Projection::Perspective => self.tan_half_fov(),
+            Projection::Orthographic { ymag } => Vec2::new(ymag * self.aspect, ymag),
+        }
+    }
+
+    /// Normalized device coordinates of a continuous pixel position.
+    fn ndc(pixel: Vec2, size: UVec2) -> Vec2 {
+        let size = size.as_vec2();
+        Vec2::new(2.0 * pixel.x / size.x - 1.0, 1.0 - 2.0 * pixel.y / size.y)
+    }
+
+    /// Where the ray through `pixel` starts, relative to the eye position:
+    /// zero for a perspective eye, the pixel's point on the image plane
+    /// (`ndc.x · xmag` along +X, `ndc.y · ymag` along +Y) for an
+    /// orthographic one.
+    pub fn ray_origin_offset(&self, pixel: Vec2, size: UVec2) -> Vec3 {
+        match self.projection {
+            Projection::Perspective => Vec3::ZERO,
+            Projection::Orthographic { .. } => {
+                let o = Self::ndc(pixel, size) * self.half_extents();
+                self.orientation * Vec3::new(o.x, o.y, 0.0)
+            }
+        }
+    }
+
     /// `(tan(yfov/2) · aspect, tan(yfov/2))`: half extents of the image plane
     /// at distance 1 along −Z.
     pub fn tan_half_fov(&self) -> Vec2 {
@@ -178,9 +250,13 @@ impl EyeView {
     ///
     /// In eye space: `ndc = (2·px/w − 1, 1 − 2·py/h)`,
     /// `d = normalize(ndc.x · tan.x, ndc.y · tan.y, −1)`.
+    ///
+    /// An orthographic eye's rays all point along its −Z.
     pub fn ray_direction(&self, pixel: Vec2, size: UVec2) -> Vec3 {
-        let size = size.as_vec2();
-        let ndc = Vec2::new(2.0 * pixel.x / size.x - 1.0, 1.0 - 2.0 * pixel.y / size.y);
+        if self.is_orthographic() {
+            return (self.orientation * Vec3::NEG_Z).normalize();
+        }
+        let ndc = Self::ndc(pixel, size);
         let t = self.tan_half_fov();
         let d_eye = Vec3::new(ndc.x * t.x, ndc.y * t.y, -1.0).normalize();
         (self.orientation * d_eye).normalize()
@@ -190,7 +266,9 @@ impl EyeView {
     /// `None` when the point is not in front of the eye (view depth ≤ 0 or
     /// not finite). The pixel may lie outside `[0, w] × [0, h]`: the caller
     /// decides what off-screen means. `view_depth` is the distance along the
-    /// eye's −Z (not along the ray), the inverse of [`Self::ray_direction`].
+    /// eye's −Z (not along the ray), the inverse of [`Self::ray_direction`]
+    /// (and, orthographic, of [`Self::ray_origin_offset`]: parallel
+    /// projection, no division by the depth).
     pub fn project(&self, world: Vec3, size: UVec2) -> Option<(Vec2, f32)> {
         self.project_offset(world - self.position, size)
     }
@@ -204,8 +282,9 @@ impl EyeView {
         if !(depth > 0.0 && depth.is_finite()) {
             return None;
         }
-        let t = self.tan_half_fov();
-        let ndc = Vec2::new(p.x / (depth * t.x), p.y / (depth * t.y));
+        let t = self.half_extents();
+        let s = if self.is_orthographic() { 1.0 } else { depth };
+        let ndc = Vec2::new(p.x / (s * t.x), p.y / (s * t.y));
         let size = size.as_vec2();
         let pixel = Vec2::new(0.5 * (ndc.x + 1.0) * size.x, 0.5 * (1.0 - ndc.y) * size.y);
         Some((pixel, depth))

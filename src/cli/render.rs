@@ -89,7 +89,7 @@ pub fn run(a: RenderArgs) -> Result<()> {
         "method": m.name(),
         "time": a.time,
         "settings": config.record(&settings),
-        "camera": { "position": cam.world_position().to_array(), "orientation": cam.head.orientation.to_array(), "ipd": cam.ipd, "yfov_deg": cam.yfov.to_degrees() },
+        "camera": { "position": cam.world_position().to_array(), "orientation": cam.head.orientation.to_array(), "ipd": cam.ipd, "yfov_deg": cam.yfov.to_degrees(), "projection": cam.projection },
         "gpu_ms": frame.stats.gpu_ms(),
         "passes": frame.stats.passes,
         "rays": frame.stats.rays,

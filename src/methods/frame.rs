@@ -96,8 +96,10 @@ pub struct EyeGpu {
 impl EyeGpu {
     /// The eye with its position relative to the render origin
     /// (`SceneGpu::origin`, subtracted in f64).
+    /// `pos_tanx.w`, `right_tany.w`: [`EyeView::half_extents`]; `up.w`: 1
+    /// for an orthographic eye, 0 for a perspective one.
     pub fn from_view(v: &EyeView, origin: DVec3) -> Self {
-        let t = v.tan_half_fov();
+        let t = v.half_extents();
         let p = (v.world - origin).as_vec3();
         let r = v.orientation * glam::Vec3::X;
         let u = v.orientation * glam::Vec3::Y;
@@ -105,7 +107,7 @@ impl EyeGpu {
         EyeGpu {
             pos_tanx: [p.x, p.y, p.z, t.x],
             right_tany: [r.x, r.y, r.z, t.y],
-            up: [u.x, u.y, u.z, 0.0],
+            up: [u.x, u.y, u.z, if v.is_orthographic() { 1.0 } else { 0.0 }],
             fwd: [f.x, f.y, f.z, 0.0],
         }
     }

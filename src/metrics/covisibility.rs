@@ -51,19 +51,25 @@ pub(super) fn project_into(
     depth: Option<f32>,
     size: UVec2,
 ) -> Option<(Vec2, f32)> {
-    let dir = dst_view.ray_direction(Vec2::new(i as f32 + 0.5, j as f32 + 0.5), size);
+    let centre = Vec2::new(i as f32 + 0.5, j as f32 + 0.5);
+    let dir = dst_view.ray_direction(centre, size);
+    // Where the ray starts relative to the destination eye (non-zero for an
+    // orthographic eye: its point on the image plane).
+    let origin = dst_view.ray_origin_offset(centre, size);
     let cos = dir.dot(forward);
     if cos <= 0.0 {
         return None;
     }
     let Some(d) = depth else {
-        // A point at infinity: only the source eye's orientation matters.
-        return src_view.project_offset(dir, size);
+        // A point at infinity: only the source eye's orientation matters
+        // (and, orthographic, the pixel's place on the image plane, which
+        // keeps a miss on its own pixel when the orientations agree).
+        return src_view.project_offset(origin + dir, size);
     };
     // The point relative to the source eye; the eyes' offset is taken in
     // f64 so views far from the origin keep their precision.
     let eyes = (dst_view.world - src_view.world).as_vec3();
-    src_view.project_offset(eyes + dir * (d / cos), size)
+    src_view.project_offset(eyes + origin + dir * (d / cos), size)
 }
 
 /// The kept bilinear taps of every destination pixel (empty: not co-visible).

@@ -38,8 +38,13 @@ pub fn centre_pixels_per_degree(width: u32, tan_half_hfov: f32) -> Option<f32> {
     Some((1.0 / deg) as f32)
 }
 
-/// [`centre_pixels_per_degree`] of one eye's view rendered `width` pixels wide.
+/// [`centre_pixels_per_degree`] of one eye's view rendered `width` pixels
+/// wide; `None` for an orthographic eye, whose pixels subtend no angle at
+/// the eye (the caller's default viewing condition applies).
 pub fn eye_pixels_per_degree(view: &EyeView, width: u32) -> Option<f32> {
+    if view.is_orthographic() {
+        return None;
+    }
     centre_pixels_per_degree(width, view.tan_half_fov().x)
 }
 

@@ -162,6 +162,32 @@ pub(crate) mod tests {
         assert_eq!(cov.iter().filter(|&&v| v).count(), 60 * 64);
     }
 
+    /// Orthographic eyes (ymag = 1, 64 px: 32 px per metre, IPD 0.125 m):
+    /// every depth has the same disparity, 0.125 · 32 = 4 pixels.
+    #[test]
+    fn orthographic_disparity_is_the_same_at_every_depth() {
+        let mut c = rig();
+        c.projection = crate::camera::Projection::Orthographic { ymag: 1.0 };
+        let [l, r] = [c.eye(Eye::Left), c.eye(Eye::Right)];
+        let left = LinearImage::from_fn(64, 64, texture);
+        for d in [0.25f32, 1.0, 40.0] {
+            let depth = vec![d; 64 * 64];
+            let (img, cov) = reproject(&left, &depth, &l, &depth, &r, 0.01, None).unwrap();
+            for &(i, j) in &[(0usize, 0usize), (10, 20), (31, 63), (59, 5)] {
+                assert!(cov[j * 64 + i]);
+                let got = img.get(i, j).unwrap();
+                let want = texture(i + 4, j);
+                for k in 0..3 {
+                    assert!(
+                        (got[k] - want[k]).abs() < 1e-3,
+                        "{d}: ({i},{j}) {got:?} {want:?}"
+                    );
+                }
+            }
+            assert_eq!(cov.iter().filter(|&&v| v).count(), 60 * 64, "at depth {d}");
+        }
+    }
+
     #[test]
     fn depth_and_id_mismatch_break_covisibility() {
         let c = rig();

@@ -479,13 +479,19 @@ pub fn write_gltf(scene: &Scene, path: &Path) -> Result<(), SceneError> {
     }
     let mut cameras = Vec::new();
     for c in &scene.cameras {
+        nodes.push(
+            json!({ "name": c.name, "camera": cameras.len(), "matrix": matrix(&c.transform) }),
+        );
+        if let Some(mag) = c.orthographic {
+            // zfar is required by glTF; a ray tracer has no far plane.
+            let o = json!({ "xmag": mag.x, "ymag": mag.y, "znear": c.znear, "zfar": f32::MAX });
+            cameras.push(json!({ "name": c.name, "type": "orthographic", "orthographic": o }));
+            continue;
+        }
         let mut p = json!({ "yfov": c.yfov, "znear": c.znear });
         if let Some(a) = c.aspect {
             p["aspectRatio"] = json!(a);
         }
-        nodes.push(
-            json!({ "name": c.name, "camera": cameras.len(), "matrix": matrix(&c.transform) }),
-        );
         cameras.push(json!({ "name": c.name, "type": "perspective", "perspective": p }));
     }
     let mut lights = Vec::new();

@@ -172,10 +172,10 @@ pub const FEATURES: &[Feature] = &[
         Full,
         "yfov, aspectRatio and znear; zfar is not needed by a ray tracer",
     ),
-    elsewhere(
+    f(
         "orthographic cameras",
-        Ignored,
-        "the camera is skipped",
+        Full,
+        "parallel rays from the image plane, ymag with the image's aspect (as aspectRatio); znear; zfar is not needed by a ray tracer",
     ),
     f(
         "metallic-roughness materials",

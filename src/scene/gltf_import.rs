@@ -942,19 +942,35 @@ impl Importer<'_> {
             .or(node.name())
             .map(str::to_owned)
             .unwrap_or_else(|| format!("camera {}", camera.index()));
+        // Camera-to-world without scale: cameras are rigid.
+        let (_, rot, pos) = world.to_scale_rotation_translation();
+        let transform = Mat4::from_rotation_translation(rot.normalize(), pos);
+        // A zero scale (or a zero rotation quaternion) leaves no
+        // orientation to take: NaNs. Found by `tests/fuzz_inputs.rs`.
+        if !transform.is_finite() {
+            self.warn(format!(
+                "camera '{name}': its node transform is degenerate (zero scale?); skipped"
+            ));
+            return;
+        }
+        let znear = |this: &mut Self, znear: f32, min: f32| {
+            if znear.is_finite() && znear >= min {
+                znear
+            } else {
+                this.warn(format!(
+                    "camera '{name}': znear {znear} is not {} and finite; using {}",
+                    if min > 0.0 {
+                        "positive"
+                    } else {
+                        "non-negative"
+                    },
+                    crate::camera::DEFAULT_ZNEAR
+                ));
+                crate::camera::DEFAULT_ZNEAR
+            }
+        };
         match camera.projection() {
             gltf::camera::Projection::Perspective(p) => {
-                // Camera-to-world without scale: cameras are rigid.
-                let (_, rot, pos) = world.to_scale_rotation_translation();
-                let transform = Mat4::from_rotation_translation(rot.normalize(), pos);
-                // A zero scale (or a zero rotation quaternion) leaves no
-                // orientation to take: NaNs. Found by `tests/fuzz_inputs.rs`.
-                if !transform.is_finite() {
-                    self.warn(format!(
-                        "camera '{name}': its node transform is degenerate (zero scale?); skipped"
-                    ));
-                    return;
-                }
                 let yfov = p.yfov();
                 if !(yfov > 0.0 && yfov < std::f32::consts::PI) {
                     self.warn(format!(
@@ -969,28 +985,42 @@ impl Importer<'_> {
                         p.aspect_ratio().unwrap_or_default()
                     ));
                 }
-                let znear = p.znear();
-                let znear = if znear.is_finite() && znear > 0.0 {
-                    znear
-                } else {
-                    self.warn(format!(
-                        "camera '{name}': znear {znear} is not positive and finite; using {}",
-                        crate::camera::DEFAULT_ZNEAR
-                    ));
-                    crate::camera::DEFAULT_ZNEAR
-                };
+                let znear = znear(self, p.znear(), f32::MIN_POSITIVE);
                 self.scene.cameras.push(SceneCamera {
                     name,
                     transform,
                     yfov,
                     aspect,
                     znear,
+                    orthographic: None,
                 });
             }
-            gltf::camera::Projection::Orthographic(_) => {
-                self.warn(format!(
-                    "orthographic camera '{name}' is not supported; skipped"
-                ));
+            gltf::camera::Projection::Orthographic(o) => {
+                // glTF: xmag and ymag are non-zero (a negative one would
+                // mirror the image; the sample viewer's matrix divides by
+                // them). The view's height is 2·|ymag|; its width follows
+                // the image's aspect, as a perspective camera's does.
+                let (xmag, ymag) = (o.xmag(), o.ymag());
+                if !(xmag.is_finite() && ymag.is_finite() && xmag != 0.0 && ymag != 0.0) {
+                    self.warn(format!(
+                        "camera '{name}': orthographic xmag {xmag}, ymag {ymag} must be non-zero and finite; skipped"
+                    ));
+                    return;
+                }
+                if xmag < 0.0 || ymag < 0.0 {
+                    self.warn(format!(
+                        "camera '{name}': negative orthographic xmag {xmag} or ymag {ymag} (a mirrored view) is not supported; their magnitudes are used"
+                    ));
+                }
+                let znear = znear(self, o.znear(), 0.0);
+                self.scene.cameras.push(SceneCamera {
+                    name,
+                    transform,
+                    yfov: 0.0,
+                    aspect: Some(xmag.abs() / ymag.abs()),
+                    znear,
+                    orthographic: Some(glam::Vec2::new(xmag.abs(), ymag.abs())),
+                });
             }
         }
     }

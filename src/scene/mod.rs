@@ -62,6 +62,9 @@ pub struct SceneCamera {
     /// Aspect ratio if the file declares one.
     pub aspect: Option<f32>,
     pub znear: f32,
+    /// `(xmag, ymag)` of an orthographic camera (glTF
+    /// `orthographic`); `None` for a perspective one (`yfov` then applies).
+    pub orthographic: Option<glam::Vec2>,
 }
 
 /// A whole scene ready to be uploaded.

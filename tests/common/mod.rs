@@ -28,6 +28,16 @@ pub fn gpu_options() -> GpuOptions {
     }
 }
 
+/// The ray backends to test on: the software traversal, and hardware ray
+/// queries where the device has them (required when `CI` is set).
+pub fn rt_backends(ctx: &GpuContext) -> Vec<RtChoice> {
+    let mut v = vec![RtChoice::Software];
+    if require(ctx.ray_query_enabled(), "ray queries") {
+        v.push(RtChoice::Query);
+    }
+    v
+}
+
 /// One GPU context per test (lavapipe in CI).
 pub fn context() -> Arc<GpuContext> {
     Arc::new(GpuContext::new(&gpu_options()).expect("a Vulkan 1.2 device (run scripts/setup.sh)"))

@@ -17,6 +17,16 @@ pub fn normal_slope(t: f32, cos_theta: f32, cs_phi: [f32; 2]) -> f32 {
     t * (1.0 - c / (c * cs_phi[0] + sin_theta * cs_phi[1])).abs()
 }
 
+/// Eq. 1 for an orthographic eye, whose rays are parallel: the limit of
+/// [`normal_slope`] as `t → ∞` with `t · tan φ` held at `diag`, the pixel
+/// diagonal's length on the image plane (metres): Δn = diag · tan θ, capped
+/// at `t` as Eq. 1 is at θ = π/2 (where it gives Δn = t).
+pub fn normal_slope_parallel(t: f32, cos_theta: f32, diag: f32) -> f32 {
+    let c = cos_theta.clamp(0.0, 1.0);
+    let sin_theta = ((1.0 - c) * (1.0 + c)).sqrt();
+    (diag * sin_theta / c).min(t)
+}
+
 /// Eq. 2: `t_max < (1 + ε1)(t_min + 2Δn)` — the depths in a 3×3 neighbourhood
 /// are consistent with one locally flat surface (no retrace of every sample).
 pub fn depths_consistent(t_min: f32, slope: f32, t_max: f32, eps1: f32) -> bool {
@@ -179,6 +189,36 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// The parallel-ray slope is Eq. 1's limit for a distant eye whose
+    /// pixel diagonal spans the same length at the surface: evaluated in
+    /// f64 as written, t |1 − cos θ / cos(θ − φ)| with tan φ = diag / t,
+    /// for t = 10⁴ · diag.
+    #[test]
+    fn parallel_slope_is_the_far_limit_of_eq1() {
+        let diag = 0.01f32;
+        let t = 1.0e4 * diag as f64;
+        let phi = (diag as f64 / t).atan();
+        for deg in [0.0f64, 10.0, 45.0, 70.0, 85.0, 89.0] {
+            let theta = deg.to_radians();
+            let far = t * (1.0 - theta.cos() / (theta - phi).cos()).abs();
+            let s = normal_slope_parallel(1e30, theta.cos() as f32, diag) as f64;
+            // Neglected: the relative O(φ tan θ) term, and t·φ²/2 = diag·φ/2
+            // (the perspective cone's own growth, non-zero head on).
+            let tol = far * (2.0 * phi * theta.tan() + 1e-5) + diag as f64 * phi;
+            assert!((s - far).abs() <= tol, "θ = {deg}°: {s} vs {far}");
+        }
+        // Head on: 0; grazing and back-facing: capped at t.
+        assert_eq!(normal_slope_parallel(3.0, 1.0, diag), 0.0);
+        assert_eq!(normal_slope_parallel(3.0, 0.0, diag), 3.0);
+        assert_eq!(normal_slope_parallel(3.0, -0.5, diag), 3.0);
+        // Independent of the distance below the cap (parallel rays).
+        let c = 60f32.to_radians().cos();
+        assert_eq!(
+            normal_slope_parallel(1.0, c, diag),
+            normal_slope_parallel(100.0, c, diag)
+        );
     }
 
     #[test]

@@ -92,6 +92,7 @@ pub fn look_at(name: &str, eye: Vec3, target: Vec3, up: Vec3, yfov_deg: f32) -> 
         yfov: yfov_deg.to_radians(),
         aspect: None,
         znear: 0.01,
+        orthographic: None,
     }
 }
 
