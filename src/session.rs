@@ -181,6 +181,12 @@ impl Session {
         cam.head.position = Vec3::ZERO;
         cam.ipd = ipd.unwrap_or(DEFAULT_IPD);
         if let Some(f) = yfov_override {
+            if cam.projection != crate::camera::Projection::Perspective {
+                return Err(Error::Usage(format!(
+                    "{}: the chosen camera is orthographic: --fov does not apply to it (its ymag sets the view's height)",
+                    self.scene.source.display()
+                )));
+            }
             cam.yfov = f;
         }
         Ok(cam)

@@ -33,6 +33,7 @@ void main() {
         occ &= occ - 1u;
         uint src = (eye * pc.slots + s) * npix + pixel;
         uvec4 fh = src_fh[src];
+        if (!first_hit_valid(fh)) continue;   // background samples: no position
         vec2 q;
         float vd;
         if (!project_to_eye(e, hit_position(fh), q, vd) || any(lessThan(q, vec2(0.0))) || any(greaterThanEqual(q, vec2(size)))) continue;

@@ -117,14 +117,15 @@ bool project_to_eye(EyeGpu e, vec3 p, out vec2 px, out float vd) {
 // it from e's eye, so only the view rotation moves it. An orthographic eye
 // sees infinity along its fwd only: the sample stays while the view
 // direction holds (to the f32 precision of its encoded direction:
-// 1 − d·fwd < 1e-6, ≈ 0.08°), one unit along d from its place on the image
-// plane (its own pixel while the orientation holds); false once the view
-// has turned. CPU twin: metrics/covisibility.rs `project_into` (a miss).
+// 1 − d·fwd < 1e-6, ≈ 0.08°) as the line along d from its place on pe's
+// image plane, which moves with the eye's translation like any point (its
+// own pixel while the eye holds still); false once the view has turned.
+// CPU twin: metrics/covisibility.rs `project_into` (a miss).
 bool background_offset(EyeGpu e, EyeGpu pe, vec2 at, vec3 d, out vec3 offset) {
     offset = d;
     if (!eye_is_ortho(e)) return true;
     if (dot(d, e.fwd.xyz) < 1.0 - 1e-6) return false;
-    offset += eye_plane_offset(pe, at);
+    offset += (pe.pos_tanx.xyz - e.pos_tanx.xyz) + eye_plane_offset(pe, at);
     return true;
 }
 #endif

@@ -50,21 +50,30 @@ vec3 hit_motion(uvec4 fh) {
 // encoding (w = NO_HIT, so first_hit_valid() is false and no pass mistakes it
 // for a surface) and stores the ray's world direction instead of a triangle:
 // x, y = the direction's octahedral coordinates as float bits (full float
-// precision), z = BACKGROUND_TAG. Such a sample lies at infinity: it
+// precision), z = BACKGROUND_TAG in the high 16 bits and the ray's position
+// in its pixel in the low 16 (8 bits per axis: an orthographic eye's
+// background rays share one direction, and their retrace and reprojection
+// start from that position). Such a sample lies at infinity: it
 // reprojects as a direction, its radiance is the environment's in that
 // direction, and it is visible while a ray in that direction hits nothing.
 // CPU twin: src/methods/sample_cache/background.rs.
-const uint BACKGROUND_TAG = 0x42474E44u;   // "BGND"
+const uint BACKGROUND_TAG = 0x42470000u;   // "BG"
 
-bool first_hit_is_background(uvec4 fh) { return fh.w == NO_HIT && fh.z == BACKGROUND_TAG; }
+bool first_hit_is_background(uvec4 fh) { return fh.w == NO_HIT && (fh.z & 0xFFFF0000u) == BACKGROUND_TAG; }
 
 vec2 bg_sign_not_zero(vec2 v) { return vec2(v.x >= 0.0 ? 1.0 : -1.0, v.y >= 0.0 ? 1.0 : -1.0); }
 
-uvec4 encode_background(vec3 d) {
+// The record of a background ray in direction d through the point `sub` ∈
+// [0, 1)² of its pixel.
+uvec4 encode_background(vec3 d, vec2 sub) {
     vec3 n = d / (abs(d.x) + abs(d.y) + abs(d.z));
     vec2 p = n.z >= 0.0 ? n.xy : (1.0 - abs(n.yx)) * bg_sign_not_zero(n.xy);
-    return uvec4(floatBitsToUint(p.x), floatBitsToUint(p.y), BACKGROUND_TAG, NO_HIT);
+    uvec2 q = uvec2(clamp(sub * 256.0, vec2(0.0), vec2(255.0)));
+    return uvec4(floatBitsToUint(p.x), floatBitsToUint(p.y), BACKGROUND_TAG | (q.x << 8) | q.y, NO_HIT);
 }
+
+// Where in its pixel a background sample's ray went (its 1/256 cell's centre).
+vec2 background_subpixel(uvec4 fh) { return (vec2((fh.z >> 8) & 255u, fh.z & 255u) + 0.5) / 256.0; }
 
 // Unit world direction of a background sample.
 vec3 background_direction(uvec4 fh) {

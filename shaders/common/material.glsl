@@ -91,9 +91,15 @@ ShadingMaterial material_at(inout Surface s, vec3 ray_dir, float cone_width) {
         if (SC_CLEARCOAT && m.clearcoat > 0.0) {
             if (g.tex2.x >= 0) m.clearcoat *= slot_texture(g, 7, g.tex2.x, s, cone_width, cos_i, false).r;
             if (g.tex2.y >= 0) m.clearcoat_roughness *= slot_texture(g, 8, g.tex2.y, s, cone_width, cos_i, false).g;
-            if (SC_NORMAL_MAPS && g.tex2.z >= 0 && dot(s.tangent, s.tangent) > 0.0) {
+            // In its own channel's tangent frame (surface_at coat_tangent).
+            Surface sc = s;
+            if (SC_SECOND_UV && s.coat_tangent.w != 0.0) {
+                sc.tangent = s.coat_tangent.xyz;
+                sc.tangent_sign = s.coat_tangent.w;
+            }
+            if (SC_NORMAL_MAPS && g.tex2.z >= 0 && dot(sc.tangent, sc.tangent) > 0.0) {
                 vec3 tn = slot_texture(g, 9, g.tex2.z, s, cone_width, cos_i, false).xyz * 2.0 - 1.0;
-                vec3 n = normalize(tangent_space_normal(s, tn, g.coat.z));
+                vec3 n = normalize(tangent_space_normal(sc, tn, g.coat.z));
                 if (mapped_normal_usable(s, n)) m.coat_n = n;
             }
         }

@@ -171,7 +171,24 @@ struct Surface {
     vec3 tangent;
     float tangent_sign;
     vec4 color;    // vertex colour (COLOR_0), white without
+    // The clearcoat normal texture's own tangent frame (xyz, sign) where it
+    // reads the other uv channel than the one the vertex tangents belong to
+    // (the normal texture's): the triangle's, from its uv gradients; w = 0
+    // where the vertex tangents serve, xyz = 0 for a degenerate mapping.
+    vec4 coat_tangent;
 };
+
+// Tangent (direction of increasing u) and handedness w of a triangle with
+// world edges e1, e2 and uv edges d1, d2, against normal n; xyz = 0 where
+// the uvs are degenerate. w as the glTF tangents (mesh_ops.rs, MikkTSpace
+// on glTF's v-down uvs): cross(n, t)·w points towards decreasing v.
+vec4 triangle_tangent(vec3 e1, vec3 e2, vec2 d1, vec2 d2, vec3 n) {
+    float det = d1.x * d2.y - d2.x * d1.y;
+    if (det == 0.0) return vec4(0.0, 0.0, 0.0, 1.0);
+    vec3 t = (e1 * d2.y - e2 * d1.y) / det;
+    vec3 b = (e2 * d1.x - e1 * d2.x) / det;   // towards increasing v
+    return vec4(t, dot(cross(n, t), b) < 0.0 ? 1.0 : -1.0);
+}
 
 Surface surface_at(uint inst, uint prim, vec2 bary, vec3 ray_dir) {
     Surface s;
@@ -198,13 +215,22 @@ Surface surface_at(uint inst, uint prim, vec2 bary, vec3 ray_dir) {
     s.uv_area_ratio = area2 > 0.0 ? uv_area2 / area2 : 0.0;
     s.uv2 = vec2(0.0);
     s.uv2_area_ratio = 0.0;
+    s.material = meshes[I.mesh_pad.x].material;
+    s.coat_tangent = vec4(0.0);
     if (SC_SECOND_UV) {
         vec2 ta = vertex_uv2(vi.x), tb = vertex_uv2(vi.y), tc = vertex_uv2(vi.z);
         s.uv2 = w.x * ta + w.y * tb + w.z * tc;
         vec2 d1 = tb - ta, d2 = tc - ta;
         s.uv2_area_ratio = area2 > 0.0 ? abs(d1.x * d2.y - d1.y * d2.x) / area2 : 0.0;
+        if (SC_CLEARCOAT) {
+            // The vertex tangents belong to the normal texture's channel,
+            // else to the clearcoat normal texture's (gltf_import.rs).
+            MaterialGpu g = materials[s.material];
+            bool coat_second = slot_on_second_uv(g.tex3.y, 9);
+            if (g.tex2.z >= 0 && g.tex0.z >= 0 && coat_second != slot_on_second_uv(g.tex3.y, 2))
+                s.coat_tangent = coat_second ? triangle_tangent(e1, e2, d1, d2, n) : triangle_tangent(e1, e2, duv1, duv2, n);
+        }
     }
-    s.material = meshes[I.mesh_pad.x].material;
     // glTF's front is counter-clockwise in object space: the world-space
     // e1 × e2 is the front normal times instance_front_sign (a mirroring
     // node keeps its faces' sides).

@@ -32,14 +32,13 @@ void main() {
     h.prim = ph.z;
     h.instance = ph.w;
     vec3 d = ray.xyz;
-    // The ray's origin (path_radiance takes the first hit from h).
-    vec3 o = position[pm].xyz - h.t * d;
+    Surface s = surface_at(h.instance, h.prim, h.bary, d);
+    vec3 o = s.p - h.t * d;   // the ray's origin (path_radiance takes the first hit from h)
     vec2 cone = eye_cone(e, h.t);
     Rng rng = rng_init(frame.size_seed.z, pc.now, eye, pixel, 0x4A5C0002u);
     RayCounts rays = RayCounts(0u, 0u);
     vec3 L = path_radiance(o, d, true, h, cone, rng, rays);
     if (any(isnan(L)) || any(isinf(L))) L = vec3(0.0);
-    Surface s = surface_at(h.instance, h.prim, h.bary, d);
     ShadingMaterial m = material_at(s, d, cone.x);
     vec3 Le = SC_EMISSIVE ? m.emissive : vec3(0.0);
     vec3 demod = max(L - Le, vec3(0.0)) / max(m.base, vec3(1e-3));

@@ -46,7 +46,8 @@ uint pixel_index(uint eye, uvec2 px) { return (eye * frame_size().y + px.y) * fr
 bool isrt_retrace(uvec4 fh, EyeGpu e, vec2 at) {
     if (first_hit_is_background(fh)) {
         atomicAdd(counters[C_ISRT_RETRACE_RAYS], 1u);
-        if (!rt_occluded(eye_ray_origin(e, at), background_direction(fh), 0.0, 1e30)) {
+        // (Orthographic: from the ray's own place in the pixel.)
+        if (!rt_occluded(eye_ray_origin(e, floor(at) + background_subpixel(fh)), background_direction(fh), 0.0, 1e30)) {
             atomicAdd(counters[C_ISRT_BACKGROUND], 1u);
             return true;
         }
@@ -81,7 +82,7 @@ void isrt_new_sample(uint idx, uint eye, uvec2 g, EyeGpu e) {
         atomicAdd(counters[C_ISRT_NEW_HITS], 1u);
         atomicAdd(counters[C_ISRT_SAMPLES], 1u);
     } else {
-        fh_cur[idx] = encode_background(d);
+        fh_cur[idx] = encode_background(d, fract(sub));
         atomicAdd(counters[C_ISRT_BACKGROUND], 1u);
     }
     rad_cur[idx] = vec4(0.0);

@@ -24,7 +24,7 @@ void main() {
     vec2 size = vec2(frame_size());
     EyeGpu e = frame.eyes[eye];
     vec3 offset = bg ? vec3(0.0) : hit_position(fh) - e.pos_tanx.xyz;   // from e's position
-    bool kept = !bg || background_offset(e, frame.prev_eyes[eye], (vec2(g) + 0.5) / float(M), background_direction(fh), offset);
+    bool kept = !bg || background_offset(e, frame.prev_eyes[eye], vec2(g / M) + background_subpixel(fh), background_direction(fh), offset);
     if (!kept || !project_offset_to_eye(e, offset, q, vd) || any(lessThan(q, vec2(0.0))) ||
         any(greaterThanEqual(q, size))) {
         atomicAdd(counters[C_ISRT_OFFSCREEN], 1u);

@@ -206,7 +206,7 @@ float normal_slope(float t, float cos_theta, vec2 cs_phi) {
 float normal_slope_parallel(float t, float cos_theta, float diag) {
     float c = clamp(cos_theta, 0.0, 1.0);
     float sin_theta = sqrt((1.0 - c) * (1.0 + c));
-    return min(diag * sin_theta / c, t);   // c = 0: ∞, so t
+    return diag * sin_theta < t * c ? diag * sin_theta / c : t;   // compared before dividing: c may be 0
 }
 
 // Eq. 2 with ε1: true when the depths are consistent with one flat surface.

@@ -51,7 +51,7 @@ void main() {
         bool kept = true;
         vec3 offset;   // from e's position
         if (bg) {
-            kept = background_offset(e, frame.prev_eyes[eye], vec2(px) + 0.5, background_direction(fh), offset);
+            kept = background_offset(e, frame.prev_eyes[eye], vec2(px) + background_subpixel(fh), background_direction(fh), offset);
         } else {
             hit_position_and_normal(fh, wp, ng);
             offset = wp - e.pos_tanx.xyz;

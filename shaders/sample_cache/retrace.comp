@@ -1,7 +1,7 @@
 #version 460
 // variant: SUBGROUP_OPS
 // §3.2 step 3, first half: retrace the slots select.comp listed, with rays
-// from the eye to the stored hit; a sample is visible when the closest hit
+// from the eye (an orthographic eye: from the image plane) to the stored hit; a sample is visible when the closest hit
 // lies within ε0·t of it and occluded when a closer hit is found; a ray that
 // finds neither leaves the slot's visibility as it was (trace.comp). For a
 // sample that is visible already only "occluded" changes anything, so it
@@ -27,9 +27,9 @@ void main() {
         uint bit = 0u;
         if (first_hit_is_background(fh)) {
             // Any hit occludes it: an occlusion query suffices.
-            // (Orthographic: from the pixel centre's place on the image plane.)
-            vec2 centre = vec2(pixel % frame_size().x, pixel / frame_size().x) + 0.5;
-            bit = rt_occluded(eye_ray_origin(e, centre), background_direction(fh), 0.0, 1e30) ? 1u << (s + N_SLOTS) : 1u << s;
+            // (Orthographic: from the ray's own place in the pixel.)
+            vec2 at = vec2(pixel % frame_size().x, pixel / frame_size().x) + background_subpixel(fh);
+            bit = rt_occluded(eye_ray_origin(e, at), background_direction(fh), 0.0, 1e30) ? 1u << (s + N_SLOTS) : 1u << s;
             bg_rays++;
         } else {
             vec3 o, d;

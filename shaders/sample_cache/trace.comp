@@ -20,7 +20,7 @@ bool new_sample(EyeGpu e, uvec2 px, uint eye, uint pixel, uint slot, inout Rng r
     bool hit = rt_closest_hit(o, d, 0.0, 1e30, h);
     uint o_bit = 1u << slot, v_bit = 1u << (slot + N_SLOTS);
     uint idx = slot_index(eye, slot, pixel);
-    fh_cur[idx] = hit ? encode_first_hit(h.bary, h.instance, h.prim, instance_material(h.instance)) : encode_background(d);
+    fh_cur[idx] = hit ? encode_first_hit(h.bary, h.instance, h.prim, instance_material(h.instance)) : encode_background(d, at - vec2(px));
     if (SHADING_STORAGE) rad_cur[idx] = vec4(0.0);
     m |= o_bit | v_bit;
     return hit;

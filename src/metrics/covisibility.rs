@@ -60,15 +60,25 @@ pub(super) fn project_into(
     if cos <= 0.0 {
         return None;
     }
-    let Some(d) = depth else {
-        // A point at infinity: only the source eye's orientation matters
-        // (and, orthographic, the pixel's place on the image plane, which
-        // keeps a miss on its own pixel when the orientations agree).
-        return src_view.project_offset(origin + dir, size);
-    };
-    // The point relative to the source eye; the eyes' offset is taken in
-    // f64 so views far from the origin keep their precision.
+    // The eyes' offset, taken in f64 so views far from the origin keep
+    // their precision.
     let eyes = (dst_view.world - src_view.world).as_vec3();
+    let Some(d) = depth else {
+        if src_view.is_orthographic() {
+            // An orthographic eye sees infinity along its own axis only
+            // (camera.glsl background_offset): while the axes agree, the
+            // miss is the line from the pixel's place on the image plane,
+            // moved like any point by the eyes' offset.
+            let src_fwd = src_view.orientation * Vec3::NEG_Z;
+            if dir.dot(src_fwd) < 1.0 - 1e-6 {
+                return None;
+            }
+            return src_view.project_offset(eyes + origin + dir, size);
+        }
+        // A point at infinity: only the source eye's orientation matters.
+        return src_view.project_offset(dir, size);
+    };
+    // The point relative to the source eye.
     src_view.project_offset(eyes + origin + dir * (d / cos), size)
 }
 
@@ -218,5 +228,44 @@ impl Covisibility {
             }
         }
         Ok(out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::camera::{Eye, HeadPose, Projection, StereoCamera};
+    use glam::Quat;
+
+    /// A miss seen by an orthographic eye (ymag 1, 64 px: 32 px per metre)
+    /// lands where the same line along the view axis is in the other view:
+    /// shifted by the eyes' offset (IPD 0.125 m: 4 px), and nowhere once
+    /// that view has turned.
+    #[test]
+    fn an_orthographic_miss_follows_the_eye_and_not_a_turn() {
+        let size = UVec2::new(64, 64);
+        let mut c = StereoCamera::new(
+            HeadPose::new(Vec3::new(0.2, 1.5, -0.3), Quat::IDENTITY),
+            1.0,
+            1.0,
+        );
+        c.ipd = 0.125;
+        c.projection = Projection::Orthographic { ymag: 1.0 };
+        let (l, r) = (c.eye(Eye::Left), c.eye(Eye::Right));
+        let fwd = r.orientation * Vec3::NEG_Z;
+        let (q, _) = project_into(&l, &r, fwd, 10, 20, None, size).unwrap();
+        assert!((q - Vec2::new(14.5, 20.5)).length() < 1e-3, "{q}");
+        let hit = project_into(&l, &r, fwd, 10, 20, Some(3.0), size)
+            .unwrap()
+            .0;
+        assert!(
+            (hit - q).length() < 1e-3,
+            "a hit and a miss share the disparity"
+        );
+        let mut turned = c;
+        turned.head.orientation = Quat::from_rotation_y(0.01);
+        let lt = turned.eye(Eye::Left);
+        assert!(project_into(&lt, &r, fwd, 10, 20, None, size).is_none());
+        assert!(project_into(&lt, &r, fwd, 10, 20, Some(3.0), size).is_some());
     }
 }

@@ -5,9 +5,10 @@
 //!
 //! For each destination pixel `(i, j)` with view depth `d > 0`:
 //! 1. the ray through its centre `(i + ½, j + ½)` is
-//!    [`EyeView::ray_direction`]; the world point is
-//!    `p = eye + dir · d / cos θ`, `cos θ = dir · forward` (depth is measured
-//!    along the eye's −Z, not along the ray);
+//!    [`EyeView::ray_direction`] from [`EyeView::ray_origin_offset`] (the
+//!    eye, or for an orthographic eye the pixel's point on its image plane);
+//!    the world point is `p = origin + dir · d / cos θ`, `cos θ = dir ·
+//!    forward` (depth is measured along the eye's −Z, not along the ray);
 //! 2. `p` is projected into the source view ([`EyeView::project`]), giving a
 //!    continuous pixel position and the view depth `d_s` the source *should*
 //!    see there;

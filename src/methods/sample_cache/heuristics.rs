@@ -24,7 +24,12 @@ pub fn normal_slope(t: f32, cos_theta: f32, cs_phi: [f32; 2]) -> f32 {
 pub fn normal_slope_parallel(t: f32, cos_theta: f32, diag: f32) -> f32 {
     let c = cos_theta.clamp(0.0, 1.0);
     let sin_theta = ((1.0 - c) * (1.0 + c)).sqrt();
-    (diag * sin_theta / c).min(t)
+    // Compared before dividing: c may be 0 (edge-on).
+    if diag * sin_theta < t * c {
+        diag * sin_theta / c
+    } else {
+        t
+    }
 }
 
 /// Eq. 2: `t_max < (1 + ε1)(t_min + 2Δn)` — the depths in a 3×3 neighbourhood
