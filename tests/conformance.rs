@@ -110,14 +110,6 @@ fn warned_features(path: &Path, scene: &Scene) -> BTreeMap<&'static str, usize> 
     out
 }
 
-fn backends(ctx: &stereocache::gpu::GpuContext) -> Vec<RtChoice> {
-    let mut v = vec![RtChoice::Software];
-    if require(ctx.ray_query_enabled(), "ray queries") {
-        v.push(RtChoice::Query);
-    }
-    v
-}
-
 /// One pixel-centre primary ray per pixel (first hit and albedo).
 fn first_hits(
     ctx: &std::sync::Arc<stereocache::gpu::GpuContext>,
@@ -185,7 +177,7 @@ fn coverage_on_backends(
     owner: &dyn Fn(&Scene, u32) -> Option<usize>,
     what: &str,
 ) -> Vec<Coverage> {
-    backends(ctx)
+    rt_backends(ctx)
         .into_iter()
         .map(|rt| {
             let (f, s) = first_hits(ctx, scene, rt, cam, w, h);
@@ -440,7 +432,7 @@ fn box_vertex_colors_shows_its_vertex_colours() {
     let ctx = context();
     let (w, h) = (96, 96);
     let cam = look_at_camera(Vec3::new(2.5, 2.0, 3.0), Vec3::splat(0.5), 40.0, 1.0);
-    for rt in backends(&ctx) {
+    for rt in rt_backends(&ctx) {
         let (f, _) = first_hits(&ctx, &scene, rt, cam, w, h);
         for eye in Eye::BOTH {
             let e = f.eye(eye);
@@ -538,7 +530,7 @@ fn texture_coordinate_test_shows_each_quadrant_of_the_image_where_its_uvs_say() 
     // 640 px over 2.8 m: 229 px per metre, the 205 texels of a quadrant over
     // ~229 px (magnified or nearly so: the footprint UNIFORM_RADIUS assumes).
     let cam = look_at_camera(Vec3::new(0.0, 0.0, -3.0), Vec3::ZERO, 50.0, 1.0);
-    for rt in backends(&ctx) {
+    for rt in rt_backends(&ctx) {
         let (f, s) = first_hits(&ctx, &scene, rt, cam, w, h);
         for eye in Eye::BOTH {
             let e = f.eye(eye);
@@ -690,7 +682,7 @@ fn texture_settings_test_shows_no_red_in_its_wrap_mode_and_sidedness_boxes() {
         }
     }
     let ctx = context();
-    for rt in backends(&ctx) {
+    for rt in rt_backends(&ctx) {
         let right = red_per_test_box(&ctx, &scene, rt, cam, &boxes);
         let failed = red_per_test_box(&ctx, &wrong, rt, cam, &boxes);
         eprintln!(
@@ -909,7 +901,7 @@ fn texture_transform_test_shows_the_offset_checks_and_arrows_at_the_green_marker
     // 500 px over 2.55 m, 5.1 mm per pixel; the arrow image's texels are
     // 7.8 mm (1/128 of the 1 m quad), 5.2 mm under the 1.5 scale.
     let cam = look_at_camera(Vec3::new(0.0, 0.0, 3.5), Vec3::ZERO, 40.0, 1.6);
-    for rt in backends(&ctx) {
+    for rt in rt_backends(&ctx) {
         let right = texture_transform_view(&ctx, &scene, rt, cam);
         let off = texture_transform_view(&ctx, &not_applied, rt, cam);
         let rev = texture_transform_view(&ctx, &reversed, rt, cam);

@@ -343,14 +343,6 @@ fn check_albedo(
     tally
 }
 
-fn backends(ctx: &stereocache::gpu::GpuContext) -> Vec<RtChoice> {
-    let mut v = vec![RtChoice::Software];
-    if require(ctx.ray_query_enabled(), "ray queries") {
-        v.push(RtChoice::Query);
-    }
-    v
-}
-
 #[test]
 fn wrap_modes_and_magnification_filters_sample_as_the_sampler_says() {
     let ctx = context();
@@ -448,7 +440,7 @@ fn wrap_modes_and_magnification_filters_sample_as_the_sampler_says() {
             )),
         }
     };
-    for rt in backends(&ctx) {
+    for rt in rt_backends(&ctx) {
         for method in ["reference", "debug-normals"] {
             let s = session(&ctx, scene.clone(), rt);
             assert_eq!(s.scene_gpu.texture_slots(), 5, "{rt:?}");
@@ -564,7 +556,7 @@ fn min_filters_without_mipmaps_sample_level_0_only() {
             }
         }
     };
-    for rt in backends(&ctx) {
+    for rt in rt_backends(&ctx) {
         let s = session(&ctx, scene.clone(), rt);
         let settings = RenderSettings {
             width: 192,

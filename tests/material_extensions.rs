@@ -11,13 +11,6 @@ use stereocache::rt::RtChoice;
 use stereocache::scene::generate::{add_material, add_mesh, uv_sphere};
 use stereocache::scene::{Clearcoat, Environment, Material, Scene, Volume};
 
-fn backends(ctx: &GpuContextRef) -> Vec<RtChoice> {
-    let mut v = vec![RtChoice::Software];
-    if require(ctx.ray_query_enabled(), "ray queries") {
-        v.push(RtChoice::Query);
-    }
-    v
-}
 type GpuContextRef = std::sync::Arc<stereocache::gpu::GpuContext>;
 
 /// A smooth opaque plane with a black base seen head-on (1° field of view
@@ -75,7 +68,7 @@ fn assert_close(what: &str, got: (f64, f64), expected: f64) {
 #[test]
 fn specular_colour_and_factor_scale_the_dielectric_f0() {
     let ctx = context();
-    for rt in backends(&ctx) {
+    for rt in rt_backends(&ctx) {
         let mut m = black_mirror();
         m.specular = 0.5;
         m.specular_color = Vec3::new(2.0, 1.0, 0.5);
@@ -100,7 +93,7 @@ fn specular_colour_and_factor_scale_the_dielectric_f0() {
 #[test]
 fn clearcoat_reflects_its_fresnel_share_and_attenuates_the_base() {
     let ctx = context();
-    for rt in backends(&ctx) {
+    for rt in rt_backends(&ctx) {
         for factor in [1.0f32, 0.5] {
             let mut m = black_mirror();
             m.specular = 0.0;
@@ -169,7 +162,7 @@ fn volume_absorbs_by_beer_lambert_along_the_chord() {
     s.validate().unwrap();
     let ri = (std::f64::consts::PI / 96.0).cos().powi(2);
     let (l_min, l_max) = (2.0 * (ri * ri - 0.01f64).sqrt(), 2.0f64);
-    for rt in backends(&ctx) {
+    for rt in rt_backends(&ctx) {
         let sess = session(&ctx, s.clone(), rt);
         let cam = look_at_camera(Vec3::new(0.0, 0.0, 10.0), Vec3::ZERO, 0.5, 1.0);
         let settings = RenderSettings {
@@ -336,7 +329,7 @@ fn alpha_blend_is_stochastic_coverage_in_every_method() {
     let scene = plane_in_environment(m, 10.0, Vec3::ONE);
     let target = Vec3::new(1.25, 0.0, 1.25);
     let cam = look_at_camera(target + Vec3::new(0.0, 10.0, 1e-3), target, 1.0, 1.0);
-    for rt in backends(&ctx) {
+    for rt in rt_backends(&ctx) {
         let s = session(&ctx, scene.clone(), rt);
         let settings = RenderSettings {
             width: 24,
@@ -433,7 +426,7 @@ fn transmission_without_a_volume_is_a_thin_sheet() {
         all_features: false,
         ..Default::default()
     };
-    for rt in backends(&ctx) {
+    for rt in rt_backends(&ctx) {
         // (volume, KHR_materials_specular factor, expected): the specular
         // factor scales the sheet's reflection (fresnel_mix: the base keeps
         // 1 − specular·F).
@@ -574,7 +567,7 @@ fn the_coat_normal_texture_uses_its_own_channels_tangent_frame() {
             .collect();
         mean_and_standard_error(&v)
     };
-    for rt in backends(&ctx) {
+    for rt in rt_backends(&ctx) {
         let own = mean(&render(
             &session(&ctx, tilted_coat(false, true), rt),
             "reference",
