@@ -42,8 +42,9 @@ pub struct Session {
     pub scene: Scene,
     pub scene_gpu: Arc<SceneGpu>,
     pub backend: RtBackend,
-    /// Whether the automatic framing's camera line was printed.
-    framing_reported: AtomicBool,
+    /// Whether the chosen camera's line (a scene camera's, or the automatic
+    /// framing's) was printed.
+    camera_reported: AtomicBool,
 }
 
 impl Session {
@@ -80,7 +81,7 @@ impl Session {
             scene,
             scene_gpu,
             backend,
-            framing_reported: AtomicBool::new(false),
+            camera_reported: AtomicBool::new(false),
         })
     }
 
@@ -134,6 +135,8 @@ impl Session {
     ) -> Result<StereoCamera> {
         let aspect = width as f32 / height as f32;
         let default_fov = 60f32.to_radians();
+        // The scene camera used, for the one line that names it.
+        let mut scene_camera = None;
         let mut cam = match select {
             CameraSelect::Pose(p) => StereoCamera::new(*p, default_fov, aspect),
             CameraSelect::Named(name) => {
@@ -150,11 +153,15 @@ impl Session {
                         }
                     ))
                 })?;
+                scene_camera = Some(c);
                 StereoCamera::from_scene(c, aspect)
             }
             CameraSelect::Default => {
                 match self.scene.camera("default").or(self.scene.cameras.first()) {
-                    Some(c) => StereoCamera::from_scene(c, aspect),
+                    Some(c) => {
+                        scene_camera = Some(c);
+                        StereoCamera::from_scene(c, aspect)
+                    }
                     None => {
                         let (lo, hi) = self.scene.world_bounds();
                         let framing = frame_bounds(
@@ -164,7 +171,7 @@ impl Session {
                             aspect,
                             ipd.unwrap_or(DEFAULT_IPD),
                         );
-                        if !self.framing_reported.swap(true, Ordering::Relaxed) {
+                        if !self.camera_reported.swap(true, Ordering::Relaxed) {
                             eprintln!("{}", framing.line());
                             if let Some(w) = &framing.warning {
                                 eprintln!("warning: {}: {w}", self.scene.source.display());
@@ -188,6 +195,11 @@ impl Session {
                 )));
             }
             cam.yfov = f;
+        }
+        if let Some(c) = scene_camera {
+            if !self.camera_reported.swap(true, Ordering::Relaxed) {
+                eprintln!("{}", scene_camera_line(&c.name, &cam));
+            }
         }
         Ok(cam)
     }
@@ -250,4 +262,20 @@ pub fn parse_pose(s: &str) -> std::result::Result<HeadPose, String> {
         return Err(format!("bad --pose '{s}': the quaternion has zero length"));
     }
     Ok(HeadPose::new(Vec3::new(v[0], v[1], v[2]), q.normalize()))
+}
+
+/// The one stderr line naming the scene camera a session renders with.
+fn scene_camera_line(name: &str, cam: &StereoCamera) -> String {
+    match cam.projection {
+        crate::camera::Projection::Perspective => format!(
+            "camera: the scene's '{name}': perspective, yfov {:.1}°",
+            cam.yfov.to_degrees()
+        ),
+        crate::camera::Projection::Orthographic { ymag } => format!(
+            "camera: the scene's '{name}': orthographic, a {} × {} m view (ymag {ymag}, the image's aspect {})",
+            2.0 * ymag * cam.aspect,
+            2.0 * ymag,
+            cam.aspect
+        ),
+    }
 }

@@ -438,6 +438,29 @@ fn an_orthographic_gltf_camera_round_trips_and_becomes_the_default() {
     assert!(e.contains("orthographic") && e.contains("--fov"), "{e}");
     let v = cam.eye(Eye::Left);
     assert_eq!(v.half_extents(), Vec2::new(3.0, 1.5));
+    // The CLI names the camera it renders with.
+    let o = cli(120)
+        .args([
+            "render",
+            "--method",
+            "debug-normals",
+            "--size",
+            "60x30",
+            "--rt",
+            "software",
+        ])
+        .arg("--scene")
+        .arg(&path)
+        .arg("--out")
+        .arg(dir.join("out"))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("camera: the scene's 'plan': orthographic, a 6 × 3 m view (ymag 1.5, the image's aspect 2)"),
+        "{stderr}"
+    );
     std::fs::remove_dir_all(&dir).ok();
 }
 
