@@ -227,6 +227,17 @@ fn check_square(fr: &StereoFrame, kind: MethodKind, what: &str, d: f32, shift: u
     }
 }
 
+/// Frames 0–2 of `m` at `still`, then frame 3 at `then` (its previous
+/// camera `still`): the frame returned.
+fn after_three_still_frames(
+    m: &mut dyn stereocache::methods::Method,
+    still: StereoCamera,
+    then: StereoCamera,
+) -> StereoFrame {
+    render_still(m, still, 3);
+    render_at(m, 3, then, Some(still))
+}
+
 /// Every method on both backends: the square's coverage, depth and
 /// radiance, at two distances (an orthographic image does not shrink).
 #[test]
@@ -266,12 +277,7 @@ fn cached_samples_move_with_the_orthographic_eye() {
         moved.head.position.x += 2.0 / (W as f32 / (2.0 * YMAG));
         for &kind in MethodKind::ALL {
             let mut m = s.method(kind.name(), &settings(1)).expect("method");
-            let mut prev = None;
-            for f in 0..3 {
-                render_at(m.as_mut(), f, still, prev);
-                prev = Some(still);
-            }
-            let fr = render_at(m.as_mut(), 3, moved, prev);
+            let fr = after_three_still_frames(m.as_mut(), still, moved);
             let history = m.resolves_with_taa();
             check_square(
                 &fr,
@@ -295,12 +301,7 @@ fn cached_samples_move_with_the_orthographic_eye() {
             7,
         );
         let mut m = s.create(st.config(), &st.settings).expect("sample cache");
-        let mut prev = None;
-        for f in 0..3 {
-            render_at(m.as_mut(), f, still, prev);
-            prev = Some(still);
-        }
-        let fr = render_at(m.as_mut(), 3, moved, prev);
+        let fr = after_three_still_frames(m.as_mut(), still, moved);
         check_square(
             &fr,
             MethodKind::SampleCache,
@@ -358,12 +359,7 @@ fn background_samples_do_not_outlive_the_view_direction() {
                 continue;
             }
             let mut m = s.method(kind.name(), &settings(1)).expect("method");
-            let mut prev = None;
-            for f in 0..3 {
-                render_at(m.as_mut(), f, still, prev);
-                prev = Some(still);
-            }
-            let fr = render_at(m.as_mut(), 3, turned, prev);
+            let fr = after_three_still_frames(m.as_mut(), still, turned);
             let what = format!("{} {rt:?}", kind.name());
             let mut checked = 0;
             for eye in Eye::BOTH {

@@ -146,7 +146,14 @@ pub(crate) mod tests {
         let left = LinearImage::from_fn(64, 64, texture);
         let depth = vec![1.0f32; 64 * 64];
         let (img, cov) = reproject(&left, &depth, &l, &depth, &r, 0.01, None).unwrap();
-        // Right pixel (i, j) sees what left pixel (i + 4, j) sees.
+        assert_shifted_by_4(&img, &cov, "perspective");
+        // The rightmost 4 columns look at what the left eye cannot see.
+        assert!(!cov[10 * 64 + 60] && !cov[10 * 64 + 63]);
+    }
+
+    /// Right pixel (i, j) of `img` sees what left pixel (i + 4, j) of
+    /// [`texture`] sees, and all but the rightmost 4 columns are co-visible.
+    fn assert_shifted_by_4(img: &LinearImage, cov: &[bool], what: &str) {
         for &(i, j) in &[(0usize, 0usize), (10, 20), (31, 63), (59, 5)] {
             assert!(cov[j * 64 + i]);
             let got = img.get(i, j).unwrap();
@@ -154,13 +161,11 @@ pub(crate) mod tests {
             for k in 0..3 {
                 assert!(
                     (got[k] - want[k]).abs() < 1e-3,
-                    "({i},{j}) {got:?} {want:?}"
+                    "{what}: ({i},{j}) {got:?} {want:?}"
                 );
             }
         }
-        // The rightmost 4 columns look at what the left eye cannot see.
-        assert!(!cov[10 * 64 + 60] && !cov[10 * 64 + 63]);
-        assert_eq!(cov.iter().filter(|&&v| v).count(), 60 * 64);
+        assert_eq!(cov.iter().filter(|&&v| v).count(), 60 * 64, "{what}");
     }
 
     /// Orthographic eyes (ymag = 1, 64 px: 32 px per metre, IPD 0.125 m):
@@ -174,18 +179,7 @@ pub(crate) mod tests {
         for d in [0.25f32, 1.0, 40.0] {
             let depth = vec![d; 64 * 64];
             let (img, cov) = reproject(&left, &depth, &l, &depth, &r, 0.01, None).unwrap();
-            for &(i, j) in &[(0usize, 0usize), (10, 20), (31, 63), (59, 5)] {
-                assert!(cov[j * 64 + i]);
-                let got = img.get(i, j).unwrap();
-                let want = texture(i + 4, j);
-                for k in 0..3 {
-                    assert!(
-                        (got[k] - want[k]).abs() < 1e-3,
-                        "{d}: ({i},{j}) {got:?} {want:?}"
-                    );
-                }
-            }
-            assert_eq!(cov.iter().filter(|&&v| v).count(), 60 * 64, "at depth {d}");
+            assert_shifted_by_4(&img, &cov, &format!("orthographic at depth {d}"));
         }
     }
 
