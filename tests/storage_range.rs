@@ -159,3 +159,43 @@ fn render_over_the_limit_is_one_error_line_before_rendering() {
     assert!(!out.join("left.exr").exists() && !out.join("summary.json").exists());
     let _ = std::fs::remove_dir_all(&out);
 }
+
+/// A memoization table over the range names its buffer and the option that
+/// sizes it: 2^20 tiled entries of 4×4 texels are 768 MiB of records.
+#[test]
+fn memo_table_over_the_limit_names_memo_entries() {
+    let ctx = context();
+    let limit = ctx.caps.max_storage_buffer_range;
+    drop(ctx);
+    let entries: u64 = 1 << 20;
+    let bytes = entries * 16 * 3 * 16;
+    assert!(bytes > limit, "{bytes} fits this device's {limit}");
+    let out = std::env::temp_dir().join(format!("stereocache-memo-range-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&out);
+    let e = entries.to_string();
+    let args = [
+        "render",
+        "--scene",
+        "procedural-uv:cornell",
+        "--memo",
+        "both",
+        "--memo-tile",
+        "4",
+        "--memo-entries",
+        &e,
+        "--size",
+        "8x8",
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    let o = cli(120).args(args).output().unwrap();
+    let line = single_error_line(&o, &format!("{args:?}"));
+    assert!(
+        line.contains("storage buffer memo.values")
+            && line.contains(&format!("{bytes} bytes"))
+            && line.contains("--memo-entries"),
+        "{line}"
+    );
+    assert!(!out.join("left.exr").exists() && !out.join("summary.json").exists());
+    let _ = std::fs::remove_dir_all(&out);
+}

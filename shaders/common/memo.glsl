@@ -63,9 +63,9 @@ ScGraphOutputs memo_unpack(uvec4 r0, uvec4 r1, uvec4 r2, vec3 normal) {
     return o;
 }
 
-// A texel's record in a tiled entry: texel `idx` of the (2^shift)² of
-// entry `slot` (non-tiled: shift 0, idx 0, the table.glsl layout).
-uint memo_texel_base(uint slot, uint shift, uint idx) { return MEMO_RECORD * ((slot << (2u * shift)) + idx); }
+// Texel k of a tiled entry e×e texels wide (e = s, or s + 1 with the
+// bilinear overlap) in slot `sl` is the record at MEMO_RECORD·(sl·e² + k);
+// non-tiled entries (e = 1) are table.glsl's layout.
 void memo_read_texel(uint b, out uvec4 r0, out uvec4 r1, out uvec4 r2) {
     memoryBarrierBuffer();
     r0 = memo_values[b]; r1 = memo_values[b + 1u]; r2 = memo_values[b + 2u];
@@ -203,58 +203,6 @@ void memo_fill_cooperative(bool need, uint key, int level, ivec2 tq, uint shift,
 }
 #endif
 
-// The tiled variant (thesis §5.3, s×s texels an entry, nearest texel): the
-// key is the tile's, a hit reads its one texel between the two key reads,
-// a miss evaluates the whole tile at its texel centres (the plain fill: one
-// lane, s² graph evaluations) and stores it under the lock.
-ScGraphOutputs memo_tiled(uint material, int level, ivec2 q, uint shift, vec3 p, vec3 n, vec3 t,
-                          uint cap, uint probe, uint policy, uint now) {
-    ivec2 tq = q >> int(shift);                        // floor division by s (arithmetic shift)
-    ivec2 o = q - (tq << int(shift));                 // texel within the tile, in [0, s)
-    uint s = 1u << shift, idx = uint(o.y) * s + uint(o.x);
-    uint key = material | (shift << 28);              // tiles and texels never share a key
-    uint h0 = memo_h0(key, level, tq), h1 = memo_h1(key, level, tq);
-    uvec4 r0, r1, r2;
-    ScGraphOutputs mine;
-    bool found = false;
-    for (uint i = 0u; i < probe; ++i) {
-        uint sl = memo_slot(h0, i, cap, probe);
-        if (memo_keys[sl] != h1) continue;
-        uint v0 = memo_version(sl);
-        memo_read_texel(memo_texel_base(sl, shift, idx), r0, r1, r2);
-        if (memo_validate(sl, h1, v0, true)) {
-            memo_count_hit(sl, policy, now);
-            mine = memo_unpack(r0, r1, r2, n);
-            found = true;
-        } else {
-            atomicAdd(memo_state[MEMO_C_REFUSED], 1u);
-        }
-        break;
-    }
-#ifdef SC_MEMO_SUBGROUP
-    ScGraphOutputs c[4];
-    c[0] = mine;
-    memo_fill_cooperative(!found, key, level, tq, shift, s, uint[4](idx, 0u, 0u, 0u), 1u, p, n, t,
-                          cap, probe, policy, now, c);
-    return c[0];
-#else
-    if (found) return mine;
-    uint seen;
-    bool present;
-    uint victim = memo_begin_fill(h0, h1, cap, probe, policy, now, seen, present);
-    bool locked = victim != MEMO_NONE;
-    for (uint k = 0u; k < s * s; ++k) {
-        ivec2 tk = (tq << int(shift)) + ivec2(int(k % s), int(k / s));
-        ScGraphOutputs v = sc_material_graphs(material, memo_snapped_uv(tk, level), p, n, t, memo_texel_width(level));
-        memo_pack(v, r0, r1, r2);
-        if (locked) memo_write_texel(memo_texel_base(victim, shift, k), r0, r1, r2);
-        if (k == idx) mine = memo_unpack(r0, r1, r2, n);
-    }
-    memo_end_fill(victim, h1, now, seen, present);
-    return mine;
-#endif
-}
-
 ScGraphOutputs memo_lerp(ScGraphOutputs a, ScGraphOutputs b, float f) {
     ScGraphOutputs o = a;
     o.base_color = mix(a.base_color, b.base_color, f);
@@ -265,134 +213,189 @@ ScGraphOutputs memo_lerp(ScGraphOutputs a, ScGraphOutputs b, float f) {
     return o;
 }
 
-// Bilinear lookup in tiles with a one-texel overlap (thesis §5.3, tiled
-// bilinear): in texel space X = 2^m uv the centres are the integers; the
-// footprint is texels q0 = floor(X) and q0 + 1, in the tile of q0, whose
-// (s+1)² records cover its s texels and the next tile's first row and
-// column. A hit reads the four records between the two key reads; a miss
-// fills the (s+1)² texel centres in the one lane and blends its own.
-ScGraphOutputs memo_tiled_bilinear(uint material, int level, vec2 uv, uint shift, vec3 p, vec3 n, vec3 t,
-                                   uint cap, uint probe, uint policy, uint now) {
-    vec2 x = ldexp(uv, ivec2(level));
-    vec2 fl = floor(clamp(x, vec2(-1073741824.0), vec2(1073741760.0)));
-    vec2 f = x - fl;
-    ivec2 q0 = ivec2(fl);
-    ivec2 tq = q0 >> int(shift);
-    ivec2 o = q0 - (tq << int(shift));
-    uint s = 1u << shift, e = s + 1u;
-    uint key = material | (shift << 28) | (1u << 27);   // bilinear tiles have their own keys
-    uint h0 = memo_h0(key, level, tq), h1 = memo_h1(key, level, tq);
-    uvec4 r0, r1, r2;
-    ScGraphOutputs c[4];
-    uvec2 ko[4] = uvec2[4](uvec2(0u, 0u), uvec2(1u, 0u), uvec2(0u, 1u), uvec2(1u, 1u));
-    bool found = false;
-    for (uint i = 0u; i < probe; ++i) {
-        uint sl = memo_slot(h0, i, cap, probe);
-        if (memo_keys[sl] != h1) continue;
-        uint v0 = memo_version(sl);
-        for (uint k = 0u; k < 4u; ++k) {
-            uint idx = (uint(o.y) + ko[k].y) * e + uint(o.x) + ko[k].x;
-            memo_read_texel(MEMO_RECORD * (sl * e * e + idx), r0, r1, r2);
-            c[k] = memo_unpack(r0, r1, r2, n);
-        }
-        if (memo_validate(sl, h1, v0, true)) {
-            memo_count_hit(sl, policy, now);
-            found = true;
-        } else {
-            atomicAdd(memo_state[MEMO_C_REFUSED], 1u);
-        }
-        break;
-    }
-#ifdef SC_MEMO_SUBGROUP
-    uint want[4];
-    for (uint k = 0u; k < 4u; ++k) want[k] = (uint(o.y) + ko[k].y) * e + uint(o.x) + ko[k].x;
-    memo_fill_cooperative(!found, key, level, tq, shift, e, want, 4u, p, n, t, cap, probe, policy, now, c);
-    return memo_lerp(memo_lerp(c[0], c[1], f.x), memo_lerp(c[2], c[3], f.x), f.y);
-#else
-    if (found) return memo_lerp(memo_lerp(c[0], c[1], f.x), memo_lerp(c[2], c[3], f.x), f.y);
-    uint seen;
-    bool present;
-    uint victim = memo_begin_fill(h0, h1, cap, probe, policy, now, seen, present);
-    bool locked = victim != MEMO_NONE;
-    for (uint k = 0u; k < e * e; ++k) {
-        uvec2 kk = uvec2(k % e, k / e);
-        ivec2 tk = (tq << int(shift)) + ivec2(kk);
-        ScGraphOutputs v = sc_material_graphs(material, memo_snapped_uv(tk, level), p, n, t, memo_texel_width(level));
-        memo_pack(v, r0, r1, r2);
-        if (locked) memo_write_texel(MEMO_RECORD * (victim * e * e + k), r0, r1, r2);
-        ivec2 d = ivec2(kk) - o;
-        if (all(greaterThanEqual(d, ivec2(0))) && all(lessThanEqual(d, ivec2(1))))
-            c[uint(d.y) * 2u + uint(d.x)] = memo_unpack(r0, r1, r2, n);
-    }
-    memo_end_fill(victim, h1, now, seen, present);
-    return memo_lerp(memo_lerp(c[0], c[1], f.x), memo_lerp(c[2], c[3], f.x), f.y);
-#endif
-}
-
-// The non-tiled variant (one texel an entry): texel q's outputs from the
-// table, or evaluated at its centre and stored on a miss. The value
-// returned is the one stored, so a hit and a miss of one texel shade alike.
-ScGraphOutputs memo_texel(uint material, int level, ivec2 q, vec3 p, vec3 n, vec3 t,
-                          uint cap, uint probe, uint policy, uint now) {
-    uint h0 = memo_h0(material, level, q), h1 = memo_h1(material, level, q);
-    uvec4 r0, r1, r2;
-    bool torn;
-    if (memo_find(h0, h1, cap, probe, true, policy, now, r0, r1, r2, torn) != MEMO_NONE) {
-        atomicAdd(memo_state[MEMO_C_HITS], 1u);
-        if (sc_memo_eye == 1u) atomicAdd(memo_state[MEMO_C_SECOND_EYE_HITS], 1u);
-        return memo_unpack(r0, r1, r2, n);
-    }
-    atomicAdd(memo_state[MEMO_C_MISSES], 1u);
-    if (sc_memo_eye == 1u) atomicAdd(memo_state[MEMO_C_SECOND_EYE_MISSES], 1u);
-    if (torn) atomicAdd(memo_state[MEMO_C_REFUSED], 1u);
-    ScGraphOutputs o = sc_material_graphs(material, memo_snapped_uv(q, level), p, n, t, memo_texel_width(level));
-    memo_pack(o, r0, r1, r2);
-    uint res = memo_insert(h0, h1, cap, probe, policy, now, r0, r1, r2);
-    if (res == MEMO_FILLED) atomicAdd(memo_state[MEMO_C_FILLS], 1u);
-    else if (res == MEMO_EVICTED) atomicAdd(memo_state[MEMO_C_EVICTIONS], 1u);
-    else if (res == MEMO_LOCK_FAILED) atomicAdd(memo_state[MEMO_C_LOCK_FAILURES], 1u);
-    // The value returned is the one stored, so a hit and a miss of one
-    // texel shade alike.
-    return memo_unpack(r0, r1, r2, n);
-}
+// The variants of one call (the table's state: --memo-tile, --memo-bilinear).
+const uint MEMO_V_DIRECT = 0u,          // not memoized here: evaluated at the hit
+           MEMO_V_TEXEL = 1u,           // non-tiled: the nearest texel, centre-snapped
+           MEMO_V_TEXELS = 2u,          // non-tiled bilinear: four texels, four lookups
+           MEMO_V_TILE = 3u,            // tiled: s×s texels an entry, the nearest texel
+           MEMO_V_TILE_BILINEAR = 4u;   // tiled bilinear: (s+1)² texels an entry
 
 // The graph outputs at a hit, through the cache where this kind of hit is
 // memoized (primary: the caller's cone_width > 0; secondary: path_radiance's
-// sc_memo_cone ≥ 0) and the material's graphs read only the uv.
-// `footprint`: the uv width a direct evaluation stands for (material.glsl
-// graph_footprint); a texel of level m stands for 2^-m.
+// sc_memo_cone ≥ 0) and the material's graphs read only the uv, else
+// evaluated at the hit. `footprint`: the uv width a direct evaluation
+// stands for (material.glsl graph_footprint); a texel of level m stands
+// for 2^-m.
+//
+// The variants (thesis §5.3):
+// - non-tiled (one texel an entry): texel q's outputs from the table, or
+//   evaluated at its centre and stored on a miss; the value returned is the
+//   one stored, so a hit and a miss of one texel shade alike;
+// - non-tiled bilinear: the four texel centres around X = 2^m uv, each
+//   looked up (a hit or a fill), blended;
+// - tiled (s×s texels an entry, nearest texel): the key is the tile's; a
+//   hit reads its one texel between the two key reads; a miss locks a
+//   victim entry and evaluates the whole tile at its texel centres (the
+//   plain fill: one lane, s² evaluations; or the subgroup's lanes together,
+//   memo_fill_cooperative) and stores it under the lock;
+// - tiled bilinear (tiles with a one-texel overlap): the footprint is
+//   texels q0 = floor(X) and q0 + 1, in the tile of q0, whose (s+1)²
+//   records cover its s² texels and the next tile's first row and column;
+//   a hit reads the four records between the two key reads, a miss fills
+//   the (s+1)² centres.
+//
+// First every lookup, then one loop over the texels to evaluate (or the
+// hit itself, unmemoized): the graph switch, tens of nodes per graph, is
+// compiled in once per call site whatever the variant (a switch inlined
+// for each variant and corner made the heavy library's shaders too large
+// to compile), and the trip count is known only at run time, so it is not
+// unrolled either.
 ScGraphOutputs sc_material_graphs_at(uint material, vec2 uv, vec3 p, vec3 n, vec3 t,
                                      float cone_width, float uv_area_ratio, float footprint) {
     uint flags = memo_state[MEMO_S_FLAGS];
     bool primary = cone_width > 0.0;
     bool use = primary ? (flags & 1u) != 0u : ((flags & 2u) != 0u && sc_memo_cone >= 0.0);
-    if (!use) return sc_material_graphs(material, uv, p, n, t, footprint);
-    if (!sc_material_memoizable(material)) {
-        atomicAdd(memo_state[MEMO_C_BYPASSED], 1u);
-        return sc_material_graphs(material, uv, p, n, t, footprint);
-    }
-    float w = primary ? cone_width : sc_memo_cone;
-    int level = memo_level(w, uv_area_ratio, uintBitsToFloat(memo_state[MEMO_S_BIAS]));
-    ivec2 q = memo_quantise(uv, level);
-    uint cap = memo_state[MEMO_S_CAPACITY], probe = memo_state[MEMO_S_PROBE];
-    uint policy = memo_state[MEMO_S_POLICY], now = memo_state[MEMO_S_NOW];
+    uint variant = MEMO_V_DIRECT;
     uint shift = memo_state[MEMO_S_TILE_SHIFT];
-    if (shift > 0u && memo_state[MEMO_S_BILINEAR] != 0u)
-        return memo_tiled_bilinear(material, level, uv, shift, p, n, t, cap, probe, policy, now);
-    if (shift > 0u) return memo_tiled(material, level, q, shift, p, n, t, cap, probe, policy, now);
-    if (memo_state[MEMO_S_BILINEAR] != 0u) {
-        // Non-tiled bilinear: the four texel centres around X = 2^m uv,
-        // four lookups (each a hit or a fill), blended.
-        vec2 x = ldexp(uv, ivec2(level));
-        vec2 fl = floor(clamp(x, vec2(-1073741824.0), vec2(1073741760.0)));
-        vec2 f = x - fl;
-        ivec2 q0 = ivec2(fl);
-        ScGraphOutputs c00 = memo_texel(material, level, q0, p, n, t, cap, probe, policy, now);
-        ScGraphOutputs c10 = memo_texel(material, level, q0 + ivec2(1, 0), p, n, t, cap, probe, policy, now);
-        ScGraphOutputs c01 = memo_texel(material, level, q0 + ivec2(0, 1), p, n, t, cap, probe, policy, now);
-        ScGraphOutputs c11 = memo_texel(material, level, q0 + ivec2(1, 1), p, n, t, cap, probe, policy, now);
-        return memo_lerp(memo_lerp(c00, c10, f.x), memo_lerp(c01, c11, f.x), f.y);
+    if (use) {
+        if (sc_material_memoizable(material)) {
+            bool bilinear = memo_state[MEMO_S_BILINEAR] != 0u;
+            variant = shift > 0u ? (bilinear ? MEMO_V_TILE_BILINEAR : MEMO_V_TILE)
+                                 : (bilinear ? MEMO_V_TEXELS : MEMO_V_TEXEL);
+        } else {
+            atomicAdd(memo_state[MEMO_C_BYPASSED], 1u);
+        }
     }
-    return memo_texel(material, level, q, p, n, t, cap, probe, policy, now);
+    bool tiled = variant == MEMO_V_TILE || variant == MEMO_V_TILE_BILINEAR;
+    bool bilinear = variant == MEMO_V_TEXELS || variant == MEMO_V_TILE_BILINEAR;
+    uint corners = bilinear ? 4u : 1u;
+    // Corner k of the bilinear footprint: q0 + ko[k] (c00, c10, c01, c11).
+    uvec2 ko[4] = uvec2[4](uvec2(0u, 0u), uvec2(1u, 0u), uvec2(0u, 1u), uvec2(1u, 1u));
+    ScGraphOutputs c[4];
+    uint count = 1u;      // evaluations this call makes (unmemoized: one, at the hit)
+    int level = 0;
+    ivec2 q = ivec2(0);   // the nearest texel, or the bilinear footprint's q0
+    vec2 f = vec2(0.0);   // the bilinear weights
+    uint cap = 0u, probe = 0u, policy = 0u, now = 0u;
+    uint missing = 0u;    // non-tiled: the corners to fill
+    ivec2 tq = ivec2(0), o = ivec2(0);   // tiled: the tile, and q's texel in it
+    uint e = 1u, h1 = 0u, victim = MEMO_NONE, seen = 0u;
+    bool present = false;
+    if (variant != MEMO_V_DIRECT) {
+        float w = primary ? cone_width : sc_memo_cone;
+        level = memo_level(w, uv_area_ratio, uintBitsToFloat(memo_state[MEMO_S_BIAS]));
+        cap = memo_state[MEMO_S_CAPACITY];
+        probe = memo_state[MEMO_S_PROBE];
+        policy = memo_state[MEMO_S_POLICY];
+        now = memo_state[MEMO_S_NOW];
+        if (bilinear) {
+            vec2 x = ldexp(uv, ivec2(level));
+            vec2 fl = floor(clamp(x, vec2(-1073741824.0), vec2(1073741760.0)));
+            f = x - fl;
+            q = ivec2(fl);
+        } else {
+            q = memo_quantise(uv, level);
+        }
+    }
+    if (variant == MEMO_V_TEXEL || variant == MEMO_V_TEXELS) {
+        for (uint k = 0u; k < corners; ++k) {
+            ivec2 qk = q + ivec2(ko[k]);
+            uvec4 r0, r1, r2;
+            bool torn;
+            if (memo_find(memo_h0(material, level, qk), memo_h1(material, level, qk), cap, probe, true,
+                          policy, now, r0, r1, r2, torn) != MEMO_NONE) {
+                atomicAdd(memo_state[MEMO_C_HITS], 1u);
+                if (sc_memo_eye == 1u) atomicAdd(memo_state[MEMO_C_SECOND_EYE_HITS], 1u);
+                c[k] = memo_unpack(r0, r1, r2, n);
+            } else {
+                atomicAdd(memo_state[MEMO_C_MISSES], 1u);
+                if (sc_memo_eye == 1u) atomicAdd(memo_state[MEMO_C_SECOND_EYE_MISSES], 1u);
+                if (torn) atomicAdd(memo_state[MEMO_C_REFUSED], 1u);
+                missing |= 1u << k;
+            }
+        }
+        count = uint(bitCount(missing));
+    } else if (tiled) {
+        uint s = 1u << shift;
+        e = bilinear ? s + 1u : s;
+        tq = q >> int(shift);                          // floor division by s (arithmetic shift)
+        o = q - (tq << int(shift));                    // q's texel within the tile, in [0, s)
+        // Tiles, texels and bilinear tiles never share a key.
+        uint key = material | (shift << 28) | (bilinear ? 1u << 27 : 0u);
+        uint h0 = memo_h0(key, level, tq);
+        h1 = memo_h1(key, level, tq);
+        uint want[4];
+        for (uint k = 0u; k < 4u; ++k) want[k] = (uint(o.y) + ko[k].y) * e + uint(o.x) + ko[k].x;
+        bool found = false;
+        for (uint i = 0u; i < probe; ++i) {
+            uint sl = memo_slot(h0, i, cap, probe);
+            if (memo_keys[sl] != h1) continue;
+            uint v0 = memo_version(sl);
+            for (uint k = 0u; k < corners; ++k) {
+                uvec4 r0, r1, r2;
+                memo_read_texel(MEMO_RECORD * (sl * e * e + want[k]), r0, r1, r2);
+                c[k] = memo_unpack(r0, r1, r2, n);
+            }
+            if (memo_validate(sl, h1, v0, true)) {
+                memo_count_hit(sl, policy, now);
+                found = true;
+            } else {
+                atomicAdd(memo_state[MEMO_C_REFUSED], 1u);
+            }
+            break;
+        }
+#ifdef SC_MEMO_SUBGROUP
+        memo_fill_cooperative(!found, key, level, tq, shift, e, want, corners, p, n, t,
+                              cap, probe, policy, now, c);
+        count = 0u;
+#else
+        if (!found) victim = memo_begin_fill(h0, h1, cap, probe, policy, now, seen, present);
+        count = found ? 0u : e * e;
+#endif
+    }
+    // The evaluations: k-th missing corner (non-tiled), texel k of the tile
+    // (tiled), or the hit itself.
+    for (uint k = 0u; k < count; ++k) {
+        vec2 at = uv;
+        float fp = footprint;
+        uint j = 0u;
+        ivec2 tk = ivec2(0);
+        if (variant == MEMO_V_TEXEL || variant == MEMO_V_TEXELS) {
+            j = uint(findLSB(missing));
+            missing &= missing - 1u;
+            tk = q + ivec2(ko[j]);
+        } else if (tiled) {
+            tk = (tq << int(shift)) + ivec2(int(k % e), int(k / e));
+        }
+        if (variant != MEMO_V_DIRECT) {
+            at = memo_snapped_uv(tk, level);
+            fp = memo_texel_width(level);
+        }
+        ScGraphOutputs v = sc_material_graphs(material, at, p, n, t, fp);
+        if (variant == MEMO_V_DIRECT) {
+            c[0] = v;
+            continue;
+        }
+        uvec4 r0, r1, r2;
+        memo_pack(v, r0, r1, r2);
+        if (tiled) {
+            if (victim != MEMO_NONE) memo_write_texel(MEMO_RECORD * (victim * e * e + k), r0, r1, r2);
+            // The texels this call reads: q's (nearest), or the 2×2 from q0.
+            ivec2 d = ivec2(int(k % e), int(k / e)) - o;
+            if (all(greaterThanEqual(d, ivec2(0))) && all(lessThanEqual(d, ivec2(bilinear ? 1 : 0))))
+                c[uint(d.y) * 2u + uint(d.x)] = memo_unpack(r0, r1, r2, n);
+        } else {
+            uint res = memo_insert(memo_h0(material, level, tk), memo_h1(material, level, tk), cap, probe,
+                                   policy, now, r0, r1, r2);
+            if (res == MEMO_FILLED) atomicAdd(memo_state[MEMO_C_FILLS], 1u);
+            else if (res == MEMO_EVICTED) atomicAdd(memo_state[MEMO_C_EVICTIONS], 1u);
+            else if (res == MEMO_LOCK_FAILED) atomicAdd(memo_state[MEMO_C_LOCK_FAILURES], 1u);
+            // The value returned is the one stored.
+            c[j] = memo_unpack(r0, r1, r2, n);
+        }
+    }
+    if (tiled && count > 0u) memo_end_fill(victim, h1, now, seen, present);
+    if (bilinear) return memo_lerp(memo_lerp(c[0], c[1], f.x), memo_lerp(c[2], c[3], f.x), f.y);
+    return c[0];
 }
 #endif

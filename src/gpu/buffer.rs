@@ -42,6 +42,8 @@ fn check_storage_range(ctx: &GpuContext, name: &str, size: u64) -> GpuResult<()>
     }
     let hint = if name.starts_with("scene.") || name.starts_with("bvh.") {
         "the scene is too large for this device (fewer triangles, lights or a smaller environment map)"
+    } else if name.starts_with("memo.") {
+        "reduce --memo-entries (a tiled entry holds --memo-tile² texel records, (s+1)² with --memo-bilinear)"
     } else {
         "reduce --size, --slots (sample cache) or --hash-capacity (hash table)"
     };
