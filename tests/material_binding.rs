@@ -1062,12 +1062,12 @@ fn memoized_images_differ_from_direct_ones_as_the_thesis_orders_them() {
     }
     // The thesis's ordering (§6.1): nearest with snapping scores best,
     // bilinear's blur a little worse.
-    for e in 0..2 {
+    for (e, (nearest, bilinear)) in scored[0].iter().zip(&scored[2]).enumerate() {
         assert!(
-            scored[0][e].0 < scored[2][e].0,
+            nearest.0 < bilinear.0,
             "eye {e}: HDR-FLIP nearest + snap {} not below bilinear {}",
-            scored[0][e].0,
-            scored[2][e].0
+            nearest.0,
+            bilinear.0
         );
     }
     for (e, eye) in frames[0].eyes.iter().enumerate() {
