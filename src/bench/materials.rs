@@ -54,7 +54,7 @@ pub fn memo_configs(sizes: &[u32]) -> Vec<(String, MemoSettings)> {
         "both tile 4x4".to_string(),
         MemoSettings {
             hits: MemoHits::Both,
-            entries: d.entries / 16,
+            entries: MemoSettings::default_entries(4),
             tile: 4,
             ..d
         },
@@ -63,7 +63,7 @@ pub fn memo_configs(sizes: &[u32]) -> Vec<(String, MemoSettings)> {
         "both tile 4x4 bilinear".to_string(),
         MemoSettings {
             hits: MemoHits::Both,
-            entries: d.entries / 16,
+            entries: MemoSettings::default_entries(4),
             tile: 4,
             bilinear: true,
             ..d
@@ -75,7 +75,7 @@ pub fn memo_configs(sizes: &[u32]) -> Vec<(String, MemoSettings)> {
         "both tile 4x4 plain fill".to_string(),
         MemoSettings {
             hits: MemoHits::Both,
-            entries: d.entries / 16,
+            entries: MemoSettings::default_entries(4),
             tile: 4,
             fill: crate::materials::memo::MemoFill::Plain,
             ..d

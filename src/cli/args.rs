@@ -152,9 +152,10 @@ pub struct SceneArgs {
     #[arg(long, default_value = "off")]
     pub memo: MemoHits,
     /// Entries of the memoization table (60 B each: key, stamp, write version, one 48 B record; with --memo-tile s, s²
-    /// texel records of 48 B an entry, (s+1)² with --memo-bilinear).
-    #[arg(long, default_value_t = MemoSettings::default().entries)]
-    pub memo_entries: u32,
+    /// texel records of 48 B an entry, (s+1)² with --memo-bilinear) [default: 2^20 texels' worth: 1048576 entries,
+    /// 2^20 / s² with --memo-tile s]
+    #[arg(long)]
+    pub memo_entries: Option<u32>,
     /// Its linear-probing window.
     #[arg(long, default_value_t = MemoSettings::default().probe)]
     pub memo_probe: u32,
@@ -221,7 +222,9 @@ impl SceneArgs {
     pub fn memo_settings(&self) -> Result<MemoSettings> {
         let s = MemoSettings {
             hits: self.memo,
-            entries: self.memo_entries,
+            entries: self
+                .memo_entries
+                .unwrap_or(MemoSettings::default_entries(self.memo_tile)),
             probe: self.memo_probe,
             eviction: self.memo_eviction,
             bias: self.memo_bias,

@@ -116,7 +116,7 @@ impl Default for MemoSettings {
     fn default() -> Self {
         MemoSettings {
             hits: MemoHits::Off,
-            entries: 1 << 20,
+            entries: DEFAULT_TEXELS,
             probe: 8,
             eviction: Eviction::Lru,
             bias: 0.0,
@@ -127,7 +127,18 @@ impl Default for MemoSettings {
     }
 }
 
+/// The texels a default table holds: 2^20 (the non-tiled default's entries).
+pub const DEFAULT_TEXELS: u32 = 1 << 20;
+
 impl MemoSettings {
+    /// The default table's entries for tiles of `tile`² texels: 2^20 texels'
+    /// worth (1,048,576 entries non-tiled, 65,536 tiles of 4×4), so every
+    /// variant fits a 128 MiB storage range (4×4 bilinear tiles: 75.8 MiB).
+    pub fn default_entries(tile: u32) -> u32 {
+        let t = tile.clamp(1, 8);
+        DEFAULT_TEXELS / (t * t)
+    }
+
     pub fn enabled(&self) -> bool {
         self.hits != MemoHits::Off
     }
@@ -188,5 +199,45 @@ impl MemoSettings {
             ));
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The default table of every variant holds 2^20 texels and its record
+    /// buffer fits 2^27 bytes, the smallest maxStorageBufferRange the
+    /// project runs on (lavapipe's): `--memo-tile s` alone never asks for
+    /// more than the device binds.
+    #[test]
+    fn default_tables_hold_2_20_texels_within_lavapipes_storage_range() {
+        let record = ENTRY_BYTES - ENTRY_HEADER_BYTES;
+        for tile in [1, 2, 4, 8] {
+            for bilinear in [false, true] {
+                let s = MemoSettings {
+                    hits: MemoHits::Both,
+                    entries: MemoSettings::default_entries(tile),
+                    tile,
+                    bilinear,
+                    ..Default::default()
+                };
+                assert_eq!(s.validate(), Ok(()), "tile {tile} bilinear {bilinear}");
+                assert_eq!(
+                    s.entries as u64 * (tile * tile) as u64,
+                    DEFAULT_TEXELS as u64,
+                    "tile {tile}"
+                );
+                let values = s.entries as u64 * s.texels_per_entry() * record;
+                assert!(
+                    values <= 1 << 27,
+                    "tile {tile} bilinear {bilinear}: {values} bytes of records"
+                );
+            }
+        }
+        assert_eq!(
+            MemoSettings::default().entries,
+            MemoSettings::default_entries(1)
+        );
     }
 }
