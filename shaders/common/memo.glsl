@@ -220,17 +220,195 @@ const uint MEMO_V_DIRECT = 0u,          // not memoized here: evaluated at the h
            MEMO_V_TILE = 3u,            // tiled: s×s texels an entry, the nearest texel
            MEMO_V_TILE_BILINEAR = 4u;   // tiled bilinear: (s+1)² texels an entry
 
+// Corner k of a bilinear footprint: q0 + MEMO_CORNER[k] (c00, c10, c01, c11).
+const uvec2 MEMO_CORNER[4] = uvec2[4](uvec2(0u, 0u), uvec2(1u, 0u), uvec2(0u, 1u), uvec2(1u, 1u));
+
+// One call of sc_material_graphs_at: its lookups' results and what is
+// left to evaluate.
+struct MemoCall {
+    uint variant;
+    bool tiled, bilinear;
+    uint corners;         // texels the result reads: 1, or 4 (bilinear)
+    int level;
+    ivec2 q;              // the nearest texel, or the bilinear footprint's q0
+    vec2 f;               // the bilinear weights
+    uint cap, probe, policy, now, shift;
+    uint count;           // evaluations left (unmemoized: one, at the hit)
+    uint missing;         // non-tiled: the corners to fill, a bit each
+    ivec2 tq, o;          // tiled: the tile, and q's texel in it
+    uint e;               // tiled: texels an entry edge (s, or s + 1 bilinear)
+    uint key, h1, victim, seen;
+    bool present;
+};
+
+// The variant of a hit (primary: the caller's cone_width > 0; secondary:
+// path_radiance's sc_memo_cone ≥ 0; memoized only where the material's
+// graphs read the uv alone), its level of detail and texel.
+MemoCall memo_call(uint material, vec2 uv, float cone_width, float uv_area_ratio) {
+    MemoCall c;
+    uint flags = memo_state[MEMO_S_FLAGS];
+    bool primary = cone_width > 0.0;
+    bool use = primary ? (flags & 1u) != 0u : ((flags & 2u) != 0u && sc_memo_cone >= 0.0);
+    c.shift = memo_state[MEMO_S_TILE_SHIFT];
+    c.variant = MEMO_V_DIRECT;
+    if (use) {
+        if (sc_material_memoizable(material)) {
+            bool bilinear = memo_state[MEMO_S_BILINEAR] != 0u;
+            c.variant = c.shift > 0u ? (bilinear ? MEMO_V_TILE_BILINEAR : MEMO_V_TILE)
+                                     : (bilinear ? MEMO_V_TEXELS : MEMO_V_TEXEL);
+        } else {
+            atomicAdd(memo_state[MEMO_C_BYPASSED], 1u);
+        }
+    }
+    c.tiled = c.variant == MEMO_V_TILE || c.variant == MEMO_V_TILE_BILINEAR;
+    c.bilinear = c.variant == MEMO_V_TEXELS || c.variant == MEMO_V_TILE_BILINEAR;
+    c.corners = c.bilinear ? 4u : 1u;
+    c.count = 1u;
+    c.level = 0;
+    c.q = ivec2(0);
+    c.f = vec2(0.0);
+    c.cap = 0u; c.probe = 0u; c.policy = 0u; c.now = 0u;
+    c.missing = 0u;
+    c.tq = ivec2(0); c.o = ivec2(0);
+    c.e = 1u;
+    c.key = 0u; c.h1 = 0u; c.victim = MEMO_NONE; c.seen = 0u;
+    c.present = false;
+    if (c.variant == MEMO_V_DIRECT) return c;
+    float w = primary ? cone_width : sc_memo_cone;
+    c.level = memo_level(w, uv_area_ratio, uintBitsToFloat(memo_state[MEMO_S_BIAS]));
+    c.cap = memo_state[MEMO_S_CAPACITY];
+    c.probe = memo_state[MEMO_S_PROBE];
+    c.policy = memo_state[MEMO_S_POLICY];
+    c.now = memo_state[MEMO_S_NOW];
+    if (c.bilinear) {
+        // In texel space X = 2^m uv the centres are the integers.
+        vec2 x = ldexp(uv, ivec2(c.level));
+        vec2 fl = floor(clamp(x, vec2(-1073741824.0), vec2(1073741760.0)));
+        c.f = x - fl;
+        c.q = ivec2(fl);
+    } else {
+        c.q = memo_quantise(uv, c.level);
+    }
+    return c;
+}
+
+// Non-tiled lookups, one per corner: a hit's record goes to out[k], a miss
+// is left to the evaluation loop (bit k of `missing`).
+void memo_lookup_texels(inout MemoCall c, uint material, vec3 n, inout ScGraphOutputs out4[4]) {
+    for (uint k = 0u; k < c.corners; ++k) {
+        ivec2 qk = c.q + ivec2(MEMO_CORNER[k]);
+        uvec4 r0, r1, r2;
+        bool torn;
+        if (memo_find(memo_h0(material, c.level, qk), memo_h1(material, c.level, qk), c.cap, c.probe, true,
+                      c.policy, c.now, r0, r1, r2, torn) != MEMO_NONE) {
+            atomicAdd(memo_state[MEMO_C_HITS], 1u);
+            if (sc_memo_eye == 1u) atomicAdd(memo_state[MEMO_C_SECOND_EYE_HITS], 1u);
+            out4[k] = memo_unpack(r0, r1, r2, n);
+        } else {
+            atomicAdd(memo_state[MEMO_C_MISSES], 1u);
+            if (sc_memo_eye == 1u) atomicAdd(memo_state[MEMO_C_SECOND_EYE_MISSES], 1u);
+            if (torn) atomicAdd(memo_state[MEMO_C_REFUSED], 1u);
+            c.missing |= 1u << k;
+        }
+    }
+    c.count = uint(bitCount(c.missing));
+}
+
+// The record index in a tile of the texel corner k reads.
+uint memo_tile_texel(MemoCall c, uint k) {
+    return (uint(c.o.y) + MEMO_CORNER[k].y) * c.e + uint(c.o.x) + MEMO_CORNER[k].x;
+}
+
+// A tiled lookup: the tile's key; a hit reads the texels it needs between
+// the two key reads. A miss locks a victim for the evaluation loop (the
+// plain fill), or is filled here by the subgroup's lanes together.
+void memo_lookup_tile(inout MemoCall c, uint material, vec3 p, vec3 n, vec3 t, inout ScGraphOutputs out4[4]) {
+    uint s = 1u << c.shift;
+    c.e = c.bilinear ? s + 1u : s;
+    c.tq = c.q >> int(c.shift);                    // floor division by s (arithmetic shift)
+    c.o = c.q - (c.tq << int(c.shift));            // q's texel within the tile, in [0, s)
+    // Tiles, texels and bilinear tiles never share a key.
+    c.key = material | (c.shift << 28) | (c.bilinear ? 1u << 27 : 0u);
+    uint h0 = memo_h0(c.key, c.level, c.tq);
+    c.h1 = memo_h1(c.key, c.level, c.tq);
+    bool found = false;
+    for (uint i = 0u; i < c.probe; ++i) {
+        uint sl = memo_slot(h0, i, c.cap, c.probe);
+        if (memo_keys[sl] != c.h1) continue;
+        uint v0 = memo_version(sl);
+        for (uint k = 0u; k < c.corners; ++k) {
+            uvec4 r0, r1, r2;
+            memo_read_texel(MEMO_RECORD * (sl * c.e * c.e + memo_tile_texel(c, k)), r0, r1, r2);
+            out4[k] = memo_unpack(r0, r1, r2, n);
+        }
+        if (memo_validate(sl, c.h1, v0, true)) {
+            memo_count_hit(sl, c.policy, c.now);
+            found = true;
+        } else {
+            atomicAdd(memo_state[MEMO_C_REFUSED], 1u);
+        }
+        break;
+    }
+#ifdef SC_MEMO_SUBGROUP
+    uint want[4];
+    for (uint k = 0u; k < 4u; ++k) want[k] = memo_tile_texel(c, k);
+    memo_fill_cooperative(!found, c.key, c.level, c.tq, c.shift, c.e, want, c.corners, p, n, t,
+                          c.cap, c.probe, c.policy, c.now, out4);
+    c.count = 0u;
+#else
+    if (!found) c.victim = memo_begin_fill(h0, c.h1, c.cap, c.probe, c.policy, c.now, c.seen, c.present);
+    c.count = found ? 0u : c.e * c.e;
+#endif
+}
+
+// Where the k-th evaluation happens: the hit itself (unmemoized), the k-th
+// missing corner (non-tiled; its index in `corner`), or texel k of the
+// tile, at the texel's centre.
+vec2 memo_evaluation_uv(inout MemoCall c, uint k, vec2 uv, out ivec2 texel, out uint corner) {
+    corner = 0u;
+    texel = ivec2(0);
+    if (c.variant == MEMO_V_DIRECT) return uv;
+    if (c.tiled) {
+        texel = (c.tq << int(c.shift)) + ivec2(int(k % c.e), int(k / c.e));
+    } else {
+        corner = uint(findLSB(c.missing));
+        c.missing &= c.missing - 1u;
+        texel = c.q + ivec2(MEMO_CORNER[corner]);
+    }
+    return memo_snapped_uv(texel, c.level);
+}
+
+// Stores the k-th evaluation `v` and keeps what the result reads: into
+// the tile under the lock, or inserted as its own texel (the value kept is
+// the one stored, so a hit and a miss of one texel shade alike).
+void memo_store(MemoCall c, uint material, uint k, ivec2 texel, uint corner, ScGraphOutputs v, vec3 n,
+                inout ScGraphOutputs out4[4]) {
+    uvec4 r0, r1, r2;
+    memo_pack(v, r0, r1, r2);
+    if (c.tiled) {
+        if (c.victim != MEMO_NONE) memo_write_texel(MEMO_RECORD * (c.victim * c.e * c.e + k), r0, r1, r2);
+        // The texels this call reads: q's (nearest), or the 2×2 from q0.
+        ivec2 d = ivec2(int(k % c.e), int(k / c.e)) - c.o;
+        if (all(greaterThanEqual(d, ivec2(0))) && all(lessThanEqual(d, ivec2(c.bilinear ? 1 : 0))))
+            out4[uint(d.y) * 2u + uint(d.x)] = memo_unpack(r0, r1, r2, n);
+        return;
+    }
+    uint res = memo_insert(memo_h0(material, c.level, texel), memo_h1(material, c.level, texel), c.cap,
+                           c.probe, c.policy, c.now, r0, r1, r2);
+    if (res == MEMO_FILLED) atomicAdd(memo_state[MEMO_C_FILLS], 1u);
+    else if (res == MEMO_EVICTED) atomicAdd(memo_state[MEMO_C_EVICTIONS], 1u);
+    else if (res == MEMO_LOCK_FAILED) atomicAdd(memo_state[MEMO_C_LOCK_FAILURES], 1u);
+    out4[corner] = memo_unpack(r0, r1, r2, n);
+}
+
 // The graph outputs at a hit, through the cache where this kind of hit is
-// memoized (primary: the caller's cone_width > 0; secondary: path_radiance's
-// sc_memo_cone ≥ 0) and the material's graphs read only the uv, else
-// evaluated at the hit. `footprint`: the uv width a direct evaluation
-// stands for (material.glsl graph_footprint); a texel of level m stands
-// for 2^-m.
+// memoized and the material's graphs read only the uv, else evaluated at
+// the hit. `footprint`: the uv width a direct evaluation stands for
+// (material.glsl graph_footprint); a texel of level m stands for 2^-m.
 //
 // The variants (thesis §5.3):
 // - non-tiled (one texel an entry): texel q's outputs from the table, or
-//   evaluated at its centre and stored on a miss; the value returned is the
-//   one stored, so a hit and a miss of one texel shade alike;
+//   evaluated at its centre and stored on a miss;
 // - non-tiled bilinear: the four texel centres around X = 2^m uv, each
 //   looked up (a hit or a fill), blended;
 // - tiled (s×s texels an entry, nearest texel): the key is the tile's; a
@@ -252,150 +430,24 @@ const uint MEMO_V_DIRECT = 0u,          // not memoized here: evaluated at the h
 // unrolled either.
 ScGraphOutputs sc_material_graphs_at(uint material, vec2 uv, vec3 p, vec3 n, vec3 t,
                                      float cone_width, float uv_area_ratio, float footprint) {
-    uint flags = memo_state[MEMO_S_FLAGS];
-    bool primary = cone_width > 0.0;
-    bool use = primary ? (flags & 1u) != 0u : ((flags & 2u) != 0u && sc_memo_cone >= 0.0);
-    uint variant = MEMO_V_DIRECT;
-    uint shift = memo_state[MEMO_S_TILE_SHIFT];
-    if (use) {
-        if (sc_material_memoizable(material)) {
-            bool bilinear = memo_state[MEMO_S_BILINEAR] != 0u;
-            variant = shift > 0u ? (bilinear ? MEMO_V_TILE_BILINEAR : MEMO_V_TILE)
-                                 : (bilinear ? MEMO_V_TEXELS : MEMO_V_TEXEL);
-        } else {
-            atomicAdd(memo_state[MEMO_C_BYPASSED], 1u);
-        }
-    }
-    bool tiled = variant == MEMO_V_TILE || variant == MEMO_V_TILE_BILINEAR;
-    bool bilinear = variant == MEMO_V_TEXELS || variant == MEMO_V_TILE_BILINEAR;
-    uint corners = bilinear ? 4u : 1u;
-    // Corner k of the bilinear footprint: q0 + ko[k] (c00, c10, c01, c11).
-    uvec2 ko[4] = uvec2[4](uvec2(0u, 0u), uvec2(1u, 0u), uvec2(0u, 1u), uvec2(1u, 1u));
-    ScGraphOutputs c[4];
-    uint count = 1u;      // evaluations this call makes (unmemoized: one, at the hit)
-    int level = 0;
-    ivec2 q = ivec2(0);   // the nearest texel, or the bilinear footprint's q0
-    vec2 f = vec2(0.0);   // the bilinear weights
-    uint cap = 0u, probe = 0u, policy = 0u, now = 0u;
-    uint missing = 0u;    // non-tiled: the corners to fill
-    ivec2 tq = ivec2(0), o = ivec2(0);   // tiled: the tile, and q's texel in it
-    uint e = 1u, h1 = 0u, victim = MEMO_NONE, seen = 0u;
-    bool present = false;
-    if (variant != MEMO_V_DIRECT) {
-        float w = primary ? cone_width : sc_memo_cone;
-        level = memo_level(w, uv_area_ratio, uintBitsToFloat(memo_state[MEMO_S_BIAS]));
-        cap = memo_state[MEMO_S_CAPACITY];
-        probe = memo_state[MEMO_S_PROBE];
-        policy = memo_state[MEMO_S_POLICY];
-        now = memo_state[MEMO_S_NOW];
-        if (bilinear) {
-            vec2 x = ldexp(uv, ivec2(level));
-            vec2 fl = floor(clamp(x, vec2(-1073741824.0), vec2(1073741760.0)));
-            f = x - fl;
-            q = ivec2(fl);
-        } else {
-            q = memo_quantise(uv, level);
-        }
-    }
-    if (variant == MEMO_V_TEXEL || variant == MEMO_V_TEXELS) {
-        for (uint k = 0u; k < corners; ++k) {
-            ivec2 qk = q + ivec2(ko[k]);
-            uvec4 r0, r1, r2;
-            bool torn;
-            if (memo_find(memo_h0(material, level, qk), memo_h1(material, level, qk), cap, probe, true,
-                          policy, now, r0, r1, r2, torn) != MEMO_NONE) {
-                atomicAdd(memo_state[MEMO_C_HITS], 1u);
-                if (sc_memo_eye == 1u) atomicAdd(memo_state[MEMO_C_SECOND_EYE_HITS], 1u);
-                c[k] = memo_unpack(r0, r1, r2, n);
-            } else {
-                atomicAdd(memo_state[MEMO_C_MISSES], 1u);
-                if (sc_memo_eye == 1u) atomicAdd(memo_state[MEMO_C_SECOND_EYE_MISSES], 1u);
-                if (torn) atomicAdd(memo_state[MEMO_C_REFUSED], 1u);
-                missing |= 1u << k;
-            }
-        }
-        count = uint(bitCount(missing));
-    } else if (tiled) {
-        uint s = 1u << shift;
-        e = bilinear ? s + 1u : s;
-        tq = q >> int(shift);                          // floor division by s (arithmetic shift)
-        o = q - (tq << int(shift));                    // q's texel within the tile, in [0, s)
-        // Tiles, texels and bilinear tiles never share a key.
-        uint key = material | (shift << 28) | (bilinear ? 1u << 27 : 0u);
-        uint h0 = memo_h0(key, level, tq);
-        h1 = memo_h1(key, level, tq);
-        uint want[4];
-        for (uint k = 0u; k < 4u; ++k) want[k] = (uint(o.y) + ko[k].y) * e + uint(o.x) + ko[k].x;
-        bool found = false;
-        for (uint i = 0u; i < probe; ++i) {
-            uint sl = memo_slot(h0, i, cap, probe);
-            if (memo_keys[sl] != h1) continue;
-            uint v0 = memo_version(sl);
-            for (uint k = 0u; k < corners; ++k) {
-                uvec4 r0, r1, r2;
-                memo_read_texel(MEMO_RECORD * (sl * e * e + want[k]), r0, r1, r2);
-                c[k] = memo_unpack(r0, r1, r2, n);
-            }
-            if (memo_validate(sl, h1, v0, true)) {
-                memo_count_hit(sl, policy, now);
-                found = true;
-            } else {
-                atomicAdd(memo_state[MEMO_C_REFUSED], 1u);
-            }
-            break;
-        }
-#ifdef SC_MEMO_SUBGROUP
-        memo_fill_cooperative(!found, key, level, tq, shift, e, want, corners, p, n, t,
-                              cap, probe, policy, now, c);
-        count = 0u;
-#else
-        if (!found) victim = memo_begin_fill(h0, h1, cap, probe, policy, now, seen, present);
-        count = found ? 0u : e * e;
-#endif
-    }
-    // The evaluations: k-th missing corner (non-tiled), texel k of the tile
-    // (tiled), or the hit itself.
-    for (uint k = 0u; k < count; ++k) {
-        vec2 at = uv;
-        float fp = footprint;
-        uint j = 0u;
-        ivec2 tk = ivec2(0);
-        if (variant == MEMO_V_TEXEL || variant == MEMO_V_TEXELS) {
-            j = uint(findLSB(missing));
-            missing &= missing - 1u;
-            tk = q + ivec2(ko[j]);
-        } else if (tiled) {
-            tk = (tq << int(shift)) + ivec2(int(k % e), int(k / e));
-        }
-        if (variant != MEMO_V_DIRECT) {
-            at = memo_snapped_uv(tk, level);
-            fp = memo_texel_width(level);
-        }
+    MemoCall c = memo_call(material, uv, cone_width, uv_area_ratio);
+    ScGraphOutputs out4[4];
+    if (c.variant == MEMO_V_TEXEL || c.variant == MEMO_V_TEXELS) memo_lookup_texels(c, material, n, out4);
+    else if (c.tiled) memo_lookup_tile(c, material, p, n, t, out4);
+    for (uint k = 0u; k < c.count; ++k) {
+        ivec2 texel;
+        uint corner;
+        vec2 at = memo_evaluation_uv(c, k, uv, texel, corner);
+        float fp = c.variant == MEMO_V_DIRECT ? footprint : memo_texel_width(c.level);
         ScGraphOutputs v = sc_material_graphs(material, at, p, n, t, fp);
-        if (variant == MEMO_V_DIRECT) {
-            c[0] = v;
+        if (c.variant == MEMO_V_DIRECT) {
+            out4[0] = v;
             continue;
         }
-        uvec4 r0, r1, r2;
-        memo_pack(v, r0, r1, r2);
-        if (tiled) {
-            if (victim != MEMO_NONE) memo_write_texel(MEMO_RECORD * (victim * e * e + k), r0, r1, r2);
-            // The texels this call reads: q's (nearest), or the 2×2 from q0.
-            ivec2 d = ivec2(int(k % e), int(k / e)) - o;
-            if (all(greaterThanEqual(d, ivec2(0))) && all(lessThanEqual(d, ivec2(bilinear ? 1 : 0))))
-                c[uint(d.y) * 2u + uint(d.x)] = memo_unpack(r0, r1, r2, n);
-        } else {
-            uint res = memo_insert(memo_h0(material, level, tk), memo_h1(material, level, tk), cap, probe,
-                                   policy, now, r0, r1, r2);
-            if (res == MEMO_FILLED) atomicAdd(memo_state[MEMO_C_FILLS], 1u);
-            else if (res == MEMO_EVICTED) atomicAdd(memo_state[MEMO_C_EVICTIONS], 1u);
-            else if (res == MEMO_LOCK_FAILED) atomicAdd(memo_state[MEMO_C_LOCK_FAILURES], 1u);
-            // The value returned is the one stored.
-            c[j] = memo_unpack(r0, r1, r2, n);
-        }
+        memo_store(c, material, k, texel, corner, v, n, out4);
     }
-    if (tiled && count > 0u) memo_end_fill(victim, h1, now, seen, present);
-    if (bilinear) return memo_lerp(memo_lerp(c[0], c[1], f.x), memo_lerp(c[2], c[3], f.x), f.y);
-    return c[0];
+    if (c.tiled && c.count > 0u) memo_end_fill(c.victim, c.h1, c.now, c.seen, c.present);
+    if (c.bilinear) return memo_lerp(memo_lerp(out4[0], out4[1], c.f.x), memo_lerp(out4[2], out4[3], c.f.x), c.f.y);
+    return out4[0];
 }
 #endif
