@@ -337,7 +337,10 @@ fn compiled_spirv_is_cached_by_content() {
     let c = compile::compile_in(&dir, "t", &src.replace("{}", "{ }")).unwrap();
     assert!(!c.cached && c.path != a.path);
     let e = compile::compile_in(&dir, "t", "#version 460\nvoid main() { nope; }\n").unwrap_err();
-    assert!(e.contains("glslc failed"), "{e}");
+    assert!(
+        e.contains("glslc failed") && e.contains("exit status"),
+        "{e}"
+    );
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

@@ -206,8 +206,9 @@ fn run_glslc(
             "{what}: cannot run glslc ({e}); install it with scripts/setup.sh or set GLSLC"
         )),
         Ok(o) if !o.status.success() => Err(format!(
-            "{what}: glslc failed ({}):\n{}{}",
+            "{what}: glslc failed ({}, {}):\n{}{}",
             shown.display(),
+            o.status,
             String::from_utf8_lossy(&o.stdout),
             String::from_utf8_lossy(&o.stderr)
         )),
