@@ -19,7 +19,7 @@
 //! shader, and every shader of a scene without graphs, is the build-time
 //! SPIR-V (`for_scene` returns `None`).
 
-use super::binding::{SceneGraphs, Slot};
+use super::binding::{SceneGraphs, Slot, SlotBind};
 use super::codegen::{self, Layout};
 use super::compile;
 use crate::gpu::shaders::{self, ShaderOverride};
@@ -87,10 +87,22 @@ pub fn include(sg: &SceneGraphs, origin: DVec3, memo: bool, slots: &[Vec<u32>]) 
          \x20   switch (material_id) {{\n",
         o.x, o.y, o.z
     );
+    // Materials bound alike (the same graphs to the same inputs, as a
+    // library's random picks give) share one case: one inlined copy of
+    // their graphs. A scene with no such pair gets the same text as before.
+    let mut cases: Vec<(String, &Vec<SlotBind>)> = Vec::new();
     for (m, binds) in &sg.materials {
-        let _ = writeln!(s, "    case {m}u: {{");
+        match cases.iter_mut().find(|(_, b)| *b == binds) {
+            Some((labels, _)) => {
+                let _ = write!(labels, " case {m}u:");
+            }
+            None => cases.push((format!("case {m}u:"), binds)),
+        }
+    }
+    for (labels, binds) in cases {
+        let _ = writeln!(s, "    {labels} {{");
         let mut called: Vec<usize> = Vec::new();
-        for b in binds {
+        for b in binds.iter() {
             if !called.contains(&b.graph) {
                 let n = Layout::of(&sg.graphs[b.graph]).floats.max(1);
                 let _ = writeln!(
@@ -242,4 +254,28 @@ pub fn for_scene(
         slots,
         cooperative,
     )))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::materials::library::EMBEDDED;
+    use crate::scene::Material;
+
+    /// Two materials bound to one library graph share its case; a third
+    /// with another graph has its own: two inlined graph calls, not three.
+    #[test]
+    fn materials_bound_alike_share_one_case() {
+        let mut sg = SceneGraphs::default();
+        let (a, b) = (EMBEDDED[0], EMBEDDED[1]);
+        for (m, (file, text)) in [(0u32, a), (1, b), (2, a)] {
+            let mut mat = Material::default();
+            sg.attach_mtlx(m, &mut mat, file, text).unwrap();
+        }
+        let glsl = include(&sg, DVec3::ZERO, false, &[]);
+        let switch = &glsl[glsl.find("switch (material_id)").unwrap()..];
+        assert!(switch.contains("    case 0u: case 2u: {\n"), "{switch}");
+        assert!(switch.contains("    case 1u: {\n"), "{switch}");
+        assert_eq!(switch.matches("mxg_").count(), 2, "{switch}");
+    }
 }
