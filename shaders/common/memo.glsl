@@ -2,8 +2,8 @@
 // issue 17): material_at looks a hit's graph outputs up in one global table
 // keyed by (material, level of detail, texel of the hit's uv), shared by
 // both eyes and every method's passes; a miss evaluates the graphs at the
-// texel centre (nearest-neighbour with texel-centre snapping, the thesis's
-// non-tiled variant) and stores them. Compiled only into the run-time
+// texel centres and stores them (the thesis's non-tiled, tiled and
+// bilinear variants: sc_material_graphs_at below). Compiled only into the run-time
 // shaders of a scene whose graphs are memoized (-DSC_MATERIAL_MEMO,
 // src/materials/scene_shaders.rs); the table's buffers are then bindings of
 // the scene's set 0 (src/rt/gpu_scene.rs, MemoGpu).
@@ -82,8 +82,9 @@ void memo_count_hit(uint sl, uint policy, uint now) {
     if (sc_memo_eye == 1u) atomicAdd(memo_state[MEMO_C_SECOND_EYE_HITS], 1u);
 }
 
-// A tiled miss: counted, then the victim of h1's window locked for the
-// fill (the table's memo_victim and memo_lock). Returns the locked slot, or
+// A tiled miss is counted (memo_count_miss), then the victim of h1's
+// window locked for the fill (memo_lock_victim: the table's memo_victim and
+// memo_lock). memo_begin_fill does both; it returns the locked slot, or
 // MEMO_NONE when the key is present already (`present`) or no entry could
 // be locked: the lane then evaluates for itself and stores nothing.
 void memo_count_miss() {
@@ -243,7 +244,8 @@ struct MemoCall {
 
 // The variant of a hit (primary: the caller's cone_width > 0; secondary:
 // path_radiance's sc_memo_cone ≥ 0; memoized only where the material's
-// graphs read the uv alone), its level of detail and texel.
+// graphs read the uv alone, else counted bypassed), its level of detail,
+// texel and the table's parameters.
 MemoCall memo_call(uint material, vec2 uv, float cone_width, float uv_area_ratio) {
     MemoCall c;
     uint flags = memo_state[MEMO_S_FLAGS];
@@ -292,8 +294,12 @@ MemoCall memo_call(uint material, vec2 uv, float cone_width, float uv_area_ratio
     return c;
 }
 
-// Non-tiled lookups, one per corner: a hit's record goes to out[k], a miss
-// is left to the evaluation loop (bit k of `missing`).
+// Non-tiled lookups, one per corner: a hit's record goes to out4[k], a
+// miss is left to the evaluation loop (bit k of `missing`). All four
+// corners are looked up before any is filled (the former code filled each
+// before looking the next up): where two corners' probe windows overlap,
+// a fill may now evict a corner already read, so the counters can differ
+// in rare cases; the values cannot.
 void memo_lookup_texels(inout MemoCall c, uint material, vec3 n, inout ScGraphOutputs out4[4]) {
     for (uint k = 0u; k < c.corners; ++k) {
         ivec2 qk = c.q + ivec2(MEMO_CORNER[k]);
@@ -361,8 +367,9 @@ void memo_lookup_tile(inout MemoCall c, uint material, vec3 p, vec3 n, vec3 t, i
 #endif
 }
 
-// Where the k-th evaluation happens: the hit itself (unmemoized), the k-th
-// missing corner (non-tiled; its index in `corner`), or texel k of the
+// Where the k-th evaluation happens: the hit itself (unmemoized), the next
+// missing corner (non-tiled: taken off `missing`, so the loop must call this
+// once for k = 0, 1, … in order; its index in `corner`), or texel k of the
 // tile, at the texel's centre.
 vec2 memo_evaluation_uv(inout MemoCall c, uint k, vec2 uv, out ivec2 texel, out uint corner) {
     corner = 0u;
@@ -427,7 +434,8 @@ void memo_store(MemoCall c, uint material, uint k, ivec2 texel, uint corner, ScG
 // compiled in once per call site whatever the variant (a switch inlined
 // for each variant and corner made the heavy library's shaders too large
 // to compile), and the trip count is known only at run time, so it is not
-// unrolled either.
+// unrolled either. The subgroup-cooperative fill (-DSC_MEMO_SUBGROUP)
+// keeps its own evaluation: two copies per call site in that build.
 ScGraphOutputs sc_material_graphs_at(uint material, vec2 uv, vec3 p, vec3 n, vec3 t,
                                      float cone_width, float uv_area_ratio, float footprint) {
     MemoCall c = memo_call(material, uv, cone_width, uv_area_ratio);

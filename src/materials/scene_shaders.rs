@@ -8,7 +8,8 @@
 //! ```
 //!
 //! (one SSA function per graph, codegen.rs, called from a `switch` over the
-//! bound materials; unbound inputs come back as 1 so they multiply nothing).
+//! bound materials, where materials bound alike share a case; unbound
+//! inputs come back as 1 so they multiply nothing).
 //! shaders/common/scene.glsl includes it under `SC_MATERIAL_GRAPHS`, and
 //! material.glsl (every hit of every method's path tracing and shading)
 //! and lights.glsl (emission seen by light sampling) apply it. The shaders
