@@ -238,7 +238,7 @@ struct MemoCall {
     uint missing;         // non-tiled: the corners to fill, a bit each
     ivec2 tq, o;          // tiled: the tile, and q's texel in it
     uint e;               // tiled: texels an entry edge (s, or s + 1 bilinear)
-    uint key, h1, victim, seen;
+    uint h1, victim, seen;   // tiled: the tile key's H1, the locked entry
     bool present;
 };
 
@@ -273,7 +273,7 @@ MemoCall memo_call(uint material, vec2 uv, float cone_width, float uv_area_ratio
     c.missing = 0u;
     c.tq = ivec2(0); c.o = ivec2(0);
     c.e = 1u;
-    c.key = 0u; c.h1 = 0u; c.victim = MEMO_NONE; c.seen = 0u;
+    c.h1 = 0u; c.victim = MEMO_NONE; c.seen = 0u;
     c.present = false;
     if (c.variant == MEMO_V_DIRECT) return c;
     float w = primary ? cone_width : sc_memo_cone;
@@ -334,9 +334,9 @@ void memo_lookup_tile(inout MemoCall c, uint material, vec3 p, vec3 n, vec3 t, i
     c.tq = c.q >> int(c.shift);                    // floor division by s (arithmetic shift)
     c.o = c.q - (c.tq << int(c.shift));            // q's texel within the tile, in [0, s)
     // Tiles, texels and bilinear tiles never share a key.
-    c.key = material | (c.shift << 28) | (c.bilinear ? 1u << 27 : 0u);
-    uint h0 = memo_h0(c.key, c.level, c.tq);
-    c.h1 = memo_h1(c.key, c.level, c.tq);
+    uint key = material | (c.shift << 28) | (c.bilinear ? 1u << 27 : 0u);
+    uint h0 = memo_h0(key, c.level, c.tq);
+    c.h1 = memo_h1(key, c.level, c.tq);
     bool found = false;
     for (uint i = 0u; i < c.probe; ++i) {
         uint sl = memo_slot(h0, i, c.cap, c.probe);
@@ -358,7 +358,7 @@ void memo_lookup_tile(inout MemoCall c, uint material, vec3 p, vec3 n, vec3 t, i
 #ifdef SC_MEMO_SUBGROUP
     uint want[4];
     for (uint k = 0u; k < 4u; ++k) want[k] = memo_tile_texel(c, k);
-    memo_fill_cooperative(!found, c.key, c.level, c.tq, c.shift, c.e, want, c.corners, p, n, t,
+    memo_fill_cooperative(!found, key, c.level, c.tq, c.shift, c.e, want, c.corners, p, n, t,
                           c.cap, c.probe, c.policy, c.now, out4);
     c.count = 0u;
 #else
