@@ -3,7 +3,9 @@
 //! traces rays and is compiled twice, with `-DRT_QUERY` and `-DRT_SOFTWARE`.
 //! A shader with a line `// variant: SUBGROUP_OPS` is also compiled with
 //! `-DSUBGROUP_OPS` as `NAME.subgroup` (subgroup arithmetic and ballot, for
-//! devices that support them; the plain build is the fallback).
+//! devices that support them; the plain build is the fallback), and one
+//! with `// variant: MEMO_CLOCK_COUNTER` with `-DMEMO_CLOCK_COUNTER` as
+//! `NAME.counter` (the memoization table's 64-bit access clock).
 //! A glslc error is printed with its file and line and stops the build.
 //! Before compiling, the shader interface written in Rust (src/interface/)
 //! becomes one GLSL header per group, `OUT_DIR/interface/<group>.glsl`, on
@@ -84,8 +86,17 @@ fn main() {
         let name = rel.to_string_lossy().replace('\\', "/");
         let text = std::fs::read_to_string(src).unwrap_or_default();
         let mut variants = vec![(name.clone(), vec![])];
-        if text.lines().any(|l| l.trim() == "// variant: SUBGROUP_OPS") {
-            variants.push((format!("{name}.subgroup"), vec!["-DSUBGROUP_OPS"]));
+        for (line, suffix, define) in [
+            ("// variant: SUBGROUP_OPS", "subgroup", "-DSUBGROUP_OPS"),
+            (
+                "// variant: MEMO_CLOCK_COUNTER",
+                "counter",
+                "-DMEMO_CLOCK_COUNTER",
+            ),
+        ] {
+            if text.lines().any(|l| l.trim() == line) {
+                variants.push((format!("{name}.{suffix}"), vec![define]));
+            }
         }
         let rt = traces_rays(src, &shader_dir, &mut Vec::new());
         for (name, defs) in variants {

@@ -757,7 +757,9 @@ fn bench_materials_checks_input_and_sweeps_the_table() {
             "both tile 4x4 bilinear",
             "both tile 4x4 plain fill",
             "both S=64 random",
-            "both S=64 lrw"
+            "both S=64 lrw",
+            "both S=64 lrw counter",
+            "both S=64 lru counter"
         ]
     );
     let f = |r: &[&str], name: &str| -> f64 { r[col(name)].parse().unwrap() };
@@ -790,6 +792,8 @@ fn bench_materials_checks_input_and_sweeps_the_table() {
     );
     assert_eq!(f(row("both"), "cooperative_fills_per_frame"), 0.0);
     assert!(f(row("both S=64"), "evictions_per_frame") > 0.0);
+    assert_eq!(row("both S=64 lru counter")[col("eviction")], "lru counter");
+    assert!(f(row("both S=64 lru counter"), "evictions_per_frame") > 0.0);
     assert_eq!(f(row("both"), "evictions_per_frame"), 0.0);
     let _ = std::fs::remove_dir_all(&out);
 }

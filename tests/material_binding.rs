@@ -1083,6 +1083,89 @@ fn memoized_images_differ_from_direct_ones_as_the_thesis_orders_them() {
     assert_no_validation_messages(&ctx);
 }
 
+/// Eviction by either clock (`--memo-clock frame|counter`, thesis §5.3.3
+/// and Table 6.2) changes which lookups hit, never a value: a texel's
+/// record is the graph at its centre whoever stored it. Tables far smaller
+/// than a frame's texels (256 single texels, 16 tiles of 4×4), where
+/// nearly every lookup evicts, render procedural-uv:cornell bit for bit as
+/// the default 2^20-texel table does, for LRU by the frame and by the
+/// access counter and LRW by the counter. The access counter advanced once
+/// per stamp write: per stored entry, and with LRU per hit (read back from
+/// the head of the stamps buffer).
+#[test]
+fn small_tables_evict_by_either_clock_without_changing_the_image() {
+    use stereocache::materials::memo::table::Eviction;
+    use stereocache::materials::memo::{MemoClock, MemoHits, MemoSettings};
+    let ctx = context();
+    let base =
+        stereocache::scene::load_scene("procedural-uv:cornell").expect("procedural-uv:cornell");
+    let rt = RtChoice::Software;
+    let settings = RenderSettings {
+        width: 40,
+        height: 30,
+        spp: 4,
+        max_bounces: 1,
+        seed: 1,
+        all_features: false,
+        ..Default::default()
+    };
+    let camera = default_camera(&session(&ctx, base.clone(), rt), 40, 30);
+    let run = |memo: MemoSettings| {
+        let mut s = base.clone();
+        s.graphs.memo = memo;
+        let session = session(&ctx, s, rt);
+        let f = render(&session, "reference", camera, &settings);
+        let m = session.scene_gpu.memo.as_ref().expect("a memo table");
+        let c = m.counters().unwrap();
+        let words: Vec<u32> = m.stamps.download_pod().unwrap();
+        (f, c, words[0] as u64 | (words[1] as u64) << 32)
+    };
+    for tile in [1u32, 4] {
+        let big = MemoSettings {
+            hits: MemoHits::Both,
+            tile,
+            entries: MemoSettings::default_entries(tile),
+            ..Default::default()
+        };
+        let (want, c, _) = run(big);
+        assert_eq!(c.evictions, 0, "tile {tile}: the big table evicts: {c:?}");
+        let small = if tile == 1 { 256 } else { 16 };
+        for (eviction, clock) in [
+            (Eviction::Lru, MemoClock::Frame),
+            (Eviction::Lru, MemoClock::Counter),
+            (Eviction::Lrw, MemoClock::Counter),
+        ] {
+            let what = format!("tile {tile}, {small} entries, {eviction:?} by {clock:?}");
+            let (f, c, counter) = run(MemoSettings {
+                entries: small,
+                eviction,
+                clock,
+                ..big
+            });
+            eprintln!(
+                "{what}: hit rate {:?}, {c:?}, counter {counter}",
+                c.hit_rate()
+            );
+            assert!(c.evictions > 100 && c.hits > 0, "{what}: {c:?}");
+            for (e, eye) in f.eyes.iter().enumerate() {
+                assert!(
+                    eye.radiance == want.eyes[e].radiance && eye.albedo == want.eyes[e].albedo,
+                    "{what}: eye {e} differs from the big table's image"
+                );
+            }
+            if clock == MemoClock::Counter {
+                let touched = if eviction == Eviction::Lru { c.hits } else { 0 };
+                assert_eq!(
+                    counter,
+                    c.fills + c.evictions + touched,
+                    "{what}: the access counter against the stamp writes: {c:?}"
+                );
+            }
+        }
+    }
+    assert_no_validation_messages(&ctx);
+}
+
 /// Emission seen by light sampling goes through the table like emission a
 /// BSDF-sampled ray hits, so both MIS strategies estimate the same light.
 /// A white floor under a 1 m emissive square 0.5 m above it (black

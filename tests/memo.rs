@@ -1,6 +1,7 @@
 //! The memoization table of material-graph outputs (issue 17, thesis §5):
 //! hashes and probing bit-exact between GLSL and the CPU twin, the
-//! lock-and-validate protocol under contention, eviction over 10 000 frames.
+//! lock-and-validate protocol under contention, eviction over 10 000 frames
+//! by either clock (frame counter or 64-bit access counter).
 
 mod common;
 use common::*;
@@ -86,6 +87,11 @@ struct Stress {
     torn_entries: usize,
     locked: usize,
     live: usize,
+    /// The table after the last frame: key words, stamps buffer words (with
+    /// the access clock, the counter's two words first) and the counter.
+    keys: Vec<u32>,
+    stamps: Vec<u32>,
+    clock: u64,
 }
 
 /// 4096 lanes × `iterations` lookups of 400 keys in a 64-entry table (D = 8):
@@ -106,10 +112,36 @@ fn run_stress(
     capacity: u32,
     frames: u32,
 ) -> Stress {
+    run_stress_clock(reread, policy, iterations, mode, capacity, frames, None)
+}
+
+/// The frame of `run_stress`'s dispatch `frame`.
+fn stress_now(frame: u32) -> u32 {
+    (u32::MAX - 100).wrapping_add(frame)
+}
+
+/// `run_stress`, with the access clock (stress.comp's MEMO_CLOCK_COUNTER
+/// build) starting at `clock` where given.
+fn run_stress_clock(
+    reread: bool,
+    policy: u32,
+    iterations: u32,
+    mode: u32,
+    capacity: u32,
+    frames: u32,
+    clock: Option<u64>,
+) -> Stress {
     let ctx = context();
     let keys = Buffer::storage(&ctx, "memo.keys", capacity as u64 * 4).unwrap();
-    // Two words per entry: stamp, write version (table.glsl).
-    let stamps = Buffer::storage(&ctx, "memo.stamps", capacity as u64 * 8).unwrap();
+    // Per entry: stamp, write version (table.glsl); with the access clock
+    // both 64-bit, after its 64-bit counter.
+    let words = if clock.is_some() { 4 } else { 2 };
+    let stamps = Buffer::storage(
+        &ctx,
+        "memo.stamps",
+        clock.map_or(0, |_| 8) + capacity as u64 * 4 * words,
+    )
+    .unwrap();
     let values = Buffer::storage(
         &ctx,
         "memo.values",
@@ -120,6 +152,11 @@ fn run_stress(
         Buffer::storage(&ctx, "memo.counters", StressCounter::ALL.len() as u64 * 4).unwrap();
     for b in [&stamps, &counters] {
         b.upload(&vec![0u8; b.size as usize]).unwrap();
+    }
+    if let Some(c) = clock {
+        let mut w = vec![0u8; stamps.size as usize];
+        w[..8].copy_from_slice(&c.to_le_bytes());
+        stamps.upload(&w).unwrap();
     }
     // Modes 1 and 2 start with every entry s holding key A(s) and its record.
     let a = |s: u32| {
@@ -142,7 +179,12 @@ fn run_stress(
     let pipe = ComputePipeline::with_interface(
         &ctx,
         "memo_stress",
-        shaders::spirv("memo/stress").expect("memo/stress compiled"),
+        shaders::spirv(if clock.is_some() {
+            "memo/stress.counter"
+        } else {
+            "memo/stress"
+        })
+        .expect("memo/stress compiled"),
         &[],
         &memo::STRESS,
         Some(&memo::STRESS_PUSH),
@@ -154,9 +196,12 @@ fn run_stress(
         torn_entries: 0,
         locked: 0,
         live: 0,
+        keys: Vec::new(),
+        stamps: Vec::new(),
+        clock: 0,
     };
     for frame in 0..frames {
-        let now = (u32::MAX - 100).wrapping_add(frame);
+        let now = stress_now(frame);
         let seed = pcg_hash(frame);
         let mut rec = Recorder::new(&ctx, 1).unwrap();
         rec.compute("memo_stress", &pipe)
@@ -183,6 +228,11 @@ fn run_stress(
                 }
             }
         }
+        s.keys = k;
+    }
+    s.stamps = stamps.download_pod().unwrap();
+    if clock.is_some() {
+        s.clock = s.stamps[0] as u64 | (s.stamps[1] as u64) << 32;
     }
     assert_no_validation_messages(&ctx);
     s
@@ -366,7 +416,7 @@ fn ten_thousand_frames_stay_consistent() {
                 if key != EMPTY {
                     assert_eq!(t.records[s], record(key), "{policy:?}: entry {s} torn");
                     assert_eq!(
-                        age(now, t.stamps[s]) as u64,
+                        age(now, t.stamps[s] as u32) as u64,
                         frame - true_stamp[s],
                         "{policy:?}: wrapping age"
                     );
@@ -378,6 +428,204 @@ fn ten_thousand_frames_stay_consistent() {
         assert!(
             hits > 100_000 && evictions > 10_000,
             "{policy:?}: {hits} hits {evictions} evictions"
+        );
+    }
+}
+
+/// The access clock's 64-bit counter (`MemoClock::Counter`) in 10 000
+/// frames of the same pressure, starting 20 000 counts below 2^32 so that
+/// it passes 2^32 early on (a 32-bit counter would roll over there, the
+/// thesis's eq. 5.11): every stamp is the exact count of its access (an
+/// independent count of the stamp writes), the evicted entry is the least
+/// recently written (LRW) or used (LRU) of its window with no ties, and the
+/// records stay whole.
+#[test]
+fn ten_thousand_frames_by_the_access_clock_evict_the_least_recent() {
+    let start = u32::MAX as u64 - 20_000;
+    for policy in [Eviction::Lrw, Eviction::Lru] {
+        let mut t = CpuMemo::with_counter(64, 8, policy, start);
+        let mut seq = 0u64; // stamp writes so far
+        let mut true_stamp = vec![0u64; 64];
+        let (mut hits, mut evictions) = (0u64, 0u64);
+        for frame in 0..10_000u64 {
+            let now = frame as u32;
+            for i in 0..40u32 {
+                let id = (frame as u32 / 7) + pcg_hash(i ^ frame as u32) % 150;
+                let k = MemoKey {
+                    graph: id % 3,
+                    level: (id % 5) as i32,
+                    q: [id as i32, -(id as i32) / 3],
+                };
+                if let Some((s, r)) = t.find(&k, now) {
+                    assert_eq!(r, record(k.h1()), "{policy:?}: wrong record");
+                    if policy == Eviction::Lru {
+                        seq += 1;
+                        true_stamp[s as usize] = seq;
+                    }
+                    hits += 1;
+                    continue;
+                }
+                let window: Vec<usize> = (0..8).map(|p| slot(k.h0(), p, 64, 8) as usize).collect();
+                let full = window.iter().all(|&s| t.keys[s] != EMPTY);
+                let oldest = window.iter().map(|&s| true_stamp[s]).min().unwrap();
+                seq += 1;
+                let s = match t.insert(&k, now, record(k.h1())) {
+                    Insert::Filled(s) => {
+                        assert!(!full);
+                        s
+                    }
+                    Insert::Evicted(s) => {
+                        assert!(full);
+                        assert_eq!(
+                            true_stamp[s as usize], oldest,
+                            "{policy:?}: not the least recent"
+                        );
+                        evictions += 1;
+                        s
+                    }
+                    other => panic!("{policy:?}: {other:?} in a single-threaded table"),
+                };
+                true_stamp[s as usize] = seq;
+            }
+            for (s, &key) in t.keys.iter().enumerate() {
+                if key != EMPTY {
+                    assert_eq!(t.records[s], record(key), "{policy:?}: entry {s} torn");
+                    assert_eq!(
+                        t.stamps[s],
+                        start + true_stamp[s],
+                        "{policy:?}: entry {s}'s stamp is not its access count"
+                    );
+                }
+            }
+        }
+        assert_eq!(t.ticks, start + seq);
+        assert!(
+            t.ticks > 1 << 32 && hits > 100_000 && evictions > 10_000,
+            "{policy:?}: clock {} {hits} hits {evictions} evictions",
+            t.ticks
+        );
+    }
+}
+
+/// One lane's lookups and inserts (stress.comp mode 3: 3 frames of 3 000
+/// lookups of 400 keys in a 64-entry table) leave the GPU table exactly
+/// as the CPU twin leaves it after the same sequence: the same key in
+/// every entry, the same stamps (the frame, or the access clock's count
+/// across 2^32) and the same counters, for every policy and both clocks.
+/// Victim choice, ties and stamps included, is the twin's bit for bit.
+#[test]
+fn one_lanes_table_equals_the_cpu_twins_under_either_clock() {
+    let (iterations, frames, keys) = (3000u32, 3u32, 400u32);
+    for clock in [None, Some(u32::MAX as u64 - 500)] {
+        for (policy, eviction) in [
+            (0u32, Eviction::Random),
+            (1, Eviction::Lrw),
+            (2, Eviction::Lru),
+        ] {
+            let g = run_stress_clock(true, policy, iterations, 3, 64, frames, clock);
+            let mut t = match clock {
+                None => CpuMemo::new(64, 8, eviction),
+                Some(c) => CpuMemo::with_counter(64, 8, eviction, c),
+            };
+            let (mut hits, mut filled, mut evicted) = (0u32, 0u32, 0u32);
+            for frame in 0..frames {
+                let now = stress_now(frame);
+                let seed = pcg_hash(frame);
+                for it in 0..iterations {
+                    // stress.comp's key of lane 0's lookup `it`.
+                    let k = pcg_hash(seed ^ pcg_hash(it)) % keys;
+                    let key = MemoKey {
+                        graph: k & 15,
+                        level: ((k >> 4) & 7) as i32 - 2,
+                        q: [(k >> 7) as i32 - 3, k.wrapping_mul(3) as i32 - 100],
+                    };
+                    if t.find(&key, now).is_some() {
+                        hits += 1;
+                        continue;
+                    }
+                    match t.insert(&key, now, record(key.h1())) {
+                        Insert::Filled(_) => filled += 1,
+                        Insert::Evicted(_) => evicted += 1,
+                        other => panic!("{other:?} in a single-threaded table"),
+                    }
+                }
+            }
+            let what = format!("policy {policy}, clock {clock:?}");
+            assert_eq!(
+                [
+                    c(&g, StressCounter::Hits),
+                    c(&g, StressCounter::Filled),
+                    c(&g, StressCounter::Evicted),
+                    c(&g, StressCounter::TornReads)
+                ],
+                [hits, filled, evicted, 0],
+                "{what}: counters"
+            );
+            assert!(evicted > 1000, "{what}: {evicted} evictions");
+            assert_eq!(g.keys, t.keys, "{what}: keys");
+            for (s, &key) in t.keys.iter().enumerate() {
+                if key == EMPTY {
+                    continue;
+                }
+                let gpu = match clock {
+                    None => g.stamps[2 * s] as u64,
+                    Some(_) => g.stamps[2 + 4 * s] as u64 | (g.stamps[3 + 4 * s] as u64) << 32,
+                };
+                assert_eq!(gpu, t.stamps[s], "{what}: stamp of entry {s}");
+            }
+            if let Some(c0) = clock {
+                assert_eq!(g.clock, t.ticks, "{what}: the counter");
+                assert!(g.clock > 1 << 32 && g.clock > c0, "{what}: {}", g.clock);
+            }
+        }
+    }
+}
+
+/// The access clock under contention (4096 lanes, stress.comp's
+/// MEMO_CLOCK_COUNTER build, the counter starting 1000 below 2^32): no torn
+/// read or entry, and the counter advanced exactly once per stamp write —
+/// per stored record, and with LRU per accepted hit — and the live
+/// entries' stamps are distinct counts it gave out (each count goes to one
+/// entry, raised by atomic max: lanes touching one entry at once leave the
+/// larger count, never a mix of two).
+#[test]
+fn the_access_clock_counts_every_stamp_under_contention() {
+    let start = u32::MAX as u64 - 1000;
+    for policy in [1u32, 2] {
+        let s = run_stress_clock(true, policy, 64, 0, 64, 1, Some(start));
+        eprintln!(
+            "access clock, policy {policy}: {:?} clock {}",
+            s.counters, s.clock
+        );
+        assert_eq!(c(&s, StressCounter::TornReads), 0, "policy {policy}");
+        assert_eq!((s.torn_entries, s.locked), (0, 0), "policy {policy}");
+        let stored = (c(&s, StressCounter::Filled) + c(&s, StressCounter::Evicted)) as u64;
+        let touched = if policy == 2 {
+            c(&s, StressCounter::Hits) as u64
+        } else {
+            0
+        };
+        assert!(stored > 1000, "policy {policy}: {stored} stored");
+        assert_eq!(
+            s.clock,
+            start + stored + touched,
+            "policy {policy}: the counter"
+        );
+        let mut seen: Vec<u64> = (0..64)
+            .filter(|&e| s.keys[e] != EMPTY)
+            .map(|e| s.stamps[2 + 4 * e] as u64 | (s.stamps[3 + 4 * e] as u64) << 32)
+            .collect();
+        let live = seen.len();
+        seen.sort_unstable();
+        seen.dedup();
+        assert_eq!(
+            seen.len(),
+            live,
+            "policy {policy}: two live entries share a count"
+        );
+        assert!(
+            seen.iter().all(|&x| x > start && x <= s.clock),
+            "policy {policy}: a stamp the counter never gave: {seen:?}"
         );
     }
 }

@@ -10,7 +10,16 @@
 #ifndef COMMON_MEMO_GLSL
 #define COMMON_MEMO_GLSL
 layout(set = SET_SCENE, binding = B_SCENE_MEMO_KEYS, std430) coherent buffer MemoKeys { uint memo_keys[]; };
+#ifdef SC_MEMO_CLOCK_COUNTER
+// The access clock (--memo-clock counter; memo/table.glsl): the 64-bit
+// counter, then two 64-bit words per entry (stamp, version).
+#extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
+#extension GL_EXT_shader_atomic_int64 : require
+#define MEMO_CLOCK_COUNTER
+layout(set = SET_SCENE, binding = B_SCENE_MEMO_STAMPS, std430) coherent buffer MemoStamps { uint64_t memo_clock; uint64_t memo_times[]; };
+#else
 layout(set = SET_SCENE, binding = B_SCENE_MEMO_STAMPS, std430) coherent buffer MemoStamps { uint memo_stamps[]; };
+#endif
 layout(set = SET_SCENE, binding = B_SCENE_MEMO_VALUES, std430) coherent buffer MemoValues { uvec4 memo_values[]; };
 // Parameters, then this frame's counters: src/materials/memo/state.rs.
 layout(set = SET_SCENE, binding = B_SCENE_MEMO_STATE, std430) coherent buffer MemoState { uint memo_state[]; };
@@ -77,7 +86,7 @@ void memo_write_texel(uint b, uvec4 r0, uvec4 r1, uvec4 r2) {
 
 // A tiled hit in slot `sl`: LRU's stamp and the counters.
 void memo_count_hit(uint sl, uint policy, uint now) {
-    if (policy == MEMO_LRU && memo_stamps[memo_stamp_at(sl)] != now) memo_stamps[memo_stamp_at(sl)] = now;
+    if (policy == MEMO_LRU) memo_touch(sl, now);
     atomicAdd(memo_state[MEMO_C_HITS], 1u);
     if (sc_memo_eye == 1u) atomicAdd(memo_state[MEMO_C_SECOND_EYE_HITS], 1u);
 }

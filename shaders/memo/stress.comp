@@ -1,4 +1,5 @@
 #version 460
+// variant: MEMO_CLOCK_COUNTER
 // Stress kernel of the lock-and-validate protocol (tests/memo.rs): every
 // lane looks up `iterations` keys drawn from a small set in a small table;
 // a hit's record must be f(key) (else a torn read), a miss inserts f(key).
@@ -16,11 +17,23 @@
 // ABA of the key-only protocol: the reader sees key A, the writer evicts
 // the entry for B (lock, record, unlock), the reader reads B's record, the
 // writer evicts it back to A, the reader validates: the key is A again, so
-// only the version (table.glsl) tells the read was torn.
+// only the version (table.glsl) tells the read was torn. Mode 3 is mode 0
+// by lane 0 alone: one sequence of lookups and inserts that the CPU twin
+// (src/materials/memo/table.rs CpuMemo) replays, so its stamps and victims
+// can be compared bit for bit. The MEMO_CLOCK_COUNTER build stamps by the
+// 64-bit access clock, which heads the stamps buffer.
+#ifdef MEMO_CLOCK_COUNTER
+#extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
+#extension GL_EXT_shader_atomic_int64 : require
+#endif
 #include "interface/memo_stress.glsl"
 layout(local_size_x = 64) in;
 layout(set = SET_MEMO_STRESS, binding = B_MEMO_STRESS_MEMO_KEYS, std430) coherent buffer K { uint memo_keys[]; };
+#ifdef MEMO_CLOCK_COUNTER
+layout(set = SET_MEMO_STRESS, binding = B_MEMO_STRESS_MEMO_STAMPS, std430) coherent buffer S { uint64_t memo_clock; uint64_t memo_times[]; };
+#else
 layout(set = SET_MEMO_STRESS, binding = B_MEMO_STRESS_MEMO_STAMPS, std430) coherent buffer S { uint memo_stamps[]; };
+#endif
 layout(set = SET_MEMO_STRESS, binding = B_MEMO_STRESS_MEMO_VALUES, std430) coherent buffer V { uvec4 memo_values[]; };
 layout(set = SET_MEMO_STRESS, binding = B_MEMO_STRESS_COUNTERS, std430) buffer C { uint counters[]; };
 layout(push_constant) uniform Push { MEMO_STRESS_PUSH } pc;
@@ -115,6 +128,7 @@ void main() {
     uint lane = gl_GlobalInvocationID.x;
     if (pc.mode == 1u) { interleaved(lane); return; }
     if (pc.mode == 2u) { aba(lane); return; }
+    if (pc.mode == 3u && lane != 0u) return;
     uint hits = 0u, torn = 0u, refused = 0u, misses = 0u;
     uint results[4] = uint[4](0u, 0u, 0u, 0u);
     for (uint it = 0u; it < pc.iterations; ++it) {

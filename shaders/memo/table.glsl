@@ -5,10 +5,22 @@
 // invocations' writes must be seen; MEMO_HASHES_ONLY: only the hashes and
 // the probe sequence, no buffers):
 //   uint  memo_keys[]    H1 of the entry's key; MEMO_EMPTY, MEMO_LOCK
-//   uint  memo_stamps[]  two words per entry: the eviction time (frame
-//                        counter mod 2^32), then the entry's write version
-//                        (odd while a writer holds the lock)
+//   uint  memo_stamps[]  two words per entry: the eviction time, then the
+//                        entry's write version (odd while a writer holds
+//                        the lock)
 //   uvec4 memo_values[]  MEMO_RECORD uvec4 per entry (the graph outputs)
+// The eviction time (thesis §5.3.3) comes from one of the thesis's two
+// clocks:
+// - the frame clock (default): the frame counter mod 2^32 that the caller
+//   passes as `now`, compared by wrapping age;
+// - the access clock (-DMEMO_CLOCK_COUNTER): a 64-bit atomic counter that
+//   every stamp write advances. The including shader then declares, in
+//   place of memo_stamps, `uint64_t memo_clock` followed by
+//   `uint64_t memo_times[]`, two per entry: the stamp, then the version.
+//   A stamp is raised by atomicMax, so lanes touching one entry at once
+//   never leave it torn, and it only moves forward. 64 bits, as the thesis
+//   chose: a 32-bit counter rolls over within seconds (eq. 5.11) and then
+//   ranks old entries as new.
 // CPU twin, bit for bit: src/materials/memo/table.rs (hashes, probing, the
 // single-threaded model of find / insert / evict).
 #ifndef MEMO_TABLE_GLSL
@@ -58,9 +70,24 @@ uint memo_slot(uint h0, uint i, uint capacity, uint probe) { return h0 % (capaci
 // its stamps being equal), the key then reads h1 both times while the
 // record read in between mixes two writes; any write in between moves the
 // version (tests/memo.rs saw one such torn read in a stress run without it).
+#ifdef MEMO_CLOCK_COUNTER
+uint memo_version(uint s) { return uint(memo_times[2u * s + 1u]); }
+void memo_version_bump(uint s) { atomicAdd(memo_times[2u * s + 1u], 1ul); }
+// Stamps entry s with the access clock's next count.
+void memo_stamp(uint s, uint now) { atomicMax(memo_times[2u * s], atomicAdd(memo_clock, 1ul) + 1ul); }
+// LRU's stamp on a read: every read advances the clock.
+void memo_touch(uint s, uint now) { memo_stamp(s, now); }
+#else
 uint memo_stamp_at(uint s) { return 2u * s; }
-uint memo_version_at(uint s) { return 2u * s + 1u; }
-uint memo_version(uint s) { return memo_stamps[memo_version_at(s)]; }
+uint memo_version(uint s) { return memo_stamps[2u * s + 1u]; }
+void memo_version_bump(uint s) { atomicAdd(memo_stamps[2u * s + 1u], 1u); }
+// Stamps entry s with the frame `now`.
+void memo_stamp(uint s, uint now) { memo_stamps[memo_stamp_at(s)] = now; }
+// LRU's stamp on a read, skipped when the entry holds this frame's already.
+void memo_touch(uint s, uint now) {
+    if (memo_stamps[memo_stamp_at(s)] != now) memo_stamp(s, now);
+}
+#endif
 void memo_read_record(uint s, out uvec4 r0, out uvec4 r1, out uvec4 r2) {
     memoryBarrierBuffer();
     r0 = memo_values[MEMO_RECORD * s];
@@ -79,7 +106,7 @@ bool memo_validate(uint s, uint h1, uint v0, bool reread) {
 // spin), then makes the version odd.
 bool memo_lock(uint s, uint seen) {
     if (atomicCompSwap(memo_keys[s], seen, MEMO_LOCK) != seen) return false;
-    atomicAdd(memo_stamps[memo_version_at(s)], 1u);
+    memo_version_bump(s);
     memoryBarrierBuffer();
     return true;
 }
@@ -92,9 +119,9 @@ void memo_write_record(uint s, uvec4 r0, uvec4 r1, uvec4 r2) {
 // Writing the key unlocks the entry, after the record, the stamp and the
 // version (even again).
 void memo_unlock(uint s, uint h1, uint now) {
-    memo_stamps[memo_stamp_at(s)] = now;
+    memo_stamp(s, now);
     memoryBarrierBuffer();
-    atomicAdd(memo_stamps[memo_version_at(s)], 1u);
+    memo_version_bump(s);
     memoryBarrierBuffer();
     atomicExchange(memo_keys[s], h1);
 }
@@ -113,23 +140,38 @@ uint memo_find(uint h0, uint h1, uint capacity, uint probe, bool reread, uint po
         uint v0 = memo_version(s);
         memo_read_record(s, r0, r1, r2);
         if (!memo_validate(s, h1, v0, reread)) { torn = true; return MEMO_NONE; }
-        if (policy == MEMO_LRU && memo_stamps[memo_stamp_at(s)] != now) memo_stamps[memo_stamp_at(s)] = now;
+        if (policy == MEMO_LRU) memo_touch(s, now);
         return s;
     }
     return MEMO_NONE;
 }
 
-// Wrapping age of a stamp: exact while real ages stay below 2^32 frames
-// (a frame counter, not the thesis's 32-bit per-access counter, eq. 5.11).
+// Wrapping age of a frame stamp: exact while real ages stay below 2^32
+// frames (18 months at 90 Hz).
 uint memo_age(uint now, uint stamp) { return now - stamp; }
+
+// How old entry s is, larger = older, compared within a window: the frame
+// clock's wrapping age + 1 (> 0), or the access clock's complement of the
+// stamp (the smallest count is the oldest; no subtraction from a `now`,
+// which other lanes' accesses may have passed since it was read). A stamp
+// being written by another lane may read torn; it only steers the choice.
+#ifdef MEMO_CLOCK_COUNTER
+uint64_t memo_oldness(uint s, uint now) { return ~memo_times[2u * s]; }
+#define MEMO_OLDNESS uint64_t
+#else
+uint memo_oldness(uint s, uint now) { return memo_age(now, memo_stamps[memo_stamp_at(s)]) + 1u; }
+#define MEMO_OLDNESS uint
+#endif
 
 // The victim of an insert in h1's window (§5.3.3): an empty entry if there
 // is one, else random (a hash of h1 and now picks the probe) or the oldest
-// stamp (LRW: set on write, LRU: also on read). Locked entries are skipped.
+// stamp (LRW: set on write, LRU: also on read; memo_oldness). Locked
+// entries are skipped.
 // Returns MEMO_NONE when h1 is already present or every entry is locked;
 // `seen` is the key word the victim held.
 uint memo_victim(uint h0, uint h1, uint capacity, uint probe, uint policy, uint now, out uint seen, out bool present) {
-    uint victim = MEMO_NONE, best = 0u;
+    uint victim = MEMO_NONE;
+    MEMO_OLDNESS best = MEMO_OLDNESS(0u);
     uint pick = pcg_hash(h1 ^ (now * 0x9E3779B9u)) % probe;
     seen = MEMO_EMPTY;
     present = false;
@@ -139,7 +181,7 @@ uint memo_victim(uint h0, uint h1, uint capacity, uint probe, uint policy, uint 
         if (k == h1) { present = true; return MEMO_NONE; }
         if (k == MEMO_EMPTY) { seen = k; return s; }
         if (k == MEMO_LOCK) continue;
-        uint score = policy == MEMO_RANDOM ? (i == pick ? 1u : 0u) : memo_age(now, memo_stamps[memo_stamp_at(s)]) + 1u;
+        MEMO_OLDNESS score = policy == MEMO_RANDOM ? MEMO_OLDNESS(i == pick ? 1u : 0u) : memo_oldness(s, now);
         if (victim == MEMO_NONE || score > best) { victim = s; best = score; seen = k; }
     }
     return victim;

@@ -15,7 +15,7 @@ use crate::error::Result;
 use crate::gpu::GpuContext;
 use crate::materials::memo::state::MemoCounters;
 use crate::materials::memo::table::Eviction;
-use crate::materials::memo::{MemoHits, MemoSettings};
+use crate::materials::memo::{MemoClock, MemoHits, MemoSettings};
 use crate::methods::{FrameInput, MethodConfig, RenderSettings};
 use crate::rt::RtChoice;
 use crate::scene::Scene;
@@ -25,7 +25,8 @@ use std::sync::Arc;
 /// The configurations: off; primary, secondary and both with the default
 /// table; both at each of `sizes` entries (LRU); 4×4 tiles (nearest with the
 /// cooperative and the plain fill, bilinear); each eviction policy at the
-/// smallest size (where eviction happens).
+/// smallest size (where eviction happens), LRW and LRU also by the access
+/// counter.
 pub fn memo_configs(sizes: &[u32]) -> Vec<(String, MemoSettings)> {
     let d = MemoSettings::default();
     let mut v = vec![("off".to_string(), d)];
@@ -82,13 +83,21 @@ pub fn memo_configs(sizes: &[u32]) -> Vec<(String, MemoSettings)> {
         },
     ));
     if let Some(&small) = sizes.iter().min() {
-        for (name, eviction) in [("random", Eviction::Random), ("lrw", Eviction::Lrw)] {
+        // Table 6.2's rows: random, LRW and LRU by the frame clock (LRU is
+        // "both S=small" above), LRW and LRU by the access counter.
+        for (name, eviction, clock) in [
+            ("random", Eviction::Random, MemoClock::Frame),
+            ("lrw", Eviction::Lrw, MemoClock::Frame),
+            ("lrw counter", Eviction::Lrw, MemoClock::Counter),
+            ("lru counter", Eviction::Lru, MemoClock::Counter),
+        ] {
             v.push((
                 format!("both S={small} {name}"),
                 MemoSettings {
                     hits: MemoHits::Both,
                     entries: small,
                     eviction,
+                    clock,
                     ..d
                 },
             ));
@@ -194,7 +203,10 @@ pub fn bench_materials(
                 label: label.clone(),
                 hits: format!("{:?}", s.hits).to_lowercase(),
                 entries: s.entries,
-                eviction: format!("{:?}", s.eviction).to_lowercase(),
+                eviction: match s.clock {
+                    MemoClock::Frame => format!("{:?}", s.eviction).to_lowercase(),
+                    MemoClock::Counter => format!("{:?} counter", s.eviction).to_lowercase(),
+                },
                 table_bytes: if s.enabled() { s.table_bytes() } else { 0 },
                 frame_ms: ms.iter().sum::<f64>() / ms.len().max(1) as f64,
                 ratio_to_off: ratio,

@@ -7,7 +7,7 @@ use clap::Args;
 use stereocache::camera::HeadPose;
 use stereocache::gpu::GpuOptions;
 use stereocache::materials::memo::table::Eviction;
-use stereocache::materials::memo::{MemoFill, MemoHits, MemoSettings};
+use stereocache::materials::memo::{MemoClock, MemoFill, MemoHits, MemoSettings};
 pub use stereocache::methods::MethodArgs;
 use stereocache::methods::{registry, MethodKind};
 use stereocache::replay::MAX_FPS;
@@ -151,7 +151,7 @@ pub struct SceneArgs {
     /// primary, secondary or both hits.
     #[arg(long, default_value = "off")]
     pub memo: MemoHits,
-    /// Entries of the memoization table (60 B each: key, stamp, write version, one 48 B record; with --memo-tile s, s²
+    /// Entries of the memoization table (60 B each: key, stamp, write version, one 48 B record, 68 B with --memo-clock counter; with --memo-tile s, s²
     /// texel records of 48 B an entry, (s+1)² with --memo-bilinear) [default: 2^20 texels' worth: 1048576 entries,
     /// 2^20 / s² with --memo-tile s]
     #[arg(long)]
@@ -162,6 +162,12 @@ pub struct SceneArgs {
     /// Its eviction policy: random, lrw (least recently written) or lru.
     #[arg(long, default_value = "lru")]
     pub memo_eviction: Eviction,
+    /// Where lrw and lru take an access's time from: frame (the frame
+    /// counter; entries of one frame are equally old) or counter (a 64-bit
+    /// atomic counter every stamp advances: exact order, 8 B more an entry,
+    /// needs shaderBufferInt64Atomics; thesis Table 6.2; not with random).
+    #[arg(long, default_value = "frame")]
+    pub memo_clock: MemoClock,
     /// Levels added to its level of detail (+1: texels half the size).
     #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
     pub memo_bias: f32,
@@ -227,6 +233,7 @@ impl SceneArgs {
                 .unwrap_or(MemoSettings::default_entries(self.memo_tile)),
             probe: self.memo_probe,
             eviction: self.memo_eviction,
+            clock: self.memo_clock,
             bias: self.memo_bias,
             tile: self.memo_tile,
             bilinear: self.memo_bilinear,

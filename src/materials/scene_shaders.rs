@@ -42,6 +42,20 @@ pub const MEMO_DEFINE: &str = "-DSC_MATERIAL_MEMO";
 /// for it and the device has subgroup ballot and shuffle.
 pub const COOPERATIVE_DEFINE: &str = "-DSC_MEMO_SUBGROUP";
 
+/// The define of the access clock (`--memo-clock counter`; memo/table.glsl
+/// `MEMO_CLOCK_COUNTER`): a 64-bit counter heads the stamps buffer.
+pub const COUNTER_CLOCK_DEFINE: &str = "-DSC_MEMO_CLOCK_COUNTER";
+
+/// How a scene's shaders memoize, where they do: the variants compiled in
+/// by define rather than chosen at run time.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct MemoBuild {
+    /// The subgroup-cooperative tile fill (`COOPERATIVE_DEFINE`).
+    pub cooperative: bool,
+    /// The access clock (`COUNTER_CLOCK_DEFINE`).
+    pub counter_clock: bool,
+}
+
 /// The include for `sg`. `origin` is the render origin GPU positions are
 /// relative to (rt/origin.rs): graphs see world positions. With `memo`, it
 /// also defines `bool sc_material_memoizable(uint material_id)`: whether
@@ -176,10 +190,9 @@ fn keep(c: compile::Compiled) -> &'static [u8] {
 pub struct GraphShaders {
     /// The generated include (see the module docs).
     pub include: String,
-    /// Compiled with the memoization cache (`MEMO_DEFINE`).
-    memo: bool,
-    /// With the cooperative tile fill (`COOPERATIVE_DEFINE`).
-    pub cooperative: bool,
+    /// Compiled with the memoization cache (`MEMO_DEFINE`), in these
+    /// variants.
+    pub memo: Option<MemoBuild>,
     dir: std::path::PathBuf,
     built: Mutex<HashMap<String, Result<&'static [u8], String>>>,
 }
@@ -188,14 +201,12 @@ impl GraphShaders {
     pub fn new(
         sg: &SceneGraphs,
         origin: DVec3,
-        memo: bool,
+        memo: Option<MemoBuild>,
         slots: &[Vec<u32>],
-        cooperative: bool,
     ) -> GraphShaders {
         GraphShaders {
-            include: include(sg, origin, memo, slots),
+            include: include(sg, origin, memo.is_some(), slots),
             memo,
-            cooperative: memo && cooperative,
             dir: compile::cache_dir(),
             built: Mutex::new(HashMap::new()),
         }
@@ -210,11 +221,14 @@ impl GraphShaders {
         files.push((INCLUDE, &self.include));
         let mut defs: Vec<&str> = defines.to_vec();
         defs.push(DEFINE);
-        if self.memo {
+        if let Some(m) = self.memo {
             defs.push(MEMO_DEFINE);
-        }
-        if self.cooperative {
-            defs.push(COOPERATIVE_DEFINE);
+            if m.cooperative {
+                defs.push(COOPERATIVE_DEFINE);
+            }
+            if m.counter_clock {
+                defs.push(COUNTER_CLOCK_DEFINE);
+            }
         }
         let what = format!("shader {name} with the scene's material graphs");
         compile::compile_tree(&self.dir, &what, &files, src, &defs).map(keep)
@@ -236,25 +250,18 @@ impl ShaderOverride for GraphShaders {
 }
 
 /// The run-time shaders of `sg`, or `None` (build-time SPIR-V) when it
-/// binds nothing; `memo`: with the memoization cache; `slots`: as for
-/// [`include`]; `cooperative`: with the cooperative tile fill.
+/// binds nothing; `memo`: with the memoization cache, in these variants;
+/// `slots`: as for [`include`].
 pub fn for_scene(
     sg: &SceneGraphs,
     origin: DVec3,
-    memo: bool,
+    memo: Option<MemoBuild>,
     slots: &[Vec<u32>],
-    cooperative: bool,
 ) -> Option<Arc<dyn ShaderOverride>> {
     if sg.is_empty() {
         return None;
     }
-    Some(Arc::new(GraphShaders::new(
-        sg,
-        origin,
-        memo,
-        slots,
-        cooperative,
-    )))
+    Some(Arc::new(GraphShaders::new(sg, origin, memo, slots)))
 }
 
 #[cfg(test)]

@@ -711,9 +711,12 @@ impl SceneGpu {
             shaders: crate::materials::scene_shaders::for_scene(
                 &scene.graphs,
                 origin,
-                memo.is_some(),
+                memo.as_ref()
+                    .map(|_| crate::materials::scene_shaders::MemoBuild {
+                        cooperative: cooperative_fill,
+                        counter_clock: m.clock == crate::materials::memo::MemoClock::Counter,
+                    }),
                 &slots.graph_image_slots(scene),
-                cooperative_fill,
             ),
             memo,
             cooperative_fill,

@@ -10,7 +10,7 @@
 use crate::gpu::{Buffer, GpuContext, GpuError, GpuResult, Recorder};
 use crate::materials::memo::state::{frame_words, MemoCounters, PARAM_WORDS, STATE_BYTES};
 use crate::materials::memo::table::RECORD_WORDS;
-use crate::materials::memo::MemoSettings;
+use crate::materials::memo::{MemoClock, MemoSettings};
 use std::sync::Arc;
 
 pub struct MemoGpu {
@@ -27,14 +27,24 @@ impl MemoGpu {
     /// single `render` memoizes without a frame loop.
     pub fn new(ctx: &Arc<GpuContext>, settings: &MemoSettings) -> GpuResult<MemoGpu> {
         settings.validate().map_err(GpuError::Unsupported)?;
+        if settings.clock == MemoClock::Counter && !ctx.enabled.buffer_int64_atomics {
+            return Err(GpuError::Unsupported(format!(
+                "device '{}' lacks shaderBufferInt64Atomics, which --memo-clock counter needs",
+                ctx.caps.name
+            )));
+        }
         let n = settings.entries as u64;
         let b = |name: &str, bytes: u64| Buffer::storage(ctx, &format!("memo.{name}"), bytes);
         let m = MemoGpu {
             settings: *settings,
             ctx: ctx.clone(),
             keys: b("keys", n * 4)?,
-            // Two words per entry: stamp, write version (table.glsl).
-            stamps: b("stamps", n * 8)?,
+            // The access clock's counter, then per entry: stamp (one word,
+            // or two with the access clock), write version (table.glsl).
+            stamps: b(
+                "stamps",
+                settings.clock.counter_bytes() + n * 4 * settings.clock.stamp_words(),
+            )?,
             values: b(
                 "values",
                 n * settings.texels_per_entry() * 4 * RECORD_WORDS as u64,

@@ -13,3 +13,4 @@ pub mod state;
 pub mod table;
 
 pub use settings::{MemoFill, MemoHits, MemoSettings};
+pub use table::MemoClock;

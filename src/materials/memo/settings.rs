@@ -3,7 +3,7 @@
 //! the eviction policy and the level-of-detail bias. Off by default: a
 //! scene's graphs are then evaluated at every hit, as before.
 
-use super::table::{Eviction, ENTRY_BYTES, ENTRY_HEADER_BYTES};
+use super::table::{Eviction, MemoClock, ENTRY_BYTES, ENTRY_HEADER_BYTES};
 
 /// Which hits go through the cache (thesis §6: the error comes almost
 /// entirely from primary hits, the time from all of them).
@@ -63,6 +63,17 @@ impl std::str::FromStr for Eviction {
     }
 }
 
+impl std::str::FromStr for MemoClock {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        Ok(match s {
+            "frame" => MemoClock::Frame,
+            "counter" => MemoClock::Counter,
+            _ => return Err(format!("bad --memo-clock '{s}': expected frame or counter")),
+        })
+    }
+}
+
 /// The largest table `--memo-entries` accepts (2^24 entries, 0.9 GiB).
 pub const MAX_ENTRIES: u32 = 1 << 24;
 /// The widest probe window `--memo-probe` accepts.
@@ -99,6 +110,8 @@ pub struct MemoSettings {
     /// Linear-probing window D (thesis default 8).
     pub probe: u32,
     pub eviction: Eviction,
+    /// Where LRW and LRU take an access's time from.
+    pub clock: MemoClock,
     /// Added to the level of detail (eq. 5.5's bias; + = finer texels).
     pub bias: f32,
     /// Texels per entry edge: 1 non-tiled, else s×s texels an entry (the
@@ -119,6 +132,7 @@ impl Default for MemoSettings {
             entries: DEFAULT_TEXELS,
             probe: 8,
             eviction: Eviction::Lru,
+            clock: MemoClock::Frame,
             bias: 0.0,
             tile: 1,
             bilinear: false,
@@ -155,12 +169,13 @@ impl MemoSettings {
 
     /// Bytes of one entry: key, stamp, version and its texel records.
     pub fn entry_bytes(&self) -> u64 {
-        ENTRY_HEADER_BYTES + (ENTRY_BYTES - ENTRY_HEADER_BYTES) * self.texels_per_entry()
+        self.clock.header_bytes() + (ENTRY_BYTES - ENTRY_HEADER_BYTES) * self.texels_per_entry()
     }
 
-    /// Bytes of the table's buffers (keys, stamps, records).
+    /// Bytes of the table's buffers (keys, stamps, records; the access
+    /// clock's 8-byte counter).
     pub fn table_bytes(&self) -> u64 {
-        self.entries as u64 * self.entry_bytes()
+        self.entries as u64 * self.entry_bytes() + self.clock.counter_bytes()
     }
 
     /// One line naming the option at fault.
@@ -191,6 +206,13 @@ impl MemoSettings {
                 self.table_bytes() >> 20,
                 (MAX_ENTRIES as u64 * ENTRY_BYTES * 4) >> 20
             ));
+        }
+        if self.clock == MemoClock::Counter && self.eviction == Eviction::Random {
+            return Err(
+                "bad --memo-clock counter with --memo-eviction random: random eviction reads no \
+                 stamps (the access clock ages entries for lrw and lru)"
+                    .into(),
+            );
         }
         if !self.bias.is_finite() || self.bias.abs() > 16.0 {
             return Err(format!(

@@ -16,9 +16,12 @@
 //! * **Eviction** (§5.3.3), within the window: an empty entry if any, else
 //!   random (probe `pcg(H1 ⊕ now·0x9E3779B9) mod D`), LRW (oldest write
 //!   stamp) or LRU (oldest read-or-write stamp); locked entries are skipped.
-//!   Stamps are a frame counter mod 2^32 compared by wrapping age, exact
-//!   below 2^32 frames (18 months at 90 Hz), instead of the thesis's 32-bit
-//!   access counter that rolls over in seconds (eq. 5.11).
+//!   The stamps come from one of the thesis's two clocks ([`MemoClock`]):
+//!   a frame counter mod 2^32 compared by wrapping age, exact below 2^32
+//!   frames (18 months at 90 Hz), or an access counter that every stamp
+//!   write advances, 64 bits wide as the thesis chose (32 bits roll over in
+//!   seconds, eq. 5.11, and then rank old entries as new), raised by
+//!   atomic max.
 
 use crate::methods::hash_table::hash::{pcg_hash, xxhash32};
 
@@ -26,8 +29,10 @@ pub const EMPTY: u32 = 0;
 pub const LOCK: u32 = 0xFFFF_FFFF;
 /// 32-bit words of a record (the shader's `MEMO_RECORD` uvec4s).
 pub const RECORD_WORDS: usize = 12;
-/// Bytes of an entry besides its records: key word, stamp, write version
-/// (the shader's seqlock word against the protocol's ABA, table.glsl).
+/// Bytes of an entry besides its records with the frame clock: key word,
+/// stamp, write version (the shader's seqlock word against the protocol's
+/// ABA, table.glsl). The access clock's 64-bit stamp and version take 8
+/// more ([`MemoClock::header_bytes`]).
 pub const ENTRY_HEADER_BYTES: u64 = 4 + 4 + 4;
 /// Bytes per non-tiled entry: the header and one record.
 pub const ENTRY_BYTES: u64 = ENTRY_HEADER_BYTES + 4 * RECORD_WORDS as u64;
@@ -38,6 +43,49 @@ pub enum Eviction {
     Random = 0,
     Lrw = 1,
     Lru = 2,
+}
+
+/// Where LRW and LRU take the time of an access from (thesis §5.3.3 and
+/// Table 6.2: "frame" and "counter").
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum MemoClock {
+    /// The frame counter: cheap, but every entry stamped within one frame
+    /// is equally old, so a table smaller than a frame's working set evicts
+    /// entries the frame is still using (the thesis's tiled small-table
+    /// collapse of LRW and LRU by frame).
+    #[default]
+    Frame,
+    /// A 64-bit atomic counter that each stamp write advances (the shader's
+    /// `MEMO_CLOCK_COUNTER`): exact order, one global atomic per access.
+    Counter,
+}
+
+impl MemoClock {
+    /// Bytes of an entry besides its records: the access clock's stamp and
+    /// version are 64-bit words.
+    pub fn header_bytes(self) -> u64 {
+        match self {
+            MemoClock::Frame => ENTRY_HEADER_BYTES,
+            MemoClock::Counter => ENTRY_HEADER_BYTES + 8,
+        }
+    }
+
+    /// 32-bit words of the stamps buffer per entry (stamp, version).
+    pub fn stamp_words(self) -> u64 {
+        match self {
+            MemoClock::Frame => 2,
+            MemoClock::Counter => 4,
+        }
+    }
+
+    /// Bytes at the head of the stamps buffer: the access clock's 64-bit
+    /// counter.
+    pub fn counter_bytes(self) -> u64 {
+        match self {
+            MemoClock::Frame => 0,
+            MemoClock::Counter => 8,
+        }
+    }
 }
 
 /// A cache key (thesis §5.3.2).
@@ -94,10 +142,15 @@ pub enum Insert {
 /// and stamps as the shader, without the races (so never LOCK).
 pub struct CpuMemo {
     pub keys: Vec<u32>,
-    pub stamps: Vec<u32>,
+    /// Each entry's stamp: the frame (low 32 bits) or the access count.
+    pub stamps: Vec<u64>,
     pub records: Vec<[u32; RECORD_WORDS]>,
     pub probe: u32,
     pub policy: Eviction,
+    pub clock: MemoClock,
+    /// The access clock's counter (the shader's `memo_clock`): the last
+    /// count given out.
+    pub ticks: u64,
 }
 
 impl CpuMemo {
@@ -112,11 +165,42 @@ impl CpuMemo {
             records: vec![[0; RECORD_WORDS]; capacity as usize],
             probe,
             policy,
+            clock: MemoClock::Frame,
+            ticks: 0,
+        }
+    }
+
+    /// The same with the access clock, its counter at `ticks`.
+    pub fn with_counter(capacity: u32, probe: u32, policy: Eviction, ticks: u64) -> CpuMemo {
+        CpuMemo {
+            clock: MemoClock::Counter,
+            ticks,
+            ..CpuMemo::new(capacity, probe, policy)
         }
     }
 
     fn capacity(&self) -> u32 {
         self.keys.len() as u32
+    }
+
+    /// memo_stamp: the frame `now`, or the access clock's next count
+    /// (raised to it: atomic max).
+    fn stamp(&mut self, s: usize, now: u32) {
+        self.stamps[s] = match self.clock {
+            MemoClock::Frame => now as u64,
+            MemoClock::Counter => {
+                self.ticks = self.ticks.wrapping_add(1);
+                self.stamps[s].max(self.ticks)
+            }
+        };
+    }
+
+    /// memo_oldness: larger = older.
+    fn oldness(&self, s: usize, now: u32) -> u64 {
+        match self.clock {
+            MemoClock::Frame => age(now, self.stamps[s] as u32).wrapping_add(1) as u64,
+            MemoClock::Counter => !self.stamps[s],
+        }
     }
 
     /// The slot holding `k` and its record (memo_find); LRU stamps it.
@@ -126,7 +210,7 @@ impl CpuMemo {
             let s = slot(h0, i, self.capacity(), self.probe) as usize;
             if self.keys[s] == h1 {
                 if self.policy == Eviction::Lru {
-                    self.stamps[s] = now;
+                    self.stamp(s, now);
                 }
                 return Some((s as u32, self.records[s]));
             }
@@ -138,7 +222,7 @@ impl CpuMemo {
     fn victim(&self, k: &MemoKey, now: u32) -> Option<u32> {
         let (h0, h1) = (k.h0(), k.h1());
         let pick = pcg_hash(h1 ^ now.wrapping_mul(0x9E37_79B9)) % self.probe;
-        let (mut victim, mut best) = (None, 0u32);
+        let (mut victim, mut best) = (None, 0u64);
         for i in 0..self.probe {
             let s = slot(h0, i, self.capacity(), self.probe);
             let key = self.keys[s as usize];
@@ -152,8 +236,8 @@ impl CpuMemo {
                 continue;
             }
             let score = match self.policy {
-                Eviction::Random => (i == pick) as u32,
-                _ => age(now, self.stamps[s as usize]).wrapping_add(1),
+                Eviction::Random => (i == pick) as u64,
+                _ => self.oldness(s as usize, now),
             };
             if victim.is_none() || score > best {
                 victim = Some(s);
@@ -174,7 +258,7 @@ impl CpuMemo {
         };
         let was = self.keys[s as usize];
         self.keys[s as usize] = k.h1();
-        self.stamps[s as usize] = now;
+        self.stamp(s as usize, now);
         self.records[s as usize] = record;
         if was == EMPTY {
             Insert::Filled(s)
