@@ -27,9 +27,11 @@ impl MemoGpu {
     /// single `render` memoizes without a frame loop.
     pub fn new(ctx: &Arc<GpuContext>, settings: &MemoSettings) -> GpuResult<MemoGpu> {
         settings.validate().map_err(GpuError::Unsupported)?;
-        if settings.clock == MemoClock::Counter && !ctx.enabled.buffer_int64_atomics {
+        if settings.clock == MemoClock::Counter
+            && !(ctx.enabled.buffer_int64_atomics && ctx.enabled.shader_int64)
+        {
             return Err(GpuError::Unsupported(format!(
-                "device '{}' lacks shaderBufferInt64Atomics, which --memo-clock counter needs",
+                "device '{}' lacks shaderInt64 or shaderBufferInt64Atomics, which --memo-clock counter needs",
                 ctx.caps.name
             )));
         }

@@ -262,4 +262,36 @@ mod tests {
             MemoSettings::default_entries(1)
         );
     }
+
+    /// `--memo-clock counter`: one error line with random eviction (which
+    /// reads no stamps); otherwise 64-bit stamp and version (68 B a
+    /// non-tiled entry against 60) and the 8-byte counter in the table's
+    /// bytes.
+    #[test]
+    fn the_access_clock_widens_entries_and_is_refused_with_random_eviction() {
+        let counter = |eviction| MemoSettings {
+            hits: MemoHits::Both,
+            eviction,
+            clock: MemoClock::Counter,
+            entries: 1000,
+            ..Default::default()
+        };
+        let e = counter(Eviction::Random).validate().unwrap_err();
+        assert!(
+            e.contains("--memo-clock counter") && e.contains("random"),
+            "{e}"
+        );
+        for eviction in [Eviction::Lrw, Eviction::Lru] {
+            let s = counter(eviction);
+            assert_eq!(s.validate(), Ok(()));
+            assert_eq!(s.entry_bytes(), 68);
+            assert_eq!(s.table_bytes(), 1000 * 68 + 8);
+        }
+        let frame = MemoSettings {
+            clock: MemoClock::Frame,
+            ..counter(Eviction::Random)
+        };
+        assert_eq!(frame.validate(), Ok(()));
+        assert_eq!((frame.entry_bytes(), frame.table_bytes()), (60, 60_000));
+    }
 }
