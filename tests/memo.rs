@@ -357,6 +357,17 @@ fn record(h1: u32) -> [u32; RECORD_WORDS] {
     std::array::from_fn(|j| pcg_hash(h1 ^ (j as u32).wrapping_mul(0x9E37_79B9)))
 }
 
+/// Lookup `i` of `frame` in the 10 000-frame runs: one of 150 keys, the
+/// set sliding by one key every 7 frames.
+fn sliding_key(frame: u64, i: u32) -> MemoKey {
+    let id = (frame as u32 / 7) + pcg_hash(i ^ frame as u32) % 150;
+    MemoKey {
+        graph: id % 3,
+        level: (id % 5) as i32,
+        q: [id as i32, -(id as i32) / 3],
+    }
+}
+
 /// 10 000 frames of a 64-entry table (D = 8) under a sliding set of 150
 /// keys, the frame counter crossing 2^32 midway, for every policy:
 /// every entry holds its own key's record, no key is stored twice in a
@@ -374,12 +385,7 @@ fn ten_thousand_frames_stay_consistent() {
         for frame in 0..10_000u64 {
             let now = start.wrapping_add(frame as u32);
             for i in 0..40u32 {
-                let id = (frame as u32 / 7) + pcg_hash(i ^ frame as u32) % 150;
-                let k = MemoKey {
-                    graph: id % 3,
-                    level: (id % 5) as i32,
-                    q: [id as i32, -(id as i32) / 3],
-                };
+                let k = sliding_key(frame, i);
                 if let Some((s, r)) = t.find(&k, now) {
                     assert_eq!(r, record(k.h1()), "{policy:?}: wrong record");
                     if policy == Eviction::Lru {
@@ -450,12 +456,7 @@ fn ten_thousand_frames_by_the_access_clock_evict_the_least_recent() {
         for frame in 0..10_000u64 {
             let now = frame as u32;
             for i in 0..40u32 {
-                let id = (frame as u32 / 7) + pcg_hash(i ^ frame as u32) % 150;
-                let k = MemoKey {
-                    graph: id % 3,
-                    level: (id % 5) as i32,
-                    q: [id as i32, -(id as i32) / 3],
-                };
+                let k = sliding_key(frame, i);
                 if let Some((s, r)) = t.find(&k, now) {
                     assert_eq!(r, record(k.h1()), "{policy:?}: wrong record");
                     if policy == Eviction::Lru {
