@@ -402,10 +402,11 @@ fn tangents_follow_the_transformed_uvs() {
     let _ = std::fs::remove_dir_all(&d);
 }
 
-/// Two (uv set, transform) choices per material are two uv channels; a
-/// slot naming a third reads the base colour's channel and is warned.
+/// Two (uv set, transform) choices per material are two uv channels (the
+/// base colour's, then the normal texture's); a slot naming a third uv set
+/// reads the base colour's channel and is warned.
 #[test]
-fn a_third_uv_choice_reads_the_base_colour_channel_and_warns_once() {
+fn a_third_uv_set_reads_the_base_colour_channel_and_warns_once() {
     let d = dir("disagree");
     let quads = [Quad {
         rect: rect(0),
@@ -435,23 +436,21 @@ fn a_third_uv_choice_reads_the_base_colour_channel_and_warns_once() {
     for part in [
         path.display().to_string().as_str(),
         "material 0 'mixed'",
-        // The third (the normal texture's) differs from the first in its
-        // transform only.
-        "more than two different texture transforms (KHR_texture_transform)",
+        // The third (the metallic-roughness texture's) differs from the
+        // first in its uv set and transform, and no channel holds its set.
+        "more than two different uv sets (texCoord) and texture transforms (KHR_texture_transform)",
         "two uv channels (TEXCOORD_1, offset (0.5, 0), rotation 1.5707964, scale (2, 2) and \
-         TEXCOORD_0, no transform)",
-        "the others read the base colour texture's uvs, so the normal texture (TEXCOORD_1, no \
-         transform) reads the wrong uvs",
+         TEXCOORD_1, no transform)",
+        "the others read the base colour texture's uvs, so the metallic-roughness texture \
+         (TEXCOORD_0, no transform) reads the wrong uvs",
     ] {
         assert!(w.contains(part), "warning lacks '{part}': {w}");
     }
     assert!(!w.contains("emissive"), "the emissive texture agrees: {w}");
-    assert!(
-        !w.contains("metallic-roughness"),
-        "it has the second channel: {w}"
-    );
-    // Channel 1: the base colour's choice (emissive and normal read it);
-    // channel 2: TEXCOORD_0 untransformed, for the metallic-roughness slot.
+    assert!(!w.contains("the normal"), "it has the second channel: {w}");
+    // Channel 1: the base colour's choice (emissive and metallic-roughness
+    // read it); channel 2: TEXCOORD_1 untransformed, for the normal texture
+    // (whose channel the tangents follow).
     assert_uvs(
         &scene.meshes[0].uvs,
         &[[2.5, 0.0], [2.5, -2.0], [0.5, -2.0], [0.5, 0.0]],
@@ -462,7 +461,8 @@ fn a_third_uv_choice_reads_the_base_colour_channel_and_warns_once() {
         &[[0.0, 1.0], [1.0, 1.0], [1.0, 0.0], [0.0, 0.0]],
         "the second channel",
     );
-    assert_eq!(scene.materials[0].second_uv_slots, 1 << 1);
+    assert_eq!(scene.materials[0].second_uv_slots, 1 << 2);
+    assert!(scene.materials[0].uv_affine.iter().all(Option::is_none));
     // The writer keeps both channels (TEXCOORD_0/1, texCoord 1 on the slots
     // of the second) and they read back the same.
     let out = d.join("written.gltf");
@@ -470,7 +470,96 @@ fn a_third_uv_choice_reads_the_base_colour_channel_and_warns_once() {
     let back = load_gltf(&out).unwrap();
     assert_eq!(back.meshes[0].uvs, scene.meshes[0].uvs);
     assert_eq!(back.meshes[0].uvs2, scene.meshes[0].uvs2);
-    assert_eq!(back.materials[0].second_uv_slots, 1 << 1);
+    assert_eq!(back.materials[0].second_uv_slots, 1 << 2);
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// A third `KHR_texture_transform` of a uv set that a channel holds needs no
+/// channel of its own: the slot reads the channel through the map between
+/// the two transforms (`Material::uv_affine`), without a warning, and the
+/// writer gives it back as that slot's transform of the written channel.
+/// A map that shears (non-uniform scale under a channel turned by other than
+/// a quarter turn) cannot be written: one error naming material and slot.
+#[test]
+fn a_third_transform_of_a_channels_set_reads_it_through_a_map() {
+    let d = dir("third-transform");
+    let quads = [Quad {
+        rect: rect(0),
+        attrs: vec![("TEXCOORD_0", unit_uvs())],
+        material: 0,
+    }];
+    let mats = vec![material(
+        "three transforms",
+        json!({
+            "baseColorTexture": { "index": 0, "extensions": brief_transform() },
+            "normalTexture": { "index": 0 },
+            "emissiveTexture": { "index": 0, "extensions": spec_example() },
+        }),
+    )];
+    let path = write_doc(
+        &d,
+        &quads,
+        mats,
+        1,
+        json!({ "extensionsUsed": ["KHR_texture_transform"] }),
+    );
+    let scene = load_gltf(&path).unwrap();
+    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+    let m = &scene.materials[0];
+    assert_eq!(m.second_uv_slots, 1 << 2, "the normal texture's channel");
+    let a = m.uv_affine[3].expect("the emissive slot reads channel 1 through a map");
+    assert_eq!(
+        m.uv_affine.iter().filter(|a| a.is_some()).count(),
+        1,
+        "{:?}",
+        m.uv_affine
+    );
+    // Applied to channel 1 (the brief's transform of TEXCOORD_0) it gives
+    // the spec example's transform of TEXCOORD_0, by the formula written
+    // apart from the importer's.
+    for (k, uv) in unit_uvs().iter().enumerate() {
+        let raw = Vec2::new(uv[0], uv[1]);
+        let got = a.apply(scene.meshes[0].uvs[k]);
+        let want = spec_uv(Vec2::new(0.0, 1.0), FRAC_PI_2, Vec2::splat(0.5), raw);
+        assert!(
+            (got - want).abs().max_element() < UV_TOL,
+            "{raw}: {got} not {want}"
+        );
+    }
+    // Written and read back: the slot's transform of the written channel,
+    // the same map.
+    let out = d.join("written.gltf");
+    stereocache::scene::write_gltf(&scene, &out).unwrap();
+    let back = load_gltf(&out).unwrap();
+    assert!(back.warnings.is_empty(), "{:?}", back.warnings);
+    let b = back.materials[0].uv_affine[3].expect("read back through a map");
+    assert!(
+        (b.linear - a.linear)
+            .abs()
+            .to_cols_array()
+            .iter()
+            .all(|&x| x < UV_TOL)
+            && (b.offset - a.offset).abs().max_element() < UV_TOL,
+        "{b:?} not {a:?}"
+    );
+    // A shearing map is refused by the writer, before anything is written.
+    let mut sheared = scene.clone();
+    sheared.materials[0].uv_affine[3] = Some(stereocache::scene::UvAffine {
+        linear: glam::Mat2::from_cols(Vec2::new(1.0, 0.0), Vec2::new(0.5, 1.0)),
+        offset: Vec2::ZERO,
+    });
+    let refused = d.join("sheared.gltf");
+    let e = stereocache::scene::write_gltf(&sheared, &refused)
+        .unwrap_err()
+        .to_string();
+    for part in [
+        "material 0 'three transforms'",
+        "emissive texture",
+        "shears",
+    ] {
+        assert!(e.contains(part), "error lacks '{part}': {e}");
+    }
+    assert!(!refused.exists());
     let _ = std::fs::remove_dir_all(&d);
 }
 
@@ -698,61 +787,50 @@ fn hit_point(scene: &Scene, fh: [u32; 4]) -> (usize, Vec3) {
     (inst.mesh as usize, p)
 }
 
-/// A texture on the second uv channel is sampled there: a black,
-/// non-reflecting quad (specularFactor 0) whose base colour texture reads
-/// TEXCOORD_0 as is and whose emissive texture reads TEXCOORD_1 under the
-/// brief's transform, with emissive factor 1 and one bounce: every pixel's
-/// radiance is exactly the emissive texel at the transformed TEXCOORD_1
-/// (sRGB 0 and 255 decode to 0 and 1), which differs from the texel at the
-/// untransformed uvs on most of the quad — on both backends.
-#[test]
-fn an_emissive_texture_on_the_second_channel_shows_its_own_uvs() {
-    let ctx = context();
-    let d = dir("second-channel");
-    // TEXCOORD_1 = TEXCOORD_0 mirrored in u, so a mix-up of the sets shows too.
-    let mirrored: Vec<Vec<f32>> = unit_uvs()
-        .into_iter()
-        .map(|uv| vec![1.0 - uv[0], uv[1]])
-        .collect();
+/// A black, non-reflecting (specularFactor 0) emitter of emissive factor 1
+/// with the given texture slots, on quad 0 with the given uv sets.
+fn emitter_doc(d: &Path, attrs: Vec<(&'static str, Vec<Vec<f32>>)>, slots: Value) -> PathBuf {
     let quads = [Quad {
         rect: rect(0),
-        attrs: vec![("TEXCOORD_0", unit_uvs()), ("TEXCOORD_1", mirrored)],
+        attrs,
         material: 0,
     }];
-    let mut m = material(
-        "two channels",
-        json!({
-            "baseColorTexture": { "index": 0 },
-            "emissiveTexture": { "index": 0, "texCoord": 1, "extensions": brief_transform() },
-        }),
-    );
+    let mut m = material("emitter", slots);
     m["pbrMetallicRoughness"]["baseColorFactor"] = json!([0.0, 0.0, 0.0, 1.0]);
     m["emissiveFactor"] = json!([1.0, 1.0, 1.0]);
     m["extensions"] = json!({ "KHR_materials_specular": { "specularFactor": 0.0 } });
-    let path = write_doc(
-        &d,
+    write_doc(
+        d,
         &quads,
         vec![m],
         1,
         json!({ "extensionsUsed": ["KHR_texture_transform", "KHR_materials_specular"] }),
-    );
-    let scene = load_gltf(&path).unwrap();
-    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
-    assert_eq!(
-        scene.materials[0].second_uv_slots,
-        1 << 3,
-        "the emissive slot"
-    );
+    )
+}
+
+/// Renders quad 0 of `scene` (an [`emitter_doc`]) head-on with one bounce
+/// on both backends and checks that every pixel's radiance is exactly the
+/// emissive texel at `want_uv(uv0)` (uv0: the quad's TEXCOORD_0 at the hit;
+/// sRGB 0 and 255 decode to 0 and 1), and that on over a third of the quad
+/// that texel differs from the one at `other_uv(uv0)` (what a wrong reading
+/// would show).
+fn assert_emission_reads(
+    ctx: &std::sync::Arc<stereocache::gpu::GpuContext>,
+    scene: &Scene,
+    want_uv: impl Fn(Vec2) -> Vec2,
+    other_uv: impl Fn(Vec2) -> Vec2,
+) {
     let texel = |uv: Vec2| -> Vec3 {
         let i = ((uv.x as f64 * 2.0).floor() as i64).rem_euclid(2);
         let j = ((uv.y as f64 * 2.0).floor() as i64).rem_euclid(2);
         let t = TEXELS[(j * 2 + i) as usize];
         Vec3::new(t[0] as f32, t[1] as f32, t[2] as f32) / 255.0
     };
-    // Which channel a slot reads is what is checked here, not the sampler's
-    // precision at a texel edge (the previous test's business): pixels
-    // within 1/64 of a texel of an edge are left out (llvmpipe rounded one
-    // 0.0040 from an edge, beyond its reported 2^-8, to the neighbour).
+    // Which uvs a slot reads is what is checked here, not the sampler's
+    // precision at a texel edge (the transformed-texture test's business):
+    // pixels within 1/64 of a texel of an edge are left out (llvmpipe
+    // rounded one 0.0040 from an edge, beyond its reported 2^-8, to the
+    // neighbour).
     let near_edge = |x: f32| {
         let t = x * 2.0;
         (t - t.round()).abs() < 1.0 / 64.0
@@ -774,7 +852,7 @@ fn an_emissive_texture_on_the_second_channel_shows_its_own_uvs() {
         backends.push(RtChoice::Query);
     }
     for rt in backends {
-        let s = session(&ctx, scene.clone(), rt);
+        let s = session(ctx, scene.clone(), rt);
         let f = render(&s, "reference", cam, &settings);
         let (mut checked, mut differs) = (0usize, 0usize);
         for eye in &f.eyes {
@@ -784,9 +862,8 @@ fn an_emissive_texture_on_the_second_channel_shows_its_own_uvs() {
                 }
                 let (_, p) = hit_point(&s.scene, *fh);
                 let uv0 = Vec2::new((p.x - x0) / (x1 - x0), (y1 - p.y) / (y1 - y0));
-                let uv1 = Vec2::new(1.0 - uv0.x, uv0.y);
-                let uvt = spec_uv(Vec2::new(0.5, 0.0), FRAC_PI_2, Vec2::splat(2.0), uv1);
-                if near_edge(uvt.x) || near_edge(uvt.y) || near_edge(uv0.x) || near_edge(uv0.y) {
+                let (uvt, uvo) = (want_uv(uv0), other_uv(uv0));
+                if [uvt.x, uvt.y, uvo.x, uvo.y].into_iter().any(near_edge) {
                     continue;
                 }
                 let want = texel(uvt);
@@ -797,13 +874,90 @@ fn an_emissive_texture_on_the_second_channel_shows_its_own_uvs() {
                 );
                 assert_eq!(Vec3::from_slice(&eye.albedo[i][..3]), Vec3::ZERO);
                 checked += 1;
-                differs += ((texel(uv0) - want).abs().max_element() > 0.5) as usize;
+                differs += ((texel(uvo) - want).abs().max_element() > 0.5) as usize;
             }
         }
-        eprintln!("{rt:?}: checked {checked}, differing from channel 1's uvs {differs}");
+        eprintln!("{rt:?}: checked {checked}, differing from the other reading {differs}");
         assert!(checked > 5000, "{rt:?}: {checked} pixels checked");
         assert!(differs * 3 > checked, "{rt:?}: {differs} of {checked}");
     }
-    assert_no_validation_messages(&ctx);
+    assert_no_validation_messages(ctx);
+}
+
+/// A texture on the second uv channel is sampled there: the emitter's base
+/// colour texture reads TEXCOORD_0 as is and its emissive texture reads
+/// TEXCOORD_1 under the brief's transform; every pixel's radiance is the
+/// emissive texel at the transformed TEXCOORD_1, which differs from the
+/// texel at the untransformed uvs on most of the quad — on both backends.
+#[test]
+fn an_emissive_texture_on_the_second_channel_shows_its_own_uvs() {
+    let ctx = context();
+    let d = dir("second-channel");
+    // TEXCOORD_1 = TEXCOORD_0 mirrored in u, so a mix-up of the sets shows too.
+    let mirrored: Vec<Vec<f32>> = unit_uvs()
+        .into_iter()
+        .map(|uv| vec![1.0 - uv[0], uv[1]])
+        .collect();
+    let path = emitter_doc(
+        &d,
+        vec![("TEXCOORD_0", unit_uvs()), ("TEXCOORD_1", mirrored)],
+        json!({
+            "baseColorTexture": { "index": 0 },
+            "emissiveTexture": { "index": 0, "texCoord": 1, "extensions": brief_transform() },
+        }),
+    );
+    let scene = load_gltf(&path).unwrap();
+    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+    assert_eq!(
+        scene.materials[0].second_uv_slots,
+        1 << 3,
+        "the emissive slot"
+    );
+    assert_emission_reads(
+        &ctx,
+        &scene,
+        |uv0| {
+            let uv1 = Vec2::new(1.0 - uv0.x, uv0.y);
+            spec_uv(Vec2::new(0.5, 0.0), FRAC_PI_2, Vec2::splat(2.0), uv1)
+        },
+        |uv0| uv0,
+    );
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// A third transform of a channel's uv set is applied at shading time: the
+/// emitter's base colour texture reads TEXCOORD_0 under the brief's
+/// transform (channel 1), its metallic-roughness texture under an offset
+/// (channel 2), and its emissive texture under a third, generic transform
+/// (rotation 0.4, non-uniform scale), which reads channel 1 through the map
+/// between the two. Every pixel's radiance is the emissive texel at the
+/// third transform of TEXCOORD_0, which differs from the texel at channel
+/// 1's uvs (what the emissive slot read before maps) on most of the quad —
+/// on both backends.
+#[test]
+fn a_third_transform_is_applied_at_shading_time() {
+    let ctx = context();
+    let d = dir("third-transform-gpu");
+    let (o, r, sc) = (Vec2::new(0.25, 0.5), 0.4, Vec2::new(1.5, 1.0));
+    let path = emitter_doc(
+        &d,
+        vec![("TEXCOORD_0", unit_uvs())],
+        json!({
+            "baseColorTexture": { "index": 0, "extensions": brief_transform() },
+            "metallicRoughnessTexture": { "index": 0, "extensions": transform([0.25, 0.0], 0.0, [1.0, 1.0]) },
+            "emissiveTexture": { "index": 0, "extensions": transform(o.to_array(), r, sc.to_array()) },
+        }),
+    );
+    let scene = load_gltf(&path).unwrap();
+    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+    assert_eq!(scene.materials[0].second_uv_slots, 1 << 1);
+    assert!(scene.materials[0].uv_affine[3].is_some());
+    assert!(stereocache::scene::SceneFeatures::of(&scene).uv_affine);
+    assert_emission_reads(
+        &ctx,
+        &scene,
+        |uv0| spec_uv(o, r, sc, uv0),
+        |uv0| spec_uv(Vec2::new(0.5, 0.0), FRAC_PI_2, Vec2::splat(2.0), uv0),
+    );
     let _ = std::fs::remove_dir_all(&d);
 }

@@ -48,4 +48,8 @@ layout(constant_id = SPEC_SC_BACKFACE_CULLING) const bool SC_BACKFACE_CULLING = 
 // A mesh has a second uv channel (src/scene/features.rs `second_uv`): the
 // texture slots in MaterialGpu.tex3.y read it (material.glsl `slot_uv`).
 layout(constant_id = SPEC_SC_SECOND_UV) const bool SC_SECOND_UV = true;
+// A material's texture slot reads its uv channel through a map
+// (src/scene/features.rs `uv_affine`: a third KHR_texture_transform of a
+// channel's uv set): the slots in MaterialGpu.tex3.z apply uv_affine.
+layout(constant_id = SPEC_SC_UV_AFFINE) const bool SC_UV_AFFINE = true;
 #endif

@@ -27,7 +27,16 @@ float texture_lod(int tex, Surface s, float cone_width, float cos_incidence) {
 vec4 slot_texture(MaterialGpu g, int slot, int tex, Surface s, float cone_width, float cos_incidence, bool lod0) {
     bool second = slot_on_second_uv(g.tex3.y, slot);
     vec2 uv = second ? s.uv2 : s.uv;
-    float lod = lod0 ? 0.0 : texture_lod_at(tex, second ? s.uv2_area_ratio : s.uv_area_ratio, cone_width, cos_incidence);
+    float area = second ? s.uv2_area_ratio : s.uv_area_ratio;
+    // A slot whose (uv set, transform) is neither channel's reads its
+    // channel through the map between the two transforms (gltf_uv.rs
+    // UvAffine); texture area scales by |det m|.
+    if (SC_UV_AFFINE && ((uint(g.tex3.z) >> uint(slot)) & 1u) != 0u) {
+        vec4 r0 = g.uv_affine[2 * slot], r1 = g.uv_affine[2 * slot + 1];
+        uv = vec2(dot(r0.xy, uv) + r0.z, dot(r1.xy, uv) + r1.z);
+        area *= abs(r0.x * r1.y - r0.y * r1.x);
+    }
+    float lod = lod0 ? 0.0 : texture_lod_at(tex, area, cone_width, cos_incidence);
     return sample_texture(tex, uv, lod);
 }
 

@@ -22,7 +22,8 @@ struct MaterialGpu {
     vec4 coat;                // KHR_materials_clearcoat factor, roughness, normal scale, unused
     vec4 attenuation;         // KHR_materials_volume σ_a rgb (per world unit, 0 = none), thin-walled (1: transmission without a volume)
     ivec4 tex2;               // clearcoat (R), clearcoat roughness (G), clearcoat normal, specular (A)
-    ivec4 tex3;               // specular colour (RGB), unused, unused, unused
+    ivec4 tex3;               // specular colour (RGB), slots on the second uv channel (bits), slots read through uv_affine (bits), unused
+    vec4 uv_affine[20];       // slot k: rows 2k, 2k+1 = (m00, m01, o0, 0), (m10, m11, o1, 0) of uv' = m·uv + o (material.glsl slot_texture)
 };
 struct LightGpu {
     vec4 radiant_kind;        // rgb, kind (0 point, 1 spot, 2 directional)

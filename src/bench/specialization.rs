@@ -22,6 +22,7 @@ pub const FEATURE_FLAGS: &[&str] = &[
     "clearcoat",
     "backface_culling",
     "second_uv",
+    "uv_affine",
 ];
 
 /// Whether flag `name` of [`FEATURE_FLAGS`] is on in `f`; with `set`, turns it on.
@@ -39,6 +40,7 @@ fn feature_flag(f: &mut crate::scene::SceneFeatures, name: &str, set: bool) -> b
         "clearcoat" => &mut f.clearcoat,
         "backface_culling" => &mut f.backface_culling,
         "second_uv" => &mut f.second_uv,
+        "uv_affine" => &mut f.uv_affine,
         _ => unreachable!("FEATURE_FLAGS names every flag"),
     };
     if set {

@@ -27,6 +27,7 @@ pub mod spec_id {
     pub const CLEARCOAT: u32 = 15;
     pub const BACKFACE_CULLING: u32 = 16;
     pub const SECOND_UV: u32 = 17;
+    pub const UV_AFFINE: u32 = 18;
 }
 
 pub const INTERFACE: Interface = Interface {
@@ -83,5 +84,6 @@ pub const INTERFACE: Interface = Interface {
         ("SC_CLEARCOAT", spec_id::CLEARCOAT),
         ("SC_BACKFACE_CULLING", spec_id::BACKFACE_CULLING),
         ("SC_SECOND_UV", spec_id::SECOND_UV),
+        ("SC_UV_AFFINE", spec_id::UV_AFFINE),
     ],
 };

@@ -29,6 +29,7 @@ impl RenderSettings {
             (spec_id::CLEARCOAT, x.clearcoat),
             (spec_id::BACKFACE_CULLING, x.backface_culling),
             (spec_id::SECOND_UV, x.second_uv),
+            (spec_id::UV_AFFINE, x.uv_affine),
         ] {
             if on {
                 s.flag(id, true);

@@ -12,6 +12,7 @@ use crate::gpu::{
 use crate::scene::emitters::Emitters;
 use crate::scene::env_distribution::EnvDistribution;
 use crate::scene::preetham::preetham_params;
+use crate::scene::SLOT_COUNT;
 use crate::scene::{
     AlphaMode, Environment, Filter, LightKind, Scene, SceneFeatures, SkyModel, TextureEncoding,
     TextureRef, TextureSampler, Wrap,
@@ -79,8 +80,12 @@ struct MaterialGpu {
     /// Clearcoat (R), clearcoat roughness (G), clearcoat normal, specular (A).
     tex2: [i32; 4],
     /// Specular colour (RGB); the slots reading the second uv channel (bit
-    /// k = gltf_uv::SLOTS[k], `Material::second_uv_slots`); unused ×2.
+    /// k = gltf_uv::SLOTS[k], `Material::second_uv_slots`); the slots that
+    /// read their channel through a map (`Material::uv_affine`); unused.
     tex3: [i32; 4],
+    /// Per slot k: rows 2k, 2k + 1 = (m00, m01, o0, 0), (m10, m11, o1, 0) of
+    /// its map uv' = m · uv + o (`Material::uv_affine`; zeros where none).
+    uv_affine: [[f32; 4]; 2 * SLOT_COUNT],
 }
 
 #[repr(C)]
@@ -350,9 +355,21 @@ impl SceneGpu {
                     tex3: [
                         t(m.specular_color_texture),
                         m.second_uv_slots as i32,
-                        -1,
+                        m.uv_affine
+                            .iter()
+                            .enumerate()
+                            .filter(|(_, a)| a.is_some())
+                            .fold(0, |bits, (k, _)| bits | 1 << k),
                         -1,
                     ],
+                    uv_affine: std::array::from_fn(|row| {
+                        let a = m.uv_affine[row / 2];
+                        a.map_or([0.0; 4], |a| {
+                            // Row r of the matrix: (col0[r], col1[r]).
+                            let r = row % 2;
+                            [a.linear.x_axis[r], a.linear.y_axis[r], a.offset[r], 0.0]
+                        })
+                    }),
                 }
             })
             .collect();
@@ -786,7 +803,8 @@ impl SceneGpu {
             .flag(spec_id::VERTEX_COLORS, f.vertex_colors)
             .flag(spec_id::CLEARCOAT, f.clearcoat)
             .flag(spec_id::BACKFACE_CULLING, f.backface_culling)
-            .flag(spec_id::SECOND_UV, f.second_uv);
+            .flag(spec_id::SECOND_UV, f.second_uv)
+            .flag(spec_id::UV_AFFINE, f.uv_affine);
         s
     }
 

@@ -281,15 +281,52 @@ fn material_json(m: &Material, used: &mut Vec<&'static str>, table: &mut Texture
         out.insert("extensions".into(), Value::Object(ext));
     }
     let mut out = Value::Object(out);
-    // Slots reading the second uv channel (Mesh::uvs2, written as TEXCOORD_1).
+    // Slots reading the second uv channel (Mesh::uvs2, written as TEXCOORD_1),
+    // and slots reading theirs through a map: its KHR_texture_transform
+    // (write_gltf has refused maps that shear).
     for (k, (_, pointer)) in super::gltf_uv::SLOTS.iter().enumerate() {
+        let Some(info) = out.pointer_mut(pointer).and_then(Value::as_object_mut) else {
+            continue;
+        };
         if m.second_uv_slots & (1 << k) != 0 {
-            if let Some(info) = out.pointer_mut(pointer).and_then(Value::as_object_mut) {
-                info.insert("texCoord".into(), json!(1));
+            info.insert("texCoord".into(), json!(1));
+        }
+        if let Some(t) = m.uv_affine[k].and_then(|a| a.as_transform()) {
+            info.insert(
+                "extensions".into(),
+                json!({ super::gltf_uv::TEXTURE_TRANSFORM: {
+                    "offset": t.offset.to_array(),
+                    "rotation": t.rotation,
+                    "scale": t.scale.to_array(),
+                } }),
+            );
+            if !used.contains(&super::gltf_uv::TEXTURE_TRANSFORM) {
+                used.push(super::gltf_uv::TEXTURE_TRANSFORM);
             }
         }
     }
     out
+}
+
+/// The error for a slot whose uv map ([`Material::uv_affine`]) shears:
+/// `KHR_texture_transform` has offset, rotation and scale only.
+fn check_uv_maps(scene: &Scene, path: &Path) -> Result<(), SceneError> {
+    for (i, m) in scene.materials.iter().enumerate() {
+        for (k, a) in m.uv_affine.iter().enumerate() {
+            if a.is_some_and(|a| a.as_transform().is_none()) {
+                return Err(SceneError::invalid(
+                    path,
+                    format!(
+                        "material {i} '{}': the {} reads its uv channel through a map that \
+                         shears, which KHR_texture_transform cannot express",
+                        m.name,
+                        super::gltf_uv::SLOTS[k].0
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
 }
 
 fn matrix(m: &Mat4) -> Value {
@@ -389,6 +426,7 @@ pub fn write_gltf(scene: &Scene, path: &Path) -> Result<(), SceneError> {
         .file_stem()
         .and_then(|s| s.to_str())
         .ok_or_else(|| SceneError::invalid(path, "output path needs a UTF-8 file name"))?;
+    check_uv_maps(scene, path)?;
     let mut used: Vec<&'static str> = Vec::new();
     let mut staged = Vec::new();
 

@@ -37,6 +37,10 @@ pub struct SceneFeatures {
     /// A mesh has a second uv channel (`Mesh::uvs2`: some texture slots read
     /// another uv set or transform). Off, only the first is read.
     pub second_uv: bool,
+    /// A material's texture slot reads its uv channel through a map (a third
+    /// `KHR_texture_transform` of a channel's uv set, `Material::uv_affine`).
+    /// Off, no slot applies one.
+    pub uv_affine: bool,
 }
 
 impl SceneFeatures {
@@ -69,6 +73,7 @@ impl SceneFeatures {
             clearcoat: mats.iter().any(|m| m.clearcoat.factor > 0.0),
             backface_culling: scene.meshes.iter().any(|m| scene.mesh_culls_back_faces(m)),
             second_uv: scene.meshes.iter().any(|m| !m.uvs2.is_empty()),
+            uv_affine: mats.iter().any(|m| m.uv_affine.iter().any(Option::is_some)),
         }
     }
 
@@ -91,6 +96,7 @@ impl SceneFeatures {
             clearcoat: true,
             backface_culling: true,
             second_uv: true,
+            uv_affine: true,
         }
     }
 }

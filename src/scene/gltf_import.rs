@@ -51,8 +51,8 @@ use super::gltf_buffers::{load_buffers, split_container, AccessorReader};
 use super::gltf_instancing::{instancing_json, NodeInstancing, INSTANCING_EXTENSION};
 use super::gltf_textures::{decode_images, patch_invalid_samplers, texture_sampler, ImageUses};
 use super::gltf_uv::{
-    choose, texture_transforms_json, SlotUv, UvChannels, UvChoice, SLOTS, SLOT_COUNT,
-    TEXTURE_TRANSFORM,
+    choose, texture_transforms_json, SlotUv, UvAffine, UvChannels, UvChoice, ORDER, SLOTS,
+    SLOT_COUNT, TEXTURE_TRANSFORM,
 };
 use super::mesh_ops::{
     drop_non_finite_triangles, fan_to_triangles, generate_normals, generate_tangents_for,
@@ -700,6 +700,7 @@ impl Importer<'_> {
                 },
                 volume,
                 second_uv_slots: 0,
+                uv_affine: [None; SLOT_COUNT],
             };
             if !coat.bad.is_empty() {
                 self.warn(format!(
@@ -719,9 +720,10 @@ impl Importer<'_> {
                 material.clearcoat.roughness_texture.is_some(),
                 material.clearcoat.normal_texture.is_some(),
             ];
-            let second_uv_slots = self.choose_uvs(label, bound, tex_coords);
+            let (second_uv_slots, uv_affine) = self.choose_uvs(label, bound, tex_coords);
             let material = Material {
                 second_uv_slots,
+                uv_affine,
                 ..material
             };
             let material = match self.unlit_materials.get(m.index().unwrap_or(usize::MAX)) {
@@ -746,14 +748,15 @@ impl Importer<'_> {
 
     /// Decides the uv channels of the material being imported (the next
     /// index of `material_uvs`) from its bound slots and returns the slots
-    /// that read the second (`Material::second_uv_slots`); warns when the
-    /// slots name more than two (uv set, transform) choices.
+    /// that read the second (`Material::second_uv_slots`) and the maps of
+    /// the slots that read a channel through one (`Material::uv_affine`);
+    /// warns when a slot's (uv set, transform) choice can be neither.
     fn choose_uvs(
         &mut self,
         label: String,
         bound: [bool; SLOT_COUNT],
         tex_coords: [Option<u32>; SLOT_COUNT],
-    ) -> u32 {
+    ) -> (u32, [Option<UvAffine>; SLOT_COUNT]) {
         let index = self.material_uvs.len();
         let ext = self.slot_uvs.get(index).copied().unwrap_or_default();
         let slots: [Option<(u32, Option<SlotUv>)>; SLOT_COUNT] =
@@ -761,7 +764,7 @@ impl Importer<'_> {
         let channels = choose(&slots);
         let (choice, wrong) = (channels.first, &channels.wrong);
         if !wrong.is_empty() {
-            let winner = slots.iter().position(Option::is_some).unwrap_or(0);
+            let winner = ORDER.into_iter().find(|&k| slots[k].is_some()).unwrap_or(0);
             let sets = wrong.iter().any(|(_, c)| c.set != choice.set);
             let transforms = wrong
                 .iter()
@@ -780,7 +783,9 @@ impl Importer<'_> {
                 .map_or(String::new(), |c| format!(" and {}", c.describe()));
             self.warn(format!(
                 "{label}: its textures use more than two different {what}, but a material gets \
-                 two uv channels ({}{second}): the others read the {}'s uvs, so {} {} the wrong uvs",
+                 two uv channels ({}{second}), and only further transforms of their uv sets are \
+                 read through a map (not for the clearcoat normal texture): the others read the \
+                 {}'s uvs, so {} {} the wrong uvs",
                 choice.describe(),
                 SLOTS[winner].0,
                 losers.join(" and "),
@@ -788,12 +793,16 @@ impl Importer<'_> {
             ));
         }
         let second_slots = channels.second_slots;
+        let mut affine = [None; SLOT_COUNT];
+        for &(k, a) in &channels.relative {
+            affine[k] = Some(a);
+        }
         self.material_uvs.push(MaterialUv {
             channels,
             textured: bound.iter().any(|&b| b),
             label,
         });
-        second_slots
+        (second_slots, affine)
     }
 
     /// One warning per textured material used by primitives that lack the

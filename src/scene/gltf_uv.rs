@@ -3,10 +3,15 @@
 //! channels, each a uv set its material's textures name (`texCoord`, or the
 //! extension's `texCoord` override) with that slot's offset, rotation and
 //! scale applied; the material says which slots read the second channel.
-//! Two (set, transform) choices per material: the first bound slot's (base
-//! colour first) and the first different one. Where a material's slots name
-//! a third, those slots read the first channel and the importer warns naming
-//! them.
+//! Two (set, transform) choices per material get channels: the first bound
+//! slot's and the first different one, in [`ORDER`] (base colour, then the
+//! normal texture, whose channel the vertex tangents follow, then the
+//! rest). A slot naming a further choice of a set that a channel holds
+//! reads that channel through a [`UvAffine`], the map from the channel's
+//! transform to its own, applied at shading time (`MaterialGpu::uv_affine`);
+//! only a further uv set (or a channel whose transform is singular, or the
+//! clearcoat normal texture, whose tangent frame is the channel's) is left
+//! reading the first channel, and the importer warns naming it.
 //!
 //! The `gltf` crate is built without its `KHR_texture_transform` feature, so
 //! the extension is read here from the raw JSON.
@@ -75,6 +80,15 @@ pub const SLOTS: [(&str, &str); SLOT_COUNT] = [
 
 /// How many texture slots a material has ([`SLOTS`]).
 pub const SLOT_COUNT: usize = 10;
+
+/// The order in which slots claim the two uv channels: base colour first,
+/// then the normal texture (the vertex tangents are its channel's), then the
+/// others in [`SLOTS`] order.
+pub const ORDER: [usize; SLOT_COUNT] = [0, 2, 1, 3, 4, 5, 6, 7, 8, 9];
+
+/// The clearcoat normal texture's slot: its tangent frame is its channel's
+/// (scene.glsl `surface_at`), so it never reads through a [`UvAffine`].
+const CLEARCOAT_NORMAL_SLOT: usize = 9;
 
 /// A `KHR_texture_transform`: uv' = T(offset) · R(rotation) · S(scale) · uv.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -164,6 +178,63 @@ impl UvTransform {
         } else {
             parts.join(", ")
         }
+    }
+}
+
+/// uv' = linear · uv + offset: how a slot whose (set, transform) has no
+/// channel of its own reads a channel of the same set. With the channel's
+/// transform (L_c, o_c) and the slot's (L_s, o_s), uv = L_c·raw + o_c gives
+/// uv' = L_s·raw + o_s = (L_s L_c⁻¹)·uv + (o_s − L_s L_c⁻¹ o_c).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct UvAffine {
+    pub linear: Mat2,
+    pub offset: Vec2,
+}
+
+impl UvAffine {
+    /// The map from the channel's uvs under `channel` to those under
+    /// `slot`; `None` where `channel` is singular (a zero scale).
+    pub fn between(channel: &UvTransform, slot: &UvTransform) -> Option<UvAffine> {
+        let lc = channel.linear();
+        let det = lc.determinant();
+        if det == 0.0 || !det.is_finite() {
+            return None;
+        }
+        let linear = slot.linear() * lc.inverse();
+        let offset = slot.offset - linear * channel.offset;
+        (linear.is_finite() && offset.is_finite()).then_some(UvAffine { linear, offset })
+    }
+
+    pub fn apply(&self, uv: Vec2) -> Vec2 {
+        self.linear * uv + self.offset
+    }
+
+    /// As a `KHR_texture_transform` (offset, rotation, scale), where its
+    /// linear part is a rotation times a scale (columns orthogonal, within
+    /// float precision); `None` where it shears.
+    pub fn as_transform(&self) -> Option<UvTransform> {
+        // linear() = R · S: column 0 = sx (cos r, −sin r), column 1 = sy (sin r, cos r).
+        let (c0, c1) = (self.linear.x_axis, self.linear.y_axis);
+        let sx = c0.length();
+        if sx == 0.0 || !sx.is_finite() {
+            return None;
+        }
+        let (cos, sin) = (c0.x / sx, -c0.y / sx);
+        let sy = c1.dot(Vec2::new(sin, cos));
+        let t = UvTransform {
+            offset: self.offset,
+            rotation: sin.atan2(cos),
+            scale: Vec2::new(sx, sy),
+        };
+        let err = (t.linear() - self.linear).abs();
+        let tol = 1e-5
+            * self
+                .linear
+                .abs()
+                .to_cols_array()
+                .iter()
+                .fold(0.0f32, |a, &b| a.max(b));
+        (err.x_axis.max_element().max(err.y_axis.max_element()) <= tol).then_some(t)
     }
 }
 
@@ -272,15 +343,18 @@ fn parse_slot(ext: &Value, bad: &mut Vec<String>) -> SlotUv {
 }
 
 /// The uv channels of one material: the first bound slot's (set,
-/// transform) choice (base colour first) is channel 1 (`Mesh::uvs`), the
-/// first different one channel 2 (`Mesh::uvs2`); `second_slots` has bit k
-/// set where slot k of [`SLOTS`] reads channel 2; `wrong` lists the slots
-/// whose choice is neither (they read channel 1, and the importer warns).
+/// transform) choice in [`ORDER`] is channel 1 (`Mesh::uvs`), the first
+/// different one channel 2 (`Mesh::uvs2`); `second_slots` has bit k set
+/// where slot k of [`SLOTS`] reads channel 2; `relative` lists the slots
+/// whose choice is neither but whose set a channel holds: they read that
+/// channel through the [`UvAffine`]; `wrong` lists the rest (they read
+/// channel 1, and the importer warns).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct UvChannels {
     pub first: UvChoice,
     pub second: Option<UvChoice>,
     pub second_slots: u32,
+    pub relative: Vec<(usize, UvAffine)>,
     pub wrong: Vec<(usize, UvChoice)>,
 }
 
@@ -288,11 +362,10 @@ pub struct UvChannels {
 /// extension))` per slot of [`SLOTS`], `None` where the slot binds no
 /// texture). No bound slot: TEXCOORD_0 untransformed, one channel.
 pub fn choose(slots: &[Option<(u32, Option<SlotUv>)>; SLOT_COUNT]) -> UvChannels {
-    let choices: Vec<(usize, UvChoice)> = slots
+    let choices: Vec<(usize, UvChoice)> = ORDER
         .iter()
-        .enumerate()
-        .filter_map(|(k, s)| {
-            s.map(|(core, ext)| {
+        .filter_map(|&k| {
+            slots[k].map(|(core, ext)| {
                 let ext = ext.unwrap_or_default();
                 (
                     k,
@@ -321,9 +394,25 @@ pub fn choose(slots: &[Option<(u32, Option<SlotUv>)>; SLOT_COUNT]) -> UvChannels
                 out.second_slots |= 1 << k;
             }
             Some(second) if c.same_as(&second) => out.second_slots |= 1 << k,
-            Some(_) => out.wrong.push((k, c)),
+            Some(second) => {
+                let through = |channel: &UvChoice| {
+                    (channel.set == c.set && k != CLEARCOAT_NORMAL_SLOT)
+                        .then(|| UvAffine::between(&channel.transform, &c.transform))
+                        .flatten()
+                };
+                if let Some(a) = through(&first) {
+                    out.relative.push((k, a));
+                } else if let Some(a) = through(&second) {
+                    out.relative.push((k, a));
+                    out.second_slots |= 1 << k;
+                } else {
+                    out.wrong.push((k, c));
+                }
+            }
         }
     }
+    out.relative.sort_by_key(|&(k, _)| k);
+    out.wrong.sort_by_key(|&(k, _)| k);
     out
 }
 
@@ -360,6 +449,102 @@ mod tests {
                 t.apply(uv)
             );
         }
+    }
+
+    /// A slot with a third (set, transform) choice reads a channel of its
+    /// set through the affine map between the two transforms: applied to
+    /// the channel's uvs it gives the slot's own transform of the raw uvs.
+    #[test]
+    fn a_third_choice_of_a_channels_set_reads_it_through_the_affine_map() {
+        let t = |o: [f32; 2], r: f32, s: [f32; 2]| UvTransform {
+            offset: Vec2::from(o),
+            rotation: r,
+            scale: Vec2::from(s),
+        };
+        let ext = |tr: UvTransform, set: Option<u32>| {
+            Some(SlotUv {
+                transform: tr,
+                tex_coord: set,
+            })
+        };
+        let base = t([0.5, 0.0], FRAC_PI_2, [2.0, 2.0]);
+        let normal = t([0.0, 0.0], 0.3, [1.0, 3.0]);
+        let emissive = t([0.0, 1.0], FRAC_PI_2, [0.5, 0.5]);
+        let mut slots = [None; SLOT_COUNT];
+        slots[0] = Some((0, ext(base, None)));
+        slots[1] = Some((0, ext(base, None)));
+        slots[2] = Some((0, ext(normal, None)));
+        slots[3] = Some((0, ext(emissive, None)));
+        // A further uv set: no channel holds TEXCOORD_1.
+        slots[4] = Some((1, None));
+        // The clearcoat normal texture never reads through a map.
+        slots[9] = Some((0, ext(emissive, None)));
+        let ch = choose(&slots);
+        assert!(ch.first.transform.same_as(&base));
+        assert!(
+            ch.second.unwrap().transform.same_as(&normal),
+            "the normal texture's"
+        );
+        assert_eq!(ch.second_slots, 1 << 2);
+        assert_eq!(ch.relative.len(), 1, "{ch:?}");
+        assert_eq!(ch.relative[0].0, 3);
+        let wrong: Vec<usize> = ch.wrong.iter().map(|w| w.0).collect();
+        assert_eq!(wrong, [4, 9]);
+        let a = ch.relative[0].1;
+        for raw in [
+            Vec2::ZERO,
+            Vec2::new(1.0, 0.0),
+            Vec2::new(0.3, 0.8),
+            Vec2::new(-2.0, 5.0),
+        ] {
+            let got = a.apply(base.apply(raw));
+            let want = emissive.apply(raw);
+            assert!(close(got, want), "{raw}: {got} not {want}");
+        }
+        // Rotation and uniform scale relative to a rotated, uniformly
+        // scaled channel: a rotation and a scale again.
+        let back = a.as_transform().expect("no shear");
+        assert!(
+            (back.rotation - 0.0).abs() < 1e-6 && close(back.scale, Vec2::splat(0.25)),
+            "{back:?}"
+        );
+        // Non-uniform scale under a channel turned by other than a quarter
+        // turn shears (a quarter turn only swaps the scale's axes).
+        let turned = t([0.0, 0.0], 0.7, [1.0, 1.0]);
+        assert!(UvAffine::between(&turned, &normal)
+            .unwrap()
+            .as_transform()
+            .is_none());
+        assert!(UvAffine::between(&base, &normal)
+            .unwrap()
+            .as_transform()
+            .is_some());
+        // A singular channel relates to nothing.
+        assert!(UvAffine::between(&t([0.0, 0.0], 0.0, [0.0, 1.0]), &emissive).is_none());
+    }
+
+    /// Up to two choices, the channels are as before the maps existed: the
+    /// normal texture's claim comes before the metallic-roughness one's only
+    /// when there would be a third.
+    #[test]
+    fn two_choices_need_no_map() {
+        let tr = UvTransform {
+            offset: Vec2::new(0.5, 0.0),
+            ..UvTransform::IDENTITY
+        };
+        let mut slots = [None; SLOT_COUNT];
+        slots[0] = Some((0, None));
+        slots[1] = Some((
+            0,
+            Some(SlotUv {
+                transform: tr,
+                tex_coord: None,
+            }),
+        ));
+        slots[2] = Some((0, None));
+        let ch = choose(&slots);
+        assert_eq!(ch.second_slots, 1 << 1);
+        assert!(ch.relative.is_empty() && ch.wrong.is_empty());
     }
 
     #[test]

@@ -1,6 +1,7 @@
 //! glTF metallic-roughness materials with the extensions stereocache supports
 //! (emissive strength, transmission, ior, specular, clearcoat, volume).
 
+use super::gltf_uv::{UvAffine, SLOT_COUNT};
 use super::texture::TextureSampler;
 use glam::{Vec3, Vec4};
 
@@ -79,6 +80,11 @@ pub struct Material {
     /// colour, clearcoat, clearcoat roughness, clearcoat normal) reads the
     /// meshes' second uv channel (`Mesh::uvs2`), else `Mesh::uvs`.
     pub second_uv_slots: u32,
+    /// Per texture slot (`gltf_uv::SLOTS` order): the map its uvs take from
+    /// the channel it reads, where its (uv set, `KHR_texture_transform`) is
+    /// neither channel's (a third choice of a channel's set; `gltf_uv`
+    /// `choose`); applied at shading time (`MaterialGpu::uv_affine`).
+    pub uv_affine: [Option<UvAffine>; SLOT_COUNT],
     /// KHR_materials_volume with a thickness > 0: the surface bounds a
     /// homogeneous (absorbing) volume, refracting at the boundary with the
     /// ior and attenuating inside by Beer–Lambert. `None` (glTF's default):
@@ -183,6 +189,7 @@ impl Default for Material {
             specular_color_texture: None,
             clearcoat: Clearcoat::default(),
             second_uv_slots: 0,
+            uv_affine: [None; SLOT_COUNT],
             volume: None,
         }
     }

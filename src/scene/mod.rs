@@ -42,6 +42,7 @@ pub use export::write_gltf;
 pub use features::SceneFeatures;
 pub use generate::{generate, generate_to_dir};
 pub use gltf_import::load_gltf;
+pub use gltf_uv::{UvAffine, SLOT_COUNT};
 pub use light::{Light, LightKind};
 pub use load::load_scene;
 pub use material::{AlphaMode, Clearcoat, Material, TextureRef, Volume};
