@@ -154,13 +154,16 @@ fn used_by(doc: &Value) -> Vec<String> {
         if m.get("occlusionTexture").is_some() {
             add("occlusionTexture");
         }
-        // The textureInfos the renderer samples; two (uv set, transform)
-        // choices per material are implemented (two uv channels), so the
-        // slots that name a third count.
+        // The textureInfos the renderer samples, in the order they claim the
+        // two uv channels (base colour, normal, then the rest): two (uv set,
+        // transform) choices per material get channels, a further transform
+        // of a set a channel holds is read through a map (not for the
+        // clearcoat normal texture, the last), so the slots that name a
+        // further set count.
         let mut infos = vec![
             &m["pbrMetallicRoughness"]["baseColorTexture"],
-            &m["pbrMetallicRoughness"]["metallicRoughnessTexture"],
             &m["normalTexture"],
+            &m["pbrMetallicRoughness"]["metallicRoughnessTexture"],
             &m["emissiveTexture"],
             &m["extensions"]["KHR_materials_transmission"]["transmissionTexture"],
             &m["extensions"]["KHR_materials_specular"]["specularTexture"],
@@ -187,6 +190,7 @@ fn used_by(doc: &Value) -> Vec<String> {
             (pair("offset", 0.0), r, pair("scale", 1.0))
         };
         let choice = |t: &Value| (uv_set(t), transform(t));
+        let coat_normal = &m["extensions"]["KHR_materials_clearcoat"]["clearcoatNormalTexture"];
         let mut channels = Vec::new();
         let mut third = Vec::new();
         for t in &infos {
@@ -196,7 +200,7 @@ fn used_by(doc: &Value) -> Vec<String> {
             }
             if channels.len() < 2 {
                 channels.push(c);
-            } else {
+            } else if std::ptr::eq(*t, coat_normal) || !channels.iter().any(|h| h.0 == c.0) {
                 third.push(c);
             }
         }
@@ -407,7 +411,7 @@ fn kitchen_sink() -> Value {
              "pbrMetallicRoughness": {"baseColorTexture": {"index": 0, "texCoord": 1,
                 "extensions": {"KHR_texture_transform": {"offset": [0.5, 0.0]}}}},
              "normalTexture": {"index": 0},
-             "emissiveTexture": {"index": 0,
+             "emissiveTexture": {"index": 0, "texCoord": 2,
                 "extensions": {"KHR_texture_transform": {"scale": [2.0, 2.0]}}}},
             {"name": "coated", "doubleSided": true,
              "extensions": {"KHR_materials_clearcoat": {"clearcoatFactor": 1.0},
@@ -425,7 +429,7 @@ fn kitchen_sink() -> Value {
         ],
         "meshes": [
             {"name": "coloured", "primitives": [{"attributes": {"POSITION": pos, "COLOR_0": color,
-                                                                 "TEXCOORD_1": uv},
+                                                                 "TEXCOORD_1": uv, "TEXCOORD_2": uv},
                                                   "material": 0}]},
             {"name": "morphing", "weights": [0.5],
              "primitives": [{"attributes": {"POSITION": pos}, "targets": [{"POSITION": target}],
@@ -507,14 +511,14 @@ fn a_document_using_every_unimplemented_feature_warns_each_once() {
     let said = |s: &str| warnings.iter().any(|w| w.contains(s));
     // Two uv channels per material: the base colour's (TEXCOORD_1, offset)
     // and the normal texture's (TEXCOORD_0, untransformed); the emissive
-    // texture's third choice reads the base colour texture's uvs.
+    // texture's third uv set reads the base colour texture's uvs.
     assert!(said(
         "material 0 'transformed': its textures use more than two different uv sets (texCoord) \
          and texture transforms (KHR_texture_transform), but a material gets two uv channels \
          (TEXCOORD_1, offset (0.5, 0) and TEXCOORD_0, no transform)"
     ));
     assert!(said(
-        "the others read the base colour texture's uvs, so the emissive texture (TEXCOORD_0, \
+        "the others read the base colour texture's uvs, so the emissive texture (TEXCOORD_2, \
          scale (2, 2)) reads the wrong uvs"
     ));
     // Clearcoat, the specular colour on an opaque material and a volume with

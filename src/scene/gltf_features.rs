@@ -112,9 +112,11 @@ pub const FEATURES: &[Feature] = &[
         "TEXCOORD_1 and texCoord",
         Partly,
         "two uv channels per material: each texture reads the set it names (texCoord, or the \
-         KHR_texture_transform override) under its transform, as long as a material's textures \
-         name at most two (set, transform) pairs; slots naming a third read the base colour \
-         texture's and a warning names them",
+         KHR_texture_transform override) under its transform. The channels hold the first two \
+         (set, transform) pairs (base colour's, then the normal texture's, then the rest); \
+         further transforms of those sets are read through a map (KHR_texture_transform \
+         below); a texture naming a set that neither channel holds reads the base colour \
+         texture's uvs, and a warning names it",
     ),
     f(
         "COLOR_0",
@@ -339,10 +341,13 @@ pub const FEATURES: &[Feature] = &[
     elsewhere(
         "KHR_texture_transform",
         Partly,
-        "per texture: offset, rotation and scale applied to the uvs of its channel at import \
-         (rotation as the spec's example and sample model, glTF issue 1563); at most two \
-         (set, transform) pairs per material (two uv channels): slots naming a third use the \
-         base colour texture's and a warning names them",
+        "per texture: offset, rotation and scale (rotation as the spec's example and sample \
+         model, glTF issue 1563). A material's first two (set, transform) pairs are applied to \
+         its two uv channels at import; a texture with a further transform of a set a channel \
+         holds reads that channel through the affine map between the two transforms at \
+         shading time (spec constant SC_UV_AFFINE). Not the clearcoat normal texture (its \
+         tangent frame is its channel's): it reads the base colour texture's uvs, warned. The \
+         glTF writer refuses a map that shears (one error)",
     ),
     f(
         "KHR_xmp_json_ld",
