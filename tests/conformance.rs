@@ -31,6 +31,17 @@
 //!   Beer–Lambert's c^(t/d) through two interfaces and every answer-key
 //!   sheet its base colour through one, as computed: the README's "uniform
 //!   shade of blue in each vertical column".
+//! * EmissiveStrengthTest (KHR_materials_emissive_strength): each cube's
+//!   face shows exactly emissiveFactor × emissiveStrength (1×, 2×, 4×, 8×,
+//!   16×), not one shared colour.
+//! * NegativeScaleTest: the single-sided check-and-X blocks, one row of
+//!   them negatively scaled, show no red X: culling follows the winding the
+//!   transform's determinant defines; with the determinant ignored, or
+//!   without culling, the README's red marks show.
+//! * VertexColorTest: COLOR_0 zeroes the test row's other channels (no
+//!   cyan, magenta or yellow X); ignored, the X marks show.
+//! * MultiUVTest: the emissive texture reads TEXCOORD_1 (the glTF logo),
+//!   texel for texel, not TEXCOORD_0 (the "not supported" captions).
 //!
 //! Warnings are attributed to README's "glTF support" table
 //! (src/scene/gltf_features.rs): a test fails if a model's unsupported
@@ -616,8 +627,9 @@ fn red_per_test_box(
     rt: RtChoice,
     cam: StereoCamera,
     boxes: &[&str],
+    size: UVec2,
 ) -> Vec<(usize, usize)> {
-    let (f, s) = first_hits(ctx, scene, rt, cam, 128, 256);
+    let (f, s) = first_hits(ctx, scene, rt, cam, size.x, size.y);
     let mut out = vec![(0, 0); boxes.len()];
     for eye in Eye::BOTH {
         let e = f.eye(eye);
@@ -688,8 +700,8 @@ fn texture_settings_test_shows_no_red_in_its_wrap_mode_and_sidedness_boxes() {
     }
     let ctx = context();
     for rt in rt_backends(&ctx) {
-        let right = red_per_test_box(&ctx, &scene, rt, cam, &boxes);
-        let failed = red_per_test_box(&ctx, &wrong, rt, cam, &boxes);
+        let right = red_per_test_box(&ctx, &scene, rt, cam, &boxes, UVec2::new(128, 256));
+        let failed = red_per_test_box(&ctx, &wrong, rt, cam, &boxes, UVec2::new(128, 256));
         eprintln!(
             "TextureSettingsTest {rt:?}: (pixels, red) per box {boxes:?}: as the file says \
              {right:?}, with the failing wrap modes {failed:?}"
@@ -718,8 +730,8 @@ fn texture_settings_test_shows_no_red_in_its_wrap_mode_and_sidedness_boxes() {
             40.0,
             0.5,
         );
-        let right = red_per_test_box(&ctx, &scene, rt, cam2, &pair);
-        let failed = red_per_test_box(&ctx, &wrong, rt, cam2, &pair);
+        let right = red_per_test_box(&ctx, &scene, rt, cam2, &pair, UVec2::new(128, 256));
+        let failed = red_per_test_box(&ctx, &wrong, rt, cam2, &pair, UVec2::new(128, 256));
         eprintln!(
             "TextureSettingsTest {rt:?}: sided pair {pair:?}: {right:?}, flags swapped {failed:?}"
         );
@@ -1127,6 +1139,405 @@ fn attenuation_test_shades_each_column_as_its_answer_key() {
             }
         }
         eprintln!("AttenuationTest {rt:?}:\n{}", table.join("\n"));
+    }
+    assert_no_validation_messages(&ctx);
+}
+
+/// EmissiveStrengthTest (KHR_materials_emissive_strength; README: "The
+/// basic emissive color of all the cubes is [0.1, 0.5, 0.9] ... The cube on
+/// the far left has no emissive strength extension (1x), and each
+/// subsequent cube doubles the strength (2x, 4x, 8x, and 16x)"; "If a given
+/// implementation does not support KHR_materials_emissive_strength, the
+/// boxes will all appear to emit the same color").
+///
+/// Each cube's front face is seen face-on through an orthographic camera,
+/// in a black environment (the file has no lights; the test adds none).
+/// Its black base still has a specular layer, which would reflect the
+/// backdrop (a curved sweep that rises in front of the cubes) lit by the
+/// cubes: 6 % of the emission, measured. The test makes the backdrop a
+/// black absorber (no specular layer either); then all that lies above a
+/// face's plane is black (the other cubes lie at or below it), and every
+/// pixel's radiance is exactly the emission, emissiveFactor ×
+/// emissiveStrength, up to f32 rounding (10⁻⁵ relative).
+#[test]
+fn emissive_strength_test_shows_each_cube_at_its_strength() {
+    let Some((path, mut scene)) = load("EmissiveStrengthTest/EmissiveStrengthTest.gltf") else {
+        return;
+    };
+    let warned = warned_features(&path, &scene);
+    assert_eq!(warned, BTreeMap::new(), "{:?}", scene.warnings);
+    assert!(scene.lights.is_empty(), "{:?}", scene.lights);
+    scene.environment = None;
+    let backdrop = scene
+        .materials
+        .iter_mut()
+        .find(|m| m.name == "FlatBackdrop")
+        .expect("the model's FlatBackdrop material");
+    backdrop.base_color = glam::Vec4::new(0.0, 0.0, 0.0, 1.0);
+    backdrop.base_color_texture = None;
+    backdrop.specular = 0.0;
+    let factor = Vec3::new(0.1, 0.5, 0.9);
+    // (node x, material, strength): the file's nodes Cube1 … Cube16.
+    let cubes = [
+        (-6.0, "Emit1", 1.0),
+        (-3.0, "Emit2", 2.0),
+        (0.0, "Emit4", 4.0),
+        (3.0, "Emit8", 8.0),
+        (6.0, "Emit16", 16.0),
+    ];
+    let settings = RenderSettings {
+        width: 12,
+        height: 12,
+        spp: 4,
+        max_bounces: 3,
+        seed: 3,
+        all_features: false,
+        ..Default::default()
+    };
+    let ctx = context();
+    for rt in rt_backends(&ctx) {
+        let s = session(&ctx, scene.clone(), rt);
+        let mut seen = Vec::new();
+        for (x, name, strength) in cubes {
+            let centre = Vec3::new(x, 0.0, 0.5);
+            let mut cam = look_at_camera(centre + Vec3::Z * 10.0, centre, 1.0, 1.0);
+            // Half the view (0.3 m) plus an eye's offset inside the 1 m face.
+            cam.projection = stereocache::camera::Projection::Orthographic { ymag: 0.3 };
+            let fr = render(&s, "reference", cam, &settings);
+            let want = factor * strength;
+            let mut mean = Vec3::ZERO;
+            let mut n = 0.0;
+            for eye in &fr.eyes {
+                for (p, fh) in eye.radiance.iter().zip(&eye.first_hit) {
+                    assert_ne!(fh[3], u32::MAX, "{rt:?} {name}: a miss");
+                    let m = &scene.materials[hit_uv(&scene, *fh).0 as usize];
+                    assert_eq!(m.name, name, "{rt:?}: a pixel of {name}'s view");
+                    let got = Vec3::new(p[0], p[1], p[2]);
+                    assert!(
+                        (got - want).abs().max_element() <= 1e-5 * want.max_element(),
+                        "{rt:?} {name}: {got} against {want}"
+                    );
+                    mean += got;
+                    n += 1.0;
+                }
+            }
+            seen.push((name, mean / n));
+        }
+        eprintln!("EmissiveStrengthTest {rt:?}: {seen:?}");
+    }
+    assert_no_validation_messages(&ctx);
+}
+
+/// NegativeScaleTest (README: "when a mesh flips inside-out due to its
+/// hierarchy of transforms, the winding order is expected to become
+/// reversed ... and features such as back-face culling and lighting need to
+/// account for this change"; its failure pictures show red "X" marks in the
+/// second row when negative scale is not accounted for, and in the "back"
+/// column when back faces are not culled).
+///
+/// The check-and-X blocks (one single-sided material, ChecksAndXMaterial:
+/// the positive-scale row, the negatively scaled row and the row of
+/// back faces) are seen from the front; no pixel of them may be red. The
+/// same view of the two failures the README pictures must show red: the
+/// negatively scaled mesh's winding taken as if the determinant were
+/// positive (its triangles' order reversed), and no culling at all (every
+/// material double-sided).
+///
+/// The README's second check, "the two white spheres should be lit the
+/// same, regardless of the negative scaling on one of them", holds by
+/// construction here: the integrator turns every shading normal to the
+/// side the ray arrives from (common/integrator.glsl), so it is not
+/// asserted from the image.
+#[test]
+fn negative_scale_test_shows_no_red_x_marks() {
+    let Some((path, scene)) = load("NegativeScaleTest/NegativeScaleTest.gltf") else {
+        return;
+    };
+    let warned = warned_features(&path, &scene);
+    assert_eq!(warned, BTreeMap::new(), "{:?}", scene.warnings);
+    let blocks = ["ChecksAndXMaterial"];
+    // The three block meshes span x −0.44..4.28, y 1.07..3.13 at z ≈ 0.
+    let cam = look_at_camera(
+        Vec3::new(1.92, 2.1, 9.0),
+        Vec3::new(1.92, 2.1, 0.0),
+        20.0,
+        2.0,
+    );
+    let size = UVec2::new(256, 128);
+    let mut det_ignored = scene.clone();
+    let mut flipped = 0;
+    for m in det_ignored
+        .meshes
+        .iter_mut()
+        .filter(|m| m.name.starts_with("NegativeScaleFront"))
+    {
+        for t in m.indices.chunks_mut(3) {
+            t.swap(1, 2);
+        }
+        flipped += 1;
+    }
+    assert_eq!(flipped, 1, "the negatively scaled mesh by name");
+    let mut no_culling = scene.clone();
+    for m in no_culling.materials.iter_mut() {
+        m.double_sided = true;
+    }
+    let ctx = context();
+    for rt in rt_backends(&ctx) {
+        let right = red_per_test_box(&ctx, &scene, rt, cam, &blocks, size)[0];
+        let det = red_per_test_box(&ctx, &det_ignored, rt, cam, &blocks, size)[0];
+        let both = red_per_test_box(&ctx, &no_culling, rt, cam, &blocks, size)[0];
+        eprintln!(
+            "NegativeScaleTest {rt:?}: (block pixels, red) as the file says {right:?}, \
+             determinant ignored {det:?}, no culling {both:?}"
+        );
+        // The blocks fill about a third of the view (two eyes, 256 × 128).
+        assert!(right.0 > 10_000, "{rt:?}: blocks out of view: {right:?}");
+        assert_eq!(right.1, 0, "{rt:?}: red X marks shown: {right:?}");
+        // An X mark is hundreds of pixels at this scale.
+        assert!(
+            det.1 > 100,
+            "{rt:?}: ignoring the determinant shows no X: {det:?}"
+        );
+        assert!(both.1 > 100, "{rt:?}: not culling shows no X: {both:?}");
+    }
+    assert_no_validation_messages(&ctx);
+}
+
+/// VertexColorTest (README: "The top row is the "Test" row, which has been
+/// multipled by red, green, and blue vertex colors to reveal checkmarks in
+/// the corresponding color channels"; "For engines that ignore vertex
+/// colors ... The red check has a cyan X, the green check has a magenta X,
+/// and the blue check has a yellow X, occupying the other two color
+/// channels").
+///
+/// Every first hit on the checks mesh whose interpolated COLOR_0 has a
+/// channel at exactly zero (the test row, away from colour boundaries) must
+/// have albedo zero in that channel: no X mark. The test row's checks show
+/// in their own channel, and the "sample pass" row (white vertex colours)
+/// keeps its colours. With the vertex colours ignored (all white), the same
+/// pixels show the X marks.
+#[test]
+fn vertex_color_test_zeroes_the_x_marks_channels() {
+    let Some((path, scene)) = load("VertexColorTest.gltf") else {
+        return;
+    };
+    let warned = warned_features(&path, &scene);
+    assert_eq!(warned, BTreeMap::new(), "{:?}", scene.warnings);
+    let mut ignored = scene.clone();
+    let mut coloured = 0;
+    for m in ignored.meshes.iter_mut().filter(|m| !m.colors.is_empty()) {
+        m.colors.iter_mut().for_each(|c| *c = glam::Vec4::ONE);
+        coloured += 1;
+    }
+    assert_eq!(coloured, 1, "one mesh has COLOR_0");
+    // The model lies in the z ≈ 0 plane within x, y ∈ [−1, 1], facing +z.
+    let cam = look_at_camera(Vec3::new(0.0, 0.0, 6.0), Vec3::ZERO, 22.0, 1.0);
+    let ctx = context();
+    for rt in rt_backends(&ctx) {
+        // (test-row pixels judged, pixels lit in a zeroed channel, pixels
+        // showing their check's own channel, sample-row pixels).
+        let judge = |sc: &Scene| {
+            let (f, s) = first_hits(&ctx, sc, rt, cam, 192, 192);
+            let mut out = (0usize, 0usize, 0usize, 0usize);
+            for eye in Eye::BOTH {
+                let e = f.eye(eye);
+                for (i, fh) in e.first_hit.iter().enumerate() {
+                    if fh[3] == u32::MAX {
+                        continue;
+                    }
+                    let (mat, _) = hit_uv(&s, *fh);
+                    if s.materials[mat as usize].name != "VC_Checks_Mat" {
+                        continue;
+                    }
+                    // The file's vertex colour at the hit (judged on the
+                    // same pixels whatever the variant renders with).
+                    let mesh = &scene.meshes[scene.instances[fh[3] as usize].mesh as usize];
+                    let (idx, w) = first_hit_weights(&scene, *fh);
+                    let c: glam::Vec4 = (0..3).map(|k| mesh.colors[idx[k]] * w[k]).sum();
+                    let a = Vec3::from_slice(&e.albedo[i][..3]);
+                    if c.truncate().min_element() > 0.999 {
+                        out.3 += 1;
+                        continue;
+                    }
+                    let zeroed: Vec<usize> = (0..3).filter(|&k| c[k] == 0.0).collect();
+                    if zeroed.is_empty() {
+                        continue;
+                    }
+                    out.0 += 1;
+                    out.1 += zeroed.iter().any(|&k| a[k] > 1e-3) as usize;
+                    out.2 += (0..3).any(|k| c[k] == 1.0 && a[k] > 0.2) as usize;
+                }
+            }
+            out
+        };
+        let right = judge(&scene);
+        let wrong = judge(&ignored);
+        eprintln!(
+            "VertexColorTest {rt:?}: (test-row pixels, lit in a zeroed channel, showing their \
+             check, sample-row pixels) as the file says {right:?}, vertex colours ignored {wrong:?}"
+        );
+        assert!(
+            right.0 > 2000 && right.3 > 2000,
+            "{rt:?}: rows out of view: {right:?}"
+        );
+        assert_eq!(
+            right.1, 0,
+            "{rt:?}: X marks show in the test row: {right:?}"
+        );
+        assert!(
+            right.2 > 200,
+            "{rt:?}: the test row's checks do not show: {right:?}"
+        );
+        // Each X mark is a few hundred pixels here.
+        assert!(
+            wrong.1 > 300,
+            "{rt:?}: ignoring COLOR_0 shows no X: {wrong:?}"
+        );
+    }
+    assert_no_validation_messages(&ctx);
+}
+
+/// sRGB-encoded 8-bit value to linear (IEC 61966-2-1), written apart from
+/// the importer's decode.
+fn srgb_to_linear(c: u8) -> f32 {
+    let c = c as f64 / 255.0;
+    (if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }) as f32
+}
+
+/// MultiUVTest ("This model has two uv texture coordinates and tests a
+/// second set of texture coordinates"): the cube's emissive texture
+/// (`texCoord` 1) reads TEXCOORD_1, all of whose faces map to the image's
+/// glTF logo; read through TEXCOORD_0, the same image shows its "Multiple
+/// UVs not supported in this viewer" captions.
+///
+/// One face is seen head-on through an orthographic camera (~1 texel per
+/// pixel: level 0) in a black environment: the convex cube lights nothing
+/// of itself, so each pixel's radiance is exactly the emissive texel at the
+/// hit's TEXCOORD_1, compared where the texels around it are one colour
+/// ([`UNIFORM_RADIUS`]), within half the step to the next 8-bit code. The
+/// same face with the slot moved to the first uv channel (the README's
+/// failure: TEXCOORD_0 read) must be off its texel at thousands of them.
+#[test]
+fn multi_uv_test_reads_the_emissive_texture_through_the_second_uv_set() {
+    let Some((path, mut scene)) = load("MultiUVTest.gltf") else {
+        return;
+    };
+    let warned = warned_features(&path, &scene);
+    assert_eq!(warned, BTreeMap::new(), "{:?}", scene.warnings);
+    scene.environment = None;
+    assert!(scene.lights.is_empty());
+    let m = &scene.materials[0];
+    assert_eq!(m.emissive, Vec3::ONE);
+    let tex = &scene.textures[m
+        .emissive_texture
+        .as_ref()
+        .expect("emissive texture")
+        .texture as usize];
+    let (w, h) = (tex.width as i64, tex.height as i64);
+    assert_eq!((w, h), (1024, 1024));
+    let level0 = &tex.mips[0];
+    let texel = |x: i64, y: i64| -> [u8; 3] {
+        let i = ((y.rem_euclid(h) * w + x.rem_euclid(w)) * 4) as usize;
+        [level0[i], level0[i + 1], level0[i + 2]]
+    };
+    // The texel under uv (REPEAT) and whether its neighbourhood is uniform.
+    let lookup = |uv: Vec2| -> ([u8; 3], bool) {
+        let (x, y) = (
+            (uv.x * w as f32).floor() as i64,
+            (uv.y * h as f32).floor() as i64,
+        );
+        let c = texel(x, y);
+        let r = UNIFORM_RADIUS;
+        (
+            c,
+            (-r..=r).all(|dy| (-r..=r).all(|dx| texel(x + dx, y + dy) == c)),
+        )
+    };
+    let settings = RenderSettings {
+        width: 320,
+        height: 320,
+        spp: 1,
+        max_bounces: 1,
+        seed: 1,
+        all_features: false,
+        ..Default::default()
+    };
+    // The unit cube's +z face (2 m, 256 texels of TEXCOORD_1) over 2.4 m:
+    // 293 px per 256 texels.
+    let mut cam = look_at_camera(Vec3::new(0.0, 0.0, 6.0), Vec3::ZERO, 1.0, 1.0);
+    cam.projection = stereocache::camera::Projection::Orthographic { ymag: 1.2 };
+    let ctx = context();
+    // The README's failure: the emissive texture read through TEXCOORD_0
+    // (the slot moved to the first channel).
+    let mut first_set = scene.clone();
+    first_set.materials[0].second_uv_slots = 0;
+    for rt in rt_backends(&ctx) {
+        // (judged pixels, those off their texel, logo pixels, pixels where
+        // TEXCOORD_0 reads another texel, largest error).
+        let judge = |variant: &Scene| {
+            let s = session(&ctx, variant.clone(), rt);
+            let f = render(&s, "reference", cam, &settings);
+            let mut out = (0usize, 0usize, 0usize, 0usize, 0f32);
+            for eye in &f.eyes {
+                for (i, fh) in eye.first_hit.iter().enumerate() {
+                    if fh[3] == u32::MAX {
+                        continue;
+                    }
+                    let mesh = &scene.meshes[scene.instances[fh[3] as usize].mesh as usize];
+                    assert!(!mesh.uvs2.is_empty(), "the second uv set is kept");
+                    let (idx, wt) = first_hit_weights(&scene, *fh);
+                    let uv1: Vec2 = (0..3).map(|k| mesh.uvs2[idx[k]] * wt[k]).sum();
+                    let uv0: Vec2 = (0..3).map(|k| mesh.uvs[idx[k]] * wt[k]).sum();
+                    let (c, uniform) = lookup(uv1);
+                    if !uniform {
+                        continue;
+                    }
+                    let want = Vec3::from(c.map(srgb_to_linear));
+                    let got = Vec3::from_slice(&eye.radiance[i][..3]);
+                    // The GPU's decode of each channel's code: within half
+                    // the step to the next code (llvmpipe's sRGB decode is
+                    // an approximation, tests/material_images.rs).
+                    let tol = Vec3::from(c.map(|v| {
+                        let next = if v == 255 { 254 } else { v + 1 };
+                        0.5 * (srgb_to_linear(next) - srgb_to_linear(v)).abs() + 1e-6
+                    }));
+                    out.0 += 1;
+                    if !(got - want).abs().cmple(tol).all() {
+                        out.1 += 1;
+                        if out.1 == 1 && variant.materials[0].second_uv_slots != 0 {
+                            eprintln!(
+                                "{rt:?} pixel {i}: uv1 {uv1}: {got}, expected {want} ± {tol}"
+                            );
+                        }
+                    } else {
+                        out.4 = out.4.max((got - want).abs().max_element());
+                    }
+                    out.2 += (want.max_element() > 0.1) as usize;
+                    out.3 += (lookup(uv0).0 != c) as usize;
+                }
+            }
+            out
+        };
+        let right = judge(&scene);
+        let wrong = judge(&first_set);
+        eprintln!(
+            "MultiUVTest {rt:?}: (judged, off their texel, logo, TEXCOORD_0 reads another \
+             texel, largest error) as the file says {right:?}, read through TEXCOORD_0 {wrong:?}"
+        );
+        // The face is ~293² pixels per eye, mostly uniform black (measured:
+        // 120,210 judged over both eyes).
+        assert!(right.0 > 100_000, "{rt:?}: {right:?}");
+        assert_eq!(right.1, 0, "{rt:?}: pixels off their texel: {right:?}");
+        // The logo is in view (measured: 3,480 pixels over both eyes), and
+        // TEXCOORD_0 reads another texel at thousands of the judged pixels
+        // (measured: 8,410), which the wrong reading shows.
+        assert!(right.2 > 1_000, "{rt:?}: the logo shows on {right:?}");
+        assert!(right.3 > 5_000, "{rt:?}: the sets read alike: {right:?}");
+        assert!(wrong.1 > 5_000, "{rt:?}: TEXCOORD_0 passes: {wrong:?}");
     }
     assert_no_validation_messages(&ctx);
 }
