@@ -319,6 +319,63 @@ fn supplied_tangents_are_kept_untouched() {
     }
 }
 
+/// glTF §3.7.2.1: "When normals are not specified, client implementations
+/// MUST calculate flat normals and the provided tangents (if present) MUST
+/// be ignored." A quad folded 90° along its shared edge (two triangles,
+/// four shared vertices), without NORMAL, with supplied tangents and a
+/// normal texture: every triangle corner's normal is its own face's (+Z
+/// and +Y), exactly, not the shared edge's 45° average; the supplied
+/// tangents (deliberately wrong) are replaced by MikkTSpace's, which
+/// follow u on both faces.
+#[test]
+fn missing_normals_are_flat_and_supplied_tangents_are_ignored() {
+    let mut b = Builder::default();
+    let p = [
+        Vec3::new(0.0, 0.0, 0.0),
+        Vec3::new(1.0, 0.0, 0.0),
+        Vec3::new(1.0, 1.0, 0.0),
+        Vec3::new(0.0, 1.0, 0.0),
+        Vec3::new(1.0, 1.0, -1.0),
+        Vec3::new(0.0, 1.0, -1.0),
+    ];
+    let uv = [0.0, 1.0, 1.0, 1.0, 1.0, 0.5, 0.0, 0.5, 1.0, 0.0, 0.0, 0.0];
+    let wrong_tangents = [0.0f32, 0.0, 1.0, -1.0].repeat(6);
+    let attributes = json!({
+        "POSITION": b.vec3(&p),
+        "TEXCOORD_0": b.floats(&uv, "VEC2"),
+        "TANGENT": b.floats(&wrong_tangents, "VEC4"),
+    });
+    // Face z = 0 (normal +Z): 0 1 2, 0 2 3; face y = 1 (normal +Y): 3 2 4, 3 4 5.
+    let idx = b.indices(&[0, 1, 2, 0, 2, 3, 3, 2, 4, 3, 4, 5]);
+    let root = json!({
+        "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+        "meshes": [{"primitives": [{"attributes": attributes, "indices": idx, "material": 0}]}],
+        "materials": [{"normalTexture": {"index": 0}}],
+        "textures": [{"source": 0}],
+        "images": [{"uri": png_data_uri()}],
+    });
+    let s = b.load(root, "flat-normals").unwrap();
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    let m = &s.meshes[0];
+    assert_eq!(m.indices.len(), 12);
+    for (c, &v) in m.indices.iter().enumerate() {
+        let v = v as usize;
+        let face = if c < 6 { Vec3::Z } else { Vec3::Y };
+        assert_eq!(m.normals[v], face, "corner {c}: normal {}", m.normals[v]);
+        // Each face's corners hold that face's positions (the fold's edge
+        // vertices 2 and 3 appear once per face).
+        let want = p[[0, 1, 2, 0, 2, 3, 3, 2, 4, 3, 4, 5][c]];
+        assert_eq!(m.positions[v], want, "corner {c}");
+        // MikkTSpace's tangent: u runs along +X on both faces.
+        let t = m.tangents[v];
+        assert!(
+            (t.truncate() - Vec3::X).length() < 1e-6,
+            "corner {c}: tangent {t}"
+        );
+        assert_eq!(t.w, 1.0, "corner {c}");
+    }
+}
+
 // ---------------------------------------------------------------- morph targets
 
 /// Triangle (0,0,0), (1,0,0), (0,1,0), normals +Z; target 0 moves vertex 2 by
@@ -424,16 +481,18 @@ fn weight_count_mismatch_warns_and_animated_weights_warn_once_naming_the_animati
 
 #[test]
 fn tangent_targets_move_supplied_tangents_and_keep_w() {
-    // A triangle shipping tangents (1,0,0,−1); target 0 adds (0,1,0) to
-    // vertex 0's, default weight 1: (1,1,0)/√2, w still −1.
+    // A triangle shipping normals +Z and tangents (1,0,0,−1) (tangents
+    // count only with normals: glTF ignores them otherwise); target 0 adds
+    // (0,1,0) to vertex 0's, default weight 1: (1,1,0)/√2, w still −1.
     let mut b = Builder::default();
     let pos = b.vec3(&[Vec3::ZERO, Vec3::X, Vec3::Y]);
+    let nrm = b.vec3(&[Vec3::Z; 3]);
     let tan = b.floats(&[1.0, 0.0, 0.0, -1.0].repeat(3), "VEC4");
     let d_tan = b.vec3(&[Vec3::Y, Vec3::ZERO, Vec3::ZERO]);
     let root = json!({
         "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
         "meshes": [{"weights": [1.0], "primitives": [{
-            "attributes": {"POSITION": pos, "TANGENT": tan},
+            "attributes": {"POSITION": pos, "NORMAL": nrm, "TANGENT": tan},
             "targets": [{"TANGENT": d_tan}],
         }]}],
     });

@@ -94,7 +94,7 @@ pub const FEATURES: &[Feature] = &[
     f(
         "POSITION, NORMAL",
         Full,
-        "missing normals are generated (area-weighted); NaN/Inf vertices drop their triangles",
+        "missing normals are flat (each triangle's own, as glTF requires; supplied tangents are then ignored and regenerated); NaN/Inf vertices drop their triangles",
     ),
     f(
         "TANGENT",

@@ -55,8 +55,8 @@ use super::gltf_uv::{
     SLOT_COUNT, TEXTURE_TRANSFORM,
 };
 use super::mesh_ops::{
-    drop_non_finite_triangles, fan_to_triangles, generate_normals, generate_tangents_for,
-    strip_to_triangles,
+    drop_non_finite_triangles, fan_to_triangles, flat_normals, generate_normals,
+    generate_tangents_for, strip_to_triangles,
 };
 use super::{
     AlphaMode, Clearcoat, Instance, Light, LightKind, Material, Mesh, Scene, SceneCamera,
@@ -1366,7 +1366,8 @@ impl Importer<'_> {
             ));
         }
         if mesh.normals.is_empty() {
-            mesh.normals = generate_normals(&mesh.positions, &mesh.indices);
+            // glTF: flat normals, and supplied tangents ignored.
+            flat_normals(&mut mesh);
         } else if mesh.normals.iter().any(|v| v.length_squared() < 1e-20) {
             let generated = generate_normals(&mesh.positions, &mesh.indices);
             for (v, g) in mesh.normals.iter_mut().zip(generated) {

@@ -7,7 +7,8 @@ use glam::{Mat4, Vec2, Vec3, Vec4};
 pub struct Mesh {
     pub name: String,
     pub positions: Vec<Vec3>,
-    /// Unit normals; generated (area-weighted) when the file has none.
+    /// Unit normals; flat (each triangle's face normal on vertices of its own)
+    /// when the file has none.
     pub normals: Vec<Vec3>,
     /// The uv set the material's textures read (glTF: TEXCOORD_n with its
     /// KHR_texture_transform applied at import); zeros when the file has none.

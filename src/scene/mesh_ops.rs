@@ -1,5 +1,5 @@
 //! Vertex-attribute repair and generation shared by the importer and the
-//! generators: area-weighted normals, MikkTSpace tangents, triangle strips
+//! generators: area-weighted and flat normals, MikkTSpace tangents, triangle strips
 //! and fans as lists, and removal of triangles that touch non-finite vertices.
 
 use super::Mesh;
@@ -20,6 +20,42 @@ pub fn generate_normals(positions: &[Vec3], indices: &[u32]) -> Vec<Vec3> {
     n.into_iter()
         .map(|v| v.try_normalize().unwrap_or(Vec3::Y))
         .collect()
+}
+
+/// Flat normals for a primitive without NORMAL (glTF 2.0 §3.7.2.1: "When
+/// normals are not specified, client implementations MUST calculate flat
+/// normals and the provided tangents (if present) MUST be ignored"). Every
+/// triangle gets three vertices of its own (the other attributes copied)
+/// whose normal is the face's; supplied tangents are dropped (the caller
+/// generates MikkTSpace ones where a normal texture needs them). A
+/// degenerate triangle (no face normal) gets +Y, as [`generate_normals`]
+/// gives an unused vertex.
+pub fn flat_normals(mesh: &mut Mesh) {
+    let corners = std::mem::take(&mut mesh.indices);
+    fn pick<T: Copy>(v: &[T], corners: &[u32]) -> Vec<T> {
+        if v.is_empty() {
+            Vec::new()
+        } else {
+            corners.iter().map(|&i| v[i as usize]).collect()
+        }
+    }
+    mesh.positions = pick(&mesh.positions, &corners);
+    mesh.uvs = pick(&mesh.uvs, &corners);
+    mesh.uvs2 = pick(&mesh.uvs2, &corners);
+    mesh.colors = pick(&mesh.colors, &corners);
+    mesh.tangents = Vec::new();
+    mesh.normals = mesh
+        .positions
+        .chunks_exact(3)
+        .flat_map(|t| {
+            let n = (t[1] - t[0])
+                .cross(t[2] - t[0])
+                .try_normalize()
+                .unwrap_or(Vec3::Y);
+            [n; 3]
+        })
+        .collect();
+    mesh.indices = (0..mesh.positions.len() as u32).collect();
 }
 
 /// MikkTSpace tangents (the algorithm glTF 2.0 asks for when a primitive has
