@@ -123,7 +123,7 @@ fn unlit_material_becomes_an_emitter_of_its_base_colour_with_a_black_bsdf() {
 
 #[test]
 fn an_unlit_surface_shows_exactly_its_base_colour_in_a_bright_environment() {
-    for rt in [RtChoice::Software, RtChoice::Query] {
+    for rt in rt_backends(&context()) {
         let px = covered_radiance(quad(true), rt);
         // The quad fills the middle of the view (2 m at 3 m, 30° fov).
         assert!(px.len() > 2 * 32 * 24 / 4, "{rt:?}: {} pixels", px.len());

@@ -129,6 +129,12 @@ pub const FEATURES: &[Feature] = &[
         "only COLOR_0 multiplies the base colour (as the glTF specification says)",
     ),
     f(
+        "application-specific attributes (_NAME)",
+        Ignored,
+        "attributes named with a leading underscore (glTF: application-specific semantics) \
+         mean nothing to a renderer; ignored",
+    ),
+    f(
         "skins (JOINTS_0, WEIGHTS_0)",
         Ignored,
         "skinned meshes render in their bind pose",
@@ -465,6 +471,11 @@ pub fn features_used(json: &Value) -> BTreeMap<String, Vec<String>> {
                 for key in attrs.keys() {
                     if key.starts_with("COLOR_") && key != "COLOR_0" {
                         add!("COLOR_1 and further colour sets", mesh_label.clone());
+                    } else if key.starts_with('_') {
+                        add!(
+                            "application-specific attributes (_NAME)",
+                            mesh_label.clone()
+                        );
                     } else if key.starts_with("JOINTS_") || key.starts_with("WEIGHTS_") {
                         add!("skins (JOINTS_0, WEIGHTS_0)", mesh_label.clone());
                     }
