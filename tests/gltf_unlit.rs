@@ -18,6 +18,11 @@ const ENV: f32 = 5.0;
 /// A 2 m square at z = 0 facing +z, base colour `BASE`, metallic 0,
 /// double-sided, with or without KHR_materials_unlit.
 fn quad(unlit: bool) -> Scene {
+    quad_coloured(unlit, None)
+}
+
+/// [`quad`] with COLOR_0 (RGBA per corner) where given.
+fn quad_coloured(unlit: bool, colours: Option<[[f32; 4]; 4]>) -> Scene {
     let p: [f32; 12] = [
         -1.0, -1.0, 0.0, 1.0, -1.0, 0.0, 1.0, 1.0, 0.0, -1.0, 1.0, 0.0,
     ];
@@ -30,6 +35,12 @@ fn quad(unlit: bool) -> Scene {
         .for_each(|v| bytes.extend_from_slice(&v.to_le_bytes()));
     idx.iter()
         .for_each(|v| bytes.extend_from_slice(&v.to_le_bytes()));
+    // Padding to 4 bytes, then the colours (at 112).
+    bytes.extend_from_slice(&[0, 0, 0, 0]);
+    for c in colours.iter().flatten() {
+        c.iter()
+            .for_each(|v| bytes.extend_from_slice(&v.to_le_bytes()));
+    }
     let uri = format!(
         "data:application/octet-stream;base64,{}",
         base64::engine::general_purpose::STANDARD.encode(&bytes)
@@ -44,24 +55,31 @@ fn quad(unlit: bool) -> Scene {
         material["extensions"] = json!({"KHR_materials_unlit": {}});
         used.push("KHR_materials_unlit");
     }
+    let mut attributes = json!({"POSITION": 0, "NORMAL": 1});
+    let mut views = vec![
+        json!({"buffer": 0, "byteOffset": 0, "byteLength": 48}),
+        json!({"buffer": 0, "byteOffset": 48, "byteLength": 48}),
+        json!({"buffer": 0, "byteOffset": 96, "byteLength": 12}),
+    ];
+    let mut accessors = vec![
+        json!({"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3",
+               "min": [-1.0, -1.0, 0.0], "max": [1.0, 1.0, 0.0]}),
+        json!({"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC3"}),
+        json!({"bufferView": 2, "componentType": 5123, "count": 6, "type": "SCALAR"}),
+    ];
+    if colours.is_some() {
+        views.push(json!({"buffer": 0, "byteOffset": 112, "byteLength": 64}));
+        accessors.push(json!({"bufferView": 3, "componentType": 5126, "count": 4, "type": "VEC4"}));
+        attributes["COLOR_0"] = json!(3);
+    }
     let doc = json!({
         "asset": {"version": "2.0"},
         "extensionsUsed": used,
         "buffers": [{"byteLength": bytes.len(), "uri": uri}],
-        "bufferViews": [
-            {"buffer": 0, "byteOffset": 0, "byteLength": 48},
-            {"buffer": 0, "byteOffset": 48, "byteLength": 48},
-            {"buffer": 0, "byteOffset": 96, "byteLength": 12}
-        ],
-        "accessors": [
-            {"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3",
-             "min": [-1.0, -1.0, 0.0], "max": [1.0, 1.0, 0.0]},
-            {"bufferView": 1, "componentType": 5126, "count": 4, "type": "VEC3"},
-            {"bufferView": 2, "componentType": 5123, "count": 6, "type": "SCALAR"}
-        ],
+        "bufferViews": views,
+        "accessors": accessors,
         "materials": [material],
-        "meshes": [{"primitives": [{"attributes": {"POSITION": 0, "NORMAL": 1},
-                                    "indices": 2, "material": 0}]}],
+        "meshes": [{"primitives": [{"attributes": attributes, "indices": 2, "material": 0}]}],
         "nodes": [{"mesh": 0}],
         "scenes": [{"nodes": [0]}],
         "scene": 0
@@ -144,4 +162,183 @@ fn an_unlit_surface_shows_exactly_its_base_colour_in_a_bright_environment() {
             "{rt:?}: lit mean {mean}: the control does not reflect"
         );
     }
+}
+
+/// COLOR_0 per corner of the coloured quad (RGBA): red, green, blue, white.
+const CORNERS: [[f32; 4]; 4] = [
+    [1.0, 0.0, 0.0, 1.0],
+    [0.0, 1.0, 0.0, 1.0],
+    [0.0, 0.0, 1.0, 1.0],
+    [1.0, 1.0, 1.0, 1.0],
+];
+
+/// KHR_materials_unlit with COLOR_0: the extension's output is the base
+/// colour, which COLOR_0 multiplies as always (glTF §3.9.2): every pixel of
+/// the quad shows BASE × the vertex colour interpolated at its hit. Before,
+/// the colour was dropped without a word (the emission ignored it: off by
+/// up to BASE, e.g. 0.6 in blue at the red corner).
+///
+/// The pixel's one sample is jittered within the pixel while its stored
+/// first hit is the pixel centre's: the colour may differ by its gradient
+/// (≤ √2/2 per metre: corners differ by ≤ 1 over 2 m) times half the
+/// pixel's diagonal at the quad (≤ 3.2 m away, 30° over 24 px: 4.8 cm), so
+/// BASE × 0.034 per channel, plus f32 rounding.
+#[test]
+fn an_unlit_surface_shows_its_base_colour_times_the_vertex_colour() {
+    let scene = quad_coloured(true, Some(CORNERS));
+    assert!(scene.materials[0].unlit);
+    let ctx = context();
+    let (w, h) = (32, 24);
+    let cam = look_at_camera(
+        Vec3::new(0.0, 0.0, 3.0),
+        Vec3::ZERO,
+        30.0,
+        w as f32 / h as f32,
+    );
+    let settings = RenderSettings {
+        width: w,
+        height: h,
+        spp: 1,
+        max_bounces: 1,
+        seed: 7,
+        ..Default::default()
+    };
+    for rt in rt_backends(&ctx) {
+        let s = session(&ctx, scene.clone(), rt);
+        let fr = render(&s, "reference", cam, &settings);
+        let mesh = &scene.meshes[0];
+        let mut checked = 0;
+        for eye in &fr.eyes {
+            for (r, fh) in eye.radiance.iter().zip(&eye.first_hit) {
+                if fh[3] == u32::MAX {
+                    continue;
+                }
+                let (idx, wt) = first_hit_weights(&scene, *fh);
+                let c: glam::Vec4 = (0..3).map(|k| mesh.colors[idx[k]] * wt[k]).sum();
+                let want = Vec3::from(BASE) * c.truncate();
+                let got = Vec3::new(r[0], r[1], r[2]);
+                let pixel = 2.0 * 3.2 * (15f32.to_radians()).tan() / h as f32;
+                let tol = Vec3::from(BASE) * (0.5f32.sqrt() * pixel * 0.5f32.sqrt()) + 1e-5;
+                assert!(
+                    (got - want).abs().cmple(tol).all(),
+                    "{rt:?}: {got}, expected BASE × COLOR_0 = {want} ± {tol}"
+                );
+                checked += 1;
+            }
+        }
+        assert!(checked > 2 * w * h / 4, "{rt:?}: {checked} pixels");
+    }
+    assert_no_validation_messages(&ctx);
+}
+
+/// The coloured unlit quad as a light: a diffuse floor below it, lit by it
+/// alone (black environment), must come out the same whether the light is
+/// found by next-event estimation (lights.glsl `emitted_radiance`) or by
+/// BSDF-sampled hits (material_at): both must apply COLOR_0. Means over the
+/// floor's pixels within 5 combined standard errors, per channel.
+#[test]
+fn a_coloured_unlit_light_gives_the_same_light_to_both_samplers() {
+    use stereocache::methods::LightSampling;
+    use stereocache::scene::generate::{add_material, add_mesh, grid};
+    let mut scene = quad_coloured(true, Some(CORNERS));
+    scene.environment = None;
+    let floor = add_material(
+        &mut scene,
+        stereocache::scene::Material::diffuse("floor", Vec3::splat(0.8)),
+    );
+    add_mesh(
+        &mut scene,
+        grid(
+            "floor",
+            Vec3::new(-4.0, -1.5, 4.0),
+            Vec3::X * 8.0,
+            Vec3::NEG_Z * 8.0,
+            1,
+            1,
+            glam::Vec2::ONE,
+        ),
+        floor,
+        glam::Mat4::IDENTITY,
+    );
+    scene.validate().unwrap();
+    let ctx = context();
+    let (w, h) = (48, 32);
+    let cam = look_at_camera(
+        Vec3::new(0.0, 1.5, 5.0),
+        Vec3::new(0.0, -1.5, 1.0),
+        50.0,
+        w as f32 / h as f32,
+    );
+    let sc = &scene;
+    for rt in rt_backends(&ctx) {
+        let s = session(&ctx, scene.clone(), rt);
+        let mean = |ls: LightSampling| -> [(f64, f64); 3] {
+            let settings = RenderSettings {
+                width: w,
+                height: h,
+                spp: 64,
+                max_bounces: 1,
+                seed: 9,
+                light_sampling: ls,
+                ..Default::default()
+            };
+            let fr = render(&s, "reference", cam, &settings);
+            std::array::from_fn(|k| {
+                let v: Vec<f64> = fr
+                    .eyes
+                    .iter()
+                    .flat_map(|e| {
+                        e.radiance
+                            .iter()
+                            .zip(&e.first_hit)
+                            .filter_map(move |(r, fh)| {
+                                (fh[3] != u32::MAX && scene_material(sc, *fh) == floor)
+                                    .then_some(r[k] as f64)
+                            })
+                    })
+                    .collect();
+                mean_and_standard_error(&v)
+            })
+        };
+        let nee = mean(LightSampling::Nee);
+        let bsdf = mean(LightSampling::Bsdf);
+        eprintln!("{rt:?}: floor mean by NEE {nee:?}, by BSDF sampling {bsdf:?}");
+        for k in 0..3 {
+            let (a, sa) = nee[k];
+            let (b, sb) = bsdf[k];
+            assert!(a > 1e-3, "{rt:?}: the floor is dark in channel {k}");
+            assert!(
+                (a - b).abs() <= 5.0 * (sa * sa + sb * sb).sqrt(),
+                "{rt:?} channel {k}: NEE {a} ± {sa}, BSDF {b} ± {sb}"
+            );
+        }
+    }
+    assert_no_validation_messages(&ctx);
+}
+
+/// The material of a stored first hit's instance.
+fn scene_material(scene: &Scene, fh: [u32; 4]) -> u32 {
+    scene.meshes[scene.instances[fh[3] as usize].mesh as usize].material
+}
+
+/// The writer gives an unlit material back as KHR_materials_unlit (base
+/// colour, no emission), so COLOR_0 keeps multiplying it when read again.
+#[test]
+fn an_unlit_material_survives_the_writer_as_unlit() {
+    let scene = quad_coloured(true, Some(CORNERS));
+    let dir = std::env::temp_dir().join(format!("stereocache-unlit-write-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("written.gltf");
+    stereocache::scene::write_gltf(&scene, &path).unwrap();
+    let doc: serde_json::Value = serde_json::from_slice(&std::fs::read(&path).unwrap()).unwrap();
+    let m = &doc["materials"][0];
+    assert!(m["extensions"]["KHR_materials_unlit"].is_object(), "{m}");
+    assert!(m.get("emissiveFactor").is_none(), "{m}");
+    let back = load_gltf(&path).unwrap();
+    std::fs::remove_dir_all(&dir).ok();
+    let (a, b) = (&scene.materials[0], &back.materials[0]);
+    assert!(b.unlit);
+    assert_eq!(a.emissive, b.emissive);
+    assert_eq!(a.base_color, b.base_color);
+    assert_eq!(back.meshes[0].colors, scene.meshes[0].colors);
 }

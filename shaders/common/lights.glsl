@@ -32,7 +32,8 @@ struct EmitterSample {
 
 // Emitted radiance of emitter triangle `e` at barycentrics `bary`, seen along
 // a ray of direction `dir` — exactly what material_at gives a hit there at
-// mip 0 (secondary hits use mip 0): factor × emissive texture, nothing from
+// mip 0 (secondary hits use mip 0): factor (× COLOR_0 where unlit) ×
+// emissive texture (through its slot's uv map), nothing from
 // the back of a single-sided material, nothing where the alpha mask cuts.
 vec3 emitted_radiance(EmitterGpu e, vec2 bary, vec3 dir) {
     uint inst = e.ids.x, prim = e.ids.y;
@@ -43,9 +44,10 @@ vec3 emitted_radiance(EmitterGpu e, vec2 bary, vec3 dir) {
     if (dot(gn, dir) >= 0.0 && g.tex1.z == 0) return vec3(0.0);
     if (!alpha_passes(inst, prim, bary)) return vec3(0.0);
     vec3 Le = g.emissive_metallic.rgb;
+    if (g.tex1.w != 0) Le *= triangle_color(inst, prim, bary).rgb;   // unlit: × COLOR_0
     if (SC_TEXTURES && g.tex0.w >= 0) {
         vec2 uv = slot_on_second_uv(g.tex3.y, 3) ? triangle_uv2(inst, prim, bary) : triangle_uv(inst, prim, bary);
-        Le *= sample_texture(g.tex0.w, uv, 0.0).rgb;
+        Le *= sample_texture(g.tex0.w, slot_map_uv(g, 3, uv), 0.0).rgb;
     }
 #ifdef SC_MATERIAL_GRAPHS
     // The emission graph at the sampled point, as material_at evaluates it

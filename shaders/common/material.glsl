@@ -31,9 +31,9 @@ vec4 slot_texture(MaterialGpu g, int slot, int tex, Surface s, float cone_width,
     // A slot whose (uv set, transform) is neither channel's reads its
     // channel through the map between the two transforms (gltf_uv.rs
     // UvAffine); texture area scales by |det m|.
-    if (SC_UV_AFFINE && ((uint(g.tex3.z) >> uint(slot)) & 1u) != 0u) {
+    if (slot_mapped(g, slot)) {
+        uv = slot_map_uv(g, slot, uv);
         vec4 r0 = g.uv_affine[2 * slot], r1 = g.uv_affine[2 * slot + 1];
-        uv = vec2(dot(r0.xy, uv) + r0.z, dot(r1.xy, uv) + r1.z);
         area *= abs(r0.x * r1.y - r0.y * r1.x);
     }
     float lod = lod0 ? 0.0 : texture_lod_at(tex, area, cone_width, cos_incidence);
@@ -63,6 +63,9 @@ ShadingMaterial material_at(inout Surface s, vec3 ray_dir, float cone_width) {
     m.ior = g.params.z;
     m.specular = g.extra.y;
     m.emissive = SC_EMISSIVE ? g.emissive_metallic.rgb : vec3(0.0);
+    // KHR_materials_unlit (tex1.w): the emission is the base colour, which
+    // COLOR_0 multiplies (gltf_import.rs unlit); emitted_radiance does the same.
+    if (SC_EMISSIVE && g.tex1.w != 0) m.emissive *= s.color.rgb;
     m.specular_color = g.specular_color.rgb;
     m.clearcoat = SC_CLEARCOAT ? g.coat.x : 0.0;
     m.clearcoat_roughness = g.coat.y;

@@ -16,7 +16,7 @@ struct MaterialGpu {
     vec4 emissive_metallic;   // emissive rgb (× strength), metallic
     vec4 params;              // roughness, transmission, ior, alpha cutoff
     ivec4 tex0;               // base colour, metallic-roughness, normal, emissive (-1 = none)
-    ivec4 tex1;               // transmission, alpha mode (0 opaque, 1 mask, 2 blend), double sided, unused
+    ivec4 tex1;               // transmission, alpha mode (0 opaque, 1 mask, 2 blend), double sided, unlit (emission × COLOR_0)
     vec4 extra;               // normal scale, specular factor (KHR_materials_specular), unused, unused
     vec4 specular_color;      // KHR_materials_specular colour factor rgb, unused
     vec4 coat;                // KHR_materials_clearcoat factor, roughness, normal scale, unused
@@ -99,6 +99,18 @@ vec2 triangle_uv2(uint inst, uint prim, vec2 bary) {
 // 3 emissive, 4 transmission, 5 specular, 6 specular colour, 7 clearcoat,
 // 8 clearcoat roughness, 9 clearcoat normal).
 bool slot_on_second_uv(int mask, int slot) { return SC_SECOND_UV && ((mask >> slot) & 1) != 0; }
+
+// Whether slot `slot` reads its channel through the affine map between the
+// channel's KHR_texture_transform and its own (bit in MaterialGpu.tex3.z,
+// gltf_uv.rs UvAffine), and the uv it then reads at channel uv `uv`. Every
+// reader of a slot's texture goes through here: material_at and the
+// emitters' light sampling (lights.glsl) must read the same texel.
+bool slot_mapped(MaterialGpu g, int slot) { return SC_UV_AFFINE && ((uint(g.tex3.z) >> uint(slot)) & 1u) != 0u; }
+vec2 slot_map_uv(MaterialGpu g, int slot, vec2 uv) {
+    if (!slot_mapped(g, slot)) return uv;
+    vec4 r0 = g.uv_affine[2 * slot], r1 = g.uv_affine[2 * slot + 1];
+    return vec2(dot(r0.xy, uv) + r0.z, dot(r1.xy, uv) + r1.z);
+}
 
 // Vertex v's colour: white past the buffer (a scene without colours binds
 // one white stand-in, which the all-features build reads too).

@@ -331,7 +331,8 @@ impl SceneGpu {
                             AlphaMode::Blend => 2,
                         },
                         m.double_sided as i32,
-                        0,
+                        // KHR_materials_unlit: emission × COLOR_0 (material.glsl).
+                        m.unlit as i32,
                     ],
                     extra: [m.normal_scale, m.specular, 0.0, 0.0],
                     specular_color: m.specular_color.extend(0.0).to_array(),

@@ -144,12 +144,28 @@ impl TextureTable {
 
 fn material_json(m: &Material, used: &mut Vec<&'static str>, table: &mut TextureTable) -> Value {
     let mut tex = |t: Option<TextureRef>| t.map(|t| json!({ "index": table.index(t) }));
+    // An unlit material (its base colour held as emission, Material::unlit)
+    // goes back as KHR_materials_unlit where that colour fits a base colour
+    // factor (≤ 1); a brighter one is written as the emitter it renders as.
+    let as_unlit = m.unlit && m.emissive.max_element() <= 1.0;
     let mut pbr = Map::new();
-    pbr.insert("baseColorFactor".into(), json!(m.base_color.to_array()));
-    pbr.insert("metallicFactor".into(), json!(m.metallic));
-    pbr.insert("roughnessFactor".into(), json!(m.roughness));
-    if let Some(t) = tex(m.base_color_texture) {
-        pbr.insert("baseColorTexture".into(), t);
+    if as_unlit {
+        pbr.insert(
+            "baseColorFactor".into(),
+            json!(m.emissive.extend(m.base_color.w).to_array()),
+        );
+        pbr.insert("metallicFactor".into(), json!(0.0));
+        pbr.insert("roughnessFactor".into(), json!(1.0));
+        if let Some(t) = tex(m.emissive_texture) {
+            pbr.insert("baseColorTexture".into(), t);
+        }
+    } else {
+        pbr.insert("baseColorFactor".into(), json!(m.base_color.to_array()));
+        pbr.insert("metallicFactor".into(), json!(m.metallic));
+        pbr.insert("roughnessFactor".into(), json!(m.roughness));
+        if let Some(t) = tex(m.base_color_texture) {
+            pbr.insert("baseColorTexture".into(), t);
+        }
     }
     if let Some(t) = tex(m.metallic_roughness_texture) {
         pbr.insert("metallicRoughnessTexture".into(), t);
@@ -164,7 +180,14 @@ fn material_json(m: &Material, used: &mut Vec<&'static str>, table: &mut Texture
         );
     }
     let mut ext = Map::new();
-    let peak = m.emissive.max_element();
+    if as_unlit {
+        ext.insert("KHR_materials_unlit".into(), json!({}));
+    }
+    let peak = if as_unlit {
+        0.0
+    } else {
+        m.emissive.max_element()
+    };
     if peak > 0.0 {
         let (factor, strength) = if peak > 1.0 {
             (m.emissive / peak, peak)
@@ -179,7 +202,7 @@ fn material_json(m: &Material, used: &mut Vec<&'static str>, table: &mut Texture
             );
         }
     }
-    if let Some(t) = tex(m.emissive_texture) {
+    if let Some(t) = tex(m.emissive_texture).filter(|_| !as_unlit) {
         out.insert("emissiveTexture".into(), t);
         if peak <= 0.0 {
             // A texture needs a non-zero factor to show; glTF's default is 0.
@@ -207,10 +230,11 @@ fn material_json(m: &Material, used: &mut Vec<&'static str>, table: &mut Texture
         }
         ext.insert("KHR_materials_transmission".into(), Value::Object(t));
     }
-    if m.specular != 1.0
-        || m.specular_color != Vec3::ONE
-        || m.specular_texture.is_some()
-        || m.specular_color_texture.is_some()
+    if !as_unlit
+        && (m.specular != 1.0
+            || m.specular_color != Vec3::ONE
+            || m.specular_texture.is_some()
+            || m.specular_color_texture.is_some())
     {
         let mut sp = Map::new();
         sp.insert("specularFactor".into(), json!(m.specular));
@@ -271,6 +295,7 @@ fn material_json(m: &Material, used: &mut Vec<&'static str>, table: &mut Texture
             "KHR_materials_specular" => "KHR_materials_specular",
             "KHR_materials_clearcoat" => "KHR_materials_clearcoat",
             "KHR_materials_volume" => "KHR_materials_volume",
+            "KHR_materials_unlit" => "KHR_materials_unlit",
             _ => "KHR_materials_ior",
         };
         if !used.contains(&name) {

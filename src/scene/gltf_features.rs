@@ -312,9 +312,9 @@ pub const FEATURES: &[Feature] = &[
     f(
         "KHR_materials_unlit",
         Full,
-        "an emitter of the base colour (factor × texture) with a black BSDF: the surface shows \
-         exactly its base colour and reflects nothing; as any emitter it also lights its \
-         surroundings",
+        "an emitter of the base colour (factor × texture × COLOR_0) with a black BSDF: the \
+         surface shows exactly its base colour and reflects nothing; as any emitter it also \
+         lights its surroundings; the glTF writer gives it back as unlit",
     ),
     f(
         "KHR_materials_variants",

@@ -701,6 +701,7 @@ impl Importer<'_> {
                 volume,
                 second_uv_slots: 0,
                 uv_affine: [None; SLOT_COUNT],
+                unlit: false,
             };
             if !coat.bad.is_empty() {
                 self.warn(format!(
@@ -1423,6 +1424,7 @@ impl Importer<'_> {
 /// so it lights its surroundings as a surface of that radiance would (a
 /// rasterizer's unlit surface lights nothing: a path tracer's choice, README).
 fn unlit(mut m: Material) -> Material {
+    m.unlit = true;
     m.emissive = m.base_color.truncate();
     m.emissive_texture = m.base_color_texture;
     m.base_color = Vec4::new(0.0, 0.0, 0.0, m.base_color.w);

@@ -91,6 +91,11 @@ pub struct Material {
     /// a transmissive surface is thin-walled — an infinitely thin sheet that
     /// light passes straight through (no net refraction) or reflects off.
     pub volume: Option<Volume>,
+    /// KHR_materials_unlit: the surface is an emitter of its base colour
+    /// (moved to `emissive`, gltf_import.rs `unlit`), which COLOR_0
+    /// multiplies as it does any base colour (`MaterialGpu.tex1.w`); the
+    /// glTF writer gives it back as an unlit material.
+    pub unlit: bool,
 }
 
 /// KHR_materials_clearcoat: a GGX dielectric coat (ior 1.5) over the base
@@ -191,6 +196,7 @@ impl Default for Material {
             second_uv_slots: 0,
             uv_affine: [None; SLOT_COUNT],
             volume: None,
+            unlit: false,
         }
     }
 }
