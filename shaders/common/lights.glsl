@@ -44,7 +44,7 @@ vec3 emitted_radiance(EmitterGpu e, vec2 bary, vec3 dir) {
     if (dot(gn, dir) >= 0.0 && g.tex1.z == 0) return vec3(0.0);
     if (!alpha_passes(inst, prim, bary)) return vec3(0.0);
     vec3 Le = g.emissive_metallic.rgb;
-    if (g.tex1.w != 0) Le *= triangle_color(inst, prim, bary).rgb;   // unlit: × COLOR_0
+    if (SC_VERTEX_COLORS && g.tex1.w != 0) Le *= triangle_color(inst, prim, bary).rgb;   // unlit: × COLOR_0
     if (SC_TEXTURES && g.tex0.w >= 0) {
         vec2 uv = slot_on_second_uv(g.tex3.y, 3) ? triangle_uv2(inst, prim, bary) : triangle_uv(inst, prim, bary);
         Le *= sample_texture(g.tex0.w, slot_map_uv(g, 3, uv), 0.0).rgb;

@@ -65,7 +65,7 @@ ShadingMaterial material_at(inout Surface s, vec3 ray_dir, float cone_width) {
     m.emissive = SC_EMISSIVE ? g.emissive_metallic.rgb : vec3(0.0);
     // KHR_materials_unlit (tex1.w): the emission is the base colour, which
     // COLOR_0 multiplies (gltf_import.rs unlit); emitted_radiance does the same.
-    if (SC_EMISSIVE && g.tex1.w != 0) m.emissive *= s.color.rgb;
+    if (SC_EMISSIVE && SC_VERTEX_COLORS && g.tex1.w != 0) m.emissive *= s.color.rgb;
     m.specular_color = g.specular_color.rgb;
     m.clearcoat = SC_CLEARCOAT ? g.coat.x : 0.0;
     m.clearcoat_roughness = g.coat.y;

@@ -13,6 +13,7 @@
 #include "common/packing.glsl"
 #include "common/camera.glsl"
 #include "common/first_hit.glsl"
+#include "common/demodulation.glsl"
 
 layout(constant_id = SPEC_ISRT_M) const uint M = 3;   // cells per pixel side
 const float C_MAX = 65535.0;                 // sample counts saturate here

@@ -1,7 +1,8 @@
 #version 460
 // Reconstruction: the pixel colour is the mean over its visible (= occupied,
 // since invisible samples are dropped when retraced), already shaded samples
-// of albedo × demodulated radiance and its background samples
+// of their remodulated radiance (floored base colour × demodulated radiance
+// + emission, common/demodulation.glsl) and its background samples
 // (first_hit.glsl) of the environment in their directions, so a partly
 // covered pixel shows its coverage; depth, first hit and albedo are the
 // closest surface sample's. A pixel without samples shows the environment
@@ -45,7 +46,7 @@ void main() {
         if (t < best_t) { best_t = t; best_fh = fh; best_albedo = mat.base; best_p = wp; }
         vec4 rec = rad_cur[idx];
         if (rec.w > 0.0) {
-            sum += mat.base * rec.rgb;
+            sum += remodulate(rec.rgb, mat);   // × floored base colour + emission
             shaded += 1.0;
         }
     }

@@ -2,7 +2,8 @@
 // Shading: one sample per pixel and frame, round robin over the pixel's
 // occupied cells (frame index mod count, like the sample cache's uniform
 // shading). One path through the stored first hit with the shared
-// integrator, demodulated by the first hit's base colour and accumulated as a
+// integrator, demodulated (emission kept apart, divided by the first hit's
+// floored base colour: common/demodulation.glsl) and accumulated as a
 // running mean, with the sample cache's appendix C clamp of α for
 // view-dependent materials.
 #include "isrt/common.glsl"
@@ -43,7 +44,7 @@ void main() {
     if (any(isnan(L)) || any(isinf(L))) L = vec3(0.0);
     Surface s = surface_at(h.instance, h.prim, h.bary, d);
     ShadingMaterial m = material_at(s, d, eye_cone(e, t).x);
-    vec3 demod = L / max(m.base, vec3(1e-3));
+    vec3 demod = demodulate(L, m);   // emission kept apart (common/demodulation.glsl)
     vec4 rec = rad_cur[idx];
     float c = min(rec.w + 1.0, C_MAX);
     float alpha = 1.0 / c;

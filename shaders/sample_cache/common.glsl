@@ -18,6 +18,7 @@
 #include "common/packing.glsl"
 #include "common/camera.glsl"
 #include "common/first_hit.glsl"
+#include "common/demodulation.glsl"
 
 layout(constant_id = SPEC_SAMPLE_CACHE_SLOTS) const uint N_SLOTS = 12;
 layout(constant_id = SPEC_SAMPLE_CACHE_RETRACE) const uint RETRACE_MODE = 2;   // 0 single, 1 multi, 2 adaptive
@@ -232,17 +233,7 @@ void importance_bounds(uint eye, out float w_min, out float w_max) {
 
 float importance(float c) { return 1.0 / (1.0 + c); }
 
-// --- Demodulation (§3.3) --------------------------------------------------
-// The radiance record holds L_s with the first hit's emission removed and the
-// rest divided by the base colour (floored at 1e-3 against division by zero);
-// reconstruction multiplies by the same floored factor and adds the emission
-// back, so a black-base emitter (and anything else a black base does not
-// multiply, e.g. a dielectric's specular layer) comes back exactly (issue 12
-// item 7). The emission is the first hit's `m.emissive`, exactly the term
-// path_radiance adds at the first hit (weight 1: a camera ray).
-vec3 demodulation_factor(ShadingMaterial m) { return max(m.base, vec3(1e-3)); }
-vec3 demodulate(vec3 L, ShadingMaterial m) { return (L - m.emissive) / demodulation_factor(m); }
-vec3 remodulate(vec3 demod, ShadingMaterial m) { return demodulation_factor(m) * demod + m.emissive; }
+// --- Demodulation (§3.3): common/demodulation.glsl -------------------------
 
 // --- Accumulation (appendix C, §5.2, Eq. 5) ----------------------------------
 // True when the sample's BSDF has a specular (GGX or dielectric) lobe: a
