@@ -495,7 +495,20 @@ pub fn write_gltf(scene: &Scene, path: &Path) -> Result<(), SceneError> {
         attributes.insert("NORMAL".into(), json!(bw.floats(&nrm, "VEC3", false)));
         attributes.insert("TEXCOORD_0".into(), json!(bw.floats(&uv, "VEC2", false)));
         if !m.tangents.is_empty() {
-            let tan: Vec<[f32; 4]> = m.tangents.iter().map(|v| v.to_array()).collect();
+            // A normal texture read through a uv map is written under the
+            // map as its transform, and a reader turns supplied tangents by
+            // a normal texture's transform: store them turned back.
+            let map = scene
+                .materials
+                .get(m.material as usize)
+                .and_then(|mat| mat.uv_affine[2])
+                .and_then(|a| a.as_transform());
+            let tan: Vec<[f32; 4]> = m
+                .tangents
+                .iter()
+                .zip(&m.normals)
+                .map(|(t, n)| map.map_or(*t, |tr| tr.tangent_back(*n, *t)).to_array())
+                .collect();
             attributes.insert("TANGENT".into(), json!(bw.floats(&tan, "VEC4", false)));
         }
         if !m.colors.is_empty() {

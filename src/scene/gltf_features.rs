@@ -112,11 +112,12 @@ pub const FEATURES: &[Feature] = &[
         "TEXCOORD_1 and texCoord",
         Partly,
         "two uv channels per material: each texture reads the set it names (texCoord, or the \
-         KHR_texture_transform override) under its transform. The channels hold the first two \
-         (set, transform) pairs (base colour's, then the normal texture's, then the rest); \
-         further transforms of those sets are read through a map (KHR_texture_transform \
-         below); a texture naming a set that neither channel holds reads the base colour \
-         texture's uvs, and a warning names it",
+         KHR_texture_transform override) under its transform. Channel 1 holds the base colour \
+         texture's (set, transform), channel 2 the first other uv set's (else the first other \
+         transform, the normal texture's first); further transforms of those sets are read \
+         through a map (KHR_texture_transform below), the normal texture's with tangents of \
+         its own uvs; a texture naming a third uv set reads the base colour texture's uvs, and \
+         a warning names it",
     ),
     f(
         "COLOR_0",
@@ -348,12 +349,14 @@ pub const FEATURES: &[Feature] = &[
         "KHR_texture_transform",
         Partly,
         "per texture: offset, rotation and scale (rotation as the spec's example and sample \
-         model, glTF issue 1563). A material's first two (set, transform) pairs are applied to \
-         its two uv channels at import; a texture with a further transform of a set a channel \
-         holds reads that channel through the affine map between the two transforms at \
-         shading time (spec constant SC_UV_AFFINE). Not the clearcoat normal texture (its \
-         tangent frame is its channel's): it reads the base colour texture's uvs, warned. The \
-         glTF writer refuses a map that shears (one error)",
+         model, glTF issue 1563). The (set, transform) pairs of a material's two uv channels \
+         are applied at import; a texture with a further transform of a set a channel holds \
+         reads that channel through the affine map between the two transforms at shading \
+         time (spec constant SC_UV_AFFINE; a normal texture with MikkTSpace tangents of its \
+         own uvs, supplied ones turned by its transform). Not the clearcoat normal texture \
+         (its tangent frame is its channel's): it reads the base colour texture's uvs, \
+         warned. The glTF writer refuses a map that shears (one error) and stores a mapped \
+         normal texture's tangents turned back",
     ),
     f(
         "KHR_xmp_json_ld",

@@ -56,7 +56,7 @@ use super::gltf_uv::{
 };
 use super::mesh_ops::{
     drop_non_finite_triangles, fan_to_triangles, flat_normals, generate_normals,
-    generate_tangents_for, strip_to_triangles,
+    generate_tangents_for, generate_tangents_from, strip_to_triangles,
 };
 use super::{
     AlphaMode, Clearcoat, Instance, Light, LightKind, Material, Mesh, Scene, SceneCamera,
@@ -1379,11 +1379,12 @@ impl Importer<'_> {
                 *v = v.normalize();
             }
         }
-        // The tangent frame belongs to the uv channel the normal texture
-        // reads (else the clearcoat normal texture's; both share the one
-        // tangent per vertex). Supplied tangents belong to the untransformed
-        // uvs: turn them to the direction of increasing transformed u
-        // (generated ones below come from the transformed uvs already).
+        // The tangent frame belongs to the normal texture's own uvs (its
+        // set and transform, whether it reads a channel or a map of one;
+        // else the clearcoat normal texture's: both share the one tangent
+        // per vertex). Supplied tangents belong to the untransformed uvs:
+        // turn them to the direction of increasing transformed u (generated
+        // ones below come from the transformed uvs already).
         let normal_slot = if self
             .scene
             .materials
@@ -1395,10 +1396,7 @@ impl Importer<'_> {
             2
         };
         let tangent_second = channels.second_slots & (1 << normal_slot) != 0;
-        let tangent_choice = match channels.second {
-            Some(c) if tangent_second => c,
-            _ => choice,
-        };
+        let tangent_choice = channels.tangent.unwrap_or(choice);
         if !mesh.tangents.is_empty() && !tangent_choice.transform.is_identity() {
             for (t, nrm) in mesh.tangents.iter_mut().zip(&mesh.normals) {
                 *t = tangent_choice.transform.tangent(*nrm, *t);
@@ -1410,7 +1408,20 @@ impl Importer<'_> {
             .get(material as usize)
             .is_some_and(|m| m.normal_texture.is_some() || m.clearcoat.normal_texture.is_some());
         if mesh.tangents.is_empty() && needs_tangents {
-            generate_tangents_for(&mut mesh, tangent_second);
+            match channels.relative.iter().find(|&&(k, _)| k == normal_slot) {
+                // Read through a map: MikkTSpace on the channel's uvs mapped
+                // to the normal texture's own.
+                Some(&(_, map)) => {
+                    let channel = if tangent_second {
+                        &mesh.uvs2
+                    } else {
+                        &mesh.uvs
+                    };
+                    let uvs: Vec<Vec2> = channel.iter().map(|&uv| map.apply(uv)).collect();
+                    generate_tangents_from(&mut mesh, &uvs);
+                }
+                None => generate_tangents_for(&mut mesh, tangent_second),
+            }
         }
         Ok(Some(mesh))
     }

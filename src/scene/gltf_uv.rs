@@ -81,14 +81,37 @@ pub const SLOTS: [(&str, &str); SLOT_COUNT] = [
 /// How many texture slots a material has ([`SLOTS`]).
 pub const SLOT_COUNT: usize = 10;
 
-/// The order in which slots claim the two uv channels: base colour first,
-/// then the normal texture (the vertex tangents are its channel's), then the
-/// others in [`SLOTS`] order.
+/// The order in which slots claim the two uv channels ([`choose`]): base
+/// colour first, then the normal texture, then the others in [`SLOTS`]
+/// order.
 pub const ORDER: [usize; SLOT_COUNT] = [0, 2, 1, 3, 4, 5, 6, 7, 8, 9];
+
+/// The normal texture's slot: the vertex tangents carry its frame.
+const NORMAL_SLOT: usize = 2;
 
 /// The clearcoat normal texture's slot: its tangent frame is its channel's
 /// (scene.glsl `surface_at`), so it never reads through a [`UvAffine`].
 const CLEARCOAT_NORMAL_SLOT: usize = 9;
+
+/// A tangent (w: handedness) turned to the direction of increasing u' for
+/// uvs with ∂(u, v)/∂u' = column 0 of `d_uv` (M⁻¹ for uv' = M · uv; M itself
+/// for the way back), ∂P/∂u = T and ∂P/∂v = −w · N × T; w flips when the
+/// map `m` mirrors. A singular `m` leaves the tangent as it is.
+fn turn_tangent(m: Mat2, d_uv: Mat2, normal: Vec3, tangent: Vec4) -> Vec4 {
+    let det = m.determinant();
+    if det == 0.0 || !det.is_finite() {
+        return tangent;
+    }
+    let t = tangent.truncate();
+    let w = if tangent.w < 0.0 { -1.0 } else { 1.0 };
+    let dpdv = -w * normal.cross(t);
+    let d = d_uv.x_axis;
+    let turned = d.x * t + d.y * dpdv;
+    match turned.try_normalize() {
+        Some(xyz) => xyz.extend(if det < 0.0 { -w } else { w }),
+        None => tangent,
+    }
+}
 
 /// A `KHR_texture_transform`: uv' = T(offset) · R(rotation) · S(scale) · uv.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -144,21 +167,17 @@ impl UvTransform {
     /// zero scale) leaves the tangent as it is.
     pub fn tangent(&self, normal: Vec3, tangent: Vec4) -> Vec4 {
         let m = self.linear();
-        let det = m.determinant();
-        if det == 0.0 || !det.is_finite() {
-            return tangent;
-        }
-        let inv = m.inverse();
-        let t = tangent.truncate();
-        let w = if tangent.w < 0.0 { -1.0 } else { 1.0 };
-        let dpdv = -w * normal.cross(t);
-        // Column 0 of M⁻¹: ∂(u, v)/∂u'.
-        let d = inv.x_axis;
-        let turned = d.x * t + d.y * dpdv;
-        match turned.try_normalize() {
-            Some(xyz) => xyz.extend(if det < 0.0 { -w } else { w }),
-            None => tangent,
-        }
+        turn_tangent(m, m.inverse(), normal, tangent)
+    }
+
+    /// The inverse of [`UvTransform::tangent`]: the tangent of the
+    /// untransformed uvs that this transform turns into `tangent` (what the
+    /// glTF writer stores for a normal texture it writes under this
+    /// transform). Exact for maps without shear (a rotation and a uniform
+    /// scale turn the tangent plane rigidly).
+    pub fn tangent_back(&self, normal: Vec3, tangent: Vec4) -> Vec4 {
+        let m = self.linear();
+        turn_tangent(m, m, normal, tangent)
     }
 
     /// "offset (0.5, 0), rotation 1.5708, scale (2, 2)", the non-default parts.
@@ -343,12 +362,17 @@ fn parse_slot(ext: &Value, bad: &mut Vec<String>) -> SlotUv {
 }
 
 /// The uv channels of one material: the first bound slot's (set,
-/// transform) choice in [`ORDER`] is channel 1 (`Mesh::uvs`), the first
-/// different one channel 2 (`Mesh::uvs2`); `second_slots` has bit k set
-/// where slot k of [`SLOTS`] reads channel 2; `relative` lists the slots
-/// whose choice is neither but whose set a channel holds: they read that
-/// channel through the [`UvAffine`]; `wrong` lists the rest (they read
-/// channel 1, and the importer warns).
+/// transform) choice in [`ORDER`] is channel 1 (`Mesh::uvs`); channel 2
+/// (`Mesh::uvs2`) is the first choice of another uv set if there is one (so
+/// that two uv sets always fit), else the first other transform of channel
+/// 1's set. `second_slots` has bit k set where slot k of [`SLOTS`] reads
+/// channel 2; `relative` lists the slots whose choice is neither but whose
+/// set a channel holds: they read that channel through the [`UvAffine`];
+/// `wrong` lists the rest (they read channel 1, and the importer warns).
+/// `tangent` is the choice of the slot whose tangent frame the vertex
+/// tangents carry (the normal texture's, else the clearcoat normal
+/// texture's): the importer generates or turns them for those uvs, read
+/// through a map or not.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct UvChannels {
     pub first: UvChoice,
@@ -356,11 +380,19 @@ pub struct UvChannels {
     pub second_slots: u32,
     pub relative: Vec<(usize, UvAffine)>,
     pub wrong: Vec<(usize, UvChoice)>,
+    pub tangent: Option<UvChoice>,
 }
 
 /// The channels of one material from its bound slots (`Some((core texCoord,
 /// extension))` per slot of [`SLOTS`], `None` where the slot binds no
 /// texture). No bound slot: TEXCOORD_0 untransformed, one channel.
+///
+/// The normal texture may read through a map (its vertex tangents follow
+/// its own uvs), except when the material also has a clearcoat normal
+/// texture: the coat's frame is then the vertex tangents' or its channel's
+/// (scene.glsl `surface_at`), so the normal texture keeps a channel of its
+/// own — channel 2 goes to the first different choice, as the normal
+/// texture comes second in [`ORDER`].
 pub fn choose(slots: &[Option<(u32, Option<SlotUv>)>; SLOT_COUNT]) -> UvChannels {
     let choices: Vec<(usize, UvChoice)> = ORDER
         .iter()
@@ -380,35 +412,53 @@ pub fn choose(slots: &[Option<(u32, Option<SlotUv>)>; SLOT_COUNT]) -> UvChannels
     let Some(&(_, first)) = choices.first() else {
         return UvChannels::default();
     };
+    let other_transform = choices.iter().map(|&(_, c)| c).find(|c| !c.same_as(&first));
+    let other_set = choices.iter().map(|&(_, c)| c).find(|c| c.set != first.set);
+    let mut out = assign(&choices, first, other_set.or(other_transform));
+    let normal_mapped = out.relative.iter().any(|&(k, _)| k == NORMAL_SLOT);
+    if normal_mapped && slots[CLEARCOAT_NORMAL_SLOT].is_some() {
+        out = assign(&choices, first, other_transform);
+    }
+    let tangent_slot = if slots[NORMAL_SLOT].is_some() {
+        NORMAL_SLOT
+    } else {
+        CLEARCOAT_NORMAL_SLOT
+    };
+    out.tangent = choices
+        .iter()
+        .find(|&&(k, _)| k == tangent_slot)
+        .map(|&(_, c)| c);
+    out
+}
+
+/// [`choose`] with channel 2 given: each choice reads the channel it equals,
+/// else a channel of its set through a map, else is wrong.
+fn assign(choices: &[(usize, UvChoice)], first: UvChoice, second: Option<UvChoice>) -> UvChannels {
     let mut out = UvChannels {
         first,
+        second,
         ..Default::default()
     };
-    for (k, c) in choices {
+    for &(k, c) in choices {
         if c.same_as(&first) {
             continue;
         }
-        match out.second {
-            None => {
-                out.second = Some(c);
-                out.second_slots |= 1 << k;
-            }
-            Some(second) if c.same_as(&second) => out.second_slots |= 1 << k,
-            Some(second) => {
-                let through = |channel: &UvChoice| {
-                    (channel.set == c.set && k != CLEARCOAT_NORMAL_SLOT)
-                        .then(|| UvAffine::between(&channel.transform, &c.transform))
-                        .flatten()
-                };
-                if let Some(a) = through(&first) {
-                    out.relative.push((k, a));
-                } else if let Some(a) = through(&second) {
-                    out.relative.push((k, a));
-                    out.second_slots |= 1 << k;
-                } else {
-                    out.wrong.push((k, c));
-                }
-            }
+        if second.is_some_and(|s| c.same_as(&s)) {
+            out.second_slots |= 1 << k;
+            continue;
+        }
+        let through = |channel: &UvChoice| {
+            (channel.set == c.set && k != CLEARCOAT_NORMAL_SLOT)
+                .then(|| UvAffine::between(&channel.transform, &c.transform))
+                .flatten()
+        };
+        if let Some(a) = through(&first) {
+            out.relative.push((k, a));
+        } else if let Some(a) = second.as_ref().and_then(through) {
+            out.relative.push((k, a));
+            out.second_slots |= 1 << k;
+        } else {
+            out.wrong.push((k, c));
         }
     }
     out.relative.sort_by_key(|&(k, _)| k);
@@ -545,6 +595,77 @@ mod tests {
         let ch = choose(&slots);
         assert_eq!(ch.second_slots, 1 << 1);
         assert!(ch.relative.is_empty() && ch.wrong.is_empty());
+    }
+
+    /// Two transforms of TEXCOORD_0 (base colour, normal texture) and an
+    /// occlusion-style texture on TEXCOORD_1: channel 2 goes to the second
+    /// uv set, and the normal texture reads channel 1 through a map (its
+    /// tangents follow its own uvs: `tangent`). With a clearcoat normal
+    /// texture too (on the normal texture's uvs), the normal texture keeps
+    /// channel 2 and the second set is warned, as before.
+    #[test]
+    fn a_second_uv_set_gets_channel_two_and_the_normal_texture_a_map() {
+        let t = |o: f32, set: Option<u32>| {
+            Some(SlotUv {
+                transform: UvTransform {
+                    offset: Vec2::new(o, 0.0),
+                    ..UvTransform::IDENTITY
+                },
+                tex_coord: set,
+            })
+        };
+        let mut slots = [None; SLOT_COUNT];
+        slots[0] = Some((0, t(0.5, None)));
+        slots[2] = Some((0, t(0.25, None)));
+        slots[3] = Some((1, None));
+        let ch = choose(&slots);
+        assert_eq!(ch.second.map(|c| c.set), Some(1), "{ch:?}");
+        assert_eq!(ch.second_slots, 1 << 3);
+        assert_eq!(ch.relative.len(), 1, "{ch:?}");
+        assert_eq!(ch.relative[0].0, 2);
+        assert!(ch.wrong.is_empty());
+        let tangent = ch.tangent.expect("the normal texture's choice");
+        assert_eq!(tangent.set, 0);
+        assert_eq!(tangent.transform.offset, Vec2::new(0.25, 0.0));
+        // The map takes channel 1's uvs (offset 0.5) to the normal's (0.25).
+        let uv = Vec2::new(0.3, 0.7);
+        let got = ch.relative[0].1.apply(uv + Vec2::new(0.5, 0.0));
+        assert!((got - (uv + Vec2::new(0.25, 0.0))).length() < 1e-6, "{got}");
+
+        slots[9] = Some((0, t(0.25, None)));
+        let ch = choose(&slots);
+        assert_eq!(ch.second.map(|c| c.set), Some(0), "{ch:?}");
+        assert_eq!(ch.second_slots, (1 << 2) | (1 << 9));
+        assert_eq!(ch.wrong.len(), 1, "{ch:?}");
+        assert_eq!(ch.wrong[0].0, 3);
+    }
+
+    /// The writer stores a mapped normal texture's tangents turned back:
+    /// turning them again under the same transform gives them exactly back
+    /// (rotation and uniform scale, as the writer allows, and a mirror).
+    #[test]
+    fn tangent_back_undoes_tangent() {
+        let n = Vec3::Z;
+        for tr in [
+            UvTransform {
+                offset: Vec2::new(0.3, 0.1),
+                rotation: 0.7,
+                scale: Vec2::splat(2.5),
+            },
+            UvTransform {
+                rotation: -1.2,
+                scale: Vec2::new(-0.5, 0.5),
+                ..UvTransform::IDENTITY
+            },
+        ] {
+            for t in [
+                Vec4::new(1.0, 0.0, 0.0, 1.0),
+                Vec4::new(0.6, 0.8, 0.0, -1.0),
+            ] {
+                let back = tr.tangent(n, tr.tangent_back(n, t));
+                assert!((back - t).abs().max_element() < 1e-6, "{tr:?} {t}: {back}");
+            }
+        }
     }
 
     #[test]

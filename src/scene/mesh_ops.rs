@@ -85,6 +85,17 @@ pub fn generate_tangents(mesh: &mut Mesh) {
 /// As [`generate_tangents`], for the uvs of the second channel
 /// (`mesh.uvs2`) where `second` (a normal texture that reads it).
 pub fn generate_tangents_for(mesh: &mut Mesh, second: bool) {
+    let uvs = if second {
+        mesh.uvs2.clone()
+    } else {
+        mesh.uvs.clone()
+    };
+    generate_tangents_from(mesh, &uvs);
+}
+
+/// As [`generate_tangents`], for the uvs `uvs` (one per vertex): those a
+/// normal texture reads through a map of a channel (gltf_uv `UvAffine`).
+pub fn generate_tangents_from(mesh: &mut Mesh, uvs: &[Vec2]) {
     struct Corners<'a> {
         positions: &'a [Vec3],
         normals: &'a [Vec3],
@@ -123,7 +134,7 @@ pub fn generate_tangents_for(mesh: &mut Mesh, second: bool) {
     let mut geo = Corners {
         positions: &mesh.positions,
         normals: &mesh.normals,
-        uvs: if second { &mesh.uvs2 } else { &mesh.uvs },
+        uvs,
         indices: &mesh.indices[..corners],
         out: vec![[f32::NAN; 4]; corners],
     };
