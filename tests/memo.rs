@@ -14,14 +14,60 @@ use stereocache::materials::memo::table::{
 };
 use stereocache::methods::hash_table::hash::pcg_hash;
 
-/// Random keys (negative levels and coordinates, extremes included) through
-/// memo/hash_test.comp: H0, H1, 8 probe slots and the quantised texel of a
-/// uv equal the CPU twin's bit for bit, for two table sizes.
+/// xxHash32's one-word hash (`hash_table::hash::xxhash32`) inverted, written
+/// apart from it: every step (add, rotate, odd multiply, xorshift) is a
+/// bijection of u32, undone here in reverse order.
+fn xxhash32_inverse(h: u32) -> u32 {
+    const P2: u32 = 2246822519;
+    const P3: u32 = 3266489917;
+    const P4: u32 = 668265263;
+    const P5: u32 = 374761393;
+    // y = x ^ (x >> s) ⇒ x = y ^ (x >> s), a fixed point reached in 32/s steps.
+    let unshift = |y: u32, s: u32| (0..=32 / s).fold(y, |x, _| y ^ (x >> s));
+    // The inverse of an odd a modulo 2^32 (Newton: each step doubles the bits).
+    let inverse = |a: u32| {
+        (0..5).fold(a, |x, _| {
+            x.wrapping_mul(2u32.wrapping_sub(a.wrapping_mul(x)))
+        })
+    };
+    let mut x = unshift(h, 16);
+    x = unshift(x.wrapping_mul(inverse(P3)), 13);
+    x = unshift(x.wrapping_mul(inverse(P2)), 15);
+    x = x.wrapping_mul(inverse(P4)).rotate_right(17);
+    x.wrapping_sub(P5)
+}
+
+/// Keys whose H1 chain (eq. 5.9) lands exactly on the EMPTY and on the LOCK
+/// marker: the level is chosen so that the last xxHash32 receives the
+/// marker's preimage. A random key gets there once in 2^31; these make the
+/// remapping (EMPTY → 1, LOCK → LOCK − 1) run on the CPU and the GPU alike.
+fn marker_keys() -> Vec<(MemoKey, u32)> {
+    use stereocache::methods::hash_table::hash::xxhash32;
+    [(EMPTY, 1), (LOCK, LOCK - 1)]
+        .into_iter()
+        .map(|(marker, remapped)| {
+            let (graph, q) = (5u32, [3i32, -7]);
+            let inner = xxhash32((q[0] as u32) ^ xxhash32((q[1] as u32) ^ xxhash32(graph)));
+            let level = (xxhash32_inverse(marker) ^ inner) as i32;
+            assert_eq!(xxhash32((level as u32) ^ inner), marker, "the inverse");
+            (MemoKey { graph, level, q }, remapped)
+        })
+        .collect()
+}
+
+/// Random keys (negative levels and coordinates, extremes included), and
+/// two whose H1 chain hits the EMPTY and LOCK markers, through
+/// memo/hash_test.comp: H0, H1 (the markers' remapped), 8 probe slots and
+/// the quantised texel of a uv equal the CPU twin's bit for bit, for two
+/// table sizes.
 #[test]
 fn glsl_hashes_and_probe_sequence_match_the_cpu() {
     let ctx = context();
-    let n = 4096u32;
-    let keys: Vec<MemoKey> = (0..n)
+    let markers = marker_keys();
+    for (k, remapped) in &markers {
+        assert_eq!(k.h1(), *remapped, "{k:?}: the marker is remapped");
+    }
+    let mut keys: Vec<MemoKey> = (0..4096u32)
         .map(|i| {
             let r = |k: u32| pcg_hash(i.wrapping_mul(0x9E37_79B9) ^ k.wrapping_mul(0x85EB_CA6B));
             let q = match i % 8 {
@@ -36,6 +82,8 @@ fn glsl_hashes_and_probe_sequence_match_the_cpu() {
             }
         })
         .collect();
+    keys.extend(markers.iter().map(|(k, _)| *k));
+    let n = keys.len() as u32;
     let raw: Vec<[u32; 4]> = keys
         .iter()
         .map(|k| [k.graph, k.level as u32, k.q[0] as u32, k.q[1] as u32])
