@@ -501,7 +501,7 @@ pub fn write_gltf(scene: &Scene, path: &Path) -> Result<(), SceneError> {
             let map = scene
                 .materials
                 .get(m.material as usize)
-                .and_then(|mat| mat.uv_affine[2])
+                .and_then(|mat| mat.uv_affine[super::gltf_uv::NORMAL_SLOT])
                 .and_then(|a| a.as_transform());
             let tan: Vec<[f32; 4]> = m
                 .tangents

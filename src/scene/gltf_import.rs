@@ -51,8 +51,8 @@ use super::gltf_buffers::{load_buffers, split_container, AccessorReader};
 use super::gltf_instancing::{instancing_json, NodeInstancing, INSTANCING_EXTENSION};
 use super::gltf_textures::{decode_images, patch_invalid_samplers, texture_sampler, ImageUses};
 use super::gltf_uv::{
-    choose, texture_transforms_json, SlotUv, UvAffine, UvChannels, UvChoice, ORDER, SLOTS,
-    SLOT_COUNT, TEXTURE_TRANSFORM,
+    choose, texture_transforms_json, SlotUv, UvAffine, UvChannels, UvChoice, CLEARCOAT_NORMAL_SLOT,
+    NORMAL_SLOT, ORDER, SLOTS, SLOT_COUNT, TEXTURE_TRANSFORM,
 };
 use super::mesh_ops::{
     drop_non_finite_triangles, fan_to_triangles, flat_normals, generate_normals,
@@ -1391,9 +1391,9 @@ impl Importer<'_> {
             .get(material as usize)
             .is_some_and(|m| m.normal_texture.is_none())
         {
-            9
+            CLEARCOAT_NORMAL_SLOT
         } else {
-            2
+            NORMAL_SLOT
         };
         let tangent_second = channels.second_slots & (1 << normal_slot) != 0;
         let tangent_choice = channels.tangent.unwrap_or(choice);

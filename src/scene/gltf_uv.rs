@@ -87,11 +87,11 @@ pub const SLOT_COUNT: usize = 10;
 pub const ORDER: [usize; SLOT_COUNT] = [0, 2, 1, 3, 4, 5, 6, 7, 8, 9];
 
 /// The normal texture's slot: the vertex tangents carry its frame.
-const NORMAL_SLOT: usize = 2;
+pub const NORMAL_SLOT: usize = 2;
 
 /// The clearcoat normal texture's slot: its tangent frame is its channel's
 /// (scene.glsl `surface_at`), so it never reads through a [`UvAffine`].
-const CLEARCOAT_NORMAL_SLOT: usize = 9;
+pub const CLEARCOAT_NORMAL_SLOT: usize = 9;
 
 /// A tangent (w: handedness) turned to the direction of increasing u' for
 /// uvs with ∂(u, v)/∂u' = column 0 of `d_uv` (M⁻¹ for uv' = M · uv; M itself
