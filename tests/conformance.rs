@@ -87,6 +87,15 @@ fn load(name: &str) -> Option<(PathBuf, Scene)> {
     Some((path, scene))
 }
 
+/// [`load`], asserting that the importer warns about nothing the feature
+/// table does not list as unsupported, and nothing at all here.
+fn load_unwarned(name: &str) -> Option<Scene> {
+    let (path, scene) = load(name)?;
+    let warned = warned_features(&path, &scene);
+    assert_eq!(warned, BTreeMap::new(), "{:?}", scene.warnings);
+    Some(scene)
+}
+
 /// Warnings the importer emits at the point where it drops a feature
 /// (`warned_elsewhere` in the table), by the words that identify them.
 const ELSEWHERE: &[(&str, &str)] = &[
@@ -434,11 +443,9 @@ fn mesh_primitive_modes_fill_the_triangle_cells_and_warn_the_rest() {
 
 #[test]
 fn box_vertex_colors_shows_its_vertex_colours() {
-    let Some((path, scene)) = load("BoxVertexColors.gltf") else {
+    let Some(scene) = load_unwarned("BoxVertexColors.gltf") else {
         return;
     };
-    let warned = warned_features(&path, &scene);
-    assert!(warned.is_empty(), "{:?}", scene.warnings);
     assert_eq!(scene.materials.len(), 1);
     assert_eq!(scene.materials[0].base_color, glam::Vec4::ONE);
     assert_eq!(
@@ -505,12 +512,10 @@ const UNIFORM_RADIUS: i64 = 3;
 
 #[test]
 fn texture_coordinate_test_shows_each_quadrant_of_the_image_where_its_uvs_say() {
-    let Some((path, scene)) = load("TextureCoordinateTest.gltf") else {
+    // Double-sided materials and one sampler: nothing unsupported.
+    let Some(scene) = load_unwarned("TextureCoordinateTest.gltf") else {
         return;
     };
-    // Double-sided materials and one sampler: nothing unsupported.
-    let warned = warned_features(&path, &scene);
-    assert!(warned.is_empty(), "{:?}", scene.warnings);
     assert_eq!(scene.textures.len(), 1);
     let tex = &scene.textures[0];
     assert_eq!((tex.width, tex.height), (512, 512));
@@ -657,13 +662,11 @@ fn red_per_test_box(
 
 #[test]
 fn texture_settings_test_shows_no_red_in_its_wrap_mode_and_sidedness_boxes() {
-    let Some((path, scene)) = load("TextureSettingsTest.gltf") else {
-        return;
-    };
     // Every material but DoubleSidedMaterial is single-sided (the default),
     // and back faces are culled; the samplers are supported: no warning.
-    let warned = warned_features(&path, &scene);
-    assert_eq!(warned, BTreeMap::new(), "{:?}", scene.warnings);
+    let Some(scene) = load_unwarned("TextureSettingsTest.gltf") else {
+        return;
+    };
     // The six wrap-mode boxes (README: "Test" column), then the double- and
     // single-sided pair: "a polygon facing the wrong way in front of another
     // test polygon ... the green checkmarks are placed such that they will
@@ -889,13 +892,11 @@ fn texture_transform_view(
 
 #[test]
 fn texture_transform_test_shows_the_offset_checks_and_arrows_at_the_green_markers() {
-    let Some((path, scene)) = load("TextureTransformTest/TextureTransformTest.gltf") else {
-        return;
-    };
     // KHR_texture_transform and single-sided materials are supported: no
     // warning.
-    let warned = warned_features(&path, &scene);
-    assert_eq!(warned, BTreeMap::new(), "{:?}", scene.warnings);
+    let Some(scene) = load_unwarned("TextureTransformTest/TextureTransformTest.gltf") else {
+        return;
+    };
     // The README's failures, made by giving the quads the uvs an importer
     // that ignores the extension (or turns the other way) would give: the
     // offset quads read the image's top-left quadrant ("a yellow image
@@ -996,6 +997,22 @@ fn texture_transform_test_shows_the_offset_checks_and_arrows_at_the_green_marker
     assert_no_validation_messages(&ctx);
 }
 
+/// The model's FlatBackdrop turned black and non-reflecting (no texture,
+/// no specular layer) and emitting `emission`, with no environment: a
+/// scene lit by the backdrop alone (or, at zero, by nothing but itself).
+fn plain_backdrop(scene: &mut Scene, emission: Vec3) {
+    let backdrop = scene
+        .materials
+        .iter_mut()
+        .find(|m| m.name == "FlatBackdrop")
+        .expect("the model's FlatBackdrop material");
+    backdrop.base_color = glam::Vec4::new(0.0, 0.0, 0.0, 1.0);
+    backdrop.base_color_texture = None;
+    backdrop.specular = 0.0;
+    backdrop.emissive = emission;
+    scene.environment = None;
+}
+
 /// The AttenuationTest model's grid: (column x, the column's thickness over
 /// attenuation distance r) and (row y, row name). Node translations of the
 /// file; every block's own thickness t and distance d give t / d = r.
@@ -1053,22 +1070,11 @@ const ATTENUATION_ROWS: [(f32, &str); 5] = [
 /// more (the smallest step between neighbouring columns is 8 % in blue).
 #[test]
 fn attenuation_test_shades_each_column_as_its_answer_key() {
-    let Some((path, mut scene)) = load("AttenuationTest/AttenuationTest.gltf") else {
+    let Some(mut scene) = load_unwarned("AttenuationTest/AttenuationTest.gltf") else {
         return;
     };
-    let warned = warned_features(&path, &scene);
-    assert_eq!(warned, BTreeMap::new(), "{:?}", scene.warnings);
     assert!(scene.lights.is_empty(), "{:?}", scene.lights);
-    let backdrop = scene
-        .materials
-        .iter_mut()
-        .find(|m| m.name == "FlatBackdrop")
-        .expect("the model's FlatBackdrop material");
-    backdrop.base_color = glam::Vec4::new(0.0, 0.0, 0.0, 1.0);
-    backdrop.base_color_texture = None;
-    backdrop.specular = 0.0;
-    backdrop.emissive = Vec3::ONE;
-    scene.environment = None;
+    plain_backdrop(&mut scene, Vec3::ONE);
     let c = [0.1f64, 0.5, 0.9];
     let f = fresnel_dielectric(1.0, 1.5);
     let expected = |row: usize, r: f64, k: usize| {
@@ -1171,21 +1177,11 @@ fn attenuation_test_shades_each_column_as_its_answer_key() {
 /// of its demodulation, as the sample cache does).
 #[test]
 fn emissive_strength_test_shows_each_cube_at_its_strength() {
-    let Some((path, mut scene)) = load("EmissiveStrengthTest/EmissiveStrengthTest.gltf") else {
+    let Some(mut scene) = load_unwarned("EmissiveStrengthTest/EmissiveStrengthTest.gltf") else {
         return;
     };
-    let warned = warned_features(&path, &scene);
-    assert_eq!(warned, BTreeMap::new(), "{:?}", scene.warnings);
     assert!(scene.lights.is_empty(), "{:?}", scene.lights);
-    scene.environment = None;
-    let backdrop = scene
-        .materials
-        .iter_mut()
-        .find(|m| m.name == "FlatBackdrop")
-        .expect("the model's FlatBackdrop material");
-    backdrop.base_color = glam::Vec4::new(0.0, 0.0, 0.0, 1.0);
-    backdrop.base_color_texture = None;
-    backdrop.specular = 0.0;
+    plain_backdrop(&mut scene, Vec3::ZERO);
     let factor = Vec3::new(0.1, 0.5, 0.9);
     // (node x, material, strength): the file's nodes Cube1 … Cube16.
     let cubes = [
@@ -1273,11 +1269,9 @@ fn emissive_strength_test_shows_each_cube_at_its_strength() {
 /// asserted from the image.
 #[test]
 fn negative_scale_test_shows_no_red_x_marks() {
-    let Some((path, scene)) = load("NegativeScaleTest/NegativeScaleTest.gltf") else {
+    let Some(scene) = load_unwarned("NegativeScaleTest/NegativeScaleTest.gltf") else {
         return;
     };
-    let warned = warned_features(&path, &scene);
-    assert_eq!(warned, BTreeMap::new(), "{:?}", scene.warnings);
     let blocks = ["ChecksAndXMaterial"];
     // The three block meshes span x −0.44..4.28, y 1.07..3.13 at z ≈ 0.
     let cam = look_at_camera(
@@ -1341,11 +1335,9 @@ fn negative_scale_test_shows_no_red_x_marks() {
 /// pixels show the X marks.
 #[test]
 fn vertex_color_test_zeroes_the_x_marks_channels() {
-    let Some((path, scene)) = load("VertexColorTest.gltf") else {
+    let Some(scene) = load_unwarned("VertexColorTest.gltf") else {
         return;
     };
-    let warned = warned_features(&path, &scene);
-    assert_eq!(warned, BTreeMap::new(), "{:?}", scene.warnings);
     let mut ignored = scene.clone();
     let mut coloured = 0;
     for m in ignored.meshes.iter_mut().filter(|m| !m.colors.is_empty()) {
@@ -1446,11 +1438,9 @@ fn srgb_to_linear(c: u8) -> f32 {
 /// failure: TEXCOORD_0 read) must be off its texel at thousands of them.
 #[test]
 fn multi_uv_test_reads_the_emissive_texture_through_the_second_uv_set() {
-    let Some((path, mut scene)) = load("MultiUVTest.gltf") else {
+    let Some(mut scene) = load_unwarned("MultiUVTest.gltf") else {
         return;
     };
-    let warned = warned_features(&path, &scene);
-    assert_eq!(warned, BTreeMap::new(), "{:?}", scene.warnings);
     scene.environment = None;
     assert!(scene.lights.is_empty());
     let m = &scene.materials[0];

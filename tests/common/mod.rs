@@ -671,3 +671,69 @@ pub fn linear(
     )
     .unwrap()
 }
+
+/// Per channel: a mean and its standard error.
+pub type ChannelMeans = [(f64, f64); 3];
+
+/// Per channel: the mean radiance over the pixels of both eyes whose first
+/// hit is on material `material`, and its standard error.
+pub fn material_mean(scene: &Scene, f: &StereoFrame, material: u32) -> ChannelMeans {
+    std::array::from_fn(|k| {
+        let v: Vec<f64> = f
+            .eyes
+            .iter()
+            .flat_map(|e| {
+                e.radiance
+                    .iter()
+                    .zip(&e.first_hit)
+                    .filter_map(move |(r, fh)| {
+                        let on = fh[3] != u32::MAX
+                            && scene.meshes[scene.instances[fh[3] as usize].mesh as usize].material
+                                == material;
+                        on.then_some(r[k] as f64)
+                    })
+            })
+            .collect();
+        mean_and_standard_error(&v)
+    })
+}
+
+/// Emission seen through next-event estimation (lights.glsl
+/// `emitted_radiance`) must be what a BSDF-sampled hit sees (material_at):
+/// renders `scene` with the reference, one bounce, 64 spp, by NEE alone and
+/// by BSDF sampling alone, and asserts the mean over `receiver`'s pixels
+/// agrees per channel within 5 combined standard errors. Returns (NEE,
+/// BSDF) means.
+pub fn assert_light_samplers_agree(
+    s: &Session,
+    receiver: u32,
+    cam: StereoCamera,
+    w: u32,
+    h: u32,
+    what: &str,
+) -> (ChannelMeans, ChannelMeans) {
+    use stereocache::methods::LightSampling;
+    let mean = |ls: LightSampling| {
+        let settings = RenderSettings {
+            width: w,
+            height: h,
+            spp: 64,
+            max_bounces: 1,
+            seed: 9,
+            all_features: false,
+            light_sampling: ls,
+            ..Default::default()
+        };
+        material_mean(&s.scene, &render(s, "reference", cam, &settings), receiver)
+    };
+    let (nee, bsdf) = (mean(LightSampling::Nee), mean(LightSampling::Bsdf));
+    eprintln!("{what}: receiver mean by NEE {nee:?}, by BSDF sampling {bsdf:?}");
+    for k in 0..3 {
+        let ((a, sa), (b, sb)) = (nee[k], bsdf[k]);
+        assert!(
+            (a - b).abs() <= 5.0 * (sa * sa + sb * sb).sqrt(),
+            "{what} channel {k}: NEE {a} ± {sa}, BSDF {b} ± {sb}"
+        );
+    }
+    (nee, bsdf)
+}
