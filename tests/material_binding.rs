@@ -91,6 +91,12 @@ fn dir(name: &str) -> PathBuf {
 /// [0.05, 1.05]), written as glTF; material 0 has a 1×1 texture so the file
 /// has the fallback texture KHR_texture_procedurals requires.
 fn write_quads(d: &Path) -> PathBuf {
+    write_quads_uv(d, Vec2::ONE)
+}
+
+/// `write_quads` with uvs spanning `uv_scale` over each 1 m quad (u along
+/// +x, v along −z).
+fn write_quads_uv(d: &Path, uv_scale: Vec2) -> PathBuf {
     let mut s = Scene {
         source: "test:quads".into(),
         ..Default::default()
@@ -118,7 +124,7 @@ fn write_quads(d: &Path) -> PathBuf {
             Vec3::NEG_Z,
             1,
             1,
-            Vec2::ONE,
+            uv_scale,
         );
         add_mesh(&mut s, g, m, Mat4::IDENTITY);
     }
@@ -741,6 +747,151 @@ fn memoized_hits_return_the_graph_at_their_texel_centre() {
             (live, c.evictions),
             (c.fills, 0),
             "{rt:?} tile {tile}: {c:?}"
+        );
+    }
+    assert_no_validation_messages(&ctx);
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// The level of detail comes from the ray cone's footprint (thesis eqs.
+/// 2.13–2.16, 5.2–5.5): the shorter of the uv derivatives along the
+/// footprint ellipse's axes. On a quad whose uvs are stretched 4:1 (u runs
+/// 4 per metre, v 1), seen obliquely (incidence 41–76°), the GPU's texel at
+/// every pixel-centre hit of the uv-only graph is the one `lod::level` of
+/// `lod::uv_per_width` picks (the CPU twin, itself checked against finite
+/// differences of real rays in tests/memo.rs), on both backends, non-tiled
+/// and 4×4 tiles. The isotropic stand-in the cache used before,
+/// w·√(uv area / world area) = 2w here, picks another level at most
+/// pixels and its texel's value is refuted at many: the test bites.
+#[test]
+fn memo_levels_follow_the_cone_footprints_shorter_uv_derivative() {
+    use stereocache::materials::memo::lod;
+    use stereocache::materials::memo::{MemoHits, MemoSettings};
+    let ctx = context();
+    let d = dir("memo-footprint");
+    let path = write_quads_uv(&d, Vec2::new(4.0, 1.0));
+    bind(&path, |j| {
+        j["extensions"]["KHR_texture_procedurals"]["procedurals"][0]["nodes"][6]["nodetype"] =
+            "texcoord".into();
+    });
+    let mut scene = stereocache::scene::load_gltf(&path).expect("bound scene loads");
+    assert!(scene.graphs.graphs[0].reads_only_uv(), "edited KHR graph");
+    let settings = probe_settings();
+    let size = glam::UVec2::new(40, 24);
+    // Over material 0's quad (x ∈ [−1.05, −0.05], z ∈ [−0.5, 0.5]),
+    // looking down at it from 0.25 m up and 0.1 m behind its near edge:
+    // about 500 pixels an eye on the quad, incidence 41–76°.
+    let c = look_at(
+        "oblique",
+        Vec3::new(-0.55, 0.25, 0.6),
+        Vec3::new(-0.55, 0.0, -0.1),
+        Vec3::Y,
+        60.0,
+    );
+    let camera = StereoCamera::from_scene_camera(c.transform, c.yfov, 40.0 / 24.0);
+    // The base colour moves by ≤ 2 per unit uv, the uv by ≤ 4 per metre:
+    // the CPU's 24-bit barycentrics add 2 · 4 · 2^-24 to TOL's 7.6e-6.
+    let tol = 7.6e-6 + 4.8e-7;
+    for (rt, tile) in [
+        (RtChoice::Software, 1),
+        (RtChoice::Query, 1),
+        (RtChoice::Software, 4),
+    ] {
+        if rt == RtChoice::Query && !require(ctx.ray_query_enabled(), "ray queries") {
+            continue;
+        }
+        use stereocache::materials::memo::MemoFill::Plain;
+        scene.graphs.memo = MemoSettings {
+            hits: MemoHits::Primary,
+            tile,
+            entries: (1 << 20) / (tile * tile),
+            fill: Plain,
+            ..Default::default()
+        };
+        let s = session(&ctx, scene.clone(), rt);
+        let f = render(&s, "reference", camera, &settings);
+        let (mut checked, mut other_level, mut refuted, mut grazing) = (0usize, 0, 0, 0);
+        for (e, eye) in f.eyes.iter().enumerate() {
+            let view = camera.eyes()[e];
+            let spread = 2.0 * view.tan_half_fov().y / 24.0;
+            for (i, fh) in eye.first_hit.iter().enumerate() {
+                if fh[3] == u32::MAX {
+                    continue;
+                }
+                let (mat, geom) = hit_geom(&s.scene, *fh);
+                if mat != 0 {
+                    continue;
+                }
+                let albedo = Vec3::from_slice(&eye.albedo[i][..3]);
+                let px = Vec2::new((i % 40) as f32 + 0.5, (i / 40) as f32 + 0.5);
+                let dir = view.ray_direction(px, size).normalize();
+                let t = -view.position.y / dir.y;
+                // The hit triangle's world edges and uv edges.
+                let inst = &s.scene.instances[fh[3] as usize];
+                let mesh = &s.scene.meshes[inst.mesh as usize];
+                let (idx, _) = first_hit_weights(&s.scene, *fh);
+                let p = idx.map(|k| inst.transform.transform_point3(mesh.positions[k]));
+                let uv = idx.map(|k| mesh.uvs[k]);
+                let k =
+                    lod::uv_per_width(dir, p[1] - p[0], p[2] - p[0], uv[1] - uv[0], uv[2] - uv[0]);
+                let w = t * spread;
+                if dir.y.abs() < 0.5 {
+                    grazing += 1;
+                }
+                // Levels the GPU may pick: both sides of a rounding
+                // boundary when the CPU's log2 is within 1e-3 of one (f32
+                // differences of direction, normalisation and log2).
+                let x = -(w * k).log2() + 0.5;
+                let mut levels = vec![lod::level(w, k, 0.0)];
+                if (x - x.round()).abs() < 1e-3 {
+                    levels = vec![x.round() as i32 - 1, x.round() as i32];
+                }
+                let eps = 2.0f32.powi(-20) * 4.0;
+                let at = |q: [i32; 2], m: i32| {
+                    let g = Geom {
+                        uv: lod::snapped_uv(q, m),
+                        ..geom
+                    };
+                    cpu_slot(&s.scene, 0, Slot::BaseColor, &g)
+                };
+                let matches = |m: i32| {
+                    [-eps, 0.0, eps].iter().any(|&du| {
+                        [-eps, 0.0, eps].iter().any(|&dv| {
+                            let q = lod::quantise([geom.uv[0] + du, geom.uv[1] + dv], m);
+                            (albedo - at(q, m)).abs().max_element() <= tol
+                        })
+                    })
+                };
+                assert!(
+                    levels.iter().any(|&m| matches(m)),
+                    "{rt:?} tile {tile}: eye {e} pixel {i} (uv {:?}, width {w}, uv per width {k}): albedo {albedo}, CPU at level {levels:?}'s texel centre {}",
+                    geom.uv,
+                    at(lod::quantise(geom.uv, levels[0]), levels[0])
+                );
+                checked += 1;
+                // The stand-in: √(uv area / world area) = √4 = 2 per width.
+                let iso = lod::level(w, 2.0, 0.0);
+                if !levels.contains(&iso) {
+                    other_level += 1;
+                    if !matches(iso) {
+                        refuted += 1;
+                    }
+                }
+            }
+        }
+        eprintln!(
+            "{rt:?} tile {tile}: {checked} pixels, {grazing} beyond 60°; the isotropic level differs at {other_level}, refuted at {refuted}"
+        );
+        assert!(checked > 800, "{rt:?} tile {tile}: {checked} pixels");
+        assert!(grazing > 300, "{rt:?}: {grazing} hits beyond 60°");
+        assert!(
+            other_level > checked / 2 && refuted > checked / 10,
+            "{rt:?} tile {tile}: the isotropic level differs at {other_level} and is refuted at {refuted} of {checked} pixels"
+        );
+        let c = s.scene_gpu.memo.as_ref().unwrap().counters().unwrap();
+        assert!(
+            c.hits > 0 && c.misses > 0 && c.refused == 0,
+            "{rt:?}: {c:?}"
         );
     }
     assert_no_validation_messages(&ctx);

@@ -729,27 +729,180 @@ fn snapping_error_and_level_bounds() {
             );
         }
         let w = (r(3) * 20.0 - 18.0).exp2();
-        let ratio = r(4) * 4.0 + 0.01;
-        let m = lod::level(w, ratio, 0.0);
-        let l = w * ratio.sqrt();
+        let k = r(4) * 2.0 + 0.1;
+        let m = lod::level(w, k, 0.0);
+        let l = w * k;
         if m > lod::MIN_LEVEL && m < lod::MAX_LEVEL {
             let texel = (-m as f32).exp2();
             assert!(
                 texel <= l * 1.4143 && texel >= l / 1.4143,
-                "w {w} ratio {ratio}: level {m}"
+                "w {w} uv per width {k}: level {m}"
             );
         }
         // Away from a rounding boundary (where float addition order may decide).
         let x = -l.log2() + 0.5;
         if (x - x.round()).abs() > 1e-3 {
             assert_eq!(
-                lod::level(w, ratio, 1.0),
+                lod::level(w, k, 1.0),
                 (m + 1).min(lod::MAX_LEVEL),
                 "bias 1 = one level finer"
             );
         }
     }
     assert_eq!(lod::level(0.0, 1.0, 0.0), lod::MAX_LEVEL);
+}
+
+/// The singular values (largest, smallest) of a 2×2 matrix.
+fn singular_values(m: glam::DMat2) -> (f64, f64) {
+    let tr = m.x_axis.length_squared() + m.y_axis.length_squared();
+    let det = m.determinant().abs();
+    let disc = (tr * tr / 4.0 - det * det).max(0.0).sqrt();
+    ((tr / 2.0 + disc).sqrt(), (tr / 2.0 - disc).max(0.0).sqrt())
+}
+
+/// The cone footprint's uv derivatives (thesis eqs. 2.13–2.16, 5.2–5.4:
+/// `lod::uv_per_width`, the shader's twin) against finite differences of
+/// real rays: on random triangles with random, sheared and stretched uv
+/// maps, seen from random eyes at incidences up to 85°, the rays through
+/// the cone's edge — the central ray turned by ± the cone's angle
+/// α = w / t towards the footprint's vertex (in the plane of the ray and
+/// the normal) and co-vertex (across both) — are intersected with the
+/// triangle's plane in f64 and their uvs interpolated from barycentrics;
+/// half the difference of each pair is the uv derivative across the
+/// cone's width, and the shorter one per unit width is compared with the
+/// twin's. Tolerance: the twin's f32 rounding, ≈ 30 operations of 2^-24
+/// each on values of up to κ times the result, κ the product of the
+/// condition numbers (σ_max / σ_min) of the uv map's derivative and of the
+/// triangle's edges (whose barycentric gradients cancel on a thin
+/// triangle), the 1/cos θ division that turns a direction error of ε
+/// into ε tan θ, and eq. 2.13's projection, whose direction a rounding of
+/// ε turns by ε / sin θ (near head-on the ellipse is almost a circle and
+/// its axes are ill-defined): 64 · 2^-23 · κ · (1 + tan θ + 1 / sin θ)
+/// relative; the
+/// central difference's truncation is O(α²) with α = 10^-4 (10^-8 · tan²θ,
+/// below that). Also: a uniformly scaled (conformal) uv map gives the
+/// isotropic √(uv area / world area) at every incidence, head-on included
+/// (eq. 2.13's projection vanishes there), so the images of such scenes do
+/// not change.
+#[test]
+fn cone_footprint_derivatives_match_finite_differences() {
+    use glam::{DVec2, DVec3, Vec2, Vec3};
+    let mut checked = 0;
+    let mut shorter_is_vertex = 0;
+    for i in 0..20_000u32 {
+        let r = |k: u32| {
+            pcg_hash(i.wrapping_mul(7919) ^ k.wrapping_mul(0x85EB_CA6B)) as f64 / u32::MAX as f64
+        };
+        let p = [0u32, 3, 6]
+            .map(|k| DVec3::new(r(k) * 2.0 - 1.0, r(k + 1) * 2.0 - 1.0, r(k + 2) * 2.0 - 1.0));
+        let uv = [10u32, 12, 14].map(|k| DVec2::new(r(k) * 8.0 - 4.0, r(k + 1) * 2.0 - 1.0));
+        let (e1, e2) = (p[1] - p[0], p[2] - p[0]);
+        let (d1, d2) = (uv[1] - uv[0], uv[2] - uv[0]);
+        let nn = e1.cross(e2);
+        let n = nn.normalize();
+        // The uv map's derivative on the plane, in the orthonormal basis
+        // (ê1, n × ê1): its singular values give κ.
+        let a = e1.normalize();
+        let b = n.cross(a);
+        let gb = e2.cross(nn) / nn.length_squared();
+        let gc = nn.cross(e1) / nn.length_squared();
+        let jac = |v: DVec3| d1 * v.dot(gb) + d2 * v.dot(gc);
+        let (s_max, s_min) = singular_values(glam::DMat2::from_cols(jac(a), jac(b)));
+        if s_min <= 1e-3 || nn.length() < 1e-2 {
+            continue;
+        }
+        // The triangle's own condition (its edges in the plane's basis):
+        // the barycentric gradients cancel in f32 on a thin triangle.
+        let edges = glam::DMat2::from_cols(
+            DVec2::new(e1.dot(a), e1.dot(b)),
+            DVec2::new(e2.dot(a), e2.dot(b)),
+        );
+        let (e_max, e_min) = singular_values(edges);
+        let kappa = s_max / s_min * e_max / e_min;
+        if kappa > 1e3 {
+            continue;
+        }
+        // The hit: random barycentrics inside; the eye at distance t
+        // along a direction of incidence θ ≤ 85° on the front side.
+        let (bu, bv) = (r(20), r(21));
+        let (bu, bv) = if bu + bv > 1.0 {
+            (1.0 - bu, 1.0 - bv)
+        } else {
+            (bu, bv)
+        };
+        let hit = p[0] + e1 * bu + e2 * bv;
+        let theta = (r(22) * 85.0).to_radians();
+        let phi = r(23) * std::f64::consts::TAU;
+        let t = 0.5 + r(24) * 4.0;
+        let dir = -(n * theta.cos() + (a * phi.cos() + b * phi.sin()) * theta.sin());
+        let eye = hit - dir * t;
+        let alpha: f64 = 1e-4;
+        let uv_at = |d: DVec3| {
+            let s = n.dot(hit - eye) / n.dot(d);
+            let x = eye + d * s - p[0];
+            d1 * x.dot(gb) + d2 * x.dot(gc) + uv[0]
+        };
+        // Rays through the cone's edge: turned by ±α towards the vertex
+        // (ProjectOnPlane(ĥ1, d) normalised: in the plane of d and n) and
+        // towards the co-vertex (n × d, across both).
+        let across = n.cross(dir).normalize();
+        let towards = across.cross(dir).normalize();
+        let derivative = |v: DVec3| {
+            let plus = uv_at((dir * alpha.cos() + v * alpha.sin()).normalize());
+            let minus = uv_at((dir * alpha.cos() - v * alpha.sin()).normalize());
+            (plus - minus).length() / 2.0
+        };
+        let w = alpha * t;
+        let (l_vertex, l_covertex) = (derivative(towards) / w, derivative(across) / w);
+        let want = l_vertex.min(l_covertex);
+        let f = |v: DVec3| Vec3::new(v.x as f32, v.y as f32, v.z as f32);
+        let g = |v: DVec2| Vec2::new(v.x as f32, v.y as f32);
+        let got = lod::uv_per_width(f(dir), f(e1), f(e2), g(d1), g(d2)) as f64;
+        let tol = 64.0 * f32::EPSILON as f64 * kappa * (1.0 + theta.tan() + 1.0 / theta.sin());
+        assert!(
+            (got - want).abs() <= tol * want,
+            "case {i}: θ {:.1}°, κ {kappa:.1}: twin {got}, finite differences {want} (vertex {l_vertex}, co-vertex {l_covertex})",
+            theta.to_degrees()
+        );
+        if l_vertex < l_covertex {
+            shorter_is_vertex += 1;
+        }
+        checked += 1;
+        // A conformal map (the uvs of the same triangle scaled and turned
+        // as a whole) gives √(uv area / world area) at any incidence.
+        let rot = DVec2::from_angle(r(25) * 6.0) * (0.1 + r(26) * 3.0);
+        let (c1, c2) = (
+            rot.rotate(DVec2::new(e1.dot(a), e1.dot(b))),
+            rot.rotate(DVec2::new(e2.dot(a), e2.dot(b))),
+        );
+        let ratio = (c1.perp_dot(c2)).abs() / nn.length();
+        for d in [dir, -n] {
+            let got = lod::uv_per_width(f(d), f(e1), f(e2), g(c1), g(c2)) as f64;
+            assert!(
+                (got - ratio.sqrt()).abs()
+                    <= 64.0 * f32::EPSILON as f64 * (1.0 + theta.tan()) * ratio.sqrt(),
+                "case {i}: conformal map: {got} vs {}",
+                ratio.sqrt()
+            );
+        }
+    }
+    assert!(checked > 15_000, "{checked} cases");
+    // Both axes are the shorter in many cases (the min of eq. 5.4 matters).
+    assert!(
+        shorter_is_vertex > 1_000 && checked - shorter_is_vertex > 1_000,
+        "{shorter_is_vertex} of {checked}"
+    );
+    // Degenerate triangles and uv maps: the finest level.
+    let (x, y) = (Vec3::X, Vec3::Y);
+    assert_eq!(
+        lod::uv_per_width(-Vec3::Z, x, x * 2.0, Vec2::X, Vec2::Y),
+        0.0
+    );
+    assert_eq!(
+        lod::uv_per_width(-Vec3::Z, x, y, Vec2::ZERO, Vec2::ZERO),
+        0.0
+    );
+    assert_eq!(lod::level(0.01, 0.0, 0.0), lod::MAX_LEVEL);
 }
 
 /// Which graphs the rendering cache may key by texel

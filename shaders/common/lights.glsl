@@ -55,7 +55,7 @@ vec3 emitted_radiance(EmitterGpu e, vec2 bary, vec3 dir) {
     // sample's cone (sc_memo_cone, sample_emitter), else directly.
     Surface gs = surface_at(inst, prim, bary, dir);
 #ifdef SC_MATERIAL_MEMO
-    Le *= sc_material_graphs_at(gs.material, gs.uv, gs.p, gs.n, gs.tangent, 0.0, gs.uv_area_ratio, 0.0).emission;
+    Le *= sc_material_graphs_at(gs.material, gs.uv, gs.p, gs.n, gs.tangent, 0.0, gs.memo_uv_per_width, 0.0).emission;
 #else
     Le *= sc_material_graphs(gs.material, gs.uv, gs.p, gs.n, gs.tangent, 0.0).emission;
 #endif

@@ -255,7 +255,7 @@ struct MemoCall {
 // path_radiance's sc_memo_cone ≥ 0; memoized only where the material's
 // graphs read the uv alone, else counted bypassed), its level of detail,
 // texel and the table's parameters.
-MemoCall memo_call(uint material, vec2 uv, float cone_width, float uv_area_ratio) {
+MemoCall memo_call(uint material, vec2 uv, float cone_width, float uv_per_width) {
     MemoCall c;
     uint flags = memo_state[MEMO_S_FLAGS];
     bool primary = cone_width > 0.0;
@@ -286,7 +286,7 @@ MemoCall memo_call(uint material, vec2 uv, float cone_width, float uv_area_ratio
     c.present = false;
     if (c.variant == MEMO_V_DIRECT) return c;
     float w = primary ? cone_width : sc_memo_cone;
-    c.level = memo_level(w, uv_area_ratio, uintBitsToFloat(memo_state[MEMO_S_BIAS]));
+    c.level = memo_level(w, uv_per_width, uintBitsToFloat(memo_state[MEMO_S_BIAS]));
     c.cap = memo_state[MEMO_S_CAPACITY];
     c.probe = memo_state[MEMO_S_PROBE];
     c.policy = memo_state[MEMO_S_POLICY];
@@ -446,8 +446,8 @@ void memo_store(MemoCall c, uint material, uint k, ivec2 texel, uint corner, ScG
 // unrolled either. The subgroup-cooperative fill (-DSC_MEMO_SUBGROUP)
 // keeps its own evaluation: two copies per call site in that build.
 ScGraphOutputs sc_material_graphs_at(uint material, vec2 uv, vec3 p, vec3 n, vec3 t,
-                                     float cone_width, float uv_area_ratio, float footprint) {
-    MemoCall c = memo_call(material, uv, cone_width, uv_area_ratio);
+                                     float cone_width, float uv_per_width, float footprint) {
+    MemoCall c = memo_call(material, uv, cone_width, uv_per_width);
     ScGraphOutputs out4[4];
     if (c.variant == MEMO_V_TEXEL || c.variant == MEMO_V_TEXELS) memo_lookup_texels(c, material, n, out4);
     else if (c.tiled) memo_lookup_tile(c, material, p, n, t, out4);

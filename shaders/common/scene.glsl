@@ -170,6 +170,10 @@ bool alpha_passes(uint inst, uint prim, vec2 bary) {
     return a >= m.params.w;
 }
 
+#ifdef SC_MATERIAL_MEMO
+#include "memo/lod.glsl"
+#endif
+
 // Everything a shading point needs, rebuilt from (instance, primitive, barycentrics).
 struct Surface {
     vec3 p;        // world position
@@ -181,6 +185,11 @@ struct Surface {
     bool front;    // the ray hit the side the winding order calls front
     float uv_area_ratio; // texture-space area / world area of the triangle (ray-cone LOD)
     float uv2_area_ratio; // the same for the second uv channel
+    // The memoization cache's level of detail (memo/lod.glsl
+    // memo_uv_per_width): the shorter uv derivative of a ray cone's
+    // footprint along this ray per unit of cone width (thesis eqs.
+    // 2.13-2.16, 5.2-5.4); 0 in shaders without the cache.
+    float memo_uv_per_width;
     vec3 tangent;
     float tangent_sign;
     vec4 color;    // vertex colour (COLOR_0), white without
@@ -226,6 +235,11 @@ Surface surface_at(uint inst, uint prim, vec2 bary, vec3 ray_dir) {
     vec2 duv2 = vec2(c.pos_u.w, c.normal_v.w) - vec2(a.pos_u.w, a.normal_v.w);
     float uv_area2 = abs(duv1.x * duv2.y - duv1.y * duv2.x);
     s.uv_area_ratio = area2 > 0.0 ? uv_area2 / area2 : 0.0;
+#ifdef SC_MATERIAL_MEMO
+    s.memo_uv_per_width = memo_uv_per_width(ray_dir, e1, e2, duv1, duv2);
+#else
+    s.memo_uv_per_width = 0.0;
+#endif
     s.uv2 = vec2(0.0);
     s.uv2_area_ratio = 0.0;
     s.material = meshes[I.mesh_pad.x].material;

@@ -7,14 +7,46 @@
 
 const int MEMO_MIN_LEVEL = -8, MEMO_MAX_LEVEL = 22;
 
-// Eqs. 5.2-5.5: m = round(log2(1 / l_min) + bias), l_min the shorter uv
-// derivative of the cone's footprint. The footprint ellipse's co-vertex
-// (eq. 2.16) lies across the ray, so the shorter axis has the cone's width
-// w whatever the incidence; its uv length is w * sqrt(uv_area_ratio) (the
-// triangle's uv-to-world area ratio: an isotropic stand-in for the
-// barycentric interpolation at P1, P2). No cone (w = 0): the finest level.
-int memo_level(float cone_width, float uv_area_ratio, float bias) {
-    float l = cone_width * sqrt(max(uv_area_ratio, 0.0));
+// Eqs. 2.13-2.16 and 5.2-5.4: the shorter uv derivative of a ray cone's
+// footprint, per unit of cone width, for a hit along `dir` on a triangle
+// of world edges e1, e2 and uv edges d1, d2 (vertex 1 and 2 minus vertex
+// 0). The footprint is the ellipse the cone cuts from the triangle's
+// plane (normal n): its vertex direction h1 = ProjectOnPlane(d, n)
+// (eq. 2.13), its co-vertex direction h2 = n x h1 (eq. 2.14), at the
+// distances r / |ProjectOnPlane(h1, d)| = r / |cos theta| and
+// r / |ProjectOnPlane(h2, d)| = r from the hit (eqs. 2.15-2.16, h1 and h2
+// unit vectors, so h2 is across the ray). The uvs at P1 and P2 come from
+// barycentric interpolation: uv moves by J a for a step a in the plane,
+// J = d1 (grad b)^T + d2 (grad c)^T with grad b = (e2 x N) / |N|^2,
+// grad c = (N x e1) / |N|^2, N = e1 x e2. r is the cone's width w (the
+// caller multiplies): a step across one pixel's cone is what a
+// rasteriser's screen-space derivative measures (eqs. 5.2-5.3), so on a
+// uniformly scaled uv map the level is the isotropic one, w sqrt(uv area /
+// world area). Head-on (h1 = 0) the footprint is a circle: its axes are
+// taken along e1 and n x e1. 0 for a degenerate triangle or uv map (the
+// finest level).
+float memo_uv_per_width(vec3 dir, vec3 e1, vec3 e2, vec2 d1, vec2 d2) {
+    vec3 N = cross(e1, e2);
+    float nn = dot(N, N);
+    if (!(nn > 0.0)) return 0.0;
+    vec3 gb = cross(e2, N) / nn, gc = cross(N, e1) / nn;
+    vec3 n = N * inversesqrt(nn);
+    vec3 d = normalize(dir);
+    float c = dot(d, n);
+    vec3 h1 = d - c * n;
+    float s2 = dot(h1, h1);
+    h1 = s2 > 1e-12 ? h1 * inversesqrt(s2) : normalize(e1);
+    vec3 h2 = cross(n, h1);
+    vec2 j1 = d1 * dot(h1, gb) + d2 * dot(h1, gc);
+    vec2 j2 = d1 * dot(h2, gb) + d2 * dot(h2, gc);
+    return min(length(j1) / max(abs(c), 1e-6), length(j2));
+}
+
+// Eq. 5.5: m = round(log2(1 / l_min) + bias) with l_min = cone_width *
+// uv_per_width (memo_uv_per_width; the thesis writes log2 of the texel
+// density 1 / l_min). No cone (w = 0): the finest level.
+int memo_level(float cone_width, float uv_per_width, float bias) {
+    float l = cone_width * max(uv_per_width, 0.0);
     if (!(l > 0.0)) return MEMO_MAX_LEVEL;
     return clamp(int(floor(-log2(l) + bias + 0.5)), MEMO_MIN_LEVEL, MEMO_MAX_LEVEL);
 }

@@ -1,15 +1,49 @@
 //! CPU twin of `shaders/memo/lod.glsl`: the memo cache's level of detail
-//! from a ray cone (thesis eqs. 5.1–5.5), the nearest texel centre (eqs.
-//! 5.6–5.7, texel-centre snapping) and the cone's growth past a hit (eqs.
-//! 2.10–2.11). See the shader for the reasoning; the formulas are the same,
+//! from a ray cone's anisotropic footprint (thesis eqs. 2.13–2.16,
+//! 5.1–5.5), the nearest texel centre (eqs. 5.6–5.7, texel-centre
+//! snapping) and the cone's growth past a hit (eqs. 2.10–2.11). See the shader for the reasoning; the formulas are the same,
 //! in f32.
+
+use glam::{Vec2, Vec3};
 
 pub const MIN_LEVEL: i32 = -8;
 pub const MAX_LEVEL: i32 = 22;
 
-/// m = round(log2(1 / l_min) + bias), l_min = w · sqrt(uv area / world area).
-pub fn level(cone_width: f32, uv_area_ratio: f32, bias: f32) -> i32 {
-    let l = cone_width * uv_area_ratio.max(0.0).sqrt();
+/// Eqs. 2.13–2.16 and 5.2–5.4: the shorter uv derivative of a ray cone's
+/// footprint per unit of cone width, for a hit along `dir` on a triangle of
+/// world edges `e1`, `e2` and uv edges `d1`, `d2` (vertex 1 and 2 minus
+/// vertex 0): min(|J ĥ1| / |cos θ|, |J ĥ2|), ĥ1 the ray's direction projected
+/// on the plane, ĥ2 = n × ĥ1, J the barycentric uv map's derivative. 0 for a
+/// degenerate triangle or uv map. The shader's reasoning is in
+/// `shaders/memo/lod.glsl` (`memo_uv_per_width`); the operations are the
+/// same, in f32.
+pub fn uv_per_width(dir: Vec3, e1: Vec3, e2: Vec3, d1: Vec2, d2: Vec2) -> f32 {
+    let n_ = e1.cross(e2);
+    let nn = n_.dot(n_);
+    if nn.is_nan() || nn <= 0.0 {
+        return 0.0;
+    }
+    let gb = e2.cross(n_) / nn;
+    let gc = n_.cross(e1) / nn;
+    let n = n_ * nn.sqrt().recip();
+    let d = dir.normalize();
+    let c = d.dot(n);
+    let h1 = d - c * n;
+    let s2 = h1.dot(h1);
+    let h1 = if s2 > 1e-12 {
+        h1 * s2.sqrt().recip()
+    } else {
+        e1.normalize()
+    };
+    let h2 = n.cross(h1);
+    let j1 = d1 * h1.dot(gb) + d2 * h1.dot(gc);
+    let j2 = d1 * h2.dot(gb) + d2 * h2.dot(gc);
+    (j1.length() / c.abs().max(1e-6)).min(j2.length())
+}
+
+/// Eq. 5.5: m = round(log2(1 / l_min) + bias), l_min = w · `uv_per_width`.
+pub fn level(cone_width: f32, uv_per_width: f32, bias: f32) -> i32 {
+    let l = cone_width * uv_per_width.max(0.0);
     if l.is_nan() || l <= 0.0 {
         return MAX_LEVEL;
     }
