@@ -892,6 +892,25 @@ fn cone_footprint_derivatives_match_finite_differences() {
         shorter_is_vertex > 1_000 && checked - shorter_is_vertex > 1_000,
         "{shorter_is_vertex} of {checked}"
     );
+    // A uv map that collapses one axis (rank 1: u = 2x, v = 0 on a
+    // triangle in the XZ plane, as 72 of the Sponza's brick-wall triangles
+    // have): the area ratio is 0, which the isotropic stand-in turned into
+    // the finest level (a new texel at every hit); the footprint's axes
+    // still see the u derivative: |J ĥ2| = 2 |ĥ2 · x|, and along the ray's
+    // projection 2 |ĥ1 · x| / cos θ.
+    let (x, z) = (Vec3::X, Vec3::Z);
+    let (ux, uz) = (Vec2::new(2.0, 0.0), Vec2::ZERO);
+    let oblique = Vec3::new(0.6, -0.64, 0.48);
+    let cos = 0.64 / oblique.length();
+    let h1 = Vec3::new(0.6, 0.0, 0.48).normalize();
+    let h2 = Vec3::Y.cross(h1);
+    let want = (2.0 * h1.x.abs() / cos).min(2.0 * h2.x.abs());
+    let got = lod::uv_per_width(oblique, x, z, ux, uz);
+    assert!(
+        want > 0.5 && (got - want).abs() <= 1e-5 * want,
+        "rank-1 uv map: {got} vs {want}"
+    );
+    assert!(lod::level(0.01, got, 0.0) < lod::MAX_LEVEL);
     // Degenerate triangles and uv maps: the finest level.
     let (x, y) = (Vec3::X, Vec3::Y);
     assert_eq!(
