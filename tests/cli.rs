@@ -707,6 +707,7 @@ fn bench_materials_checks_input_and_sweeps_the_table() {
         (vec!["--sizes", "4"], "bad --sizes"),
         (vec!["--frames", "0"], "bad --frames"),
         (vec!["--scene", "cornell"], "no material graphs"),
+        (vec!["--sweep-tile", "3"], "bad --sweep-tile"),
     ] {
         let mut a = vec!["bench", "materials", "--rt", "software"];
         a.extend(args.iter().copied());
@@ -795,5 +796,57 @@ fn bench_materials_checks_input_and_sweeps_the_table() {
     assert_eq!(row("both S=64 lru counter")[col("eviction")], "lru counter");
     assert!(f(row("both S=64 lru counter"), "evictions_per_frame") > 0.0);
     assert_eq!(f(row("both"), "evictions_per_frame"), 0.0);
+    // The size sweep and eviction rows of 4×4 tiles with the plain fill
+    // (--sweep-tile, --sweep-fill: the thesis's tiled columns): 16 tiles
+    // must evict, every row of them fills no tile cooperatively.
+    let tiled_csv = out.join("memo-tiled.csv");
+    let mut o = cli(1200);
+    o.args([
+        "bench",
+        "materials",
+        "--scene",
+        "procedural-uv:cornell",
+        "--rt",
+        "software",
+    ])
+    .args([
+        "--frames",
+        "2",
+        "--size",
+        "16x12",
+        "--sizes",
+        "16",
+        "--repeats",
+        "1",
+        "--sweep-tile",
+        "4",
+        "--sweep-fill",
+        "plain",
+    ])
+    .arg("--out")
+    .arg(&tiled_csv);
+    succeeds(&mut o);
+    let text = std::fs::read_to_string(&tiled_csv).unwrap();
+    let rows: Vec<Vec<&str>> = text
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect())
+        .collect();
+    let tiled: Vec<&Vec<&str>> = rows
+        .iter()
+        .filter(|r| r[0].starts_with("both tile 4x4 plain fill S=16"))
+        .collect();
+    assert_eq!(tiled.len(), 5, "{rows:?}");
+    for r in &tiled {
+        assert_eq!(r[col("entries")], "16", "{r:?}");
+        assert!(f(r, "evictions_per_frame") > 0.0, "{r:?}");
+        assert_eq!(f(r, "cooperative_fills_per_frame"), 0.0, "{r:?}");
+    }
+    let secondary = rows
+        .iter()
+        .find(|r| r[0] == "secondary tile 4x4 plain fill")
+        .expect("the tiled secondary-only row");
+    assert_eq!(secondary[col("hits")], "secondary");
+    assert!(f(secondary, "lookups_per_frame") > 0.0, "{secondary:?}");
     let _ = std::fs::remove_dir_all(&out);
 }

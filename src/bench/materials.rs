@@ -15,20 +15,58 @@ use crate::error::Result;
 use crate::gpu::GpuContext;
 use crate::materials::memo::state::MemoCounters;
 use crate::materials::memo::table::Eviction;
-use crate::materials::memo::{MemoClock, MemoHits, MemoSettings};
+use crate::materials::memo::{MemoClock, MemoFill, MemoHits, MemoSettings};
 use crate::methods::{FrameInput, MethodConfig, RenderSettings};
 use crate::rt::RtChoice;
 use crate::scene::Scene;
 use crate::session::Session;
 use std::sync::Arc;
 
+/// The variant of the size sweep and the eviction rows (thesis Tables 6.3
+/// and 6.2 have a non-tiled and a tiled column).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SweepVariant {
+    /// Texels per entry edge: 1 (non-tiled) or s (s×s tiles; the sizes
+    /// then count tiles).
+    pub tile: u32,
+    /// The tiled sweep's fill.
+    pub fill: MemoFill,
+}
+
+impl Default for SweepVariant {
+    fn default() -> Self {
+        SweepVariant {
+            tile: 1,
+            fill: MemoFill::Subgroup,
+        }
+    }
+}
+
 /// The configurations: off; primary, secondary and both with the default
 /// table; both at each of `sizes` entries (LRU); 4×4 tiles (nearest with the
 /// cooperative and the plain fill, bilinear); each eviction policy at the
 /// smallest size (where eviction happens), LRW and LRU also by the access
-/// counter.
-pub fn memo_configs(sizes: &[u32]) -> Vec<(String, MemoSettings)> {
+/// counter. With a tiled `sweep` (s > 1) the size sweep and the eviction
+/// rows are of s×s tiles with its fill (labels "both tile sxs S=…"), and
+/// secondary-only gets a row with those tiles too.
+pub fn memo_configs(sizes: &[u32], sweep: SweepVariant) -> Vec<(String, MemoSettings)> {
     let d = MemoSettings::default();
+    let tiled = sweep.tile > 1;
+    let sw = if tiled {
+        MemoSettings {
+            tile: sweep.tile,
+            fill: sweep.fill,
+            entries: MemoSettings::default_entries(sweep.tile),
+            ..d
+        }
+    } else {
+        d
+    };
+    let prefix = if tiled {
+        format!("both tile {0}x{0}{1}", sweep.tile, fill_suffix(sweep.fill))
+    } else {
+        "both".to_string()
+    };
     let mut v = vec![("off".to_string(), d)];
     for (name, hits) in [
         ("primary", MemoHits::Primary),
@@ -37,14 +75,38 @@ pub fn memo_configs(sizes: &[u32]) -> Vec<(String, MemoSettings)> {
     ] {
         v.push((name.into(), MemoSettings { hits, ..d }));
     }
-    for &entries in sizes {
-        if entries != d.entries {
+    if tiled {
+        v.push((
+            format!(
+                "secondary tile {0}x{0}{1}",
+                sweep.tile,
+                fill_suffix(sweep.fill)
+            ),
+            MemoSettings {
+                hits: MemoHits::Secondary,
+                ..sw
+            },
+        ));
+        // (4×4 at the default size is a row of its own below, with
+        // either fill.)
+        if sweep.tile != 4 {
             v.push((
-                format!("both S={entries}"),
+                prefix.clone(),
+                MemoSettings {
+                    hits: MemoHits::Both,
+                    ..sw
+                },
+            ));
+        }
+    }
+    for &entries in sizes {
+        if entries != sw.entries {
+            v.push((
+                format!("{prefix} S={entries}"),
                 MemoSettings {
                     hits: MemoHits::Both,
                     entries,
-                    ..d
+                    ..sw
                 },
             ));
         }
@@ -92,18 +154,25 @@ pub fn memo_configs(sizes: &[u32]) -> Vec<(String, MemoSettings)> {
             ("lru counter", Eviction::Lru, MemoClock::Counter),
         ] {
             v.push((
-                format!("both S={small} {name}"),
+                format!("{prefix} S={small} {name}"),
                 MemoSettings {
                     hits: MemoHits::Both,
                     entries: small,
                     eviction,
                     clock,
-                    ..d
+                    ..sw
                 },
             ));
         }
     }
     v
+}
+
+fn fill_suffix(fill: MemoFill) -> &'static str {
+    match fill {
+        MemoFill::Subgroup => "",
+        MemoFill::Plain => " plain fill",
+    }
 }
 
 /// One configuration's figures, over the steady frames (frame 0 is the
@@ -292,4 +361,67 @@ pub fn memo_csv(rows: &[MemoBenchRow]) -> String {
         ));
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The default sweep is of single texels; a tiled one puts every sweep
+    /// and eviction row (and a secondary-only row) on its tiles and fill,
+    /// keeps the fixed rows, and repeats no label.
+    #[test]
+    fn a_tiled_sweep_puts_the_sweep_and_eviction_rows_on_its_tiles() {
+        let plain = memo_configs(&[64, 4096], SweepVariant::default());
+        assert!(plain
+            .iter()
+            .filter(|(l, _)| l.starts_with("both S="))
+            .all(|(_, s)| s.tile == 1));
+        for tile in [2, 4, 8] {
+            let v = memo_configs(
+                &[64, 4096],
+                SweepVariant {
+                    tile,
+                    fill: MemoFill::Plain,
+                },
+            );
+            let mut labels: Vec<&str> = v.iter().map(|(l, _)| l.as_str()).collect();
+            let n = labels.len();
+            labels.sort();
+            labels.dedup();
+            assert_eq!(labels.len(), n, "tile {tile}: a label twice");
+            let prefix = format!("both tile {tile}x{tile} plain fill S=");
+            let swept: Vec<_> = v.iter().filter(|(l, _)| l.starts_with(&prefix)).collect();
+            // Two sizes and four more policies at the smallest.
+            assert_eq!(swept.len(), 6, "tile {tile}: {labels:?}");
+            for (l, s) in &swept {
+                assert_eq!(
+                    (s.tile, s.fill, s.hits),
+                    (tile, MemoFill::Plain, MemoHits::Both),
+                    "{l}"
+                );
+            }
+            let small: Vec<_> = swept.iter().filter(|(l, _)| l.contains("S=64 ")).collect();
+            assert_eq!(small.len(), 4);
+            assert!(small.iter().all(|(_, s)| s.entries == 64));
+            let secondary = v
+                .iter()
+                .find(|(l, _)| l.starts_with("secondary tile"))
+                .expect("a tiled secondary-only row");
+            assert_eq!(
+                (secondary.1.tile, secondary.1.hits),
+                (tile, MemoHits::Secondary)
+            );
+            // The fixed rows stay: off, the three hit modes, the 4×4 rows.
+            for fixed in [
+                "off",
+                "primary",
+                "secondary",
+                "both",
+                "both tile 4x4 plain fill",
+            ] {
+                assert!(v.iter().any(|(l, _)| l == fixed), "tile {tile}: {fixed}");
+            }
+        }
+    }
 }

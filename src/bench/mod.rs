@@ -16,7 +16,9 @@ pub mod tradeoff;
 
 pub use interleave::{paired_ratio, run_interleaved};
 pub use lights::{bench_lights, light_table, LightBenchRow};
-pub use materials::{bench_materials, memo_configs, memo_csv, memo_table, MemoBenchRow};
+pub use materials::{
+    bench_materials, memo_configs, memo_csv, memo_table, MemoBenchRow, SweepVariant,
+};
 pub use rays::{bench_rays, RayBench};
 pub use sample_cache::{bench_sample_cache, CacheBenchRow, ScatterBaselines};
 pub use scaling::{fit_slope, steady_frame_ms};

@@ -11,6 +11,7 @@ use std::path::PathBuf;
 use stereocache::camera::PoseTrace;
 use stereocache::gpu::GpuContext;
 use stereocache::materials::memo::settings::MAX_ENTRIES;
+use stereocache::materials::memo::MemoFill;
 use stereocache::methods::{MethodConfig, MethodKind, RenderSettings};
 use stereocache::replay::{trace_cameras, DEFAULT_FPS};
 use stereocache::rt::RtChoice;
@@ -48,6 +49,14 @@ pub struct BenchMaterialsArgs {
     /// eviction policy.
     #[arg(long, default_value = "4096,65536,1048576", value_delimiter = ',')]
     sizes: Vec<u32>,
+    /// The sweep's and the eviction rows' entries: 1 (single texels) or s
+    /// (s×s tiles, s = 2, 4, 8; --sizes then counts tiles, and
+    /// secondary-only gets a row of these tiles too).
+    #[arg(long, default_value_t = 1)]
+    sweep_tile: u32,
+    /// The tiled sweep's fill: subgroup or plain (as --memo-fill).
+    #[arg(long, default_value = "subgroup")]
+    sweep_fill: MemoFill,
     /// Rounds over all configurations (alternating, rotating order).
     #[arg(long, default_value_t = 2)]
     repeats: usize,
@@ -57,7 +66,19 @@ pub struct BenchMaterialsArgs {
 }
 
 pub fn run(a: BenchMaterialsArgs) -> Result<()> {
-    let configs = stereocache::bench::memo_configs(&a.sizes);
+    if ![1, 2, 4, 8].contains(&a.sweep_tile) {
+        bail!(
+            "bad --sweep-tile {}: expected 1 (single texels), 2, 4 or 8",
+            a.sweep_tile
+        );
+    }
+    let configs = stereocache::bench::memo_configs(
+        &a.sizes,
+        stereocache::bench::SweepVariant {
+            tile: a.sweep_tile,
+            fill: a.sweep_fill,
+        },
+    );
     for (label, s) in &configs {
         s.validate()
             .map_err(|e| anyhow::anyhow!("bad --sizes ({label}): {e}"))?;
