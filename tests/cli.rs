@@ -716,30 +716,30 @@ fn bench_materials_checks_input_and_sweeps_the_table() {
     }
     let out = out_dir("bench-materials");
     std::fs::create_dir_all(&out).unwrap();
-    let csv = out.join("memo.csv");
-    let mut o = cli(1200);
-    o.args([
-        "bench",
-        "materials",
-        "--scene",
-        "procedural-uv:cornell",
-        "--rt",
-        "software",
-    ])
-    .args([
-        "--frames",
-        "3",
-        "--size",
-        "16x12",
-        "--sizes",
-        "64,4096",
-        "--repeats",
-        "1",
-    ])
-    .arg("--out")
-    .arg(&csv);
-    succeeds(&mut o);
-    let text = std::fs::read_to_string(&csv).unwrap();
+    // One run of the bench on a 16×12 view of the procedural Cornell box,
+    // one round: the CSV's text.
+    let bench = |name: &str, args: &[&str]| -> String {
+        let csv = out.join(name);
+        let mut o = cli(1200);
+        o.args([
+            "bench",
+            "materials",
+            "--scene",
+            "procedural-uv:cornell",
+            "--rt",
+            "software",
+            "--size",
+            "16x12",
+            "--repeats",
+            "1",
+        ])
+        .args(args)
+        .arg("--out")
+        .arg(&csv);
+        succeeds(&mut o);
+        std::fs::read_to_string(&csv).unwrap()
+    };
+    let text = bench("memo.csv", &["--frames", "3", "--sizes", "64,4096"]);
     let mut lines = text.lines();
     let header: Vec<&str> = lines.next().unwrap().split(',').collect();
     let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
@@ -799,34 +799,19 @@ fn bench_materials_checks_input_and_sweeps_the_table() {
     // The size sweep and eviction rows of 4×4 tiles with the plain fill
     // (--sweep-tile, --sweep-fill: the thesis's tiled columns): 16 tiles
     // must evict, every row of them fills no tile cooperatively.
-    let tiled_csv = out.join("memo-tiled.csv");
-    let mut o = cli(1200);
-    o.args([
-        "bench",
-        "materials",
-        "--scene",
-        "procedural-uv:cornell",
-        "--rt",
-        "software",
-    ])
-    .args([
-        "--frames",
-        "2",
-        "--size",
-        "16x12",
-        "--sizes",
-        "16",
-        "--repeats",
-        "1",
-        "--sweep-tile",
-        "4",
-        "--sweep-fill",
-        "plain",
-    ])
-    .arg("--out")
-    .arg(&tiled_csv);
-    succeeds(&mut o);
-    let text = std::fs::read_to_string(&tiled_csv).unwrap();
+    let text = bench(
+        "memo-tiled.csv",
+        &[
+            "--frames",
+            "2",
+            "--sizes",
+            "16",
+            "--sweep-tile",
+            "4",
+            "--sweep-fill",
+            "plain",
+        ],
+    );
     let rows: Vec<Vec<&str>> = text
         .lines()
         .skip(1)

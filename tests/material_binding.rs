@@ -205,6 +205,35 @@ fn hit_geom(scene: &Scene, fh: [u32; 4]) -> (u32, Geom) {
     )
 }
 
+/// The centre ray of pixel `i` of a 40-pixel-wide image of `size`
+/// (normalised) and its distance to the y = 0 plane of the quads.
+fn pixel_ray_to_ground(
+    view: &stereocache::camera::EyeView,
+    i: usize,
+    size: glam::UVec2,
+) -> (Vec3, f32) {
+    let px = Vec2::new((i % 40) as f32 + 0.5, (i / 40) as f32 + 0.5);
+    let dir = view.ray_direction(px, size);
+    (dir, -view.position.y / dir.y)
+}
+
+/// Texels whose centre the GPU may have snapped a hit at `uv` to at level
+/// `m`: the CPU's uv is rebuilt from 24-bit barycentrics, so a hit within
+/// `eps` (that rounding, in uv) of a texel edge may go either way.
+fn snap_candidates(uv: [f32; 2], m: i32, eps: f32) -> Vec<[i32; 2]> {
+    use stereocache::materials::memo::lod;
+    let mut candidates = Vec::new();
+    for du in [-eps, 0.0, eps] {
+        for dv in [-eps, 0.0, eps] {
+            let q = lod::quantise([uv[0] + du, uv[1] + dv], m);
+            if !candidates.contains(&q) {
+                candidates.push(q);
+            }
+        }
+    }
+    candidates
+}
+
 fn top_camera() -> StereoCamera {
     let c = look_at(
         "top",
@@ -639,24 +668,10 @@ fn memoized_hits_return_the_graph_at_their_texel_centre() {
                     continue;
                 }
                 // The pixel-centre ray's hit distance: the cone at the hit.
-                let px = glam::Vec2::new((i % 40) as f32 + 0.5, (i / 40) as f32 + 0.5);
-                let dir = view.ray_direction(px, size);
-                let t = -view.position.y / dir.y;
+                let (_, t) = pixel_ray_to_ground(&view, i, size);
                 // The quad's uv spans 1 m: uv area / world area = 1.
                 let m = lod::level(t * spread, 1.0, 0.0);
-                // Texels whose centre the GPU may have snapped to: the CPU's
-                // uv is rebuilt from 24-bit barycentrics (2^-24 of the quad),
-                // so a hit within that of a texel edge may go either way.
-                let eps = 2.0f32.powi(-20);
-                let mut candidates = Vec::new();
-                for du in [-eps, 0.0, eps] {
-                    for dv in [-eps, 0.0, eps] {
-                        let q = lod::quantise([geom.uv[0] + du, geom.uv[1] + dv], m);
-                        if !candidates.contains(&q) {
-                            candidates.push(q);
-                        }
-                    }
-                }
+                let candidates = snap_candidates(geom.uv, m, 2.0f32.powi(-20));
                 let at = |q: [i32; 2]| {
                     let g = Geom {
                         uv: lod::snapped_uv(q, m),
@@ -823,9 +838,7 @@ fn memo_levels_follow_the_cone_footprints_shorter_uv_derivative() {
                     continue;
                 }
                 let albedo = Vec3::from_slice(&eye.albedo[i][..3]);
-                let px = Vec2::new((i % 40) as f32 + 0.5, (i / 40) as f32 + 0.5);
-                let dir = view.ray_direction(px, size).normalize();
-                let t = -view.position.y / dir.y;
+                let (dir, t) = pixel_ray_to_ground(&view, i, size);
                 // The hit triangle's world edges and uv edges.
                 let inst = &s.scene.instances[fh[3] as usize];
                 let mesh = &s.scene.meshes[inst.mesh as usize];
@@ -846,6 +859,7 @@ fn memo_levels_follow_the_cone_footprints_shorter_uv_derivative() {
                 if (x - x.round()).abs() < 1e-3 {
                     levels = vec![x.round() as i32 - 1, x.round() as i32];
                 }
+                // The uv runs 4 per metre: 4 times the unit quad's eps.
                 let eps = 2.0f32.powi(-20) * 4.0;
                 let at = |q: [i32; 2], m: i32| {
                     let g = Geom {
@@ -855,12 +869,9 @@ fn memo_levels_follow_the_cone_footprints_shorter_uv_derivative() {
                     cpu_slot(&s.scene, 0, Slot::BaseColor, &g)
                 };
                 let matches = |m: i32| {
-                    [-eps, 0.0, eps].iter().any(|&du| {
-                        [-eps, 0.0, eps].iter().any(|&dv| {
-                            let q = lod::quantise([geom.uv[0] + du, geom.uv[1] + dv], m);
-                            (albedo - at(q, m)).abs().max_element() <= tol
-                        })
-                    })
+                    snap_candidates(geom.uv, m, eps)
+                        .iter()
+                        .any(|&q| (albedo - at(q, m)).abs().max_element() <= tol)
                 };
                 assert!(
                     levels.iter().any(|&m| matches(m)),
