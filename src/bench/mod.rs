@@ -3,11 +3,14 @@
 //! cache against a plain scatter and 1 spp path tracing), `tradeoff` (time
 //! against error over a settings sweep), `scaling` (pixels and triangles),
 //! `specialization` (specialized pipelines and skipped passes), `lights`
-//! (light sampling at equal time); `interleave` holds what they share.
+//! (light sampling at equal time), `materials` and `memo_fill` (the
+//! material-graph memoization table: its sweep, and what a fill costs);
+//! `interleave` holds what they share.
 
 pub mod interleave;
 pub mod lights;
 pub mod materials;
+pub mod memo_fill;
 pub mod rays;
 pub mod sample_cache;
 pub mod scaling;
@@ -18,6 +21,9 @@ pub use interleave::{paired_ratio, run_interleaved};
 pub use lights::{bench_lights, light_table, LightBenchRow};
 pub use materials::{
     bench_materials, memo_configs, memo_csv, memo_table, MemoBenchRow, SweepVariant,
+};
+pub use memo_fill::{
+    bench_fill_cost, fill_cost_configs, fill_cost_csv, fill_cost_table, FillCostRow,
 };
 pub use rays::{bench_rays, RayBench};
 pub use sample_cache::{bench_sample_cache, CacheBenchRow, ScatterBaselines};

@@ -25,8 +25,12 @@ const ARGS: &[&str] = &["--target-env=vulkan1.2", "-O", "-fshader-stage=compute"
 /// The arguments of the second attempt when the optimizer runs out of
 /// SPIR-V ids ("ID overflow": spirv-opt inlines every function, and a
 /// shader that calls compute-heavy graphs from many sites — material_at,
-/// the memo's fills, light sampling — exceeds the id bound). Unoptimized
-/// SPIR-V is valid and the driver's compiler optimizes it anyway.
+/// the memo's fills, light sampling — exceeds the id bound), or crashes
+/// (killed by a signal: Debian 12's glslc 2023.2 does, after minutes, on
+/// the subgroup-cooperative memo fill of the procedural-heavy Sponza, at
+/// `-O` and `-Os` alike, while `-O0` compiles it in a fraction of a
+/// second). Unoptimized SPIR-V is valid and the driver's compiler
+/// optimizes it anyway.
 const ARGS_UNOPTIMIZED: &[&str] = &["--target-env=vulkan1.2", "-O0", "-fshader-stage=compute"];
 
 /// The cache directory (see the module docs).
@@ -197,7 +201,16 @@ fn run_glslc(
     };
     let mut out = run(ARGS);
     if let Ok(o) = &out {
-        if !o.status.success() && String::from_utf8_lossy(&o.stderr).contains("ID overflow") {
+        use std::os::unix::process::ExitStatusExt;
+        let overflow = String::from_utf8_lossy(&o.stderr).contains("ID overflow");
+        if !o.status.success() && (overflow || o.status.signal().is_some()) {
+            if !overflow {
+                eprintln!(
+                    "warning: {what}: glslc's optimizer crashed ({}); compiling it unoptimized \
+                     (the driver optimizes it)",
+                    o.status
+                );
+            }
             out = run(ARGS_UNOPTIMIZED);
         }
     }

@@ -60,6 +60,13 @@ pub struct BenchMaterialsArgs {
     /// Rounds over all configurations (alternating, rotating order).
     #[arg(long, default_value_t = 2)]
     repeats: usize,
+    /// Instead of the sweep: what one fill costs, timed apart. The trace's
+    /// first camera rendered from an emptied table and again from the
+    /// table it filled (same rays), per configuration (off; every hit
+    /// memoized non-tiled, 4×4 and 8×8 tiles with either fill), --repeats
+    /// rounds (at least 2).
+    #[arg(long)]
+    fill_cost: bool,
     /// Write the rows as CSV here.
     #[arg(long)]
     out: Option<PathBuf>,
@@ -153,6 +160,27 @@ pub fn run(a: BenchMaterialsArgs) -> Result<()> {
         seed: 1,
         ..Default::default()
     };
+    if a.fill_cost {
+        let rows = stereocache::bench::bench_fill_cost(
+            &ctx,
+            &scene,
+            a.rt,
+            &MethodConfig::from(a.method),
+            &settings,
+            cameras[0],
+            &stereocache::bench::fill_cost_configs(),
+            a.repeats,
+        )?;
+        print!("{}", stereocache::bench::fill_cost_table(&rows));
+        if let Some(p) = &a.out {
+            stereocache::output::write_file(
+                p,
+                stereocache::bench::fill_cost_csv(&rows).as_bytes(),
+            )?;
+            println!("wrote {}", p.display());
+        }
+        return report_validation(&ctx);
+    }
     let rows = stereocache::bench::bench_materials(
         &ctx,
         &scene,

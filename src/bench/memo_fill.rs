@@ -1,0 +1,264 @@
+//! `bench materials --fill-cost` (issue 17): what a miss of the
+//! memoization table costs, timed apart. The thesis's tables give frame
+//! times at given hit rates; the cost of one fill (the graphs evaluated for
+//! a texel or a whole tile, the lock, the write) only shows as the slope of
+//! frame time over the misses. Here it is measured directly: one camera, the
+//! same frame index (so the same rays, the same hit points and the same
+//! texel keys) rendered twice in a row, first from an emptied table (every
+//! lookup misses and fills) and then from the table that frame filled
+//! (every lookup hits); the difference of the two frames' GPU times over
+//! the difference of their fills is the time a fill costs beyond a hit.
+//! Each round empties the table again; the rows alternate with an "off"
+//! run (no table: the direct evaluation) in rotating order, like
+//! `bench_materials`.
+
+use crate::camera::StereoCamera;
+use crate::error::Result;
+use crate::gpu::GpuContext;
+use crate::materials::memo::state::MemoCounters;
+use crate::materials::memo::{MemoFill, MemoHits, MemoSettings};
+use crate::methods::{FrameInput, MethodConfig, RenderSettings};
+use crate::rt::RtChoice;
+use crate::scene::Scene;
+use crate::session::Session;
+use std::sync::Arc;
+
+/// The configurations: the direct evaluation ("off"), then every hit
+/// memoized non-tiled and with 4×4 and 8×8 tiles, each tiled size with the
+/// cooperative and the plain fill; the default table size of each.
+pub fn fill_cost_configs() -> Vec<(String, MemoSettings)> {
+    let both = MemoSettings {
+        hits: MemoHits::Both,
+        ..MemoSettings::default()
+    };
+    let mut v = vec![
+        ("off".to_string(), MemoSettings::default()),
+        ("both".to_string(), both),
+    ];
+    for tile in [4u32, 8] {
+        for fill in [MemoFill::Subgroup, MemoFill::Plain] {
+            let label = match fill {
+                MemoFill::Subgroup => format!("both tile {tile}x{tile}"),
+                MemoFill::Plain => format!("both tile {tile}x{tile} plain fill"),
+            };
+            v.push((
+                label,
+                MemoSettings {
+                    tile,
+                    fill,
+                    entries: MemoSettings::default_entries(tile),
+                    ..both
+                },
+            ));
+        }
+    }
+    v
+}
+
+/// One configuration's cold and warm frames, averaged over the rounds.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct FillCostRow {
+    pub label: String,
+    /// The frame from an emptied table (the "off" row: every frame).
+    pub cold_ms: f64,
+    /// The same frame again, from the table the cold frame filled.
+    pub warm_ms: f64,
+    /// Per frame: misses and fills of the cold frame, hits and fills of
+    /// the warm one.
+    pub cold_misses: f64,
+    pub cold_fills: f64,
+    pub warm_hits: f64,
+    pub warm_fills: f64,
+    /// Lookups of the warm frame that hit.
+    pub warm_hit_rate: f64,
+    /// (cold − warm) / (cold fills − warm fills), mean over rounds, in µs,
+    /// and its standard error over the rounds.
+    pub us_per_fill: f64,
+    pub us_per_fill_se: f64,
+    /// Cold and warm frame over the same round's "off" frame (mean ratio).
+    pub cold_over_off: f64,
+    pub warm_over_off: f64,
+}
+
+/// Renders `camera` (frame index 0) with `method`: per configuration and
+/// round, one frame from an emptied table and the same frame again; the
+/// first configuration must be "off" (the direct evaluation). One frame per
+/// session first, not counted (pipeline creation).
+#[allow(clippy::too_many_arguments)]
+pub fn bench_fill_cost(
+    ctx: &Arc<GpuContext>,
+    scene: &Scene,
+    rt: RtChoice,
+    method: &MethodConfig,
+    settings: &RenderSettings,
+    camera: StereoCamera,
+    configs: &[(String, MemoSettings)],
+    rounds: usize,
+) -> Result<Vec<FillCostRow>> {
+    let rounds = rounds.max(2);
+    // [config] -> per round ((cold ms, counters), (warm ms, counters))
+    type Frame = (f64, MemoCounters);
+    let mut runs: Vec<Vec<(Frame, Frame)>> = vec![Vec::new(); configs.len()];
+    let sessions: Vec<Session> = configs
+        .iter()
+        .map(|(_, m)| {
+            let mut s = scene.clone();
+            s.graphs.memo = *m;
+            Session::with_context(ctx.clone(), s, rt)
+        })
+        .collect::<Result<_>>()?;
+    let mut methods = sessions
+        .iter()
+        .map(|s| method.create(s, settings))
+        .collect::<Result<Vec<_>>>()?;
+    let input = FrameInput {
+        index: 0,
+        camera,
+        prev_camera: None,
+    };
+    for m in methods.iter_mut() {
+        m.render_frame(&input)?;
+    }
+    for round in 0..rounds {
+        for k in 0..configs.len() {
+            let c = (k + round) % configs.len();
+            let memo = sessions[c].scene_gpu.memo.as_ref();
+            let frame = |m: &mut Box<dyn crate::methods::Method>| -> Result<Frame> {
+                if let Some(t) = memo {
+                    t.begin_frame(0)?;
+                }
+                let f = m.render_frame(&input)?;
+                let counters = match memo {
+                    Some(t) => t.counters()?,
+                    None => MemoCounters::default(),
+                };
+                Ok((f.stats.gpu_ms(), counters))
+            };
+            if let Some(t) = memo {
+                t.reset()?;
+            }
+            let cold = frame(&mut methods[c])?;
+            let warm = frame(&mut methods[c])?;
+            runs[c].push((cold, warm));
+        }
+    }
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
+    let se = |v: &[f64]| {
+        let m = mean(v);
+        let n = v.len() as f64;
+        (v.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (n - 1.0).max(1.0) / n).sqrt()
+    };
+    let off: Vec<f64> = runs[0].iter().map(|r| 0.5 * (r.0 .0 + r.1 .0)).collect();
+    Ok(configs
+        .iter()
+        .zip(&runs)
+        .map(|((label, _), r)| {
+            let col = |f: &dyn Fn(&(Frame, Frame)) -> f64| r.iter().map(f).collect::<Vec<f64>>();
+            let per_fill: Vec<f64> = r
+                .iter()
+                .filter(|(c, w)| c.1.fills > w.1.fills)
+                .map(|(c, w)| 1e3 * (c.0 - w.0) / (c.1.fills - w.1.fills) as f64)
+                .collect();
+            let warm_lookups: u64 = r.iter().map(|(_, w)| w.1.hits + w.1.misses).sum();
+            let warm_hits: u64 = r.iter().map(|(_, w)| w.1.hits).sum();
+            FillCostRow {
+                label: label.clone(),
+                cold_ms: mean(&col(&|x| x.0 .0)),
+                warm_ms: mean(&col(&|x| x.1 .0)),
+                cold_misses: mean(&col(&|x| x.0 .1.misses as f64)),
+                cold_fills: mean(&col(&|x| x.0 .1.fills as f64)),
+                warm_hits: mean(&col(&|x| x.1 .1.hits as f64)),
+                warm_fills: mean(&col(&|x| x.1 .1.fills as f64)),
+                warm_hit_rate: if warm_lookups > 0 {
+                    warm_hits as f64 / warm_lookups as f64
+                } else {
+                    0.0
+                },
+                us_per_fill: if per_fill.is_empty() {
+                    f64::NAN
+                } else {
+                    mean(&per_fill)
+                },
+                us_per_fill_se: if per_fill.is_empty() {
+                    f64::NAN
+                } else {
+                    se(&per_fill)
+                },
+                cold_over_off: mean(
+                    &r.iter()
+                        .zip(&off)
+                        .map(|(x, o)| x.0 .0 / o)
+                        .collect::<Vec<_>>(),
+                ),
+                warm_over_off: mean(
+                    &r.iter()
+                        .zip(&off)
+                        .map(|(x, o)| x.1 .0 / o)
+                        .collect::<Vec<_>>(),
+                ),
+            }
+        })
+        .collect())
+}
+
+/// The table `bench materials --fill-cost` prints.
+pub fn fill_cost_table(rows: &[FillCostRow]) -> String {
+    let mut s = format!(
+        "{:<26} {:>9} {:>9} {:>9} {:>10} {:>10} {:>10} {:>9} {:>11} {:>8} {:>9} {:>9}\n",
+        "configuration",
+        "cold ms",
+        "warm ms",
+        "cold/off",
+        "cold miss",
+        "cold fills",
+        "warm fills",
+        "warm hits",
+        "µs / fill",
+        "± se",
+        "warm/off",
+        "hit rate"
+    );
+    for r in rows {
+        s.push_str(&format!(
+            "{:<26} {:>9.2} {:>9.2} {:>9.3} {:>10.0} {:>10.0} {:>10.0} {:>9.0} {:>11.3} {:>8.3} {:>9.3} {:>9.4}\n",
+            r.label,
+            r.cold_ms,
+            r.warm_ms,
+            r.cold_over_off,
+            r.cold_misses,
+            r.cold_fills,
+            r.warm_fills,
+            r.warm_hits,
+            r.us_per_fill,
+            r.us_per_fill_se,
+            r.warm_over_off,
+            r.warm_hit_rate
+        ));
+    }
+    s
+}
+
+/// The rows as CSV (one header line).
+pub fn fill_cost_csv(rows: &[FillCostRow]) -> String {
+    let mut s = String::from(
+        "label,cold_ms,warm_ms,cold_over_off,warm_over_off,cold_misses,cold_fills,warm_hits,warm_fills,warm_hit_rate,us_per_fill,us_per_fill_se\n",
+    );
+    for r in rows {
+        s.push_str(&format!(
+            "{},{},{},{},{},{},{},{},{},{},{},{}\n",
+            r.label,
+            r.cold_ms,
+            r.warm_ms,
+            r.cold_over_off,
+            r.warm_over_off,
+            r.cold_misses,
+            r.cold_fills,
+            r.warm_hits,
+            r.warm_fills,
+            r.warm_hit_rate,
+            r.us_per_fill,
+            r.us_per_fill_se
+        ));
+    }
+    s
+}
