@@ -866,7 +866,10 @@ fn bench_materials_checks_input_and_sweeps_the_table() {
             f(r, "warm_fills") <= f(r, "cold_misses") - f(r, "cold_fills"),
             "{r:?}"
         );
-        assert!(f(r, "warm_hits") > 0.0 && f(r, "us_per_fill").is_finite(), "{r:?}");
+        assert!(
+            f(r, "warm_hits") > 0.0 && f(r, "us_per_fill").is_finite(),
+            "{r:?}"
+        );
     }
     let _ = std::fs::remove_dir_all(&out);
 }
@@ -887,11 +890,7 @@ fn a_crashing_glslc_optimizer_falls_back_to_unoptimized_spirv() {
         "#!/bin/sh\nfor a in \"$@\"; do [ \"$a\" = -O ] && kill -SEGV $$; done\nexec glslc \"$@\"\n",
     )
     .unwrap();
-    let status = Command::new("chmod")
-        .arg("+x")
-        .arg(&fake)
-        .status()
-        .unwrap();
+    let status = Command::new("chmod").arg("+x").arg(&fake).status().unwrap();
     assert!(status.success());
     let o = cli(600)
         .args([
