@@ -1876,7 +1876,9 @@ fn metal_rough_spheres(scene: &Scene) -> Vec<(usize, u32, u32, bool)> {
 /// * paths ended because a sample direction lies below the triangle while
 ///   above the shading normal: at most sin²δ of the albedo, δ the largest
 ///   angle between a hit's interpolated normal and its triangle's normal;
-/// and 10⁻⁴ for the quadrature and f32 rounding. The spheres' albedos span
+/// * 10⁻⁴ for the quadrature and f32 rounding.
+///
+/// The spheres' albedos span
 /// 0.04–1.0 (grey dielectrics ≈ 0.62, smooth grey metal 0.60, rough golden
 /// metal down to about half); a metallic or roughness factor read from the
 /// wrong material, dropped, or squared twice moves a sphere by several
