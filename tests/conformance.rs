@@ -1868,7 +1868,7 @@ fn metal_rough_spheres(scene: &Scene) -> Vec<(usize, u32, u32, bool)> {
 /// [`gltf_brdf_albedo`] integrates from the glTF specification's formulas
 /// (Appendix B), independently of the shaders. Each sphere's mean over both
 /// eyes must lie within 5 standard errors (from the pixels' spread) of
-/// E(μ̄) at the pixels' mean μ̄, per channel, plus three bounded terms:
+/// E(μ̄) at the pixels' mean μ̄, per channel, plus these bounded terms:
 /// * the spread of E over the pixels' μ (|E(μ_min) − E(μ_max)|);
 /// * the renderer's one documented difference from Appendix B: its diffuse
 ///   weight is 1 − F(N·V), not 1 − F(V·H) (`shaders/common/bsdf.glsl`;
@@ -1878,9 +1878,8 @@ fn metal_rough_spheres(scene: &Scene) -> Vec<(usize, u32, u32, bool)> {
 ///   angle between a hit's interpolated normal and its triangle's normal;
 /// * 10⁻⁴ for the quadrature and f32 rounding.
 ///
-/// The spheres' albedos span
-/// 0.04–1.0 (grey dielectrics ≈ 0.62, smooth grey metal 0.60, rough golden
-/// metal down to about half); a metallic or roughness factor read from the
+/// The spheres' red albedos run from 0.19 (the roughest golden metal) to
+/// 0.62 (grey dielectrics; smooth grey metal 0.60); a metallic or roughness factor read from the
 /// wrong material, dropped, or squared twice moves a sphere by several
 /// times the tolerance. Then every method renders two of the spheres (a
 /// grey half-metal, a rough golden metal) for one frame, held to the
