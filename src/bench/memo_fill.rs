@@ -24,9 +24,10 @@ use crate::session::Session;
 use std::sync::Arc;
 
 /// The configurations: the direct evaluation ("off"), then every hit
-/// memoized non-tiled and with 4×4 and 8×8 tiles, each tiled size with the
-/// cooperative and the plain fill; the default table size of each.
-pub fn fill_cost_configs() -> Vec<(String, MemoSettings)> {
+/// memoized non-tiled and with 4×4 and 8×8 tiles, each tiled size with
+/// each of `fills` (the cooperative and the plain fill); the default table
+/// size of each.
+pub fn fill_cost_configs(fills: &[MemoFill]) -> Vec<(String, MemoSettings)> {
     let both = MemoSettings {
         hits: MemoHits::Both,
         ..MemoSettings::default()
@@ -36,7 +37,7 @@ pub fn fill_cost_configs() -> Vec<(String, MemoSettings)> {
         ("both".to_string(), both),
     ];
     for tile in [4u32, 8] {
-        for fill in [MemoFill::Subgroup, MemoFill::Plain] {
+        for &fill in fills {
             let label = match fill {
                 MemoFill::Subgroup => format!("both tile {tile}x{tile}"),
                 MemoFill::Plain => format!("both tile {tile}x{tile} plain fill"),

@@ -230,7 +230,13 @@ impl GraphShaders {
                 defs.push(COUNTER_CLOCK_DEFINE);
             }
         }
-        let what = format!("shader {name} with the scene's material graphs");
+        let what = match self.memo {
+            Some(m) if m.cooperative => format!(
+                "shader {name} with the scene's material graphs and the subgroup-cooperative \
+                 memo fill (--memo-fill plain compiles without it)"
+            ),
+            _ => format!("shader {name} with the scene's material graphs"),
+        };
         compile::compile_tree(&self.dir, &what, &files, src, &defs).map(keep)
     }
 }

@@ -54,17 +54,19 @@ pub struct BenchMaterialsArgs {
     /// secondary-only gets a row of these tiles too).
     #[arg(long, default_value_t = 1)]
     sweep_tile: u32,
-    /// The tiled sweep's fill: subgroup or plain (as --memo-fill).
-    #[arg(long, default_value = "subgroup")]
-    sweep_fill: MemoFill,
+    /// The tiled sweep's fill: subgroup (the default) or plain (as
+    /// --memo-fill); with --fill-cost, the one fill of its tiled rows
+    /// (both fills when not given).
+    #[arg(long)]
+    sweep_fill: Option<MemoFill>,
     /// Rounds over all configurations (alternating, rotating order).
     #[arg(long, default_value_t = 2)]
     repeats: usize,
     /// Instead of the sweep: what one fill costs, timed apart. The trace's
     /// first camera rendered from an emptied table and again from the
     /// table it filled (same rays), per configuration (off; every hit
-    /// memoized non-tiled, 4×4 and 8×8 tiles with either fill), --repeats
-    /// rounds (at least 2).
+    /// memoized non-tiled, 4×4 and 8×8 tiles with either fill, or the
+    /// --sweep-fill one), --repeats rounds (at least 2).
     #[arg(long)]
     fill_cost: bool,
     /// Write the rows as CSV here.
@@ -83,7 +85,7 @@ pub fn run(a: BenchMaterialsArgs) -> Result<()> {
         &a.sizes,
         stereocache::bench::SweepVariant {
             tile: a.sweep_tile,
-            fill: a.sweep_fill,
+            fill: a.sweep_fill.unwrap_or(MemoFill::Subgroup),
         },
     );
     for (label, s) in &configs {
@@ -161,6 +163,10 @@ pub fn run(a: BenchMaterialsArgs) -> Result<()> {
         ..Default::default()
     };
     if a.fill_cost {
+        let fills = match a.sweep_fill {
+            Some(f) => vec![f],
+            None => vec![MemoFill::Subgroup, MemoFill::Plain],
+        };
         let rows = stereocache::bench::bench_fill_cost(
             &ctx,
             &scene,
@@ -168,7 +174,7 @@ pub fn run(a: BenchMaterialsArgs) -> Result<()> {
             &MethodConfig::from(a.method),
             &settings,
             cameras[0],
-            &stereocache::bench::fill_cost_configs(),
+            &stereocache::bench::fill_cost_configs(&fills),
             a.repeats,
         )?;
         print!("{}", stereocache::bench::fill_cost_table(&rows));
