@@ -694,6 +694,31 @@ fn render_poses_an_animated_scene_at_the_given_time() {
     assert!(e.contains("bad --time"), "{e}");
 }
 
+/// A bench's CSV output: the header's columns and the rows' fields.
+struct Csv<'a> {
+    header: Vec<&'a str>,
+    rows: Vec<Vec<&'a str>>,
+}
+
+impl<'a> Csv<'a> {
+    fn parse(text: &'a str) -> Csv<'a> {
+        let mut lines = text.lines();
+        let header = lines.next().unwrap().split(',').collect();
+        let rows = lines.map(|l| l.split(',').collect()).collect();
+        Csv { header, rows }
+    }
+
+    /// The index of column `name`.
+    fn col(&self, name: &str) -> usize {
+        self.header.iter().position(|h| *h == name).unwrap()
+    }
+
+    /// Row `r`'s field `name` as a number.
+    fn f(&self, r: &[&str], name: &str) -> f64 {
+        r[self.col(name)].parse().unwrap()
+    }
+}
+
 /// `bench materials` (issue 17): bad sizes and a scene without graphs are
 /// one error line before any rendering; a tiny sweep writes one CSV row per
 /// configuration whose counters are consistent: "off" looks nothing up,
@@ -740,10 +765,8 @@ fn bench_materials_checks_input_and_sweeps_the_table() {
         std::fs::read_to_string(&csv).unwrap()
     };
     let text = bench("memo.csv", &["--frames", "3", "--sizes", "64,4096"]);
-    let mut lines = text.lines();
-    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
-    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    let csv = Csv::parse(&text);
+    let (rows, col) = (&csv.rows, |name: &str| csv.col(name));
     let labels: Vec<&str> = rows.iter().map(|r| r[0]).collect();
     assert_eq!(
         labels,
@@ -763,8 +786,8 @@ fn bench_materials_checks_input_and_sweeps_the_table() {
             "both S=64 lru counter"
         ]
     );
-    let f = |r: &[&str], name: &str| -> f64 { r[col(name)].parse().unwrap() };
-    for r in &rows {
+    let f = |r: &[&str], name: &str| csv.f(r, name);
+    for r in rows {
         let lookups = f(r, "lookups_per_frame");
         let hr = f(r, "hit_rate");
         assert!((0.0..=1.0).contains(&hr), "{r:?}");
@@ -812,11 +835,7 @@ fn bench_materials_checks_input_and_sweeps_the_table() {
             "plain",
         ],
     );
-    let rows: Vec<Vec<&str>> = text
-        .lines()
-        .skip(1)
-        .map(|l| l.split(',').collect())
-        .collect();
+    let rows = Csv::parse(&text).rows;
     let tiled: Vec<&Vec<&str>> = rows
         .iter()
         .filter(|r| r[0].starts_with("both tile 4x4 plain fill S=16"))
@@ -838,10 +857,8 @@ fn bench_materials_checks_input_and_sweeps_the_table() {
     // warm frame can only fill keys the cold frame missed without storing
     // (a lock lost to another lane), and "off" looks nothing up.
     let text = bench("fill.csv", &["--frames", "1", "--fill-cost"]);
-    let mut lines = text.lines();
-    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
-    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    let csv = Csv::parse(&text);
+    let rows = &csv.rows;
     let labels: Vec<&str> = rows.iter().map(|r| r[0]).collect();
     assert_eq!(
         labels,
@@ -854,8 +871,8 @@ fn bench_materials_checks_input_and_sweeps_the_table() {
             "both tile 8x8 plain fill"
         ]
     );
-    let f = |r: &[&str], name: &str| -> f64 { r[col(name)].parse().unwrap() };
-    for r in &rows {
+    let f = |r: &[&str], name: &str| csv.f(r, name);
+    for r in rows {
         assert!(f(r, "cold_ms") > 0.0 && f(r, "warm_ms") > 0.0, "{r:?}");
         if r[0] == "off" {
             assert_eq!(f(r, "cold_fills") + f(r, "warm_hits"), 0.0, "{r:?}");

@@ -1123,14 +1123,7 @@ fn attenuation_test_shades_each_column_as_its_answer_key() {
                         );
                     }
                 }
-                let got: [(f64, f64); 3] = std::array::from_fn(|k| {
-                    let v: Vec<f64> = fr
-                        .eyes
-                        .iter()
-                        .flat_map(|e| e.radiance.iter().map(move |p| p[k] as f64))
-                        .collect();
-                    mean_and_standard_error(&v)
-                });
+                let got: [(f64, f64); 3] = std::array::from_fn(|k| channel_mean_se(&fr, k));
                 table.push(format!(
                     "{row_name:>20} r {r:>4}: ({:.4} ± {:.4}, {:.4} ± {:.4}, {:.4} ± {:.4}) \
                      expected ({:.4}, {:.4}, {:.4})",
@@ -1824,6 +1817,33 @@ fn generated_tangents_equal_the_mikktspace_tangents_a_sample_model_ships() {
     assert_eq!(flipped, 0, "handedness differs at {flipped} corners");
 }
 
+/// The mean of colour channel `k` over both eyes' pixels of `fr`, and its
+/// standard error.
+fn channel_mean_se(fr: &StereoFrame, k: usize) -> (f64, f64) {
+    let v: Vec<f64> = fr
+        .eyes
+        .iter()
+        .flat_map(|e| e.radiance.iter().map(move |p| p[k] as f64))
+        .collect();
+    mean_and_standard_error(&v)
+}
+
+/// The view of a MetalRoughSpheres sphere's cap top, face-on: orthographic,
+/// 0.15 radius (0.35 mm) high, from +z (grey grid) or −z (golden grid), the
+/// eyes 0.01 radius apart; with the direction towards the camera.
+fn cap_camera(inst: &stereocache::scene::Instance, golden: bool) -> (StereoCamera, Vec3) {
+    let radius = 0.00035f32;
+    let centre = inst.transform.transform_point3(Vec3::ZERO);
+    let view = if golden { Vec3::NEG_Z } else { Vec3::Z };
+    let mut cam = look_at_camera(centre + view * 0.01, centre, 1.0, 1.0);
+    cam.projection = stereocache::camera::Projection::Orthographic {
+        ymag: 0.15 * radius,
+    };
+    cam.ipd = 0.01 * radius;
+    cam.znear = 1e-4;
+    (cam, view)
+}
+
 /// The sphere nodes of MetalRoughSpheresNoTextures: (instance, metallic
 /// step, roughness step, golden), from names such as `m33%_r66%` and
 /// `g_m33%_r66%` (steps of 1/6: 0, 16, 33, 50, 66, 83, 100 %).
@@ -1913,7 +1933,6 @@ fn metal_rough_spheres_show_each_spheres_albedo_in_a_furnace() {
         );
     }
     scene.environment = Some(stereocache::scene::Environment::Constant(Vec3::ONE));
-    let radius = 0.00035f32;
     let settings = RenderSettings {
         width: 8,
         height: 8,
@@ -1932,14 +1951,7 @@ fn metal_rough_spheres_show_each_spheres_albedo_in_a_furnace() {
             let inst = &scene.instances[i];
             let mesh = &scene.meshes[inst.mesh as usize];
             let mat = &scene.materials[mesh.material as usize];
-            let centre = inst.transform.transform_point3(Vec3::ZERO);
-            let view = if golden { Vec3::NEG_Z } else { Vec3::Z };
-            let mut cam = look_at_camera(centre + view * 0.01, centre, 1.0, 1.0);
-            cam.projection = stereocache::camera::Projection::Orthographic {
-                ymag: 0.15 * radius,
-            };
-            cam.ipd = 0.01 * radius;
-            cam.znear = 1e-4;
+            let (cam, view) = cap_camera(inst, golden);
             let fr = render_at(reference.as_mut(), frame as u32, cam, None);
             let (mut mus, mut sin2) = (Vec::new(), 0.0f64);
             for eye in &fr.eyes {
@@ -1970,18 +1982,13 @@ fn metal_rough_spheres_show_each_spheres_albedo_in_a_furnace() {
                 gltf_brdf_albedo(mu_min, base, metallic, roughness),
                 gltf_brdf_albedo(mu_max, base, metallic, roughness),
             );
-            for k in 0..3 {
-                let v: Vec<f64> = fr
-                    .eyes
-                    .iter()
-                    .flat_map(|e| e.radiance.iter().map(move |p| p[k] as f64))
-                    .collect();
-                let (mean, se) = mean_and_standard_error(&v);
+            for (k, &b) in base.iter().enumerate() {
+                let (mean, se) = channel_mean_se(&fr, k);
                 let want = e.total(k);
                 // The renderer's diffuse weight: 1 − F(N·V) with the same F.
-                let f0 = 0.04 + (base[k] - 0.04) * metallic;
+                let f0 = 0.04 + (b - 0.04) * metallic;
                 let f_nv = f0 + (1.0 - f0) * (1.0 - mu_bar).powi(5);
-                let ours_diffuse = (1.0 - metallic) * base[k] * (1.0 - f_nv);
+                let ours_diffuse = (1.0 - metallic) * b * (1.0 - f_nv);
                 let deviation = (ours_diffuse - e.diffuse[k]).abs();
                 let spread = (e_lo.total(k) - e_hi.total(k)).abs();
                 let tolerance = 5.0 * se + spread + deviation + sin2 * want + 1e-4;
@@ -2029,14 +2036,7 @@ fn metal_rough_spheres_show_each_spheres_albedo_in_a_furnace() {
                 .expect("the sphere");
             let inst = &scene.instances[i];
             let mat = &scene.materials[scene.meshes[inst.mesh as usize].material as usize];
-            let centre = inst.transform.transform_point3(Vec3::ZERO);
-            let view = if golden { Vec3::NEG_Z } else { Vec3::Z };
-            let mut cam = look_at_camera(centre + view * 0.01, centre, 1.0, 1.0);
-            cam.projection = stereocache::camera::Projection::Orthographic {
-                ymag: 0.15 * radius,
-            };
-            cam.ipd = 0.01 * radius;
-            cam.znear = 1e-4;
+            let (cam, _) = cap_camera(inst, golden);
             let base = [0, 1, 2].map(|k| mat.base_color[k] as f64);
             let (metallic, roughness) = (mat.metallic as f64, mat.roughness as f64);
             // Same view, so the same μ range on every method: bounds from
@@ -2051,12 +2051,7 @@ fn metal_rough_spheres_show_each_spheres_albedo_in_a_furnace() {
                 }
                 let fr = render(&s, kind.name(), cam, &wide);
                 for k in 0..3 {
-                    let v: Vec<f64> = fr
-                        .eyes
-                        .iter()
-                        .flat_map(|e| e.radiance.iter().map(move |p| p[k] as f64))
-                        .collect();
-                    let (mean, se) = mean_and_standard_error(&v);
+                    let (mean, se) = channel_mean_se(&fr, k);
                     let (lo, hi) = (
                         e_lo.total(k).min(e_hi.total(k)),
                         e_lo.total(k).max(e_hi.total(k)),

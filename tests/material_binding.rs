@@ -768,6 +768,18 @@ fn memoized_hits_return_the_graph_at_their_texel_centre() {
     let _ = std::fs::remove_dir_all(&d);
 }
 
+/// The level-of-detail tests' configurations: non-tiled on both backends
+/// (ray queries where the device has them; a skip, a failure under CI,
+/// where not) and 4×4 tiles on the software backend.
+fn level_test_configs(ctx: &stereocache::gpu::GpuContext) -> Vec<(RtChoice, u32)> {
+    let mut v = vec![(RtChoice::Software, 1)];
+    if require(ctx.ray_query_enabled(), "ray queries") {
+        v.push((RtChoice::Query, 1));
+    }
+    v.push((RtChoice::Software, 4));
+    v
+}
+
 /// The level of detail comes from the ray cone's footprint (thesis eqs.
 /// 2.13–2.16, 5.2–5.5): the shorter of the uv derivatives along the
 /// footprint ellipse's axes. On a quad whose uvs are stretched 4:1 (u runs
@@ -807,14 +819,7 @@ fn memo_levels_follow_the_cone_footprints_shorter_uv_derivative() {
     // The base colour moves by ≤ 2 per unit uv, the uv by ≤ 4 per metre:
     // the CPU's 24-bit barycentrics add 2 · 4 · 2^-24 to TOL's 7.6e-6.
     let tol = 7.6e-6 + 4.8e-7;
-    for (rt, tile) in [
-        (RtChoice::Software, 1),
-        (RtChoice::Query, 1),
-        (RtChoice::Software, 4),
-    ] {
-        if rt == RtChoice::Query && !require(ctx.ray_query_enabled(), "ray queries") {
-            continue;
-        }
+    for (rt, tile) in level_test_configs(&ctx) {
         use stereocache::materials::memo::MemoFill::Plain;
         scene.graphs.memo = MemoSettings {
             hits: MemoHits::Primary,
@@ -1033,14 +1038,7 @@ fn memo_levels_past_a_mirror_follow_the_grown_cone() {
     );
     let camera = StereoCamera::from_scene_camera(c.transform, c.yfov, 64.0 / 40.0);
     let mirror_inst = (scene.instances.len() - 1) as u32;
-    for (rt, tile) in [
-        (RtChoice::Software, 1),
-        (RtChoice::Query, 1),
-        (RtChoice::Software, 4),
-    ] {
-        if rt == RtChoice::Query && !require(ctx.ray_query_enabled(), "ray queries") {
-            continue;
-        }
+    for (rt, tile) in level_test_configs(&ctx) {
         scene.graphs.memo = MemoSettings {
             hits: MemoHits::Secondary,
             tile,

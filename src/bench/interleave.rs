@@ -44,10 +44,15 @@ pub fn run_interleaved(
 /// Ratio of the means of `a` and `b` (paired per-frame times of two methods
 /// on the same frames) and the standard error of the per-frame ratios.
 pub fn paired_ratio(a: &[f64], b: &[f64]) -> (f64, f64) {
-    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
     let r: Vec<f64> = a.iter().zip(b).map(|(x, y)| x / y).collect();
-    let m = mean(&r);
-    let n = r.len() as f64;
-    let var = r.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (n - 1.0).max(1.0);
-    (mean(a) / mean(b), (var / n.max(1.0)).sqrt())
+    (mean_and_se(a).0 / mean_and_se(b).0, mean_and_se(&r).1)
+}
+
+/// The mean of `v` and its standard error (sample standard deviation over
+/// √n; 0 for fewer than two values).
+pub fn mean_and_se(v: &[f64]) -> (f64, f64) {
+    let n = v.len() as f64;
+    let m = v.iter().sum::<f64>() / n.max(1.0);
+    let var = v.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (n - 1.0).max(1.0);
+    (m, (var / n.max(1.0)).sqrt())
 }

@@ -12,6 +12,7 @@
 //! run (no table: the direct evaluation) in rotating order, like
 //! `bench_materials`.
 
+use super::interleave::mean_and_se;
 use crate::camera::StereoCamera;
 use crate::error::Result;
 use crate::gpu::GpuContext;
@@ -143,60 +144,54 @@ pub fn bench_fill_cost(
             runs[c].push((cold, warm));
         }
     }
-    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
-    let se = |v: &[f64]| {
-        let m = mean(v);
-        let n = v.len() as f64;
-        (v.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (n - 1.0).max(1.0) / n).sqrt()
-    };
+    // Per configuration: the mean over rounds of a figure of the round's
+    // (cold, warm) pair, or of its ratio to the round's "off" frame.
     let off: Vec<f64> = runs[0].iter().map(|r| 0.5 * (r.0 .0 + r.1 .0)).collect();
     Ok(configs
         .iter()
         .zip(&runs)
         .map(|((label, _), r)| {
-            let col = |f: &dyn Fn(&(Frame, Frame)) -> f64| r.iter().map(f).collect::<Vec<f64>>();
+            let mean = |f: &dyn Fn(&(Frame, Frame)) -> f64| {
+                mean_and_se(&r.iter().map(f).collect::<Vec<f64>>()).0
+            };
+            let over_off = |f: &dyn Fn(&(Frame, Frame)) -> f64| {
+                mean_and_se(
+                    &r.iter()
+                        .zip(&off)
+                        .map(|(x, o)| f(x) / o)
+                        .collect::<Vec<f64>>(),
+                )
+                .0
+            };
             let per_fill: Vec<f64> = r
                 .iter()
                 .filter(|(c, w)| c.1.fills > w.1.fills)
                 .map(|(c, w)| 1e3 * (c.0 - w.0) / (c.1.fills - w.1.fills) as f64)
                 .collect();
+            let (us_per_fill, us_per_fill_se) = if per_fill.is_empty() {
+                (f64::NAN, f64::NAN)
+            } else {
+                mean_and_se(&per_fill)
+            };
             let warm_lookups: u64 = r.iter().map(|(_, w)| w.1.hits + w.1.misses).sum();
             let warm_hits: u64 = r.iter().map(|(_, w)| w.1.hits).sum();
             FillCostRow {
                 label: label.clone(),
-                cold_ms: mean(&col(&|x| x.0 .0)),
-                warm_ms: mean(&col(&|x| x.1 .0)),
-                cold_misses: mean(&col(&|x| x.0 .1.misses as f64)),
-                cold_fills: mean(&col(&|x| x.0 .1.fills as f64)),
-                warm_hits: mean(&col(&|x| x.1 .1.hits as f64)),
-                warm_fills: mean(&col(&|x| x.1 .1.fills as f64)),
+                cold_ms: mean(&|x| x.0 .0),
+                warm_ms: mean(&|x| x.1 .0),
+                cold_misses: mean(&|x| x.0 .1.misses as f64),
+                cold_fills: mean(&|x| x.0 .1.fills as f64),
+                warm_hits: mean(&|x| x.1 .1.hits as f64),
+                warm_fills: mean(&|x| x.1 .1.fills as f64),
                 warm_hit_rate: if warm_lookups > 0 {
                     warm_hits as f64 / warm_lookups as f64
                 } else {
                     0.0
                 },
-                us_per_fill: if per_fill.is_empty() {
-                    f64::NAN
-                } else {
-                    mean(&per_fill)
-                },
-                us_per_fill_se: if per_fill.is_empty() {
-                    f64::NAN
-                } else {
-                    se(&per_fill)
-                },
-                cold_over_off: mean(
-                    &r.iter()
-                        .zip(&off)
-                        .map(|(x, o)| x.0 .0 / o)
-                        .collect::<Vec<_>>(),
-                ),
-                warm_over_off: mean(
-                    &r.iter()
-                        .zip(&off)
-                        .map(|(x, o)| x.1 .0 / o)
-                        .collect::<Vec<_>>(),
-                ),
+                us_per_fill,
+                us_per_fill_se,
+                cold_over_off: over_off(&|x| x.0 .0),
+                warm_over_off: over_off(&|x| x.1 .0),
             }
         })
         .collect())
