@@ -1596,10 +1596,7 @@ fn memoized_images_differ_from_direct_ones_as_the_thesis_orders_them() {
         ("nearest + snap", false, &frames[0]),
         ("bilinear", true, &frames[2]),
     ] {
-        let mut levels = vec![(
-            [0, 1].map(|e| mad(at_bias_0, e)),
-            [0, 1].map(|e| scores(at_bias_0)[e].0),
-        )];
+        let mut levels = vec![([0, 1].map(|e| mad(at_bias_0, e)), scores(at_bias_0))];
         for bias in [1.0, 2.0] {
             let (f, _) = memoized(
                 MemoSettings {
@@ -1610,16 +1607,34 @@ fn memoized_images_differ_from_direct_ones_as_the_thesis_orders_them() {
                 },
                 &one(1),
             );
-            levels.push(([0, 1].map(|e| mad(&f, e)), [0, 1].map(|e| scores(&f)[e].0)));
+            levels.push(([0, 1].map(|e| mad(&f, e)), scores(&f)));
         }
         eprintln!(
-            "{name}: (mean |memo − direct| per eye, HDR-FLIP per eye) at bias 0, 1, 2: {levels:?}"
+            "{name}: (mean |memo − direct| per eye, (HDR-FLIP, RSE) per eye) at bias 0, 1, 2: {levels:?}"
         );
+        // The asserted bound (issue 17: "FLIP (and RSE) below a documented
+        // bound"): from bias 2 on — texels a quarter of the pixel cone's
+        // width — memoizing every hit changes the image less than rendering
+        // it again with another seed at the same 32 spp does, in HDR-FLIP
+        // and in RSE, each eye. The bound is the renderer's own Monte Carlo
+        // noise at this sample count (measured above, not chosen): a
+        // difference below it cannot be told from resampling. At bias 0 the
+        // memoized image is more than the noise away (docs/MATERIALS.md),
+        // so the bound bites there.
+        for e in 0..2 {
+            let (flip2, rse2) = levels[2].1[e];
+            let (noise_flip, noise_rse) = noise_scores[e];
+            assert!(
+                flip2 < noise_flip && rse2 < noise_rse,
+                "{name}, eye {e}: at bias 2 HDR-FLIP {flip2} / RSE {rse2} against direct, \
+                 not below the second seed's {noise_flip} / {noise_rse}"
+            );
+        }
         for b in 0..2 {
             for e in 0..2 {
                 let ((m0, f0), (m1, f1)) = (
-                    (levels[b].0[e], levels[b].1[e]),
-                    (levels[b + 1].0[e], levels[b + 1].1[e]),
+                    (levels[b].0[e], levels[b].1[e].0),
+                    (levels[b + 1].0[e], levels[b + 1].1[e].0),
                 );
                 assert!(
                     m1 > 0.0 && m1 <= 0.5 * m0,
