@@ -29,7 +29,8 @@ const ARGS: &[&str] = &["--target-env=vulkan1.2", "-O", "-fshader-stage=compute"
 /// (killed by a signal: Debian 12's glslc 2023.2 does, after minutes, on
 /// the subgroup-cooperative memo fill of the procedural-heavy Sponza, at
 /// `-O` and `-Os` alike, while `-O0` compiles it in a fraction of a
-/// second). Unoptimized SPIR-V is valid and the driver's compiler
+/// second; the same id overflow underneath, which spirv-opt 2023.1 reports
+/// before crashing the same way, docs/PERFORMANCE.md). Unoptimized SPIR-V is valid and the driver's compiler
 /// optimizes it anyway.
 const ARGS_UNOPTIMIZED: &[&str] = &["--target-env=vulkan1.2", "-O0", "-fshader-stage=compute"];
 
