@@ -85,7 +85,9 @@ void main() {
         uint idx = slot_index(eye, s, pixel);
         uvec4 fh = fh_cur[idx];
         if (first_hit_is_background(fh)) {
-            vec3 Lb = background_radiance(background_direction(fh));
+            // Kept in its record since it was traced (trace.comp): a read
+            // instead of a sky evaluation per sample and frame.
+            vec3 Lb = SHADING_STORAGE ? rad_cur[idx].rgb : background_radiance(background_direction(fh));
             bg_sum += Lb;
             bg_sum2 += Lb * Lb;
             n_bg += 1.0;

@@ -20,8 +20,13 @@ bool new_sample(EyeGpu e, uvec2 px, uint eye, uint pixel, uint slot, inout Rng r
     bool hit = rt_closest_hit(o, d, 0.0, 1e30, h);
     uint o_bit = 1u << slot, v_bit = 1u << (slot + N_SLOTS);
     uint idx = slot_index(eye, slot, pixel);
-    fh_cur[idx] = hit ? encode_first_hit(h.bary, h.instance, h.prim, instance_material(h.instance)) : encode_background(d, at - vec2(px));
-    if (SHADING_STORAGE) rad_cur[idx] = vec4(0.0);
+    uvec4 fh = hit ? encode_first_hit(h.bary, h.instance, h.prim, instance_material(h.instance)) : encode_background(d, at - vec2(px));
+    fh_cur[idx] = fh;
+    // A background sample's record holds the environment's radiance in its
+    // stored direction (what reconstruct.comp would evaluate every frame:
+    // the sky and the lights' discs are fixed for a run, gpu_scene.rs), with
+    // count 0, so no pass takes it for a shaded surface sample.
+    if (SHADING_STORAGE) rad_cur[idx] = hit ? vec4(0.0) : vec4(background_radiance(background_direction(fh)), 0.0);
     m |= o_bit | v_bit;
     return hit;
 }
