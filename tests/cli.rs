@@ -846,6 +846,18 @@ fn bench_materials_checks_input_and_sweeps_the_table() {
         assert!(f(r, "evictions_per_frame") > 0.0, "{r:?}");
         assert_eq!(f(r, "cooperative_fills_per_frame"), 0.0, "{r:?}");
     }
+    // --sweep-fill plain puts the fixed 4×4 rows on the plain fill too: no
+    // row of the run fills cooperatively (the heavy Sponza's cooperative
+    // build does not compile).
+    for label in [
+        "both tile 4x4 plain fill",
+        "both tile 4x4 bilinear plain fill",
+    ] {
+        assert!(rows.iter().any(|r| r[0] == label), "{label}: {rows:?}");
+    }
+    for r in &rows {
+        assert_eq!(f(r, "cooperative_fills_per_frame"), 0.0, "{r:?}");
+    }
     let secondary = rows
         .iter()
         .find(|r| r[0] == "secondary tile 4x4 plain fill")

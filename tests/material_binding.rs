@@ -1621,9 +1621,8 @@ fn memoized_images_differ_from_direct_ones_as_the_thesis_orders_them() {
         // difference below it cannot be told from resampling. At bias 0 the
         // memoized image is more than the noise away (docs/MATERIALS.md),
         // so the bound bites there.
-        for e in 0..2 {
+        for (e, &(noise_flip, noise_rse)) in noise_scores.iter().enumerate() {
             let (flip2, rse2) = levels[2].1[e];
-            let (noise_flip, noise_rse) = noise_scores[e];
             assert!(
                 flip2 < noise_flip && rse2 < noise_rse,
                 "{name}, eye {e}: at bias 2 HDR-FLIP {flip2} / RSE {rse2} against direct, \

@@ -112,38 +112,36 @@ pub fn memo_configs(sizes: &[u32], sweep: SweepVariant) -> Vec<(String, MemoSett
         }
     }
     // The tiled variant (4×4 texels an entry) with the default table's
-    // texel capacity.
-    v.push((
-        "both tile 4x4".to_string(),
-        MemoSettings {
-            hits: MemoHits::Both,
-            entries: MemoSettings::default_entries(4),
-            tile: 4,
-            ..d
-        },
-    ));
-    v.push((
-        "both tile 4x4 bilinear".to_string(),
-        MemoSettings {
-            hits: MemoHits::Both,
-            entries: MemoSettings::default_entries(4),
-            tile: 4,
-            bilinear: true,
-            ..d
-        },
-    ));
-    // The same with the plain fill (the default is the subgroup-cooperative
-    // one where the device has subgroup ballot and shuffle).
-    v.push((
-        "both tile 4x4 plain fill".to_string(),
-        MemoSettings {
-            hits: MemoHits::Both,
-            entries: MemoSettings::default_entries(4),
-            tile: 4,
-            fill: crate::materials::memo::MemoFill::Plain,
-            ..d
-        },
-    ));
+    // texel capacity, nearest and bilinear: with the subgroup-cooperative
+    // fill (where the device has subgroup ballot and shuffle) and nearest
+    // again with the plain fill; with `--sweep-fill plain`, every one with
+    // the plain fill, so that no row needs the cooperative build (which
+    // does not compile for the procedural-heavy Sponza: docs/PERFORMANCE.md,
+    // "Memoization, session 34").
+    let tile4 = |bilinear: bool, fill: MemoFill| MemoSettings {
+        hits: MemoHits::Both,
+        entries: MemoSettings::default_entries(4),
+        tile: 4,
+        bilinear,
+        fill,
+        ..d
+    };
+    let fills: &[MemoFill] = match sweep.fill {
+        MemoFill::Subgroup => &[MemoFill::Subgroup, MemoFill::Plain],
+        MemoFill::Plain => &[MemoFill::Plain],
+    };
+    for &fill in fills {
+        v.push((
+            format!("both tile 4x4{}", fill_suffix(fill)),
+            tile4(false, fill),
+        ));
+        if fill == sweep.fill {
+            v.push((
+                format!("both tile 4x4 bilinear{}", fill_suffix(fill)),
+                tile4(true, fill),
+            ));
+        }
+    }
     if let Some(&small) = sizes.iter().min() {
         // Table 6.2's rows: random, LRW and LRU by the frame clock (LRU is
         // "both S=small" above), LRW and LRU by the access counter.
@@ -412,16 +410,37 @@ mod tests {
                 (secondary.1.tile, secondary.1.hits),
                 (tile, MemoHits::Secondary)
             );
-            // The fixed rows stay: off, the three hit modes, the 4×4 rows.
+            // The fixed rows stay: off, the three hit modes, the 4×4 rows
+            // (nearest and bilinear), all with the plain fill: no row needs
+            // the cooperative build.
             for fixed in [
                 "off",
                 "primary",
                 "secondary",
                 "both",
                 "both tile 4x4 plain fill",
+                "both tile 4x4 bilinear plain fill",
             ] {
                 assert!(v.iter().any(|(l, _)| l == fixed), "tile {tile}: {fixed}");
             }
+            assert!(
+                v.iter()
+                    .all(|(_, s)| s.tile == 1 || s.fill == MemoFill::Plain),
+                "tile {tile}: a cooperative row with --sweep-fill plain: {labels:?}"
+            );
+        }
+        // The default (subgroup) sweep keeps both fills of the 4×4 rows.
+        let v = memo_configs(&[64, 4096], SweepVariant::default());
+        for (label, fill, bilinear) in [
+            ("both tile 4x4", MemoFill::Subgroup, false),
+            ("both tile 4x4 bilinear", MemoFill::Subgroup, true),
+            ("both tile 4x4 plain fill", MemoFill::Plain, false),
+        ] {
+            let (_, s) = v
+                .iter()
+                .find(|(l, _)| l == label)
+                .unwrap_or_else(|| panic!("{label}"));
+            assert_eq!((s.tile, s.fill, s.bilinear), (4, fill, bilinear), "{label}");
         }
     }
 }
