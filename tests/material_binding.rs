@@ -1621,8 +1621,11 @@ fn memoized_images_differ_from_direct_ones_as_the_thesis_orders_them() {
         // difference below it cannot be told from resampling. At bias 0 the
         // memoized image is more than the noise away (docs/MATERIALS.md),
         // so the bound bites there.
-        for (e, &(noise_flip, noise_rse)) in noise_scores.iter().enumerate() {
-            let (flip2, rse2) = levels[2].1[e];
+        // Both eyes' noise estimates the same quantity; a bright outlier
+        // pixel only raises one eye's RSE, so the smaller of the two bounds.
+        let noise_flip = noise_scores[0].0.min(noise_scores[1].0);
+        let noise_rse = noise_scores[0].1.min(noise_scores[1].1);
+        for (e, &(flip2, rse2)) in levels[2].1.iter().enumerate() {
             assert!(
                 flip2 < noise_flip && rse2 < noise_rse,
                 "{name}, eye {e}: at bias 2 HDR-FLIP {flip2} / RSE {rse2} against direct, \
@@ -1656,6 +1659,98 @@ fn memoized_images_differ_from_direct_ones_as_the_thesis_orders_them() {
         assert!(
             frames[2].eyes[e].radiance == frames[3].eyes[e].radiance,
             "eye {e}: 4×4 bilinear tiles differ from non-tiled bilinear"
+        );
+    }
+    assert_no_validation_messages(&ctx);
+}
+
+/// The asserted bound of `memoized_images_differ_from_direct_ones_as_the_thesis_orders_them`
+/// for the sample cache, the method this project is about: its pixels are
+/// means over cached first hits whose shading accumulates over frames, so
+/// a still view rendered for 32 frames (uniform shading: every cached
+/// sample shaded about every n_target-th frame) stands for the reference's
+/// 32 spp. From `--memo-bias 2` on, memoizing every hit moves that image
+/// less than rendering it again with another seed does, in HDR-FLIP and in
+/// RSE, each eye (the bound is the method's own noise, measured here); the
+/// image at bias 0 must differ more than at bias 2, so the table is used.
+#[test]
+fn sample_cache_memoized_images_stay_within_its_own_noise() {
+    use stereocache::materials::memo::{MemoHits, MemoSettings};
+    use stereocache::metrics::error::{rse, RSE_EPSILON};
+    use stereocache::metrics::flip::{flip_hdr, DEFAULT_PPD};
+    use stereocache::metrics::image::LinearImage;
+    const FRAMES: u32 = 32;
+    let ctx = context();
+    let base =
+        stereocache::scene::load_scene("procedural-uv:cornell").expect("procedural-uv:cornell");
+    let rt = RtChoice::Software;
+    // One bounce, as in the reference's test: same-seed paths stay the
+    // same paths where the material does not choose among them.
+    let settings = |seed: u32| RenderSettings {
+        width: 40,
+        height: 30,
+        spp: 1,
+        max_bounces: 1,
+        seed,
+        all_features: false,
+        ..Default::default()
+    };
+    let run = |memo: Option<f32>, seed: u32| {
+        let mut s = base.clone();
+        if let Some(bias) = memo {
+            s.graphs.memo = MemoSettings {
+                hits: MemoHits::Both,
+                bias,
+                ..Default::default()
+            };
+        }
+        let session = session(&ctx, s, rt);
+        let camera = default_camera(&session, 40, 30);
+        let mut m = session
+            .method("sample-cache", &settings(seed))
+            .expect("method");
+        let f = render_still(m.as_mut(), camera, FRAMES);
+        if memo.is_some() {
+            let c = session
+                .scene_gpu
+                .memo
+                .as_ref()
+                .expect("a memo table")
+                .counters()
+                .unwrap();
+            assert!(c.hits > c.misses && c.misses > 0, "bias {memo:?}: {c:?}");
+        }
+        f
+    };
+    let direct1 = run(None, 1);
+    let direct2 = run(None, 2);
+    let scores = |f: &stereocache::methods::StereoFrame| -> [(f32, f32); 2] {
+        [0, 1].map(|e| {
+            let t = LinearImage::from_rgba(&f.eyes[e].radiance, 40, 30).unwrap();
+            let r = LinearImage::from_rgba(&direct1.eyes[e].radiance, 40, 30).unwrap();
+            (
+                flip_hdr(&t, &r, DEFAULT_PPD).unwrap().flip.mean,
+                rse(&t, &r, RSE_EPSILON).unwrap(),
+            )
+        })
+    };
+    let noise = scores(&direct2);
+    let at0 = scores(&run(Some(0.0), 1));
+    let at2 = scores(&run(Some(2.0), 1));
+    eprintln!(
+        "sample-cache, {FRAMES} still frames: (HDR-FLIP, RSE) per eye against direct: second seed {noise:?}, bias 0 {at0:?}, bias 2 {at2:?}"
+    );
+    // Both eyes' noise estimates the same quantity; a bright outlier pixel
+    // only raises one eye's RSE, so the smaller of the two is the bound.
+    let (nf, nr) = (noise[0].0.min(noise[1].0), noise[0].1.min(noise[1].1));
+    for (e, (&(f0, _), &(f2, r2))) in at0.iter().zip(&at2).enumerate() {
+        assert!(
+            f2 > 0.0 && f2 < f0,
+            "eye {e}: HDR-FLIP at bias 2 {f2} not between 0 and bias 0's {f0}"
+        );
+        assert!(
+            f2 < nf && r2 < nr,
+            "eye {e}: at bias 2 HDR-FLIP {f2} / RSE {r2} against direct, not below the second seed's {nf} / {nr}"
         );
     }
     assert_no_validation_messages(&ctx);
