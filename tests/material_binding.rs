@@ -1398,6 +1398,46 @@ fn memoized_images_stay_within_the_snapping_bound_of_direct_ones() {
     let _ = std::fs::remove_dir_all(&d);
 }
 
+/// The memoization table's counters of a session rendered with one.
+fn memo_counters(
+    s: &stereocache::session::Session,
+) -> stereocache::materials::memo::state::MemoCounters {
+    s.scene_gpu
+        .memo
+        .as_ref()
+        .expect("a memo table")
+        .counters()
+        .unwrap()
+}
+
+/// (HDR-FLIP, RSE) of each eye of `test` against the same eye of
+/// `reference`, both `w`×`h`.
+fn flip_rse_per_eye(
+    test: &stereocache::methods::StereoFrame,
+    reference: &stereocache::methods::StereoFrame,
+    w: usize,
+    h: usize,
+) -> [(f32, f32); 2] {
+    use stereocache::metrics::error::{rse, RSE_EPSILON};
+    use stereocache::metrics::flip::{flip_hdr, DEFAULT_PPD};
+    use stereocache::metrics::image::LinearImage;
+    [0, 1].map(|e| {
+        let t = LinearImage::from_rgba(&test.eyes[e].radiance, w, h).unwrap();
+        let r = LinearImage::from_rgba(&reference.eyes[e].radiance, w, h).unwrap();
+        (
+            flip_hdr(&t, &r, DEFAULT_PPD).unwrap().flip.mean,
+            rse(&t, &r, RSE_EPSILON).unwrap(),
+        )
+    })
+}
+
+/// The noise bound of the memoized-image tests: the smaller of the two
+/// eyes' (HDR-FLIP, RSE) of a second seed's render. Both eyes estimate the
+/// same quantity; a bright outlier pixel only raises one eye's RSE.
+fn noise_bound(noise: [(f32, f32); 2]) -> (f32, f32) {
+    (noise[0].0.min(noise[1].0), noise[0].1.min(noise[1].1))
+}
+
 /// Memoized against direct evaluation on a scene of the library's graphs
 /// (`procedural-uv:cornell`: twelve texture-space graphs on the box), same
 /// seed:
@@ -1430,9 +1470,6 @@ fn memoized_images_stay_within_the_snapping_bound_of_direct_ones() {
 #[test]
 fn memoized_images_differ_from_direct_ones_as_the_thesis_orders_them() {
     use stereocache::materials::memo::{MemoHits, MemoSettings};
-    use stereocache::metrics::error::{rse, RSE_EPSILON};
-    use stereocache::metrics::flip::{flip_hdr, DEFAULT_PPD};
-    use stereocache::metrics::image::LinearImage;
     let ctx = context();
     let base =
         stereocache::scene::load_scene("procedural-uv:cornell").expect("procedural-uv:cornell");
@@ -1464,13 +1501,7 @@ fn memoized_images_differ_from_direct_ones_as_the_thesis_orders_them() {
         s.graphs.memo = memo;
         let session = session(&ctx, s, rt);
         let f = render(&session, "reference", camera, settings);
-        let c = session
-            .scene_gpu
-            .memo
-            .as_ref()
-            .expect("a memo table")
-            .counters()
-            .unwrap();
+        let c = memo_counters(&session);
         (f, c)
     };
     let (memo1, c) = memoized(
@@ -1519,18 +1550,7 @@ fn memoized_images_differ_from_direct_ones_as_the_thesis_orders_them() {
     );
 
     // Every hit memoized: FLIP and RSE per eye against the second seed's.
-    let image = |f: &stereocache::methods::StereoFrame, e: usize| {
-        LinearImage::from_rgba(&f.eyes[e].radiance, 40, 30).unwrap()
-    };
-    let scores = |f: &stereocache::methods::StereoFrame| -> [(f32, f32); 2] {
-        [0, 1].map(|e| {
-            let (t, r) = (image(f, e), image(&direct1b, e));
-            (
-                flip_hdr(&t, &r, DEFAULT_PPD).unwrap().flip.mean,
-                rse(&t, &r, RSE_EPSILON).unwrap(),
-            )
-        })
-    };
+    let scores = |f: &stereocache::methods::StereoFrame| flip_rse_per_eye(f, &direct1b, 40, 30);
     let noise_scores = scores(&direct2b);
     eprintln!("second seed: (HDR-FLIP, RSE) per eye {noise_scores:?}");
     let mut frames = Vec::new();
@@ -1621,10 +1641,7 @@ fn memoized_images_differ_from_direct_ones_as_the_thesis_orders_them() {
         // difference below it cannot be told from resampling. At bias 0 the
         // memoized image is more than the noise away (docs/MATERIALS.md),
         // so the bound bites there.
-        // Both eyes' noise estimates the same quantity; a bright outlier
-        // pixel only raises one eye's RSE, so the smaller of the two bounds.
-        let noise_flip = noise_scores[0].0.min(noise_scores[1].0);
-        let noise_rse = noise_scores[0].1.min(noise_scores[1].1);
+        let (noise_flip, noise_rse) = noise_bound(noise_scores);
         for (e, &(flip2, rse2)) in levels[2].1.iter().enumerate() {
             assert!(
                 flip2 < noise_flip && rse2 < noise_rse,
@@ -1676,9 +1693,6 @@ fn memoized_images_differ_from_direct_ones_as_the_thesis_orders_them() {
 #[test]
 fn sample_cache_memoized_images_stay_within_its_own_noise() {
     use stereocache::materials::memo::{MemoHits, MemoSettings};
-    use stereocache::metrics::error::{rse, RSE_EPSILON};
-    use stereocache::metrics::flip::{flip_hdr, DEFAULT_PPD};
-    use stereocache::metrics::image::LinearImage;
     const FRAMES: u32 = 32;
     let ctx = context();
     let base =
@@ -1711,38 +1725,21 @@ fn sample_cache_memoized_images_stay_within_its_own_noise() {
             .expect("method");
         let f = render_still(m.as_mut(), camera, FRAMES);
         if memo.is_some() {
-            let c = session
-                .scene_gpu
-                .memo
-                .as_ref()
-                .expect("a memo table")
-                .counters()
-                .unwrap();
+            let c = memo_counters(&session);
             assert!(c.hits > c.misses && c.misses > 0, "bias {memo:?}: {c:?}");
         }
         f
     };
     let direct1 = run(None, 1);
     let direct2 = run(None, 2);
-    let scores = |f: &stereocache::methods::StereoFrame| -> [(f32, f32); 2] {
-        [0, 1].map(|e| {
-            let t = LinearImage::from_rgba(&f.eyes[e].radiance, 40, 30).unwrap();
-            let r = LinearImage::from_rgba(&direct1.eyes[e].radiance, 40, 30).unwrap();
-            (
-                flip_hdr(&t, &r, DEFAULT_PPD).unwrap().flip.mean,
-                rse(&t, &r, RSE_EPSILON).unwrap(),
-            )
-        })
-    };
+    let scores = |f: &stereocache::methods::StereoFrame| flip_rse_per_eye(f, &direct1, 40, 30);
     let noise = scores(&direct2);
     let at0 = scores(&run(Some(0.0), 1));
     let at2 = scores(&run(Some(2.0), 1));
     eprintln!(
         "sample-cache, {FRAMES} still frames: (HDR-FLIP, RSE) per eye against direct: second seed {noise:?}, bias 0 {at0:?}, bias 2 {at2:?}"
     );
-    // Both eyes' noise estimates the same quantity; a bright outlier pixel
-    // only raises one eye's RSE, so the smaller of the two is the bound.
-    let (nf, nr) = (noise[0].0.min(noise[1].0), noise[0].1.min(noise[1].1));
+    let (nf, nr) = noise_bound(noise);
     for (e, (&(f0, _), &(f2, r2))) in at0.iter().zip(&at2).enumerate() {
         assert!(
             f2 > 0.0 && f2 < f0,
@@ -1995,13 +1992,7 @@ fn every_method_shades_through_the_memoization_table() {
         let s = session(&ctx, scene.clone(), RtChoice::Software);
         let camera = default_camera(&s, 40, 30);
         let f = render(&s, kind.name(), camera, &settings);
-        let c = s
-            .scene_gpu
-            .memo
-            .as_ref()
-            .expect("a memo table")
-            .counters()
-            .unwrap();
+        let c = memo_counters(&s);
         eprintln!("{}: {c:?}", kind.name());
         // 2 eyes × 1,200 pixels, each shading at least one first hit.
         assert!(c.hits + c.misses >= 2400, "{}: lookups {c:?}", kind.name());
