@@ -380,10 +380,8 @@ fn shipped_synth_traces_match_generator() {
     }
 }
 
-fn tempdir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("stereocache-test-{}-{name}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+fn tempdir(name: &str) -> common::TempDir {
+    common::TempDir::new(name)
 }
 
 // ---------------------------------------------------------------------------

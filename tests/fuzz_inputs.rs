@@ -17,6 +17,8 @@
 //! (see `fuzz/README.md`). Inputs that once failed live in `tests/data/fuzz/`
 //! and are replayed by the `regression_*` tests at the end.
 
+mod common;
+
 use proptest::prelude::*;
 use proptest::test_runner::Config;
 use serde_json::Value;
@@ -335,10 +337,8 @@ fn base64_decode(s: &str) -> Vec<u8> {
     base64::engine::general_purpose::STANDARD.decode(s).unwrap()
 }
 
-fn temp_dir(tag: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("robust-fuzz-{tag}-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
+fn temp_dir(tag: &str) -> common::TempDir {
+    common::TempDir::new(&format!("fuzz-{tag}"))
 }
 
 fn check_scene(

@@ -49,16 +49,20 @@ vec3 emitted_radiance(EmitterGpu e, vec2 bary, vec3 dir) {
         vec2 uv = slot_on_second_uv(g.tex3.y, 3) ? triangle_uv2(inst, prim, bary) : triangle_uv(inst, prim, bary);
         Le *= sample_texture(g.tex0.w, slot_map_uv(g, 3, uv), 0.0).rgb;
     }
-#ifdef SC_MATERIAL_GRAPHS
+#if defined(SC_MATERIAL_GRAPHS) && defined(SC_GRAPH_EMISSION)
     // The emission graph at the sampled point, as material_at evaluates it
     // there: through the memoization table where the caller set the light
-    // sample's cone (sc_memo_cone, sample_emitter), else directly.
-    Surface gs = surface_at(inst, prim, bary, dir);
+    // sample's cone (sc_memo_cone, sample_emitter), else directly. Only
+    // where the material binds one (an unbound emission output is 1), and
+    // compiled only into scenes that have one (scene_shaders.rs).
+    if (sc_material_binds_emission(instance_material(inst))) {
+        Surface gs = surface_at(inst, prim, bary, dir);
 #ifdef SC_MATERIAL_MEMO
-    Le *= sc_material_graphs_at(gs.material, gs.uv, gs.p, gs.n, gs.tangent, 0.0, gs.memo_uv_per_width, 0.0).emission;
+        Le *= sc_material_graphs_at(gs.material, gs.uv, gs.p, gs.n, gs.tangent, 0.0, gs.memo_uv_per_width, 0.0).emission;
 #else
-    Le *= sc_material_graphs(gs.material, gs.uv, gs.p, gs.n, gs.tangent, 0.0).emission;
+        Le *= sc_material_graphs(gs.material, gs.uv, gs.p, gs.n, gs.tangent, 0.0).emission;
 #endif
+    }
 #endif
     return Le;
 }

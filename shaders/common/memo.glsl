@@ -123,96 +123,6 @@ void memo_end_fill(uint victim, uint h1, uint now, uint seen, bool present) {
     }
 }
 
-#ifdef SC_MEMO_SUBGROUP
-#extension GL_KHR_shader_subgroup_basic : require
-#extension GL_KHR_shader_subgroup_ballot : require
-#extension GL_KHR_shader_subgroup_shuffle : require
-// The lane of the j-th set bit of ballot `act`.
-uint memo_nth_lane(uvec4 act, uint j) {
-    for (uint w = 0u; w < 4u; ++w) {
-        uint c = uint(bitCount(act[w]));
-        if (j < c) {
-            uint m = act[w];
-            for (uint k = 0u; k < j; ++k) m &= m - 1u;   // clear the lowest j set bits
-            return 32u * w + uint(findLSB(m));
-        }
-        j -= c;
-    }
-    return 0u;
-}
-
-// The subgroup-cooperative tile fill (thesis §5.4.3, Fig. 5.2), for the
-// tiled variants; compiled in where the device has subgroup ballot and
-// shuffle (-DSC_MEMO_SUBGROUP, scene_shaders.rs). Every lane that looked a
-// tile up calls it, hit or miss (`need`: this lane's tile was missing), so
-// lanes that hit still evaluate texels. Each round: the lowest requesting
-// lane leads (ballot); it broadcasts its tile (material key, level, tile
-// position) and locks a victim entry; the active lanes evaluate the tile's
-// e² texels, lane of rank r texel r, r + n, … (n active lanes); each writes
-// its texels under the leader's lock; the lanes that requested this tile
-// read the texels they need (`want[0..cnt)`) from the lanes that evaluated
-// them (shuffle, thesis step 8: also when no lock was obtained); after a
-// buffer barrier the leader unlocks and counts. Deviation: one tile per
-// round (the thesis pairs tiles of one material when two fit a 32-lane
-// wave; lavapipe's subgroups have 8 lanes, fewer than a 4×4 tile's texels).
-void memo_fill_cooperative(bool need, uint key, int level, ivec2 tq, uint shift, uint e,
-                           uint want[4], uint cnt, vec3 p, vec3 n, vec3 t,
-                           uint cap, uint probe, uint policy, uint now, inout ScGraphOutputs c[4]) {
-    if (need) memo_count_miss();
-    // A subgroup whose lanes all hit (the common case) pays one ballot.
-    uvec4 req = subgroupBallot(need);
-    if (all(equal(req, uvec4(0u)))) return;
-    uvec4 act = subgroupBallot(true);
-    uint n_act = subgroupBallotBitCount(act);
-    uint rank = subgroupBallotExclusiveBitCount(act);
-    for (;;) {
-        if (all(equal(req, uvec4(0u)))) break;
-        uint leader = subgroupBallotFindLSB(req);
-        bool lead = gl_SubgroupInvocationID == leader;
-        uint l_key = subgroupShuffle(key, leader);
-        int l_level = subgroupShuffle(level, leader);
-        ivec2 l_tq = subgroupShuffle(tq, leader);
-        bool mine = need && key == l_key && level == l_level && all(equal(tq, l_tq));
-        uint l_h1 = memo_h1(l_key, l_level, l_tq);
-        uint seen = 0u;
-        bool present = false;
-        uint victim = MEMO_NONE;
-        if (lead) victim = memo_lock_victim(memo_h0(l_key, l_level, l_tq), l_h1, cap, probe, policy, now, seen, present);
-        victim = subgroupShuffle(victim, leader);
-        uint l_mat = l_key & 0x07FFFFFFu;
-        uvec4 g0[4], g1[4], g2[4];
-        for (uint base = 0u; base < e * e; base += n_act) {
-            uint k = base + rank;
-            uvec4 r0 = uvec4(0u), r1 = uvec4(0u), r2 = uvec4(0u);
-            if (k < e * e) {
-                ivec2 tk = (l_tq << int(shift)) + ivec2(int(k % e), int(k / e));
-                ScGraphOutputs v = sc_material_graphs(l_mat, memo_snapped_uv(tk, l_level), p, n, t, memo_texel_width(l_level));
-                memo_pack(v, r0, r1, r2);
-                if (victim != MEMO_NONE) memo_write_texel(MEMO_RECORD * (victim * e * e + k), r0, r1, r2);
-            }
-            for (uint j = 0u; j < cnt; ++j) {
-                bool here = mine && want[j] >= base && want[j] < base + n_act;
-                uint src = memo_nth_lane(act, here ? want[j] - base : 0u);
-                uvec4 a0 = subgroupShuffle(r0, src), a1 = subgroupShuffle(r1, src), a2 = subgroupShuffle(r2, src);
-                if (here) { g0[j] = a0; g1[j] = a1; g2[j] = a2; }
-            }
-        }
-        // Every lane's records are written (and visible) before the key returns.
-        memoryBarrierBuffer();
-        subgroupBallot(true);
-        if (lead) {
-            memo_end_fill(victim, l_h1, now, seen, present);
-            atomicAdd(memo_state[MEMO_C_COOPERATIVE_FILLS], 1u);
-        }
-        if (mine) {
-            for (uint j = 0u; j < cnt; ++j) c[j] = memo_unpack(g0[j], g1[j], g2[j], n);
-            need = false;
-        }
-        req = subgroupBallot(need);
-    }
-}
-#endif
-
 ScGraphOutputs memo_lerp(ScGraphOutputs a, ScGraphOutputs b, float f) {
     ScGraphOutputs o = a;
     o.base_color = mix(a.base_color, b.base_color, f);
@@ -249,6 +159,8 @@ struct MemoCall {
     uint e;               // tiled: texels an entry edge (s, or s + 1 bilinear)
     uint h1, victim, seen;   // tiled: the tile key's H1, the locked entry
     bool present;
+    uint key;             // tiled: the tile's key (material, tile size, bilinear)
+    bool need;            // tiled, cooperative fill: the tile was missing
 };
 
 // The variant of a hit (primary: the caller's cone_width > 0; secondary:
@@ -284,6 +196,8 @@ MemoCall memo_call(uint material, vec2 uv, float cone_width, float uv_per_width)
     c.e = 1u;
     c.h1 = 0u; c.victim = MEMO_NONE; c.seen = 0u;
     c.present = false;
+    c.key = 0u;
+    c.need = false;
     if (c.variant == MEMO_V_DIRECT) return c;
     float w = primary ? cone_width : sc_memo_cone;
     c.level = memo_level(w, uv_per_width, uintBitsToFloat(memo_state[MEMO_S_BIAS]));
@@ -337,7 +251,7 @@ uint memo_tile_texel(MemoCall c, uint k) {
 // A tiled lookup: the tile's key; a hit reads the texels it needs between
 // the two key reads. A miss locks a victim for the evaluation loop (the
 // plain fill), or is filled here by the subgroup's lanes together.
-void memo_lookup_tile(inout MemoCall c, uint material, vec3 p, vec3 n, vec3 t, inout ScGraphOutputs out4[4]) {
+void memo_lookup_tile(inout MemoCall c, uint material, vec3 n, inout ScGraphOutputs out4[4]) {
     uint s = 1u << c.shift;
     c.e = c.bilinear ? s + 1u : s;
     c.tq = c.q >> int(c.shift);                    // floor division by s (arithmetic shift)
@@ -365,16 +279,144 @@ void memo_lookup_tile(inout MemoCall c, uint material, vec3 p, vec3 n, vec3 t, i
         break;
     }
 #ifdef SC_MEMO_SUBGROUP
-    uint want[4];
-    for (uint k = 0u; k < 4u; ++k) want[k] = memo_tile_texel(c, k);
-    memo_fill_cooperative(!found, key, c.level, c.tq, c.shift, c.e, want, c.corners, p, n, t,
-                          c.cap, c.probe, c.policy, c.now, out4);
+    // Filled by the subgroup's rounds (memo_round_begin).
+    c.key = key;
+    c.need = !found;
     c.count = 0u;
 #else
     if (!found) c.victim = memo_begin_fill(h0, c.h1, c.cap, c.probe, c.policy, c.now, c.seen, c.present);
     c.count = found ? 0u : c.e * c.e;
 #endif
 }
+
+#ifdef SC_MEMO_SUBGROUP
+#extension GL_KHR_shader_subgroup_basic : require
+#extension GL_KHR_shader_subgroup_ballot : require
+#extension GL_KHR_shader_subgroup_shuffle : require
+// The lane of the j-th set bit of ballot `act`.
+uint memo_nth_lane(uvec4 act, uint j) {
+    for (uint w = 0u; w < 4u; ++w) {
+        uint c = uint(bitCount(act[w]));
+        if (j < c) {
+            uint m = act[w];
+            for (uint k = 0u; k < j; ++k) m &= m - 1u;   // clear the lowest j set bits
+            return 32u * w + uint(findLSB(m));
+        }
+        j -= c;
+    }
+    return 0u;
+}
+
+// The subgroup-cooperative tile fill (thesis §5.4.3, Fig. 5.2), for the
+// tiled variants; compiled in where the device has subgroup ballot and
+// shuffle (-DSC_MEMO_SUBGROUP, scene_shaders.rs). Every lane that calls
+// sc_material_graphs_at takes part, whatever its own variant (a lane whose
+// tile was missing has `need`). Each round: the lowest requesting lane
+// leads (ballot); it broadcasts its tile (material key, level, tile
+// position) and locks a victim entry; the active lanes evaluate the tile's
+// e² texels, lane of rank r texel r, r + n, … (n active lanes), in the one
+// evaluation loop of sc_material_graphs_at; each writes its texels under
+// the leader's lock; the lanes that requested this tile read the texels
+// they need (memo_tile_texel) from the lanes that evaluated them (shuffle,
+// thesis step 8: also when no lock was obtained); after a buffer barrier
+// the leader unlocks and counts. Rounds run until no lane needs a tile,
+// before any lane's own evaluations. Deviation: one tile per round (the
+// thesis pairs tiles of one material when two fit a 32-lane wave;
+// lavapipe's subgroups have 8 lanes, fewer than a 4×4 tile's texels).
+struct MemoRound {
+    bool running;         // a round is under way (the same in every lane)
+    uvec4 act;            // the lanes taking part
+    uint n_act, rank;
+    uint e, corners;      // the table's texels an entry edge, texels a lookup reads
+    bool lead, mine;      // this lane leads; this lane requested the round's tile
+    uint leader, mat, h1;
+    int level;
+    ivec2 tq;
+    uint victim, seen;    // the locked entry (the leader's, broadcast)
+    bool present;
+    uint base;            // the round's first texel of this step
+};
+
+// Starts the next round, or ends the rounds (`running` false) when no lane
+// needs a tile.
+void memo_round_next(inout MemoRound r, MemoCall c) {
+    uvec4 req = subgroupBallot(c.need);
+    r.running = any(notEqual(req, uvec4(0u)));
+    if (!r.running) return;
+    r.leader = subgroupBallotFindLSB(req);
+    r.lead = gl_SubgroupInvocationID == r.leader;
+    uint key = subgroupShuffle(c.key, r.leader);
+    r.level = subgroupShuffle(c.level, r.leader);
+    r.tq = subgroupShuffle(c.tq, r.leader);
+    r.mine = c.need && c.key == key && c.level == r.level && all(equal(c.tq, r.tq));
+    r.h1 = memo_h1(key, r.level, r.tq);
+    r.seen = 0u;
+    r.present = false;
+    uint victim = MEMO_NONE;
+    if (r.lead)
+        victim = memo_lock_victim(memo_h0(key, r.level, r.tq), r.h1, c.cap, c.probe, c.policy, c.now, r.seen,
+                                  r.present);
+    r.victim = subgroupShuffle(victim, r.leader);
+    r.mat = key & 0x07FFFFFFu;
+    r.base = 0u;
+}
+
+MemoRound memo_round_begin(MemoCall c) {
+    MemoRound r;
+    if (c.need) memo_count_miss();
+    r.act = subgroupBallot(true);
+    r.n_act = subgroupBallotBitCount(r.act);
+    r.rank = subgroupBallotExclusiveBitCount(r.act);
+    // From the table's state, so the same in every lane whatever its variant.
+    bool bilinear = memo_state[MEMO_S_BILINEAR] != 0u;
+    uint s = 1u << c.shift;
+    r.e = bilinear ? s + 1u : s;
+    r.corners = bilinear ? 4u : 1u;
+    r.lead = false;
+    r.mine = false;
+    memo_round_next(r, c);
+    return r;
+}
+
+// This lane's texel of the round's current step: whether it has one, and
+// where it is evaluated.
+bool memo_round_texel(MemoRound r, uint shift, out vec2 at) {
+    uint k = r.base + r.rank;
+    at = memo_snapped_uv((r.tq << int(shift)) + ivec2(int(k % r.e), int(k / r.e)), r.level);
+    return k < r.e * r.e;
+}
+
+// After the step's evaluation `v` (where `evaluated`): writes it under the
+// leader's lock, hands the requesting lanes the texels they read, and ends
+// the round after its last texel.
+void memo_round_step(inout MemoRound r, inout MemoCall c, bool evaluated, ScGraphOutputs v, vec3 n,
+                     inout ScGraphOutputs out4[4]) {
+    uint k = r.base + r.rank;
+    uvec4 r0 = uvec4(0u), r1 = uvec4(0u), r2 = uvec4(0u);
+    if (evaluated) {
+        memo_pack(v, r0, r1, r2);
+        if (r.victim != MEMO_NONE) memo_write_texel(MEMO_RECORD * (r.victim * r.e * r.e + k), r0, r1, r2);
+    }
+    for (uint j = 0u; j < r.corners; ++j) {
+        uint want = memo_tile_texel(c, j);
+        bool here = r.mine && want >= r.base && want < r.base + r.n_act;
+        uint src = memo_nth_lane(r.act, here ? want - r.base : 0u);
+        uvec4 a0 = subgroupShuffle(r0, src), a1 = subgroupShuffle(r1, src), a2 = subgroupShuffle(r2, src);
+        if (here) out4[j] = memo_unpack(a0, a1, a2, n);
+    }
+    r.base += r.n_act;
+    if (r.base < r.e * r.e) return;
+    // Every lane's records are written (and visible) before the key returns.
+    memoryBarrierBuffer();
+    subgroupBallot(true);
+    if (r.lead) {
+        memo_end_fill(r.victim, r.h1, c.now, r.seen, r.present);
+        atomicAdd(memo_state[MEMO_C_COOPERATIVE_FILLS], 1u);
+    }
+    if (r.mine) c.need = false;
+    memo_round_next(r, c);
+}
+#endif
 
 // Where the k-th evaluation happens: the hit itself (unmemoized), the next
 // missing corner (non-tiled: taken off `missing`, so the loop must call this
@@ -431,7 +473,7 @@ void memo_store(MemoCall c, uint material, uint k, ivec2 texel, uint corner, ScG
 //   hit reads its one texel between the two key reads; a miss locks a
 //   victim entry and evaluates the whole tile at its texel centres (the
 //   plain fill: one lane, s² evaluations; or the subgroup's lanes together,
-//   memo_fill_cooperative) and stores it under the lock;
+//   MemoRound) and stores it under the lock;
 // - tiled bilinear (tiles with a one-texel overlap): the footprint is
 //   texels q0 = floor(X) and q0 + 1, in the tile of q0, whose (s+1)²
 //   records cover its s² texels and the next tile's first row and column;
@@ -444,24 +486,55 @@ void memo_store(MemoCall c, uint material, uint k, ivec2 texel, uint corner, ScG
 // for each variant and corner made the heavy library's shaders too large
 // to compile), and the trip count is known only at run time, so it is not
 // unrolled either. The subgroup-cooperative fill (-DSC_MEMO_SUBGROUP)
-// keeps its own evaluation: two copies per call site in that build.
+// evaluates its rounds' texels in the same loop, before the lane's own
+// evaluations: one copy per call site in that build too (a second copy in
+// the rounds made the procedural-heavy Sponza's path tracer exceed
+// SPIR-V's id bound in glslc's optimizer).
 ScGraphOutputs sc_material_graphs_at(uint material, vec2 uv, vec3 p, vec3 n, vec3 t,
                                      float cone_width, float uv_per_width, float footprint) {
     MemoCall c = memo_call(material, uv, cone_width, uv_per_width);
     ScGraphOutputs out4[4];
     if (c.variant == MEMO_V_TEXEL || c.variant == MEMO_V_TEXELS) memo_lookup_texels(c, material, n, out4);
-    else if (c.tiled) memo_lookup_tile(c, material, p, n, t, out4);
-    for (uint k = 0u; k < c.count; ++k) {
-        ivec2 texel;
-        uint corner;
-        vec2 at = memo_evaluation_uv(c, k, uv, texel, corner);
-        float fp = c.variant == MEMO_V_DIRECT ? footprint : memo_texel_width(c.level);
-        ScGraphOutputs v = sc_material_graphs(material, at, p, n, t, fp);
-        if (c.variant == MEMO_V_DIRECT) {
-            out4[0] = v;
-            continue;
+    else if (c.tiled) memo_lookup_tile(c, material, n, out4);
+#ifdef SC_MEMO_SUBGROUP
+    MemoRound r = memo_round_begin(c);
+#endif
+    for (uint k = 0u;;) {
+#ifdef SC_MEMO_SUBGROUP
+        bool round = r.running;   // the same in every lane
+#else
+        const bool round = false;
+#endif
+        if (!round && k >= c.count) break;
+        uint mat = material;
+        vec2 at = uv;
+        float fp = footprint;
+        ivec2 texel = ivec2(0);
+        uint corner = 0u;
+        bool evaluate = true;
+#ifdef SC_MEMO_SUBGROUP
+        if (round) {
+            evaluate = memo_round_texel(r, c.shift, at);
+            mat = r.mat;
+            fp = memo_texel_width(r.level);
+        } else
+#endif
+        if (c.variant != MEMO_V_DIRECT) {
+            at = memo_evaluation_uv(c, k, uv, texel, corner);
+            fp = memo_texel_width(c.level);
         }
-        memo_store(c, material, k, texel, corner, v, n, out4);
+        ScGraphOutputs v = ScGraphOutputs(vec3(0.0), 0.0, 0.0, vec3(0.0), vec3(0.0), 0u);
+        if (evaluate) v = sc_material_graphs(mat, at, p, n, t, fp);
+#ifdef SC_MEMO_SUBGROUP
+        if (round) {
+            memo_round_step(r, c, evaluate, v, n, out4);
+        } else
+#endif
+        {
+            if (c.variant == MEMO_V_DIRECT) out4[0] = v;
+            else memo_store(c, material, k, texel, corner, v, n, out4);
+            ++k;
+        }
     }
     if (c.tiled && c.count > 0u) memo_end_fill(c.victim, c.h1, c.now, c.seen, c.present);
     if (c.bilinear) return memo_lerp(memo_lerp(out4[0], out4[1], c.f.x), memo_lerp(out4[2], out4[3], c.f.x), c.f.y);

@@ -12,7 +12,9 @@
 //! inputs come back as 1 so they multiply nothing).
 //! shaders/common/scene.glsl includes it under `SC_MATERIAL_GRAPHS`, and
 //! material.glsl (every hit of every method's path tracing and shading)
-//! and lights.glsl (emission seen by light sampling) apply it. The shaders
+//! and lights.glsl (emission seen by light sampling, for the materials
+//! that bind an emission graph: `SC_GRAPH_EMISSION`,
+//! `sc_material_binds_emission`) apply it. The shaders
 //! that shade hits — those that include common/material.glsl or
 //! common/lights.glsl — are compiled with `-DSC_MATERIAL_GRAPHS` on first
 //! use from the sources and interface headers embedded in the binary
@@ -38,7 +40,7 @@ pub const DEFINE: &str = "-DSC_MATERIAL_GRAPHS";
 pub const MEMO_DEFINE: &str = "-DSC_MATERIAL_MEMO";
 
 /// The define of the subgroup-cooperative tile fill (memo.glsl
-/// `memo_fill_cooperative`): added for tiled tables when the settings ask
+/// `MemoRound`): added for tiled tables when the settings ask
 /// for it and the device has subgroup ballot and shuffle.
 pub const COOPERATIVE_DEFINE: &str = "-DSC_MEMO_SUBGROUP";
 
@@ -142,6 +144,25 @@ pub fn include(sg: &SceneGraphs, origin: DVec3, memo: bool, slots: &[Vec<u32>]) 
         s.push_str("        break;\n    }\n");
     }
     s.push_str("    default: break;\n    }\n    return r;\n}\n");
+    // The materials with an emission graph: light sampling (lights.glsl
+    // emitted_radiance) evaluates the graphs only for those (the others'
+    // emission output is 1), and compiles no evaluation at all where there
+    // are none, so a scene without emission graphs has one copy of the
+    // graph switch per shader fewer (the procedural-heavy Sponza's
+    // cooperative build exceeded SPIR-V's id bound with it).
+    let emissive: Vec<u32> = sg
+        .materials
+        .iter()
+        .filter(|(_, binds)| binds.iter().any(|b| b.slot == Slot::Emission))
+        .map(|(m, _)| *m)
+        .collect();
+    if !emissive.is_empty() {
+        s.push_str("#define SC_GRAPH_EMISSION\nbool sc_material_binds_emission(uint material_id) {\n    switch (material_id) {\n");
+        for m in &emissive {
+            let _ = writeln!(s, "    case {m}u: return true;");
+        }
+        s.push_str("    default: return false;\n    }\n}\n");
+    }
     if memo {
         s.push_str("bool sc_material_memoizable(uint material_id) {\n    switch (material_id) {\n");
         for (m, binds) in &sg.materials {
@@ -291,5 +312,36 @@ mod tests {
         assert!(switch.contains("    case 0u: case 2u: {\n"), "{switch}");
         assert!(switch.contains("    case 1u: {\n"), "{switch}");
         assert_eq!(switch.matches("mxg_").count(), 2, "{switch}");
+    }
+
+    /// Light sampling evaluates the graphs only for materials that bind an
+    /// emission graph (lights.glsl), and compiles no evaluation where no
+    /// material does: `SC_GRAPH_EMISSION` and its case list follow the
+    /// bindings.
+    #[test]
+    fn only_emission_graphs_reach_light_sampling() {
+        let lib = |name: &str| *EMBEDDED.iter().find(|(n, _)| *n == name).unwrap();
+        let build = |files: &[(u32, &str)]| {
+            let mut sg = SceneGraphs::default();
+            for &(m, file) in files {
+                let (f, text) = lib(file);
+                sg.attach_mtlx(m, &mut Material::default(), f, text)
+                    .unwrap();
+            }
+            include(&sg, DVec3::ZERO, true, &[])
+        };
+        let none = build(&[(0, "bricks.mtlx"), (1, "marble.mtlx")]);
+        assert!(!none.contains("SC_GRAPH_EMISSION"), "{none}");
+        assert!(!none.contains("sc_material_binds_emission"));
+        let lava = build(&[(0, "bricks.mtlx"), (3, "lava.mtlx"), (5, "lava.mtlx")]);
+        let f = &lava[lava
+            .find("#define SC_GRAPH_EMISSION")
+            .expect("lava binds emission")..];
+        let f = &f[..f.find("default:").unwrap()];
+        assert!(
+            f.contains("case 3u: return true;") && f.contains("case 5u: return true;"),
+            "{f}"
+        );
+        assert!(!f.contains("case 0u:"), "{f}");
     }
 }

@@ -190,7 +190,7 @@ pub struct SceneGpu {
     /// set 0 after the TLAS slot; `None`: not memoized (the set as before).
     pub memo: Option<super::MemoGpu>,
     /// The memo's tiled fill is the subgroup-cooperative one (memo.glsl
-    /// `memo_fill_cooperative`); false: the plain fill, or no tiles.
+    /// `MemoRound`); false: the plain fill, or no tiles.
     pub cooperative_fill: bool,
     texture_count: u32,
     /// The two-level structure, kept to rebuild its top level when instances move.

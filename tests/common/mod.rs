@@ -823,3 +823,29 @@ pub fn gltf_brdf_albedo(mu: f64, base: [f64; 3], metallic: f64, roughness: f64) 
         diffuse: std::array::from_fn(|k| (1.0 - metallic) * base[k] * diff[k] / m),
     }
 }
+
+/// A directory under the system temporary directory, named after the
+/// process and `tag`, removed with everything in it when dropped (so a
+/// test run leaves nothing behind, passing or failing).
+pub struct TempDir(std::path::PathBuf);
+
+impl TempDir {
+    pub fn new(tag: &str) -> TempDir {
+        let d = std::env::temp_dir().join(format!("stereocache-test-{}-{tag}", std::process::id()));
+        std::fs::create_dir_all(&d).unwrap();
+        TempDir(d)
+    }
+}
+
+impl std::ops::Deref for TempDir {
+    type Target = std::path::Path;
+    fn deref(&self) -> &std::path::Path {
+        &self.0
+    }
+}
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
