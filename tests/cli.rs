@@ -848,7 +848,7 @@ fn bench_materials_checks_input_and_sweeps_the_table() {
     }
     // --sweep-fill plain puts the fixed 4×4 rows on the plain fill too: no
     // row of the run fills cooperatively (the heavy Sponza's cooperative
-    // build does not compile).
+    // build is slow to compile on llvmpipe).
     for label in [
         "both tile 4x4 plain fill",
         "both tile 4x4 bilinear plain fill",
@@ -904,7 +904,8 @@ fn bench_materials_checks_input_and_sweeps_the_table() {
 }
 
 /// A glslc whose optimizer crashes (killed by a signal, as Debian 12's
-/// glslc 2023.2 is on the procedural-heavy Sponza's cooperative memo fill)
+/// glslc 2023.2 was on the procedural-heavy Sponza's cooperative memo fill
+/// before session 36, when its id overflow made spirv-opt crash)
 /// does not fail the render: the scene's run-time shader is compiled again
 /// unoptimized (`-O0`), with one warning naming it, and the frame renders.
 /// The stand-in glslc kills itself with SIGSEGV when asked to optimize and

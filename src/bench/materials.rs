@@ -115,9 +115,10 @@ pub fn memo_configs(sizes: &[u32], sweep: SweepVariant) -> Vec<(String, MemoSett
     // texel capacity, nearest and bilinear: with the subgroup-cooperative
     // fill (where the device has subgroup ballot and shuffle) and nearest
     // again with the plain fill; with `--sweep-fill plain`, every one with
-    // the plain fill, so that no row needs the cooperative build (which
-    // does not compile for the procedural-heavy Sponza: docs/PERFORMANCE.md,
-    // "Memoization, session 34").
+    // the plain fill, so that no row needs the cooperative build (whose
+    // pipeline takes llvmpipe about ten minutes to compile for the
+    // procedural-heavy Sponza: docs/PERFORMANCE.md, "Memoization, session
+    // 36").
     let tile4 = |bilinear: bool, fill: MemoFill| MemoSettings {
         hits: MemoHits::Both,
         entries: MemoSettings::default_entries(4),

@@ -26,12 +26,14 @@ const ARGS: &[&str] = &["--target-env=vulkan1.2", "-O", "-fshader-stage=compute"
 /// SPIR-V ids ("ID overflow": spirv-opt inlines every function, and a
 /// shader that calls compute-heavy graphs from many sites — material_at,
 /// the memo's fills, light sampling — exceeds the id bound), or crashes
-/// (killed by a signal: Debian 12's glslc 2023.2 does, after minutes, on
-/// the subgroup-cooperative memo fill of the procedural-heavy Sponza, at
-/// `-O` and `-Os` alike, while `-O0` compiles it in a fraction of a
-/// second; the same id overflow underneath, which spirv-opt 2023.1 reports
-/// before crashing the same way, docs/PERFORMANCE.md). Unoptimized SPIR-V is valid and the driver's compiler
-/// optimizes it anyway.
+/// (killed by a signal: Debian 12's glslc 2023.2 did, after minutes, on
+/// the subgroup-cooperative memo fill of the procedural-heavy Sponza until
+/// session 36, at `-O` and `-Os` alike, while `-O0` compiled it in a
+/// fraction of a second; the same id overflow underneath, which spirv-opt
+/// 2023.1 reports before crashing the same way, docs/PERFORMANCE.md; one
+/// evaluation site per call and no light-sampling site without emission
+/// graphs fixed that shader). Unoptimized SPIR-V is valid and the driver's
+/// compiler optimizes it anyway.
 const ARGS_UNOPTIMIZED: &[&str] = &["--target-env=vulkan1.2", "-O0", "-fshader-stage=compute"];
 
 /// The cache directory (see the module docs).

@@ -56,9 +56,10 @@ pub struct BenchMaterialsArgs {
     sweep_tile: u32,
     /// The tiled sweep's fill: subgroup (the default) or plain (as
     /// --memo-fill); plain also puts the fixed 4×4 rows on the plain fill,
-    /// so no row needs the subgroup-cooperative build (which does not
-    /// compile for the procedural-heavy Sponza); with --fill-cost, the one
-    /// fill of its tiled rows (both fills when not given).
+    /// so no row needs the subgroup-cooperative build (whose pipeline takes
+    /// llvmpipe about ten minutes to compile for the procedural-heavy
+    /// Sponza); with --fill-cost, the one fill of its tiled rows (both
+    /// fills when not given).
     #[arg(long)]
     sweep_fill: Option<MemoFill>,
     /// Rounds over all configurations (alternating, rotating order).
