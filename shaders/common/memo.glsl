@@ -250,7 +250,7 @@ uint memo_tile_texel(MemoCall c, uint k) {
 
 // A tiled lookup: the tile's key; a hit reads the texels it needs between
 // the two key reads. A miss locks a victim for the evaluation loop (the
-// plain fill), or is filled here by the subgroup's lanes together.
+// plain fill), or is marked `need` for the subgroup's rounds (MemoRound).
 void memo_lookup_tile(inout MemoCall c, uint material, vec3 n, inout ScGraphOutputs out4[4]) {
     uint s = 1u << c.shift;
     c.e = c.bilinear ? s + 1u : s;
