@@ -904,7 +904,7 @@ fn memo_levels_follow_the_cone_footprints_shorter_uv_derivative() {
             other_level > checked / 2 && refuted > checked / 10,
             "{rt:?} tile {tile}: the isotropic level differs at {other_level} and is refuted at {refuted} of {checked} pixels"
         );
-        let c = s.scene_gpu.memo.as_ref().unwrap().counters().unwrap();
+        let c = memo_counters(&s);
         assert!(
             c.hits > 0 && c.misses > 0 && c.refused == 0,
             "{rt:?}: {c:?}"
@@ -1189,7 +1189,7 @@ fn memo_levels_past_a_mirror_follow_the_grown_cone() {
             no_growth > checked / 3 && restarted > checked / 3,
             "{rt:?}: the alternatives are refuted at only {no_growth} and {restarted} of {checked}"
         );
-        let c = s.scene_gpu.memo.as_ref().unwrap().counters().unwrap();
+        let c = memo_counters(&s);
         assert!(
             c.hits > 0 && c.misses > 0 && c.refused == 0,
             "{rt:?}: {c:?}"
@@ -1922,7 +1922,7 @@ fn light_sampled_emission_goes_through_the_table() {
     let camera = StereoCamera::from_scene_camera(c.transform, c.yfov, w as f32 / h as f32);
     let sess = session(&ctx, s, RtChoice::Software);
     let f = render(&sess, "reference", camera, &settings);
-    let counters = sess.scene_gpu.memo.as_ref().unwrap().counters().unwrap();
+    let counters = memo_counters(&sess);
     let mut diffs = Vec::new();
     let mut direct_gap = Vec::new();
     for eye in &f.eyes {

@@ -329,7 +329,7 @@ struct MemoRound {
     uint n_act, rank;
     uint e, corners;      // the table's texels an entry edge, texels a lookup reads
     bool lead, mine;      // this lane leads; this lane requested the round's tile
-    uint leader, mat, h1;
+    uint mat, h1;
     int level;
     ivec2 tq;
     uint victim, seen;    // the locked entry (the leader's, broadcast)
@@ -343,11 +343,11 @@ void memo_round_next(inout MemoRound r, MemoCall c) {
     uvec4 req = subgroupBallot(c.need);
     r.running = any(notEqual(req, uvec4(0u)));
     if (!r.running) return;
-    r.leader = subgroupBallotFindLSB(req);
-    r.lead = gl_SubgroupInvocationID == r.leader;
-    uint key = subgroupShuffle(c.key, r.leader);
-    r.level = subgroupShuffle(c.level, r.leader);
-    r.tq = subgroupShuffle(c.tq, r.leader);
+    uint leader = subgroupBallotFindLSB(req);
+    r.lead = gl_SubgroupInvocationID == leader;
+    uint key = subgroupShuffle(c.key, leader);
+    r.level = subgroupShuffle(c.level, leader);
+    r.tq = subgroupShuffle(c.tq, leader);
     r.mine = c.need && c.key == key && c.level == r.level && all(equal(c.tq, r.tq));
     r.h1 = memo_h1(key, r.level, r.tq);
     r.seen = 0u;
@@ -356,7 +356,7 @@ void memo_round_next(inout MemoRound r, MemoCall c) {
     if (r.lead)
         victim = memo_lock_victim(memo_h0(key, r.level, r.tq), r.h1, c.cap, c.probe, c.policy, c.now, r.seen,
                                   r.present);
-    r.victim = subgroupShuffle(victim, r.leader);
+    r.victim = subgroupShuffle(victim, leader);
     r.mat = key & 0x07FFFFFFu;
     r.base = 0u;
 }
@@ -507,8 +507,8 @@ ScGraphOutputs sc_material_graphs_at(uint material, vec2 uv, vec3 p, vec3 n, vec
 #endif
         if (!round && k >= c.count) break;
         uint mat = material;
-        vec2 at = uv;
-        float fp = footprint;
+        vec2 at;
+        float fp;
         ivec2 texel = ivec2(0);
         uint corner = 0u;
         bool evaluate = true;
@@ -519,9 +519,9 @@ ScGraphOutputs sc_material_graphs_at(uint material, vec2 uv, vec3 p, vec3 n, vec
             fp = memo_texel_width(r.level);
         } else
 #endif
-        if (c.variant != MEMO_V_DIRECT) {
+        {
             at = memo_evaluation_uv(c, k, uv, texel, corner);
-            fp = memo_texel_width(c.level);
+            fp = c.variant == MEMO_V_DIRECT ? footprint : memo_texel_width(c.level);
         }
         ScGraphOutputs v = ScGraphOutputs(vec3(0.0), 0.0, 0.0, vec3(0.0), vec3(0.0), 0u);
         if (evaluate) v = sc_material_graphs(mat, at, p, n, t, fp);

@@ -157,23 +157,32 @@ pub fn include(sg: &SceneGraphs, origin: DVec3, memo: bool, slots: &[Vec<u32>]) 
         .map(|(m, _)| *m)
         .collect();
     if !emissive.is_empty() {
-        s.push_str("#define SC_GRAPH_EMISSION\nbool sc_material_binds_emission(uint material_id) {\n    switch (material_id) {\n");
-        for m in &emissive {
-            let _ = writeln!(s, "    case {m}u: return true;");
-        }
-        s.push_str("    default: return false;\n    }\n}\n");
+        s.push_str("#define SC_GRAPH_EMISSION\n");
+        material_predicate(&mut s, "sc_material_binds_emission", &emissive);
     }
     if memo {
-        s.push_str("bool sc_material_memoizable(uint material_id) {\n    switch (material_id) {\n");
-        for (m, binds) in &sg.materials {
-            if binds.iter().all(|b| sg.graphs[b.graph].reads_only_uv()) {
-                let _ = writeln!(s, "    case {m}u: return true;");
-            }
-        }
-        s.push_str("    default: return false;\n    }\n}\n");
+        let memoizable: Vec<u32> = sg
+            .materials
+            .iter()
+            .filter(|(_, binds)| binds.iter().all(|b| sg.graphs[b.graph].reads_only_uv()))
+            .map(|(m, _)| *m)
+            .collect();
+        material_predicate(&mut s, "sc_material_memoizable", &memoizable);
     }
     s.push_str("#endif\n");
     s
+}
+
+/// Appends `bool name(uint material_id)`: true for the listed materials.
+fn material_predicate(s: &mut String, name: &str, materials: &[u32]) {
+    let _ = writeln!(
+        s,
+        "bool {name}(uint material_id) {{\n    switch (material_id) {{"
+    );
+    for m in materials {
+        let _ = writeln!(s, "    case {m}u: return true;");
+    }
+    s.push_str("    default: return false;\n    }\n}\n");
 }
 
 /// Whether shader source `path` (under shaders/) includes, directly or not,
