@@ -924,6 +924,155 @@ fn cone_footprint_derivatives_match_finite_differences() {
     assert_eq!(lod::level(0.01, 0.0, 0.0), lod::MAX_LEVEL);
 }
 
+/// Eq. 2.12 (β_c = −2 k w / (n·d), the spread a curved mirror adds to a
+/// reflected cone) and its curvature k (`lod::triangle_curvature`, the
+/// mean over a triangle's edges of Δn·Δp / |Δp|²), against geometric
+/// optics at a sphere. Random spheres (R from 0.2 to 5 m), hit from outside
+/// (convex: k = +1/R towards the normal facing the ray) or from inside
+/// (concave: k = −1/R), at incidences θ up to 75° from an eye t₁ away; k
+/// is estimated from a random triangle of vertices on the sphere around
+/// the hit (edges h·R, h from 0.01 to 0.3) with the sphere's normals. The
+/// truth: two rays at ±a about the central one in the plane of incidence,
+/// each reflected at its own hit on the exact sphere (f64); their signed
+/// angle after the reflection is 2a + β (reflection reverses the sense),
+/// and β / (2a t₁) — the spread per unit of the cone's width w = 2a t₁ at
+/// the hit — is compared with the twin's β_c / w, which must be
+/// 2k / cos θ. Across the plane of incidence the same reflection turns the
+/// rays by 2k w cos θ only (the footprint is w long there, not w / cos θ,
+/// and a normal tilted sideways turns the reflected ray by 2 cos θ times
+/// the tilt): eq. 2.12's isotropic cone is the in-plane, wider, one, and
+/// that is checked too. Tolerances: the twin's f32 rounding, whose worst
+/// steps are the differences over an edge of the normals and of the
+/// positions (relative 2^-23 (1 + |p| / R) / h for the shortest edge h·R,
+/// times 32 for the operations' growth), plus the finite difference's truncation,
+/// O(a) relative with a = 10^-8 times the geometry's factors (1 / cos²θ
+/// and t₁ / R, below 10^3 here).
+#[test]
+fn curvature_spread_matches_reflection_at_a_sphere() {
+    use glam::{DQuat, DVec3, Vec3};
+    let a = 1e-8f64;
+    let (mut convex, mut concave) = (0, 0);
+    for i in 0..5_000u32 {
+        let r = |k: u32| {
+            pcg_hash(i.wrapping_mul(104_729) ^ k.wrapping_mul(0x27D4_EB2D)) as f64 / u32::MAX as f64
+        };
+        let centre = DVec3::new(r(0) * 4.0 - 2.0, r(1) * 4.0 - 2.0, r(2) * 4.0 - 2.0);
+        let radius = 0.2 + r(3) * 4.8;
+        let unit = |k: u32| {
+            let z = r(k) * 2.0 - 1.0;
+            let phi = r(k + 1) * std::f64::consts::TAU;
+            let s = (1.0 - z * z).max(0.0).sqrt();
+            DVec3::new(s * phi.cos(), s * phi.sin(), z)
+        };
+        let u = unit(4);
+        let hit = centre + u * radius;
+        let inside = i % 2 == 1;
+        // The normal facing the incoming ray, and k towards it.
+        let n = if inside { -u } else { u };
+        let k_true = if inside { -1.0 / radius } else { 1.0 / radius };
+        // Incidence θ ∈ [1°, 75°] about −n, azimuth random.
+        let theta = (1.0 + r(6) * 74.0).to_radians();
+        let t_axis = n.any_orthonormal_vector();
+        let b_axis = n.cross(t_axis);
+        let phi = r(7) * std::f64::consts::TAU;
+        let d = -(n * theta.cos() + (t_axis * phi.cos() + b_axis * phi.sin()) * theta.sin());
+        // The eye: outside, or inside on the chord (length 2R cos θ).
+        let t1 = if inside {
+            2.0 * radius * theta.cos() * (0.1 + 0.8 * r(8))
+        } else {
+            0.5 + r(8) * 4.5
+        };
+        let eye = hit - d * t1;
+        // A ray's hit on the sphere (the nearest ahead; from inside the
+        // only one) and its reflection there.
+        let reflect = |dir: DVec3| {
+            let oc = eye - centre;
+            let bq = oc.dot(dir);
+            let disc = bq * bq - (oc.length_squared() - radius * radius);
+            assert!(disc > 0.0, "case {i}: an edge ray misses");
+            let s = disc.sqrt();
+            let t = if inside { -bq + s } else { -bq - s };
+            let p = eye + dir * t;
+            let nn = (p - centre) / radius;
+            dir - nn * (2.0 * dir.dot(nn))
+        };
+        let r0 = reflect(d);
+        // The pair turned by ±a about `axis`, reflected: their angle, signed
+        // along `side` (the direction the + ray leaves the central one).
+        let turn = |axis: DVec3, side: DVec3| {
+            let plus = reflect(DQuat::from_axis_angle(axis, a) * d);
+            let minus = reflect(DQuat::from_axis_angle(axis, -a) * d);
+            let ang = |v: DVec3| v.dot(side).atan2(v.dot(r0));
+            ang(plus) - ang(minus)
+        };
+        // In the plane of incidence (rotation about its normal d × n; the
+        // reflection reverses the sense there: the + ray, turned towards
+        // axis × d, leaves along r0 × axis); across it (about d × (d × n), the + ray leaves
+        // along d × n, a tangent direction the reflection keeps).
+        let normal_of_plane = d.cross(n).normalize();
+        let across = d.cross(normal_of_plane).normalize();
+        let w = 2.0 * a * t1;
+        let beta_in = turn(normal_of_plane, r0.cross(normal_of_plane)) - 2.0 * a;
+        let beta_across = turn(across, normal_of_plane) - 2.0 * a;
+        // The twin, in f32: k from a triangle on the sphere around the hit.
+        let h = 0.01 + r(9) * 0.29;
+        let (tu, bu) = (
+            u.any_orthonormal_vector(),
+            u.cross(u.any_orthonormal_vector()),
+        );
+        let tri = [0u32, 1, 2].map(|k| {
+            let phi = (k as f64 + 0.5 * r(10 + k)) * std::f64::consts::TAU / 3.0;
+            let v = (u + (tu * phi.cos() + bu * phi.sin()) * h).normalize();
+            centre + v * radius
+        });
+        // The shortest edge relative to R, and how far from the origin
+        // the points lie relative to R (f32 positions round by ε·|p|).
+        let h_min = (0..3)
+            .map(|j| (tri[(j + 1) % 3] - tri[j]).length() / radius)
+            .fold(f64::MAX, f64::min);
+        let far = tri.iter().map(|p| p.length()).fold(0.0, f64::max) / radius;
+        let f = |v: DVec3| Vec3::new(v.x as f32, v.y as f32, v.z as f32);
+        let normals = tri.map(|p| f((p - centre) / radius * if inside { -1.0 } else { 1.0 }));
+        let k = lod::triangle_curvature(tri.map(f), normals);
+        let eps = f32::EPSILON as f64;
+        let tol_k = 32.0 * eps * (1.0 + far) / h_min;
+        assert!(
+            (k as f64 - k_true).abs() <= tol_k * k_true.abs(),
+            "case {i}: curvature {k} of a triangle on a sphere of radius {radius} (edges ≥ {h_min}·R), want {k_true}"
+        );
+        let got = lod::curvature_spread(k, w as f32, n.dot(d) as f32) as f64 / w;
+        let want = 2.0 * k_true / theta.cos();
+        let fd = beta_in / w;
+        let tol = tol_k + 1e3 * a * (1.0 + t1 / radius) / theta.cos().powi(2);
+        assert!(
+            (got - want).abs() <= tol * want.abs() && (fd - want).abs() <= tol * want.abs(),
+            "case {i}: {} sphere R {radius}, θ {:.1}°, t₁ {t1}: twin β_c/w {got}, eq. 2.12 {want}, reflected rays {fd}",
+            if inside { "concave" } else { "convex" },
+            theta.to_degrees()
+        );
+        let want_across = 2.0 * k_true * theta.cos();
+        assert!(
+            (beta_across / w - want_across).abs() <= tol * want.abs(),
+            "case {i}: across the plane of incidence {} vs 2k cos θ = {want_across}",
+            beta_across / w
+        );
+        if inside {
+            concave += 1;
+        } else {
+            convex += 1;
+        }
+    }
+    assert!(convex > 2_000 && concave > 2_000);
+    // Flat and degenerate: no spread.
+    let flat = [Vec3::ZERO, Vec3::X, Vec3::Z];
+    assert_eq!(lod::triangle_curvature(flat, [Vec3::Y; 3]), 0.0);
+    assert_eq!(
+        lod::triangle_curvature(flat, [Vec3::Y, Vec3::ZERO, Vec3::Y]),
+        0.0
+    );
+    assert_eq!(lod::curvature_spread(0.0, 0.01, -0.5), 0.0);
+}
+
 /// Which graphs the rendering cache may key by texel
 /// (`Graph::reads_only_uv`): a graph that reads only texcoord (terrazzo)
 /// may; one that reads the position (marble's 3D noise), or maps a normal

@@ -117,8 +117,10 @@ vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, vec2 eye_cone, inout Rng r
     vec3 sigma_a = vec3(0.0);    // absorption of the volume the ray travels in
 #ifdef SC_MATERIAL_MEMO
     // The memoization cache's cone past the first hit (thesis eqs.
-    // 2.10-2.11: width grown by the spread, the spread by each surface's
-    // roughness); the texture filtering's `cone` stays 0 there.
+    // 2.10-2.12: width grown by the spread, the spread by each surface's
+    // roughness and, for reflections, its curvature); the texture
+    // filtering's `cone` stays 0 there. The width is signed (a concave
+    // mirror may focus the cone through 0); the level takes its magnitude.
     float memo_w = cone_width;
     // (A perspective cone's spread is its width over the distance;
     // an orthographic one's is 0: parallel rays.)
@@ -138,12 +140,17 @@ vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, vec2 eye_cone, inout Rng r
         Surface s = surface_at(h.instance, h.prim, h.bary, d);
 #ifdef SC_MATERIAL_MEMO
         if (bounce > 0u) memo_w += memo_spread * h.t;
-        sc_memo_cone = bounce > 0u && cone_width > 0.0 ? memo_w : -1.0;
+        sc_memo_cone = bounce > 0u && cone_width > 0.0 ? abs(memo_w) : -1.0;
 #endif
         ShadingMaterial m = material_at(s, d, cone);
 #ifdef SC_MATERIAL_MEMO
         sc_memo_cone = -1.0;
         memo_spread += memo_roughness_spread(m.roughness * m.roughness);
+        // Eq. 2.12 at this hit (cone width memo_w), added below where the
+        // path reflects (light samples and reflected bounces); a
+        // transmitted ray gets none (exact for a thin-walled sheet; a
+        // refracting boundary's lens term is not modelled).
+        float memo_beta_c = memo_curvature_spread(s.memo_curvature, memo_w, dot(s.ng, d));
 #endif
         // Shading normal facing away from the ray (interpolated or mapped
         // normals at grazing hits: s.ng faces the ray, s.n only shares its
@@ -218,12 +225,13 @@ vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, vec2 eye_cone, inout Rng r
             // would have (memo_w + memo_spread · distance, as the next
             // bounce grows it), so both strategies see the same memoized
             // emission (lights.glsl sample_emitter).
-            sc_memo_nee_w = cone_width > 0.0 ? memo_w : -1.0;
-            sc_memo_nee_spread = memo_spread;
+            sc_memo_nee = cone_width > 0.0;
+            sc_memo_nee_w = memo_w;
+            sc_memo_nee_spread = memo_spread + memo_beta_c;
 #endif
             L += beta * nee_area_lights(s, m, f, wo, u_emitter, u_env, sigma_a, rays);
 #ifdef SC_MATERIAL_MEMO
-            sc_memo_nee_w = -1.0;
+            sc_memo_nee = false;
 #endif
             vec3 wi, w;
             float pdf;
@@ -241,6 +249,9 @@ vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, vec2 eye_cone, inout Rng r
             beta /= q;
         }
         if (!all(lessThan(beta, vec3(1e30))) || any(isnan(beta))) break;
+#ifdef SC_MATERIAL_MEMO
+        if (dot(wi_world, s.ng) > 0.0) memo_spread += memo_beta_c;   // a reflection (eq. 2.12)
+#endif
         o = offset_ray(s.p, dot(wi_world, s.ng) > 0.0 ? s.ng : -s.ng);
         cone = 0.0;  // secondary hits sample mip 0 (no cone model past the first hit)
         d = wi_world;

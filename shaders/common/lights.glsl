@@ -93,8 +93,8 @@ bool sample_emitter(vec3 p, vec4 u, out EmitterSample es) {
     es.pdf = e.pdf_area * dist2 / cos_l;
 #ifdef SC_MATERIAL_MEMO
     // The sampled point's memoization cone (integrator.glsl sets the
-    // vertex's width and spread; −1: no cone, the graph is evaluated directly).
-    sc_memo_cone = sc_memo_nee_w >= 0.0 ? sc_memo_nee_w + sc_memo_nee_spread * es.dist : -1.0;
+    // vertex's signed width and spread; none: the graph is evaluated directly).
+    sc_memo_cone = sc_memo_nee ? abs(sc_memo_nee_w + sc_memo_nee_spread * es.dist) : -1.0;
 #endif
     es.Le = emitted_radiance(e, bary, es.wi);
 #ifdef SC_MATERIAL_MEMO

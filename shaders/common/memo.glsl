@@ -41,15 +41,17 @@ const uint MEMO_C_HITS = 8u, MEMO_C_MISSES = 9u, MEMO_C_FILLS = 10u, MEMO_C_EVIC
 uint sc_memo_eye = 2u;
 
 // The ray-cone width at a secondary hit of path_radiance (thesis eqs.
-// 2.10-2.11, grown along the path); < 0 where the caller has none: then
+// 2.10-2.12, grown along the path; its magnitude); < 0 where the caller has none: then
 // secondary hits are evaluated directly.
 float sc_memo_cone = -1.0;
 
-// The cone of light samples taken from the current path vertex: width
-// sc_memo_nee_w (< 0: none, evaluate directly) grown by sc_memo_nee_spread
-// per unit distance to the sampled point (integrator.glsl sets them around
-// next-event estimation; lights.glsl sample_emitter reads them).
-float sc_memo_nee_w = -1.0;
+// The cone of light samples taken from the current path vertex (if
+// sc_memo_nee; else they are evaluated directly): signed width
+// sc_memo_nee_w grown by sc_memo_nee_spread per unit distance to the
+// sampled point (integrator.glsl sets them around next-event estimation;
+// lights.glsl sample_emitter reads them).
+bool sc_memo_nee = false;
+float sc_memo_nee_w = 0.0;
 float sc_memo_nee_spread = 0.0;
 
 // The 12 record words: base colour, metallic, roughness, normal, emission, mask.

@@ -190,6 +190,11 @@ struct Surface {
     // footprint along this ray per unit of cone width (thesis eqs.
     // 2.13-2.16, 5.2-5.4); 0 in shaders without the cache.
     float memo_uv_per_width;
+    // Eq. 2.12's curvature k of the hit triangle (memo/lod.glsl
+    // memo_triangle_curvature), signed towards n (so positive where the
+    // surface is convex towards the incoming ray); 0 in shaders without the
+    // cache.
+    float memo_curvature;
     vec3 tangent;
     float tangent_sign;
     vec4 color;    // vertex colour (COLOR_0), white without
@@ -237,8 +242,11 @@ Surface surface_at(uint inst, uint prim, vec2 bary, vec3 ray_dir) {
     s.uv_area_ratio = area2 > 0.0 ? uv_area2 / area2 : 0.0;
 #ifdef SC_MATERIAL_MEMO
     s.memo_uv_per_width = memo_uv_per_width(ray_dir, e1, e2, duv1, duv2);
+    s.memo_curvature = memo_triangle_curvature(pa, pb, pc, mat3(I.normal_to_world) * a.normal_v.xyz,
+        mat3(I.normal_to_world) * b.normal_v.xyz, mat3(I.normal_to_world) * c.normal_v.xyz);
 #else
     s.memo_uv_per_width = 0.0;
+    s.memo_curvature = 0.0;
 #endif
     s.uv2 = vec2(0.0);
     s.uv2_area_ratio = 0.0;
@@ -263,7 +271,10 @@ Surface surface_at(uint inst, uint prim, vec2 bary, vec3 ray_dir) {
     // node keeps its faces' sides).
     s.front = dot(gn, ray_dir) * instance_front_sign(inst) < 0.0;
     if (!s.front) gn = -gn;
-    if (dot(n, gn) < 0.0) n = -n;
+    if (dot(n, gn) < 0.0) {
+        n = -n;
+        s.memo_curvature = -s.memo_curvature;   // k is the vertex normals' side's
+    }
     vec4 t = w.x * a.tangent + w.y * b.tangent + w.z * c.tangent;
     s.tangent = mat3(I.object_to_world) * t.xyz;
     s.tangent_sign = t.w < 0.0 ? -1.0 : 1.0;

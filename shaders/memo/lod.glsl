@@ -42,11 +42,12 @@ float memo_uv_per_width(vec3 dir, vec3 e1, vec3 e2, vec2 d1, vec2 d2) {
     return min(length(j1) / max(abs(c), 1e-6), length(j2));
 }
 
-// Eq. 5.5: m = round(log2(1 / l_min) + bias) with l_min = cone_width *
+// Eq. 5.5: m = round(log2(1 / l_min) + bias) with l_min = |cone_width| *
 // uv_per_width (memo_uv_per_width; the thesis writes log2 of the texel
-// density 1 / l_min). No cone (w = 0): the finest level.
+// density 1 / l_min; a cone focused by a concave mirror past its focus has
+// a negative width, eq. 2.12). No cone (w = 0): the finest level.
 int memo_level(float cone_width, float uv_per_width, float bias) {
-    float l = cone_width * max(uv_per_width, 0.0);
+    float l = abs(cone_width) * max(uv_per_width, 0.0);
     if (!(l > 0.0)) return MEMO_MAX_LEVEL;
     return clamp(int(floor(-log2(l) + bias + 0.5)), MEMO_MIN_LEVEL, MEMO_MAX_LEVEL);
 }
@@ -69,11 +70,49 @@ vec2 memo_snapped_uv(ivec2 q, int level) { return ldexp(vec2(q), ivec2(-level));
 
 // Eqs. 2.10-2.11: the cone past a GGX surface of roughness alpha (GGX's
 // alpha): width w + spread * t at the next hit, spread grown by
-// beta_r = 2 sqrt(alpha^2 / (2 - 2 alpha^2)). The curvature term (eq. 2.12)
-// is left out: the scene stores no curvature.
+// beta_r = 2 sqrt(alpha^2 / (2 - 2 alpha^2)).
 float memo_cone_width(float width, float spread, float t) { return width + spread * t; }
 float memo_roughness_spread(float alpha) {
     float a2 = min(alpha * alpha, 0.999);
     return 2.0 * sqrt(a2 / (2.0 - 2.0 * a2));
+}
+
+// Eq. 2.12's k: the curvature of a triangle with smooth vertex normals
+// (world positions p, world normals n, all on one side; normalised here),
+// from the normal's turn along its edges: along the edge from p_i to p_j
+// the normal curvature is about (n_j - n_i).(p_j - p_i) / |p_j - p_i|^2,
+// exactly 1/R on a sphere of radius R whose vertex normals are p/R (either
+// side: the sign is the normals'), 0 on a flat triangle; positive where the
+// normals diverge (convex towards them). The isotropic k is the mean over
+// the three edges (a cylinder's triangles give a value between its 0 and
+// 1/R). The thesis names k without saying how it is found; this estimate
+// is ours (docs/MATERIALS.md, "Curvature").
+float memo_edge_curvature(vec3 pi, vec3 pj, vec3 ni, vec3 nj) {
+    vec3 e = pj - pi;
+    float ee = dot(e, e);
+    return ee > 0.0 ? dot(nj - ni, e) / ee : 0.0;
+}
+float memo_triangle_curvature(vec3 pa, vec3 pb, vec3 pc, vec3 na, vec3 nb, vec3 nc) {
+    vec3 l = vec3(dot(na, na), dot(nb, nb), dot(nc, nc));
+    if (!all(greaterThan(l, vec3(0.0)))) return 0.0;   // no smooth normals
+    na *= inversesqrt(l.x);
+    nb *= inversesqrt(l.y);
+    nc *= inversesqrt(l.z);
+    float k = (memo_edge_curvature(pa, pb, na, nb) + memo_edge_curvature(pb, pc, nb, nc) +
+               memo_edge_curvature(pc, pa, nc, na)) / 3.0;
+    return abs(k) < 1e30 ? k : 0.0;
+}
+
+// Eq. 2.12: beta_c = -2 k w / (n.d), the spread a reflection off a surface
+// of curvature k (towards the normal n, which faces the incoming ray d, so
+// n.d < 0) adds to a cone of width w: a convex mirror (k > 0) widens it, a
+// concave one narrows it (a negative spread focuses: the width may pass
+// through 0 and change sign, memo_level takes its magnitude). This is the
+// spread in the plane of incidence, where the footprint is w / |cos theta|
+// long; across it a reflection turns the rays by 2 k w |cos theta| (the cone
+// stays isotropic, as the thesis's is). |n.d| is kept off 0 as
+// memo_uv_per_width keeps it.
+float memo_curvature_spread(float k, float width, float n_dot_d) {
+    return 2.0 * k * width / max(abs(n_dot_d), 1e-6);
 }
 #endif

@@ -1,8 +1,9 @@
 //! CPU twin of `shaders/memo/lod.glsl`: the memo cache's level of detail
 //! from a ray cone's anisotropic footprint (thesis eqs. 2.13–2.16,
 //! 5.1–5.5), the nearest texel centre (eqs. 5.6–5.7, texel-centre
-//! snapping) and the cone's growth past a hit (eqs. 2.10–2.11). See the shader for the reasoning; the formulas are the same,
-//! in f32.
+//! snapping) and the cone's growth past a hit (eqs. 2.10–2.12, the
+//! curvature k of eq. 2.12 estimated from a triangle's vertex normals). See
+//! the shader for the reasoning; the formulas are the same, in f32.
 
 use glam::{Vec2, Vec3};
 
@@ -41,9 +42,10 @@ pub fn uv_per_width(dir: Vec3, e1: Vec3, e2: Vec3, d1: Vec2, d2: Vec2) -> f32 {
     (j1.length() / c.abs().max(1e-6)).min(j2.length())
 }
 
-/// Eq. 5.5: m = round(log2(1 / l_min) + bias), l_min = w · `uv_per_width`.
+/// Eq. 5.5: m = round(log2(1 / l_min) + bias), l_min = |w| · `uv_per_width`
+/// (a cone focused past a concave mirror's focus has a negative width).
 pub fn level(cone_width: f32, uv_per_width: f32, bias: f32) -> i32 {
-    let l = cone_width * uv_per_width.max(0.0);
+    let l = cone_width.abs() * uv_per_width.max(0.0);
     if l.is_nan() || l <= 0.0 {
         return MAX_LEVEL;
     }
@@ -80,4 +82,39 @@ pub fn cone_width(width: f32, spread: f32, t: f32) -> f32 {
 pub fn roughness_spread(alpha: f32) -> f32 {
     let a2 = (alpha * alpha).min(0.999);
     2.0 * (a2 / (2.0 - 2.0 * a2)).sqrt()
+}
+
+/// Eq. 2.12's k of a triangle with smooth vertex normals: the mean over its
+/// edges of (n_j − n_i)·(p_j − p_i) / |p_j − p_i|² (world positions, world
+/// normals, normalised here; 0 if one is zero); 1/R on a sphere of radius R with normals p/R, 0 where flat.
+/// The estimate is ours (the thesis names k only); see
+/// `memo_triangle_curvature` in `shaders/memo/lod.glsl`.
+pub fn triangle_curvature(p: [Vec3; 3], n: [Vec3; 3]) -> f32 {
+    let l = n.map(|v| v.dot(v));
+    if !l.iter().all(|&x| x > 0.0) {
+        return 0.0;
+    }
+    let n = [0, 1, 2].map(|i| n[i] * l[i].sqrt().recip());
+    let edge = |i: usize, j: usize| {
+        let e = p[j] - p[i];
+        let ee = e.dot(e);
+        if ee > 0.0 {
+            (n[j] - n[i]).dot(e) / ee
+        } else {
+            0.0
+        }
+    };
+    let k = (edge(0, 1) + edge(1, 2) + edge(2, 0)) / 3.0;
+    if k.abs() < 1e30 {
+        k
+    } else {
+        0.0
+    }
+}
+
+/// Eq. 2.12: β_c = −2 k w / (n·d) with n facing the incoming ray (n·d < 0),
+/// |n·d| kept off 0 as `uv_per_width` keeps it: the spread of a reflected
+/// cone of width w in the plane of incidence.
+pub fn curvature_spread(k: f32, width: f32, n_dot_d: f32) -> f32 {
+    2.0 * k * width / n_dot_d.abs().max(1e-6)
 }
