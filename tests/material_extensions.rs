@@ -597,3 +597,422 @@ fn the_coat_normal_texture_uses_its_own_channels_tangent_frame() {
     }
     assert_no_validation_messages(&ctx);
 }
+
+/// A glass of the given index and attenuation colour (per unit distance),
+/// smooth, with a volume: a boundary that refracts and absorbs inside.
+fn volume_glass(name: &str, ior: f32, colour: Vec3) -> Material {
+    let mut glass = Material::diffuse(name, Vec3::ONE);
+    glass.transmission = 1.0;
+    glass.roughness = 0.0;
+    glass.ior = ior;
+    glass.volume = Some(Volume {
+        attenuation_color: colour,
+        attenuation_distance: 1.0,
+    });
+    glass
+}
+
+/// Nested and overlapping volumes (KHR_materials_volume through
+/// `shaders/common/media.glsl`): ior 1 spheres, so every camera ray goes
+/// straight through every boundary (no Fresnel, no bending) and only the
+/// absorption tells which medium each stretch was in. Seen head-on through
+/// the centres (offsets b ≤ 0.1 from the axis, as in
+/// `volume_absorbs_by_beer_lambert_along_the_chord`):
+/// * nested: a sphere B of radius ½ inside a unit sphere A, both centred:
+///   A absorbs along its chord minus B's, B along its own,
+///   c_A^(L_A − L_B) · c_B^(L_B). Without nesting (leaving B returned to
+///   vacuum) the far half of A's chord would not absorb;
+/// * overlapping: B (radius 0.6, centre 0.6 towards the eyes) sticks out of
+///   A's front. The ray enters B, then A, which wins where they overlap
+///   (the later entered is on top, media.glsl); B's back, met inside A, is
+///   passed through; so B absorbs from its front to A's, A along its whole
+///   chord. Leaving B into vacuum instead would stop A's absorption half
+///   way.
+///
+/// Each tessellated sphere lies between its inscribed radius r·cos²(π/96)
+/// and r, so every crossing lies in an interval along the ray; the bounds
+/// are the transmittance's extremes over those intervals. Both backends,
+/// the reference and the 1 spp path tracer; deterministic (delta events).
+#[test]
+fn nested_and_overlapping_volumes_absorb_by_the_innermost_medium() {
+    let ctx = context();
+    // Blue passes both (so the throughput's largest channel stays 1 and
+    // Russian roulette keeps every path: the images are deterministic).
+    let c_a = Vec3::new(0.5, 0.8, 1.0);
+    let c_b = Vec3::new(0.7, 0.4, 1.0);
+    let ri = (std::f64::consts::PI / 96.0).cos().powi(2);
+    // Where the ray at offset b from the axis crosses a tessellated sphere
+    // of radius r centred at z = c (front: larger z): (nearest, farthest).
+    let front = |r: f64, c: f64, b: f64| {
+        (
+            c + ((r * ri).powi(2) - b * b).sqrt(),
+            c + (r * r - b * b).sqrt(),
+        )
+    };
+    let back = |r: f64, c: f64, b: f64| {
+        (
+            c - (r * r - b * b).sqrt(),
+            c - ((r * ri).powi(2) - b * b).sqrt(),
+        )
+    };
+    // (name, B's radius and centre, the stretches (lo, hi) in A and in B
+    // for offset b as functions of the crossings).
+    type Stretches = fn(
+        &dyn Fn(f64, f64, f64) -> (f64, f64),
+        &dyn Fn(f64, f64, f64) -> (f64, f64),
+        f64,
+    ) -> [(f64, f64); 2];
+    let cases: [(&str, f32, f32, Stretches); 2] = [
+        ("nested", 0.5, 0.0, |front, back, b| {
+            let (fa, fb) = (front(1.0, 0.0, b), front(0.5, 0.0, b));
+            let (ba, bb) = (back(1.0, 0.0, b), back(0.5, 0.0, b));
+            // A: its chord minus B's; B: its chord.
+            let la = (fa.0 - ba.1 - (fb.1 - bb.0), fa.1 - ba.0 - (fb.0 - bb.1));
+            [la, (fb.0 - bb.1, fb.1 - bb.0)]
+        }),
+        ("overlapping", 0.6, 0.6, |front, back, b| {
+            let (fa, fb) = (front(1.0, 0.0, b), front(0.6, 0.6, b));
+            let ba = back(1.0, 0.0, b);
+            // B: from its front to A's; A: its whole chord.
+            [(fa.0 - ba.1, fa.1 - ba.0), (fb.0 - fa.1, fb.1 - fa.0)]
+        }),
+    ];
+    for (name, r_b, c_b_z, stretches) in cases {
+        let mut s = Scene {
+            source: format!("test:{name}-volumes").into(),
+            ..Default::default()
+        };
+        let ma = add_material(&mut s, volume_glass("A", 1.0, c_a));
+        let mb = add_material(&mut s, volume_glass("B", 1.0, c_b));
+        add_mesh(&mut s, uv_sphere("A", 96, 48), ma, Mat4::IDENTITY);
+        add_mesh(
+            &mut s,
+            uv_sphere("B", 96, 48),
+            mb,
+            Mat4::from_translation(Vec3::new(0.0, 0.0, c_b_z)) * Mat4::from_scale(Vec3::splat(r_b)),
+        );
+        s.environment = Some(Environment::Constant(Vec3::ONE));
+        s.validate().unwrap();
+        // Over the offsets in view, 0 to 0.1 (every stretch here is
+        // monotone in the offset, so its extremes are at the ends, which
+        // the samples include).
+        let (mut la, mut lb) = ((f64::MAX, 0.0f64), (f64::MAX, 0.0f64));
+        for i in 0..=100 {
+            let [a, b] = stretches(&front, &back, i as f64 * 1e-3);
+            la = (la.0.min(a.0), la.1.max(a.1));
+            lb = (lb.0.min(b.0), lb.1.max(b.1));
+        }
+        for rt in rt_backends(&ctx) {
+            let sess = session(&ctx, s.clone(), rt);
+            let cam = look_at_camera(Vec3::new(0.0, 0.0, 10.0), Vec3::ZERO, 0.5, 1.0);
+            let settings = RenderSettings {
+                width: 16,
+                height: 16,
+                spp: 2,
+                max_bounces: 6,
+                seed: 5,
+                all_features: false,
+                ..Default::default()
+            };
+            for method in ["reference", "naive"] {
+                let f = render(&sess, method, cam, &settings);
+                for eye in &f.eyes {
+                    for (px, fh) in eye.radiance.iter().zip(&eye.first_hit) {
+                        assert_ne!(fh[3], u32::MAX, "every pixel sees the spheres");
+                        for k in 0..3 {
+                            let (ca, cb) = (c_a[k] as f64, c_b[k] as f64);
+                            let t = [la.0, la.1]
+                                .iter()
+                                .flat_map(|&a| [lb.0, lb.1].map(|b| ca.powf(a) * cb.powf(b)))
+                                .collect::<Vec<_>>();
+                            let lo = t.iter().cloned().fold(f64::MAX, f64::min);
+                            let hi = t.iter().cloned().fold(0.0, f64::max);
+                            let v = px[k] as f64;
+                            assert!(
+                                v >= lo - 1e-5 && v <= hi + 1e-5,
+                                "{name} {rt:?} {method}: channel {k} transmits {v}, Beer–Lambert through \
+                                 the media gives [{lo:.5}, {hi:.5}] (stretches in A {la:?}, in B {lb:?})"
+                            );
+                        }
+                    }
+                }
+            }
+        }
+    }
+    assert_no_validation_messages(&ctx);
+}
+
+/// An axis-aligned box with outward, counter-clockwise faces and flat normals.
+fn cuboid(name: &str, min: Vec3, max: Vec3) -> stereocache::scene::Mesh {
+    let mut m = stereocache::scene::Mesh {
+        name: name.into(),
+        ..Default::default()
+    };
+    let (c, h) = ((min + max) * 0.5, (max - min) * 0.5);
+    for axis in 0..3 {
+        for sign in [-1.0f32, 1.0] {
+            let mut n = Vec3::ZERO;
+            n[axis] = sign;
+            let (mut u, mut v) = (Vec3::ZERO, Vec3::ZERO);
+            u[(axis + 1) % 3] = h[(axis + 1) % 3];
+            v[(axis + 2) % 3] = h[(axis + 2) % 3];
+            if u.cross(v).dot(n) < 0.0 {
+                std::mem::swap(&mut u, &mut v);
+            }
+            let f = c + n * h[axis];
+            let base = m.positions.len() as u32;
+            for p in [f - u - v, f + u - v, f + u + v, f - u + v] {
+                m.positions.push(p);
+                m.normals.push(n);
+                m.uvs.push(glam::Vec2::ZERO);
+            }
+            m.indices
+                .extend([base, base + 1, base + 2, base, base + 2, base + 3]);
+        }
+    }
+    m
+}
+
+/// A ray's refraction through a plane interface (unit normal `n` against
+/// the ray), n₁/n₂ = `eta`; None at total internal reflection.
+fn refract(d: glam::DVec3, n: glam::DVec3, eta: f64) -> Option<glam::DVec3> {
+    let c = -n.dot(d);
+    let k = 1.0 - eta * eta * (1.0 - c * c);
+    (k >= 0.0).then(|| d * eta + n * (eta * c - k.sqrt()))
+}
+
+/// Unpolarised Fresnel reflectance of a dielectric interface at incidence
+/// cos_i, eta = n₂/n₁ (the shader's `fresnel_dielectric`).
+fn fresnel(cos_i: f64, eta: f64) -> f64 {
+    let s2 = (1.0 - cos_i * cos_i) / (eta * eta);
+    if s2 >= 1.0 {
+        return 1.0;
+    }
+    let ct = (1.0 - s2).sqrt();
+    let rs = (cos_i - eta * ct) / (cos_i + eta * ct);
+    let rp = (eta * cos_i - ct) / (eta * cos_i + ct);
+    0.5 * (rs * rs + rp * rp)
+}
+
+/// Refraction between nested and overlapping volumes (media.glsl): each
+/// interface takes the ratio of the indices on its two sides, and the back
+/// of a volume met inside one entered later is no interface. Glass box A
+/// (ior 1.5, 4 × 1 × 4) and glass box B (ior 1.2, 3 wide), under them, 0.5
+/// below A, an emissive strip (0.4 wide, radiance 1) in the dark; the eyes
+/// look down at 45° through the boxes' tops (8° field of view), both eyes.
+/// * nested: B (0.5 high) inside A: 1 → 1.5 at A's top, 1.5 → 1.2 at B's
+///   top, 1.2 → 1.5 at B's bottom, 1.5 → 1 at A's bottom;
+/// * overlapping: B (0.75 high) sticks out of A's top, its bottom inside A:
+///   1 → 1.2 at B's top, 1.2 → 1.5 at A's top (A, entered later, fills the
+///   overlap), no interface at B's bottom, 1.5 → 1 at A's bottom.
+///
+/// Every interface is horizontal, so the CPU follows each ray by Snell's
+/// law exactly, and the landing point says whether the pixel sees the
+/// strip (placed around the central ray's landing point). A path reaches
+/// the strip only by refracting at every interface (the strip is its 4th
+/// or 5th hit; a path that reflects anywhere needs at least two hits more
+/// than the bounce limit, 4, allows),
+/// with weight 1 (Fresnel-chosen events), so a pixel is exactly 1 or 0;
+/// pixels whose centre and corners land on both sides of a strip edge, or
+/// cross a box's side, are left out. Checked: no pixel predicted dark is
+/// lit; a predicted-lit pixel is lit with probability Π(1 − F) over its
+/// interfaces, so their count is within 4 standard deviations of Σ Π(1 − F).
+/// Without nesting (each volume's interfaces as if it sat in vacuum, the
+/// behaviour before) the rays land elsewhere and many pixels change sides
+/// (counted; at least 100 required); the same for the overlapping boxes
+/// with B's bottom refracting (1.2 → 1.5) instead of being passed through.
+/// Both backends.
+#[test]
+fn nested_and_overlapping_volume_interfaces_refract_with_the_ratio_of_their_indices() {
+    use glam::{DVec3, UVec2, Vec2};
+    let ctx = context();
+    let (n_a, n_b) = (1.5f64, 1.2f64);
+    // Interfaces from the top: (height, half extent of the face, (n₁, n₂)
+    // as media.glsl tracks them, as if each volume sat in vacuum, and a
+    // variant: B's bottom refracting in the overlap). n₁ = n₂: no interface.
+    type Layer = (f64, f64, [(f64, f64); 3]);
+    let nested: [Layer; 4] = [
+        (1.0, 2.0, [(1.0, n_a); 3]),
+        (0.75, 1.5, [(n_a, n_b), (1.0, n_b), (n_a, n_b)]),
+        (0.25, 1.5, [(n_b, n_a), (n_b, 1.0), (n_b, n_a)]),
+        (0.0, 2.0, [(n_a, 1.0); 3]),
+    ];
+    let overlapping: [Layer; 4] = [
+        (1.25, 1.5, [(1.0, n_b); 3]),
+        (1.0, 1.5, [(n_b, n_a), (1.0, n_a), (n_b, n_a)]),
+        (0.5, 1.5, [(n_a, n_a), (n_b, 1.0), (n_b, n_a)]),
+        (0.0, 2.0, [(n_a, 1.0); 3]),
+    ];
+    // Where a ray lands on the strip's plane (y = −0.5), and Π(1 − F) on
+    // the way; None if it crosses a face outside its extent or reflects
+    // totally.
+    let follow = |layers: &[Layer; 4], model: usize, o: DVec3, d: DVec3| -> Option<(DVec3, f64)> {
+        let (mut p, mut d, mut keep) = (o, d, 1.0);
+        for &(y, half, iors) in layers {
+            let (n1, n2) = iors[model];
+            p += d * ((y - p.y) / d.y);
+            if p.x.abs() > half - 1e-3 || p.z.abs() > half - 1e-3 {
+                return None;
+            }
+            if n1 != n2 {
+                keep *= 1.0 - fresnel(-d.y, n2 / n1);
+                d = refract(d, DVec3::Y, n1 / n2)?;
+            }
+        }
+        Some((p + d * ((-0.5 - p.y) / d.y), keep))
+    };
+    let size = UVec2::new(48, 48);
+    let cam = look_at_camera(
+        Vec3::new(-3.0, 3.5, 0.0),
+        Vec3::new(0.0, 0.5, 0.0),
+        8.0,
+        1.0,
+    );
+    let settings = RenderSettings {
+        width: size.x,
+        height: size.y,
+        spp: 1,
+        max_bounces: 4,
+        seed: 3,
+        all_features: false,
+        ..Default::default()
+    };
+    for (name, layers, b_y) in [
+        ("nested", nested, (0.25f32, 0.75f32)),
+        ("overlapping", overlapping, (0.5, 1.25)),
+    ] {
+        // The strip, centred on the central ray's landing point.
+        let centre = cam.world_position();
+        let target = (DVec3::new(0.0, 0.5, 0.0) - centre).normalize();
+        let (land, _) = follow(&layers, 0, centre, target).expect("the central ray lands");
+        let (x0, x1) = (land.x - 0.2, land.x + 0.2);
+        let mut s = Scene {
+            source: format!("test:{name}-boxes").into(),
+            ..Default::default()
+        };
+        let ma = add_material(&mut s, volume_glass("A", n_a as f32, Vec3::ONE));
+        let mb = add_material(&mut s, volume_glass("B", n_b as f32, Vec3::ONE));
+        let mut strip = Material::diffuse("strip", Vec3::ZERO);
+        strip.emissive = Vec3::ONE;
+        let ms = add_material(&mut s, strip);
+        add_mesh(
+            &mut s,
+            cuboid("A", Vec3::new(-2.0, 0.0, -2.0), Vec3::new(2.0, 1.0, 2.0)),
+            ma,
+            Mat4::IDENTITY,
+        );
+        add_mesh(
+            &mut s,
+            cuboid(
+                "B",
+                Vec3::new(-1.5, b_y.0, -1.5),
+                Vec3::new(1.5, b_y.1, 1.5),
+            ),
+            mb,
+            Mat4::IDENTITY,
+        );
+        add_mesh(
+            &mut s,
+            stereocache::scene::generate::grid(
+                "strip",
+                Vec3::new(x0 as f32, -0.5, 1.0),
+                Vec3::X * (x1 - x0) as f32,
+                Vec3::NEG_Z * 2.0,
+                1,
+                1,
+                Vec2::ONE,
+            ),
+            ms,
+            Mat4::IDENTITY,
+        );
+        s.environment = Some(Environment::Constant(Vec3::ZERO));
+        s.validate().unwrap();
+        // The strip's own f32 corners decide (it is what the GPU hits).
+        let (x0, x1) = (x0 as f32 as f64, (x0 as f32 + (x1 - x0) as f32) as f64);
+        let on_strip = |p: DVec3| p.x >= x0 && p.x <= x1 && p.z.abs() <= 1.0;
+        for rt in rt_backends(&ctx) {
+            let sess = session(&ctx, s.clone(), rt);
+            let f = render(&sess, "reference", cam, &settings);
+            let (mut lit, mut dark, mut expected, mut variance) = (0usize, 0usize, 0.0, 0.0);
+            let mut changed = [0usize; 3];
+            for (e, eye) in f.eyes.iter().enumerate() {
+                let view = cam.eyes()[e];
+                for (i, px) in eye.radiance.iter().enumerate() {
+                    let c = Vec2::new(
+                        (i as u32 % size.x) as f32 + 0.5,
+                        (i as u32 / size.x) as f32 + 0.5,
+                    );
+                    let side = |model: usize| -> Option<(bool, f64)> {
+                        let mut sides = [
+                            Vec2::ZERO,
+                            Vec2::new(-0.5, -0.5),
+                            Vec2::new(0.5, -0.5),
+                            Vec2::new(-0.5, 0.5),
+                            Vec2::new(0.5, 0.5),
+                        ]
+                        .into_iter()
+                        .map(|off| {
+                            let d = view.ray_direction(c + off, size).as_dvec3().normalize();
+                            follow(&layers, model, view.world, d).map(|(p, k)| (on_strip(p), k))
+                        });
+                        let first = sides.next()??;
+                        sides
+                            .all(|s| s.is_some_and(|s| s.0 == first.0))
+                            .then_some(first)
+                    };
+                    let Some((predicted_lit, keep)) = side(0) else {
+                        continue;
+                    };
+                    for (model, n) in changed.iter_mut().enumerate().skip(1) {
+                        if side(model).is_some_and(|(l, _)| l != predicted_lit) {
+                            *n += 1;
+                        }
+                    }
+                    let v = px[0];
+                    assert!(
+                        v == 0.0 || (v - 1.0).abs() <= 1e-5,
+                        "{name} {rt:?} eye {e} pixel {i}: radiance {px:?} is neither the strip's 1 nor 0"
+                    );
+                    if !predicted_lit {
+                        assert_eq!(
+                            v, 0.0,
+                            "{name} {rt:?} eye {e} pixel {i}: lit, but its rays land off the strip"
+                        );
+                        dark += 1;
+                        continue;
+                    }
+                    expected += keep;
+                    variance += keep * (1.0 - keep);
+                    if v > 0.0 {
+                        lit += 1;
+                    }
+                }
+            }
+            eprintln!(
+                "{name} {rt:?}: {lit} pixels lit of {expected:.1} expected (σ {:.1}), {dark} dark as \
+                 predicted; without nesting {} would change sides{}",
+                variance.sqrt(),
+                changed[1],
+                if name == "overlapping" {
+                    format!(", with B's bottom refracting {}", changed[2])
+                } else {
+                    String::new()
+                }
+            );
+            assert!(
+                (lit as f64 - expected).abs() <= 4.0 * variance.sqrt() + 1.0,
+                "{name} {rt:?}: {lit} pixels lit, Π(1 − F) gives {expected:.1} ± {:.1}",
+                variance.sqrt()
+            );
+            assert!(
+                expected > 200.0 && dark > 200,
+                "{name} {rt:?}: too few pixels decided"
+            );
+            assert!(
+                changed[1] >= 100 && (name == "nested" || changed[2] >= 100),
+                "{name} {rt:?}: only {changed:?} pixels tell the models apart"
+            );
+        }
+    }
+    assert_no_validation_messages(&ctx);
+}

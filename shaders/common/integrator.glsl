@@ -19,8 +19,11 @@
 // KHR_materials_volume: a path that refracts into a volume boundary carries
 // the volume's absorption σ_a until it refracts out again; every segment
 // inside (to the next hit, to a light sampled from inside, or out to the sky)
-// is attenuated by Beer–Lambert exp(−σ_a·t). Media do not nest: leaving any
-// transmissive surface from its back returns to vacuum.
+// is attenuated by Beer–Lambert exp(−σ_a·t). Volumes nest and overlap
+// (media.glsl, after Schmidt & Budge 2002): the path keeps a stack of the
+// volumes it is in, the innermost's σ_a applies, each interface refracts
+// with the ratio of the indices on its two sides, and the back face of an
+// enclosing volume met inside a later-entered one is passed through.
 //
 // Random numbers: the BSDF / Russian-roulette / punctual-light numbers come
 // from the bounce's stream `r` and are drawn whether or not lights are
@@ -36,6 +39,7 @@
 #include "common/material.glsl"
 #include "common/lights.glsl"
 #include "common/sky.glsl"
+#include "common/media.glsl"
 
 struct RayCounts { uint bounce; uint shadow; };
 
@@ -114,7 +118,8 @@ vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, vec2 eye_cone, inout Rng r
     bool specular_prev = true;   // camera rays and delta events see the sun disc directly
     float pdf_prev = 0.0;
     float cone = cone_width;
-    vec3 sigma_a = vec3(0.0);    // absorption of the volume the ray travels in
+    Media media = media_vacuum();   // the volumes the ray is in (media.glsl)
+    vec3 sigma_a = vec3(0.0);    // absorption of the innermost, media_sigma_a(media)
 #ifdef SC_MATERIAL_MEMO
     // The memoization cache's cone past the first hit (thesis eqs.
     // 2.10-2.12: width grown by the spread, the spread by each surface's
@@ -126,7 +131,7 @@ vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, vec2 eye_cone, inout Rng r
     // an orthographic one's is 0: parallel rays.)
     float memo_spread = hit && h.t > 0.0 && eye_cone.y > 0.0 ? cone_width / h.t : 0.0;
 #endif
-    for (uint bounce = 0u;; ++bounce) {
+    for (uint bounce = 0u;;) {
         // Beer–Lambert over this segment (a ray escaping an open mesh from
         // inside travels on forever: absorbed wherever σ_a > 0).
         if (in_medium(sigma_a)) beta *= medium_transmittance(sigma_a, hit ? h.t : 1e30);
@@ -140,6 +145,17 @@ vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, vec2 eye_cone, inout Rng r
         Surface s = surface_at(h.instance, h.prim, h.bary, d);
 #ifdef SC_MATERIAL_MEMO
         if (bounce > 0u) memo_w += memo_spread * h.t;
+#endif
+        if (SC_TRANSMISSION && media_false_interface(media, s.material, s.front)) {
+            // The back of an enclosing volume, met inside one entered later
+            // (media.glsl): no interface; the ray goes on, no bounce spent.
+            media_remove(media, s.material);
+            o = offset_ray(s.p, -s.ng);
+            rays.bounce++;
+            hit = rt_closest_hit(o, d, 0.0, 1e30, h);
+            continue;
+        }
+#ifdef SC_MATERIAL_MEMO
         sc_memo_cone = bounce > 0u && cone_width > 0.0 ? abs(memo_w) : -1.0;
 #endif
         ShadingMaterial m = material_at(s, d, cone);
@@ -186,12 +202,19 @@ vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, vec2 eye_cone, inout Rng r
                 if (dot(wi_world, s.ng) <= 0.0) break;
                 beta *= ratio;
             } else {
-                if (!dielectric_sample_world(m, s.n, s.front, d, vec3(rng_next2(r), rng_next(r)), wi_world, w, delta)) break;
+                // The interface's index is relative to the medium on its
+                // other side (media.glsl; 1 in vacuum: the plain ior).
+                ShadingMaterial mi = m;
+                mi.ior /= media_outside_ior(media, s.material, s.front);
+                if (!dielectric_sample_world(mi, s.n, s.front, d, vec3(rng_next2(r), rng_next(r)), wi_world, w, delta)) break;
                 beta *= w;
                 // Refraction crosses the boundary: into the material's
-                // volume from the front, out to vacuum from the back (a
+                // volume from the front, out of it from the back (a
                 // thin-walled sheet bounds no volume).
-                if (dot(wi_world, s.ng) < 0.0 && !m.thin) sigma_a = s.front ? materials[s.material].attenuation.rgb : vec3(0.0);
+                if (dot(wi_world, s.ng) < 0.0 && !m.thin) {
+                    media_cross(media, s.material, s.front);
+                    sigma_a = media_sigma_a(media);
+                }
             }
             specular_prev = true;
             pdf_prev = 0.0;
@@ -256,6 +279,7 @@ vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, vec2 eye_cone, inout Rng r
         cone = 0.0;  // secondary hits sample mip 0 (no cone model past the first hit)
         d = wi_world;
         rays.bounce++;
+        ++bounce;
         hit = rt_closest_hit(o, d, 0.0, 1e30, h);
     }
     return L;

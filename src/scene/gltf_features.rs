@@ -328,7 +328,10 @@ pub const FEATURES: &[Feature] = &[
         "thicknessFactor > 0: a volume boundary that refracts and whose inside absorbs by \
          Beer–Lambert (attenuationColor, attenuationDistance) along the traced path (the \
          thickness value and its texture are for rasterizers); thicknessFactor 0 is thin-walled; \
-         media do not nest (leaving any volume returns to vacuum)",
+         volumes nest and overlap as the extension's implementation notes suggest (Schmidt & \
+         Budge's nested dielectrics, without priorities: the volume entered last fills an \
+         overlap; each interface refracts with the ratio of the indices on its sides; up to 4 \
+         deep)",
     ),
     f(
         "KHR_mesh_quantization",
