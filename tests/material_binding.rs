@@ -983,12 +983,13 @@ impl QuadUv {
     }
 }
 
-/// The levels whose texels may hold a hit whose cone has width `w` on a
+/// The levels whose texels may hold a hit whose cone has width `w` (its
+/// magnitude: a focused cone's is negative past the focus) on a
 /// footprint of `uv_per_width` (eq. 5.5 with `bias`): one, or both sides
 /// of a rounding boundary within 10⁻³ (f32 rounding of the GPU's cone).
 fn level_range(w: f32, uv_per_width: f32, bias: f32) -> Vec<i32> {
     use stereocache::materials::memo::lod;
-    let x = -(w * uv_per_width).log2() + bias + 0.5;
+    let x = -(w.abs() * uv_per_width).log2() + bias + 0.5;
     if (x - x.round()).abs() < 1e-3 {
         vec![x.round() as i32 - 1, x.round() as i32]
     } else {
@@ -1240,36 +1241,43 @@ fn memo_levels_past_a_mirror_follow_the_grown_cone() {
 
 /// Eq. 2.12 (β_c = −2 k w / (n·d)) on the GPU: the cone a curved mirror
 /// reflects. The plane mirror of `memo_levels_past_a_mirror_follow_the_grown_cone`
-/// becomes a convex sphere of radius R = 2 m (a 256 × 128 UV sphere with
-/// smooth normals, poles turned to ±z, the same smooth ior-100 sheet material) whose lowest
-/// point hangs 0.6 m above the quads; the eyes look up at it, and the
-/// reflected rays spread onto the uv-emitting quad 0 (memoized at secondary
-/// hits only, bias −2, 96 × 60 pixels). On the sphere's facets k is 1/R
-/// (the twin, `lod::triangle_curvature`, on the hit triangle: all its
-/// vertices lie on the sphere with radial normals), and eq. 2.12 makes the
-/// reflected cone about 2·t₁ / (R cos θ) ≈ 2–3× the eye's spread wider
-/// (cos θ ≈ 0.4 here), a level or two coarser at the quad.
+/// becomes a sphere of radius R = 2 m (a 256 × 128 UV sphere with smooth
+/// normals, poles turned to ±z so the rays meet near-square facets, the
+/// same smooth ior-100 sheet material) over the uv-emitting quad 0,
+/// memoized at secondary hits only, bias −2, 96 × 60 pixels:
+/// * convex: the sphere's lowest point hangs 0.6 m above the quads and the
+///   eyes look up at it from outside; k = +1/R, and eq. 2.12 makes the
+///   reflected cone 2–3× wider than the eye's spread alone would (a level
+///   or two coarser at the quad);
+/// * concave: eyes and quads inside the sphere, looking up at its inner
+///   wall; k = −1/R towards the normal facing the ray, the cone focuses
+///   (focal length R/2) and every checked pixel's cone is past its focus
+///   at the quad, with a negative width whose magnitude sets the level.
 ///
-/// For each pixel whose rays (centre and corners) all reflect onto quad 0,
-/// the CPU follows them through the mesh as the shader does — the
-/// triangle hit (f64, among the facets around the sphere's hit), its
-/// interpolated and normalised normal, the reflection about it — and
-/// builds the twin's level from w = spread·t₁ + (spread + β_c)·t₂ with
-/// β_c = `lod::curvature_spread(k, spread·t₁, n_g·d)` (k of the hit facet,
-/// n_g its plane's normal, as `surface_at` gives them), over the pixel's
+/// On the sphere's facets |k| is 1/R (the twin, `lod::triangle_curvature`,
+/// on the hit triangle: its vertices lie on the sphere with radial
+/// normals). For each pixel whose rays (centre and corners) all reflect
+/// onto quad 0, the CPU follows them through the mesh as the shader does —
+/// the triangle hit (f64, among the facets around the sphere's hit), its
+/// interpolated and normalised normal turned to the ray's side, the
+/// reflection about it — and builds the twin's level from
+/// w = spread·t₁ + (spread + β_c)·t₂ with β_c =
+/// `lod::curvature_spread(k, spread·t₁, n_g·d)` (k of the hit facet signed
+/// as `surface_at` signs it, n_g its plane's normal), over the pixel's
 /// centre and corners; some level in that range must explain the GPU's
 /// texel (`texel_explains`). That eq. 2.12 is the true spread of rays
-/// reflected at a sphere (in the plane of incidence) is checked apart, by
-/// finite differences in tests/memo.rs
+/// reflected at a sphere (in the plane of incidence, convex and concave)
+/// is checked apart, by finite differences in tests/memo.rs
 /// (`curvature_spread_matches_reflection_at_a_sphere`). The cone without
-/// the curvature term (w = spread·(t₁ + t₂), the plane mirror's) is a
-/// level or two finer; its texel is refuted wherever the GPU's coarser
-/// texel centre lies over half a finer texel from the pixel's uvs
-/// (measured: 278 of 805 pixels; required: a quarter). A shader without
-/// the term fails the main check at once (tried: the first reflected
-/// pixel shows the level-3 centre [0.375, 1] where eq. 2.12 gives level
-/// 2). Both backends where ray
-/// queries exist, non-tiled and 4×4 tiles.
+/// the curvature term (w = spread·(t₁ + t₂), the plane mirror's) is refuted
+/// wherever the GPU's texel centre lies over half a texel of that level
+/// from the pixel's uvs (measured: 278 of 805 convex and 1,084 of 1,239
+/// concave pixels; required: a quarter). Shaders without the term, without
+/// the flip of k, or without the width's magnitude at the lookup each fail
+/// the main check at once (tried: with the term left out, eye 0's pixel
+/// 326 shows the level-3 centre [0.375, 1] where eq. 2.12 gives level 2).
+/// Both backends where ray queries exist, non-tiled and 4×4 tiles, and with
+/// the file's normals turned inwards.
 #[test]
 fn memo_levels_past_a_curved_mirror_follow_the_curvature_spread() {
     use glam::DVec3;
@@ -1277,71 +1285,92 @@ fn memo_levels_past_a_curved_mirror_follow_the_curvature_spread() {
     use stereocache::materials::memo::{MemoFill, MemoHits, MemoSettings};
     let ctx = context();
     let d = dir("memo-curved-mirror");
-    let (mut scene, quv) = uv_emitting_quads(&d);
-    const H: f32 = 0.6;
+    let (base, quv) = uv_emitting_quads(&d);
     const R: f32 = 2.0;
     const BIAS: f32 = -2.0;
     const SEGMENTS: usize = 256;
     const RINGS: usize = 128;
-    let centre = Vec3::new(-0.55, H + R, -0.2);
-    let mut sheet = Material::diffuse("mirror", Vec3::ONE);
-    sheet.transmission = 1.0;
-    sheet.ior = 100.0;
-    sheet.roughness = 0.0;
-    sheet.double_sided = true;
-    let m_sheet = add_material(&mut scene, sheet);
-    add_mesh(
-        &mut scene,
-        stereocache::scene::generate::uv_sphere("mirror", SEGMENTS as u32, RINGS as u32),
-        m_sheet,
-        // Poles along ±z: the rays meet the sphere near its equator, where
-        // the facets are near-square (at a pole they are slivers).
-        Mat4::from_translation(centre)
-            * Mat4::from_rotation_x(std::f32::consts::FRAC_PI_2)
-            * Mat4::from_scale(Vec3::splat(R)),
-    );
-    scene.validate().unwrap();
-    let mirror_inst = (scene.instances.len() - 1) as u32;
-    // The sphere's facets in world space (f32 as uploaded, then f64),
-    // bucketed by the (ring, segment) cell of their centroid.
-    let inst = &scene.instances[mirror_inst as usize];
-    let mesh_index = inst.mesh as usize;
-    let mesh = &scene.meshes[mesh_index];
-    let tris: Vec<([Vec3; 3], [Vec3; 3])> = (0..mesh.indices.len() / 3)
-        .map(|t| {
-            let idx = [0, 1, 2].map(|k| mesh.indices[3 * t + k] as usize);
-            (
-                idx.map(|k| inst.transform.transform_point3(mesh.positions[k])),
-                idx.map(|k| {
-                    inst.transform
-                        .transform_vector3(mesh.normals[k])
-                        .normalize()
-                }),
-            )
-        })
-        .collect();
-    let to_object = inst.transform.as_dmat4().inverse();
-    let cell = |p: DVec3| {
-        let o = to_object.transform_point3(p).normalize();
-        let theta = o.y.clamp(-1.0, 1.0).acos();
-        let phi = o.x.atan2(o.z).rem_euclid(std::f64::consts::TAU);
+    // (name, the sphere's centre, the eyes' midpoint, where they look).
+    let geometries = [
+        // Convex: the sphere's lowest point 0.6 above the quads.
         (
-            ((theta / std::f64::consts::PI * RINGS as f64) as usize).min(RINGS - 1),
-            ((phi / std::f64::consts::TAU * SEGMENTS as f64) as usize).min(SEGMENTS - 1),
-        )
-    };
-    let mut buckets = vec![Vec::new(); RINGS * SEGMENTS];
-    for (t, (p, _)) in tris.iter().enumerate() {
-        let (r, s) = cell((p[0] + p[1] + p[2]).as_dvec3() / 3.0);
-        buckets[r * SEGMENTS + s].push(t);
-    }
-    // A ray's reflection at the mesh, as the shader computes it: (t₁,
-    // reflected direction, hit facet's k towards the shading normal, |n_g·d|,
-    // the f32 rounding bound of k: 32·2^-23·(1 + |p| / R) / (shortest
-    // edge / R), as in tests/memo.rs).
-    // `sign` −1: the mesh's normals turned inwards.
-    let reflect_at_mesh =
-        |o: DVec3, dir: DVec3, sign: f32| -> Option<(f64, DVec3, f32, f64, f64)> {
+            "convex",
+            Vec3::new(-0.55, 0.6 + R, -0.2),
+            Vec3::new(-0.55, 0.05, 1.0),
+            Vec3::new(-0.55, 0.6, -0.2),
+        ),
+        // Concave: eyes and quads inside the sphere, looking up at its
+        // inner wall; the cone focuses (k = −1/R, focal length R/2) and
+        // is past its focus at the quads, its width negative there.
+        (
+            "concave",
+            Vec3::new(-0.55, 0.5, 0.0),
+            Vec3::new(-0.55, 0.2, 1.0),
+            Vec3::new(-0.55, 2.4, -0.3),
+        ),
+    ];
+    for (geometry, centre, eye, look) in geometries {
+        let mut scene = base.clone();
+        let mut sheet = Material::diffuse("mirror", Vec3::ONE);
+        sheet.transmission = 1.0;
+        sheet.ior = 100.0;
+        sheet.roughness = 0.0;
+        sheet.double_sided = true;
+        let m_sheet = add_material(&mut scene, sheet);
+        add_mesh(
+            &mut scene,
+            stereocache::scene::generate::uv_sphere("mirror", SEGMENTS as u32, RINGS as u32),
+            m_sheet,
+            // Poles along ±z: the rays meet the sphere near its equator, where
+            // the facets are near-square (at a pole they are slivers).
+            Mat4::from_translation(centre)
+                * Mat4::from_rotation_x(std::f32::consts::FRAC_PI_2)
+                * Mat4::from_scale(Vec3::splat(R)),
+        );
+        scene.validate().unwrap();
+        let mirror_inst = (scene.instances.len() - 1) as u32;
+        // The sphere's facets in world space (f32 as uploaded, then f64),
+        // bucketed by the (ring, segment) cell of their centroid.
+        let inst = &scene.instances[mirror_inst as usize];
+        let mesh_index = inst.mesh as usize;
+        let mesh = &scene.meshes[mesh_index];
+        let tris: Vec<([Vec3; 3], [Vec3; 3])> = (0..mesh.indices.len() / 3)
+            .map(|t| {
+                let idx = [0, 1, 2].map(|k| mesh.indices[3 * t + k] as usize);
+                (
+                    idx.map(|k| inst.transform.transform_point3(mesh.positions[k])),
+                    idx.map(|k| {
+                        inst.transform
+                            .transform_vector3(mesh.normals[k])
+                            .normalize()
+                    }),
+                )
+            })
+            .collect();
+        let to_object = inst.transform.as_dmat4().inverse();
+        let cell = |p: DVec3| {
+            let o = to_object.transform_point3(p).normalize();
+            let theta = o.y.clamp(-1.0, 1.0).acos();
+            let phi = o.x.atan2(o.z).rem_euclid(std::f64::consts::TAU);
+            (
+                ((theta / std::f64::consts::PI * RINGS as f64) as usize).min(RINGS - 1),
+                ((phi / std::f64::consts::TAU * SEGMENTS as f64) as usize).min(SEGMENTS - 1),
+            )
+        };
+        let mut buckets = vec![Vec::new(); RINGS * SEGMENTS];
+        for (t, (p, _)) in tris.iter().enumerate() {
+            let (r, s) = cell((p[0] + p[1] + p[2]).as_dvec3() / 3.0);
+            buckets[r * SEGMENTS + s].push(t);
+        }
+        // A ray's reflection at the mesh, as the shader computes it: (t₁,
+        // reflected direction, hit facet's k towards the shading normal, |n_g·d|,
+        // the f32 rounding bound of k: 32·2^-23·(1 + |p| / R) / (shortest
+        // edge / R), as in tests/memo.rs).
+        // `sign` −1: the mesh's normals turned inwards.
+        let reflect_at_mesh = |o: DVec3,
+                               dir: DVec3,
+                               sign: f32|
+         -> Option<(f64, DVec3, f32, f64, f64)> {
             let c = centre.as_dvec3();
             let oc = o - c;
             let bq = oc.dot(dir);
@@ -1349,7 +1378,10 @@ fn memo_levels_past_a_curved_mirror_follow_the_curvature_spread() {
             if disc <= 0.0 {
                 return None;
             }
-            let (r0, s0) = cell(o + dir * (-bq - disc.sqrt()));
+            // The nearest hit ahead: from outside the near root, from
+            // inside the far one.
+            let inside = oc.length_squared() < (R * R) as f64;
+            let (r0, s0) = cell(o + dir * (-bq + if inside { disc.sqrt() } else { -disc.sqrt() }));
             let mut best: Option<(f64, usize, f64, f64)> = None;
             for r in r0.saturating_sub(1)..=(r0 + 1).min(RINGS - 1) {
                 for ds in [SEGMENTS - 1, 0, 1] {
@@ -1402,154 +1434,164 @@ fn memo_levels_past_a_curved_mirror_follow_the_curvature_spread() {
                 tol_k,
             ))
         };
-    let size = glam::UVec2::new(96, 60);
-    let settings = RenderSettings {
-        width: size.x,
-        height: size.y,
-        spp: 1,
-        max_bounces: 1,
-        seed: 11,
-        all_features: false,
-        ..Default::default()
-    };
-    let c = look_at(
-        "under the sphere",
-        Vec3::new(-0.55, 0.05, 1.0),
-        Vec3::new(-0.55, H, -0.2),
-        Vec3::Y,
-        60.0,
-    );
-    let camera = StereoCamera::from_scene_camera(c.transform, c.yfov, 96.0 / 60.0);
-    let inside = |p: DVec3| p.x > -1.04 && p.x < -0.06 && p.z > -0.49 && p.z < 0.49;
-    // Also with the sphere's normals turned inwards (as a file may have
-    // them): the shading normal is flipped to the ray's side and k with it
-    // (`surface_at`), so the same convex k and the same levels.
-    let configs = level_test_configs(&ctx)
-        .into_iter()
-        .map(|(rt, tile)| (rt, tile, 1.0f32))
-        .chain([(RtChoice::Software, 1, -1.0)]);
-    for (rt, tile, sign) in configs {
-        let mut scene = scene.clone();
-        for n in &mut scene.meshes[mesh_index].normals {
-            *n *= sign;
-        }
-        scene.graphs.memo = MemoSettings {
-            hits: MemoHits::Secondary,
-            tile,
-            entries: (1 << 20) / (tile * tile),
-            fill: MemoFill::Plain,
-            bias: BIAS,
+        let size = glam::UVec2::new(96, 60);
+        let settings = RenderSettings {
+            width: size.x,
+            height: size.y,
+            spp: 1,
+            max_bounces: 1,
+            seed: 11,
+            all_features: false,
             ..Default::default()
         };
-        let s = session(&ctx, scene, rt);
-        let f = render(&s, "reference", camera, &settings);
-        let (mut checked, mut refracted, mut refuted) = (0usize, 0usize, 0usize);
-        let mut levels_seen = std::collections::BTreeSet::new();
-        let mut worst_k = 0.0f64;
-        for (e, eye) in f.eyes.iter().enumerate() {
-            let view = camera.eyes()[e];
-            let spread = 2.0 * view.tan_half_fov().y / size.y as f32;
-            for (i, fh) in eye.first_hit.iter().enumerate() {
-                if fh[3] != mirror_inst {
-                    continue;
-                }
-                let px = Vec2::new(
-                    (i as u32 % size.x) as f32 + 0.5,
-                    (i as u32 / size.x) as f32 + 0.5,
-                );
-                // Centre and corners: (t₁, t₂, reflected direction, the
-                // quad's point, k, |n_g·d|).
-                let follow = |off: Vec2| {
-                    let dir = view.ray_direction(px + off, size).as_dvec3().normalize();
-                    let o = view.position.as_dvec3();
-                    let (t1, r, k, cos, tol_k) = reflect_at_mesh(o, dir, sign)?;
-                    let p1 = o + dir * t1;
-                    if r.y >= 0.0 {
-                        return None;
+        let c = look_at(geometry, eye, look, Vec3::Y, 60.0);
+        let camera = StereoCamera::from_scene_camera(c.transform, c.yfov, 96.0 / 60.0);
+        let on_quad = |p: DVec3| p.x > -1.04 && p.x < -0.06 && p.z > -0.49 && p.z < 0.49;
+        // k towards the shading normal, which faces the ray: +1/R seen from
+        // outside, −1/R from inside (whichever way the file's normals point).
+        let k_want = if geometry == "convex" { 1.0 } else { -1.0 };
+        // Also with the sphere's normals turned inwards (as a file may have
+        // them): the shading normal is flipped to the ray's side and k with it
+        // (`surface_at`), so the same convex k and the same levels.
+        let configs = level_test_configs(&ctx)
+            .into_iter()
+            .map(|(rt, tile)| (rt, tile, 1.0f32))
+            .chain([(RtChoice::Software, 1, -1.0)]);
+        for (rt, tile, sign) in configs {
+            let mut scene = scene.clone();
+            for n in &mut scene.meshes[mesh_index].normals {
+                *n *= sign;
+            }
+            scene.graphs.memo = MemoSettings {
+                hits: MemoHits::Secondary,
+                tile,
+                entries: (1 << 20) / (tile * tile),
+                fill: MemoFill::Plain,
+                bias: BIAS,
+                ..Default::default()
+            };
+            let s = session(&ctx, scene, rt);
+            let f = render(&s, "reference", camera, &settings);
+            let (mut checked, mut refracted, mut refuted, mut focused) =
+                (0usize, 0usize, 0usize, 0usize);
+            let mut levels_seen = std::collections::BTreeSet::new();
+            let mut worst_k = 0.0f64;
+            for (e, eye) in f.eyes.iter().enumerate() {
+                let view = camera.eyes()[e];
+                let spread = 2.0 * view.tan_half_fov().y / size.y as f32;
+                for (i, fh) in eye.first_hit.iter().enumerate() {
+                    if fh[3] != mirror_inst {
+                        continue;
                     }
-                    let t2 = -p1.y / r.y;
-                    Some((t1, t2, r, p1 + r * t2, k, cos, tol_k))
-                };
-                let rays: Vec<_> = [
-                    Vec2::ZERO,
-                    Vec2::new(-0.5, -0.5),
-                    Vec2::new(0.5, -0.5),
-                    Vec2::new(-0.5, 0.5),
-                    Vec2::new(0.5, 0.5),
-                ]
-                .iter()
-                .map(|&o| follow(o))
-                .collect();
-                if !rays.iter().all(|r| r.is_some_and(|r| inside(r.3))) {
-                    continue;
-                }
-                let rad = eye.radiance[i];
-                if rad[0] == 0.0 && rad[1] == 0.0 {
-                    refracted += 1;
-                    continue;
-                }
-                let (mut lo, mut hi) = (i32::MAX, i32::MIN);
-                let (mut uv_lo, mut uv_hi) = (Vec2::splat(f32::MAX), Vec2::splat(f32::MIN));
-                for &(t1, t2, r, p, k, cos, tol_k) in rays.iter().flatten() {
-                    // The hit facet's k is 1/R (its vertices lie on the
-                    // sphere with radial normals) to f32 rounding.
-                    let err = (k as f64 * R as f64 - 1.0).abs();
-                    assert!(err <= tol_k, "{rt:?}: a facet's k·R is {}", k * R);
-                    worst_k = worst_k.max(err);
-                    let w1 = spread * t1 as f32;
-                    let w = w1 + (spread + lod::curvature_spread(k, w1, cos as f32)) * t2 as f32;
-                    for m in level_range(w, quv.uv_per_width(r.as_vec3()), BIAS) {
-                        lo = lo.min(m);
-                        hi = hi.max(m);
+                    let px = Vec2::new(
+                        (i as u32 % size.x) as f32 + 0.5,
+                        (i as u32 / size.x) as f32 + 0.5,
+                    );
+                    // Centre and corners: (t₁, t₂, reflected direction, the
+                    // quad's point, k, |n_g·d|).
+                    let follow = |off: Vec2| {
+                        let dir = view.ray_direction(px + off, size).as_dvec3().normalize();
+                        let o = view.position.as_dvec3();
+                        let (t1, r, k, cos, tol_k) = reflect_at_mesh(o, dir, sign)?;
+                        let p1 = o + dir * t1;
+                        if r.y >= 0.0 {
+                            return None;
+                        }
+                        let t2 = -p1.y / r.y;
+                        Some((t1, t2, r, p1 + r * t2, k, cos, tol_k))
+                    };
+                    let rays: Vec<_> = [
+                        Vec2::ZERO,
+                        Vec2::new(-0.5, -0.5),
+                        Vec2::new(0.5, -0.5),
+                        Vec2::new(-0.5, 0.5),
+                        Vec2::new(0.5, 0.5),
+                    ]
+                    .iter()
+                    .map(|&o| follow(o))
+                    .collect();
+                    if !rays.iter().all(|r| r.is_some_and(|r| on_quad(r.3))) {
+                        continue;
                     }
-                    let uv = quv.uv_at(p.as_vec3());
-                    uv_lo = uv_lo.min(uv);
-                    uv_hi = uv_hi.max(uv);
-                }
-                assert_eq!(rad[2], 0.0, "{rt:?} eye {e} pixel {i}: {rad:?}");
-                let uc = Vec2::new(
-                    rad[0] / KHR_EMISSIVE_FACTOR[0],
-                    rad[1] / KHR_EMISSIVE_FACTOR[1],
-                );
-                let explains = |m: i32| texel_explains(uc, m, uv_lo, uv_hi);
-                assert!(
+                    let rad = eye.radiance[i];
+                    if rad[0] == 0.0 && rad[1] == 0.0 {
+                        refracted += 1;
+                        continue;
+                    }
+                    let (mut lo, mut hi) = (i32::MAX, i32::MIN);
+                    let (mut uv_lo, mut uv_hi) = (Vec2::splat(f32::MAX), Vec2::splat(f32::MIN));
+                    for &(t1, t2, r, p, k, cos, tol_k) in rays.iter().flatten() {
+                        // The hit facet's k is 1/R (its vertices lie on the
+                        // sphere with radial normals) to f32 rounding.
+                        let err = (k as f64 * R as f64 - k_want).abs();
+                        assert!(
+                            err <= tol_k,
+                            "{geometry} {rt:?}: a facet's k·R is {}",
+                            k * R
+                        );
+                        worst_k = worst_k.max(err);
+                        let w1 = spread * t1 as f32;
+                        let w =
+                            w1 + (spread + lod::curvature_spread(k, w1, cos as f32)) * t2 as f32;
+                        for m in level_range(w, quv.uv_per_width(r.as_vec3()), BIAS) {
+                            lo = lo.min(m);
+                            hi = hi.max(m);
+                        }
+                        let uv = quv.uv_at(p.as_vec3());
+                        uv_lo = uv_lo.min(uv);
+                        uv_hi = uv_hi.max(uv);
+                    }
+                    assert_eq!(rad[2], 0.0, "{geometry} {rt:?} eye {e} pixel {i}: {rad:?}");
+                    let uc = Vec2::new(
+                        rad[0] / KHR_EMISSIVE_FACTOR[0],
+                        rad[1] / KHR_EMISSIVE_FACTOR[1],
+                    );
+                    let explains = |m: i32| texel_explains(uc, m, uv_lo, uv_hi);
+                    assert!(
                     (lo..=hi).any(explains),
-                    "{rt:?} tile {tile} normals {sign}: eye {e} pixel {i}: texel centre {uc} is no texel of eq. 2.12's \
+                    "{geometry} {rt:?} tile {tile} normals {sign}: eye {e} pixel {i}: texel centre {uc} is no texel of eq. 2.12's \
                      levels {lo}..={hi} over the pixel's uvs {uv_lo}..{uv_hi}"
                 );
-                levels_seen.extend((lo..=hi).filter(|&m| explains(m)));
-                checked += 1;
-                // The plane mirror's cone, from the centre ray.
-                let (t1, t2, r, ..) = rays[0].unwrap();
-                if !level_range(
-                    spread * (t1 + t2) as f32,
-                    quv.uv_per_width(r.as_vec3()),
-                    BIAS,
-                )
-                .into_iter()
-                .any(explains)
-                {
-                    refuted += 1;
+                    levels_seen.extend((lo..=hi).filter(|&m| explains(m)));
+                    checked += 1;
+                    // The plane mirror's cone, from the centre ray.
+                    let (t1, t2, r, _, k, cos, _) = rays[0].unwrap();
+                    let w1 = spread * t1 as f32;
+                    if w1 + (spread + lod::curvature_spread(k, w1, cos as f32)) * (t2 as f32) < 0.0
+                    {
+                        focused += 1;
+                    }
+                    if !level_range(
+                        spread * (t1 + t2) as f32,
+                        quv.uv_per_width(r.as_vec3()),
+                        BIAS,
+                    )
+                    .into_iter()
+                    .any(explains)
+                    {
+                        refuted += 1;
+                    }
                 }
             }
-        }
-        eprintln!(
-            "{rt:?} tile {tile} normals {sign}: {checked} reflected pixels (levels {levels_seen:?}), {refracted} refracted; \
-             facet k·R − 1 at most {worst_k:.1e}; the cone without eq. 2.12 is refuted at {refuted}"
+            eprintln!(
+            "{geometry} {rt:?} tile {tile} normals {sign}: {checked} reflected pixels (levels {levels_seen:?}), {refracted} refracted; \
+             {focused} past the focus (negative width); facet |k·R| − 1 at most {worst_k:.1e}; \
+             the cone without eq. 2.12 is refuted at {refuted}"
         );
-        assert!(
-            checked > 500 && refracted > 0,
-            "{rt:?}: {checked} checked, {refracted} refracted"
-        );
-        assert!(
+            assert!(
+                checked > 500 && refracted > 0 && (geometry == "convex" || focused > checked / 2),
+                "{geometry} {rt:?}: {checked} checked, {refracted} refracted, {focused} past the focus"
+            );
+            assert!(
             refuted > checked / 4,
-            "{rt:?}: the cone without the curvature term is refuted at only {refuted} of {checked}"
+            "{geometry} {rt:?}: the cone without the curvature term is refuted at only {refuted} of {checked}"
         );
-        let c = memo_counters(&s);
-        assert!(
-            c.hits > 0 && c.misses > 0 && c.refused == 0,
-            "{rt:?}: {c:?}"
-        );
+            let c = memo_counters(&s);
+            assert!(
+                c.hits > 0 && c.misses > 0 && c.refused == 0,
+                "{geometry} {rt:?}: {c:?}"
+            );
+        }
     }
     assert_no_validation_messages(&ctx);
     let _ = std::fs::remove_dir_all(&d);

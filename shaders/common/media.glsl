@@ -46,9 +46,11 @@ bool media_is_volume(uint material) {
 }
 
 // Index of refraction of the medium at stack depth i from the top (0 = the
-// top); 1 (vacuum) below the stack.
+// top); 1 (vacuum) below the stack. KHR_materials_ior's ior 0 (imported as
+// is, gltf_import.rs) counts as 1 here, so no interface divides by it.
 float media_ior(Media s, uint i) {
-    return i < s.n ? materials[s.volume[s.n - 1u - i]].params.z : 1.0;
+    float n = i < s.n ? materials[s.volume[s.n - 1u - i]].params.z : 1.0;
+    return n >= 1.0 ? n : 1.0;
 }
 
 // Absorption σ_a of the medium the path is in (0 in vacuum).
