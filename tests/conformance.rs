@@ -1260,10 +1260,13 @@ fn emissive_strength_test_shows_each_cube_at_its_strength() {
 /// material double-sided).
 ///
 /// The README's second check, "the two white spheres should be lit the
-/// same, regardless of the negative scaling on one of them", holds by
-/// construction here: the integrator turns every shading normal to the
-/// side the ray arrives from (common/integrator.glsl), so it is not
-/// asserted from the image.
+/// same, regardless of the negative scaling on one of them", is asserted
+/// exactly on a simpler scene by tests/culling.rs
+/// (`mirrored_instances_are_shaded_like_their_unmirrored_twins`: a
+/// mirrored floor gives the unmirrored floor's analytic radiance, with and
+/// without a normal map). Until session 37 it did not hold: a mirroring
+/// instance's geometric normal faced away from the ray and its paths ended
+/// black at every hit (this test, looking only for red, did not see it).
 #[test]
 fn negative_scale_test_shows_no_red_x_marks() {
     let Some(scene) = load_unwarned("NegativeScaleTest/NegativeScaleTest.gltf") else {

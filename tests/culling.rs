@@ -303,3 +303,121 @@ fn single_sided_back_faces_let_shadow_rays_through() {
     }
     assert_no_validation_messages(&ctx);
 }
+
+/// A mirroring instance transform keeps a face's front (glTF §3.7.2.1), and
+/// it must keep its shading too: a white Lambertian floor (no specular
+/// layer) under a sun 40° from the zenith, seen from above, one bounce into
+/// a black world, so each pixel is exactly the sun's direct term
+/// cos θ_s / π, θ_s between the sun and the shading normal. Plain and
+/// mirrored (x scaled by −1) the floor must give the same: cos 40° / π
+/// without a normal map; with a constant normal map tilted 20° towards the
+/// bitangent (glTF: cross(n, t)·w in object space, here −z, the side the
+/// sun shines from, so θ_s ≈ 20°; the exact value from the texture's
+/// bytes), the mirrored floor's bitangent must still point to −z: a
+/// mirroring transform turns cross(n, t) of the transformed vectors over.
+/// (Before session 37 the mirrored floor was black: its geometric normal
+/// faced away from the ray and every path ended at it; and its mapped
+/// normal tilted the wrong way, giving cos 60° / π.) Deterministic: the
+/// sun is sampled exactly and nothing else is lit; every pixel within
+/// 10⁻⁵ relative (f32 rounding of the decode, normalisation and frame).
+#[test]
+fn mirrored_instances_are_shaded_like_their_unmirrored_twins() {
+    use stereocache::scene::{Texture, TextureEncoding, TextureRef};
+    let ctx = context();
+    let (sun_zenith, tilt) = (40f32.to_radians(), 20f32.to_radians());
+    // The normal map's bytes and the unit tangent-space normal they decode to.
+    let texel = [0.0f32, tilt.sin(), tilt.cos()].map(|c| ((c * 0.5 + 0.5) * 255.0).round() as u8);
+    let tn = Vec3::from_array([0, 1, 2].map(|k| texel[k] as f32 / 255.0 * 2.0 - 1.0)).normalize();
+    // Towards the sun: up, and towards −z.
+    let to_sun = Vec3::new(0.0, sun_zenith.cos(), -sun_zenith.sin());
+    for rt in backends(&ctx) {
+        for mapped in [false, true] {
+            // Object space: n = +y, t = +x, w = 1, so b = cross(n, t) = −z.
+            let want = if mapped {
+                Vec3::new(tn.x, tn.z, -tn.y).dot(to_sun) / std::f32::consts::PI
+            } else {
+                to_sun.y / std::f32::consts::PI
+            };
+            let mut got = Vec::new();
+            for mirror in [false, true] {
+                let mut s = Scene {
+                    source: "test:mirrored-floor".into(),
+                    ..Default::default()
+                };
+                let mut white = Material::diffuse("floor", Vec3::ONE);
+                white.specular = 0.0;
+                if mapped {
+                    s.textures.push(Texture::with_mips(
+                        "tilted".into(),
+                        TextureEncoding::Linear,
+                        1,
+                        1,
+                        vec![texel[0], texel[1], texel[2], 255],
+                    ));
+                    white.normal_texture = Some(TextureRef::new(0));
+                }
+                let floor = add_material(&mut s, white);
+                let mut mesh = grid(
+                    "floor",
+                    Vec3::new(-5.0, 0.0, 5.0),
+                    Vec3::X * 10.0,
+                    Vec3::NEG_Z * 10.0,
+                    1,
+                    1,
+                    Vec2::ONE,
+                );
+                mesh.tangents = vec![glam::Vec4::new(1.0, 0.0, 0.0, 1.0); mesh.positions.len()];
+                let t = if mirror {
+                    Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0))
+                } else {
+                    Mat4::IDENTITY
+                };
+                add_mesh(&mut s, mesh, floor, t);
+                s.lights.push(Light {
+                    name: "sun".into(),
+                    kind: LightKind::Directional {
+                        angular_radius: 0.0,
+                    },
+                    radiant: Vec3::ONE,
+                    position: Vec3::ZERO,
+                    direction: -to_sun,
+                    range: None,
+                });
+                s.environment = None;
+                s.validate().unwrap();
+                let sess = open(&ctx, s, rt);
+                let cam = look_at_camera(
+                    Vec3::new(0.3, 2.0, 0.3),
+                    Vec3::new(0.3, 0.0, 0.29),
+                    20.0,
+                    1.0,
+                );
+                let settings = RenderSettings {
+                    width: 8,
+                    height: 8,
+                    spp: 1,
+                    max_bounces: 1,
+                    seed: 1,
+                    all_features: false,
+                    ..Default::default()
+                };
+                let f = render(&sess, "reference", cam, &settings);
+                for eye in &f.eyes {
+                    for p in &eye.radiance {
+                        assert!(
+                            (p[0] - want).abs() <= 1e-5 * want,
+                            "{rt:?} normal map {mapped}, mirrored {mirror}: radiance {} where cos θ_s / π = {want}",
+                            p[0]
+                        );
+                    }
+                }
+                got.push(f.eyes[0].radiance[0][0]);
+            }
+            eprintln!(
+                "{rt:?} normal map {mapped}: plain {}, mirrored {}, want {want}",
+                got[0], got[1]
+            );
+        }
+    }
+    assert_no_validation_messages(&ctx);
+}

@@ -146,11 +146,17 @@ vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, vec2 eye_cone, inout Rng r
 #ifdef SC_MATERIAL_MEMO
         if (bounce > 0u) memo_w += memo_spread * h.t;
 #endif
-        if (SC_TRANSMISSION && media_false_interface(media, s.material, s.front)) {
-            // The back of an enclosing volume, met inside one entered later
-            // (media.glsl): no interface; the ray goes on, no bounce spent.
-            media_remove(media, s.material);
+        if (SC_TRANSMISSION && media_false_interface(media, h.instance, s.front)) {
+            // A boundary with the same medium on both sides (media.glsl):
+            // no interface; the ray goes on, no bounce spent. What it
+            // reaches is seen as through a delta event: a light sample
+            // from the last vertex is stopped by this surface (shadow rays
+            // do not pass transmissive ones), so the emission counts in
+            // full (and emitter_pdf's distance from here would be wrong).
+            media_cross(media, h.instance, s.front);
             o = offset_ray(s.p, -s.ng);
+            specular_prev = true;
+            pdf_prev = 0.0;
             rays.bounce++;
             hit = rt_closest_hit(o, d, 0.0, 1e30, h);
             continue;
@@ -161,7 +167,9 @@ vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, vec2 eye_cone, inout Rng r
         ShadingMaterial m = material_at(s, d, cone);
 #ifdef SC_MATERIAL_MEMO
         sc_memo_cone = -1.0;
-        memo_spread += memo_roughness_spread(m.roughness * m.roughness);
+        // A cone focused past zero width (negative width and spread, eq.
+        // 2.12) is widened by roughness too: β_r takes the width's sign.
+        memo_spread += (memo_w < 0.0 ? -1.0 : 1.0) * memo_roughness_spread(m.roughness * m.roughness);
         // Eq. 2.12 at this hit (cone width memo_w), added below where the
         // path reflects (light samples and reflected bounces); a
         // transmitted ray gets none (exact for a thin-walled sheet; a
@@ -205,14 +213,14 @@ vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, vec2 eye_cone, inout Rng r
                 // The interface's index is relative to the medium on its
                 // other side (media.glsl; 1 in vacuum: the plain ior).
                 ShadingMaterial mi = m;
-                mi.ior /= media_outside_ior(media, s.material, s.front);
+                mi.ior /= media_outside_ior(media, h.instance, s.front);
                 if (!dielectric_sample_world(mi, s.n, s.front, d, vec3(rng_next2(r), rng_next(r)), wi_world, w, delta)) break;
                 beta *= w;
                 // Refraction crosses the boundary: into the material's
                 // volume from the front, out of it from the back (a
                 // thin-walled sheet bounds no volume).
                 if (dot(wi_world, s.ng) < 0.0 && !m.thin) {
-                    media_cross(media, s.material, s.front);
+                    media_cross(media, h.instance, s.front);
                     sigma_a = media_sigma_a(media);
                 }
             }

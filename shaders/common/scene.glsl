@@ -268,8 +268,11 @@ Surface surface_at(uint inst, uint prim, vec2 bary, vec3 ray_dir) {
     }
     // glTF's front is counter-clockwise in object space: the world-space
     // e1 × e2 is the front normal times instance_front_sign (a mirroring
-    // node keeps its faces' sides).
-    s.front = dot(gn, ray_dir) * instance_front_sign(inst) < 0.0;
+    // node keeps its faces' sides). ng then faces the ray either way (it
+    // did not on mirrored instances before session 37: their paths ended
+    // at every hit, black but for emission).
+    gn *= instance_front_sign(inst);
+    s.front = dot(gn, ray_dir) < 0.0;
     if (!s.front) gn = -gn;
     if (dot(n, gn) < 0.0) {
         n = -n;
@@ -277,7 +280,10 @@ Surface surface_at(uint inst, uint prim, vec2 bary, vec3 ray_dir) {
     }
     vec4 t = w.x * a.tangent + w.y * b.tangent + w.z * c.tangent;
     s.tangent = mat3(I.object_to_world) * t.xyz;
-    s.tangent_sign = t.w < 0.0 ? -1.0 : 1.0;
+    // The bitangent is cross(n, t)·w (glTF) in object space; a mirroring
+    // transform turns the cross product of the transformed vectors over, so
+    // the world-space sign carries the instance's front sign too.
+    s.tangent_sign = (t.w < 0.0 ? -1.0 : 1.0) * instance_front_sign(inst);
     s.ng = gn;
     s.n = n;
     s.color = SC_VERTEX_COLORS ? w.x * vertex_color(vi.x) + w.y * vertex_color(vi.y) + w.z * vertex_color(vi.z) : vec4(1.0);

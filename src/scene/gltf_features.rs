@@ -330,8 +330,8 @@ pub const FEATURES: &[Feature] = &[
          thickness value and its texture are for rasterizers); thicknessFactor 0 is thin-walled; \
          volumes nest and overlap as the extension's implementation notes suggest (Schmidt & \
          Budge's nested dielectrics, without priorities: the volume entered last fills an \
-         overlap; each interface refracts with the ratio of the indices on its sides; up to 4 \
-         deep)",
+         overlap; each interface refracts with the ratio of the indices on its sides; touching \
+         or overlapping objects of one material are one medium; up to 4 deep)",
     ),
     f(
         "KHR_mesh_quantization",
