@@ -34,6 +34,46 @@ fn open(
         .expect("scene upload")
 }
 
+/// `s` lit by a sun alone (radiance 1, rays along `sun`), in a black world,
+/// seen from `eye` towards `target`: 8 × 8 pixels, 1 spp, one bounce — each
+/// pixel its surface's exact direct term, the sun being sampled exactly.
+fn render_under_sun(
+    ctx: &std::sync::Arc<stereocache::gpu::GpuContext>,
+    mut s: Scene,
+    backend: (RtChoice, BvhLayout),
+    sun: Vec3,
+    (eye, target, yfov): (Vec3, Vec3, f32),
+) -> stereocache::methods::StereoFrame {
+    s.lights.push(Light {
+        name: "sun".into(),
+        kind: LightKind::Directional {
+            angular_radius: 0.0,
+        },
+        radiant: Vec3::ONE,
+        position: Vec3::ZERO,
+        direction: sun,
+        range: None,
+    });
+    s.environment = None;
+    s.validate().unwrap();
+    let sess = open(ctx, s, backend);
+    let settings = RenderSettings {
+        width: 8,
+        height: 8,
+        spp: 1,
+        max_bounces: 1,
+        seed: 1,
+        all_features: false,
+        ..Default::default()
+    };
+    render(
+        &sess,
+        "reference",
+        look_at_camera(eye, target, yfov, 1.0),
+        &settings,
+    )
+}
+
 /// A 2 × 2 quad in the plane z = 0 whose counter-clockwise normal is +Z
 /// (`facing_camera`) or −Z.
 fn quad(facing_camera: bool) -> stereocache::scene::Mesh {
@@ -260,36 +300,14 @@ fn single_sided_back_faces_let_shadow_rays_through() {
                 )
             };
             add_mesh(&mut s, roof_mesh, roof, Mat4::IDENTITY);
-            s.lights.push(Light {
-                name: "sun".into(),
-                kind: LightKind::Directional {
-                    angular_radius: 0.0,
-                },
-                radiant: Vec3::ONE,
-                position: Vec3::ZERO,
-                direction: Vec3::NEG_Y,
-                range: None,
-            });
-            s.environment = None;
-            s.validate().unwrap();
-            let sess = open(&ctx, s, rt);
             // Between floor and roof, looking down at the floor.
-            let cam = look_at_camera(
-                Vec3::new(0.3, 0.5, 0.3),
-                Vec3::new(0.3, 0.0, 0.29),
-                10.0,
-                1.0,
+            let f = render_under_sun(
+                &ctx,
+                s,
+                rt,
+                Vec3::NEG_Y,
+                (Vec3::new(0.3, 0.5, 0.3), Vec3::new(0.3, 0.0, 0.29), 10.0),
             );
-            let settings = RenderSettings {
-                width: 8,
-                height: 8,
-                spp: 1,
-                max_bounces: 1,
-                seed: 1,
-                all_features: false,
-                ..Default::default()
-            };
-            let f = render(&sess, "reference", cam, &settings);
             for e in &f.eyes {
                 for p in &e.radiance {
                     assert!(
@@ -373,35 +391,13 @@ fn mirrored_instances_are_shaded_like_their_unmirrored_twins() {
                     Mat4::IDENTITY
                 };
                 add_mesh(&mut s, mesh, floor, t);
-                s.lights.push(Light {
-                    name: "sun".into(),
-                    kind: LightKind::Directional {
-                        angular_radius: 0.0,
-                    },
-                    radiant: Vec3::ONE,
-                    position: Vec3::ZERO,
-                    direction: -to_sun,
-                    range: None,
-                });
-                s.environment = None;
-                s.validate().unwrap();
-                let sess = open(&ctx, s, rt);
-                let cam = look_at_camera(
-                    Vec3::new(0.3, 2.0, 0.3),
-                    Vec3::new(0.3, 0.0, 0.29),
-                    20.0,
-                    1.0,
+                let f = render_under_sun(
+                    &ctx,
+                    s,
+                    rt,
+                    -to_sun,
+                    (Vec3::new(0.3, 2.0, 0.3), Vec3::new(0.3, 0.0, 0.29), 20.0),
                 );
-                let settings = RenderSettings {
-                    width: 8,
-                    height: 8,
-                    spp: 1,
-                    max_bounces: 1,
-                    seed: 1,
-                    all_features: false,
-                    ..Default::default()
-                };
-                let f = render(&sess, "reference", cam, &settings);
                 for eye in &f.eyes {
                     for p in &eye.radiance {
                         assert!(

@@ -997,6 +997,41 @@ fn level_range(w: f32, uv_per_width: f32, bias: f32) -> Vec<i32> {
     }
 }
 
+/// Over a pixel's rays — each (cone width at the quad, the ray's direction
+/// there, the point it reaches) — the levels eq. 5.5 may pick
+/// (`level_range`) and the box of the uvs they reach: what `texel_explains`
+/// tests the GPU's texel against.
+fn pixel_levels(
+    quv: &QuadUv,
+    rays: impl IntoIterator<Item = (f32, Vec3, Vec3)>,
+    bias: f32,
+) -> (std::ops::RangeInclusive<i32>, Vec2, Vec2) {
+    let (mut lo, mut hi) = (i32::MAX, i32::MIN);
+    let (mut uv_lo, mut uv_hi) = (Vec2::splat(f32::MAX), Vec2::splat(f32::MIN));
+    for (w, dir, p) in rays {
+        for m in level_range(w, quv.uv_per_width(dir), bias) {
+            lo = lo.min(m);
+            hi = hi.max(m);
+        }
+        let uv = quv.uv_at(p);
+        uv_lo = uv_lo.min(uv);
+        uv_hi = uv_hi.max(uv);
+    }
+    (lo..=hi, uv_lo, uv_hi)
+}
+
+/// The texel centre a pixel of `uv_emitting_quads`' quad 0 shows: its
+/// radiance over the emissive factor (blue is 0 there); None for another
+/// colour.
+fn texel_centre(rad: [f32; 4]) -> Option<Vec2> {
+    (rad[2] == 0.0).then(|| {
+        Vec2::new(
+            rad[0] / KHR_EMISSIVE_FACTOR[0],
+            rad[1] / KHR_EMISSIVE_FACTOR[1],
+        )
+    })
+}
+
 /// Whether level `m` explains the texel centre `uc` a memoized pixel shows:
 /// it is a level-m centre (q·2^-m, q integer per axis) whose texel,
 /// [q − ½, q + ½]·2^-m per axis, overlaps the uvs `uv_lo..uv_hi` the
@@ -1177,26 +1212,19 @@ fn memo_levels_past_a_mirror_follow_the_grown_cone() {
                 }
                 // The twin's level range over the pixel (centre, corners).
                 let level_of = |w: f32, k: f32| level_range(w, k, BIAS);
-                let (mut lo, mut hi) = (i32::MAX, i32::MIN);
-                let (mut uv_lo, mut uv_hi) = (Vec2::splat(f32::MAX), Vec2::splat(f32::MIN));
-                for &o in corners.iter().chain([Vec2::ZERO].iter()) {
-                    let (t1, t2, r, p) = at(o);
-                    let k = quv.uv_per_width(r.as_vec3());
-                    for m in level_of(spread * (t1 + t2) as f32, k) {
-                        lo = lo.min(m);
-                        hi = hi.max(m);
-                    }
-                    let uv = quv.uv_at(p.as_vec3());
-                    uv_lo = uv_lo.min(uv);
-                    uv_hi = uv_hi.max(uv);
-                }
+                let (levels, uv_lo, uv_hi) = pixel_levels(
+                    &quv,
+                    corners.iter().chain([Vec2::ZERO].iter()).map(|&o| {
+                        let (t1, t2, r, p) = at(o);
+                        (spread * (t1 + t2) as f32, r.as_vec3(), p.as_vec3())
+                    }),
+                    BIAS,
+                );
+                let (lo, hi) = (*levels.start(), *levels.end());
                 // The GPU's texel centre, read off the radiance
                 // (texel_explains).
-                assert_eq!(rad[2], 0.0, "{rt:?} eye {e} pixel {i}: {rad:?}");
-                let uc = Vec2::new(
-                    rad[0] / KHR_EMISSIVE_FACTOR[0],
-                    rad[1] / KHR_EMISSIVE_FACTOR[1],
-                );
+                let uc = texel_centre(rad)
+                    .unwrap_or_else(|| panic!("{rt:?} eye {e} pixel {i}: {rad:?}"));
                 let explains = |m: i32| texel_explains(uc, m, uv_lo, uv_hi);
                 assert!(
                     (lo..=hi).any(explains),
@@ -1518,34 +1546,28 @@ fn memo_levels_past_a_curved_mirror_follow_the_curvature_spread() {
                         refracted += 1;
                         continue;
                     }
-                    let (mut lo, mut hi) = (i32::MAX, i32::MIN);
-                    let (mut uv_lo, mut uv_hi) = (Vec2::splat(f32::MAX), Vec2::splat(f32::MIN));
-                    for &(t1, t2, r, p, k, cos, tol_k) in rays.iter().flatten() {
-                        // The hit facet's k is 1/R (its vertices lie on the
-                        // sphere with radial normals) to f32 rounding.
-                        let err = (k as f64 * R as f64 - k_want).abs();
-                        assert!(
-                            err <= tol_k,
-                            "{geometry} {rt:?}: a facet's k·R is {}",
-                            k * R
-                        );
-                        worst_k = worst_k.max(err);
-                        let w1 = spread * t1 as f32;
-                        let w =
-                            w1 + (spread + lod::curvature_spread(k, w1, cos as f32)) * t2 as f32;
-                        for m in level_range(w, quv.uv_per_width(r.as_vec3()), BIAS) {
-                            lo = lo.min(m);
-                            hi = hi.max(m);
-                        }
-                        let uv = quv.uv_at(p.as_vec3());
-                        uv_lo = uv_lo.min(uv);
-                        uv_hi = uv_hi.max(uv);
-                    }
-                    assert_eq!(rad[2], 0.0, "{geometry} {rt:?} eye {e} pixel {i}: {rad:?}");
-                    let uc = Vec2::new(
-                        rad[0] / KHR_EMISSIVE_FACTOR[0],
-                        rad[1] / KHR_EMISSIVE_FACTOR[1],
+                    let (levels, uv_lo, uv_hi) = pixel_levels(
+                        &quv,
+                        rays.iter().flatten().map(|&(t1, t2, r, p, k, cos, tol_k)| {
+                            // The hit facet's k is ±1/R (its vertices lie on
+                            // the sphere with radial normals) to f32 rounding.
+                            let err = (k as f64 * R as f64 - k_want).abs();
+                            assert!(
+                                err <= tol_k,
+                                "{geometry} {rt:?}: a facet's k·R is {}",
+                                k * R
+                            );
+                            worst_k = worst_k.max(err);
+                            let w1 = spread * t1 as f32;
+                            let w = w1
+                                + (spread + lod::curvature_spread(k, w1, cos as f32)) * t2 as f32;
+                            (w, r.as_vec3(), p.as_vec3())
+                        }),
+                        BIAS,
                     );
+                    let (lo, hi) = (*levels.start(), *levels.end());
+                    let uc = texel_centre(rad)
+                        .unwrap_or_else(|| panic!("{geometry} {rt:?} eye {e} pixel {i}: {rad:?}"));
                     let explains = |m: i32| texel_explains(uc, m, uv_lo, uv_hi);
                     assert!(
                     (lo..=hi).any(explains),
