@@ -158,9 +158,8 @@ fn used_by(doc: &Value) -> Vec<String> {
         // The textureInfos the renderer samples, in the order they claim the
         // two uv channels (base colour, normal, then the rest): two (uv set,
         // transform) choices per material get channels, a further transform
-        // of a set a channel holds is read through a map (not for the
-        // clearcoat normal texture, the last), so the slots that name a
-        // further set count.
+        // of a set a channel holds is read through a map, so the slots that
+        // name a further set count.
         let mut infos = vec![
             &m["pbrMetallicRoughness"]["baseColorTexture"],
             &m["normalTexture"],
@@ -191,7 +190,6 @@ fn used_by(doc: &Value) -> Vec<String> {
             (pair("offset", 0.0), r, pair("scale", 1.0))
         };
         let choice = |t: &Value| (uv_set(t), transform(t));
-        let coat_normal = &m["extensions"]["KHR_materials_clearcoat"]["clearcoatNormalTexture"];
         let mut channels = Vec::new();
         let mut third = Vec::new();
         for t in &infos {
@@ -201,7 +199,7 @@ fn used_by(doc: &Value) -> Vec<String> {
             }
             if channels.len() < 2 {
                 channels.push(c);
-            } else if std::ptr::eq(*t, coat_normal) || !channels.iter().any(|h| h.0 == c.0) {
+            } else if !channels.iter().any(|h| h.0 == c.0) {
                 third.push(c);
             }
         }

@@ -412,28 +412,57 @@ fn tangents_follow_the_transformed_uvs() {
 /// writer gives it all back.
 #[test]
 fn two_uv_sets_leave_the_normal_texture_its_own_transform_through_a_map() {
-    let d = dir("two-sets-normal-map");
+    tangent_texture_through_a_map(
+        "two-sets-normal-map",
+        json!({ "normalTexture": { "index": 0, "texCoord": 1 } }),
+        2,
+        &[],
+    );
+}
+
+/// The same with a clearcoat normal texture and no normal texture: the
+/// vertex tangents serve the coat (gltf_import.rs), so they follow its
+/// uvs through the map, and the writer stores them turned back by the
+/// coat's transform. (Before session 38 the coat's texture never read
+/// through a map: it read the base colour's uvs, warned.)
+#[test]
+fn a_clearcoat_normal_texture_reads_through_a_map_with_tangents_of_its_uvs() {
+    tangent_texture_through_a_map(
+        "two-sets-coat-normal-map",
+        json!({ "extensions": { "KHR_materials_clearcoat": {
+            "clearcoatFactor": 1.0,
+            "clearcoatNormalTexture": { "index": 0, "texCoord": 1 }
+        } } }),
+        9,
+        &["KHR_materials_clearcoat"],
+    );
+}
+
+/// A quad whose material binds the base colour and emissive textures to
+/// TEXCOORD_1 under the brief's transform, the metallic-roughness texture
+/// to TEXCOORD_0, and `extra` (a texture that the vertex tangents serve,
+/// slot `slot` of gltf_uv::SLOTS, on TEXCOORD_1 untransformed): `slot`
+/// reads channel 1 through a map, the tangents follow its uvs, nothing is
+/// warned, and the writer gives it all back.
+fn tangent_texture_through_a_map(name: &str, extra: Value, slot: usize, extensions: &[&str]) {
+    let d = dir(name);
     let quads = [Quad {
         rect: rect(0),
         attrs: vec![("TEXCOORD_0", unit_uvs()), ("TEXCOORD_1", unit_uvs())],
         material: 0,
     }];
-    let mats = vec![material(
-        "mixed",
-        json!({
-            "baseColorTexture": { "index": 0, "texCoord": 1, "extensions": brief_transform() },
-            "emissiveTexture": { "index": 0, "texCoord": 1, "extensions": brief_transform() },
-            "metallicRoughnessTexture": { "index": 0 },
-            "normalTexture": { "index": 0, "texCoord": 1 }
-        }),
-    )];
-    let path = write_doc(
-        &d,
-        &quads,
-        mats,
-        1,
-        json!({ "extensionsUsed": ["KHR_texture_transform"] }),
-    );
+    let mut slots = json!({
+        "baseColorTexture": { "index": 0, "texCoord": 1, "extensions": brief_transform() },
+        "emissiveTexture": { "index": 0, "texCoord": 1, "extensions": brief_transform() },
+        "metallicRoughnessTexture": { "index": 0 }
+    });
+    for (k, v) in extra.as_object().unwrap() {
+        slots[k] = v.clone();
+    }
+    let mats = vec![material(name, slots)];
+    let mut used = vec!["KHR_texture_transform"];
+    used.extend_from_slice(extensions);
+    let path = write_doc(&d, &quads, mats, 1, json!({ "extensionsUsed": used }));
     let scene = load_gltf(&path).unwrap();
     assert!(scene.warnings.is_empty(), "{:#?}", scene.warnings);
     assert_uvs(
@@ -452,7 +481,7 @@ fn two_uv_sets_leave_the_normal_texture_its_own_transform_through_a_map() {
         1 << 1,
         "the metallic-roughness texture's channel"
     );
-    let map = m.uv_affine[2].expect("the normal texture reads channel 1 through a map");
+    let map = m.uv_affine[slot].expect("the slot reads channel 1 through a map");
     for (k, uv) in scene.meshes[0].uvs.iter().enumerate() {
         let want = Vec2::from_slice(&unit_uvs()[k]);
         assert!(
@@ -461,6 +490,7 @@ fn two_uv_sets_leave_the_normal_texture_its_own_transform_through_a_map() {
             map.apply(*uv)
         );
     }
+    assert!(!scene.meshes[0].tangents.is_empty(), "tangents generated");
     for t in &scene.meshes[0].tangents {
         assert!(
             (t.truncate() - Vec3::X).length() < 1e-5 && t.w == 1.0,
@@ -474,7 +504,7 @@ fn two_uv_sets_leave_the_normal_texture_its_own_transform_through_a_map() {
     assert_eq!(back.meshes[0].uvs, scene.meshes[0].uvs);
     assert_eq!(back.meshes[0].uvs2, scene.meshes[0].uvs2);
     assert_eq!(back.materials[0].second_uv_slots, 1 << 1);
-    let back_map = back.materials[0].uv_affine[2].expect("still mapped");
+    let back_map = back.materials[0].uv_affine[slot].expect("still mapped");
     for uv in &scene.meshes[0].uvs {
         assert!((back_map.apply(*uv) - map.apply(*uv)).length() < UV_TOL);
     }

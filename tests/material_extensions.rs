@@ -5,7 +5,7 @@
 
 mod common;
 use common::*;
-use glam::{Mat4, Vec3};
+use glam::{Mat2, Mat4, Vec2, Vec3};
 use stereocache::methods::RenderSettings;
 use stereocache::rt::RtChoice;
 use stereocache::scene::generate::{add_material, add_mesh, uv_sphere};
@@ -393,7 +393,7 @@ fn transmission_without_a_volume_is_a_thin_sheet() {
             Vec3::Y * 2.0,
             2,
             2,
-            glam::Vec2::ONE,
+            Vec2::ONE,
         );
         add_mesh(
             &mut s,
@@ -408,7 +408,7 @@ fn transmission_without_a_volume_is_a_thin_sheet() {
             Vec3::Y,
             1,
             1,
-            glam::Vec2::ONE,
+            Vec2::ONE,
         );
         add_mesh(&mut s, emitter, l, Mat4::IDENTITY);
         s.environment = None;
@@ -483,14 +483,27 @@ fn azimuth_ramp() -> Environment {
     }
 }
 
+/// Which uvs the coat's normal texture and the base's (flat) normal
+/// texture read in [`tilted_coat`]; the mesh's vertex tangents always
+/// follow the base's normal texture (as the importer makes them).
+#[derive(Clone, Copy, Debug)]
+enum CoatUvs {
+    /// Both read channel 1, (u, v).
+    First,
+    /// The coat reads a second channel holding (v, u).
+    Second,
+    /// The coat reads channel 1 through the uv map (u, v) → (v, u).
+    Mapped,
+    /// The base's normal texture reads channel 1 through that map (the
+    /// vertex tangents follow (v, u)); the coat reads channel 1 itself.
+    NormalMapped,
+}
+
 /// A mirror coat over a black base, its normal tilted about 37° towards the
-/// tangent and the bitangent of the uv channel its normal texture reads (so
-/// the handedness counts too), on a 2 m quad in the
-/// y = 0 plane under the azimuth ramp. `swapped` gives the quad the uvs
-/// (v, u) instead of (u, v); `coat_on_second`: the coat's normal texture
-/// reads a second channel holding (v, u) while the base's (flat) normal
-/// texture, whose channel the vertex tangents belong to, reads (u, v).
-fn tilted_coat(swapped: bool, coat_on_second: bool) -> Scene {
+/// tangent and the bitangent of the uvs its normal texture reads (so the
+/// handedness counts too), on a 2 m quad in the y = 0 plane under the
+/// azimuth ramp. `swapped` gives the quad the uvs (v, u) instead of (u, v).
+fn tilted_coat(swapped: bool, coat: CoatUvs) -> Scene {
     let mut s = Scene {
         source: "test:coat-frame".into(),
         ..Default::default()
@@ -508,8 +521,15 @@ fn tilted_coat(swapped: bool, coat_on_second: bool) -> Scene {
         normal_scale: 1.0,
         ..Default::default()
     };
-    if coat_on_second {
-        m.second_uv_slots = 1 << 9;
+    let swap_uv = stereocache::scene::UvAffine {
+        linear: Mat2::from_cols(Vec2::Y, Vec2::X),
+        offset: Vec2::ZERO,
+    };
+    match coat {
+        CoatUvs::First => {}
+        CoatUvs::Second => m.second_uv_slots = 1 << 9,
+        CoatUvs::Mapped => m.uv_affine[9] = Some(swap_uv),
+        CoatUvs::NormalMapped => m.uv_affine[2] = Some(swap_uv),
     }
     let mat = add_material(&mut s, m);
     let mut mesh = stereocache::scene::generate::grid(
@@ -519,20 +539,23 @@ fn tilted_coat(swapped: bool, coat_on_second: bool) -> Scene {
         Vec3::NEG_Z * 2.0,
         1,
         1,
-        glam::Vec2::ONE,
+        Vec2::ONE,
     );
-    let flipped: Vec<glam::Vec2> = mesh
-        .uvs
-        .iter()
-        .map(|uv| glam::Vec2::new(uv.y, uv.x))
-        .collect();
+    let flipped: Vec<Vec2> = mesh.uvs.iter().map(|uv| Vec2::new(uv.y, uv.x)).collect();
     if swapped {
         mesh.uvs = flipped.clone();
     }
-    if coat_on_second {
-        mesh.uvs2 = flipped;
+    if let CoatUvs::NormalMapped = coat {
+        // Tangents of the normal texture's own uvs, (v, u).
+        let uvs = std::mem::replace(&mut mesh.uvs, flipped);
+        stereocache::scene::mesh_ops::generate_tangents(&mut mesh);
+        mesh.uvs = uvs;
+    } else {
+        if let CoatUvs::Second = coat {
+            mesh.uvs2 = flipped;
+        }
+        stereocache::scene::mesh_ops::generate_tangents(&mut mesh);
     }
-    stereocache::scene::mesh_ops::generate_tangents(&mut mesh);
     add_mesh(&mut s, mesh, mat, Mat4::IDENTITY);
     s.environment = Some(azimuth_ramp());
     s.validate().unwrap();
@@ -540,12 +563,15 @@ fn tilted_coat(swapped: bool, coat_on_second: bool) -> Scene {
 }
 
 /// KHR_materials_clearcoat: the coat's normal texture is read in the
-/// tangent frame of its own uv channel. With the coat on a second channel
-/// (v, u) and the vertex tangents on the first (u, v), the coat must tilt
-/// towards increasing v, as it does on a quad whose only channel is (v, u):
-/// the two images agree within their noise. In the first channel's frame
-/// it would reflect the ramp about 90° of azimuth away, a difference of
-/// about 0.04 · 0.25 = 0.01.
+/// tangent frame of the uvs it reads. With the coat on a second channel
+/// (v, u), or reading the first channel (u, v) through the map to (v, u),
+/// while the vertex tangents follow (u, v), the coat must tilt towards
+/// increasing v, as it does on a quad whose only channel is (v, u): the
+/// images agree within their noise. With the base's normal texture read
+/// through that map instead (vertex tangents of (v, u)) and the coat on
+/// (u, v), the coat must tilt as on the plain quad. In the vertex
+/// tangents' frame each would reflect the ramp about 90° of azimuth away,
+/// a difference of about 0.04 · 0.25 = 0.01.
 #[test]
 fn the_coat_normal_texture_uses_its_own_channels_tangent_frame() {
     let ctx = context();
@@ -559,41 +585,41 @@ fn the_coat_normal_texture_uses_its_own_channels_tangent_frame() {
         ..Default::default()
     };
     let cam = look_at_camera(Vec3::new(0.0, 10.0, 1e-3), Vec3::ZERO, 2.0, 1.0);
-    let mean = |f: &stereocache::methods::StereoFrame| -> (f64, f64) {
-        let v: Vec<f64> = f
-            .eyes
-            .iter()
-            .flat_map(|e| e.radiance.iter().map(|p| p[0] as f64))
-            .collect();
-        mean_and_standard_error(&v)
-    };
     for rt in rt_backends(&ctx) {
-        let own = mean(&render(
-            &session(&ctx, tilted_coat(false, true), rt),
-            "reference",
-            cam,
-            &settings,
-        ));
-        let want = mean(&render(
-            &session(&ctx, tilted_coat(true, false), rt),
-            "reference",
-            cam,
-            &settings,
-        ));
-        let first = mean(&render(
-            &session(&ctx, tilted_coat(false, false), rt),
-            "reference",
-            cam,
-            &settings,
-        ));
-        eprintln!("{rt:?}: second channel {own:?}, swapped quad {want:?}, first channel {first:?}");
-        let tol = 5.0 * (own.1.powi(2) + want.1.powi(2)).sqrt() + 1e-4;
-        assert!((own.0 - want.0).abs() <= tol, "{rt:?}: {own:?} vs {want:?}");
-        // The test bites: the first channel's frame reflects another azimuth.
+        let mean = |swapped: bool, coat: CoatUvs| -> (f64, f64) {
+            let f = render(
+                &session(&ctx, tilted_coat(swapped, coat), rt),
+                "reference",
+                cam,
+                &settings,
+            );
+            let v: Vec<f64> = f
+                .eyes
+                .iter()
+                .flat_map(|e| e.radiance.iter().map(|p| p[0] as f64))
+                .collect();
+            mean_and_standard_error(&v)
+        };
+        let swapped = mean(true, CoatUvs::First);
+        let plain = mean(false, CoatUvs::First);
+        let tol = 5.0 * (swapped.1.powi(2) + plain.1.powi(2)).sqrt() + 1e-4;
+        // The test bites: the two frames reflect different azimuths.
         assert!(
-            (first.0 - want.0).abs() > 10.0 * tol,
-            "{rt:?}: {first:?} vs {want:?}"
+            (plain.0 - swapped.0).abs() > 10.0 * tol,
+            "{rt:?}: {plain:?} vs {swapped:?}"
         );
+        for (coat, want) in [
+            (CoatUvs::Second, swapped),
+            (CoatUvs::Mapped, swapped),
+            (CoatUvs::NormalMapped, plain),
+        ] {
+            let got = mean(false, coat);
+            eprintln!("{rt:?}: {coat:?} {got:?}, want {want:?} (plain quad {plain:?}, swapped {swapped:?})");
+            assert!(
+                (got.0 - want.0).abs() <= tol,
+                "{rt:?} {coat:?}: {got:?} vs {want:?}"
+            );
+        }
     }
     assert_no_validation_messages(&ctx);
 }
@@ -764,7 +790,7 @@ fn cuboid(name: &str, min: Vec3, max: Vec3) -> stereocache::scene::Mesh {
             for p in [f - u - v, f + u - v, f + u + v, f - u + v] {
                 m.positions.push(p);
                 m.normals.push(n);
-                m.uvs.push(glam::Vec2::ZERO);
+                m.uvs.push(Vec2::ZERO);
             }
             m.indices
                 .extend([base, base + 1, base + 2, base, base + 2, base + 3]);

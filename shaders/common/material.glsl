@@ -105,7 +105,7 @@ ShadingMaterial material_at(inout Surface s, vec3 ray_dir, float cone_width) {
             if (g.tex2.y >= 0) m.clearcoat_roughness *= slot_texture(g, 8, g.tex2.y, s, cone_width, cos_i, false).g;
             // In its own channel's tangent frame (surface_at coat_tangent).
             Surface sc = s;
-            if (SC_SECOND_UV && s.coat_tangent.w != 0.0) {
+            if (s.coat_tangent.w != 0.0) {
                 sc.tangent = s.coat_tangent.xyz;
                 sc.tangent_sign = s.coat_tangent.w;
             }

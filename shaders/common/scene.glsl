@@ -199,9 +199,10 @@ struct Surface {
     float tangent_sign;
     vec4 color;    // vertex colour (COLOR_0), white without
     // The clearcoat normal texture's own tangent frame (xyz, sign) where it
-    // reads the other uv channel than the one the vertex tangents belong to
-    // (the normal texture's): the triangle's, from its uv gradients; w = 0
-    // where the vertex tangents serve, xyz = 0 for a degenerate mapping.
+    // reads other uvs than the vertex tangents belong to (the normal
+    // texture's: another channel, or either of them through a uv map): the
+    // triangle's, from the gradients of the uvs it reads; w = 0 where the
+    // vertex tangents serve, xyz = 0 for a degenerate mapping.
     vec4 coat_tangent;
 };
 
@@ -252,18 +253,32 @@ Surface surface_at(uint inst, uint prim, vec2 bary, vec3 ray_dir) {
     s.uv2_area_ratio = 0.0;
     s.material = meshes[I.mesh_pad.x].material;
     s.coat_tangent = vec4(0.0);
+    vec2 d1 = vec2(0.0), d2 = vec2(0.0);   // the second channel's uv edges
     if (SC_SECOND_UV) {
         vec2 ta = vertex_uv2(vi.x), tb = vertex_uv2(vi.y), tc = vertex_uv2(vi.z);
         s.uv2 = w.x * ta + w.y * tb + w.z * tc;
-        vec2 d1 = tb - ta, d2 = tc - ta;
+        d1 = tb - ta;
+        d2 = tc - ta;
         s.uv2_area_ratio = area2 > 0.0 ? abs(d1.x * d2.y - d1.y * d2.x) / area2 : 0.0;
-        if (SC_CLEARCOAT) {
-            // The vertex tangents belong to the normal texture's channel,
-            // else to the clearcoat normal texture's (gltf_import.rs).
-            MaterialGpu g = materials[s.material];
-            bool coat_second = slot_on_second_uv(g.tex3.y, 9);
-            if (g.tex2.z >= 0 && g.tex0.z >= 0 && coat_second != slot_on_second_uv(g.tex3.y, 2))
-                s.coat_tangent = coat_second ? triangle_tangent(e1, e2, d1, d2, n) : triangle_tangent(e1, e2, duv1, duv2, n);
+    }
+    if (SC_CLEARCOAT && (SC_SECOND_UV || SC_UV_AFFINE)) {
+        // The vertex tangents belong to the normal texture's uvs (its
+        // channel, read through its map or not), else to the clearcoat
+        // normal texture's (gltf_import.rs). With both textures, the coat's
+        // frame is its own where it reads other uvs: another channel, or
+        // either slot through a map (gltf_uv.rs UvAffine). A map's linear
+        // part takes the channel's uv edges to the mapped ones.
+        MaterialGpu g = materials[s.material];
+        bool coat_second = slot_on_second_uv(g.tex3.y, 9);
+        if (g.tex2.z >= 0 && g.tex0.z >= 0
+            && (coat_second != slot_on_second_uv(g.tex3.y, 2) || slot_mapped(g, 9) || slot_mapped(g, 2))) {
+            vec2 c1 = coat_second ? d1 : duv1, c2 = coat_second ? d2 : duv2;
+            if (slot_mapped(g, 9)) {
+                vec4 r0 = g.uv_affine[18], r1 = g.uv_affine[19];
+                c1 = vec2(dot(r0.xy, c1), dot(r1.xy, c1));
+                c2 = vec2(dot(r0.xy, c2), dot(r1.xy, c2));
+            }
+            s.coat_tangent = triangle_tangent(e1, e2, c1, c2, n);
         }
     }
     // glTF's front is counter-clockwise in object space: the world-space

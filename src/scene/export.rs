@@ -497,12 +497,17 @@ pub fn write_gltf(scene: &Scene, path: &Path) -> Result<(), SceneError> {
         if !m.tangents.is_empty() {
             // A normal texture read through a uv map is written under the
             // map as its transform, and a reader turns supplied tangents by
-            // a normal texture's transform: store them turned back.
-            let map = scene
-                .materials
-                .get(m.material as usize)
-                .and_then(|mat| mat.uv_affine[super::gltf_uv::NORMAL_SLOT])
-                .and_then(|a| a.as_transform());
+            // the transform of the texture they serve (the normal
+            // texture's, else the clearcoat normal texture's): store them
+            // turned back.
+            let map = scene.materials.get(m.material as usize).and_then(|mat| {
+                let slot = if mat.normal_texture.is_some() {
+                    super::gltf_uv::NORMAL_SLOT
+                } else {
+                    super::gltf_uv::CLEARCOAT_NORMAL_SLOT
+                };
+                mat.uv_affine[slot].and_then(|a| a.as_transform())
+            });
             let tan: Vec<[f32; 4]> = m
                 .tangents
                 .iter()

@@ -356,10 +356,12 @@ pub const FEATURES: &[Feature] = &[
          are applied at import; a texture with a further transform of a set a channel holds \
          reads that channel through the affine map between the two transforms at shading \
          time (spec constant SC_UV_AFFINE; a normal texture with MikkTSpace tangents of its \
-         own uvs, supplied ones turned by its transform). Not the clearcoat normal texture \
-         (its tangent frame is its channel's): it reads the base colour texture's uvs, \
-         warned. The glTF writer refuses a map that shears (one error) and stores a mapped \
-         normal texture's tangents turned back",
+         own uvs, supplied ones turned by its transform; a clearcoat normal texture on \
+         other uvs than the normal texture's in the triangle's frame of its own uvs). Not \
+         done: where a channel's own transform is singular (a zero scale), a further \
+         transform of its set reads the base colour texture's uvs, warned. The glTF writer \
+         refuses a map that shears (one error) and stores a mapped normal texture's \
+         tangents turned back",
     ),
     f(
         "KHR_xmp_json_ld",

@@ -785,7 +785,7 @@ impl Importer<'_> {
             self.warn(format!(
                 "{label}: its textures use more than two different {what}, but a material gets \
                  two uv channels ({}{second}), and only further transforms of their uv sets are \
-                 read through a map (not for the clearcoat normal texture): the others read the \
+                 read through a map: the others read the \
                  {}'s uvs, so {} {} the wrong uvs",
                 choice.describe(),
                 SLOTS[winner].0,

@@ -9,9 +9,11 @@
 //! rest). A slot naming a further choice of a set that a channel holds
 //! reads that channel through a [`UvAffine`], the map from the channel's
 //! transform to its own, applied at shading time (`MaterialGpu::uv_affine`);
-//! only a further uv set (or a channel whose transform is singular, or the
-//! clearcoat normal texture, whose tangent frame is the channel's) is left
-//! reading the first channel, and the importer warns naming it.
+//! only a further uv set (or a channel whose transform is singular) is left
+//! reading the first channel, and the importer warns naming it. A
+//! clearcoat normal texture whose uvs are not the vertex tangents' (another
+//! channel, or a map) takes its tangent frame from the triangle's gradients
+//! of the uvs it reads (scene.glsl `surface_at` coat_tangent).
 //!
 //! The `gltf` crate is built without its `KHR_texture_transform` feature, so
 //! the extension is read here from the raw JSON.
@@ -89,8 +91,9 @@ pub const ORDER: [usize; SLOT_COUNT] = [0, 2, 1, 3, 4, 5, 6, 7, 8, 9];
 /// The normal texture's slot: the vertex tangents carry its frame.
 pub const NORMAL_SLOT: usize = 2;
 
-/// The clearcoat normal texture's slot: its tangent frame is its channel's
-/// (scene.glsl `surface_at`), so it never reads through a [`UvAffine`].
+/// The clearcoat normal texture's slot: the vertex tangents carry its frame
+/// where the material has no normal texture; else its frame is the
+/// triangle's, from the uvs it reads (scene.glsl `surface_at`).
 pub const CLEARCOAT_NORMAL_SLOT: usize = 9;
 
 /// A tangent (w: handedness) turned to the direction of increasing u' for
@@ -387,12 +390,10 @@ pub struct UvChannels {
 /// extension))` per slot of [`SLOTS`], `None` where the slot binds no
 /// texture). No bound slot: TEXCOORD_0 untransformed, one channel.
 ///
-/// The normal texture may read through a map (its vertex tangents follow
-/// its own uvs), except when the material also has a clearcoat normal
-/// texture: the coat's frame is then the vertex tangents' or its channel's
-/// (scene.glsl `surface_at`), so the normal texture keeps a channel of its
-/// own — channel 2 goes to the first different choice, as the normal
-/// texture comes second in [`ORDER`].
+/// Any slot may read through a map. The vertex tangents follow the normal
+/// texture's own uvs (channel or map); a clearcoat normal texture reading
+/// other uvs than those gets the triangle's frame of its own (scene.glsl
+/// `surface_at`), so it constrains no choice here.
 pub fn choose(slots: &[Option<(u32, Option<SlotUv>)>; SLOT_COUNT]) -> UvChannels {
     let choices: Vec<(usize, UvChoice)> = ORDER
         .iter()
@@ -415,10 +416,6 @@ pub fn choose(slots: &[Option<(u32, Option<SlotUv>)>; SLOT_COUNT]) -> UvChannels
     let other_transform = choices.iter().map(|&(_, c)| c).find(|c| !c.same_as(&first));
     let other_set = choices.iter().map(|&(_, c)| c).find(|c| c.set != first.set);
     let mut out = assign(&choices, first, other_set.or(other_transform));
-    let normal_mapped = out.relative.iter().any(|&(k, _)| k == NORMAL_SLOT);
-    if normal_mapped && slots[CLEARCOAT_NORMAL_SLOT].is_some() {
-        out = assign(&choices, first, other_transform);
-    }
     let tangent_slot = if slots[NORMAL_SLOT].is_some() {
         NORMAL_SLOT
     } else {
@@ -448,7 +445,7 @@ fn assign(choices: &[(usize, UvChoice)], first: UvChoice, second: Option<UvChoic
             continue;
         }
         let through = |channel: &UvChoice| {
-            (channel.set == c.set && k != CLEARCOAT_NORMAL_SLOT)
+            (channel.set == c.set)
                 .then(|| UvAffine::between(&channel.transform, &c.transform))
                 .flatten()
         };
@@ -525,22 +522,23 @@ mod tests {
         slots[1] = Some((0, ext(base, None)));
         slots[2] = Some((0, ext(normal, None)));
         slots[3] = Some((0, ext(emissive, None)));
-        // A further uv set: no channel holds TEXCOORD_1.
+        // A second uv set takes channel 2; a third one (TEXCOORD_2) has
+        // no channel.
         slots[4] = Some((1, None));
-        // The clearcoat normal texture never reads through a map.
+        slots[5] = Some((2, None));
+        // The clearcoat normal texture reads through a map too (its frame
+        // is the triangle's of the mapped uvs, scene.glsl).
         slots[9] = Some((0, ext(emissive, None)));
         let ch = choose(&slots);
         assert!(ch.first.transform.same_as(&base));
-        assert!(
-            ch.second.unwrap().transform.same_as(&normal),
-            "the normal texture's"
-        );
-        assert_eq!(ch.second_slots, 1 << 2);
-        assert_eq!(ch.relative.len(), 1, "{ch:?}");
-        assert_eq!(ch.relative[0].0, 3);
+        assert_eq!(ch.second.map(|c| c.set), Some(1), "{ch:?}");
+        assert_eq!(ch.second_slots, 1 << 4);
+        let relative: Vec<usize> = ch.relative.iter().map(|r| r.0).collect();
+        assert_eq!(relative, [2, 3, 9], "{ch:?}");
+        assert_eq!(ch.relative[1].1, ch.relative[2].1, "one choice, one map");
         let wrong: Vec<usize> = ch.wrong.iter().map(|w| w.0).collect();
-        assert_eq!(wrong, [4, 9]);
-        let a = ch.relative[0].1;
+        assert_eq!(wrong, [5]);
+        let a = ch.relative[1].1;
         for raw in [
             Vec2::ZERO,
             Vec2::new(1.0, 0.0),
@@ -600,9 +598,10 @@ mod tests {
     /// Two transforms of TEXCOORD_0 (base colour, normal texture) and an
     /// occlusion-style texture on TEXCOORD_1: channel 2 goes to the second
     /// uv set, and the normal texture reads channel 1 through a map (its
-    /// tangents follow its own uvs: `tangent`). With a clearcoat normal
-    /// texture too (on the normal texture's uvs), the normal texture keeps
-    /// channel 2 and the second set is warned, as before.
+    /// tangents follow its own uvs: `tangent`). A clearcoat normal texture
+    /// on the normal texture's uvs changes nothing: it reads channel 1
+    /// through the same map (until session 38 the normal texture then took
+    /// channel 2 from the second uv set, which was warned).
     #[test]
     fn a_second_uv_set_gets_channel_two_and_the_normal_texture_a_map() {
         let t = |o: f32, set: Option<u32>| {
@@ -633,11 +632,13 @@ mod tests {
         assert!((got - (uv + Vec2::new(0.25, 0.0))).length() < 1e-6, "{got}");
 
         slots[9] = Some((0, t(0.25, None)));
-        let ch = choose(&slots);
-        assert_eq!(ch.second.map(|c| c.set), Some(0), "{ch:?}");
-        assert_eq!(ch.second_slots, (1 << 2) | (1 << 9));
-        assert_eq!(ch.wrong.len(), 1, "{ch:?}");
-        assert_eq!(ch.wrong[0].0, 3);
+        let with_coat = choose(&slots);
+        assert_eq!(with_coat.second, ch.second, "{with_coat:?}");
+        assert_eq!(with_coat.second_slots, 1 << 3);
+        let relative: Vec<(usize, UvAffine)> = vec![ch.relative[0], (9, ch.relative[0].1)];
+        assert_eq!(with_coat.relative, relative);
+        assert!(with_coat.wrong.is_empty(), "{with_coat:?}");
+        assert_eq!(with_coat.tangent, ch.tangent);
     }
 
     /// The writer stores a mapped normal texture's tangents turned back:
