@@ -1260,13 +1260,13 @@ fn emissive_strength_test_shows_each_cube_at_its_strength() {
 /// material double-sided).
 ///
 /// The README's second check, "the two white spheres should be lit the
-/// same, regardless of the negative scaling on one of them", is asserted
-/// exactly on a simpler scene by tests/culling.rs
-/// (`mirrored_instances_are_shaded_like_their_unmirrored_twins`: a
-/// mirrored floor gives the unmirrored floor's analytic radiance, with and
-/// without a normal map). Until session 37 it did not hold: a mirroring
-/// instance's geometric normal faced away from the ray and its paths ended
-/// black at every hit (this test, looking only for red, did not see it).
+/// same, regardless of the negative scaling on one of them", is
+/// `negative_scale_test_spheres_are_lit_the_same` below (and exactly, on
+/// a simpler scene, tests/culling.rs
+/// `mirrored_instances_are_shaded_like_their_unmirrored_twins`). Until
+/// session 37 it did not hold: a mirroring instance's geometric normal
+/// faced away from the ray and its paths ended black at every hit (this
+/// test, looking only for red, did not see it).
 #[test]
 fn negative_scale_test_shows_no_red_x_marks() {
     let Some(scene) = load_unwarned("NegativeScaleTest/NegativeScaleTest.gltf") else {
@@ -1316,6 +1316,122 @@ fn negative_scale_test_shows_no_red_x_marks() {
             "{rt:?}: ignoring the determinant shows no X: {det:?}"
         );
         assert!(both.1 > 100, "{rt:?}: not culling shows no X: {both:?}");
+    }
+    assert_no_validation_messages(&ctx);
+}
+
+/// NegativeScaleTest's spheres (README: "the two white spheres should be lit
+/// the same, regardless of the negative scaling on one of them"): three
+/// pairs of the model's icospheres (Not Shiny, Shiny, Dark), each with the
+/// model's own mesh, material and node hierarchy. In every pair the second
+/// sphere is the first mirrored in z (one of the two transforms has a
+/// negative determinant; for the Shiny pair the mirroring parent makes the
+/// first one the mirrored instance) and moved 2 along x. Each sphere is
+/// rendered alone (the model's blocks and background would light the two
+/// places differently) under light symmetric about its z = const plane (a
+/// constant environment and a sun travelling in that plane), from a camera
+/// in that plane: the mirror then maps the first sphere's scene onto the
+/// second's with the image flipped left-right and the eyes swapped. So the
+/// second sphere's image must equal the first's flipped, up to the
+/// samples' noise: the mean per-pixel difference within four of its
+/// standard errors (estimated from the differences).
+///
+/// Mutation tried (session 38): the shader before session 37's fix
+/// (`surface_at` telling the side by the normal turned with the instance's
+/// front sign but flipping the unturned one, so a mirrored instance's
+/// geometric normal faced away from the ray) fails at once: Not Shiny's
+/// mean difference 0.227 ± 0.005. Reversing the second sphere's winding is
+/// no mutation: the model's sphere materials are double-sided, and the
+/// geometric and shading normals are turned to the ray's side.
+#[test]
+fn negative_scale_test_spheres_are_lit_the_same() {
+    let Some(scene) = load_unwarned("NegativeScaleTest/NegativeScaleTest.gltf") else {
+        return;
+    };
+    let settings = RenderSettings {
+        width: 48,
+        height: 48,
+        spp: 32,
+        max_bounces: 2,
+        seed: 11,
+        all_features: false,
+        ..Default::default()
+    };
+    let sun = stereocache::scene::Light {
+        name: "sun in the mirror plane".into(),
+        kind: stereocache::scene::LightKind::Directional {
+            angular_radius: 0.1,
+        },
+        radiant: Vec3::splat(3.0),
+        position: Vec3::ZERO,
+        direction: Vec3::new(-0.5, -1.0, 0.0).normalize(),
+        range: None,
+    };
+    // One sphere instance alone, lit as above; its centre and radius.
+    let alone = |name: &str| -> (Scene, Vec3, f32) {
+        let mut s = scene.clone();
+        s.instances.retain(|i| i.name == name);
+        assert_eq!(s.instances.len(), 1, "node {name}");
+        let i = s.instances[0].clone();
+        let world: Vec<Vec3> = s.meshes[i.mesh as usize]
+            .positions
+            .iter()
+            .map(|&p| i.transform.transform_point3(p))
+            .collect();
+        let lo = world.iter().fold(Vec3::MAX, |a, &p| a.min(p));
+        let hi = world.iter().fold(Vec3::MIN, |a, &p| a.max(p));
+        s.lights = vec![sun.clone()];
+        s.environment = Some(stereocache::scene::Environment::Constant(Vec3::splat(0.3)));
+        (s, (lo + hi) * 0.5, (hi - lo).max_element() * 0.5)
+    };
+    let ctx = context();
+    for rt in rt_backends(&ctx) {
+        let view = |(s, centre, r): (Scene, Vec3, f32)| {
+            let cam = look_at_camera(centre + Vec3::new(4.0, 1.5, 0.0) * r, centre, 40.0, 1.0);
+            render(&session(&ctx, s, rt), "reference", cam, &settings)
+        };
+        // The mean and standard error of the per-pixel difference between
+        // the first sphere's image flipped (eyes swapped) and the second's.
+        let mirror_difference = |fa: &StereoFrame, fb: &StereoFrame| {
+            let (w, h) = (settings.width as usize, settings.height as usize);
+            let grey = |p: &[f32; 4]| (p[0] + p[1] + p[2]) as f64 / 3.0;
+            let mut diff = Vec::new();
+            for e in 0..2 {
+                for y in 0..h {
+                    for x in 0..w {
+                        let pa = grey(&fa.eyes[e].radiance[y * w + (w - 1 - x)]);
+                        diff.push(pa - grey(&fb.eyes[1 - e].radiance[y * w + x]));
+                    }
+                }
+            }
+            mean_and_standard_error(&diff)
+        };
+        for (a, b) in [
+            ("NotShiny1", "NotShinyMinus1"),
+            ("Shiny1", "ShinyMinus1"),
+            ("Dark1", "DarkMinus1"),
+        ] {
+            let (first, second) = (alone(a), alone(b));
+            // The mirror image of a sphere is that sphere: same radius, same
+            // y and z, two apart in x.
+            assert!(
+                (first.2 - second.2).abs() < 1e-4 * first.2,
+                "{a}/{b}: radii {} {}",
+                first.2,
+                second.2
+            );
+            let offset = second.1 - first.1;
+            assert!(
+                (offset - Vec3::X * 2.0).abs().max_element() < 1e-4,
+                "{a}/{b}: {offset}"
+            );
+            let (mean, se) = mirror_difference(&view(first), &view(second));
+            eprintln!("NegativeScaleTest {rt:?} {a}/{b}: mean difference {mean:.2e} ± {se:.2e}");
+            assert!(
+                mean.abs() <= 4.0 * se + 1e-6,
+                "{rt:?}: {a} and {b} are not lit the same: {mean} ± {se}"
+            );
+        }
     }
     assert_no_validation_messages(&ctx);
 }
