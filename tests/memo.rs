@@ -1201,3 +1201,103 @@ fn the_library_in_texture_space_reads_only_the_uv_and_equals_the_solid_at_uv0() 
         "{converted_normals} normal outputs converted"
     );
 }
+
+/// Report only (issue 17, thesis Table 6.2): the eviction policies of the
+/// CPU twin (`CpuMemo`: the shader's search, victim choice, tie rule and
+/// stamps) under synthetic access patterns, to ask whether the pattern of
+/// a frame's lookups alone makes the frame clock collapse at a small
+/// table, as the thesis found (LRW by frame 77.9 % against 96.2 % by the
+/// counter and 96.3 % random) and our Sponza runs do not. Each frame looks
+/// up W = 3,777 keys (the procedural Sponza's distinct 4×4 tiles a frame,
+/// session 37), 5 % of them new each frame; key r of the frame is looked
+/// up ⌈L / r^α⌉ times (a few tiles near the eye take most lookups), in
+/// random order over the frame ("shuffled", as tens of thousands of GPU
+/// lanes interleave them) or each key's lookups together ("bursts"); a
+/// miss inserts. Hit rates over frames 10–59, at tables of 0.25, 0.54 and
+/// 1.22 × W entries, D = 8. Results in docs/PERFORMANCE.md ("Memoization,
+/// session 38"). Run: `cargo test --release --test memo -- --ignored
+/// eviction_model --nocapture`.
+#[test]
+#[ignore]
+fn eviction_model_report() {
+    const W: usize = 3777;
+    let xorshift = |s: &mut u64| {
+        *s ^= *s << 13;
+        *s ^= *s >> 7;
+        *s ^= *s << 17;
+        *s
+    };
+    let run = |l: f64, alpha: f64, shuffled: bool, size: f64, policy: Eviction, counter: bool| {
+        let capacity = (size * W as f64) as u32;
+        let mut t = if counter {
+            CpuMemo::with_counter(capacity, 8, policy, 0)
+        } else {
+            CpuMemo::new(capacity, 8, policy)
+        };
+        let mut s = 0x1234_5678_9abc_def0u64;
+        let mut keys: Vec<i32> = (0..W as i32).collect();
+        let mut next = W as i32;
+        let (mut hits, mut total) = (0u64, 0u64);
+        for frame in 0..60u32 {
+            for k in keys.iter_mut() {
+                if xorshift(&mut s) % 100 < 5 {
+                    *k = next;
+                    next += 1;
+                }
+            }
+            let mut order = Vec::new();
+            for (r, &k) in keys.iter().enumerate() {
+                let n = (l / ((r + 1) as f64).powf(alpha)).ceil() as usize;
+                order.extend(std::iter::repeat_n(k, n));
+            }
+            if shuffled {
+                for i in (1..order.len()).rev() {
+                    order.swap(i, (xorshift(&mut s) % (i as u64 + 1)) as usize);
+                }
+            }
+            for &k in &order {
+                let key = MemoKey {
+                    graph: 1,
+                    level: 0,
+                    q: [k, 7],
+                };
+                let hit = t.find(&key, frame + 1).is_some();
+                if !hit {
+                    t.insert(&key, frame + 1, record(key.h1()));
+                }
+                if frame >= 10 {
+                    total += 1;
+                    hits += hit as u64;
+                }
+            }
+        }
+        hits as f64 / total as f64
+    };
+    eprintln!("| lookups of key r | order | table / W | LRW frame | LRW counter | LRU frame | LRU counter | random |");
+    eprintln!("|---|---|---:|---:|---:|---:|---:|---:|");
+    for (l, alpha, shuffled) in [
+        (19.0, 0.0, false),
+        (19.0, 0.0, true),
+        (2000.0, 1.0, true),
+        (20000.0, 1.0, true),
+        (2000.0, 1.0, false),
+    ] {
+        for size in [0.25, 0.54, 1.22] {
+            let rates: Vec<String> = [
+                (Eviction::Lrw, false),
+                (Eviction::Lrw, true),
+                (Eviction::Lru, false),
+                (Eviction::Lru, true),
+                (Eviction::Random, false),
+            ]
+            .iter()
+            .map(|&(p, c)| format!("{:.4}", run(l, alpha, shuffled, size, p, c)))
+            .collect();
+            eprintln!(
+                "| ⌈{l} / r^{alpha}⌉ | {} | {size} | {} |",
+                if shuffled { "shuffled" } else { "bursts" },
+                rates.join(" | ")
+            );
+        }
+    }
+}
