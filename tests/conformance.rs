@@ -1334,7 +1334,12 @@ fn negative_scale_test_shows_no_red_x_marks() {
 /// second's with the image flipped left-right and the eyes swapped. So the
 /// second sphere's image must equal the first's flipped, up to the
 /// samples' noise: the mean per-pixel difference within four of its
-/// standard errors (estimated from the differences).
+/// standard errors (estimated from the differences), and the mean
+/// absolute per-pixel difference within four standard errors of that
+/// between two renders of the first sphere with different seeds (pixel
+/// for pixel, both are two independent estimates of the same pixel's
+/// radiance; light moved about the image without changing its mean would
+/// raise the first).
 ///
 /// Mutation tried (session 38): the shader before session 37's fix
 /// (`surface_at` telling the side by the normal turned with the instance's
@@ -1386,26 +1391,29 @@ fn negative_scale_test_spheres_are_lit_the_same() {
     };
     let ctx = context();
     for rt in rt_backends(&ctx) {
-        let view = |(s, centre, r): (Scene, Vec3, f32)| {
+        let view = |(s, centre, r): (Scene, Vec3, f32), settings: &RenderSettings| {
             let cam = look_at_camera(centre + Vec3::new(4.0, 1.5, 0.0) * r, centre, 40.0, 1.0);
-            render(&session(&ctx, s, rt), "reference", cam, &settings)
+            render(&session(&ctx, s, rt), "reference", cam, settings)
         };
-        // The mean and standard error of the per-pixel difference between
-        // the first sphere's image flipped (eyes swapped) and the second's.
-        let mirror_difference = |fa: &StereoFrame, fb: &StereoFrame| {
+        // The per-pixel differences between image `fa` (flipped with the
+        // eyes swapped where `mirror`) and image `fb`.
+        let differences = |fa: &StereoFrame, fb: &StereoFrame, mirror: bool| {
             let (w, h) = (settings.width as usize, settings.height as usize);
             let grey = |p: &[f32; 4]| (p[0] + p[1] + p[2]) as f64 / 3.0;
             let mut diff = Vec::new();
             for e in 0..2 {
                 for y in 0..h {
                     for x in 0..w {
-                        let pa = grey(&fa.eyes[e].radiance[y * w + (w - 1 - x)]);
-                        diff.push(pa - grey(&fb.eyes[1 - e].radiance[y * w + x]));
+                        let (ea, xa) = if mirror { (1 - e, w - 1 - x) } else { (e, x) };
+                        let pa = grey(&fa.eyes[ea].radiance[y * w + xa]);
+                        diff.push(pa - grey(&fb.eyes[e].radiance[y * w + x]));
                     }
                 }
             }
-            mean_and_standard_error(&diff)
+            diff
         };
+        let abs =
+            |d: Vec<f64>| mean_and_standard_error(&d.iter().map(|v| v.abs()).collect::<Vec<_>>());
         for (a, b) in [
             ("NotShiny1", "NotShinyMinus1"),
             ("Shiny1", "ShinyMinus1"),
@@ -1425,11 +1433,28 @@ fn negative_scale_test_spheres_are_lit_the_same() {
                 (offset - Vec3::X * 2.0).abs().max_element() < 1e-4,
                 "{a}/{b}: {offset}"
             );
-            let (mean, se) = mirror_difference(&view(first), &view(second));
-            eprintln!("NegativeScaleTest {rt:?} {a}/{b}: mean difference {mean:.2e} ± {se:.2e}");
+            let reseeded = RenderSettings {
+                seed: settings.seed + 1,
+                ..settings.clone()
+            };
+            let fa = view(first.clone(), &settings);
+            let fa2 = view(first, &reseeded);
+            let mirror = differences(&fa, &view(second, &settings), true);
+            let (mean, se) = mean_and_standard_error(&mirror);
+            let (spread, spread_se) = abs(mirror);
+            let (noise, noise_se) = abs(differences(&fa, &fa2, false));
+            eprintln!(
+                "NegativeScaleTest {rt:?} {a}/{b}: mean difference {mean:.2e} ± {se:.2e}, \
+                 mean |difference| {spread:.4} ± {spread_se:.4} (two seeds: {noise:.4} ± {noise_se:.4})"
+            );
             assert!(
                 mean.abs() <= 4.0 * se + 1e-6,
                 "{rt:?}: {a} and {b} are not lit the same: {mean} ± {se}"
+            );
+            assert!(
+                (spread - noise).abs() <= 4.0 * (spread_se.powi(2) + noise_se.powi(2)).sqrt(),
+                "{rt:?}: {a} and {b} differ pixel by pixel beyond the noise: \
+                 {spread} ± {spread_se} against {noise} ± {noise_se}"
             );
         }
     }

@@ -9,7 +9,7 @@ use glam::{Mat2, Mat4, Vec2, Vec3};
 use stereocache::methods::RenderSettings;
 use stereocache::rt::RtChoice;
 use stereocache::scene::generate::{add_material, add_mesh, uv_sphere};
-use stereocache::scene::{Clearcoat, Environment, Material, Scene, Volume};
+use stereocache::scene::{Clearcoat, Environment, Material, Scene, UvAffine, Volume};
 
 type GpuContextRef = std::sync::Arc<stereocache::gpu::GpuContext>;
 
@@ -484,26 +484,29 @@ fn azimuth_ramp() -> Environment {
 }
 
 /// Which uvs the coat's normal texture and the base's (flat) normal
-/// texture read in [`tilted_coat`]; the mesh's vertex tangents always
-/// follow the base's normal texture (as the importer makes them).
+/// texture read in [`tilted_coat`], for a uv map m; the mesh's vertex
+/// tangents always follow the base's normal texture (as the importer makes
+/// them).
 #[derive(Clone, Copy, Debug)]
 enum CoatUvs {
-    /// Both read channel 1, (u, v).
-    First,
-    /// The coat reads a second channel holding (v, u).
-    Second,
-    /// The coat reads channel 1 through the uv map (u, v) → (v, u).
-    Mapped,
-    /// The base's normal texture reads channel 1 through that map (the
-    /// vertex tangents follow (v, u)); the coat reads channel 1 itself.
-    NormalMapped,
+    /// Both read channel 1, uv.
+    Plain,
+    /// The coat reads a second channel holding m(uv).
+    Second(UvAffine),
+    /// The coat reads channel 1 through m.
+    Mapped(UvAffine),
+    /// The base's normal texture reads channel 1 through m (the vertex
+    /// tangents follow m(uv)); the coat reads channel 1 itself.
+    NormalMapped(UvAffine),
+    /// Both read channel 1 through m: the coat keeps the vertex tangents.
+    BothMapped(UvAffine),
 }
 
 /// A mirror coat over a black base, its normal tilted about 37° towards the
 /// tangent and the bitangent of the uvs its normal texture reads (so the
 /// handedness counts too), on a 2 m quad in the y = 0 plane under the
-/// azimuth ramp. `swapped` gives the quad the uvs (v, u) instead of (u, v).
-fn tilted_coat(swapped: bool, coat: CoatUvs) -> Scene {
+/// azimuth ramp. `quad` replaces the quad's uvs by their image under a map.
+fn tilted_coat(quad: Option<UvAffine>, coat: CoatUvs) -> Scene {
     let mut s = Scene {
         source: "test:coat-frame".into(),
         ..Default::default()
@@ -521,15 +524,20 @@ fn tilted_coat(swapped: bool, coat: CoatUvs) -> Scene {
         normal_scale: 1.0,
         ..Default::default()
     };
-    let swap_uv = stereocache::scene::UvAffine {
-        linear: Mat2::from_cols(Vec2::Y, Vec2::X),
-        offset: Vec2::ZERO,
-    };
+    let mut tangent_map = None;
     match coat {
-        CoatUvs::First => {}
-        CoatUvs::Second => m.second_uv_slots = 1 << 9,
-        CoatUvs::Mapped => m.uv_affine[9] = Some(swap_uv),
-        CoatUvs::NormalMapped => m.uv_affine[2] = Some(swap_uv),
+        CoatUvs::Plain => {}
+        CoatUvs::Second(_) => m.second_uv_slots = 1 << 9,
+        CoatUvs::Mapped(a) => m.uv_affine[9] = Some(a),
+        CoatUvs::NormalMapped(a) => {
+            m.uv_affine[2] = Some(a);
+            tangent_map = Some(a);
+        }
+        CoatUvs::BothMapped(a) => {
+            m.uv_affine[2] = Some(a);
+            m.uv_affine[9] = Some(a);
+            tangent_map = Some(a);
+        }
     }
     let mat = add_material(&mut s, m);
     let mut mesh = stereocache::scene::generate::grid(
@@ -541,21 +549,19 @@ fn tilted_coat(swapped: bool, coat: CoatUvs) -> Scene {
         1,
         Vec2::ONE,
     );
-    let flipped: Vec<Vec2> = mesh.uvs.iter().map(|uv| Vec2::new(uv.y, uv.x)).collect();
-    if swapped {
-        mesh.uvs = flipped.clone();
+    if let Some(a) = quad {
+        mesh.uvs = mesh.uvs.iter().map(|&uv| a.apply(uv)).collect();
     }
-    if let CoatUvs::NormalMapped = coat {
-        // Tangents of the normal texture's own uvs, (v, u).
-        let uvs = std::mem::replace(&mut mesh.uvs, flipped);
-        stereocache::scene::mesh_ops::generate_tangents(&mut mesh);
-        mesh.uvs = uvs;
-    } else {
-        if let CoatUvs::Second = coat {
-            mesh.uvs2 = flipped;
-        }
-        stereocache::scene::mesh_ops::generate_tangents(&mut mesh);
+    if let CoatUvs::Second(a) = coat {
+        mesh.uvs2 = mesh.uvs.iter().map(|&uv| a.apply(uv)).collect();
     }
+    // Tangents of the normal texture's own uvs.
+    let uvs = mesh.uvs.clone();
+    if let Some(a) = tangent_map {
+        mesh.uvs = uvs.iter().map(|&uv| a.apply(uv)).collect();
+    }
+    stereocache::scene::mesh_ops::generate_tangents(&mut mesh);
+    mesh.uvs = uvs;
     add_mesh(&mut s, mesh, mat, Mat4::IDENTITY);
     s.environment = Some(azimuth_ramp());
     s.validate().unwrap();
@@ -563,15 +569,17 @@ fn tilted_coat(swapped: bool, coat: CoatUvs) -> Scene {
 }
 
 /// KHR_materials_clearcoat: the coat's normal texture is read in the
-/// tangent frame of the uvs it reads. With the coat on a second channel
-/// (v, u), or reading the first channel (u, v) through the map to (v, u),
-/// while the vertex tangents follow (u, v), the coat must tilt towards
-/// increasing v, as it does on a quad whose only channel is (v, u): the
-/// images agree within their noise. With the base's normal texture read
-/// through that map instead (vertex tangents of (v, u)) and the coat on
-/// (u, v), the coat must tilt as on the plain quad. In the vertex
-/// tangents' frame each would reflect the ramp about 90° of azimuth away,
-/// a difference of about 0.04 · 0.25 = 0.01.
+/// tangent frame of the uvs it reads. For a map m of the uvs — a swap
+/// (u, v) → (v, u), which mirrors, and a quarter turn with an offset,
+/// which does not and is not its own transpose — the coat on a second
+/// channel holding m(uv), or reading the first channel uv through m, or
+/// both the coat and the base's normal texture reading through m, must
+/// tilt as on a quad whose only uvs are m(uv): the images agree within
+/// their noise. With only the base's normal texture read through m
+/// (vertex tangents of m(uv)) and the coat on uv, the coat must tilt as
+/// on the plain quad. In the wrong frame each would reflect the ramp a
+/// quarter turn or more of azimuth away, a difference of about 0.04 ·
+/// 0.25 = 0.01.
 #[test]
 fn the_coat_normal_texture_uses_its_own_channels_tangent_frame() {
     let ctx = context();
@@ -585,10 +593,19 @@ fn the_coat_normal_texture_uses_its_own_channels_tangent_frame() {
         ..Default::default()
     };
     let cam = look_at_camera(Vec3::new(0.0, 10.0, 1e-3), Vec3::ZERO, 2.0, 1.0);
+    let swap = UvAffine {
+        linear: Mat2::from_cols(Vec2::Y, Vec2::X),
+        offset: Vec2::ZERO,
+    };
+    // u' = v + 0.3, v' = −u + 0.7.
+    let turn = UvAffine {
+        linear: Mat2::from_cols(Vec2::NEG_Y, Vec2::X),
+        offset: Vec2::new(0.3, 0.7),
+    };
     for rt in rt_backends(&ctx) {
-        let mean = |swapped: bool, coat: CoatUvs| -> (f64, f64) {
+        let mean = |quad: Option<UvAffine>, coat: CoatUvs| -> (f64, f64) {
             let f = render(
-                &session(&ctx, tilted_coat(swapped, coat), rt),
+                &session(&ctx, tilted_coat(quad, coat), rt),
                 "reference",
                 cam,
                 &settings,
@@ -600,25 +617,28 @@ fn the_coat_normal_texture_uses_its_own_channels_tangent_frame() {
                 .collect();
             mean_and_standard_error(&v)
         };
-        let swapped = mean(true, CoatUvs::First);
-        let plain = mean(false, CoatUvs::First);
-        let tol = 5.0 * (swapped.1.powi(2) + plain.1.powi(2)).sqrt() + 1e-4;
-        // The test bites: the two frames reflect different azimuths.
-        assert!(
-            (plain.0 - swapped.0).abs() > 10.0 * tol,
-            "{rt:?}: {plain:?} vs {swapped:?}"
-        );
-        for (coat, want) in [
-            (CoatUvs::Second, swapped),
-            (CoatUvs::Mapped, swapped),
-            (CoatUvs::NormalMapped, plain),
-        ] {
-            let got = mean(false, coat);
-            eprintln!("{rt:?}: {coat:?} {got:?}, want {want:?} (plain quad {plain:?}, swapped {swapped:?})");
+        let plain = mean(None, CoatUvs::Plain);
+        for map in [swap, turn] {
+            let moved = mean(Some(map), CoatUvs::Plain);
+            let tol = 5.0 * (moved.1.powi(2) + plain.1.powi(2)).sqrt() + 1e-4;
+            // The test bites: the two frames reflect different azimuths.
             assert!(
-                (got.0 - want.0).abs() <= tol,
-                "{rt:?} {coat:?}: {got:?} vs {want:?}"
+                (plain.0 - moved.0).abs() > 10.0 * tol,
+                "{rt:?} {map:?}: {plain:?} vs {moved:?}"
             );
+            for (coat, want) in [
+                (CoatUvs::Second(map), moved),
+                (CoatUvs::Mapped(map), moved),
+                (CoatUvs::BothMapped(map), moved),
+                (CoatUvs::NormalMapped(map), plain),
+            ] {
+                let got = mean(None, coat);
+                eprintln!("{rt:?}: {coat:?} {got:?}, want {want:?} (plain quad {plain:?})");
+                assert!(
+                    (got.0 - want.0).abs() <= tol,
+                    "{rt:?} {coat:?}: {got:?} vs {want:?}"
+                );
+            }
         }
     }
     assert_no_validation_messages(&ctx);

@@ -265,20 +265,19 @@ Surface surface_at(uint inst, uint prim, vec2 bary, vec3 ray_dir) {
         // The vertex tangents belong to the normal texture's uvs (its
         // channel, read through its map or not), else to the clearcoat
         // normal texture's (gltf_import.rs). With both textures, the coat's
-        // frame is its own where it reads other uvs: another channel, or
-        // either slot through a map (gltf_uv.rs UvAffine). A map's linear
-        // part takes the channel's uv edges to the mapped ones.
+        // frame is its own where its uvs differ from the normal texture's
+        // by more than an offset: another channel, or another linear part
+        // of the slots' maps (gltf_uv.rs UvAffine; none = the identity).
+        // The map's linear part takes the channel's uv edges to the
+        // mapped ones.
         MaterialGpu g = materials[s.material];
         bool coat_second = slot_on_second_uv(g.tex3.y, 9);
+        mat2 coat_map = slot_mapped(g, 9) ? mat2(g.uv_affine[18].x, g.uv_affine[19].x, g.uv_affine[18].y, g.uv_affine[19].y) : mat2(1.0);
+        mat2 normal_map = slot_mapped(g, 2) ? mat2(g.uv_affine[4].x, g.uv_affine[5].x, g.uv_affine[4].y, g.uv_affine[5].y) : mat2(1.0);
         if (g.tex2.z >= 0 && g.tex0.z >= 0
-            && (coat_second != slot_on_second_uv(g.tex3.y, 2) || slot_mapped(g, 9) || slot_mapped(g, 2))) {
+            && (coat_second != slot_on_second_uv(g.tex3.y, 2) || coat_map != normal_map)) {
             vec2 c1 = coat_second ? d1 : duv1, c2 = coat_second ? d2 : duv2;
-            if (slot_mapped(g, 9)) {
-                vec4 r0 = g.uv_affine[18], r1 = g.uv_affine[19];
-                c1 = vec2(dot(r0.xy, c1), dot(r1.xy, c1));
-                c2 = vec2(dot(r0.xy, c2), dot(r1.xy, c2));
-            }
-            s.coat_tangent = triangle_tangent(e1, e2, c1, c2, n);
+            s.coat_tangent = triangle_tangent(e1, e2, coat_map * c1, coat_map * c2, n);
         }
     }
     // glTF's front is counter-clockwise in object space: the world-space

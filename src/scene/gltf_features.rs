@@ -359,9 +359,9 @@ pub const FEATURES: &[Feature] = &[
          own uvs, supplied ones turned by its transform; a clearcoat normal texture on \
          other uvs than the normal texture's in the triangle's frame of its own uvs). Not \
          done: where a channel's own transform is singular (a zero scale), a further \
-         transform of its set reads the base colour texture's uvs, warned. The glTF writer \
-         refuses a map that shears (one error) and stores a mapped normal texture's \
-         tangents turned back",
+         transform of its set reads the first channel's uvs (the first bound slot's, named \
+         in the warning). The glTF writer refuses a map that shears (one error) and stores \
+         tangents turned back by the transform of the texture they serve",
     ),
     f(
         "KHR_xmp_json_ld",
