@@ -272,9 +272,9 @@ pub const FEATURES: &[Feature] = &[
         "KHR_materials_clearcoat",
         Full,
         "a GGX coat of ior 1.5 over the base (factor, roughness and their textures; its own \
-         normal texture, in the tangent frame of the uv channel it reads (the triangle's, from \
-         its uv gradients, where that is not the channel the vertex tangents belong to), else \
-         the interpolated normal), layered as the extension's fresnel_coat: \
+         normal texture, in the tangent frame of the uvs it reads (the triangle's, from the \
+         gradients of its channel's uvs through its uv map if any, where those are not the \
+         uvs the vertex tangents belong to), else the interpolated normal), layered as the extension's fresnel_coat: \
          f_coat + (1 − clearcoat·Fc(n_c·v))·f_base; over transmission it reflects on the outside",
     ),
     f(
