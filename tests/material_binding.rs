@@ -2102,16 +2102,17 @@ fn memoized_images_differ_from_direct_ones_as_the_thesis_orders_them() {
 }
 
 /// The asserted bound of `memoized_images_differ_from_direct_ones_as_the_thesis_orders_them`
-/// for the sample cache, the method this project is about: its pixels are
-/// means over cached first hits whose shading accumulates over frames, so
-/// a still view rendered for 32 frames (uniform shading: every cached
-/// sample shaded about every n_target-th frame) stands for the reference's
-/// 32 spp. From `--memo-bias 2` on, memoizing every hit moves that image
-/// less than rendering it again with another seed does, in HDR-FLIP and in
-/// RSE, each eye (the bound is the method's own noise, measured here); the
-/// image at bias 0 must differ more than at bias 2, so the table is used.
+/// for the methods that accumulate over frames — the sample cache (the
+/// method this project is about), TAA, the hash cache, the hybrid and
+/// stable ray tracing (isrt): each still view rendered for 32 frames
+/// (uniform shading for the sample cache: every cached sample shaded about
+/// every n_target-th frame) stands for the reference's 32 spp. From
+/// `--memo-bias 2` on, memoizing every hit moves that image less than
+/// rendering it again with another seed does, in HDR-FLIP and in RSE, each
+/// eye (the bound is the method's own noise, measured here); the image at
+/// bias 0 must differ more than at bias 2, so the table is used.
 #[test]
-fn sample_cache_memoized_images_stay_within_its_own_noise() {
+fn accumulating_methods_memoized_images_stay_within_their_own_noise() {
     use stereocache::materials::memo::{MemoHits, MemoSettings};
     const FRAMES: u32 = 32;
     let ctx = context();
@@ -2129,46 +2130,49 @@ fn sample_cache_memoized_images_stay_within_its_own_noise() {
         all_features: false,
         ..Default::default()
     };
-    let run = |memo: Option<f32>, seed: u32| {
-        let mut s = base.clone();
-        if let Some(bias) = memo {
-            s.graphs.memo = MemoSettings {
-                hits: MemoHits::Both,
-                bias,
-                ..Default::default()
-            };
-        }
-        let session = session(&ctx, s, rt);
-        let camera = default_camera(&session, 40, 30);
-        let mut m = session
-            .method("sample-cache", &settings(seed))
-            .expect("method");
-        let f = render_still(m.as_mut(), camera, FRAMES);
-        if memo.is_some() {
-            let c = memo_counters(&session);
-            assert!(c.hits > c.misses && c.misses > 0, "bias {memo:?}: {c:?}");
-        }
-        f
-    };
-    let direct1 = run(None, 1);
-    let direct2 = run(None, 2);
-    let scores = |f: &stereocache::methods::StereoFrame| flip_rse_per_eye(f, &direct1, 40, 30);
-    let noise = scores(&direct2);
-    let at0 = scores(&run(Some(0.0), 1));
-    let at2 = scores(&run(Some(2.0), 1));
-    eprintln!(
-        "sample-cache, {FRAMES} still frames: (HDR-FLIP, RSE) per eye against direct: second seed {noise:?}, bias 0 {at0:?}, bias 2 {at2:?}"
-    );
-    let (nf, nr) = noise_bound(noise);
-    for (e, (&(f0, _), &(f2, r2))) in at0.iter().zip(&at2).enumerate() {
-        assert!(
-            f2 > 0.0 && f2 < f0,
-            "eye {e}: HDR-FLIP at bias 2 {f2} not between 0 and bias 0's {f0}"
+    for method in ["sample-cache", "taa", "hash-cache", "hybrid", "isrt"] {
+        let run = |memo: Option<f32>, seed: u32| {
+            let mut s = base.clone();
+            if let Some(bias) = memo {
+                s.graphs.memo = MemoSettings {
+                    hits: MemoHits::Both,
+                    bias,
+                    ..Default::default()
+                };
+            }
+            let session = session(&ctx, s, rt);
+            let camera = default_camera(&session, 40, 30);
+            let mut m = session.method(method, &settings(seed)).expect("method");
+            let f = render_still(m.as_mut(), camera, FRAMES);
+            if memo.is_some() {
+                let c = memo_counters(&session);
+                assert!(
+                    c.hits > c.misses && c.misses > 0,
+                    "{method}, bias {memo:?}: {c:?}"
+                );
+            }
+            f
+        };
+        let direct1 = run(None, 1);
+        let direct2 = run(None, 2);
+        let scores = |f: &stereocache::methods::StereoFrame| flip_rse_per_eye(f, &direct1, 40, 30);
+        let noise = scores(&direct2);
+        let at0 = scores(&run(Some(0.0), 1));
+        let at2 = scores(&run(Some(2.0), 1));
+        eprintln!(
+            "{method}, {FRAMES} still frames: (HDR-FLIP, RSE) per eye against direct: second seed {noise:?}, bias 0 {at0:?}, bias 2 {at2:?}"
         );
-        assert!(
-            f2 < nf && r2 < nr,
-            "eye {e}: at bias 2 HDR-FLIP {f2} / RSE {r2} against direct, not below the second seed's {nf} / {nr}"
-        );
+        let (nf, nr) = noise_bound(noise);
+        for (e, (&(f0, _), &(f2, r2))) in at0.iter().zip(&at2).enumerate() {
+            assert!(
+                f2 > 0.0 && f2 < f0,
+                "{method}, eye {e}: HDR-FLIP at bias 2 {f2} not between 0 and bias 0's {f0}"
+            );
+            assert!(
+                f2 < nf && r2 < nr,
+                "{method}, eye {e}: at bias 2 HDR-FLIP {f2} / RSE {r2} against direct, not below the second seed's {nf} / {nr}"
+            );
+        }
     }
     assert_no_validation_messages(&ctx);
 }
