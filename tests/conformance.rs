@@ -1377,14 +1377,7 @@ fn negative_scale_test_spheres_are_lit_the_same() {
         let mut s = scene.clone();
         s.instances.retain(|i| i.name == name);
         assert_eq!(s.instances.len(), 1, "node {name}");
-        let i = s.instances[0].clone();
-        let world: Vec<Vec3> = s.meshes[i.mesh as usize]
-            .positions
-            .iter()
-            .map(|&p| i.transform.transform_point3(p))
-            .collect();
-        let lo = world.iter().fold(Vec3::MAX, |a, &p| a.min(p));
-        let hi = world.iter().fold(Vec3::MIN, |a, &p| a.max(p));
+        let (lo, hi) = s.world_bounds();
         s.lights = vec![sun.clone()];
         s.environment = Some(stereocache::scene::Environment::Constant(Vec3::splat(0.3)));
         (s, (lo + hi) * 0.5, (hi - lo).max_element() * 0.5)
