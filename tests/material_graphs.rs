@@ -144,6 +144,17 @@ fn malformed_documents_give_one_line_errors() {
             r#"<add name="a" type="float">"#,
             &["bad.mtlx: not a valid XML document"],
         ),
+        (
+            r#"<add name="a" type="float"><input name="in1" type="float" value="nan" /></add>
+               <output name="out" type="float" nodename="a" />"#,
+            &["node `a`: input `in1`: bad float value: `nan` is not a finite number"],
+        ),
+        (
+            // Finite as text, infinite as f32.
+            r#"<add name="a" type="color3"><input name="in1" type="color3" value="1e39, 0, 0" /></add>
+               <output name="out" type="color3" nodename="a" />"#,
+            &["node `a`: input `in1`: bad color3 value: `1e39` is not a finite number"],
+        ),
     ];
     for (body, want) in cases {
         let e = err_of(&wrap(body));
@@ -153,6 +164,50 @@ fn malformed_documents_give_one_line_errors() {
             assert!(e.contains(w), "error `{e}` lacks `{w}`");
         }
     }
+}
+
+/// Documents built to exhaust the stack (the XML parser and the graph's
+/// placement recurse once per level) are refused with one line instead:
+/// elements nested 20,000 deep, and a chain of 10,000 nodes each reading
+/// the next. A chain of 500 (the limit is 512) still loads.
+#[test]
+fn hostile_depths_are_refused_not_overflowed() {
+    let nested = format!(
+        "<?xml version=\"1.0\"?>\n<materialx version=\"1.39\">\n{}{}</materialx>\n",
+        "<a>".repeat(20_000),
+        "</a>".repeat(20_000)
+    );
+    let e = err_of(&nested);
+    assert!(
+        e.starts_with("bad.mtlx") && e.contains("elements nest deeper than 256 levels (line 3)"),
+        "{e}"
+    );
+    let chain = |n: usize| {
+        let mut body = String::from(
+            r#"<constant name="n0" type="float"><input name="value" type="float" value="1" /></constant>"#,
+        );
+        for i in 1..n {
+            body.push_str(&format!(
+                r#"<add name="n{i}" type="float"><input name="in1" type="float" nodename="n{}" /><input name="in2" type="float" value="1" /></add>"#,
+                i - 1
+            ));
+        }
+        body.push_str(&format!(
+            r#"<output name="out" type="float" nodename="n{}" />"#,
+            n - 1
+        ));
+        wrap(&body)
+    };
+    let e = err_of(&chain(10_000));
+    assert!(
+        e.contains("reads through a chain of more than 512 nodes"),
+        "{e}"
+    );
+    assert_eq!(e.lines().count(), 1, "{e}");
+    let doc = Document::parse("ok.mtlx", &chain(500)).unwrap();
+    let graphs = Graph::build_all(&doc, &[]).unwrap_or_else(|e| panic!("{e}"));
+    let v = evaluate(&graphs[0], &grid()[0]);
+    assert_eq!(v[0].channels(), &[500.0]);
 }
 
 /// Every graph of scenes/materials loads, has tens of nodes and noise.

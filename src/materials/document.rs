@@ -128,6 +128,12 @@ fn port(n: roxmltree::Node, line: u32) -> RawPort {
 impl Document {
     /// Parses `text` (the contents of `file`, named in errors).
     pub fn parse(file: &str, text: &str) -> Result<Document, GraphError> {
+        if let Some(line) = nesting_exceeds(text, MAX_XML_DEPTH) {
+            return Err(GraphError::file(
+                file,
+                format!("elements nest deeper than {MAX_XML_DEPTH} levels (line {line})"),
+            ));
+        }
         let xml = roxmltree::Document::parse(text)
             .map_err(|e| GraphError::file(file, format!("not a valid XML document ({e})")))?;
         let root = xml.root_element();
@@ -140,7 +146,13 @@ impl Document {
                 ),
             ));
         }
-        let line = |n: roxmltree::Node| xml.text_pos_at(n.range().start).row;
+        // Line of a node's start: by binary search over the line starts
+        // (roxmltree's text_pos_at scans from the top, quadratic over a
+        // document's nodes).
+        let line_starts: Vec<usize> = std::iter::once(0)
+            .chain(text.match_indices('\n').map(|(i, _)| i + 1))
+            .collect();
+        let line = |n: roxmltree::Node| line_starts.partition_point(|&s| s <= n.range().start) as u32;
         let children = |n: roxmltree::Node<'_, '_>, tag: &str| -> Vec<RawPort> {
             n.children()
                 .filter(|c| c.is_element() && c.tag_name().name() == tag)
@@ -206,5 +218,80 @@ impl Document {
 
     pub fn graph(&self, name: &str) -> Option<&RawGraph> {
         self.graphs.iter().find(|g| g.name == name)
+    }
+}
+
+/// Deepest element nesting a document may have: MaterialX documents nest a
+/// handful of levels, and the XML parser recurses once per level, so a
+/// hostile document nested tens of thousands deep would overflow the stack.
+const MAX_XML_DEPTH: usize = 256;
+
+/// The line where `text`'s element nesting first exceeds `max`, if it does,
+/// found by a scan of its tags (comments, CDATA sections, processing
+/// instructions and declarations skipped; quoted attribute values may hold
+/// `>`). Malformed markup is left to the parser.
+fn nesting_exceeds(text: &str, max: usize) -> Option<usize> {
+    let b = text.as_bytes();
+    let skip_to = |from: usize, end: &[u8]| -> usize {
+        b[from..]
+            .windows(end.len())
+            .position(|w| w == end)
+            .map_or(b.len(), |p| from + p + end.len())
+    };
+    let (mut i, mut depth) = (0usize, 0usize);
+    while i < b.len() {
+        if b[i] != b'<' {
+            i += 1;
+            continue;
+        }
+        let rest = &b[i..];
+        if rest.starts_with(b"<!--") {
+            i = skip_to(i + 4, b"-->");
+        } else if rest.starts_with(b"<![CDATA[") {
+            i = skip_to(i + 9, b"]]>");
+        } else if rest.starts_with(b"<?") {
+            i = skip_to(i + 2, b"?>");
+        } else if rest.starts_with(b"<!") {
+            i = skip_to(i + 2, b">");
+        } else if rest.starts_with(b"</") {
+            depth = depth.saturating_sub(1);
+            i = skip_to(i + 2, b">");
+        } else {
+            // A start tag: to its '>' outside quotes; "/>" closes it at once.
+            let mut j = i + 1;
+            let mut quote = None;
+            while j < b.len() {
+                match (quote, b[j]) {
+                    (None, q @ (b'"' | b'\'')) => quote = Some(q),
+                    (Some(q), c) if c == q => quote = None,
+                    (None, b'>') => break,
+                    _ => {}
+                }
+                j += 1;
+            }
+            if j >= b.len() || b[j - 1] != b'/' {
+                depth += 1;
+                if depth > max {
+                    return Some(1 + b[..i].iter().filter(|&&c| c == b'\n').count());
+                }
+            }
+            i = j + 1;
+        }
+    }
+    None
+}
+
+#[cfg(test)]
+mod nesting_tests {
+    use super::nesting_exceeds;
+
+    #[test]
+    fn counts_open_elements_only() {
+        let flat =
+            "<?xml version=\"1.0\"?><!-- <a><a> --><m><n a=\"x>y\"/><n/><![CDATA[<a><a>]]></m>";
+        assert_eq!(nesting_exceeds(flat, 1), None);
+        let deep = format!("<m>\n{}{}</m>", "<a>".repeat(300), "</a>".repeat(300));
+        assert_eq!(nesting_exceeds(&deep, 256), Some(2));
+        assert_eq!(nesting_exceeds(&deep, 301), None);
     }
 }

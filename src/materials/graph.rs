@@ -20,6 +20,11 @@ use super::signatures::{self, Sig};
 use super::types::{Type, Value};
 use std::collections::HashMap;
 
+/// Longest chain of nodes, each reading the next, a graph may have. Real
+/// material graphs chain tens of nodes; placing one recurses per link, so a
+/// chain of thousands (a hostile document) would overflow the stack.
+const MAX_CHAIN: usize = 512;
+
 /// A geometric property a graph reads (MaterialX `defaultgeomprop` names
 /// and the texcoord/position/normal/tangent/bitangent nodes). stereocache
 /// scenes are flattened to world space, so object and world space coincide.
@@ -420,7 +425,8 @@ impl<'a> Builder<'a> {
         }
     }
 
-    /// Places raw node `ri` (and, first, everything it reads); returns its source.
+    /// Places raw node `ri` (and, first, everything it reads, depth first:
+    /// at most [`MAX_CHAIN`] nodes deep); returns its source.
     fn place(&mut self, ri: usize) -> Result<Source, GraphError> {
         if let Some(s) = self.placed.get(&ri) {
             return Ok(s.clone());
@@ -460,6 +466,15 @@ impl<'a> Builder<'a> {
             )
         })?;
         let sig = self.choose(ri, out)?;
+        if self.on_stack.len() >= MAX_CHAIN {
+            return Err(self.err(
+                Some(name),
+                raw.line,
+                format!(
+                    "reads through a chain of more than {MAX_CHAIN} nodes (the graph is placed recursively, one level per node of a chain)"
+                ),
+            ));
+        }
         self.on_stack.push(ri);
         let mut inputs: Vec<Option<Source>> = vec![None; sig.inputs.len()];
         for p in &raw.inputs {

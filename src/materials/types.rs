@@ -140,7 +140,9 @@ impl Value {
                     .map_err(|_| format!("`{p}` is not an integer"))? as f32
             } else {
                 p.parse::<f32>()
-                    .map_err(|_| format!("`{p}` is not a number"))?
+                    .ok()
+                    .filter(|x| x.is_finite())
+                    .ok_or_else(|| format!("`{p}` is not a finite number"))?
             };
         }
         Ok(Value { ty, v })
