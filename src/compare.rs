@@ -426,6 +426,7 @@ pub fn compare_configs(
     if n == 0 {
         return Err(Error::Usage("compare: the trace gives no frames".into()));
     }
+    session.check_poses((0..n).map(|k| k as f64 / opts.fps))?;
     let shown = opts
         .shown_frames
         .clone()

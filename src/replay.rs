@@ -119,6 +119,27 @@ impl ReplayOptions {
     }
 }
 
+/// The most frames a trace may resample to (about three hours at 90 Hz):
+/// every frame's camera is built up front, so a trace spanning more (a
+/// corrupt timestamp) is refused before anything is allocated.
+pub const MAX_TRACE_FRAMES: usize = 1_000_000;
+
+/// Refuses a bad `fps` or a trace that resamples to more than
+/// [`MAX_TRACE_FRAMES`] frames at it; cheap, so callers run it before
+/// opening the scene. [`trace_cameras`] runs it too.
+pub fn check_trace_length(trace: &PoseTrace, fps: f64) -> Result<()> {
+    check_fps(fps)?;
+    let n = trace.resampled_len(fps);
+    if n > MAX_TRACE_FRAMES as f64 {
+        return Err(Error::Usage(format!(
+            "{}: the trace spans {:.6e} s, {n:.3e} frames at {fps} fps, more than the {MAX_TRACE_FRAMES} a replay resamples (a corrupt timestamp?)",
+            trace.source.display(),
+            trace.duration()
+        )));
+    }
+    Ok(())
+}
+
 fn check_fps(fps: f64) -> Result<()> {
     if fps.is_finite() && fps > 0.0 && fps <= MAX_FPS {
         Ok(())
@@ -148,7 +169,7 @@ pub fn trace_cameras(
     ipd: Option<f32>,
     yfov: Option<f32>,
 ) -> Result<Vec<StereoCamera>> {
-    check_fps(fps)?;
+    check_trace_length(trace, fps)?;
     let samples = trace.resample(fps);
     let Some(first) = samples.first() else {
         return Err(Error::Usage(format!(
@@ -427,6 +448,7 @@ pub fn replay_observed(
     opts.validate()?;
     let n = opts.frame_count(cameras.len())?;
     let cameras = &cameras[..n];
+    session.check_poses((0..n).map(|k| k as f64 / opts.fps))?;
 
     let out = &opts.out;
     let frames_dir = out.join("frames");

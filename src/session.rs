@@ -96,6 +96,7 @@ impl Session {
         let start = std::time::Instant::now();
         if self.scene.is_animated() {
             let transforms = self.scene.instance_transforms_at(t as f32);
+            self.check_pose(t, &transforms)?;
             let prev = match prev_t {
                 Some(p) => self.scene.instance_transforms_at(p as f32),
                 None => transforms.clone(),
@@ -103,6 +104,28 @@ impl Session {
             self.scene_gpu.set_instance_motion(&prev, &transforms)?;
         }
         Ok(start.elapsed())
+    }
+
+    /// Refuses, before anything renders, an animation that at any of
+    /// `times` places an instance where [`Scene::check_placement`] does not
+    /// allow (a broken key value): what [`Self::pose_instances`] would
+    /// find in the middle of a run. Nothing to do for a static scene.
+    pub fn check_poses(&self, times: impl IntoIterator<Item = f64>) -> Result<()> {
+        if self.scene.is_animated() {
+            for t in times {
+                self.check_pose(t, &self.scene.instance_transforms_at(t as f32))?;
+            }
+        }
+        Ok(())
+    }
+
+    fn check_pose(&self, t: f64, transforms: &[glam::Mat4]) -> Result<()> {
+        self.scene.check_placement(transforms).map_err(|m| {
+            Error::Usage(format!(
+                "{}: at {t} s of its animation, {m}",
+                self.scene.source.display()
+            ))
+        })
     }
 
     /// Loads a scene by name or path and lights it by the rule of

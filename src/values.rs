@@ -141,6 +141,20 @@ pub fn check_output_dir(dir: &Path) -> Result<(), String> {
     }
 }
 
+/// Checks that `file` can be written as an output file, without writing
+/// it: it is not a directory, and its directory passes
+/// [`check_output_dir`] (writes create missing parents).
+pub fn check_output_file(file: &Path) -> Result<(), String> {
+    if file.is_dir() {
+        return Err(format!("{}: is a directory, not a file", file.display()));
+    }
+    let parent = match file.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    check_output_dir(parent).map_err(|e| format!("{}: {e}", file.display()))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -165,3 +165,52 @@ fn sponza_backends_agree() {
     }
     check_scene("sponza", shipped(path.to_str().unwrap()), false);
 }
+
+/// Triangles of zero area (here: 5,000 instances of the plane scaled to a
+/// point) are never hit, so the software BVHs leave them out: the render
+/// is bit for bit the plain scene's, where kept in they chained the
+/// flattened BVH past the traversal stack (an error: "8190 levels deep"),
+/// and the two-level TLAS keeps no box of them either.
+#[test]
+fn zero_area_triangles_change_no_pixel() {
+    let plain = shipped("plane");
+    let mut crowded = plain.clone();
+    let first = crowded.instances[0].clone();
+    for k in 0..5000 {
+        crowded.instances.push(stereocache::scene::Instance {
+            transform: glam::Mat4::from_translation(glam::Vec3::new(0.1, 0.2, 0.3))
+                * glam::Mat4::from_scale(glam::Vec3::ZERO),
+            name: format!("point {k}"),
+            ..first.clone()
+        });
+    }
+    crowded.validate().expect("other triangles are hittable");
+    let ctx = context();
+    let frame = |scene: Scene| {
+        let s = session(&ctx, scene, RtChoice::Software);
+        let cam = default_camera(&s, W, H);
+        primary(&s, &cam)
+    };
+    let (a, b) = (frame(plain), frame(crowded.clone()));
+    for e in 0..2 {
+        assert!(
+            a.eyes[e].first_hit == b.eyes[e].first_hit,
+            "eye {e}: first hits differ"
+        );
+        let bits = |f: &StereoFrame| -> Vec<[u32; 4]> {
+            f.eyes[e]
+                .radiance
+                .iter()
+                .map(|p| p.map(f32::to_bits))
+                .collect()
+        };
+        assert!(bits(&a) == bits(&b), "eye {e}: radiance differs");
+    }
+    let two = stereocache::rt::TwoLevelBvh::build_at(&crowded, glam::DVec3::ZERO);
+    assert!(
+        two.max_depth < stereocache::rt::TRAVERSAL_STACK_SIZE,
+        "two-level depth {}",
+        two.max_depth
+    );
+    assert_no_validation_messages(&ctx);
+}

@@ -955,3 +955,143 @@ fn a_crashing_glslc_optimizer_falls_back_to_unoptimized_spirv() {
     assert!(out.join("img/left.exr").exists(), "{err}");
     let _ = std::fs::remove_dir_all(&out);
 }
+
+/// A one-triangle glTF in `dir` (positions in `tri.bin`) whose node carries
+/// `node_extra` (JSON members) and, with `anim`, a translation animation
+/// of node `anim.0` from (0, 0, 0) at 0 s to (anim.1, 0, 0) at 1 s.
+fn triangle_gltf(dir: &Path, node_extra: &str, anim: Option<(u32, f32)>) -> PathBuf {
+    std::fs::create_dir_all(dir).unwrap();
+    let mut bin: Vec<u8> = Vec::new();
+    for v in [0.0f32, 0.0, -3.0, 1.0, 0.0, -3.0, 0.0, 1.0, -3.0] {
+        bin.extend(v.to_le_bytes());
+    }
+    let x = anim.map_or(0.0, |a| a.1);
+    for v in [0.0f32, 1.0, 0.0, 0.0, 0.0, x, 0.0, 0.0] {
+        bin.extend(v.to_le_bytes());
+    }
+    std::fs::write(dir.join("tri.bin"), &bin).unwrap();
+    let animations = match anim {
+        Some((node, _)) => format!(
+            r#","animations":[{{"channels":[{{"sampler":0,"target":{{"node":{node},"path":"translation"}}}}],"samplers":[{{"input":1,"output":2}}]}}]"#
+        ),
+        None => String::new(),
+    };
+    let gltf = format!(
+        r#"{{"asset":{{"version":"2.0"}},"scene":0,"scenes":[{{"nodes":[0]}}],
+"nodes":[{{"name":"tri","mesh":0{node_extra}}}],
+"meshes":[{{"primitives":[{{"attributes":{{"POSITION":0}}}}]}}],
+"accessors":[
+ {{"bufferView":0,"componentType":5126,"count":3,"type":"VEC3","min":[0,0,-3],"max":[1,1,-3]}},
+ {{"bufferView":1,"componentType":5126,"count":2,"type":"SCALAR","min":[0],"max":[1]}},
+ {{"bufferView":2,"componentType":5126,"count":2,"type":"VEC3"}}],
+"bufferViews":[{{"buffer":0,"byteOffset":0,"byteLength":36}},{{"buffer":0,"byteOffset":36,"byteLength":8}},{{"buffer":0,"byteOffset":44,"byteLength":24}}],
+"buffers":[{{"uri":"tri.bin","byteLength":68}}]{animations}}}"#
+    );
+    let path = dir.join("tri.gltf");
+    std::fs::write(&path, gltf).unwrap();
+    path
+}
+
+/// Inputs that used to crash or hang (a bad-input sweep, session 39) now
+/// fail with one error line naming the file, before anything is written:
+/// a node scale that puts vertices at 1e22 (the BVH builder panicked on
+/// overflowing areas), a node scaled to zero (a BVH chain deeper than the
+/// traversal stack), an animation key at 3e38 (the TLAS rebuild panicked
+/// mid-run), an animation channel targeting a missing node (the gltf
+/// crate's unwrap), and a trace whose timestamps span 1e300 s (resampling
+/// never ended). The unbroken files render (the helper itself is sound).
+/// (The animation loops over its 1 s of keys, so the key at 3e38 shows at
+/// 0.5 s as 1.5e38: 2 frames at 2 fps.)
+#[test]
+fn hostile_geometry_animation_and_traces_fail_before_rendering() {
+    let root = out_dir("hostile");
+    let replay = |scene: &Path, trace: &Path, out: &Path| {
+        bin()
+            .args(["replay", "--scene"])
+            .arg(scene)
+            .arg("--trace")
+            .arg(trace)
+            .args(["--size", "8x6", "--spp", "1", "--frames", "2", "--fps", "2"])
+            .args(["--rt", "software", "--out"])
+            .arg(out)
+            .output()
+            .unwrap()
+    };
+    let render = |scene: &Path, out: &Path| {
+        bin()
+            .args(["render", "--scene"])
+            .arg(scene)
+            .args(["--size", "8x6", "--spp", "1", "--rt", "software", "--out"])
+            .arg(out)
+            .output()
+            .unwrap()
+    };
+    std::fs::create_dir_all(&root).unwrap();
+    let trace = root.join("still.csv");
+    std::fs::write(
+        &trace,
+        "t,px,py,pz,qx,qy,qz,qw\n0,0,0,0,0,0,0,1\n2,0,0,0,0,0,0,1\n",
+    )
+    .unwrap();
+
+    let ok = triangle_gltf(&root.join("ok"), "", Some((0, 0.5)));
+    succeeded(&render(&ok, &root.join("ok-render")));
+    succeeded(&replay(&ok, &trace, &root.join("ok-replay")));
+
+    for (tag, extra, phrase) in [
+        (
+            "huge",
+            r#","scale":[1e22,1e22,1e22]"#,
+            "puts a vertex at 3.000e22 from the origin",
+        ),
+        (
+            "zero",
+            r#","scale":[0,0,0]"#,
+            "every triangle has zero area",
+        ),
+    ] {
+        let scene = triangle_gltf(&root.join(tag), extra, None);
+        let out = root.join(format!("{tag}-out"));
+        let line = single_error_line(&render(&scene, &out), tag);
+        assert!(
+            line.contains("tri.gltf") && line.contains(phrase),
+            "{tag}: {line}"
+        );
+        assert!(!out.exists(), "{tag}: output written");
+    }
+    for (tag, anim, phrase) in [
+        (
+            "key",
+            (0, 3e38),
+            "at 0.5 s of its animation, instance 0 (node 'tri') puts a vertex at 1.500e38",
+        ),
+        (
+            "target",
+            (5, 1.0),
+            "channel 0: targets node 5, but the file has 1 node(s)",
+        ),
+    ] {
+        let scene = triangle_gltf(&root.join(tag), "", Some(anim));
+        let out = root.join(format!("{tag}-out"));
+        let line = single_error_line(&replay(&scene, &trace, &out), tag);
+        assert!(
+            line.contains("tri.gltf") && line.contains(phrase),
+            "{tag}: {line}"
+        );
+        assert!(!out.exists(), "{tag}: output written");
+    }
+    let gap = root.join("gap.csv");
+    std::fs::write(
+        &gap,
+        "t,px,py,pz,qx,qy,qz,qw\n0,0,0,0,0,0,0,1\n1e300,0,0,0,0,0,0,1\n",
+    )
+    .unwrap();
+    let out = root.join("gap-out");
+    let line = single_error_line(&replay(&ok, &gap, &out), "gap");
+    assert!(
+        line.contains("gap.csv") && line.contains("the trace spans 1.000000e300 s"),
+        "{line}"
+    );
+    assert!(!out.exists(), "gap: output written");
+    let _ = std::fs::remove_dir_all(&root);
+}

@@ -56,7 +56,7 @@ use super::neck::HeadNeckModel;
 use super::pose::HeadPose;
 use super::table::{read_table, HeaderRule, Record, Table};
 use super::time_unit::{RawTime, TimeUnit, TimeWindow};
-use super::trace::{PoseSample, PoseTrace, TraceBuilder, TraceError};
+use super::trace::{excerpt, PoseSample, PoseTrace, TraceBuilder, TraceError};
 
 /// The quantities a column map assigns, in [`ColumnMap`] order.
 pub const COLUMN_KEYS: [&str; 8] = ["t", "x", "y", "z", "qx", "qy", "qz", "qw"];
@@ -363,11 +363,17 @@ pub(crate) struct RowConversion<'a> {
 }
 
 fn number(b: &TraceBuilder, line: usize, label: &str, text: &str) -> Result<f64, TraceError> {
-    let v: f64 = text
-        .parse()
-        .map_err(|_| b.line_error(line, format!("{label}: `{text}` is not a number")))?;
+    let v: f64 = text.parse().map_err(|_| {
+        b.line_error(
+            line,
+            format!("{label}: `{}` is not a number", excerpt(text)),
+        )
+    })?;
     if !v.is_finite() {
-        return Err(b.line_error(line, format!("{label}: value `{text}` is not finite")));
+        return Err(b.line_error(
+            line,
+            format!("{label}: value `{}` is not finite", excerpt(text)),
+        ));
     }
     Ok(v)
 }
@@ -388,12 +394,15 @@ pub(crate) fn rows_to_trace(
         let line = row.line;
         let text = row.fields[c.t];
         let raw = RawTime::parse(text).ok_or_else(|| {
-            b.line_error(line, format!("{}: `{text}` is not a number", c.labels[0]))
+            b.line_error(
+                line,
+                format!("{}: `{}` is not a number", c.labels[0], excerpt(text)),
+            )
         })?;
         if !raw.is_finite() {
             return Err(b.line_error(
                 line,
-                format!("{}: value `{text}` is not finite", c.labels[0]),
+                format!("{}: value `{}` is not finite", c.labels[0], excerpt(text)),
             ));
         }
         let t = raw.seconds_since(*origin.get_or_insert(raw), conv.time_unit);

@@ -68,7 +68,7 @@ use std::path::Path;
 use glam::Quat;
 
 use super::neck::HeadNeckModel;
-use super::trace::{PoseSample, PoseTrace, TraceBuilder, TraceError};
+use super::trace::{excerpt, PoseSample, PoseTrace, TraceBuilder, TraceError};
 
 /// Column names of the MMSys'18 quaternion files.
 pub const MMSYS18_COLUMNS: [&str; 6] = ["timestamp", "viewpoint", "w", "x", "y", "z"];
@@ -188,15 +188,20 @@ pub fn parse_mmsys18(
             let x: f64 = text.parse().map_err(|_| {
                 b.line_error(
                     line_no,
-                    format!("column `{}`: `{text}` is not a number", MMSYS18_COLUMNS[j]),
+                    format!(
+                        "column `{}`: `{}` is not a number",
+                        MMSYS18_COLUMNS[j],
+                        excerpt(text)
+                    ),
                 )
             })?;
             if !x.is_finite() {
                 return Err(b.line_error(
                     line_no,
                     format!(
-                        "column `{}`: value `{text}` is not finite",
-                        MMSYS18_COLUMNS[j]
+                        "column `{}`: value `{}` is not finite",
+                        MMSYS18_COLUMNS[j],
+                        excerpt(text)
                     ),
                 ));
             }

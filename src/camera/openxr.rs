@@ -44,7 +44,7 @@ use super::generic_csv::{rows_to_trace, Columns, RowConversion};
 use super::neck::HeadNeckModel;
 use super::table::{read_table, HeaderRule};
 use super::time_unit::{TimeUnit, TimeWindow};
-use super::trace::{PoseTrace, TraceBuilder, TraceError};
+use super::trace::{excerpt, PoseTrace, TraceBuilder, TraceError};
 
 /// Column names of the OpenXR-style format (`flags` optional), in
 /// [`super::generic_csv::COLUMN_KEYS`] order.
@@ -130,8 +130,9 @@ pub fn parse_openxr(
             b.line_error(
                 row.line,
                 format!(
-                    "column `flags` (column {}): `{text}` is not an XrSpaceLocationFlags integer",
-                    col + 1
+                    "column `flags` (column {}): `{}` is not an XrSpaceLocationFlags integer",
+                    col + 1,
+                    excerpt(text)
                 ),
             )
         })?;

@@ -297,6 +297,16 @@ fn parse_header(b: &TraceBuilder, line_no: usize, line: &str) -> Result<CsvHeade
     })
 }
 
+/// A field as an error message quotes it: whole up to 40 characters, else
+/// its first 40 and the count (a corrupt file may hold megabytes in one).
+pub(crate) fn excerpt(text: &str) -> String {
+    const MAX: usize = 40;
+    match text.char_indices().nth(MAX) {
+        None => text.to_string(),
+        Some((cut, _)) => format!("{}… ({} characters)", &text[..cut], text.chars().count()),
+    }
+}
+
 fn parse_field(
     b: &TraceBuilder,
     line_no: usize,
@@ -308,8 +318,9 @@ fn parse_field(
         b.line_error(
             line_no,
             format!(
-                "column `{name}` (column {}): `{text}` is not a number",
-                column + 1
+                "column `{name}` (column {}): `{}` is not a number",
+                column + 1,
+                excerpt(text)
             ),
         )
     })?;
@@ -317,8 +328,9 @@ fn parse_field(
         return Err(b.line_error(
             line_no,
             format!(
-                "column `{name}` (column {}): value `{text}` is not finite",
-                column + 1
+                "column `{name}` (column {}): value `{}` is not finite",
+                column + 1,
+                excerpt(text)
             ),
         ));
     }
@@ -523,17 +535,35 @@ impl PoseTrace {
         interpolate(&s[hi - 1], &s[hi], t)
     }
 
+    /// How many frames [`resample`](Self::resample) gives at `fps`:
+    /// ⌊(t_last − t_0)·fps⌋ + 1, as a float so that a trace spanning an
+    /// absurd time (a corrupt timestamp) can be refused before anything is
+    /// allocated (0 without samples).
+    pub fn resampled_len(&self, fps: f64) -> f64 {
+        if self.samples.is_empty() {
+            return 0.0;
+        }
+        ((self.duration() * fps) + 1e-9).floor() + 1.0
+    }
+
     /// Resamples at exactly `1/fps` steps from the first to the last
     /// timestamp: `t_k = t_0 + k / fps` for `k = 0 ..= ⌊(t_last − t_0)·fps⌋`
     /// (computed from `k`, not accumulated, so times do not drift). Works on a
     /// hemisphere-continuous copy; position lerp, orientation slerp, IPD lerp.
     ///
     /// # Panics
-    /// If `fps` is not finite and positive (callers validate user input).
+    /// If `fps` is not finite and positive, or the result would not fit in
+    /// memory (callers validate user input: `replay::trace_cameras` refuses
+    /// more than `replay::MAX_TRACE_FRAMES` by [`resampled_len`](Self::resampled_len)).
     pub fn resample(&self, fps: f64) -> Vec<PoseSample> {
         assert!(
             fps.is_finite() && fps > 0.0,
             "resample: fps must be positive, got {fps}"
+        );
+        assert!(
+            self.resampled_len(fps) < usize::MAX as f64 / 2.0,
+            "resample: {} s at {fps} fps is too many frames",
+            self.duration()
         );
         let Some(first) = self.samples.first() else {
             return Vec::new();
@@ -602,6 +632,37 @@ mod tests {
         assert_eq!(tr.samples[1].ipd, None);
         assert_eq!(tr.warnings.len(), 1, "{:?}", tr.warnings);
         assert!(tr.warnings[0].contains("line 2"));
+    }
+
+    #[test]
+    fn errors_quote_a_huge_field_in_part() {
+        let junk = "9x".repeat(2_500_000);
+        let text = format!("t,px,py,pz,qx,qy,qz,qw\n0,{junk},0,0,0,0,0,1\n");
+        let e = PoseTrace::parse_csv("big.csv", &text)
+            .unwrap_err()
+            .to_string();
+        assert!(e.len() < 300, "{} characters", e.len());
+        assert!(
+            e.contains(
+                "`9x9x9x9x9x9x9x9x9x9x9x9x9x9x9x9x9x9x9x9x… (5000000 characters)` is not a number"
+            ),
+            "{e}"
+        );
+        assert_eq!(excerpt("0.25"), "0.25");
+    }
+
+    #[test]
+    fn resampled_len_counts_frames_without_allocating() {
+        let tr = PoseTrace::from_samples("mem", vec![sample(1.0, 0.0, 0.0), sample(2.0, 1.0, 1.0)]);
+        assert_eq!(tr.resampled_len(4.0), tr.resample(4.0).len() as f64);
+        let far =
+            PoseTrace::from_samples("mem", vec![sample(0.0, 0.0, 0.0), sample(1e300, 0.0, 0.0)]);
+        let n = far.resampled_len(90.0);
+        assert!(n.is_finite() && (n / 9e301 - 1.0).abs() < 1e-12, "{n}");
+        assert_eq!(
+            PoseTrace::from_samples("mem", vec![]).resampled_len(90.0),
+            0.0
+        );
     }
 
     #[test]

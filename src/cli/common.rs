@@ -31,6 +31,7 @@ pub fn open_along_trace(
     for w in &trace.warnings {
         eprintln!("warning: {w}");
     }
+    stereocache::replay::check_trace_length(&trace, fps)?;
     let session = scene.open(gpu)?;
     let cameras = stereocache::replay::trace_cameras(
         &session,
@@ -125,6 +126,11 @@ pub fn load_labelled_scenes(
 /// Refuses an output directory that cannot be created or written, before any work.
 pub fn check_out(dir: &std::path::Path) -> Result<()> {
     stereocache::values::check_output_dir(dir).map_err(anyhow::Error::msg)
+}
+
+/// Refuses an output file that cannot be written, before any work.
+pub fn check_out_file(file: &std::path::Path) -> Result<()> {
+    stereocache::values::check_output_file(file).map_err(anyhow::Error::msg)
 }
 
 /// The error and its causes on one line. A cause whose text the message

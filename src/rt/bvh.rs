@@ -74,17 +74,26 @@ impl SoftwareBvh {
                 let m = inst.transform.as_dmat4();
                 let t =
                     |p: Vec3| Vec3A::from((m.transform_point3(p.as_dvec3()) - origin).as_vec3());
-                tris.push(Triangle {
+                let tri = Triangle {
                     v0: t(a),
                     v1: t(b),
                     v2: t(c),
-                });
+                };
+                if !hittable(&tri) {
+                    continue;
+                }
+                tris.push(tri);
                 refs.push([ii as u32, prim as u32]);
                 culls.push(cull);
             }
         }
         let mut build_time = Duration::ZERO;
-        let cwbvh = build_cwbvh_from_tris(&tris, BvhBuildParams::medium_build(), &mut build_time);
+        // Empty when no triangle is hittable (the upload refuses that).
+        let cwbvh = if tris.is_empty() {
+            CwBvh::default()
+        } else {
+            build_cwbvh_from_tris(&tris, BvhBuildParams::medium_build(), &mut build_time)
+        };
         let mut tri_ref = Vec::with_capacity(cwbvh.primitive_indices.len());
         let mut tri_verts = Vec::with_capacity(3 * cwbvh.primitive_indices.len());
         for &pi in &cwbvh.primitive_indices {
@@ -194,4 +203,15 @@ pub(crate) fn max_depth(bvh: &CwBvh) -> u32 {
         }
     }
     deepest
+}
+
+/// Whether the traversal's Möller–Trumbore test can ever report `tri`: its
+/// edges' cross product is finite and not zero (a zero-area triangle has
+/// det = 0 for every ray, intersect_triangle in rt_software.glsl). Such
+/// triangles are left out of the software BVHs, so dropping them changes no
+/// hit; kept in, thousands of them sharing one centroid (a node scaled to
+/// zero) build a chain deeper than the traversal stack.
+pub(crate) fn hittable(tri: &Triangle) -> bool {
+    let n = (tri.v1 - tri.v0).cross(tri.v2 - tri.v0);
+    n.is_finite() && n != Vec3A::ZERO
 }

@@ -559,6 +559,12 @@ impl SceneGpu {
             }
             RtBackend::Software => {
                 let bvh = SoftwareBvh::build_at(scene, origin);
+                if bvh.nodes().is_empty() {
+                    return Err(GpuError::Unsupported(format!(
+                        "{}: every triangle has zero area at the precision of the render's coordinates",
+                        scene.source.display()
+                    )));
+                }
                 if bvh.max_depth >= TRAVERSAL_STACK_SIZE {
                     return Err(GpuError::Unsupported(format!(
                         "the software BVH of {} is {} levels deep; the GLSL traversal stack holds {TRAVERSAL_STACK_SIZE}",

@@ -22,7 +22,7 @@
 //! Positions are relative to the render origin (`super::origin`) like the
 //! flattened structure: instance transforms are rebased in f64 first.
 
-use super::bvh::{max_depth, moller_trumbore, CpuHit};
+use super::bvh::{hittable, max_depth, moller_trumbore, CpuHit};
 use super::origin::relative_transform;
 use crate::scene::Scene;
 use glam::{DVec3, Mat4, Vec3, Vec3A, Vec4};
@@ -70,7 +70,11 @@ pub struct TwoLevelBvh {
     blas_depth: u32,
 }
 
-fn instance_bounds(object: &Aabb, m: Mat4) -> Aabb {
+/// The world box of an instance, or `None` for one scaled to a point (it
+/// cannot be hit: left out of the TLAS, as zero-area triangles are left
+/// out of the BVHs, bvh.rs `hittable`; thousands of such boxes on one spot
+/// would chain the TLAS).
+fn instance_bounds(object: &Aabb, m: Mat4) -> Option<Aabb> {
     let mut b = Aabb::empty();
     for i in 0..8 {
         let c = Vec3::new(
@@ -92,10 +96,13 @@ fn instance_bounds(object: &Aabb, m: Mat4) -> Aabb {
         );
         b.extend(Vec3A::from(m.transform_point3(c)));
     }
+    if b.min == b.max {
+        return None;
+    }
     // Widen by a few ulps of the box's magnitude: the corners were rounded
     // once more than the triangles the ray meets in object space.
     let pad = Vec3A::splat(4.0 * f32::EPSILON) * b.min.abs().max(b.max.abs()) + 1e-30;
-    Aabb::new(b.min - pad, b.max + pad)
+    Some(Aabb::new(b.min - pad, b.max + pad))
 }
 
 impl TwoLevelBvh {
@@ -123,16 +130,20 @@ impl TwoLevelBvh {
             } else {
                 0.0
             };
-            let tris: Vec<Triangle> = (0..mesh.triangle_count())
+            // Zero-area triangles are never hit (bvh.rs `hittable`): left
+            // out, each kept triangle with its primitive index.
+            let (tris, prims): (Vec<Triangle>, Vec<u32>) = (0..mesh.triangle_count())
                 .map(|p| {
                     let [a, b, c] = mesh.triangle(p);
-                    Triangle {
+                    let tri = Triangle {
                         v0: a.into(),
                         v1: b.into(),
                         v2: c.into(),
-                    }
+                    };
+                    (tri, p as u32)
                 })
-                .collect();
+                .filter(|(tri, _)| hittable(tri))
+                .unzip();
             let node_base = nodes.len() as u32;
             let slot_base = tri_ref.len() as u32;
             let mut t = Duration::ZERO;
@@ -150,7 +161,7 @@ impl TwoLevelBvh {
             for &pi in &cwbvh.primitive_indices {
                 let tri = &tris[pi as usize];
                 let (e1, e2) = (tri.v1 - tri.v0, tri.v2 - tri.v0);
-                tri_ref.push([0, pi]);
+                tri_ref.push([0, prims[pi as usize]]);
                 tri_verts.push([tri.v0.x, tri.v0.y, tri.v0.z, cull]);
                 tri_verts.push([e1.x, e1.y, e1.z, 0.0]);
                 tri_verts.push([e2.x, e2.y, e2.z, 0.0]);
@@ -206,12 +217,21 @@ impl TwoLevelBvh {
         for (i, m) in self.world_from_object.iter().enumerate() {
             let b = &self.blas[self.mesh_of[i] as usize];
             if let (Some(bounds), false) = (b.bounds, b.cwbvh.nodes.is_empty()) {
-                boxes.push(instance_bounds(&bounds, *m));
+                let Some(bx) = instance_bounds(&bounds, *m) else {
+                    continue;
+                };
+                boxes.push(bx);
                 self.tlas_instances.push(i as u32);
             }
         }
         let mut t = Duration::ZERO;
-        self.tlas = build_cwbvh(&boxes, BvhBuildParams::medium_build(), &mut t);
+        // No instance with a hittable triangle: an empty TLAS (the reserved
+        // root stays a node without children, so every ray misses).
+        self.tlas = if boxes.is_empty() {
+            CwBvh::default()
+        } else {
+            build_cwbvh(&boxes, BvhBuildParams::medium_build(), &mut t)
+        };
         assert!(
             self.tlas.nodes.len() <= self.tlas_capacity,
             "TLAS of {} nodes exceeds its {} reserved",

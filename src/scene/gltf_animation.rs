@@ -97,8 +97,24 @@ pub(crate) fn import_animations(
         let mut skinned = false;
         for (ci, ch) in anim.channels().enumerate() {
             let err = |m: String| SceneError::invalid(path, format!("{what} channel {ci}: {m}"));
+            // The gltf crate does not validate these two indices, and its
+            // accessors unwrap them: check the JSON first.
+            let json = &doc.as_json().animations[anim.index()].channels[ci];
+            let node = json.target.node.value();
+            if node >= nodes.len() {
+                return Err(err(format!(
+                    "targets node {node}, but the file has {} node(s)",
+                    nodes.len()
+                )));
+            }
+            let sampler_index = json.sampler.value();
+            let n_samplers = anim.samplers().count();
+            if sampler_index >= n_samplers {
+                return Err(err(format!(
+                    "uses sampler {sampler_index}, but the animation has {n_samplers}"
+                )));
+            }
             let target = ch.target();
-            let node = target.node().index();
             let trs = match target.property() {
                 Property::Translation => TrsPath::Translation,
                 Property::Rotation => TrsPath::Rotation,

@@ -92,6 +92,10 @@ pub struct Scene {
     pub graphs: crate::materials::SceneGraphs,
 }
 
+/// How far from the origin, along any axis, a vertex may lie in world
+/// space ([`Scene::check_placement`]).
+pub const MAX_WORLD_COORDINATE: f32 = 1e15;
+
 impl Scene {
     /// Total number of triangles over all instances.
     /// Whether rays pass through the back faces of `mesh` (its material's
@@ -249,6 +253,63 @@ impl Scene {
                 &src,
                 "the scene has no triangles".to_string(),
             ));
+        }
+        let rest: Vec<Mat4> = self.instances.iter().map(|i| i.transform).collect();
+        self.check_placement(&rest)
+            .map_err(|m| SceneError::invalid(&src, m))?;
+        // A triangle of zero area is never hit; a scene of nothing else
+        // renders nothing (the software BVHs leave such triangles out).
+        let hittable = self.instances.iter().any(|inst| {
+            let m = inst.transform.as_dmat4();
+            let mesh = &self.meshes[inst.mesh as usize];
+            (0..mesh.triangle_count()).any(|p| {
+                let [a, b, c] = mesh.triangle(p).map(|v| m.transform_point3(v.as_dvec3()));
+                (b - a).cross(c - a) != glam::DVec3::ZERO
+            })
+        });
+        if !hittable {
+            return Err(SceneError::invalid(
+                &src,
+                "every triangle has zero area in world space (a node scaled to zero?)".to_string(),
+            ));
+        }
+        Ok(())
+    }
+
+    /// Refuses instance transforms (`transforms[i]` for instance i, object
+    /// to world) that are not finite or put a vertex farther than
+    /// [`MAX_WORLD_COORDINATE`] from the origin along an axis: f32 ray
+    /// tracing cannot resolve such a scene, and the BVH builders' surface
+    /// areas would overflow. The message names the instance's node. Loaders
+    /// check the rest pose ([`Self::validate`]); the replay checks every
+    /// frame's pose of an animated scene before it renders.
+    pub fn check_placement(&self, transforms: &[Mat4]) -> Result<(), String> {
+        for (ii, (inst, m)) in self.instances.iter().zip(transforms).enumerate() {
+            let what = || format!("instance {ii} (node '{}')", inst.name);
+            if !m.is_finite() {
+                return Err(format!("{}: its world transform is not finite", what()));
+            }
+            let mesh = &self.meshes[inst.mesh as usize];
+            if mesh.positions.is_empty() {
+                continue;
+            }
+            let lo = mesh.positions.iter().fold(Vec3::INFINITY, |a, &p| a.min(p));
+            let hi = mesh
+                .positions
+                .iter()
+                .fold(Vec3::NEG_INFINITY, |a, &p| a.max(p));
+            let m = m.as_dmat4();
+            for i in 0..8 {
+                let c = Vec3::select(glam::BVec3::new(i & 1 != 0, i & 2 != 0, i & 4 != 0), hi, lo);
+                let w = m.transform_point3(c.as_dvec3());
+                let far = w.abs().max_element();
+                if !(far <= MAX_WORLD_COORDINATE as f64) {
+                    return Err(format!(
+                        "{} puts a vertex at {far:.3e} from the origin; world coordinates must stay within ±{MAX_WORLD_COORDINATE:e} (a broken scale or translation?)",
+                        what()
+                    ));
+                }
+            }
         }
         Ok(())
     }

@@ -78,6 +78,9 @@ pub struct BenchMaterialsArgs {
 }
 
 pub fn run(a: BenchMaterialsArgs) -> Result<()> {
+    if let Some(out) = &a.out {
+        crate::cli::common::check_out_file(out)?;
+    }
     if ![1, 2, 4, 8].contains(&a.sweep_tile) {
         bail!(
             "bad --sweep-tile {}: expected 1 (single texels), 2, 4 or 8",
@@ -99,6 +102,7 @@ pub fn run(a: BenchMaterialsArgs) -> Result<()> {
         bail!("bad --sizes or --repeats: sizes up to {MAX_ENTRIES} entries, at least one round");
     }
     let trace = PoseTrace::read_csv(&a.trace)?;
+    stereocache::replay::check_trace_length(&trace, DEFAULT_FPS)?;
     let (scene, lit) = Session::load_scene_lit(&a.scene, a.lighting.as_ref())?;
     eprintln!("{}", lit.line());
     if scene.graphs.is_empty() {

@@ -49,6 +49,7 @@ pub fn run(a: SampleCacheBenchArgs) -> Result<()> {
         height: h,
     } = size;
     let trace_data = PoseTrace::read_csv(&trace)?;
+    stereocache::replay::check_trace_length(&trace_data, DEFAULT_FPS)?;
     let session = scene.open(&gpu)?;
     let mut cameras = trace_cameras(
         &session,

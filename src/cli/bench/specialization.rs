@@ -67,6 +67,9 @@ fn bounce_list(s: &str) -> Result<BounceList, String> {
 /// `stereocache bench specialization`: every argument is checked and every
 /// scene loaded before the GPU is opened, so bad input fails fast.
 pub fn run(a: BenchSpecArgs) -> Result<()> {
+    if let Some(out) = &a.out {
+        crate::cli::common::check_out_file(out)?;
+    }
     let Size {
         width: w,
         height: h,
@@ -74,6 +77,7 @@ pub fn run(a: BenchSpecArgs) -> Result<()> {
     let (rt, lighting) = (a.rt, a.lighting.as_ref());
     let (methods, bounces) = (&a.methods.0, &a.bounces.0);
     let trace = PoseTrace::read_csv(&a.trace)?;
+    stereocache::replay::check_trace_length(&trace, DEFAULT_FPS)?;
     let scenes = load_labelled_scenes(&a.scenes, lighting)?;
     let ctx = std::sync::Arc::new(GpuContext::new(&a.gpu.options()?)?);
     println!("{}", device_line(&ctx.caps));
