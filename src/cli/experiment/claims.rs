@@ -176,6 +176,46 @@ pub fn evaluate(claims: &[ClaimSpec], groups: &[String], out: &Path) -> Vec<Clai
             let (Some(metric), Some(of)) = (&c.metric, &c.of) else {
                 return r;
             };
+            // A metric that no comparison's row of `of` has (a mistyped
+            // name) says so, instead of "not measured here".
+            let rows_of = |label: &str| -> Vec<&serde_json::Value> {
+                summaries
+                    .iter()
+                    .filter(|(g, _)| c.group.as_ref().is_none_or(|x| x == g))
+                    .filter_map(|(_, s)| {
+                        s["methods"]
+                            .as_array()?
+                            .iter()
+                            .find(|r| r["method"].as_str() == Some(label))
+                    })
+                    .collect()
+            };
+            let rows = rows_of(of);
+            if !rows.is_empty()
+                && summaries
+                    .iter()
+                    .all(|(_, s)| lookup(s, of, metric).is_none())
+            {
+                let mut known: Vec<String> = rows[0]
+                    .as_object()
+                    .map(|o| {
+                        o.iter()
+                            .filter(|(_, v)| v.is_number())
+                            .map(|(k, _)| k.clone())
+                            .collect()
+                    })
+                    .unwrap_or_default();
+                if let Some(m) = rows[0]["metrics"].as_object() {
+                    known.extend(m.keys().cloned());
+                }
+                known.push("pass:NAME[+NAME…]".into());
+                r.here = format!(
+                    "metric '{metric}' is not a figure of configuration '{of}' (its figures: {})",
+                    known.join(", ")
+                );
+                r.verdict = "unknown metric".into();
+                return r;
+            }
             for (g, s) in &summaries {
                 if c.group.as_ref().is_some_and(|x| x != g) {
                     continue;
