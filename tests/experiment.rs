@@ -230,6 +230,35 @@ fn an_experiment_equals_compare_and_two_merged_shards_equal_one_run() {
         "the merged claims equal one run's"
     );
     assert!(printed.contains("claim: the sample cache"), "{printed}");
+
+    // A mistyped metric: everything is written, the claim says which
+    // figures exist, and the run fails with one line.
+    let bogus = root.join("bogus.toml");
+    std::fs::write(
+        &bogus,
+        tiny(&root.join("refs")).replace(r#"metric = "rse""#, r#"metric = "rse_typo""#),
+    )
+    .unwrap();
+    let out = root.join("bogus");
+    let o = bin()
+        .args(["experiment", "run"])
+        .arg(&bogus)
+        .args(["--shard", "1/2", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let line = single_error_line(&o, "a mistyped claim metric");
+    assert!(
+        line.contains("1 claim(s) name a metric their configuration does not have"),
+        "{line}"
+    );
+    let claims = std::fs::read_to_string(out.join("claims.md")).unwrap();
+    assert!(
+        claims.contains(
+            "metric 'rse_typo' is not a figure of configuration 'sample-cache' (its figures: "
+        ) && claims.contains("| unknown metric |"),
+        "{claims}"
+    );
     let _ = std::fs::remove_dir_all(&root);
 }
 

@@ -152,7 +152,8 @@ impl Document {
         let line_starts: Vec<usize> = std::iter::once(0)
             .chain(text.match_indices('\n').map(|(i, _)| i + 1))
             .collect();
-        let line = |n: roxmltree::Node| line_starts.partition_point(|&s| s <= n.range().start) as u32;
+        let line =
+            |n: roxmltree::Node| line_starts.partition_point(|&s| s <= n.range().start) as u32;
         let children = |n: roxmltree::Node<'_, '_>, tag: &str| -> Vec<RawPort> {
             n.children()
                 .filter(|c| c.is_element() && c.tag_name().name() == tag)
