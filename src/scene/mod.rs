@@ -284,20 +284,28 @@ impl Scene {
     /// check the rest pose ([`Self::validate`]); the replay checks every
     /// frame's pose of an animated scene before it renders.
     pub fn check_placement(&self, transforms: &[Mat4]) -> Result<(), String> {
+        // Each mesh's object-space box, once (instances share meshes).
+        let boxes: Vec<Option<(Vec3, Vec3)>> = self
+            .meshes
+            .iter()
+            .map(|mesh| {
+                (!mesh.positions.is_empty()).then(|| {
+                    mesh.positions
+                        .iter()
+                        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), &p| {
+                            (lo.min(p), hi.max(p))
+                        })
+                })
+            })
+            .collect();
         for (ii, (inst, m)) in self.instances.iter().zip(transforms).enumerate() {
             let what = || format!("instance {ii} (node '{}')", inst.name);
             if !m.is_finite() {
                 return Err(format!("{}: its world transform is not finite", what()));
             }
-            let mesh = &self.meshes[inst.mesh as usize];
-            if mesh.positions.is_empty() {
+            let Some((lo, hi)) = boxes[inst.mesh as usize] else {
                 continue;
-            }
-            let lo = mesh.positions.iter().fold(Vec3::INFINITY, |a, &p| a.min(p));
-            let hi = mesh
-                .positions
-                .iter()
-                .fold(Vec3::NEG_INFINITY, |a, &p| a.max(p));
+            };
             let m = m.as_dmat4();
             for i in 0..8 {
                 let c = Vec3::select(glam::BVec3::new(i & 1 != 0, i & 2 != 0, i & 4 != 0), hi, lo);
