@@ -384,6 +384,18 @@ fn check_scene(
                     l.position.is_finite() && l.direction.is_finite() && l.radiant.is_finite(),
                     "bad light {l:?}"
                 );
+                if let stereocache::scene::LightKind::Spot {
+                    inner_cone,
+                    outer_cone,
+                } = l.kind
+                {
+                    prop_assert!(
+                        0.0 <= inner_cone
+                            && inner_cone < outer_cone
+                            && outer_cone <= std::f32::consts::FRAC_PI_2,
+                        "spot cone out of range {l:?}"
+                    );
+                }
             }
             for m in &scene.materials {
                 prop_assert!(

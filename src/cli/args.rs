@@ -79,7 +79,7 @@ impl std::str::FromStr for MethodList {
     fn from_str(s: &str) -> Result<MethodList, String> {
         registry::parse_list(s)
             .map(MethodList)
-            .map_err(|e| format!("bad --methods: {e}"))
+            .map_err(|e| e.to_string())
     }
 }
 

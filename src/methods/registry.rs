@@ -230,16 +230,30 @@ impl FromStr for MethodKind {
 
 /// A comma-separated list of methods (`--methods a,b`), at least one, each known.
 pub fn parse_list(list: &str) -> Result<Vec<MethodKind>> {
-    let methods = list
-        .split(',')
-        .map(str::trim)
-        .filter(|m| !m.is_empty())
-        .map(MethodKind::from_str)
-        .collect::<Result<Vec<_>>>()?;
-    if methods.is_empty() {
+    let names: Vec<&str> = list.split(',').map(str::trim).collect();
+    if names.iter().all(|m| m.is_empty()) {
         return Err(Error::Usage(format!(
             "bad --methods '{list}': name at least one method"
         )));
+    }
+    if names.iter().any(|m| m.is_empty()) {
+        return Err(Error::Usage(format!(
+            "bad --methods '{list}': an empty name between commas"
+        )));
+    }
+    let methods = names
+        .iter()
+        .map(|m| MethodKind::from_str(m))
+        .collect::<Result<Vec<_>>>()?;
+    // Each method's outputs go to a folder of its name: twice would
+    // overwrite one run with the other.
+    for (i, m) in methods.iter().enumerate() {
+        if methods[..i].contains(m) {
+            return Err(Error::Usage(format!(
+                "bad --methods '{list}': {} is named twice",
+                names[i]
+            )));
+        }
     }
     Ok(methods)
 }
@@ -362,5 +376,13 @@ mod tests {
             .unwrap_err()
             .to_string()
             .contains("at least one"));
+        assert!(parse_list("naive,,taa")
+            .unwrap_err()
+            .to_string()
+            .contains("an empty name between commas"));
+        assert!(parse_list("naive, taa,naive")
+            .unwrap_err()
+            .to_string()
+            .contains("naive is named twice"));
     }
 }

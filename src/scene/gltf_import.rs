@@ -1037,15 +1037,36 @@ impl Importer<'_> {
 
     fn light(&mut self, node: &gltf::Node, light: gltf::khr_lights_punctual::Light, world: Mat4) {
         use gltf::khr_lights_punctual::Kind;
+        let mut cone_warning = None;
         let kind = match light.kind() {
             Kind::Point => LightKind::Point,
             Kind::Spot {
                 inner_cone_angle,
                 outer_cone_angle,
-            } => LightKind::Spot {
-                inner_cone: inner_cone_angle,
-                outer_cone: outer_cone_angle,
-            },
+            } => {
+                // KHR_lights_punctual: 0 ≤ inner < outer ≤ π/2. Outside it
+                // the falloff's smoothstep has its edges reversed (undefined
+                // in GLSL): clamped into range, with a warning.
+                let outer = if outer_cone_angle.is_finite() {
+                    outer_cone_angle.clamp(1e-4, std::f32::consts::FRAC_PI_2)
+                } else {
+                    std::f32::consts::FRAC_PI_4
+                };
+                let inner = if inner_cone_angle.is_finite() {
+                    inner_cone_angle.clamp(0.0, outer * 0.999)
+                } else {
+                    0.0
+                };
+                if (inner, outer) != (inner_cone_angle, outer_cone_angle) {
+                    cone_warning = Some(format!(
+                        "inner and outer cone angles {inner_cone_angle}, {outer_cone_angle} are not 0 ≤ inner < outer ≤ π/2; using {inner}, {outer}"
+                    ));
+                }
+                LightKind::Spot {
+                    inner_cone: inner,
+                    outer_cone: outer,
+                }
+            }
             Kind::Directional => LightKind::Directional {
                 angular_radius: 0.0,
             },
@@ -1059,6 +1080,9 @@ impl Importer<'_> {
             .or(node.name())
             .map(str::to_owned)
             .unwrap_or_else(|| format!("light {}", light.index()));
+        if let Some(w) = cone_warning {
+            self.warn(format!("light '{name}': {w}"));
+        }
         let radiant = Vec3::from(light.color()) * light.intensity();
         if !radiant.is_finite() || radiant.min_element() < 0.0 {
             self.warn(format!(

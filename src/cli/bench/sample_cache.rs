@@ -3,7 +3,7 @@
 
 use crate::cli::args::{self, GpuArgs, SceneArgs};
 use crate::cli::common::{device_line, report_validation};
-use anyhow::Result;
+use anyhow::{bail, Result};
 use clap::Args;
 use std::path::PathBuf;
 use stereocache::bench::{CacheBenchRow, ScatterBaselines};
@@ -44,6 +44,9 @@ pub fn run(a: SampleCacheBenchArgs) -> Result<()> {
         bounces,
         shading,
     } = a;
+    if shading == Shading::Skip {
+        bail!("bad --shading skip: this bench times the shading pass; use uniform or adaptive");
+    }
     let Size {
         width: w,
         height: h,
