@@ -124,15 +124,17 @@ impl ReplayOptions {
 /// corrupt timestamp) is refused before anything is allocated.
 pub const MAX_TRACE_FRAMES: usize = 1_000_000;
 
-/// Refuses a bad `fps` or a trace that resamples to more than
-/// [`MAX_TRACE_FRAMES`] frames at it; cheap, so callers run it before
-/// opening the scene. [`trace_cameras`] runs it too.
-pub fn check_trace_length(trace: &PoseTrace, fps: f64) -> Result<()> {
+/// Refuses a bad `fps`, or a trace whose frames to build at it (all of
+/// them, or the first `limit`) are more than [`MAX_TRACE_FRAMES`]; cheap,
+/// so callers run it before opening the scene. [`trace_cameras`] runs it
+/// too.
+pub fn check_trace_length(trace: &PoseTrace, fps: f64, limit: Option<usize>) -> Result<()> {
     check_fps(fps)?;
     let n = trace.resampled_len(fps);
-    if n > MAX_TRACE_FRAMES as f64 {
+    let needed = limit.map_or(n, |k| n.min(k as f64));
+    if needed > MAX_TRACE_FRAMES as f64 {
         return Err(Error::Usage(format!(
-            "{}: the trace spans {:.6e} s, {n:.3e} frames at {fps} fps, more than the {MAX_TRACE_FRAMES} a replay resamples (a corrupt timestamp?)",
+            "{}: the trace spans {:.6e} s, {n:.3e} frames at {fps} fps, more than the {MAX_TRACE_FRAMES} a replay builds at once (replay the first ones with --frames; a corrupt timestamp?)",
             trace.source.display(),
             trace.duration()
         )));
@@ -150,7 +152,8 @@ fn check_fps(fps: f64) -> Result<()> {
     }
 }
 
-/// One world-space stereo camera per frame of `trace` resampled at `fps`.
+/// One world-space stereo camera per frame of `trace` resampled at `fps`
+/// (the first `limit` frames only, when given).
 ///
 /// The stage is placed so that the first sample's head pose lands exactly on
 /// the selected camera (`Stage::at_camera`): frame 0 equals
@@ -168,9 +171,10 @@ pub fn trace_cameras(
     select: &CameraSelect,
     ipd: Option<f32>,
     yfov: Option<f32>,
+    limit: Option<usize>,
 ) -> Result<Vec<StereoCamera>> {
-    check_trace_length(trace, fps)?;
-    let samples = trace.resample(fps);
+    check_trace_length(trace, fps, limit)?;
+    let samples = trace.resample_first(fps, limit.unwrap_or(MAX_TRACE_FRAMES));
     let Some(first) = samples.first() else {
         return Err(Error::Usage(format!(
             "{}: the trace has no samples",

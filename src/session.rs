@@ -45,6 +45,8 @@ pub struct Session {
     /// Whether the chosen camera's line (a scene camera's, or the automatic
     /// framing's) was printed.
     camera_reported: AtomicBool,
+    /// `scene.mesh_bounds()`, for the pose checks of an animated scene.
+    mesh_bounds: Vec<Option<(Vec3, Vec3)>>,
 }
 
 impl Session {
@@ -78,6 +80,7 @@ impl Session {
         let scene_gpu = Arc::new(SceneGpu::upload_with(&ctx, &scene, backend, layout)?);
         Ok(Session {
             ctx,
+            mesh_bounds: scene.mesh_bounds(),
             scene,
             scene_gpu,
             backend,
@@ -120,12 +123,14 @@ impl Session {
     }
 
     fn check_pose(&self, t: f64, transforms: &[glam::Mat4]) -> Result<()> {
-        self.scene.check_placement(transforms).map_err(|m| {
-            Error::Usage(format!(
-                "{}: at {t} s of its animation, {m}",
-                self.scene.source.display()
-            ))
-        })
+        self.scene
+            .check_placement(&self.mesh_bounds, transforms)
+            .map_err(|m| {
+                Error::Usage(format!(
+                    "{}: at {t} s of its animation, {m}",
+                    self.scene.source.display()
+                ))
+            })
     }
 
     /// Loads a scene by name or path and lights it by the rule of

@@ -152,7 +152,7 @@ pub fn check_output_file(file: &Path) -> Result<(), String> {
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),
     };
-    check_output_dir(parent).map_err(|e| format!("{}: {e}", file.display()))
+    check_output_dir(parent).map_err(|e| format!("cannot write {}: {e}", file.display()))
 }
 
 #[cfg(test)]

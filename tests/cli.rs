@@ -994,12 +994,12 @@ fn triangle_gltf(dir: &Path, node_extra: &str, anim: Option<(u32, f32)>) -> Path
 
 /// Inputs that used to crash or hang (a bad-input sweep, session 39) now
 /// fail with one error line naming the file, before anything is written:
-/// a node scale that puts vertices at 1e22 (the BVH builder panicked on
+/// a node scale that takes the bounds to 3e22 (the BVH builder panicked on
 /// overflowing areas), a node scaled to zero (a BVH chain deeper than the
 /// traversal stack), an animation key at 3e38 (the TLAS rebuild panicked
 /// mid-run), an animation channel targeting a missing node (the gltf
 /// crate's unwrap), and a trace whose timestamps span 1e300 s (resampling
-/// never ended). The unbroken files render (the helper itself is sound).
+/// never ended; its first frames still replay with --frames). The unbroken files render (the helper itself is sound).
 /// (The animation loops over its 1 s of keys, so the key at 3e38 shows at
 /// 0.5 s as 1.5e38: 2 frames at 2 fps.)
 #[test]
@@ -1042,7 +1042,7 @@ fn hostile_geometry_animation_and_traces_fail_before_rendering() {
         (
             "huge",
             r#","scale":[1e22,1e22,1e22]"#,
-            "puts a vertex at 3.000e22 from the origin",
+            "instance 0 (node 'tri'): its bounds reach 3.000e22 from the origin",
         ),
         (
             "zero",
@@ -1063,7 +1063,7 @@ fn hostile_geometry_animation_and_traces_fail_before_rendering() {
         (
             "key",
             (0, 3e38),
-            "at 0.5 s of its animation, instance 0 (node 'tri') puts a vertex at 1.500e38",
+            "at 0.5 s of its animation, instance 0 (node 'tri'): its bounds reach 1.500e38",
         ),
         (
             "target",
@@ -1086,10 +1086,26 @@ fn hostile_geometry_animation_and_traces_fail_before_rendering() {
         "t,px,py,pz,qx,qy,qz,qw\n0,0,0,0,0,0,0,1\n1e300,0,0,0,0,0,0,1\n",
     )
     .unwrap();
+    // Its first frames replay (only those are built)...
+    succeeded(&replay(&ok, &gap, &root.join("gap-2")));
+    let frames = std::fs::read_to_string(root.join("gap-2").join("frames.jsonl")).unwrap();
+    assert_eq!(frames.lines().count(), 2);
+    // ... the whole of it is refused.
     let out = root.join("gap-out");
-    let line = single_error_line(&replay(&ok, &gap, &out), "gap");
+    let o = bin()
+        .args(["replay", "--scene"])
+        .arg(&ok)
+        .arg("--trace")
+        .arg(&gap)
+        .args(["--size", "8x6", "--spp", "1", "--rt", "software", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let line = single_error_line(&o, "gap");
     assert!(
-        line.contains("gap.csv") && line.contains("the trace spans 1.000000e300 s"),
+        line.contains("gap.csv")
+            && line.contains("the trace spans 1.000000e300 s")
+            && line.contains("replay the first ones with --frames"),
         "{line}"
     );
     assert!(!out.exists(), "gap: output written");

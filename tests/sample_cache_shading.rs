@@ -77,7 +77,18 @@ fn adaptive_shading_holds_the_rate_and_leaves_no_visible_pixel_black() {
     let (w, h) = (64, 48);
     let rate = 0.5f32;
     let trace = synth(SynthKind::HeadTurn, 0.6, 3, 1000.0);
-    let cams = trace_cameras(&s, &trace, 30.0, w, h, &CameraSelect::Default, None, None).unwrap();
+    let cams = trace_cameras(
+        &s,
+        &trace,
+        30.0,
+        w,
+        h,
+        &CameraSelect::Default,
+        None,
+        None,
+        None,
+    )
+    .unwrap();
     for subgroup_ops in [true, false] {
         let mut st = settings(
             w,

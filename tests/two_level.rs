@@ -150,6 +150,7 @@ fn cpu_two_level_matches_flattened() {
         ("cornell", shipped("cornell")),
         ("plane", shipped("plane")),
         ("hairball", shipped("hairball")),
+        ("cornell, zero-area triangles first", degenerate_first()),
     ] {
         let cam = camera_of(&scene);
         let flat = SoftwareBvh::build(&scene);
@@ -165,7 +166,35 @@ fn cpu_two_level_matches_flattened() {
             two.closest_hit(two.to_local(o.as_dvec3()), d, 0.0, 1e30)
         });
         assert_agree(&format!("{name}: CPU flattened vs two-level"), &a, &b);
+        if name.contains("zero-area") {
+            // Both BVHs leave those out and report the mesh's own
+            // primitive numbers: a hit is never one of the first 7, and
+            // the two layouts name the same primitive on every pixel.
+            let hits: Vec<_> = a.iter().filter(|h| h[0] >= 0.0).collect();
+            assert!(hits.len() > 100, "{} hits", hits.len());
+            assert!(
+                hits.iter().all(|h| h[1] >= 7.0),
+                "a zero-area triangle was hit"
+            );
+            assert!(
+                a.iter().zip(&b).all(|(x, y)| x[0] == y[0] && x[1] == y[1]),
+                "the layouts disagree on a primitive"
+            );
+        }
     }
+}
+
+/// The Cornell box with 7 zero-area triangles (a repeated vertex) before
+/// each mesh's own: primitive numbers 7.. are the real triangles.
+fn degenerate_first() -> Scene {
+    let mut s = shipped("cornell");
+    for m in &mut s.meshes {
+        let mut idx = vec![0u32; 21];
+        idx.extend_from_slice(&m.indices);
+        m.indices = idx;
+    }
+    s.validate().unwrap();
+    s
 }
 
 fn primary(s: &Session, cam: &StereoCamera) -> StereoFrame {
@@ -332,4 +361,30 @@ fn rotating_hairball_agrees_across_backends_at_several_times() {
     // The poses differ: the hairball turned between the times.
     assert!(disagreements(&seen[0], &seen[1]) > seen[0].len() / 10);
     assert_no_validation_messages(&ctx);
+}
+
+/// A frame where every instance is scaled to a point leaves no box in the
+/// TLAS; its root must then be a node without children in the uploaded
+/// bytes (the previous frame's root stayed there, and the GPU drew the
+/// instances at their old pose), and the CPU twin hits nothing.
+#[test]
+fn a_tlas_of_no_boxes_uploads_an_empty_root() {
+    let scene = shipped("cornell");
+    let mut two = TwoLevelBvh::build_at(&scene, glam::DVec3::ZERO);
+    assert_ne!(&two.tlas_bytes().0[..80], &[0u8; 80][..], "a root at rest");
+    let points = vec![glam::Mat4::from_scale(Vec3::ZERO); scene.instances.len()];
+    two.rebuild_tlas(&points);
+    assert_eq!(
+        &two.tlas_bytes().0[..80],
+        &[0u8; 80][..],
+        "the root of no boxes"
+    );
+    let cam = camera_of(&scene);
+    let hits = cpu_hits(&cam, |o, d| {
+        two.closest_hit(two.to_local(o.as_dvec3()), d, 0.0, 1e30)
+    });
+    assert!(
+        hits.iter().all(|h| h[0] < 0.0),
+        "a point-sized instance was hit"
+    );
 }

@@ -557,13 +557,24 @@ impl PoseTrace {
     /// more than `replay::MAX_TRACE_FRAMES` by [`resampled_len`](Self::resampled_len)).
     pub fn resample(&self, fps: f64) -> Vec<PoseSample> {
         assert!(
-            fps.is_finite() && fps > 0.0,
-            "resample: fps must be positive, got {fps}"
-        );
-        assert!(
             self.resampled_len(fps) < usize::MAX as f64 / 2.0,
             "resample: {} s at {fps} fps is too many frames",
             self.duration()
+        );
+        self.resample_first(fps, usize::MAX)
+    }
+
+    /// The first `limit` frames of [`resample`](Self::resample) (all of
+    /// them when there are fewer): a replay of the first frames of a long
+    /// trace builds only those.
+    ///
+    /// # Panics
+    /// If `fps` is not finite and positive, or the frames to build would
+    /// not fit in memory.
+    pub fn resample_first(&self, fps: f64, limit: usize) -> Vec<PoseSample> {
+        assert!(
+            fps.is_finite() && fps > 0.0,
+            "resample: fps must be positive, got {fps}"
         );
         let Some(first) = self.samples.first() else {
             return Vec::new();
@@ -573,11 +584,15 @@ impl PoseTrace {
         let s = &cont.samples;
         let t0 = first.t;
         // Tolerate rounding in (t_last − t_0)·fps so the last frame is kept
-        // when the duration is a whole number of frames.
-        let n = ((self.duration() * fps) + 1e-9).floor() as usize;
-        let mut out = Vec::with_capacity(n + 1);
+        // when the duration is a whole number of frames (resampled_len).
+        let count = if self.resampled_len(fps) >= limit as f64 {
+            limit
+        } else {
+            self.resampled_len(fps) as usize
+        };
+        let mut out = Vec::with_capacity(count);
         let mut hi = 0usize;
-        for k in 0..=n {
+        for k in 0..count {
             let t = t0 + k as f64 / fps;
             while hi < s.len() && s[hi].t <= t {
                 hi += 1;

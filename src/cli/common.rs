@@ -17,10 +17,12 @@ pub fn device_line(c: &DeviceCaps) -> String {
 
 /// Reads the trace at `trace` (its warnings on stderr), opens the device and
 /// the scene, and resamples the trace into one stereo camera per frame at
-/// `fps` — what `replay` and `compare` both start with.
+/// `fps` (the first `frames` only, when given) — what `replay` and
+/// `compare` both start with.
 pub fn open_along_trace(
     trace: &std::path::Path,
     fps: f64,
+    frames: Option<usize>,
     size: stereocache::values::Size,
     scene: &super::args::SceneArgs,
     gpu: &super::args::GpuArgs,
@@ -31,7 +33,7 @@ pub fn open_along_trace(
     for w in &trace.warnings {
         eprintln!("warning: {w}");
     }
-    stereocache::replay::check_trace_length(&trace, fps)?;
+    stereocache::replay::check_trace_length(&trace, fps, frames)?;
     let session = scene.open(gpu)?;
     let cameras = stereocache::replay::trace_cameras(
         &session,
@@ -42,6 +44,7 @@ pub fn open_along_trace(
         &select,
         camera.ipd,
         camera.fov_radians(),
+        frames,
     )?;
     Ok((session, cameras))
 }

@@ -80,8 +80,9 @@ pub fn run(a: ReplayArgs) -> Result<()> {
     };
     opts.validate()?;
     check_out(&a.out)?;
-    let (session, cameras) =
-        open_along_trace(&a.trace, a.fps, a.size, &a.scene, &a.gpu, &a.camera)?;
+    let (session, cameras) = open_along_trace(
+        &a.trace, a.fps, a.frames, a.size, &a.scene, &a.gpu, &a.camera,
+    )?;
     opts.frame_count(cameras.len())?;
     opts.settings = config.record(&settings);
     let mut method = session.create(&config, &settings)?;

@@ -238,7 +238,7 @@ pub fn parse_list(list: &str) -> Result<Vec<MethodKind>> {
     }
     if names.iter().any(|m| m.is_empty()) {
         return Err(Error::Usage(format!(
-            "bad --methods '{list}': an empty name between commas"
+            "bad --methods '{list}': an empty name in the list"
         )));
     }
     let methods = names
@@ -379,7 +379,7 @@ mod tests {
         assert!(parse_list("naive,,taa")
             .unwrap_err()
             .to_string()
-            .contains("an empty name between commas"));
+            .contains("an empty name in the list"));
         assert!(parse_list("naive, taa,naive")
             .unwrap_err()
             .to_string()

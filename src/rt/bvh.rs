@@ -206,11 +206,12 @@ pub(crate) fn max_depth(bvh: &CwBvh) -> u32 {
 }
 
 /// Whether the traversal's Möller–Trumbore test can ever report `tri`: its
-/// edges' cross product is finite and not zero (a zero-area triangle has
-/// det = 0 for every ray, intersect_triangle in rt_software.glsl). Such
-/// triangles are left out of the software BVHs, so dropping them changes no
-/// hit; kept in, thousands of them sharing one centroid (a node scaled to
-/// zero) build a chain deeper than the traversal stack.
+/// edges' cross product is finite and not zero (a triangle of exactly zero
+/// area has det = 0 for every ray, intersect_triangle in rt_software.glsl).
+/// Such triangles are left out of the software BVHs, which changes no hit
+/// (triangles whose cross product merely rounds near zero are kept); kept
+/// in, thousands of them sharing one centroid (a node scaled to zero) build
+/// a chain deeper than the traversal stack.
 pub(crate) fn hittable(tri: &Triangle) -> bool {
     let n = (tri.v1 - tri.v0).cross(tri.v2 - tri.v0);
     n.is_finite() && n != Vec3A::ZERO

@@ -225,9 +225,12 @@ impl TwoLevelBvh {
             }
         }
         let mut t = Duration::ZERO;
-        // No instance with a hittable triangle: an empty TLAS (the reserved
-        // root stays a node without children, so every ray misses).
+        // No instance with a hittable triangle (all scaled to points, this
+        // frame): an empty TLAS, whose root is reset to a node without
+        // children so every ray misses (the last frame's root stays there
+        // otherwise: nothing below overwrites node 0).
         self.tlas = if boxes.is_empty() {
+            self.nodes[0] = CwBvhNode::default();
             CwBvh::default()
         } else {
             build_cwbvh(&boxes, BvhBuildParams::medium_build(), &mut t)

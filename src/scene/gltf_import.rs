@@ -1052,10 +1052,12 @@ impl Importer<'_> {
                 } else {
                     std::f32::consts::FRAC_PI_4
                 };
-                let inner = if inner_cone_angle.is_finite() {
-                    inner_cone_angle.clamp(0.0, outer * 0.999)
-                } else {
+                let inner = if !inner_cone_angle.is_finite() || inner_cone_angle < 0.0 {
                     0.0
+                } else if inner_cone_angle >= outer {
+                    outer * 0.999
+                } else {
+                    inner_cone_angle
                 };
                 if (inner, outer) != (inner_cone_angle, outer_cone_angle) {
                     cone_warning = Some(format!(

@@ -168,8 +168,11 @@ impl Scene {
     }
 
     /// Checks the cross references (mesh → material, material → texture,
-    /// instance → mesh) and that there is at least one triangle. Loaders and
-    /// generators call this before returning a scene.
+    /// instance → mesh), that there is at least one triangle, that the rest
+    /// pose keeps world coordinates finite and within ±1e15
+    /// ([`Self::check_placement`]), and that a still scene has a triangle of
+    /// non-zero area. Loaders and generators call this before returning a
+    /// scene.
     pub fn validate(&self) -> Result<(), SceneError> {
         let src = self.source.clone();
         for (mi, m) in self.meshes.iter().enumerate() {
@@ -255,18 +258,20 @@ impl Scene {
             ));
         }
         let rest: Vec<Mat4> = self.instances.iter().map(|i| i.transform).collect();
-        self.check_placement(&rest)
+        self.check_placement(&self.mesh_bounds(), &rest)
             .map_err(|m| SceneError::invalid(&src, m))?;
-        // A triangle of zero area is never hit; a scene of nothing else
-        // renders nothing (the software BVHs leave such triangles out).
-        let hittable = self.instances.iter().any(|inst| {
-            let m = inst.transform.as_dmat4();
-            let mesh = &self.meshes[inst.mesh as usize];
-            (0..mesh.triangle_count()).any(|p| {
-                let [a, b, c] = mesh.triangle(p).map(|v| m.transform_point3(v.as_dvec3()));
-                (b - a).cross(c - a) != glam::DVec3::ZERO
-            })
-        });
+        // A triangle of zero area is never hit; a still scene of nothing
+        // else renders nothing (the software BVHs leave such triangles
+        // out). An animated one may scale its instances up from zero.
+        let hittable = self.animation.is_some()
+            || self.instances.iter().any(|inst| {
+                let m = inst.transform.as_dmat4();
+                let mesh = &self.meshes[inst.mesh as usize];
+                (0..mesh.triangle_count()).any(|p| {
+                    let [a, b, c] = mesh.triangle(p).map(|v| m.transform_point3(v.as_dvec3()));
+                    (b - a).cross(c - a) != glam::DVec3::ZERO
+                })
+            });
         if !hittable {
             return Err(SceneError::invalid(
                 &src,
@@ -276,17 +281,10 @@ impl Scene {
         Ok(())
     }
 
-    /// Refuses instance transforms (`transforms[i]` for instance i, object
-    /// to world) that are not finite or put a vertex farther than
-    /// [`MAX_WORLD_COORDINATE`] from the origin along an axis: f32 ray
-    /// tracing cannot resolve such a scene, and the BVH builders' surface
-    /// areas would overflow. The message names the instance's node. Loaders
-    /// check the rest pose ([`Self::validate`]); the replay checks every
-    /// frame's pose of an animated scene before it renders.
-    pub fn check_placement(&self, transforms: &[Mat4]) -> Result<(), String> {
-        // Each mesh's object-space box, once (instances share meshes).
-        let boxes: Vec<Option<(Vec3, Vec3)>> = self
-            .meshes
+    /// Each mesh's object-space box (min, max), `None` without vertices:
+    /// what [`Self::check_placement`] transforms (a session keeps it).
+    pub fn mesh_bounds(&self) -> Vec<Option<(Vec3, Vec3)>> {
+        self.meshes
             .iter()
             .map(|mesh| {
                 (!mesh.positions.is_empty()).then(|| {
@@ -297,7 +295,22 @@ impl Scene {
                         })
                 })
             })
-            .collect();
+            .collect()
+    }
+
+    /// Refuses instance transforms (`transforms[i]` for instance i, object
+    /// to world) that are not finite or take an instance's bounds (its
+    /// mesh's box, `boxes` from [`Self::mesh_bounds`]) farther than
+    /// [`MAX_WORLD_COORDINATE`] from the origin along an axis: f32 ray
+    /// tracing cannot resolve such a scene, and the BVH builders' surface
+    /// areas would overflow. The message names the instance's node. Loaders
+    /// check the rest pose ([`Self::validate`]); the replay checks every
+    /// frame's pose of an animated scene before it renders.
+    pub fn check_placement(
+        &self,
+        boxes: &[Option<(Vec3, Vec3)>],
+        transforms: &[Mat4],
+    ) -> Result<(), String> {
         for (ii, (inst, m)) in self.instances.iter().zip(transforms).enumerate() {
             let what = || format!("instance {ii} (node '{}')", inst.name);
             if !m.is_finite() {
@@ -313,7 +326,7 @@ impl Scene {
                 let far = w.abs().max_element();
                 if !(far <= MAX_WORLD_COORDINATE as f64) {
                     return Err(format!(
-                        "{} puts a vertex at {far:.3e} from the origin; world coordinates must stay within ±{MAX_WORLD_COORDINATE:e} (a broken scale or translation?)",
+                        "{}: its bounds reach {far:.3e} from the origin; world coordinates must stay within ±{MAX_WORLD_COORDINATE:e} (a broken scale or translation?)",
                         what()
                     ));
                 }

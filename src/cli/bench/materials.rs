@@ -102,7 +102,7 @@ pub fn run(a: BenchMaterialsArgs) -> Result<()> {
         bail!("bad --sizes or --repeats: sizes up to {MAX_ENTRIES} entries, at least one round");
     }
     let trace = PoseTrace::read_csv(&a.trace)?;
-    stereocache::replay::check_trace_length(&trace, DEFAULT_FPS)?;
+    stereocache::replay::check_trace_length(&trace, DEFAULT_FPS, Some(a.frames))?;
     let (scene, lit) = Session::load_scene_lit(&a.scene, a.lighting.as_ref())?;
     eprintln!("{}", lit.line());
     if scene.graphs.is_empty() {
@@ -126,6 +126,7 @@ pub fn run(a: BenchMaterialsArgs) -> Result<()> {
         &CameraSelect::Default,
         None,
         None,
+        Some(a.frames),
     )?;
     drop(probe);
     if cameras.len() < a.frames {

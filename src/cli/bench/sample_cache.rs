@@ -52,9 +52,9 @@ pub fn run(a: SampleCacheBenchArgs) -> Result<()> {
         height: h,
     } = size;
     let trace_data = PoseTrace::read_csv(&trace)?;
-    stereocache::replay::check_trace_length(&trace_data, DEFAULT_FPS)?;
+    stereocache::replay::check_trace_length(&trace_data, DEFAULT_FPS, Some(frames + 1))?;
     let session = scene.open(&gpu)?;
-    let mut cameras = trace_cameras(
+    let cameras = trace_cameras(
         &session,
         &trace_data,
         DEFAULT_FPS,
@@ -63,8 +63,8 @@ pub fn run(a: SampleCacheBenchArgs) -> Result<()> {
         &CameraSelect::Default,
         None,
         None,
+        Some(frames + 1),
     )?;
-    cameras.truncate(frames + 1);
     let c = &session.ctx.caps;
     println!("{}", device_line(c));
     println!(

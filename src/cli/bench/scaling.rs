@@ -57,7 +57,7 @@ impl Sweep<'_> {
 
     /// The first `frames` + 1 cameras of the trace at `w`×`h`.
     fn cameras(&self, s: &Session, w: u32, h: u32) -> Result<Vec<StereoCamera>> {
-        let mut cams = trace_cameras(
+        let cams = trace_cameras(
             s,
             &self.trace,
             DEFAULT_FPS,
@@ -66,8 +66,8 @@ impl Sweep<'_> {
             &CameraSelect::Default,
             None,
             None,
+            Some(self.frames + 1),
         )?;
-        cams.truncate(self.frames + 1);
         Ok(cams)
     }
 
@@ -153,7 +153,7 @@ impl Sweep<'_> {
 
 pub fn run(a: ScalingArgs) -> Result<()> {
     let trace = PoseTrace::read_csv(&a.trace)?;
-    stereocache::replay::check_trace_length(&trace, DEFAULT_FPS)?;
+    stereocache::replay::check_trace_length(&trace, DEFAULT_FPS, Some(a.frames + 1))?;
     let ctx = Arc::new(GpuContext::new(&a.gpu.options()?)?);
     println!("{}", device_line(&ctx.caps));
     println!(

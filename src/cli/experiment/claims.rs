@@ -31,6 +31,9 @@ pub struct ClaimSpec {
     pub group: Option<String>,
 }
 
+/// The verdict of a claim whose metric its configuration's rows lack.
+pub const NO_SUCH_FIGURE: &str = "no such figure";
+
 /// `expect = "< 1"`: a comparison and a number.
 fn parse_expect(s: &str) -> Option<(&str, f64)> {
     let s = s.trim();
@@ -176,8 +179,10 @@ pub fn evaluate(claims: &[ClaimSpec], groups: &[String], out: &Path) -> Vec<Clai
             let (Some(metric), Some(of)) = (&c.metric, &c.of) else {
                 return r;
             };
-            // A metric that no comparison's row of `of` has (a mistyped
-            // name) says so, instead of "not measured here".
+            // A metric that no comparison's row of `of` has says so, with
+            // the figures the row does have (a mistyped name, or one this
+            // run did not produce, e.g. no reference), instead of "not
+            // measured here".
             let rows_of = |label: &str| -> Vec<&serde_json::Value> {
                 summaries
                     .iter()
@@ -191,9 +196,11 @@ pub fn evaluate(claims: &[ClaimSpec], groups: &[String], out: &Path) -> Vec<Clai
                     .collect()
             };
             let rows = rows_of(of);
+            let in_scope = |g: &String| c.group.as_ref().is_none_or(|x| x == g);
             if !rows.is_empty()
                 && summaries
                     .iter()
+                    .filter(|(g, _)| in_scope(g))
                     .all(|(_, s)| lookup(s, of, metric).is_none())
             {
                 let mut known: Vec<String> = rows[0]
@@ -210,10 +217,10 @@ pub fn evaluate(claims: &[ClaimSpec], groups: &[String], out: &Path) -> Vec<Clai
                 }
                 known.push("pass:NAME[+NAME…]".into());
                 r.here = format!(
-                    "metric '{metric}' is not a figure of configuration '{of}' (its figures: {})",
+                    "metric '{metric}' is not a figure of configuration '{of}' in this run (its figures: {})",
                     known.join(", ")
                 );
-                r.verdict = "unknown metric".into();
+                r.verdict = NO_SUCH_FIGURE.into();
                 return r;
             }
             for (g, s) in &summaries {

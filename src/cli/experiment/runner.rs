@@ -30,8 +30,9 @@ pub fn run_comparison(
         .method_opts
         .settings(a.size, a.spp, a.bounces, a.seed, false)
         .map_err(anyhow::Error::msg)?;
-    let (session, cameras) =
-        open_along_trace(&a.trace, a.fps, a.size, &a.scene, &a.gpu, &a.camera)?;
+    let (session, cameras) = open_along_trace(
+        &a.trace, a.fps, a.frames, a.size, &a.scene, &a.gpu, &a.camera,
+    )?;
     if let Some(k) = a.frames {
         if k > cameras.len() {
             bail!(
