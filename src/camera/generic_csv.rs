@@ -212,7 +212,7 @@ impl Columns {
         orientation: [usize; 4],
     ) -> Self {
         let label = |k: usize, i: Option<usize>| match (i, header) {
-            (Some(i), Some(h)) => format!("column `{}` (index {i})", h.fields[i]),
+            (Some(i), Some(h)) => format!("column `{}` (index {i})", excerpt(h.fields[i])),
             (Some(i), None) => format!("field index {i} (`{}`)", COLUMN_KEYS[k]),
             (None, _) => String::new(),
         };
@@ -316,8 +316,10 @@ fn resolve(
                     b.line_error(
                         h.line,
                         format!(
-                            "unknown column `{n}` (--columns {key}={n}); the header has {}",
-                            h.fields.join(", ")
+                            "unknown column `{}` (--columns {key}={}); the header has {}",
+                            excerpt(n),
+                            excerpt(n),
+                            h.fields.iter().map(|f| excerpt(f)).collect::<Vec<_>>().join(", ")
                         ),
                     )
                 })

@@ -157,7 +157,8 @@ pub fn parse_mmsys18(
                     return Err(b.line_error(
                         line_no,
                         format!(
-                            "unknown column `{name}` (column {}); an MMSys'18 quaternion file has `timestamp viewpoint w x y z`",
+                            "unknown column `{}` (column {}); an MMSys'18 quaternion file has `timestamp viewpoint w x y z`",
+                            excerpt(name),
                             k + 1
                         ),
                     ));

@@ -86,7 +86,8 @@ pub fn parse_openxr(
             return Err(b.line_error(
                 header.line,
                 format!(
-                    "unknown column `{name}` (column {}); expected {} and optionally flags",
+                    "unknown column `{}` (column {}); expected {} and optionally flags",
+                    excerpt(name),
                     i + 1,
                     OPENXR_COLUMNS[..8].join(",")
                 ),

@@ -265,7 +265,8 @@ fn parse_header(b: &TraceBuilder, line_no: usize, line: &str) -> Result<CsvHeade
             return Err(b.line_error(
                 line_no,
                 format!(
-                    "unknown column `{name}` (column {}); expected t,px,py,pz,qx,qy,qz,qw and optionally ipd",
+                    "unknown column `{}` (column {}); expected t,px,py,pz,qx,qy,qz,qw and optionally ipd",
+                    excerpt(name),
                     i + 1
                 ),
             ));
