@@ -324,7 +324,7 @@ impl Scene {
                 let c = Vec3::select(glam::BVec3::new(i & 1 != 0, i & 2 != 0, i & 4 != 0), hi, lo);
                 let w = m.transform_point3(c.as_dvec3());
                 let far = w.abs().max_element();
-                if far.is_nan() || far > MAX_WORLD_COORDINATE as f64 {
+                if !w.is_finite() || far > MAX_WORLD_COORDINATE as f64 {
                     return Err(format!(
                         "{}: its bounds reach {far:.3e} from the origin; world coordinates must stay within ±{MAX_WORLD_COORDINATE:e} (a broken scale or translation?)",
                         what()
