@@ -34,6 +34,17 @@ pub fn open_along_trace(
         eprintln!("warning: {w}");
     }
     stereocache::replay::check_trace_length(&trace, fps, frames)?;
+    // More frames than the trace gives: refused before the scene loads
+    // (replay and compare would refuse them after).
+    if let Some(k) = frames {
+        let available = trace.resampled_len(fps);
+        if k as f64 > available {
+            bail!(
+                "bad --frames {k}: {} has {available} frames at {fps} fps; use at most {available} or omit --frames",
+                trace.source.display()
+            );
+        }
+    }
     let session = scene.open(gpu)?;
     let cameras = stereocache::replay::trace_cameras(
         &session,
