@@ -371,3 +371,38 @@ fn shipped_scenes_load() {
         );
     }
 }
+
+/// Material factors outside their glTF ranges are clamped into them, and a
+/// warning names the material and each factor (they were clamped silently).
+#[test]
+fn out_of_range_material_factors_are_clamped_with_a_warning() {
+    let mut v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(bad("valid_triangle.gltf")).unwrap())
+            .unwrap();
+    v["materials"] = serde_json::json!([
+        {"name": "wild", "pbrMetallicRoughness": {"roughnessFactor": -0.5, "metallicFactor": 2.0,
+         "baseColorFactor": [1.5, 0.5, 0.5, 1.0]}},
+        {"name": "tame", "pbrMetallicRoughness": {"roughnessFactor": 0.5}}
+    ]);
+    v["meshes"][0]["primitives"][0]["material"] = serde_json::json!(0);
+    let dir = temp_dir("factors");
+    let path = dir.join("factors.gltf");
+    std::fs::write(&path, serde_json::to_vec(&v).unwrap()).unwrap();
+    let s = load_gltf(&path).unwrap();
+    let m = &s.materials[0];
+    assert_eq!((m.roughness, m.metallic, m.base_color.x), (0.0, 1.0, 1.0));
+    let w: Vec<&String> = s
+        .warnings
+        .iter()
+        .filter(|w| w.contains("clamped"))
+        .collect();
+    assert_eq!(w.len(), 1, "{:?}", s.warnings);
+    assert!(
+        w[0].contains("factors.gltf")
+            && w[0].contains("'wild'")
+            && w[0].contains("baseColorFactor, metallicFactor, roughnessFactor out of range"),
+        "{}",
+        w[0]
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -721,7 +721,7 @@ impl Importer<'_> {
                 material.clearcoat.roughness_texture.is_some(),
                 material.clearcoat.normal_texture.is_some(),
             ];
-            let (second_uv_slots, uv_affine) = self.choose_uvs(label, bound, tex_coords);
+            let (second_uv_slots, uv_affine) = self.choose_uvs(label.clone(), bound, tex_coords);
             let material = Material {
                 second_uv_slots,
                 uv_affine,
@@ -731,7 +731,14 @@ impl Importer<'_> {
                 Some(true) => unlit(material),
                 _ => material,
             };
-            self.scene.materials.push(sanitize_material(material));
+            let (material, changed) = sanitize_material(material);
+            if !changed.is_empty() {
+                self.warn(format!(
+                    "{label}: {} out of range or not finite; clamped into range",
+                    changed.join(", ")
+                ));
+            }
+            self.scene.materials.push(material);
         }
         if split_rm > 0 {
             self.warn(format!(
@@ -1481,7 +1488,74 @@ fn unlit(mut m: Material) -> Material {
 
 /// Clamps material parameters to their glTF ranges (files in the wild carry
 /// e.g. roughness 1.0000001 or ior 0 meaning "unset").
-fn sanitize_material(mut m: Material) -> Material {
+/// `m` with every factor finite and in its range (glTF's and the
+/// extensions'), and the names of the factors that had to change.
+fn sanitize_material(m: Material) -> (Material, Vec<&'static str>) {
+    let before = m.clone();
+    let m = sanitize_factors(m);
+    let mut changed = Vec::new();
+    let mut check = |name: &'static str, a: &[f32], b: &[f32]| {
+        if a.iter().zip(b).any(|(x, y)| x.to_bits() != y.to_bits()) {
+            changed.push(name);
+        }
+    };
+    check(
+        "baseColorFactor",
+        &before.base_color.to_array(),
+        &m.base_color.to_array(),
+    );
+    check("metallicFactor", &[before.metallic], &[m.metallic]);
+    check("roughnessFactor", &[before.roughness], &[m.roughness]);
+    check(
+        "emissive",
+        &before.emissive.to_array(),
+        &m.emissive.to_array(),
+    );
+    check(
+        "transmissionFactor",
+        &[before.transmission],
+        &[m.transmission],
+    );
+    check("alphaCutoff", &[before.alpha_cutoff], &[m.alpha_cutoff]);
+    check("normal scale", &[before.normal_scale], &[m.normal_scale]);
+    check("ior", &[before.ior], &[m.ior]);
+    check("specularFactor", &[before.specular], &[m.specular]);
+    check(
+        "specularColorFactor",
+        &before.specular_color.to_array(),
+        &m.specular_color.to_array(),
+    );
+    check(
+        "clearcoatFactor",
+        &[before.clearcoat.factor],
+        &[m.clearcoat.factor],
+    );
+    check(
+        "clearcoatRoughnessFactor",
+        &[before.clearcoat.roughness],
+        &[m.clearcoat.roughness],
+    );
+    check(
+        "clearcoat normal scale",
+        &[before.clearcoat.normal_scale],
+        &[m.clearcoat.normal_scale],
+    );
+    if let (Some(a), Some(b)) = (&before.volume, &m.volume) {
+        check(
+            "attenuationColor",
+            &a.attenuation_color.to_array(),
+            &b.attenuation_color.to_array(),
+        );
+        // A missing or non-positive distance means "no attenuation" (∞).
+        let (x, y) = (a.attenuation_distance, b.attenuation_distance);
+        if x.is_nan() || (x < 0.0 && y.is_infinite()) {
+            changed.push("attenuationDistance");
+        }
+    }
+    (m, changed)
+}
+
+fn sanitize_factors(mut m: Material) -> Material {
     let finite_or = |v: f32, d: f32| if v.is_finite() { v } else { d };
     m.base_color = Vec4::from_array(
         m.base_color
