@@ -1202,6 +1202,33 @@ fn the_library_in_texture_space_reads_only_the_uv_and_equals_the_solid_at_uv0() 
     );
 }
 
+/// The eviction models' random numbers (xorshift64).
+fn xorshift(s: &mut u64) -> u64 {
+    *s ^= *s << 13;
+    *s ^= *s >> 7;
+    *s ^= *s << 17;
+    *s
+}
+
+/// The eviction models' columns: (policy, access counter instead of the
+/// frame clock), in the order of their tables' headers.
+const MODEL_POLICIES: [(Eviction, bool); 5] = [
+    (Eviction::Lrw, false),
+    (Eviction::Lrw, true),
+    (Eviction::Lru, false),
+    (Eviction::Lru, true),
+    (Eviction::Random, false),
+];
+
+/// The CPU twin with D = 8, by the frame clock or the access counter.
+fn model_table(capacity: u32, policy: Eviction, counter: bool) -> CpuMemo {
+    if counter {
+        CpuMemo::with_counter(capacity, 8, policy, 0)
+    } else {
+        CpuMemo::new(capacity, 8, policy)
+    }
+}
+
 /// Report only (issue 17, thesis Table 6.2): the eviction policies of the
 /// CPU twin (`CpuMemo`: the shader's search, victim choice, tie rule and
 /// stamps) under synthetic access patterns, to ask whether the pattern of
@@ -1221,19 +1248,9 @@ fn the_library_in_texture_space_reads_only_the_uv_and_equals_the_solid_at_uv0() 
 #[ignore]
 fn eviction_model_report() {
     const W: usize = 3777;
-    let xorshift = |s: &mut u64| {
-        *s ^= *s << 13;
-        *s ^= *s >> 7;
-        *s ^= *s << 17;
-        *s
-    };
     let run = |l: f64, alpha: f64, shuffled: bool, size: f64, policy: Eviction, counter: bool| {
         let capacity = (size * W as f64) as u32;
-        let mut t = if counter {
-            CpuMemo::with_counter(capacity, 8, policy, 0)
-        } else {
-            CpuMemo::new(capacity, 8, policy)
-        };
+        let mut t = model_table(capacity, policy, counter);
         let mut s = 0x1234_5678_9abc_def0u64;
         let mut keys: Vec<i32> = (0..W as i32).collect();
         let mut next = W as i32;
@@ -1283,16 +1300,10 @@ fn eviction_model_report() {
         (2000.0, 1.0, false),
     ] {
         for size in [0.25, 0.54, 1.22] {
-            let rates: Vec<String> = [
-                (Eviction::Lrw, false),
-                (Eviction::Lrw, true),
-                (Eviction::Lru, false),
-                (Eviction::Lru, true),
-                (Eviction::Random, false),
-            ]
-            .iter()
-            .map(|&(p, c)| format!("{:.4}", run(l, alpha, shuffled, size, p, c)))
-            .collect();
+            let rates: Vec<String> = MODEL_POLICIES
+                .iter()
+                .map(|&(p, c)| format!("{:.4}", run(l, alpha, shuffled, size, p, c)))
+                .collect();
             eprintln!(
                 "| ⌈{l} / r^{alpha}⌉ | {} | {size} | {} |",
                 if shuffled { "shuffled" } else { "bursts" },
@@ -1326,19 +1337,9 @@ fn eviction_path_model_report() {
     const B: usize = 64;
     const T: usize = 6000;
     const K: u64 = 30_000;
-    let xorshift = |s: &mut u64| {
-        *s ^= *s << 13;
-        *s ^= *s >> 7;
-        *s ^= *s << 17;
-        *s
-    };
     let run = |latency: usize, size: f64, policy: Eviction, counter: bool| {
         let capacity = (size * (H + T) as f64) as u32;
-        let mut t = if counter {
-            CpuMemo::with_counter(capacity, 8, policy, 0)
-        } else {
-            CpuMemo::new(capacity, 8, policy)
-        };
+        let mut t = model_table(capacity, policy, counter);
         let key = |k: i64| MemoKey {
             graph: 1,
             level: 0,
@@ -1409,16 +1410,10 @@ fn eviction_path_model_report() {
     eprintln!("|---:|---:|---:|---:|---:|---:|---:|");
     for latency in [0, 1500] {
         for size in [0.25, 0.5, 1.19, 2.0, 6.0] {
-            let rates: Vec<String> = [
-                (Eviction::Lrw, false),
-                (Eviction::Lrw, true),
-                (Eviction::Lru, false),
-                (Eviction::Lru, true),
-                (Eviction::Random, false),
-            ]
-            .iter()
-            .map(|&(p, c)| format!("{:.4}", run(latency, size, p, c)))
-            .collect();
+            let rates: Vec<String> = MODEL_POLICIES
+                .iter()
+                .map(|&(p, c)| format!("{:.4}", run(latency, size, p, c)))
+                .collect();
             eprintln!("| {latency} | {size} | {} |", rates.join(" | "));
         }
     }

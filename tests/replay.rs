@@ -94,6 +94,28 @@ impl Method for Probe {
     }
 }
 
+/// `trace_cameras` at W×H from the default camera, with `ipd` where the
+/// trace has none and the first `limit` frames only.
+fn cameras_of(
+    s: &Session,
+    trace: &PoseTrace,
+    fps: f64,
+    ipd: Option<f32>,
+    limit: Option<usize>,
+) -> stereocache::error::Result<Vec<StereoCamera>> {
+    trace_cameras(
+        s,
+        trace,
+        fps,
+        W,
+        H,
+        &CameraSelect::Default,
+        ipd,
+        None,
+        limit,
+    )
+}
+
 fn read_jsonl(path: &Path) -> Vec<serde_json::Value> {
     std::fs::read_to_string(path)
         .unwrap()
@@ -107,18 +129,7 @@ fn replay_writes_frames_at_the_cadence_and_one_record_per_frame() {
     let ctx = common::context();
     let s = cornell(&ctx);
     let trace = PoseTrace::read_csv(head_turn()).unwrap();
-    let cams = trace_cameras(
-        &s,
-        &trace,
-        90.0,
-        W,
-        H,
-        &CameraSelect::Default,
-        None,
-        None,
-        None,
-    )
-    .unwrap();
+    let cams = cameras_of(&s, &trace, 90.0, None, None).unwrap();
     assert_eq!(cams.len(), trace.resample(90.0).len());
     let out = out_dir("cadence");
     // A stale result of an earlier run must not survive into this one.
@@ -236,18 +247,7 @@ fn frames_chain_previous_cameras_and_write_debug_views_and_counters() {
     let ctx = common::context();
     let s = cornell(&ctx);
     let trace = PoseTrace::read_csv(head_turn()).unwrap();
-    let cams = trace_cameras(
-        &s,
-        &trace,
-        90.0,
-        W,
-        H,
-        &CameraSelect::Default,
-        None,
-        None,
-        None,
-    )
-    .unwrap();
+    let cams = cameras_of(&s, &trace, 90.0, None, None).unwrap();
     let out = out_dir("probe");
     let mut probe = Probe {
         inner: s.method("reference", &settings()).unwrap(),
@@ -294,18 +294,7 @@ fn an_interrupted_replay_leaves_no_complete_looking_files() {
     let ctx = common::context();
     let s = cornell(&ctx);
     let trace = PoseTrace::read_csv(head_turn()).unwrap();
-    let cams = trace_cameras(
-        &s,
-        &trace,
-        90.0,
-        W,
-        H,
-        &CameraSelect::Default,
-        None,
-        None,
-        None,
-    )
-    .unwrap();
+    let cams = cameras_of(&s, &trace, 90.0, None, None).unwrap();
     let out = out_dir("interrupted");
     std::fs::create_dir_all(&out).unwrap();
     std::fs::write(out.join("frames.jsonl"), "{\"stale\":true}\n").unwrap();
@@ -374,18 +363,7 @@ fn frame_zero_is_the_scene_camera_and_later_frames_follow_the_trace() {
     }
     // The head actually turns: yaw (about world +Y for the level default
     // camera) changes between successive frames and sweeps tens of degrees.
-    let cams = trace_cameras(
-        &s,
-        &trace,
-        90.0,
-        W,
-        H,
-        &CameraSelect::Default,
-        None,
-        None,
-        None,
-    )
-    .unwrap();
+    let cams = cameras_of(&s, &trace, 90.0, None, None).unwrap();
     let yaw = |c: &StereoCamera| c.head.orientation.to_euler(EulerRot::YXZ).0;
     let yaws: Vec<f32> = cams.iter().map(yaw).collect();
     assert!(yaws[1] != yaws[0] && yaws[10] != yaws[9]);
@@ -409,49 +387,16 @@ fn the_samples_ipd_wins_and_fps_sets_the_frame_count() {
         "mem",
         vec![sample(0.0, Some(0.07)), sample(1.0, Some(0.05))],
     );
-    let cams = trace_cameras(
-        &s,
-        &trace,
-        10.0,
-        W,
-        H,
-        &CameraSelect::Default,
-        Some(0.06),
-        None,
-        None,
-    )
-    .unwrap();
+    let cams = cameras_of(&s, &trace, 10.0, Some(0.06), None).unwrap();
     assert_eq!(cams.len(), 11);
     assert!((cams[0].ipd - 0.07).abs() < 1e-6);
     assert!((cams[10].ipd - 0.05).abs() < 1e-6);
     let no_ipd = PoseTrace::from_samples("mem", vec![sample(0.0, None), sample(1.0, None)]);
-    let cams = trace_cameras(
-        &s,
-        &no_ipd,
-        4.0,
-        W,
-        H,
-        &CameraSelect::Default,
-        Some(0.06),
-        None,
-        None,
-    )
-    .unwrap();
+    let cams = cameras_of(&s, &no_ipd, 4.0, Some(0.06), None).unwrap();
     assert_eq!(cams.len(), 5);
     assert!(cams.iter().all(|c| c.ipd == 0.06));
     // The first 3 only: the same cameras.
-    let first = trace_cameras(
-        &s,
-        &no_ipd,
-        4.0,
-        W,
-        H,
-        &CameraSelect::Default,
-        Some(0.06),
-        None,
-        Some(3),
-    )
-    .unwrap();
+    let first = cameras_of(&s, &no_ipd, 4.0, Some(0.06), Some(3)).unwrap();
     assert_eq!(first.len(), 3);
     assert!(first
         .iter()
@@ -459,49 +404,16 @@ fn the_samples_ipd_wins_and_fps_sets_the_frame_count() {
         .all(|(a, b)| a.head.to_mat4() == b.head.to_mat4()));
     // A trace spanning 1e300 s: refused whole, its first 2 frames built.
     let far = PoseTrace::from_samples("mem", vec![sample(0.0, None), sample(1e300, None)]);
-    let e = trace_cameras(
-        &s,
-        &far,
-        90.0,
-        W,
-        H,
-        &CameraSelect::Default,
-        None,
-        None,
-        None,
-    )
-    .unwrap_err();
+    let e = cameras_of(&s, &far, 90.0, None, None).unwrap_err();
     assert!(
         e.to_string()
             .contains("replay the first ones with --frames"),
         "{e}"
     );
-    let two = trace_cameras(
-        &s,
-        &far,
-        90.0,
-        W,
-        H,
-        &CameraSelect::Default,
-        None,
-        None,
-        Some(2),
-    )
-    .unwrap();
+    let two = cameras_of(&s, &far, 90.0, None, Some(2)).unwrap();
     assert_eq!(two.len(), 2);
     for fps in [0.0, -1.0, f64::NAN, f64::INFINITY] {
-        assert!(trace_cameras(
-            &s,
-            &no_ipd,
-            fps,
-            W,
-            H,
-            &CameraSelect::Default,
-            None,
-            None,
-            None
-        )
-        .is_err());
+        assert!(cameras_of(&s, &no_ipd, fps, None, None).is_err());
     }
 }
 
