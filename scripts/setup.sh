@@ -98,6 +98,20 @@ if [ "${1:-}" = "--test" ]; then
     "$venv/bin/python3" -m pip install --quiet "MaterialX>=1.39,<1.40" \
       || { echo "[setup] error: pip could not install MaterialX into .tools/venv" >&2; exit 1; }
   fi
+  # Mitsuba 3 (with numpy): the independent renderer the reference path
+  # tracer is checked against (tests/independent_reference.rs,
+  # scripts/mitsuba_reference.py), in the same environment.
+  if [ -x "$venv/bin/python3" ] && "$venv/bin/python3" -c "import mitsuba, numpy" 2>/dev/null; then
+    log "Mitsuba 3 present in .tools/venv"
+  elif [ ! -x "$venv/bin/python3" ] && python3 -c "import mitsuba, numpy" 2>/dev/null; then
+    log "Mitsuba 3 present ($(python3 -c 'import mitsuba; print(mitsuba.__version__)'))"
+  else
+    log "installing Mitsuba 3 (3.9.x) and numpy into .tools/venv: the independent reference test"
+    [ -x "$venv/bin/python3" ] || python3 -m venv "$venv" \
+      || { echo "[setup] error: python3 -m venv failed (python3-venv missing?)" >&2; exit 1; }
+    "$venv/bin/python3" -m pip install --quiet "mitsuba>=3.9,<3.10" numpy \
+      || { echo "[setup] error: pip could not install Mitsuba 3 into .tools/venv" >&2; exit 1; }
+  fi
 fi
 
 if ! command -v cargo >/dev/null; then

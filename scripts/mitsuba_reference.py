@@ -1,0 +1,106 @@
+#!/usr/bin/env python3
+"""Renders a scene exported by tests/independent_reference.rs with Mitsuba 3,
+the independent renderer the reference path tracer is checked against.
+
+    mitsuba_reference.py SCENE.json OUT_PREFIX
+
+SCENE.json (written by the test) names binary PLY meshes in world space,
+one per glTF material, with the material as Mitsuba BSDFs and emitters:
+
+    {"width": W, "height": H, "spp": N, "seeds": [s0, s1, ...],
+     "max_bounces": B,
+     "camera": {"origin": [..], "target": [..], "up": [..], "yfov_deg": F},
+     "shapes": [{"ply": "mesh0.ply", "twosided": bool,
+                 "bsdf": {"diffuse": [r, g, b]} | {"dielectric": ior}
+                       | {"mirror_ggx": alpha},
+                 "emission": [r, g, b] | null}, ...]}
+
+and writes OUT_PREFIX_<k>.f32 per seed: H x W x 3 little-endian float32,
+row 0 at the top, linear RGB.
+
+The conventions are stereocache's (docs/ARCHITECTURE.md "Integrator",
+"Checked against Mitsuba 3"): a box pixel filter (the reference jitters uniformly inside the
+pixel), paths of at most B scattering events (Mitsuba's max_depth counts
+segments: B + 1), no Russian roulette before that depth, vacuum outside
+dielectrics (Mitsuba's default exterior is air, 1.000277), and a symmetric
+pinhole looking down the camera's -Z with +Y up.
+"""
+import json
+import os
+import sys
+
+import numpy as np
+import mitsuba as mi
+
+
+def bsdf_of(spec):
+    if "diffuse" in spec:
+        return {"type": "diffuse", "reflectance": {"type": "rgb", "value": spec["diffuse"]}}
+    if "dielectric" in spec:
+        return {"type": "dielectric", "int_ior": float(spec["dielectric"]), "ext_ior": 1.0}
+    if "mirror_ggx" in spec:
+        # A white metal: glTF's Schlick Fresnel with F0 = 1 is 1 at every
+        # angle, which is Mitsuba's perfect conductor ("none").
+        return {
+            "type": "roughconductor",
+            "material": "none",
+            "distribution": "ggx",
+            "alpha": float(spec["mirror_ggx"]),
+        }
+    raise ValueError(f"unknown bsdf {spec}")
+
+
+def main():
+    if len(sys.argv) != 3:
+        sys.exit("usage: mitsuba_reference.py SCENE.json OUT_PREFIX")
+    path, prefix = sys.argv[1], sys.argv[2]
+    cfg = json.load(open(path))
+    base = os.path.dirname(os.path.abspath(path))
+    mi.set_variant("scalar_rgb")
+    cam = cfg["camera"]
+    scene = {
+        "type": "scene",
+        "integrator": {
+            "type": "path",
+            "max_depth": int(cfg["max_bounces"]) + 1,
+            "rr_depth": int(cfg["max_bounces"]) + 2,
+        },
+        "sensor": {
+            "type": "perspective",
+            "fov_axis": "y",
+            "fov": float(cam["yfov_deg"]),
+            "near_clip": 1e-3,
+            "to_world": mi.ScalarTransform4f().look_at(
+                origin=cam["origin"], target=cam["target"], up=cam["up"]
+            ),
+            "film": {
+                "type": "hdrfilm",
+                "width": int(cfg["width"]),
+                "height": int(cfg["height"]),
+                "rfilter": {"type": "box"},
+                "pixel_format": "rgb",
+            },
+            "sampler": {"type": "independent", "sample_count": int(cfg["spp"])},
+        },
+    }
+    for i, sh in enumerate(cfg["shapes"]):
+        bsdf = bsdf_of(sh["bsdf"])
+        if sh["twosided"]:
+            bsdf = {"type": "twosided", "material": bsdf}
+        shape = {
+            "type": "ply",
+            "filename": os.path.join(base, sh["ply"]),
+            "face_normals": True,
+            "bsdf": bsdf,
+        }
+        if sh.get("emission") is not None:
+            shape["emitter"] = {"type": "area", "radiance": {"type": "rgb", "value": sh["emission"]}}
+        scene[f"shape{i}"] = shape
+    scene = mi.load_dict(scene)
+    for k, seed in enumerate(cfg["seeds"]):
+        img = np.array(mi.render(scene, spp=int(cfg["spp"]), seed=int(seed)), dtype="<f4")
+        img[..., :3].tofile(f"{prefix}_{k}.f32")
+
+
+if __name__ == "__main__":
+    main()
