@@ -13,7 +13,14 @@ one per glTF material, with the material as Mitsuba BSDFs and emitters:
      "shapes": [{"ply": "mesh0.ply", "twosided": bool,
                  "bsdf": {"diffuse": [r, g, b]} | {"dielectric": ior}
                        | {"mirror_ggx": alpha},
-                 "emission": [r, g, b] | null}, ...]}
+                 "emission": [r, g, b] | null}, ...],
+     "lights": [{"point": {"position": [..], "intensity": [..]}}
+              | {"directional": {"direction": [..], "irradiance": [..]}}, ...],
+     "environment": [r, g, b] | null}
+
+(a point light's intensity in W/sr, falling off with the inverse square; a
+directional light's irradiance on a surface facing it, "direction" the way
+its light travels; a constant environment's radiance).
 
 and writes OUT_PREFIX_<k>.f32 per seed: H x W x 3 little-endian float32,
 row 0 at the top, linear RGB.
@@ -96,6 +103,28 @@ def main():
         if sh.get("emission") is not None:
             shape["emitter"] = {"type": "area", "radiance": {"type": "rgb", "value": sh["emission"]}}
         scene[f"shape{i}"] = shape
+    for i, light in enumerate(cfg.get("lights", [])):
+        if "point" in light:
+            p = light["point"]
+            scene[f"light{i}"] = {
+                "type": "point",
+                "position": p["position"],
+                "intensity": {"type": "rgb", "value": p["intensity"]},
+            }
+        elif "directional" in light:
+            d = light["directional"]
+            scene[f"light{i}"] = {
+                "type": "directional",
+                "direction": d["direction"],
+                "irradiance": {"type": "rgb", "value": d["irradiance"]},
+            }
+        else:
+            raise ValueError(f"unknown light {light}")
+    if cfg.get("environment") is not None:
+        scene["environment"] = {
+            "type": "constant",
+            "radiance": {"type": "rgb", "value": cfg["environment"]},
+        }
     scene = mi.load_dict(scene)
     for k, seed in enumerate(cfg["seeds"]):
         img = np.array(mi.render(scene, spp=int(cfg["spp"]), seed=int(seed)), dtype="<f4")
