@@ -16,11 +16,13 @@ one per glTF material, with the material as Mitsuba BSDFs and emitters:
                  "emission": [r, g, b] | null}, ...],
      "lights": [{"point": {"position": [..], "intensity": [..]}}
               | {"directional": {"direction": [..], "irradiance": [..]}}, ...],
-     "environment": [r, g, b] | null}
+     "environment": {"constant": [r, g, b]} | {"map": "env.exr", "scale": S}
+                  | null}
 
 (a point light's intensity in W/sr, falling off with the inverse square; a
 directional light's irradiance on a surface facing it, "direction" the way
-its light travels; a constant environment's radiance).
+its light travels; a constant environment's radiance; an equirectangular
+map in stereocache's layout, linear RGB).
 
 and writes OUT_PREFIX_<k>.f32 per seed: H x W x 3 little-endian float32,
 row 0 at the top, linear RGB.
@@ -120,10 +122,19 @@ def main():
             }
         else:
             raise ValueError(f"unknown light {light}")
-    if cfg.get("environment") is not None:
+    env = cfg.get("environment")
+    if env is not None and "constant" in env:
         scene["environment"] = {
             "type": "constant",
-            "radiance": {"type": "rgb", "value": cfg["environment"]},
+            "radiance": {"type": "rgb", "value": env["constant"]},
+        }
+    elif env is not None:
+        # Equirectangular, row 0 at +Y, u = 0 at -Z increasing towards +X:
+        # Mitsuba's own envmap parameterisation, so no rotation.
+        scene["environment"] = {
+            "type": "envmap",
+            "filename": os.path.join(base, env["map"]),
+            "scale": float(env["scale"]),
         }
     scene = mi.load_dict(scene)
     for k, seed in enumerate(cfg["seeds"]):
