@@ -12,6 +12,7 @@ one per glTF material, with the material as Mitsuba BSDFs and emitters:
      "camera": {"origin": [..], "target": [..], "up": [..], "yfov_deg": F},
      "shapes": [{"ply": "mesh0.ply", "twosided": bool,
                  "bsdf": {"diffuse": [r, g, b]} | {"dielectric": ior}
+                       | {"diffuse_texture": "textureN.exr"}
                        | {"mirror_ggx": alpha},
                  "emission": [r, g, b] | null}, ...],
      "lights": [{"point": {"position": [..], "intensity": [..]}}
@@ -42,7 +43,23 @@ import numpy as np
 import mitsuba as mi
 
 
+BASE = "."
+
+
 def bsdf_of(spec):
+    if "diffuse_texture" in spec:
+        # A linear float texture (glTF's base colour texture decoded from
+        # sRGB, times baseColorFactor), bilinear and repeating, as the scene's.
+        return {
+            "type": "diffuse",
+            "reflectance": {
+                "type": "bitmap",
+                "filename": os.path.join(BASE, spec["diffuse_texture"]),
+                "filter_type": "bilinear",
+                "wrap_mode": "repeat",
+                "raw": True,
+            },
+        }
     if "diffuse" in spec:
         return {"type": "diffuse", "reflectance": {"type": "rgb", "value": spec["diffuse"]}}
     if "dielectric" in spec:
@@ -64,7 +81,8 @@ def main():
         sys.exit("usage: mitsuba_reference.py SCENE.json OUT_PREFIX")
     path, prefix = sys.argv[1], sys.argv[2]
     cfg = json.load(open(path))
-    base = os.path.dirname(os.path.abspath(path))
+    global BASE
+    base = BASE = os.path.dirname(os.path.abspath(path))
     mi.set_variant("scalar_rgb")
     cam = cfg["camera"]
     scene = {
