@@ -5,7 +5,7 @@ the independent renderer the reference path tracer is checked against.
     mitsuba_reference.py SCENE.json OUT_PREFIX
 
 SCENE.json (written by the test) names binary PLY meshes in world space,
-one per glTF material, with the material as Mitsuba BSDFs and emitters:
+one per instance, with its material as a Mitsuba BSDF and emitter:
 
     {"width": W, "height": H, "spp": N, "seeds": [s0, s1, ...],
      "max_bounces": B,
@@ -23,14 +23,15 @@ one per glTF material, with the material as Mitsuba BSDFs and emitters:
 (a point light's intensity in W/sr, falling off with the inverse square; a
 directional light's irradiance on a surface facing it, "direction" the way
 its light travels; a constant environment's radiance; an equirectangular
-map in stereocache's layout, linear RGB).
+map, linear RGB, already on the lattice of Mitsuba's envmap: rows at
+v = y/(H - 1)).
 
 and writes OUT_PREFIX_<k>.f32 per seed: H x W x 3 little-endian float32,
 row 0 at the top, linear RGB.
 
 The conventions are stereocache's (docs/ARCHITECTURE.md "Integrator",
-"Checked against Mitsuba 3"): a box pixel filter (the reference jitters uniformly inside the
-pixel), paths of at most B scattering events (Mitsuba's max_depth counts
+"Checked against Mitsuba 3"): a box pixel filter (the reference jitters
+uniformly inside the pixel), paths of at most B scattering events (Mitsuba's max_depth counts
 segments: B + 1), no Russian roulette before that depth, vacuum outside
 dielectrics (Mitsuba's default exterior is air, 1.000277), and a symmetric
 pinhole looking down the camera's -Z with +Y up.
@@ -43,10 +44,7 @@ import numpy as np
 import mitsuba as mi
 
 
-BASE = "."
-
-
-def bsdf_of(spec):
+def bsdf_of(spec, base):
     if "diffuse_texture" in spec:
         # A linear float texture (glTF's base colour texture decoded from
         # sRGB, times baseColorFactor), bilinear and repeating, as the scene's.
@@ -54,7 +52,7 @@ def bsdf_of(spec):
             "type": "diffuse",
             "reflectance": {
                 "type": "bitmap",
-                "filename": os.path.join(BASE, spec["diffuse_texture"]),
+                "filename": os.path.join(base, spec["diffuse_texture"]),
                 "filter_type": "bilinear",
                 "wrap_mode": "repeat",
                 "raw": True,
@@ -81,8 +79,7 @@ def main():
         sys.exit("usage: mitsuba_reference.py SCENE.json OUT_PREFIX")
     path, prefix = sys.argv[1], sys.argv[2]
     cfg = json.load(open(path))
-    global BASE
-    base = BASE = os.path.dirname(os.path.abspath(path))
+    base = os.path.dirname(os.path.abspath(path))
     mi.set_variant("scalar_rgb")
     cam = cfg["camera"]
     scene = {
@@ -111,7 +108,7 @@ def main():
         },
     }
     for i, sh in enumerate(cfg["shapes"]):
-        bsdf = bsdf_of(sh["bsdf"])
+        bsdf = bsdf_of(sh["bsdf"], base)
         if sh["twosided"]:
             bsdf = {"type": "twosided", "material": bsdf}
         shape = {
