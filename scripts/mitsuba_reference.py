@@ -88,6 +88,10 @@ def main():
             "type": "path",
             "max_depth": int(cfg["max_bounces"]) + 1,
             "rr_depth": int(cfg["max_bounces"]) + 2,
+            # Fixed image blocks: a pixel's random stream depends on its
+            # block, and Mitsuba's default block size on the core count, so
+            # without this the same seeds give other images elsewhere.
+            "block_size": 16,
         },
         "sensor": {
             "type": "perspective",

@@ -80,37 +80,29 @@ SRC
   log "installed; mesa-vulkan-drivers $(dpkg-query -W -f='${Version}' mesa-vulkan-drivers)"
 fi
 
-# The MaterialX Python package (tests only): its libraries/ are the import
-# test corpus and the reference node signatures of tests/material_graphs.rs.
-# Debian's python3 refuses system-wide pip installs (PEP 668), so it goes into
-# a virtual environment in the checkout, .tools/venv, which the tests look in
-# first; a python3 that already has the package is used as it is.
+# The Python packages the tests use, in one virtual environment in the
+# checkout, .tools/venv (Debian's python3 refuses system-wide pip installs,
+# PEP 668), whose interpreter the tests ask first:
+#   MaterialX 1.39: its libraries/ are the import test corpus and the
+#     reference node signatures of tests/material_graphs.rs;
+#   Mitsuba 3.9 and numpy: the independent renderer the reference path tracer
+#     is checked against (tests/independent_reference.rs,
+#     scripts/mitsuba_reference.py).
 if [ "${1:-}" = "--test" ]; then
   root=$(cd "$(dirname "$0")/.." && pwd)
   venv="$root/.tools/venv"
-  if [ -x "$venv/bin/python3" ] && "$venv/bin/python3" -c "import MaterialX" 2>/dev/null; then
-    log "MaterialX Python package present in .tools/venv"
-  elif python3 -c "import MaterialX" 2>/dev/null; then
-    log "MaterialX Python package present ($(python3 -c 'import MaterialX; print(MaterialX.__version__)'))"
+  py="$venv/bin/python3"
+  missing=()
+  { [ -x "$py" ] && "$py" -c "import MaterialX" 2>/dev/null; } || missing+=("MaterialX>=1.39,<1.40")
+  { [ -x "$py" ] && "$py" -c "import mitsuba, numpy" 2>/dev/null; } || missing+=("mitsuba>=3.9,<3.10" numpy)
+  if [ ${#missing[@]} -eq 0 ]; then
+    log "Python test packages present in .tools/venv (MaterialX, Mitsuba 3, numpy)"
   else
-    log "installing the MaterialX Python package (1.39.x) into .tools/venv: material-graph tests"
-    python3 -m venv "$venv" || { echo "[setup] error: python3 -m venv failed (python3-venv missing?)" >&2; exit 1; }
-    "$venv/bin/python3" -m pip install --quiet "MaterialX>=1.39,<1.40" \
-      || { echo "[setup] error: pip could not install MaterialX into .tools/venv" >&2; exit 1; }
-  fi
-  # Mitsuba 3 (with numpy): the independent renderer the reference path
-  # tracer is checked against (tests/independent_reference.rs,
-  # scripts/mitsuba_reference.py), in the same environment.
-  if [ -x "$venv/bin/python3" ] && "$venv/bin/python3" -c "import mitsuba, numpy" 2>/dev/null; then
-    log "Mitsuba 3 present in .tools/venv"
-  elif [ ! -x "$venv/bin/python3" ] && python3 -c "import mitsuba, numpy" 2>/dev/null; then
-    log "Mitsuba 3 present ($(python3 -c 'import mitsuba; print(mitsuba.__version__)'))"
-  else
-    log "installing Mitsuba 3 (3.9.x) and numpy into .tools/venv: the independent reference test"
-    [ -x "$venv/bin/python3" ] || python3 -m venv "$venv" \
+    log "installing into .tools/venv for the tests: ${missing[*]}"
+    [ -x "$py" ] || python3 -m venv "$venv" \
       || { echo "[setup] error: python3 -m venv failed (python3-venv missing?)" >&2; exit 1; }
-    "$venv/bin/python3" -m pip install --quiet "mitsuba>=3.9,<3.10" numpy \
-      || { echo "[setup] error: pip could not install Mitsuba 3 into .tools/venv" >&2; exit 1; }
+    "$py" -m pip install --quiet "${missing[@]}" \
+      || { echo "[setup] error: pip could not install ${missing[*]} into .tools/venv" >&2; exit 1; }
   fi
 fi
 

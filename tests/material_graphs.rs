@@ -12,27 +12,29 @@ use stereocache::materials::{compile, evaluate, harness, library, Document, Geom
 
 /// The MaterialX Python package's `libraries/` folder, or
 /// `$MATERIALX_LIBRARIES`. `scripts/setup.sh --test` installs the package into
-/// the checkout's `.tools/venv` unless `python3` already has it; that
-/// environment's interpreter is asked first.
+/// the checkout's `.tools/venv`, whose interpreter is asked first, then
+/// `python3`.
 fn materialx_libraries() -> Option<PathBuf> {
     if let Some(p) = std::env::var_os("MATERIALX_LIBRARIES") {
         return Some(PathBuf::from(p));
     }
     let venv = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(".tools/venv/bin/python3");
-    let python = if venv.exists() {
-        venv
-    } else {
-        PathBuf::from("python3")
-    };
-    let out = std::process::Command::new(python)
-        .args([
-            "-c",
-            "import MaterialX, os; print(os.path.dirname(MaterialX.__file__))",
-        ])
-        .output()
-        .ok()?;
-    let dir = PathBuf::from(String::from_utf8_lossy(&out.stdout).trim()).join("libraries");
-    dir.join("stdlib/stdlib_defs.mtlx").exists().then_some(dir)
+    // The first interpreter that has the package (a venv made for other
+    // packages may lack it).
+    [venv, PathBuf::from("python3")]
+        .into_iter()
+        .find_map(|python| {
+            let out = std::process::Command::new(python)
+                .args([
+                    "-c",
+                    "import MaterialX, os; print(os.path.dirname(MaterialX.__file__))",
+                ])
+                .output()
+                .ok()
+                .filter(|o| o.status.success())?;
+            let dir = PathBuf::from(String::from_utf8_lossy(&out.stdout).trim()).join("libraries");
+            dir.join("stdlib/stdlib_defs.mtlx").exists().then_some(dir)
+        })
 }
 
 fn mtlx_files(dir: &std::path::Path, out: &mut Vec<PathBuf>) {
