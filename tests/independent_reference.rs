@@ -257,7 +257,15 @@ fn environment_map_scene() -> Scene {
 
 /// Writes one binary PLY per instance (world-space triangles) and the
 /// scene description `mitsuba_reference.py` reads.
-fn export(s: &Scene, camera: &stereocache::camera::EyeView, dir: &Path, seeds: &[u32]) {
+/// `map_radiance`: the function an environment map was sampled from (Mitsuba
+/// gets it on its own lattice, below).
+fn export(
+    s: &Scene,
+    camera: &stereocache::camera::EyeView,
+    dir: &Path,
+    seeds: &[u32],
+    map_radiance: Option<fn(Vec3) -> Vec3>,
+) {
     std::fs::create_dir_all(dir).unwrap();
     let mut shapes = Vec::new();
     for (k, inst) in s.instances.iter().enumerate() {
@@ -343,30 +351,34 @@ fn export(s: &Scene, camera: &stereocache::camera::EyeView, dir: &Path, seeds: &
     let environment = match &s.environment {
         None => serde_json::Value::Null,
         Some(Environment::Constant(c)) => serde_json::json!({ "constant": c.to_array() }),
-        Some(Environment::Map { name, scale, .. }) => {
+        Some(Environment::Map {
+            width,
+            height,
+            scale,
+            ..
+        }) => {
             // Mitsuba's envmap interpolates bilinearly between samples at
             // u = (x + 0.5)/W (as ours) but v = y/(H − 1): row 0 at the +Y
             // pole, row H − 1 at −Y (measured with a ramp map: its value at
             // v is v·(H − 1)). So it gets the same function sampled on its
             // own lattice, not our texels.
-            assert_eq!(
-                name, "lobes",
-                "only environment_map_scene's map has its function here"
-            );
-            let rgba: Vec<[f32; 4]> = (0..ENV_H)
-                .flat_map(|y| (0..ENV_W).map(move |x| (x, y)))
+            let f =
+                map_radiance.expect("an environment map needs the function it was sampled from");
+            let (w, h) = (*width, *height);
+            let rgba: Vec<[f32; 4]> = (0..h)
+                .flat_map(|y| (0..w).map(move |x| (x, y)))
                 .map(|(x, y)| {
-                    let phi = (x as f32 + 0.5) / ENV_W as f32 * std::f32::consts::TAU;
-                    let theta = y as f32 / (ENV_H - 1) as f32 * std::f32::consts::PI;
+                    let phi = (x as f32 + 0.5) / w as f32 * std::f32::consts::TAU;
+                    let theta = y as f32 / (h - 1) as f32 * std::f32::consts::PI;
                     let d = Vec3::new(
                         theta.sin() * phi.sin(),
                         theta.cos(),
                         -theta.sin() * phi.cos(),
                     );
-                    environment_radiance(d).extend(1.0).to_array()
+                    f(d).extend(1.0).to_array()
                 })
                 .collect();
-            stereocache::output::write_exr(&dir.join("env.exr"), ENV_W, ENV_H, &rgba).unwrap();
+            stereocache::output::write_exr(&dir.join("env.exr"), w, h, &rgba).unwrap();
             serde_json::json!({ "map": "env.exr", "scale": scale })
         }
         Some(Environment::Sky { .. }) => panic!("the sky model has no Mitsuba twin"),
@@ -526,9 +538,9 @@ struct Renders {
     ours: [Vec<[f64; 3]>; 2],
 }
 
-/// [`Renders`] of `scene`; None when Mitsuba is
-/// missing outside CI.
-fn render_both(scene: Scene, tag: &str) -> Option<Renders> {
+/// [`Renders`] of `scene` (`map_radiance` as for [`export`]); None when
+/// Mitsuba is missing outside CI.
+fn render_both(scene: Scene, tag: &str, map_radiance: Option<fn(Vec3) -> Vec3>) -> Option<Renders> {
     let python = mitsuba_python();
     if !require(
         python.is_some(),
@@ -542,7 +554,13 @@ fn render_both(scene: Scene, tag: &str) -> Option<Renders> {
     let s = session(&ctx, scene.clone(), RtChoice::Software);
     let mut camera = default_camera(&s, W, H);
     camera.ipd = 0.0;
-    export(&scene, &camera.eye(Eye::Left), &dir, &MITSUBA_SEEDS);
+    export(
+        &scene,
+        &camera.eye(Eye::Left),
+        &dir,
+        &MITSUBA_SEEDS,
+        map_radiance,
+    );
     let script = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("scripts/mitsuba_reference.py");
     let out = std::process::Command::new(python.unwrap())
         .arg(&script)
@@ -582,7 +600,7 @@ fn must_catch(r: &Renders, mutated: Scene, what: &str) {
 
 #[test]
 fn reference_matches_mitsuba_on_the_cornell_box() {
-    let Some(r) = render_both(comparable_cornell(1.0), "area") else {
+    let Some(r) = render_both(comparable_cornell(1.0), "area", None) else {
         return;
     };
     if let Err(e) = agreement(&r.ours, &r.theirs) {
@@ -595,7 +613,7 @@ fn reference_matches_mitsuba_on_the_cornell_box() {
 
 #[test]
 fn reference_matches_mitsuba_under_point_directional_and_environment_light() {
-    let Some(r) = render_both(comparable_cornell_lit_otherwise(), "lights") else {
+    let Some(r) = render_both(comparable_cornell_lit_otherwise(), "lights", None) else {
         return;
     };
     if let Err(e) = agreement(&r.ours, &r.theirs) {
@@ -609,7 +627,11 @@ fn reference_matches_mitsuba_under_point_directional_and_environment_light() {
 
 #[test]
 fn reference_matches_mitsuba_under_an_environment_map() {
-    let Some(r) = render_both(environment_map_scene(), "env-map") else {
+    let Some(r) = render_both(
+        environment_map_scene(),
+        "env-map",
+        Some(environment_radiance),
+    ) else {
         return;
     };
     if let Err(e) = agreement(&r.ours, &r.theirs) {
@@ -628,7 +650,7 @@ fn reference_matches_mitsuba_under_an_environment_map() {
 
 #[test]
 fn reference_matches_mitsuba_on_textured_walls() {
-    let Some(r) = render_both(textured_cornell(), "texture") else {
+    let Some(r) = render_both(textured_cornell(), "texture", None) else {
         return;
     };
     if let Err(e) = agreement(&r.ours, &r.theirs) {
