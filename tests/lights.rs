@@ -3,8 +3,9 @@
 //! analytic irradiance under an emissive quad (single-, double-sided and
 //! textured), the three strategies (MIS, NEE only, BSDF only) agreeing in
 //! expectation on the Cornell box, the error of each strategy alone against
-//! the variance its estimator predicts on a small emitter, and map sampling
-//! against BSDF sampling on a constant and a high-dynamic-range map.
+//! the variance its estimator predicts on a small emitter, map sampling
+//! against BSDF sampling on a constant and a high-dynamic-range map, and
+//! the spot cone's and the range window's falloffs pixel by pixel.
 
 mod common;
 use common::*;
@@ -726,6 +727,178 @@ fn an_emissive_quad_on_a_moving_instance_lights_from_where_it_is() {
             assert!(
                 m.abs() < 0.01 * mw,
                 "t = {t}, {ls:?}: mean residual {m:.3e} over 1 % of {mw:.4}"
+            );
+        }
+    }
+    assert_no_validation_messages(&ctx);
+}
+
+/// Punctual-light falloffs against their closed forms (KHR_lights_punctual's
+/// recommended ones, lights.glsl `sample_light`): a Lambert floor (ρ) lit
+/// by one light of intensity I at p, one scattering event, so the radiance
+/// at floor point q is ρ/π · I · cos θ_q / d² · window(d) · spot(q), with
+/// d = |p − q|, window = max(min(1 − (d/range)⁴, 1), 0) and spot = a²,
+/// a = saturate((cos ψ − cos outer) / max(0.001, cos inner − cos outer)),
+/// ψ the angle off the spot's axis. The light is a delta, so a pixel's only
+/// randomness is where its samples fall inside it: each pixel's expected
+/// value and variance are the mean and variance of that radiance over the
+/// pixel (a 32×32 grid of sub-pixel rays; the grid's own error bounded by
+/// the largest step between neighbouring grid values). Every pixel of both
+/// eyes must be within
+/// 5 standard errors (2048 comparisons per case: for normal errors a false
+/// alarm has probability ≈ 1e-3). The formulas this replaced — the
+/// spot's ramp a not squared, the range window squared — must each fail.
+#[test]
+fn spot_cone_and_range_window_follow_the_gltf_recommendation() {
+    use stereocache::scene::{Light, LightKind};
+    let ctx = context();
+    let rho = 0.5f64;
+    let (w, h) = (32u32, 32u32);
+    let cam = down_camera(1.5, 50.0);
+    let (inner, outer) = (0.2f32, 0.45f32);
+    let spot = Light {
+        name: "spot".into(),
+        kind: LightKind::Spot {
+            inner_cone: inner,
+            outer_cone: outer,
+        },
+        radiant: Vec3::splat(2.0),
+        position: Vec3::new(0.1, 1.0, -0.05),
+        direction: Vec3::new(0.15, -1.0, 0.1).normalize(),
+        range: None,
+    };
+    let point_with_range = Light {
+        name: "point".into(),
+        kind: LightKind::Point,
+        radiant: Vec3::splat(1.5),
+        position: Vec3::new(-0.1, 0.8, 0.1),
+        direction: Vec3::NEG_Z,
+        range: Some(1.6),
+    };
+    let spot_with_range = Light {
+        range: Some(1.7),
+        ..spot.clone()
+    };
+    // Which formula: (spot ramp squared, range window squared).
+    let radiance = |l: &Light, (x, z): (f64, f64), squared_ramp: bool, squared_window: bool| {
+        let p = l.position.as_dvec3();
+        let to_light = p - glam::DVec3::new(x, 0.0, z);
+        let d = to_light.length();
+        let mut atten = 1.0 / (d * d);
+        if let Some(range) = l.range {
+            let win = (1.0 - (d / range as f64).powi(4)).clamp(0.0, 1.0);
+            atten *= if squared_window { win * win } else { win };
+        }
+        if let LightKind::Spot {
+            inner_cone,
+            outer_cone,
+        } = l.kind
+        {
+            let cos_psi = (-to_light / d).dot(l.direction.as_dvec3());
+            let (ci, co) = ((inner_cone as f64).cos(), (outer_cone as f64).cos());
+            let a = ((cos_psi - co) / (ci - co).max(0.001)).clamp(0.0, 1.0);
+            atten *= if squared_ramp { a * a } else { a };
+        }
+        rho / std::f64::consts::PI * l.radiant.x as f64 * (to_light.y / d) * atten
+    };
+    // Floor point through sub-pixel position `at` of each eye.
+    let floor_at = |eye: &stereocache::camera::EyeView, at: Vec2| {
+        let d = eye.ray_direction(at, glam::UVec2::new(w, h));
+        let t = -eye.position.y / d.y;
+        let q = eye.position + t * d;
+        (q.x as f64, q.z as f64)
+    };
+    // Per pixel of both eyes: the mean and variance of the radiance over
+    // the pixel on an N×N grid of sub-pixel rays, and the largest
+    // difference between neighbouring grid values (each grid cell's true
+    // mean lies within that of its sample, so it bounds the grid's error
+    // in the mean, slivers of the cone's edge that fall between samples
+    // included).
+    const N: u32 = 32;
+    let pixel_moments = |l: &Light, sq_ramp: bool, sq_win: bool| -> Vec<(f64, f64, f64)> {
+        cam.eyes()
+            .iter()
+            .flat_map(|eye| {
+                (0..(w * h) as usize).map(move |p| {
+                    let corner = pixel_centre(p, w) - Vec2::splat(0.5);
+                    let v: Vec<f64> = (0..N * N)
+                        .map(|k| {
+                            let sub = Vec2::new(
+                                ((k % N) as f32 + 0.5) / N as f32,
+                                ((k / N) as f32 + 0.5) / N as f32,
+                            );
+                            radiance(l, floor_at(eye, corner + sub), sq_ramp, sq_win)
+                        })
+                        .collect();
+                    let m = v.iter().sum::<f64>() / v.len() as f64;
+                    let var = v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / v.len() as f64;
+                    let step = (0..N * N)
+                        .flat_map(|k| {
+                            let right =
+                                (k % N + 1 < N).then(|| (v[k as usize] - v[k as usize + 1]).abs());
+                            let down = (k / N + 1 < N)
+                                .then(|| (v[k as usize] - v[(k + N) as usize]).abs());
+                            right.into_iter().chain(down)
+                        })
+                        .fold(0.0, f64::max);
+                    (m, var, step)
+                })
+            })
+            .collect()
+    };
+    let spp = 64u32;
+    // The largest |z| of a render against the moments of one formula.
+    let worst = |f: &StereoFrame, l: &Light, sq_ramp: bool, sq_win: bool| -> f64 {
+        f.eyes
+            .iter()
+            .flat_map(|e| e.radiance.iter())
+            .zip(pixel_moments(l, sq_ramp, sq_win))
+            .map(|(px, (m, var, step))| {
+                // f32 accumulation of spp samples: a relative spp · 2⁻²⁴.
+                let float = m * spp as f64 * 2f64.powi(-24);
+                (px[0] as f64 - m).abs()
+                    / (var / spp as f64 + float * float + step * step)
+                        .sqrt()
+                        .max(1e-12)
+            })
+            .fold(0.0, f64::max)
+    };
+    let cases = [
+        ("spot", &spot, true, false),
+        ("point light with a range", &point_with_range, false, true),
+        ("spot with a range", &spot_with_range, true, true),
+    ];
+    for (what, light, tests_ramp, tests_window) in cases {
+        let mut scene = Scene {
+            source: format!("test:floor-under-{what}").into(),
+            ..Default::default()
+        };
+        let f = add_material(&mut scene, lambert(rho as f32));
+        add_floor(&mut scene, f);
+        scene.lights.push(light.clone());
+        scene.validate().unwrap();
+        let s = session(&ctx, scene, RtChoice::Software);
+        let frame = render_with(&s, cam, (w, h), spp, 1, 5, LightSampling::Mis);
+        let z = worst(&frame, light, true, false);
+        eprintln!("{what}: max |z| {z:.2}");
+        assert!(
+            z <= 5.0,
+            "{what}: a pixel {z:.1} standard errors off the closed form"
+        );
+        if tests_ramp {
+            let z_old = worst(&frame, light, false, false);
+            eprintln!("{what}, against the unsquared ramp: max |z| {z_old:.1}");
+            assert!(
+                z_old > 5.0,
+                "{what}: the unsquared spot ramp went unnoticed"
+            );
+        }
+        if tests_window {
+            let z_old = worst(&frame, light, true, true);
+            eprintln!("{what}, against the squared window: max |z| {z_old:.1}");
+            assert!(
+                z_old > 5.0,
+                "{what}: the squared range window went unnoticed"
             );
         }
     }

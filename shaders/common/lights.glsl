@@ -162,16 +162,21 @@ bool sample_light(vec3 p, vec2 u, float u_pick, out LightSample ls) {
     ls.wi = d / dist;
     ls.dist = dist;
     float atten = 1.0 / dist2;
+    // KHR_lights_punctual's recommended (informative) falloffs, as its
+    // README writes them: the range window max(min(1 − (d/range)⁴, 1), 0)
+    // on the inverse square, and a spot's
+    // a = saturate((cos θ − cos outer) / max(0.001, cos inner − cos outer)),
+    // squared (full inside the inner cone, none outside the outer).
     float range = l.position_range.w;
     if (range > 0.0) {
         float r = dist / range;
-        atten *= clamp(1.0 - r * r * r * r, 0.0, 1.0) * clamp(1.0 - r * r * r * r, 0.0, 1.0);
+        atten *= clamp(1.0 - r * r * r * r, 0.0, 1.0);
     }
     if (kind == 1u) {
         float cd = dot(-ls.wi, l.direction.xyz);
         float ci = l.cone.x, co = l.cone.y;
-        atten *= clamp((cd - co) / max(ci - co, 1e-4), 0.0, 1.0);
-        atten *= atten > 0.0 ? 1.0 : 0.0;
+        float a = clamp((cd - co) / max(ci - co, 0.001), 0.0, 1.0);
+        atten *= a * a;
     }
     ls.L = l.radiant_kind.rgb * atten * sel;
     ls.pdf = 0.0;
