@@ -4,8 +4,8 @@ the independent renderer the reference path tracer is checked against.
 
     mitsuba_reference.py SCENE.json OUT_PREFIX
 
-SCENE.json (written by the test) names binary PLY meshes in world space,
-one per instance, with its material as a Mitsuba BSDF and emitter:
+SCENE.json (written by the test) names binary PLY meshes in world space
+with vertex normals, one per instance, with its material as a Mitsuba BSDF and emitter:
 
     {"width": W, "height": H, "spp": N, "seeds": [s0, s1, ...],
      "max_bounces": B,
@@ -16,11 +16,15 @@ one per instance, with its material as a Mitsuba BSDF and emitter:
                        | {"mirror_ggx": alpha},
                  "emission": [r, g, b] | null}, ...],
      "lights": [{"point": {"position": [..], "intensity": [..]}}
+              | {"spot": {"position": [..], "direction": [..], "intensity": [..],
+                          "cutoff_deg": C, "beam_width_deg": B}}
               | {"directional": {"direction": [..], "irradiance": [..]}}, ...],
      "environment": {"constant": [r, g, b]} | {"map": "env.exr", "scale": S}
                   | null}
 
 (a point light's intensity in W/sr, falling off with the inverse square; a
+spot light's the same inside its cone around "direction", Mitsuba's falloff
+from the beam width to the cutoff, both half angles in degrees; a
 directional light's irradiance on a surface facing it, "direction" the way
 its light travels; a constant environment's radiance; an equirectangular
 map, linear RGB, already on the lattice of Mitsuba's envmap: rows at
@@ -118,7 +122,9 @@ def main():
         shape = {
             "type": "ply",
             "filename": os.path.join(base, sh["ply"]),
-            "face_normals": True,
+            # Shading normals from the file's vertex normals, interpolated
+            # (those of a faceted mesh are its face normals).
+            "face_normals": False,
             "bsdf": bsdf,
         }
         if sh.get("emission") is not None:
@@ -131,6 +137,21 @@ def main():
                 "type": "point",
                 "position": p["position"],
                 "intensity": {"type": "rgb", "value": p["intensity"]},
+            }
+        elif "spot" in light:
+            p = light["spot"]
+            o = p["position"]
+            d = p["direction"]
+            # Any up vector not along the axis: the cone is round.
+            up = [0.0, 0.0, 1.0] if abs(d[1]) > 0.9 else [0.0, 1.0, 0.0]
+            scene[f"light{i}"] = {
+                "type": "spot",
+                "to_world": mi.ScalarTransform4f().look_at(
+                    origin=o, target=[o[k] + d[k] for k in range(3)], up=up
+                ),
+                "intensity": {"type": "rgb", "value": p["intensity"]},
+                "cutoff_angle": float(p["cutoff_deg"]),
+                "beam_width": float(p["beam_width_deg"]),
             }
         elif "directional" in light:
             d = light["directional"]

@@ -16,12 +16,13 @@
 //! twin), the metal sphere is white (glTF's Schlick Fresnel with F0 = 1 is 1
 //! at every angle, Mitsuba's perfect conductor; with the shipped tint Schlick
 //! and a conductor's Fresnel would differ at grazing angles), and the spheres
-//! are flat-shaded (both renderers then see the same facets and normals;
-//! interpolated shading normals are implemented differently by each). A
-//! second scene lights the box with a point light, a delta directional
-//! light and a constant environment instead, a third gives the white walls a
-//! texture, and a fourth puts spheres on a floor under an importance-sampled
-//! environment map.
+//! are flat-shaded (both renderers then see the same facets and normals). A
+//! second scene lights the box with a point light, a spot light, a delta
+//! directional light and a constant environment instead, a third gives the
+//! white walls a texture, a fourth puts spheres on a floor under an
+//! importance-sampled environment map, and a fifth shades spheres and an
+//! ellipsoid with interpolated vertex normals (every mesh goes to Mitsuba
+//! with its vertex normals in world space).
 
 mod common;
 
@@ -120,9 +121,31 @@ fn comparable_cornell_lit_otherwise() -> Scene {
         direction: Vec3::new(0.3, -0.5, -1.0).normalize(),
         range: None,
     });
+    // A spot light from under the ceiling onto the back wall's right half
+    // and the floor before it, both spheres outside its cone (lit by a
+    // delta light, the near-mirror sphere's caustics are fireflies that
+    // drown the cone's edge in noise); its edge (inner one milliradian
+    // inside the outer) is sharp, so the comparison sees the cone's angle,
+    // not the falloff's shape (see `export`).
+    let outer = SPOT_OUTER;
+    s.lights.push(Light {
+        name: "spot".into(),
+        kind: LightKind::Spot {
+            inner_cone: outer - 1e-3,
+            outer_cone: outer,
+        },
+        radiant: Vec3::new(1.5, 1.2, 0.8),
+        position: Vec3::new(0.0, 0.9, 0.3),
+        direction: Vec3::new(0.3, -0.65, -0.8).normalize(),
+        range: None,
+    });
     s.environment = Some(Environment::Constant(Vec3::new(0.2, 0.25, 0.3)));
     s
 }
+
+/// The spot light's outer cone angle (radians) in
+/// [`comparable_cornell_lit_otherwise`].
+const SPOT_OUTER: f32 = 0.25;
 
 /// [`comparable_cornell`] with a 4×4 sRGB base-colour texture (bilinear,
 /// repeat) on its white walls: a texel spans ≥ 8 pixels there, so the ray
@@ -255,6 +278,70 @@ fn environment_map_scene() -> Scene {
     s
 }
 
+/// The linear part of [`smooth_shaded_scene`]'s ellipsoid: scaled
+/// unevenly, then turned, so its normals need the inverse transpose.
+fn ellipsoid_linear() -> glam::Mat3 {
+    glam::Mat3::from_quat(glam::Quat::from_euler(glam::EulerRot::YXZ, 0.6, 0.0, 0.5))
+        * glam::Mat3::from_diagonal(Vec3::new(0.42, 0.2, 0.28))
+}
+
+/// Smooth-shaded (interpolated vertex normals) spheres under
+/// [`environment_radiance`] and a point light: a Lambert ellipsoid (a uv
+/// sphere scaled unevenly and turned, so its world normals need the
+/// inverse transpose of its transform), a white near-mirror metal sphere
+/// (its reflections show the interpolation directly) and a glass sphere
+/// (refraction about the shading normal), on a Lambert floor.
+/// `normals_like_points`: the ellipsoid's normals as a renderer that
+/// transformed them like positions would see them (the biting comparison).
+fn smooth_shaded_scene(normals_like_points: bool) -> Scene {
+    use stereocache::scene::generate::{add_mesh, uv_sphere};
+    use stereocache::scene::{Light, LightKind};
+    let mut s = environment_map_scene();
+    s.source = "smooth-shaded spheres under a map and a point light, for Mitsuba".into();
+    // The map scene's floor and materials, its faceted spheres replaced.
+    let find =
+        |s: &Scene, name: &str| s.materials.iter().position(|m| m.name == name).unwrap() as u32;
+    let (metal, glass, red) = (find(&s, "metal"), find(&s, "glass"), find(&s, "red"));
+    s.instances.truncate(1);
+    s.meshes.truncate(1);
+    let lin = ellipsoid_linear();
+    let mut ellipsoid = uv_sphere("ellipsoid", 24, 12);
+    if normals_like_points {
+        // Shown as normalize(M n) after our transform by M^-T: n' = Mᵀ M n.
+        for n in &mut ellipsoid.normals {
+            *n = (lin.transpose() * lin * *n).normalize();
+        }
+    }
+    let translate = |c: Vec3| glam::Mat4::from_translation(c);
+    add_mesh(
+        &mut s,
+        ellipsoid,
+        red,
+        translate(Vec3::new(0.0, 0.3, 0.5)) * glam::Mat4::from_mat3(lin),
+    );
+    for (mat, c) in [
+        (glass, Vec3::new(-0.6, 0.35, -0.1)),
+        (metal, Vec3::new(0.6, 0.35, -0.1)),
+    ] {
+        add_mesh(
+            &mut s,
+            uv_sphere("sphere", 32, 16),
+            mat,
+            translate(c) * glam::Mat4::from_scale(Vec3::splat(0.35)),
+        );
+    }
+    s.lights.push(Light {
+        name: "point".into(),
+        kind: LightKind::Point,
+        radiant: Vec3::new(0.6, 0.5, 0.4),
+        position: Vec3::new(-0.3, 1.2, 1.1),
+        direction: Vec3::NEG_Z,
+        range: None,
+    });
+    s.validate().unwrap();
+    s
+}
+
 /// Writes one binary PLY per instance (world-space triangles) and the
 /// scene description `mitsuba_reference.py` reads.
 /// `map_radiance`: the function an environment map was sampled from (Mitsuba
@@ -281,19 +368,28 @@ fn export(
         let uvs = mat.base_color_texture.is_some();
         write!(
             f,
-            "ply\nformat binary_little_endian 1.0\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\n{}element face {}\nproperty list uchar int vertex_indices\nend_header\n",
+            "ply\nformat binary_little_endian 1.0\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\nproperty float nx\nproperty float ny\nproperty float nz\n{}element face {}\nproperty list uchar int vertex_indices\nend_header\n",
             mesh.positions.len(),
             if uvs { "property float u\nproperty float v\n" } else { "" },
             mesh.indices.len() / 3
         )
         .unwrap();
-        for (p, uv) in mesh.positions.iter().zip(&mesh.uvs) {
+        // Vertex normals in world space by the inverse transpose of the
+        // instance's linear part (computed here, apart from the renderer's
+        // own transform), interpolated by Mitsuba as by us: the shading
+        // normals of smooth meshes, the face normals of faceted ones.
+        let to_world_normal = glam::Mat3::from_mat4(inst.transform).inverse().transpose();
+        assert!(
+            mesh.normals.len() == mesh.positions.len() && mesh.uvs.len() == mesh.positions.len()
+        );
+        for ((p, n), uv) in mesh.positions.iter().zip(&mesh.normals).zip(&mesh.uvs) {
             let p = inst.transform.transform_point3(*p).to_array();
+            let n = (to_world_normal * *n).normalize().to_array();
             // Mitsuba's bitmap puts the image's first row at v = 0, as
             // glTF does (measured: written as 1 − v the textured comparison
             // fails with rms z 28).
-            let vertex = [p[0], p[1], p[2], uv.x, uv.y];
-            for c in &vertex[..if uvs { 5 } else { 3 }] {
+            let vertex = [p[0], p[1], p[2], n[0], n[1], n[2], uv.x, uv.y];
+            for c in &vertex[..if uvs { 8 } else { 6 }] {
                 f.write_all(&c.to_le_bytes()).unwrap();
             }
         }
@@ -342,6 +438,30 @@ fn export(
             LightKind::Point if l.range.is_none() => serde_json::json!({
                 "point": { "position": l.position.to_array(), "intensity": l.radiant.to_array() }
             }),
+            LightKind::Spot {
+                inner_cone,
+                outer_cone,
+            } if l.range.is_none() => {
+                // Our spot (KHR_lights_punctual's recommended falloff) is
+                // a² with a rising linearly in cos θ from cos outer to
+                // cos outer + max(0.001, cos inner − cos outer); Mitsuba's
+                // rises linearly in θ. Over a band this narrow (≈ 3 mrad,
+                // a tenth of a pixel where it crosses the floor) both act
+                // as a hard edge at their band's integral: ours at
+                // cos θ = cos outer + ⅔·band. Mitsuba gets its cutoff
+                // there with a band of 10⁻⁵ rad.
+                let band = (inner_cone.cos() - outer_cone.cos()).max(1e-3);
+                let edge = (outer_cone.cos() + 2.0 / 3.0 * band).acos().to_degrees();
+                serde_json::json!({
+                    "spot": {
+                        "position": l.position.to_array(),
+                        "direction": l.direction.to_array(),
+                        "intensity": l.radiant.to_array(),
+                        "cutoff_deg": edge,
+                        "beam_width_deg": edge - 1e-5f32.to_degrees(),
+                    }
+                })
+            }
             LightKind::Directional { angular_radius: 0.0 } => serde_json::json!({
                 "directional": { "direction": l.direction.to_array(), "irradiance": l.radiant.to_array() }
             }),
@@ -612,16 +732,23 @@ fn reference_matches_mitsuba_on_the_cornell_box() {
 }
 
 #[test]
-fn reference_matches_mitsuba_under_point_directional_and_environment_light() {
+fn reference_matches_mitsuba_under_point_spot_directional_and_environment_light() {
     let Some(r) = render_both(comparable_cornell_lit_otherwise(), "lights", None) else {
         return;
     };
     if let Err(e) = agreement(&r.ours, &r.theirs) {
-        panic!("the reference disagrees with Mitsuba 3 under point, directional, area and environment light: {e}");
+        panic!("the reference disagrees with Mitsuba 3 under point, spot, directional and environment light: {e}");
     }
     let mut brighter = comparable_cornell_lit_otherwise();
     brighter.lights[0].radiant *= 1.1;
     must_catch(&r, brighter, "a point light 10 % too bright");
+    let mut wider = comparable_cornell_lit_otherwise();
+    let spot = wider.lights.iter_mut().find(|l| l.name == "spot").unwrap();
+    spot.kind = stereocache::scene::LightKind::Spot {
+        inner_cone: 1.1 * SPOT_OUTER - 1e-3,
+        outer_cone: 1.1 * SPOT_OUTER,
+    };
+    must_catch(&r, wider, "the spot's cone 10 % wider");
     assert_no_validation_messages(&r.ctx);
 }
 
@@ -670,5 +797,25 @@ fn reference_matches_mitsuba_on_textured_walls() {
         level0,
     );
     must_catch(&r, flipped, "the texture upside down");
+    assert_no_validation_messages(&r.ctx);
+}
+
+#[test]
+fn reference_matches_mitsuba_with_smooth_shading_normals() {
+    let Some(r) = render_both(
+        smooth_shaded_scene(false),
+        "smooth",
+        Some(environment_radiance),
+    ) else {
+        return;
+    };
+    if let Err(e) = agreement(&r.ours, &r.theirs) {
+        panic!("the reference disagrees with Mitsuba 3 on smooth-shaded spheres: {e}");
+    }
+    must_catch(
+        &r,
+        smooth_shaded_scene(true),
+        "the ellipsoid's normals transformed like positions",
+    );
     assert_no_validation_messages(&r.ctx);
 }
