@@ -278,6 +278,9 @@ fn environment_map_scene() -> Scene {
     s
 }
 
+/// GGX α of [`smooth_shaded_scene`]'s metal sphere.
+const ROUGH_METAL_ALPHA: f32 = 0.1;
+
 /// The linear part of [`smooth_shaded_scene`]'s ellipsoid: scaled
 /// unevenly, then turned, so its normals need the inverse transpose.
 fn ellipsoid_linear() -> glam::Mat3 {
@@ -288,13 +291,15 @@ fn ellipsoid_linear() -> glam::Mat3 {
 /// Smooth-shaded (interpolated vertex normals) spheres under
 /// [`environment_radiance`] and a point light: a Lambert ellipsoid (a uv
 /// sphere scaled unevenly and turned, so its world normals need the
-/// inverse transpose of its transform), a white near-mirror metal sphere
-/// (its reflections show the interpolation directly) and a glass sphere
-/// (refraction about the shading normal), on a Lambert floor.
+/// inverse transpose of its transform), a white rough metal sphere (GGX
+/// `rough_metal_alpha`; its blurred reflections show the interpolation and
+/// the rough lobe; our height-correlated Smith term and Mitsuba's separable
+/// one differ only at its rim at α = 0.1, docs/ARCHITECTURE.md) and a
+/// glass sphere (refraction about the shading normal), on a Lambert floor.
 /// `normals_like_points`: the ellipsoid's normals as a renderer that
 /// transformed them like positions would see them (the biting comparison).
-fn smooth_shaded_scene(normals_like_points: bool) -> Scene {
-    use stereocache::scene::generate::{add_mesh, uv_sphere};
+fn smooth_shaded_scene(normals_like_points: bool, rough_metal_alpha: f32) -> Scene {
+    use stereocache::scene::generate::{add_material, add_mesh, uv_sphere};
     use stereocache::scene::{Light, LightKind};
     let mut s = environment_map_scene();
     s.source = "smooth-shaded spheres under a map and a point light, for Mitsuba".into();
@@ -302,6 +307,11 @@ fn smooth_shaded_scene(normals_like_points: bool) -> Scene {
     let find =
         |s: &Scene, name: &str| s.materials.iter().position(|m| m.name == name).unwrap() as u32;
     let (metal, glass, red) = (find(&s, "metal"), find(&s, "glass"), find(&s, "red"));
+    // The metal rough: GGX α (glTF roughness √α).
+    let mut rough = s.materials[metal as usize].clone();
+    rough.name = "rough metal".into();
+    rough.roughness = rough_metal_alpha.sqrt();
+    let metal = add_material(&mut s, rough);
     s.instances.truncate(1);
     s.meshes.truncate(1);
     let lin = ellipsoid_linear();
@@ -803,7 +813,7 @@ fn reference_matches_mitsuba_on_textured_walls() {
 #[test]
 fn reference_matches_mitsuba_with_smooth_shading_normals() {
     let Some(r) = render_both(
-        smooth_shaded_scene(false),
+        smooth_shaded_scene(false, ROUGH_METAL_ALPHA),
         "smooth",
         Some(environment_radiance),
     ) else {
@@ -814,8 +824,13 @@ fn reference_matches_mitsuba_with_smooth_shading_normals() {
     }
     must_catch(
         &r,
-        smooth_shaded_scene(true),
+        smooth_shaded_scene(true, ROUGH_METAL_ALPHA),
         "the ellipsoid's normals transformed like positions",
+    );
+    must_catch(
+        &r,
+        smooth_shaded_scene(false, 1.2 * ROUGH_METAL_ALPHA),
+        "the rough metal's GGX α 20 % larger",
     );
     assert_no_validation_messages(&r.ctx);
 }
