@@ -13,7 +13,7 @@ with vertex normals, one per instance, with its material as a Mitsuba BSDF and e
      "shapes": [{"ply": "mesh0.ply", "twosided": bool,
                  "bsdf": {"diffuse": [r, g, b]} | {"dielectric": ior}
                        | {"diffuse_texture": "textureN.exr"}
-                       | {"mirror_ggx": alpha},
+                       | {"schlick_metal": {"base_color": [r, g, b], "roughness": R}},
                  "emission": [r, g, b] | null}, ...],
      "lights": [{"point": {"position": [..], "intensity": [..]}}
               | {"spot": {"position": [..], "direction": [..], "intensity": [..],
@@ -66,14 +66,20 @@ def bsdf_of(spec, base):
         return {"type": "diffuse", "reflectance": {"type": "rgb", "value": spec["diffuse"]}}
     if "dielectric" in spec:
         return {"type": "dielectric", "int_ior": float(spec["dielectric"]), "ext_ior": 1.0}
-    if "mirror_ggx" in spec:
-        # A white metal: glTF's Schlick Fresnel with F0 = 1 is 1 at every
-        # angle, which is Mitsuba's perfect conductor ("none").
+    if "schlick_metal" in spec:
+        # glTF's metal: Schlick's Fresnel with F0 = the base colour, GGX with
+        # alpha = roughness^2. Mitsuba's principled BSDF at metallic 1 (and
+        # no specular tint, sheen or clearcoat) is exactly that lobe, but
+        # for its separable Smith term (ours is height-correlated).
+        m = spec["schlick_metal"]
         return {
-            "type": "roughconductor",
-            "material": "none",
-            "distribution": "ggx",
-            "alpha": float(spec["mirror_ggx"]),
+            "type": "principled",
+            "base_color": {"type": "rgb", "value": m["base_color"]},
+            "metallic": 1.0,
+            "roughness": float(m["roughness"]),
+            "spec_tint": 0.0,
+            "sheen": 0.0,
+            "clearcoat": 0.0,
         }
     raise ValueError(f"unknown bsdf {spec}")
 

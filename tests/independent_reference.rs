@@ -9,14 +9,15 @@
 //! sphere's transmission tinted by 0.9 (the shape of the old "glass far too
 //! dark" bug, much milder) must fail it: the test can bite.
 //!
-//! Three changes to the shipped box make the models identical rather than
+//! Two changes to the shipped box make the models identical rather than
 //! close: the walls' and the light's glTF dielectric layer is switched off
 //! (`specular` 0: pure Lambert, Mitsuba's `diffuse`; with the layer, its
 //! 4 % GGX reflection and the (1 − F) it puts on the diffuse have no Mitsuba
-//! twin), the metal sphere is white (glTF's Schlick Fresnel with F0 = 1 is 1
-//! at every angle, Mitsuba's perfect conductor; with the shipped tint Schlick
-//! and a conductor's Fresnel would differ at grazing angles), and the spheres
-//! are flat-shaded (both renderers then see the same facets and normals). A
+//! twin), and the spheres are flat-shaded (both renderers then see the same
+//! facets and normals). The tinted metal is Mitsuba's `principled` at
+//! metallic 1: Schlick's Fresnel with F0 = the base colour, GGX with
+//! α = roughness², as glTF's (its Smith term is separable, ours
+//! height-correlated: at α = 0.01 the same but for a sliver of the rim). A
 //! second scene lights the box with a point light, a spot light, a delta
 //! directional light and a constant environment instead, a third gives the
 //! white walls a texture, a fourth puts spheres on a floor under an
@@ -66,14 +67,11 @@ fn mitsuba_python() -> Option<PathBuf> {
     })
 }
 
-/// The shipped Cornell box with the three changes of the module comment.
+/// The shipped Cornell box with the two changes of the module comment.
 fn comparable_cornell(glass_tint: f32) -> Scene {
     let mut s = cornell();
     s.source = format!("cornell for Mitsuba, glass tint {glass_tint}").into();
     for m in &mut s.materials {
-        if m.name == "metal" {
-            m.base_color = glam::Vec4::ONE;
-        }
         if m.metallic == 0.0 && m.transmission == 0.0 {
             m.specular = 0.0;
         }
@@ -204,7 +202,7 @@ fn environment_radiance(d: Vec3) -> Vec3 {
     Vec3::splat(0.2) + ramp * above
 }
 
-/// Spheres of glass, white metal and Lambert on a Lambert floor under an
+/// Spheres of glass, tinted metal and Lambert on a Lambert floor under an
 /// equirectangular map of [`environment_radiance`] (texel (x, y) holds the
 /// radiance at its centre's direction; Mitsuba gets the same function on
 /// its own lattice, see `export`).
@@ -221,7 +219,7 @@ fn environment_map_scene() -> Scene {
     };
     let floor = add_material(&mut s, lambert("floor", Vec3::new(0.6, 0.55, 0.5)));
     let red = add_material(&mut s, lambert("red", Vec3::new(0.7, 0.2, 0.15)));
-    // The box's white metal and clear glass, as `comparable_cornell` makes them.
+    // The box's metal and clear glass, as `comparable_cornell` makes them.
     let boxed = comparable_cornell(1.0);
     let mut reuse = |name: &str| {
         let m = boxed
@@ -291,7 +289,7 @@ fn ellipsoid_linear() -> glam::Mat3 {
 /// Smooth-shaded (interpolated vertex normals) spheres under
 /// [`environment_radiance`] and a point light: a Lambert ellipsoid (a uv
 /// sphere scaled unevenly and turned, so its world normals need the
-/// inverse transpose of its transform), a white rough metal sphere (GGX
+/// inverse transpose of its transform), a tinted rough metal sphere (GGX
 /// `rough_metal_alpha`; its blurred reflections show the interpolation and
 /// the rough lobe; our height-correlated Smith term and Mitsuba's separable
 /// one differ only at its rim at α = 0.1, docs/ARCHITECTURE.md) and a
@@ -415,8 +413,11 @@ fn export(
             // transmitted light by stereocache only (the biting comparison).
             serde_json::json!({ "dielectric": mat.ior })
         } else if mat.metallic > 0.0 {
-            assert!(mat.metallic == 1.0 && mat.base_color == glam::Vec4::ONE);
-            serde_json::json!({ "mirror_ggx": (mat.roughness * mat.roughness).max(1e-3) })
+            assert!(mat.metallic == 1.0 && mat.metallic_roughness_texture.is_none());
+            serde_json::json!({ "schlick_metal": {
+                "base_color": mat.base_color.truncate().to_array(),
+                "roughness": mat.roughness,
+            } })
         } else if let Some(t) = &mat.base_color_texture {
             // The texture as Mitsuba reads it: linear floats decoded from
             // sRGB with the exact curve (our GPU samples an sRGB format, which
