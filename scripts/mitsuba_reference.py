@@ -14,7 +14,8 @@ with vertex normals, one per instance, with its material as a Mitsuba BSDF and e
                  "bsdf": {"diffuse": [r, g, b]} | {"dielectric": ior}
                        | {"diffuse_texture": "textureN.exr"}
                        | {"schlick_metal": {"base_color": [r, g, b], "roughness": R}},
-                 "emission": [r, g, b] | null}, ...],
+                 "emission": [r, g, b] | null,
+                 "absorption": [r, g, b] | null}, ...],
      "lights": [{"point": {"position": [..], "intensity": [..]}}
               | {"spot": {"position": [..], "direction": [..], "intensity": [..],
                           "cutoff_deg": C, "beam_width_deg": B}}
@@ -22,7 +23,9 @@ with vertex normals, one per instance, with its material as a Mitsuba BSDF and e
      "environment": {"constant": [r, g, b]} | {"map": "env.exr", "scale": S}
                   | null}
 
-(a point light's intensity in W/sr, falling off with the inverse square; a
+(an absorption: the coefficient (1/m) of the purely absorbing medium
+inside a closed dielectric; a point light's intensity in W/sr, falling off
+with the inverse square; a
 spot light's the same inside its cone around "direction", Mitsuba's falloff
 from the beam width to the cutoff, both half angles in degrees; a
 directional light's irradiance on a surface facing it, "direction" the way
@@ -92,10 +95,14 @@ def main():
     base = os.path.dirname(os.path.abspath(path))
     mi.set_variant("scalar_rgb")
     cam = cfg["camera"]
+    # Media need the volumetric path tracer; its absorbing-only medium
+    # (albedo 0) ends a path at a sampled medium event, an unbiased
+    # estimate of the Beer-Lambert transmittance we multiply by.
+    media = any(sh.get("absorption") is not None for sh in cfg["shapes"])
     scene = {
         "type": "scene",
         "integrator": {
-            "type": "path",
+            "type": "volpath" if media else "path",
             "max_depth": int(cfg["max_bounces"]) + 1,
             "rr_depth": int(cfg["max_bounces"]) + 2,
             # Fixed image blocks: a pixel's random stream depends on its
@@ -133,6 +140,17 @@ def main():
             "face_normals": False,
             "bsdf": bsdf,
         }
+        if sh.get("absorption") is not None:
+            # An rgb value is bounded by 1 here: the largest coefficient
+            # goes into the medium's scale.
+            sigma = sh["absorption"]
+            top = max(sigma)
+            shape["interior"] = {
+                "type": "homogeneous",
+                "sigma_t": {"type": "rgb", "value": [c / top for c in sigma]},
+                "scale": top,
+                "albedo": {"type": "rgb", "value": [0.0, 0.0, 0.0]},
+            }
         if sh.get("emission") is not None:
             shape["emitter"] = {"type": "area", "radiance": {"type": "rgb", "value": sh["emission"]}}
         scene[f"shape{i}"] = shape
