@@ -145,6 +145,8 @@ def main():
             # goes into the medium's scale.
             sigma = sh["absorption"]
             top = max(sigma)
+            if not top > 0.0:
+                sys.exit(f"shape {i}: absorption {sigma} is not positive")
             shape["interior"] = {
                 "type": "homogeneous",
                 "sigma_t": {"type": "rgb", "value": [c / top for c in sigma]},

@@ -84,8 +84,9 @@ fn comparable_cornell(glass_tint: f32) -> Scene {
 }
 
 /// [`comparable_cornell`] lit by the other kinds of light instead of its
-/// area light: a point light inside the box, a delta directional light and
-/// a constant environment both entering through its open front. The area
+/// area light: a point light and a spot light inside the box, a delta
+/// directional light and a constant environment both entering through its
+/// open front. The area
 /// light's quad goes: it is single-sided and hangs 1 mm below the ceiling,
 /// and glTF's back-face culling lets rays through it from behind (ours:
 /// shadow rays too) where Mitsuba's one-sided surfaces still block them, so
@@ -96,7 +97,7 @@ fn comparable_cornell(glass_tint: f32) -> Scene {
 fn comparable_cornell_lit_otherwise() -> Scene {
     use stereocache::scene::{Environment, Light, LightKind};
     let mut s = comparable_cornell(1.0);
-    s.source = "cornell for Mitsuba, point, directional and environment light".into();
+    s.source = "cornell for Mitsuba, point, spot, directional and environment light".into();
     let light = s.materials.iter().position(|m| m.name == "light").unwrap() as u32;
     let meshes = &s.meshes;
     s.instances
@@ -122,9 +123,10 @@ fn comparable_cornell_lit_otherwise() -> Scene {
     // A spot light from under the ceiling onto the back wall's right half
     // and the floor before it, both spheres outside its cone (lit by a
     // delta light, the near-mirror sphere's caustics are fireflies that
-    // drown the cone's edge in noise); its edge (inner one milliradian
-    // inside the outer) is sharp, so the comparison sees the cone's angle,
-    // not the falloff's shape (see `export`).
+    // drown the cone's edge in noise); its cones one milliradian apart
+    // leave the edge as sharp as our falloff allows (a ramp 0.001 wide in
+    // cos θ, 4 mrad here), so the comparison sees the cone's angle, not the
+    // falloff's shape (see `export`).
     let outer = SPOT_OUTER;
     s.lights.push(Light {
         name: "spot".into(),
@@ -422,10 +424,14 @@ fn export(
         let bsdf = if mat.transmission > 0.0 {
             let v = mat.volume.expect("solid glass");
             assert!(mat.roughness == 0.0 && mat.transmission == 1.0);
-            if v.attenuation_distance.is_finite() {
-                absorption = serde_json::json!((-v.attenuation_color.map(f32::ln)
-                    / v.attenuation_distance)
-                    .to_array());
+            let sigma = -v.attenuation_color.map(f32::ln) / v.attenuation_distance;
+            if sigma.max_element() > 0.0 {
+                assert!(
+                    sigma.is_finite(),
+                    "{}: an attenuation colour of 0",
+                    mat.name
+                );
+                absorption = serde_json::json!(sigma.to_array());
             }
             // A tinted glass has no Mitsuba twin: the tint is applied to the
             // transmitted light by stereocache only (the biting comparison).
@@ -475,8 +481,9 @@ fn export(
                 // Our spot (KHR_lights_punctual's recommended falloff) is
                 // a² with a rising linearly in cos θ from cos outer to
                 // cos outer + max(0.001, cos inner − cos outer); Mitsuba's
-                // rises linearly in θ. Over a band this narrow (≈ 3 mrad,
-                // a tenth of a pixel where it crosses the floor) both act
+                // rises linearly in θ. Over a band this narrow (4 mrad at
+                // an outer angle of 0.25 rad, a sixth of a pixel where it
+                // crosses the back wall) both act
                 // as a hard edge at their band's integral: ours at
                 // cos θ = cos outer + ⅔·band. Mitsuba gets its cutoff
                 // there with a band of 10⁻⁵ rad.

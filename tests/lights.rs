@@ -105,15 +105,18 @@ fn floor_points(cam: &StereoCamera, w: u32, h: u32) -> Vec<Vec<(f64, f64)>> {
         .iter()
         .map(|v| {
             (0..(w * h) as usize)
-                .map(|p| {
-                    let d = v.ray_direction(pixel_centre(p, w), glam::UVec2::new(w, h));
-                    let t = -v.position.y / d.y;
-                    let q = v.position + t * d;
-                    (q.x as f64, q.z as f64)
-                })
+                .map(|p| floor_point(v, pixel_centre(p, w), (w, h)))
                 .collect()
         })
         .collect()
+}
+
+/// Floor point (x, z) seen through image position `at` (pixels) of `eye`.
+fn floor_point(eye: &stereocache::camera::EyeView, at: Vec2, (w, h): (u32, u32)) -> (f64, f64) {
+    let d = eye.ray_direction(at, glam::UVec2::new(w, h));
+    let t = -eye.position.y / d.y;
+    let q = eye.position + t * d;
+    (q.x as f64, q.z as f64)
 }
 
 fn render_with(
@@ -744,7 +747,7 @@ fn an_emissive_quad_on_a_moving_instance_lights_from_where_it_is() {
 /// randomness is where its samples fall inside it: each pixel's expected
 /// value and variance are the mean and variance of that radiance over the
 /// pixel (a 32×32 grid of sub-pixel rays; the grid's own error bounded by
-/// the largest step between neighbouring grid values). Every pixel of both
+/// the radiance's largest spread over one of its cells). Every pixel of both
 /// eyes must be within
 /// 5 standard errors (2048 comparisons per case: for normal errors a false
 /// alarm has probability ≈ 1e-3). The formulas this replaced — the
@@ -802,19 +805,14 @@ fn spot_cone_and_range_window_follow_the_gltf_recommendation() {
         }
         rho / std::f64::consts::PI * l.radiant.x as f64 * (to_light.y / d) * atten
     };
-    // Floor point through sub-pixel position `at` of each eye.
-    let floor_at = |eye: &stereocache::camera::EyeView, at: Vec2| {
-        let d = eye.ray_direction(at, glam::UVec2::new(w, h));
-        let t = -eye.position.y / d.y;
-        let q = eye.position + t * d;
-        (q.x as f64, q.z as f64)
-    };
     // Per pixel of both eyes: the mean and variance of the radiance over
-    // the pixel on an N×N grid of sub-pixel rays, and the largest
-    // difference between neighbouring grid values (each grid cell's true
-    // mean lies within that of its sample, so it bounds the grid's error
-    // in the mean, slivers of the cone's edge that fall between samples
-    // included).
+    // the pixel on an N×N grid of sub-pixel rays through the cells'
+    // centres, and a bound on that grid's error in the mean: the largest
+    // spread (max − min) of the radiance over a cell's centre and its four
+    // corners, the corners on an (N + 1)² lattice that includes the
+    // pixel's border (a cell's true mean lies between the radiance's
+    // extremes over it; where the cone's edge crosses a cell, it separates
+    // that cell's corners, so the spread sees it).
     const N: u32 = 32;
     let pixel_moments = |l: &Light, sq_ramp: bool, sq_win: bool| -> Vec<(f64, f64, f64)> {
         cam.eyes()
@@ -822,27 +820,36 @@ fn spot_cone_and_range_window_follow_the_gltf_recommendation() {
             .flat_map(|eye| {
                 (0..(w * h) as usize).map(move |p| {
                     let corner = pixel_centre(p, w) - Vec2::splat(0.5);
-                    let v: Vec<f64> = (0..N * N)
-                        .map(|k| {
-                            let sub = Vec2::new(
-                                ((k % N) as f32 + 0.5) / N as f32,
-                                ((k / N) as f32 + 0.5) / N as f32,
-                            );
-                            radiance(l, floor_at(eye, corner + sub), sq_ramp, sq_win)
-                        })
+                    let at = |x: f32, y: f32| {
+                        let q = floor_point(eye, corner + Vec2::new(x, y) / N as f32, (w, h));
+                        radiance(l, q, sq_ramp, sq_win)
+                    };
+                    let centres: Vec<f64> = (0..N * N)
+                        .map(|k| at((k % N) as f32 + 0.5, (k / N) as f32 + 0.5))
                         .collect();
-                    let m = v.iter().sum::<f64>() / v.len() as f64;
-                    let var = v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / v.len() as f64;
-                    let step = (0..N * N)
-                        .flat_map(|k| {
-                            let right =
-                                (k % N + 1 < N).then(|| (v[k as usize] - v[k as usize + 1]).abs());
-                            let down = (k / N + 1 < N)
-                                .then(|| (v[k as usize] - v[(k + N) as usize]).abs());
-                            right.into_iter().chain(down)
+                    let lattice: Vec<f64> = (0..(N + 1) * (N + 1))
+                        .map(|k| at((k % (N + 1)) as f32, (k / (N + 1)) as f32))
+                        .collect();
+                    let m = centres.iter().sum::<f64>() / centres.len() as f64;
+                    let var =
+                        centres.iter().map(|x| (x - m).powi(2)).sum::<f64>() / centres.len() as f64;
+                    let spread = (0..N * N)
+                        .map(|k| {
+                            let c = (k / N) * (N + 1) + k % N;
+                            let v = [
+                                centres[k as usize],
+                                lattice[c as usize],
+                                lattice[c as usize + 1],
+                                lattice[(c + N + 1) as usize],
+                                lattice[(c + N + 2) as usize],
+                            ];
+                            let (lo, hi) = v
+                                .iter()
+                                .fold((f64::MAX, f64::MIN), |(a, b), &x| (a.min(x), b.max(x)));
+                            hi - lo
                         })
                         .fold(0.0, f64::max);
-                    (m, var, step)
+                    (m, var, spread)
                 })
             })
             .collect()
@@ -854,11 +861,11 @@ fn spot_cone_and_range_window_follow_the_gltf_recommendation() {
             .iter()
             .flat_map(|e| e.radiance.iter())
             .zip(pixel_moments(l, sq_ramp, sq_win))
-            .map(|(px, (m, var, step))| {
+            .map(|(px, (m, var, grid))| {
                 // f32 accumulation of spp samples: a relative spp · 2⁻²⁴.
                 let float = m * spp as f64 * 2f64.powi(-24);
                 (px[0] as f64 - m).abs()
-                    / (var / spp as f64 + float * float + step * step)
+                    / (var / spp as f64 + float * float + grid * grid)
                         .sqrt()
                         .max(1e-12)
             })

@@ -1396,8 +1396,8 @@ fn memo_levels_past_a_rough_mirror_follow_the_roughness_spread() {
                 // The memoized texel and the exact hit, when the path
                 // reflected onto quad 0: (u, v, 1) × the factor × the
                 // rough reflection's weight (the same in both renders),
-                // which blue gives. Else black (refracted away, or
-                // reflected past the quad).
+                // which blue gives (`texel_centre` for this graph). Else
+                // black (refracted away, or reflected past the quad).
                 let decode = |rad: [f32; 4]| {
                     let w = rad[2] / KHR_EMISSIVE_FACTOR[2];
                     (w > 0.0).then(|| {
@@ -1419,41 +1419,39 @@ fn memo_levels_past_a_rough_mirror_follow_the_roughness_spread() {
                 );
                 // Levels over the pixel's rays for a spread gain `gain` at
                 // the sheet.
-                let levels = |gain: f32| -> Vec<i32> {
-                    [
+                let levels = |gain: f32| {
+                    let rays = [
                         Vec2::ZERO,
                         Vec2::new(-0.5, -0.5),
                         Vec2::new(0.5, -0.5),
                         Vec2::new(-0.5, 0.5),
                         Vec2::new(0.5, 0.5),
                     ]
-                    .iter()
-                    .flat_map(|&off| {
+                    .map(|off| {
                         let dir = view.ray_direction(px + off, size).normalize();
                         let t1 = (H - view.position.y) / dir.y;
                         let p1 = view.position + dir * t1;
                         let t2 = (p2 - p1).length();
-                        let w = spread * t1 + (spread + gain) * t2;
-                        level_range(w, quv.uv_per_width((p2 - p1) / t2), BIAS)
-                    })
-                    .collect()
+                        (spread * t1 + (spread + gain) * t2, (p2 - p1) / t2, p2)
+                    });
+                    pixel_levels(&quv, rays, BIAS).0
                 };
-                let explains = |m: &i32| texel_explains(uc, *m, uv, uv);
+                let explains = |m: i32| texel_explains(uc, m, uv, uv);
                 let with_beta = levels(beta_r);
                 assert!(
-                    with_beta.iter().any(explains),
+                    with_beta.clone().any(explains),
                     "{rt:?} tile {tile}: eye {e} pixel {i}: texel centre {uc} (hit at uv {uv}) is no texel \
                      of eqs. 2.10–2.11's levels {with_beta:?}"
                 );
-                levels_seen.extend(with_beta.into_iter().filter(explains));
+                levels_seen.extend(with_beta.filter(|&m| explains(m)));
                 checked += 1;
-                if !levels(0.0).iter().any(explains) {
+                if !levels(0.0).any(explains) {
                     no_roughness += 1;
                 }
-                if !levels(0.5 * beta_r).iter().any(explains) {
+                if !levels(0.5 * beta_r).any(explains) {
                     halved += 1;
                 }
-                if !levels(2.0 * beta_r).iter().any(explains) {
+                if !levels(2.0 * beta_r).any(explains) {
                     doubled += 1;
                 }
             }

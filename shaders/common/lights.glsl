@@ -166,7 +166,8 @@ bool sample_light(vec3 p, vec2 u, float u_pick, out LightSample ls) {
     // README writes them: the range window max(min(1 − (d/range)⁴, 1), 0)
     // on the inverse square, and a spot's
     // a = saturate((cos θ − cos outer) / max(0.001, cos inner − cos outer)),
-    // squared (full inside the inner cone, none outside the outer).
+    // squared (none outside the outer cone; full inside the inner one,
+    // unless the two are within 0.001 in cos θ, when the ramp is that wide).
     float range = l.position_range.w;
     if (range > 0.0) {
         float r = dist / range;

@@ -288,16 +288,25 @@ Surface surface_at(uint inst, uint prim, vec2 bary, vec3 ray_dir) {
     gn *= instance_front_sign(inst);
     s.front = dot(gn, ray_dir) < 0.0;
     if (!s.front) gn = -gn;
-    if (dot(n, gn) < 0.0) {
-        n = -n;
-        s.memo_curvature = -s.memo_curvature;   // k is the vertex normals' side's
-    }
     vec4 t = w.x * a.tangent + w.y * b.tangent + w.z * c.tangent;
     s.tangent = mat3(I.object_to_world) * t.xyz;
     // The bitangent is cross(n, t)·w (glTF) in object space; a mirroring
     // transform turns the cross product of the transformed vectors over, so
     // the world-space sign carries the instance's front sign too.
     s.tangent_sign = (t.w < 0.0 ? -1.0 : 1.0) * instance_front_sign(inst);
+    if (dot(n, gn) < 0.0) {
+        // Seen from the other side the whole tangent frame turns over, as
+        // the glTF sample viewer's does for a back face: normal, tangent
+        // and bitangent negated (B = cross(n, t)·w needs w negated too), so
+        // a mapped normal is the front's negated, not its mirror image
+        // through the surface (tests/material_extensions.rs
+        // `normal_maps_seen_from_behind_are_the_front_normal_negated`).
+        n = -n;
+        s.tangent = -s.tangent;
+        s.tangent_sign = -s.tangent_sign;
+        s.coat_tangent = -s.coat_tangent;   // xyz and its sign w alike
+        s.memo_curvature = -s.memo_curvature;   // k is the vertex normals' side's
+    }
     s.ng = gn;
     s.n = n;
     s.color = SC_VERTEX_COLORS ? w.x * vertex_color(vi.x) + w.y * vertex_color(vi.y) + w.z * vertex_color(vi.z) : vec4(1.0);

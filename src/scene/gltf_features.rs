@@ -261,7 +261,7 @@ pub const FEATURES: &[Feature] = &[
     f(
         "KHR_lights_punctual",
         Full,
-        "point, spot and directional lights; intensities as linear radiometric units",
+        "point, spot and directional lights; intensities as linear radiometric units; range and spot-cone falloffs as the extension recommends",
     ),
     f(
         "KHR_materials_anisotropy",
