@@ -1060,6 +1060,63 @@ fn texel_explains(uc: Vec2, m: i32, uv_lo: Vec2, uv_hi: Vec2) -> bool {
     })
 }
 
+/// Height of the mirror sheet of [`under_a_mirror`].
+const MIRROR_H: f32 = 0.6;
+
+/// Adds to `scene` (the quads of `uv_emitting_quads`) an 8 m sheet of
+/// ior-100 dielectric (reflecting ~96 %, a Fresnel-chosen event; GGX
+/// `roughness`), double-sided, `MIRROR_H` above the quads, and returns its
+/// instance and the view of the mirror tests: eyes 5 cm up, 0.5 m in front
+/// of the quad's near edge, looking up at the mirror, so the paths' two legs
+/// are about equally long (t₁ ≈ t₂) and a cone that did not grow, or
+/// restarted at the mirror, is half as wide; 64×40 pixels, one sample, one
+/// bounce.
+fn under_a_mirror(
+    scene: &mut Scene,
+    roughness: f32,
+) -> (u32, StereoCamera, glam::UVec2, RenderSettings) {
+    let mut sheet = Material::diffuse("mirror", Vec3::ONE);
+    sheet.transmission = 1.0;
+    sheet.ior = 100.0;
+    sheet.roughness = roughness;
+    sheet.double_sided = true;
+    let m_sheet = add_material(scene, sheet);
+    add_mesh(
+        scene,
+        grid(
+            "mirror",
+            Vec3::new(-4.0, MIRROR_H, -4.0),
+            Vec3::X * 8.0,
+            Vec3::Z * 8.0,
+            1,
+            1,
+            Vec2::ONE,
+        ),
+        m_sheet,
+        Mat4::IDENTITY,
+    );
+    scene.validate().unwrap();
+    let size = glam::UVec2::new(64, 40);
+    let settings = RenderSettings {
+        width: size.x,
+        height: size.y,
+        spp: 1,
+        max_bounces: 1,
+        seed: 11,
+        all_features: false,
+        ..Default::default()
+    };
+    let c = look_at(
+        "under the mirror",
+        Vec3::new(-0.55, 0.05, 1.0),
+        Vec3::new(-0.55, MIRROR_H, -0.2),
+        Vec3::Y,
+        60.0,
+    );
+    let camera = StereoCamera::from_scene_camera(c.transform, c.yfov, 64.0 / 40.0);
+    ((scene.instances.len() - 1) as u32, camera, size, settings)
+}
+
 /// The cone past the first hit (thesis eq. 2.10: w ← w + α·t, the spread α
 /// carried over and grown by eq. 2.11's β_r of each surface), checked at a
 /// mirror. A smooth thin dielectric sheet of ior 100 hangs 0.6 m above the
@@ -1099,53 +1156,11 @@ fn memo_levels_past_a_mirror_follow_the_grown_cone() {
     let ctx = context();
     let d = dir("memo-mirror");
     let (mut scene, quv) = uv_emitting_quads(&d, 0.0);
-    const H: f32 = 0.6;
+    const H: f32 = MIRROR_H;
     // Texels 8× the footprint (bias −3), so a pixel's uvs lie well inside
     // one and its texel tells the level apart from its neighbours'.
     const BIAS: f32 = -3.0;
-    let mut sheet = Material::diffuse("mirror", Vec3::ONE);
-    sheet.transmission = 1.0;
-    sheet.ior = 100.0;
-    sheet.roughness = 0.0;
-    sheet.double_sided = true;
-    let m_sheet = add_material(&mut scene, sheet);
-    add_mesh(
-        &mut scene,
-        grid(
-            "mirror",
-            Vec3::new(-4.0, H, -4.0),
-            Vec3::X * 8.0,
-            Vec3::Z * 8.0,
-            1,
-            1,
-            Vec2::ONE,
-        ),
-        m_sheet,
-        Mat4::IDENTITY,
-    );
-    scene.validate().unwrap();
-    let size = glam::UVec2::new(64, 40);
-    let settings = RenderSettings {
-        width: size.x,
-        height: size.y,
-        spp: 1,
-        max_bounces: 1,
-        seed: 11,
-        all_features: false,
-        ..Default::default()
-    };
-    // Eyes 5 cm up, 0.5 m in front of the quad's near edge, looking up at
-    // the mirror: the paths' two legs are about equally long (t₁ ≈ t₂), so
-    // a cone that did not grow, or restarted at the mirror, is half as wide.
-    let c = look_at(
-        "under the mirror",
-        Vec3::new(-0.55, 0.05, 1.0),
-        Vec3::new(-0.55, H, -0.2),
-        Vec3::Y,
-        60.0,
-    );
-    let camera = StereoCamera::from_scene_camera(c.transform, c.yfov, 64.0 / 40.0);
-    let mirror_inst = (scene.instances.len() - 1) as u32;
+    let (mirror_inst, camera, size, settings) = under_a_mirror(&mut scene, 0.0);
     for (rt, tile) in level_test_configs(&ctx) {
         scene.graphs.memo = MemoSettings {
             hits: MemoHits::Secondary,
@@ -1318,52 +1333,13 @@ fn memo_levels_past_a_rough_mirror_follow_the_roughness_spread() {
     scene
         .instances
         .retain(|i| meshes[i.mesh as usize].material == 0);
-    const H: f32 = 0.6;
+    const H: f32 = MIRROR_H;
     const BIAS: f32 = -3.0;
     const ROUGHNESS: f32 = 0.5;
     let alpha = ROUGHNESS * ROUGHNESS;
     let beta_r = 2.0 * (alpha * alpha / (2.0 - 2.0 * alpha * alpha)).sqrt();
     assert!((beta_r - lod::roughness_spread(alpha)).abs() <= 1e-6 * beta_r);
-    let mut sheet = Material::diffuse("rough mirror", Vec3::ONE);
-    sheet.transmission = 1.0;
-    sheet.ior = 100.0;
-    sheet.roughness = ROUGHNESS;
-    sheet.double_sided = true;
-    let m_sheet = add_material(&mut scene, sheet);
-    add_mesh(
-        &mut scene,
-        grid(
-            "mirror",
-            Vec3::new(-4.0, H, -4.0),
-            Vec3::X * 8.0,
-            Vec3::Z * 8.0,
-            1,
-            1,
-            Vec2::ONE,
-        ),
-        m_sheet,
-        Mat4::IDENTITY,
-    );
-    scene.validate().unwrap();
-    let size = glam::UVec2::new(64, 40);
-    let settings = RenderSettings {
-        width: size.x,
-        height: size.y,
-        spp: 1,
-        max_bounces: 1,
-        seed: 11,
-        all_features: false,
-        ..Default::default()
-    };
-    let c = look_at(
-        "under the mirror",
-        Vec3::new(-0.55, 0.05, 1.0),
-        Vec3::new(-0.55, H, -0.2),
-        Vec3::Y,
-        60.0,
-    );
-    let camera = StereoCamera::from_scene_camera(c.transform, c.yfov, 64.0 / 40.0);
-    let mirror_inst = (scene.instances.len() - 1) as u32;
+    let (mirror_inst, camera, size, settings) = under_a_mirror(&mut scene, ROUGHNESS);
     for (rt, tile) in level_test_configs(&ctx) {
         let mut direct_scene = scene.clone();
         direct_scene.graphs.memo = MemoSettings::default();
