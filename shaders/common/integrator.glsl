@@ -179,8 +179,14 @@ vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, vec2 eye_cone, inout Rng r
         // Shading normal facing away from the ray (interpolated or mapped
         // normals at grazing hits: s.ng faces the ray, s.n only shares its
         // hemisphere): wo.z ≤ 0 below would end every path here black, so
-        // shade such a hit with the geometric normal (issue 12).
+        // shade such a hit with the geometric normal (issue 12). The
+        // clearcoat's normal (the interpolated one, or its own normal
+        // texture's) gets the same fallback: its lobe sampled around a
+        // normal facing away ended the coat's share of the paths there
+        // (tests/material_extensions.rs
+        // `clearcoat_normals_facing_away_fall_back_to_the_geometric_normal`).
         if (dot(s.n, d) >= 0.0) s.n = s.ng;
+        if (SC_CLEARCOAT && m.clearcoat > 0.0 && dot(m.coat_n, d) >= 0.0) m.coat_n = s.ng;
         if (SC_EMISSIVE && any(greaterThan(m.emissive, vec3(0.0))))
             L += beta * m.emissive * emitter_mis_weight(h, d, specular_prev, pdf_prev);
         if (bounce >= SC_MAX_BOUNCES) break;
