@@ -200,6 +200,7 @@ fn hit_geom(scene: &Scene, fh: [u32; 4]) -> (u32, Geom) {
             position: p.to_array(),
             normal: [0.0, 1.0, 0.0],
             tangent: [0.0; 3],
+            tangent_sign: 1.0,
             footprint: 0.0,
         },
     )
@@ -2608,5 +2609,154 @@ fn every_method_shades_through_the_memoization_table() {
         assert!(c.hits > c.misses, "{}: {c:?}", kind.name());
         assert_finite_non_negative(&f, kind.name());
     }
+    assert_no_validation_messages(&ctx);
+}
+
+/// A graph's `normalmap` uses the mesh's own bitangent, glTF's
+/// cross(N, T)·w, as a normal texture does (material.glsl
+/// tangent_space_normal): on a mirrored uv island (w = −1) and seen from
+/// behind (normal, tangent and w all turned over, scene.glsl surface_at)
+/// the mapped normal is the one the texture's author drew, not its mirror
+/// image along the bitangent. A white Lambert quad in y = 0, double-sided,
+/// tangents from its uvs (MikkTSpace), plain and with u mirrored; a `.mtlx`
+/// graph's world-space `normal` output is `normalmap` of a constant
+/// tangent-space normal tilted along T and B. One delta directional light,
+/// one scattering event: every pixel is ρ/π·E·max(0, n·l) with n the
+/// front's mapped normal (negated from behind, the light mirrored there),
+/// to 10⁻⁴ relative (f32 shading). The unsigned bitangent cross(N, T) gave
+/// a different value where exactly one of mirroring and seeing from behind
+/// applies (checked below, so the test bites; the two turnings cancel in
+/// the fourth case); the CPU evaluator's bitangent is checked at grid
+/// points against the GPU in tests/material_graphs.rs.
+#[test]
+fn graph_normal_maps_follow_the_meshs_handedness_and_sides() {
+    use stereocache::scene::{Light, LightKind};
+    let ctx = context();
+    let d = dir("handedness");
+    std::fs::write(
+        d.join("tilt.mtlx"),
+        r#"<?xml version="1.0"?>
+<materialx version="1.39">
+  <nodegraph name="tilt">
+    <normalmap name="nm" type="vector3"><input name="in" type="vector3" value="0.35, 0.75, 0.9" /></normalmap>
+    <output name="normal" type="vector3" nodename="nm" />
+  </nodegraph>
+</materialx>
+"#,
+    )
+    .unwrap();
+    // The tangent-space normal the graph decodes: 2·in − 1.
+    let tn = Vec3::new(-0.3, 0.5, 0.8);
+    let (rho, e) = (0.8f32, 2.0f32);
+    let to_light_above = Vec3::new(0.2, 1.0, 0.7).normalize();
+    let settings = RenderSettings {
+        width: 8,
+        height: 8,
+        spp: 2,
+        max_bounces: 1,
+        seed: 3,
+        all_features: false,
+        ..Default::default()
+    };
+    let mut handedness = Vec::new();
+    for mirrored in [false, true] {
+        let mut quad = grid(
+            "quad",
+            Vec3::new(-1.0, 0.0, 1.0),
+            Vec3::X * 2.0,
+            Vec3::NEG_Z * 2.0,
+            1,
+            1,
+            Vec2::ONE,
+        );
+        if mirrored {
+            for uv in &mut quad.uvs {
+                uv.x = 1.0 - uv.x;
+            }
+        }
+        stereocache::scene::mesh_ops::generate_tangents(&mut quad);
+        let t = quad.tangents[0];
+        handedness.push(t.w);
+        for below in [false, true] {
+            let mut s = Scene {
+                source: "test:graph-normal-handedness".into(),
+                ..Default::default()
+            };
+            let mut m = Material::diffuse("white", Vec3::splat(rho));
+            m.specular = 0.0;
+            m.double_sided = true;
+            let mat = add_material(&mut s, m);
+            add_mesh(&mut s, quad.clone(), mat, Mat4::IDENTITY);
+            let to_light = if below {
+                to_light_above * Vec3::new(1.0, -1.0, 1.0)
+            } else {
+                to_light_above
+            };
+            s.lights.push(Light {
+                name: "sun".into(),
+                kind: LightKind::Directional {
+                    angular_radius: 0.0,
+                },
+                radiant: Vec3::splat(e),
+                position: Vec3::ZERO,
+                direction: -to_light,
+                range: None,
+            });
+            s.validate().unwrap();
+            let path = d.join(format!("quad-{mirrored}-{below}.gltf"));
+            stereocache::scene::write_gltf(&s, &path).unwrap();
+            let mut j: serde_json::Value =
+                serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+            j["materials"][0]["extras"] =
+                serde_json::json!({ "materialx": { "file": "tilt.mtlx" } });
+            std::fs::write(&path, serde_json::to_string_pretty(&j).unwrap()).unwrap();
+            let scene = stereocache::scene::load_gltf(&path).expect("bound scene loads");
+            assert!(
+                scene.meshes[0].tangents.len() == 4,
+                "the written quad keeps its tangents"
+            );
+            // The frame the surface is seen in: the front's, or all of it
+            // turned over from behind.
+            let side = if below { -1.0 } else { 1.0 };
+            let (n, tg) = (Vec3::Y * side, t.truncate() * side);
+            let mapped = |b: Vec3| (tn.x * tg + tn.y * b + tn.z * n).normalize();
+            let want_n = mapped(n.cross(tg) * t.w * side);
+            let wrong_n = mapped(n.cross(tg));
+            let shade = |n: Vec3| rho / std::f32::consts::PI * e * n.dot(to_light).max(0.0);
+            let (want, wrong) = (shade(want_n), shade(wrong_n));
+            assert!(want > 0.1, "the light reaches the mapped normal: {want}");
+            if mirrored != below {
+                assert!(
+                    (want - wrong).abs() > 0.05 * want,
+                    "mirrored {mirrored}, below {below}: the unsigned bitangent gives {wrong}, close to {want}"
+                );
+            }
+            let y = 10.0 * side;
+            let cam = look_at_camera(Vec3::new(0.0, y, 1e-3), Vec3::ZERO, 5.0, 1.0);
+            for rt in rt_backends(&ctx) {
+                let f = render(
+                    &session(&ctx, scene.clone(), rt),
+                    "reference",
+                    cam,
+                    &settings,
+                );
+                for eye in &f.eyes {
+                    for p in &eye.radiance {
+                        assert!(
+                            (p[0] - want).abs() <= 1e-4 * want,
+                            "{rt:?}, uv mirrored {mirrored}, seen from below {below}: {} where \
+                             ρ/π·E·(n·l) = {want} (the unsigned bitangent's: {wrong})",
+                            p[0]
+                        );
+                    }
+                }
+            }
+        }
+    }
+    assert_eq!(
+        handedness,
+        [1.0, -1.0],
+        "the mirrored quad is the left-handed one"
+    );
     assert_no_validation_messages(&ctx);
 }

@@ -55,7 +55,8 @@ fn mtlx_files(dir: &std::path::Path, out: &mut Vec<PathBuf>) {
 
 /// A grid of surface points: uv over [−1.5, 2.5)² in steps of 1/8 + 1/64
 /// (so both cell interiors and values past 1 are covered), positions over
-/// a few units, unit normals and tangents perpendicular to them.
+/// a few units, unit normals and tangents perpendicular to them, a third
+/// of them left-handed.
 fn grid() -> Vec<Geom> {
     let mut v = Vec::new();
     for j in 0..24 {
@@ -72,6 +73,8 @@ fn grid() -> Vec<Geom> {
                 position: [u * 1.7 - 0.3, w * 0.9 + 0.21, (u - w) * 1.3 + 0.05],
                 normal: n,
                 tangent: t,
+                // Both handednesses (mirrored uv islands, back faces).
+                tangent_sign: if (i + j) % 3 == 0 { -1.0 } else { 1.0 },
                 footprint: 0.0,
             });
         }

@@ -1096,6 +1096,7 @@ fn only_graphs_of_the_uv_alone_are_memoizable() {
                 position: p,
                 normal: n,
                 tangent: [n[1], n[2], n[0]],
+                tangent_sign: 1.0,
                 footprint: 0.0,
             },
         )
@@ -1167,6 +1168,7 @@ fn the_library_in_texture_space_reads_only_the_uv_and_equals_the_solid_at_uv0() 
                     position: p,
                     normal: [0.0, 0.0, 1.0],
                     tangent: [1.0, 0.0, 0.0],
+                    tangent_sign: 1.0,
                     footprint: 0.0,
                 };
                 let vw = evaluate(w, &geom([uv[0], uv[1], 0.0]));

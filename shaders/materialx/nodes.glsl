@@ -10,14 +10,18 @@
 
 // The surface point a graph is evaluated at (world space).
 // footprint: the uv width the value stands for (image nodes' mip level; 0 = level 0).
-struct MxGeom { vec2 uv; vec3 position; vec3 normal; vec3 tangent; float footprint; };
+// tangent_sign: glTF's handedness w (±1, already turned over on a back
+// face, scene.glsl surface_at), so the bitangent is the mesh's own.
+struct MxGeom { vec2 uv; vec3 position; vec3 normal; vec3 tangent; float tangent_sign; float footprint; };
 
 vec3 mx_cross(vec3 a, vec3 b) {
     precise vec3 r = vec3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
     return r;
 }
 
-vec3 mx_bitangent(MxGeom g) { return mx_cross(g.normal, g.tangent); }
+// glTF's bitangent cross(N, T)·w (eval.rs Geom::bitangent): a mirrored uv
+// island (w = −1) or a back face gets the bitangent its normal texture expects.
+vec3 mx_bitangent(MxGeom g) { return mx_cross(g.normal, g.tangent) * g.tangent_sign; }
 
 float mx_dot(float a, float b) { precise float r = a * b; return r; }
 float mx_dot(vec2 a, vec2 b) { precise float r = a.x * b.x + a.y * b.y; return r; }

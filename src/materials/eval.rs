@@ -14,25 +14,49 @@ use super::types::{Type, Value};
 
 /// The surface point a graph is evaluated at (world space; `tangent` may be
 /// zero where the mesh has none, then `normalmap` returns the normal).
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Geom {
     pub uv: [f32; 2],
     pub position: [f32; 3],
     pub normal: [f32; 3],
     pub tangent: [f32; 3],
+    /// glTF's handedness w (±1): the bitangent is cross(normal, tangent)·w,
+    /// the mesh's own (a mirrored uv island has w = −1; seen from behind
+    /// the renderer turns normal, tangent and w over, scene.glsl surface_at).
+    pub tangent_sign: f32,
     /// The width in uv the value stands for (image nodes pick their mip
     /// level from it, image.rs); 0: a point, level 0.
     pub footprint: f32,
 }
 
+impl Default for Geom {
+    /// The origin with zero vectors, right-handed (w = +1), footprint 0.
+    fn default() -> Self {
+        Geom {
+            uv: [0.0; 2],
+            position: [0.0; 3],
+            normal: [0.0; 3],
+            tangent: [0.0; 3],
+            tangent_sign: 1.0,
+            footprint: 0.0,
+        }
+    }
+}
+
 impl Geom {
+    /// The bitangent graphs read (`bitangent` node, `normalmap`'s default):
+    /// cross(N, T)·w, as nodes.glsl `mx_bitangent`.
+    pub fn bitangent(&self) -> [f32; 3] {
+        cross(self.normal, self.tangent).map(|c| c * self.tangent_sign)
+    }
+
     fn prop(&self, g: GeomProp) -> Value {
         match g {
             GeomProp::Uv => Value::new(Type::Vector2, &self.uv),
             GeomProp::Position => Value::new(Type::Vector3, &self.position),
             GeomProp::Normal => Value::new(Type::Vector3, &self.normal),
             GeomProp::Tangent => Value::new(Type::Vector3, &self.tangent),
-            GeomProp::Bitangent => Value::new(Type::Vector3, &cross(self.normal, self.tangent)),
+            GeomProp::Bitangent => Value::new(Type::Vector3, &self.bitangent()),
         }
     }
 }

@@ -17,7 +17,7 @@ pub const PUSH: PushBlock = PushBlock {
     fields: &[("count", PushType::U32), ("stride", PushType::U32)],
 };
 
-/// The harness kernel's interface: 11 floats per point in, `stride` floats per point out.
+/// The harness kernel's interface: 12 floats per point in, `stride` floats per point out.
 pub const INTERFACE: Interface = Interface {
     name: "material_harness",
     set: 0,
@@ -27,8 +27,9 @@ pub const INTERFACE: Interface = Interface {
     spec: &[],
 };
 
-/// Floats per input point: uv (2), position (3), normal (3), tangent (3).
-pub const POINT_FLOATS: usize = 11;
+/// Floats per input point: uv (2), position (3), normal (3), tangent (3),
+/// tangent sign (1).
+pub const POINT_FLOATS: usize = 12;
 
 /// The harness's GLSL for `graphs`, and each graph's layout and offset in a point's outputs.
 pub fn source(graphs: &[Graph]) -> (String, Vec<(Layout, usize)>) {
@@ -57,12 +58,13 @@ pub fn source(graphs: &[Graph]) -> (String, Vec<(Layout, usize)>) {
          void main() {\n\
          \x20   uint i = gl_GlobalInvocationID.x;\n\
          \x20   if (i >= pc.count) return;\n\
-         \x20   uint b = i * 11u;\n\
+         \x20   uint b = i * 12u;\n\
          \x20   MxGeom g;\n\
          \x20   g.uv = vec2(pts[b], pts[b + 1u]);\n\
          \x20   g.position = vec3(pts[b + 2u], pts[b + 3u], pts[b + 4u]);\n\
          \x20   g.normal = vec3(pts[b + 5u], pts[b + 6u], pts[b + 7u]);\n\
          \x20   g.tangent = vec3(pts[b + 8u], pts[b + 9u], pts[b + 10u]);\n\
+         \x20   g.tangent_sign = pts[b + 11u];\n\
          \x20   g.footprint = 0.0;\n",
     );
     s.push_str(&calls);
@@ -105,6 +107,7 @@ pub fn evaluate(
         flat.extend_from_slice(&p.position);
         flat.extend_from_slice(&p.normal);
         flat.extend_from_slice(&p.tangent);
+        flat.push(p.tangent_sign);
     }
     let n = points.len() as u32;
     let pts = Buffer::with_data(

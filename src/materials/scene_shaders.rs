@@ -4,7 +4,8 @@
 //!
 //! ```glsl
 //! ScGraphOutputs sc_material_graphs(uint material_id, vec2 uv, vec3 position,
-//!                                   vec3 normal, vec3 tangent, float footprint);
+//!                                   vec3 normal, vec3 tangent, float tangent_sign,
+//!                                   float footprint);
 //! ```
 //!
 //! (one SSA function per graph, codegen.rs, called from a `switch` over the
@@ -92,7 +93,7 @@ pub fn include(sg: &SceneGraphs, origin: DVec3, memo: bool, slots: &[Vec<u32>]) 
     let _ = write!(
         s,
         "struct ScGraphOutputs {{ vec3 base_color; float metallic; float roughness; vec3 normal; vec3 emission; uint mask; }};\n\
-         ScGraphOutputs sc_material_graphs(uint material_id, vec2 uv, vec3 position, vec3 normal, vec3 tangent, float footprint) {{\n\
+         ScGraphOutputs sc_material_graphs(uint material_id, vec2 uv, vec3 position, vec3 normal, vec3 tangent, float tangent_sign, float footprint) {{\n\
          \x20   ScGraphOutputs r;\n\
          \x20   r.base_color = vec3(1.0); r.metallic = 1.0; r.roughness = 1.0; r.normal = normal; r.emission = vec3(1.0); r.mask = 0u;\n\
          \x20   MxGeom g;\n\
@@ -100,6 +101,7 @@ pub fn include(sg: &SceneGraphs, origin: DVec3, memo: bool, slots: &[Vec<u32>]) 
          \x20   g.position = position + vec3({:?}, {:?}, {:?});\n\
          \x20   g.normal = normal;\n\
          \x20   g.tangent = tangent;\n\
+         \x20   g.tangent_sign = tangent_sign;\n\
          \x20   g.footprint = footprint;\n\
          \x20   switch (material_id) {{\n",
         o.x, o.y, o.z
