@@ -137,9 +137,7 @@ vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, vec2 eye_cone, inout Rng r
         if (in_medium(sigma_a)) beta *= medium_transmittance(sigma_a, hit ? h.t : 1e30);
         if (!hit) {
             L += beta * environment(d) * env_mis_weight(d, specular_prev, pdf_prev);
-            float lp;
-            vec3 sun = sun_radiance(d, lp);
-            if (any(greaterThan(sun, vec3(0.0)))) L += beta * sun * (specular_prev ? 1.0 : power_heuristic(pdf_prev, lp));
+            L += beta * sun_radiance_mis(d, pdf_prev, specular_prev);
             break;
         }
         Surface s = surface_at(h.instance, h.prim, h.bary, d);

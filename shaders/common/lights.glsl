@@ -202,4 +202,28 @@ vec3 sun_radiance(vec3 dir, out float light_pdf) {
     }
     return L;
 }
+
+// The sun discs seen along `dir` by a BSDF-sampled ray that escaped, each
+// weighted against its own light sample (power heuristic of the BSDF's
+// pdf_prev and that disc's light-sampling pdf; full weight after a delta
+// event), so that where discs overlap every disc's two strategies still
+// weigh 1 together: the NEE sample of disc i carries its own pdf only.
+// (Weighting the discs' summed radiance by their summed pdf, as before
+// session 42, lost up to a third of overlapping discs' light in glossy
+// highlights: tests/lights.rs `overlapping_sun_discs_add_up`.)
+vec3 sun_radiance_mis(vec3 dir, float pdf_prev, bool specular_prev) {
+    vec3 L = vec3(0.0);
+    if (!SC_DIRECTIONAL) return L;
+    uint count = scene.counts.x;
+    for (uint i = 0u; i < count; ++i) {
+        LightGpu l = lights[i];
+        if (uint(l.radiant_kind.w) != 2u || l.direction.w >= 1.0) continue;
+        if (dot(dir, -l.direction.xyz) >= l.direction.w) {
+            float omega = 2.0 * PI * (1.0 - l.direction.w);
+            float w = specular_prev ? 1.0 : power_heuristic(pdf_prev, 1.0 / (omega * float(count)));
+            L += l.radiant_kind.rgb / omega * w;
+        }
+    }
+    return L;
+}
 #endif
