@@ -2028,8 +2028,11 @@ fn metal_rough_spheres(scene: &Scene) -> Vec<(usize, u32, u32, bool)> {
 /// E(μ̄) at the pixels' mean μ̄, per channel, plus these bounded terms:
 /// * the spread of E over the pixels' μ (|E(μ_min) − E(μ_max)|);
 /// * the renderer's one documented difference from Appendix B: its diffuse
-///   weight is 1 − F(N·V), not 1 − F(V·H) (`shaders/common/bsdf.glsl`;
-///   the quadrature gives both; at these angles they differ by < 10⁻³);
+///   weight is 1 − F_d(N·V), not 1 − F_d(V·H) (`shaders/common/bsdf.glsl`;
+///   the quadrature gives both; at these angles they differ by < 10⁻³).
+///   (Until session 42 the renderer and this quadrature both followed the
+///   appendix's simplified implementation, whose diffuse sits under the
+///   metallic-mixed F: a third darker on the half-metals than the model);
 /// * paths ended because a sample direction lies below the triangle while
 ///   above the shading normal: at most sin²δ of the albedo, δ the largest
 ///   angle between a hit's interpolated normal and its triangle's normal;
@@ -2122,8 +2125,9 @@ fn metal_rough_spheres_show_each_spheres_albedo_in_a_furnace() {
             for (k, &b) in base.iter().enumerate() {
                 let (mean, se) = channel_mean_se(&fr, k);
                 let want = e.total(k);
-                // The renderer's diffuse weight: 1 − F(N·V) with the same F.
-                let f0 = 0.04 + (b - 0.04) * metallic;
+                // The renderer's diffuse weight: 1 − F_d(N·V), the
+                // dielectric's Fresnel at the view instead of at V·H.
+                let f0 = 0.04;
                 let f_nv = f0 + (1.0 - f0) * (1.0 - mu_bar).powi(5);
                 let ours_diffuse = (1.0 - metallic) * b * (1.0 - f_nv);
                 let deviation = (ours_diffuse - e.diffuse[k]).abs();

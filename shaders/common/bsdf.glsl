@@ -1,11 +1,13 @@
-// Materials: glTF metallic-roughness as Lambert + GGX (energy-conserving: the
-// diffuse lobe is scaled by 1 − F(n·wo)), and smooth/rough dielectrics for
+// Materials: glTF metallic-roughness as Lambert + GGX, mixed by metallic
+// between the dielectric (the diffuse under its Fresnel layer, scaled by
+// 1 − F_dielectric(n·wo)) and the metal, and smooth/rough dielectrics for
 // KHR_materials_transmission (Walter et al. 2007). All in a local frame
 // with the shading normal at +Z; wo points away from the surface.
 // KHR_materials_specular tints and scales the dielectric Fresnel layer;
 // KHR_materials_clearcoat adds a GGX coat (ior 1.5, own roughness and
-// normal) over the base, layered as the extension says:
-// f = f_coat + (1 − clearcoat·Fc(|nc·wo|))·f_base.
+// normal) over the base, layered as the extension's fresnel_coat says:
+// f = clearcoat·Fc(|nc·wo|)·f_ggx + (1 − clearcoat·Fc(|nc·wo|))·f_base,
+// f_ggx the coat's microfacet BRDF without a Fresnel factor of its own.
 #ifndef BSDF_GLSL
 #define BSDF_GLSL
 #include "common/scene.glsl"
@@ -89,11 +91,12 @@ float fresnel_dielectric(float cos_i, float eta) {
 
 // glTF metallic-roughness Fresnel: dielectric F0 from the ior (scaled by the
 // specular factor, which is also the dielectric F90), metal F0 = base colour.
-vec3 opaque_f0(ShadingMaterial m) {
+// KHR_materials_specular: dielectric F0 = min(F0(ior)·specularColor, 1)·specular.
+vec3 dielectric_f0(ShadingMaterial m) {
     float r = (m.ior - 1.0) / (m.ior + 1.0);
-    // KHR_materials_specular: dielectric F0 = min(F0(ior)·specularColor, 1)·specular.
-    return mix(min(vec3(r * r) * m.specular_color, vec3(1.0)) * m.specular, m.base, m.metallic);
+    return min(vec3(r * r) * m.specular_color, vec3(1.0)) * m.specular;
 }
+vec3 opaque_f0(ShadingMaterial m) { return mix(dielectric_f0(m), m.base, m.metallic); }
 vec3 opaque_f90(ShadingMaterial m) { return vec3(mix(m.specular, 1.0, m.metallic)); }
 vec3 opaque_fresnel(ShadingMaterial m, float c) { return fresnel_schlick(opaque_f0(m), opaque_f90(m), c); }
 
@@ -109,14 +112,21 @@ ShadingMaterial coat_in_frame(ShadingMaterial m, Frame f) {
 }
 
 // clearcoat·Fc(|nc·wo|): the share of the coat layer seen from wo; the base
-// below is weighted by one minus it (the extension's fresnel_coat).
+// below is weighted by one minus it, the coat's GGX lobe by it (the
+// extension's fresnel_coat).
 float coat_weight(ShadingMaterial m, vec3 wo) {
     if (!SC_CLEARCOAT || m.clearcoat <= 0.0) return 0.0;
     return m.clearcoat * coat_fresnel(abs(dot(m.coat_n, wo)));
 }
 
-// The coat lobe's f·cos θi (microfacet GGX with its own Fresnel at the half
-// vector) and its VNDF sampling pdf; wo, wi in the shading frame.
+// The coat lobe's f·cos θi, clearcoat·Fc(nc·wo) times the microfacet GGX
+// lobe (no Fresnel at the half vector: KHR_materials_clearcoat weighs the
+// whole layer by Fc of the view, so what the base loses the coat reflects,
+// up to the lobe's single-scattering loss), and its VNDF sampling pdf; wo,
+// wi in the shading frame. (Until session 42 the lobe carried Fc(wi·h),
+// which at grazing views reflected less than the base gave up: a white
+// Lambert base under a roughness-0.5 coat seen at cos θ = 0.2 returned
+// 0.77 of a white furnace where the extension's model returns 0.95.)
 float coat_eval(ShadingMaterial m, vec3 wo, vec3 wi, out float pdf) {
     pdf = 0.0;
     Frame fc = frame_from(m.coat_n);
@@ -126,11 +136,11 @@ float coat_eval(ShadingMaterial m, vec3 wo, vec3 wi, out float pdf) {
     vec3 h = normalize(o + i);
     float D = ggx_d(h, a);
     pdf = smith_g1(o, a) * D / (4.0 * o.z);
-    return m.clearcoat * coat_fresnel(dot(i, h)) * D * smith_g2(o, i, a) / (4.0 * o.z);
+    return m.clearcoat * coat_fresnel(o.z) * D * smith_g2(o, i, a) / (4.0 * o.z);
 }
 
 // Samples the coat's visible normals; `ratio` = the sample's coat
-// reflectance over coat_weight (F(wi·h)/Fc(nc·wo)·G2/G1; 1 for a smooth coat).
+// reflectance over coat_weight (G2/G1; 1 for a smooth coat).
 bool coat_sample(ShadingMaterial m, vec3 wo, vec2 u, out vec3 wi, out float ratio) {
     ratio = 0.0;
     wi = vec3(0.0);
@@ -142,7 +152,7 @@ bool coat_sample(ShadingMaterial m, vec3 wo, vec2 u, out vec3 wi, out float rati
     vec3 i = reflect(-o, h);
     if (i.z <= 0.0) return false;
     wi = to_world(fc, i);
-    ratio = coat_fresnel(dot(i, h)) / coat_fresnel(o.z) * smith_g2(o, i, a) / smith_g1(o, a);
+    ratio = smith_g2(o, i, a) / smith_g1(o, a);
     return true;
 }
 
@@ -183,7 +193,13 @@ vec3 base_eval(ShadingMaterial m, vec3 wo, vec3 wi, out float pdf) {
     vec3 F = opaque_fresnel(m, dot(wi, h));
     float D = ggx_d(h, a);
     vec3 spec = F * D * smith_g2(wo, wi, a) / (4.0 * wo.z);   // × cos θi cancels 1/cos θi
-    vec3 diff = (1.0 - m.metallic) * m.base * INV_PI * wi.z * (vec3(1.0) - opaque_fresnel(m, wo.z));
+    // glTF's mix(dielectric, metal, metallic): the diffuse is the
+    // dielectric's, under the dielectric's Fresnel layer (F0 from the ior
+    // and KHR_materials_specular, F90 = specular), not the metallic-mixed F
+    // (which Appendix B's simplified implementation uses, and which made a
+    // half-metal's diffuse 29 % darker; tests/conformance.rs).
+    vec3 diff = (1.0 - m.metallic) * m.base * INV_PI * wi.z
+              * (vec3(1.0) - fresnel_schlick(dielectric_f0(m), vec3(m.specular), wo.z));
     float ps = opaque_spec_prob(m, wo);
     float pdf_spec = smith_g1(wo, a) * D / (4.0 * wo.z);
     pdf = ps * pdf_spec + (1.0 - ps) * wi.z * INV_PI;
@@ -213,6 +229,15 @@ vec3 cosine_hemisphere(vec2 u) {
 // Samples the opaque BSDF; returns false when the sample is below the surface.
 // The coat is picked first (probability coat_prob, from the lobe number
 // u.z, which is then rescaled for the base's choice: unchanged without a coat).
+// One-sample MIS over the lobes: the weight is f over opaque_eval's mixture
+// pdf, in which the base's lobes have density 0 below the shading horizon,
+// so a base sample there must end (weight 0), coat or no coat. Only the
+// coat, whose normal may differ from the shading normal (a normal-mapped
+// base), reaches directions below it; before session 42 a base sample
+// there went on with the coat's f over the coat's pdf alone, which
+// overstated a coated normal-mapped metal's albedo by up to 8 %
+// (tests/material_extensions.rs
+// `coated_normal_mapped_bsdf_sampling_agrees_with_light_sampling`).
 bool opaque_sample(ShadingMaterial m, vec3 wo, vec3 u, out vec3 wi, out vec3 weight, out float pdf) {
     float a = ggx_alpha(m.roughness);
     float pc = SC_CLEARCOAT && SC_VIEW_DEPENDENT ? coat_prob(m, wo) : 0.0;
@@ -228,8 +253,8 @@ bool opaque_sample(ShadingMaterial m, vec3 wo, vec3 u, out vec3 wi, out vec3 wei
         } else {
             wi = cosine_hemisphere(u.xy);
         }
+        if (wi.z <= 0.0) { weight = vec3(0.0); pdf = 0.0; return false; }
     }
-    if (pc <= 0.0 && wi.z <= 0.0) { weight = vec3(0.0); pdf = 0.0; return false; }
     vec3 fc = opaque_eval(m, wo, wi, pdf);
     weight = pdf > 0.0 ? fc / pdf : vec3(0.0);
     return pdf > 0.0;

@@ -754,12 +754,17 @@ impl GltfAlbedo {
 
 /// Directional albedo E(μ) = ∫ f(ωo, ωi) cos θi dωi of the glTF 2.0
 /// metallic-roughness BRDF, per channel, for a view at cos θo = `mu`: the
-/// specification's implementation (Appendix B, "suggested simplification"):
-/// c_diff = lerp(base, 0, metallic), f0 = lerp(0.04, base, metallic),
-/// α = roughness², F = f0 + (1 − f0)(1 − |V·H|)⁵,
-/// f = (1 − F)·c_diff/π + F·D(α)·G(α)/(4|N·V||N·L|), D the Trowbridge-Reitz
-/// distribution and G Smith's height-correlated masking-shadowing. The
-/// renderer clamps α to ≥ 10⁻³ (`ggx_alpha`), which this does too.
+/// specification's model (Appendix B), mix(dielectric_brdf, metal_brdf,
+/// metallic) with the dielectric's fresnel_mix(ior 1.5): α = roughness²,
+/// F_d = 0.04 + 0.96(1 − |V·H|)⁵, F_m = base + (1 − base)(1 − |V·H|)⁵,
+/// f = (1 − metallic)·(1 − F_d)·base/π + F·D(α)·G(α)/(4|N·V||N·L|) with
+/// F = lerp(F_d, F_m, metallic) (Schlick is linear in f0, so this is the
+/// simplified implementation's f0 = lerp(0.04, base, metallic)), D the
+/// Trowbridge-Reitz distribution and G Smith's height-correlated
+/// masking-shadowing. (The appendix's "simplified implementation" also puts
+/// the mixed F on the diffuse, which darkens a half-metal's diffuse by a
+/// third; the model does not.) The renderer clamps α to ≥ 10⁻³
+/// (`ggx_alpha`), which this does too.
 ///
 /// Computed in f64 by midpoint quadrature, written from the specification's
 /// formulas and not from the shaders: the specular term over half vectors
@@ -767,7 +772,7 @@ impl GltfAlbedo {
 /// 1)u), so the grid follows the lobe down to α = 10⁻³; the shaders sample
 /// visible normals instead), E_spec = E_h[F·G·(V·H)/(μ·cos θh)] over
 /// reflected directions above the surface; the diffuse term over a
-/// cosine-weighted grid of directions, E_diff = c_diff·E[1 − F(V·H)].
+/// cosine-weighted grid of directions, E_diff = (1 − metallic)·base·E[1 − F_d(V·H)].
 pub fn gltf_brdf_albedo(mu: f64, base: [f64; 3], metallic: f64, roughness: f64) -> GltfAlbedo {
     use std::f64::consts::PI;
     let a = (roughness * roughness).max(1e-3);
@@ -812,8 +817,9 @@ pub fn gltf_brdf_albedo(mu: f64, base: [f64; 3], metallic: f64, roughness: f64) 
             let l = dir(u.sqrt(), phi);
             let hv = [o[0] + l[0], o[1] + l[1], o[2] + l[2]];
             let vh = dot(o, hv) / dot(hv, hv).sqrt();
-            for (k, d) in diff.iter_mut().enumerate() {
-                *d += 1.0 - fresnel(k, vh);
+            let f_d = 0.04 + 0.96 * (1.0 - vh.abs()).powi(5);
+            for d in diff.iter_mut() {
+                *d += 1.0 - f_d;
             }
         }
     }
