@@ -2032,7 +2032,7 @@ fn metal_rough_spheres(scene: &Scene) -> Vec<(usize, u32, u32, bool)> {
 ///   the quadrature gives both; at these angles they differ by < 10⁻³).
 ///   (Until session 42 the renderer and this quadrature both followed the
 ///   appendix's simplified implementation, whose diffuse sits under the
-///   metallic-mixed F: a third darker on the half-metals than the model);
+///   metallic-mixed F: 29 % darker on the grey half-metal than the model);
 /// * paths ended because a sample direction lies below the triangle while
 ///   above the shading normal: at most sin²δ of the albedo, δ the largest
 ///   angle between a hit's interpolated normal and its triangle's normal;

@@ -2711,9 +2711,10 @@ fn graph_normal_maps_follow_the_meshs_handedness_and_sides() {
                 serde_json::json!({ "materialx": { "file": "tilt.mtlx" } });
             std::fs::write(&path, serde_json::to_string_pretty(&j).unwrap()).unwrap();
             let scene = stereocache::scene::load_gltf(&path).expect("bound scene loads");
+            let read = &scene.meshes[0].tangents;
             assert!(
-                scene.meshes[0].tangents.len() == 4,
-                "the written quad keeps its tangents"
+                read.len() == 4 && read.iter().all(|x| x.abs_diff_eq(t, 1e-6)),
+                "the written quad keeps its tangents: {read:?} against {t}"
             );
             // The frame the surface is seen in: the front's, or all of it
             // turned over from behind.

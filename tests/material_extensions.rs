@@ -1276,7 +1276,7 @@ fn normal_maps_seen_from_behind_are_the_front_normal_negated() {
 /// texture tilted 30° towards the tangent, a rough white metal (roughness
 /// 0.7) under a coat of roughness 0.3, under a uniform environment map (so
 /// light sampling reaches every direction, the band between the shading
-/// and the geometric horizon included), seen at 60° from either side.
+/// and the geometric horizon included), seen from either side.
 /// Before session 42 a base sample below the shading horizon went on with
 /// the coat's f over the coat's pdf alone and BSDF sampling read high.
 #[test]
@@ -1319,8 +1319,11 @@ fn coated_normal_mapped_bsdf_sampling_agrees_with_light_sampling() {
     });
     s.validate().unwrap();
     let sess = session(&ctx, s, RtChoice::Software);
-    for side in [1.0f32, -1.0] {
-        let (sin, cos) = 60f32.to_radians().sin_cos();
+    // From +x the view is 30° from the mapped normal; from −x at 45° it is
+    // 75° from it (at 60° it would be perpendicular: half the pixels would
+    // fall back to the geometric normal).
+    for (side, angle) in [(1.0f32, 60f32), (-1.0, 45.0)] {
+        let (sin, cos) = angle.to_radians().sin_cos();
         let eye = Vec3::new(side * sin, cos, 0.0) * 4.0;
         let cam = look_at_camera(eye, Vec3::ZERO, 8.0, 1.0);
         assert_light_samplers_agree(
@@ -1329,7 +1332,7 @@ fn coated_normal_mapped_bsdf_sampling_agrees_with_light_sampling() {
             cam,
             24,
             24,
-            &format!("coated normal-mapped metal seen from x {side}"),
+            &format!("coated normal-mapped metal seen from x {side} at {angle}°"),
         );
     }
     assert_no_validation_messages(&ctx);

@@ -209,8 +209,9 @@ vec3 sun_radiance(vec3 dir, out float light_pdf) {
 // event), so that where discs overlap every disc's two strategies still
 // weigh 1 together: the NEE sample of disc i carries its own pdf only.
 // (Weighting the discs' summed radiance by their summed pdf, as before
-// session 42, lost up to a third of overlapping discs' light in glossy
-// highlights: tests/lights.rs `overlapping_sun_discs_add_up`.)
+// session 42, lost light where discs overlap: two coincident discs up to a
+// third of it in glossy highlights, tests/lights.rs
+// `overlapping_sun_discs_add_up`.)
 vec3 sun_radiance_mis(vec3 dir, float pdf_prev, bool specular_prev) {
     vec3 L = vec3(0.0);
     if (!SC_DIRECTIONAL) return L;

@@ -91,7 +91,8 @@ pub struct Output {
     pub source: Source,
 }
 
-/// A typed, ordered nodegraph: a function (uv, position, normal, tangent) -> outputs.
+/// A typed, ordered nodegraph: a function (uv, position, normal, tangent and
+/// its handedness) -> outputs.
 #[derive(Clone, Debug)]
 pub struct Graph {
     pub file: String,

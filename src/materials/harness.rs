@@ -57,9 +57,11 @@ pub fn source(graphs: &[Graph]) -> (String, Vec<(Layout, usize)>) {
          layout(push_constant) uniform Push { MATERIAL_HARNESS_PUSH } pc;\n\
          void main() {\n\
          \x20   uint i = gl_GlobalInvocationID.x;\n\
-         \x20   if (i >= pc.count) return;\n\
-         \x20   uint b = i * 12u;\n\
-         \x20   MxGeom g;\n\
+         \x20   if (i >= pc.count) return;\n",
+    );
+    s.push_str(&format!("    uint b = i * {POINT_FLOATS}u;\n"));
+    s.push_str(
+        "    MxGeom g;\n\
          \x20   g.uv = vec2(pts[b], pts[b + 1u]);\n\
          \x20   g.position = vec3(pts[b + 2u], pts[b + 3u], pts[b + 4u]);\n\
          \x20   g.normal = vec3(pts[b + 5u], pts[b + 6u], pts[b + 7u]);\n\

@@ -762,8 +762,8 @@ impl GltfAlbedo {
 /// simplified implementation's f0 = lerp(0.04, base, metallic)), D the
 /// Trowbridge-Reitz distribution and G Smith's height-correlated
 /// masking-shadowing. (The appendix's "simplified implementation" also puts
-/// the mixed F on the diffuse, which darkens a half-metal's diffuse by a
-/// third; the model does not.) The renderer clamps α to ≥ 10⁻³
+/// the mixed F on the diffuse, which darkens the diffuse of a 0.604 grey
+/// at metallic ½ by 29 %; the model does not.) The renderer clamps α to ≥ 10⁻³
 /// (`ggx_alpha`), which this does too.
 ///
 /// Computed in f64 by midpoint quadrature, written from the specification's
