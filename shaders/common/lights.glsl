@@ -184,25 +184,6 @@ bool sample_light(vec3 p, vec2 u, float u_pick, out LightSample ls) {
     return atten > 0.0;
 }
 
-// Radiance of sun discs seen along `dir` and the light-sampling pdf of that
-// direction (for MIS of BSDF-sampled rays that escape the scene).
-vec3 sun_radiance(vec3 dir, out float light_pdf) {
-    light_pdf = 0.0;
-    vec3 L = vec3(0.0);
-    if (!SC_DIRECTIONAL) return L;
-    uint count = scene.counts.x;
-    for (uint i = 0u; i < count; ++i) {
-        LightGpu l = lights[i];
-        if (uint(l.radiant_kind.w) != 2u || l.direction.w >= 1.0) continue;
-        if (dot(dir, -l.direction.xyz) >= l.direction.w) {
-            float omega = 2.0 * PI * (1.0 - l.direction.w);
-            L += l.radiant_kind.rgb / omega;
-            light_pdf += 1.0 / (omega * float(count));
-        }
-    }
-    return L;
-}
-
 // The sun discs seen along `dir` by a BSDF-sampled ray that escaped, each
 // weighted against its own light sample (power heuristic of the BSDF's
 // pdf_prev and that disc's light-sampling pdf; full weight after a delta
@@ -227,4 +208,8 @@ vec3 sun_radiance_mis(vec3 dir, float pdf_prev, bool specular_prev) {
     }
     return L;
 }
+
+// Radiance of the sun discs seen along `dir` in full (camera rays and the
+// caches' background samples: no light sample to weigh against).
+vec3 sun_radiance(vec3 dir) { return sun_radiance_mis(dir, 0.0, true); }
 #endif

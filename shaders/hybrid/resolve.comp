@@ -30,8 +30,7 @@ void resolve_per_pixel(uint eye, uint pixel, uint pm, uint all_vis, uint vis, Ey
     vec3 c;
     if ((vis & (1u << sl)) == 0u) {
         vec3 db = background_direction(fh);
-        float lp;
-        c = environment(db) + sun_radiance(db, lp);
+        c = environment(db) + sun_radiance(db);
     } else {
         vec3 wp = hit_position(fh), o, d;
         float t;
@@ -103,14 +102,12 @@ void main() {
         uint sl = uint(findLSB(bg_bits));
         bg_bits &= bg_bits - 1u;
         vec3 db = background_direction(fh_cur[hy_slot_index(eye, sl, pixel)]);
-        float lp;
-        bg_sum += environment(db) + sun_radiance(db, lp);
+        bg_sum += environment(db) + sun_radiance(db);
         n_bg += 1.0;
     }
     if (vis == 0u) {
         vec3 d = eye_ray_dir(e, vec2(px) + 0.5);
-        float lp;
-        color[pm] = vec4(n_bg > 0.0 ? bg_sum / n_bg : environment(d) + sun_radiance(d, lp), 1.0);
+        color[pm] = vec4(n_bg > 0.0 ? bg_sum / n_bg : environment(d) + sun_radiance(d), 1.0);
         position[pm] = vec4(d, 0.0);
         out_depth[pm] = 0.0;
         out_fh[pm] = uvec4(0u, 0u, 0u, NO_HIT);

@@ -30,9 +30,8 @@ void main() {
         uint idx = cell_index(eye, px * M + uvec2(k % M, k / M));
         uvec4 fh = fh_cur[idx];
         if (first_hit_is_background(fh)) {
-            float lp;
             vec3 db = background_direction(fh);
-            bg_sum += environment(db) + sun_radiance(db, lp);
+            bg_sum += environment(db) + sun_radiance(db);
             n_bg += 1.0;
             continue;
         }
@@ -58,8 +57,7 @@ void main() {
         out_albedo[pm] = vec4(0.0);
     } else if (samples == 0.0) {
         vec3 d = eye_ray_dir(e, vec2(px) + 0.5);
-        float lp;
-        out_color[pm] = vec4(environment(d) + sun_radiance(d, lp), 0.0);
+        out_color[pm] = vec4(environment(d) + sun_radiance(d), 0.0);
         out_depth[pm] = 0.0;
         out_fh[pm] = uvec4(0u, 0u, 0u, NO_HIT);
         out_albedo[pm] = vec4(0.0);

@@ -162,8 +162,7 @@ uint surface_slots(uint eye, uint pixel, uint bits) {
 // Radiance of a background sample (§3.3): the environment and sun discs
 // seen in its direction, as the reference sees them through a missing ray.
 vec3 background_radiance(vec3 d) {
-    float lp;
-    return environment(d) + sun_radiance(d, lp);
+    return environment(d) + sun_radiance(d);
 }
 
 // Index of the k-th set bit of `bits` (k < bitCount(bits)).

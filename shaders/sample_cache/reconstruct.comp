@@ -125,8 +125,7 @@ void main() {
     if (vis == 0u) {
         // Background: what the pixel-centre camera ray sees (sky and sun disc).
         vec3 d = eye_ray_dir(e, vec2(px) + 0.5);
-        float lp;
-        color = environment(d) + sun_radiance(d, lp);
+        color = environment(d) + sun_radiance(d);
         m1 = color;
         m2 = color * color;
         out_depth[pm] = 0.0;
