@@ -1954,17 +1954,6 @@ fn generated_tangents_equal_the_mikktspace_tangents_a_sample_model_ships() {
     assert_eq!(flipped, 0, "handedness differs at {flipped} corners");
 }
 
-/// The mean of colour channel `k` over both eyes' pixels of `fr`, and its
-/// standard error.
-fn channel_mean_se(fr: &StereoFrame, k: usize) -> (f64, f64) {
-    let v: Vec<f64> = fr
-        .eyes
-        .iter()
-        .flat_map(|e| e.radiance.iter().map(move |p| p[k] as f64))
-        .collect();
-    mean_and_standard_error(&v)
-}
-
 /// The view of a MetalRoughSpheres sphere's cap top, face-on: orthographic,
 /// 0.15 radius (0.35 mm) high, from +z (grey grid) or −z (golden grid), the
 /// eyes 0.01 radius apart; with the direction towards the camera.

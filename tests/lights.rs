@@ -983,9 +983,10 @@ fn sun_disc_delivers_its_cap_irradiance() {
 /// 43.3.)
 #[test]
 fn overlapping_sun_discs_add_up() {
-    use stereocache::scene::{Light, LightKind};
+    use stereocache::scene::Light;
     let ctx = context();
     let (e, r, theta0) = (2.0f32, 5f32.to_radians(), 40f32.to_radians());
+    let to_sun = Vec3::new(-theta0.sin(), theta0.cos(), 0.0);
     let scene = |discs: &[f32]| {
         let mut s = Scene {
             source: "test:metal-floor-under-suns".into(),
@@ -999,11 +1000,7 @@ fn overlapping_sun_discs_add_up() {
         for (i, &k) in discs.iter().enumerate() {
             s.lights.push(Light {
                 name: format!("sun {i}"),
-                kind: LightKind::Directional { angular_radius: r },
-                radiant: Vec3::splat(k * e),
-                position: Vec3::ZERO,
-                direction: Vec3::new(theta0.sin(), -theta0.cos(), 0.0),
-                range: None,
+                ..directional_light(to_sun, k * e, r)
             });
         }
         s.validate().unwrap();
@@ -1019,12 +1016,7 @@ fn overlapping_sun_discs_add_up() {
     let mean = |discs: &[f32]| {
         let s = session(&ctx, scene(discs), RtChoice::Software);
         let f = render_with(&s, cam, (24, 24), 128, 1, 5, LightSampling::Mis);
-        let v: Vec<f64> = f
-            .eyes
-            .iter()
-            .flat_map(|e| e.radiance.iter().map(|p| p[0] as f64))
-            .collect();
-        mean_and_standard_error(&v)
+        channel_mean_se(&f, 0)
     };
     let (one, se1) = mean(&[2.0]);
     let (two, se2) = mean(&[1.0, 1.0]);

@@ -2630,7 +2630,6 @@ fn every_method_shades_through_the_memoization_table() {
 /// points against the GPU in tests/material_graphs.rs.
 #[test]
 fn graph_normal_maps_follow_the_meshs_handedness_and_sides() {
-    use stereocache::scene::{Light, LightKind};
     let ctx = context();
     let d = dir("handedness");
     std::fs::write(
@@ -2660,21 +2659,7 @@ fn graph_normal_maps_follow_the_meshs_handedness_and_sides() {
     };
     let mut handedness = Vec::new();
     for mirrored in [false, true] {
-        let mut quad = grid(
-            "quad",
-            Vec3::new(-1.0, 0.0, 1.0),
-            Vec3::X * 2.0,
-            Vec3::NEG_Z * 2.0,
-            1,
-            1,
-            Vec2::ONE,
-        );
-        if mirrored {
-            for uv in &mut quad.uvs {
-                uv.x = 1.0 - uv.x;
-            }
-        }
-        stereocache::scene::mesh_ops::generate_tangents(&mut quad);
+        let quad = tangent_quad(mirrored);
         let t = quad.tangents[0];
         handedness.push(t.w);
         for below in [false, true] {
@@ -2692,16 +2677,7 @@ fn graph_normal_maps_follow_the_meshs_handedness_and_sides() {
             } else {
                 to_light_above
             };
-            s.lights.push(Light {
-                name: "sun".into(),
-                kind: LightKind::Directional {
-                    angular_radius: 0.0,
-                },
-                radiant: Vec3::splat(e),
-                position: Vec3::ZERO,
-                direction: -to_light,
-                range: None,
-            });
+            s.lights.push(directional_light(to_light, e, 0.0));
             s.validate().unwrap();
             let path = d.join(format!("quad-{mirrored}-{below}.gltf"));
             stereocache::scene::write_gltf(&s, &path).unwrap();

@@ -694,12 +694,7 @@ fn the_coat_normal_texture_uses_its_own_channels_tangent_frame() {
                 cam,
                 &settings,
             );
-            let v: Vec<f64> = f
-                .eyes
-                .iter()
-                .flat_map(|e| e.radiance.iter().map(|p| p[0] as f64))
-                .collect();
-            mean_and_standard_error(&v)
+            channel_mean_se(&f, 0)
         };
         let plain = mean(None, CoatUvs::Plain);
         for map in [swap, turn] {
@@ -1181,7 +1176,6 @@ fn nested_and_overlapping_volume_interfaces_refract_with_the_ratio_of_their_indi
 /// relative (f32 shading).
 #[test]
 fn normal_maps_seen_from_behind_are_the_front_normal_negated() {
-    use stereocache::scene::{Light, LightKind};
     let ctx = context();
     let tilt = Vec3::new(0.5, 0.0, 0.75f32.sqrt());
     let tex = normal_texture("tilt", tilt);
@@ -1193,16 +1187,7 @@ fn normal_maps_seen_from_behind_are_the_front_normal_negated() {
         decode(tex.mips[0][2]),
     );
     let (rho, e) = (0.8f32, 2.0f32);
-    let mut quad = stereocache::scene::generate::grid(
-        "quad",
-        Vec3::new(-1.0, 0.0, 1.0),
-        Vec3::X * 2.0,
-        Vec3::NEG_Z * 2.0,
-        1,
-        1,
-        Vec2::ONE,
-    );
-    stereocache::scene::mesh_ops::generate_tangents(&mut quad);
+    let quad = tangent_quad(false);
     let t = quad.tangents[0];
     assert!(t.truncate().abs_diff_eq(Vec3::X, 1e-6), "tangent {t}");
     // The front's mapped normal: T, B = cross(N, T)·w, N = +Y.
@@ -1221,16 +1206,7 @@ fn normal_maps_seen_from_behind_are_the_front_normal_negated() {
         let mat = add_material(&mut s, m);
         add_mesh(&mut s, quad.clone(), mat, Mat4::IDENTITY);
         let to_light = Vec3::new(1.0, if below { -1.0 } else { 1.0 }, 0.0).normalize();
-        s.lights.push(Light {
-            name: "sun".into(),
-            kind: LightKind::Directional {
-                angular_radius: 0.0,
-            },
-            radiant: Vec3::splat(e),
-            position: Vec3::ZERO,
-            direction: -to_light,
-            range: None,
-        });
+        s.lights.push(directional_light(to_light, e, 0.0));
         s.validate().unwrap();
         (s, to_light)
     };
@@ -1298,16 +1274,7 @@ fn coated_normal_mapped_bsdf_sampling_agrees_with_light_sampling() {
         ..Default::default()
     };
     let mat = add_material(&mut s, m);
-    let mut quad = stereocache::scene::generate::grid(
-        "quad",
-        Vec3::new(-1.0, 0.0, 1.0),
-        Vec3::X * 2.0,
-        Vec3::NEG_Z * 2.0,
-        1,
-        1,
-        Vec2::ONE,
-    );
-    stereocache::scene::mesh_ops::generate_tangents(&mut quad);
+    let quad = tangent_quad(false);
     assert!(quad.tangents[0].truncate().abs_diff_eq(Vec3::X, 1e-6));
     add_mesh(&mut s, quad, mat, Mat4::IDENTITY);
     s.environment = Some(Environment::Map {
@@ -1394,12 +1361,7 @@ fn clearcoat_layer_follows_fresnel_coat_at_grazing_views() {
         );
         let (e_lo, e_hi) = (expected(mu_lo), expected(mu_hi));
         let want = expected(mu as f64);
-        let v: Vec<f64> = f
-            .eyes
-            .iter()
-            .flat_map(|e| e.radiance.iter().map(|p| p[0] as f64))
-            .collect();
-        let (mean, se) = mean_and_standard_error(&v);
+        let (mean, se) = channel_mean_se(&f, 0);
         let tolerance = 5.0 * se + (e_hi - e_lo).abs() + 1e-4;
         eprintln!(
             "cos θ {mu}: {mean:.4} ± {se:.4}, fresnel_coat gives {want:.4} (over the view {e_lo:.4}..{e_hi:.4})"

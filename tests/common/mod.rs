@@ -672,6 +672,59 @@ pub fn linear(
     .unwrap()
 }
 
+/// The mean of colour channel `k` over both eyes' pixels of `fr`, and its
+/// standard error.
+pub fn channel_mean_se(fr: &StereoFrame, k: usize) -> (f64, f64) {
+    let v: Vec<f64> = fr
+        .eyes
+        .iter()
+        .flat_map(|e| e.radiance.iter().map(move |p| p[k] as f64))
+        .collect();
+    mean_and_standard_error(&v)
+}
+
+/// A directional light of illuminance `e` (grey) towards `to_light` (unit),
+/// a delta light for `angular_radius` 0, else a disc of that radius.
+pub fn directional_light(to_light: Vec3, e: f32, angular_radius: f32) -> stereocache::scene::Light {
+    stereocache::scene::Light {
+        name: "sun".into(),
+        kind: stereocache::scene::LightKind::Directional { angular_radius },
+        radiant: Vec3::splat(e),
+        position: Vec3::ZERO,
+        direction: -to_light,
+        range: None,
+    }
+}
+
+/// A 2 m quad in y = 0 facing +Y (u along +x, v along −z; with `mirror_u`
+/// u along −x), with MikkTSpace tangents: +X and w = +1, or −X and w = −1
+/// mirrored (asserted).
+pub fn tangent_quad(mirror_u: bool) -> stereocache::scene::Mesh {
+    let mut quad = grid(
+        "quad",
+        Vec3::new(-1.0, 0.0, 1.0),
+        Vec3::X * 2.0,
+        Vec3::NEG_Z * 2.0,
+        1,
+        1,
+        Vec2::ONE,
+    );
+    if mirror_u {
+        for uv in &mut quad.uvs {
+            uv.x = 1.0 - uv.x;
+        }
+    }
+    stereocache::scene::mesh_ops::generate_tangents(&mut quad);
+    let s = if mirror_u { -1.0 } else { 1.0 };
+    let want = glam::Vec4::new(s, 0.0, 0.0, s);
+    assert!(
+        quad.tangents.iter().all(|t| t.abs_diff_eq(want, 1e-6)),
+        "quad tangents {:?}, expected {want}",
+        quad.tangents
+    );
+    quad
+}
+
 /// Per channel: a mean and its standard error.
 pub type ChannelMeans = [(f64, f64); 3];
 
