@@ -381,6 +381,110 @@ fn furnace_sphere_shows_its_albedo() {
     assert_no_validation_messages(&ctx);
 }
 
+/// A black-base dielectric (metallic 0, default specular, roughness 0)
+/// filling the view from above, in a constant environment L: it reflects
+/// only through its specular layer, F·L with F = ((ior − 1)/(ior + 1))² =
+/// 0.04 at normal incidence (Schlick's rise is < 4·10⁻⁴ within the view's
+/// 37° corners). Its radiance does not scale with the base colour, so the
+/// entry holds it divided by the floored base, 10⁻³ (update.comp), and the
+/// resolve must multiply back by the same floored factor: hash-cache and
+/// hybrid used to multiply by the raw base, 0, and showed black.
+///
+/// The path's value is a coin toss (the specular lobe is sampled with
+/// probability 0.1, each such sample carrying 10·F·L), so images are compared
+/// by their means. The reference's pixels are independent: its mean is
+/// checked against F·L within 4 standard errors. The caches' pixels share
+/// entries, so their mean is checked within ±50 %: after 16 still frames an
+/// entry averages ≥ 16 tosses (relative standard error ≤ 3/√16 = 0.75), and
+/// the image mean over ≥ 100 live entries has a relative standard error ≤
+/// 0.075, so ±50 % is more than 6 of them (the old resolve gave 0).
+#[test]
+fn black_base_dielectric_reflects_through_hash_cache_and_hybrid() {
+    use stereocache::methods::{Hybrid, HybridConfig};
+    use stereocache::scene::Material;
+    let ctx = context();
+    let env = Vec3::splat(0.4);
+    let black = Material {
+        base_color: glam::Vec4::new(0.0, 0.0, 0.0, 1.0),
+        metallic: 0.0,
+        roughness: 0.0,
+        ..Material::diffuse("black dielectric", Vec3::ZERO)
+    };
+    let s = session(
+        &ctx,
+        plane_in_environment(black, 40.0, env),
+        RtChoice::Software,
+    );
+    let (w, h) = (24, 16);
+    let cam = look_at_camera(
+        Vec3::new(0.0, 2.0, 0.001),
+        Vec3::ZERO,
+        45.0,
+        w as f32 / h as f32,
+    );
+    let want = 0.04 * env.x as f64;
+    let (st, hs) = settings(
+        w,
+        h,
+        HashCacheSettings {
+            taa: false,
+            ..Default::default()
+        },
+    );
+    let green = |fr: &StereoFrame| -> Vec<f64> {
+        fr.eyes
+            .iter()
+            .flat_map(|e| e.radiance.iter().map(|p| p[1] as f64))
+            .collect()
+    };
+    let reference = render(
+        &s,
+        "reference",
+        cam,
+        &RenderSettings {
+            spp: 64,
+            ..st.clone()
+        },
+    );
+    let (m, se) = mean_and_standard_error(&green(&reference));
+    assert!(
+        (m - want).abs() <= 4.0 * se,
+        "reference {m} ± {se}, want F·L = {want}"
+    );
+    let mut hash = hash_method(&s, &(st.clone(), hs.clone()));
+    let mut hyb = Hybrid::new(
+        &s.ctx,
+        &s.scene_gpu,
+        &s.scene.environment,
+        &st,
+        &HybridConfig {
+            cache: Default::default(),
+            hash: HashCacheSettings::default(),
+            lookups: Default::default(),
+        },
+    )
+    .expect("hybrid");
+    let methods: [(&str, &mut dyn Method); 2] = [("hash-cache", &mut hash), ("hybrid", &mut hyb)];
+    for (name, m) in methods {
+        let mut last = None;
+        for f in 0..16 {
+            let fr = render_at(m, f, cam, (f > 0).then_some(cam));
+            assert_finite_non_negative(&fr, name);
+            last = Some(fr);
+        }
+        let fr = last.unwrap();
+        let live = fr.stats.counters["live_entries"];
+        let mean = green(&fr).iter().sum::<f64>() / (2 * w * h) as f64;
+        eprintln!("{name}: image mean {mean:.5} (F·L = {want}), live entries {live}");
+        assert!(live >= 100.0, "{name}: {live} live entries");
+        assert!(
+            (mean - want).abs() <= 0.5 * want,
+            "{name}: image mean {mean}, want F·L = {want}"
+        );
+    }
+    assert_no_validation_messages(&ctx);
+}
+
 /// The command line: bad `--hash-*` values get one error line naming the
 /// option; a render with the method and its options writes the images.
 #[test]
@@ -534,12 +638,22 @@ fn static_view_keeps_every_taa_history() {
         let fr = render_at(&mut m, f, cam, Some(cam));
         let c = &fr.stats.counters;
         eprintln!("frame {}: {c:?}", f + 1);
-        // Two primary rays per pixel: the jittered hit and the pixel centre.
+        // Two primary rays per pixel: the jittered hit and the pixel centre
+        // (TAA reads it).
         assert_eq!(fr.stats.rays.primary as f64, 2.0 * pixels, "frame {f}");
         if f > 0 {
             assert_eq!(c["taa_history_used"], pixels, "frame {f}: {c:?}");
             assert_eq!(c["taa_rejected_disocclusion"], 0.0, "frame {f}");
         }
     }
+    // Without a TAA, the paper's "jittered first hits at 1 spp" alone (until
+    // session 43 the centre ray was traced and counted here too).
+    let no_taa = HashCacheSettings {
+        taa: false,
+        ..Default::default()
+    };
+    let mut m = hash_method(&s, &settings(w, h, no_taa));
+    let fr = render_at(&mut m, 0, cam, None);
+    assert_eq!(fr.stats.rays.primary as f64, pixels);
     assert_no_validation_messages(&ctx);
 }

@@ -1,8 +1,10 @@
 #ifndef DEMODULATION_GLSL
 #define DEMODULATION_GLSL
 // Demodulation of a cached first hit's radiance (the sample cache's and
-// isrt's radiance records; the hash cache does the same in
-// hash_table/update.comp and hash_cache/resolve.comp).
+// isrt's radiance records; the hash cache and hybrid do the same in
+// hash_table/update.comp, hash_cache/resolve.comp and hybrid/resolve.comp,
+// which until session 43 multiplied back by the unfloored base colour, so a
+// black-base dielectric's reflection vanished there).
 // A radiance record holds L_s with the first hit's emission removed and the
 // rest divided by the base colour (floored at 1e-3 against division by zero);
 // reconstruction multiplies by the same floored factor and adds the emission

@@ -3,8 +3,10 @@
 // optionally incidence; jittered by up to one voxel in the tangent plane) is
 // looked up or reserved. The first thread to touch an entry this frame
 // becomes its updater (winner). Also writes the per-pixel outputs (of the
-// jittered hit) and, for TAA only, the view depth and first hit of a second,
-// unjittered ray through the pixel centre (as `taa`'s, reference/primary.comp):
+// jittered hit) and, for TAA only (push flag bit 3: the method's TAA or
+// `--taa-output`'s; without one the ray is neither traced nor counted), the
+// view depth and first hit of a second, unjittered ray through the pixel
+// centre (as `taa`'s, reference/primary.comp):
 // TAA's reprojection and history rejection (taa/resolve.comp) then compare
 // the same surface point frame to frame. With the jittered hit's depth and
 // ids, a static view of the hairball rejected ≈ 30 % of its pixels as
@@ -45,7 +47,7 @@ void main() {
     uint pm = eye * npix() + pixel;
     EyeGpu e = frame.eyes[eye];
     Rng r = rng_init(frame.size_seed.z, pc.now, eye, pixel, 0x4A5C0001u);
-    write_centre_hit(e, px, pm);
+    if (hc_centre_hits()) write_centre_hit(e, px, pm);
     vec2 at = vec2(px) + rng_next2(r);
     vec3 o = eye_ray_origin(e, at);
     vec3 d = eye_ray_dir(e, at);

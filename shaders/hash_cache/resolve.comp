@@ -1,5 +1,6 @@
 #version 460
-// Final colour = base colour × cell radiance + first-hit emission (the
+// Final colour = base colour (floored as update.comp floors it:
+// common/demodulation.glsl) × cell radiance + first-hit emission (the
 // environment for misses); debug views: voxel id, level of detail, cell
 // samples / max_samples, lookup status.
 #include "hash_table/table.glsl"
@@ -31,7 +32,7 @@ void main() {
         ShadingMaterial m = material_at(s, ray.xyz, eye_cone(e, ray.w).x);
         vec3 Le = SC_EMISSIVE ? m.emissive : vec3(0.0);
         rec = st == ST_FAILED ? fallback[pm] : cells[cell.x];
-        c = m.base * rec.rgb + Le;
+        c = demodulation_factor(m) * rec.rgb + Le;   // the factor update.comp divided by
     }
     color[pm] = vec4(c, 1.0);
     if (hc_debug()) {

@@ -4,7 +4,7 @@
 //   key   = (ivec3 voxel or tile coordinates, uint meta)
 //   meta  = level + 32 (bits 0-5) | major axis 0..5, 7 = none (6-8)
 //         | offset in the 4x4 tile (9-12) | tiles on (13)
-//   index = pcg(x + pcg(y + pcg(z + pcg(meta))))
+//   index = pcg(x + pcg(y + pcg(z + pcg(meta without the tile offset))))
 //   check = xxhash32 chained the same way, 0 mapped to 1 (0 = empty entry)
 #ifndef HASH_CACHE_HASH_GLSL
 #define HASH_CACHE_HASH_GLSL
@@ -31,9 +31,13 @@ uint hc_meta_local(uint meta) { return (meta >> 9) & 15u; }
 bool hc_meta_tiles(uint meta) { return ((meta >> 13) & 1u) == 1u; }
 int hc_meta_level(uint meta) { return int(meta & 63u) - HC_LEVEL_BIAS; }
 
+// The voxel's offset within its tile (bits 9-12) stays out of the index
+// hash, so the 16 voxels of a tile share one probe sequence and sit side by
+// side in one 16-entry tile (§4: "the voxels are stored in spatially
+// coherent 2D tiles"); the checksum keeps the whole meta.
 uint hc_index_hash(ivec3 c, uint meta) {
     uvec3 u = uvec3(c);
-    return pcg_hash(u.x + pcg_hash(u.y + pcg_hash(u.z + pcg_hash(meta))));
+    return pcg_hash(u.x + pcg_hash(u.y + pcg_hash(u.z + pcg_hash(meta & ~(15u << 9)))));
 }
 
 uint hc_checksum(ivec3 c, uint meta) {

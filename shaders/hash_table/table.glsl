@@ -10,6 +10,7 @@
 #extension GL_ARB_gpu_shader_int64 : require
 #include "common/integrator.glsl"
 #include "common/packing.glsl"
+#include "common/demodulation.glsl"
 #include "common/camera.glsl"
 #include "hash_table/hash.glsl"
 
@@ -17,7 +18,7 @@
 
 // capacity, max_probe, stale (entries older than this many frames may be
 // overwritten), flags (bit 0 tiles, bit 1 distance-normal LoD, bit 2 debug
-// views), lod_scale (voxel edge / pixel footprint before quantization),
+// views, bit 3 pixel-centre hits for TAA), lod_scale (voxel edge / pixel footprint before quantization),
 // max_samples (running-mean count cap), now (the method's frame counter mod
 // 2^32, starts at 1): src/interface/hash_table.rs.
 layout(push_constant) uniform Push { HASH_TABLE_PUSH } pc;
@@ -43,6 +44,7 @@ const uint NO_CELL = 0xFFFFFFFFu;
 bool hc_tiles() { return (pc.flags & 1u) != 0u; }
 bool hc_lod_normal() { return (pc.flags & 2u) != 0u; }
 bool hc_debug() { return (pc.flags & 4u) != 0u; }
+bool hc_centre_hits() { return (pc.flags & 8u) != 0u; }
 uint npix() { return frame.size_seed.x * frame.size_seed.y; }
 
 uint64_t hc_pack(uint c, uint f) { return (uint64_t(c) << 32) | uint64_t(f); }

@@ -41,7 +41,7 @@ void main() {
     if (any(isnan(L)) || any(isinf(L))) L = vec3(0.0);
     ShadingMaterial m = material_at(s, d, cone.x);
     vec3 Le = SC_EMISSIVE ? m.emissive : vec3(0.0);
-    vec3 demod = max(L - Le, vec3(0.0)) / max(m.base, vec3(1e-3));
+    vec3 demod = max(L - Le, vec3(0.0)) / demodulation_factor(m);
     if (st == ST_FAILED) {
         fallback[pm] = vec4(demod, 1.0);
         atomicAdd(counters[C_HT_FALLBACK], 1u);

@@ -54,7 +54,7 @@ void resolve_per_pixel(uint eye, uint pixel, uint pm, uint all_vis, uint vis, Ey
         atomicAdd(counters[C_HY_LOOKED_UP], 1u);
         if (levels == 0.0 && (pix_cell[pm].y & 15u) == ST_FAILED) { acc = fallback[pm].rgb; levels = 1.0; }
         vec3 Le = SC_EMISSIVE ? m.emissive : vec3(0.0);
-        c = m.base * (levels > 0.0 ? acc / levels : vec3(0.0)) + Le;
+        c = demodulation_factor(m) * (levels > 0.0 ? acc / levels : vec3(0.0)) + Le;
     }
     color[pm] = vec4(c, 1.0);
     // Outputs of the closest visible surface sample.
@@ -156,7 +156,7 @@ void main() {
         if (levels == 0.0 && sl == upd_slot && upd_failed) { acc = fallback[pm].rgb; levels = 1.0; }
         if (levels > 0.0) {
             vec3 Le = SC_EMISSIVE ? m.emissive : vec3(0.0);
-            sum += m.base * (acc / levels) + Le;
+            sum += demodulation_factor(m) * (acc / levels) + Le;
             contributing += 1.0;
         }
     }

@@ -34,7 +34,7 @@ pub const PUSH: PushBlock = PushBlock {
         ("max_probe", PushType::U32),
         // entries older than this many frames may be overwritten
         ("stale", PushType::U32),
-        // bit 0 tiles, bit 1 distance-normal LoD, bit 2 debug views
+        // bit 0 tiles, bit 1 distance-normal LoD, bit 2 debug views, bit 3 centre hits for TAA
         ("flags", PushType::U32),
         // voxel edge / pixel footprint before quantization
         ("lod_scale", PushType::F32),

@@ -77,7 +77,7 @@ impl HashCache {
             std::mem::size_of::<FrameParams>() as u64,
         )?;
         let spec = settings.spec_constants(scene, env);
-        let table = HashTable::new(
+        let mut table = HashTable::new(
             ctx,
             scene,
             hash,
@@ -103,6 +103,8 @@ impl HashCache {
             first_hit: Buffer::storage(ctx, "hash_cache.taa_fh", e2 * 16)?,
         };
         let taa = TaaPass::new(ctx, scene, settings, &hash.taa_settings)?;
+        // The pixel centres are traced only for a TAA that reads them.
+        table.set_centre_hits(hash.taa || settings.taa_output.is_some());
         Ok(HashCache {
             ctx: ctx.clone(),
             scene: scene.clone(),
@@ -161,6 +163,7 @@ impl Method for HashCache {
     ) -> GpuResult<FrameOutputs<'a>> {
         self.table.begin_frame();
         let taa_on = self.table.settings().taa;
+        let centre_hits = self.table.centre_hits();
         let update = self.update_has_work();
         let HashCache {
             scene,
@@ -223,8 +226,19 @@ impl Method for HashCache {
             width: w,
             height: h,
             color: Color::Radiance(shown),
-            depth: &px.depth,
-            first_hit: &px.first_hit,
+            // The pixel centre's depth and first hit where they were traced
+            // (for `--taa-output`'s TAA on this method as for its own);
+            // otherwise the jittered hit's.
+            depth: if centre_hits {
+                &centre.depth
+            } else {
+                &px.depth
+            },
+            first_hit: if centre_hits {
+                &centre.first_hit
+            } else {
+                &px.first_hit
+            },
             albedo: &px.albedo,
             debug: t
                 .settings()

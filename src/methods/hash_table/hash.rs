@@ -9,7 +9,9 @@
 //!   (0..5 = +X, −X, +Y, −Y, +Z, −Z; 7 = none), bits 9–12 the voxel's offset
 //!   within its 4×4 tile, bit 13 tiles on.
 //! * **Index hash**: PCG (Jarzynski & Olano 2020) chained over the words,
-//!   `pcg(x + pcg(y + pcg(z + pcg(meta))))`, as in GI-1.0's hash grid.
+//!   `pcg(x + pcg(y + pcg(z + pcg(meta'))))`, as in GI-1.0's hash grid,
+//!   where meta' is meta without the offset within the tile, so a tile's 16
+//!   voxels share one 16-entry tile of the table (§4).
 //! * **Checksum**: xxHash32's finalizer chained the same way; never 0 (0 marks
 //!   an empty entry), so a computed 0 becomes 1.
 //! * **Probe sequence**: linear. Without tiles slot i = (h mod C + i) mod C; with
@@ -71,11 +73,14 @@ impl VoxelKey {
         (self.meta >> 13) & 1 == 1
     }
 
-    /// The index hash.
+    /// The index hash. The offset within the tile (bits 9-12) is left out,
+    /// so a tile's 16 voxels share one probe sequence and one 16-entry tile
+    /// (§4's spatially coherent tiles); the checksum keeps it.
     pub fn index_hash(&self) -> u32 {
         let [x, y, z] = self.coord.map(|c| c as u32);
+        let meta = self.meta & !(15 << 9);
         pcg_hash(x.wrapping_add(pcg_hash(
-            y.wrapping_add(pcg_hash(z.wrapping_add(pcg_hash(self.meta)))),
+            y.wrapping_add(pcg_hash(z.wrapping_add(pcg_hash(meta)))),
         )))
     }
 
@@ -251,6 +256,33 @@ mod tests {
                         assert!(share_probe_window(s, k.probe_slot(0, 256), 256, 16, tiles));
                     }
                 }
+            }
+        }
+    }
+
+    #[test]
+    fn a_tiles_sixteen_voxels_share_one_tile_of_the_table() {
+        // §4: voxels "stored in spatially coherent 2D tiles". Until session
+        // 43 the offset within the tile entered the index hash, and the 16
+        // voxels of tile (10, −3, 7) landed in 16 different tiles of a 2^20
+        // table (slots spread over 780,339 entries).
+        for (coord, level, axis) in [([10, -3, 7], -6, 2), ([-5, 0, 1 << 20], 3, 5)] {
+            let slots: Vec<u32> = (0..16)
+                .map(|l| {
+                    let k = VoxelKey {
+                        coord,
+                        meta: pack_meta(level, axis, l, true),
+                    };
+                    k.probe_slot(0, 1 << 20)
+                })
+                .collect();
+            let tile = slots[0] / TILE_ENTRIES;
+            for (l, s) in slots.iter().enumerate() {
+                assert_eq!(
+                    (s / TILE_ENTRIES, s % TILE_ENTRIES),
+                    (tile, l as u32),
+                    "{coord:?} voxel {l}"
+                );
             }
         }
     }

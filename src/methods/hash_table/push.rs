@@ -11,7 +11,8 @@ pub struct TablePush {
     pub max_probe: u32,
     /// Entries older than this many frames may be overwritten.
     pub stale: u32,
-    /// Bit 0 tiles, bit 1 distance-normal LoD, bit 2 debug views.
+    /// Bit 0 tiles, bit 1 distance-normal LoD, bit 2 debug views, bit 3
+    /// pixel-centre hits for TAA (hash_cache/primary.comp).
     pub flags: u32,
     /// Voxel edge / pixel footprint before quantization.
     pub lod_scale: f32,
@@ -26,15 +27,17 @@ const _: () =
     assert!(std::mem::size_of::<TablePush>() == crate::interface::hash_table::PUSH.size() as usize);
 
 impl TablePush {
-    /// The push constants for the settings `h` and the frame stamp `now`.
-    pub fn new(h: &HashCacheSettings, now: u32) -> TablePush {
+    /// The push constants for the settings `h`, the frame stamp `now` and
+    /// whether the pixel centres are traced for TAA.
+    pub fn new(h: &HashCacheSettings, now: u32, centre_hits: bool) -> TablePush {
         TablePush {
             capacity: h.capacity,
             max_probe: h.max_probe,
             stale: h.stale_frames,
             flags: h.tiles as u32
                 | ((h.lod == HashLod::DistanceNormal) as u32) << 1
-                | (h.debug_views as u32) << 2,
+                | (h.debug_views as u32) << 2
+                | (centre_hits as u32) << 3,
             lod_scale: h.lod_scale,
             max_samples: h.max_samples,
             now,

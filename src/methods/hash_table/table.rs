@@ -96,6 +96,9 @@ pub struct HashTable {
     frames: u64,
     /// The stamp of the frame being recorded.
     now: u32,
+    /// Whether `hash_cache/primary.comp` also traces the pixel centre (push
+    /// flag bit 3; only when a TAA reads it: [`Self::set_centre_hits`]).
+    centre_hits: bool,
 }
 
 impl HashTable {
@@ -149,6 +152,7 @@ impl HashTable {
             count,
             frames: 0,
             now: stamp(0),
+            centre_hits: false,
         })
     }
 
@@ -227,7 +231,19 @@ impl HashTable {
 
     /// The push constants of the frame being recorded.
     pub fn push(&self) -> TablePush {
-        TablePush::new(&self.settings, self.now)
+        TablePush::new(&self.settings, self.now, self.centre_hits)
+    }
+
+    /// Has `hash_cache/primary.comp` trace a second, unjittered ray through
+    /// each pixel centre for a TAA (the method's own or `--taa-output`'s).
+    /// Off, that ray is neither traced nor counted: the paper's HashCache
+    /// traces "jittered first hits at 1 spp".
+    pub fn set_centre_hits(&mut self, on: bool) {
+        self.centre_hits = on;
+    }
+
+    pub fn centre_hits(&self) -> bool {
+        self.centre_hits
     }
 
     /// `{p}clear`: zeroes the counters.
