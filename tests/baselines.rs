@@ -93,8 +93,22 @@ fn supersample_naive_and_taa_against_the_reference() {
     for (f, name) in [(naive, "naive"), (&ss, "supersample")] {
         assert_rgb_finite_non_negative(f, name);
     }
-    // naive ignores --spp: one sample per pixel.
-    assert_eq!(naive.stats.rays.primary, 2 * (w * h) as u64 * 2);
+    // naive ignores --spp: one sample per pixel, whose jittered ray is the
+    // path's first hit (the paper's 1 spp: one stage). The pixel-centre ray
+    // that fills the depth / first-hit outputs is diagnostic (until session
+    // 43 it was a second primary ray per pixel in naive's rays and frame
+    // time): counted as centre_rays, its pass outside the frame time.
+    let pixels = 2 * (w * h) as u64;
+    assert_eq!(naive.stats.rays.primary, pixels);
+    assert_eq!(naive.stats.counters["centre_rays"], pixels as f64);
+    let names: Vec<&str> = naive.stats.passes.iter().map(|p| p.name.as_str()).collect();
+    assert!(names.contains(&"diag.naive.primary"), "{names:?}");
+    for n in names.iter().filter(|n| !n.starts_with("diag.")) {
+        assert!(
+            ["naive.params", "naive.clear", "naive.trace"].contains(n),
+            "{names:?}"
+        );
+    }
     let per_pixel: Vec<Vec<f64>> = naives
         .iter()
         .map(|n| squared_errors(n, &reference))
@@ -158,6 +172,8 @@ fn supersample_naive_and_taa_against_the_reference() {
                 e[i] += mse_i / RUNS as f64;
             }
             let last = frames.last().unwrap();
+            // TAA reads the pixel centres: their rays are part of taa's cost.
+            assert_eq!(last.stats.rays.primary, 2 * 2 * (w * h) as u64);
             assert_eq!(last.stats.counters["taa_history_used"], (2 * w * h) as f64);
             assert_eq!(last.stats.counters["taa_rejected_disocclusion"], 0.0);
         }

@@ -1,5 +1,8 @@
 #version 460
-// Pixel-centre primary rays: first-hit ids (Listing 1), view depth, albedo.
+// Pixel-centre primary rays: first-hit ids (Listing 1), view depth, albedo,
+// for a TAA's reprojection and the frame's outputs; trace.comp traces the
+// path's own (jittered) first hit. Counted apart (CENTRE_RAYS): part of the
+// method's cost only where a TAA reads them (src/methods/reference.rs).
 #include "common/integrator.glsl"
 #include "common/packing.glsl"
 #include "reference/bindings.glsl"
@@ -19,7 +22,7 @@ void main() {
     vec3 d = eye_ray_dir(e, vec2(px) + 0.5);
     RtHit h;
     bool hit = rt_closest_hit(o, d, 0.0, 1e30, h);
-    atomicAdd(counters[C_REFERENCE_PRIMARY_RAYS], 1u);
+    atomicAdd(counters[C_REFERENCE_CENTRE_RAYS], 1u);
     if (hit) {
         uint mat = instance_material(h.instance);
         first_hit[idx] = encode_first_hit(h.bary, h.instance, h.prim, mat);

@@ -9,6 +9,8 @@ crate::counter_slots! {
         PrimaryRays = "PRIMARY_RAYS",
         BounceRays = "BOUNCE_RAYS",
         ShadowRays = "SHADOW_RAYS",
+        // pixel-centre rays of `primary` (primary rays only where a TAA reads them)
+        CentreRays = "CENTRE_RAYS" => "centre_rays",
     }
 }
 

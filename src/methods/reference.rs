@@ -46,6 +46,9 @@ pub struct Reference {
     albedo: Buffer,
     counters: Buffer,
     readback: HostReadback,
+    /// Whether the pixel-centre pass (`primary`) is part of the method's
+    /// cost: only where a TAA reads its depth and first hits.
+    centre_is_cost: bool,
 }
 
 /// Loads a compiled shader of the scene's backend or says which is missing:
@@ -121,7 +124,20 @@ impl Reference {
             albedo,
             counters,
             readback: HostReadback::new(),
+            centre_is_cost: settings.taa_output.is_some(),
         })
+    }
+
+    /// Makes the pixel-centre pass part of the method's cost (the colour
+    /// source of `taa`, whose TAA reads its depth and first hits). Otherwise
+    /// it is a diagnostic pass (`diag.{name}.primary`) whose rays count as
+    /// `centre_rays`: the 1 spp path tracer traces its first hit and path in
+    /// one pass (`trace`), as the paper's (Fig. 13), and the centre ray only
+    /// fills the frame's depth / first-hit / albedo outputs. `--taa-output`
+    /// (whose TAA reads them) makes it a cost as well.
+    pub fn with_centre_hits_as_cost(mut self) -> Self {
+        self.centre_is_cost = true;
+        self
     }
 }
 
@@ -172,7 +188,12 @@ impl Reference {
         // Binding order: src/interface/reference.rs. `primary` writes no
         // accumulator; it is declared (one binding list for both shaders) but
         // neither bound nor tracked for `primary` (src/gpu/reflect.rs).
-        rec.compute(&format!("{p}.primary"), &self.primary)
+        let centre = if self.centre_is_cost {
+            format!("{p}.primary")
+        } else {
+            format!("{}{p}.primary", super::frame::DIAGNOSTIC_PASS_PREFIX)
+        };
+        rec.compute(&centre, &self.primary)
             .shared(&self.scene.set)
             .read(&self.frame)
             .write(&self.accum)
@@ -223,8 +244,17 @@ impl Reference {
             first_hit: &self.first_hit,
             albedo: &self.albedo,
             debug: None,
-            counters: vec![CounterOutput::of::<ReferenceCounter>(&self.counters)
-                .rays(RaySlots::of(&[PrimaryRays], &[BounceRays], &[ShadowRays]))],
+            counters: vec![CounterOutput::of::<ReferenceCounter>(&self.counters).rays(
+                RaySlots::of(
+                    if self.centre_is_cost {
+                        &[PrimaryRays, CentreRays]
+                    } else {
+                        &[PrimaryRays]
+                    },
+                    &[BounceRays],
+                    &[ShadowRays],
+                ),
+            )],
             host_counters: Default::default(),
             readback,
         }

@@ -39,7 +39,8 @@ impl Taa {
             spp: 1,
             ..settings.clone()
         };
-        let source = Reference::with_name("taa.source", ctx, scene, env, &s)?;
+        let source =
+            Reference::with_name("taa.source", ctx, scene, env, &s)?.with_centre_hits_as_cost();
         let pass = TaaPass::new(ctx, scene, &s, taa)?;
         Ok(Taa {
             ctx: ctx.clone(),
