@@ -260,6 +260,29 @@ bool opaque_sample(ShadingMaterial m, vec3 wo, vec3 u, out vec3 wi, out vec3 wei
     return pdf > 0.0;
 }
 
+// The dielectric's Fresnel layer at microfacet cosine c (eta = n_t / n_i):
+// returns the probability of reflection, `Fr` the reflected layer.
+// KHR_materials_specular on the dielectric (its fresnel_mix): the reflected
+// layer is specular·Fr with Fr's F0 tinted, min(F0(ior)·specularColor, 1),
+// and F90 = 1; the transmitted base keeps 1 − specular·max(Fr). Fr follows
+// the exact Fresnel's shape between its F0 and 1 (total internal reflection
+// stays total). Reflection is picked with probability max(Fr) (weights
+// Fr/max(Fr) and 1); without the extension's values exactly the plain
+// dielectric (Fr = F, picked with probability F).
+float dielectric_layer(ShadingMaterial m, float c, float eta, out vec3 Fr) {
+    float F = fresnel_dielectric(c, eta);
+    Fr = vec3(F);
+    if (F < 1.0 && (m.specular != 1.0 || m.specular_color != vec3(1.0))) {
+        float r = (m.ior - 1.0) / (m.ior + 1.0);
+        float f0 = r * r;
+        vec3 f0t = min(vec3(f0) * m.specular_color, vec3(1.0));
+        float shape = clamp((F - f0) / max(1.0 - f0, 1e-6), 0.0, 1.0);
+        Fr = m.specular * (f0t + (1.0 - f0t) * shape);
+        return max(Fr.r, max(Fr.g, Fr.b));
+    }
+    return F;
+}
+
 // Samples the dielectric BSDF (smooth below roughness 0.02, else rough GGX).
 // wo may be on either side (wo.z < 0 = inside); `weight` = f·|cos|/pdf.
 // `delta` reports a specular event (no light sampling possible).
@@ -278,24 +301,8 @@ bool dielectric_sample(ShadingMaterial m, vec3 wo, vec3 u, out vec3 wi, out vec3
     if (delta) h = vec3(0.0, 0.0, 1.0);
     else h = sample_vndf(wo_up, a, u.xy);
     float c = dot(wo_up, h);
-    float F = fresnel_dielectric(c, eta);
-    // KHR_materials_specular on the dielectric (its fresnel_mix): the
-    // reflected layer is specular·Fr with Fr's F0 tinted,
-    // min(F0(ior)·specularColor, 1), and F90 = 1; the transmitted base keeps
-    // 1 − specular·max(Fr). Fr follows the exact Fresnel's shape between
-    // its F0 and 1 (total internal reflection stays total). Reflection is
-    // picked with probability max(Fr) (weights Fr/max(Fr) and 1); without
-    // the extension's values exactly the plain dielectric.
-    vec3 Fr = vec3(F);
-    float p_reflect = F;
-    if (F < 1.0 && (m.specular != 1.0 || m.specular_color != vec3(1.0))) {
-        float r = (m.ior - 1.0) / (m.ior + 1.0);
-        float f0 = r * r;
-        vec3 f0t = min(vec3(f0) * m.specular_color, vec3(1.0));
-        float shape = clamp((F - f0) / max(1.0 - f0, 1e-6), 0.0, 1.0);
-        Fr = m.specular * (f0t + (1.0 - f0t) * shape);
-        p_reflect = max(Fr.r, max(Fr.g, Fr.b));
-    }
+    vec3 Fr;
+    float p_reflect = dielectric_layer(m, c, eta, Fr);
     vec3 wi_up;
     bool refracted = false;
     if (u.z < p_reflect) {
@@ -314,9 +321,66 @@ bool dielectric_sample(ShadingMaterial m, vec3 wo, vec3 u, out vec3 wi, out vec3
     // VNDF sampling with Fresnel-chosen lobes: weight = G2 / G1(wo).
     weight = delta ? vec3(1.0) : vec3(smith_g2(wo_up, vec3(wi_up.xy, abs(wi_up.z)), a) / smith_g1(wo_up, a));
     if (refracted) weight *= m.base;   // glTF: transmission is tinted by the base colour
-    else if (p_reflect != F) weight *= Fr / p_reflect;
+    else if (Fr != vec3(p_reflect)) weight *= Fr / p_reflect;   // the tinted layer (dielectric_layer)
     wi = entering ? wi_up : -wi_up;
     return true;
+}
+
+// The rough dielectric's f·|cos θi| for the pair (wo, wi) and the density
+// with which dielectric_sample draws wi (solid angle), in the same frame
+// around the outward normal (either side); 0 for a smooth one (delta).
+// Derived from the sampler, so light sampling and BSDF sampling combine by
+// MIS exactly: VNDF density G1(wo)·(wo·h)·D(h)/wo.z of the half vector h,
+// times the lobe's probability (p_reflect or 1 − p_reflect) and the
+// Jacobian of the map h → wi:
+// * reflection, h = normalize(wo + wi): 1/(4 wo·h), so
+//   f·cos = Fr·G2·D/(4 wo.z), pdf = p_reflect·G1·D/(4 wo.z) (Walter et al.
+//   2007, eq. 20, with the Fresnel layer above);
+// * refraction (eta = n_t/n_i), h = −normalize(wo + eta·wi):
+//   eta²|wi·h| / (wo·h + eta·wi·h)² (Walter et al. eq. 17), so
+//   f·cos = base·(1 − p_reflect)·G2·D·(wo·h)·J/wo.z, pdf the same with G1
+//   and without the base (the BTDF of eq. 21 as the sampler weighs it:
+//   radiance is not scaled by eta², as in dielectric_sample);
+// * thin-walled transmission: the reflection lobe mirrored through the
+//   surface, f·cos = base·(1 − p_reflect)·G2·D/(4 wo.z).
+// G2 takes |wi.z|, as the sampler's weight G2/G1 does.
+vec3 dielectric_eval(ShadingMaterial m, vec3 wo, vec3 wi, out float pdf) {
+    pdf = 0.0;
+    if (m.roughness < 0.02) return vec3(0.0);
+    bool entering = wo.z > 0.0;
+    float eta = entering || m.thin ? m.ior : 1.0 / m.ior;   // n_t / n_i
+    vec3 wo_up = entering ? wo : -wo;
+    vec3 wi_up = entering ? wi : -wi;
+    if (wo_up.z <= 0.0 || wi_up.z == 0.0) return vec3(0.0);
+    float a = ggx_alpha(m.roughness);
+    bool same_side = wi_up.z > 0.0;
+    bool mirrored = same_side || m.thin;
+    vec3 wr = vec3(wi_up.xy, abs(wi_up.z));      // the reflection lobe's direction
+    vec3 h = mirrored ? normalize(wo_up + wr) : -normalize(wo_up + eta * wi_up);
+    if (h.z < 0.0) h = -h;
+    float c = dot(wo_up, h);
+    if (c <= 0.0) return vec3(0.0);
+    vec3 Fr;
+    float p_reflect = dielectric_layer(m, c, eta, Fr);
+    float D = ggx_d(h, a);
+    float g1 = smith_g1(wo_up, a), g2 = smith_g2(wo_up, wr, a);
+    float jac;   // density of wi per density of h (times wo.z / (wo·h))
+    if (mirrored) {
+        if (dot(wr, h) <= 0.0) return vec3(0.0);
+        jac = 1.0 / (4.0 * c);
+    } else {
+        float ci = dot(wi_up, h);
+        if (ci >= 0.0) return vec3(0.0);
+        float denom = c + eta * ci;
+        jac = eta * eta * abs(ci) / (denom * denom);
+    }
+    float dens = D * c / wo_up.z * jac;   // D·(wo·h)/wo.z times the Jacobian
+    if (same_side) {
+        pdf = p_reflect * g1 * dens;
+        return Fr * g2 * dens;
+    }
+    pdf = (1.0 - p_reflect) * g1 * dens;
+    return m.base * (1.0 - p_reflect) * g2 * dens;
 }
 
 // dielectric_sample in world space, as the integrator calls it: `n` = shading

@@ -9,8 +9,11 @@
 // 1997, §9.2.2): a BSDF-sampled ray that hits an emitter or escapes to the map
 // after a non-delta vertex is weighted by p_bsdf² / (p_bsdf² + p_light²), with
 // p_light the light-sampling density of that direction, and the NEE sample by
-// the complement, so nothing is counted twice. After a delta event (smooth
-// glass, the camera) there is no NEE and the emission counts in full.
+// the complement, so nothing is counted twice. A transmissive material's
+// dielectric branch samples lights too where it has a density (rough glass,
+// reflection and transmission, and a clearcoat over glass; bsdf.glsl
+// dielectric_eval). After a delta event (smooth glass, the camera) there is
+// no NEE and the emission counts in full.
 // SC_LIGHT_STRATEGY (features.glsl) can switch emitters and the map to NEE
 // only or BSDF only (each alone is unbiased too; tests compare the three).
 // Constant and Preetham skies are left to BSDF sampling (cosine sampling is
@@ -60,28 +63,102 @@ float env_mis_weight(vec3 d, bool specular_prev, float pdf_prev) {
     return pe > 0.0 ? power_heuristic(pdf_prev, pe) : 1.0;
 }
 
-// Light-sampling estimates (before the path throughput) at a non-delta vertex
-// of the opaque BSDF: one emissive-triangle sample and one map sample, each
-// weighted against BSDF sampling by the power heuristic.
 // Beer–Lambert transmittance over distance t in a medium of absorption σ_a
 // (0 outside any volume: then exactly 1, the caller skips it).
 vec3 medium_transmittance(vec3 sigma_a, float t) { return exp(-sigma_a * t); }
 bool in_medium(vec3 sigma_a) { return SC_TRANSMISSION && any(greaterThan(sigma_a, vec3(0.0))); }
 
-vec3 nee_area_lights(Surface s, ShadingMaterial m, Frame f, vec3 wo, vec4 u_emitter, vec2 u_env, vec3 sigma_a, inout RayCounts rays) {
+// A vertex next-event estimation samples lights at: the opaque BSDF (frame f
+// around the shading normal facing the ray), or the dielectric branch of a
+// transmissive material: the clearcoat over it (share wc = coat_weight,
+// frame f; outside only) and the rough dielectric (frame fg around the
+// outward normal; mi: the interface's relative index, as sampled).
+struct NeeVertex {
+    bool glass;
+    ShadingMaterial m;    // coat_in_frame(·, f) applied
+    ShadingMaterial mi;   // glass: the dielectric with the relative index
+    Frame f;
+    Frame fg;
+    vec3 wo;              // −d in frame f
+    vec3 wo_g;            // −d in frame fg
+    float wc;             // glass: the coat's share (0 without one or from behind)
+    bool diel_delta;      // glass: a smooth dielectric (a delta lobe: no density)
+    vec3 sigma_other;     // absorption on the surface's other side (glass)
+};
+
+NeeVertex opaque_vertex(ShadingMaterial m, Frame f, vec3 wo, vec3 sigma_a) {
+    return NeeVertex(false, m, m, f, f, wo, wo, 0.0, true, sigma_a);
+}
+
+// f·|cos θi| of the vertex's BSDF towards world direction wi, and the density
+// with which the vertex's BSDF sampling draws wi (0 where it cannot). The
+// glass branch is the mixture its sampler draws from: wc·coat + (1 − wc)·
+// rough dielectric (reflection on the ray's side, transmission below; a
+// direction whose shading side disagrees with its geometric side gets 0).
+vec3 vertex_eval(NeeVertex v, Surface s, vec3 wi, out float pdf) {
+    pdf = 0.0;
+    bool above = dot(wi, s.ng) > 0.0;
+    if (!v.glass) return above ? opaque_eval(v.m, v.wo, to_local(v.f, wi), pdf) : vec3(0.0);
+    vec3 fc = vec3(0.0);
+    if (v.wc > 0.0 && above) {
+        float pc;
+        fc += vec3(coat_eval(v.m, v.wo, to_local(v.f, wi), pc));
+        pdf += v.wc * pc;
+    }
+    vec3 wi_g = to_local(v.fg, wi);
+    if (!v.diel_delta && ((wi_g.z > 0.0) == (v.wo_g.z > 0.0)) == above) {
+        float pd;
+        fc += (1.0 - v.wc) * dielectric_eval(v.mi, v.wo_g, wi_g, pd);
+        pdf += (1.0 - v.wc) * pd;
+    }
+    return fc;
+}
+
+// Whether a light sample at distance `dist` along wi is unoccluded (the
+// shadow ray leaves on wi's side of the surface), and the absorption of the
+// medium it crosses (the other side's for a glass vertex's transmission).
+bool nee_unoccluded(Surface s, vec3 wi, float dist) {
+    return !rt_occluded(offset_ray(s.p, dot(wi, s.ng) > 0.0 ? s.ng : -s.ng), wi, 0.0, dist);
+}
+vec3 nee_sigma(NeeVertex v, Surface s, vec3 wi, vec3 sigma_a) {
+    return dot(wi, s.ng) > 0.0 ? sigma_a : v.sigma_other;
+}
+
+// Punctual lights and the sun: one light picked uniformly, weighted against
+// BSDF sampling by the power heuristic where it has a density (the sun's
+// discs), in full where it is a delta light.
+vec3 nee_punctual(Surface s, NeeVertex v, vec2 u_light, float u_pick, vec3 sigma_a, inout RayCounts rays) {
+    LightSample ls;
+    if (!(SC_DIRECTIONAL || SC_PUNCTUAL) || !sample_light(s.p, u_light, u_pick, ls)) return vec3(0.0);
+    float pdf_b;
+    vec3 fc = vertex_eval(v, s, ls.wi, pdf_b);
+    if (!any(greaterThan(fc, vec3(0.0)))) return vec3(0.0);
+    rays.shadow++;
+    if (!nee_unoccluded(s, ls.wi, ls.dist * (1.0 - 1e-4))) return vec3(0.0);
+    float w = ls.pdf > 0.0 ? power_heuristic(ls.pdf, pdf_b) : 1.0;
+    vec3 c = fc * ls.L * w;
+    vec3 sg = nee_sigma(v, s, ls.wi, sigma_a);
+    return in_medium(sg) ? c * medium_transmittance(sg, ls.dist) : c;
+}
+
+// Light-sampling estimates (before the path throughput) at a non-delta
+// vertex: one emissive-triangle sample and one map sample, each weighted
+// against BSDF sampling by the power heuristic.
+vec3 nee_area_lights(Surface s, NeeVertex v, vec4 u_emitter, vec2 u_env, vec3 sigma_a, inout RayCounts rays) {
     vec3 L = vec3(0.0);
     if (SC_LIGHT_STRATEGY == LIGHT_STRATEGY_BSDF) return L;
     if (SC_EMISSIVE) {
         EmitterSample es;
-        if (sample_emitter(s.p, u_emitter, es) && dot(es.wi, s.ng) > 0.0) {
+        if (sample_emitter(s.p, u_emitter, es)) {
             float pdf_b;
-            vec3 fc = opaque_eval(m, wo, to_local(f, es.wi), pdf_b);
+            vec3 fc = vertex_eval(v, s, es.wi, pdf_b);
             if (any(greaterThan(fc, vec3(0.0)))) {
                 rays.shadow++;
-                if (!rt_occluded(offset_ray(s.p, s.ng), es.wi, 0.0, es.dist * (1.0 - 1e-4))) {
+                if (nee_unoccluded(s, es.wi, es.dist * (1.0 - 1e-4))) {
                     float w = SC_LIGHT_STRATEGY == LIGHT_STRATEGY_NEE ? 1.0 : power_heuristic(es.pdf, pdf_b);
                     vec3 c = fc * es.Le * (w / es.pdf);
-                    if (in_medium(sigma_a)) c *= medium_transmittance(sigma_a, es.dist);
+                    vec3 sg = nee_sigma(v, s, es.wi, sigma_a);
+                    if (in_medium(sg)) c *= medium_transmittance(sg, es.dist);
                     L += c;
                 }
             }
@@ -90,15 +167,16 @@ vec3 nee_area_lights(Surface s, ShadingMaterial m, Frame f, vec3 wo, vec4 u_emit
     if (SC_ENV_KIND == 3u) {
         vec3 wi;
         float pdf_e;
-        if (env_sample(u_env, wi, pdf_e) && dot(wi, s.ng) > 0.0) {
+        if (env_sample(u_env, wi, pdf_e)) {
             float pdf_b;
-            vec3 fc = opaque_eval(m, wo, to_local(f, wi), pdf_b);
+            vec3 fc = vertex_eval(v, s, wi, pdf_b);
             if (any(greaterThan(fc, vec3(0.0)))) {
                 rays.shadow++;
-                if (!rt_occluded(offset_ray(s.p, s.ng), wi, 0.0, 1e30)) {
+                if (nee_unoccluded(s, wi, 1e30)) {
                     float w = SC_LIGHT_STRATEGY == LIGHT_STRATEGY_NEE ? 1.0 : power_heuristic(pdf_e, pdf_b);
                     vec3 c = fc * environment(wi) * (w / pdf_e);
-                    if (in_medium(sigma_a)) c *= medium_transmittance(sigma_a, 1e30);
+                    vec3 sg = nee_sigma(v, s, wi, sigma_a);
+                    if (in_medium(sg)) c *= medium_transmittance(sg, 1e30);
                     L += c;
                 }
             }
@@ -196,16 +274,46 @@ vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, vec2 eye_cone, inout Rng r
         Rng rl = rng_fork(r, 0x4C696768u);   // light-sampling stream (does not advance r)
         vec3 wi_world;
         if (SC_TRANSMISSION && m.transmission > 0.0 && rng_next(r) < m.transmission) {
-            // Dielectric component (chosen with probability = its mixture weight;
-            // frames in bsdf.glsl dielectric_sample_world). Rough glass is
-            // treated like a delta event for light sampling (no NEE, emission
-            // seen through it counts in full).
-            vec3 w;
-            bool delta;
-            // A clearcoat over glass (outside only) reflects its share
+            // Dielectric component (chosen with probability = its mixture
+            // weight; frames in bsdf.glsl dielectric_sample_world). A
+            // clearcoat over glass (outside only) reflects its share wc =
             // coat_weight, picked with that probability; the rest goes to
-            // the dielectric below unweighted ((1 − w)/(1 − w) = 1).
+            // the dielectric below unweighted ((1 − wc)/(1 − wc) = 1). The
+            // interface's index is relative to the medium on its other side
+            // (media.glsl; 1 in vacuum: the plain ior).
             float wc = s.front ? coat_weight(m, wo) : 0.0;
+            ShadingMaterial mi = m;
+            mi.ior /= media_outside_ior(media, h.instance, s.front);
+            Frame fg = frame_from(s.front ? s.n : -s.n);
+            NeeVertex v = NeeVertex(true, m, mi, f, fg, wo, to_local(fg, -d), wc, mi.roughness < 0.02, sigma_a);
+            if (!m.thin) {
+                Media across = media;
+                media_cross(across, h.instance, s.front);
+                v.sigma_other = media_sigma_a(across);
+            }
+            // Next-event estimation where the vertex has a density: a rough
+            // dielectric (reflection and transmission) or a coat (until
+            // session 43 rough glass was treated as a delta event, so point,
+            // spot and directional lights never reached it). Its random
+            // numbers come from the light stream rl, so the BSDF's draws
+            // from r (and a smooth glass's images) are those of before.
+            if (wc > 0.0 || !v.diel_delta) {
+                vec2 u_light = rng_next2(rl);
+                float u_pick = rng_next(rl);
+                vec4 u_emitter = vec4(rng_next2(rl), rng_next2(rl));
+                vec2 u_env = rng_next2(rl);
+                L += beta * nee_punctual(s, v, u_light, u_pick, sigma_a, rays);
+#ifdef SC_MATERIAL_MEMO
+                sc_memo_nee = cone_width > 0.0;
+                sc_memo_nee_w = memo_w;
+                sc_memo_nee_spread = memo_spread + memo_beta_c;
+#endif
+                L += beta * nee_area_lights(s, v, u_emitter, u_env, sigma_a, rays);
+#ifdef SC_MATERIAL_MEMO
+                sc_memo_nee = false;
+#endif
+            }
+            bool delta;
             if (wc > 0.0 && rng_next(r) < wc) {
                 vec3 wi;
                 float ratio;
@@ -213,11 +321,9 @@ vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, vec2 eye_cone, inout Rng r
                 wi_world = to_world(f, wi);
                 if (dot(wi_world, s.ng) <= 0.0) break;
                 beta *= ratio;
+                delta = false;
             } else {
-                // The interface's index is relative to the medium on its
-                // other side (media.glsl; 1 in vacuum: the plain ior).
-                ShadingMaterial mi = m;
-                mi.ior /= media_outside_ior(media, h.instance, s.front);
+                vec3 w;
                 if (!dielectric_sample_world(mi, s.n, s.front, d, vec3(rng_next2(r), rng_next(r)), wi_world, w, delta)) break;
                 beta *= w;
                 // Refraction crosses the boundary: into the material's
@@ -228,8 +334,13 @@ vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, vec2 eye_cone, inout Rng r
                     sigma_a = media_sigma_a(media);
                 }
             }
-            specular_prev = true;
+            // MIS against the light samples above: the mixture's density
+            // in the sampled direction. A delta event, or a direction light
+            // sampling cannot produce (density 0: shading and geometric
+            // sides disagree), sees emission in full.
             pdf_prev = 0.0;
+            if (!delta) vertex_eval(v, s, wi_world, pdf_prev);
+            specular_prev = pdf_prev <= 0.0;
         } else {
             if (wo.z <= 0.0) break;
             // Next-event estimation. Its random numbers are drawn whether or
@@ -237,20 +348,8 @@ vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, vec2 eye_cone, inout Rng r
             // not depend on the specialization constants.
             vec2 u_light = rng_next2(r);
             float u_pick = rng_next(r);
-            LightSample ls;
-            if ((SC_DIRECTIONAL || SC_PUNCTUAL) && sample_light(s.p, u_light, u_pick, ls) && dot(ls.wi, s.ng) > 0.0) {
-                float pdf_b;
-                vec3 fc = opaque_eval(m, wo, to_local(f, ls.wi), pdf_b);
-                if (any(greaterThan(fc, vec3(0.0)))) {
-                    rays.shadow++;
-                    vec3 so = offset_ray(s.p, s.ng);
-                    if (!rt_occluded(so, ls.wi, 0.0, ls.dist * (1.0 - 1e-4))) {
-                        float w = ls.pdf > 0.0 ? power_heuristic(ls.pdf, pdf_b) : 1.0;
-                        if (!in_medium(sigma_a)) L += beta * fc * ls.L * w;
-                        else L += beta * fc * ls.L * w * medium_transmittance(sigma_a, ls.dist);
-                    }
-                }
-            }
+            NeeVertex v = opaque_vertex(m, f, wo, sigma_a);
+            L += beta * nee_punctual(s, v, u_light, u_pick, sigma_a, rays);
             // Emissive triangles and the environment map (stream rl, drawn in full).
             vec4 u_emitter = vec4(rng_next2(rl), rng_next2(rl));
             vec2 u_env = rng_next2(rl);
@@ -264,7 +363,7 @@ vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, vec2 eye_cone, inout Rng r
             sc_memo_nee_w = memo_w;
             sc_memo_nee_spread = memo_spread + memo_beta_c;
 #endif
-            L += beta * nee_area_lights(s, m, f, wo, u_emitter, u_env, sigma_a, rays);
+            L += beta * nee_area_lights(s, v, u_emitter, u_env, sigma_a, rays);
 #ifdef SC_MATERIAL_MEMO
             sc_memo_nee = false;
 #endif

@@ -765,13 +765,26 @@ pub fn assert_light_samplers_agree(
     h: u32,
     what: &str,
 ) -> (ChannelMeans, ChannelMeans) {
+    assert_light_samplers_agree_at(s, receiver, cam, w, h, 1, what)
+}
+
+/// [`assert_light_samplers_agree`] with paths of up to `bounces` bounces.
+pub fn assert_light_samplers_agree_at(
+    s: &Session,
+    receiver: u32,
+    cam: StereoCamera,
+    w: u32,
+    h: u32,
+    bounces: u32,
+    what: &str,
+) -> (ChannelMeans, ChannelMeans) {
     use stereocache::methods::LightSampling;
     let mean = |ls: LightSampling| {
         let settings = RenderSettings {
             width: w,
             height: h,
             spp: 64,
-            max_bounces: 1,
+            max_bounces: bounces,
             seed: 9,
             all_features: false,
             light_sampling: ls,
