@@ -114,9 +114,13 @@ void main() {
     }
     // Background samples in the mean (exact radiance, not accumulated): each
     // counts as one sample in the colour and, in the moments (Eq. 5–6), with
-    // the mean effective count of the pixel's shaded samples (1 without
-    // any), so μ1 weighs coverage like the colour does.
-    float c_bg = shaded > 0.0 ? c_total / shaded : 1.0;
+    // weight c_total / n_surf (1 without a shaded sample), so surface and
+    // background weigh n_surf : n_bg in μ1 as in the colour even while some
+    // visible surface samples are unshaded (until session 43 the weight was
+    // c_total / shaded, which overweighted the background there: a spurious
+    // Bias² against X).
+    float n_surf = float(bitCount(vis)) - n_bg;
+    float c_bg = shaded > 0.0 ? c_total / n_surf : 1.0;
     m1 += c_bg * bg_sum;
     m2 += c_bg * bg_sum2;
     c_total += c_bg * n_bg;
@@ -137,7 +141,6 @@ void main() {
         // those already shaded, the background samples for theirs with the
         // environment, so a pixel whose surface samples are not all shaded
         // yet keeps its coverage.
-        float n_surf = float(bitCount(vis)) - n_bg;
         vec3 surf_mean = vec3(0.0);
         if (shaded > 0.0) {
             surf_mean = sum / shaded;
@@ -151,8 +154,12 @@ void main() {
             surf_mean = (factor_sum * demod + emission_sum) / n_surf;
         }
         color = (n_surf * surf_mean + bg_sum) / (n_surf + n_bg);
-        m1 = c_total > 0.0 ? m1 / c_total : color;
-        m2 = c_total > 0.0 ? m2 / c_total : color * color;
+        // No shaded sample behind the surface part (its colour borrowed from
+        // the neighbours): no spread to estimate, σ² = 0 around the colour,
+        // not the background's moments alone.
+        bool estimated = c_total > 0.0 && (shaded > 0.0 || n_surf == 0.0);
+        m1 = estimated ? m1 / c_total : color;
+        m2 = estimated ? m2 / c_total : color * color;
         // Depth, first hit and albedo of the closest visible surface sample;
         // background only: as for a pixel without samples.
         out_depth[pm] = surface ? view_depth(e, best_p) : 0.0;

@@ -34,9 +34,16 @@ float dodgson(float s, float r) {
     return 0.0;
 }
 
+// Eq. 8 with Eq. 4's denominator written as Var(X) + Var(Y) + Bias², each
+// variance clamped at 0 (equal to μ2X + μ2Y − 2μ1Xμ1Y otherwise). Var(X)
+// can come out negative where Dodgson's kernel has negative lobes (R > ½:
+// −0.028 at the paper's R = 0.8): unclamped, a bright neighbour under a
+// negative tap shrank the denominator and pushed β′ to 0 (all X).
 vec3 beta_prime(vec3 m1x, vec3 m2x, vec3 m1y, vec3 m2y) {
     vec3 var_y = max(m2y - m1y * m1y, vec3(0.0));
-    vec3 denom = m2x + m2y - 2.0 * m1x * m1y;
+    vec3 var_x = max(m2x - m1x * m1x, vec3(0.0));
+    vec3 bias = m1x - m1y;
+    vec3 denom = var_x + var_y + bias * bias;
     vec3 b;
     for (int c = 0; c < 3; ++c) {
         bool ok = denom[c] > 1e-12 && !isinf(denom[c]) && !isnan(denom[c]) && !isinf(var_y[c]) && !isnan(var_y[c]);

@@ -40,7 +40,11 @@ impl FromStr for BlendMode {
 /// - the result is clamped to [0, 1].
 pub fn beta_prime(m1x: f32, m2x: f32, m1y: f32, m2y: f32) -> f32 {
     let var_y = (m2y - m1y * m1y).max(0.0);
-    let denom = m2x + m2y - 2.0 * m1x * m1y;
+    // Var(X) + Var(Y) + Bias², each variance clamped at 0: X's resampled
+    // moments can give a negative variance under Dodgson's negative lobes
+    // (R > ½), which used to drive β′ to 0.
+    let var_x = (m2x - m1x * m1x).max(0.0);
+    let denom = var_x + var_y + (m1x - m1y) * (m1x - m1y);
     if !(denom.is_finite() && denom > 1e-12 && var_y.is_finite()) {
         return 1.0;
     }
@@ -145,6 +149,17 @@ mod tests {
             );
         }
         assert_eq!(beta_prime(1.0, 1.0, 1.0, 1.0), 1.0);
+    }
+
+    /// X's moments resampled with Dodgson's negative lobes (R > ½) can give
+    /// μ2X < μ1X²: Var(X) counts as 0, so β′ = 1 − Var(Y)/(Var(Y) + Bias²)
+    /// = 1 − 2/2.0625. Before session 43 the raw μ2X entered the
+    /// denominator (1.0 here) and β′ clamped to 0: all X, whatever Y's
+    /// variance.
+    #[test]
+    fn negative_resampled_variance_of_x_counts_as_zero() {
+        let b = beta_prime(0.75, -0.5, 1.0, 3.0);
+        assert!((b - (1.0 - 2.0 / 2.0625)).abs() < 1e-6, "{b}");
     }
 
     /// One pixel as the cache holds it: n visible samples, each the mean of
@@ -289,7 +304,9 @@ mod tests {
 
     #[test]
     fn dodgson_kernel_properties() {
-        // r = 1: interpolating (1 at 0, 0 at ±1), so no neighbour contributes.
+        // r = 1: interpolating (1 at 0, 0 at ±1): at a pixel centre no
+        // neighbour contributes (between centres they do: at offset ¼ the
+        // taps are 0.875, 0.1875 and −0.0625).
         assert!((dodgson(0.0, 1.0) - 1.0).abs() < 1e-6);
         assert!(dodgson(1.0, 1.0).abs() < 1e-6 && dodgson(-1.0, 1.0).abs() < 1e-6);
         // Partition of unity for any r and offset: Σ_k h(s − k) = 1.
