@@ -41,14 +41,23 @@ vec3 preetham_sky(vec3 dir) {
     return mix(preetham_above_horizon(horizon), ground, t);
 }
 
+// (u, v) of a unit direction on the equirectangular map: u = atan2(x, −z)/2π
+// in [0, 1), v = θ/π with θ the angle from +Y. θ comes from atan2 of the
+// direction's horizontal length and its y, not acos(y): in f32, acos(y)
+// near a pole is exact to only ~2.4·10⁻⁴ rad (y = cos θ rounds to 1 for
+// θ < 3.5·10⁻⁴), which gave a direction near the zenith v = 0 and so a
+// zero map pdf (env_pdf) for a map lit there.
+vec2 equirect_uv(vec3 dir) {
+    float u = atan(dir.x, -dir.z) * (0.5 * INV_PI);
+    u = u < 0.0 ? u + 1.0 : u;
+    return vec2(u, atan(length(dir.xz), dir.y) * INV_PI);
+}
+
 vec3 environment(vec3 dir) {
     if (SC_ENV_KIND == 1u) return scene.env_constant.rgb;
     if (SC_ENV_KIND == 2u) return preetham_sky(dir);
     if (SC_ENV_KIND == 3u) {
-        float u = atan(dir.x, -dir.z) * (0.5 * INV_PI);
-        u = u < 0.0 ? u + 1.0 : u;
-        float v = acos(clamp(dir.y, -1.0, 1.0)) * INV_PI;
-        return textureLod(env_map, vec2(u, v), 0.0).rgb * scene.env_constant.w;
+        return textureLod(env_map, equirect_uv(dir), 0.0).rgb * scene.env_constant.w;
     }
     return vec3(0.0);
 }
@@ -69,25 +78,20 @@ uint env_cdf_find(uint first, uint n, float x) {
     return lo;
 }
 
-// Solid-angle density of the map sampling at u, v ∈ [0, 1): p(u, v) / (2π² sin θ).
-float env_pdf_uv(float u, float v) {
+// The density env_sample has for the unit direction `dir` (MIS of rays that escape):
+// p(u, v) / (2π² sin θ), sin θ the direction's horizontal length (exact
+// near the poles, unlike sin(π·v)).
+float env_pdf(vec3 dir) {
+    if (SC_ENV_KIND != 3u) return 0.0;
     uint w = env_header.x, h = env_header.y;
     if (w == 0u) return 0.0;
-    uint x = min(uint(u * float(w)), w - 1u), y = min(uint(v * float(h)), h - 1u);
+    vec2 uv = equirect_uv(dir);
+    uint x = min(uint(uv.x * float(w)), w - 1u), y = min(uint(uv.y * float(h)), h - 1u);
     float pm = env_cdf[y + 1u] - env_cdf[y];
     uint row = h + 1u + y * (w + 1u);
     float pc = env_cdf[row + x + 1u] - env_cdf[row + x];
-    float sin_t = sin(PI * v);
+    float sin_t = length(dir.xz);
     return sin_t > 0.0 ? pm * float(h) * pc * float(w) / (2.0 * PI * PI * sin_t) : 0.0;
-}
-
-// The density env_sample has for direction `dir` (MIS of rays that escape).
-float env_pdf(vec3 dir) {
-    if (SC_ENV_KIND != 3u) return 0.0;
-    float u = atan(dir.x, -dir.z) * (0.5 * INV_PI);
-    u = u < 0.0 ? u + 1.0 : u;
-    float v = acos(clamp(dir.y, -1.0, 1.0)) * INV_PI;
-    return env_pdf_uv(u, v);
 }
 
 // Samples a direction from the map's distribution (row by the marginal, then
