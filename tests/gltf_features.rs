@@ -232,6 +232,7 @@ fn elsewhere_keyword(name: &str) -> &'static str {
         "KHR_texture_transform" => "texture transforms (KHR_texture_transform)",
         "animation of morph weights" => "morph-target weights",
         "AMD_split_roughnessMetallic" => "AMD_split_roughnessMetallic",
+        "KHR_animation_pointer" => "KHR_animation_pointer",
         _ => panic!("no keyword for the feature warned elsewhere '{name}'"),
     }
 }

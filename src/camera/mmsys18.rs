@@ -56,7 +56,8 @@
 //! # Repairs
 //!
 //! As for the CSV format (see [`super::trace`]): NaN/Inf, zero-norm
-//! quaternions and decreasing timestamps are errors naming the line;
+//! quaternions and decreasing timestamps (also outside the kept
+//! `start..end` window) are errors naming the line;
 //! non-unit quaternions are normalized; duplicate timestamps are dropped
 //! with a warning; sign flips are removed with
 //! [`PoseTrace::make_hemisphere_continuous`] (count in the warnings). Real
@@ -139,6 +140,8 @@ pub fn parse_mmsys18(
     let mut cols: Option<[usize; 6]> = None;
     let mut n_fields = 0;
     let mut t_first: Option<f64> = None;
+    // The previous sample's (timestamp, line), kept or not.
+    let mut prev: Option<(f64, usize)> = None;
     let mut last_viewpoint: Option<i64> = None;
     let mut switches = 0usize;
     let mut fields: Vec<&str> = Vec::with_capacity(6);
@@ -209,6 +212,22 @@ pub fn parse_mmsys18(
             v[j] = x;
         }
         let [t, viewpoint, w, x, y, z] = v;
+        // Time order is checked on every sample, before the start..end
+        // window drops any (module docs: decreasing timestamps are errors;
+        // as the generic CSV importer does): an unsorted file is a clock or
+        // concatenation bug wherever it falls.
+        if let Some((t_prev, line_prev)) = prev {
+            if t < t_prev {
+                return Err(b.line_error(
+                    line_no,
+                    format!(
+                        "timestamp {t} is earlier than {t_prev} on line {line_prev}; pose traces \
+                         must be sorted by time"
+                    ),
+                ));
+            }
+        }
+        prev = Some((t, line_no));
         if t < opts.start || t > opts.end {
             continue;
         }
@@ -276,6 +295,26 @@ mod tests {
         let (s, c) = (0.2f32).sin_cos();
         let q = mmsys18_to_gltf(c, 0.0, s, 0.0);
         assert!((q * Vec3::NEG_Z).y < -0.3);
+    }
+
+    /// A timestamp earlier than the previous one is an error even where
+    /// the start..end window would drop one of the two samples.
+    #[test]
+    fn decreasing_timestamps_outside_the_window_are_errors() {
+        let text = "timestamp viewpoint w x y z\n\
+            10 0 1 0 0 0\n\
+            5 0 1 0 0 0\n\
+            20 0 1 0 0 0\n";
+        let opts = Mmsys18Options {
+            start: 8.0,
+            ..Default::default()
+        };
+        let e = parse_mmsys18("u.txt", text, &opts).unwrap_err().to_string();
+        assert!(
+            e.contains("u.txt:3: timestamp 5 is earlier than 10 on line 2"),
+            "{e}"
+        );
+        assert!(!e.contains('\n'), "{e}");
     }
 
     #[test]

@@ -11,8 +11,9 @@
 //!
 //! - `t` seconds, `px,py,pz` metres (head = eye midpoint in stage space,
 //!   glTF axes: +Y up, head looks down its −Z), `qx,qy,qz,qw` the head
-//!   orientation (head → stage), `ipd` metres (optional column; an empty
-//!   `ipd` field means "use the default").
+//!   orientation (head → stage), `ipd` metres in [0, 1) like `--ipd`
+//!   (optional column; an empty `ipd` field means "use the default"; a value
+//!   of 1 or more, such as millimetres written by mistake, is an error).
 //! - A header line is required. Columns are found by name, in any order;
 //!   names are trimmed and case-sensitive. A column the format does not
 //!   know is an error that names it (a typo such as `qW` must not be
@@ -24,7 +25,8 @@
 //!
 //! Errors (one line naming file, line and problem — no panics):
 //! empty file, header only, unknown/duplicate/missing column, wrong field
-//! count, unparsable number, NaN or ±Inf anywhere, a zero-norm quaternion,
+//! count, unparsable number, NaN or ±Inf anywhere, an `ipd` outside
+//! [0, 1) metres, a zero-norm quaternion,
 //! a timestamp **earlier** than the previous one (an unsorted trace is more
 //! likely a concatenation or a clock bug than something to sort silently).
 //!
@@ -47,6 +49,9 @@ use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 use super::pose::HeadPose;
+
+/// Upper bound (exclusive) of an `ipd` value, metres: the range of `--ipd`.
+pub const MAX_IPD_M: f32 = 1.0;
 
 /// One timed head pose.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -405,11 +410,14 @@ impl PoseTrace {
             let ipd = match h.ipd {
                 Some(col) if !fields[col].is_empty() => {
                     let ipd = parse_field(&b, line_no, col, "ipd", fields[col])?;
-                    if ipd < 0.0 || !(ipd as f32).is_finite() {
+                    // Metres in [0, 1), the range of `--ipd` (src/cli/args.rs):
+                    // a value in millimetres (63) would otherwise be 63 m.
+                    if !(0.0..MAX_IPD_M).contains(&(ipd as f32)) {
                         return Err(b.line_error(
                             line_no,
                             format!(
-                                "column `ipd` (column {}): IPD {ipd} is negative or out of range",
+                                "column `ipd` (column {}): IPD {ipd} is out of range; the column \
+                                 is in metres, in [0, {MAX_IPD_M}) as for --ipd (63 mm is 0.063)",
                                 col + 1
                             ),
                         ));
@@ -648,6 +656,25 @@ mod tests {
         assert_eq!(tr.samples[1].ipd, None);
         assert_eq!(tr.warnings.len(), 1, "{:?}", tr.warnings);
         assert!(tr.warnings[0].contains("line 2"));
+    }
+
+    /// The `ipd` column is metres in [0, 1), as `--ipd`: 63 (millimetres
+    /// by mistake) is an error naming the file, the line and the column.
+    #[test]
+    fn an_ipd_in_millimetres_is_an_error_naming_line_and_column() {
+        let head = "t,px,py,pz,qx,qy,qz,qw,ipd\n0,0,0,0,0,0,0,1,0.063\n";
+        let tr = PoseTrace::parse_csv("x.csv", head).unwrap();
+        assert_eq!(tr.samples[0].ipd, Some(0.063));
+        let text = format!("{head}0.1,0,0,0,0,0,0,1,63\n");
+        let e = PoseTrace::parse_csv("x.csv", &text)
+            .unwrap_err()
+            .to_string();
+        for part in ["x.csv:3:", "column `ipd` (column 9)", "IPD 63", "metres"] {
+            assert!(e.contains(part), "'{part}' missing in: {e}");
+        }
+        assert!(!e.contains('\n'), "{e}");
+        let one = format!("{head}0.1,0,0,0,0,0,0,1,1\n");
+        assert!(PoseTrace::parse_csv("x.csv", &one).is_err());
     }
 
     #[test]

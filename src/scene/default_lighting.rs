@@ -57,8 +57,9 @@ pub const SUN_ANGULAR_RADIUS: f32 = 0.00465;
 
 #[derive(Clone, Debug, PartialEq)]
 pub enum DefaultLighting {
-    /// Sun at `elevation_deg` above the horizon, `azimuth_deg` from −Z towards
-    /// +X (0 = in front of a camera looking down −Z, 90 = to its right).
+    /// Sun at `elevation_deg` (0..=90) above the horizon, `azimuth_deg` from
+    /// −Z towards +X (0 = in front of a camera looking down −Z, 90 = to its
+    /// right).
     SunSky {
         elevation_deg: f32,
         azimuth_deg: f32,
@@ -225,8 +226,15 @@ fn parse_part(input: &str, s: &str) -> Result<DefaultLighting, LightingParseErro
         ("sun-sky", None) => Ok(DefaultLighting::default()),
         ("sun-sky", Some(a)) => match numbers(input, a)?.as_slice() {
             &[elevation_deg, azimuth_deg, turbidity] => {
-                if !(-90.0..=90.0).contains(&elevation_deg) {
-                    return Err(err("elevation must be within −90..90 degrees"));
+                // The Preetham sky puts a sun below the horizon on it
+                // (preetham.rs), while the sun light would shine from below
+                // the ground: the two would disagree, so sun-sky's sun stays
+                // above the horizon (directional keeps −90..90).
+                if !(0.0..=90.0).contains(&elevation_deg) {
+                    return Err(err(
+                        "the sun-sky elevation must be within 0..90 degrees (the sun above the \
+                         horizon; a directional:ELEV,AZIM light may come from below)",
+                    ));
                 }
                 if turbidity < 1.0 {
                     return Err(err("turbidity must be at least 1"));
@@ -616,6 +624,27 @@ mod tests {
             let e = bad.parse::<DefaultLighting>().unwrap_err().to_string();
             assert!(e.contains("invalid lighting"), "{e}");
         }
+    }
+
+    /// A sun-sky sun below the horizon is refused (the sky would show it on
+    /// the horizon while the light shone from below); a directional light
+    /// from below stays legal.
+    #[test]
+    fn a_sun_sky_sun_below_the_horizon_is_refused() {
+        let e = "sun-sky:-10,0,3"
+            .parse::<DefaultLighting>()
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("invalid lighting 'sun-sky:-10,0,3'")
+                && e.contains("sun-sky elevation must be within 0..90 degrees"),
+            "{e}"
+        );
+        assert!("constant:0.2+sun-sky:-0.5,0,3"
+            .parse::<DefaultLighting>()
+            .is_err());
+        assert!("sun-sky:0,0,3".parse::<DefaultLighting>().is_ok());
+        assert!("directional:-30,0".parse::<DefaultLighting>().is_ok());
     }
 
     #[test]

@@ -6,15 +6,30 @@
 //! (`Channel::new`), and a channel on a node that has a `matrix`.
 //! Morph-target weight channels and channels driving skin joints are
 //! refused with one warning per animation.
+//!
+//! Channels an extension defines (`KHR_animation_pointer`'s `path:
+//! "pointer"`, or any target carrying `extensions`) and channels without a
+//! target node (glTF 2.0 schema, `animation.channel.target.node`: "When
+//! undefined, the animated object MAY be defined by an extension") are
+//! removed from the raw JSON before the typed parse, which requires a node
+//! and a core path, with one warning per animation naming the extension:
+//! the animation's other channels play (an animation left with none loads
+//! and stands still). Samplers are kept, so the remaining channels' sampler
+//! indices stay valid.
 
 use super::animation::{Animation, Channel, Interpolation, LocalRest, SceneAnimation, TrsPath};
 use super::gltf_buffers::AccessorReader;
 use super::SceneError;
 use glam::{Mat4, Quat, Vec3, Vec4};
 use gltf::animation::{Interpolation as GltfInterp, Property};
+use std::collections::BTreeSet;
 use std::path::Path;
 
 const KNOWN_PATHS: &[&str] = &["translation", "rotation", "scale", "weights"];
+
+/// The target path `KHR_animation_pointer` defines.
+const POINTER_PATH: &str = "pointer";
+const ANIMATION_POINTER: &str = "KHR_animation_pointer";
 
 fn label(index: usize, name: Option<&str>) -> String {
     match name {
@@ -23,32 +38,97 @@ fn label(index: usize, name: Option<&str>) -> String {
     }
 }
 
-/// Rejects a channel whose `target.path` glTF does not define, naming the
-/// animation and channel.
-pub(crate) fn check_animation_json(
+/// Prepares the raw JSON's animations for the typed parse: removes the
+/// channels an extension defines or that target no node (module docs), one
+/// warning per animation naming the extension(s); rejects a channel whose
+/// `target.path` is neither glTF's nor an extension's (no extension on the
+/// target: most likely a typo), naming the animation and channel.
+pub(crate) fn prepare_animation_json(
     path: &Path,
-    root: &serde_json::Map<String, serde_json::Value>,
+    root: &mut serde_json::Map<String, serde_json::Value>,
+    warnings: &mut Vec<String>,
 ) -> Result<(), SceneError> {
-    let Some(anims) = root.get("animations").and_then(|a| a.as_array()) else {
+    let Some(anims) = root.get_mut("animations").and_then(|a| a.as_array_mut()) else {
         return Ok(());
     };
-    for (ai, a) in anims.iter().enumerate() {
-        let name = a.get("name").and_then(|n| n.as_str());
-        let Some(channels) = a.get("channels").and_then(|c| c.as_array()) else {
+    for (ai, a) in anims.iter_mut().enumerate() {
+        let name = a.get("name").and_then(|n| n.as_str()).map(str::to_owned);
+        let what = label(ai, name.as_deref());
+        let Some(channels) = a.get_mut("channels").and_then(|c| c.as_array_mut()) else {
             continue;
         };
-        for (ci, c) in channels.iter().enumerate() {
-            let p = c.pointer("/target/path").and_then(|p| p.as_str());
-            if let Some(p) = p.filter(|p| !KNOWN_PATHS.contains(p)) {
+        // Channels dropped for an extension, and for no node and no extension.
+        let (mut by_extension, mut nodeless) = (Vec::new(), Vec::new());
+        let mut extensions = BTreeSet::new();
+        let mut kept = Vec::with_capacity(channels.len());
+        for (ci, c) in channels.drain(..).enumerate() {
+            // A channel without a target or a path is left to the typed
+            // parse (a one-line error: both are required).
+            let Some(p) = c
+                .pointer("/target/path")
+                .and_then(|p| p.as_str())
+                .map(str::to_owned)
+            else {
+                kept.push(c);
+                continue;
+            };
+            let mut exts: Vec<String> = c
+                .pointer("/target/extensions")
+                .and_then(|e| e.as_object())
+                .map(|e| e.keys().cloned().collect())
+                .unwrap_or_default();
+            if p == POINTER_PATH && !exts.iter().any(|e| e == ANIMATION_POINTER) {
+                exts.push(ANIMATION_POINTER.into());
+            }
+            let core = KNOWN_PATHS.contains(&p.as_str());
+            let has_node = c.pointer("/target/node").is_some();
+            if core && has_node {
+                kept.push(c);
+            } else if !exts.is_empty() {
+                extensions.extend(exts);
+                by_extension.push(ci);
+            } else if core {
+                nodeless.push(ci);
+            } else {
+                // Not glTF's path, and no extension claims it: a typo.
                 return Err(SceneError::invalid(
                     path,
                     format!(
-                        "{} channel {ci}: unknown target path '{p}' (expected translation, \
-                         rotation, scale or weights)",
-                        label(ai, name)
+                        "{what} channel {ci}: unknown target path '{p}' (expected translation, \
+                         rotation, scale or weights)"
                     ),
                 ));
             }
+        }
+        *channels = kept;
+        let list = |cs: &[usize]| {
+            let s = if cs.len() == 1 { "" } else { "s" };
+            let l: Vec<String> = cs.iter().map(usize::to_string).collect();
+            format!("channel{s} {}", l.join(", "))
+        };
+        let mut why = Vec::new();
+        if !by_extension.is_empty() {
+            let names: Vec<String> = extensions.into_iter().collect();
+            why.push(format!(
+                "{} animate{} through {}, which stereocache does not support",
+                list(&by_extension),
+                if by_extension.len() == 1 { "s" } else { "" },
+                names.join(" and ")
+            ));
+        }
+        if !nodeless.is_empty() {
+            why.push(format!(
+                "{} target{} no node and no extension defines one",
+                list(&nodeless),
+                if nodeless.len() == 1 { "s" } else { "" },
+            ));
+        }
+        if !why.is_empty() {
+            warnings.push(format!(
+                "{}: {what}: {}; those channels are ignored (its other channels play)",
+                path.display(),
+                why.join("; ")
+            ));
         }
     }
     Ok(())

@@ -6,6 +6,8 @@
 //! checks, so this module does the byte work itself: every range is computed with
 //! checked arithmetic and compared against the real buffer length *before* any
 //! allocation, so a huge declared count is an error, not an out-of-memory abort.
+//! An accessor without a `bufferView` reads as zeros (glTF 2.0 §5.1.1), its
+//! `sparse` values, if any, substituted.
 
 use super::SceneError;
 use gltf::accessor::{DataType, Dimensions};
@@ -331,11 +333,11 @@ impl AccessorReader<'_> {
                 v
             }
             None => {
-                // No view: all zeros (only meaningful with sparse substitution).
-                // Bound the allocation by what a sparse accessor could justify.
-                if acc.sparse().is_none() {
-                    return Err(self.err(format!("{what} has neither bufferView nor sparse data")));
-                }
+                // No view: all zeros (glTF 2.0 §5.1.1, accessor.bufferView:
+                // "When undefined, the accessor MUST be initialized with
+                // zeros; sparse property or extensions MAY override zeros"),
+                // sparse values substituted below. Bound the allocation by
+                // what the file's buffers could plausibly describe.
                 let total: usize = self.buffers.iter().map(|b| b.len()).sum();
                 if count > total.saturating_mul(16).max(1 << 20) {
                     return Err(self.err(format!(

@@ -248,10 +248,10 @@ pub const FEATURES: &[Feature] = &[
         Partly,
         "the PNG/JPEG fallback source is used; a texture without one falls back to its factor",
     ),
-    f(
+    elsewhere(
         "KHR_animation_pointer",
         Ignored,
-        "those animation channels are ignored",
+        "those animation channels are ignored (one warning per animation); its other channels play",
     ),
     f(
         "KHR_draco_mesh_compression",
@@ -325,9 +325,10 @@ pub const FEATURES: &[Feature] = &[
     f(
         "KHR_materials_volume",
         Full,
-        "thicknessFactor > 0: a volume boundary that refracts and whose inside absorbs by \
+        "thicknessFactor > 0 on a transmissive material: a volume boundary that refracts and whose inside absorbs by \
          Beer–Lambert (attenuationColor, attenuationDistance) along the traced path (the \
          thickness value and its texture are for rasterizers); thicknessFactor 0 is thin-walled; \
+         without KHR_materials_transmission the extension has no effect (as it says); \
          volumes nest and overlap as the extension's implementation notes suggest (Schmidt & \
          Budge's nested dielectrics, without priorities: the volume entered last fills an \
          overlap; each interface refracts with the ratio of the indices on its sides; touching \

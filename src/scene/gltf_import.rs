@@ -9,7 +9,14 @@
 //!    does not know. A required extension that changes geometry
 //!    (`KHR_draco_mesh_compression`, `EXT_meshopt_compression`, …) or that we do
 //!    not recognise is an error.
-//! 2. The document is validated by the `gltf` crate (dangling indices are errors).
+//!    On the same raw JSON, before the typed parse (which would refuse the
+//!    whole document): a primitive without POSITION is removed with a
+//!    warning (glTF 2.0 §3.7.2.1: clients SHOULD skip it), and animation
+//!    channels an extension defines (`KHR_animation_pointer`) or that target
+//!    no node are removed with one warning per animation (`gltf_animation`).
+//! 2. The document is validated by the `gltf` crate's rules (dangling
+//!    indices are errors), except that an accessor with neither `bufferView`
+//!    nor `sparse` is accepted and reads as zeros (glTF 2.0 §5.1.1).
 //! 3. Buffers and accessors are read by `gltf_buffers` with checked ranges.
 //! 4. The default scene's node tree is flattened into [`Instance`]s; a glTF mesh
 //!    used by several nodes maps to the same [`Mesh`]es (instancing). Cycles and
@@ -46,13 +53,13 @@
 //! The whole import runs under `catch_unwind` as defence in depth: should a
 //! dependency panic on a malformed file, the caller gets an error naming it.
 
-use super::gltf_animation::{check_animation_json, import_animations};
+use super::gltf_animation::{import_animations, prepare_animation_json};
 use super::gltf_buffers::{load_buffers, split_container, AccessorReader};
 use super::gltf_instancing::{instancing_json, NodeInstancing, INSTANCING_EXTENSION};
 use super::gltf_textures::{decode_images, patch_invalid_samplers, texture_sampler, ImageUses};
 use super::gltf_uv::{
-    choose, texture_transforms_json, SlotUv, UvAffine, UvChannels, UvChoice, CLEARCOAT_NORMAL_SLOT,
-    NORMAL_SLOT, ORDER, SLOTS, SLOT_COUNT, TEXTURE_TRANSFORM,
+    choose, texture_transforms_json, SlotUv, UvAffine, UvChannels, UvChoice, BASE_COLOR_SLOT,
+    CLEARCOAT_NORMAL_SLOT, EMISSIVE_SLOT, NORMAL_SLOT, ORDER, SLOTS, SLOT_COUNT, TEXTURE_TRANSFORM,
 };
 use super::mesh_ops::{
     drop_non_finite_triangles, fan_to_triangles, flat_normals, generate_normals,
@@ -131,6 +138,7 @@ fn load_gltf_unguarded(path: &Path) -> Result<Scene, SceneError> {
         unlit_materials: prepared.unlit,
         sourceless_textures: prepared.sourceless,
         slot_uvs: prepared.slot_uvs,
+        primitive_indices: prepared.primitive_indices,
         material_uvs: Vec::new(),
         missing_uvs: BTreeMap::new(),
         record_paths: doc.animations().len() > 0,
@@ -258,28 +266,31 @@ fn parse_document(
     let sourceless = patch_sourceless_textures(obj);
     warnings.extend(patch_invalid_samplers(path, obj));
     check_position_accessors(path, obj)?;
+    let primitive_indices = drop_positionless_primitives(path, obj, warnings);
     let instancing = instancing_json(path, obj, warnings)?;
     let slot_uvs = texture_transforms_json(path, obj, warnings);
-    check_animation_json(path, obj)?;
+    prepare_animation_json(path, obj, warnings)?;
     let root: gltf::json::Root = serde_json::from_value(value)
         .map_err(|e| SceneError::invalid(path, format!("invalid glTF structure: {e}")))?;
-    let doc = gltf::Document::from_json(root).map_err(|e| match e {
-        gltf::Error::Validation(errors) => {
-            let shown: Vec<String> = errors
-                .iter()
-                .take(4)
-                .map(|(p, err)| format!("{p}: {err}"))
-                .collect();
-            let more = errors.len().saturating_sub(4);
-            let more = if more > 0 {
-                format!(" (and {more} more)")
-            } else {
-                String::new()
-            };
-            SceneError::invalid(path, format!("invalid glTF: {}{more}", shown.join("; ")))
-        }
-        other => SceneError::invalid(path, format!("invalid glTF: {other}")),
-    })?;
+    let errors = validation_errors(&root);
+    if !errors.is_empty() {
+        let shown: Vec<String> = errors
+            .iter()
+            .take(4)
+            .map(|(p, err)| format!("{p}: {err}"))
+            .collect();
+        let more = errors.len().saturating_sub(4);
+        let more = if more > 0 {
+            format!(" (and {more} more)")
+        } else {
+            String::new()
+        };
+        return Err(SceneError::invalid(
+            path,
+            format!("invalid glTF: {}{more}", shown.join("; ")),
+        ));
+    }
+    let doc = gltf::Document::from_json_without_validation(root);
     Ok(Prepared {
         doc,
         split_rm,
@@ -287,7 +298,79 @@ fn parse_document(
         sourceless,
         instancing,
         slot_uvs,
+        primitive_indices,
     })
+}
+
+/// The `gltf` crate's validation of `root` (what `Document::from_json`
+/// runs), less its one departure from the specification: it requires an
+/// accessor without `sparse` to have a `bufferView`, but glTF 2.0 §5.1.1
+/// (`accessor.bufferView`): "When undefined, the accessor MUST be
+/// initialized with zeros; `sparse` property or extensions MAY override
+/// zeros with actual values." `gltf_buffers` reads such an accessor as
+/// zeros.
+fn validation_errors(
+    root: &gltf::json::Root,
+) -> Vec<(gltf::json::Path, gltf::json::validation::Error)> {
+    use gltf::json::validation::{Error, Validate};
+    let zeros: HashSet<String> = root
+        .accessors
+        .iter()
+        .enumerate()
+        .filter(|(_, a)| a.buffer_view.is_none() && a.sparse.is_none())
+        .map(|(i, _)| format!("accessors[{i}].bufferView"))
+        .collect();
+    let mut errors = Vec::new();
+    root.validate(root, gltf::json::Path::new, &mut |p, e| {
+        let p = p();
+        if !(matches!(e, Error::Missing) && zeros.contains(p.as_str())) {
+            errors.push((p, e));
+        }
+    });
+    errors
+}
+
+/// Removes the primitives that have no POSITION attribute, one warning
+/// each: glTF 2.0 §3.7.2.1, "When positions are not specified, client
+/// implementations SHOULD skip primitive's rendering" (the `gltf` crate
+/// would refuse the whole document). Returns, for each mesh that lost any,
+/// the file's index of each primitive kept (for messages).
+fn drop_positionless_primitives(
+    path: &Path,
+    obj: &mut serde_json::Map<String, serde_json::Value>,
+    warnings: &mut Vec<String>,
+) -> HashMap<usize, Vec<usize>> {
+    let mut kept_indices = HashMap::new();
+    let Some(meshes) = obj.get_mut("meshes").and_then(|m| m.as_array_mut()) else {
+        return kept_indices;
+    };
+    for (mi, mesh) in meshes.iter_mut().enumerate() {
+        let name = mesh.get("name").and_then(|n| n.as_str()).map(str::to_owned);
+        let Some(prims) = mesh.get_mut("primitives").and_then(|p| p.as_array_mut()) else {
+            continue;
+        };
+        // Only objects: anything else is left to the typed parse's error.
+        let has_position =
+            |p: &serde_json::Value| !p.is_object() || p.pointer("/attributes/POSITION").is_some();
+        if prims.iter().all(has_position) {
+            continue;
+        }
+        let mut kept = Vec::new();
+        for (pi, p) in std::mem::take(prims).into_iter().enumerate() {
+            if has_position(&p) {
+                prims.push(p);
+                kept.push(pi);
+            } else {
+                warnings.push(format!(
+                    "{}: {} primitive {pi} has no POSITION attribute; skipped (glTF §3.7.2.1)",
+                    path.display(),
+                    named("mesh", mi, name.as_deref())
+                ));
+            }
+        }
+        kept_indices.insert(mi, kept);
+    }
+    kept_indices
 }
 
 /// `gltf-json` 1.4's primitive validation indexes `accessors[POSITION]`
@@ -372,6 +455,9 @@ struct Prepared {
     instancing: HashMap<usize, NodeInstancing>,
     /// Per material, per texture slot (`gltf_uv::SLOTS`): its KHR_texture_transform.
     slot_uvs: Vec<[Option<SlotUv>; SLOT_COUNT]>,
+    /// Meshes that lost primitives without POSITION
+    /// (`drop_positionless_primitives`): the file's index of each kept one.
+    primitive_indices: HashMap<usize, Vec<usize>>,
 }
 
 /// The uvs a material's textures read, as decided at import (`gltf_uv`).
@@ -409,6 +495,8 @@ struct Importer<'a> {
     sourceless_textures: Vec<usize>,
     /// Per material, its KHR_texture_transform per slot (raw JSON).
     slot_uvs: Vec<[Option<SlotUv>; SLOT_COUNT]>,
+    /// The file's index of each primitive of the meshes that lost some (`Prepared`).
+    primitive_indices: HashMap<usize, Vec<usize>>,
     /// Per material (by index), the uv set and transform its meshes get.
     material_uvs: Vec<MaterialUv>,
     /// Materials whose uv set some primitive lacks → those primitives.
@@ -593,7 +681,7 @@ impl Importer<'_> {
             let pbr = m.pbr_metallic_roughness();
             let label = named("material", m.index().unwrap_or(0), m.name());
             let coat = coat_json(doc, &m);
-            let tex_coords = [
+            let mut tex_coords = [
                 pbr.base_color_texture().map(|t| t.tex_coord()),
                 pbr.metallic_roughness_texture().map(|t| t.tex_coord()),
                 m.normal_texture().map(|t| t.tex_coord()),
@@ -635,9 +723,17 @@ impl Importer<'_> {
             let emissive = Vec3::from(m.emissive_factor()) * m.emissive_strength().unwrap_or(1.0);
             let normal = m.normal_texture();
             let specular = m.specular();
+            // KHR_materials_volume: "The volume extension needs to be
+            // combined with an extension which allows light to transmit
+            // through the surface, e.g. KHR_materials_transmission": without
+            // transmission it has no effect (and must not stop back faces
+            // being culled, `Material::culls_back_faces`).
+            let transmits = transmission.as_ref().is_some_and(|t| {
+                t.transmission_factor() > 0.0 || t.transmission_texture().is_some()
+            });
             let volume = m
                 .volume()
-                .filter(|v| v.thickness_factor() > 0.0)
+                .filter(|v| transmits && v.thickness_factor() > 0.0)
                 .map(|v| Volume {
                     attenuation_color: Vec3::from(v.attenuation_color()),
                     attenuation_distance: v.attenuation_distance(),
@@ -709,6 +805,19 @@ impl Importer<'_> {
                     coat.bad.join(", ")
                 ));
             }
+            // Unlit before the uv choice: its emissive slot holds the base
+            // colour texture, which reads the base colour's uv set and
+            // KHR_texture_transform (not the dropped emissive texture's).
+            let is_unlit = self.unlit_materials.get(m.index().unwrap_or(usize::MAX)) == Some(&true);
+            let material = if is_unlit {
+                tex_coords[EMISSIVE_SLOT] = tex_coords[BASE_COLOR_SLOT];
+                if let Some(ext) = self.slot_uvs.get_mut(self.material_uvs.len()) {
+                    ext[EMISSIVE_SLOT] = ext[BASE_COLOR_SLOT];
+                }
+                unlit(material)
+            } else {
+                material
+            };
             let bound = [
                 material.base_color_texture.is_some(),
                 material.metallic_roughness_texture.is_some(),
@@ -726,10 +835,6 @@ impl Importer<'_> {
                 second_uv_slots,
                 uv_affine,
                 ..material
-            };
-            let material = match self.unlit_materials.get(m.index().unwrap_or(usize::MAX)) {
-                Some(true) => unlit(material),
-                _ => material,
             };
             let (material, changed) = sanitize_material(material);
             if !changed.is_empty() {
@@ -1181,10 +1286,15 @@ impl Importer<'_> {
         }
         let mut ids = Vec::new();
         for prim in mesh.primitives() {
+            // The file's index, where primitives without POSITION were removed.
+            let index = self
+                .primitive_indices
+                .get(&mesh.index())
+                .and_then(|k| k.get(prim.index()).copied())
+                .unwrap_or(prim.index());
             let label = format!(
-                "{} primitive {}",
-                named("mesh", mesh.index(), mesh.name()),
-                prim.index()
+                "{} primitive {index}",
+                named("mesh", mesh.index(), mesh.name())
             );
             if let Some(m) = self.primitive(&prim, &label, mesh.name(), weights.as_deref())? {
                 ids.push(self.scene.meshes.len() as u32);
@@ -1215,7 +1325,8 @@ impl Importer<'_> {
             return Ok(None);
         }
         let Some(pos_acc) = prim.get(&gltf::Semantic::Positions) else {
-            self.warn(format!("{label} has no POSITION attribute; skipped"));
+            // Removed, with a warning, before the typed parse
+            // (`drop_positionless_primitives`): not reached.
             return Ok(None);
         };
         let material = match prim.material().index() {
@@ -1467,6 +1578,9 @@ impl Importer<'_> {
 /// still drives MASK cutoffs. Like any emitter it is also sampled as a light,
 /// so it lights its surroundings as a surface of that radiance would (a
 /// rasterizer's unlit surface lights nothing: a path tracer's choice, README).
+/// Applied before the uv channels are chosen, the emissive slot given the
+/// base colour texture's uv set and transform (`import_materials`), so the
+/// moved texture reads the uvs the base colour texture would.
 fn unlit(mut m: Material) -> Material {
     m.unlit = true;
     m.emissive = m.base_color.truncate();
@@ -1566,7 +1680,9 @@ fn sanitize_factors(mut m: Material) -> Material {
     m.roughness = finite_or(m.roughness, 1.0).clamp(0.0, 1.0);
     m.emissive = Vec3::from_array(m.emissive.to_array().map(|c| finite_or(c, 0.0).max(0.0)));
     m.transmission = finite_or(m.transmission, 0.0).clamp(0.0, 1.0);
-    m.alpha_cutoff = finite_or(m.alpha_cutoff, 0.5).clamp(0.0, 1.0);
+    // glTF schema: alphaCutoff minimum 0, no maximum. MASK keeps alpha ≥
+    // cutoff, so a cutoff above 1 cuts everything (not clamped to 1).
+    m.alpha_cutoff = finite_or(m.alpha_cutoff, 0.5).max(0.0);
     m.normal_scale = finite_or(m.normal_scale, 1.0);
     // KHR_materials_ior: ior = 0 is a legal "no refraction" marker; keep ≥ 1 otherwise.
     m.ior = finite_or(m.ior, 1.5);
@@ -1593,4 +1709,290 @@ fn sanitize_factors(mut m: Material) -> Material {
         m.ior = m.ior.max(1.0);
     }
     m
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use base64::Engine as _;
+    use serde_json::{json, Value};
+
+    /// A 1×1 PNG.
+    const PNG: &str = "data:image/png;base64,iVBORw0KGgoAAAANSUhEUgAAAAEAAAABCAYAAAAfFcSJAAAADUlEQVR42mP8z8DwHwAFBQIAX8jx0gAAAABJRU5ErkJggg==";
+
+    /// One little-endian f32 buffer: a bufferView and an accessor per array.
+    #[derive(Default)]
+    struct Bin {
+        bytes: Vec<u8>,
+        views: Vec<Value>,
+        accessors: Vec<Value>,
+    }
+
+    impl Bin {
+        /// An accessor of `n`-component floats; min/max for VEC3 (POSITION needs them).
+        fn floats(&mut self, data: &[f32], ty: &str, n: usize) -> usize {
+            let offset = self.bytes.len();
+            self.bytes.extend(data.iter().flat_map(|f| f.to_le_bytes()));
+            self.views
+                .push(json!({"buffer": 0, "byteOffset": offset, "byteLength": data.len() * 4}));
+            let mut acc = json!({"bufferView": self.views.len() - 1, "componentType": 5126,
+                                 "count": data.len() / n, "type": ty});
+            if n == 3 {
+                let (mut lo, mut hi) = ([f32::MAX; 3], [f32::MIN; 3]);
+                for v in data.chunks_exact(3) {
+                    for k in 0..3 {
+                        lo[k] = lo[k].min(v[k]);
+                        hi[k] = hi[k].max(v[k]);
+                    }
+                }
+                acc["min"] = json!(lo);
+                acc["max"] = json!(hi);
+            }
+            self.accessors.push(acc);
+            self.accessors.len() - 1
+        }
+    }
+
+    const TRIANGLE: [f32; 9] = [0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0];
+
+    /// Writes `doc` with `bin` as its one buffer and loads it.
+    fn load(tag: &str, mut doc: Value, bin: Bin) -> Result<Scene, SceneError> {
+        let dir = std::env::temp_dir().join(format!(
+            "stereocache-gltf-import-{tag}-{}",
+            std::process::id()
+        ));
+        std::fs::create_dir_all(&dir).unwrap();
+        let uri = format!(
+            "data:application/octet-stream;base64,{}",
+            base64::engine::general_purpose::STANDARD.encode(&bin.bytes)
+        );
+        doc["asset"] = json!({"version": "2.0"});
+        doc["buffers"] = json!([{"byteLength": bin.bytes.len(), "uri": uri}]);
+        doc["bufferViews"] = json!(bin.views);
+        doc["accessors"] = json!(bin.accessors);
+        let path = dir.join(format!("{tag}.gltf"));
+        std::fs::write(&path, serde_json::to_vec_pretty(&doc).unwrap()).unwrap();
+        let scene = load_gltf(&path);
+        std::fs::remove_dir_all(&dir).ok();
+        scene
+    }
+
+    /// A KHR_animation_pointer channel (path "pointer", no node) used to
+    /// make the whole file fail (the gltf crate requires a node and a core
+    /// path); it is dropped with one warning per animation naming the
+    /// extension, the animation's other channels play, and an animation
+    /// left with none loads.
+    #[test]
+    fn animation_pointer_channels_are_dropped_with_one_warning_per_animation() {
+        let doc_with = |channels: Value| {
+            let mut b = Bin::default();
+            let pos = b.floats(&TRIANGLE, "VEC3", 3);
+            let times = b.floats(&[0.0, 1.0], "SCALAR", 1);
+            let moved = b.floats(&[0.0, 0.0, 0.0, 2.0, 0.0, 0.0], "VEC3", 3);
+            let roughness = b.floats(&[0.0, 1.0], "SCALAR", 1);
+            let doc = json!({
+                "extensionsUsed": ["KHR_animation_pointer"],
+                "meshes": [{"primitives": [{"attributes": {"POSITION": pos}}]}],
+                "nodes": [{"mesh": 0}],
+                "scenes": [{"nodes": [0]}],
+                "animations": [{"name": "glow", "channels": channels, "samplers": [
+                    {"input": times, "output": roughness},
+                    {"input": times, "output": moved}]}]
+            });
+            (doc, b)
+        };
+        let pointer = json!({"sampler": 0, "target": {"path": "pointer", "extensions":
+            {"KHR_animation_pointer": {"pointer": "/materials/0/pbrMetallicRoughness/roughnessFactor"}}}});
+        // Alone: the animation loads with no channel.
+        let (doc, b) = doc_with(json!([pointer.clone()]));
+        let s = load("pointer", doc, b).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(s.warnings.len(), 1, "{:#?}", s.warnings);
+        let w = &s.warnings[0];
+        for part in [
+            "pointer.gltf: animation 'glow': channel 0 animates through KHR_animation_pointer",
+            "ignored",
+        ] {
+            assert!(w.contains(part), "'{part}' missing in: {w}");
+        }
+        let a = s.animation.as_ref().expect("the animation is kept");
+        assert!(a.animations[0].channels.is_empty());
+        // Before a translation channel using sampler 1: that one plays.
+        let translation = json!({"sampler": 1, "target": {"node": 0, "path": "translation"}});
+        let (doc, b) = doc_with(json!([pointer, translation]));
+        let s = load("pointer-and-trs", doc, b).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(s.warnings.len(), 1, "{:#?}", s.warnings);
+        let x = s.instance_transforms_at(0.5)[0].w_axis.x;
+        assert!((x - 1.0).abs() < 1e-5, "{x}");
+        // No node and no extension: nothing to animate, dropped too.
+        let nodeless = json!({"sampler": 1, "target": {"path": "translation"}});
+        let (doc, b) = doc_with(json!([nodeless]));
+        let s = load("nodeless", doc, b).unwrap_or_else(|e| panic!("{e}"));
+        assert!(
+            s.warnings.iter().any(|w| w.contains(
+                "animation 'glow': channel 0 targets no node and no extension defines one"
+            )),
+            "{:#?}",
+            s.warnings
+        );
+        // A path that is neither glTF's nor an extension's stays an error.
+        let typo = json!({"sampler": 1, "target": {"node": 0, "path": "colour"}});
+        let (doc, b) = doc_with(json!([typo]));
+        let e = load("typo", doc, b).unwrap_err().to_string();
+        assert!(
+            e.contains("animation 'glow' channel 0: unknown target path 'colour'"),
+            "{e}"
+        );
+    }
+
+    /// glTF 2.0 §3.7.2.1: a primitive without POSITION is skipped (the gltf
+    /// crate would refuse the document), with a warning; the rest renders.
+    #[test]
+    fn a_primitive_without_position_is_skipped_with_a_warning() {
+        let mut b = Bin::default();
+        let normal = b.floats(&[0.0, 0.0, 1.0].repeat(3), "VEC3", 3);
+        let pos = b.floats(&TRIANGLE, "VEC3", 3);
+        let doc = json!({
+            "meshes": [
+                {"name": "ghost", "primitives": [{"attributes": {"NORMAL": normal}}]},
+                {"primitives": [{"attributes": {"POSITION": pos}}]}
+            ],
+            "nodes": [{"mesh": 0}, {"mesh": 1}],
+            "scenes": [{"nodes": [0, 1]}]
+        });
+        let s = load("no-position", doc, b).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(s.meshes.len(), 1);
+        assert_eq!(s.meshes[0].positions.len(), 3);
+        assert_eq!(s.instances.len(), 1);
+        assert!(
+            s.warnings.iter().any(|w| w.contains(
+                "no-position.gltf: mesh 0 'ghost' primitive 0 has no POSITION attribute; skipped"
+            )),
+            "{:#?}",
+            s.warnings
+        );
+    }
+
+    /// glTF 2.0 §5.1.1: an accessor without bufferView (and without sparse)
+    /// reads as zeros; the gltf crate refused it. A morph target of zeros
+    /// with weight 1 leaves the base positions.
+    #[test]
+    fn an_accessor_without_buffer_view_reads_as_zeros() {
+        let mut b = Bin::default();
+        let pos = b.floats(&TRIANGLE, "VEC3", 3);
+        b.accessors
+            .push(json!({"componentType": 5126, "count": 3, "type": "VEC3"}));
+        let zeros = b.accessors.len() - 1;
+        let doc = json!({
+            "meshes": [{"weights": [1.0], "primitives": [{"attributes": {"POSITION": pos},
+                                                            "targets": [{"POSITION": zeros}]}]}],
+            "nodes": [{"mesh": 0}],
+            "scenes": [{"nodes": [0]}]
+        });
+        let s = load("zeros", doc, b).unwrap_or_else(|e| panic!("{e}"));
+        let base: Vec<Vec3> = TRIANGLE
+            .chunks_exact(3)
+            .map(|p| Vec3::from_slice(p))
+            .collect();
+        assert_eq!(s.meshes[0].positions, base);
+    }
+
+    /// A material with a base colour texture and an emissive texture of
+    /// another transform: lit, the emissive texture takes the second uv
+    /// channel; unlit, the base colour texture moved to the emissive slot
+    /// reads the base colour's uvs (one channel, no map).
+    #[test]
+    fn unlit_moves_the_base_colour_texture_with_its_uvs() {
+        let material = |unlit: bool| {
+            let mut m = json!({
+                "doubleSided": true,
+                "pbrMetallicRoughness": {"baseColorTexture": {"index": 0}},
+                "emissiveTexture": {"index": 0, "extensions":
+                    {"KHR_texture_transform": {"offset": [0.5, 0.0]}}}
+            });
+            if unlit {
+                m["extensions"] = json!({"KHR_materials_unlit": {}});
+            }
+            m
+        };
+        let mut b = Bin::default();
+        let pos = b.floats(&TRIANGLE, "VEC3", 3);
+        let uv = b.floats(&[0.0, 0.0, 1.0, 0.0, 0.0, 1.0], "VEC2", 2);
+        let doc = json!({
+            "extensionsUsed": ["KHR_texture_transform", "KHR_materials_unlit"],
+            "images": [{"uri": PNG}],
+            "textures": [{"source": 0}],
+            "materials": [material(false), material(true)],
+            "meshes": [
+                {"primitives": [{"attributes": {"POSITION": pos, "TEXCOORD_0": uv}, "material": 0}]},
+                {"primitives": [{"attributes": {"POSITION": pos, "TEXCOORD_0": uv}, "material": 1}]}
+            ],
+            "nodes": [{"mesh": 0}, {"mesh": 1}],
+            "scenes": [{"nodes": [0, 1]}]
+        });
+        let s = load("unlit-uvs", doc, b).unwrap_or_else(|e| panic!("{e}"));
+        const EMISSIVE: u32 = 1 << EMISSIVE_SLOT;
+        let lit = &s.materials[0];
+        assert_eq!(lit.second_uv_slots & EMISSIVE, EMISSIVE, "{lit:?}");
+        let m = &s.materials[1];
+        assert!(m.unlit);
+        assert_eq!(m.emissive_texture, m.base_color_texture);
+        assert_eq!(
+            m.second_uv_slots & EMISSIVE,
+            (m.second_uv_slots & (1 << BASE_COLOR_SLOT)) << EMISSIVE_SLOT,
+            "{m:?}"
+        );
+        assert_eq!(m.uv_affine[EMISSIVE_SLOT], m.uv_affine[BASE_COLOR_SLOT]);
+        let unlit_mesh = s.meshes.iter().find(|x| x.material == 1).unwrap();
+        assert!(unlit_mesh.uvs2.is_empty(), "one uv channel");
+    }
+
+    /// alphaCutoff has minimum 0 and no maximum (glTF schema); MASK keeps
+    /// alpha ≥ cutoff, so 1.5 cuts everything and is kept, not clamped.
+    #[test]
+    fn an_alpha_cutoff_above_one_is_kept() {
+        let mut b = Bin::default();
+        let pos = b.floats(&TRIANGLE, "VEC3", 3);
+        let doc = json!({
+            "materials": [{"doubleSided": true, "alphaMode": "MASK", "alphaCutoff": 1.5}],
+            "meshes": [{"primitives": [{"attributes": {"POSITION": pos}, "material": 0}]}],
+            "nodes": [{"mesh": 0}],
+            "scenes": [{"nodes": [0]}]
+        });
+        let s = load("cutoff", doc, b).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(s.materials[0].alpha_cutoff, 1.5);
+        assert!(
+            !s.warnings.iter().any(|w| w.contains("alphaCutoff")),
+            "{:#?}",
+            s.warnings
+        );
+    }
+
+    /// KHR_materials_volume needs transmission: on an opaque single-sided
+    /// material it is no volume, and back faces stay culled.
+    #[test]
+    fn a_volume_without_transmission_keeps_back_face_culling() {
+        let mut b = Bin::default();
+        let pos = b.floats(&TRIANGLE, "VEC3", 3);
+        let volume = json!({"KHR_materials_volume": {"thicknessFactor": 0.5}});
+        let mut glass = volume.clone();
+        glass["KHR_materials_transmission"] = json!({"transmissionFactor": 1.0});
+        let doc = json!({
+            "extensionsUsed": ["KHR_materials_volume", "KHR_materials_transmission"],
+            "materials": [{"extensions": volume}, {"extensions": glass}],
+            "meshes": [
+                {"primitives": [{"attributes": {"POSITION": pos}, "material": 0}]},
+                {"primitives": [{"attributes": {"POSITION": pos}, "material": 1}]}
+            ],
+            "nodes": [{"mesh": 0}, {"mesh": 1}],
+            "scenes": [{"nodes": [0, 1]}]
+        });
+        let s = load("volume", doc, b).unwrap_or_else(|e| panic!("{e}"));
+        let opaque = &s.materials[0];
+        assert!(!opaque.double_sided);
+        assert!(opaque.volume.is_none());
+        assert!(opaque.culls_back_faces());
+        let glass = &s.materials[1];
+        assert!(glass.volume.is_some());
+        assert!(!glass.culls_back_faces());
+    }
 }

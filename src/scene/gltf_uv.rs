@@ -91,6 +91,13 @@ pub const ORDER: [usize; SLOT_COUNT] = [0, 2, 1, 3, 4, 5, 6, 7, 8, 9];
 /// The normal texture's slot: the vertex tangents carry its frame.
 pub const NORMAL_SLOT: usize = 2;
 
+/// The base colour texture's slot.
+pub const BASE_COLOR_SLOT: usize = 0;
+
+/// The emissive texture's slot (KHR_materials_unlit moves the base colour
+/// texture there, with the base colour's uv set and transform).
+pub const EMISSIVE_SLOT: usize = 3;
+
 /// The clearcoat normal texture's slot: the vertex tangents carry its frame
 /// where the material has no normal texture; else its frame is the
 /// triangle's, from the uvs it reads (scene.glsl `surface_at`).

@@ -85,7 +85,10 @@ pub struct Material {
     /// neither channel's (a third choice of a channel's set; `gltf_uv`
     /// `choose`); applied at shading time (`MaterialGpu::uv_affine`).
     pub uv_affine: [Option<UvAffine>; SLOT_COUNT],
-    /// KHR_materials_volume with a thickness > 0: the surface bounds a
+    /// KHR_materials_volume with a thickness > 0 on a transmissive material
+    /// (the extension needs transmission; without it the import leaves
+    /// `None`, so an opaque single-sided material keeps culling back
+    /// faces): the surface bounds a
     /// homogeneous (absorbing) volume, refracting at the boundary with the
     /// ior and attenuating inside by Beer–Lambert. `None` (glTF's default):
     /// a transmissive surface is thin-walled — an infinitely thin sheet that
