@@ -304,6 +304,10 @@ fn specular_clearcoat_and_volume_survive_the_gltf_writer() {
         normal_texture: Some(t),
         normal_scale: 0.5,
     };
+    // A volume applies only to a transmissive material (KHR_materials_volume:
+    // it "needs to be combined with" KHR_materials_transmission); the
+    // importer drops one without transmission.
+    m.transmission = 0.5;
     m.volume = Some(Volume {
         attenuation_color: Vec3::new(0.9, 0.5, 0.1),
         attenuation_distance: 0.25,
