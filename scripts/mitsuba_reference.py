@@ -12,6 +12,7 @@ with vertex normals, one per instance, with its material as a Mitsuba BSDF and e
      "camera": {"origin": [..], "target": [..], "up": [..], "yfov_deg": F},
      "shapes": [{"ply": "mesh0.ply", "twosided": bool,
                  "bsdf": {"diffuse": [r, g, b]} | {"dielectric": ior}
+                       | {"rough_dielectric": {"ior": ior, "alpha": A}}
                        | {"diffuse_texture": "textureN.exr"}
                        | {"schlick_metal": {"base_color": [r, g, b], "roughness": R}},
                  "emission": [r, g, b] | null,
@@ -69,6 +70,18 @@ def bsdf_of(spec, base):
         return {"type": "diffuse", "reflectance": {"type": "rgb", "value": spec["diffuse"]}}
     if "dielectric" in spec:
         return {"type": "dielectric", "int_ior": float(spec["dielectric"]), "ext_ior": 1.0}
+    if "rough_dielectric" in spec:
+        # GGX with alpha = roughness^2, sampled by visible normals; Mitsuba's
+        # Smith term is the separable one (ours: height-correlated).
+        d = spec["rough_dielectric"]
+        return {
+            "type": "roughdielectric",
+            "distribution": "ggx",
+            "alpha": float(d["alpha"]),
+            "int_ior": float(d["ior"]),
+            "ext_ior": 1.0,
+            "sample_visible": True,
+        }
     if "schlick_metal" in spec:
         # glTF's metal: Schlick's Fresnel with F0 = the base colour, GGX with
         # alpha = roughness^2. Mitsuba's principled BSDF at metallic 1 (and
