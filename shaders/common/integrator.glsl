@@ -273,48 +273,75 @@ vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, vec2 eye_cone, inout Rng r
         Rng r = rng_fork(rng, bounce);
         Rng rl = rng_fork(r, 0x4C696768u);   // light-sampling stream (does not advance r)
         vec3 wi_world;
-        if (SC_TRANSMISSION && m.transmission > 0.0 && rng_next(r) < m.transmission) {
-            // Dielectric component (chosen with probability = its mixture
-            // weight; frames in bsdf.glsl dielectric_sample_world). A
-            // clearcoat over glass (outside only) reflects its share wc =
-            // coat_weight, picked with that probability; the rest goes to
-            // the dielectric below unweighted ((1 − wc)/(1 − wc) = 1). The
-            // interface's index is relative to the medium on its other side
-            // (media.glsl; 1 in vacuum: the plain ior).
+        // The vertex: the dielectric component of a transmissive material
+        // (chosen with probability = its mixture weight; frames in
+        // bsdf.glsl dielectric_sample_world) or the opaque BSDF. A
+        // clearcoat over glass (outside only) reflects its share wc =
+        // coat_weight, picked with that probability; the rest goes to the
+        // dielectric below unweighted ((1 − wc)/(1 − wc) = 1). The
+        // interface's index is relative to the medium on its other side
+        // (media.glsl; 1 in vacuum: the plain ior).
+        bool glass = SC_TRANSMISSION && m.transmission > 0.0 && rng_next(r) < m.transmission;
+        NeeVertex v;
+        // Next-event estimation where the vertex has a density: every
+        // opaque vertex; a rough dielectric (reflection and transmission)
+        // or a coat over glass (until session 43 rough glass was treated
+        // as a delta event, so point, spot and directional lights never
+        // reached it). An opaque vertex draws its punctual-light numbers
+        // from r whether or not lights are compiled in, so the stream (and
+        // the image) does not depend on the specialization constants; a
+        // glass vertex draws them from the light stream rl, so its BSDF's
+        // draws from r (and a smooth glass's images) are those of before
+        // it had light sampling. Emissive triangles and the map always
+        // draw from rl, in full.
+        bool nee;
+        vec2 u_light = vec2(0.0);
+        float u_pick = 0.0;
+        if (glass) {
             float wc = s.front ? coat_weight(m, wo) : 0.0;
             ShadingMaterial mi = m;
             mi.ior /= media_outside_ior(media, h.instance, s.front);
             Frame fg = frame_from(s.front ? s.n : -s.n);
-            NeeVertex v = NeeVertex(true, m, mi, f, fg, wo, to_local(fg, -d), wc, mi.roughness < 0.02, sigma_a);
+            v = NeeVertex(true, m, mi, f, fg, wo, to_local(fg, -d), wc, mi.roughness < 0.02, sigma_a);
             if (!m.thin) {
                 Media across = media;
                 media_cross(across, h.instance, s.front);
                 v.sigma_other = media_sigma_a(across);
             }
-            // Next-event estimation where the vertex has a density: a rough
-            // dielectric (reflection and transmission) or a coat (until
-            // session 43 rough glass was treated as a delta event, so point,
-            // spot and directional lights never reached it). Its random
-            // numbers come from the light stream rl, so the BSDF's draws
-            // from r (and a smooth glass's images) are those of before.
-            if (wc > 0.0 || !v.diel_delta) {
-                vec2 u_light = rng_next2(rl);
-                float u_pick = rng_next(rl);
-                vec4 u_emitter = vec4(rng_next2(rl), rng_next2(rl));
-                vec2 u_env = rng_next2(rl);
-                L += beta * nee_punctual(s, v, u_light, u_pick, sigma_a, rays);
-#ifdef SC_MATERIAL_MEMO
-                sc_memo_nee = cone_width > 0.0;
-                sc_memo_nee_w = memo_w;
-                sc_memo_nee_spread = memo_spread + memo_beta_c;
-#endif
-                L += beta * nee_area_lights(s, v, u_emitter, u_env, sigma_a, rays);
-#ifdef SC_MATERIAL_MEMO
-                sc_memo_nee = false;
-#endif
+            nee = wc > 0.0 || !v.diel_delta;
+            if (nee) {
+                u_light = rng_next2(rl);
+                u_pick = rng_next(rl);
             }
+        } else {
+            if (wo.z <= 0.0) break;
+            u_light = rng_next2(r);
+            u_pick = rng_next(r);
+            v = opaque_vertex(m, f, wo, sigma_a);
+            nee = true;
+        }
+        if (nee) {
+            vec4 u_emitter = vec4(rng_next2(rl), rng_next2(rl));
+            vec2 u_env = rng_next2(rl);
+            L += beta * nee_punctual(s, v, u_light, u_pick, sigma_a, rays);
+#ifdef SC_MATERIAL_MEMO
+            // Light samples are secondary hits of this path too: their
+            // cone is the one a BSDF-sampled ray reaching the same point
+            // would have (memo_w + memo_spread · distance, as the next
+            // bounce grows it), so both strategies see the same memoized
+            // emission (lights.glsl sample_emitter).
+            sc_memo_nee = cone_width > 0.0;
+            sc_memo_nee_w = memo_w;
+            sc_memo_nee_spread = memo_spread + memo_beta_c;
+#endif
+            L += beta * nee_area_lights(s, v, u_emitter, u_env, sigma_a, rays);
+#ifdef SC_MATERIAL_MEMO
+            sc_memo_nee = false;
+#endif
+        }
+        if (glass) {
             bool delta;
-            if (wc > 0.0 && rng_next(r) < wc) {
+            if (v.wc > 0.0 && rng_next(r) < v.wc) {
                 vec3 wi;
                 float ratio;
                 if (!coat_sample(m, wo, rng_next2(r), wi, ratio)) break;
@@ -324,7 +351,7 @@ vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, vec2 eye_cone, inout Rng r
                 delta = false;
             } else {
                 vec3 w;
-                if (!dielectric_sample_world(mi, s.n, s.front, d, vec3(rng_next2(r), rng_next(r)), wi_world, w, delta)) break;
+                if (!dielectric_sample_world(v.mi, s.n, s.front, d, vec3(rng_next2(r), rng_next(r)), wi_world, w, delta)) break;
                 beta *= w;
                 // Refraction crosses the boundary: into the material's
                 // volume from the front, out of it from the back (a
@@ -342,31 +369,6 @@ vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, vec2 eye_cone, inout Rng r
             if (!delta) vertex_eval(v, s, wi_world, pdf_prev);
             specular_prev = pdf_prev <= 0.0;
         } else {
-            if (wo.z <= 0.0) break;
-            // Next-event estimation. Its random numbers are drawn whether or
-            // not lights are compiled in, so the stream (and the image) does
-            // not depend on the specialization constants.
-            vec2 u_light = rng_next2(r);
-            float u_pick = rng_next(r);
-            NeeVertex v = opaque_vertex(m, f, wo, sigma_a);
-            L += beta * nee_punctual(s, v, u_light, u_pick, sigma_a, rays);
-            // Emissive triangles and the environment map (stream rl, drawn in full).
-            vec4 u_emitter = vec4(rng_next2(rl), rng_next2(rl));
-            vec2 u_env = rng_next2(rl);
-#ifdef SC_MATERIAL_MEMO
-            // Light samples are secondary hits of this path too: their
-            // cone is the one a BSDF-sampled ray reaching the same point
-            // would have (memo_w + memo_spread · distance, as the next
-            // bounce grows it), so both strategies see the same memoized
-            // emission (lights.glsl sample_emitter).
-            sc_memo_nee = cone_width > 0.0;
-            sc_memo_nee_w = memo_w;
-            sc_memo_nee_spread = memo_spread + memo_beta_c;
-#endif
-            L += beta * nee_area_lights(s, v, u_emitter, u_env, sigma_a, rays);
-#ifdef SC_MATERIAL_MEMO
-            sc_memo_nee = false;
-#endif
             vec3 wi, w;
             float pdf;
             if (!opaque_sample(m, wo, vec3(rng_next2(r), rng_next(r)), wi, w, pdf)) break;
