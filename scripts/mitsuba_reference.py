@@ -14,7 +14,9 @@ with vertex normals, one per instance, with its material as a Mitsuba BSDF and e
                  "bsdf": {"diffuse": [r, g, b]} | {"dielectric": ior}
                        | {"rough_dielectric": {"ior": ior, "alpha": A}}
                        | {"diffuse_texture": "textureN.exr"}
-                       | {"schlick_metal": {"base_color": [r, g, b], "roughness": R}},
+                       | {"schlick_metal": {"base_color": [r, g, b], "roughness": R}}
+                       | {"blend_metal": {"base_color": [r, g, b], "roughness": R,
+                                          "metallic": M}},
                  "emission": [r, g, b] | null,
                  "absorption": [r, g, b] | null}, ...],
      "lights": [{"point": {"position": [..], "intensity": [..]}}
@@ -81,6 +83,19 @@ def bsdf_of(spec, base):
             "int_ior": float(d["ior"]),
             "ext_ior": 1.0,
             "sample_visible": True,
+        }
+    if "blend_metal" in spec:
+        # glTF's mix(dielectric, metal, metallic) with the dielectric's
+        # specular layer off (a Lambert of the base colour): linear in
+        # metallic, so a blend of the diffuse and the metal below.
+        m = spec["blend_metal"]
+        return {
+            "type": "blendbsdf",
+            "weight": float(m["metallic"]),
+            "bsdf_0": bsdf_of({"diffuse": m["base_color"]}, base),
+            "bsdf_1": bsdf_of(
+                {"schlick_metal": {"base_color": m["base_color"], "roughness": m["roughness"]}}, base
+            ),
         }
     if "schlick_metal" in spec:
         # glTF's metal: Schlick's Fresnel with F0 = the base colour, GGX with

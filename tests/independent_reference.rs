@@ -21,9 +21,11 @@
 //! second scene lights the box with a point light, a spot light, a delta
 //! directional light and a constant environment instead, a third gives the
 //! white walls a texture, a fourth puts spheres on a floor under an
-//! importance-sampled environment map, and a fifth shades spheres and an
+//! importance-sampled environment map, a fifth shades spheres and an
 //! ellipsoid with interpolated vertex normals (every mesh goes to Mitsuba
-//! with its vertex normals in world space).
+//! with its vertex normals in world space), and a sixth makes the fifth's
+//! metal sphere half metal (glTF's linear metallic mix, Mitsuba's
+//! blendbsdf of its diffuse and its metal).
 
 mod common;
 
@@ -447,6 +449,17 @@ fn export(
             } else {
                 serde_json::json!({ "dielectric": mat.ior })
             }
+        } else if mat.metallic > 0.0 && mat.metallic < 1.0 {
+            // glTF's mix(dielectric, metal, metallic) is linear in
+            // metallic; with the dielectric's specular layer off
+            // (specular 0: F0 = F90 = 0, a pure Lambert) it is Mitsuba's
+            // blendbsdf of a diffuse and the metal with that weight.
+            assert!(mat.specular == 0.0 && mat.metallic_roughness_texture.is_none());
+            serde_json::json!({ "blend_metal": {
+                "base_color": mat.base_color.truncate().to_array(),
+                "roughness": mat.roughness,
+                "metallic": mat.metallic,
+            } })
         } else if mat.metallic > 0.0 {
             assert!(mat.metallic == 1.0 && mat.metallic_roughness_texture.is_none());
             serde_json::json!({ "schlick_metal": {
@@ -881,6 +894,43 @@ fn reference_matches_mitsuba_on_textured_walls() {
         level0,
     );
     must_catch(&r, flipped, "the texture upside down");
+    assert_no_validation_messages(&r.ctx);
+}
+
+/// [`smooth_shaded_scene`] with its rough metal sphere half metal
+/// (`metallic`; the dielectric half a pure Lambert, specular 0) and its
+/// base colour a light tint: glTF's linear metallic mix, and our one-sample
+/// choice between the diffuse and the GGX lobe with its mixture density in
+/// the MIS weights, against Mitsuba's blendbsdf of its diffuse and its
+/// metal.
+fn half_metal_scene(metallic: f32) -> Scene {
+    let mut s = smooth_shaded_scene(false, ROUGH_METAL_ALPHA);
+    s.source =
+        format!("smooth-shaded spheres, the metal one metallic {metallic}, for Mitsuba").into();
+    let m = s
+        .materials
+        .iter_mut()
+        .find(|m| m.name == "rough metal")
+        .unwrap();
+    m.metallic = metallic;
+    m.specular = 0.0;
+    m.base_color = Vec3::new(0.9, 0.75, 0.5).extend(1.0);
+    s
+}
+
+#[test]
+fn reference_matches_mitsuba_on_a_half_metal() {
+    let Some(r) = render_both(
+        half_metal_scene(0.5),
+        "half-metal",
+        Some(environment_radiance),
+    ) else {
+        return;
+    };
+    if let Err(e) = agreement(&r.ours, &r.theirs) {
+        panic!("the reference disagrees with Mitsuba 3 on a half-metal sphere: {e}");
+    }
+    must_catch(&r, half_metal_scene(0.65), "metallic 0.65 instead of 0.5");
     assert_no_validation_messages(&r.ctx);
 }
 

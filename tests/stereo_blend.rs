@@ -235,3 +235,253 @@ fn reconstruction_moments_weigh_coverage_like_the_colour() {
     );
     assert_no_validation_messages(&ctx);
 }
+
+/// The world position of a stored first hit (Listing 1's encoding:
+/// barycentrics in 24 bits of x and y, primitive z, instance w), as
+/// shaders/common/first_hit.glsl `hit_position` computes it, from the
+/// scene's own meshes and instance transforms.
+fn hit_position(scene: &stereocache::scene::Scene, fh: [u32; 4]) -> glam::Vec3 {
+    const BARY_SCALE: f32 = 16_777_215.0;
+    let (b1, b2) = (
+        (fh[0] & 0xFF_FFFF) as f32 / BARY_SCALE,
+        (fh[1] & 0xFF_FFFF) as f32 / BARY_SCALE,
+    );
+    let inst = &scene.instances[fh[3] as usize];
+    let mesh = &scene.meshes[inst.mesh as usize];
+    let t = &mesh.indices[3 * fh[2] as usize..3 * fh[2] as usize + 3];
+    let p = (1.0 - b1 - b2) * mesh.positions[t[0] as usize]
+        + b1 * mesh.positions[t[1] as usize]
+        + b2 * mesh.positions[t[2] as usize];
+    inst.transform.transform_point3(p)
+}
+
+/// One pixel of eye Y through the blend as stereo_blend.comp computes it in
+/// `moments` mode, from the buffers the pass read (read back after the
+/// frame): `None` where the pass leaves the pixel as it is. `ambiguous` is
+/// set where a rounding of the projected position could change a discrete
+/// choice (the nearest pixel of X, the bounds, the 1 % depth test), which
+/// CPU and GPU may then take differently. Returns (X's colour, Y's colour,
+/// the blend, a first-order bound on the blend's rounding error per channel).
+#[allow(clippy::too_many_arguments)]
+fn blend_twin(
+    scene: &stereocache::scene::Scene,
+    views: &[stereocache::camera::EyeView; 2],
+    fr: &StereoFrame,
+    colour: &[[f32; 4]],
+    mom: &stereocache::methods::sample_cache::Moments,
+    r: f32,
+    y: usize,
+    p: usize,
+    ambiguous: &mut bool,
+) -> Option<([f32; 3], [f32; 3], [f32; 3], [f32; 3])> {
+    use stereocache::stereo::blend::{beta_prime, dodgson};
+    let (w, h) = (fr.width as usize, fr.height as usize);
+    let npix = w * h;
+    let x = 1 - y;
+    let fh = fr.eyes[y].first_hit[p];
+    if fh[3] == u32::MAX {
+        return None;
+    }
+    let wp = hit_position(scene, fh);
+    let (q, vd) = views[x].project(wp, glam::UVec2::new(w as u32, h as u32))?;
+    // Rounding of q (the GPU projects from origin-relative f32, this from
+    // world f32): within 10⁻³ px of a pixel edge the nearest pixel and the
+    // bounds are ambiguous.
+    let frac = (q - q.floor()).min(q.ceil() - q);
+    if frac.min_element() < 1e-3 {
+        *ambiguous = true;
+    }
+    if q.x < 0.0 || q.y < 0.0 || q.x >= w as f32 || q.y >= h as f32 {
+        return None;
+    }
+    let qi = (q.x as usize, q.y as usize);
+    let qx = x * npix + qi.1 * w + qi.0;
+    let dx = fr.eyes[x].depth[qi.1 * w + qi.0];
+    if (dx - vd).abs() - 0.01 * vd > -1e-4 * vd && (dx - vd).abs() - 0.01 * vd < 1e-4 * vd {
+        *ambiguous = true;
+    }
+    if !(dx > 0.0) || (dx - vd).abs() > 0.01 * vd {
+        return None;
+    }
+    // X's moments: Dodgson's kernel around q over the 4×4 taps within 1.5 px.
+    let (mut m1x, mut m2x, mut wsum) = ([0.0f32; 3], [0.0f32; 3], 0.0f32);
+    let base = (q - 0.5).floor();
+    for j in -1..=2 {
+        for i in -1..=2 {
+            let t = base + glam::Vec2::new(i as f32, j as f32);
+            if t.x < 0.0 || t.y < 0.0 || t.x >= w as f32 || t.y >= h as f32 {
+                continue;
+            }
+            let s = q - (t + 0.5);
+            let k = dodgson(s.x, r) * dodgson(s.y, r);
+            if k == 0.0 {
+                continue;
+            }
+            let ti = x * npix + t.y as usize * w + t.x as usize;
+            for c in 0..3 {
+                m1x[c] += k * mom.m1[ti][c];
+                m2x[c] += k * mom.m2[ti][c];
+            }
+            wsum += k;
+        }
+    }
+    if !(wsum > 1e-6) {
+        return None;
+    }
+    // Y's moments: 3×3 box, centre weight 1, neighbours 1 − R.
+    let (mut m1y, mut m2y, mut wy) = ([0.0f32; 3], [0.0f32; 3], 0.0f32);
+    let (px, py) = ((p % w) as i64, (p / w) as i64);
+    for j in -1..=1i64 {
+        for i in -1..=1i64 {
+            let (tx, ty) = (px + i, py + j);
+            if tx < 0 || ty < 0 || tx >= w as i64 || ty >= h as i64 {
+                continue;
+            }
+            let k = if i == 0 && j == 0 { 1.0 } else { 1.0 - r };
+            if k == 0.0 {
+                continue;
+            }
+            let ti = y * npix + ty as usize * w + tx as usize;
+            for c in 0..3 {
+                m1y[c] += k * mom.m1[ti][c];
+                m2y[c] += k * mom.m2[ti][c];
+            }
+            wy += k;
+        }
+    }
+    let (cx, cy) = (colour[qx], colour[y * npix + p]);
+    let (mut out, mut bound) = ([0.0f32; 3], [0.0f32; 3]);
+    for c in 0..3 {
+        let (a1, a2) = (m1x[c] / wsum, m2x[c] / wsum);
+        let (b1, b2) = (m1y[c] / wy, m2y[c] / wy);
+        let beta = beta_prime(a1, a2, b1, b2);
+        out[c] = (1.0 - beta) * cx[c] + beta * cy[c];
+        // First-order bound on β′'s error from relative errors ε in the
+        // moments: ε = 10⁻⁴ covers q's rounding (≤ 10⁻⁵ px) times the
+        // kernel's slope (≤ 2.5 per px) with a margin of 4, and the f32
+        // sums (≤ 16 terms, ≈ 10⁻⁶). β′ = 1 − V_Y / D with V_Y = μ2Y −
+        // μ1Y², D = V_X + V_Y + (μ1X − μ1Y)²: ΔV_Y ≤ ε(|μ2Y| + 2μ1Y²),
+        // ΔD ≤ ε(|μ2X| + 2μ1X² + |μ2Y| + 2μ1Y² + 2(|μ1X| + |μ1Y|)²),
+        // Δβ′ ≤ (ΔV_Y + (V_Y / D)·ΔD) / D (clamped to [0, 1], so ≤ 1).
+        let eps = 1e-4f32;
+        let vy = (b2 - b1 * b1).max(0.0);
+        let vx = (a2 - a1 * a1).max(0.0);
+        let d = vx + vy + (a1 - b1) * (a1 - b1);
+        let dvy = eps * (b2.abs() + 2.0 * b1 * b1);
+        let dd = eps
+            * (a2.abs()
+                + 2.0 * a1 * a1
+                + b2.abs()
+                + 2.0 * b1 * b1
+                + 2.0 * (a1.abs() + b1.abs()).powi(2));
+        let dbeta = if d > 0.0 {
+            ((dvy + (vy / d) * dd) / d).min(1.0)
+        } else {
+            1.0
+        };
+        bound[c] = dbeta * (cx[c] - cy[c]).abs() + 1e-5 * (cx[c].abs() + cy[c].abs()) + 1e-30;
+    }
+    Some(([cx[0], cx[1], cx[2]], [cy[0], cy[1], cy[2]], out, bound))
+}
+
+/// stereo_blend.comp against its CPU twin (src/stereo/blend.rs's β′ and
+/// Dodgson kernel, with the taps, the nearest X colour, the 3×3 blur of Y's
+/// moments and the co-visibility test written out here), from the buffers
+/// the pass read, on every pixel of both eyes over three frames of a
+/// turning head on the hairball, at R = 0 (a 3×3 kernel), ½ and the
+/// paper's 0.8 (negative lobes). The only pixels not compared are those
+/// where rounding could flip a discrete choice (`blend_twin`'s
+/// `ambiguous`); they must be rare. The test also requires that blending
+/// happened (pixels changed, β′ strictly between 0 and 1 somewhere), so it
+/// cannot pass on a pass that left the image alone.
+#[test]
+fn stereo_blend_pass_matches_its_cpu_twin() {
+    let ctx = context();
+    let mut scene = load_scene("hairball").unwrap();
+    apply_default_lighting(&mut scene, &DefaultLighting::default()).unwrap();
+    let s = session(&ctx, scene.clone(), RtChoice::Software);
+    let (w, h) = (48, 36);
+    let cam0 = default_camera(&s, w, h);
+    for r in [0.0f32, 0.5, 0.8] {
+        let st = RenderSettings {
+            width: w,
+            height: h,
+            spp: 1,
+            max_bounces: 2,
+            seed: 7,
+            all_features: false,
+            ..Default::default()
+        };
+        let cache = SampleCacheSettings {
+            stereo_blend: BlendMode::Moments,
+            sharpness: r,
+            ..Default::default()
+        };
+        let mut m =
+            SampleCache::new(&s.ctx, &s.scene_gpu, &s.scene.environment, &st, &cache).unwrap();
+        let (mut compared, mut ambiguous_n, mut blended_n, mut mixed_n) = (0, 0, 0, 0);
+        let mut prev = None;
+        for f in 0..3 {
+            let cam = turning_head(&cam0, f, 1.5, 0.0);
+            let fr = render_at(&mut m, f, cam, prev);
+            prev = Some(cam);
+            let colour = m.unblended_colour().unwrap();
+            let mom = m.moments().unwrap();
+            let views = cam.eyes();
+            let npix = (w * h) as usize;
+            for y in 0..2 {
+                for p in 0..npix {
+                    let got = fr.eyes[y].radiance[p];
+                    let mut ambiguous = false;
+                    let twin =
+                        blend_twin(&scene, &views, &fr, &colour, &mom, r, y, p, &mut ambiguous);
+                    if ambiguous {
+                        ambiguous_n += 1;
+                        continue;
+                    }
+                    compared += 1;
+                    let Some((cx, cy, want, bound)) = twin else {
+                        let c = colour[y * npix + p];
+                        assert_eq!(
+                            &got[..3],
+                            &c[..3],
+                            "R {r}, frame {f}, eye {y}, pixel {p}: left unblended by the twin, changed by the pass"
+                        );
+                        continue;
+                    };
+                    if got[..3] != cy[..] {
+                        blended_n += 1;
+                    }
+                    for c in 0..3 {
+                        assert!(
+                            (got[c] - want[c]).abs() <= bound[c],
+                            "R {r}, frame {f}, eye {y}, pixel {p}, channel {c}: pass {} vs twin {} (bound {}; X {}, Y {})",
+                            got[c], want[c], bound[c], cx[c], cy[c]
+                        );
+                        let lo = cx[c].min(cy[c]);
+                        let hi = cx[c].max(cy[c]);
+                        if hi - lo > 1e-3 * hi
+                            && want[c] > lo + 0.01 * (hi - lo)
+                            && want[c] < hi - 0.01 * (hi - lo)
+                        {
+                            mixed_n += 1;
+                        }
+                    }
+                }
+            }
+        }
+        eprintln!(
+            "R {r}: {compared} pixels compared, {ambiguous_n} ambiguous, {blended_n} changed by the blend, {mixed_n} channels with 0.01 < β′ < 0.99"
+        );
+        assert!(
+            ambiguous_n * 100 <= compared,
+            "R {r}: {ambiguous_n} ambiguous pixels of {compared}"
+        );
+        assert!(
+            blended_n * 10 >= compared,
+            "R {r}: only {blended_n} of {compared} pixels blended"
+        );
+        assert!(mixed_n > 0, "R {r}: β′ never strictly between 0 and 1");
+    }
+    assert_no_validation_messages(&ctx);
+}

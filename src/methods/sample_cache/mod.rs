@@ -508,6 +508,13 @@ impl SampleCache {
         })
     }
 
+    /// Per-pixel colour of the last frame as reconstruction left it, before
+    /// the stereo blend (`[eye · w·h + pixel]`; the frame's radiance is the
+    /// blended image when blending is on).
+    pub fn unblended_colour(&self) -> GpuResult<Vec<[f32; 4]>> {
+        self.out_color.download_pod()
+    }
+
     /// A compute pass of this group running `pipe`, with the scene's set
     /// and all 27 buffers of src/interface/sample_cache.rs declared in
     /// binding order — `prev` (0/1) the ping-pong half read as the previous
