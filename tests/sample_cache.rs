@@ -836,3 +836,88 @@ fn cornell_alpha_option_sets_the_spheres_roughness() {
         );
     }
 }
+
+/// §3.4's base rate on the GPU follows its CPU twin
+/// (heuristics.rs `is_sparse_base_pixel`, unit-tested to visit every pixel
+/// of a block once in every 16 frames): on a camera-facing plane that fills
+/// the view (no sky, and no Eq. 2 edge: at a 10° field of view over 14
+/// pixels the plane's depth curvature across a 3×3 neighbourhood, ≈ 8φ²·t
+/// against Eq. 2's 2Δn ≈ φ²·t, stays far inside ε1·t; at 40° it does not,
+/// and the centre pixels are flagged), the pixels select.comp retraces — the
+/// `trace-mask` view — are exactly the base pixels, in every frame after
+/// the first (which has nothing to retrace) and both eyes, at a size whose
+/// right and bottom blocks are cut by the border.
+#[test]
+fn base_rate_retraces_exactly_the_rotating_base_pixels() {
+    use glam::{Vec2, Vec3};
+    use stereocache::methods::sample_cache::heuristics::is_sparse_base_pixel;
+    use stereocache::scene::generate::{add_material, add_mesh, grid};
+    let ctx = context();
+    let mut scene = stereocache::scene::Scene {
+        source: "test:wall".into(),
+        ..Default::default()
+    };
+    let mut m = stereocache::scene::Material::diffuse("wall", Vec3::splat(0.6));
+    m.double_sided = true;
+    let mat = add_material(&mut scene, m);
+    let wall = grid(
+        "wall",
+        Vec3::new(-10.0, -10.0, 0.0),
+        Vec3::X * 20.0,
+        Vec3::Y * 20.0,
+        4,
+        4,
+        Vec2::ONE,
+    );
+    add_mesh(&mut scene, wall, mat, glam::Mat4::IDENTITY);
+    scene.lights.push(directional_light(
+        Vec3::new(0.2, 0.3, 1.0).normalize(),
+        1.0,
+        0.0,
+    ));
+    scene.environment = None;
+    scene.validate().unwrap();
+    let s = session(&ctx, scene, RtChoice::Software);
+    let (w, h) = (18u32, 14u32);
+    let st = settings(
+        w,
+        h,
+        SampleCacheSettings {
+            debug_views: true,
+            ..Default::default()
+        },
+    );
+    let mut m = cache_method(&s, &st);
+    let cam = look_at_camera(
+        Vec3::new(0.3, 0.2, 4.0),
+        Vec3::new(0.3, 0.2, 0.0),
+        10.0,
+        w as f32 / h as f32,
+    );
+    for f in 0..21u32 {
+        let fr = render_at(&mut m, f, cam, (f > 0).then_some(cam));
+        assert_eq!(
+            fr.stats.counters["edge_pixels"], 0.0,
+            "frame {f}: an edge on a plane"
+        );
+        if f == 0 {
+            continue;
+        }
+        for eye in 0..2u32 {
+            let mask = &fr.eyes[eye as usize]
+                .debug
+                .iter()
+                .find(|(n, _)| n == "trace-mask")
+                .expect("trace-mask view")
+                .1;
+            for y in 0..h {
+                for x in 0..w {
+                    let traced = mask[(y * w + x) as usize][0] > 0.0;
+                    let base = is_sparse_base_pixel([x, y], [w, h], f, eye);
+                    assert_eq!(traced, base, "frame {f}, eye {eye}, pixel ({x}, {y})");
+                }
+            }
+        }
+    }
+    assert_no_validation_messages(&ctx);
+}

@@ -532,3 +532,109 @@ fn edge_bias_report() {
     }
     println!("BLACK covered pixels where the reference is lit: {black}");
 }
+
+/// A black single-sided quad (glTF doubleSided false) seen from the front,
+/// then, from the next frame on, from behind: eye rays pass through its
+/// back (tests/culling.rs), so every pixel must show the environment
+/// behind it (radiance exactly 1) from that frame on, in sample-cache,
+/// isrt and hybrid. Until session 44 the caches kept the front's samples
+/// visible for good: reprojection did not look at the face's side, a
+/// retrace ray passed through the sample's culled triangle and found
+/// neither it nor an occluder, and pixels full of visible samples take no
+/// new ones — the back face stayed black. The same quad mirrored by its
+/// instance transform (front side kept: glTF's determinant rule) must
+/// behave the same, and a double-sided one must stay black (exactly 0).
+#[test]
+fn back_faces_of_single_sided_surfaces_leave_the_caches() {
+    let ctx = context();
+    let front = look_at_camera(Vec3::new(0.1, 0.1, 5.0), Vec3::new(0.1, 0.1, 0.0), 5.0, 1.0);
+    let back = look_at_camera(
+        Vec3::new(0.1, 0.1, -5.0),
+        Vec3::new(0.1, 0.1, 0.0),
+        5.0,
+        1.0,
+    );
+    for (double_sided, mirrored) in [(false, false), (false, true), (true, false)] {
+        let mut s = Scene {
+            source: "test:single-sided quad".into(),
+            ..Default::default()
+        };
+        let mut m = Material::diffuse("black", Vec3::ZERO);
+        m.specular = 0.0;
+        m.double_sided = double_sided;
+        let mat = add_material(&mut s, m);
+        // Counter-clockwise normal +Z, towards the first camera.
+        let quad = grid(
+            "quad",
+            Vec3::new(-1.0, -1.0, 0.0),
+            Vec3::X * 2.0,
+            Vec3::Y * 2.0,
+            1,
+            1,
+            Vec2::ONE,
+        );
+        let t = if mirrored {
+            Mat4::from_scale(Vec3::new(-1.0, 1.0, 1.0))
+        } else {
+            Mat4::IDENTITY
+        };
+        add_mesh(&mut s, quad, mat, t);
+        s.environment = Some(Environment::Constant(Vec3::ONE));
+        s.validate().unwrap();
+        let sess = session(&ctx, s, RtChoice::Software);
+        let st = settings(8, 8);
+        let want_behind = if double_sided { 0.0 } else { 1.0 };
+        for method in ["sample-cache", "isrt", "hybrid"] {
+            let mut m: Box<dyn Method> = match method {
+                "sample-cache" => Box::new(
+                    SampleCache::new(
+                        &sess.ctx,
+                        &sess.scene_gpu,
+                        &sess.scene.environment,
+                        &st,
+                        &SampleCacheSettings::default(),
+                    )
+                    .unwrap(),
+                ),
+                "isrt" => Box::new(
+                    Isrt::new(
+                        &sess.ctx,
+                        &sess.scene_gpu,
+                        &sess.scene.environment,
+                        &st,
+                        &IsrtSettings::default(),
+                    )
+                    .unwrap(),
+                ),
+                _ => Box::new(
+                    Hybrid::new(
+                        &sess.ctx,
+                        &sess.scene_gpu,
+                        &sess.scene.environment,
+                        &st,
+                        &hybrid_config(),
+                    )
+                    .unwrap(),
+                ),
+            };
+            let what = format!("{method}, double-sided {double_sided}, mirrored {mirrored}");
+            let mut prev = None;
+            for f in 0..4u32 {
+                let cam = if f == 0 { front } else { back };
+                let fr = render_at(m.as_mut(), f, cam, prev);
+                prev = Some(cam);
+                let want = if f == 0 { 0.0 } else { want_behind };
+                for (e, eye) in fr.eyes.iter().enumerate() {
+                    for (p, c) in eye.radiance.iter().enumerate() {
+                        assert!(
+                            (0..3).all(|k| (c[k] - want).abs() <= 1e-5),
+                            "{what}: frame {f}, eye {e}, pixel {p}: {:?}, want {want}",
+                            &c[..3]
+                        );
+                    }
+                }
+            }
+        }
+    }
+    assert_no_validation_messages(&ctx);
+}

@@ -30,6 +30,20 @@ void hit_position_and_normal(uvec4 fh, out vec3 p, out vec3 ng) {
     ng = l > 0.0 ? n / l : vec3(0.0, 1.0, 0.0);
 }
 
+// Whether a stored first hit (geometric normal ng as hit_position_and_normal
+// returns it: the world-space winding's) is seen from behind along the eye
+// ray direction d on a triangle that culls back faces (glTF doubleSided
+// false, no volume: MaterialGpu.extra.z). Eye rays pass through such a
+// triangle (rt_software.glsl `culled`, whose sign for world-space
+// triangles is instance_front_sign; rt_query.glsl), so the sample
+// cannot be what the eye sees. A cache that kept it visible once the view
+// moved behind the surface drew the back face for good: retrace rays pass
+// through it too and find neither it nor an occluder.
+bool first_hit_culled(uvec4 fh, vec3 ng, vec3 d) {
+    if (!SC_BACKFACE_CULLING || materials[instance_material(fh.w)].extra.z == 0.0) return false;
+    return dot(ng, d) * instance_front_sign(fh.w) > 0.0;
+}
+
 // Motion of a stored first hit's surface point over the last frame (motion
 // vectors; appendix D: the instance ID fetches the transforms): the world
 // position the same object-space point had under the previous frame's

@@ -17,7 +17,7 @@ struct MaterialGpu {
     vec4 params;              // roughness, transmission, ior, alpha cutoff
     ivec4 tex0;               // base colour, metallic-roughness, normal, emissive (-1 = none)
     ivec4 tex1;               // transmission, alpha mode (0 opaque, 1 mask, 2 blend), double sided, unlit (emission × COLOR_0)
-    vec4 extra;               // normal scale, specular factor (KHR_materials_specular), unused, unused
+    vec4 extra;               // normal scale, specular factor (KHR_materials_specular), culls back faces (1: single-sided, no volume), unused
     vec4 specular_color;      // KHR_materials_specular colour factor rgb, unused
     vec4 coat;                // KHR_materials_clearcoat factor, roughness, normal scale, unused
     vec4 attenuation;         // KHR_materials_volume σ_a rgb (per world unit, 0 = none), thin-walled (1: transmission without a volume)

@@ -23,7 +23,20 @@ void main() {
     float vd;
     vec2 size = vec2(frame_size());
     EyeGpu e = frame.eyes[eye];
-    vec3 offset = bg ? vec3(0.0) : hit_position(fh) - e.pos_tanx.xyz;   // from e's position
+    vec3 offset = vec3(0.0);   // from e's position
+    if (!bg) {
+        vec3 wp, ng;
+        hit_position_and_normal(fh, wp, ng);
+        offset = wp - e.pos_tanx.xyz;
+        // Seen from behind on a single-sided triangle, the sample is not
+        // what the eye sees (eye rays pass through the face:
+        // first_hit.glsl first_hit_culled): dropped, so the cell is traced
+        // anew, as for a sample that left the view.
+        if (first_hit_culled(fh, ng, eye_is_ortho(e) ? e.fwd.xyz : offset)) {
+            atomicAdd(counters[C_ISRT_BACKFACING], 1u);
+            return;
+        }
+    }
     bool kept = !bg || background_offset(e, frame.prev_eyes[eye], vec2(g / M) + background_subpixel(fh), background_direction(fh), offset);
     if (!kept || !project_offset_to_eye(e, offset, q, vd) || any(lessThan(q, vec2(0.0))) ||
         any(greaterThanEqual(q, size))) {

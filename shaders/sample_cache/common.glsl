@@ -125,7 +125,8 @@ const uint C_RETRACE_RAYS = C_SAMPLE_CACHE_RETRACE_RAYS, C_NEW_RAYS = C_SAMPLE_C
            C_REPROJECTED_BACKGROUND = C_SAMPLE_CACHE_REPROJECTED_BACKGROUND,
            C_RETRACE_BACKGROUND = C_SAMPLE_CACHE_RETRACE_BACKGROUND,
            C_RETRACE_OCCLUSION = C_SAMPLE_CACHE_RETRACE_OCCLUSION,
-           C_RETRACE_OCCLUDED = C_SAMPLE_CACHE_RETRACE_OCCLUDED;
+           C_RETRACE_OCCLUDED = C_SAMPLE_CACHE_RETRACE_OCCLUDED,
+           C_REPROJECTED_BACKFACING = C_SAMPLE_CACHE_REPROJECTED_BACKFACING;
 
 uint npix() { return frame.size_seed.x * frame.size_seed.y; }
 uint slot_index(uint eye, uint s, uint pixel) { return (eye * N_SLOTS + s) * npix() + pixel; }
@@ -266,12 +267,22 @@ float accumulated_count(float c, float alpha) {
 }
 
 // Block-sparse pattern of §3.4/§3.5: one pixel per 4×4 block, rotating each
-// frame. Blocks cut by the right or bottom border (width or height not a
-// multiple of 4) choose among their pixels inside the image, so they too get
-// their base pixel every frame.
+// frame: over any 16 consecutive frames every pixel of a block is its base
+// pixel exactly once (the order a 4×4 Bayer matrix's ranks, so consecutive
+// base pixels lie apart; each block and eye starts at its own hashed
+// offset, so the blocks do not step in lockstep). Until session 44 a hash of
+// the frame chose it afresh each frame, which left gaps of up to 149 frames
+// (35 % over 16) between a pixel's visits. Blocks cut by the right or bottom
+// border (width or height not a multiple of 4) rotate over their n pixels
+// inside the image in row order, each every n frames, so they too get their
+// base pixel every frame. CPU twin: heuristics.rs `is_sparse_base_pixel`.
+const uint BAYER4[16] = uint[16](0u, 8u, 2u, 10u, 12u, 4u, 14u, 6u, 3u, 11u, 1u, 9u, 15u, 7u, 13u, 5u);
 bool is_sparse_base_pixel(uvec2 px, uint frame_index, uint eye) {
     uvec2 block = px / 4u;
     uvec2 extent = min(frame_size() - block * 4u, uvec2(4u));
-    uint k = pcg_hash(block.x * 73856093u ^ block.y * 19349663u ^ eye * 83492791u ^ frame_index * 2654435761u) % (extent.x * extent.y);
-    return (px.x & 3u) + extent.x * (px.y & 3u) == k;
+    uint n = extent.x * extent.y;
+    uint offset = pcg_hash(block.x * 73856093u ^ block.y * 19349663u ^ eye * 83492791u);
+    uint local = (px.x & 3u) + extent.x * (px.y & 3u);
+    uint rank = n == 16u ? BAYER4[local] : local;
+    return rank == (frame_index + offset) % n;
 }

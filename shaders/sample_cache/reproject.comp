@@ -35,7 +35,7 @@ void main() {
     vec2 cs_phi = pixel_diagonal_cos_sin(e);
     bool ortho = eye_is_ortho(e);
     float diag = pixel_diagonal(e);
-    uint reprojected = 0u, reprojected_visible = 0u, full = 0u, offscreen = 0u, reprojected_bg = 0u;
+    uint reprojected = 0u, reprojected_visible = 0u, full = 0u, offscreen = 0u, reprojected_bg = 0u, backfacing = 0u;
     while (occ != 0u) {
         uint s = uint(findLSB(occ));
         occ &= occ - 1u;
@@ -66,6 +66,17 @@ void main() {
         uint target = qi.y * size.x + qi.x;
         uint tm = eye * npix() + target;
         bool vis = ((m_src >> (N_SLOTS + s)) & 1u) != 0u;
+        // A surface sample the new eye sees from behind on a single-sided
+        // triangle goes on invisible: eye rays pass through the face there
+        // (first_hit.glsl first_hit_culled), so it cannot be what the pixel
+        // shows, and its retrace could never say so (the ray passes through
+        // it and finds nothing closer). Invisible, it frees the pixel's
+        // count for new samples (select.comp) and becomes visible again by
+        // a retrace once the front faces the eye.
+        if (vis && !bg && first_hit_culled(fh, ng, ortho ? e.fwd.xyz : offset)) {
+            vis = false;
+            backfacing++;
+        }
         uint m = mask_cur[tm];
         int slot = -1;
         for (uint attempt = 0u; attempt < 2u * N_SLOTS + 1u; ++attempt) {
@@ -130,4 +141,5 @@ void main() {
     count_add(C_REPROJECTED_BACKGROUND, reprojected_bg);
     count_add(C_REPROJECT_FULL, full);
     count_add(C_OFFSCREEN, offscreen);
+    count_add(C_REPROJECTED_BACKFACING, backfacing);
 }

@@ -7,6 +7,9 @@ crate::counter_slots! {
     pub enum IsrtCounter("ISRT") {
         Reprojected = "REPROJECTED" => "reprojected_samples",
         Offscreen = "OFFSCREEN" => "reproject_offscreen",
+        /// Samples dropped because the new eye sees their single-sided
+        /// triangle from behind (first_hit.glsl `first_hit_culled`).
+        Backfacing = "BACKFACING" => "reproject_backfacing",
         Kept = "KEPT" => "kept_samples",
         RetraceRays = "RETRACE_RAYS" => "retrace_rays",
         RetraceLost = "RETRACE_LOST" => "retrace_lost",

@@ -41,6 +41,10 @@ crate::counter_slots! {
         RetraceOcclusion = "RETRACE_OCCLUSION" => "retrace_occlusion_rays",
         /// Retraced samples found behind a closer hit.
         RetraceOccluded = "RETRACE_OCCLUDED" => "retrace_occluded",
+        /// Visible surface samples reprojected as invisible because the new
+        /// eye sees their single-sided triangle from behind (eye rays pass
+        /// through it: first_hit.glsl `first_hit_culled`).
+        ReprojectedBackfacing = "REPROJECTED_BACKFACING" => "reprojected_backfacing",
     }
 }
 

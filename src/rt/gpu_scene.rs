@@ -334,7 +334,15 @@ impl SceneGpu {
                         // KHR_materials_unlit: emission × COLOR_0 (material.glsl).
                         m.unlit as i32,
                     ],
-                    extra: [m.normal_scale, m.specular, 0.0, 0.0],
+                    // z: 1 where back faces are culled (Material::culls_back_faces:
+                    // single-sided and no volume boundary), as the BVH's
+                    // per-triangle sign and the instances' cull flags say.
+                    extra: [
+                        m.normal_scale,
+                        m.specular,
+                        if m.culls_back_faces() { 1.0 } else { 0.0 },
+                        0.0,
+                    ],
                     specular_color: m.specular_color.extend(0.0).to_array(),
                     coat: [
                         m.clearcoat.factor,

@@ -106,6 +106,37 @@ pub fn accumulate(c: f32, alpha_floor: f32) -> (f32, f32) {
     }
 }
 
+/// Ranks of a 4×4 Bayer matrix (row-major): the order in which a full
+/// block's pixels become its base pixel.
+const BAYER4: [u32; 16] = [0, 8, 2, 10, 12, 4, 14, 6, 3, 11, 1, 9, 15, 7, 13, 5];
+
+/// The block-sparse base pixel of §3.4/§3.5 (`is_sparse_base_pixel` in
+/// shaders/sample_cache/common.glsl): one pixel per 4×4 block and frame,
+/// each pixel of a block once in every 16 consecutive frames (Bayer order
+/// from a per-block, per-eye hashed start); a block cut by the image's
+/// right or bottom border rotates over its n pixels in row order.
+pub fn is_sparse_base_pixel(px: [u32; 2], size: [u32; 2], frame_index: u32, eye: u32) -> bool {
+    use crate::methods::hash_table::hash::pcg_hash;
+    let block = [px[0] / 4, px[1] / 4];
+    let extent = [
+        (size[0] - block[0] * 4).min(4),
+        (size[1] - block[1] * 4).min(4),
+    ];
+    let n = extent[0] * extent[1];
+    let offset = pcg_hash(
+        block[0].wrapping_mul(73856093)
+            ^ block[1].wrapping_mul(19349663)
+            ^ eye.wrapping_mul(83492791),
+    );
+    let local = (px[0] & 3) + extent[0] * (px[1] & 3);
+    let rank = if n == 16 {
+        BAYER4[local as usize]
+    } else {
+        local
+    };
+    rank == frame_index.wrapping_add(offset) % n
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -309,5 +340,68 @@ mod tests {
         assert_eq!(alpha_min(0.0), 0.5);
         assert!((alpha_min(1.0) - 0.1).abs() < 1e-7);
         assert!((alpha_min(0.2) - 0.42).abs() < 1e-6);
+    }
+
+    /// Every block of a 10×7 image (full blocks, and blocks cut by both
+    /// borders) has exactly one base pixel per frame, and every pixel is
+    /// its block's base pixel exactly once in every window of n
+    /// consecutive frames (n = the block's pixels in the image: 16 for a
+    /// full block), in both eyes, across the u32 frame counter's wrap
+    /// where n divides 2^32 (a full block) — so no pixel waits longer than
+    /// n frames for its retrace. The order of a full block spreads
+    /// consecutive base pixels: never 4-neighbours.
+    #[test]
+    fn base_pixels_rotate_through_every_pixel_of_a_block() {
+        let size = [10u32, 7];
+        for eye in 0..2 {
+            for start in [0u32, 1000, u32::MAX - 40] {
+                let frames: Vec<u32> = (0..48).map(|k| start.wrapping_add(k)).collect();
+                for by in 0..2 {
+                    for bx in 0..3 {
+                        let pixels: Vec<[u32; 2]> = (0..4)
+                            .flat_map(|y| (0..4).map(move |x| [4 * bx + x, 4 * by + y]))
+                            .filter(|p| p[0] < size[0] && p[1] < size[1])
+                            .collect();
+                        let n = pixels.len();
+                        let base: Vec<usize> = frames
+                            .iter()
+                            .map(|&f| {
+                                let hits: Vec<usize> = (0..n)
+                                    .filter(|&i| is_sparse_base_pixel(pixels[i], size, f, eye))
+                                    .collect();
+                                assert_eq!(
+                                    hits.len(),
+                                    1,
+                                    "block ({bx}, {by}), frame {f}: {hits:?}"
+                                );
+                                hits[0]
+                            })
+                            .collect();
+                        // The wrap of a cut block's n (not a divisor of
+                        // 2^32) may repeat a pixel once there.
+                        if n != 16 && start > u32::MAX - 48 {
+                            continue;
+                        }
+                        for w in base.windows(n) {
+                            let mut seen = vec![false; n];
+                            for &i in w {
+                                assert!(
+                                    !seen[i],
+                                    "block ({bx}, {by}): pixel {i} twice in {n} frames"
+                                );
+                                seen[i] = true;
+                            }
+                        }
+                        if n == 16 {
+                            for p in base.windows(2) {
+                                let (a, b) = (pixels[p[0]], pixels[p[1]]);
+                                let d = a[0].abs_diff(b[0]) + a[1].abs_diff(b[1]);
+                                assert!(d > 1, "consecutive base pixels {a:?}, {b:?} adjacent");
+                            }
+                        }
+                    }
+                }
+            }
+        }
     }
 }
