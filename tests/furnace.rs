@@ -225,3 +225,81 @@ fn ggx_white_furnace_matches_single_scattering_albedo() {
     eprintln!("worst deviation {worst:.2} σ");
     assert_no_validation_messages(&ctx);
 }
+
+/// A white Lambertian plane tilted in all three axes, 2 km across and
+/// passing through the origin (where the render origin sits), double-sided,
+/// in a uniform white environment, one bounce: every cosine-weighted bounce
+/// ray escapes with weight 1, so every pixel is exactly 1 — unless the ray
+/// re-hits the plane it leaves (then 0: its bounce budget is spent). The
+/// rounding error of a hit point on this triangle grows with its vertices
+/// (≈ 10⁻⁴ m at 1 km), not with the point's own coordinates (≈ 1 m from
+/// the origin here), so an offset of 256 ulps of the point alone
+/// (3·10⁻⁵ m) let about a fifth of the bounce rays start behind the plane
+/// and hit it (session 44; scene.glsl `surface_offset` now offsets by the
+/// vertices' magnitude too). Checked on both ray backends.
+#[test]
+fn a_large_plane_near_the_origin_does_not_shadow_itself() {
+    use glam::{Mat4, Vec2};
+    use stereocache::scene::generate::{add_material, add_mesh, grid};
+    let ctx = context();
+    let mut s = stereocache::scene::Scene {
+        source: "test:kilometre plane".into(),
+        ..Default::default()
+    };
+    let mut m = lambert_white();
+    m.double_sided = true;
+    let mat = add_material(&mut s, m);
+    let r = 1000.0f32;
+    add_mesh(
+        &mut s,
+        grid(
+            "plane",
+            Vec3::new(-r, 0.0, r),
+            Vec3::X * (2.0 * r),
+            Vec3::NEG_Z * (2.0 * r),
+            1,
+            1,
+            Vec2::ONE,
+        ),
+        mat,
+        Mat4::from_rotation_x(0.37) * Mat4::from_rotation_z(0.23) * Mat4::from_rotation_y(0.61),
+    );
+    s.environment = Some(stereocache::scene::Environment::Constant(Vec3::ONE));
+    s.validate().unwrap();
+    let n = (Mat4::from_rotation_x(0.37) * Mat4::from_rotation_z(0.23)).transform_vector3(Vec3::Y);
+    let settings = RenderSettings {
+        width: 32,
+        height: 32,
+        spp: 4,
+        max_bounces: 1,
+        seed: 3,
+        all_features: false,
+        ..Default::default()
+    };
+    for rt in rt_backends(&ctx) {
+        let sess = session(&ctx, s.clone(), rt);
+        // 2 m above the plane's point at the origin, looking down at it
+        // from 40° off the normal: the pixels see points within ≈ 1.5 m.
+        let eye = n * 1.5 + n.cross(Vec3::X).normalize() * 1.3;
+        let f = render(
+            &sess,
+            "reference",
+            look_at_camera(eye, Vec3::ZERO, 60.0, 1.0),
+            &settings,
+        );
+        let mut dark = 0usize;
+        for e in &f.eyes {
+            for (p, fh) in e.radiance.iter().zip(&e.first_hit) {
+                assert_ne!(fh[3], u32::MAX, "{rt:?}: a pixel misses the plane");
+                dark += p[..3].iter().any(|c| (c - 1.0).abs() > 1e-5) as usize;
+            }
+        }
+        assert_eq!(
+            dark,
+            0,
+            "{rt:?}: {dark} of {} pixels darker than the environment",
+            2 * 32 * 32
+        );
+    }
+    assert_no_validation_messages(&ctx);
+}

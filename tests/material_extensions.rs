@@ -456,6 +456,7 @@ fn alpha_blend_is_stochastic_coverage_in_every_method() {
 /// pixel that sees the emitter through the sheet has expectation 1 − F.
 /// The same sheet as a volume boundary bends the rays by 17° into the
 /// "glass", and they miss the emitter: 0. The camera sees only the emitter.
+/// A metallic sheet lets only the dielectric's share (1 − metallic) through.
 #[test]
 fn transmission_without_a_volume_is_a_thin_sheet() {
     let ctx = context();
@@ -515,16 +516,24 @@ fn transmission_without_a_volume_is_a_thin_sheet() {
         ..Default::default()
     };
     for rt in rt_backends(&ctx) {
-        // (volume, KHR_materials_specular factor, expected): the specular
-        // factor scales the sheet's reflection (fresnel_mix: the base keeps
-        // 1 − specular·F).
-        for (volume, specular, expected) in [
-            (None, 1.0, 1.0 - f45),
-            (None, 0.5, 1.0 - 0.5 * f45),
-            (Some(Volume::CLEAR), 1.0, 0.0),
+        // (volume, KHR_materials_specular factor, metallic, expected): the
+        // specular factor scales the sheet's reflection (fresnel_mix: the
+        // base keeps 1 − specular·F); metallic m takes its share of the
+        // transmission (mix(dielectric, metal, m) around the dielectric
+        // that holds the transmission: (1 − m)(1 − F) gets through, the
+        // metal's share reflects into the black; "for a material with
+        // metallicFactor = 1.0, the value of transmissionFactor doesn't
+        // matter": nothing through).
+        for (volume, specular, metallic, expected) in [
+            (None, 1.0, 0.0, 1.0 - f45),
+            (None, 0.5, 0.0, 1.0 - 0.5 * f45),
+            (Some(Volume::CLEAR), 1.0, 0.0, 0.0),
+            (None, 1.0, 0.5, 0.5 * (1.0 - f45)),
+            (None, 1.0, 1.0, 0.0),
         ] {
             let mut scene = build(volume);
             scene.materials[0].specular = specular;
+            scene.materials[0].metallic = metallic;
             let s = session(&ctx, scene, rt);
             let f = render(&s, "reference", cam, &settings);
             let v: Vec<f64> = f
@@ -533,7 +542,10 @@ fn transmission_without_a_volume_is_a_thin_sheet() {
                 .flat_map(|e| e.radiance.iter().map(|p| p[1] as f64))
                 .collect();
             let (mean, se) = mean_and_standard_error(&v);
-            let what = format!("{rt:?} volume {} specular {specular}", volume.is_some());
+            let what = format!(
+                "{rt:?} volume {} specular {specular} metallic {metallic}",
+                volume.is_some()
+            );
             eprintln!("{what}: {mean:.4} ± {se:.4} (expected {expected:.4})");
             assert!(
                 (mean - expected).abs() <= 5.0 * se + 1e-4,

@@ -198,8 +198,14 @@ vec3 base_eval(ShadingMaterial m, vec3 wo, vec3 wi, out float pdf) {
     // and KHR_materials_specular, F90 = specular), not the metallic-mixed F
     // (which Appendix B's simplified implementation uses, and which made a
     // half-metal's diffuse 29 % darker; tests/conformance.rs).
-    vec3 diff = (1.0 - m.metallic) * m.base * INV_PI * wi.z
-              * (vec3(1.0) - fresnel_schlick(dielectric_f0(m), vec3(m.specular), wo.z));
+    // KHR_materials_specular's fresnel_mix weighs the diffuse by one minus
+    // the largest channel of the (tinted) dielectric Fresnel, so a tinted
+    // specular colour does not tint the diffuse (until session 44 each
+    // channel had its own 1 − F: a specular-glossiness conversion with
+    // specularColor (0.9, 0.6, 0.2) let 4× and 8× the green and blue
+    // diffuse through).
+    vec3 fd = fresnel_schlick(dielectric_f0(m), vec3(m.specular), wo.z);
+    vec3 diff = (1.0 - m.metallic) * m.base * INV_PI * wi.z * (1.0 - max(fd.r, max(fd.g, fd.b)));
     float ps = opaque_spec_prob(m, wo);
     float pdf_spec = smith_g1(wo, a) * D / (4.0 * wo.z);
     pdf = ps * pdf_spec + (1.0 - ps) * wi.z * INV_PI;
@@ -283,6 +289,15 @@ float dielectric_layer(ShadingMaterial m, float c, float eta, out vec3 Fr) {
     return F;
 }
 
+// Whether the dielectric scatters only into delta directions: smooth (below
+// roughness 0.02), or a volume boundary of relative index exactly 1 (the
+// same medium on both sides, KHR_materials_ior 1.0): there every
+// microfacet refracts wi = −wo and Fresnel reflects nothing, so the rough
+// lobe collapses to straight transmission (its half vector −normalize(wo
+// + wi) was the zero vector: a NaN density that dropped the emission
+// seen through it).
+bool dielectric_delta(ShadingMaterial m) { return m.roughness < 0.02 || (!m.thin && m.ior == 1.0); }
+
 // Samples the dielectric BSDF (smooth below roughness 0.02, else rough GGX).
 // wo may be on either side (wo.z < 0 = inside); `weight` = f·|cos|/pdf.
 // `delta` reports a specular event (no light sampling possible).
@@ -295,7 +310,7 @@ bool dielectric_sample(ShadingMaterial m, vec3 wo, vec3 u, out vec3 wi, out vec3
     bool entering = wo.z > 0.0;
     float eta = entering || m.thin ? m.ior : 1.0 / m.ior;   // n_t / n_i
     vec3 wo_up = entering ? wo : -wo;               // work in the hemisphere of wo
-    delta = m.roughness < 0.02;
+    delta = dielectric_delta(m);
     vec3 h;
     float a = ggx_alpha(m.roughness);
     if (delta) h = vec3(0.0, 0.0, 1.0);
@@ -346,7 +361,7 @@ bool dielectric_sample(ShadingMaterial m, vec3 wo, vec3 u, out vec3 wi, out vec3
 // G2 takes |wi.z|, as the sampler's weight G2/G1 does.
 vec3 dielectric_eval(ShadingMaterial m, vec3 wo, vec3 wi, out float pdf) {
     pdf = 0.0;
-    if (m.roughness < 0.02) return vec3(0.0);
+    if (dielectric_delta(m)) return vec3(0.0);
     bool entering = wo.z > 0.0;
     float eta = entering || m.thin ? m.ior : 1.0 / m.ior;   // n_t / n_i
     vec3 wo_up = entering ? wo : -wo;

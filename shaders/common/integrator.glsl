@@ -118,7 +118,21 @@ vec3 vertex_eval(NeeVertex v, Surface s, vec3 wi, out float pdf) {
 // shadow ray leaves on wi's side of the surface), and the absorption of the
 // medium it crosses (the other side's for a glass vertex's transmission).
 bool nee_unoccluded(Surface s, vec3 wi, float dist) {
-    return !rt_occluded(offset_ray(s.p, dot(wi, s.ng) > 0.0 ? s.ng : -s.ng), wi, 0.0, dist);
+    return !rt_occluded(surface_offset(s, dot(wi, s.ng) > 0.0 ? s.ng : -s.ng), wi, 0.0, dist);
+}
+
+// Whether the segment from the surface to point x on an emitter (unit
+// geometric normal nl) is unoccluded, both ends offset off their surfaces
+// (surface_offset, offset_ray), so neither is hit. (Until session 44 the
+// shadow ray left the shading point's offset along wi towards a distance
+// measured from the point itself, shortened by 10⁻⁴ of it: where the
+// offset, 256 ulps of |p|, outgrew that — an emitter 3 m above a floor at
+// y = 16 — every light sample ended on the emitter and was lost.)
+bool nee_unoccluded_to(Surface s, vec3 wi, vec3 x, vec3 nl) {
+    vec3 o = surface_offset(s, dot(wi, s.ng) > 0.0 ? s.ng : -s.ng);
+    vec3 d = offset_ray(x, dot(nl, wi) < 0.0 ? nl : -nl) - o;
+    float len = length(d);
+    return len > 0.0 && !rt_occluded(o, d / len, 0.0, len);
 }
 vec3 nee_sigma(NeeVertex v, Surface s, vec3 wi, vec3 sigma_a) {
     return dot(wi, s.ng) > 0.0 ? sigma_a : v.sigma_other;
@@ -154,7 +168,7 @@ vec3 nee_area_lights(Surface s, NeeVertex v, vec4 u_emitter, vec2 u_env, vec3 si
             vec3 fc = vertex_eval(v, s, es.wi, pdf_b);
             if (any(greaterThan(fc, vec3(0.0)))) {
                 rays.shadow++;
-                if (nee_unoccluded(s, es.wi, es.dist * (1.0 - 1e-4))) {
+                if (nee_unoccluded_to(s, es.wi, es.p, es.n)) {
                     float w = SC_LIGHT_STRATEGY == LIGHT_STRATEGY_NEE ? 1.0 : power_heuristic(es.pdf, pdf_b);
                     vec3 c = fc * es.Le * (w / es.pdf);
                     vec3 sg = nee_sigma(v, s, es.wi, sigma_a);
@@ -230,7 +244,7 @@ vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, vec2 eye_cone, inout Rng r
             // do not pass transmissive ones), so the emission counts in
             // full (and emitter_pdf's distance from here would be wrong).
             media_cross(media, h.instance, s.front);
-            o = offset_ray(s.p, -s.ng);
+            o = surface_offset(s, -s.ng);
             specular_prev = true;
             pdf_prev = 0.0;
             rays.bounce++;
@@ -302,7 +316,7 @@ vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, vec2 eye_cone, inout Rng r
             ShadingMaterial mi = m;
             mi.ior /= media_outside_ior(media, h.instance, s.front);
             Frame fg = frame_from(s.front ? s.n : -s.n);
-            v = NeeVertex(true, m, mi, f, fg, wo, to_local(fg, -d), wc, mi.roughness < 0.02, sigma_a);
+            v = NeeVertex(true, m, mi, f, fg, wo, to_local(fg, -d), wc, dielectric_delta(mi), sigma_a);
             if (!m.thin) {
                 Media across = media;
                 media_cross(across, h.instance, s.front);
@@ -388,7 +402,7 @@ vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, vec2 eye_cone, inout Rng r
 #ifdef SC_MATERIAL_MEMO
         if (dot(wi_world, s.ng) > 0.0) memo_spread += memo_beta_c;   // a reflection (eq. 2.12)
 #endif
-        o = offset_ray(s.p, dot(wi_world, s.ng) > 0.0 ? s.ng : -s.ng);
+        o = surface_offset(s, dot(wi_world, s.ng) > 0.0 ? s.ng : -s.ng);
         cone = 0.0;  // secondary hits sample mip 0 (no cone model past the first hit)
         d = wi_world;
         rays.bounce++;

@@ -6,6 +6,7 @@
 #define LIGHTS_GLSL
 #include "common/rt.glsl"
 #include "common/bsdf.glsl"
+#include "common/material.glsl"
 
 struct LightSample {
     vec3 wi;          // world direction towards the light
@@ -28,6 +29,8 @@ struct EmitterSample {
     float dist;   // distance to it
     vec3 Le;      // radiance it emits towards the shading point
     float pdf;    // solid-angle pdf of wi (pick probability · area pdf · dist² / |cos θl|)
+    vec3 p;       // the sampled point
+    vec3 n;       // its unit geometric normal (either side)
 };
 
 // Emitted radiance of emitter triangle `e` at barycentrics `bary`, seen along
@@ -43,6 +46,14 @@ vec3 emitted_radiance(EmitterGpu e, vec2 bary, vec3 dir) {
     vec3 gn = cross(e.p1 - e.p0, e.p2 - e.p0) * instance_front_sign(inst);
     if (dot(gn, dir) >= 0.0 && g.tex1.z == 0) return vec3(0.0);
     if (!alpha_passes(inst, prim, bary)) return vec3(0.0);
+    // A clearcoat over the emitter dims its emission by the coat's Fresnel
+    // towards the viewer (material_at): evaluated there in full, at mip 0
+    // as a secondary hit is, so light sampling and BSDF sampling see the
+    // same radiance.
+    if (SC_CLEARCOAT && g.coat.x > 0.0) {
+        Surface cs = surface_at(inst, prim, bary, dir);
+        return material_at(cs, dir, 0.0).emissive;
+    }
     vec3 Le = g.emissive_metallic.rgb;
     if (SC_VERTEX_COLORS && g.tex1.w != 0) Le *= triangle_color(inst, prim, bary).rgb;   // unlit: × COLOR_0
     if (SC_TEXTURES && g.tex0.w >= 0) {
@@ -91,6 +102,8 @@ bool sample_emitter(vec3 p, vec4 u, out EmitterSample es) {
     float cos_l = abs(dot(gn / gl, es.wi));
     if (cos_l <= 0.0) return false;
     es.pdf = e.pdf_area * dist2 / cos_l;
+    es.p = q;
+    es.n = gn / gl;
 #ifdef SC_MATERIAL_MEMO
     // The sampled point's memoization cone (integrator.glsl sets the
     // vertex's signed width and spread; none: the graph is evaluated directly).

@@ -139,6 +139,33 @@ ShadingMaterial material_at(inout Surface s, vec3 ray_dir, float cone_width) {
     m.metallic = clamp(m.metallic, 0.0, 1.0);
     m.clearcoat = clamp(m.clearcoat, 0.0, 1.0);
     m.clearcoat_roughness = clamp(m.clearcoat_roughness, 0.0, 1.0);
+    m.transmission = clamp(m.transmission, 0.0, 1.0);
+    // KHR_materials_transmission sits inside glTF's mix(dielectric, metal,
+    // metallic): the dielectric's base is mix(diffuse, btdf, transmission),
+    // so the material is t(1 − m)·glass + (1 − m)(1 − t)·opaque dielectric
+    // + m·metal ("for a material with metallicFactor = 1.0, the value of
+    // transmissionFactor doesn't matter"). The integrator takes the glass
+    // branch with probability `transmission` and the opaque BSDF
+    // ((1 − metallic)·dielectric + metallic·metal) otherwise, so both are
+    // rewritten: transmission' = t(1 − m), metallic' = m / (1 − t'), which
+    // gives the opaque dielectric (1 − m)(1 − t) and the metal m exactly.
+    // (Until session 44 metallic was ignored there: a metal with
+    // transmission 1 rendered as clear glass.)
+    if (m.transmission > 0.0 && m.metallic > 0.0) {
+        float t = m.transmission * (1.0 - m.metallic);
+        m.metallic = t < 1.0 ? min(m.metallic / (1.0 - t), 1.0) : 0.0;
+        m.transmission = t;
+    }
+    // KHR_materials_clearcoat layers the coat over the emission too:
+    // emission·(1 − clearcoat·Fc(|n_c·v|)) towards the viewer v = −ray_dir
+    // (the extension's coated_emission; a coat normal facing away falls
+    // back to the geometric normal, as the integrator shades it). Every
+    // method's first-hit emission and light sampling (lights.glsl
+    // emitted_radiance) read it from here.
+    if (SC_CLEARCOAT && SC_EMISSIVE && m.clearcoat > 0.0) {
+        vec3 nc = dot(m.coat_n, ray_dir) >= 0.0 ? s.ng : m.coat_n;
+        m.emissive *= 1.0 - m.clearcoat * coat_fresnel(abs(dot(nc, ray_dir)));
+    }
     return m;
 }
 #endif
