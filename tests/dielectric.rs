@@ -817,3 +817,69 @@ fn rough_glass_light_sampling_agrees_with_bsdf_sampling() {
     }
     assert_no_validation_messages(&ctx);
 }
+
+/// A rough (roughness 0.5) solid sphere of index 1 — KHR_materials_ior
+/// 1.0, the same medium as outside — before an emitter of radiance Le in
+/// a black scene: every microfacet refracts straight through and Fresnel
+/// reflects nothing, so every pixel is exactly Le (white base, no
+/// absorption). Until session 44 the rough lobe's density there was taken
+/// at the half vector −normalize(wo + wi) of a zero (or rounding-sized)
+/// vector, which weighed the emission seen through by an arbitrary MIS
+/// weight and light-sampled the emitter with an arbitrary BSDF value.
+#[test]
+fn an_index_matched_rough_boundary_passes_light_straight_through() {
+    let ctx = context();
+    let le = 2.0f32;
+    let mut s = Scene {
+        source: "test:index-matched rough sphere".into(),
+        ..Default::default()
+    };
+    let g = add_material(
+        &mut s,
+        Material {
+            roughness: 0.5,
+            ior: 1.0,
+            ..glass()
+        },
+    );
+    let e = add_material(&mut s, emitter(le));
+    add_mesh(&mut s, uv_sphere("sphere", 48, 24), g, Mat4::IDENTITY);
+    add_mesh(
+        &mut s,
+        grid(
+            "emitter",
+            Vec3::new(-20.0, -20.0, -4.0),
+            Vec3::X * 40.0,
+            Vec3::Y * 40.0,
+            1,
+            1,
+            Vec2::ONE,
+        ),
+        e,
+        Mat4::IDENTITY,
+    );
+    s.validate().unwrap();
+    let cam = look_at_camera(Vec3::new(0.0, 0.0, 4.0), Vec3::ZERO, 20.0, 1.0);
+    let settings = RenderSettings {
+        width: 16,
+        height: 16,
+        spp: 8,
+        max_bounces: 3,
+        seed: 5,
+        ..Default::default()
+    };
+    for rt in rt_backends(&ctx) {
+        let sess = session(&ctx, s.clone(), rt);
+        let f = render(&sess, "reference", cam, &settings);
+        for (k, eye) in f.eyes.iter().enumerate() {
+            for (p, c) in eye.radiance.iter().enumerate() {
+                assert!(
+                    (0..3).all(|i| (c[i] - le).abs() <= 1e-4 * le),
+                    "{rt:?}, eye {k}, pixel {p}: {:?}, want {le}",
+                    &c[..3]
+                );
+            }
+        }
+    }
+    assert_no_validation_messages(&ctx);
+}

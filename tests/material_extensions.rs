@@ -1389,3 +1389,25 @@ fn clearcoat_layer_follows_fresnel_coat_at_grazing_views() {
     }
     assert_no_validation_messages(&ctx);
 }
+
+/// KHR_materials_specular's fresnel_mix weighs the diffuse by
+/// 1 − max over channels of the dielectric Fresnel, so a tinted specular
+/// colour tints the specular layer, not the diffuse under it. A smooth
+/// white plane (ior 1.5, specularColor (1, 0.5, 0.25): F0 = (0.04, 0.02,
+/// 0.01)) seen head-on in a white environment reflects F0 in its mirror
+/// layer plus the diffuse's 1 − 0.04 = 0.96 in every channel: (1.0, 0.98,
+/// 0.97). (Until session 44 each channel had its own 1 − F: (1, 1, 1).)
+#[test]
+fn a_tinted_specular_colour_does_not_tint_the_diffuse() {
+    let ctx = context();
+    for rt in rt_backends(&ctx) {
+        let mut m = Material::diffuse("white", Vec3::ONE);
+        m.roughness = 0.0;
+        m.specular_color = Vec3::new(1.0, 0.5, 0.25);
+        let got = head_on_reflectance(&ctx, m, rt);
+        for (k, expected) in [1.0, 0.98, 0.97].into_iter().enumerate() {
+            assert_close(&format!("{rt:?} channel {k}"), got[k], expected);
+        }
+    }
+    assert_no_validation_messages(&ctx);
+}
