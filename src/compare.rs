@@ -390,6 +390,37 @@ pub fn reference_seed(method_seed: u32) -> u32 {
     method_seed ^ 0x9E37_79B9
 }
 
+/// A configuration label names its output folder: letters, digits and
+/// `-_.=`, not empty and not `.` or `..` (which would name no folder of
+/// its own).
+pub fn check_label(l: &str) -> std::result::Result<(), String> {
+    if l.is_empty()
+        || l == "."
+        || l == ".."
+        || !l
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || "-_.=".contains(c))
+    {
+        let shown: String = l.chars().take(40).collect();
+        return Err(format!(
+            "configuration label '{shown}' must be letters, digits, '-', '_', '.', '=' (and not '.' or '..')"
+        ));
+    }
+    Ok(())
+}
+
+/// Refuses `--show-frames` past the last of `n` frames (before anything
+/// renders; `compare_configs` checks again).
+pub fn check_shown_frames(shown: &[usize], n: usize) -> std::result::Result<(), String> {
+    if let Some(bad) = shown.iter().find(|&&f| f >= n) {
+        return Err(format!(
+            "bad --show-frames: frame {bad} is past the last frame {}",
+            n.saturating_sub(1)
+        ));
+    }
+    Ok(())
+}
+
 /// Every configuration along the same frames; references use `reference_settings`
 /// with `opts.reference_spp` samples per pixel and their own seed ([`reference_seed`]).
 pub fn compare_configs(
@@ -405,18 +436,11 @@ pub fn compare_configs(
     }
     let labels: Vec<String> = configs.iter().map(|c| c.label.clone()).collect();
     for l in &labels {
-        if l.is_empty()
-            || !l
-                .chars()
-                .all(|c| c.is_ascii_alphanumeric() || "-_.=".contains(c))
-        {
-            return Err(Error::Usage(format!(
-                "configuration label '{l}' must be letters, digits, '-', '_', '.', '='"
-            )));
-        }
+        check_label(l).map_err(Error::Usage)?;
     }
     if let Some(spp) = opts.reference_spp {
         crate::evaluate::check_reference_spp(spp)?;
+        crate::evaluate::check_reference_cache_dir(&opts.reference_cache)?;
     }
     let baseline = choose_baseline(&labels, opts.baseline.as_deref())?;
     if let Some(p) = opts.flip_ppd {
@@ -431,12 +455,7 @@ pub fn compare_configs(
         .shown_frames
         .clone()
         .unwrap_or_else(|| default_shown(n));
-    if let Some(bad) = shown.iter().find(|&&f| f >= n) {
-        return Err(Error::Usage(format!(
-            "bad --show-frames: frame {bad} is past the last frame {}",
-            n - 1
-        )));
-    }
+    check_shown_frames(&shown, n).map_err(Error::Usage)?;
     std::fs::create_dir_all(&opts.out).map_err(|e| Error::io(&opts.out, e))?;
     // Every method is created before the first frame so bad method options
     // fail fast; debug views are on so the grids can show them.
@@ -560,7 +579,35 @@ pub fn compare_configs(
         flip,
     };
     write_summaries(session, opts, settings, &cmp)?;
+    if let Some(w) = non_finite_metrics_warning(&opts.out, &cmp.rows) {
+        eprintln!("warning: {w}");
+    }
     Ok(cmp)
+}
+
+/// One line naming the configurations whose mean metrics are not finite
+/// (`null` in summary.json: an image or the reference held ∞ or NaN), or
+/// `None` when every metric is finite.
+pub fn non_finite_metrics_warning(out: &Path, rows: &[MethodRow]) -> Option<String> {
+    let bad: Vec<String> = rows
+        .iter()
+        .filter_map(|r| {
+            let keys: Vec<&str> = r
+                .metrics
+                .iter()
+                .filter(|(_, v)| !v.is_finite())
+                .map(|(k, _)| k.as_str())
+                .collect();
+            (!keys.is_empty()).then(|| format!("{} ({})", r.method, keys.join(", ")))
+        })
+        .collect();
+    (!bad.is_empty()).then(|| {
+        format!(
+            "{}: metrics that are not finite, written as null (an image or the reference holds ∞ or NaN): {}",
+            out.join("summary.json").display(),
+            bad.join("; ")
+        )
+    })
 }
 
 /// `--flip-ppd` must be a finite positive number.
@@ -958,4 +1005,39 @@ pub fn ratio_table(cmp: &Comparison) -> String {
         s.push('\n');
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A reference or image holding ∞ gave `"rse": null` in summary.json
+    /// without a word; now one warning line names the configurations and
+    /// metrics.
+    #[test]
+    fn non_finite_metrics_are_one_warning() {
+        let row = |label: &str, rse: f64| {
+            let mut r = MethodRow::from_json(&serde_json::json!({
+                "method": label, "kind": "naive", "frames": 2, "mean_gpu_ms": 1.0,
+                "p95_gpu_ms": 1.0, "steady_mean_gpu_ms": 1.0, "steady_p95_gpu_ms": 1.0,
+                "rays_per_frame": 1.0, "rays_total": 2, "method_memory_bytes": 0
+            }))
+            .unwrap();
+            r.metrics.insert("rse".into(), rse);
+            r.metrics.insert("mse".into(), 1.0);
+            r
+        };
+        let out = Path::new("out/cmp");
+        assert_eq!(non_finite_metrics_warning(out, &[row("a", 0.5)]), None);
+        let w = non_finite_metrics_warning(
+            out,
+            &[row("a", 0.5), row("b", f64::NAN), row("c", f64::INFINITY)],
+        )
+        .unwrap();
+        assert!(
+            w.starts_with("out/cmp/summary.json: metrics that are not finite")
+                && w.ends_with(": b (rse); c (rse)"),
+            "{w}"
+        );
+    }
 }

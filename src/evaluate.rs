@@ -116,6 +116,7 @@ impl ReferenceCache {
     /// A cache for references of `settings` (`spp` even and at least 2).
     pub fn new(dir: PathBuf, settings: RenderSettings) -> Result<Self> {
         check_reference_spp(settings.spp)?;
+        check_reference_cache_dir(&dir)?;
         Ok(ReferenceCache {
             dir,
             settings,
@@ -198,7 +199,15 @@ impl ReferenceCache {
         let path = self
             .dir
             .join(format!("{}.ref", self.key(session, cam, index)));
-        let halves = match read_halves(&path, self.settings.width, self.settings.height) {
+        let cached =
+            read_halves(&path, self.settings.width, self.settings.height).unwrap_or_else(|why| {
+                eprintln!(
+                    "warning: {}: unusable reference cache entry ({why}); rendering it again",
+                    path.display()
+                );
+                None
+            });
+        let halves = match cached {
             Some(h) => h,
             None => {
                 if self.renderers.is_none() {
@@ -266,22 +275,54 @@ fn write_halves(path: &Path, f: &[StereoFrame; 2]) -> Result<()> {
     Ok(())
 }
 
-/// Reads cached halves; `None` when absent, truncated, of another size or
-/// of an older format.
-fn read_halves(path: &Path, width: u32, height: u32) -> Option<[StereoFrame; 2]> {
-    let bytes = std::fs::read(path).ok()?;
-    let n = (width * height) as usize;
+/// Refuses a `--reference-cache` that cannot be a folder (a file, a path
+/// below a file, an unwritable place) before anything renders: it used to
+/// fail when the first reference was stored, after every method rendered.
+pub fn check_reference_cache_dir(dir: &Path) -> Result<()> {
+    crate::values::check_output_dir(dir)
+        .map_err(|m| Error::Usage(format!("bad --reference-cache: {m}")))
+}
+
+/// Reads cached halves: `Ok(None)` when absent; an error (the reason) when
+/// the file is there but unusable — truncated, another size or format, or
+/// holding non-finite radiance or NaN depth (a corrupt body behind a valid
+/// header was used as the reference) — and the caller renders it again.
+fn read_halves(
+    path: &Path,
+    width: u32,
+    height: u32,
+) -> std::result::Result<Option<[StereoFrame; 2]>, String> {
+    let bytes = match crate::input::read(path) {
+        Ok(b) => b,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+        Err(e) => return Err(format!("cannot read: {e}")),
+    };
+    let n = (width as usize) * (height as usize);
     let rad = n * 16;
     let geo = n * (4 + 16);
-    if bytes.len() != 16 + 4 * rad + 2 * geo || &bytes[..8] != MAGIC {
-        return None;
+    let want = 16 + 4 * rad + 2 * geo;
+    if bytes.len() < 16 || &bytes[..8] != MAGIC {
+        return Err("not a SCREF02 reference file".into());
     }
-    let w = u32::from_le_bytes(bytes[8..12].try_into().ok()?);
-    let h = u32::from_le_bytes(bytes[12..16].try_into().ok()?);
+    let w = u32::from_le_bytes(bytes[8..12].try_into().expect("4 bytes"));
+    let h = u32::from_le_bytes(bytes[12..16].try_into().expect("4 bytes"));
     if (w, h) != (width, height) {
-        return None;
+        return Err(format!("{w}x{h} per eye, not {width}x{height}"));
+    }
+    if bytes.len() != want {
+        return Err(format!("{} bytes, not {want}", bytes.len()));
     }
     let body = &bytes[16..];
+    let floats = |b: &[u8]| -> Vec<f32> { bytemuck::pod_collect_to_vec(b) };
+    if !floats(&body[..4 * rad]).iter().all(|v| v.is_finite()) {
+        return Err("non-finite radiance".into());
+    }
+    for e in 0..2 {
+        let g = &body[4 * rad + e * geo..4 * rad + e * geo + n * 4];
+        if floats(g).iter().any(|v| v.is_nan()) {
+            return Err("NaN depth".into());
+        }
+    }
     let eye = |half: usize, e: usize| {
         let r = &body[(2 * half + e) * rad..(2 * half + e + 1) * rad];
         let g = &body[4 * rad + e * geo..4 * rad + (e + 1) * geo];
@@ -299,7 +340,7 @@ fn read_halves(path: &Path, width: u32, height: u32) -> Option<[StereoFrame; 2]>
         eyes: [eye(half, 0), eye(half, 1)],
         stats: Default::default(),
     };
-    Some([frame(0), frame(1)])
+    Ok(Some([frame(0), frame(1)]))
 }
 
 fn image(e: &EyeImage, w: u32, h: u32) -> Result<LinearImage> {
@@ -516,4 +557,70 @@ fn fnv1a(bytes: impl IntoIterator<Item = u8>) -> u64 {
         h = h.wrapping_mul(0x0000_0100_0000_01B3);
     }
     h
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A cache entry for 2×1 pixels per eye: zero body, radiance 1.
+    fn entry(w: u32, h: u32) -> Vec<u8> {
+        let n = (w * h) as usize;
+        let mut b = MAGIC.to_vec();
+        b.extend(w.to_le_bytes());
+        b.extend(h.to_le_bytes());
+        b.extend(std::iter::repeat_n(1f32.to_le_bytes(), 4 * n * 4).flatten());
+        b.extend(std::iter::repeat_n(0u8, 2 * n * 20));
+        b
+    }
+
+    /// A valid header with NaN in the body was used as the reference
+    /// (`"rse": null` downstream); now it is refused, with the reason, and
+    /// `get` renders it again with a warning naming the file.
+    #[test]
+    fn corrupt_reference_entries_are_misses_with_a_reason() {
+        let dir = std::env::temp_dir().join(format!("stereocache-refcache-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join("a.ref");
+        assert!(read_halves(&p, 2, 1).unwrap().is_none(), "absent");
+        std::fs::write(&p, entry(2, 1)).unwrap();
+        let [a, _] = read_halves(&p, 2, 1).unwrap().unwrap();
+        assert_eq!(a.eyes[1].radiance, vec![[1.0; 4]; 2]);
+        let mut nan = entry(2, 1);
+        nan[16 + 8..16 + 12].copy_from_slice(&f32::NAN.to_le_bytes());
+        std::fs::write(&p, &nan).unwrap();
+        assert_eq!(read_halves(&p, 2, 1).unwrap_err(), "non-finite radiance");
+        let mut inf = entry(2, 1);
+        let end = inf.len();
+        inf[end - 40 * 2 + 4..end - 40 * 2 + 8].copy_from_slice(&f32::NAN.to_le_bytes());
+        std::fs::write(&p, &inf).unwrap();
+        assert_eq!(read_halves(&p, 2, 1).unwrap_err(), "NaN depth");
+        std::fs::write(&p, &entry(2, 1)[..40]).unwrap();
+        assert!(read_halves(&p, 2, 1).unwrap_err().contains("bytes, not"));
+        std::fs::write(&p, entry(2, 1)).unwrap();
+        assert_eq!(read_halves(&p, 4, 1).unwrap_err(), "2x1 per eye, not 4x1");
+        std::fs::write(&p, b"SCREF01\n").unwrap();
+        assert!(read_halves(&p, 2, 1).unwrap_err().contains("not a SCREF02"));
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn a_reference_cache_that_is_a_file_is_refused() {
+        let f =
+            std::env::temp_dir().join(format!("stereocache-refcache-file-{}", std::process::id()));
+        std::fs::write(&f, b"x").unwrap();
+        let settings = RenderSettings {
+            spp: 2,
+            ..Default::default()
+        };
+        let e = ReferenceCache::new(f.clone(), settings)
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(
+            e.starts_with("bad --reference-cache: ") && e.contains("is a file"),
+            "{e}"
+        );
+        let _ = std::fs::remove_file(&f);
+    }
 }

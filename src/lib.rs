@@ -17,6 +17,7 @@ pub mod error;
 pub mod evaluate;
 #[allow(unsafe_code)]
 pub mod gpu;
+pub mod input;
 pub mod interface;
 pub mod materials;
 pub mod merge;

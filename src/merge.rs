@@ -35,7 +35,7 @@ fn bad(path: &Path, what: impl std::fmt::Display) -> Error {
 
 fn read_json(path: &Path) -> Result<serde_json::Value> {
     let text =
-        std::fs::read_to_string(path).map_err(|e| bad(path, format!("cannot read ({e})")))?;
+        crate::input::read_to_string(path).map_err(|e| bad(path, format!("cannot read ({e})")))?;
     serde_json::from_str(&text).map_err(|e| bad(path, format!("invalid JSON: {e}")))
 }
 
@@ -43,7 +43,7 @@ fn read_json(path: &Path) -> Result<serde_json::Value> {
 /// order (a metric absent from a frame, e.g. temporal ones on frame 0, is
 /// skipped there, as the evaluator does).
 fn series(frames_jsonl: &Path) -> Result<BTreeMap<String, Vec<f64>>> {
-    let text = std::fs::read_to_string(frames_jsonl)
+    let text = crate::input::read_to_string(frames_jsonl)
         .map_err(|e| bad(frames_jsonl, format!("cannot read ({e})")))?;
     let mut out: BTreeMap<String, Vec<f64>> = BTreeMap::new();
     for (ln, line) in text.lines().enumerate() {

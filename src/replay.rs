@@ -142,6 +142,33 @@ pub fn check_trace_length(trace: &PoseTrace, fps: f64, limit: Option<usize>) -> 
     Ok(())
 }
 
+/// Refuses, before anything loads, a benchmark whose `frames` timed frames
+/// plus `warmup` untimed ones are more than `trace` gives at `fps` (a
+/// one-sample trace gives one frame): a bench never runs fewer frames than
+/// asked, nor divides by none. Runs [`check_trace_length`] too.
+pub fn check_bench_frames(trace: &PoseTrace, fps: f64, frames: usize, warmup: usize) -> Result<()> {
+    let needed = frames.saturating_add(warmup);
+    check_trace_length(trace, fps, Some(needed))?;
+    let available = trace.resampled_len(fps);
+    if needed as f64 > available {
+        let most = (available as usize).saturating_sub(warmup);
+        let warm = match warmup {
+            0 => String::new(),
+            n => format!(" (+{n} warm-up)"),
+        };
+        let fix = if most == 0 {
+            "use a longer trace".to_string()
+        } else {
+            format!("use at most --frames {most}")
+        };
+        return Err(Error::Usage(format!(
+            "bad --frames {frames}: {} has {available} frames at {fps} fps, the bench needs {needed}{warm}; {fix}",
+            trace.source.display(),
+        )));
+    }
+    Ok(())
+}
+
 fn check_fps(fps: f64) -> Result<()> {
     if fps.is_finite() && fps > 0.0 && fps <= MAX_FPS {
         Ok(())

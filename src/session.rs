@@ -49,6 +49,40 @@ pub struct Session {
     mesh_bounds: Vec<Option<(Vec3, Vec3)>>,
 }
 
+/// Bytes per triangle of the flattened software BVH's buffers
+/// (`SoftwareBvh::tri_verts`: v0 and two edges as vec4; `tri_ref`: two u32).
+const FLATTENED_BYTES_PER_TRIANGLE: [(&str, u64); 2] = [("bvh.tri_verts", 48), ("bvh.tri_ref", 8)];
+
+/// Refuses, before the BVH is built, a scene whose flattened software BVH
+/// (every instance's triangles copied into world space) would need a
+/// storage buffer larger than the device binds: 100,000 instances of a
+/// 4,000-triangle mesh built for 100 s in 11–22 GB before the upload
+/// failed on the limit. The triangle count is known once the scene is
+/// parsed.
+fn check_flattened_size(
+    ctx: &GpuContext,
+    scene: &Scene,
+    backend: RtBackend,
+    layout: BvhLayout,
+) -> Result<()> {
+    if backend != RtBackend::Software || layout != BvhLayout::Flattened {
+        return Ok(());
+    }
+    let triangles = scene.instanced_triangle_count() as u64;
+    for (name, per) in FLATTENED_BYTES_PER_TRIANGLE {
+        crate::gpu::buffer::check_storage_range(ctx, name, triangles.saturating_mul(per)).map_err(
+            |e| {
+                Error::Usage(format!(
+                    "{}: {triangles} triangles once its {} instances are flattened: {e}",
+                    scene.source.display(),
+                    scene.instances.len()
+                ))
+            },
+        )?;
+    }
+    Ok(())
+}
+
 impl Session {
     /// Opens the GPU and uploads `scene` for the backend `rt` resolves to.
     pub fn new(gpu: &GpuOptions, scene: Scene, rt: RtChoice) -> Result<Session> {
@@ -77,6 +111,7 @@ impl Session {
     ) -> Result<Session> {
         let backend = rt.resolve(&ctx).map_err(Error::Usage)?;
         let layout = layout.unwrap_or_else(|| BvhLayout::auto(&scene));
+        check_flattened_size(&ctx, &scene, backend, layout)?;
         let scene_gpu = Arc::new(SceneGpu::upload_with(&ctx, &scene, backend, layout)?);
         Ok(Session {
             ctx,
@@ -283,6 +318,12 @@ pub fn parse_pose(s: &str) -> std::result::Result<HeadPose, String> {
     if v.len() != 7 || v.iter().any(|x| !x.is_finite()) {
         return Err(format!(
             "bad --pose '{s}': expected 7 finite numbers px,py,pz,qx,qy,qz,qw"
+        ));
+    }
+    let bound = crate::scene::MAX_WORLD_COORDINATE;
+    if v[..3].iter().any(|x| x.abs() > bound) {
+        return Err(format!(
+            "bad --pose '{s}': the position is beyond ±{bound:e} m (world coordinates must stay within it, as the scene's do)"
         ));
     }
     let q = Quat::from_xyzw(v[3], v[4], v[5], v[6]);

@@ -1303,3 +1303,103 @@ proptest! {
         check_import(parse_generic_csv("f.txt", &text, &hololens()))?;
     }
 }
+
+/// Fuzzing session: 20,001 repeated timestamps printed 20,001 warning lines;
+/// they are one warning now (first line, count, last line), as non-unit
+/// quaternions already were.
+#[test]
+fn repeated_timestamps_are_one_warning() {
+    let mut text = String::from("t,px,py,pz,qx,qy,qz,qw\n0,0,0,0,0,0,0,1\n");
+    for _ in 0..20_000 {
+        text.push_str("0,0,0,0,0,0,0,1\n");
+    }
+    text.push_str("1,0,0,0,0,0,0,1\n");
+    let tr = PoseTrace::parse_csv("dups.csv", &text).unwrap();
+    assert_eq!(tr.samples.len(), 2);
+    assert_eq!(
+        tr.warnings.len(),
+        1,
+        "{:?}",
+        &tr.warnings[..3.min(tr.warnings.len())]
+    );
+    let w = &tr.warnings[0];
+    assert!(
+        w.starts_with("dups.csv:3: duplicate timestamp 0 (same as line 2)")
+            && w.contains("19999 more duplicate timestamp(s)")
+            && w.contains("up to line 20002"),
+        "{w}"
+    );
+}
+
+/// An MMSys'18 file cut off mid-write (its last line short, no newline at
+/// the end) was an error, while the README and the MMSys'17, OpenXR and
+/// generic CSV importers drop that line with a warning; it is dropped now.
+/// A short line elsewhere, or one followed by a newline, is still an error.
+#[test]
+fn mmsys18_truncated_final_line_is_dropped_with_a_warning() {
+    let opts = Mmsys18Options::default();
+    let head = "timestamp viewpoint w x y z\n10.0 0 1 0 0 0\n10.017 0 1 0 0 0\n";
+    let tr = parse_mmsys18("cut.txt", &format!("{head}10.034 0 0.99"), &opts).unwrap();
+    assert_eq!(tr.samples.len(), 2);
+    assert!(
+        tr.warnings
+            .iter()
+            .any(|w| w.starts_with("cut.txt:4: truncated final line (3 of 6 fields")),
+        "{:?}",
+        tr.warnings
+    );
+    let e = parse_mmsys18("cut.txt", &format!("{head}10.034 0 0.99\n"), &opts)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("cut.txt:4: 3 fields, the header has 6"), "{e}");
+    let e = parse_mmsys18(
+        "cut.txt",
+        &format!("{head}10.034 0 0.99\n10.05 0 1 0 0 0"),
+        &opts,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("cut.txt:4:"), "{e}");
+}
+
+/// Only `ipd` may be left empty (the default IPD, as documented); an empty
+/// `py` said "`` is not a number" and now says which fields may be empty.
+#[test]
+fn only_the_ipd_field_may_be_empty() {
+    let ok = "t,px,py,pz,qx,qy,qz,qw,ipd\n0,0,0,0,0,0,0,1,\n1,0,0,0,0,0,0,1,0.06\n";
+    let tr = PoseTrace::parse_csv("e.csv", ok).unwrap();
+    assert_eq!(tr.samples[0].ipd, None);
+    let bad = "t,px,py,pz,qx,qy,qz,qw,ipd\n0,0,,0,0,0,0,1,0.06\n";
+    let e = PoseTrace::parse_csv("e.csv", bad).unwrap_err().to_string();
+    assert!(
+        e.contains("e.csv:2: column `py` (column 3): empty field; only `ipd` may be left empty"),
+        "{e}"
+    );
+}
+
+/// Head positions of 3e38 m (finite in f32) were accepted and rendered
+/// black; the scene's ±1e15 m bound applies to traces too.
+#[test]
+fn far_away_head_positions_are_refused() {
+    for (v, ok) in [
+        ("3e38", false),
+        ("1e20", false),
+        ("-2e15", false),
+        ("1e14", true),
+    ] {
+        let text = format!("t,px,py,pz,qx,qy,qz,qw\n0,0,0,0,0,0,0,1\n1,0,{v},0,0,0,0,1\n");
+        let r = PoseTrace::parse_csv("far.csv", &text);
+        match (r, ok) {
+            (Ok(_), true) => {}
+            (Err(e), false) => {
+                let e = e.to_string();
+                assert!(
+                    e.starts_with("far.csv:3: column `py` (column 3): position")
+                        && e.contains("out of range (|x| ≤ 1e15)"),
+                    "{v}: {e}"
+                );
+            }
+            (r, _) => panic!("{v}: {:?}", r.map(|t| t.samples.len())),
+        }
+    }
+}

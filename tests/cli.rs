@@ -1119,3 +1119,221 @@ fn hostile_geometry_animation_and_traces_fail_before_rendering() {
     assert!(!out.exists(), "gap: output written");
     let _ = std::fs::remove_dir_all(&root);
 }
+
+/// Every bench checks its frame count (and warm-up) against the trace before
+/// the device opens: a one-sample trace panicked `bench sample-cache`
+/// (index out of bounds) and gave NaN tables in `bench scaling` and
+/// `bench materials`; `--frames 1000` on a 451-frame trace ran fewer frames.
+#[test]
+fn bench_frame_counts_beyond_the_trace_are_refused_up_front() {
+    let dir = out_dir("bench-frames");
+    std::fs::create_dir_all(&dir).unwrap();
+    let one = dir.join("one_row.csv");
+    std::fs::write(&one, "t,px,py,pz,qx,qy,qz,qw\n0,0,1.6,0,0,0,0,1\n").unwrap();
+    let one = one.to_str().unwrap();
+    let long = Path::new(env!("CARGO_MANIFEST_DIR")).join("captures/synth-head-turn.csv");
+    let long = long.to_str().unwrap();
+    let bench = |which: &'static str, trace: &'static str, frames: &'static str| {
+        let t = if trace == "one" { one } else { long };
+        let mut a = vec!["bench", which, "--device", "no-such-gpu", "--trace", t];
+        a.extend(["--frames", frames, "--size", "8x8"]);
+        if which == "materials" {
+            a.extend(["--scene", "procedural-uv:cornell"]);
+        }
+        a.into_iter().map(str::to_owned).collect::<Vec<_>>()
+    };
+    for (args, phrase) in [
+        (bench("sample-cache", "one", "5"), "bad --frames 5: "),
+        (bench("sample-cache", "long", "1000"), "bad --frames 1000: "),
+        (bench("scaling", "one", "1"), "bad --frames 1: "),
+        (bench("specialization", "one", "1"), "bad --frames 1: "),
+        (bench("materials", "one", "2"), "bad --frames 2: "),
+        (bench("materials", "long", "1"), "warm-up; use at least 2"),
+    ] {
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let line = fails(&args);
+        assert!(line.contains(phrase), "{args:?}: '{line}' lacks '{phrase}'");
+        assert!(
+            line.contains("warm-up") || line.contains(".csv has "),
+            "{args:?}: {line}"
+        );
+        assert!(!line.contains("no-such-gpu"), "{args:?}: {line}");
+    }
+}
+
+/// Makes a FIFO at `p` (a special file: reading it blocks until a writer
+/// comes, like `/dev/zero` never ends; neither is a regular file).
+fn mkfifo(p: &Path) {
+    let _ = std::fs::remove_file(p);
+    let ok = Command::new("mkfifo").arg(p).status().unwrap().success();
+    assert!(ok, "mkfifo {}", p.display());
+}
+
+/// A user path to a device or FIFO (`/dev/zero` as a trace, a glTF buffer
+/// or image, a MaterialX file) was read until memory ran out or blocked
+/// forever; each is now one error line naming the file, before the device
+/// opens. (FIFOs here: on the old code they block, so the test fails by
+/// timeout instead of by exhausting memory.)
+#[test]
+fn special_files_are_refused_without_reading() {
+    let dir = out_dir("special");
+    std::fs::create_dir_all(&dir).unwrap();
+    let fifo = dir.join("pipe.csv");
+    mkfifo(&fifo);
+    // A glTF whose buffer is a FIFO, and one whose MaterialX file is.
+    let buffer = triangle_gltf(&dir.join("buffer"), "", None);
+    mkfifo(&dir.join("buffer").join("tri.bin"));
+    let mtlx = triangle_gltf(&dir.join("mtlx"), "", None);
+    let mut v: serde_json::Value = serde_json::from_slice(&std::fs::read(&mtlx).unwrap()).unwrap();
+    v["materials"] = serde_json::json!([{"extras": {"materialx": {"file": "g.mtlx"}}}]);
+    v["meshes"][0]["primitives"][0]["material"] = serde_json::json!(0);
+    std::fs::write(&mtlx, serde_json::to_vec(&v).unwrap()).unwrap();
+    mkfifo(&dir.join("mtlx").join("g.mtlx"));
+    let out = dir.join("out");
+    let (f, o) = (fifo.to_str().unwrap(), out.to_str().unwrap());
+    let (b, m) = (buffer.to_str().unwrap(), mtlx.to_str().unwrap());
+    let csv = dir.join("t.csv");
+    for (args, phrase) in [
+        (
+            vec![
+                "replay",
+                "--device",
+                "no-such-gpu",
+                "--trace",
+                f,
+                "--out",
+                o,
+            ],
+            format!("{f}: not a regular file"),
+        ),
+        (
+            vec!["trace", "convert", f, "--out", csv.to_str().unwrap()],
+            format!("{f}: not a regular file"),
+        ),
+        (
+            vec!["render", "--scene", b, "--size", "8x8", "--out", o],
+            "buffer 0: cannot read '".to_string(),
+        ),
+        (
+            vec!["render", "--scene", m, "--size", "8x8", "--out", o],
+            "materials[0]: extras.materialx.file '".to_string(),
+        ),
+    ] {
+        let o = cli(20).args(&args).output().unwrap();
+        let line = single_error_line(&o, &format!("{args:?}"));
+        assert!(
+            line.contains(&phrase),
+            "{args:?}: '{line}' lacks '{phrase}'"
+        );
+        assert!(line.contains("not a regular file"), "{args:?}: {line}");
+        assert!(!line.contains("no-such-gpu"), "{args:?}: {line}");
+        assert!(!out.exists() && !csv.exists(), "{args:?}: output written");
+    }
+}
+
+/// A scene whose instances flatten to more triangles than the device's
+/// storage buffers hold is refused before the software BVH is built: 10k to
+/// 100k instances of a 4k-triangle mesh built for 100 s in 11–22 GB, then
+/// failed on `bvh.tri_verts`. Sized from this device's limit (lavapipe:
+/// 2^27 bytes, about 1,400 instances here).
+#[test]
+fn scenes_too_large_once_flattened_are_refused_before_the_bvh_build() {
+    use stereocache::scene::{generate, Instance, Material};
+    let ctx = common::context();
+    let mut scene = common::plane_in_environment(Material::default(), 1.0, glam::Vec3::ONE);
+    scene.source = "many-instances.gltf".into();
+    scene.meshes[0] = generate::grid(
+        "plane",
+        glam::Vec3::ZERO,
+        glam::Vec3::X,
+        glam::Vec3::NEG_Z,
+        32,
+        32,
+        glam::Vec2::ONE,
+    );
+    let tris = scene.meshes[0].triangle_count() as u64;
+    let limit = ctx.caps.max_storage_buffer_range;
+    let n = (limit / (48 * tris) + 1) as usize;
+    scene.instances = (0..n)
+        .map(|k| Instance {
+            mesh: 0,
+            transform: glam::Mat4::from_translation(glam::Vec3::Y * k as f32 * 1e-3),
+            name: format!("n{k}"),
+        })
+        .collect();
+    let start = std::time::Instant::now();
+    let e = match stereocache::session::Session::with_context(
+        ctx,
+        scene,
+        stereocache::rt::RtChoice::Software,
+    ) {
+        Ok(_) => panic!("{n} instances of {tris} triangles uploaded"),
+        Err(e) => e.to_string(),
+    };
+    assert!(
+        e.starts_with("many-instances.gltf: ")
+            && e.contains(&format!("triangles once its {n} instances are flattened"))
+            && e.contains("storage buffer bvh.tri_verts needs"),
+        "{e}"
+    );
+    assert_eq!(e.lines().count(), 1, "{e}");
+    assert!(start.elapsed().as_secs() < 5, "took {:?}", start.elapsed());
+}
+
+/// Negative numbers reach the options' own checks (clap read `-1` as an
+/// unknown flag and printed its usage); `--time -1` is a valid time. A
+/// stdout closed by the reader (`render … | true`) made the first
+/// `println!` panic (exit 101): the run now completes and writes its files.
+/// `scene generate --out FILE` said "cannot read: File exists".
+#[test]
+fn negative_values_closed_stdout_and_a_file_as_output_folder() {
+    let out = out_dir("negatives");
+    let o = out.to_str().unwrap();
+    let render = |flag: &'static str, value: &'static str| {
+        vec!["render", "--device", "no-such-gpu", "--out", o, flag, value]
+    };
+    for (args, phrase) in [
+        (render("--ipd", "-1"), "bad --ipd -1"),
+        (render("--exposure", "-1"), "bad --exposure -1"),
+        (render("--fov", "-5"), "bad --fov -5"),
+        (render("--spp", "-1"), "bad --spp -1"),
+        (
+            render("--pose", "1e20,0,0,0,0,0,1"),
+            "the position is beyond ±1e15 m",
+        ),
+    ] {
+        let line = fails(&args);
+        assert!(line.contains(phrase), "{args:?}: '{line}' lacks '{phrase}'");
+        assert!(!line.contains("unexpected argument"), "{line}");
+        assert!(!out.exists(), "{args:?}: output written");
+    }
+    // `--time -1` renders, with stdout closed before the first line.
+    let mut child = bin()
+        .args(["render", "--size", "8x6", "--spp", "1", "--rt", "software"])
+        .args(["--time", "-1", "--out", o])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    let done = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&done.stderr);
+    assert!(done.status.success(), "{:?}: {stderr}", done.status);
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert!(out.join("stats.json").exists(), "{stderr}");
+    // A file where the generated scene's folder should go.
+    let file = out.join("a-file");
+    std::fs::write(&file, b"x").unwrap();
+    let line = fails(&[
+        "scene",
+        "generate",
+        "cornell",
+        "--out",
+        file.to_str().unwrap(),
+    ]);
+    assert!(
+        line.contains("a-file: the output directory is a file, not a directory"),
+        "{line}"
+    );
+    assert!(!line.contains("cannot read"), "{line}");
+}

@@ -558,3 +558,140 @@ fn bench_tradeoff_records_through_the_compare_runner() {
     }
     let _ = std::fs::remove_dir_all(&root);
 }
+
+/// `experiment merge DIR --out DIR` truncated the input's files (its viewer
+/// images were left 0 bytes) before reading them: an `--out` that is an
+/// input folder, lies inside one or contains one is now refused before
+/// anything is written.
+#[test]
+fn merge_refuses_an_out_folder_overlapping_an_input() {
+    let root = std::env::temp_dir().join(format!(
+        "stereocache-experiment-merge-{}",
+        std::process::id()
+    ));
+    let _ = std::fs::remove_dir_all(&root);
+    let shard = root.join("shard");
+    std::fs::create_dir_all(shard.join("g")).unwrap();
+    let plan = r#"{"name":"x","scale":"ci","figures":[],"claim_specs":[],"groups":[]}"#;
+    std::fs::write(shard.join("experiment.json"), plan).unwrap();
+    std::fs::write(shard.join("g").join("keep.png"), b"not empty").unwrap();
+    // Through a symlink too: the folders are compared resolved.
+    std::os::unix::fs::symlink(&shard, root.join("link")).unwrap();
+    for (out, how) in [
+        (shard.clone(), "is the input folder"),
+        (root.join("link"), "is the input folder"),
+        (shard.join("merged"), "lies inside the input folder"),
+        (root.clone(), "contains the input folder"),
+    ] {
+        let o = bin()
+            .args(["experiment", "merge"])
+            .arg(&shard)
+            .arg("--out")
+            .arg(&out)
+            .output()
+            .unwrap();
+        let line = single_error_line(&o, &format!("--out {}", out.display()));
+        assert!(line.contains("bad --out") && line.contains(how), "{line}");
+        assert_eq!(
+            std::fs::read(shard.join("g").join("keep.png")).unwrap(),
+            b"not empty"
+        );
+        assert!(!shard.join("merged").exists());
+        assert_eq!(
+            std::fs::read_to_string(shard.join("experiment.json")).unwrap(),
+            plan
+        );
+    }
+    let _ = std::fs::remove_dir_all(&root);
+}
+
+/// Problems the fuzzing session found only once rendering had started (or
+/// never): a broken second scene failed after the whole first comparison
+/// rendered, naming neither the experiment file nor the key; labels "" and
+/// "../../x" and --show-frames past the run's last frame failed after the
+/// device opened, without the file; `expect = "< nan"` was accepted (a NaN
+/// threshold makes every verdict false). Each is now one error line naming
+/// the file and the key, before anything renders.
+#[test]
+fn experiment_values_are_checked_before_the_first_comparison() {
+    let root = std::env::temp_dir().join(format!(
+        "stereocache-experiment-early-{}",
+        std::process::id()
+    ));
+    let _ = std::fs::remove_dir_all(&root);
+    std::fs::create_dir_all(&root).unwrap();
+    let broken = root.join("broken.gltf");
+    std::fs::write(
+        &broken,
+        r#"{"asset":{"version":"2.0"},"scenes":[{"nodes":["#,
+    )
+    .unwrap();
+    let good = tiny(&root.join("refs"));
+    let cases: Vec<(&str, String, &[&str])> = vec![
+        (
+            "second scene broken",
+            good.replace(
+                "scenes = [\"cornell\"]",
+                &format!("scenes = [\"cornell\", \"{}\"]", broken.display()),
+            ),
+            &["[run]: key 'scenes': ", "broken.gltf: invalid JSON"],
+        ),
+        (
+            "empty label",
+            good.replace("method = \"taa\"", "method = \"taa\"\nlabel = \"\""),
+            &["key 'label'", "configuration label ''"],
+        ),
+        (
+            "label escaping the folder",
+            good.replace("method = \"taa\"", "method = \"taa\"\nlabel = \"../../x\""),
+            &["key 'label'", "'../../x'"],
+        ),
+        (
+            "label ..",
+            good.replace("method = \"taa\"", "method = \"taa\"\nlabel = \"..\""),
+            &["key 'label'", "'..'"],
+        ),
+        (
+            "show-frames past the end",
+            good.replace(
+                "size = \"24x18\"",
+                "size = \"24x18\"\nshow-frames = \"0,99\"",
+            ),
+            &[
+                "[run]: key 'show-frames'",
+                "frame 99 is past the last frame 3",
+            ],
+        ),
+        (
+            "NaN expectation",
+            good.replace("expect = \"< 1\"", "expect = \"< nan\""),
+            &["key 'expect'", "'< nan'"],
+        ),
+    ];
+    for (what, text, words) in cases {
+        assert_ne!(text, good, "{what}: the case changed nothing");
+        let file = root.join("tiny.toml");
+        std::fs::write(&file, &text).unwrap();
+        let out = root.join("out");
+        let o = bin()
+            .args(["experiment", "run", file.to_str().unwrap(), "--out"])
+            .arg(&out)
+            .output()
+            .unwrap();
+        let line = single_error_line(&o, what);
+        assert!(
+            line.starts_with(&format!("error: {}: ", file.display())),
+            "{what}: names the file first: {line}"
+        );
+        for w in words {
+            assert!(line.contains(w), "{what}: '{w}' in: {line}");
+        }
+        assert!(!out.exists(), "{what}: failed before writing anything");
+        let stdout = String::from_utf8_lossy(&o.stdout);
+        assert!(
+            !stdout.contains("== "),
+            "{what}: a comparison started:\n{stdout}"
+        );
+    }
+    let _ = std::fs::remove_dir_all(&root);
+}

@@ -660,3 +660,121 @@ fn regression_degenerate_cameras() {
         s.warnings
     );
 }
+
+/// An image with neither `uri` nor `bufferView` (or a `bufferView` without
+/// `mimeType`) made the `gltf` crate's `Image::source` unwrap inside an
+/// image decoder thread: a panic message and backtrace on stderr, a vague
+/// warning and exit 0. Now one error naming the file and the image.
+#[test]
+fn regression_image_without_source() {
+    let dir = temp_dir("image-source");
+    let cases = [
+        (
+            serde_json::json!({"name": "checker", "mimeType": "image/png"}),
+            "images[0] 'checker' has neither `uri` nor `bufferView`",
+        ),
+        (
+            serde_json::json!({"uri": null, "bufferView": null}),
+            "images[0] has neither `uri` nor `bufferView`",
+        ),
+        (
+            serde_json::json!({"bufferView": 0}),
+            "images[0] has a `bufferView` but no `mimeType`",
+        ),
+    ];
+    for (k, (image, want)) in cases.into_iter().enumerate() {
+        let mut v: Value = serde_json::from_slice(&valid_gltf()).unwrap();
+        v["images"] = serde_json::json!([image]);
+        v["textures"] = serde_json::json!([{"source": 0}]);
+        v["materials"] = serde_json::json!([
+            {"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}
+        ]);
+        v["meshes"][0]["primitives"][0]["material"] = serde_json::json!(0);
+        let name = format!("image_source_{k}.gltf");
+        let e = load_bytes(&dir, &name, &serde_json::to_vec(&v).unwrap())
+            .err()
+            .unwrap_or_else(|| panic!("{name} loaded"))
+            .to_string();
+        assert!(e.contains(&name) && e.contains(want), "{e}");
+        assert_eq!(e.lines().count(), 1, "{e}");
+    }
+}
+
+/// A camera node translated to 3e38 m was accepted (black images); the
+/// bound instances have (±1e15) applies to cameras, one error naming it.
+#[test]
+fn regression_far_away_camera() {
+    let dir = temp_dir("far-camera");
+    let mut v: Value = serde_json::from_slice(&valid_gltf()).unwrap();
+    v["cameras"] =
+        serde_json::json!([{"type": "perspective", "perspective": {"yfov": 0.7, "znear": 0.1}}]);
+    v["nodes"]
+        .as_array_mut()
+        .unwrap()
+        .push(serde_json::json!({"name": "eye", "camera": 0, "translation": [0, 3e38, 0]}));
+    v["scenes"][0]["nodes"] = serde_json::json!([0, 1]);
+    let e = load_bytes(&dir, "far.gltf", &serde_json::to_vec(&v).unwrap())
+        .err()
+        .unwrap_or_else(|| panic!("a camera at 3e38 m loaded"))
+        .to_string();
+    assert!(
+        e.contains("far.gltf: camera 'eye' (node 1): its position reaches 3.000e38"),
+        "{e}"
+    );
+}
+
+/// Huge finite brightness (emissive strength 3e38, a light intensity of
+/// 3e38, an RGBE texel at 1.7e38) rendered ∞ pixels and `"rse": null`
+/// without a word; each is one error above `scene::MAX_EMISSION` (1e30).
+#[test]
+fn regression_emission_beyond_the_bound() {
+    use serde_json::json;
+    let dir = temp_dir("bright");
+    let rich = enriched(serde_json::from_slice(&valid_gltf()).unwrap());
+    let mut em = rich.clone();
+    em["materials"][0]["emissiveFactor"] = json!([1.0, 1.0, 1.0]);
+    em["materials"][0]["extensions"] =
+        json!({"KHR_materials_emissive_strength": {"emissiveStrength": 3e38}});
+    em["extensionsUsed"] = json!(["KHR_lights_punctual", "KHR_materials_emissive_strength"]);
+    let e = load_bytes(&dir, "em.gltf", &serde_json::to_vec(&em).unwrap())
+        .err()
+        .unwrap_or_else(|| panic!("emission 3e38 loaded"))
+        .to_string();
+    assert!(
+        e.starts_with(&format!("{}: material 0", dir.join("em.gltf").display()))
+            && e.contains("beyond the brightest emission accepted (1e30 per channel)"),
+        "{e}"
+    );
+    for intensity in [3e38, 1e39] {
+        let mut li = rich.clone();
+        li["extensions"]["KHR_lights_punctual"]["lights"][0]["intensity"] = json!(intensity);
+        let e = load_bytes(&dir, "li.gltf", &serde_json::to_vec(&li).unwrap())
+            .err()
+            .unwrap_or_else(|| panic!("light 3e38 loaded"))
+            .to_string();
+        assert!(
+            e.contains("li.gltf: light 'cam': colour")
+                && e.contains("beyond the brightest emission accepted"),
+            "{e}"
+        );
+    }
+    // Still accepted: 1e6 (a bright but real light).
+    let mut ok = rich.clone();
+    ok["extensions"]["KHR_lights_punctual"]["lights"][0]["intensity"] = json!(1e6);
+    load_bytes(&dir, "ok.gltf", &serde_json::to_vec(&ok).unwrap()).unwrap();
+    // An environment map with one texel at 1.7e38 (finite in RGBE).
+    let hdr = dir.join("sky.hdr");
+    let mut px = vec![image::Rgb([0.5f32, 0.5, 0.5]); 8];
+    px[5] = image::Rgb([1.7e38, 1.0, 1.0]);
+    image::codecs::hdr::HdrEncoder::new(std::fs::File::create(&hdr).unwrap())
+        .encode(&px, 4, 2)
+        .unwrap();
+    let e = stereocache::scene::env_map::load_env_map(&hdr)
+        .err()
+        .unwrap_or_else(|| panic!("a 1.7e38 texel loaded"))
+        .to_string();
+    assert!(
+        e.contains("sky.hdr: texel (1, 1)") && e.contains("beyond the brightest emission"),
+        "{e}"
+    );
+}

@@ -59,7 +59,9 @@
 //! quaternions and decreasing timestamps (also outside the kept
 //! `start..end` window) are errors naming the line;
 //! non-unit quaternions are normalized; duplicate timestamps are dropped
-//! with a warning; sign flips are removed with
+//! with a warning; a truncated final line (fewer fields and no newline at
+//! the end of the file) is dropped with a warning, as in the other
+//! importers; sign flips are removed with
 //! [`PoseTrace::make_hemisphere_continuous`] (count in the warnings). Real
 //! (jittered) timestamps are kept; [`PoseTrace::resample`] produces the
 //! render-rate frames.
@@ -110,7 +112,7 @@ pub fn read_mmsys18(
     opts: &Mmsys18Options,
 ) -> Result<PoseTrace, TraceError> {
     let path = path.as_ref();
-    let text = std::fs::read_to_string(path).map_err(|source| TraceError::Io {
+    let text = crate::input::read_to_string(path).map_err(|source| TraceError::Io {
         path: path.to_path_buf(),
         source,
     })?;
@@ -145,6 +147,16 @@ pub fn parse_mmsys18(
     let mut last_viewpoint: Option<i64> = None;
     let mut switches = 0usize;
     let mut fields: Vec<&str> = Vec::with_capacity(6);
+    // A truncated final line (fewer fields, no newline at the end: a
+    // recording cut off mid-write) is dropped with a warning, as the
+    // MMSys'17, OpenXR and generic CSV importers do (`table.rs`).
+    let ends_with_newline = text.ends_with('\n');
+    let last_content = text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty())
+        .map(|(i, _)| i)
+        .last();
     for (i, raw) in text.lines().enumerate() {
         let line_no = i + 1;
         let line = raw.trim();
@@ -180,6 +192,16 @@ pub fn parse_mmsys18(
             n_fields = fields.len();
             continue;
         };
+        if fields.len() < n_fields && !ends_with_newline && last_content == Some(i) {
+            b.warn(
+                Some(line_no),
+                format!(
+                    "truncated final line ({} of {n_fields} fields, no newline at the end of the file): dropped, the recording was cut off mid-write",
+                    fields.len()
+                ),
+            );
+            continue;
+        }
         if fields.len() != n_fields {
             return Err(b.line_error(
                 line_no,

@@ -14,6 +14,8 @@
 //!   orientation (head → stage), `ipd` metres in [0, 1) like `--ipd`
 //!   (optional column; an empty `ipd` field means "use the default"; a value
 //!   of 1 or more, such as millimetres written by mistake, is an error).
+//!   Every other field must hold a number: an empty `t`…`qw` is an error
+//!   saying that only `ipd` may be left empty.
 //! - A header line is required. Columns are found by name, in any order;
 //!   names are trimmed and case-sensitive. A column the format does not
 //!   know is an error that names it (a typo such as `qW` must not be
@@ -35,7 +37,9 @@
 //!   the worst line when any norm is off by more than 1e-3; smaller
 //!   deviations are rounding and are normalized silently);
 //! - a sample whose timestamp **equals** the previous one is dropped (the
-//!   first one is kept), one warning per dropped line.
+//!   first one is kept): one warning naming the first such line, with the
+//!   count and last line of any others (20,000 repeated timestamps used to
+//!   print 20,000 lines).
 //!
 //! Quaternion signs are kept as read; [`PoseTrace::make_hemisphere_continuous`]
 //! flips them and [`PoseTrace::resample`] applies it to a copy before
@@ -49,6 +53,11 @@ use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 use super::pose::HeadPose;
+
+/// How far from the origin a trace's head may be, metres, along any axis:
+/// the scene's bound ([`crate::scene::MAX_WORLD_COORDINATE`]). A head at
+/// 3e38 m rendered black frames without a word.
+pub const MAX_POSITION_M: f64 = 1e15;
 
 /// Upper bound (exclusive) of an `ipd` value, metres: the range of `--ipd`.
 pub const MAX_IPD_M: f32 = 1.0;
@@ -124,6 +133,11 @@ pub(crate) struct TraceBuilder {
     warnings: Vec<String>,
     renormalized: usize,
     worst_norm: Option<(usize, f64)>,
+    /// Dropped duplicate timestamps: the first one's line and message, the
+    /// count and the last line (one warning for all of them, at `finish`).
+    first_duplicate: Option<(usize, String)>,
+    duplicates: usize,
+    last_duplicate: usize,
 }
 
 impl TraceBuilder {
@@ -135,6 +149,9 @@ impl TraceBuilder {
             warnings: Vec::new(),
             renormalized: 0,
             worst_norm: None,
+            first_duplicate: None,
+            duplicates: 0,
+            last_duplicate: 0,
         }
     }
 
@@ -198,6 +215,16 @@ impl TraceBuilder {
     /// Appends a sample read on `line`: a time before the previous one is an
     /// error, an equal time drops the sample with a warning.
     pub(crate) fn push(&mut self, line: usize, sample: PoseSample) -> Result<(), TraceError> {
+        let p = sample.pose.position;
+        if !p.is_finite() || p.abs().max_element() as f64 > MAX_POSITION_M {
+            return Err(self.line_error(
+                line,
+                format!(
+                    "head position ({}, {}, {}) m is out of range (|x| ≤ {MAX_POSITION_M:e} along each axis)",
+                    p.x, p.y, p.z
+                ),
+            ));
+        }
         if let Some(prev) = self.samples.last() {
             if sample.t < prev.t {
                 return Err(self.line_error(
@@ -209,11 +236,15 @@ impl TraceBuilder {
                 ));
             }
             if sample.t == prev.t {
-                let msg = format!(
-                    "duplicate timestamp {} (same as line {}); sample dropped, first kept",
-                    sample.t, self.last_line
-                );
-                self.warn(Some(line), msg);
+                if self.first_duplicate.is_none() {
+                    let msg = format!(
+                        "duplicate timestamp {} (same as line {}); sample dropped, first kept",
+                        sample.t, self.last_line
+                    );
+                    self.first_duplicate = Some((line, msg));
+                }
+                self.duplicates += 1;
+                self.last_duplicate = line;
                 return Ok(());
             }
         }
@@ -227,6 +258,17 @@ impl TraceBuilder {
     }
 
     pub(crate) fn finish(mut self) -> PoseTrace {
+        if let Some((line, msg)) = self.first_duplicate.take() {
+            let more = match self.duplicates {
+                0 | 1 => String::new(),
+                n => format!(
+                    " ({} more duplicate timestamp(s) dropped the same way, up to line {})",
+                    n - 1,
+                    self.last_duplicate
+                ),
+            };
+            self.warn(Some(line), format!("{msg}{more}"));
+        }
         if let Some((line, dev)) = self.worst_norm {
             let msg = format!(
                 "{} quaternion(s) were not unit length and were normalized (worst: line {line}, |norm − 1| = {dev:.3e})",
@@ -244,7 +286,7 @@ impl TraceBuilder {
 
 /// The text of a trace file (an I/O or UTF-8 error names the file).
 pub(crate) fn read_text(path: &Path) -> Result<String, TraceError> {
-    std::fs::read_to_string(path).map_err(|e| io_error(path, e))
+    crate::input::read_to_string(path).map_err(|e| io_error(path, e))
 }
 
 fn io_error(path: &Path, source: std::io::Error) -> TraceError {
@@ -320,6 +362,17 @@ fn parse_field(
     name: &str,
     text: &str,
 ) -> Result<f64, TraceError> {
+    if text.is_empty() {
+        // Only `ipd` has a default (module docs); the readers skip its
+        // empty fields before they get here.
+        return Err(b.line_error(
+            line_no,
+            format!(
+                "column `{name}` (column {}): empty field; only `ipd` may be left empty (for the default IPD)",
+                column + 1
+            ),
+        ));
+    }
     let v: f64 = text.parse().map_err(|_| {
         b.line_error(
             line_no,
@@ -358,7 +411,7 @@ impl PoseTrace {
     /// the format, the errors and the repairs).
     pub fn read_csv(path: impl AsRef<Path>) -> Result<PoseTrace, TraceError> {
         let path = path.as_ref();
-        let text = std::fs::read_to_string(path).map_err(|e| io_error(path, e))?;
+        let text = crate::input::read_to_string(path).map_err(|e| io_error(path, e))?;
         Self::parse_csv(path, &text)
     }
 
@@ -393,16 +446,16 @@ impl PoseTrace {
             for (k, &col) in h.required.iter().enumerate() {
                 v[k] = parse_field(&b, line_no, col, CSV_COLUMNS[k], fields[col])?;
                 // Positions are stored as f32: a finite f64 beyond f32::MAX
-                // would become ∞ (found by `tests/fuzz_inputs.rs`).
-                if (1..4).contains(&k) && !(v[k] as f32).is_finite() {
+                // would become ∞ (found by `tests/fuzz_inputs.rs`); beyond
+                // the scene's ±1e15 bound the render is black.
+                if (1..4).contains(&k) && v[k].abs() > MAX_POSITION_M {
                     return Err(b.line_error(
                         line_no,
                         format!(
-                            "column `{}` (column {}): position {} m is out of range (|x| ≤ {:e})",
+                            "column `{}` (column {}): position {:e} m is out of range (|x| ≤ {MAX_POSITION_M:e})",
                             CSV_COLUMNS[k],
                             col + 1,
                             v[k],
-                            f32::MAX
                         ),
                     ));
                 }

@@ -1,6 +1,24 @@
 //! The `stereocache` command line, one file per subcommand; `args` holds the
 //! argument groups they share and the typed values with their range checks.
 
+/// `println!` and `print!` for every subcommand (they shadow std's in the
+/// modules below): standard output closed early (`stereocache … | head`,
+/// `| true`) is not an error of the run. std's panic on EPIPE ("failed
+/// printing to stdout: Broken pipe", exit 101); these drop the text and
+/// the run goes on, so the files it writes are complete.
+macro_rules! println {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout(), $($arg)*);
+    }};
+}
+macro_rules! print {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = write!(std::io::stdout(), $($arg)*);
+    }};
+}
+
 pub mod args;
 mod bench;
 pub mod common;
@@ -59,6 +77,29 @@ enum Command {
         #[command(subcommand)]
         which: trace::TraceCommand,
     },
+}
+
+/// `cmd` with every option that takes a value accepting one that starts
+/// with `-` and is a number (`--ipd -1`, `--time -0.5`): clap otherwise
+/// reads it as an unknown flag ("unexpected argument '-1' found" and the
+/// usage), and the option's own range check never gives its one line.
+pub fn negative_numbers(cmd: clap::Command) -> clap::Command {
+    cmd.mut_args(|a| {
+        if a.get_action().takes_values() {
+            a.allow_negative_numbers(true)
+        } else {
+            a
+        }
+    })
+    .mut_subcommands(negative_numbers)
+}
+
+/// Parses the process's arguments ([`negative_numbers`] applied), exiting
+/// with clap's message on an error, as `Cli::parse` does.
+pub fn parse() -> Cli {
+    use clap::{CommandFactory, FromArgMatches};
+    let matches = negative_numbers(Cli::command()).get_matches();
+    Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.exit())
 }
 
 /// Runs the parsed command.

@@ -34,7 +34,7 @@ const STORAGE_USAGE: vk::BufferUsageFlags = vk::BufferUsageFlags::from_raw(
 /// (VUID-VkWriteDescriptorSet-descriptorType-00333) and the shader's
 /// accesses past the range are undefined. Checked before `vkCreateBuffer`,
 /// so nothing is allocated, uploaded or rendered first.
-fn check_storage_range(ctx: &GpuContext, name: &str, size: u64) -> GpuResult<()> {
+pub fn check_storage_range(ctx: &GpuContext, name: &str, size: u64) -> GpuResult<()> {
     let limit = ctx.caps.max_storage_buffer_range;
     let bytes = size.max(16);
     if bytes <= limit {

@@ -126,13 +126,16 @@ pub fn json(ctx: &GpuContext) -> serde_json::Value {
 }
 
 /// Prints the report (`json`: as pretty JSON) to stdout.
+/// A closed stdout (`stereocache info | head`) is not an error.
 pub fn print(ctx: &GpuContext, json: bool) {
+    use std::io::Write as _;
     if json {
-        println!(
+        let _ = writeln!(
+            std::io::stdout(),
             "{}",
             serde_json::to_string_pretty(&self::json(ctx)).unwrap_or_default()
         );
     } else {
-        println!("{}", text(ctx));
+        let _ = writeln!(std::io::stdout(), "{}", text(ctx));
     }
 }

@@ -15,7 +15,8 @@ const MAX_TEXELS: usize = 16384 * 8192;
 
 /// Loads an equirectangular radiance map (linear RGB; alpha ignored).
 /// Negative values are clamped to 0 and NaN/Inf texels become black, so the
-/// map is always safe to importance-sample.
+/// map is always safe to importance-sample; a finite texel brighter than
+/// [`super::MAX_EMISSION`] is an error naming it.
 pub fn load_env_map(path: &Path) -> Result<Environment, SceneError> {
     let ext = path
         .extension()
@@ -34,6 +35,24 @@ pub fn load_env_map(path: &Path) -> Result<Environment, SceneError> {
     };
     if width == 0 || height == 0 {
         return Err(SceneError::invalid(path, "environment map is empty"));
+    }
+    // Finite but beyond the brightest emission accepted (an RGBE texel of
+    // 1.7e38): the paths that reach it overflow to ∞.
+    if let Some((k, t)) = texels
+        .iter()
+        .enumerate()
+        .find(|(_, t)| t.iter().any(|c| c.is_finite() && *c > super::MAX_EMISSION))
+    {
+        return Err(SceneError::invalid(
+            path,
+            format!(
+                "texel ({}, {}) = {:?} is beyond the brightest emission accepted ({:e} per channel)",
+                k % width as usize,
+                k / width as usize,
+                t,
+                super::MAX_EMISSION
+            ),
+        ));
     }
     let texels = texels
         .into_iter()
@@ -54,6 +73,7 @@ pub fn load_env_map(path: &Path) -> Result<Environment, SceneError> {
 type Texels = (u32, u32, Vec<[f32; 3]>);
 
 fn load_hdr(path: &Path) -> Result<Texels, SceneError> {
+    crate::input::check_regular(path).map_err(|e| SceneError::io(path, e))?;
     let reader = image::ImageReader::open(path).map_err(|e| SceneError::io(path, e))?;
     let img = reader
         .decode()
@@ -66,7 +86,7 @@ fn load_hdr(path: &Path) -> Result<Texels, SceneError> {
 
 fn load_exr(path: &Path) -> Result<Texels, SceneError> {
     use exr::prelude::*;
-    std::fs::metadata(path).map_err(|e| SceneError::io(path, e))?;
+    crate::input::check_regular(path).map_err(|e| SceneError::io(path, e))?;
     let image = read_first_rgba_layer_from_file(
         path,
         |res: Vec2<usize>, _| {

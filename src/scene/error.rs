@@ -21,6 +21,10 @@ impl SceneError {
             message: message.into(),
         }
     }
+    /// A failure to create or write `path` (not "cannot read").
+    pub fn write(path: &Path, source: std::io::Error) -> Self {
+        SceneError::invalid(path, format!("cannot write: {source}"))
+    }
     pub fn io(path: &Path, source: std::io::Error) -> Self {
         SceneError::Io {
             path: path.to_path_buf(),

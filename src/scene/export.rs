@@ -633,7 +633,7 @@ pub fn write_gltf(scene: &Scene, path: &Path) -> Result<(), SceneError> {
     for (file, text) in &scene.graphs.mtlx_texts {
         let dst = dir.join(file);
         if let Some(parent) = dst.parent() {
-            std::fs::create_dir_all(parent).map_err(|e| SceneError::io(parent, e))?;
+            std::fs::create_dir_all(parent).map_err(|e| SceneError::write(parent, e))?;
         }
         staged.push(stage(dst, text.as_bytes())?);
     }
@@ -655,7 +655,7 @@ pub fn write_gltf(scene: &Scene, path: &Path) -> Result<(), SceneError> {
             }
             let bytes = std::fs::read(&im.path).map_err(|e| SceneError::io(&im.path, e))?;
             if let Some(parent) = dst.parent() {
-                std::fs::create_dir_all(parent).map_err(|e| SceneError::io(parent, e))?;
+                std::fs::create_dir_all(parent).map_err(|e| SceneError::write(parent, e))?;
             }
             staged.push(stage(dst.clone(), &bytes)?);
             copied.push(dst);

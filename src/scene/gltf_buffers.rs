@@ -118,11 +118,16 @@ pub(crate) fn base64_decode(text: &str) -> Option<Vec<u8>> {
 
 /// Resolves a glTF URI (data URI or path relative to the asset) to bytes.
 /// `what` names the referring item for messages ("buffer 0", "image 3 'wood'").
+/// Only a regular file is read (not `/dev/zero`, a FIFO, a directory:
+/// [`crate::input`]); with `length` (a buffer's `byteLength`), a file
+/// shorter than it is refused before reading and at most `length` bytes
+/// are read.
 pub(crate) fn read_uri(
     gltf_path: &Path,
     base_dir: &Path,
     uri: &str,
     what: &str,
+    length: Option<u64>,
 ) -> Result<Vec<u8>, SceneError> {
     if let Some(rest) = uri.strip_prefix("data:") {
         let payload = rest.split_once(";base64,").map(|(_, d)| d).ok_or_else(|| {
@@ -142,12 +147,26 @@ pub(crate) fn read_uri(
         ));
     }
     let file = base_dir.join(percent_decode(rel));
-    std::fs::read(&file).map_err(|e| {
+    let cannot = |e: std::io::Error| {
         SceneError::invalid(
             gltf_path,
             format!("{what}: cannot read '{}': {e}", file.display()),
         )
-    })
+    };
+    let Some(length) = length else {
+        return crate::input::read(&file).map_err(cannot);
+    };
+    let len = crate::input::regular_len(&file).map_err(cannot)?;
+    if len < length {
+        return Err(SceneError::invalid(
+            gltf_path,
+            format!(
+                "{what} is shorter than declared: '{}' has {len} bytes, byteLength {length}",
+                file.display()
+            ),
+        ));
+    }
+    crate::input::read_at_most(&file, length).map_err(cannot)
 }
 
 /// Loads every buffer of the document, checking each is at least as long as declared.
@@ -164,7 +183,13 @@ pub(crate) fn load_buffers(
             None => format!("buffer {}", buffer.index()),
         };
         let data = match buffer.source() {
-            gltf::buffer::Source::Uri(uri) => read_uri(gltf_path, base_dir, uri, &what)?,
+            gltf::buffer::Source::Uri(uri) => read_uri(
+                gltf_path,
+                base_dir,
+                uri,
+                &what,
+                Some(buffer.length() as u64),
+            )?,
             gltf::buffer::Source::Bin => bin.take().ok_or_else(|| {
                 SceneError::invalid(
                     gltf_path,

@@ -46,7 +46,9 @@
 //!    **Vertices with a NaN/Inf attribute**: every triangle using such a vertex
 //!    is dropped and one warning per primitive names the mesh and the count.
 //! 6. Images are decoded once each; a missing/undecodable image is a warning and
-//!    the material falls back to its factor. Each texture reference carries its
+//!    the material falls back to its factor (an image naming neither `uri`
+//!    nor `bufferView`, or a `bufferView` without `mimeType`, is an error:
+//!    the gltf crate would panic on it). Each texture reference carries its
 //!    glTF sampler (wrap modes, filters); a sampler field with a value glTF does
 //!    not define is a warning and that field's default is used.
 //!
@@ -110,7 +112,7 @@ pub fn load_gltf(path: &Path) -> Result<Scene, SceneError> {
 }
 
 fn load_gltf_unguarded(path: &Path) -> Result<Scene, SceneError> {
-    let bytes = std::fs::read(path).map_err(|e| SceneError::io(path, e))?;
+    let bytes = crate::input::read(path).map_err(|e| SceneError::io(path, e))?;
     let container = split_container(path, bytes)?;
     let mut warnings = Vec::new();
     let prepared = parse_document(path, &container.json, &mut warnings)?;
@@ -144,13 +146,18 @@ fn load_gltf_unguarded(path: &Path) -> Result<Scene, SceneError> {
         record_paths: doc.animations().len() > 0,
         node_path: Vec::new(),
         instance_paths: Vec::new(),
+        too_bright: None,
     };
     importer.import_materials(&buffers);
+    if let Some(m) = importer.too_bright.take() {
+        return Err(SceneError::invalid(path, m));
+    }
     // Material graphs (KHR_texture_procedurals, or a .mtlx in a material's
     // extras): read from the raw JSON, the gltf crate knows neither.
     if has_material_graphs(&container.json) {
         let root: serde_json::Value = serde_json::from_slice(&container.json)
             .map_err(|e| SceneError::invalid(path, format!("invalid JSON: {e}")))?;
+        check_materialx_files(path, &root)?;
         importer.scene.graphs =
             crate::materials::binding::from_gltf_json(path, &root, &mut importer.scene.materials)
                 .map_err(|e| SceneError::invalid(path, e))?;
@@ -172,6 +179,40 @@ fn load_gltf_unguarded(path: &Path) -> Result<Scene, SceneError> {
     )?;
     scene.validate()?;
     Ok(scene)
+}
+
+/// A material's `extras.materialx.file` (read by `materials::binding`,
+/// relative to the glTF's folder) must be a regular file when it exists:
+/// `/dev/zero` was read until memory ran out. A missing file is left to
+/// the binding, which reports it.
+fn check_materialx_files(path: &Path, root: &serde_json::Value) -> Result<(), SceneError> {
+    let Some(ms) = root.get("materials").and_then(|m| m.as_array()) else {
+        return Ok(());
+    };
+    let dir = path.parent().unwrap_or(Path::new("."));
+    for (i, m) in ms.iter().enumerate() {
+        let Some(file) = m.pointer("/extras/materialx/file").and_then(|f| f.as_str()) else {
+            continue;
+        };
+        let mtlx = dir.join(file);
+        if std::fs::metadata(&mtlx).is_ok() {
+            crate::input::check_regular(&mtlx).map_err(|e| {
+                SceneError::invalid(
+                    path,
+                    format!(
+                        "materials[{i}]: extras.materialx.file '{}': cannot read: {e}",
+                        mtlx.display()
+                    ),
+                )
+            })?;
+        }
+    }
+    Ok(())
+}
+
+/// `[1.000e38, 2.000e0, inf]`: a colour in messages, readable at any magnitude.
+fn exp3(v: Vec3) -> String {
+    format!("[{:.3e}, {:.3e}, {:.3e}]", v.x, v.y, v.z)
 }
 
 /// Whether the JSON may bind material graphs (a cheap test before parsing it again).
@@ -266,6 +307,7 @@ fn parse_document(
     let sourceless = patch_sourceless_textures(obj);
     warnings.extend(patch_invalid_samplers(path, obj));
     check_position_accessors(path, obj)?;
+    super::gltf_textures::check_image_sources(path, obj)?;
     let primitive_indices = drop_positionless_primitives(path, obj, warnings);
     let instancing = instancing_json(path, obj, warnings)?;
     let slot_uvs = texture_transforms_json(path, obj, warnings);
@@ -507,6 +549,9 @@ struct Importer<'a> {
     node_path: Vec<u32>,
     /// Per instance, its node path (for `SceneAnimation`).
     instance_paths: Vec<Vec<u32>>,
+    /// The first material whose emission exceeds `MAX_EMISSION` (an error
+    /// once the materials are read).
+    too_bright: Option<String>,
 }
 
 /// KHR_materials_clearcoat of one material, read from its raw JSON (the
@@ -721,6 +766,17 @@ impl Importer<'_> {
             let alpha_cutoff = m.alpha_cutoff().unwrap_or(0.5);
             let transmission = m.transmission();
             let emissive = Vec3::from(m.emissive_factor()) * m.emissive_strength().unwrap_or(1.0);
+            if self.too_bright.is_none()
+                && (emissive.is_nan() || emissive.max_element() > super::MAX_EMISSION)
+            {
+                self.too_bright = Some(format!(
+                    "{label}: emissiveFactor {:?} × emissive_strength {:e} = {} is beyond the brightest emission accepted ({:e} per channel)",
+                    m.emissive_factor(),
+                    m.emissive_strength().unwrap_or(1.0),
+                    exp3(emissive),
+                    super::MAX_EMISSION
+                ));
+            }
             let normal = m.normal_texture();
             let specular = m.specular();
             // KHR_materials_volume: "The volume extension needs to be
@@ -1044,10 +1100,10 @@ impl Importer<'_> {
             ));
         }
         if let Some(camera) = node.camera() {
-            self.camera(&node, camera, world);
+            self.camera(&node, camera, world)?;
         }
         if let Some(light) = node.light() {
-            self.light(&node, light, world);
+            self.light(&node, light, world)?;
         }
         on_path[node.index()] = true;
         for child in node.children() {
@@ -1058,7 +1114,12 @@ impl Importer<'_> {
         Ok(())
     }
 
-    fn camera(&mut self, node: &gltf::Node, camera: gltf::Camera, world: Mat4) {
+    fn camera(
+        &mut self,
+        node: &gltf::Node,
+        camera: gltf::Camera,
+        world: Mat4,
+    ) -> Result<(), SceneError> {
         let name = camera
             .name()
             .or(node.name())
@@ -1073,7 +1134,19 @@ impl Importer<'_> {
             self.warn(format!(
                 "camera '{name}': its node transform is degenerate (zero scale?); skipped"
             ));
-            return;
+            return Ok(());
+        }
+        // The bound instances have (`Scene::check_placement`): a camera at
+        // 3e38 m rendered black images without a word.
+        if pos.abs().max_element() > super::MAX_WORLD_COORDINATE {
+            return Err(SceneError::invalid(
+                self.path,
+                format!(
+                    "camera '{name}' (node {}): its position reaches {:.3e} from the origin; world coordinates must stay within ±1e15 (a broken translation?)",
+                    node.index(),
+                    pos.abs().max_element()
+                ),
+            ));
         }
         let znear = |this: &mut Self, znear: f32, min: f32| {
             if znear.is_finite() && znear >= min {
@@ -1098,7 +1171,7 @@ impl Importer<'_> {
                     self.warn(format!(
                         "camera '{name}': yfov {yfov} is not in (0, π) radians; skipped"
                     ));
-                    return;
+                    return Ok(());
                 }
                 let aspect = p.aspect_ratio().filter(|a| a.is_finite() && *a > 0.0);
                 if aspect.is_none() && p.aspect_ratio().is_some() {
@@ -1127,7 +1200,7 @@ impl Importer<'_> {
                     self.warn(format!(
                         "camera '{name}': orthographic xmag {xmag}, ymag {ymag} must be non-zero and finite; skipped"
                     ));
-                    return;
+                    return Ok(());
                 }
                 if xmag < 0.0 || ymag < 0.0 {
                     self.warn(format!(
@@ -1145,9 +1218,15 @@ impl Importer<'_> {
                 });
             }
         }
+        Ok(())
     }
 
-    fn light(&mut self, node: &gltf::Node, light: gltf::khr_lights_punctual::Light, world: Mat4) {
+    fn light(
+        &mut self,
+        node: &gltf::Node,
+        light: gltf::khr_lights_punctual::Light,
+        world: Mat4,
+    ) -> Result<(), SceneError> {
         use gltf::khr_lights_punctual::Kind;
         let mut cone_warning = None;
         let kind = match light.kind() {
@@ -1198,11 +1277,25 @@ impl Importer<'_> {
             self.warn(format!("light '{name}': {w}"));
         }
         let radiant = Vec3::from(light.color()) * light.intensity();
+        // Too bright (the product overflowing f32 included): an error, as
+        // for emissive materials; `Scene::MAX_EMISSION`.
+        if radiant.max_element() > super::MAX_EMISSION {
+            return Err(SceneError::invalid(
+                self.path,
+                format!(
+                    "light '{name}': colour {:?} × intensity {:e} = {} is beyond the brightest emission accepted ({:e} per channel)",
+                    light.color(),
+                    light.intensity(),
+                    exp3(radiant),
+                    super::MAX_EMISSION
+                ),
+            ));
+        }
         if !radiant.is_finite() || radiant.min_element() < 0.0 {
             self.warn(format!(
                 "light '{name}': colour × intensity {radiant} is negative or not finite; skipped"
             ));
-            return;
+            return Ok(());
         }
         self.scene.lights.push(Light {
             name,
@@ -1212,6 +1305,7 @@ impl Importer<'_> {
             direction,
             range: light.range(),
         });
+        Ok(())
     }
 
     /// The default morph weights a node's mesh is shown with: `node.weights`

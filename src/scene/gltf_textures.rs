@@ -16,6 +16,40 @@ use super::{Filter, Texture, TextureEncoding, TextureSampler, Wrap};
 use std::collections::BTreeMap;
 use std::path::Path;
 
+/// Each image must name exactly one source: a `uri`, or a `bufferView`
+/// with a `mimeType` (glTF 2.0 §5.18). The `gltf` crate's `Image::source`
+/// unwraps these (a panic inside the decoder threads), so they are checked
+/// on the raw JSON before the typed parse: one error naming the image.
+pub(crate) fn check_image_sources(
+    path: &Path,
+    obj: &serde_json::Map<String, serde_json::Value>,
+) -> Result<(), super::SceneError> {
+    let Some(images) = obj.get("images").and_then(|i| i.as_array()) else {
+        return Ok(());
+    };
+    for (i, image) in images.iter().enumerate() {
+        let Some(image) = image.as_object() else {
+            continue; // reported by the typed parse
+        };
+        let name = match image.get("name").and_then(|n| n.as_str()) {
+            Some(n) => format!("images[{i}] '{}'", n.chars().take(40).collect::<String>()),
+            None => format!("images[{i}]"),
+        };
+        // `null` reads as absent in the typed parse.
+        let has = |key: &str| image.get(key).is_some_and(|v| !v.is_null());
+        let problem = match (has("uri"), has("bufferView"), has("mimeType")) {
+            (false, false, _) => "has neither `uri` nor `bufferView`",
+            (_, true, false) => "has a `bufferView` but no `mimeType`, which glTF requires",
+            _ => continue,
+        };
+        return Err(super::SceneError::invalid(
+            path,
+            format!("invalid glTF: {name} {problem}"),
+        ));
+    }
+    Ok(())
+}
+
 /// Which encodings each image index is needed in.
 pub(crate) type ImageUses = BTreeMap<usize, Vec<TextureEncoding>>;
 
@@ -53,7 +87,7 @@ fn image_bytes(
     match image.source() {
         gltf::image::Source::Uri { uri, .. } => {
             let base = gltf_path.parent().unwrap_or(Path::new("."));
-            read_uri(gltf_path, base, uri, label).map_err(|e| e.to_string())
+            read_uri(gltf_path, base, uri, label, None).map_err(|e| e.to_string())
         }
         gltf::image::Source::View { view, .. } => {
             let buf = buffers

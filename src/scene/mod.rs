@@ -96,6 +96,13 @@ pub struct Scene {
 /// space ([`Scene::check_placement`]).
 pub const MAX_WORLD_COORDINATE: f32 = 1e15;
 
+/// The brightest emission a scene may hold, per channel: a material's
+/// emissive factor × strength, a punctual light's colour × intensity, an
+/// environment map's texel. Beyond it (1e38 is finite in f32) a path's
+/// throughput overflows to ∞ and the metrics become `null`; real scenes
+/// stay many orders of magnitude below (the sun is ~1e9 W/(m²·sr)).
+pub const MAX_EMISSION: f32 = 1e30;
+
 impl Scene {
     /// Total number of triangles over all instances.
     /// Whether rays pass through the back faces of `mesh` (its material's

@@ -102,7 +102,13 @@ pub fn run(a: BenchMaterialsArgs) -> Result<()> {
         bail!("bad --sizes or --repeats: sizes up to {MAX_ENTRIES} entries, at least one round");
     }
     let trace = PoseTrace::read_csv(&a.trace)?;
-    stereocache::replay::check_trace_length(&trace, DEFAULT_FPS, Some(a.frames))?;
+    if a.frames < 2 && !a.fill_cost {
+        bail!(
+            "bad --frames {}: frame 0 is the untimed warm-up; use at least 2",
+            a.frames
+        );
+    }
+    stereocache::replay::check_bench_frames(&trace, DEFAULT_FPS, a.frames, 0)?;
     let (scene, lit) = Session::load_scene_lit(&a.scene, a.lighting.as_ref())?;
     eprintln!("{}", lit.line());
     if scene.graphs.is_empty() {

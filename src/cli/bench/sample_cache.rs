@@ -52,7 +52,7 @@ pub fn run(a: SampleCacheBenchArgs) -> Result<()> {
         height: h,
     } = size;
     let trace_data = PoseTrace::read_csv(&trace)?;
-    stereocache::replay::check_trace_length(&trace_data, DEFAULT_FPS, Some(frames + 1))?;
+    stereocache::replay::check_bench_frames(&trace_data, DEFAULT_FPS, frames, 1)?;
     let session = scene.open(&gpu)?;
     let cameras = trace_cameras(
         &session,

@@ -153,7 +153,7 @@ impl Sweep<'_> {
 
 pub fn run(a: ScalingArgs) -> Result<()> {
     let trace = PoseTrace::read_csv(&a.trace)?;
-    stereocache::replay::check_trace_length(&trace, DEFAULT_FPS, Some(a.frames + 1))?;
+    stereocache::replay::check_bench_frames(&trace, DEFAULT_FPS, a.frames, 1)?;
     let ctx = Arc::new(GpuContext::new(&a.gpu.options()?)?);
     println!("{}", device_line(&ctx.caps));
     println!(

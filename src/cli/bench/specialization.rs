@@ -77,7 +77,7 @@ pub fn run(a: BenchSpecArgs) -> Result<()> {
     let (rt, lighting) = (a.rt, a.lighting.as_ref());
     let (methods, bounces) = (&a.methods.0, &a.bounces.0);
     let trace = PoseTrace::read_csv(&a.trace)?;
-    stereocache::replay::check_trace_length(&trace, DEFAULT_FPS, Some(a.frames + 1))?;
+    stereocache::replay::check_bench_frames(&trace, DEFAULT_FPS, a.frames, 1)?;
     let scenes = load_labelled_scenes(&a.scenes, lighting)?;
     let ctx = std::sync::Arc::new(GpuContext::new(&a.gpu.options()?)?);
     println!("{}", device_line(&ctx.caps));

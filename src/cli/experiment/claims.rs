@@ -39,7 +39,13 @@ fn parse_expect(s: &str) -> Option<(&str, f64)> {
     let s = s.trim();
     for op in ["<=", ">=", "<", ">"] {
         if let Some(rest) = s.strip_prefix(op) {
-            return rest.trim().parse().ok().map(|v| (op, v));
+            // `nan` parses as a float but compares false with everything.
+            return rest
+                .trim()
+                .parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .map(|v| (op, v));
         }
     }
     None
@@ -52,7 +58,7 @@ impl ClaimSpec {
         if let Some(e) = &self.expect {
             parse_expect(e).ok_or_else(|| {
                 at(format!(
-                    "key 'expect': '{e}' is not a comparison like \"< 1\" or \">= 2.5\""
+                    "key 'expect': '{e}' is not a comparison with a finite number like \"< 1\" or \">= 2.5\""
                 ))
             })?;
         }

@@ -106,6 +106,17 @@ fn run_file(a: RunArgs) -> Result<()> {
         .clone()
         .unwrap_or_else(|| PathBuf::from("out/experiments").join(&e.name));
     check_out(&out)?;
+    // Every scene this run renders is loaded (parsed, its material graphs
+    // bound) before the first comparison: a broken second scene failed
+    // only after the first comparison had rendered.
+    let mut loaded = std::collections::BTreeSet::new();
+    for (g, _) in &mine {
+        let scene = &e.groups[*g].args.scene.scene;
+        if loaded.insert(scene.clone()) {
+            stereocache::scene::load_scene(scene)
+                .map_err(|err| anyhow!("{}: [run]: key 'scenes': {err}", a.file.display()))?;
+        }
+    }
     let mut ran: Vec<Vec<String>> = vec![Vec::new(); e.groups.len()];
     for (g, grp) in e.groups.iter().enumerate() {
         let configs: Vec<_> = mine
@@ -210,13 +221,59 @@ fn finish(name: &str, plan: &serde_json::Value, out: &Path) -> Result<()> {
 
 fn read_plan(dir: &Path) -> Result<serde_json::Value> {
     let p = dir.join("experiment.json");
-    let text = std::fs::read_to_string(&p).with_context(|| {
+    let text = stereocache::input::read_to_string(&p).with_context(|| {
         format!(
             "{}: cannot read; is this an `experiment run` output folder?",
             p.display()
         )
     })?;
     serde_json::from_str(&text).with_context(|| format!("{}: invalid JSON", p.display()))
+}
+
+/// `path` made absolute with symlinks resolved as far as it exists (the
+/// rest, not created yet, appended as given).
+fn resolved(path: &Path) -> PathBuf {
+    let abs = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
+    let mut head = abs.as_path();
+    let mut tail = Vec::new();
+    loop {
+        if let Ok(c) = head.canonicalize() {
+            return tail.iter().rev().fold(c, |p, t| p.join(t));
+        }
+        match (head.parent(), head.file_name()) {
+            (Some(parent), Some(name)) => {
+                tail.push(name.to_owned());
+                head = parent;
+            }
+            _ => return abs,
+        }
+    }
+}
+
+/// Refuses a merge `--out` that is one of the input folders, lies inside
+/// one, or contains one: writing it truncated the input's files (its
+/// images were left 0 bytes) before they were read. Checked before
+/// anything is written.
+fn check_out_apart(out: &Path, dirs: &[PathBuf]) -> Result<()> {
+    let o = resolved(out);
+    for d in dirs {
+        let r = resolved(d);
+        let how = if o == r {
+            "is"
+        } else if o.starts_with(&r) {
+            "lies inside"
+        } else if r.starts_with(&o) {
+            "contains"
+        } else {
+            continue;
+        };
+        bail!(
+            "bad --out {}: it {how} the input folder {}; merge into a new folder",
+            out.display(),
+            d.display()
+        );
+    }
+    Ok(())
 }
 
 fn merge(a: MergeArgs) -> Result<()> {
@@ -249,6 +306,7 @@ fn merge(a: MergeArgs) -> Result<()> {
             );
         }
     }
+    check_out_apart(&a.out, &a.dirs)?;
     check_out(&a.out)?;
     let name = first["name"].as_str().unwrap_or("experiment").to_string();
     let mut merged = first.clone();

@@ -21,6 +21,7 @@ pub fn run_comparison(
 ) -> Result<Comparison> {
     if a.reference_spp > 0 {
         stereocache::evaluate::check_reference_spp(a.reference_spp)?;
+        stereocache::evaluate::check_reference_cache_dir(&a.reference_cache)?;
     }
     // A baseline that is not compared fails before the device is opened.
     let labels: Vec<String> = configs.iter().map(|c| c.label.clone()).collect();

@@ -155,11 +155,16 @@ fn words(key: &str, v: &toml::Value) -> Result<Vec<String>, String> {
 
 /// Parses compare's command line `argv`; clap's message cut to its first line.
 pub(crate) fn parse(argv: &[String]) -> Result<CompareArgs, String> {
-    Line::try_parse_from(argv).map(|l| l.compare).map_err(|e| {
-        let text = e.to_string();
-        let line = text.lines().next().unwrap_or("").trim();
-        line.strip_prefix("error: ").unwrap_or(line).to_string()
-    })
+    use clap::{CommandFactory, FromArgMatches};
+    crate::cli::negative_numbers(Line::command())
+        .try_get_matches_from(argv)
+        .and_then(|m| Line::from_arg_matches(&m))
+        .map(|l| l.compare)
+        .map_err(|e| {
+            let text = e.to_string();
+            let line = text.lines().next().unwrap_or("").trim();
+            line.strip_prefix("error: ").unwrap_or(line).to_string()
+        })
 }
 
 /// The long names of every method option.
@@ -271,7 +276,7 @@ pub fn read(
     scale: &str,
     sets: &[(String, toml::Value)],
 ) -> Result<Experiment, String> {
-    let text = std::fs::read_to_string(path)
+    let text = stereocache::input::read_to_string(path)
         .map_err(|e| format!("{}: cannot read ({e})", path.display()))?;
     let file: File = toml::from_str(&text).map_err(|e| toml_error(path, &text, &e))?;
     let at = |m: String| format!("{}: {m}", path.display());
@@ -319,9 +324,11 @@ pub fn read(
             )));
         }
     }
+    let mut trace_data = std::collections::BTreeMap::new();
     for t in &traces {
-        stereocache::camera::PoseTrace::read_csv(t)
+        let d = stereocache::camera::PoseTrace::read_csv(t)
             .map_err(|e| at(format!("[run]: key 'traces': {e}")))?;
+        trace_data.insert(t.clone(), d);
     }
     let known = method_flags();
     // Method entries: kind, label, own flags, sweep points.
@@ -357,6 +364,8 @@ pub fn read(
                 })?
                 .to_string(),
         };
+        stereocache::compare::check_label(&label)
+            .map_err(|m| at(format!("[[method]] #{}: key 'label': {m}", i + 1)))?;
         let section = format!("[[method]] '{label}'");
         for k in m.keys() {
             if !METHOD_KEYS.contains(&k.as_str())
@@ -457,6 +466,12 @@ pub fn read(
             let mut argv = base.clone();
             argv.extend(shared);
             let args = parse(&argv).map_err(|e| at(format!("[run]: {e}")))?;
+            if let (Some(shown), Some(d)) = (&args.show_frames, trace_data.get(trace)) {
+                let available = d.resampled_len(args.fps).min(usize::MAX as f64) as usize;
+                let n = args.frames.map_or(available, |k| k.min(available));
+                stereocache::compare::check_shown_frames(&shown.0, n)
+                    .map_err(|m| at(format!("[run]: key 'show-frames': {m}")))?;
+            }
             let mut configs = Vec::new();
             for e in &entries {
                 // The configuration's own keys replace [run]'s.

@@ -54,7 +54,13 @@ pub fn generate_to_dir(name: &str, dir: &Path) -> Result<PathBuf, SceneError> {
             format!("unknown scene generator; known: {}", NAMES.join(", ")),
         )
     })?;
-    std::fs::create_dir_all(dir).map_err(|e| SceneError::io(dir, e))?;
+    if dir.exists() && !dir.is_dir() {
+        return Err(SceneError::invalid(
+            dir,
+            "the output directory is a file, not a directory",
+        ));
+    }
+    std::fs::create_dir_all(dir).map_err(|e| SceneError::write(dir, e))?;
     let path = dir.join(format!("{name}.gltf"));
     write_gltf(&scene, &path)?;
     Ok(path)

@@ -1,0 +1,99 @@
+//! Reading the files a user names (scenes, glTF buffers and images, traces,
+//! experiment files, MaterialX documents bound from a glTF): only regular
+//! files, and a declared length is read at most. A device (`/dev/zero`,
+//! `/dev/urandom`), a FIFO or a directory would otherwise be read until
+//! memory runs out, or block forever; each is refused with an I/O error
+//! whose message says what the path is, for the caller to prefix with the
+//! file's name.
+
+use std::io::{self, Read};
+use std::path::Path;
+
+/// Fails unless `path` (after symlinks) is a regular file.
+pub fn check_regular(path: &Path) -> io::Result<std::fs::Metadata> {
+    let meta = std::fs::metadata(path)?;
+    if meta.is_file() {
+        return Ok(meta);
+    }
+    let what = if meta.is_dir() {
+        "a directory"
+    } else {
+        "a device, FIFO or socket"
+    };
+    Err(io::Error::new(
+        io::ErrorKind::InvalidInput,
+        format!("not a regular file ({what})"),
+    ))
+}
+
+/// Opens a regular file (checked before opening, so a FIFO does not block,
+/// and again on the handle).
+fn open_regular(path: &Path) -> io::Result<(std::fs::File, u64)> {
+    check_regular(path)?;
+    let file = std::fs::File::open(path)?;
+    let meta = file.metadata()?;
+    if !meta.is_file() {
+        return Err(io::Error::new(
+            io::ErrorKind::InvalidInput,
+            "not a regular file",
+        ));
+    }
+    Ok((file, meta.len()))
+}
+
+/// The bytes of a regular file.
+pub fn read(path: &Path) -> io::Result<Vec<u8>> {
+    read_at_most(path, u64::MAX)
+}
+
+/// The first `limit` bytes of a regular file (all of it when shorter).
+pub fn read_at_most(path: &Path, limit: u64) -> io::Result<Vec<u8>> {
+    let (file, len) = open_regular(path)?;
+    let want = len.min(limit);
+    let mut out = Vec::with_capacity(usize::try_from(want).unwrap_or(0).min(1 << 30));
+    file.take(want).read_to_end(&mut out)?;
+    Ok(out)
+}
+
+/// The length of a regular file, without reading it.
+pub fn regular_len(path: &Path) -> io::Result<u64> {
+    Ok(check_regular(path)?.len())
+}
+
+/// The text of a regular file (UTF-8).
+pub fn read_to_string(path: &Path) -> io::Result<String> {
+    String::from_utf8(read(path)?).map_err(|_| {
+        io::Error::new(
+            io::ErrorKind::InvalidData,
+            "stream did not contain valid UTF-8",
+        )
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn devices_and_directories_are_refused_without_reading() {
+        for p in ["/dev/zero", "/dev/urandom", "/dev/null"] {
+            if Path::new(p).exists() {
+                let e = read(Path::new(p)).unwrap_err().to_string();
+                assert!(e.contains("not a regular file (a device"), "{p}: {e}");
+                assert!(read_to_string(Path::new(p)).is_err());
+            }
+        }
+        let e = read(&std::env::temp_dir()).unwrap_err().to_string();
+        assert!(e.contains("a directory"), "{e}");
+    }
+
+    #[test]
+    fn reads_stop_at_the_limit() {
+        let p = std::env::temp_dir().join(format!("stereocache-input-{}", std::process::id()));
+        std::fs::write(&p, b"0123456789").unwrap();
+        assert_eq!(read_at_most(&p, 4).unwrap(), b"0123");
+        assert_eq!(read(&p).unwrap(), b"0123456789");
+        assert_eq!(regular_len(&p).unwrap(), 10);
+        std::fs::remove_file(&p).unwrap();
+    }
+}
