@@ -74,7 +74,9 @@ def fbm(g, p, octaves, freq, amp=1.0):
     return g.fractal3d('float', position=q, octaves=I(octaves), amplitude=F(amp), lacunarity=F(2.0), diminish=F(0.5))
 
 def hnormal(g, height, scale):
-    hn = g.heighttonormal('vector3', in_=height, scale=F(scale))
+    # MaterialX's heighttonormal scales the gradient by 1/16 (Sobel parity):
+    # 16x keeps the relief of normalize(-scale*grad h, 1) these were made for.
+    hn = g.heighttonormal('vector3', in_=height, scale=F(16.0 * scale))
     return g.normalmap('vector3', in_=hn)
 
 # 1 bricks ---------------------------------------------------------------

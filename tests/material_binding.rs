@@ -162,8 +162,9 @@ fn bind(path: &Path, edit: impl FnOnce(&mut serde_json::Value)) {
     std::fs::write(path, serde_json::to_string_pretty(&j).unwrap()).unwrap();
 }
 
-/// The graph outputs bound to `slot` of `material` at `geom` (CPU evaluator),
-/// times the material's factor.
+/// The graph outputs bound to `slot` of `material` at `geom` (CPU evaluator;
+/// `geom.uv` the mesh's uv, which the graph sees flipped), times the
+/// material's factor.
 fn cpu_slot(scene: &Scene, material: u32, slot: Slot, geom: &Geom) -> Vec3 {
     let b = scene
         .graphs
@@ -172,6 +173,11 @@ fn cpu_slot(scene: &Scene, material: u32, slot: Slot, geom: &Geom) -> Vec3 {
         .find(|b| b.slot == slot)
         .unwrap_or_else(|| panic!("material {material} has no {slot:?} graph"));
     let g = &scene.graphs.graphs[b.graph];
+    // Graphs see the mesh's uv with v up (eval::graph_uv), as the GPU's.
+    let geom = &Geom {
+        uv: eval::graph_uv(geom.uv),
+        ..*geom
+    };
     let floats: Vec<f32> = eval::evaluate(g, geom)
         .iter()
         .flat_map(|v| v.channels().to_vec())
@@ -916,7 +922,9 @@ fn memo_levels_follow_the_cone_footprints_shorter_uv_derivative() {
 }
 
 /// The quads of `write_quads_uv` (uvs stretched 4:1) with material 0 bound
-/// to a graph that emits exactly its uv, (u, v, blue) × KHR_EMISSIVE_FACTOR
+/// to a graph that emits exactly the mesh's uv, (u, v, blue) ×
+/// KHR_EMISSIVE_FACTOR (its texcoord is (u, 1 − v), eval::graph_uv: the
+/// graph flips v back)
 /// (`blue` 0 or 1), so a memoized pixel's radiance is the texel centre the
 /// cache keyed (times the path's throughput, which blue = 1 shows); and
 /// quad 0's uv map (affine over the quad, from its first triangle).
@@ -930,13 +938,14 @@ fn uv_emitting_quads(d: &Path, blue: f32) -> (Scene, QuadUv) {
             serde_json::json!({ "name": "uv3", "nodetype": "texcoord", "type": "vector3",
             "outputs": [ { "nodetype": "output", "name": "out", "type": "vector3" } ] }),
         );
-        let mut last = uv3;
-        if blue != 0.0 {
-            nodes.push(serde_json::json!({ "name": "uvb", "nodetype": "add", "type": "vector3", "inputs": [
-                { "name": "in1", "nodetype": "input", "type": "vector3", "node": uv3 },
-                { "name": "in2", "nodetype": "input", "type": "vector3", "value": [0.0, 0.0, blue] } ] }));
-            last += 1;
-        }
+        // (t.x, 1 − t.y, blue): the mesh's uv (exact for texel centres).
+        nodes.push(serde_json::json!({ "name": "uvm", "nodetype": "multiply", "type": "vector3", "inputs": [
+            { "name": "in1", "nodetype": "input", "type": "vector3", "node": uv3 },
+            { "name": "in2", "nodetype": "input", "type": "vector3", "value": [1.0, -1.0, 1.0] } ] }));
+        nodes.push(serde_json::json!({ "name": "uvb", "nodetype": "add", "type": "vector3", "inputs": [
+            { "name": "in1", "nodetype": "input", "type": "vector3", "node": uv3 + 1 },
+            { "name": "in2", "nodetype": "input", "type": "vector3", "value": [0.0, 1.0, blue] } ] }));
+        let last = uv3 + 2;
         nodes.push(
             serde_json::json!({ "name": "uvc", "nodetype": "convert", "type": "color3",
             "inputs": [ { "name": "in", "nodetype": "input", "type": "vector3", "node": last } ] }),

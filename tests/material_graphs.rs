@@ -141,6 +141,32 @@ fn malformed_documents_give_one_line_errors() {
             &["node `m`: bad type: input `in1` is color3, its source is float"],
         ),
         (
+            // Same width, different type: MaterialX's validate() refuses
+            // it ("Mismatched types in port connection").
+            r#"<position name="p" type="vector3" />
+               <multiply name="m" type="color3"><input name="in1" type="color3" nodename="p" /></multiply>
+               <output name="out" type="color3" nodename="m" />"#,
+            &["node `m`: bad type: input `in1` is color3, its source is vector3"],
+        ),
+        (
+            // An integer interface input into a float input.
+            r#"<input name="k" type="integer" value="2" />
+               <add name="a" type="float"><input name="in1" type="float" interfacename="k" /></add>
+               <output name="out" type="float" nodename="a" />"#,
+            &["node `a`: bad type: input `in1` is float, its source is integer"],
+        ),
+        (
+            r#"<position name="p" type="vector3" />
+               <output name="out" type="color3" nodename="p" />"#,
+            &["graph `g`: bad type: output `out` is color3, its source is vector3"],
+        ),
+        (
+            // Graphs see one uv set; a second is not read as the first.
+            r#"<texcoord name="t" type="vector2"><input name="index" type="integer" value="1" /></texcoord>
+               <output name="out" type="vector2" nodename="t" />"#,
+            &["graph `g`, node `t`: input `index` is 1: only texture coordinate set 0"],
+        ),
+        (
             r#"<add name="a" type="float"><input name="bogus" type="float" value="1" /></add>
                <output name="out" type="float" nodename="a" />"#,
             &["node `a`: node `add` has no input `bogus`"],
@@ -560,3 +586,220 @@ fn glsl_equals_the_cpu_for_every_signature() {
 /// about eight of them, each error at most 4 ulp and amplified at most 2x by
 /// the arithmetic after it: 8 * 4 * 2 = 64 ulp = 64 * 2^-23.
 const TOLERANCE: f32 = 64.0 * f32::EPSILON;
+
+/// A document of one graph `g` per body (`g0`, `g1`, …), built.
+fn graphs_of(bodies: &[&str]) -> Vec<Graph> {
+    let mut text = String::from("<?xml version=\"1.0\"?>\n<materialx version=\"1.39\">\n");
+    for (i, b) in bodies.iter().enumerate() {
+        text.push_str(&format!("<nodegraph name=\"g{i}\">\n{b}\n</nodegraph>\n"));
+    }
+    text.push_str("</materialx>\n");
+    let doc = Document::parse("audit.mtlx", &text).unwrap_or_else(|e| panic!("{e}"));
+    Graph::build_all(&doc, &[]).unwrap_or_else(|e| panic!("{e}"))
+}
+
+fn first_output(g: &Graph, p: &Geom) -> Vec<f32> {
+    evaluate(g, p)[0].channels().to_vec()
+}
+
+fn assert_close(got: &[f32], want: &[f32], tol: f32, what: &str) {
+    assert_eq!(got.len(), want.len(), "{what}");
+    for (x, y) in got.iter().zip(want) {
+        assert!((x - y).abs() <= tol, "{what}: {got:?} != {want:?}");
+    }
+}
+
+/// hsvadjust as MaterialX's graph (NG_hsvadjust_color3 → mx_hsvtorgb):
+/// a saturation below 0.0001 — here scaled to 0 or below — is grey
+/// (v, v, v), not the sector formula's overshoot ((1, 0, 0) desaturated
+/// by amount (0, −1, 1) was (1, 2, 2)); a saturation above 1 is not
+/// clamped (MaterialX's graph does not clamp either).
+#[test]
+fn hsvadjust_is_grey_below_materialx_saturation_threshold() {
+    let g = graphs_of(&[
+        r#"<hsvadjust name="h" type="color3"><input name="in" type="color3" value="1, 0, 0" /><input name="amount" type="vector3" value="0, -1, 1" /></hsvadjust><output name="out" type="color3" nodename="h" />"#,
+        r#"<hsvadjust name="h" type="color3"><input name="in" type="color3" value="0.8, 0.2, 0.4" /><input name="amount" type="vector3" value="0.25, 0, 0.5" /></hsvadjust><output name="out" type="color3" nodename="h" />"#,
+        r#"<hsvadjust name="h" type="color4"><input name="in" type="color4" value="0.6, 0.3, 0.3, 0.5" /><input name="amount" type="vector3" value="0, 0.00005, 1" /></hsvadjust><output name="out" type="color4" nodename="h" />"#,
+        r#"<hsvadjust name="h" type="color3"><input name="in" type="color3" value="1, 0.5, 0.5" /><input name="amount" type="vector3" value="0, 3, 1" /></hsvadjust><output name="out" type="color3" nodename="h" />"#,
+    ]);
+    let p = Geom::default();
+    assert_eq!(first_output(&g[0], &p), [1.0, 1.0, 1.0]);
+    assert_eq!(first_output(&g[1], &p), [0.4, 0.4, 0.4]);
+    assert_eq!(first_output(&g[2], &p), [0.6, 0.6, 0.6, 0.5]);
+    // s = 0.5·3 = 1.5, hue 0: (v, v(1 − s), v(1 − s)), unclamped.
+    assert_eq!(first_output(&g[3], &p), [1.0, -0.5, -0.5]);
+}
+
+/// normalmap maps an all-zero input to the unperturbed normal N (MaterialX's
+/// mx_normalmap: "no data" is tangent-space (0, 0, 1)); it was
+/// normalize(−T − B − N).
+#[test]
+fn normalmap_of_zero_is_the_unperturbed_normal() {
+    let g = graphs_of(&[
+        r#"<normalmap name="n" type="vector3"><input name="in" type="vector3" value="0, 0, 0" /></normalmap><output name="out" type="vector3" nodename="n" />"#,
+    ]);
+    for p in grid() {
+        assert_close(&first_output(&g[0], &p), &p.normal, 1e-6, "normalmap(0)");
+    }
+}
+
+/// power: CPU and GPU agree where GLSL's pow is undefined; a negative base
+/// with an integer exponent is the real power, with any other exponent 0;
+/// 0^y is 0 (y > 0), +∞ (y < 0), x⁰ = 1.
+#[test]
+fn power_is_defined_for_negative_bases() {
+    let g = graphs_of(&[
+        r#"<power name="p" type="vector4"><input name="in1" type="vector4" value="-2, -2, -2, -0.5" /><input name="in2" type="vector4" value="2, 3, 0.5, -3" /></power><output name="out" type="vector4" nodename="p" />"#,
+        r#"<power name="p" type="vector3"><input name="in1" type="vector3" value="0, 0, -3" /><input name="in2" type="vector3" value="2, -1, 0" /></power><output name="out" type="vector3" nodename="p" />"#,
+    ]);
+    let p = Geom::default();
+    assert_eq!(first_output(&g[0], &p), [4.0, -8.0, 0.0, -8.0]);
+    assert_eq!(first_output(&g[1], &p), [0.0, f32::INFINITY, 1.0]);
+}
+
+/// heighttonormal as MaterialX 1.39: the gradient is taken with respect to
+/// the `texcoord` input (not the geometric uv) and scaled by scale/16
+/// (the reference implementation's Sobel parity factor); a mirrored
+/// texcoord still gives n.z > 0. h = t.x of t = (4u, v) with scale 16:
+/// ∂h/∂t.x = 1, out = normalize(−1, 0, 1)·½ + ½ (it was normalize(−4, 0, 1)).
+#[test]
+fn heighttonormal_differentiates_in_its_texcoord_with_the_sobel_scale() {
+    let enc = |n: [f32; 3]| {
+        let l = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+        n.map(|c| c / l * 0.5 + 0.5)
+    };
+    let g = graphs_of(&[
+        // Texcoord (4u, v), height t.x, scale 16.
+        r#"<texcoord name="uv" type="vector2" />
+           <multiply name="t" type="vector2"><input name="in1" type="vector2" nodename="uv" /><input name="in2" type="vector2" value="4, 1" /></multiply>
+           <extract name="h" type="float"><input name="in" type="vector2" nodename="t" /><input name="index" type="integer" value="0" /></extract>
+           <heighttonormal name="n" type="vector3"><input name="in" type="float" nodename="h" /><input name="scale" type="float" value="16" /><input name="texcoord" type="vector2" nodename="t" /></heighttonormal>
+           <output name="out" type="vector3" nodename="n" />"#,
+        // The default texcoord (UV0), height v, scale 1.
+        r#"<texcoord name="uv" type="vector2" />
+           <extract name="h" type="float"><input name="in" type="vector2" nodename="uv" /><input name="index" type="integer" value="1" /></extract>
+           <heighttonormal name="n" type="vector3"><input name="in" type="float" nodename="h" /></heighttonormal>
+           <output name="out" type="vector3" nodename="n" />"#,
+        // A mirrored texcoord (1 − u, v): h = t.x rises along t.x.
+        r#"<texcoord name="uv" type="vector2" />
+           <subtract name="m" type="vector2"><input name="in1" type="vector2" value="1, 0" /><input name="in2" type="vector2" nodename="uv" /></subtract>
+           <multiply name="t" type="vector2"><input name="in1" type="vector2" nodename="m" /><input name="in2" type="vector2" value="1, -1" /></multiply>
+           <extract name="h" type="float"><input name="in" type="vector2" nodename="t" /><input name="index" type="integer" value="0" /></extract>
+           <heighttonormal name="n" type="vector3"><input name="in" type="float" nodename="h" /><input name="scale" type="float" value="8" /><input name="texcoord" type="vector2" nodename="t" /></heighttonormal>
+           <output name="out" type="vector3" nodename="n" />"#,
+    ]);
+    for p in grid() {
+        assert_close(
+            &first_output(&g[0], &p),
+            &enc([-1.0, 0.0, 1.0]),
+            1e-5,
+            "(4u, v)",
+        );
+        assert_close(
+            &first_output(&g[1], &p),
+            &enc([0.0, -1.0 / 16.0, 1.0]),
+            1e-5,
+            "UV0",
+        );
+        assert_close(
+            &first_output(&g[2], &p),
+            &enc([-0.5, 0.0, 1.0]),
+            1e-5,
+            "mirrored",
+        );
+    }
+}
+
+/// The audit's cases with varying inputs, GLSL against the CPU on the grid:
+/// hsvadjust through the grey threshold, normalmap of a zero input, power
+/// of negative and zero bases (constant and varying exponents, integer and
+/// not), heighttonormal with a connected texcoord (scaled, rotated and
+/// mirrored) and with the uv.
+#[test]
+fn audit_cases_glsl_equals_the_cpu() {
+    let g = graphs_of(&[
+        // Saturation scaled by x ∈ [−2.9, 2.7] (grey where x < 1e-4).
+        r#"<position name="p" type="vector3" />
+           <extract name="x" type="float"><input name="in" type="vector3" nodename="p" /><input name="index" type="integer" value="0" /></extract>
+           <absval name="c0" type="vector3"><input name="in" type="vector3" nodename="p" /></absval>
+           <convert name="c" type="color3"><input name="in" type="vector3" nodename="c0" /></convert>
+           <combine3 name="a" type="vector3"><input name="in1" type="float" value="0.3" /><input name="in2" type="float" nodename="x" /><input name="in3" type="float" value="0.7" /></combine3>
+           <hsvadjust name="h" type="color3"><input name="in" type="color3" nodename="c" /><input name="amount" type="vector3" nodename="a" /></hsvadjust>
+           <output name="out" type="color3" nodename="h" />"#,
+        // normalmap of p·0 (±0 in every channel).
+        r#"<position name="p" type="vector3" />
+           <multiply name="z" type="vector3"><input name="in1" type="vector3" nodename="p" /><input name="in2" type="float" value="0" /></multiply>
+           <normalmap name="n" type="vector3"><input name="in" type="vector3" nodename="z" /><input name="scale" type="float" value="0.5" /></normalmap>
+           <output name="out" type="vector3" nodename="n" />"#,
+        // Negative bases: exponents 2, 3, 0.5, −1 and floor(3y) (varying integers).
+        r#"<position name="p" type="vector3" />
+           <power name="a" type="vector4"><input name="in1" type="vector4" nodename="p4" /><input name="in2" type="vector4" value="2, 3, 0.5, -1" /></power>
+           <convert name="p4" type="vector4"><input name="in" type="vector3" nodename="p" /></convert>
+           <extract name="y" type="float"><input name="in" type="vector3" nodename="p" /><input name="index" type="integer" value="1" /></extract>
+           <multiply name="y3" type="float"><input name="in1" type="float" nodename="y" /><input name="in2" type="float" value="3" /></multiply>
+           <floor name="k" type="float"><input name="in" type="float" nodename="y3" /></floor>
+           <power name="b" type="vector4"><input name="in1" type="vector4" nodename="p4" /><input name="in2" type="float" nodename="k" /></power>
+           <add name="s" type="vector4"><input name="in1" type="vector4" nodename="a" /><input name="in2" type="vector4" nodename="b" /></add>
+           <output name="out" type="vector4" nodename="s" />"#,
+        // A zero base (x − x) to exponents of both signs.
+        r#"<position name="p" type="vector3" />
+           <subtract name="z" type="vector3"><input name="in1" type="vector3" nodename="p" /><input name="in2" type="vector3" nodename="p" /></subtract>
+           <power name="a" type="vector3"><input name="in1" type="vector3" nodename="z" /><input name="in2" type="vector3" value="2, 0, -1" /></power>
+           <output name="out" type="vector3" nodename="a" />"#,
+        // heighttonormal of a noise through a scaled, rotated texcoord.
+        r#"<texcoord name="uv" type="vector2" />
+           <place2d name="t" type="vector2"><input name="texcoord" type="vector2" nodename="uv" /><input name="scale" type="vector2" value="0.5, 2" /><input name="rotate" type="float" value="30" /></place2d>
+           <noise2d name="h" type="float"><input name="texcoord" type="vector2" nodename="t" /></noise2d>
+           <heighttonormal name="n" type="vector3"><input name="in" type="float" nodename="h" /><input name="scale" type="float" value="4" /><input name="texcoord" type="vector2" nodename="t" /></heighttonormal>
+           <output name="out" type="vector3" nodename="n" />"#,
+        // … through a mirrored texcoord, and with the uv.
+        r#"<texcoord name="uv" type="vector2" />
+           <multiply name="t" type="vector2"><input name="in1" type="vector2" nodename="uv" /><input name="in2" type="vector2" value="-3, 1" /></multiply>
+           <noise2d name="h" type="float"><input name="texcoord" type="vector2" nodename="t" /></noise2d>
+           <heighttonormal name="n" type="vector3"><input name="in" type="float" nodename="h" /><input name="scale" type="float" value="4" /><input name="texcoord" type="vector2" nodename="t" /></heighttonormal>
+           <heighttonormal name="n2" type="vector3"><input name="in" type="float" nodename="h" /><input name="scale" type="float" value="16" /></heighttonormal>
+           <add name="s" type="vector3"><input name="in1" type="vector3" nodename="n" /><input name="in2" type="vector3" nodename="n2" /></add>
+           <output name="out" type="vector3" nodename="s" />"#,
+    ]);
+    // The cases are reached on the grid.
+    let pts = grid();
+    let grey = pts
+        .iter()
+        .filter(|p| {
+            let v = first_output(&g[0], p);
+            v[0] == v[1] && v[1] == v[2]
+        })
+        .count();
+    assert!(grey > 50 && grey < pts.len() - 50, "{grey} grey points");
+    let negative = pts
+        .iter()
+        .filter(|p| p.position[0] < 0.0 && p.position[2] < 0.0)
+        .count();
+    assert!(negative > 50, "{negative} points with negative bases");
+    assert_gpu_equals_cpu(&g);
+}
+
+/// The measured contrast of the noises (docs/MATERIALS.md "Noise
+/// amplitude"): noise2d's RMS over 400k points of a 2000² uv square is
+/// 0.266 (MaterialX's reference Perlin noise: 0.319, with its 0.6616 2D
+/// gradient scale), noise3d's likewise without MaterialX's 0.9820 3D scale.
+#[test]
+fn noise_contrast_is_the_documented_one() {
+    use stereocache::materials::noise;
+    let mut s = 0x9e37_79b9u32;
+    let mut next = || {
+        s = noise::pcg(s);
+        (s >> 8) as f32 / (1u32 << 24) as f32 * 2000.0 - 1000.0
+    };
+    let n = 400_000;
+    let (mut s2, mut s3) = (0.0f64, 0.0f64);
+    for _ in 0..n {
+        let (x, y, z) = (next(), next(), next());
+        s2 += (noise::perlin2([x, y], 0) as f64).powi(2);
+        s3 += (noise::perlin3([x, y, z], 0) as f64).powi(2);
+    }
+    let (r2, r3) = ((s2 / n as f64).sqrt(), (s3 / n as f64).sqrt());
+    eprintln!("noise2d rms {r2:.4}, noise3d rms {r3:.4}");
+    assert!((r2 - 0.266).abs() < 0.005, "noise2d rms {r2}");
+    assert!(r3 > 0.1 && r3 < 0.5, "noise3d rms {r3}");
+}

@@ -577,9 +577,11 @@ fn image_graphs_render_the_cpu_evaluators_texels() {
                 let (mat, uv) = hit_uv(&s.scene, *fh);
                 let g = &s.scene.graphs.graphs[s.scene.graphs.of_material(mat)[0].graph];
                 let got = Vec3::from_slice(&eye.albedo[i][..3]);
-                let cpu = |uv: Vec2| Vec3::from_slice(&at(g, uv.to_array(), 0.0)[..3]);
+                // The graph sees the mesh's uv with v up (eval::graph_uv).
+                let cpu =
+                    |uv: Vec2| Vec3::from_slice(&at(g, eval::graph_uv(uv.to_array()), 0.0)[..3]);
                 let want = cpu(uv);
-                let tc = uv * 3.0 - 1.0;
+                let tc = Vec2::from(eval::graph_uv(uv.to_array())) * 3.0 - 1.0;
                 outside[mat as usize] +=
                     (tc.x < 0.0 || tc.x > 1.0 || tc.y < 0.0 || tc.y > 1.0) as usize;
                 let ok = if mat == 0 {
@@ -778,7 +780,9 @@ fn image_graphs_read_through_the_memo_table_at_texel_centres() {
                         [-eps, 0.0, eps].iter().any(|dv| {
                             let qq = lod::quantise([uv.x + du, uv.y + dv], m);
                             let at = lod::snapped_uv(qq, m);
-                            let want = Vec3::from_slice(&super_at(graph, at, 2f32.powi(-m))[..3]);
+                            let want = Vec3::from_slice(
+                                &super_at(graph, eval::graph_uv(at), 2f32.powi(-m))[..3],
+                            );
                             (got - want).abs().max_element() <= tol
                         })
                     })
@@ -805,4 +809,172 @@ fn image_graphs_read_through_the_memo_table_at_texel_centres() {
 /// [`at`] under another name (the memo test's closure shadows it).
 fn super_at(g: &Graph, uv: [f32; 2], footprint: f32) -> [f32; 4] {
     at(g, uv, footprint)
+}
+
+/// glTF uvs reach graphs with v flipped: MaterialX's texture space has v up
+/// (origin at the image's lower left) and MaterialX's own glTF loader flips
+/// incoming v. Three quads whose glTF uv (0, 0) corner is the image's top
+/// left (`grid`: v = 0 at origin + ev, −z, the top camera's up): a graph
+/// outputting texcoord shows (u, 1 − v) — (0, 1), MaterialX's top left, at
+/// the top-left corner — and an image node shows its file upright, exactly
+/// as the glTF baseColorTexture of the same file does (top row red, bottom
+/// row green). Before the fix the texcoord read (0, 0) there and the image
+/// node showed the file upside down.
+#[test]
+fn graphs_see_gltf_uvs_with_v_up_and_images_stay_upright() {
+    let ctx = context();
+    let d = dir("vflip");
+    // 1×2: the top row red, the bottom row green.
+    let px = vec![255, 0, 0, 255, 0, 255, 0, 255];
+    write_png(&d.join("updown.png"), 1, 2, px.clone());
+    let mut s = Scene {
+        source: "test:vflip".into(),
+        ..Default::default()
+    };
+    s.textures.push(stereocache::scene::Texture::with_mips(
+        "updown".into(),
+        stereocache::scene::TextureEncoding::Srgb,
+        1,
+        2,
+        px,
+    ));
+    let mats = [
+        Material::diffuse("texcoord", Vec3::ONE),
+        Material::diffuse("image", Vec3::ONE),
+        Material {
+            base_color_texture: Some(stereocache::scene::TextureRef::new(0)),
+            ..Material::diffuse("texture", Vec3::ONE)
+        },
+    ];
+    let x0s = [-1.6f32, -0.5, 0.6];
+    for (m, x0) in mats.into_iter().zip(x0s) {
+        let m = add_material(&mut s, m);
+        let g = grid(
+            "quad",
+            Vec3::new(x0, 0.0, 0.5),
+            Vec3::X,
+            Vec3::NEG_Z,
+            1,
+            1,
+            Vec2::ONE,
+        );
+        add_mesh(&mut s, g, m, Mat4::IDENTITY);
+    }
+    s.validate().unwrap();
+    let path = d.join("vflip.gltf");
+    stereocache::scene::write_gltf(&s, &path).unwrap();
+    std::fs::write(
+        d.join("texcoord.mtlx"),
+        r#"<?xml version="1.0"?>
+<materialx version="1.39">
+  <nodegraph name="g">
+    <texcoord name="t" type="vector3" />
+    <convert name="c" type="color3"><input name="in" type="vector3" nodename="t" /></convert>
+    <output name="base_color" type="color3" nodename="c" />
+  </nodegraph>
+</materialx>
+"#,
+    )
+    .unwrap();
+    std::fs::write(
+        d.join("image.mtlx"),
+        image_doc(
+            r#"value="updown.png" colorspace="srgb_texture""#,
+            "color3",
+            r#"<input name="filtertype" type="string" value="closest" />"#,
+            "",
+        ),
+    )
+    .unwrap();
+    let mut j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    for (k, f) in ["texcoord.mtlx", "image.mtlx"].iter().enumerate() {
+        j["materials"][k]["extras"] =
+            serde_json::json!({ "materialx": { "file": f, "graph": "g" } });
+    }
+    std::fs::write(&path, serde_json::to_string_pretty(&j).unwrap()).unwrap();
+    let scene = stereocache::scene::load_gltf(&path).expect("v-flip scene loads");
+    // The glTF uv (0, 0) corner is at −x, −z: the image's top left.
+    for inst in &scene.instances {
+        let m = &scene.meshes[inst.mesh as usize];
+        let k = m.uvs.iter().position(|uv| *uv == Vec2::ZERO).unwrap();
+        let p = inst.transform.transform_point3(m.positions[k]);
+        assert_eq!(p.z, -0.5, "uv (0, 0) at {p}");
+        assert_eq!(p.x, x0s[m.material as usize], "uv (0, 0) at {p}");
+    }
+    let settings = RenderSettings {
+        width: 80,
+        height: 48,
+        spp: 1,
+        max_bounces: 1,
+        seed: 1,
+        all_features: false,
+        ..Default::default()
+    };
+    for rt in [RtChoice::Software, RtChoice::Query] {
+        if rt == RtChoice::Query && !require(ctx.ray_query_enabled(), "ray queries") {
+            continue;
+        }
+        let s = session(&ctx, scene.clone(), rt);
+        let f = render(&s, "reference", top_camera(), &settings);
+        let w = f.width as usize;
+        let mut rows = [[0usize; 2]; 3];
+        for eye in &f.eyes {
+            // Material 0's hit nearest the image's top-left corner.
+            let mut corner: Option<(usize, Vec2, Vec3)> = None;
+            for (i, fh) in eye.first_hit.iter().enumerate() {
+                if fh[3] == u32::MAX {
+                    continue;
+                }
+                let (mat, uv) = hit_uv(&s.scene, *fh);
+                let got = Vec3::from_slice(&eye.albedo[i][..3]);
+                if mat == 0 {
+                    let want = Vec3::new(uv.x, 1.0 - uv.y, 0.0);
+                    assert!(
+                        (got - want).abs().max_element() <= 1e-4,
+                        "{rt:?}: pixel {i} (uv {uv}): texcoord {got}, want {want}"
+                    );
+                    let d = i % w + i / w;
+                    if corner.is_none_or(|c| d < c.0) {
+                        corner = Some((d, uv, got));
+                    }
+                    continue;
+                }
+                // Images: the top row (glTF v < ½) red, the bottom green
+                // (the glTF texture filters linearly and wraps: by at least
+                // 0.2 away from the middle and the wrap seam).
+                let row = if uv.y > 0.05 && uv.y < 0.45 {
+                    0
+                } else if uv.y > 0.55 && uv.y < 0.95 {
+                    1
+                } else {
+                    continue;
+                };
+                let (hi, lo) = if row == 0 {
+                    (got.x, got.y)
+                } else {
+                    (got.y, got.x)
+                };
+                assert!(
+                    hi > lo + 0.15 && got.z < 1e-3,
+                    "{rt:?}: material {mat} pixel {i} (uv {uv}): {got}, want {}",
+                    ["red", "green"][row]
+                );
+                rows[mat as usize][row] += 1;
+            }
+            let (_, uv, tc) = corner.expect("material 0 is seen");
+            assert!(
+                uv.max_element() < 0.15 && tc.x < 0.15 && tc.y > 0.85,
+                "{rt:?}: top-left hit: uv {uv}, texcoord {tc} (MaterialX's top left is (0, 1))"
+            );
+        }
+        for (m, r) in rows.iter().enumerate().skip(1) {
+            assert!(
+                r.iter().all(|&n| n > 100),
+                "{rt:?}: material {m} rows {r:?}"
+            );
+        }
+    }
+    assert_no_validation_messages(&ctx);
+    let _ = std::fs::remove_dir_all(&d);
 }

@@ -41,6 +41,23 @@ vec2 mx_smoothstep(vec2 x, vec2 lo, vec2 hi) { return vec2(mx_smoothstep1(x.x, l
 vec3 mx_smoothstep(vec3 x, vec3 lo, vec3 hi) { return vec3(mx_smoothstep(x.xy, lo.xy, hi.xy), mx_smoothstep1(x.z, lo.z, hi.z)); }
 vec4 mx_smoothstep(vec4 x, vec4 lo, vec4 hi) { return vec4(mx_smoothstep(x.xyz, lo.xyz, hi.xyz), mx_smoothstep1(x.w, lo.w, hi.w)); }
 
+// power with every case defined (eval.rs `power`; GLSL's pow is undefined
+// for x < 0 and for x = 0, y <= 0): x^0 = 1, 0^y = 0 (y > 0) or +inf
+// (y < 0), a negative base with an integer exponent the real power, with
+// any other exponent 0 (as OSL's pow).
+float mx_pow(float x, float y) {
+    if (y == 0.0) return 1.0;
+    if (x == 0.0) return y > 0.0 ? 0.0 : uintBitsToFloat(0x7f800000u);
+    float a = pow(abs(x), y);
+    if (x > 0.0 || isnan(x)) return a;
+    if (y != floor(y)) return 0.0;
+    precise float h = y * 0.5;
+    return h == floor(h) ? a : -a;
+}
+vec2 mx_pow(vec2 x, vec2 y) { return vec2(mx_pow(x.x, y.x), mx_pow(x.y, y.y)); }
+vec3 mx_pow(vec3 x, vec3 y) { return vec3(mx_pow(x.xy, y.xy), mx_pow(x.z, y.z)); }
+vec4 mx_pow(vec4 x, vec4 y) { return vec4(mx_pow(x.xyz, y.xyz), mx_pow(x.w, y.w)); }
+
 #define MX_PER_TYPE(T) \
     T mx_modulo(T a, T b) { precise T r = a - b * floor(a / b); return r; } \
     T mx_fract(T a) { precise T r = a - floor(a); return r; } \
@@ -102,9 +119,12 @@ vec3 mx_rgb_to_hsv(vec3 c) {
     return vec3(h, s, mx);
 }
 
+// Grey below saturation 0.0001 (eval.rs HSV_GREY_SATURATION, as MaterialX's
+// hsvtorgb); saturation above 1 is not clamped.
 vec3 mx_hsv_to_rgb(vec3 c) {
-    precise float h = c.x - floor(c.x);
     float s = c.y, v = c.z;
+    if (s < 0.0001) return vec3(v);
+    precise float h = c.x - floor(c.x);
     precise float h6 = h * 6.0;
     float sector = floor(h6);
     precise float f = h6 - sector;
@@ -130,21 +150,31 @@ vec3 mx_hsvadjust(vec3 c, vec3 amount) {
 float mx_luminance(vec3 c, vec3 k) { precise float l = c.r * k.r + c.g * k.g + c.b * k.b; return l; }
 
 // normalmap: `t` a tangent-space normal encoded in [0, 1], scaled on x and y.
+// An all-zero input is the unperturbed normal (tangent-space (0, 0, 1)), as MaterialX.
 vec3 mx_normalmap(vec3 t, vec2 scale, vec3 n, vec3 tg, vec3 bt) {
     precise vec3 m = vec3((t.x * 2.0 - 1.0) * scale.x, (t.y * 2.0 - 1.0) * scale.y, t.z * 2.0 - 1.0);
+    if (t.x == 0.0 && t.y == 0.0 && t.z == 0.0) m = vec3(0.0, 0.0, 1.0);
     precise vec3 s = vec3(tg.x * m.x + bt.x * m.y + n.x * m.z,
                           tg.y * m.x + bt.y * m.y + n.y * m.z,
                           tg.z * m.x + bt.z * m.y + n.z * m.z);
     return mx_normalize(s);
 }
 
-// heighttonormal from central differences (step MX_HEIGHT_STEP in uv).
+// heighttonormal (eval.rs height_normal): MaterialX's construction with
+// derivatives in uv, from the height at uv ± step·x̂, uv ± step·ŷ and the
+// texcoord's derivatives along u (tdu) and v (tdv); the height gradient
+// scaled by scale/16 (MaterialX's Sobel parity factor); n.z turned
+// positive (mirrored texcoords), (0, 0, 1) where the frame is degenerate.
 const float MX_HEIGHT_STEP = 1.0 / 1024.0;
-vec3 mx_height_normal(float hu1, float hu0, float hv1, float hv0, float scale) {
+const float MX_HEIGHT_SOBEL_SCALE = 1.0 / 16.0;
+vec3 mx_height_normal(float hu1, float hu0, float hv1, float hv0, float scale, vec2 tdu, vec2 tdv) {
     const float inv = 1.0 / (2.0 * MX_HEIGHT_STEP);
-    precise float du = (hu1 - hu0) * inv;
-    precise float dv = (hv1 - hv0) * inv;
-    vec3 n = mx_normalize(vec3(-scale * du, -scale * dv, 1.0));
+    precise float hu = (hu1 - hu0) * inv * scale * MX_HEIGHT_SOBEL_SCALE;
+    precise float hv = (hv1 - hv0) * inv * scale * MX_HEIGHT_SOBEL_SCALE;
+    vec3 n = mx_cross(vec3(tdu, hu), vec3(tdv, hv));
+    if (mx_dot(n, n) < 1e-16) n = vec3(0.0, 0.0, 1.0);
+    else if (n.z < 0.0) n = -n;
+    n = mx_normalize(n);
     precise vec3 r = n * 0.5 + 0.5;
     return r;
 }

@@ -9,7 +9,8 @@
 //! ```
 //!
 //! `heighttonormal` gets a helper function per node that evaluates its
-//! height input (the nodes it reads) at a shifted uv; so does an `image`
+//! height input (the nodes it reads) at a shifted uv, and one for its
+//! texcoord input unless that is the uv; so does an `image`
 //! node whose texture coordinate is not the uv (its scale against the uv
 //! sets the mip level, image.rs). An image node reads texture `slots[k]`
 //! of the scene's array, k its index in `Graph::images`.
@@ -156,7 +157,7 @@ impl Emit<'_> {
             "multiply" => format!("{} * {}", a(0), a(1)),
             "divide" => format!("{} / {}", a(0), a(1)),
             "modulo" => format!("mx_modulo({}, {})", a(0), a(1)),
-            "power" => format!("pow({}, {})", a(0), a(1)),
+            "power" => format!("mx_pow({}, {})", a(0), a(1)),
             "min" | "max" => format!("{}({}, {})", n.op(), a(0), a(1)),
             "floor" | "ceil" | "sign" | "sin" | "cos" | "sqrt" | "exp" => {
                 format!("{}({})", n.op(), a(0))
@@ -274,30 +275,41 @@ impl Emit<'_> {
             }
             "heighttonormal" => {
                 let f = format!("{}_{i}", self.hfn);
-                let _ = writeln!(out, "    MxGeom q{i} = {};", self.geom);
+                let g = self.geom;
                 let st = Value::float(HEIGHT_STEP).glsl();
-                let _ = writeln!(
-                    out,
-                    "    q{i}.uv = {}.uv + vec2({st}, 0.0); float hu1_{i} = {f}(q{i});",
-                    self.geom
-                );
-                let _ = writeln!(
-                    out,
-                    "    q{i}.uv = {}.uv + vec2(-{st}, 0.0); float hu0_{i} = {f}(q{i});",
-                    self.geom
-                );
-                let _ = writeln!(
-                    out,
-                    "    q{i}.uv = {}.uv + vec2(0.0, {st}); float hv1_{i} = {f}(q{i});",
-                    self.geom
-                );
-                let _ = writeln!(
-                    out,
-                    "    q{i}.uv = {}.uv + vec2(0.0, -{st}); float hv0_{i} = {f}(q{i});",
-                    self.geom
-                );
+                let shifts = [
+                    ("u1", format!("{st}, 0.0")),
+                    ("u0", format!("-{st}, 0.0")),
+                    ("v1", format!("0.0, {st}")),
+                    ("v0", format!("0.0, -{st}")),
+                ];
+                let _ = writeln!(out, "    MxGeom q{i} = {g};");
+                for (name, d) in &shifts {
+                    let _ = writeln!(
+                        out,
+                        "    q{i}.uv = {g}.uv + vec2({d}); float h{name}_{i} = {f}(q{i});"
+                    );
+                }
+                // The texcoord's derivatives in uv: the identity for the uv itself.
+                let (tdu, tdv) = if n.inputs[2] == Source::Geom(GeomProp::Uv) {
+                    ("vec2(1.0, 0.0)".to_string(), "vec2(0.0, 1.0)".to_string())
+                } else {
+                    let fc = format!("{}_c{i}", self.hfn);
+                    for (name, d) in &shifts {
+                        let _ = writeln!(
+                            out,
+                            "    q{i}.uv = {g}.uv + vec2({d}); vec2 c{name}_{i} = {fc}(q{i});"
+                        );
+                    }
+                    let inv = Value::float(1.0 / (2.0 * HEIGHT_STEP)).glsl();
+                    let _ = writeln!(
+                        out,
+                        "    precise vec2 cdu_{i} = (cu1_{i} - cu0_{i}) * {inv};\n    precise vec2 cdv_{i} = (cv1_{i} - cv0_{i}) * {inv};"
+                    );
+                    (format!("cdu_{i}"), format!("cdv_{i}"))
+                };
                 format!(
-                    "mx_height_normal(hu1_{i}, hu0_{i}, hv1_{i}, hv0_{i}, {})",
+                    "mx_height_normal(hu1_{i}, hu0_{i}, hv1_{i}, hv0_{i}, {}, {tdu}, {tdv})",
                     self.raw(n, 1)
                 )
             }
@@ -458,6 +470,9 @@ pub fn glsl(g: &Graph, symbol: &str, slots: &[u32]) -> String {
     for (i, n) in g.nodes.iter().enumerate() {
         if n.op() == "heighttonormal" {
             input_helper(&mut s, g, symbol, slots, i, 0, ("float", "", "h"));
+            if n.inputs[2] != Source::Geom(GeomProp::Uv) {
+                input_helper(&mut s, g, symbol, slots, i, 2, ("vec2", "c", "c"));
+            }
         }
         if n.op() == "image" && n.inputs[3] != Source::Geom(GeomProp::Uv) {
             input_helper(&mut s, g, symbol, slots, i, 3, ("vec2", "t", "t"));

@@ -12,8 +12,20 @@ use super::graph::{GeomProp, Graph, Node, Source};
 use super::noise;
 use super::types::{Type, Value};
 
+/// The texture coordinate a graph sees (`Geom::uv`, UV0) at a mesh's uv:
+/// meshes carry glTF's convention (origin at the image's top left, v
+/// down), MaterialX's texture space has v up (origin at the lower left),
+/// so v is flipped, as MaterialX's own glTF loader does. The scene's
+/// generated GLSL does the same (scene_shaders.rs); the image node turns
+/// it back into stored rows (image.glsl), so an image reads upright, as
+/// the glTF texture of the same file.
+pub fn graph_uv(mesh_uv: [f32; 2]) -> [f32; 2] {
+    [mesh_uv[0], 1.0 - mesh_uv[1]]
+}
+
 /// The surface point a graph is evaluated at (world space; `tangent` may be
 /// zero where the mesh has none, then `normalmap` returns the normal).
+/// `uv` is the graph's texture space (v up): at a mesh's hit, [`graph_uv`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Geom {
     pub uv: [f32; 2],
@@ -145,21 +157,72 @@ pub fn eval_constant(node: &Node) -> Value {
     apply(node, &args, &Geom::default())
 }
 
-/// `heighttonormal` (node `i`): central differences of its height input in
-/// texture space at ±HEIGHT_STEP, the whole upstream graph re-evaluated at
-/// the shifted uv; out = normalize(−scale·∂h/∂u, −scale·∂h/∂v, 1)·0.5 + 0.5.
+/// MaterialX's heighttonormal scales the height gradient by 1/16 "for
+/// parity with traditional Sobel filtering" (the reference implementation,
+/// genglsl/genosl mx_heighttonormal_vector3): out = normalize(−scale/16 ·
+/// ∇ₜh, 1), t the node's texcoord.
+pub const HEIGHT_SOBEL_SCALE: f32 = 1.0 / 16.0;
+
+/// Below this squared length the gradient frame is degenerate (a texcoord
+/// that does not vary) and the normal is (0, 0, 1) (MaterialX's
+/// M_FLOAT_EPS², 1e-8²).
+pub const HEIGHT_DEGENERATE: f32 = 1e-16;
+
+/// `heighttonormal` (node `i`): MaterialX's construction with the
+/// derivatives taken in the graph's uv instead of screen space: central
+/// differences at ±HEIGHT_STEP of the height (input 0, scaled by
+/// scale/16) and of the texcoord (input 2; exactly the identity when it is
+/// the uv), the whole upstream graph re-evaluated at the shifted uv;
+/// n = (∂t/∂u, s·∂h/∂u) × (∂t/∂v, s·∂h/∂v), turned to n.z ≥ 0 (a mirrored
+/// texcoord), (0, 0, 1) if degenerate; out = normalize(n)·0.5 + 0.5. By the
+/// chain rule n ∥ (−s·∂h/∂t₁, −s·∂h/∂t₂, 1): the gradient with respect to
+/// the texcoord, whatever the uv.
 fn height_to_normal(g: &Graph, i: usize, geom: &Geom) -> Value {
     let node = &g.nodes[i];
-    // The texcoord input (the graph's uv unless connected elsewhere) is shifted.
-    let at = |du: f32, dv: f32| shifted_input(g, i, 0, geom, du, dv).v[0];
+    let at = |k: usize, du: f32, dv: f32| shifted_input(g, i, k, geom, du, dv).v;
     let scale = match &node.inputs[1] {
         Source::Const(v) => v.v[0],
         s => read(s, &eval_nodes(g, i, geom), geom).v[0],
     };
+    let st = HEIGHT_STEP;
+    let h = [
+        at(0, st, 0.0)[0],
+        at(0, -st, 0.0)[0],
+        at(0, 0.0, st)[0],
+        at(0, 0.0, -st)[0],
+    ];
+    let (tdu, tdv) = if node.inputs[2] == Source::Geom(GeomProp::Uv) {
+        ([1.0, 0.0], [0.0, 1.0])
+    } else {
+        let (u1, u0, v1, v0) = (
+            at(2, st, 0.0),
+            at(2, -st, 0.0),
+            at(2, 0.0, st),
+            at(2, 0.0, -st),
+        );
+        let inv = 1.0 / (2.0 * st);
+        (
+            [(u1[0] - u0[0]) * inv, (u1[1] - u0[1]) * inv],
+            [(v1[0] - v0[0]) * inv, (v1[1] - v0[1]) * inv],
+        )
+    };
+    height_normal(h, scale, tdu, tdv)
+}
+
+/// The normal of heighttonormal from the height at uv ± step·x̂, uv ±
+/// step·ŷ (`h` = [u+, u−, v+, v−]) and the texcoord's derivatives along u
+/// and v (nodes.glsl `mx_height_normal`).
+pub fn height_normal(h: [f32; 4], scale: f32, tdu: [f32; 2], tdv: [f32; 2]) -> Value {
     let inv = 1.0 / (2.0 * HEIGHT_STEP);
-    let du = (at(HEIGHT_STEP, 0.0) - at(-HEIGHT_STEP, 0.0)) * inv;
-    let dv = (at(0.0, HEIGHT_STEP) - at(0.0, -HEIGHT_STEP)) * inv;
-    let n = normalize3([-scale * du, -scale * dv, 1.0]);
+    let hu = (h[0] - h[1]) * inv * scale * HEIGHT_SOBEL_SCALE;
+    let hv = (h[2] - h[3]) * inv * scale * HEIGHT_SOBEL_SCALE;
+    let mut n = cross([tdu[0], tdu[1], hu], [tdv[0], tdv[1], hv]);
+    if dot(&n, &n) < HEIGHT_DEGENERATE {
+        n = [0.0, 0.0, 1.0];
+    } else if n[2] < 0.0 {
+        n = [-n[0], -n[1], -n[2]];
+    }
+    let n = normalize3(n);
     Value::new(
         Type::Vector3,
         &[n[0] * 0.5 + 0.5, n[1] * 0.5 + 0.5, n[2] * 0.5 + 0.5],
@@ -267,6 +330,34 @@ fn map3(out: Type, a: Value, b: Value, c: Value, f: impl Fn(f32, f32, f32) -> f3
     Value { ty: out, v: r }
 }
 
+/// `power` with every case defined, so the GPU (nodes.glsl `mx_pow`, where
+/// GLSL's pow is undefined for x < 0 and for x = 0, y ≤ 0) and the CPU agree:
+/// x⁰ = 1; 0^y = 0 for y > 0, +∞ for y < 0; a negative base with an integer
+/// exponent is the real power (−2² = 4, −2³ = −8), with any other exponent 0
+/// (no real result; OSL's pow, MaterialX's OSL reference, gives 0 there,
+/// where C's powf gives NaN).
+pub fn power(x: f32, y: f32) -> f32 {
+    if y == 0.0 {
+        return 1.0;
+    }
+    if x == 0.0 {
+        return if y > 0.0 { 0.0 } else { f32::INFINITY };
+    }
+    let a = x.abs().powf(y);
+    if x > 0.0 || x.is_nan() {
+        return a;
+    }
+    if y != y.floor() {
+        return 0.0;
+    }
+    let half = y * 0.5;
+    if half == half.floor() {
+        a
+    } else {
+        -a
+    }
+}
+
 pub fn modulo(a: f32, b: f32) -> f32 {
     a - b * (a / b).floor()
 }
@@ -326,10 +417,19 @@ pub fn rgb_to_hsv(c: [f32; 3]) -> [f32; 3] {
     [h, s, mx]
 }
 
-/// HSV -> RGB (hue wraps).
+/// Saturation below which HSV -> RGB returns grey (v, v, v), as
+/// MaterialX's `hsvtorgb` does (so a saturation scaled to zero or below
+/// gives grey, not the sector formula's 1 + |s|·… overshoot).
+pub const HSV_GREY_SATURATION: f32 = 0.0001;
+
+/// HSV -> RGB (hue wraps); grey below [`HSV_GREY_SATURATION`]. Saturation
+/// above 1 is not clamped (MaterialX's graph does not clamp either).
 pub fn hsv_to_rgb(c: [f32; 3]) -> [f32; 3] {
-    let h = c[0] - c[0].floor();
     let (s, v) = (c[1], c[2]);
+    if s < HSV_GREY_SATURATION {
+        return [v, v, v];
+    }
+    let h = c[0] - c[0].floor();
     let h6 = h * 6.0;
     let sector = h6.floor();
     let f = h6 - sector;
@@ -372,7 +472,7 @@ fn apply(node: &Node, a: &[Arg], geom: &Geom) -> Value {
         "multiply" => map2(out, v(0), v(1), |x, y| x * y),
         "divide" => map2(out, v(0), v(1), |x, y| x / y),
         "modulo" => map2(out, v(0), v(1), modulo),
-        "power" => map2(out, v(0), v(1), f32::powf),
+        "power" => map2(out, v(0), v(1), power),
         "min" => map2(out, v(0), v(1), f32::min),
         "max" => map2(out, v(0), v(1), f32::max),
         "absval" => map1(out, v(0), f32::abs),
@@ -473,11 +573,17 @@ fn apply(node: &Node, a: &[Arg], geom: &Geom) -> Value {
             // in: tangent-space normal encoded in [0, 1]; scale on x and y.
             let (t, sc) = (v(0).v, bc(v(1), 2));
             let (n, tg, bt) = (p3(2), p3(3), p3(4));
-            let m = [
-                (t[0] * 2.0 - 1.0) * sc[0],
-                (t[1] * 2.0 - 1.0) * sc[1],
-                t[2] * 2.0 - 1.0,
-            ];
+            // An all-zero input (no data) is the unperturbed normal, as in
+            // MaterialX's mx_normalmap: tangent-space (0, 0, 1).
+            let m = if t[0] == 0.0 && t[1] == 0.0 && t[2] == 0.0 {
+                [0.0, 0.0, 1.0]
+            } else {
+                [
+                    (t[0] * 2.0 - 1.0) * sc[0],
+                    (t[1] * 2.0 - 1.0) * sc[1],
+                    t[2] * 2.0 - 1.0,
+                ]
+            };
             let s = [
                 tg[0] * m[0] + bt[0] * m[1] + n[0] * m[2],
                 tg[1] * m[0] + bt[1] * m[1] + n[1] * m[2],

@@ -26,8 +26,12 @@ use std::collections::HashMap;
 const MAX_CHAIN: usize = 512;
 
 /// A geometric property a graph reads (MaterialX `defaultgeomprop` names
-/// and the texcoord/position/normal/tangent/bitangent nodes). stereocache
-/// scenes are flattened to world space, so object and world space coincide.
+/// and the texcoord/position/normal/tangent/bitangent nodes). Object-space
+/// names (`Pobject`, …; the default space of the position/normal/tangent
+/// nodes and of the 3D noises' position) read the **world-space** values:
+/// a known deviation (docs/MATERIALS.md) — instances keep their
+/// object-to-world transform, but the hit shaders pass graphs only world
+/// space (`sc_material_graphs`' signature in shaders/common).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum GeomProp {
     Uv,
@@ -388,18 +392,18 @@ impl<'a> Builder<'a> {
             Source::Str(_) if matches!(want, Type::String | Type::Filename) => want,
             s => self.ty_of(s),
         };
-        // An interface integer feeding a float input (and back) is the same number.
-        let same = got == want
-            || (got.width() == want.width()
-                && got.is_varying() == want.is_varying()
-                && want != Type::Integer
-                && got != Type::Integer);
-        if !same {
+        // Types must be equal, as MaterialX's validate() requires ("Mismatched
+        // types in port connection", "Interface name refers to value element
+        // of a different type"): a vector3 into a color3 (same width) or an
+        // integer interface input into a float is refused; `convert` changes
+        // a type.
+        if got != want {
+            let what = if node.is_some() { "input" } else { "output" };
             return Err(self.err(
                 node,
                 p.line,
                 format!(
-                    "bad type: input `{}` is {want}, its source is {got}",
+                    "bad type: {what} `{}` is {want}, its source is {got} (mismatched types in a connection; use a `convert` node)",
                     p.name
                 ),
             ));
@@ -641,6 +645,13 @@ fn check_node(n: &Node) -> Option<String> {
         "worleynoise2d" | "worleynoise3d" => int("style")
             .filter(|s| !(0..=1).contains(s))
             .map(|s| format!("input `style` is {s}; 0 (distance) or 1 (solid)")),
+        // Graphs are evaluated with one uv set (MxGeom.uv, the mesh's
+        // TEXCOORD_0); a second set would be silently read as the first.
+        "texcoord" => int("index").filter(|i| *i != 0).map(|i| {
+            format!(
+                "input `index` is {i}: only texture coordinate set 0 (UV0, glTF TEXCOORD_0) reaches material graphs"
+            )
+        }),
         "extract" => int("index")
             .filter(|i| *i < 0 || *i as usize >= n.sig.inputs[0].1.width())
             .map(|i| format!("input `index` {i} is out of range")),

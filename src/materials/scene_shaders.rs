@@ -60,7 +60,10 @@ pub struct MemoBuild {
 }
 
 /// The include for `sg`. `origin` is the render origin GPU positions are
-/// relative to (rt/origin.rs): graphs see world positions. With `memo`, it
+/// relative to (rt/origin.rs): graphs see world positions, and the mesh's
+/// uv (glTF's, origin at the image's top left) as MaterialX's texture
+/// space, v up: (u, 1 − v) ([`crate::materials::eval::graph_uv`]; the
+/// memo table keys the mesh's uv, and its fills pass that here). With `memo`, it
 /// also defines `bool sc_material_memoizable(uint material_id)`: whether
 /// all of the material's graphs read only the uv
 /// ([`crate::materials::Graph::reads_only_uv`]), so their outputs can be
@@ -97,7 +100,7 @@ pub fn include(sg: &SceneGraphs, origin: DVec3, memo: bool, slots: &[Vec<u32>]) 
          \x20   ScGraphOutputs r;\n\
          \x20   r.base_color = vec3(1.0); r.metallic = 1.0; r.roughness = 1.0; r.normal = normal; r.emission = vec3(1.0); r.mask = 0u;\n\
          \x20   MxGeom g;\n\
-         \x20   g.uv = uv;\n\
+         \x20   g.uv = vec2(uv.x, 1.0 - uv.y);\n\
          \x20   g.position = position + vec3({:?}, {:?}, {:?});\n\
          \x20   g.normal = normal;\n\
          \x20   g.tangent = tangent;\n\
