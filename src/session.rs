@@ -58,7 +58,11 @@ const FLATTENED_BYTES_PER_TRIANGLE: [(&str, u64); 2] = [("bvh.tri_verts", 48), (
 /// storage buffer larger than the device binds: 100,000 instances of a
 /// 4,000-triangle mesh built for 100 s in 11–22 GB before the upload
 /// failed on the limit. The triangle count is known once the scene is
-/// parsed.
+/// parsed. Instances whose transform is singular (scaled to a point or
+/// flattened onto a plane) are not counted: every triangle of theirs has
+/// zero area in world space, and the BVH build leaves those out
+/// (`rt::bvh::hittable`; tests/backends.rs `zero_area_triangles_change_no_pixel`
+/// adds 5,000 such instances of a plane).
 fn check_flattened_size(
     ctx: &GpuContext,
     scene: &Scene,
@@ -68,7 +72,15 @@ fn check_flattened_size(
     if backend != RtBackend::Software || layout != BvhLayout::Flattened {
         return Ok(());
     }
-    let triangles = scene.instanced_triangle_count() as u64;
+    let triangles: u64 = scene
+        .instances
+        .iter()
+        .filter(|i| {
+            let det = i.transform.determinant();
+            det.is_finite() && det != 0.0
+        })
+        .map(|i| scene.meshes[i.mesh as usize].triangle_count() as u64)
+        .sum();
     for (name, per) in FLATTENED_BYTES_PER_TRIANGLE {
         crate::gpu::buffer::check_storage_range(ctx, name, triangles.saturating_mul(per)).map_err(
             |e| {

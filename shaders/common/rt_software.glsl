@@ -16,21 +16,90 @@ const uint CWBVH_STACK_SIZE = 32u;
 
 uint cw_byte(uvec2 w, uint i) { return ((i < 4u ? w.x : w.y) >> ((i & 3u) * 8u)) & 0xFFu; }
 
-// Möller–Trumbore against a pre-transformed triangle (v0, e1, e2); returns t or -1.
-float intersect_triangle(vec3 o, vec3 d, vec3 v0, vec3 e1, vec3 e2, out vec2 bary) {
-    vec3 pv = cross(d, e2);
-    float det = dot(e1, pv);
+// Watertight ray/triangle test (Woop, Benthin & Wald 2013, "Watertight
+// Ray/Triangle Intersection", JCGT 2(1)). CPU twin, operation for operation:
+// WatertightRay in src/rt/bvh.rs. `precise` keeps the compiler from fusing
+// or reordering: a shared edge is watertight only if both triangles round
+// the same products (an FMA would round one of them less).
+//
+// Per ray (wt_ray): kz = the axis of the largest |d_i| (ties: the higher
+// axis), kx, ky the next two cyclically, swapped when d[kz] < 0 so the
+// projected triangle keeps its winding; S = (d[kx]/d[kz], d[ky]/d[kz],
+// 1/d[kz]), the x and y parts as d[k]·(1/d[kz]) (one reciprocal on both
+// sides). The shear takes the ray to the origin along +z.
+struct WtRay {
+    vec3 o;
+    uvec3 k;  // (kx, ky, kz)
+    vec3 s;   // (Sx, Sy, Sz)
+};
+
+float wt_comp(vec3 v, uint i) { return i == 0u ? v.x : (i == 1u ? v.y : v.z); }
+
+WtRay wt_ray(vec3 o, vec3 d) {
+    vec3 a = abs(d);
+    uint kz = a.x > a.y ? (a.x > a.z ? 0u : 2u) : (a.y > a.z ? 1u : 2u);
+    uint kx = kz == 2u ? 0u : kz + 1u;
+    uint ky = kx == 2u ? 0u : kx + 1u;
+    precise float dz = wt_comp(d, kz);
+    if (dz < 0.0) {
+        uint swp = kx;
+        kx = ky;
+        ky = swp;
+    }
+    precise float sz = 1.0 / dz;
+    precise float sx = wt_comp(d, kx) * sz;
+    precise float sy = wt_comp(d, ky) * sz;
+    WtRay r;
+    r.o = o;
+    r.k = uvec3(kx, ky, kz);
+    r.s = vec3(sx, sy, sz);
+    return r;
+}
+
+// Against a stored triangle (v0, e1, e2): vertices v0, v0 + e1, v0 + e2,
+// each taken to ray space on its own, so a vertex two triangles store alike
+// lands on the same point in both. Returns t along the ray's own
+// (unnormalised) direction, or -1; bary = weights of vertices 1 and 2; the
+// caller tests t > tmin && t < h.t.
+// Edge functions U (v1→v2), V (v2→v0), W (v0→v1): the neighbour across an
+// edge evaluates it from the same two points with the operands swapped,
+// which gives exactly the negated value, so both never reject a ray for it.
+// The paper recomputes an edge value of exactly 0 in double precision (not
+// on every device); here 0 counts as inside in both triangles: both report
+// the hit and the closer is kept, so no ray falls through an edge, and a
+// value rounded to 0 can only add a hit within rounding of the edge.
+float intersect_triangle(WtRay r, vec3 v0, vec3 e1, vec3 e2, out vec2 bary) {
     bary = vec2(0.0);
+    precise vec3 v1 = v0 + e1;
+    precise vec3 v2 = v0 + e2;
+    precise vec3 a = v0 - r.o;
+    precise vec3 b = v1 - r.o;
+    precise vec3 c = v2 - r.o;
+    float akx = wt_comp(a, r.k.x), aky = wt_comp(a, r.k.y), akz = wt_comp(a, r.k.z);
+    float bkx = wt_comp(b, r.k.x), bky = wt_comp(b, r.k.y), bkz = wt_comp(b, r.k.z);
+    float ckx = wt_comp(c, r.k.x), cky = wt_comp(c, r.k.y), ckz = wt_comp(c, r.k.z);
+    precise float ax = akx - r.s.x * akz;
+    precise float ay = aky - r.s.y * akz;
+    precise float bx = bkx - r.s.x * bkz;
+    precise float by = bky - r.s.y * bkz;
+    precise float cx = ckx - r.s.x * ckz;
+    precise float cy = cky - r.s.y * ckz;
+    precise float u = cx * by - cy * bx;
+    precise float v = ax * cy - ay * cx;
+    precise float w = bx * ay - by * ax;
+    if ((u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0)) return -1.0;
+    precise float det = u + v + w;
     if (det == 0.0) return -1.0;
-    float inv = 1.0 / det;
-    vec3 tv = o - v0;
-    float u = dot(tv, pv) * inv;
-    if (u < 0.0 || u > 1.0) return -1.0;
-    vec3 qv = cross(tv, e1);
-    float v = dot(d, qv) * inv;
-    if (v < 0.0 || u + v > 1.0) return -1.0;
-    bary = vec2(u, v);
-    return dot(e2, qv) * inv;
+    precise float az = r.s.z * akz;
+    precise float bz = r.s.z * bkz;
+    precise float cz = r.s.z * ckz;
+    precise float t = u * az + v * bz + w * cz;
+    precise float inv = 1.0 / det;
+    precise float bu = v * inv;
+    precise float bv = w * inv;
+    bary = vec2(bu, bv);
+    precise float th = t * inv;
+    return th;
 }
 
 // Back-face culling (glTF doubleSided false): v0.w is 0, or for a culling
@@ -100,6 +169,7 @@ bool cw_traverse(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out RtHit
     h.bary = vec2(0.0);
     vec3 inv_d = safe_inverse(d);
     uint oct_inv4 = cw_octant_inv4(d);
+    WtRay wr = wt_ray(o, d);
     uvec2 stack[CWBVH_STACK_SIZE];
     uint sp = 0u;
     uvec2 current = uvec2(0u, 0x80000000u);
@@ -113,7 +183,7 @@ bool cw_traverse(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out RtHit
             vec2 bary;
             vec4 v0 = tri_verts[3u * k];
             vec3 e1 = tri_verts[3u * k + 1u].xyz, e2 = tri_verts[3u * k + 2u].xyz;
-            float t = intersect_triangle(o, d, v0.xyz, e1, e2, bary);
+            float t = intersect_triangle(wr, v0.xyz, e1, e2, bary);
             if (t > tmin && t < h.t && !culled(v0, e1, e2, d)) {
                 uvec2 ref = tri_ref[k];
                 if (alpha_passes(ref.x, ref.y, bary)) {
@@ -172,6 +242,9 @@ bool cw_traverse_two_level(vec3 wo, vec3 wd, float tmin, float tmax, bool any_hi
     vec3 d = wd;
     vec3 inv_d = w_inv_d;
     uint oct_inv4 = w_oct;
+    // The triangle test's per-ray constants, for the object-space ray of the
+    // BLAS being walked (set at its instance leaf; TLAS leaves are boxes).
+    WtRay wr;
     uvec2 stack[CWBVH_STACK_SIZE];
     uint sp = 0u;
     uvec2 current = uvec2(0u, 0x80000000u);
@@ -192,7 +265,7 @@ bool cw_traverse_two_level(vec3 wo, vec3 wd, float tmin, float tmax, bool any_hi
                 vec2 bary;
                 vec4 v0 = tri_verts[3u * k];
                 vec3 e1 = tri_verts[3u * k + 1u].xyz, e2 = tri_verts[3u * k + 2u].xyz;
-                float t = intersect_triangle(o, d, v0.xyz, e1, e2, bary);
+                float t = intersect_triangle(wr, v0.xyz, e1, e2, bary);
                 if (t > tmin && t < h.t && !culled(v0, e1, e2, d)) {
                     uint prim = tri_ref[k].y;
                     if (alpha_passes(inst, prim, bary)) {
@@ -213,6 +286,7 @@ bool cw_traverse_two_level(vec3 wo, vec3 wd, float tmin, float tmax, bool any_hi
                 d = vec3(dot(r0.xyz, wd), dot(r1.xyz, wd), dot(r2.xyz, wd));
                 inv_d = safe_inverse(d);
                 oct_inv4 = cw_octant_inv4(d);
+                wr = wt_ray(o, d);
                 tlas_current = current;
                 tlas_prims = prims;
                 tlas_sp = sp;

@@ -22,13 +22,12 @@
 //! Positions are relative to the render origin (`super::origin`) like the
 //! flattened structure: instance transforms are rebased in f64 first.
 
-use super::bvh::{hittable, max_depth, moller_trumbore, CpuHit};
+use super::bvh::{cpu_traverse, hittable, max_depth, CpuHit};
 use super::origin::relative_transform;
 use crate::scene::Scene;
-use glam::{DVec3, Mat4, Vec3, Vec3A, Vec4};
+use glam::{DVec3, Mat4, Vec3, Vec3A};
 use obvhs::aabb::Aabb;
 use obvhs::cwbvh::{builder::build_cwbvh, builder::build_cwbvh_from_tris, node::CwBvhNode, CwBvh};
-use obvhs::ray::{Ray, RayHit};
 use obvhs::triangle::Triangle;
 use obvhs::BvhBuildParams;
 use std::time::Duration;
@@ -40,8 +39,6 @@ struct MeshBvh {
     bounds: Option<Aabb>,
     /// First node of this BLAS in the combined node array.
     node_base: u32,
-    /// First leaf slot of this BLAS in the combined slot arrays.
-    slot_base: u32,
 }
 
 pub struct TwoLevelBvh {
@@ -177,7 +174,6 @@ impl TwoLevelBvh {
                 cwbvh,
                 bounds,
                 node_base,
-                slot_base,
             });
         }
         let mut s = TwoLevelBvh {
@@ -275,61 +271,25 @@ impl TwoLevelBvh {
         (world - self.origin).as_vec3()
     }
 
-    /// Closest hit on the CPU for a ray in this structure's frame: the TLAS
-    /// is walked over the instance boxes; at each instance the ray goes to
-    /// object space through the same f32 rows the GPU reads, then the
-    /// mesh's BLAS is walked with the Möller–Trumbore test of rt_software.glsl.
+    /// Closest hit on the CPU for a ray in this structure's frame:
+    /// `cw_traverse_two_level` of rt_software.glsl step for step, over the
+    /// same combined buffers the GPU reads (`bvh::cpu_traverse`): the TLAS
+    /// over the instance boxes; at each instance the ray goes to object
+    /// space through the same f32 rows, then the mesh's BLAS is walked with
+    /// the watertight triangle test on the same stack.
     pub fn closest_hit(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> Option<CpuHit> {
         if self.tlas.nodes.is_empty() {
             return None;
         }
-        let ray = Ray::new(origin.into(), dir.into(), tmin, tmax);
-        let mut hit = RayHit::none();
-        let mut best: Option<CpuHit> = None;
-        self.tlas.ray_traverse(ray, &mut hit, |r, k| {
-            let [inst, _] = self.tri_ref[k];
-            let rows: Vec<Vec4> = (0..3)
-                .map(|i| Vec4::from(self.tri_verts[3 * k + i]))
-                .collect();
-            let xf = |p: Vec3, w: f32| {
-                let p = p.extend(w);
-                Vec3::new(rows[0].dot(p), rows[1].dot(p), rows[2].dot(p))
-            };
-            let (o, d) = (xf(origin, 1.0), xf(dir, 0.0));
-            let b = &self.blas[self.mesh_of[inst as usize] as usize];
-            let mut best_t = r.tmax;
-            let mut inner = RayHit::none();
-            let oray = Ray::new(o.into(), d.into(), tmin, r.tmax);
-            b.cwbvh.ray_traverse(oray, &mut inner, |_, j| {
-                let slot = b.slot_base as usize + j;
-                let v = &self.tri_verts[3 * slot..3 * slot + 3];
-                let (v0, e1, e2) = (
-                    Vec3::from_slice(&v[0][..3]),
-                    Vec3::from_slice(&v[1][..3]),
-                    Vec3::from_slice(&v[2][..3]),
-                );
-                // Back-face culling in object space (rt_software.glsl `culled`).
-                let back = e1.cross(e2).dot(d) * v[0][3] > 0.0;
-                match moller_trumbore(o, d, v0, e1, e2) {
-                    Some((t, u, w)) if t > tmin && t < best_t && !back => {
-                        best_t = t;
-                        best = Some(CpuHit {
-                            t,
-                            instance: inst,
-                            prim: self.tri_ref[slot][1],
-                            bary: [u, w],
-                        });
-                        t
-                    }
-                    _ => f32::INFINITY,
-                }
-            });
-            if best_t < r.tmax {
-                best_t
-            } else {
-                f32::INFINITY
-            }
-        });
-        best
+        cpu_traverse(
+            &self.nodes,
+            &self.tri_ref,
+            &self.tri_verts,
+            true,
+            origin,
+            dir,
+            tmin,
+            tmax,
+        )
     }
 }
