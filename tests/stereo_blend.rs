@@ -262,7 +262,11 @@ fn hit_position(scene: &stereocache::scene::Scene, fh: [u32; 4]) -> glam::Vec3 {
 /// choice (the nearest pixel of X, the bounds, the 1 % depth test), which
 /// CPU and GPU may then take differently. Returns (X's colour, Y's colour,
 /// the blend, a first-order bound on the blend's rounding error per channel).
-#[allow(clippy::too_many_arguments)]
+/// (X's colour, Y's colour, the blend, its rounding bound), per channel.
+type TwinPixel = ([f32; 3], [f32; 3], [f32; 3], [f32; 3]);
+
+// `!(x > 0.0)` as the shader writes it: NaN takes the same branch.
+#[allow(clippy::too_many_arguments, clippy::neg_cmp_op_on_partial_ord)]
 fn blend_twin(
     scene: &stereocache::scene::Scene,
     views: &[stereocache::camera::EyeView; 2],
@@ -273,7 +277,7 @@ fn blend_twin(
     y: usize,
     p: usize,
     ambiguous: &mut bool,
-) -> Option<([f32; 3], [f32; 3], [f32; 3], [f32; 3])> {
+) -> Option<TwinPixel> {
     use stereocache::stereo::blend::{beta_prime, dodgson};
     let (w, h) = (fr.width as usize, fr.height as usize);
     let npix = w * h;
