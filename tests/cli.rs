@@ -1235,7 +1235,8 @@ fn special_files_are_refused_without_reading() {
 /// storage buffers hold is refused before the software BVH is built: 10k to
 /// 100k instances of a 4k-triangle mesh built for 100 s in 11–22 GB, then
 /// failed on `bvh.tri_verts`. Sized from this device's limit (lavapipe:
-/// 2^27 bytes, about 1,400 instances here).
+/// 2^27 bytes, about 1,400 instances here). The message is the one
+/// `Session`'s flattened-size check gives, which runs before the build.
 #[test]
 fn scenes_too_large_once_flattened_are_refused_before_the_bvh_build() {
     use stereocache::scene::{generate, Instance, Material};
@@ -1261,7 +1262,6 @@ fn scenes_too_large_once_flattened_are_refused_before_the_bvh_build() {
             name: format!("n{k}"),
         })
         .collect();
-    let start = std::time::Instant::now();
     let e = match stereocache::session::Session::with_context(
         ctx,
         scene,
@@ -1277,7 +1277,6 @@ fn scenes_too_large_once_flattened_are_refused_before_the_bvh_build() {
         "{e}"
     );
     assert_eq!(e.lines().count(), 1, "{e}");
-    assert!(start.elapsed().as_secs() < 5, "took {:?}", start.elapsed());
 }
 
 /// Negative numbers reach the options' own checks (clap read `-1` as an

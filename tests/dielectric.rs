@@ -424,27 +424,22 @@ fn rt_backends(ctx: &stereocache::gpu::GpuContext) -> Vec<RtChoice> {
     v
 }
 
-/// A smooth glass sphere (radius 1, η = 1.5) between the camera and a large
-/// emitter of radiance Le in an otherwise black scene; a 2° field of view
-/// through the sphere's centre, at most 2 scattering events (enter, leave).
-/// Each path either refracts twice and reaches the emitter (probability
-/// (1 − F)², value Le) or reflects into the black, so the mean radiance is
-/// (1 − F)²·Le with F(0) = ((η − 1)/(η + 1))² = 0.04 → 0.9216·Le. Tolerance:
-/// 5 standard errors of that Bernoulli mean over all samples, plus the
-/// largest change of (1 − F)² over the incidence angles in view (≤ 7.5°,
-/// computed). With the old back-face flip every leaving ray went back in.
-#[test]
-fn glass_sphere_transmits_one_minus_fresnel_squared_at_normal_incidence() {
-    let ctx = context();
-    let le = 2.0f32;
+/// A unit sphere of material `m` (`segments` around, half as many rings)
+/// at the origin before a 40 m emitter of radiance `le` at z = −4 facing
+/// +Z (towards the sphere and a camera on +Z), in a black scene.
+fn sphere_before_emitter(m: Material, segments: u32, le: f32) -> Scene {
     let mut s = Scene {
-        source: "test:glass-sphere-before-emitter".into(),
+        source: "test:sphere-before-emitter".into(),
         ..Default::default()
     };
-    let g = add_material(&mut s, glass());
+    let g = add_material(&mut s, m);
     let e = add_material(&mut s, emitter(le));
-    add_mesh(&mut s, uv_sphere("sphere", 192, 96), g, Mat4::IDENTITY);
-    // A 40 m square at z = −4 facing +Z (towards the sphere and camera).
+    add_mesh(
+        &mut s,
+        uv_sphere("sphere", segments, segments / 2),
+        g,
+        Mat4::IDENTITY,
+    );
     add_mesh(
         &mut s,
         grid(
@@ -460,6 +455,23 @@ fn glass_sphere_transmits_one_minus_fresnel_squared_at_normal_incidence() {
         Mat4::IDENTITY,
     );
     s.validate().unwrap();
+    s
+}
+
+/// A smooth glass sphere (radius 1, η = 1.5) between the camera and a large
+/// emitter of radiance Le in an otherwise black scene; a 2° field of view
+/// through the sphere's centre, at most 2 scattering events (enter, leave).
+/// Each path either refracts twice and reaches the emitter (probability
+/// (1 − F)², value Le) or reflects into the black, so the mean radiance is
+/// (1 − F)²·Le with F(0) = ((η − 1)/(η + 1))² = 0.04 → 0.9216·Le. Tolerance:
+/// 5 standard errors of that Bernoulli mean over all samples, plus the
+/// largest change of (1 − F)² over the incidence angles in view (≤ 7.5°,
+/// computed). With the old back-face flip every leaving ray went back in.
+#[test]
+fn glass_sphere_transmits_one_minus_fresnel_squared_at_normal_incidence() {
+    let ctx = context();
+    let le = 2.0f32;
+    let s = sphere_before_emitter(glass(), 192, le);
     let cam = look_at_camera(Vec3::new(0.0, 0.0, 4.0), Vec3::ZERO, 2.0, 1.0);
     let (w, h, spp) = (16u32, 16u32, 64u32);
     let settings = RenderSettings {
@@ -830,35 +842,15 @@ fn rough_glass_light_sampling_agrees_with_bsdf_sampling() {
 fn an_index_matched_rough_boundary_passes_light_straight_through() {
     let ctx = context();
     let le = 2.0f32;
-    let mut s = Scene {
-        source: "test:index-matched rough sphere".into(),
-        ..Default::default()
-    };
-    let g = add_material(
-        &mut s,
+    let s = sphere_before_emitter(
         Material {
             roughness: 0.5,
             ior: 1.0,
             ..glass()
         },
+        48,
+        le,
     );
-    let e = add_material(&mut s, emitter(le));
-    add_mesh(&mut s, uv_sphere("sphere", 48, 24), g, Mat4::IDENTITY);
-    add_mesh(
-        &mut s,
-        grid(
-            "emitter",
-            Vec3::new(-20.0, -20.0, -4.0),
-            Vec3::X * 40.0,
-            Vec3::Y * 40.0,
-            1,
-            1,
-            Vec2::ONE,
-        ),
-        e,
-        Mat4::IDENTITY,
-    );
-    s.validate().unwrap();
     let cam = look_at_camera(Vec3::new(0.0, 0.0, 4.0), Vec3::ZERO, 20.0, 1.0);
     let settings = RenderSettings {
         width: 16,
