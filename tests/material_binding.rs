@@ -57,19 +57,30 @@ const PROCEDURAL: &str = r#"{
   ]
 }"#;
 
-/// The `.mtlx` attached through extras: base colour 0.4·sin(3.1·P) + 0.5
-/// (|∂/∂P| ≤ 1.24), emission 0.3·N + 0.4.
+/// The `.mtlx` attached through extras: base colour 0.3·sin(3.1·P) +
+/// 0.1·sin(2.3·P_world) + 0.5 (|∂/∂P| ≤ 0.93, |∂/∂P_world| ≤ 0.23),
+/// emission 0.2·N + 0.1·T + 0.45 (in [0.15, 0.75], constant over a flat
+/// quad), P, N and T in object space (MaterialX's default space), P_world
+/// by `space="world"`.
 const MTLX: &str = r#"<?xml version="1.0"?>
 <materialx version="1.39">
   <nodegraph name="ball">
     <position name="p" type="vector3" />
     <multiply name="pm" type="vector3"><input name="in1" type="vector3" nodename="p" /><input name="in2" type="float" value="3.1" /></multiply>
     <sin name="ps" type="vector3"><input name="in" type="vector3" nodename="pm" /></sin>
-    <multiply name="pk" type="vector3"><input name="in1" type="vector3" nodename="ps" /><input name="in2" type="float" value="0.4" /></multiply>
-    <add name="pa" type="vector3"><input name="in1" type="vector3" nodename="pk" /><input name="in2" type="float" value="0.5" /></add>
+    <multiply name="pk" type="vector3"><input name="in1" type="vector3" nodename="ps" /><input name="in2" type="float" value="0.3" /></multiply>
+    <position name="pw" type="vector3"><input name="space" type="string" value="world" /></position>
+    <multiply name="pwm" type="vector3"><input name="in1" type="vector3" nodename="pw" /><input name="in2" type="float" value="2.3" /></multiply>
+    <sin name="pws" type="vector3"><input name="in" type="vector3" nodename="pwm" /></sin>
+    <multiply name="pwk" type="vector3"><input name="in1" type="vector3" nodename="pws" /><input name="in2" type="float" value="0.1" /></multiply>
+    <add name="pb" type="vector3"><input name="in1" type="vector3" nodename="pk" /><input name="in2" type="vector3" nodename="pwk" /></add>
+    <add name="pa" type="vector3"><input name="in1" type="vector3" nodename="pb" /><input name="in2" type="float" value="0.5" /></add>
     <normal name="n" type="vector3" />
-    <multiply name="nm" type="vector3"><input name="in1" type="vector3" nodename="n" /><input name="in2" type="float" value="0.3" /></multiply>
-    <add name="na" type="vector3"><input name="in1" type="vector3" nodename="nm" /><input name="in2" type="float" value="0.4" /></add>
+    <multiply name="nm" type="vector3"><input name="in1" type="vector3" nodename="n" /><input name="in2" type="float" value="0.2" /></multiply>
+    <tangent name="t" type="vector3" />
+    <multiply name="tm" type="vector3"><input name="in1" type="vector3" nodename="t" /><input name="in2" type="float" value="0.1" /></multiply>
+    <add name="e1" type="vector3"><input name="in1" type="vector3" nodename="nm" /><input name="in2" type="vector3" nodename="tm" /></add>
+    <add name="na" type="vector3"><input name="in1" type="vector3" nodename="e1" /><input name="in2" type="float" value="0.45" /></add>
     <output name="base_color" type="vector3" nodename="pa" />
     <output name="emission" type="vector3" nodename="na" />
   </nodegraph>
@@ -97,6 +108,17 @@ fn write_quads(d: &Path) -> PathBuf {
 /// `write_quads` with uvs spanning `uv_scale` over each 1 m quad (u along
 /// +x, v along −z).
 fn write_quads_uv(d: &Path, uv_scale: Vec2) -> PathBuf {
+    write_quads_placed(d, uv_scale, Mat4::IDENTITY)
+}
+
+/// `write_quads_uv` with each quad's mesh in an object space of its own:
+/// instance transform `place` takes it to the same world place (vertices
+/// by place⁻¹, normals by placeᵀ, tangents by place⁻¹, winding and
+/// handedness turned over where `place` mirrors, as an exporter writes a
+/// mirrored node), so the world image is the same while graphs reading
+/// object space see other values. The quads carry tangents along +u (+x
+/// in world), w = +1.
+fn write_quads_placed(d: &Path, uv_scale: Vec2, place: Mat4) -> PathBuf {
     let mut s = Scene {
         source: "test:quads".into(),
         ..Default::default()
@@ -126,12 +148,43 @@ fn write_quads_uv(d: &Path, uv_scale: Vec2) -> PathBuf {
             1,
             uv_scale,
         );
-        add_mesh(&mut s, g, m, Mat4::IDENTITY);
+        add_mesh(&mut s, into_object_space(g, place), m, place);
     }
     s.validate().unwrap();
     let path = d.join("quads.gltf");
     stereocache::scene::write_gltf(&s, &path).unwrap();
     path
+}
+
+/// `m` (world space) moved into the object space of an instance placed by
+/// `place` (see `write_quads_placed`), with tangents along +x (w = +1) in
+/// world space where it has none.
+fn into_object_space(mut m: stereocache::scene::Mesh, place: Mat4) -> stereocache::scene::Mesh {
+    if place == Mat4::IDENTITY {
+        return m;
+    }
+    if m.tangents.is_empty() {
+        m.tangents = vec![glam::Vec4::new(1.0, 0.0, 0.0, 1.0); m.positions.len()];
+    }
+    let inv = place.inverse();
+    let lin = glam::Mat3::from_mat4(place);
+    let mirror = lin.determinant() < 0.0;
+    for p in &mut m.positions {
+        *p = inv.transform_point3(*p);
+    }
+    for n in &mut m.normals {
+        *n = (lin.transpose() * *n).normalize();
+    }
+    for t in &mut m.tangents {
+        let v = inv.transform_vector3(t.truncate()).normalize();
+        *t = v.extend(if mirror { -t.w } else { t.w });
+    }
+    if mirror {
+        for tri in m.indices.chunks_mut(3) {
+            tri.swap(1, 2);
+        }
+    }
+    m
 }
 
 /// Adds both binding forms to the written file: material 0 by
@@ -191,23 +244,50 @@ fn cpu_slot(scene: &Scene, material: u32, slot: Slot, geom: &Geom) -> Vec3 {
 }
 
 /// The surface point of a stored first hit (Listing 1: bary in 24 bits,
-/// primitive, instance), rebuilt on the CPU from the scene.
+/// primitive, instance), rebuilt on the CPU from the scene: object space
+/// from the mesh's own vertices, world space through the instance's
+/// transform (the quads face +y in world).
 fn hit_geom(scene: &Scene, fh: [u32; 4]) -> (u32, Geom) {
     let inst = &scene.instances[fh[3] as usize];
     let mesh = &scene.meshes[inst.mesh as usize];
     let (idx, w) = first_hit_weights(scene, fh);
     let p: Vec3 = (0..3).map(|k| mesh.positions[idx[k]] * w[k]).sum();
+    let n: Vec3 = (0..3).map(|k| mesh.normals[idx[k]] * w[k]).sum();
     let uv: Vec2 = (0..3).map(|k| mesh.uvs[idx[k]] * w[k]).sum();
-    let p = inst.transform.transform_point3(p);
+    let (t, ts) = match mesh.tangents.is_empty() {
+        true => (Vec3::ZERO, 1.0),
+        false => (
+            (0..3)
+                .map(|k| mesh.tangents[idx[k]].truncate() * w[k])
+                .sum::<Vec3>()
+                .normalize(),
+            mesh.tangents[idx[0]].w,
+        ),
+    };
+    let mirror = if inst.transform.determinant() < 0.0 {
+        -1.0
+    } else {
+        1.0
+    };
     (
         mesh.material,
         Geom {
             uv: uv.to_array(),
-            position: p.to_array(),
+            position: inst.transform.transform_point3(p).to_array(),
             normal: [0.0, 1.0, 0.0],
-            tangent: [0.0; 3],
-            tangent_sign: 1.0,
+            tangent: inst
+                .transform
+                .transform_vector3(t)
+                .normalize_or_zero()
+                .to_array(),
+            tangent_sign: ts * mirror,
             footprint: 0.0,
+            object: stereocache::materials::ObjectFrame {
+                position: p.to_array(),
+                normal: n.normalize().to_array(),
+                tangent: t.to_array(),
+                tangent_sign: ts,
+            },
         },
     )
 }
@@ -273,11 +353,51 @@ fn probe_settings() -> RenderSettings {
 /// Radiance is the mean of identical samples (2 spp, exact).
 const TOL: f32 = 7.6e-6 + 1.2e-7;
 
+/// The placement of `graphs_read_object_space_through_the_instance`:
+/// translated, turned 0.7 rad about (1, 2, 3), scaled (1.25, 0.8) and
+/// mirrored in z (condition number 1.5625).
+fn mirrored_placement() -> Mat4 {
+    Mat4::from_scale_rotation_translation(
+        Vec3::new(1.25, 0.8, -1.0),
+        glam::Quat::from_axis_angle(Vec3::new(1.0, 2.0, 3.0).normalize(), 0.7),
+        Vec3::new(0.5, -0.25, 0.75),
+    )
+}
+
+/// TOL plus the error of taking the hit back to object space on the GPU
+/// (scene_shaders.rs sc_graph_object_space: p_o = L⁻¹(p − t) in f32):
+/// relative error of a few ulps in p, t and L⁻¹ magnified by L's
+/// condition number κ, bounded by 16·κ·(|p| + |t|)·2⁻²⁴ with |p| ≤ 1.6 m,
+/// |t| = 0.94 m: 3.8·10⁻⁶ m; the base colour changes by at most 0.93 per
+/// metre of the object position (N and T move the constant emission by
+/// far less).
+const TOL_OBJECT: f32 = TOL + 0.93 * 16.0 * 1.5625 * (1.6 + 0.94) * 5.96e-8;
+
 #[test]
 fn graph_bound_materials_render_the_cpu_evaluators_values() {
+    probe_graph_bound_quads("probe", Mat4::IDENTITY, TOL);
+}
+
+/// Object space (MaterialX's default for position, normal and tangent):
+/// the quads' meshes in a translated, turned, non-uniformly scaled and
+/// mirrored object space, placed back by their instance; every hit's
+/// object-space point, normal and tangent are the mesh's own
+/// (interpolated on the CPU from the vertices, not taken back through the
+/// transform as the GPU does), and the world-space input still reads world
+/// space.
+#[test]
+fn graphs_read_object_space_through_the_instance_transform() {
+    probe_graph_bound_quads("object", mirrored_placement(), TOL_OBJECT);
+}
+
+/// Renders the quads of `write_quads_placed(place)` with both bindings and
+/// holds every hit pixel's albedo and inner radiance to the CPU evaluator
+/// at the hit (`tol`). A placed scene also checks the probe would fail if
+/// object space read world space.
+fn probe_graph_bound_quads(name: &str, place: Mat4, tol: f32) {
     let ctx = context();
-    let d = dir("probe");
-    let path = write_quads(&d);
+    let d = dir(name);
+    let path = write_quads_placed(&d, Vec2::ONE, place);
     bind(&path, |_| {});
     let scene = stereocache::scene::load_gltf(&path).expect("bound scene loads");
     assert_eq!(
@@ -306,6 +426,9 @@ fn graph_bound_materials_render_the_cpu_evaluators_values() {
         let (w, h) = (f.width as usize, f.height as usize);
         let mut checked = [0usize; 2];
         let mut albedos = Vec::new();
+        // The largest difference the CPU finds where object space is world
+        // space: what reading world space would have missed by.
+        let mut world_miss = 0.0f32;
         for eye in &f.eyes {
             for (i, fh) in eye.first_hit.iter().enumerate() {
                 let rad = Vec3::from_slice(&eye.radiance[i][..3]);
@@ -319,13 +442,19 @@ fn graph_bound_materials_render_the_cpu_evaluators_values() {
                 let albedo = Vec3::from_slice(&eye.albedo[i][..3]);
                 let want = cpu_slot(&s.scene, mat, Slot::BaseColor, &geom);
                 assert!(
-                    (albedo - want).abs().max_element() <= TOL,
+                    (albedo - want).abs().max_element() <= tol,
                     "{rt:?}: material {mat} pixel {i}: albedo {albedo} vs CPU {want}"
                 );
                 albedos.push(albedo);
                 // Radiance: exact where every sample of the pixel hits the same
                 // quad (the 4 neighbours' centres do); edge pixels mix with black.
                 let emit = cpu_slot(&s.scene, mat, Slot::Emission, &geom);
+                let world = geom.untransformed();
+                for slot in [Slot::BaseColor, Slot::Emission] {
+                    let v = cpu_slot(&s.scene, mat, slot, &geom);
+                    let v_world = cpu_slot(&s.scene, mat, slot, &world);
+                    world_miss = world_miss.max((v - v_world).abs().max_element());
+                }
                 let (x, y) = (i % w, i / w);
                 let inner = x > 0
                     && y > 0
@@ -336,13 +465,13 @@ fn graph_bound_materials_render_the_cpu_evaluators_values() {
                         .all(|&j| eye.first_hit[j][3] == fh[3]);
                 if inner {
                     assert!(
-                        (rad - emit).abs().max_element() <= TOL,
+                        (rad - emit).abs().max_element() <= tol,
                         "{rt:?}: material {mat} pixel {i}: radiance {rad} vs CPU emission {emit}"
                     );
                     checked[mat as usize] += 1;
                 } else {
                     assert!(
-                        rad.cmple(emit + TOL).all(),
+                        rad.cmple(emit + tol).all(),
                         "{rt:?}: edge pixel {i}: {rad} above the emission {emit}"
                     );
                 }
@@ -362,6 +491,12 @@ fn graph_bound_materials_render_the_cpu_evaluators_values() {
             (hi - lo).max_element() > 0.2,
             "{rt:?}: albedo range {lo}..{hi}"
         );
+        if place != Mat4::IDENTITY {
+            assert!(
+                world_miss > 100.0 * tol,
+                "{rt:?}: object and world space give the same values here ({world_miss})"
+            );
+        }
     }
     assert_no_validation_messages(&ctx);
     let _ = std::fs::remove_dir_all(&d);

@@ -56,7 +56,7 @@ fn mtlx_files(dir: &std::path::Path, out: &mut Vec<PathBuf>) {
 /// A grid of surface points: uv over [−1.5, 2.5)² in steps of 1/8 + 1/64
 /// (so both cell interiors and values past 1 are covered), positions over
 /// a few units, unit normals and tangents perpendicular to them, a third
-/// of them left-handed.
+/// of them left-handed; object-space values of their own.
 fn grid() -> Vec<Geom> {
     let mut v = Vec::new();
     for j in 0..24 {
@@ -76,6 +76,16 @@ fn grid() -> Vec<Geom> {
                 // Both handednesses (mirrored uv islands, back faces).
                 tangent_sign: if (i + j) % 3 == 0 { -1.0 } else { 1.0 },
                 footprint: 0.0,
+                // Object space apart from world space (another map of the
+                // same point, the frame's axes permuted, the handedness
+                // turned over on other points), so a graph reading the
+                // wrong space, or the harness passing the wrong one, differs.
+                object: stereocache::materials::ObjectFrame {
+                    position: [w * 1.1 + 0.4, u * 0.8 - 0.7, (u + w) * 0.6 - 0.2],
+                    normal: [n[2], n[0], n[1]],
+                    tangent: [t[2], t[0], t[1]],
+                    tangent_sign: if (i + j) % 4 == 1 { -1.0 } else { 1.0 },
+                },
             });
         }
     }
@@ -165,6 +175,17 @@ fn malformed_documents_give_one_line_errors() {
             r#"<texcoord name="t" type="vector2"><input name="index" type="integer" value="1" /></texcoord>
                <output name="out" type="vector2" nodename="t" />"#,
             &["graph `g`, node `t`: input `index` is 1: only texture coordinate set 0"],
+        ),
+        (
+            // MaterialX's spaces are model, object and world.
+            r#"<position name="p" type="vector3"><input name="space" type="string" value="camera" /></position>
+               <output name="out" type="vector3" nodename="p" />"#,
+            &["graph `g`, node `p`: input `space` is `camera`: one of model, object or world"],
+        ),
+        (
+            r#"<tangent name="t" type="vector3"><input name="index" type="integer" value="2" /></tangent>
+               <output name="out" type="vector3" nodename="t" />"#,
+            &["graph `g`, node `t`: input `index` is 2: only tangent set 0"],
         ),
         (
             r#"<add name="a" type="float"><input name="bogus" type="float" value="1" /></add>
@@ -771,11 +792,83 @@ fn audit_cases_glsl_equals_the_cpu() {
         })
         .count();
     assert!(grey > 50 && grey < pts.len() - 50, "{grey} grey points");
+    // `position` reads object space (MaterialX's default).
     let negative = pts
         .iter()
-        .filter(|p| p.position[0] < 0.0 && p.position[2] < 0.0)
+        .filter(|p| p.object.position[0] < 0.0 && p.object.position[2] < 0.0)
         .count();
     assert!(negative > 50, "{negative} points with negative bases");
+    assert_gpu_equals_cpu(&g);
+}
+
+/// The spaces of the geometry nodes (MaterialX: `space` "object" by
+/// default, "model" the same here, "world"; `defaultgeomprop` names of
+/// both): on the CPU each output is its field of the point, the bitangent
+/// cross(N, T)·w of its own space's frame; the GPU equals the CPU.
+#[test]
+fn geometry_nodes_read_the_space_they_name() {
+    let space = |node: &str, name: &str, sp: &str| {
+        format!(
+            r#"<{node} name="{name}" type="vector3"><input name="space" type="string" value="{sp}" /></{node}>"#
+        )
+    };
+    let mut body = String::from(
+        r#"<input name="bo" type="vector3" defaultgeomprop="Bobject" />
+           <input name="bw" type="vector3" defaultgeomprop="Bworld" />
+           <input name="pd" type="vector3" defaultgeomprop="Pobject" />
+           <position name="p" type="vector3" /><normal name="n" type="vector3" /><tangent name="t" type="vector3" />"#,
+    );
+    for (node, short) in [("position", "p"), ("normal", "n"), ("tangent", "t")] {
+        for sp in ["object", "model", "world"] {
+            body.push_str(&space(node, &format!("{short}_{sp}"), sp));
+        }
+    }
+    let outs = [
+        "p", "n", "t", "p_object", "p_model", "p_world", "n_object", "n_model", "n_world",
+        "t_object", "t_model", "t_world",
+    ];
+    for o in outs {
+        body.push_str(&format!(
+            r#"<output name="o_{o}" type="vector3" nodename="{o}" />"#
+        ));
+    }
+    for i in ["bo", "bw", "pd"] {
+        body.push_str(&format!(
+            r#"<output name="o_{i}" type="vector3" interfacename="{i}" />"#
+        ));
+    }
+    let g = graphs_of(&[&body]);
+    let pts = grid();
+    for p in &pts {
+        let vals: Vec<Vec<f32>> = evaluate(&g[0], p)
+            .iter()
+            .map(|v| v.channels().to_vec())
+            .collect();
+        let o = &p.object;
+        let b = |n: [f32; 3], t: [f32; 3], w: f32| {
+            (glam::Vec3::from(n).cross(glam::Vec3::from(t)) * w).to_array()
+        };
+        let want: [[f32; 3]; 15] = [
+            o.position,
+            o.normal,
+            o.tangent,
+            o.position,
+            o.position,
+            p.position,
+            o.normal,
+            o.normal,
+            p.normal,
+            o.tangent,
+            o.tangent,
+            p.tangent,
+            b(o.normal, o.tangent, o.tangent_sign),
+            b(p.normal, p.tangent, p.tangent_sign),
+            o.position,
+        ];
+        for (k, w) in want.iter().enumerate() {
+            assert_close(&vals[k], w, 1e-6, &format!("output {k} at {p:?}"));
+        }
+    }
     assert_gpu_equals_cpu(&g);
 }
 

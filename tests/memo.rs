@@ -1098,7 +1098,9 @@ fn only_graphs_of_the_uv_alone_are_memoizable() {
                 tangent: [n[1], n[2], n[0]],
                 tangent_sign: 1.0,
                 footprint: 0.0,
-            },
+                ..Default::default()
+            }
+            .untransformed(),
         )
         .iter()
         .flat_map(|v| v.channels().to_vec())
@@ -1163,13 +1165,17 @@ fn the_library_in_texture_space_reads_only_the_uv_and_equals_the_solid_at_uv0() 
         for i in 0..7 {
             for j in 0..7 {
                 let uv = [i as f32 * 0.37 - 0.4, j as f32 * 0.29 + 0.1];
-                let geom = |p: [f32; 3]| Geom {
-                    uv,
-                    position: p,
-                    normal: [0.0, 0.0, 1.0],
-                    tangent: [1.0, 0.0, 0.0],
-                    tangent_sign: 1.0,
-                    footprint: 0.0,
+                let geom = |p: [f32; 3]| {
+                    Geom {
+                        uv,
+                        position: p,
+                        normal: [0.0, 0.0, 1.0],
+                        tangent: [1.0, 0.0, 0.0],
+                        tangent_sign: 1.0,
+                        footprint: 0.0,
+                        ..Default::default()
+                    }
+                    .untransformed()
                 };
                 let vw = evaluate(w, &geom([uv[0], uv[1], 0.0]));
                 // The texture-space graph ignores the position: any will do.

@@ -492,7 +492,7 @@ void memo_store(MemoCall c, uint material, uint k, ivec2 texel, uint corner, ScG
 // evaluations: one copy per call site in that build too (a second copy in
 // the rounds made the procedural-heavy Sponza's path tracer exceed
 // SPIR-V's id bound in glslc's optimizer).
-ScGraphOutputs sc_material_graphs_at(uint material, vec2 uv, vec3 p, vec3 n, vec3 t, float ts,
+ScGraphOutputs sc_material_graphs_at(uint material, uint instance, vec2 uv, vec3 p, vec3 n, vec3 t, float ts,
                                      float cone_width, float uv_per_width, float footprint) {
     MemoCall c = memo_call(material, uv, cone_width, uv_per_width);
     ScGraphOutputs out4[4];
@@ -526,7 +526,7 @@ ScGraphOutputs sc_material_graphs_at(uint material, vec2 uv, vec3 p, vec3 n, vec
             fp = c.variant == MEMO_V_DIRECT ? footprint : memo_texel_width(c.level);
         }
         ScGraphOutputs v = ScGraphOutputs(vec3(0.0), 0.0, 0.0, vec3(0.0), vec3(0.0), 0u);
-        if (evaluate) v = sc_material_graphs(mat, at, p, n, t, ts, fp);
+        if (evaluate) v = sc_material_graphs(mat, instance, at, p, n, t, ts, fp);
 #ifdef SC_MEMO_SUBGROUP
         if (round) {
             memo_round_step(r, c, evaluate, v, n, out4);

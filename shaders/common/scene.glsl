@@ -182,6 +182,7 @@ struct Surface {
     vec2 uv;
     vec2 uv2;      // second uv channel (zero without one)
     uint material;
+    uint instance; // the hit instance (material graphs' object space)
     bool front;    // the ray hit the side the winding order calls front
     float extent;  // largest |coordinate| of the triangle's world vertices (surface_offset)
     float uv_area_ratio; // texture-space area / world area of the triangle (ray-cone LOD)
@@ -255,6 +256,7 @@ Surface surface_at(uint inst, uint prim, vec2 bary, vec3 ray_dir) {
     s.uv2 = vec2(0.0);
     s.uv2_area_ratio = 0.0;
     s.material = meshes[I.mesh_pad.x].material;
+    s.instance = inst;
     s.coat_tangent = vec4(0.0);
     vec2 d1 = vec2(0.0), d2 = vec2(0.0);   // the second channel's uv edges
     if (SC_SECOND_UV) {

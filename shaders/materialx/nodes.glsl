@@ -12,7 +12,12 @@
 // footprint: the uv width the value stands for (image nodes' mip level; 0 = level 0).
 // tangent_sign: glTF's handedness w (±1, already turned over on a back
 // face, scene.glsl surface_at), so the bitangent is the mesh's own.
-struct MxGeom { vec2 uv; vec3 position; vec3 normal; vec3 tangent; float tangent_sign; float footprint; };
+// World-space values, then the same point in the mesh's object space
+// (MaterialX "object"/"model"; eval.rs Geom, ObjectFrame).
+struct MxGeom {
+    vec2 uv; vec3 position; vec3 normal; vec3 tangent; float tangent_sign; float footprint;
+    vec3 position_object; vec3 normal_object; vec3 tangent_object; float tangent_sign_object;
+};
 
 vec3 mx_cross(vec3 a, vec3 b) {
     precise vec3 r = vec3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
@@ -22,6 +27,7 @@ vec3 mx_cross(vec3 a, vec3 b) {
 // glTF's bitangent cross(N, T)·w (eval.rs Geom::bitangent): a mirrored uv
 // island (w = −1) or a back face gets the bitangent its normal texture expects.
 vec3 mx_bitangent(MxGeom g) { return mx_cross(g.normal, g.tangent) * g.tangent_sign; }
+vec3 mx_bitangent_object(MxGeom g) { return mx_cross(g.normal_object, g.tangent_object) * g.tangent_sign_object; }
 
 float mx_dot(float a, float b) { precise float r = a * b; return r; }
 float mx_dot(vec2 a, vec2 b) { precise float r = a.x * b.x + a.y * b.y; return r; }

@@ -71,6 +71,10 @@ fn geom(p: GeomProp, g: &str) -> String {
         GeomProp::Normal => format!("{g}.normal"),
         GeomProp::Tangent => format!("{g}.tangent"),
         GeomProp::Bitangent => format!("mx_bitangent({g})"),
+        GeomProp::PositionObject => format!("{g}.position_object"),
+        GeomProp::NormalObject => format!("{g}.normal_object"),
+        GeomProp::TangentObject => format!("{g}.tangent_object"),
+        GeomProp::BitangentObject => format!("mx_bitangent_object({g})"),
     }
 }
 
@@ -149,9 +153,9 @@ impl Emit<'_> {
             "constant" | "dot" => a(0),
             "texcoord" if t.width() == 3 => format!("vec3({}.uv, 0.0)", self.geom),
             "texcoord" => format!("{}.uv", self.geom),
-            "position" => geom(GeomProp::Position, self.geom),
-            "normal" => geom(GeomProp::Normal, self.geom),
-            "tangent" => geom(GeomProp::Tangent, self.geom),
+            "position" | "normal" | "tangent" => {
+                geom(n.geom_prop().expect("geometry node"), self.geom)
+            }
             "add" => format!("{} + {}", a(0), a(1)),
             "subtract" => format!("{} - {}", a(0), a(1)),
             "multiply" => format!("{} * {}", a(0), a(1)),

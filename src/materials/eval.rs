@@ -23,9 +23,10 @@ pub fn graph_uv(mesh_uv: [f32; 2]) -> [f32; 2] {
     [mesh_uv[0], 1.0 - mesh_uv[1]]
 }
 
-/// The surface point a graph is evaluated at (world space; `tangent` may be
-/// zero where the mesh has none, then `normalmap` returns the normal).
-/// `uv` is the graph's texture space (v up): at a mesh's hit, [`graph_uv`].
+/// The surface point a graph is evaluated at, in world space and in the
+/// mesh's object space (`tangent` may be zero where the mesh has none, then
+/// `normalmap` returns the normal). `uv` is the graph's texture space (v
+/// up): at a mesh's hit, [`graph_uv`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Geom {
     pub uv: [f32; 2],
@@ -39,10 +40,39 @@ pub struct Geom {
     /// The width in uv the value stands for (image nodes pick their mip
     /// level from it, image.rs); 0: a point, level 0.
     pub footprint: f32,
+    /// The same point in the mesh's object space (MaterialX "object" and
+    /// "model"; graph.rs `GeomProp`): position, unit normal and unit
+    /// tangent, and the handedness of that frame (`tangent_sign` times −1
+    /// where the instance mirrors). The renderer takes the world values back
+    /// through the instance's transform (scene_shaders.rs
+    /// `sc_graph_object_space`).
+    pub object: ObjectFrame,
+}
+
+/// Object-space values of a surface point ([`Geom::object`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ObjectFrame {
+    pub position: [f32; 3],
+    pub normal: [f32; 3],
+    pub tangent: [f32; 3],
+    pub tangent_sign: f32,
+}
+
+impl Default for ObjectFrame {
+    /// The origin with zero vectors, right-handed.
+    fn default() -> Self {
+        ObjectFrame {
+            position: [0.0; 3],
+            normal: [0.0; 3],
+            tangent: [0.0; 3],
+            tangent_sign: 1.0,
+        }
+    }
 }
 
 impl Default for Geom {
-    /// The origin with zero vectors, right-handed (w = +1), footprint 0.
+    /// The origin with zero vectors, right-handed (w = +1), footprint 0,
+    /// in both spaces.
     fn default() -> Self {
         Geom {
             uv: [0.0; 2],
@@ -51,11 +81,26 @@ impl Default for Geom {
             tangent: [0.0; 3],
             tangent_sign: 1.0,
             footprint: 0.0,
+            object: ObjectFrame::default(),
         }
     }
 }
 
 impl Geom {
+    /// A point of a mesh placed without a transform: object space is world
+    /// space.
+    pub fn untransformed(self) -> Geom {
+        Geom {
+            object: ObjectFrame {
+                position: self.position,
+                normal: self.normal,
+                tangent: self.tangent,
+                tangent_sign: self.tangent_sign,
+            },
+            ..self
+        }
+    }
+
     /// The bitangent graphs read (`bitangent` node, `normalmap`'s default):
     /// cross(N, T)·w, as nodes.glsl `mx_bitangent`.
     pub fn bitangent(&self) -> [f32; 3] {
@@ -63,12 +108,20 @@ impl Geom {
     }
 
     fn prop(&self, g: GeomProp) -> Value {
+        let o = &self.object;
         match g {
             GeomProp::Uv => Value::new(Type::Vector2, &self.uv),
             GeomProp::Position => Value::new(Type::Vector3, &self.position),
             GeomProp::Normal => Value::new(Type::Vector3, &self.normal),
             GeomProp::Tangent => Value::new(Type::Vector3, &self.tangent),
             GeomProp::Bitangent => Value::new(Type::Vector3, &self.bitangent()),
+            GeomProp::PositionObject => Value::new(Type::Vector3, &o.position),
+            GeomProp::NormalObject => Value::new(Type::Vector3, &o.normal),
+            GeomProp::TangentObject => Value::new(Type::Vector3, &o.tangent),
+            GeomProp::BitangentObject => Value::new(
+                Type::Vector3,
+                &cross(o.normal, o.tangent).map(|c| c * o.tangent_sign),
+            ),
         }
     }
 }
@@ -464,9 +517,7 @@ fn apply(node: &Node, a: &[Arg], geom: &Geom) -> Value {
     match op {
         "constant" | "dot" => v(0),
         "texcoord" => Value::new(out, &[geom.uv[0], geom.uv[1], 0.0][..w]),
-        "position" => geom.prop(GeomProp::Position),
-        "normal" => geom.prop(GeomProp::Normal),
-        "tangent" => geom.prop(GeomProp::Tangent),
+        "position" | "normal" | "tangent" => geom.prop(node.geom_prop().expect("geometry node")),
         "add" => map2(out, v(0), v(1), |x, y| x + y),
         "subtract" => map2(out, v(0), v(1), |x, y| x - y),
         "multiply" => map2(out, v(0), v(1), |x, y| x * y),

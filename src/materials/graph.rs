@@ -26,12 +26,15 @@ use std::collections::HashMap;
 const MAX_CHAIN: usize = 512;
 
 /// A geometric property a graph reads (MaterialX `defaultgeomprop` names
-/// and the texcoord/position/normal/tangent/bitangent nodes). Object-space
-/// names (`Pobject`, …; the default space of the position/normal/tangent
-/// nodes and of the 3D noises' position) read the **world-space** values:
-/// a known deviation (docs/MATERIALS.md) — instances keep their
-/// object-to-world transform, but the hit shaders pass graphs only world
-/// space (`sc_material_graphs`' signature in shaders/common).
+/// and the texcoord/position/normal/tangent nodes by their `space`).
+/// MaterialX's spaces: "world"; "object", the geometry's own coordinates
+/// before its transforms to world (here a glTF node's mesh space, or the
+/// generators' `add_mesh` space: the instance's `object_to_world` taken
+/// back, shaders `sc_graph_object_space`); and "model", object space before
+/// local deformations, which is object space here (no skinning or morph
+/// targets reach the renderer). Object space is the default of the
+/// position/normal/tangent nodes and of the 3D noises' position, so a
+/// solid texture sticks to an instanced or animated mesh.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum GeomProp {
     Uv,
@@ -39,16 +42,24 @@ pub enum GeomProp {
     Normal,
     Tangent,
     Bitangent,
+    PositionObject,
+    NormalObject,
+    TangentObject,
+    BitangentObject,
 }
 
 impl GeomProp {
     pub fn from_name(s: &str) -> Option<GeomProp> {
         Some(match s {
             "UV0" => GeomProp::Uv,
-            "Pobject" | "Pworld" | "Pmodel" => GeomProp::Position,
-            "Nobject" | "Nworld" | "Nmodel" => GeomProp::Normal,
-            "Tobject" | "Tworld" | "Tmodel" => GeomProp::Tangent,
-            "Bobject" | "Bworld" | "Bmodel" => GeomProp::Bitangent,
+            "Pworld" => GeomProp::Position,
+            "Nworld" => GeomProp::Normal,
+            "Tworld" => GeomProp::Tangent,
+            "Bworld" => GeomProp::Bitangent,
+            "Pobject" | "Pmodel" => GeomProp::PositionObject,
+            "Nobject" | "Nmodel" => GeomProp::NormalObject,
+            "Tobject" | "Tmodel" => GeomProp::TangentObject,
+            "Bobject" | "Bmodel" => GeomProp::BitangentObject,
             _ => return None,
         })
     }
@@ -59,7 +70,21 @@ impl GeomProp {
             _ => Type::Vector3,
         }
     }
+
+    /// Whether it is an object-space value (the instance's transform taken back).
+    pub fn is_object(self) -> bool {
+        matches!(
+            self,
+            GeomProp::PositionObject
+                | GeomProp::NormalObject
+                | GeomProp::TangentObject
+                | GeomProp::BitangentObject
+        )
+    }
 }
+
+/// The spaces the `space` input of position/normal/tangent may name.
+const SPACES: [&str; 3] = ["model", "object", "world"];
 
 #[derive(Clone, Debug, PartialEq)]
 pub enum Source {
@@ -85,6 +110,30 @@ impl Node {
     }
     pub fn op(&self) -> &'static str {
         self.sig.node
+    }
+
+    /// The geometric property a `position`, `normal` or `tangent` node
+    /// reads, by its `space` input (checked at build: one of [`SPACES`]).
+    pub fn geom_prop(&self) -> Option<GeomProp> {
+        let (world, object) = match self.op() {
+            "position" => (GeomProp::Position, GeomProp::PositionObject),
+            "normal" => (GeomProp::Normal, GeomProp::NormalObject),
+            "tangent" => (GeomProp::Tangent, GeomProp::TangentObject),
+            _ => return None,
+        };
+        Some(match self.str_input("space") {
+            Some("world") => world,
+            _ => object,
+        })
+    }
+
+    /// The constant string of input `name`, if it has one.
+    pub fn str_input(&self, name: &str) -> Option<&str> {
+        let (k, _, _) = self.sig.input(name)?;
+        match &self.inputs[k] {
+            Source::Str(s) => Some(s),
+            _ => None,
+        }
     }
 }
 
@@ -132,6 +181,17 @@ impl Graph {
             .outputs
             .iter()
             .all(|o| !matches!(&o.source, Source::Geom(g) if *g != GeomProp::Uv))
+    }
+
+    /// Whether any node reads an object-space property (the hit shaders
+    /// then take the world values back through the instance's transform,
+    /// scene_shaders.rs; other scenes compile none of it).
+    pub fn reads_object_space(&self) -> bool {
+        let object = |s: &Source| matches!(s, Source::Geom(g) if g.is_object());
+        self.nodes
+            .iter()
+            .any(|n| n.geom_prop().is_some_and(GeomProp::is_object) || n.inputs.iter().any(object))
+            || self.outputs.iter().any(|o| object(&o.source))
     }
 
     pub fn output(&self, name: &str) -> Option<&Output> {
@@ -655,6 +715,15 @@ fn check_node(n: &Node) -> Option<String> {
         "extract" => int("index")
             .filter(|i| *i < 0 || *i as usize >= n.sig.inputs[0].1.width())
             .map(|i| format!("input `index` {i} is out of range")),
+        // One tangent set (the mesh's TANGENT) reaches graphs.
+        "tangent" if int("index").is_some_and(|i| i != 0) => Some(format!(
+            "input `index` is {}: only tangent set 0 (glTF TANGENT) reaches material graphs",
+            int("index").unwrap_or(0)
+        )),
+        "position" | "normal" | "tangent" => n
+            .str_input("space")
+            .filter(|s| !SPACES.contains(s))
+            .map(|s| format!("input `space` is `{s}`: one of model, object or world")),
         _ => None,
     }
 }

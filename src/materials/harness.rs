@@ -17,7 +17,7 @@ pub const PUSH: PushBlock = PushBlock {
     fields: &[("count", PushType::U32), ("stride", PushType::U32)],
 };
 
-/// The harness kernel's interface: 12 floats per point in, `stride` floats per point out.
+/// The harness kernel's interface: POINT_FLOATS floats per point in, `stride` floats per point out.
 pub const INTERFACE: Interface = Interface {
     name: "material_harness",
     set: 0,
@@ -28,8 +28,9 @@ pub const INTERFACE: Interface = Interface {
 };
 
 /// Floats per input point: uv (2), position (3), normal (3), tangent (3),
-/// tangent sign (1).
-pub const POINT_FLOATS: usize = 12;
+/// tangent sign (1), then the object frame's position, normal, tangent (3
+/// each) and tangent sign (1).
+pub const POINT_FLOATS: usize = 22;
 
 /// The harness's GLSL for `graphs`, and each graph's layout and offset in a point's outputs.
 pub fn source(graphs: &[Graph]) -> (String, Vec<(Layout, usize)>) {
@@ -67,7 +68,11 @@ pub fn source(graphs: &[Graph]) -> (String, Vec<(Layout, usize)>) {
          \x20   g.normal = vec3(pts[b + 5u], pts[b + 6u], pts[b + 7u]);\n\
          \x20   g.tangent = vec3(pts[b + 8u], pts[b + 9u], pts[b + 10u]);\n\
          \x20   g.tangent_sign = pts[b + 11u];\n\
-         \x20   g.footprint = 0.0;\n",
+         \x20   g.footprint = 0.0;\n\
+         \x20   g.position_object = vec3(pts[b + 12u], pts[b + 13u], pts[b + 14u]);\n\
+         \x20   g.normal_object = vec3(pts[b + 15u], pts[b + 16u], pts[b + 17u]);\n\
+         \x20   g.tangent_object = vec3(pts[b + 18u], pts[b + 19u], pts[b + 20u]);\n\
+         \x20   g.tangent_sign_object = pts[b + 21u];\n",
     );
     s.push_str(&calls);
     s.push_str("}\n");
@@ -110,6 +115,10 @@ pub fn evaluate(
         flat.extend_from_slice(&p.normal);
         flat.extend_from_slice(&p.tangent);
         flat.push(p.tangent_sign);
+        flat.extend_from_slice(&p.object.position);
+        flat.extend_from_slice(&p.object.normal);
+        flat.extend_from_slice(&p.object.tangent);
+        flat.push(p.object.tangent_sign);
     }
     let n = points.len() as u32;
     let pts = Buffer::with_data(

@@ -193,7 +193,7 @@ pub fn assign_random(scene: &mut crate::scene::Scene, seed: u64) {
 }
 
 /// A library graph in texture space (the thesis's materials are
-/// procedural textures over the uv; the library's are world-space solids):
+/// procedural textures over the uv; the library's are object-space solids):
 /// every `position` node reads the uv as (u, v, 0) instead, and a `normal`
 /// output made by a final `normalmap` node (with the surface's own N, T, B
 /// and unit scale) becomes a `normal_tangent` output of the node's input,

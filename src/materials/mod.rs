@@ -34,6 +34,6 @@ pub mod types;
 pub use binding::{SceneGraphs, Slot, SlotBind};
 pub use document::Document;
 pub use error::GraphError;
-pub use eval::{evaluate, Geom};
+pub use eval::{evaluate, Geom, ObjectFrame};
 pub use graph::Graph;
 pub use types::{Type, Value};

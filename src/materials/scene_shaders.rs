@@ -3,9 +3,9 @@
 //! defining
 //!
 //! ```glsl
-//! ScGraphOutputs sc_material_graphs(uint material_id, vec2 uv, vec3 position,
-//!                                   vec3 normal, vec3 tangent, float tangent_sign,
-//!                                   float footprint);
+//! ScGraphOutputs sc_material_graphs(uint material_id, uint instance, vec2 uv,
+//!                                   vec3 position, vec3 normal, vec3 tangent,
+//!                                   float tangent_sign, float footprint);
 //! ```
 //!
 //! (one SSA function per graph, codegen.rs, called from a `switch` over the
@@ -93,10 +93,14 @@ pub fn include(sg: &SceneGraphs, origin: DVec3, memo: bool, slots: &[Vec<u32>]) 
         ));
     }
     let o = origin.as_vec3();
+    let object = sg.graphs.iter().any(|g| g.reads_object_space());
+    if object {
+        s.push_str(OBJECT_SPACE);
+    }
     let _ = write!(
         s,
         "struct ScGraphOutputs {{ vec3 base_color; float metallic; float roughness; vec3 normal; vec3 emission; uint mask; }};\n\
-         ScGraphOutputs sc_material_graphs(uint material_id, vec2 uv, vec3 position, vec3 normal, vec3 tangent, float tangent_sign, float footprint) {{\n\
+         ScGraphOutputs sc_material_graphs(uint material_id, uint instance, vec2 uv, vec3 position, vec3 normal, vec3 tangent, float tangent_sign, float footprint) {{\n\
          \x20   ScGraphOutputs r;\n\
          \x20   r.base_color = vec3(1.0); r.metallic = 1.0; r.roughness = 1.0; r.normal = normal; r.emission = vec3(1.0); r.mask = 0u;\n\
          \x20   MxGeom g;\n\
@@ -106,8 +110,17 @@ pub fn include(sg: &SceneGraphs, origin: DVec3, memo: bool, slots: &[Vec<u32>]) 
          \x20   g.tangent = tangent;\n\
          \x20   g.tangent_sign = tangent_sign;\n\
          \x20   g.footprint = footprint;\n\
+         \x20   {}\n\
          \x20   switch (material_id) {{\n",
-        o.x, o.y, o.z
+        o.x,
+        o.y,
+        o.z,
+        if object {
+            "sc_graph_object_space(g, instance, position);"
+        } else {
+            // No graph reads them: defined, never read.
+            "g.position_object = g.position; g.normal_object = normal; g.tangent_object = tangent; g.tangent_sign_object = tangent_sign;"
+        }
     );
     // Materials bound alike (the same graphs to the same inputs, as a
     // library's random picks give) share one case: one inlined copy of
@@ -177,6 +190,30 @@ pub fn include(sg: &SceneGraphs, origin: DVec3, memo: bool, slots: &[Vec<u32>]) 
     s.push_str("#endif\n");
     s
 }
+
+/// MaterialX's object space at a hit (graph.rs `GeomProp`): the world
+/// values taken back through the instance's transform. `object_to_world`
+/// is relative to the render origin, as the hit's `p` is (before the
+/// origin is added for the world-space values): p = L·p_object + t. Normals go to world by L's inverse transpose
+/// (scene.glsl surface_at), so back by Lᵀ; tangents by L, so back by L⁻¹.
+/// A mirroring instance turns the cross product of the taken-back normal
+/// and tangent over, so the object frame's handedness drops the instance's
+/// front sign that the world one carries (surface_at).
+const OBJECT_SPACE: &str = "\
+void sc_graph_object_space(inout MxGeom g, uint instance, vec3 p) {
+    mat4 M = instances[instance].object_to_world;
+    mat3 L = mat3(M);
+    mat3 Li = inverse(L);
+    g.position_object = Li * (p - M[3].xyz);
+    vec3 n = transpose(L) * g.normal;
+    float nl = length(n);
+    g.normal_object = nl > 0.0 ? n / nl : n;
+    vec3 t = Li * g.tangent;
+    float tl = length(t);
+    g.tangent_object = tl > 0.0 ? t / tl : t;
+    g.tangent_sign_object = g.tangent_sign * instance_front_sign(instance);
+}
+";
 
 /// Appends `bool name(uint material_id)`: true for the listed materials.
 fn material_predicate(s: &mut String, name: &str, materials: &[u32]) {
