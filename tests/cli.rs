@@ -1170,7 +1170,7 @@ fn mkfifo(p: &Path) {
 }
 
 /// A user path to a device or FIFO (`/dev/zero` as a trace, a glTF buffer
-/// or image, a MaterialX file) was read until memory ran out or blocked
+/// or image, a MaterialX file or the image one of its nodes reads) was read until memory ran out or blocked
 /// forever; each is now one error line naming the file, before the device
 /// opens. (FIFOs here: on the old code they block, so the test fails by
 /// timeout instead of by exhausting memory.)
@@ -1189,9 +1189,29 @@ fn special_files_are_refused_without_reading() {
     v["meshes"][0]["primitives"][0]["material"] = serde_json::json!(0);
     std::fs::write(&mtlx, serde_json::to_vec(&v).unwrap()).unwrap();
     mkfifo(&dir.join("mtlx").join("g.mtlx"));
+    // A MaterialX document whose image node's file is a FIFO.
+    let image = triangle_gltf(&dir.join("image"), "", None);
+    std::fs::write(&image, serde_json::to_vec(&v).unwrap()).unwrap();
+    std::fs::write(
+        dir.join("image").join("g.mtlx"),
+        r#"<?xml version="1.0"?>
+<materialx version="1.39">
+  <nodegraph name="g">
+    <image name="i" type="color3"><input name="file" type="filename" value="img.png" /></image>
+    <output name="base_color" type="color3" nodename="i" />
+  </nodegraph>
+</materialx>
+"#,
+    )
+    .unwrap();
+    mkfifo(&dir.join("image").join("img.png"));
     let out = dir.join("out");
     let (f, o) = (fifo.to_str().unwrap(), out.to_str().unwrap());
-    let (b, m) = (buffer.to_str().unwrap(), mtlx.to_str().unwrap());
+    let (b, m, im) = (
+        buffer.to_str().unwrap(),
+        mtlx.to_str().unwrap(),
+        image.to_str().unwrap(),
+    );
     let csv = dir.join("t.csv");
     for (args, phrase) in [
         (
@@ -1217,6 +1237,10 @@ fn special_files_are_refused_without_reading() {
         (
             vec!["render", "--scene", m, "--size", "8x8", "--out", o],
             "materials[0]: extras.materialx.file '".to_string(),
+        ),
+        (
+            vec!["render", "--scene", im, "--size", "8x8", "--out", o],
+            "img.png` (not a regular file".to_string(),
         ),
     ] {
         let o = cli(20).args(&args).output().unwrap();

@@ -136,8 +136,15 @@ pub fn settings(get: impl Fn(&str) -> String) -> Result<ImageSettings, String> {
 
 /// Reads image file `path` as an RGBA8 texture with its mip chain.
 pub fn read(path: &std::path::Path, encoding: TextureEncoding) -> Result<Texture, String> {
-    let img =
-        image::open(path).map_err(|e| format!("cannot read image `{}` ({e})", path.display()))?;
+    // A regular file only (crate::input): a FIFO or device named as an
+    // image would block or be read until memory runs out.
+    let bytes = crate::input::read(path)
+        .map_err(|e| format!("cannot read image `{}` ({e})", path.display()))?;
+    let img = image::ImageReader::new(std::io::Cursor::new(bytes))
+        .with_guessed_format()
+        .map_err(|e| format!("cannot read image `{}` ({e})", path.display()))?
+        .decode()
+        .map_err(|e| format!("cannot read image `{}` ({e})", path.display()))?;
     let rgba = img.to_rgba8();
     let (w, h) = rgba.dimensions();
     if w == 0 || h == 0 {
