@@ -203,3 +203,115 @@ fn still_view_taa_output_is_the_running_mean_of_the_method() {
     }
     assert_no_validation_messages(&ctx);
 }
+
+/// A pixel whose reprojection leaves the previous image (or falls behind
+/// the previous eye) has no history (Yang et al. 2020 §4.2): the resolve
+/// shows the current input unchanged and counts it in
+/// `taa_rejected_offscreen`. Before this test the "history used" state of
+/// `taa/resolve.comp` was the value 0, which is also `C_TAA_OFFSCREEN`'s
+/// slot, so such pixels took the history branch with an all-zero history:
+/// with fixed weights they showed (1 − α) × (black clipped into the
+/// neighbourhood box) + α × input, and the counter stayed 0.
+///
+/// Setup: the deterministic `naive` method on the hairball under the sun
+/// and sky (the Cornell box would bring only its black surroundings into
+/// view, where the old blend of black also gave black), rendered twice with
+/// the same seed, once plain and once with `--taa-output` (fixed α = 0.1,
+/// clipping on), along a head turning 6° per frame. Which
+/// pixels reproject off-screen is computed here on the CPU from the
+/// method's own depth (the depth TAA reads) with `EyeView::project_offset`;
+/// pixels within 0.01 px of the image border (f32 rounding of two different
+/// formulas is ~1e-5 px) are left undecided and only bound the counter.
+/// Every clearly off-screen pixel must equal the plain frame's pixel to f32
+/// rounding (the resolve copies it: 1e-6 relative is generous).
+#[test]
+fn off_screen_reprojection_drops_the_history() {
+    use glam::{UVec2, Vec2, Vec3};
+    let ctx = context();
+    let s = session(&ctx, shipped("hairball"), RtChoice::Software);
+    let (w, h) = (32u32, 24u32);
+    let size = UVec2::new(w, h);
+    let cam0 = default_camera(&s, w, h);
+    let taa = TaaSettings {
+        weights: TaaWeights::Fixed,
+        alpha: 0.1,
+        ..Default::default()
+    };
+    let mut plain = s.create(MethodKind::Naive, &settings(w, h, None)).unwrap();
+    let mut resolved = s
+        .create(MethodKind::Naive, &settings(w, h, Some(taa)))
+        .unwrap();
+    let margin = 0.01f32;
+    let mut checked = 0usize;
+    let mut prev: Option<StereoCamera> = None;
+    for f in 0..4u32 {
+        let cam = turning_head(&cam0, f, 6.0, 0.0);
+        let a = render_at(plain.as_mut(), f, cam, prev);
+        let b = render_at(resolved.as_mut(), f, cam, prev);
+        if let Some(pc) = prev {
+            let (mut clear, mut undecided) = (0usize, 0usize);
+            for e in 0..2 {
+                let (ev, pe) = (cam.eyes()[e], pc.eyes()[e]);
+                let fwd = ev.orientation * Vec3::NEG_Z;
+                let shift = (ev.world - pe.world).as_vec3();
+                for y in 0..h {
+                    for x in 0..w {
+                        let i = (y * w + x) as usize;
+                        let d = ev.ray_direction(Vec2::new(x as f32 + 0.5, y as f32 + 0.5), size);
+                        let depth = a.eyes[e].depth[i];
+                        // A miss reprojects its direction (rotation only).
+                        let offset = if a.eyes[e].first_hit[i][3] == u32::MAX {
+                            d
+                        } else {
+                            shift + d * (depth / d.dot(fwd))
+                        };
+                        let (off, near_border) = match pe.project_offset(offset, size) {
+                            None => (true, false),
+                            Some((q, _)) => {
+                                let lo = q.min_element();
+                                let out =
+                                    q.x < 0.0 || q.y < 0.0 || q.x >= w as f32 || q.y >= h as f32;
+                                let near = lo.abs() < margin
+                                    || (q.x - w as f32).abs() < margin
+                                    || (q.y - h as f32).abs() < margin;
+                                (out, near)
+                            }
+                        };
+                        if near_border {
+                            undecided += 1;
+                            continue;
+                        }
+                        if !off {
+                            continue;
+                        }
+                        clear += 1;
+                        for c in 0..3 {
+                            let (want, got) = (a.eyes[e].radiance[i][c], b.eyes[e].radiance[i][c]);
+                            assert!(
+                                (got - want).abs() <= 1e-6 * (1.0 + want.abs()),
+                                "frame {f} eye {e} pixel ({x}, {y}) channel {c}: reprojected off-screen, TAA shows {got}, the input is {want}"
+                            );
+                        }
+                    }
+                }
+            }
+            let counted = b.stats.counters["taa_rejected_offscreen"] as usize;
+            eprintln!(
+                "frame {f}: {clear} pixels off-screen, {undecided} undecided, counter {counted}"
+            );
+            assert!(
+                clear >= 2 * h as usize,
+                "frame {f}: the turn moved only {clear} pixels off-screen"
+            );
+            assert!(
+                counted >= clear && counted <= clear + undecided,
+                "frame {f}: taa_rejected_offscreen {counted}, expected {clear}..={}",
+                clear + undecided
+            );
+            checked += clear;
+        }
+        prev = Some(cam);
+    }
+    assert!(checked > 0);
+    assert_no_validation_messages(&ctx);
+}

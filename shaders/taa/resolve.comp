@@ -40,6 +40,10 @@ layout(set = SET_TAA, binding = B_TAA_COUNTERS, std430) buffer Counters { uint c
 const float N_MAX = 255.0;            // history lengths saturate here
 const float TOL_SAME_INSTANCE = 0.1;  // relative depth tolerance when the tap saw the same instance
 const float TOL_OTHER = 0.01;         // ... and when it saw another one
+// "History used": not a counter slot. (It used to be 0, which is
+// C_TAA_OFFSCREEN's slot, so an off-screen pixel blended an all-zero history
+// and was never counted as off-screen.)
+const uint HISTORY_USED = 0xFFFFFFFFu;
 
 vec3 rgb_to_ycocg(vec3 c) {
     return vec3(0.25 * c.r + 0.5 * c.g + 0.25 * c.b, 0.5 * c.r - 0.5 * c.b, -0.25 * c.r + 0.5 * c.g - 0.25 * c.b);
@@ -121,7 +125,7 @@ void main() {
     }
     on_screen = on_screen && all(greaterThanEqual(q, vec2(0.0))) && all(lessThan(q, vec2(size)));
 
-    uint reason = 0u;   // 0 history used, else the C_* slot that rejected it
+    uint reason = HISTORY_USED;   // else the C_TAA_* slot that rejected it
     vec4 hist = vec4(0.0);
     if ((pc.flags & 1u) == 0u) {
         reason = C_TAA_NO_HISTORY;
@@ -147,7 +151,7 @@ void main() {
 
     vec3 result;
     float n;
-    if (reason != 0u) {
+    if (reason != HISTORY_USED) {
         result = c;
         n = 1.0;
         atomicAdd(counters[reason], 1u);

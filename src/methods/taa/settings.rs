@@ -10,9 +10,13 @@ pub enum TaaWeights {
     /// Exponential moving average with a fixed α (Yang et al. 2020, §3).
     Fixed,
     /// Per-pixel accumulated-sample-count weights, our reading of Philippi et
-    /// al. 2023 ([PFJ23]): α = max(1/(n+1), α_min) with n the pixel's history
-    /// length, reset to 0 when the history is rejected. A fresh history is a
-    /// running mean until it holds 1/α_min − 1 frames, then an EMA with α_min.
+    /// al. 2023 ([PFJ23]): α = max(1/(n+1), α_min) with n the frames in the
+    /// pixel's history, which restarts at 1 (the current frame alone) when
+    /// the history is rejected. A fresh history is a running mean until it
+    /// averages 1/α_min frames, then an EMA with α_min. (1/(n+1) is also
+    /// the MSE-optimal weight of the paper's Eq. 4, β' = 1 − σ_Y²/(Bias² +
+    /// σ_X² + σ_Y²), for an unbiased history X of n frames, σ_X² = σ_Y²/n,
+    /// blended with the current frame Y; α_min stands in for the bias.)
     Pfj23,
 }
 
