@@ -275,7 +275,8 @@ pub const FEATURES: &[Feature] = &[
          normal texture, in the tangent frame of the uvs it reads (the triangle's, from the \
          gradients of its channel's uvs through its uv map if any, where those are not the \
          uvs the vertex tangents belong to), else the interpolated normal), layered as the extension's fresnel_coat: \
-         f_coat + (1 − clearcoat·Fc(n_c·v))·f_base; over transmission it reflects on the outside",
+         f_coat + (1 − clearcoat·Fc(n_c·v))·f_base, emission under it dimmed by the same \
+         1 − clearcoat·Fc; over transmission it reflects on the outside",
     ),
     f(
         "KHR_materials_diffuse_transmission",
@@ -308,7 +309,9 @@ pub const FEATURES: &[Feature] = &[
         Full,
         "transmissionFactor and transmissionTexture; without KHR_materials_volume the surface is \
          thin-walled (light passes straight through or reflects, split by the Fresnel of the ior), \
-         with it a boundary that refracts with the ior",
+         with it a boundary that refracts with the ior; nested, as glTF's BRDF nests it, inside \
+         the dielectric of mix(dielectric, metal, metallic), so a surface transmits t·(1 − \
+         metallic)",
     ),
     f(
         "KHR_materials_unlit",
