@@ -502,6 +502,99 @@ fn probe_graph_bound_quads(name: &str, place: Mat4, tol: f32) {
     let _ = std::fs::remove_dir_all(&d);
 }
 
+/// Graph outputs that are not finite or out of range: the `.mtlx` of
+/// material 1 makes x = 100 + 0·P.x (varying, so not folded at load),
+/// e = exp(x) (overflows to +∞ in f32) and e − e (NaN): base colour
+/// (2, NaN, −1), metallic NaN, roughness −3, emission (+∞, −5, 3).
+const WILD_MTLX: &str = r#"<?xml version="1.0"?>
+<materialx version="1.39">
+  <nodegraph name="ball">
+    <position name="p" type="vector3" />
+    <extract name="px" type="float"><input name="in" type="vector3" nodename="p" /><input name="index" type="integer" value="0" /></extract>
+    <multiply name="z" type="float"><input name="in1" type="float" nodename="px" /><input name="in2" type="float" value="0" /></multiply>
+    <add name="x" type="float"><input name="in1" type="float" nodename="z" /><input name="in2" type="float" value="100" /></add>
+    <exp name="e" type="float"><input name="in" type="float" nodename="x" /></exp>
+    <subtract name="nan" type="float"><input name="in1" type="float" nodename="e" /><input name="in2" type="float" nodename="e" /></subtract>
+    <add name="two" type="float"><input name="in1" type="float" nodename="z" /><input name="in2" type="float" value="2" /></add>
+    <add name="m1" type="float"><input name="in1" type="float" nodename="z" /><input name="in2" type="float" value="-1" /></add>
+    <add name="m3" type="float"><input name="in1" type="float" nodename="z" /><input name="in2" type="float" value="-3" /></add>
+    <add name="m5" type="float"><input name="in1" type="float" nodename="z" /><input name="in2" type="float" value="-5" /></add>
+    <add name="three" type="float"><input name="in1" type="float" nodename="z" /><input name="in2" type="float" value="3" /></add>
+    <combine3 name="base" type="color3"><input name="in1" type="float" nodename="two" /><input name="in2" type="float" nodename="nan" /><input name="in3" type="float" nodename="m1" /></combine3>
+    <combine3 name="emit" type="color3"><input name="in1" type="float" nodename="e" /><input name="in2" type="float" nodename="m5" /><input name="in3" type="float" nodename="three" /></combine3>
+    <output name="base_color" type="color3" nodename="base" />
+    <output name="metallic" type="float" nodename="nan" />
+    <output name="roughness" type="float" nodename="m3" />
+    <output name="emission" type="color3" nodename="emit" />
+  </nodegraph>
+</materialx>
+"#;
+
+/// No graph puts a NaN or an infinity into a path: outputs are brought into
+/// the ranges of the textures they stand in for (scene_shaders.rs
+/// `sc_graph_sanitize`, NaN as the bottom): the albedo is (1, 0, 0) and every
+/// inner pixel's radiance is the emission (MAX_EMISSION, 0, 3) exactly (black
+/// surroundings: the quads cannot see each other); every pixel is finite.
+/// The CPU evaluator (the graph's own values) does give the wild ones.
+#[test]
+fn wild_graph_outputs_stay_in_their_ranges() {
+    let ctx = context();
+    let d = dir("wild");
+    let path = write_quads(&d);
+    bind(&path, |_| {});
+    std::fs::write(path.with_file_name("ball.mtlx"), WILD_MTLX).unwrap();
+    let scene = stereocache::scene::load_gltf(&path).expect("bound scene loads");
+    let geom = Geom::default().untransformed();
+    let g = &scene.graphs.graphs[scene.graphs.of_material(1)[0].graph];
+    let cpu: Vec<f32> = eval::evaluate(g, &geom)
+        .iter()
+        .flat_map(|v| v.channels().to_vec())
+        .collect();
+    assert!(
+        cpu.iter().any(|v| v.is_nan()) && cpu.iter().any(|v| v.is_infinite()),
+        "the graph is not wild: {cpu:?}"
+    );
+    let max = stereocache::scene::MAX_EMISSION;
+    for rt in [RtChoice::Software, RtChoice::Query] {
+        if rt == RtChoice::Query && !require(ctx.ray_query_enabled(), "ray queries") {
+            continue;
+        }
+        let s = session(&ctx, scene.clone(), rt);
+        let f = render(&s, "reference", top_camera(), &probe_settings());
+        let (w, h) = (f.width as usize, f.height as usize);
+        let mut inner = 0;
+        for eye in &f.eyes {
+            for (i, fh) in eye.first_hit.iter().enumerate() {
+                let rad = Vec3::from_slice(&eye.radiance[i][..3]);
+                let albedo = Vec3::from_slice(&eye.albedo[i][..3]);
+                assert!(
+                    rad.is_finite() && albedo.is_finite(),
+                    "{rt:?}: pixel {i}: radiance {rad}, albedo {albedo}"
+                );
+                if fh[3] == u32::MAX || hit_geom(&s.scene, *fh).0 != 1 {
+                    continue;
+                }
+                assert_eq!(albedo, Vec3::new(1.0, 0.0, 0.0), "{rt:?}: pixel {i}");
+                let (x, y) = (i % w, i / w);
+                let all_same = x > 0
+                    && y > 0
+                    && x + 1 < w
+                    && y + 1 < h
+                    && [i - 1, i + 1, i - w, i + w]
+                        .iter()
+                        .all(|&j| eye.first_hit[j][3] == fh[3]);
+                if all_same {
+                    assert_eq!(rad, Vec3::new(max, 0.0, 3.0), "{rt:?}: pixel {i}");
+                    inner += 1;
+                }
+            }
+        }
+        assert!(inner > 100, "{rt:?}: {inner} inner pixels of the wild quad");
+    }
+    assert_no_validation_messages(&ctx);
+    let _ = std::fs::remove_dir_all(&d);
+}
+
 /// A scene without graphs keeps the build-time SPIR-V (the same bytes,
 /// not a rebuild); a scene with graphs replaces only the shaders that shade
 /// hits.

@@ -86,7 +86,8 @@ ShadingMaterial material_at(inout Surface s, vec3 ray_dir, float cone_width) {
     m.base *= go.base_color;
     m.metallic *= go.metallic;
     m.roughness *= go.roughness;
-    m.emissive *= go.emission;
+    // Both at most SC_MAX_EMISSION (scene_shaders.rs): their product may not be.
+    m.emissive = min(m.emissive * go.emission, vec3(SC_MAX_EMISSION));
 #endif
     if (SC_TEXTURES) {
         if (g.tex0.x >= 0) m.base *= slot_texture(g, 0, g.tex0.x, s, cone_width, cos_i, false).rgb;

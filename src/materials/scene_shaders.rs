@@ -100,6 +100,7 @@ pub fn include(sg: &SceneGraphs, origin: DVec3, memo: bool, slots: &[Vec<u32>]) 
     let _ = write!(
         s,
         "struct ScGraphOutputs {{ vec3 base_color; float metallic; float roughness; vec3 normal; vec3 emission; uint mask; }};\n\
+         {}\
          ScGraphOutputs sc_material_graphs(uint material_id, uint instance, vec2 uv, vec3 position, vec3 normal, vec3 tangent, float tangent_sign, float footprint) {{\n\
          \x20   ScGraphOutputs r;\n\
          \x20   r.base_color = vec3(1.0); r.metallic = 1.0; r.roughness = 1.0; r.normal = normal; r.emission = vec3(1.0); r.mask = 0u;\n\
@@ -112,6 +113,7 @@ pub fn include(sg: &SceneGraphs, origin: DVec3, memo: bool, slots: &[Vec<u32>]) 
          \x20   g.footprint = footprint;\n\
          \x20   {}\n\
          \x20   switch (material_id) {{\n",
+        sanitize(),
         o.x,
         o.y,
         o.z,
@@ -161,7 +163,7 @@ pub fn include(sg: &SceneGraphs, origin: DVec3, memo: bool, slots: &[Vec<u32>]) 
         }
         s.push_str("        break;\n    }\n");
     }
-    s.push_str("    default: break;\n    }\n    return r;\n}\n");
+    s.push_str("    default: break;\n    }\n    sc_graph_sanitize(r, normal);\n    return r;\n}\n");
     // The materials with an emission graph: light sampling (lights.glsl
     // emitted_radiance) evaluates the graphs only for those (the others'
     // emission output is 1), and compiles no evaluation at all where there
@@ -214,6 +216,35 @@ void sc_graph_object_space(inout MxGeom g, uint instance, vec3 p) {
     g.tangent_sign_object = g.tangent_sign * instance_front_sign(instance);
 }
 ";
+
+/// Graph outputs are any floats (an overflowing `exp` is +inf, inf − inf
+/// NaN): each is brought into the range of the texture it stands in for,
+/// as the importer brings glTF's factors into theirs
+/// (gltf_import.rs `sanitize_material`), NaN counting as the bottom of the
+/// range: base colour, metallic and roughness in [0, 1], emission in
+/// [0, `scene::MAX_EMISSION`] (the bound on an emissive factor; HDR
+/// emission is what an emission graph is for; the product with the factor
+/// is bounded again where it is formed, material.glsl and lights.glsl), and
+/// a normal that is not finite is the surface's own. So no graph can put a
+/// NaN or an infinity into a path, a cache or the memo table.
+fn sanitize() -> String {
+    format!(
+        "const float SC_MAX_EMISSION = {:e};
+float sc_graph_range(float x, float hi) {{ return x >= 0.0 ? min(x, hi) : 0.0; }}
+vec3 sc_graph_range(vec3 x, float hi) {{
+    return vec3(sc_graph_range(x.x, hi), sc_graph_range(x.y, hi), sc_graph_range(x.z, hi));
+}}
+void sc_graph_sanitize(inout ScGraphOutputs r, vec3 normal) {{
+    r.base_color = sc_graph_range(r.base_color, 1.0);
+    r.metallic = sc_graph_range(r.metallic, 1.0);
+    r.roughness = sc_graph_range(r.roughness, 1.0);
+    r.emission = sc_graph_range(r.emission, SC_MAX_EMISSION);
+    if (any(isnan(r.normal)) || any(isinf(r.normal))) r.normal = normal;
+}}
+",
+        crate::scene::MAX_EMISSION
+    )
+}
 
 /// Appends `bool name(uint material_id)`: true for the listed materials.
 fn material_predicate(s: &mut String, name: &str, materials: &[u32]) {
