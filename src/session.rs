@@ -145,10 +145,10 @@ impl Session {
     pub fn pose_instances(&self, t: f64, prev_t: Option<f64>) -> Result<std::time::Duration> {
         let start = std::time::Instant::now();
         if self.scene.is_animated() {
-            let transforms = self.scene.instance_transforms_at(t as f32);
+            let transforms = self.scene.instance_transforms_at(t);
             self.check_pose(t, &transforms)?;
             let prev = match prev_t {
-                Some(p) => self.scene.instance_transforms_at(p as f32),
+                Some(p) => self.scene.instance_transforms_at(p),
                 None => transforms.clone(),
             };
             self.scene_gpu.set_instance_motion(&prev, &transforms)?;
@@ -163,7 +163,7 @@ impl Session {
     pub fn check_poses(&self, times: impl IntoIterator<Item = f64>) -> Result<()> {
         if self.scene.is_animated() {
             for t in times {
-                self.check_pose(t, &self.scene.instance_transforms_at(t as f32))?;
+                self.check_pose(t, &self.scene.instance_transforms_at(t))?;
             }
         }
         Ok(())
@@ -338,11 +338,18 @@ pub fn parse_pose(s: &str) -> std::result::Result<HeadPose, String> {
             "bad --pose '{s}': the position is beyond ±{bound:e} m (world coordinates must stay within it, as the scene's do)"
         ));
     }
-    let q = Quat::from_xyzw(v[3], v[4], v[5], v[6]);
-    if q.length() < 1e-6 {
+    // The norm in f64: an f32 one overflows to ∞ from components of about
+    // 2e19 on (`1e20,0,0,0` became a NaN orientation without a word).
+    let q = [v[3], v[4], v[5], v[6]].map(f64::from);
+    let norm = q.iter().map(|c| c * c).sum::<f64>().sqrt();
+    if norm < 1e-6 {
         return Err(format!("bad --pose '{s}': the quaternion has zero length"));
     }
-    Ok(HeadPose::new(Vec3::new(v[0], v[1], v[2]), q.normalize()))
+    let [x, y, z, w] = q.map(|c| (c / norm) as f32);
+    Ok(HeadPose::new(
+        Vec3::new(v[0], v[1], v[2]),
+        Quat::from_xyzw(x, y, z, w),
+    ))
 }
 
 /// The one stderr line naming the scene camera a session renders with.
@@ -358,5 +365,30 @@ fn scene_camera_line(name: &str, cam: &StereoCamera) -> String {
             2.0 * ymag,
             cam.aspect
         ),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Any non-zero quaternion of finite f32 components is a rotation: the
+    /// norm of (1e20, 0, 0, 0) overflowed in f32 and made it NaN. Expected:
+    /// the unit quaternions (1, 0, 0, 0) and (0, 0, 0.6, 0.8) (a 3-4-5
+    /// triangle, exact but for the rounding of 0.6 and 0.8 to f32 and the
+    /// normalization in f32: 2e-7 is 3 ulps at 0.8).
+    #[test]
+    fn a_huge_pose_quaternion_is_normalized_not_nan() {
+        let p = parse_pose("0,0,0,1e20,0,0,0").unwrap();
+        assert_eq!(p.orientation, Quat::from_xyzw(1.0, 0.0, 0.0, 0.0));
+        let p = parse_pose("1,2,3,0,0,3e30,4e30").unwrap();
+        assert!(
+            p.orientation
+                .abs_diff_eq(Quat::from_xyzw(0.0, 0.0, 0.6, 0.8), 2e-7),
+            "{:?}",
+            p.orientation
+        );
+        assert_eq!(p.position, Vec3::new(1.0, 2.0, 3.0));
+        assert!(parse_pose("0,0,0,0,0,0,0").is_err());
     }
 }

@@ -185,6 +185,12 @@ fn animations_loop_over_their_duration() {
     assert_eq!(a.local_time(5.0), 1.0);
     assert_eq!(a.local_time(1.5), 1.5);
     assert_eq!(a.local_time(4.0), 0.0);
+    // Just below a multiple of the period (f64 frame times): it stays in
+    // [0, duration) when rounded to f32, at the f32 just below 2.
+    assert_eq!(
+        a.local_time(4.0 - 1e-12),
+        f32::from_bits(2.0f32.to_bits() - 1)
+    );
 }
 
 #[test]
@@ -308,6 +314,52 @@ fn a_90_hz_and_a_45_hz_replay_see_the_same_motion() {
         let t90 = (f64::from(2 * k) / 90.0) as f32;
         let t45 = (f64::from(k) / 45.0) as f32;
         assert_eq!(s.instance_transforms_at(t90), s.instance_transforms_at(t45));
+    }
+}
+
+/// Frame times hours into a replay keep their precision: the loop is taken
+/// in f64 before the time becomes f32 (an f32 frame time is quantized to
+/// 2⁻¹⁰ s at 10⁴ s, a tenth of a 90 Hz frame). `cornell-moving`'s cone
+/// slides LINEAR −0.3 → 0.3 → −0.3 m along x at t = 0, 2, 4 s (looping), so
+/// its node origin is at x(u) = −0.3 + 0.3·u for u = t mod 4 ≤ 2 and
+/// 0.3 − 0.3·(u − 2) after, computed here in f64. Tolerance: the local time
+/// rounded to f32 (≤ 2.4e-7 s below 4 s) times the 0.3 m/s slope, plus a few
+/// f32 ulps of the lerp at |x| ≤ 0.3 (3e-8 m each): 1e-6 m. The motion over
+/// one frame (what `prev_object_to_world` gives the motion vectors) is
+/// 0.3/90 m in magnitude; the old f32 frame time was off by up to 1.5e-4 m.
+#[test]
+fn frame_times_hours_into_a_replay_keep_their_precision() {
+    let s = stereocache::scene::load_scene("cornell-moving").unwrap();
+    let moves = s.instance_moves();
+    let cone = moves.iter().position(|&m| m).unwrap();
+    assert_eq!(moves.iter().filter(|&&m| m).count(), 1);
+    let x_at = |t: f64| {
+        let u = t.rem_euclid(4.0);
+        if u <= 2.0 {
+            -0.3 + 0.3 * u
+        } else {
+            0.3 - 0.3 * (u - 2.0)
+        }
+    };
+    let fps = 90.0;
+    let mut prev: Option<f32> = None;
+    for i in 900_000u32..=900_000 + 2 * 90 {
+        let t = f64::from(i) / fps;
+        let x = s.instance_transforms_at(t)[cone].w_axis.x;
+        let want = x_at(t);
+        assert!(
+            (f64::from(x) - want).abs() <= 1e-6,
+            "frame {i} (t = {t} s): cone at x = {x}, expected {want}"
+        );
+        if let Some(p) = prev {
+            let step = f64::from(x - p).abs();
+            assert!(
+                (step - 0.3 / fps).abs() <= 2e-6,
+                "frame {i}: moved {step} m over one frame, expected {}",
+                0.3 / fps
+            );
+        }
+        prev = Some(x);
     }
 }
 

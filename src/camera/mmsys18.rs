@@ -141,6 +141,9 @@ pub fn parse_mmsys18(
     let mut b = TraceBuilder::new(path);
     let mut cols: Option<[usize; 6]> = None;
     let mut n_fields = 0;
+    // The header's line and whether any sample line followed it.
+    let mut header_line = 0;
+    let mut any_row = false;
     let mut t_first: Option<f64> = None;
     // The previous sample's (timestamp, line), kept or not.
     let mut prev: Option<(f64, usize)> = None;
@@ -190,8 +193,10 @@ pub fn parse_mmsys18(
             }
             cols = Some(c);
             n_fields = fields.len();
+            header_line = line_no;
             continue;
         };
+        any_row = true;
         if fields.len() < n_fields && !ends_with_newline && last_content == Some(i) {
             b.warn(
                 Some(line_no),
@@ -277,6 +282,12 @@ pub fn parse_mmsys18(
             "empty file; expected a header `timestamp viewpoint w x y z` and samples",
         ));
     }
+    if !any_row {
+        return Err(b.line_error(
+            header_line + 1,
+            "no samples after the header; a trace needs at least one",
+        ));
+    }
     if b.sample_count() == 0 {
         return Err(TraceError::Trace {
             path: path.to_path_buf(),
@@ -337,6 +348,31 @@ mod tests {
             "{e}"
         );
         assert!(!e.contains('\n'), "{e}");
+    }
+
+    /// A header and nothing else says so (not "no samples with 0 ≤
+    /// timestamp ≤ inf", which blamed a time window nobody gave).
+    #[test]
+    fn a_header_without_samples_is_an_error_naming_the_line_after_it() {
+        let e = parse_mmsys18(
+            "u.txt",
+            "timestamp viewpoint w x y z\n",
+            &Default::default(),
+        )
+        .unwrap_err()
+        .to_string();
+        assert_eq!(
+            e,
+            "u.txt:2: no samples after the header; a trace needs at least one"
+        );
+        // Samples outside the window keep the window's message.
+        let opts = Mmsys18Options {
+            start: 5.0,
+            ..Default::default()
+        };
+        let text = "timestamp viewpoint w x y z\n1 0 1 0 0 0\n";
+        let e = parse_mmsys18("u.txt", text, &opts).unwrap_err().to_string();
+        assert!(e.contains("no samples with 5 ≤ timestamp"), "{e}");
     }
 
     #[test]

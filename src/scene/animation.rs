@@ -4,7 +4,11 @@
 //! by the key interval), evaluated at a time `t` in seconds.
 //!
 //! Time is the replay's frame time (frame index / fps), so a 90 Hz and a
-//! 45 Hz replay see the same motion at the same instants. Every selected
+//! 45 Hz replay see the same motion at the same instants. It stays f64 until
+//! it has been wrapped into the animation's loop ([`Animation::local_time`]):
+//! an f32 frame time is quantized to 2⁻¹⁰ s ≈ 1 ms at 10⁴ s (a 90 Hz replay
+//! of 2.8 h), a tenth of a frame, which jittered the motion and the
+//! previous-frame transforms of the motion vectors by as much. Every selected
 //! animation loops over its own duration (its last key time); before an
 //! animation's first key the first value holds (spec: clamp). Where two
 //! selected animations drive the same node property, the later one wins.
@@ -245,11 +249,19 @@ impl Animation {
         self.channels.iter().map(Channel::end).fold(0.0, f32::max)
     }
 
-    /// `t` wrapped into [0, duration) (looping); 0 for a zero-length animation.
-    pub fn local_time(&self, t: f32) -> f32 {
+    /// `t` (seconds, f64) wrapped into [0, duration) (looping) in f64, then
+    /// rounded to f32, the key times' type; 0 for a zero-length animation.
+    pub fn local_time(&self, t: f64) -> f32 {
         let d = self.duration();
         if d > 0.0 {
-            t.rem_euclid(d)
+            let local = t.rem_euclid(f64::from(d)) as f32;
+            // A time just below a multiple of `d` can round up to `d` itself:
+            // keep it in the loop, at the f32 just below `d`.
+            if local >= d {
+                f32::from_bits(d.to_bits() - 1)
+            } else {
+                local
+            }
         } else {
             0.0
         }
@@ -372,8 +384,8 @@ impl SceneAnimation {
             .collect()
     }
 
-    /// Local transforms of every node at time `t`.
-    pub fn local_transforms(&self, t: f32) -> Vec<Mat4> {
+    /// Local transforms of every node at time `t` (seconds).
+    pub fn local_transforms(&self, t: f64) -> Vec<Mat4> {
         let mut trs: Vec<LocalRest> = self.nodes.clone();
         for &a in &self.active {
             let anim = &self.animations[a];
@@ -407,9 +419,9 @@ impl SceneAnimation {
         trs.iter().map(LocalRest::matrix).collect()
     }
 
-    /// World transforms of every instance at `t`; instances that do not move
-    /// keep `rest` (their import transforms) exactly.
-    pub fn instance_transforms(&self, t: f32, rest: &[Mat4]) -> Vec<Mat4> {
+    /// World transforms of every instance at `t` (seconds); instances that do
+    /// not move keep `rest` (their import transforms) exactly.
+    pub fn instance_transforms(&self, t: f64, rest: &[Mat4]) -> Vec<Mat4> {
         let moves = self.instance_moves();
         let local = self.local_transforms(t);
         self.instance_paths

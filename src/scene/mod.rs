@@ -155,11 +155,12 @@ impl Scene {
     }
 
     /// Object-to-world transform of every instance at time `t` (seconds, the
-    /// replay's frame time); a static scene's are `instances[i].transform`.
-    pub fn instance_transforms_at(&self, t: f32) -> Vec<Mat4> {
+    /// replay's frame time, kept in f64 until the animation loop wraps it:
+    /// `animation.rs`); a static scene's are `instances[i].transform`.
+    pub fn instance_transforms_at(&self, t: impl Into<f64>) -> Vec<Mat4> {
         let rest: Vec<Mat4> = self.instances.iter().map(|i| i.transform).collect();
         match &self.animation {
-            Some(a) => a.instance_transforms(t, &rest),
+            Some(a) => a.instance_transforms(t.into(), &rest),
             None => rest,
         }
     }
