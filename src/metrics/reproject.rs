@@ -14,8 +14,16 @@
 //!    see there;
 //! 3. the colour is fetched **bilinearly** from the four source pixel centres
 //!    around that position; a tap counts only when its stored source depth
-//!    agrees, `|depth_src − d_s| ≤ tol · d_s`, and — when first-hit buffers
-//!    are given — its instance and primitive equal the destination pixel's.
+//!    agrees, `|depth_src − z| ≤ tol · z`, with `z` either `d_s` or the depth
+//!    at which the tap's own ray (through its pixel centre) meets the
+//!    destination surface's tangent plane at `p` — the plane through the
+//!    destination pixel's point and its neighbours' on each axis (the
+//!    neighbour of closer depth, of the same instance when ids are given).
+//!    On a slanted surface the taps' depths differ from `d_s` by the slope
+//!    times their offset from `p` (at 60° already more than 1 % per pixel),
+//!    so the plane keeps them; before, oblique walls and floors were largely
+//!    not co-visible. And — when first-hit buffers are given — the tap's
+//!    instance and primitive must equal the destination pixel's.
 //!    Failing taps are dropped and the weights of the rest renormalized;
 //! 4. the pixel is **co-visible** when at least one tap passed. Otherwise it
 //!    is black in the reprojected image.
