@@ -924,8 +924,10 @@ pub fn write_summary_files(out: &Path, header: &SummaryHeader, cmp: &Comparison)
     Ok(())
 }
 
-/// `masks` in summary.json: where the temporal and stereo masks come from
-/// and their co-visible fractions (the same for every row).
+/// `masks` in summary.json: where the temporal and stereo masks come from,
+/// their co-visible fractions and how many frames the temporal and stereo
+/// metrics were scored on (those with a non-empty mask; the same for every
+/// row).
 fn masks(rows: &[MethodRow]) -> serde_json::Value {
     let first = rows
         .iter()
@@ -935,7 +937,19 @@ fn masks(rows: &[MethodRow]) -> serde_json::Value {
         "depth_tolerance_rel": crate::evaluate::DEPTH_TOLERANCE,
         "temporal_covisible": first.and_then(|r| r.metrics.get("temporal_covisible")),
         "stereo_covisible": first.and_then(|r| r.metrics.get("stereo_covisible")),
+        "temporal_frames": first.and_then(|r| scored_frames(r, "temporal")),
+        "stereo_frames": first.and_then(|r| scored_frames(r, "stereo_mean")),
     })
+}
+
+/// How many frames `row`'s `metric` was scored on (`None` without per-frame
+/// values): frames with an empty co-visible mask have no temporal or stereo
+/// value and count in neither the mean nor its standard error.
+pub fn scored_frames(row: &MethodRow, metric: &str) -> Option<usize> {
+    if row.series.is_empty() {
+        return None;
+    }
+    Some(row.series.get(metric).map_or(0, Vec::len))
 }
 
 /// The short table printed at the end of a compare run: means over frames

@@ -17,7 +17,9 @@
 //! and are cached with its radiance), never from a method's own hits: every
 //! method — and the reference's own instability and discrepancy beside it —
 //! is scored on the same pixels, `temporal_covisible` and `stereo_covisible`
-//! of them. On a scene with moving instances the same holds for the pixels
+//! of them. An eye or frame with no co-visible pixel has no temporal /
+//! stereo value (absent, not 0): the means and standard errors are over the
+//! frames that have one, the same frames for every method. On a scene with moving instances the same holds for the pixels
 //! a moving object has just left (`ghost_pixels`, both eyes together, and
 //! the error on them, `ghost_rse`; [`crate::metrics::ghosting`]).
 
@@ -450,8 +452,14 @@ impl Evaluator {
         }
         // Temporal instability: t−1 reprojected into t, for the method and
         // the reference, through one mask from the reference's geometry.
+        // An eye with an empty mask has no value: the others are the mean
+        // over the eyes that have one, and a frame where neither has one has
+        // none (the keys are absent, not 0, and the frame is left out of the
+        // means). `temporal_covisible` is a fraction, 0 included.
         if let (Some(pf), Some((rf, rc))) = (&self.prev, &self.prev_ref) {
             let rviews = rc.eyes();
+            let mut scored: Vec<[f64; 3]> = Vec::new();
+            let mut covisible = 0.0;
             for e in 0..2 {
                 let cov = Covisibility::new(
                     geometry(rf, &rviews[e], e),
@@ -461,14 +469,25 @@ impl Evaluator {
                     DEPTH_TOLERANCE,
                 )
                 .map_err(m)?;
+                covisible += 0.5 * cov.fraction() as f64;
+                if cov.is_empty() {
+                    continue;
+                }
                 let pimg = image(&pf.eyes[e], w, h)?;
                 let rimg = image(&rf.eyes[e], w, h)?;
                 let tm = temporal_instability_masked(&pimg, &imgs[e], &cov).map_err(m)?;
                 let tr = temporal_instability_masked(&rimg, &refs[e], &cov).map_err(m)?;
-                add("temporal", tm.mean as f64);
-                add("temporal_reference", tr.mean as f64);
-                add("temporal_excess", (tm.mean - tr.mean) as f64);
-                add("temporal_covisible", cov.fraction() as f64);
+                scored.push([tm.mean, tr.mean, tm.mean - tr.mean].map(f64::from));
+            }
+            out.insert("temporal_covisible".into(), covisible);
+            if !scored.is_empty() {
+                // Per eye as before (the excess in f32): a frame with both
+                // eyes scored has the same figures as when every frame was.
+                let n = scored.len() as f64;
+                let mean = |c: usize| scored.iter().map(|s| s[c]).sum::<f64>() / n;
+                out.insert("temporal".into(), mean(0));
+                out.insert("temporal_reference".into(), mean(1));
+                out.insert("temporal_excess".into(), mean(2));
             }
         }
         // Ghosting: the error on the pixels a moving instance has just left
@@ -505,14 +524,17 @@ impl Evaluator {
             DEPTH_TOLERANCE,
         )
         .map_err(m)?;
-        let sm = stereo_discrepancy_masked(&imgs[l], &imgs[r], &cov).map_err(m)?;
-        let sr = stereo_discrepancy_masked(&refs[l], &refs[r], &cov).map_err(m)?;
-        out.insert("stereo_mean".into(), sm.mean as f64);
-        out.insert("stereo_p95".into(), sm.p95 as f64);
+        // An empty mask: no stereo value this frame (keys absent, not 0).
         out.insert("stereo_covisible".into(), cov.fraction() as f64);
-        out.insert("stereo_mean_reference".into(), sr.mean as f64);
-        out.insert("stereo_p95_reference".into(), sr.p95 as f64);
-        out.insert("stereo_excess".into(), (sm.mean - sr.mean) as f64);
+        if !cov.is_empty() {
+            let sm = stereo_discrepancy_masked(&imgs[l], &imgs[r], &cov).map_err(m)?;
+            let sr = stereo_discrepancy_masked(&refs[l], &refs[r], &cov).map_err(m)?;
+            out.insert("stereo_mean".into(), sm.mean as f64);
+            out.insert("stereo_p95".into(), sm.p95 as f64);
+            out.insert("stereo_mean_reference".into(), sr.mean as f64);
+            out.insert("stereo_p95_reference".into(), sr.p95 as f64);
+            out.insert("stereo_excess".into(), (sm.mean - sr.mean) as f64);
+        }
         // The reference's own error: the floor under `rse` and `mse`; FLIP's scale.
         out.insert("rse_reference".into(), reference_frame.noise.rse);
         out.insert("mse_reference".into(), reference_frame.noise.mse);
@@ -525,7 +547,10 @@ impl Evaluator {
         Ok(out)
     }
 
-    /// Means over the frames evaluated so far.
+    /// Means over the frames evaluated so far that have the metric (the
+    /// temporal ones from the second frame on; the temporal and stereo ones
+    /// only where the co-visible mask is not empty; `ghost_rse` only where
+    /// there are ghost pixels); [`Self::counts`] says over how many.
     pub fn means(&self) -> BTreeMap<String, f64> {
         self.series
             .iter()
@@ -542,10 +567,19 @@ impl Evaluator {
             .collect()
     }
 
-    /// Every metric's per-frame values in frame order (temporal ones from
-    /// the second frame on).
+    /// Every metric's per-frame values in frame order, over the frames that
+    /// have it ([`Self::means`]). The temporal and stereo masks come from
+    /// the reference's geometry, so every method has the same frames.
     pub fn series(&self) -> &BTreeMap<String, Vec<f64>> {
         &self.series
+    }
+
+    /// How many frames each metric was scored on (the length of its series).
+    pub fn counts(&self) -> BTreeMap<String, usize> {
+        self.series
+            .iter()
+            .map(|(k, v)| (k.clone(), v.len()))
+            .collect()
     }
 }
 
@@ -622,5 +656,73 @@ mod tests {
             "{e}"
         );
         let _ = std::fs::remove_file(&f);
+    }
+    /// A frame or eye whose co-visible mask is empty (here: the reference
+    /// sees only sky there) contributes no temporal / stereo value — not a
+    /// 0 that reads as perfectly stable. Uniform grey images make every
+    /// scored value exact: eye `e` of frame `k` is `L[k]` / `R[k]`. Frame 2's
+    /// right eye and all of frame 3 see sky; so stereo is scored on frames
+    /// 0, 1, 4 (|L − R| = 0.1, 0.2, 0.3), temporal on frame 1 (both eyes:
+    /// (0.1 + 0.4)/2) and frame 2 (left eye only: 0.3); frames 3 and 4 have
+    /// no temporal value (sky at t or at t − 1).
+    #[test]
+    fn empty_covisible_masks_are_skipped_not_zero() {
+        use crate::camera::HeadPose;
+        const N: usize = 32;
+        let cam = StereoCamera::new(
+            HeadPose::new(glam::Vec3::new(0.0, 1.0, 0.0), glam::Quat::IDENTITY),
+            90f32.to_radians(),
+            1.0,
+        );
+        let grey = |v: f32| vec![[v, v, v, 1.0]; N * N];
+        let eye = |radiance, sky: bool| EyeImage {
+            radiance,
+            depth: vec![if sky { 0.0 } else { 1.0 }; N * N],
+            first_hit: (0..N * N).map(|i| [i as u32, 0, 3, 1]).collect(),
+            albedo: Vec::new(),
+            debug: Vec::new(),
+        };
+        let frame = |eyes| StereoFrame {
+            width: N as u32,
+            height: N as u32,
+            eyes,
+            stats: Default::default(),
+        };
+        let (l, r) = ([0.5, 0.6, 0.9, 0.3, 0.4], [0.4, 0.8, 0.1, 0.7, 0.7]);
+        let sky = [[false; 2], [false; 2], [false, true], [true; 2], [false; 2]];
+        let mut ev = Evaluator::new(None);
+        let per_frame: Vec<_> = (0..5)
+            .map(|k| {
+                let reference = || frame([eye(grey(0.5), sky[k][0]), eye(grey(0.5), sky[k][1])]);
+                let reference =
+                    ReferenceFrame::from_halves([reference(), reference()], 10.0).unwrap();
+                let method = frame([eye(grey(l[k]), false), eye(grey(r[k]), false)]);
+                ev.frame(&cam, &method, &reference).unwrap()
+            })
+            .collect();
+        let close = |a: f64, b: f64| (a - b).abs() < 1e-6;
+        // Which frames carry a value (absent, not 0, where the mask is empty).
+        let has = |k: &str| -> Vec<bool> { per_frame.iter().map(|f| f.contains_key(k)).collect() };
+        assert_eq!(has("temporal"), [false, true, true, false, false]);
+        assert_eq!(has("temporal_excess"), has("temporal"));
+        assert_eq!(has("stereo_mean"), [true, true, false, false, true]);
+        assert_eq!(has("stereo_excess"), has("stereo_mean"));
+        // The fractions are true values, 0 included, on every frame.
+        assert_eq!(has("temporal_covisible"), [false, true, true, true, true]);
+        assert_eq!(per_frame[3]["temporal_covisible"], 0.0);
+        assert_eq!(per_frame[2]["stereo_covisible"], 0.0);
+        // Frame 2: the left eye's value alone, not halved by the empty right eye.
+        assert!(close(per_frame[2]["temporal"], 0.3), "{per_frame:?}");
+        let (means, se) = (ev.means(), ev.stderrs());
+        // Two temporal values, 0.25 and 0.3: mean 0.275, standard error 0.025.
+        assert_eq!(ev.series()["temporal"].len(), 2);
+        assert!(close(means["temporal"], 0.275), "{means:?}");
+        assert!(close(se["temporal"], 0.025), "{se:?}");
+        assert!(close(means["temporal_excess"], 0.275), "{means:?}");
+        // Three stereo values, 0.1, 0.2, 0.3: mean 0.2, standard error 0.1/√3.
+        assert_eq!(ev.series()["stereo_mean"].len(), 3);
+        assert!(close(means["stereo_mean"], 0.2), "{means:?}");
+        assert!(close(se["stereo_mean"], 0.1 / 3f64.sqrt()), "{se:?}");
+        assert!(close(means["stereo_excess"], 0.2), "{means:?}");
     }
 }

@@ -324,6 +324,11 @@ fn compare_records_ppd_masks_standard_errors_and_ratios() {
         );
         assert_eq!(a["metrics"]["temporal_covisible"].is_null(), i == 0);
     }
+    // The frames the temporal and stereo figures rest on (every frame with
+    // a co-visible pixel: all here, the first has no predecessor).
+    assert_eq!(json["masks"]["temporal_frames"], 2);
+    assert_eq!(json["masks"]["stereo_frames"], 3);
+    assert!(stdout.contains("scored on 2 and 3 frames"), "{stdout}");
     // Standard errors over the 3 frames, by hand from frames.jsonl.
     for (r, fr) in rows.iter().zip([&fa, &fb]) {
         let v: Vec<f64> = fr

@@ -80,12 +80,21 @@ pub fn print_reference_noise(cmp: &stereocache::compare::Comparison) {
             .map(|v| format!("{v:.3}"))
             .unwrap_or_else(|| "-".into())
     };
+    let scored = |k: &str| {
+        cmp.rows
+            .first()
+            .and_then(|row| stereocache::compare::scored_frames(row, k))
+            .map(|n| n.to_string())
+            .unwrap_or_else(|| "-".into())
+    };
     println!(
-        "metrics: FLIP at {:.3} pixels per degree ({}); temporal and stereo on one mask from the reference's geometry, co-visible {} and {}",
+        "metrics: FLIP at {:.3} pixels per degree ({}); temporal and stereo on one mask from the reference's geometry, co-visible {} and {}, scored on {} and {} frames (those with a co-visible pixel)",
         cmp.flip.ppd,
         cmp.flip.source,
         covisible("temporal_covisible"),
         covisible("stereo_covisible"),
+        scored("temporal"),
+        scored("stereo_mean"),
     );
     println!(
         "reference: {} spp (two independent halves of {}), estimated RSE {:.4} ± {:.1e}, MSE {:.3e} against the converged image, half-vs-half HDR-FLIP {:.4}{}",

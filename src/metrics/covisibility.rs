@@ -261,6 +261,12 @@ impl Covisibility {
         self.count.iter().map(|&c| c > 0).collect()
     }
 
+    /// Whether no destination pixel is co-visible: the metrics on this mask
+    /// have no value (not 0).
+    pub fn is_empty(&self) -> bool {
+        self.count.iter().all(|&c| c == 0)
+    }
+
     /// Co-visible pixels / all destination pixels.
     pub fn fraction(&self) -> f32 {
         self.count.iter().filter(|&&c| c > 0).count() as f32 / self.count.len().max(1) as f32

@@ -4,7 +4,9 @@
 //! Per co-visible right-eye pixel, the difference is the mean absolute RGB
 //! difference ([`pixel_difference`], linear values) between the right image
 //! and the reprojected left image. Reported: the mean, the 95th percentile
-//! (nearest rank) and the co-visible fraction. No co-visible pixel: all zero.
+//! (nearest rank) and the co-visible fraction. No co-visible pixel: no
+//! value — `mean` and `p95` are NaN (JSON `null`), `covisible_fraction` 0 —
+//! never a 0 that reads as no discrepancy; `evaluate` leaves such a pair out.
 
 use serde::Serialize;
 
@@ -16,9 +18,9 @@ use super::reproject::{pixel_difference, ViewBuffers};
 /// Stereo discrepancy of one stereo pair.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct StereoDiscrepancy {
-    /// Mean per-pixel difference over co-visible pixels.
+    /// Mean per-pixel difference over co-visible pixels (NaN: none).
     pub mean: f32,
-    /// 95th percentile (nearest rank) of the per-pixel difference.
+    /// 95th percentile (nearest rank) of the per-pixel difference (NaN: none).
     pub p95: f32,
     /// Co-visible pixels / all right-eye pixels.
     pub covisible_fraction: f32,
@@ -63,8 +65,8 @@ pub fn stereo_discrepancy_masked(
         .collect();
     if diffs.is_empty() {
         return Ok(StereoDiscrepancy {
-            mean: 0.0,
-            p95: 0.0,
+            mean: f32::NAN,
+            p95: f32::NAN,
             covisible_fraction: 0.0,
         });
     }
@@ -100,6 +102,23 @@ mod tests {
         let s = stereo_discrepancy(&vb(&l), &vb(&r), 0.01).unwrap();
         assert!(s.covisible_fraction > 0.99, "{s:?}");
         assert!(s.mean < 1e-5 && s.p95 < 1e-5, "{s:?}");
+    }
+
+    #[test]
+    fn no_covisible_pixel_has_no_value() {
+        let c = rig();
+        let [l, r] = [c.eye(Eye::Left), c.eye(Eye::Right)];
+        let img = LinearImage::filled(8, 8, [0.5; 3]);
+        let sky = vec![0.0f32; 8 * 8];
+        let vb = |view| ViewBuffers {
+            image: &img,
+            depth: &sky,
+            view,
+            first_hits: None,
+        };
+        let s = stereo_discrepancy(&vb(&l), &vb(&r), 0.01).unwrap();
+        assert!(s.mean.is_nan() && s.p95.is_nan(), "{s:?}");
+        assert_eq!(s.covisible_fraction, 0.0);
     }
 
     #[test]

@@ -5,7 +5,9 @@
 //! the **mean absolute difference** ([`pixel_difference`]: mean over RGB of
 //! `|Δ|`, linear values) over the co-visible pixels. Disocclusions, sky and
 //! off-screen pixels are excluded; `covisible_fraction` says how many pixels
-//! the mean rests on. No co-visible pixel: `mean = 0`, `covisible_fraction = 0`.
+//! the mean rests on. No co-visible pixel: no value — `mean` is NaN (JSON
+//! `null`), `covisible_fraction` 0 — never a 0 that reads as perfectly
+//! stable; `evaluate` leaves such a frame out.
 
 use serde::Serialize;
 
@@ -17,7 +19,7 @@ use super::reproject::{pixel_difference, ViewBuffers};
 /// Temporal instability of one frame pair.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct TemporalInstability {
-    /// Mean absolute RGB difference over co-visible pixels.
+    /// Mean absolute RGB difference over co-visible pixels (NaN: none).
     pub mean: f32,
     /// Co-visible pixels / all pixels of frame `t`.
     pub covisible_fraction: f32,
@@ -71,7 +73,11 @@ pub fn temporal_instability_masked(
         }
     });
     Ok(TemporalInstability {
-        mean: if n > 0 { (sum / n as f64) as f32 } else { 0.0 },
+        mean: if n > 0 {
+            (sum / n as f64) as f32
+        } else {
+            f32::NAN
+        },
         covisible_fraction: n as f32 / cur.len() as f32,
         map,
     })
@@ -97,6 +103,21 @@ mod tests {
         let t = temporal_instability(&b, &b, 0.01).unwrap();
         assert!(t.mean < 1e-5, "{}", t.mean);
         assert!(t.covisible_fraction > 0.99);
+    }
+
+    #[test]
+    fn no_covisible_pixel_has_no_value() {
+        let v = rig().eye(Eye::Left);
+        let img = LinearImage::filled(8, 8, [0.5; 3]);
+        let sky = vec![0.0f32; 8 * 8];
+        let b = ViewBuffers {
+            image: &img,
+            depth: &sky,
+            view: &v,
+            first_hits: None,
+        };
+        let t = temporal_instability(&b, &b, 0.01).unwrap();
+        assert!(t.mean.is_nan() && t.covisible_fraction == 0.0, "{t:?}");
     }
 
     #[test]
