@@ -1161,6 +1161,74 @@ fn bench_frame_counts_beyond_the_trace_are_refused_up_front() {
     }
 }
 
+/// The benchmarks pose an animated scene at each frame's time, as replay
+/// does (they rendered it at its rest pose: no motion, no TLAS rebuilds in
+/// the timings). A bench's frames are at 90 Hz, so an animation whose key
+/// at 1 s is 3e38 (looped over its 1 s of keys, lerped from 0) places the
+/// triangle at 3e38 / 90 = 3.333e36 on frame 1 (t = 1/90 s), beyond the
+/// ±1e15 world: refused before anything renders, naming that time, as a
+/// replay refuses it. The unbroken animation runs and reports the wall
+/// time of posing its frames (non-zero: sampling, TLAS rebuild, uploads).
+#[test]
+fn benches_pose_animated_scenes_at_each_frame_time() {
+    let root = out_dir("bench-poses");
+    std::fs::create_dir_all(&root).unwrap();
+    let trace = root.join("still.csv");
+    std::fs::write(
+        &trace,
+        "t,px,py,pz,qx,qy,qz,qw\n0,0,0,0,0,0,0,1\n2,0,0,0,0,0,0,1\n",
+    )
+    .unwrap();
+    let bench = |which: &str, scene: &Path, scene_flag: &str| {
+        let mut c = cli(1200);
+        c.args(["bench", which, scene_flag])
+            .arg(scene)
+            .arg("--trace")
+            .arg(&trace)
+            .args(["--frames", "2", "--size", "8x6", "--rt", "software"]);
+        if which == "specialization" {
+            c.args(["--methods", "naive", "--bounces", "1"]);
+        }
+        c.output().unwrap()
+    };
+    let broken = triangle_gltf(&root.join("key"), "", Some((0, 3e38)));
+    let at = format!(
+        "at {} s of its animation, instance 0 (node 'tri'): its bounds reach 3.333e36",
+        1.0f64 / 90.0
+    );
+    for (which, flag) in [("sample-cache", "--scene"), ("specialization", "--scenes")] {
+        let o = bench(which, &broken, flag);
+        let line = single_error_line(&o, which);
+        assert!(
+            line.contains("tri.gltf") && line.contains(&at),
+            "{which}: {line}"
+        );
+        let stdout = String::from_utf8_lossy(&o.stdout);
+        assert!(
+            !stdout.contains("scene"),
+            "{which}: rendered first:\n{stdout}"
+        );
+    }
+    let ok = triangle_gltf(&root.join("ok"), "", Some((0, 0.5)));
+    let o = bench("sample-cache", &ok, "--scene");
+    succeeded(&o);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    let posing: Vec<&str> = stderr
+        .lines()
+        .filter(|l| l.starts_with("posing the animated instances"))
+        .collect();
+    assert_eq!(posing.len(), 1, "{stderr}");
+    let ms: f64 = posing[0]
+        .split("): ")
+        .nth(1)
+        .and_then(|r| r.split(' ').next())
+        .and_then(|v| v.parse().ok())
+        .unwrap_or_else(|| panic!("no time in '{}'", posing[0]));
+    assert!(ms > 0.0, "{}", posing[0]);
+    assert!(posing[0].contains("2 measured frames"), "{}", posing[0]);
+    let _ = std::fs::remove_dir_all(&root);
+}
+
 /// Makes a FIFO at `p` (a special file: reading it blocks until a writer
 /// comes, like `/dev/zero` never ends; neither is a regular file).
 fn mkfifo(p: &Path) {

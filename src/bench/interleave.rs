@@ -3,6 +3,7 @@
 
 use crate::error::Result;
 use crate::methods::FrameInput;
+use crate::session::Session;
 
 /// Mean milliseconds per frame of the passes whose name starts with `prefix`.
 pub(crate) fn mean_pass_ms(frames: &[crate::methods::FrameStats], prefix: &str) -> f64 {
@@ -16,20 +17,86 @@ pub(crate) fn mean_pass_ms(frames: &[crate::methods::FrameStats], prefix: &str) 
     total / frames.len().max(1) as f64 + 0.0
 }
 
-/// Renders `cameras` with every method in `methods`, interleaved frame by
-/// frame in rotating order so drift of a shared machine hits them alike;
-/// frame 0 is a warm-up and not counted. Returns stats[method][frame].
+/// The scene time of frame `i` of a sequence rendered at `fps` frames per
+/// second (the rate its cameras were resampled at): frame / fps in f64, as
+/// replay computes it (`replay::replay_observed`).
+pub fn frame_time(i: usize, fps: f64) -> f64 {
+    i as f64 / fps
+}
+
+/// Refuses, before anything renders, an animation that would place an
+/// instance out of bounds in any of the first `frames` frames at `fps`
+/// ([`Session::check_poses`], as replay checks its frames up front). Nothing
+/// to do for a static scene.
+pub fn check_frame_poses(session: &Session, frames: usize, fps: f64) -> Result<()> {
+    session.check_poses((0..frames).map(|k| frame_time(k, fps)))
+}
+
+/// Poses the scene's instances for frame `i` of a sequence at `fps`, as
+/// replay does before each frame: at the frame's time, with the previous
+/// frame's beside it for the motion vectors (none on frame 0). Returns the
+/// wall-clock milliseconds it took (animation sampling, TLAS rebuild,
+/// uploads: outside every pass's GPU time), `None` on a static scene
+/// (where it does nothing).
+pub fn pose_frame(session: &Session, i: usize, fps: f64) -> Result<Option<f64>> {
+    let d = session.pose_instances(
+        frame_time(i, fps),
+        i.checked_sub(1).map(|p| frame_time(p, fps)),
+    )?;
+    Ok(session.scene.is_animated().then_some(d.as_secs_f64() * 1e3))
+}
+
+/// Prints (stderr) the mean wall-clock time of posing the animated
+/// instances per measured frame, which no pass's GPU time includes; nothing
+/// for a static scene (`pose_ms` empty).
+pub fn report_pose_ms(what: &str, pose_ms: &[f64]) {
+    if pose_ms.is_empty() {
+        return;
+    }
+    let mean = pose_ms.iter().sum::<f64>() / pose_ms.len() as f64;
+    let max = pose_ms.iter().copied().fold(0.0, f64::max);
+    eprintln!(
+        "posing the animated instances ({what}): {mean:.4} ms wall per frame \
+         (max {max:.4}, {} measured frames; animation sampling, TLAS rebuild, \
+         uploads; not in the GPU frame times)",
+        pose_ms.len()
+    );
+}
+
+/// What [`run_interleaved`] measured.
+pub struct Interleaved {
+    /// stats[method][frame] of the measured frames (frame 0 excluded).
+    pub stats: Vec<Vec<crate::methods::FrameStats>>,
+    /// Wall-clock ms of posing the instances before each measured frame
+    /// ([`pose_frame`]); empty for a static scene.
+    pub pose_ms: Vec<f64>,
+}
+
+/// Renders `cameras` (frames at `fps`) with every method in `methods`,
+/// interleaved frame by frame in rotating order so drift of a shared
+/// machine hits them alike; frame 0 is a warm-up and not counted. Before
+/// each frame the scene's instances are posed at the frame's time
+/// ([`pose_frame`]; the poses of every frame are checked first), once for
+/// all methods, since they share the session's scene.
 pub fn run_interleaved(
+    session: &Session,
     methods: &mut [Box<dyn crate::methods::Method>],
     cameras: &[crate::camera::StereoCamera],
-) -> Result<Vec<Vec<crate::methods::FrameStats>>> {
+    fps: f64,
+) -> Result<Interleaved> {
+    check_frame_poses(session, cameras.len(), fps)?;
     let mut stats = vec![Vec::new(); methods.len()];
+    let mut pose_ms = Vec::new();
     for (i, cam) in cameras.iter().enumerate() {
         let input = FrameInput {
             index: i as u32,
             camera: *cam,
             prev_camera: if i > 0 { Some(cameras[i - 1]) } else { None },
         };
+        let posing = pose_frame(session, i, fps)?;
+        if i > 0 {
+            pose_ms.extend(posing);
+        }
         for k in 0..methods.len() {
             let j = (k + i) % methods.len();
             let f = methods[j].render_frame(&input)?;
@@ -38,7 +105,7 @@ pub fn run_interleaved(
             }
         }
     }
-    Ok(stats)
+    Ok(Interleaved { stats, pose_ms })
 }
 
 /// Ratio of the means of `a` and `b` (paired per-frame times of two methods

@@ -37,6 +37,9 @@ pub fn bench_lights(
     frames: usize,
 ) -> Result<Vec<LightBenchRow>> {
     use crate::methods::{LightSampling, RenderSettings};
+    // A still of the scene: an animated one posed at time 0, as `render`
+    // poses it by default.
+    super::interleave::pose_frame(session, 0, 1.0)?;
     let frame = |i: u32| FrameInput {
         index: i,
         camera,

@@ -9,7 +9,7 @@
 //! order over `repeats` rounds, and each round's frame times are paired
 //! with the same round's "off" run for the ratio.
 
-use super::interleave::paired_ratio;
+use super::interleave::{check_frame_poses, paired_ratio, pose_frame, report_pose_ms};
 use crate::camera::StereoCamera;
 use crate::error::Result;
 use crate::gpu::GpuContext;
@@ -201,7 +201,9 @@ pub struct MemoBenchRow {
     pub cooperative_fills_per_frame: f64,
 }
 
-/// Renders `cameras` with `method` once per configuration and round.
+/// Renders `cameras` (frames at `fps`) with `method` once per configuration
+/// and round; an animated scene is posed at each frame's time (its poses
+/// checked before anything renders), as replay poses it.
 #[allow(clippy::too_many_arguments)]
 pub fn bench_materials(
     ctx: &Arc<GpuContext>,
@@ -210,21 +212,31 @@ pub fn bench_materials(
     method: &MethodConfig,
     settings: &RenderSettings,
     cameras: &[StereoCamera],
+    fps: f64,
     configs: &[(String, MemoSettings)],
     repeats: usize,
 ) -> Result<Vec<MemoBenchRow>> {
     // [config][round] -> per-frame (ms, counters)
     let mut runs: Vec<Vec<Vec<(f64, MemoCounters)>>> = vec![Vec::new(); configs.len()];
+    // Wall ms of posing before each steady frame, all runs.
+    let mut pose_ms = Vec::new();
     for round in 0..repeats.max(1) {
         for k in 0..configs.len() {
             let c = (k + round) % configs.len();
             let mut s = scene.clone();
             s.graphs.memo = configs[c].1;
             let session = Session::with_context(ctx.clone(), s, rt)?;
+            if round == 0 && k == 0 {
+                check_frame_poses(&session, cameras.len(), fps)?;
+            }
             let mut m = method.create(&session, settings)?;
             let memo = session.scene_gpu.memo.as_ref();
             let mut frames = Vec::with_capacity(cameras.len());
             for (i, cam) in cameras.iter().enumerate() {
+                let posing = pose_frame(&session, i, fps)?;
+                if i > 0 {
+                    pose_ms.extend(posing);
+                }
                 if let Some(t) = memo {
                     t.begin_frame(i as u32)?;
                 }
@@ -243,6 +255,7 @@ pub fn bench_materials(
             runs[c].push(frames);
         }
     }
+    report_pose_ms("materials, every configuration and round", &pose_ms);
     let steady_ms = |r: &Vec<Vec<(f64, MemoCounters)>>| -> Vec<f64> {
         r.iter()
             .flat_map(|f| f.iter().skip(1).map(|x| x.0))

@@ -12,7 +12,7 @@
 //! run (no table: the direct evaluation) in rotating order, like
 //! `bench_materials`.
 
-use super::interleave::mean_and_se;
+use super::interleave::{mean_and_se, pose_frame};
 use crate::camera::StereoCamera;
 use crate::error::Result;
 use crate::gpu::GpuContext;
@@ -118,6 +118,10 @@ pub fn bench_fill_cost(
         camera,
         prev_camera: None,
     };
+    // Every round renders frame 0: an animated scene posed at its time (0).
+    for s in &sessions {
+        pose_frame(s, 0, 1.0)?;
+    }
     for m in methods.iter_mut() {
         m.render_frame(&input)?;
     }

@@ -5,7 +5,9 @@
 //! `specialization` (specialized pipelines and skipped passes), `lights`
 //! (light sampling at equal time), `materials` and `memo_fill` (the
 //! material-graph memoization table: its sweep, and what a fill costs);
-//! `interleave` holds what they share.
+//! `interleave` holds what they share: among it the frame loop, which
+//! poses an animated scene's instances at each frame's time (frame / fps)
+//! as replay does.
 
 pub mod interleave;
 pub mod lights;
@@ -17,7 +19,9 @@ pub mod scaling;
 pub mod specialization;
 pub mod tradeoff;
 
-pub use interleave::{paired_ratio, run_interleaved};
+pub use interleave::{
+    check_frame_poses, frame_time, paired_ratio, pose_frame, run_interleaved, Interleaved,
+};
 pub use lights::{bench_lights, light_table, LightBenchRow};
 pub use materials::{
     bench_materials, memo_configs, memo_csv, memo_table, MemoBenchRow, SweepVariant,

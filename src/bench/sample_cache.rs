@@ -1,7 +1,9 @@
 //! `bench sample-cache`: the sample cache per retrace mode and reprojection
 //! variant against a plain scatter and 1 spp path tracing.
 
-use super::interleave::{mean_pass_ms, run_interleaved};
+use super::interleave::{
+    check_frame_poses, mean_pass_ms, pose_frame, report_pose_ms, run_interleaved,
+};
 use crate::error::Result;
 use crate::gpu::{shaders, Buffer, ComputePipeline, GpuError, Recorder};
 use crate::interface::bench;
@@ -26,14 +28,18 @@ pub struct CacheBenchRow {
 
 /// `stereocache bench sample-cache`: in one run on the same frames, the
 /// sample cache with each retrace mode and both reprojection variants, the
-/// plain one-sample scatter, and the 1 spp path tracer.
+/// plain one-sample scatter, and the 1 spp path tracer. `cameras` are
+/// frames at `fps`: an animated scene is posed at each frame's time (its
+/// poses checked before anything renders), as replay poses it.
 pub fn bench_sample_cache(
     session: &Session,
     cameras: &[crate::camera::StereoCamera],
+    fps: f64,
     base: &crate::methods::RenderSettings,
     cache: &crate::methods::SampleCacheSettings,
 ) -> Result<(Vec<CacheBenchRow>, ScatterBaselines)> {
     use crate::methods::sample_cache::{Reproject, Retrace, SampleCacheSettings};
+    check_frame_poses(session, cameras.len(), fps)?;
     let mut rows = Vec::new();
     // Per-pass profile on stderr: GPU ms per frame in recording order (mean
     // and, less sensitive to other processes on a CPU device, median over
@@ -138,8 +144,10 @@ pub fn bench_sample_cache(
     };
     methods.push(session.create(MethodKind::Reference, &naive)?);
     labels.push("1 spp path tracing");
-    let all = run_interleaved(&mut methods, cameras)?;
+    let run = run_interleaved(session, &mut methods, cameras, fps)?;
     drop(methods);
+    report_pose_ms("sample-cache rows and 1 spp", &run.pose_ms);
+    let all = run.stats;
     let n_cache = labels.len() - 1;
     for (k, (label, stats)) in labels.into_iter().zip(all).enumerate() {
         let n = stats.len().max(1) as f64;
@@ -176,7 +184,7 @@ pub fn bench_sample_cache(
             frame_ms_per_frame: frame_ms,
         });
     }
-    Ok((rows, scatter_baselines(session, cameras, base, cache)?))
+    Ok((rows, scatter_baselines(session, cameras, fps, base, cache)?))
 }
 
 /// GPU times of the two scatter baselines of `bench sample-cache` (mean ms
@@ -195,10 +203,12 @@ pub struct ScatterBaselines {
 
 /// Runs both scatter baselines in the same command buffer per frame over
 /// `cameras` (frame 0 not counted): sources are the reference's first hits of
-/// frame 0 and a sample cache (`cache`) after up to 10 frames.
+/// frame 0 and a sample cache (`cache`) after up to 10 frames. Every frame
+/// (those of the sources too) poses an animated scene at its time at `fps`.
 fn scatter_baselines(
     session: &Session,
     cameras: &[crate::camera::StereoCamera],
+    fps: f64,
     base: &crate::methods::RenderSettings,
     cache: &crate::methods::SampleCacheSettings,
 ) -> Result<ScatterBaselines> {
@@ -214,6 +224,7 @@ fn scatter_baselines(
             ..base.clone()
         },
     )?;
+    pose_frame(session, 0, fps)?;
     let f0 = reference.render_frame(&FrameInput {
         index: 0,
         camera: cameras[0],
@@ -237,6 +248,7 @@ fn scatter_baselines(
         use crate::methods::Method;
         let warm = cameras.len().min(11);
         for (i, cam) in cameras[..warm].iter().enumerate() {
+            pose_frame(session, i, fps)?;
             cache.render_frame(&FrameInput {
                 index: i as u32,
                 camera: *cam,
@@ -299,6 +311,7 @@ fn scatter_baselines(
     let groups = [w.div_ceil(8), h.div_ceil(8), 2];
     let (mut one, mut all) = (0.0, 0.0);
     for (i, cam) in cameras.iter().enumerate() {
+        pose_frame(session, i, fps)?;
         let params = FrameParams::new(
             &FrameInput {
                 index: i as u32,

@@ -1,6 +1,6 @@
 //! `bench scaling`: frame time against pixels and triangles, with fitted exponents.
 
-use super::interleave::run_interleaved;
+use super::interleave::{report_pose_ms, run_interleaved};
 use crate::error::Result;
 use crate::methods::MethodKind;
 use crate::session::Session;
@@ -22,19 +22,24 @@ pub fn fit_slope(points: &[(f64, f64)]) -> f64 {
 }
 
 /// Steady-state mean GPU ms per frame of each of `methods` over `cameras`
-/// (frame 0 excluded), the methods rendering the frames interleaved.
+/// (frames at `fps`; frame 0 excluded), the methods rendering the frames
+/// interleaved; an animated scene is posed at each frame's time (the time
+/// posing takes is reported apart, on stderr).
 pub fn steady_frame_ms(
     session: &Session,
     methods: &[MethodKind],
     settings: &crate::methods::RenderSettings,
     cameras: &[crate::camera::StereoCamera],
+    fps: f64,
 ) -> Result<Vec<f64>> {
     let mut m = Vec::new();
     for &kind in methods {
         m.push(session.create(kind, settings)?);
     }
-    let stats = run_interleaved(&mut m, cameras)?;
-    Ok(stats
+    let run = run_interleaved(session, &mut m, cameras, fps)?;
+    report_pose_ms("scaling point", &run.pose_ms);
+    Ok(run
+        .stats
         .iter()
         .map(|v| v.iter().map(|s| s.gpu_ms()).sum::<f64>() / v.len().max(1) as f64)
         .collect())

@@ -1,7 +1,7 @@
 //! `bench specialization`: what pipelines specialized to a scene's features
 //! and skipped passes save against the all-features build.
 
-use super::interleave::{paired_ratio, run_interleaved};
+use super::interleave::{check_frame_poses, paired_ratio, report_pose_ms, run_interleaved};
 use crate::error::Result;
 use crate::methods::MethodKind;
 use crate::session::Session;
@@ -84,16 +84,21 @@ pub struct SpecBenchRow {
 /// bounce count — the specialized build with one unused feature compiled
 /// back in, for each feature the scene lacks. All builds of a group render
 /// the same frames interleaved (frame by frame, in rotating order) so drift
-/// of a shared machine hits them alike.
+/// of a shared machine hits them alike. `cameras` are frames at `fps`: an
+/// animated scene is posed at each frame's time (its poses checked before
+/// anything renders), as replay poses it.
+#[allow(clippy::too_many_arguments)]
 pub fn bench_specialization(
     session: &Session,
     scene_label: &str,
     methods: &[MethodKind],
     bounce_counts: &[u32],
     cameras: &[crate::camera::StereoCamera],
+    fps: f64,
     base: &crate::methods::RenderSettings,
 ) -> Result<Vec<SpecBenchRow>> {
     use crate::methods::RenderSettings;
+    check_frame_poses(session, cameras.len(), fps)?;
     let used = session.scene_gpu.features;
     let max_bounces = bounce_counts.iter().copied().max().unwrap_or(0);
     let mut rows = Vec::new();
@@ -131,8 +136,13 @@ pub fn bench_specialization(
                 instances.push(session.create(method, s)?);
             }
             // times[build][frame], pass counts per build.
-            let stats = run_interleaved(&mut instances, cameras)?;
+            let run = run_interleaved(session, &mut instances, cameras, fps)?;
             drop(instances);
+            report_pose_ms(
+                &format!("{scene_label}, {}, {bounces} bounces", method.name()),
+                &run.pose_ms,
+            );
+            let stats = run.stats;
             let times: Vec<Vec<f64>> = stats
                 .iter()
                 .map(|v| v.iter().map(|f| f.gpu_ms()).collect())

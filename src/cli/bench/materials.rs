@@ -134,6 +134,9 @@ pub fn run(a: BenchMaterialsArgs) -> Result<()> {
         None,
         Some(a.frames),
     )?;
+    // (--fill-cost renders frame 0 alone.)
+    let posed = if a.fill_cost { 1 } else { a.frames };
+    stereocache::bench::check_frame_poses(&probe, posed, DEFAULT_FPS)?;
     drop(probe);
     if cameras.len() < a.frames {
         bail!(
@@ -208,6 +211,7 @@ pub fn run(a: BenchMaterialsArgs) -> Result<()> {
         &MethodConfig::from(a.method),
         &settings,
         &cameras,
+        DEFAULT_FPS,
         &configs,
         a.repeats,
     )?;

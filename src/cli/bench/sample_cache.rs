@@ -65,6 +65,7 @@ pub fn run(a: SampleCacheBenchArgs) -> Result<()> {
         None,
         Some(frames + 1),
     )?;
+    stereocache::bench::check_frame_poses(&session, cameras.len(), DEFAULT_FPS)?;
     let c = &session.ctx.caps;
     println!("{}", device_line(c));
     println!(
@@ -93,7 +94,7 @@ pub fn run(a: SampleCacheBenchArgs) -> Result<()> {
         ..SampleCacheSettings::default()
     };
     let (rows, scatter) =
-        stereocache::bench::bench_sample_cache(&session, &cameras, &base, &cache)?;
+        stereocache::bench::bench_sample_cache(&session, &cameras, DEFAULT_FPS, &base, &cache)?;
     print_table(&rows, &scatter);
     print_ratios(
         &rows,

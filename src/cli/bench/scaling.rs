@@ -83,8 +83,13 @@ impl Sweep<'_> {
     ) -> Result<()> {
         let cams = self.cameras(session, w, h)?;
         let mut line = label;
-        let times =
-            stereocache::bench::steady_frame_ms(session, self.methods, &Self::base(w, h), &cams)?;
+        let times = stereocache::bench::steady_frame_ms(
+            session,
+            self.methods,
+            &Self::base(w, h),
+            &cams,
+            DEFAULT_FPS,
+        )?;
         for (i, (m, ms)) in self.methods.iter().zip(times).enumerate() {
             by_method[i].push((x, ms));
             line.push_str(&format!("  {m} {ms:8.2}"));

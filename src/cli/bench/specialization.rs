@@ -102,6 +102,7 @@ pub fn run(a: BenchSpecArgs) -> Result<()> {
     for (label, scene) in scenes {
         let triangles = scene.instanced_triangle_count();
         let session = Session::with_context(ctx.clone(), scene, rt)?;
+        stereocache::bench::check_frame_poses(&session, a.frames + 1, DEFAULT_FPS)?;
         println!(
             "\nscene {label} ({triangles} triangles, backend {}): uses {}; lacks {}",
             session.backend,
@@ -129,7 +130,13 @@ pub fn run(a: BenchSpecArgs) -> Result<()> {
         }
         cameras.truncate(a.frames + 1);
         let r = stereocache::bench::bench_specialization(
-            &session, &label, methods, bounces, &cameras, &base,
+            &session,
+            &label,
+            methods,
+            bounces,
+            &cameras,
+            DEFAULT_FPS,
+            &base,
         )?;
         print!("{}", stereocache::bench::spec_table(&r));
         rows.extend(r);
