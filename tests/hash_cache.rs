@@ -657,3 +657,73 @@ fn static_view_keeps_every_taa_history() {
     assert_eq!(fr.stats.rays.primary as f64, pixels);
     assert_no_validation_messages(&ctx);
 }
+
+/// Level of detail (paper §4: "voxels … smaller than a pixel"), over a wide
+/// (110°) perspective view straight down onto a plane: at every pixel the
+/// voxel edge 2^L lies in (f/2, f], f the footprint of that pixel across its
+/// ray computed here from the camera model, t · (2 tan(yfov/2) / h) · cos²φ
+/// (φ the ray's angle to the view axis: a planar image's pixel subtends the
+/// centre pixel's angle × cos²φ along the radius, × cos φ across it). The
+/// centre-pixel footprint alone (cos²φ = 1, the LoD before) makes the voxels
+/// at this view's periphery 2–4 pixels wide.
+#[test]
+fn voxels_are_smaller_than_the_pixel_everywhere_in_a_wide_view() {
+    let ctx = context();
+    let mut plane = stereocache::scene::Material::diffuse("grey", Vec3::splat(0.5));
+    plane.specular = 0.0;
+    let s = session(
+        &ctx,
+        plane_in_environment(plane, 100.0, Vec3::ONE),
+        RtChoice::Software,
+    );
+    let (w, h) = (32u32, 32u32);
+    let yfov = 110f32.to_radians();
+    // Looking straight down (−Y) from 2 m.
+    let head = stereocache::camera::HeadPose::new(
+        Vec3::new(0.0, 2.0, 0.0),
+        glam::Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2),
+    );
+    let cam = StereoCamera::new(head, yfov, 1.0);
+    let hs = HashCacheSettings {
+        taa: false,
+        ..Default::default()
+    };
+    let mut m = hash_method(&s, &settings(w, h, hs));
+    let fr = render_at(&mut m, 0, cam, None);
+    assert_finite_non_negative(&fr, "plane");
+    let req = m.pixel_requests().unwrap();
+    let spread = 2.0 * (0.5 * yfov).tan() / h as f32;
+    let npix = (w * h) as usize;
+    let (mut checked, mut finer_than_centre, mut min_cos2) = (0usize, 0usize, 1f32);
+    for (e, eye) in cam.eyes().iter().enumerate() {
+        let fwd = eye.orientation * Vec3::NEG_Z;
+        for pixel in 0..npix {
+            let [dx, dy, dz, t] = req.rays[e * npix + pixel];
+            assert!(t > 0.0, "eye {e} pixel {pixel}: the plane fills the view");
+            let cos = Vec3::new(dx, dy, dz).dot(fwd);
+            let f = t * spread * cos * cos;
+            let level = VoxelKey {
+                coord: [0; 3],
+                meta: req.cells[e * npix + pixel][3],
+            }
+            .level();
+            let edge = (level as f32).exp2();
+            assert!(
+                edge <= f * 1.001 && 2.0 * edge > f * 0.999,
+                "eye {e} pixel {pixel} (cos²φ {:.3}): voxel edge {edge} against the pixel footprint {f}",
+                cos * cos
+            );
+            let centre_level = (t * spread).log2().floor() as i32;
+            finer_than_centre += (level < centre_level) as usize;
+            min_cos2 = min_cos2.min(cos * cos);
+            checked += 1;
+        }
+    }
+    eprintln!(
+        "{checked} pixels, {finer_than_centre} with a finer level than the centre pixel's footprint gives; min cos²φ {min_cos2:.3}"
+    );
+    // tan(55°)·√2 at the corners: cos²φ ≈ 0.2, more than two levels finer.
+    assert!(min_cos2 < 0.25);
+    assert!(finer_than_centre > checked / 4);
+    assert_no_validation_messages(&ctx);
+}

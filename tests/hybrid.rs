@@ -9,7 +9,10 @@ use common::*;
 use glam::Vec3;
 use std::path::Path;
 use std::process::Command;
-use stereocache::camera::{Eye, StereoCamera};
+use stereocache::camera::{Eye, Projection, StereoCamera};
+use stereocache::methods::hash_cache::hash::{
+    entry_checksum, entry_frame, pack_meta, VoxelKey, NO_AXIS,
+};
 use stereocache::methods::hash_cache::{HashCacheSettings, HashLod};
 use stereocache::methods::hybrid::HybridLookups;
 use stereocache::methods::sample_cache::background::background_direction;
@@ -590,5 +593,184 @@ fn per_pixel_static_view_converges_towards_the_reference() {
         m > -4.0 * se,
         "error rises from frame 8 to 32: {m:.3e} ± {se:.1e}"
     );
+    assert_no_validation_messages(&ctx);
+}
+
+/// A grey Lambert plane (XZ, facing +Y) of side `size` in a white environment.
+fn grey_plane(size: f32) -> stereocache::scene::Scene {
+    let mut m = stereocache::scene::Material::diffuse("grey", Vec3::splat(0.5));
+    m.specular = 0.0;
+    plane_in_environment(m, size, Vec3::ONE)
+}
+
+/// A head at `p` looking straight down (−Y; image +X right, −Z up).
+fn looking_down(p: Vec3, yfov: f32) -> StereoCamera {
+    let head = stereocache::camera::HeadPose::new(
+        p,
+        glam::Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2),
+    );
+    StereoCamera::new(head, yfov, 1.0)
+}
+
+/// The level of detail of a pixel request's meta word.
+fn meta_level(meta: u32) -> i32 {
+    VoxelKey {
+        coord: [0; 3],
+        meta,
+    }
+    .level()
+}
+
+/// Level of detail (paper §4: voxels smaller than a pixel) as the hybrid's
+/// updates use it, over a wide (110°) perspective view straight down onto a
+/// plane: every pixel's update is at level L or its parent L + 1, L the
+/// level whose voxel edge 2^L lies in (f/2, f], f the footprint across the
+/// ray of the pixel the sample lies in, computed here from the camera model:
+/// t · (2 tan(yfov/2) / h) · cos²φ (φ the ray's angle to the view axis). The
+/// centre pixel's footprint alone (the LoD before) gives the periphery's
+/// updates levels up to L + 4.
+#[test]
+fn updates_keep_voxels_smaller_than_the_pixel_everywhere_in_a_wide_view() {
+    let ctx = context();
+    let s = session(&ctx, grey_plane(100.0), RtChoice::Software);
+    let (w, h) = (32u32, 32u32);
+    let yfov = 110f32.to_radians();
+    let cam = looking_down(Vec3::new(0.0, 2.0, 0.0), yfov);
+    let hs = HashCacheSettings {
+        taa: false,
+        ..Default::default()
+    };
+    let mut m = hybrid(&s, &settings_with(w, h, hs, HybridLookups::PerPixel));
+    let spread = 2.0 * (0.5 * yfov).tan() / h as f32;
+    let npix = (w * h) as usize;
+    let mut prev = None;
+    let (mut checked, mut min_cos2) = (0usize, 1f32);
+    for f in 0..2 {
+        let fr = render_at(&mut m, f, cam, prev);
+        prev = Some(cam);
+        assert_finite_non_negative(&fr, "plane");
+        let req = m.pixel_requests().unwrap();
+        for (e, eye) in cam.eyes().iter().enumerate() {
+            let fwd = eye.orientation * Vec3::NEG_Z;
+            for pixel in 0..npix {
+                let cell = req.cells[e * npix + pixel];
+                if cell[1] & 15 == 4 {
+                    continue; // ST_MISS: no update
+                }
+                let [dx, dy, dz, t] = req.rays[e * npix + pixel];
+                let cos = Vec3::new(dx, dy, dz).dot(fwd);
+                let fp = t * spread * cos * cos;
+                // The fine level, either side of a power of two within f32 rounding.
+                let fine = [
+                    (fp * 1.001).log2().floor() as i32,
+                    (fp * 0.999).log2().floor() as i32,
+                ];
+                let level = meta_level(cell[3]);
+                assert!(
+                    fine.iter().any(|l| level == *l || level == l + 1),
+                    "frame {f} eye {e} pixel {pixel} (cos²φ {:.3}): update at level {level}, footprint {fp} (fine level {})",
+                    cos * cos,
+                    fine[0]
+                );
+                min_cos2 = min_cos2.min(cos * cos);
+                checked += 1;
+            }
+        }
+    }
+    eprintln!("{checked} updates checked, min cos²φ {min_cos2:.3}");
+    assert!(checked > 3 * npix && min_cos2 < 0.25);
+    assert_no_validation_messages(&ctx);
+}
+
+/// Paper §4: "we compute the final colour from the hit voxel and its parent
+/// one level-of-detail above. The update randomly updates one of the two
+/// levels". Both levels must key the same point, jittered at the fine level:
+/// voxel coordinates are floor(p / 2^level), so the L + 1 voxel contains the
+/// L voxel exactly when both key one point. An orthographic eye straight
+/// down onto a plane has one level everywhere (pixel 3/64 m: L = −5, voxel
+/// 1/32 m, parent 1/16 m); the image's right edge X0 lies 0.55 fine voxels
+/// left of the coarse voxel boundary x = 1. Jittered at the fine level, no
+/// lookup point passes X0 + 1/2 fine voxel, so neither the reserve nor the
+/// resolve's find touches a coarse voxel beyond x = 1; a jitter scaled to
+/// the coarse voxel (the points moved by up to a whole fine voxel) does.
+/// The coarse voxels beyond x = 1 are made to exist first (the view shifted
+/// right), so a resolve that looks them up refreshes them: after every frame
+/// none of them may carry that frame's stamp.
+#[test]
+fn per_pixel_coarse_level_is_the_fine_voxels_parent() {
+    let ctx = context();
+    let s = session(&ctx, grey_plane(8.0), RtChoice::Software);
+    let (w, h) = (32u32, 32u32);
+    let ymag = 0.75; // pixel 2·ymag/h = 3/64 m
+    let (fine, coarse) = (-5i32, -4i32);
+    let boundary = 1.0f32; // a multiple of the coarse voxel 1/16
+    let x0 = boundary - 0.55 / 32.0;
+    let cam_at = |x: f32| {
+        let mut c = looking_down(Vec3::new(x - ymag, 3.0, 0.0), 1.0);
+        c.projection = Projection::Orthographic { ymag };
+        c.ipd = 0.0;
+        c
+    };
+    let hs = HashCacheSettings {
+        tiles: false,
+        taa: false,
+        capacity: 1 << 16,
+        stale_frames: 1000,
+        ..Default::default()
+    };
+    let mut m = hybrid(&s, &settings_with(w, h, hs, HybridLookups::PerPixel));
+    // The coarse voxels with x-index ≥ 16 (x ≥ 1) over the view's z range
+    // (±0.75 m) and either side of y = 0.
+    let beyond: std::collections::HashSet<u32> = (16..18)
+        .flat_map(|x| (-1..1).flat_map(move |y| (-14..14).map(move |z| [x, y, z])))
+        .map(|coord| {
+            VoxelKey {
+                coord,
+                meta: pack_meta(coarse, NO_AXIS, 0, false),
+            }
+            .checksum()
+        })
+        .collect();
+    let mut prev = None;
+    for f in 0..12u32 {
+        // Frames 0..4 see up to 0.5 m beyond x0; then the edge is at x0.
+        let shifted = f < 4;
+        let cam = cam_at(if shifted { x0 + 0.5 } else { x0 });
+        let fr = render_at(&mut m, f, cam, prev);
+        prev = Some(cam);
+        assert_finite_non_negative(&fr, "plane");
+        let req = m.pixel_requests().unwrap();
+        for c in &req.cells {
+            if c[1] & 15 != 4 {
+                let l = meta_level(c[3]);
+                assert!(l == fine || l == coarse, "frame {f}: level {l}");
+            }
+        }
+        let snap = m.snapshot().unwrap();
+        let present: Vec<u64> = snap
+            .keys
+            .iter()
+            .copied()
+            .filter(|k| beyond.contains(&entry_checksum(*k)))
+            .collect();
+        if shifted {
+            continue;
+        }
+        assert!(
+            present.len() > 20,
+            "frame {f}: only {} coarse voxels beyond x = 1 in the table",
+            present.len()
+        );
+        let touched = present
+            .iter()
+            .filter(|k| entry_frame(**k) == snap.now)
+            .count();
+        assert_eq!(
+            touched,
+            0,
+            "frame {f}: {touched} of the {} coarse voxels beyond x = 1 looked up (image edge at x = {x0})",
+            present.len()
+        );
+    }
     assert_no_validation_messages(&ctx);
 }

@@ -114,10 +114,21 @@ uint hc_find_or_insert(uint h, uint local_offset, uint c, out uint slot, out boo
     return ST_FAILED;
 }
 
-// Level of detail: voxel edge 2^level ≤ footprint (the pixel footprint at the
-// hit, × lod_scale; with distance-normal LoD divided by |cos θ| ≥ 1/16).
+// Level of detail: voxel edge 2^level ≤ footprint, the footprint across the
+// eye ray d of the pixel it passes through, at the hit distance t, ×
+// lod_scale (paper §4: voxels smaller than a pixel). A perspective eye's
+// pixel off the axis by φ (cos φ = d·fwd) subtends the centre pixel's spread
+// × cos²φ along the radius and × cos φ across it (a planar image): the
+// smaller, cos²φ, is taken, so voxels are smaller than a pixel over the
+// whole image. An orthographic eye's pixels are all one size. With
+// distance-normal LoD the footprint is divided by |cos θ| ≥ 1/16. d must be
+// the eye ray's direction (every caller passes it), not a bounce's.
 int hc_level(float t, vec3 d, vec3 ng, EyeGpu e) {
     float footprint = eye_cone(e, t).x * pc.lod_scale;
+    if (!eye_is_ortho(e)) {
+        float c = dot(d, e.fwd.xyz);
+        footprint *= c * c;
+    }
     if (hc_lod_normal()) footprint /= max(abs(dot(d, ng)), 1.0 / 16.0);
     return clamp(int(floor(log2(max(footprint, 1e-30)))), -24, 23);   // 60 nm .. 8 km
 }

@@ -75,7 +75,8 @@ uint hy_pixel_sample(uint eye, uint pixel, uint all_vis, out vec2 j) {
 }
 
 // Voxel jitter as in HashCache (hash_cache/primary.comp, [BFK18]): p moved
-// by j voxels of `level` in the tangent plane of ng.
+// by j voxels of `level` in the tangent plane of ng. Reserve and resolve
+// jitter at the fine level L and key L and L + 1 at the same point.
 vec3 hy_jittered(vec3 p, vec3 ng, int level, vec2 j) {
     vec3 tu, tv;
     hc_tangents(ng, tu, tv);

@@ -6,7 +6,8 @@
 // lookup for shading); the first toucher of an entry this frame becomes its
 // updater. The sample: per-pixel lookups (default) the pixel's sample of this
 // frame (hy_pixel_sample; a background one makes no lookup), its point
-// voxel-jittered; per-sample lookups round robin over the surface samples
+// voxel-jittered at level L's scale whichever level it updates (so the L + 1
+// voxel is the parent of the L voxel, as in resolve.comp); per-sample lookups round robin over the surface samples
 // (hy_update_slot), unjittered. Writes pix_hit / pix_ray / pix_cell in the
 // hash cache's format, so hash_table/update.comp then traces the secondary
 // path unchanged.
@@ -48,9 +49,12 @@ void main() {
     Surface s = surface_at(fh.w, fh.z, bary, d);
     Rng r = rng_init(frame.size_seed.z, pc.now, eye, pixel, 0x4B1D0001u);
     bool coarse = rng_next(r) < 0.5;
-    int level = hc_level(t, d, s.ng, e) + (coarse ? 1 : 0);
+    int fine = hc_level(t, d, s.ng, e);
+    int level = fine + (coarse ? 1 : 0);
+    // Both levels key the point jittered at the fine level's scale, as the
+    // resolve does, so the L + 1 voxel updated is the parent of the L voxel.
     uint h, local_offset, chk;
-    hy_key(PER_SAMPLE ? wp : hy_jittered(wp, s.ng, level, j), s.ng, level, h, local_offset, chk);
+    hy_key(PER_SAMPLE ? wp : hy_jittered(wp, s.ng, fine, j), s.ng, level, h, local_offset, chk);
     uint slot;
     bool winner;
     uint st = hc_find_or_insert(h, local_offset, chk, slot, winner);

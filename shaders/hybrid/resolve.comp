@@ -8,8 +8,8 @@
 //  * per-pixel lookups (default; paper §4/§5.1, "three lookups per pixel
 //    (one for shading, two for reconstruction)"): the pixel's sample of this
 //    frame (hy_pixel_sample, the same as reserve.comp's) looks up (find
-//    only) its voxel-jittered point at the hash cache's level L and the
-//    parent L + 1 ("the hit voxel and its parent one level-of-detail above");
+//    only) its point, voxel-jittered at level L's scale, at the hash cache's
+//    level L and at the parent L + 1 (both keyed at that one point) ("the hit voxel and its parent one level-of-detail above");
 //    colour = base colour × the mean of the levels that hold radiance +
 //    emission (the pixel's own path where its reservation failed; emission
 //    alone where neither level holds radiance). TAA integrates the samples.
@@ -40,9 +40,13 @@ void resolve_per_pixel(uint eye, uint pixel, uint pm, uint all_vis, uint vis, Ey
         int level = hc_level(t, d, s.ng, e);
         vec3 acc = vec3(0.0);
         bool got[2] = bool[2](false, false);
+        // One point, jittered at the fine level's scale, keys both levels: the
+        // L + 1 voxel is then the parent of the L voxel (floor(p / 2^(L+1)) =
+        // floor(floor(p / 2^L) / 2)), the one reserve.comp updates.
+        vec3 pj = hy_jittered(wp, s.ng, level, j);
         for (int k = 0; k < 2; ++k) {
             uint h, local_offset, chk, slot;
-            hy_key(hy_jittered(wp, s.ng, level + k, j), s.ng, level + k, h, local_offset, chk);
+            hy_key(pj, s.ng, level + k, h, local_offset, chk);
             if (hy_find(h, local_offset, chk, slot)) {
                 vec4 cl = cells[slot];
                 if (cl.w > 0.0) { acc += cl.rgb; got[k] = true; }

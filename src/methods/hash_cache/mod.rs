@@ -19,7 +19,7 @@ pub mod settings;
 
 /// The table's keys and hashes, where they were before the table had its own module.
 pub use super::hash_table::hash;
-pub use super::hash_table::{TableSnapshot, ENTRY_BYTES};
+pub use super::hash_table::{PixelRequests, TableSnapshot, ENTRY_BYTES};
 pub use settings::{HashCacheSettings, HashLod};
 
 use super::hash_table::{self as table, HashTable, TableDesc};
@@ -135,6 +135,11 @@ impl HashCache {
     /// Reads the table back (after `render_frame`).
     pub fn snapshot(&self) -> GpuResult<TableSnapshot> {
         self.table.snapshot()
+    }
+
+    /// The last frame's per-pixel lookup requests (after `render_frame`).
+    pub fn pixel_requests(&self) -> GpuResult<PixelRequests> {
+        self.table.pixel_requests()
     }
 
     /// Starts the frame counter at `frames` (tests of the wrap-around at 2^32).

@@ -29,4 +29,4 @@ mod table;
 pub use counters::{table_counters, with_occupancy, OCCUPANCY};
 pub use pixels::PixelBuffers;
 pub use push::TablePush;
-pub use table::{stamp, HashTable, TableDesc, TableSnapshot, ENTRY_BYTES};
+pub use table::{stamp, HashTable, PixelRequests, TableDesc, TableSnapshot, ENTRY_BYTES};

@@ -80,6 +80,14 @@ pub struct TableSnapshot {
     pub now: u32,
 }
 
+/// The per-pixel lookup requests read back ([`HashTable::pixel_requests`]).
+pub struct PixelRequests {
+    /// Direction to the first hit and its distance t (< 0: miss).
+    pub rays: Vec<[f32; 4]>,
+    /// Slot, status | winner << 4, checksum, meta.
+    pub cells: Vec<[u32; 4]>,
+}
+
 pub struct HashTable {
     settings: HashCacheSettings,
     label: &'static str,
@@ -291,6 +299,17 @@ impl HashTable {
             keys: self.keys.download_pod()?,
             cells: self.cells.download_pod()?,
             now: stamp(self.frames.saturating_sub(1)),
+        })
+    }
+
+    /// The per-pixel lookup requests of the last frame read back
+    /// (`[eye][pixel]`, tests): the rays (direction, t; t < 0 a miss) and
+    /// the cells (slot, status | winner << 4, checksum, meta: the level of
+    /// detail looked up is `VoxelKey { meta, .. }.level()`).
+    pub fn pixel_requests(&self) -> GpuResult<PixelRequests> {
+        Ok(PixelRequests {
+            rays: self.pixels.ray.download_pod()?,
+            cells: self.pixels.cell.download_pod()?,
         })
     }
 

@@ -40,7 +40,7 @@ pub mod config;
 
 pub use config::{HybridConfig, HybridLookups};
 
-use super::hash_cache::HashCacheSettings;
+use super::hash_cache::{HashCacheSettings, PixelRequests, TableSnapshot};
 use super::hash_table::{self as table, HashTable, TableDesc};
 use super::taa::TaaPass;
 use super::{
@@ -127,6 +127,17 @@ impl Hybrid {
 
     pub fn hash_settings(&self) -> &HashCacheSettings {
         self.table.settings()
+    }
+
+    /// Reads the table back (after `render_frame`).
+    pub fn snapshot(&self) -> GpuResult<TableSnapshot> {
+        self.table.snapshot()
+    }
+
+    /// The last frame's per-pixel update requests of `reserve.comp` (after
+    /// `render_frame`): the level in a cell's meta is the one updated.
+    pub fn pixel_requests(&self) -> GpuResult<PixelRequests> {
+        self.table.pixel_requests()
     }
 }
 
