@@ -727,3 +727,29 @@ fn voxels_are_smaller_than_the_pixel_everywhere_in_a_wide_view() {
     assert!(finer_than_centre > checked / 4);
     assert_no_validation_messages(&ctx);
 }
+
+/// `--hash-no-taa` builds no TAA: the method's memory is smaller by exactly
+/// the TAA's buffers, which hold per pixel of both eyes two colour
+/// histories (16 B each), the previous depth (4 B) and first hit (16 B),
+/// plus a frame-parameter and a counter buffer (under 4 KiB). Before, the
+/// TAA was built and counted whether it ran or not.
+#[test]
+fn no_taa_builds_no_taa_buffers() {
+    let ctx = context();
+    let s = session(&ctx, shipped("cornell"), RtChoice::Software);
+    let (w, h) = (32, 24);
+    let bytes = |taa: bool| {
+        let hs = HashCacheSettings {
+            taa,
+            ..Default::default()
+        };
+        hash_method(&s, &settings(w, h, hs)).memory_bytes()
+    };
+    let per_pixel = 2 * (w * h) as u64 * (16 + 16 + 4 + 16);
+    let taa = bytes(true) - bytes(false);
+    assert!(
+        taa >= per_pixel && taa < per_pixel + 4096,
+        "the TAA's share of the memory: {taa} B, its buffers {per_pixel} B + < 4 KiB"
+    );
+    assert_no_validation_messages(&ctx);
+}

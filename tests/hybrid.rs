@@ -774,3 +774,27 @@ fn per_pixel_coarse_level_is_the_fine_voxels_parent() {
     }
     assert_no_validation_messages(&ctx);
 }
+
+/// `--hash-no-taa` builds no TAA (as tests/hash_cache.rs
+/// `no_taa_builds_no_taa_buffers`): the memory is smaller by the TAA's
+/// per-pixel buffers (52 B per pixel of both eyes) and under 4 KiB more.
+#[test]
+fn no_taa_builds_no_taa_buffers() {
+    let ctx = context();
+    let s = session(&ctx, shipped("cornell"), RtChoice::Software);
+    let (w, h) = (32, 24);
+    let bytes = |taa: bool| {
+        let hs = HashCacheSettings {
+            taa,
+            ..Default::default()
+        };
+        hybrid(&s, &settings_with(w, h, hs, HybridLookups::PerPixel)).memory_bytes()
+    };
+    let per_pixel = 2 * (w * h) as u64 * (16 + 16 + 4 + 16);
+    let taa = bytes(true) - bytes(false);
+    assert!(
+        taa >= per_pixel && taa < per_pixel + 4096,
+        "the TAA's share of the memory: {taa} B, its buffers {per_pixel} B + < 4 KiB"
+    );
+    assert_no_validation_messages(&ctx);
+}

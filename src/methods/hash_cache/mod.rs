@@ -58,7 +58,8 @@ pub struct HashCache {
     pipes: Pipelines,
     frame: Buffer,
     centre: CentreHits,
-    taa: TaaPass,
+    /// The one TAA, built only where it runs (not under `--hash-no-taa`).
+    taa: Option<TaaPass>,
     readback: HostReadback,
 }
 
@@ -102,7 +103,10 @@ impl HashCache {
             depth: Buffer::storage(ctx, "hash_cache.taa_depth", e2 * 4)?,
             first_hit: Buffer::storage(ctx, "hash_cache.taa_fh", e2 * 16)?,
         };
-        let taa = TaaPass::new(ctx, scene, settings, &hash.taa_settings)?;
+        let taa = match hash.taa {
+            true => Some(TaaPass::new(ctx, scene, settings, &hash.taa_settings)?),
+            false => None,
+        };
         // The pixel centres are traced only for a TAA that reads them.
         table.set_centre_hits(hash.taa || settings.taa_output.is_some());
         Ok(HashCache {
@@ -167,7 +171,6 @@ impl Method for HashCache {
         input: &FrameInput,
     ) -> GpuResult<FrameOutputs<'a>> {
         self.table.begin_frame();
-        let taa_on = self.table.settings().taa;
         let centre_hits = self.table.centre_hits();
         let update = self.update_has_work();
         let HashCache {
@@ -217,7 +220,7 @@ impl Method for HashCache {
         t.record_count(rec, scene_set, frame)?;
         let mut counters = vec![table::table_counters(t.counters(), t.settings().capacity)];
         let mut shown = &px.color;
-        if taa_on {
+        if let Some(taa) = taa {
             let inputs = TaaInputs {
                 depth: &centre.depth,
                 first_hit: &centre.first_hit,
@@ -264,6 +267,6 @@ impl Method for HashCache {
             + self.centre.depth.size
             + self.centre.first_hit.size
             + self.table.memory_bytes()
-            + self.taa.memory_bytes()
+            + self.taa.as_ref().map_or(0, TaaPass::memory_bytes)
     }
 }

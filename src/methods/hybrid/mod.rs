@@ -68,7 +68,8 @@ pub struct Hybrid {
     cache: SampleCache,
     table: HashTable,
     pipes: Pipelines,
-    taa: TaaPass,
+    /// The one TAA, built only where it runs (not under `--hash-no-taa`).
+    taa: Option<TaaPass>,
     readback: HostReadback,
 }
 
@@ -106,7 +107,10 @@ impl Hybrid {
             reserve: table.pipeline(ctx, scene, "hybrid/reserve", &INTERFACE)?,
             resolve: table.pipeline(ctx, scene, "hybrid/resolve", &INTERFACE)?,
         };
-        let taa = TaaPass::new(ctx, scene, settings, &hash.taa_settings)?;
+        let taa = match hash.taa {
+            true => Some(TaaPass::new(ctx, scene, settings, &hash.taa_settings)?),
+            false => None,
+        };
         Ok(Hybrid {
             ctx: ctx.clone(),
             scene: scene.clone(),
@@ -157,7 +161,6 @@ impl Method for Hybrid {
     ) -> GpuResult<FrameOutputs<'a>> {
         self.cache.begin_frame();
         self.table.begin_frame();
-        let taa_on = self.table.settings().taa;
         let Hybrid {
             scene,
             settings,
@@ -212,7 +215,7 @@ impl Method for Hybrid {
             ),
         ];
         let mut shown = &px.color;
-        if taa_on {
+        if let Some(taa) = taa {
             let (resolved, c) = taa.record(rec, input, px.taa_inputs())?;
             shown = resolved;
             counters.push(c);
@@ -236,6 +239,8 @@ impl Method for Hybrid {
     }
 
     fn memory_bytes(&self) -> u64 {
-        self.cache.memory_bytes() + self.table.memory_bytes() + self.taa.memory_bytes()
+        self.cache.memory_bytes()
+            + self.table.memory_bytes()
+            + self.taa.as_ref().map_or(0, TaaPass::memory_bytes)
     }
 }
