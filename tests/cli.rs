@@ -1224,7 +1224,8 @@ fn benches_pose_animated_scenes_at_each_frame_time() {
         .and_then(|r| r.split(' ').next())
         .and_then(|v| v.parse().ok())
         .unwrap_or_else(|| panic!("no time in '{}'", posing[0]));
-    assert!(ms > 0.0, "{}", posing[0]);
+    // A wall-clock figure: only its presence is checked, not its size.
+    assert!(ms.is_finite() && ms >= 0.0, "{}", posing[0]);
     assert!(posing[0].contains("2 measured frames"), "{}", posing[0]);
     let _ = std::fs::remove_dir_all(&root);
 }
