@@ -669,21 +669,11 @@ fn static_view_keeps_every_taa_history() {
 #[test]
 fn voxels_are_smaller_than_the_pixel_everywhere_in_a_wide_view() {
     let ctx = context();
-    let mut plane = stereocache::scene::Material::diffuse("grey", Vec3::splat(0.5));
-    plane.specular = 0.0;
-    let s = session(
-        &ctx,
-        plane_in_environment(plane, 100.0, Vec3::ONE),
-        RtChoice::Software,
-    );
+    let s = session(&ctx, grey_plane(100.0), RtChoice::Software);
     let (w, h) = (32u32, 32u32);
     let yfov = 110f32.to_radians();
     // Looking straight down (−Y) from 2 m.
-    let head = stereocache::camera::HeadPose::new(
-        Vec3::new(0.0, 2.0, 0.0),
-        glam::Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2),
-    );
-    let cam = StereoCamera::new(head, yfov, 1.0);
+    let cam = looking_down(Vec3::new(0.0, 2.0, 0.0), yfov);
     let hs = HashCacheSettings {
         taa: false,
         ..Default::default()
@@ -701,12 +691,8 @@ fn voxels_are_smaller_than_the_pixel_everywhere_in_a_wide_view() {
             let [dx, dy, dz, t] = req.rays[e * npix + pixel];
             assert!(t > 0.0, "eye {e} pixel {pixel}: the plane fills the view");
             let cos = Vec3::new(dx, dy, dz).dot(fwd);
-            let f = t * spread * cos * cos;
-            let level = VoxelKey {
-                coord: [0; 3],
-                meta: req.cells[e * npix + pixel][3],
-            }
-            .level();
+            let f = off_axis_pixel_footprint(Vec3::new(dx, dy, dz), t, fwd, yfov, h);
+            let level = meta_level(req.cells[e * npix + pixel][3]);
             let edge = (level as f32).exp2();
             assert!(
                 edge <= f * 1.001 && 2.0 * edge > f * 0.999,
@@ -729,10 +715,8 @@ fn voxels_are_smaller_than_the_pixel_everywhere_in_a_wide_view() {
 }
 
 /// `--hash-no-taa` builds no TAA: the method's memory is smaller by exactly
-/// the TAA's buffers, which hold per pixel of both eyes two colour
-/// histories (16 B each), the previous depth (4 B) and first hit (16 B),
-/// plus a frame-parameter and a counter buffer (under 4 KiB). Before, the
-/// TAA was built and counted whether it ran or not.
+/// the TAA's buffers (`assert_taa_memory_share`). Before, the TAA was built
+/// and counted whether it ran or not.
 #[test]
 fn no_taa_builds_no_taa_buffers() {
     let ctx = context();
@@ -745,11 +729,6 @@ fn no_taa_builds_no_taa_buffers() {
         };
         hash_method(&s, &settings(w, h, hs)).memory_bytes()
     };
-    let per_pixel = 2 * (w * h) as u64 * (16 + 16 + 4 + 16);
-    let taa = bytes(true) - bytes(false);
-    assert!(
-        taa >= per_pixel && taa < per_pixel + 4096,
-        "the TAA's share of the memory: {taa} B, its buffers {per_pixel} B + < 4 KiB"
-    );
+    assert_taa_memory_share(bytes(true) - bytes(false), w, h);
     assert_no_validation_messages(&ctx);
 }

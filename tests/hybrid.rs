@@ -596,31 +596,6 @@ fn per_pixel_static_view_converges_towards_the_reference() {
     assert_no_validation_messages(&ctx);
 }
 
-/// A grey Lambert plane (XZ, facing +Y) of side `size` in a white environment.
-fn grey_plane(size: f32) -> stereocache::scene::Scene {
-    let mut m = stereocache::scene::Material::diffuse("grey", Vec3::splat(0.5));
-    m.specular = 0.0;
-    plane_in_environment(m, size, Vec3::ONE)
-}
-
-/// A head at `p` looking straight down (−Y; image +X right, −Z up).
-fn looking_down(p: Vec3, yfov: f32) -> StereoCamera {
-    let head = stereocache::camera::HeadPose::new(
-        p,
-        glam::Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2),
-    );
-    StereoCamera::new(head, yfov, 1.0)
-}
-
-/// The level of detail of a pixel request's meta word.
-fn meta_level(meta: u32) -> i32 {
-    VoxelKey {
-        coord: [0; 3],
-        meta,
-    }
-    .level()
-}
-
 /// Level of detail (paper §4: voxels smaller than a pixel) as the hybrid's
 /// updates use it, over a wide (110°) perspective view straight down onto a
 /// plane: every pixel's update is at level L or its parent L + 1, L the
@@ -641,7 +616,6 @@ fn updates_keep_voxels_smaller_than_the_pixel_everywhere_in_a_wide_view() {
         ..Default::default()
     };
     let mut m = hybrid(&s, &settings_with(w, h, hs, HybridLookups::PerPixel));
-    let spread = 2.0 * (0.5 * yfov).tan() / h as f32;
     let npix = (w * h) as usize;
     let mut prev = None;
     let (mut checked, mut min_cos2) = (0usize, 1f32);
@@ -659,7 +633,7 @@ fn updates_keep_voxels_smaller_than_the_pixel_everywhere_in_a_wide_view() {
                 }
                 let [dx, dy, dz, t] = req.rays[e * npix + pixel];
                 let cos = Vec3::new(dx, dy, dz).dot(fwd);
-                let fp = t * spread * cos * cos;
+                let fp = off_axis_pixel_footprint(Vec3::new(dx, dy, dz), t, fwd, yfov, h);
                 // The fine level, either side of a power of two within f32 rounding.
                 let fine = [
                     (fp * 1.001).log2().floor() as i32,
@@ -777,7 +751,7 @@ fn per_pixel_coarse_level_is_the_fine_voxels_parent() {
 
 /// `--hash-no-taa` builds no TAA (as tests/hash_cache.rs
 /// `no_taa_builds_no_taa_buffers`): the memory is smaller by the TAA's
-/// per-pixel buffers (52 B per pixel of both eyes) and under 4 KiB more.
+/// buffers (`assert_taa_memory_share`).
 #[test]
 fn no_taa_builds_no_taa_buffers() {
     let ctx = context();
@@ -790,11 +764,6 @@ fn no_taa_builds_no_taa_buffers() {
         };
         hybrid(&s, &settings_with(w, h, hs, HybridLookups::PerPixel)).memory_bytes()
     };
-    let per_pixel = 2 * (w * h) as u64 * (16 + 16 + 4 + 16);
-    let taa = bytes(true) - bytes(false);
-    assert!(
-        taa >= per_pixel && taa < per_pixel + 4096,
-        "the TAA's share of the memory: {taa} B, its buffers {per_pixel} B + < 4 KiB"
-    );
+    assert_taa_memory_share(bytes(true) - bytes(false), w, h);
     assert_no_validation_messages(&ctx);
 }

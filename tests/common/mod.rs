@@ -921,3 +921,49 @@ impl Drop for TempDir {
         let _ = std::fs::remove_dir_all(&self.0);
     }
 }
+
+/// A grey Lambert plane (XZ, facing +Y) of side `size` in a white environment.
+pub fn grey_plane(size: f32) -> Scene {
+    let mut m = Material::diffuse("grey", Vec3::splat(0.5));
+    m.specular = 0.0;
+    plane_in_environment(m, size, Vec3::ONE)
+}
+
+/// A head at `p` looking straight down (−Y; image +X right, −Z up).
+pub fn looking_down(p: Vec3, yfov: f32) -> StereoCamera {
+    let head = HeadPose::new(p, glam::Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2));
+    StereoCamera::new(head, yfov, 1.0)
+}
+
+/// The level of detail of a pixel request's meta word.
+pub fn meta_level(meta: u32) -> i32 {
+    stereocache::methods::hash_cache::hash::VoxelKey {
+        coord: [0; 3],
+        meta,
+    }
+    .level()
+}
+
+/// The footprint across an eye ray (unit direction `d`, hit distance `t`)
+/// of the pixel it passes through, for a perspective eye looking along `fwd`
+/// with vertical field of view `yfov` over `h` pixel rows: the centre
+/// pixel's angular spread 2·tan(yfov/2)/h times cos²φ, φ the ray's angle to
+/// the view axis (a planar image's pixel subtends cos²φ of the centre's
+/// along the radius, cos φ across it; the smaller is taken).
+pub fn off_axis_pixel_footprint(d: Vec3, t: f32, fwd: Vec3, yfov: f32, h: u32) -> f32 {
+    let cos = d.dot(fwd);
+    t * (2.0 * (0.5 * yfov).tan() / h as f32) * cos * cos
+}
+
+/// Asserts that `taa_bytes`, the memory a hash-cache-based method saves
+/// without its TAA, is the TAA's per-pixel buffers for `w`×`h` per eye —
+/// two colour histories (16 B each), the previous depth (4 B) and first hit
+/// (16 B) per pixel of both eyes — plus a frame-parameter and a counter
+/// buffer (under 4 KiB).
+pub fn assert_taa_memory_share(taa_bytes: u64, w: u32, h: u32) {
+    let per_pixel = 2 * (w * h) as u64 * (16 + 16 + 4 + 16);
+    assert!(
+        taa_bytes >= per_pixel && taa_bytes < per_pixel + 4096,
+        "the TAA's share of the memory: {taa_bytes} B, its buffers {per_pixel} B + < 4 KiB"
+    );
+}
