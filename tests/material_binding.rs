@@ -292,6 +292,20 @@ fn hit_geom(scene: &Scene, fh: [u32; 4]) -> (u32, Geom) {
     )
 }
 
+/// Whether pixel `i` of a `w`×`h` image lies inside one instance: not on
+/// the border, and its four neighbours' centres hit the instance its own
+/// centre hits (so every sample of the pixel does, on the quads).
+fn inner_pixel(first_hit: &[[u32; 4]], i: usize, w: usize, h: usize) -> bool {
+    let (x, y) = (i % w, i / w);
+    x > 0
+        && y > 0
+        && x + 1 < w
+        && y + 1 < h
+        && [i - 1, i + 1, i - w, i + w]
+            .iter()
+            .all(|&j| first_hit[j][3] == first_hit[i][3])
+}
+
 /// The centre ray of pixel `i` of a 40-pixel-wide image of `size`
 /// (normalised) and its distance to the y = 0 plane of the quads.
 fn pixel_ray_to_ground(
@@ -455,15 +469,7 @@ fn probe_graph_bound_quads(name: &str, place: Mat4, tol: f32) {
                     let v_world = cpu_slot(&s.scene, mat, slot, &world);
                     world_miss = world_miss.max((v - v_world).abs().max_element());
                 }
-                let (x, y) = (i % w, i / w);
-                let inner = x > 0
-                    && y > 0
-                    && x + 1 < w
-                    && y + 1 < h
-                    && [i - 1, i + 1, i - w, i + w]
-                        .iter()
-                        .all(|&j| eye.first_hit[j][3] == fh[3]);
-                if inner {
+                if inner_pixel(&eye.first_hit, i, w, h) {
                     assert!(
                         (rad - emit).abs().max_element() <= tol,
                         "{rt:?}: material {mat} pixel {i}: radiance {rad} vs CPU emission {emit}"
@@ -575,15 +581,7 @@ fn wild_graph_outputs_stay_in_their_ranges() {
                     continue;
                 }
                 assert_eq!(albedo, Vec3::new(1.0, 0.0, 0.0), "{rt:?}: pixel {i}");
-                let (x, y) = (i % w, i / w);
-                let all_same = x > 0
-                    && y > 0
-                    && x + 1 < w
-                    && y + 1 < h
-                    && [i - 1, i + 1, i - w, i + w]
-                        .iter()
-                        .all(|&j| eye.first_hit[j][3] == fh[3]);
-                if all_same {
+                if inner_pixel(&eye.first_hit, i, w, h) {
                     assert_eq!(rad, Vec3::new(max, 0.0, 3.0), "{rt:?}: pixel {i}");
                     inner += 1;
                 }
