@@ -265,7 +265,7 @@ impl ReferenceSummary {
             mse: n.mse,
             mse_stderr: n.mse_stderr,
             flip_halves,
-            estimator: "two independent halves A, B of spp/2: per pixel and channel ((A-B)/2)^2 estimates Var((A+B)/2); rse = mean of ((A-B)/2)^2/(((A+B)/2)^2 + 0.01), mse = mean of ((A-B)/2)^2",
+            estimator: "two independent halves A, B of spp/2: per pixel and channel ((A-B)/2)^2 estimates Var((A+B)/2); rse = mean of ((A-B)/2)^2/(T^2 + 0.01), T the mean of (A+B)/2 over the pixel's 8 neighbours (the pixel's own value would correlate with its noise), mse = mean of ((A-B)/2)^2",
             best_method: best.as_ref().map(|b| b.0.clone()),
             best_method_rse: best.as_ref().map(|b| b.1),
             ratio_to_best: ratio,
@@ -586,8 +586,9 @@ pub fn compare_configs(
 }
 
 /// One line naming the configurations whose mean metrics are not finite
-/// (`null` in summary.json: an image or the reference held ∞ or NaN), or
-/// `None` when every metric is finite.
+/// (`null` in summary.json) or whose images held ∞ or NaN pixels (the
+/// metrics score those as black: `non_finite_pixels`, the mean per frame
+/// of both eyes' count), or `None` when neither happened.
 pub fn non_finite_metrics_warning(out: &Path, rows: &[MethodRow]) -> Option<String> {
     let bad: Vec<String> = rows
         .iter()
@@ -598,12 +599,26 @@ pub fn non_finite_metrics_warning(out: &Path, rows: &[MethodRow]) -> Option<Stri
                 .filter(|(_, v)| !v.is_finite())
                 .map(|(k, _)| k.as_str())
                 .collect();
-            (!keys.is_empty()).then(|| format!("{} ({})", r.method, keys.join(", ")))
+            let pixels = r
+                .metrics
+                .get("non_finite_pixels")
+                .copied()
+                .filter(|n| *n > 0.0)
+                .map(|n| format!("{n:.1} pixels of ∞ or NaN per frame, scored as black"));
+            let mut what: Vec<String> = Vec::new();
+            if !keys.is_empty() {
+                what.push(format!(
+                    "metrics not finite, written as null: {}",
+                    keys.join(", ")
+                ));
+            }
+            what.extend(pixels);
+            (!what.is_empty()).then(|| format!("{} ({})", r.method, what.join("; ")))
         })
         .collect();
     (!bad.is_empty()).then(|| {
         format!(
-            "{}: metrics that are not finite, written as null (an image or the reference holds ∞ or NaN): {}",
+            "{}: images or metrics that are not finite: {}",
             out.join("summary.json").display(),
             bad.join("; ")
         )
@@ -1049,8 +1064,18 @@ mod tests {
         )
         .unwrap();
         assert!(
-            w.starts_with("out/cmp/summary.json: metrics that are not finite")
-                && w.ends_with(": b (rse); c (rse)"),
+            w.starts_with("out/cmp/summary.json: images or metrics that are not finite")
+                && w.ends_with(
+                    ": b (metrics not finite, written as null: rse); c (metrics not finite, written as null: rse)"
+                ),
+            "{w}"
+        );
+        // Finite metrics over sanitized pixels: named with their count.
+        let mut d = row("d", 0.5);
+        d.metrics.insert("non_finite_pixels".into(), 2.5);
+        let w = non_finite_metrics_warning(out, &[row("a", 0.5), d]).unwrap();
+        assert!(
+            w.ends_with(": d (2.5 pixels of ∞ or NaN per frame, scored as black)"),
             "{w}"
         );
     }

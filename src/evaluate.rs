@@ -449,6 +449,11 @@ impl Evaluator {
             add("flip", im.flip as f64);
             add("cpbd", im.cpbd as f64);
             add("cpbd_reference", im.cpbd_reference as f64);
+            // Pixels holding ∞ or NaN, both eyes together (2 × the eyes'
+            // mean): every metric scores them as black
+            // (LinearImage::sanitized), so they are counted here and named
+            // by compare's warning.
+            add("non_finite_pixels", 2.0 * im.non_finite as f64);
         }
         // Temporal instability: t−1 reprojected into t, for the method and
         // the reference, through one mask from the reference's geometry.

@@ -72,8 +72,14 @@ fn copy_dir(from: &Path, to: &Path) -> Result<()> {
     Ok(())
 }
 
-/// The summary.json fields every part must agree on.
-const SAME: &[&str] = &["scene", "trace", "width", "height", "fps"];
+/// The summary.json fields every part must agree on: what was rendered,
+/// and where and how (timing ratios across parts from different devices,
+/// drivers, backends or settings would be meaningless while the merged
+/// summary names one device). Every row must also have the same frame
+/// count (`frames`).
+const SAME: &[&str] = &[
+    "scene", "trace", "width", "height", "fps", "device", "driver", "backend", "settings",
+];
 
 /// Merges the compare directories `parts` (each holding some of `labels`,
 /// together all of them, each once) into `out`, rows in the order of
@@ -110,6 +116,23 @@ pub fn merge_comparison(
             return Err(bad(
                 &p.join("summary.json"),
                 "its reference differs from the first part's",
+            ));
+        }
+        let frames = |s: &serde_json::Value| -> Vec<serde_json::Value> {
+            s["methods"]
+                .as_array()
+                .map(|m| m.iter().map(|r| r["frames"].clone()).collect())
+                .unwrap_or_default()
+        };
+        let want = frames(first).first().cloned();
+        if let Some(f) = frames(s).into_iter().find(|f| Some(f) != want.as_ref()) {
+            return Err(bad(
+                &p.join("summary.json"),
+                format!(
+                    "a row has {f} frames but {} has {}: not parts of one comparison",
+                    parts[0].display(),
+                    want.unwrap_or_default()
+                ),
             ));
         }
     }

@@ -9,9 +9,21 @@
 //! metric = "rays_per_frame"   # a summary.json row field, `pass:NAME[+NAME…]` (ms) or a metric
 //! of = "adaptive"             # configuration label
 //! over = "multi"              # optional: the measured figure is of / over
+//! over-metric = "cpbd_reference" # optional: the denominator's metric (default `metric`;
+//!                              # of the `over` configuration, else of `of` itself)
 //! expect = "< 1"              # optional: what the paper's claim means here
-//! group = "cornell-synth-walk" # optional: which comparison (default: the first with both)
+//! group = "cornell-synth-walk" # optional: which comparison (default: every one with both)
 //! ```
+//!
+//! **Verdicts.** In each comparison in scope (`group`, else every one
+//! whose rows have the figure) the value meets `expect` or not; within
+//! two standard errors of the bound it is inconclusive, and so it is where
+//! the figure has no standard error (no per-frame values) unless it is
+//! deterministic ([`DETERMINISTIC`]). Over the comparisons: does not
+//! reproduce if any does not, else inconclusive if any is, else
+//! reproduces (a claim the paper makes of several scenes must hold in
+//! each). Until session 46 only the first comparison was judged and a
+//! missing standard error counted as none needed.
 
 use super::spec::Group;
 use serde::{Deserialize, Serialize};
@@ -27,12 +39,29 @@ pub struct ClaimSpec {
     pub metric: Option<String>,
     pub of: Option<String>,
     pub over: Option<String>,
+    #[serde(rename = "over-metric")]
+    pub over_metric: Option<String>,
     pub expect: Option<String>,
     pub group: Option<String>,
 }
 
 /// The verdict of a claim whose metric its configuration's rows lack.
 pub const NO_SUCH_FIGURE: &str = "no such figure";
+
+/// Row figures with no sampling noise (counts and sizes), judged without a
+/// standard error.
+pub const DETERMINISTIC: &[&str] = &["rays_per_frame", "rays_total", "method_memory_bytes"];
+
+/// What one comparison measured for a claim.
+#[derive(Clone, Debug, Serialize)]
+pub struct GroupMeasure {
+    pub group: String,
+    pub value: f64,
+    pub stderr: Option<f64>,
+    pub holds: Option<bool>,
+    pub verdict: String,
+    pub here: String,
+}
 
 /// `expect = "< 1"`: a comparison and a number.
 fn parse_expect(s: &str) -> Option<(&str, f64)> {
@@ -64,6 +93,9 @@ impl ClaimSpec {
         }
         if self.metric.is_some() != self.of.is_some() {
             return Err(at("keys 'metric' and 'of' go together".into()));
+        }
+        if self.over_metric.is_some() && self.metric.is_none() {
+            return Err(at("key 'over-metric' needs 'metric' and 'of'".into()));
         }
         if let Some(g) = &self.group {
             if !groups.iter().any(|x| &x.label == g) {
@@ -105,11 +137,14 @@ pub struct ClaimResult {
     pub stderr: Option<f64>,
     /// The measurement in words.
     pub here: String,
-    /// Whether `value` meets `expect` (absent without one).
+    /// Whether `value` meets `expect` in every comparison (absent without one).
     pub holds: Option<bool>,
-    /// `reproduces`, `does not reproduce`, or `inconclusive` when the
-    /// threshold is within two standard errors of `value`; `-` without `expect`.
+    /// `reproduces`, `does not reproduce`, or `inconclusive` (module
+    /// documentation); `-` without `expect`.
     pub verdict: String,
+    /// Each comparison's measure (`measured_in`, `value` and `stderr` are
+    /// the first's).
+    pub groups: Vec<GroupMeasure>,
 }
 
 /// Per-frame values of `metric` for configuration `label` of the comparison
@@ -181,6 +216,7 @@ pub fn evaluate(claims: &[ClaimSpec], groups: &[String], out: &Path) -> Vec<Clai
                 here: "not measured here (see the comparison's tables and images)".into(),
                 holds: None,
                 verdict: "-".into(),
+                groups: Vec::new(),
             };
             let (Some(metric), Some(of)) = (&c.metric, &c.of) else {
                 return r;
@@ -236,9 +272,16 @@ pub fn evaluate(claims: &[ClaimSpec], groups: &[String], out: &Path) -> Vec<Clai
                 let Some(a) = lookup(s, of, metric) else {
                     continue;
                 };
-                let (value, what) = match &c.over {
-                    Some(over) => match lookup(s, over, metric) {
-                        Some(b) => (a / b, format!("{metric} {of} / {over}")),
+                // The denominator: `over`'s (or `of`'s own) `over-metric`
+                // (or `metric`).
+                let den = match (&c.over, &c.over_metric) {
+                    (None, None) => None,
+                    (o, m) => Some((o.as_deref().unwrap_or(of), m.as_deref().unwrap_or(metric))),
+                };
+                let (value, what) = match den {
+                    Some((over, m)) => match lookup(s, over, m) {
+                        Some(b) if m == metric => (a / b, format!("{metric} {of} / {over}")),
+                        Some(b) => (a / b, format!("{metric} of {of} / {m} of {over}")),
                         None => continue,
                     },
                     None => (a, format!("{metric} of {of}")),
@@ -246,42 +289,80 @@ pub fn evaluate(claims: &[ClaimSpec], groups: &[String], out: &Path) -> Vec<Clai
                 let device = s["device"].as_str().unwrap_or("?");
                 let dir = out.join(g);
                 let x = per_frame(&dir, of, metric);
-                let stderr = match &c.over {
-                    Some(over) => x
-                        .zip(per_frame(&dir, over, metric))
+                let stderr = match den {
+                    Some((over, m)) => x
+                        .zip(per_frame(&dir, over, m))
                         .and_then(|(x, y)| stereocache::metrics::ratio_of_means(&x, &y)),
                     None => x.and_then(|x| stereocache::metrics::mean_stderr(&x)),
-                }
-                .map(|q| q.stderr)
-                .filter(|se| se.is_finite());
-                r.measured_in = Some(g.clone());
-                r.value = Some(value);
-                r.stderr = stderr;
+                };
+                let frames = stderr.map(|q| q.n);
+                let stderr = stderr.map(|q| q.stderr).filter(|se| se.is_finite());
                 let expect = c.expect.as_deref().and_then(parse_expect);
-                r.holds = expect.map(|(op, t)| match op {
+                let holds = expect.map(|(op, t)| match op {
                     "<" => value < t,
                     "<=" => value <= t,
                     ">" => value > t,
                     _ => value >= t,
                 });
-                let near = |t: f64| stderr.is_some_and(|se| (value - t).abs() < 2.0 * se);
-                r.verdict = match (expect, r.holds) {
+                let deterministic = DETERMINISTIC.contains(&metric.as_str());
+                let near = |t: f64| match stderr {
+                    Some(se) => (value - t).abs() < 2.0 * se,
+                    None => !deterministic,
+                };
+                let verdict: String = match (expect, holds) {
                     (Some((_, t)), Some(_)) if near(t) => "inconclusive".into(),
                     (_, Some(true)) => "reproduces".into(),
                     (_, Some(false)) => "does not reproduce".into(),
                     _ => "-".into(),
                 };
-                r.here = format!(
-                    "{what} = {}{} ({g}, {device}, {} frames at {}x{})",
+                let spread = match (stderr, deterministic) {
+                    (Some(se), _) => format!(" ± {}", fmt(se)),
+                    (None, true) => String::new(),
+                    (None, false) => " (no per-frame values: no standard error)".into(),
+                };
+                let here = format!(
+                    "{what} = {}{spread} ({g}, {device}, {} at {}x{})",
                     fmt(value),
-                    stderr
-                        .map(|se| format!(" ± {}", fmt(se)))
-                        .unwrap_or_default(),
-                    s["methods"][0]["frames"],
+                    match frames {
+                        Some(n) => format!("{n} frames"),
+                        None => format!("{} frames rendered", s["methods"][0]["frames"]),
+                    },
                     s["width"],
                     s["height"]
                 );
-                break;
+                r.groups.push(GroupMeasure {
+                    group: g.clone(),
+                    value,
+                    stderr,
+                    holds,
+                    verdict,
+                    here,
+                });
+            }
+            if let Some(first) = r.groups.first() {
+                r.measured_in = Some(first.group.clone());
+                r.value = Some(first.value);
+                r.stderr = first.stderr;
+                r.holds = first.holds.map(|_| r.groups.iter().all(|m| m.holds == Some(true)));
+                let any = |v: &str| r.groups.iter().any(|m| m.verdict == v);
+                r.verdict = if first.verdict == "-" {
+                    "-".into()
+                } else if any("does not reproduce") {
+                    "does not reproduce".into()
+                } else if any("inconclusive") {
+                    "inconclusive".into()
+                } else {
+                    "reproduces".into()
+                };
+                r.here = r
+                    .groups
+                    .iter()
+                    .map(|m| match r.groups.len() {
+                        1 => m.here.clone(),
+                        _ => format!("{} [{}]", m.here, m.verdict),
+                    })
+                    .collect::<Vec<_>>()
+                    .join("; ");
             }
             r
         })
@@ -317,7 +398,7 @@ pub fn text(results: &[ClaimResult]) -> String {
 /// claims.md: one row per claim.
 pub fn markdown(title: &str, results: &[ClaimResult]) -> String {
     let mut s = format!(
-        "# {title}\n\n± = standard error over frames (ratios: delta method over the paired frames); inconclusive = the expected bound lies within two standard errors.\n\n| claim | paper | here | expected | verdict |\n|---|---|---|---|---|\n"
+        "# {title}\n\n± = standard error over frames (ratios: delta method over the paired frames), widened by the frames' lag-1 autocorrelation (metrics::uncertainty); inconclusive = the expected bound lies within two standard errors, or the figure has no standard error. A claim with several comparisons must hold in each (each one's verdict in brackets). Each configuration is one run: drift of the machine between runs is not in the ± (timing claims especially; docs/REPRODUCTION.md).\n\n| claim | paper | here | expected | verdict |\n|---|---|---|---|---|\n"
     );
     let cell = |t: &str| t.replace('|', "\\|");
     for r in results {
@@ -331,4 +412,144 @@ pub fn markdown(title: &str, results: &[ClaimResult]) -> String {
         ));
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A comparison `g` under `out` whose rows `a` and `b` have `metric`
+    /// means `ma`, `mb` (summary.json) and, with `frames`, per-frame values
+    /// (frames.jsonl: `ma`/`mb` plus ±`spread` alternating, so the means
+    /// hold); `rays_per_frame` 100 and 200, `cpbd_reference` of `a` 0.5.
+    fn comparison(out: &Path, g: &str, (ma, mb): (f64, f64), frames: bool, spread: f64) {
+        let d = out.join(g);
+        let row = |l: &str, m: f64, rays: f64| {
+            serde_json::json!({ "method": l, "frames": 6, "rays_per_frame": rays,
+                "metrics": { "rse": m, "cpbd": m, "cpbd_reference": 0.5 } })
+        };
+        let s = serde_json::json!({ "device": "test", "width": 8, "height": 6,
+            "methods": [row("a", ma, 100.0), row("b", mb, 200.0)] });
+        std::fs::create_dir_all(&d).unwrap();
+        std::fs::write(d.join("summary.json"), s.to_string()).unwrap();
+        if frames {
+            for (l, m) in [("a", ma), ("b", mb)] {
+                std::fs::create_dir_all(d.join(l)).unwrap();
+                let lines: Vec<String> = (0..6)
+                    .map(|t| {
+                        let v = m + if t % 2 == 0 { spread } else { -spread };
+                        serde_json::json!({ "metrics": { "rse": v, "cpbd": v, "cpbd_reference": 0.5 } })
+                            .to_string()
+                    })
+                    .collect();
+                std::fs::write(d.join(l).join("frames.jsonl"), lines.join("\n")).unwrap();
+            }
+        }
+    }
+
+    fn claim(metric: &str, over: Option<&str>, expect: &str) -> ClaimSpec {
+        ClaimSpec {
+            text: "t".into(),
+            paper: "p".into(),
+            metric: Some(metric.into()),
+            of: Some("a".into()),
+            over: over.map(String::from),
+            over_metric: None,
+            expect: Some(expect.into()),
+            group: None,
+        }
+    }
+
+    fn dir(name: &str) -> std::path::PathBuf {
+        let d = std::env::temp_dir().join(format!("claims-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        d
+    }
+
+    /// A figure without per-frame values has no standard error: the
+    /// verdict is inconclusive, however far from the bound, unless the
+    /// figure is a count (deterministic).
+    #[test]
+    fn no_standard_error_is_inconclusive_unless_deterministic() {
+        let out = dir("nose");
+        comparison(&out, "g", (0.5, 1.0), false, 0.0);
+        let g = ["g".to_string()];
+        let r = evaluate(&[claim("rse", Some("b"), "< 1")], &g, &out);
+        assert_eq!((r[0].value, r[0].stderr), (Some(0.5), None));
+        assert_eq!(r[0].verdict, "inconclusive", "{}", r[0].here);
+        assert!(r[0].here.contains("no standard error"), "{}", r[0].here);
+        let r = evaluate(&[claim("rays_per_frame", Some("b"), "< 1")], &g, &out);
+        assert_eq!(
+            (r[0].value, r[0].verdict.as_str()),
+            (Some(0.5), "reproduces")
+        );
+        // With per-frame values far from the bound: decided.
+        comparison(&out, "g", (0.5, 1.0), true, 0.01);
+        let r = evaluate(&[claim("rse", Some("b"), "< 1")], &g, &out);
+        assert!(r[0].stderr.is_some_and(|se| se < 0.05), "{:?}", r[0].stderr);
+        assert_eq!(r[0].verdict, "reproduces");
+        let _ = std::fs::remove_dir_all(&out);
+    }
+
+    /// Every comparison in scope is judged, and the claim must hold in
+    /// each: a second scene where it fails makes it fail; with `group` only
+    /// that comparison counts.
+    #[test]
+    fn a_claim_must_hold_in_every_comparison() {
+        let out = dir("groups");
+        comparison(&out, "g1", (0.5, 1.0), true, 0.01);
+        comparison(&out, "g2", (1.5, 1.0), true, 0.01);
+        let g = ["g1".to_string(), "g2".to_string()];
+        let r = evaluate(&[claim("rse", Some("b"), "< 1")], &g, &out);
+        let verdicts: Vec<&str> = r[0].groups.iter().map(|m| m.verdict.as_str()).collect();
+        assert_eq!(verdicts, ["reproduces", "does not reproduce"]);
+        assert_eq!(r[0].verdict, "does not reproduce");
+        assert_eq!(r[0].holds, Some(false));
+        assert!(
+            r[0].here.contains("g1") && r[0].here.contains("g2"),
+            "{}",
+            r[0].here
+        );
+        let mut one = claim("rse", Some("b"), "< 1");
+        one.group = Some("g1".into());
+        let r = evaluate(&[one], &g, &out);
+        assert_eq!(
+            (r[0].groups.len(), r[0].verdict.as_str()),
+            (1, "reproduces")
+        );
+        // One inconclusive comparison (no per-frame values), the other
+        // reproducing: inconclusive.
+        std::fs::remove_dir_all(out.join("g2")).unwrap();
+        comparison(&out, "g2", (0.99, 1.0), false, 0.0);
+        let r = evaluate(&[claim("rse", Some("b"), "< 1")], &g, &out);
+        assert_eq!(r[0].verdict, "inconclusive");
+        let _ = std::fs::remove_dir_all(&out);
+    }
+
+    /// `over-metric`: a row's figure over another figure of the same row
+    /// (CPBD over the reference's), paired per frame.
+    #[test]
+    fn over_metric_divides_by_another_figure() {
+        let out = dir("overmetric");
+        comparison(&out, "g", (0.45, 1.0), true, 0.01);
+        let mut c = claim("cpbd", None, ">= 0.8");
+        c.over_metric = Some("cpbd_reference".into());
+        let r = evaluate(&[c], &["g".to_string()], &out);
+        assert!(
+            (r[0].value.unwrap() - 0.9).abs() < 1e-12,
+            "{:?}",
+            r[0].value
+        );
+        assert!(
+            r[0].here
+                .starts_with("cpbd of a / cpbd_reference of a = 0.9"),
+            "{}",
+            r[0].here
+        );
+        assert_eq!(r[0].verdict, "reproduces");
+        let mut bad = claim("cpbd", None, ">= 0.8");
+        (bad.metric, bad.of, bad.over_metric) = (None, None, Some("x".into()));
+        assert!(bad.check(&[]).unwrap_err().contains("'over-metric' needs"));
+        let _ = std::fs::remove_dir_all(&out);
+    }
 }

@@ -187,7 +187,7 @@ fn finish(name: &str, plan: &serde_json::Value, out: &Path) -> Result<()> {
     for g in &groups {
         let mine: Vec<&claims::ClaimResult> = results
             .iter()
-            .filter(|r| r.measured_in.as_ref().is_none_or(|m| m == g))
+            .filter(|r| r.groups.is_empty() || r.groups.iter().any(|m| &m.group == g))
             .collect();
         let gdoc = serde_json::json!({
             "name": name,
