@@ -8,6 +8,7 @@
 // passes that fill the per-pixel requests and resolve the image.
 #extension GL_EXT_shader_atomic_int64 : require
 #extension GL_ARB_gpu_shader_int64 : require
+#extension GL_KHR_memory_scope_semantics : require
 #include "common/integrator.glsl"
 #include "common/packing.glsl"
 #include "common/demodulation.glsl"
@@ -47,6 +48,14 @@ bool hc_debug() { return (pc.flags & 4u) != 0u; }
 bool hc_centre_hits() { return (pc.flags & 8u) != 0u; }
 uint npix() { return frame.size_seed.x * frame.size_seed.y; }
 
+// An entry's key word, read atomically (relaxed, device scope): other lanes
+// compare-and-swap it in the same dispatch, and a plain load beside those
+// is a data race under the Vulkan memory model (it compiles to the same
+// load on x86; the SPIR-V is OpAtomicLoad, no memory-model capability).
+uint64_t hc_key(uint s) {
+    return atomicLoad(keys[s], gl_ScopeDevice, gl_StorageSemanticsBuffer, gl_SemanticsRelaxed);
+}
+
 uint64_t hc_pack(uint c, uint f) { return (uint64_t(c) << 32) | uint64_t(f); }
 uint hc_chk(uint64_t w) { return uint(w >> 32); }
 uint hc_frame(uint64_t w) { return uint(w & 0xFFFFFFFFul); }
@@ -79,7 +88,7 @@ uint hc_find_or_insert(uint h, uint local_offset, uint c, out uint slot, out boo
         bool restart = false;
         for (uint i = 0u; i < pc.max_probe; ++i) {
             uint s = hc_probe_slot(h, local_offset, tiles, i, pc.capacity);
-            uint64_t w = keys[s];
+            uint64_t w = hc_key(s);
             if (hc_chk(w) == c) {
                 int t = hc_touch(s, c, w);
                 if (t >= 0) { slot = s; winner = t == 1; return ST_FOUND; }
@@ -90,7 +99,7 @@ uint hc_find_or_insert(uint h, uint local_offset, uint c, out uint slot, out boo
         if (restart) continue;
         for (uint i = 0u; i < pc.max_probe && !restart; ++i) {
             uint s = hc_probe_slot(h, local_offset, tiles, i, pc.capacity);
-            uint64_t w = keys[s];
+            uint64_t w = hc_key(s);
             for (uint k = 0u;; ++k) {
                 if (k == 16u) return ST_FAILED;   // contended beyond reason: give up, never skip
                 if (hc_chk(w) == c) {

@@ -89,7 +89,7 @@ bool hy_find(uint h, uint local_offset, uint c, out uint slot) {
     slot = NO_CELL;
     for (uint i = 0u; i < pc.max_probe; ++i) {
         uint s = hc_probe_slot(h, local_offset, hc_tiles(), i, pc.capacity);
-        uint64_t w = keys[s];
+        uint64_t w = hc_key(s);
         if (hc_chk(w) == c) {
             if (hc_touch(s, c, w) < 0) return false;
             slot = s;
