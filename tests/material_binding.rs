@@ -119,6 +119,16 @@ fn write_quads_uv(d: &Path, uv_scale: Vec2) -> PathBuf {
 /// object space see other values. The quads carry tangents along +u (+x
 /// in world), w = +1.
 fn write_quads_placed(d: &Path, uv_scale: Vec2, place: Mat4) -> PathBuf {
+    write_quads_edited(d, uv_scale, place, |_| {})
+}
+
+/// `write_quads_placed` with each quad's mesh changed by `edit` first.
+fn write_quads_edited(
+    d: &Path,
+    uv_scale: Vec2,
+    place: Mat4,
+    edit: impl Fn(&mut stereocache::scene::Mesh),
+) -> PathBuf {
     let mut s = Scene {
         source: "test:quads".into(),
         ..Default::default()
@@ -139,7 +149,7 @@ fn write_quads_placed(d: &Path, uv_scale: Vec2, place: Mat4) -> PathBuf {
     );
     let m1 = add_material(&mut s, Material::diffuse("extras", Vec3::ONE));
     for (m, x0) in [(m0, -1.05), (m1, 0.05)] {
-        let g = grid(
+        let mut g = grid(
             "quad",
             Vec3::new(x0, 0.0, 0.5),
             Vec3::X,
@@ -148,6 +158,7 @@ fn write_quads_placed(d: &Path, uv_scale: Vec2, place: Mat4) -> PathBuf {
             1,
             uv_scale,
         );
+        edit(&mut g);
         add_mesh(&mut s, into_object_space(g, place), m, place);
     }
     s.validate().unwrap();
@@ -216,8 +227,8 @@ fn bind(path: &Path, edit: impl FnOnce(&mut serde_json::Value)) {
 }
 
 /// The graph outputs bound to `slot` of `material` at `geom` (CPU evaluator;
-/// `geom.uv` the mesh's uv, which the graph sees flipped), times the
-/// material's factor.
+/// `geom.uv` and `uv1` the mesh's uv sets, which the graph sees flipped;
+/// `uv1_per_uv` already in the graph's space), times the material's factor.
 fn cpu_slot(scene: &Scene, material: u32, slot: Slot, geom: &Geom) -> Vec3 {
     let b = scene
         .graphs
@@ -229,6 +240,7 @@ fn cpu_slot(scene: &Scene, material: u32, slot: Slot, geom: &Geom) -> Vec3 {
     // Graphs see the mesh's uv with v up (eval::graph_uv), as the GPU's.
     let geom = &Geom {
         uv: eval::graph_uv(geom.uv),
+        uv1: eval::graph_uv(geom.uv1),
         ..*geom
     };
     let floats: Vec<f32> = eval::evaluate(g, geom)
@@ -273,6 +285,9 @@ fn hit_geom(scene: &Scene, fh: [u32; 4]) -> (u32, Geom) {
         mesh.material,
         Geom {
             uv: uv.to_array(),
+            // Set 1: only graphs_read_the_raw_uv_sets reads it, and sets it.
+            uv1: [0.0; 2],
+            uv1_per_uv: [[0.0; 2]; 2],
             position: inst.transform.transform_point3(p).to_array(),
             normal: [0.0, 1.0, 0.0],
             tangent: inst
@@ -2980,4 +2995,307 @@ fn graph_normal_maps_follow_the_meshs_handedness_and_sides() {
         "the mirrored quad is the left-handed one"
     );
     assert_no_validation_messages(&ctx);
+}
+
+/// Graphs of `uvs.mtlx`. `both`: base colour (t₀.x, t₀.y, ¼·t₁.x + ¾·t₁.y)
+/// and emission heighttonormal(0.8·u₁ − 1.7·v₁, scale 4), differentiated
+/// in set 0 (so the normal is Jᵀ(0.8, −1.7) scaled: it reads ∂uv1/∂uv, J;
+/// constant over a quad, as the inner radiance check needs); `zero`:
+/// base colour (t₀.x, t₀.y, ½), emission (0.3, 0.5, 0.7).
+const UVS_MTLX: &str = r#"<?xml version="1.0"?>
+<materialx version="1.39">
+  <nodegraph name="both">
+    <texcoord name="t0" type="vector2" />
+    <texcoord name="t1" type="vector2"><input name="index" type="integer" value="1" /></texcoord>
+    <extract name="t0x" type="float"><input name="in" type="vector2" nodename="t0" /><input name="index" type="integer" value="0" /></extract>
+    <extract name="t0y" type="float"><input name="in" type="vector2" nodename="t0" /><input name="index" type="integer" value="1" /></extract>
+    <dotproduct name="t1s" type="float"><input name="in1" type="vector2" nodename="t1" /><input name="in2" type="vector2" value="0.25, 0.75" /></dotproduct>
+    <combine3 name="base" type="vector3"><input name="in1" type="float" nodename="t0x" /><input name="in2" type="float" nodename="t0y" /><input name="in3" type="float" nodename="t1s" /></combine3>
+    <dotproduct name="h" type="float"><input name="in1" type="vector2" nodename="t1" /><input name="in2" type="vector2" value="0.8, -1.7" /></dotproduct>
+    <heighttonormal name="n" type="vector3"><input name="in" type="float" nodename="h" /><input name="scale" type="float" value="4.0" /></heighttonormal>
+    <output name="base_color" type="vector3" nodename="base" />
+    <output name="emission" type="vector3" nodename="n" />
+  </nodegraph>
+  <nodegraph name="zero">
+    <texcoord name="t0" type="vector2" />
+    <extract name="t0x" type="float"><input name="in" type="vector2" nodename="t0" /><input name="index" type="integer" value="0" /></extract>
+    <extract name="t0y" type="float"><input name="in" type="vector2" nodename="t0" /><input name="index" type="integer" value="1" /></extract>
+    <combine3 name="base" type="vector3"><input name="in1" type="float" nodename="t0x" /><input name="in2" type="float" nodename="t0y" /><input name="in3" type="float" value="0.5" /></combine3>
+    <constant name="emit" type="vector3"><input name="value" type="vector3" value="0.3, 0.5, 0.7" /></constant>
+    <output name="base_color" type="vector3" nodename="base" />
+    <output name="emission" type="vector3" nodename="emit" />
+  </nodegraph>
+</materialx>
+"#;
+
+/// Left edges of the three quads of `graphs_read_the_raw_uv_sets`.
+const UV_QUADS_X0: [f32; 3] = [-1.6, -0.5, 0.6];
+
+/// Three 1 m quads (y = 0, facing +y) with TEXCOORD_0 (u along +x, v along
+/// −z, the unit square) and TEXCOORD_1 = (0.2 + 0.6·v₀, 0.9 − 0.7·u₀), a
+/// turn and a mirror of it. Material 0's base colour texture reads
+/// TEXCOORD_1, material 1 has no texture, material 2's base colour texture
+/// reads TEXCOORD_0 under a KHR_texture_transform; materials 0 and 1 take
+/// graph `both`, material 2 graph `zero` (or `both`: `third_set`), by
+/// extras.
+fn write_uv_quads(d: &Path, third_set: bool) -> PathBuf {
+    let mut s = Scene {
+        source: "test:uv-quads".into(),
+        ..Default::default()
+    };
+    s.textures.push(Texture::with_mips(
+        "fallback".into(),
+        TextureEncoding::Srgb,
+        1,
+        1,
+        vec![255, 255, 255, 255],
+    ));
+    let textured = |name: &str, second: bool| Material {
+        base_color_texture: Some(TextureRef::new(0)),
+        second_uv_slots: if second { 1 } else { 0 },
+        ..Material::diffuse(name, Vec3::ONE)
+    };
+    let ms = [
+        add_material(&mut s, textured("on set 1", true)),
+        add_material(&mut s, Material::diffuse("untextured", Vec3::ONE)),
+        add_material(&mut s, textured("transformed", false)),
+    ];
+    for (m, x0) in ms.into_iter().zip(UV_QUADS_X0) {
+        let mut g = grid(
+            "quad",
+            Vec3::new(x0, 0.0, 0.5),
+            Vec3::X,
+            Vec3::NEG_Z,
+            1,
+            1,
+            Vec2::ONE,
+        );
+        g.uvs2 = g.uvs.iter().map(|uv| raw_uv1(*uv)).collect();
+        add_mesh(&mut s, g, m, Mat4::IDENTITY);
+    }
+    s.validate().unwrap();
+    let path = d.join("uv_quads.gltf");
+    stereocache::scene::write_gltf(&s, &path).unwrap();
+    let mut j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    j["extensionsUsed"] = serde_json::json!(["KHR_texture_transform"]);
+    j["materials"][2]["pbrMetallicRoughness"]["baseColorTexture"]["extensions"] = serde_json::json!(
+        { "KHR_texture_transform": { "offset": [0.5, 0.0], "scale": [2.0, 2.0] } }
+    );
+    for (k, graph) in [
+        (0, "both"),
+        (1, "both"),
+        (2, if third_set { "both" } else { "zero" }),
+    ] {
+        j["materials"][k]["extras"] =
+            serde_json::json!({ "materialx": { "file": "uvs.mtlx", "graph": graph } });
+    }
+    std::fs::write(path.with_file_name("uvs.mtlx"), UVS_MTLX).unwrap();
+    std::fs::write(&path, serde_json::to_string_pretty(&j).unwrap()).unwrap();
+    path
+}
+
+/// TEXCOORD_1 of `write_uv_quads` at TEXCOORD_0 `uv` (glTF's v down).
+fn raw_uv1(uv: Vec2) -> Vec2 {
+    Vec2::new(0.2 + 0.6 * uv.y, 0.9 - 0.7 * uv.x)
+}
+
+/// `texcoord` index k reads glTF's TEXCOORD_k as stored, whatever uv
+/// channels the material's textures take: material 0's texture takes
+/// TEXCOORD_1 as the first channel (so set 0 is the second channel,
+/// swapped back), material 1 none (set 1 gets the second channel),
+/// material 2's texture a transformed TEXCOORD_0 (set 0 gets the second
+/// channel untransformed). Every hit's albedo and inner radiance equal the
+/// CPU evaluator at the raw sets, computed here from the hit's position
+/// (not from the loaded mesh's channels), with ∂uv1/∂uv written down from
+/// the map: in MaterialX's v-up space g₁ = (0.8 − 0.6·g₀.y, 0.1 + 0.7·g₀.x),
+/// so J's columns are (0, 0.7) and (−0.6, 0); on material 0 the GPU
+/// inverts the channels' derivative. The emission's tolerance adds the
+/// rounding of heighttonormal's differences (|h| ≤ 2.5: two roundings of
+/// h over the 2·step difference, times the scale 4 and Sobel ¼ … ⅟16).
+/// Export and re-import keep the sets; a material whose textures take both
+/// channels while its graphs read a third choice is one load error.
+#[test]
+fn graphs_read_the_raw_uv_sets() {
+    let ctx = context();
+    let d = dir("uv-sets");
+    let path = write_uv_quads(&d, false);
+    let scene = stereocache::scene::load_gltf(&path).expect("uv quads load");
+    assert_eq!(
+        scene.graphs.uv_swapped,
+        vec![0, 2],
+        "set 0 on the second channel"
+    );
+    assert!(scene.meshes.iter().all(|m| !m.uvs2.is_empty()));
+    let sigma = eval::HEIGHT_SOBEL_SCALE;
+    let tol_emit = TOL + 2.0 * 2.5 * f32::EPSILON / (2.0 * eval::HEIGHT_STEP) * 4.0 * sigma;
+    let j_graph = [[0.0, 0.7], [-0.6, 0.0]];
+    for rt in [RtChoice::Software, RtChoice::Query] {
+        if rt == RtChoice::Query && !require(ctx.ray_query_enabled(), "ray queries") {
+            continue;
+        }
+        let s = session(&ctx, scene.clone(), rt);
+        let f = render(&s, "reference", top_camera(), &probe_settings());
+        let (w, h) = (f.width as usize, f.height as usize);
+        let mut checked = [0usize; 3];
+        for eye in &f.eyes {
+            for (i, fh) in eye.first_hit.iter().enumerate() {
+                if fh[3] == u32::MAX {
+                    continue;
+                }
+                let (mat, geom) = hit_geom(&s.scene, *fh);
+                let p = Vec3::from(geom.position);
+                let raw0 = Vec2::new(p.x - UV_QUADS_X0[mat as usize], 0.5 + p.z);
+                let at = Geom {
+                    uv: raw0.to_array(),
+                    uv1: raw_uv1(raw0).to_array(),
+                    uv1_per_uv: j_graph,
+                    ..geom
+                };
+                let albedo = Vec3::from_slice(&eye.albedo[i][..3]);
+                let want = cpu_slot(&s.scene, mat, Slot::BaseColor, &at);
+                assert!(
+                    (albedo - want).abs().max_element() <= TOL,
+                    "{rt:?}: material {mat} pixel {i}: albedo {albedo} vs CPU {want}"
+                );
+                if inner_pixel(&eye.first_hit, i, w, h) {
+                    let rad = Vec3::from_slice(&eye.radiance[i][..3]);
+                    let emit = cpu_slot(&s.scene, mat, Slot::Emission, &at);
+                    assert!(
+                        (rad - emit).abs().max_element() <= tol_emit,
+                        "{rt:?}: material {mat} pixel {i}: radiance {rad} vs CPU emission {emit}"
+                    );
+                    checked[mat as usize] += 1;
+                }
+            }
+        }
+        assert!(
+            checked.iter().all(|&c| c > 50),
+            "{rt:?}: inner pixels per quad {checked:?}"
+        );
+    }
+    // Export writes material 0's and 2's channels the other way round, so
+    // TEXCOORD_0 is set 0 again and a reload's graphs read the same sets
+    // (from whichever channels the reload gives them).
+    let out = d.join("exported").join("uv_quads.gltf");
+    std::fs::create_dir_all(out.parent().unwrap()).unwrap();
+    stereocache::scene::write_gltf(&scene, &out).unwrap();
+    let again = stereocache::scene::load_gltf(&out).expect("exported scene loads");
+    let sets = |sc: &Scene, m: &stereocache::scene::Mesh| {
+        let read = sc.graphs.uv_sets_of(m.material);
+        let (s0, s1) = match sc.graphs.uv_swapped.contains(&m.material) {
+            true => (m.uvs2.clone(), m.uvs.clone()),
+            false => (m.uvs.clone(), m.uvs2.clone()),
+        };
+        ((read & 1 != 0).then_some(s0), (read & 2 != 0).then_some(s1))
+    };
+    for (a, b) in again.meshes.iter().zip(&scene.meshes) {
+        assert_eq!(sets(&again, a), sets(&scene, b), "material {}", a.material);
+    }
+    // Material 2 reading TEXCOORD_1 as well: its texture's transformed
+    // TEXCOORD_0 and the raw TEXCOORD_0 take both channels.
+    let third = d.join("third");
+    std::fs::create_dir_all(&third).unwrap();
+    let e = stereocache::scene::load_gltf(&write_uv_quads(&third, true))
+        .expect_err("a third uv choice is refused")
+        .to_string();
+    for want in [
+        "uv_quads.gltf",
+        "material 2",
+        "TEXCOORD_1 untransformed",
+        "both uv channels",
+    ] {
+        assert!(e.contains(want), "{want:?} not in: {e}");
+    }
+    assert_eq!(e.lines().count(), 1, "one line: {e}");
+    assert_no_validation_messages(&ctx);
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// A uv the finest level's texel grid cannot hold is evaluated directly
+/// (memo/lod.glsl `memo_fits`, session 46's memo audit). The quads carry
+/// one uv on all their vertices, (3000.3, 0.7): no uv derivative, so the
+/// cone's level is the finest, 22, where 2^22·3000.3 is past 2^23 (and
+/// past 2^30, where quantising clamped every uv to u ≈ 256). Every hit of
+/// the uv-only material must have the graph's value at that uv (the CPU
+/// evaluator; nothing to snap; to the f32 rounding of interpolating so
+/// large a uv), in every variant, and the lookups count as bypassed.
+/// Before, the graph was evaluated at u = 2^30/2^22 = 256.
+#[test]
+fn far_out_uvs_are_evaluated_directly() {
+    use stereocache::materials::memo::{MemoFill, MemoHits, MemoSettings};
+    let ctx = context();
+    let d = dir("memo-far");
+    let uv = Vec2::new(3000.3, 0.7);
+    let path = write_quads_edited(&d, Vec2::ONE, Mat4::IDENTITY, |m| {
+        m.uvs.iter_mut().for_each(|u| *u = uv)
+    });
+    bind(&path, |j| {
+        j["extensions"]["KHR_texture_procedurals"]["procedurals"][0]["nodes"][6]["nodetype"] =
+            "texcoord".into();
+    });
+    let mut scene = stereocache::scene::load_gltf(&path).expect("bound scene loads");
+    assert!(scene.graphs.graphs[0].reads_only_uv(), "edited KHR graph");
+    assert!(!stereocache::materials::memo::lod::fits(
+        eval::graph_uv(uv.to_array()),
+        stereocache::materials::memo::lod::MAX_LEVEL
+    ));
+    let at = Geom {
+        uv: uv.to_array(),
+        ..Default::default()
+    };
+    let want = cpu_slot(&scene, 0, Slot::BaseColor, &at);
+    // The hit's uv is the three equal vertex uvs interpolated in f32: a few
+    // roundings of terms up to |u| (weights from 24-bit barycentrics, three
+    // products, two sums), within 4 ulps of 3000.3 (2^-12 each), and the
+    // base colour changes by at most 2 per unit uv (PROCEDURAL).
+    let tol = TOL + 2.0 * 4.0 * (-12f32).exp2();
+    // What the clamp gave: the graph at u = 2^30 / 2^22, far beyond the
+    // tolerance (the test's bite).
+    let clamped = cpu_slot(
+        &scene,
+        0,
+        Slot::BaseColor,
+        &Geom {
+            uv: [256.0, uv.y],
+            ..at
+        },
+    );
+    assert!(
+        (want - clamped).abs().max_element() > 10.0 * tol,
+        "{want} vs {clamped}"
+    );
+    for (tile, bilinear) in [(1, false), (1, true), (4, false), (4, true)] {
+        scene.graphs.memo = MemoSettings {
+            hits: MemoHits::Primary,
+            tile,
+            bilinear,
+            entries: (1 << 16) / (tile * tile),
+            fill: MemoFill::Plain,
+            ..Default::default()
+        };
+        let s = session(&ctx, scene.clone(), RtChoice::Software);
+        let memo = s.scene_gpu.memo.as_ref().expect("memo table");
+        let f = render(&s, "reference", top_camera(), &probe_settings());
+        let mut hits = 0usize;
+        for eye in &f.eyes {
+            for (i, fh) in eye.first_hit.iter().enumerate() {
+                if fh[3] == u32::MAX || hit_geom(&s.scene, *fh).0 != 0 {
+                    continue;
+                }
+                let albedo = Vec3::from_slice(&eye.albedo[i][..3]);
+                assert!(
+                    (albedo - want).abs().max_element() <= tol,
+                    "tile {tile} bilinear {bilinear}: pixel {i}: {albedo} vs the graph at the uv {want}"
+                );
+                hits += 1;
+            }
+        }
+        let c = memo.counters().unwrap();
+        assert!(hits > 100, "{hits} hits of material 0");
+        assert_eq!((c.hits, c.fills), (0, 0), "nothing cached: {c:?}");
+        assert!(c.bypassed as usize >= hits, "{c:?}");
+    }
+    assert_no_validation_messages(&ctx);
+    let _ = std::fs::remove_dir_all(&d);
 }

@@ -70,6 +70,15 @@ fn grid() -> Vec<Geom> {
             let t = [a.sin(), 0.0, -a.cos()];
             v.push(Geom {
                 uv: [u, w],
+                // Uv set 1 another affine map of the point, and its
+                // derivative in set 0 (a shear and scale, turned over on
+                // some points as a mirrored second set would be).
+                uv1: [0.7 * u - 0.4 * w + 0.3, 0.2 * u + 1.3 * w - 0.6],
+                uv1_per_uv: if (i + j) % 5 == 2 {
+                    [[0.7, -0.2], [-0.4, -1.3]]
+                } else {
+                    [[0.7, 0.2], [-0.4, 1.3]]
+                },
                 position: [u * 1.7 - 0.3, w * 0.9 + 0.21, (u - w) * 1.3 + 0.05],
                 normal: n,
                 tangent: t,
@@ -171,10 +180,10 @@ fn malformed_documents_give_one_line_errors() {
             &["graph `g`: bad type: output `out` is color3, its source is vector3"],
         ),
         (
-            // Graphs see one uv set; a second is not read as the first.
-            r#"<texcoord name="t" type="vector2"><input name="index" type="integer" value="1" /></texcoord>
+            // Graphs see two uv sets; a third is not read as another.
+            r#"<texcoord name="t" type="vector2"><input name="index" type="integer" value="2" /></texcoord>
                <output name="out" type="vector2" nodename="t" />"#,
-            &["graph `g`, node `t`: input `index` is 1: only texture coordinate set 0"],
+            &["graph `g`, node `t`: input `index` is 2: only texture coordinate sets 0 and 1"],
         ),
         (
             // MaterialX's spaces are model, object and world.
@@ -868,6 +877,72 @@ fn geometry_nodes_read_the_space_they_name() {
         for (k, w) in want.iter().enumerate() {
             assert_close(&vals[k], w, 1e-6, &format!("output {k} at {p:?}"));
         }
+    }
+    assert_gpu_equals_cpu(&g);
+}
+
+/// `texcoord` index 0 and 1 read uv sets 0 and 1 (as vector2 and
+/// vector3), and heighttonormal's central differences move set 1 with set
+/// 0 along the surface (`Geom::uv1_per_uv`, J). For a height linear in set
+/// 1, h = a·u₁ + b·v₁, the gradient in set 1 is (a, b) whatever J is,
+/// and in set 0 it is Jᵀ(a, b): the normals are the analytic
+/// normalize(−s·σ·∇h, 1) (s the scale, σ the Sobel scale), to f32
+/// rounding of the differences (h is exactly linear, so only the
+/// rounding of uv ± step and of h remain: a few ulps of |h| over the
+/// 2·step of the difference). The GPU equals the CPU.
+#[test]
+fn texcoord_index_reads_its_set_and_differences_move_both() {
+    let body = r#"<texcoord name="t0" type="vector2" />
+        <texcoord name="t1" type="vector2"><input name="index" type="integer" value="1" /></texcoord>
+        <texcoord name="t13" type="vector3"><input name="index" type="integer" value="1" /></texcoord>
+        <dotproduct name="h" type="float"><input name="in1" type="vector2" nodename="t1" /><input name="in2" type="vector2" value="0.8, -1.7" /></dotproduct>
+        <heighttonormal name="n1" type="vector3"><input name="in" type="float" nodename="h" /><input name="scale" type="float" value="4.0" /><input name="texcoord" type="vector2" nodename="t1" /></heighttonormal>
+        <heighttonormal name="n0" type="vector3"><input name="in" type="float" nodename="h" /><input name="scale" type="float" value="4.0" /></heighttonormal>
+        <output name="o_t0" type="vector2" nodename="t0" />
+        <output name="o_t1" type="vector2" nodename="t1" />
+        <output name="o_t13" type="vector3" nodename="t13" />
+        <output name="o_n1" type="vector3" nodename="n1" />
+        <output name="o_n0" type="vector3" nodename="n0" />"#;
+    let g = graphs_of(&[body]);
+    assert_eq!(g[0].uv_sets(), 3, "reads both sets");
+    assert!(
+        !g[0].reads_only_uv(),
+        "set 1 is not memoizable by set 0's texel"
+    );
+    let (a, b, scale) = (0.8f32, -1.7f32, 4.0f32);
+    let sigma = stereocache::materials::eval::HEIGHT_SOBEL_SCALE;
+    let normal = |grad: [f32; 2]| {
+        let n =
+            glam::Vec3::new(-scale * sigma * grad[0], -scale * sigma * grad[1], 1.0).normalize();
+        (n * 0.5 + 0.5).to_array()
+    };
+    let step = stereocache::materials::eval::HEIGHT_STEP;
+    for p in &grid() {
+        let vals: Vec<Vec<f32>> = evaluate(&g[0], p)
+            .iter()
+            .map(|v| v.channels().to_vec())
+            .collect();
+        assert_eq!(vals[0], p.uv.to_vec(), "set 0 at {p:?}");
+        assert_eq!(vals[1], p.uv1.to_vec(), "set 1 at {p:?}");
+        assert_eq!(vals[2], vec![p.uv1[0], p.uv1[1], 0.0], "set 1 as vector3");
+        let j = p.uv1_per_uv;
+        let grad0 = [a * j[0][0] + b * j[0][1], a * j[1][0] + b * j[1][1]];
+        // Rounding: |h| and |uv1| up to ~6 here, f32 ulps of that over the
+        // 2·step difference, times s·σ (the normal's slope per unit height
+        // gradient), a few times over.
+        let tol = 8.0 * 6.0 * f32::EPSILON / (2.0 * step) * scale * sigma;
+        assert_close(
+            &vals[3],
+            &normal([a, b]),
+            tol,
+            &format!("∇ in set 1 at {p:?}"),
+        );
+        assert_close(
+            &vals[4],
+            &normal(grad0),
+            tol,
+            &format!("∇ in set 0 at {p:?}"),
+        );
     }
     assert_gpu_equals_cpu(&g);
 }

@@ -708,25 +708,39 @@ fn gpu_frames_keep_the_table_consistent() {
     }
 }
 
-/// Texel-centre snapping (eqs. 5.6-5.7): the snapped uv is within half a
-/// texel, 2^-(m+1), of the hit's uv on each axis (plus the rounding of the
-/// product, one ulp of the uv), at every level; the level of a cone puts
+/// Texel-centre snapping (eqs. 5.6-5.7): where the level's grid holds the
+/// uv (`lod::fits`: |2^m u| < 2^23), the snapped uv is within half a
+/// texel, 2^-(m+1), of the hit's uv on each axis, exactly (compared in
+/// f64: q·2^-m and the uv are both exact); the uvs up to ±4 at levels up
+/// to 22 reach past 2^23, where `fits` is false (those lookups evaluate
+/// directly), and the first uv past it is the one whose snapping was a
+/// whole texel off (an odd 2^23 + 1 tied to the even neighbour: session
+/// 46's memo audit). The level of a cone puts
 /// the texel size 2^-m within a factor sqrt(2) of the footprint's uv width
 /// (eq. 5.5 rounds log2), and no cone gives the finest level.
 #[test]
 fn snapping_error_and_level_bounds() {
+    let (mut fitting, mut beyond) = (0usize, 0usize);
     for i in 0..20_000u32 {
         let r = |k: u32| pcg_hash(i ^ k.wrapping_mul(0x85EB_CA6B)) as f32 / u32::MAX as f32;
         let uv = [r(1) * 8.0 - 4.0, r(2) * 8.0 - 4.0];
         let level = (i % 31) as i32 - 8;
         let s = lod::snapped_uv(lod::quantise(uv, level), level);
-        let half = (-(level + 1) as f32).exp2();
-        for a in 0..2 {
-            let ulp = f32::EPSILON * uv[a].abs().max(1.0);
-            assert!(
-                (s[a] - uv[a]).abs() <= half + ulp,
-                "uv {uv:?} level {level}: {s:?}"
-            );
+        let half = (-(level + 1) as f64).exp2();
+        let fits = uv
+            .iter()
+            .all(|x| (*x as f64 * (level as f64).exp2()).abs() < 8_388_608.0);
+        assert_eq!(lod::fits(uv, level), fits, "uv {uv:?} level {level}");
+        if fits {
+            fitting += 1;
+            for a in 0..2 {
+                assert!(
+                    (s[a] as f64 - uv[a] as f64).abs() <= half,
+                    "uv {uv:?} level {level}: {s:?}"
+                );
+            }
+        } else {
+            beyond += 1;
         }
         let w = (r(3) * 20.0 - 18.0).exp2();
         let k = r(4) * 2.0 + 0.1;
@@ -750,6 +764,16 @@ fn snapping_error_and_level_bounds() {
         }
     }
     assert_eq!(lod::level(0.0, 1.0, 0.0), lod::MAX_LEVEL);
+    assert!(
+        fitting > 10_000 && beyond > 100,
+        "{fitting} fit, {beyond} beyond"
+    );
+    // The last odd texel below 2^23 snaps to itself; 2^23 + 1 does not fit.
+    let below = 2.0 - (-22f32).exp2();
+    assert!(lod::fits([below, 0.0], 22));
+    assert_eq!(lod::quantise([below, 0.0], 22), [8_388_607, 0]);
+    assert!(!lod::fits([2.0 + (-22f32).exp2(), 0.0], 22));
+    assert!(!lod::fits([1000.0, 0.0], 22) && !lod::fits([f32::NAN, 0.0], 0));
 }
 
 /// The singular values (largest, smallest) of a 2×2 matrix.

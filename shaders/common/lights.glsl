@@ -69,9 +69,9 @@ vec3 emitted_radiance(EmitterGpu e, vec2 bary, vec3 dir) {
     if (sc_material_binds_emission(instance_material(inst))) {
         Surface gs = surface_at(inst, prim, bary, dir);
 #ifdef SC_MATERIAL_MEMO
-        vec3 ge = sc_material_graphs_at(gs.material, gs.instance, gs.uv, gs.p, gs.n, gs.tangent, gs.tangent_sign, 0.0, gs.memo_uv_per_width, 0.0).emission;
+        vec3 ge = sc_material_graphs_at(gs.material, gs.instance, gs.uv, gs.uv2, gs.uv2_per_uv, gs.p, gs.n, gs.tangent, gs.tangent_sign, 0.0, gs.memo_uv_per_width, 0.0).emission;
 #else
-        vec3 ge = sc_material_graphs(gs.material, gs.instance, gs.uv, gs.p, gs.n, gs.tangent, gs.tangent_sign, 0.0).emission;
+        vec3 ge = sc_material_graphs(gs.material, gs.instance, gs.uv, gs.uv2, gs.uv2_per_uv, gs.p, gs.n, gs.tangent, gs.tangent_sign, 0.0).emission;
 #endif
         Le = min(Le * ge, vec3(SC_MAX_EMISSION));   // as material_at
     }

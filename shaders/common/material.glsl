@@ -79,9 +79,9 @@ ShadingMaterial material_at(inout Surface s, vec3 ray_dir, float cone_width) {
     // (whose indices are -1 then); unbound outputs are 1 (binding.rs).
     float fp = graph_footprint(s.uv_area_ratio, cone_width, cos_i);
 #ifdef SC_MATERIAL_MEMO
-    ScGraphOutputs go = sc_material_graphs_at(s.material, s.instance, s.uv, s.p, s.n, s.tangent, s.tangent_sign, cone_width, s.memo_uv_per_width, fp);
+    ScGraphOutputs go = sc_material_graphs_at(s.material, s.instance, s.uv, s.uv2, s.uv2_per_uv, s.p, s.n, s.tangent, s.tangent_sign, cone_width, s.memo_uv_per_width, fp);
 #else
-    ScGraphOutputs go = sc_material_graphs(s.material, s.instance, s.uv, s.p, s.n, s.tangent, s.tangent_sign, fp);
+    ScGraphOutputs go = sc_material_graphs(s.material, s.instance, s.uv, s.uv2, s.uv2_per_uv, s.p, s.n, s.tangent, s.tangent_sign, fp);
 #endif
     m.base *= go.base_color;
     m.metallic *= go.metallic;

@@ -203,6 +203,18 @@ MemoCall memo_call(uint material, vec2 uv, float cone_width, float uv_per_width)
     if (c.variant == MEMO_V_DIRECT) return c;
     float w = primary ? cone_width : sc_memo_cone;
     c.level = memo_level(w, uv_per_width, uintBitsToFloat(memo_state[MEMO_S_BIAS]));
+    if (!memo_fits(uv, c.level)) {
+        // Level m's grid cannot hold this uv (lod.glsl memo_fits): the
+        // graph is evaluated at the hit, as for a material that is not
+        // memoizable, and counted with those.
+        atomicAdd(memo_state[MEMO_C_BYPASSED], 1u);
+        c.variant = MEMO_V_DIRECT;
+        c.tiled = false;
+        c.bilinear = false;
+        c.corners = 1u;
+        c.level = 0;
+        return c;
+    }
     c.cap = memo_state[MEMO_S_CAPACITY];
     c.probe = memo_state[MEMO_S_PROBE];
     c.policy = memo_state[MEMO_S_POLICY];
@@ -492,7 +504,7 @@ void memo_store(MemoCall c, uint material, uint k, ivec2 texel, uint corner, ScG
 // evaluations: one copy per call site in that build too (a second copy in
 // the rounds made the procedural-heavy Sponza's path tracer exceed
 // SPIR-V's id bound in glslc's optimizer).
-ScGraphOutputs sc_material_graphs_at(uint material, uint instance, vec2 uv, vec3 p, vec3 n, vec3 t, float ts,
+ScGraphOutputs sc_material_graphs_at(uint material, uint instance, vec2 uv, vec2 uv2, mat2 uv2_per_uv, vec3 p, vec3 n, vec3 t, float ts,
                                      float cone_width, float uv_per_width, float footprint) {
     MemoCall c = memo_call(material, uv, cone_width, uv_per_width);
     ScGraphOutputs out4[4];
@@ -526,7 +538,10 @@ ScGraphOutputs sc_material_graphs_at(uint material, uint instance, vec2 uv, vec3
             fp = c.variant == MEMO_V_DIRECT ? footprint : memo_texel_width(c.level);
         }
         ScGraphOutputs v = ScGraphOutputs(vec3(0.0), 0.0, 0.0, vec3(0.0), vec3(0.0), 0u);
-        if (evaluate) v = sc_material_graphs(mat, instance, at, p, n, t, ts, fp);
+        // uv2 is the lane's own: memoizable materials read neither the
+        // second channel nor set 1 (scene_shaders.rs), the others are
+        // evaluated at their own uv (MEMO_V_DIRECT).
+        if (evaluate) v = sc_material_graphs(mat, instance, at, uv2, uv2_per_uv, p, n, t, ts, fp);
 #ifdef SC_MEMO_SUBGROUP
         if (round) {
             memo_round_step(r, c, evaluate, v, n, out4);

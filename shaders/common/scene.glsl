@@ -187,6 +187,10 @@ struct Surface {
     float extent;  // largest |coordinate| of the triangle's world vertices (surface_offset)
     float uv_area_ratio; // texture-space area / world area of the triangle (ray-cone LOD)
     float uv2_area_ratio; // the same for the second uv channel
+    // ∂uv2/∂uv on the triangle (columns: along u, along v): material
+    // graphs move their second uv set with the first in central
+    // differences (scene_shaders.rs); zero where either is degenerate.
+    mat2 uv2_per_uv;
     // The memoization cache's level of detail (memo/lod.glsl
     // memo_uv_per_width): the shorter uv derivative of a ray cone's
     // footprint along this ray per unit of cone width (thesis eqs.
@@ -255,6 +259,7 @@ Surface surface_at(uint inst, uint prim, vec2 bary, vec3 ray_dir) {
 #endif
     s.uv2 = vec2(0.0);
     s.uv2_area_ratio = 0.0;
+    s.uv2_per_uv = mat2(0.0);
     s.material = meshes[I.mesh_pad.x].material;
     s.instance = inst;
     s.coat_tangent = vec4(0.0);
@@ -265,6 +270,9 @@ Surface surface_at(uint inst, uint prim, vec2 bary, vec3 ray_dir) {
         d1 = tb - ta;
         d2 = tc - ta;
         s.uv2_area_ratio = area2 > 0.0 ? abs(d1.x * d2.y - d1.y * d2.x) / area2 : 0.0;
+        // [d1 d2] = J·[duv1 duv2] on the triangle's plane.
+        float det_uv = duv1.x * duv2.y - duv1.y * duv2.x;
+        if (det_uv != 0.0) s.uv2_per_uv = mat2(d1, d2) * inverse(mat2(duv1, duv2));
     }
     if (SC_CLEARCOAT && (SC_SECOND_UV || SC_UV_AFFINE)) {
         // The vertex tangents belong to the normal texture's uvs (its

@@ -13,11 +13,19 @@
 // tangent_sign: glTF's handedness w (±1, already turned over on a back
 // face, scene.glsl surface_at), so the bitangent is the mesh's own.
 // World-space values, then the same point in the mesh's object space
-// (MaterialX "object"/"model"; eval.rs Geom, ObjectFrame).
+// (MaterialX "object"/"model"; eval.rs Geom, ObjectFrame). uv is
+// texture coordinate set 0, uv1 set 1, uv1_per_uv ∂uv1/∂uv on the surface.
 struct MxGeom {
-    vec2 uv; vec3 position; vec3 normal; vec3 tangent; float tangent_sign; float footprint;
+    vec2 uv; vec2 uv1; mat2 uv1_per_uv; vec3 position; vec3 normal; vec3 tangent; float tangent_sign; float footprint;
     vec3 position_object; vec3 normal_object; vec3 tangent_object; float tangent_sign_object;
 };
+
+// Uv set 1 where uv set 0 moves by d along the surface (heighttonormal's
+// and an image texcoord's central differences; eval.rs shifted_input).
+vec2 mx_uv1_at(MxGeom g, vec2 d) {
+    precise vec2 r = g.uv1 + g.uv1_per_uv * d;
+    return r;
+}
 
 vec3 mx_cross(vec3 a, vec3 b) {
     precise vec3 r = vec3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);

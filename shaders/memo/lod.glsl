@@ -52,9 +52,21 @@ int memo_level(float cone_width, float uv_per_width, float bias) {
     return clamp(int(floor(-log2(l) + bias + 0.5)), MEMO_MIN_LEVEL, MEMO_MAX_LEVEL);
 }
 
+// Whether level m's texel grid holds uv exactly: |2^m u|, |2^m v| < 2^23,
+// where x + 0.5 and floor are exact in f32 (at 2^23 and above an odd x +
+// 0.5 ties to the even neighbour, a whole texel off, and from 2^30 the
+// clamp below sends every uv to one texel). Lookups whose uv does not fit
+// (far-out uvs at a fine level, e.g. level 22 on a triangle of one uv)
+// evaluate directly (common/memo.glsl memo_call; lod.rs `fits`). NaN does
+// not fit.
+bool memo_fits(vec2 uv, int level) {
+    vec2 x = abs(ldexp(uv, ivec2(level)));
+    return max(x.x, x.y) < 8388608.0;
+}
+
 // Eqs. 5.6-5.7: the nearest texel centre, (û, v̂) = round(2^m (u, v))
 // (halves round up; ldexp is exact, so the same on every device and the
-// CPU), clamped into int range.
+// CPU), clamped into int range; exact where memo_fits.
 ivec2 memo_quantise(vec2 uv, int level) {
     vec2 x = clamp(ldexp(uv, ivec2(level)) + 0.5, vec2(-1073741824.0), vec2(1073741760.0));
     return ivec2(floor(x));

@@ -112,6 +112,13 @@ pub struct SceneGraphs {
     /// Whether and how the graphs' outputs are memoized in rendering
     /// (`--memo …`; off by default). Set by the command line, not the file.
     pub memo: crate::materials::memo::MemoSettings,
+    /// Materials whose graphs read texture coordinate set 0 (`texcoord`
+    /// index 0, glTF TEXCOORD_0 untransformed) from the meshes' second uv
+    /// channel (`Mesh::uvs2`) and set 1 from the first (`Mesh::uvs`); the
+    /// others read set 0 from `uvs` and set 1 from `uvs2`. The glTF
+    /// importer decides it from the channels the material's textures take
+    /// (gltf_import.rs `graph_uv_channels`).
+    pub uv_swapped: Vec<u32>,
 }
 
 impl SceneGraphs {
@@ -156,6 +163,15 @@ impl SceneGraphs {
         self.materials
             .iter()
             .any(|(_, b)| b.iter().any(|s| s.slot == slot))
+    }
+
+    /// The uv sets the graphs bound to `material` read (bit k: set k,
+    /// `Graph::uv_sets`).
+    pub fn uv_sets_of(&self, material: u32) -> u32 {
+        self.of_material(material)
+            .iter()
+            .map(|b| self.graphs[b.graph].uv_sets())
+            .fold(0, |a, b| a | b)
     }
 
     pub fn of_material(&self, material: u32) -> &[SlotBind] {

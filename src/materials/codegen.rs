@@ -67,6 +67,7 @@ pub fn symbol(g: &Graph, index: usize) -> String {
 fn geom(p: GeomProp, g: &str) -> String {
     match p {
         GeomProp::Uv => format!("{g}.uv"),
+        GeomProp::Uv1 => format!("{g}.uv1"),
         GeomProp::Position => format!("{g}.position"),
         GeomProp::Normal => format!("{g}.normal"),
         GeomProp::Tangent => format!("{g}.tangent"),
@@ -90,6 +91,18 @@ struct Emit<'a> {
 }
 
 impl Emit<'_> {
+    /// `q<i>` moved by `d` in uv set 0 (heighttonormal's and an image
+    /// texcoord's central differences): uv set 1 moves with it along the
+    /// triangle (`mx_uv1_at`, eval.rs `shifted`) in graphs that read it.
+    fn shift(&self, i: usize, d: &str) -> String {
+        let g = self.geom;
+        let mut s = format!("q{i}.uv = {g}.uv + vec2({d});");
+        if self.graph.uv_sets() & 2 != 0 {
+            let _ = write!(s, " q{i}.uv1 = mx_uv1_at({g}, vec2({d}));");
+        }
+        s
+    }
+
     fn src(&self, s: &Source) -> String {
         match s {
             Source::Const(v) => v.glsl(),
@@ -151,8 +164,13 @@ impl Emit<'_> {
         let swz = |w: usize| ["x", "xy", "xyz", "xyzw"][w - 1];
         match n.op() {
             "constant" | "dot" => a(0),
-            "texcoord" if t.width() == 3 => format!("vec3({}.uv, 0.0)", self.geom),
-            "texcoord" => format!("{}.uv", self.geom),
+            "texcoord" => {
+                let uv = geom(n.geom_prop().expect("texcoord reads a uv set"), self.geom);
+                match t.width() {
+                    3 => format!("vec3({uv}, 0.0)"),
+                    _ => uv,
+                }
+            }
             "position" | "normal" | "tangent" => {
                 geom(n.geom_prop().expect("geometry node"), self.geom)
             }
@@ -291,7 +309,8 @@ impl Emit<'_> {
                 for (name, d) in &shifts {
                     let _ = writeln!(
                         out,
-                        "    q{i}.uv = {g}.uv + vec2({d}); float h{name}_{i} = {f}(q{i});"
+                        "    {} float h{name}_{i} = {f}(q{i});",
+                        self.shift(i, d)
                     );
                 }
                 // The texcoord's derivatives in uv: the identity for the uv itself.
@@ -302,7 +321,8 @@ impl Emit<'_> {
                     for (name, d) in &shifts {
                         let _ = writeln!(
                             out,
-                            "    q{i}.uv = {g}.uv + vec2({d}); vec2 c{name}_{i} = {fc}(q{i});"
+                            "    {} vec2 c{name}_{i} = {fc}(q{i});",
+                            self.shift(i, d)
                         );
                     }
                     let inv = Value::float(1.0 / (2.0 * HEIGHT_STEP)).glsl();
@@ -333,7 +353,8 @@ impl Emit<'_> {
                     ] {
                         let _ = writeln!(
                             out,
-                            "        q{i}.uv = {g}.uv + vec2({d}); vec2 {name}_{i} = {f}(q{i});"
+                            "        {} vec2 {name}_{i} = {f}(q{i});",
+                            self.shift(i, &d)
                         );
                     }
                     let _ = writeln!(

@@ -23,13 +23,29 @@ pub fn graph_uv(mesh_uv: [f32; 2]) -> [f32; 2] {
     [mesh_uv[0], 1.0 - mesh_uv[1]]
 }
 
+/// ∂uv1/∂uv in the graphs' texture space ([`Geom::uv1_per_uv`]) from the
+/// same derivative between the meshes' uvs (columns along u and v): both
+/// sets' v flipped, F·J·F with F = diag(1, −1) (scene_shaders.rs does the
+/// same).
+pub fn graph_uv_jacobian(mesh_j: [[f32; 2]; 2]) -> [[f32; 2]; 2] {
+    [[mesh_j[0][0], -mesh_j[0][1]], [-mesh_j[1][0], mesh_j[1][1]]]
+}
+
 /// The surface point a graph is evaluated at, in world space and in the
 /// mesh's object space (`tangent` may be zero where the mesh has none, then
 /// `normalmap` returns the normal). `uv` is the graph's texture space (v
 /// up): at a mesh's hit, [`graph_uv`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Geom {
+    /// Texture coordinate set 0 (glTF TEXCOORD_0, v up: [`graph_uv`]).
     pub uv: [f32; 2],
+    /// Set 1 (TEXCOORD_1, v up), the `texcoord` node's index 1.
+    pub uv1: [f32; 2],
+    /// ∂uv1/∂uv on the surface (columns: along u, along v; the hit
+    /// triangle's, scene.glsl `surface_at`): a central difference moving
+    /// uv by d moves uv1 by this times d ([`shifted_input`]; zero where
+    /// either set is degenerate or missing).
+    pub uv1_per_uv: [[f32; 2]; 2],
     pub position: [f32; 3],
     pub normal: [f32; 3],
     pub tangent: [f32; 3],
@@ -76,6 +92,8 @@ impl Default for Geom {
     fn default() -> Self {
         Geom {
             uv: [0.0; 2],
+            uv1: [0.0; 2],
+            uv1_per_uv: [[0.0; 2]; 2],
             position: [0.0; 3],
             normal: [0.0; 3],
             tangent: [0.0; 3],
@@ -111,6 +129,7 @@ impl Geom {
         let o = &self.object;
         match g {
             GeomProp::Uv => Value::new(Type::Vector2, &self.uv),
+            GeomProp::Uv1 => Value::new(Type::Vector2, &self.uv1),
             GeomProp::Position => Value::new(Type::Vector3, &self.position),
             GeomProp::Normal => Value::new(Type::Vector3, &self.normal),
             GeomProp::Tangent => Value::new(Type::Vector3, &self.tangent),
@@ -284,9 +303,15 @@ pub fn height_normal(h: [f32; 4], scale: f32, tdu: [f32; 2], tdv: [f32; 2]) -> V
 
 /// Input `k` of node `i` with the graph re-evaluated at the uv shifted by
 /// (du, dv): heighttonormal's and the image texcoord's central differences.
+/// Uv set 1 moves with it along the surface (nodes.glsl `mx_uv1_at`).
 fn shifted_input(g: &Graph, i: usize, k: usize, geom: &Geom, du: f32, dv: f32) -> Value {
     let mut q = *geom;
     q.uv = [geom.uv[0] + du, geom.uv[1] + dv];
+    let j = geom.uv1_per_uv;
+    q.uv1 = [
+        geom.uv1[0] + (j[0][0] * du + j[1][0] * dv),
+        geom.uv1[1] + (j[0][1] * du + j[1][1] * dv),
+    ];
     read(&g.nodes[i].inputs[k], &eval_nodes(g, i, &q), &q)
 }
 
@@ -516,7 +541,12 @@ fn apply(node: &Node, a: &[Arg], geom: &Geom) -> Value {
     let p3 = |i: usize| [v(i).v[0], v(i).v[1], v(i).v[2]];
     match op {
         "constant" | "dot" => v(0),
-        "texcoord" => Value::new(out, &[geom.uv[0], geom.uv[1], 0.0][..w]),
+        "texcoord" => {
+            let t = geom
+                .prop(node.geom_prop().expect("texcoord reads a uv set"))
+                .v;
+            Value::new(out, &[t[0], t[1], 0.0][..w])
+        }
         "position" | "normal" | "tangent" => geom.prop(node.geom_prop().expect("geometry node")),
         "add" => map2(out, v(0), v(1), |x, y| x + y),
         "subtract" => map2(out, v(0), v(1), |x, y| x - y),

@@ -35,9 +35,15 @@ const MAX_CHAIN: usize = 512;
 /// targets reach the renderer). Object space is the default of the
 /// position/normal/tangent nodes and of the 3D noises' position, so a
 /// solid texture sticks to an instanced or animated mesh.
+///
+/// `Uv` is texture coordinate set 0 and `Uv1` set 1 (the `texcoord`
+/// node's `index`; glTF's TEXCOORD_0 and TEXCOORD_1, untransformed:
+/// binding.rs `SceneGraphs::uv_swapped` says which mesh channel holds
+/// each).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum GeomProp {
     Uv,
+    Uv1,
     Position,
     Normal,
     Tangent,
@@ -52,6 +58,7 @@ impl GeomProp {
     pub fn from_name(s: &str) -> Option<GeomProp> {
         Some(match s {
             "UV0" => GeomProp::Uv,
+            "UV1" => GeomProp::Uv1,
             "Pworld" => GeomProp::Position,
             "Nworld" => GeomProp::Normal,
             "Tworld" => GeomProp::Tangent,
@@ -66,7 +73,7 @@ impl GeomProp {
 
     pub fn ty(self) -> Type {
         match self {
-            GeomProp::Uv => Type::Vector2,
+            GeomProp::Uv | GeomProp::Uv1 => Type::Vector2,
             _ => Type::Vector3,
         }
     }
@@ -112,9 +119,16 @@ impl Node {
         self.sig.node
     }
 
-    /// The geometric property a `position`, `normal` or `tangent` node
-    /// reads, by its `space` input (checked at build: one of [`SPACES`]).
+    /// The geometric property a `texcoord` node reads, by its `index`
+    /// (checked at build: 0 or 1), or a `position`, `normal` or `tangent`
+    /// node, by its `space` input (checked at build: one of [`SPACES`]).
     pub fn geom_prop(&self) -> Option<GeomProp> {
+        if self.op() == "texcoord" {
+            return Some(match self.int_input("index") {
+                Some(1) => GeomProp::Uv1,
+                _ => GeomProp::Uv,
+            });
+        }
         let (world, object) = match self.op() {
             "position" => (GeomProp::Position, GeomProp::PositionObject),
             "normal" => (GeomProp::Normal, GeomProp::NormalObject),
@@ -125,6 +139,15 @@ impl Node {
             Some("world") => world,
             _ => object,
         })
+    }
+
+    /// The constant integer of input `name`, if it has one.
+    pub fn int_input(&self, name: &str) -> Option<i32> {
+        let (k, _, _) = self.sig.input(name)?;
+        match &self.inputs[k] {
+            Source::Const(v) => Some(v.v[0] as i32),
+            _ => None,
+        }
     }
 
     /// The constant string of input `name`, if it has one.
@@ -165,22 +188,39 @@ impl Graph {
         self.images.iter().enumerate().find(|(_, im)| im.node == i)
     }
 
-    /// Whether the graph's outputs are a function of the uv alone: no node
-    /// reads the position, normal, tangent or bitangent, directly or
-    /// through a default geometric property (heighttonormal differentiates
-    /// its height input in uv, so it reads geometry only if that input
-    /// does; normalmap's N and T inputs are default geometric properties).
-    /// Only such graphs can be memoized by texel (thesis §5.3.2's key).
+    /// Whether the graph's outputs are a function of uv set 0 alone: no
+    /// node reads the position, normal, tangent, bitangent or uv set 1,
+    /// directly or through a default geometric property (heighttonormal
+    /// differentiates its height input in uv, so it reads geometry only if
+    /// that input does; normalmap's N and T inputs are default geometric
+    /// properties). Only such graphs can be memoized by texel (thesis
+    /// §5.3.2's key, the mesh's first uv channel).
     pub fn reads_only_uv(&self) -> bool {
+        let other = |s: &Source| matches!(s, Source::Geom(g) if *g != GeomProp::Uv);
         self.nodes.iter().all(|n| {
             !matches!(n.op(), "position" | "normal" | "tangent" | "bitangent")
-                && n.inputs
-                    .iter()
-                    .all(|s| !matches!(s, Source::Geom(g) if *g != GeomProp::Uv))
-        }) && self
-            .outputs
+                && n.geom_prop() != Some(GeomProp::Uv1)
+                && !n.inputs.iter().any(other)
+        }) && !self.outputs.iter().any(|o| other(&o.source))
+    }
+
+    /// The uv sets the graph reads: bit k for `texcoord` index k (or the
+    /// default geometric property UV0/UV1 of an input).
+    pub fn uv_sets(&self) -> u32 {
+        let bit = |g: GeomProp| match g {
+            GeomProp::Uv => 1,
+            GeomProp::Uv1 => 2,
+            _ => 0,
+        };
+        let of = |s: &Source| match s {
+            Source::Geom(g) => bit(*g),
+            _ => 0,
+        };
+        self.nodes
             .iter()
-            .all(|o| !matches!(&o.source, Source::Geom(g) if *g != GeomProp::Uv))
+            .map(|n| n.geom_prop().map_or(0, bit) | n.inputs.iter().map(of).fold(0, |a, b| a | b))
+            .chain(self.outputs.iter().map(|o| of(&o.source)))
+            .fold(0, |a, b| a | b)
     }
 
     /// Whether any node reads an object-space property (the hit shaders
@@ -691,13 +731,9 @@ impl<'a> Builder<'a> {
 
 /// Checks constant inputs the implementations need in range.
 fn check_node(n: &Node) -> Option<String> {
-    let int = |name: &str| -> Option<i32> {
-        let (k, _, _) = n.sig.input(name)?;
-        match &n.inputs[k] {
-            Source::Const(v) => Some(v.v[0] as i32),
-            _ => None,
-        }
-    };
+    let int = |name: &str| n.int_input(name);
+    // (`index` is always a constant: no node outputs an integer, and
+    // interface inputs resolve to their values.)
     match n.op() {
         "fractal3d" => int("octaves")
             .filter(|o| !(0..=16).contains(o))
@@ -705,11 +741,11 @@ fn check_node(n: &Node) -> Option<String> {
         "worleynoise2d" | "worleynoise3d" => int("style")
             .filter(|s| !(0..=1).contains(s))
             .map(|s| format!("input `style` is {s}; 0 (distance) or 1 (solid)")),
-        // Graphs are evaluated with one uv set (MxGeom.uv, the mesh's
-        // TEXCOORD_0); a second set would be silently read as the first.
-        "texcoord" => int("index").filter(|i| *i != 0).map(|i| {
+        // Graphs see two uv sets (MxGeom.uv and uv1: glTF's TEXCOORD_0
+        // and TEXCOORD_1); a further set would be silently read as another.
+        "texcoord" => int("index").filter(|i| !(0..=1).contains(i)).map(|i| {
             format!(
-                "input `index` is {i}: only texture coordinate set 0 (UV0, glTF TEXCOORD_0) reaches material graphs"
+                "input `index` is {i}: only texture coordinate sets 0 and 1 (glTF TEXCOORD_0 and TEXCOORD_1) reach material graphs"
             )
         }),
         "extract" => int("index")

@@ -29,8 +29,9 @@ pub const INTERFACE: Interface = Interface {
 
 /// Floats per input point: uv (2), position (3), normal (3), tangent (3),
 /// tangent sign (1), then the object frame's position, normal, tangent (3
-/// each) and tangent sign (1).
-pub const POINT_FLOATS: usize = 22;
+/// each) and tangent sign (1), then uv set 1 (2) and ∂uv1/∂uv (4, by
+/// columns).
+pub const POINT_FLOATS: usize = 28;
 
 /// The harness's GLSL for `graphs`, and each graph's layout and offset in a point's outputs.
 pub fn source(graphs: &[Graph]) -> (String, Vec<(Layout, usize)>) {
@@ -72,7 +73,9 @@ pub fn source(graphs: &[Graph]) -> (String, Vec<(Layout, usize)>) {
          \x20   g.position_object = vec3(pts[b + 12u], pts[b + 13u], pts[b + 14u]);\n\
          \x20   g.normal_object = vec3(pts[b + 15u], pts[b + 16u], pts[b + 17u]);\n\
          \x20   g.tangent_object = vec3(pts[b + 18u], pts[b + 19u], pts[b + 20u]);\n\
-         \x20   g.tangent_sign_object = pts[b + 21u];\n",
+         \x20   g.tangent_sign_object = pts[b + 21u];\n\
+         \x20   g.uv1 = vec2(pts[b + 22u], pts[b + 23u]);\n\
+         \x20   g.uv1_per_uv = mat2(pts[b + 24u], pts[b + 25u], pts[b + 26u], pts[b + 27u]);\n",
     );
     s.push_str(&calls);
     s.push_str("}\n");
@@ -119,6 +122,9 @@ pub fn evaluate(
         flat.extend_from_slice(&p.object.normal);
         flat.extend_from_slice(&p.object.tangent);
         flat.push(p.object.tangent_sign);
+        flat.extend_from_slice(&p.uv1);
+        flat.extend_from_slice(&p.uv1_per_uv[0]);
+        flat.extend_from_slice(&p.uv1_per_uv[1]);
     }
     let n = points.len() as u32;
     let pts = Buffer::with_data(

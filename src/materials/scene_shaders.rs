@@ -61,13 +61,16 @@ pub struct MemoBuild {
 
 /// The include for `sg`. `origin` is the render origin GPU positions are
 /// relative to (rt/origin.rs): graphs see world positions, and the mesh's
-/// uv (glTF's, origin at the image's top left) as MaterialX's texture
-/// space, v up: (u, 1 − v) ([`crate::materials::eval::graph_uv`]; the
-/// memo table keys the mesh's uv, and its fills pass that here). With `memo`, it
-/// also defines `bool sc_material_memoizable(uint material_id)`: whether
-/// all of the material's graphs read only the uv
-/// ([`crate::materials::Graph::reads_only_uv`]), so their outputs can be
-/// cached by texel. `slots[g][k]`: the texture slot of image k of graph g
+/// two uv channels (glTF's, origin at the image's top left) as uv sets 0
+/// and 1 (swapped back for `SceneGraphs::uv_swapped` materials) in
+/// MaterialX's texture space, v up: (u, 1 − v)
+/// ([`crate::materials::eval::graph_uv`]; the memo table keys the first
+/// channel's uv, and its fills pass that here), with ∂uv1/∂uv from the
+/// channels' derivative `uv2_per_uv` (scene.glsl `surface_at`). With
+/// `memo`, it also defines `bool sc_material_memoizable(uint material_id)`:
+/// whether all of the material's graphs read only uv set 0
+/// ([`crate::materials::Graph::reads_only_uv`]) from the first channel, so
+/// their outputs can be cached by texel. `slots[g][k]`: the texture slot of image k of graph g
 /// (`SceneGraphs::image_refs`, rt/gpu_scene.rs `TextureSlots`); `footprint`
 /// is the uv width the outputs stand for (image nodes' level of detail).
 pub fn include(sg: &SceneGraphs, origin: DVec3, memo: bool, slots: &[Vec<u32>]) -> String {
@@ -93,6 +96,9 @@ pub fn include(sg: &SceneGraphs, origin: DVec3, memo: bool, slots: &[Vec<u32>]) 
         ));
     }
     let o = origin.as_vec3();
+    if !sg.uv_swapped.is_empty() {
+        material_predicate(&mut s, "sc_graph_uv_swapped", &sg.uv_swapped);
+    }
     let object = sg.graphs.iter().any(|g| g.reads_object_space());
     if object {
         s.push_str(OBJECT_SPACE);
@@ -101,22 +107,34 @@ pub fn include(sg: &SceneGraphs, origin: DVec3, memo: bool, slots: &[Vec<u32>]) 
         s,
         "struct ScGraphOutputs {{ vec3 base_color; float metallic; float roughness; vec3 normal; vec3 emission; uint mask; }};\n\
          {}\
-         ScGraphOutputs sc_material_graphs(uint material_id, uint instance, vec2 uv, vec3 position, vec3 normal, vec3 tangent, float tangent_sign, float footprint) {{\n\
+         ScGraphOutputs sc_material_graphs(uint material_id, uint instance, vec2 uv, vec2 uv2, mat2 uv2_per_uv, vec3 position, vec3 normal, vec3 tangent, float tangent_sign, float footprint) {{\n\
          \x20   ScGraphOutputs r;\n\
          \x20   r.base_color = vec3(1.0); r.metallic = 1.0; r.roughness = 1.0; r.normal = normal; r.emission = vec3(1.0); r.mask = 0u;\n\
          \x20   MxGeom g;\n\
          \x20   g.uv = vec2(uv.x, 1.0 - uv.y);\n\
+         \x20   g.uv1 = vec2(uv2.x, 1.0 - uv2.y);\n\
+         \x20   g.uv1_per_uv = mat2(uv2_per_uv[0].x, -uv2_per_uv[0].y, -uv2_per_uv[1].x, uv2_per_uv[1].y);\n\
          \x20   g.position = position + vec3({:?}, {:?}, {:?});\n\
          \x20   g.normal = normal;\n\
          \x20   g.tangent = tangent;\n\
          \x20   g.tangent_sign = tangent_sign;\n\
          \x20   g.footprint = footprint;\n\
          \x20   {}\n\
+         \x20   {}\n\
          \x20   switch (material_id) {{\n",
         sanitize(),
         o.x,
         o.y,
         o.z,
+        // Set 0 on the second channel (binding.rs `uv_swapped`): the sets
+        // change places, the derivative is inverted (zero where singular)
+        // and the footprint, a width in the first channel's uv, is taken
+        // to the second's by √|det ∂uv2/∂uv|.
+        if sg.uv_swapped.is_empty() {
+            ""
+        } else {
+            "if (sc_graph_uv_swapped(material_id)) { vec2 t = g.uv; g.uv = g.uv1; g.uv1 = t; float det = determinant(g.uv1_per_uv); g.footprint *= sqrt(abs(det)); g.uv1_per_uv = det != 0.0 ? inverse(g.uv1_per_uv) : mat2(0.0); }"
+        },
         if object {
             "sc_graph_object_space(g, instance, position);"
         } else {
@@ -184,7 +202,10 @@ pub fn include(sg: &SceneGraphs, origin: DVec3, memo: bool, slots: &[Vec<u32>]) 
         let memoizable: Vec<u32> = sg
             .materials
             .iter()
-            .filter(|(_, binds)| binds.iter().all(|b| sg.graphs[b.graph].reads_only_uv()))
+            .filter(|(m, binds)| {
+                binds.iter().all(|b| sg.graphs[b.graph].reads_only_uv())
+                    && !sg.uv_swapped.contains(m)
+            })
             .map(|(m, _)| *m)
             .collect();
         material_predicate(&mut s, "sc_material_memoizable", &memoizable);
@@ -200,12 +221,15 @@ pub fn include(sg: &SceneGraphs, origin: DVec3, memo: bool, slots: &[Vec<u32>]) 
 /// (scene.glsl surface_at), so back by Lᵀ; tangents by L, so back by L⁻¹.
 /// A mirroring instance turns the cross product of the taken-back normal
 /// and tangent over, so the object frame's handedness drops the instance's
-/// front sign that the world one carries (surface_at).
+/// front sign that the world one carries (surface_at). L⁻¹ is the
+/// transpose of the instance's `normal_to_world` (L⁻ᵀ, inverted once per
+/// instance on the CPU, rt/gpu_scene.rs `instance_records`), not inverted
+/// again at every hit.
 const OBJECT_SPACE: &str = "\
 void sc_graph_object_space(inout MxGeom g, uint instance, vec3 p) {
     mat4 M = instances[instance].object_to_world;
     mat3 L = mat3(M);
-    mat3 Li = inverse(L);
+    mat3 Li = transpose(mat3(instances[instance].normal_to_world));
     g.position_object = Li * (p - M[3].xyz);
     vec3 n = transpose(L) * g.normal;
     float nl = length(n);

@@ -142,7 +142,14 @@ impl TextureTable {
     }
 }
 
-fn material_json(m: &Material, used: &mut Vec<&'static str>, table: &mut TextureTable) -> Value {
+/// `swapped`: the material's channels are written as TEXCOORD_1 (Mesh::uvs)
+/// and TEXCOORD_0 (Mesh::uvs2), SceneGraphs::uv_swapped.
+fn material_json(
+    m: &Material,
+    swapped: bool,
+    used: &mut Vec<&'static str>,
+    table: &mut TextureTable,
+) -> Value {
     let mut tex = |t: Option<TextureRef>| t.map(|t| json!({ "index": table.index(t) }));
     // An unlit material (its base colour held as emission, Material::unlit)
     // goes back as KHR_materials_unlit where that colour fits a base colour
@@ -306,14 +313,15 @@ fn material_json(m: &Material, used: &mut Vec<&'static str>, table: &mut Texture
         out.insert("extensions".into(), Value::Object(ext));
     }
     let mut out = Value::Object(out);
-    // Slots reading the second uv channel (Mesh::uvs2, written as TEXCOORD_1),
-    // and slots reading theirs through a map: its KHR_texture_transform
-    // (write_gltf has refused maps that shear).
+    // Slots reading the second uv channel (Mesh::uvs2, written as TEXCOORD_1,
+    // or the first where `swapped`), and slots reading theirs through a
+    // map: its KHR_texture_transform (write_gltf has refused maps that
+    // shear).
     for (k, (_, pointer)) in super::gltf_uv::SLOTS.iter().enumerate() {
         let Some(info) = out.pointer_mut(pointer).and_then(Value::as_object_mut) else {
             continue;
         };
-        if m.second_uv_slots & (1 << k) != 0 {
+        if (m.second_uv_slots & (1 << k) != 0) != swapped {
             info.insert("texCoord".into(), json!(1));
         }
         if let Some(t) = m.uv_affine[k].and_then(|a| a.as_transform()) {
@@ -490,10 +498,19 @@ pub fn write_gltf(scene: &Scene, path: &Path) -> Result<(), SceneError> {
         let pos: Vec<[f32; 3]> = m.positions.iter().map(|v| v.to_array()).collect();
         let nrm: Vec<[f32; 3]> = m.normals.iter().map(|v| v.to_array()).collect();
         let uv: Vec<[f32; 2]> = m.uvs.iter().map(|v| v.to_array()).collect();
+        // A material whose graphs read uv set 0 from the second channel
+        // (SceneGraphs::uv_swapped) has its channels written the other way
+        // round, so TEXCOORD_0 is that set again (material_json names the
+        // slots' sets to match).
+        let swapped = scene.graphs.uv_swapped.contains(&m.material);
+        let (set1, set2) = match swapped {
+            true => ("TEXCOORD_1", "TEXCOORD_0"),
+            false => ("TEXCOORD_0", "TEXCOORD_1"),
+        };
         let mut attributes = Map::new();
         attributes.insert("POSITION".into(), json!(bw.floats(&pos, "VEC3", true)));
         attributes.insert("NORMAL".into(), json!(bw.floats(&nrm, "VEC3", false)));
-        attributes.insert("TEXCOORD_0".into(), json!(bw.floats(&uv, "VEC2", false)));
+        attributes.insert(set1.into(), json!(bw.floats(&uv, "VEC2", false)));
         if !m.tangents.is_empty() {
             // A normal texture read through a uv map is written under the
             // map as its transform, and a reader turns supplied tangents by
@@ -521,10 +538,10 @@ pub fn write_gltf(scene: &Scene, path: &Path) -> Result<(), SceneError> {
             attributes.insert("COLOR_0".into(), json!(bw.floats(&col, "VEC4", false)));
         }
         // The second uv channel as TEXCOORD_1 (its material's slots that
-        // read it name texCoord 1: material_json).
+        // read it name texCoord 1: material_json), or TEXCOORD_0 (above).
         if !m.uvs2.is_empty() {
             let uv2: Vec<[f32; 2]> = m.uvs2.iter().map(|v| v.to_array()).collect();
-            attributes.insert("TEXCOORD_1".into(), json!(bw.floats(&uv2, "VEC2", false)));
+            attributes.insert(set2.into(), json!(bw.floats(&uv2, "VEC2", false)));
         }
         let indices = bw.indices(&m.indices);
         meshes.push(json!({
@@ -616,7 +633,11 @@ pub fn write_gltf(scene: &Scene, path: &Path) -> Result<(), SceneError> {
     let mut materials: Vec<Value> = scene
         .materials
         .iter()
-        .map(|m| material_json(m, &mut used, &mut table))
+        .enumerate()
+        .map(|(i, m)| {
+            let swapped = scene.graphs.uv_swapped.contains(&(i as u32));
+            material_json(m, swapped, &mut used, &mut table)
+        })
         .collect();
     // Material graphs attached as .mtlx files (materials::binding's extras
     // form) are written as such, the files beside the glTF. Graphs read from

@@ -60,8 +60,9 @@ use super::gltf_buffers::{load_buffers, split_container, AccessorReader};
 use super::gltf_instancing::{instancing_json, NodeInstancing, INSTANCING_EXTENSION};
 use super::gltf_textures::{decode_images, patch_invalid_samplers, texture_sampler, ImageUses};
 use super::gltf_uv::{
-    choose, texture_transforms_json, SlotUv, UvAffine, UvChannels, UvChoice, BASE_COLOR_SLOT,
-    CLEARCOAT_NORMAL_SLOT, EMISSIVE_SLOT, NORMAL_SLOT, ORDER, SLOTS, SLOT_COUNT, TEXTURE_TRANSFORM,
+    choose, texture_transforms_json, SlotUv, UvAffine, UvChannels, UvChoice, UvTransform,
+    BASE_COLOR_SLOT, CLEARCOAT_NORMAL_SLOT, EMISSIVE_SLOT, NORMAL_SLOT, ORDER, SLOTS, SLOT_COUNT,
+    TEXTURE_TRANSFORM,
 };
 use super::mesh_ops::{
     drop_non_finite_triangles, fan_to_triangles, flat_normals, generate_normals,
@@ -163,6 +164,7 @@ fn load_gltf_unguarded(path: &Path) -> Result<Scene, SceneError> {
                 .map_err(|e| SceneError::invalid(path, e))?;
         let w: Vec<String> = importer.scene.graphs.warnings().cloned().collect();
         importer.scene.warnings.extend(w);
+        importer.graph_uv_channels()?;
     }
     importer.import_nodes()?;
     importer.warn_missing_uvs();
@@ -976,6 +978,71 @@ impl Importer<'_> {
 
     /// One warning per textured material used by primitives that lack the
     /// uv set it reads (their uvs are zeros: the texture shows one texel).
+    /// Channels for the uv sets the material graphs read. A `texcoord`
+    /// node's index k is glTF's TEXCOORD_k as the mesh stores it (MaterialX
+    /// knows no KHR_texture_transform; the graph places its own uvs), so
+    /// each set a material's graphs read must be a channel holding it
+    /// untransformed: one its textures take already, else the second
+    /// channel where the textures leave it free. A material whose textures
+    /// take both channels with other choices is an error naming it. Where
+    /// set 0 ends on the second channel, the material is one of
+    /// `SceneGraphs::uv_swapped` (scene_shaders.rs swaps the sets back).
+    fn graph_uv_channels(&mut self) -> Result<(), SceneError> {
+        let mut swapped = Vec::new();
+        let bound: Vec<u32> = self
+            .scene
+            .graphs
+            .materials
+            .iter()
+            .map(|(m, _)| *m)
+            .collect();
+        for m in bound {
+            let sets = self.scene.graphs.uv_sets_of(m);
+            let Some(mu) = self.material_uvs.get_mut(m as usize) else {
+                continue;
+            };
+            if sets == 0 {
+                continue;
+            }
+            let holds = |c: &UvChoice, set: u32| c.set == set && c.transform.is_identity();
+            // Which channel (0: Mesh::uvs, 1: Mesh::uvs2) holds set k.
+            let mut channel = [None; 2];
+            for set in 0..2u32 {
+                if sets & (1 << set) == 0 {
+                    continue;
+                }
+                channel[set as usize] = Some(if holds(&mu.channels.first, set) {
+                    0
+                } else if mu.channels.second.is_some_and(|c| holds(&c, set)) {
+                    1
+                } else if mu.channels.second.is_none() {
+                    mu.channels.second = Some(UvChoice {
+                        set,
+                        transform: UvTransform::default(),
+                    });
+                    1
+                } else {
+                    let second = mu.channels.second.map_or(String::new(), |c| c.describe());
+                    return Err(SceneError::invalid(
+                        self.path,
+                        format!(
+                            "{}: its material graphs read TEXCOORD_{set} untransformed (texcoord index {set}), \
+                             but its textures take both uv channels ({} and {second}); a material gets two",
+                            mu.label,
+                            mu.channels.first.describe()
+                        ),
+                    ));
+                });
+            }
+            mu.textured = true;
+            if matches!(channel, [Some(1), _] | [None, Some(0)]) {
+                swapped.push(m);
+            }
+        }
+        self.scene.graphs.uv_swapped = swapped;
+        Ok(())
+    }
+
     fn warn_missing_uvs(&mut self) {
         for (material, prims) in std::mem::take(&mut self.missing_uvs) {
             let Some(m) = self.material_uvs.get(material as usize) else {

@@ -57,7 +57,17 @@ fn pow2(level: i32) -> f32 {
     f32::from_bits(((level.clamp(-126, 127) + 127) as u32) << 23)
 }
 
-/// (û, v̂) = round(2^m (u, v)), halves up, clamped into int range.
+/// Whether level `level`'s texel grid holds `uv` exactly (lod.glsl
+/// `memo_fits`): |2^m u|, |2^m v| < 2^23, where `quantise` rounds exactly.
+/// Lookups whose uv does not fit are evaluated directly (counted as
+/// bypassed). NaN does not fit.
+pub fn fits(uv: [f32; 2], level: i32) -> bool {
+    let s = pow2(level);
+    uv.iter().all(|x| (x * s).abs() < 8_388_608.0)
+}
+
+/// (û, v̂) = round(2^m (u, v)), halves up, clamped into int range; exact
+/// where [`fits`].
 pub fn quantise(uv: [f32; 2], level: i32) -> [i32; 2] {
     let s = pow2(level);
     uv.map(|x| {

@@ -26,8 +26,10 @@ pub struct MemoCounters {
     /// Hits refused because the key changed during the read (counted in
     /// `misses` as well).
     pub refused: u64,
-    /// Hits of memoized kind whose material's graphs read more than the uv
-    /// (position, normal, tangent): evaluated directly, never cached.
+    /// Hits of memoized kind evaluated directly, never cached: their
+    /// material's graphs read more than uv set 0 (position, normal,
+    /// tangent, set 1), or their uv lies beyond what the level's texel
+    /// grid holds exactly (lod.rs `fits`).
     pub bypassed: u64,
     /// The right (second) eye's hits and misses, counted in `hits` and
     /// `misses` too (shaders/common/memo.glsl `sc_memo_eye`).
