@@ -976,8 +976,6 @@ impl Importer<'_> {
         (second_slots, affine)
     }
 
-    /// One warning per textured material used by primitives that lack the
-    /// uv set it reads (their uvs are zeros: the texture shows one texel).
     /// Channels for the uv sets the material graphs read. A `texcoord`
     /// node's index k is glTF's TEXCOORD_k as the mesh stores it (MaterialX
     /// knows no KHR_texture_transform; the graph places its own uvs), so
@@ -1043,6 +1041,8 @@ impl Importer<'_> {
         Ok(())
     }
 
+    /// One warning per textured material used by primitives that lack the
+    /// uv set it reads (their uvs are zeros: the texture shows one texel).
     fn warn_missing_uvs(&mut self) {
         for (material, prims) in std::mem::take(&mut self.missing_uvs) {
             let Some(m) = self.material_uvs.get(material as usize) else {
