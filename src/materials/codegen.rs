@@ -93,7 +93,7 @@ struct Emit<'a> {
 impl Emit<'_> {
     /// `q<i>` moved by `d` in uv set 0 (heighttonormal's and an image
     /// texcoord's central differences): uv set 1 moves with it along the
-    /// triangle (`mx_uv1_at`, eval.rs `shifted`) in graphs that read it.
+    /// triangle (`mx_uv1_at`, eval.rs `shifted_input`) in graphs that read it.
     fn shift(&self, i: usize, d: &str) -> String {
         let g = self.geom;
         let mut s = format!("q{i}.uv = {g}.uv + vec2({d});");

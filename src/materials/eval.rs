@@ -23,14 +23,6 @@ pub fn graph_uv(mesh_uv: [f32; 2]) -> [f32; 2] {
     [mesh_uv[0], 1.0 - mesh_uv[1]]
 }
 
-/// ∂uv1/∂uv in the graphs' texture space ([`Geom::uv1_per_uv`]) from the
-/// same derivative between the meshes' uvs (columns along u and v): both
-/// sets' v flipped, F·J·F with F = diag(1, −1) (scene_shaders.rs does the
-/// same).
-pub fn graph_uv_jacobian(mesh_j: [[f32; 2]; 2]) -> [[f32; 2]; 2] {
-    [[mesh_j[0][0], -mesh_j[0][1]], [-mesh_j[1][0], mesh_j[1][1]]]
-}
-
 /// The surface point a graph is evaluated at, in world space and in the
 /// mesh's object space (`tangent` may be zero where the mesh has none, then
 /// `normalmap` returns the normal). `uv` is the graph's texture space (v
@@ -42,7 +34,8 @@ pub struct Geom {
     /// Set 1 (TEXCOORD_1, v up), the `texcoord` node's index 1.
     pub uv1: [f32; 2],
     /// ∂uv1/∂uv on the surface (columns: along u, along v; the hit
-    /// triangle's, scene.glsl `surface_at`): a central difference moving
+    /// triangle's, scene.glsl `surface_at`, with both sets' v flipped:
+    /// F·J·F, F = diag(1, −1), scene_shaders.rs): a central difference moving
     /// uv by d moves uv1 by this times d ([`shifted_input`]; zero where
     /// either set is degenerate or missing).
     pub uv1_per_uv: [[f32; 2]; 2],
