@@ -250,7 +250,7 @@ pub fn page(d: &ReportData) -> Result<String> {
     for (k, v) in METRICS {
         h.push_str(&format!("<b>{k}</b>: {v}. "));
     }
-    h.push_str("<b>±</b>: standard error of the mean over frames (frames taken as independent; temporally accumulating methods' frames are correlated, so it understates run-to-run variation); the reference row's is that of its noise estimate. ");
+    h.push_str("<b>±</b>: standard error of the mean over frames, widened by the frames' lag-1 autocorrelation (accumulating methods' frames are correlated; drift between runs is not in it); the reference row's is that of its noise estimate. ");
     h.push_str("Times are GPU timestamps on the device named above; * = frames after the first (frame 0 carries one-time driver costs such as pipeline compilation).</p>\n");
 
     let has_metrics = d.methods.iter().any(|m| m.metric("rse").is_some());
