@@ -230,7 +230,7 @@ pub fn page(d: &ReportData) -> Result<String> {
     mark = h.len();
     if let Some(ppd) = s["flip"]["ppd"].as_f64() {
         h.push_str(&format!(
-            "<p id=\"fair-metrics\">FLIP at {ppd:.3} pixels per degree ({}). Temporal and stereo metrics: one mask per frame for every method, from the {}: co-visible fraction temporal {}, stereo {}{}. ± = standard error over frames (frames taken as independent).</p>\n",
+            "<p id=\"fair-metrics\">FLIP at {ppd:.3} pixels per degree ({}). Temporal and stereo metrics: one mask per frame for every method, from the {}: co-visible fraction temporal {}, stereo {}{}. ± = standard error over frames, widened by their lag-1 autocorrelation.</p>\n",
             esc(s["flip"]["source"].as_str().unwrap_or("")),
             esc(s["masks"]["source"].as_str().unwrap_or("reference geometry")),
             fmt(s["masks"]["temporal_covisible"].as_f64()),
