@@ -350,7 +350,8 @@ pub const FEATURES: &[Feature] = &[
     f(
         "KHR_texture_procedurals",
         Full,
-        "MaterialX graphs bound to materials (docs/MATERIALS.md)",
+        "MaterialX graphs bound to materials (docs/MATERIALS.md); `texcoord` index 0 and 1 \
+         read TEXCOORD_0 and TEXCOORD_1 untransformed",
     ),
     elsewhere(
         "KHR_texture_transform",
