@@ -46,20 +46,8 @@ vec3 emitted_radiance(EmitterGpu e, vec2 bary, vec3 dir) {
     vec3 gn = cross(e.p1 - e.p0, e.p2 - e.p0) * instance_front_sign(inst);
     if (dot(gn, dir) >= 0.0 && g.tex1.z == 0) return vec3(0.0);
     if (!alpha_passes(inst, prim, bary)) return vec3(0.0);
-    // A clearcoat over the emitter dims its emission by the coat's Fresnel
-    // towards the viewer (material_at): evaluated there in full, at mip 0
-    // as a secondary hit is, so light sampling and BSDF sampling see the
-    // same radiance.
-    if (SC_CLEARCOAT && g.coat.x > 0.0) {
-        Surface cs = surface_at(inst, prim, bary, dir);
-        return material_at(cs, dir, 0.0).emissive;
-    }
-    vec3 Le = g.emissive_metallic.rgb;
-    if (SC_VERTEX_COLORS && g.tex1.w != 0) Le *= triangle_color(inst, prim, bary).rgb;   // unlit: × COLOR_0
-    if (SC_TEXTURES && g.tex0.w >= 0) {
-        vec2 uv = slot_on_second_uv(g.tex3.y, 3) ? triangle_uv2(inst, prim, bary) : triangle_uv(inst, prim, bary);
-        Le *= sample_texture(g.tex0.w, slot_map_uv(g, 3, uv), 0.0).rgb;
-    }
+    // The emission graph's output (1 where none is bound).
+    vec3 ge = vec3(1.0);
 #if defined(SC_MATERIAL_GRAPHS) && defined(SC_GRAPH_EMISSION)
     // The emission graph at the sampled point, as material_at evaluates it
     // there: through the memoization table where the caller set the light
@@ -69,12 +57,33 @@ vec3 emitted_radiance(EmitterGpu e, vec2 bary, vec3 dir) {
     if (sc_material_binds_emission(instance_material(inst))) {
         Surface gs = surface_at(inst, prim, bary, dir);
 #ifdef SC_MATERIAL_MEMO
-        vec3 ge = sc_material_graphs_at(gs.material, gs.instance, gs.uv, gs.uv2, gs.uv2_per_uv, gs.p, gs.n, gs.tangent, gs.tangent_sign, 0.0, gs.memo_uv_per_width, 0.0).emission;
+        ge = sc_material_graphs_at(gs.material, gs.instance, gs.uv, gs.uv2, gs.uv2_per_uv, gs.p, gs.n, gs.tangent, gs.tangent_sign, 0.0, gs.memo_uv_per_width, 0.0).emission;
 #else
-        vec3 ge = sc_material_graphs(gs.material, gs.instance, gs.uv, gs.uv2, gs.uv2_per_uv, gs.p, gs.n, gs.tangent, gs.tangent_sign, 0.0).emission;
+        ge = sc_material_graphs(gs.material, gs.instance, gs.uv, gs.uv2, gs.uv2_per_uv, gs.p, gs.n, gs.tangent, gs.tangent_sign, 0.0).emission;
 #endif
-        Le = min(Le * ge, vec3(SC_MAX_EMISSION));   // as material_at
     }
+#endif
+    // A clearcoat over the emitter dims its emission by the coat's Fresnel
+    // towards the viewer (material_with): evaluated there in full, at mip 0
+    // as a secondary hit is, so light sampling and BSDF sampling see the
+    // same radiance. Of the graphs only the emission is passed: the other
+    // outputs do not reach the emission or the coat (the coat follows the
+    // interpolated normal, or its own normal texture).
+    if (SC_CLEARCOAT && g.coat.x > 0.0) {
+        Surface cs = surface_at(inst, prim, bary, dir);
+#ifdef SC_MATERIAL_GRAPHS
+        ScGraphOutputs go = ScGraphOutputs(vec3(1.0), 1.0, 1.0, cs.n, ge, 0u);
+#endif
+        return material_with(cs, dir, 0.0 SC_GRAPH_OUTPUTS_PASS).emissive;
+    }
+    vec3 Le = g.emissive_metallic.rgb;
+    if (SC_VERTEX_COLORS && g.tex1.w != 0) Le *= triangle_color(inst, prim, bary).rgb;   // unlit: × COLOR_0
+    if (SC_TEXTURES && g.tex0.w >= 0) {
+        vec2 uv = slot_on_second_uv(g.tex3.y, 3) ? triangle_uv2(inst, prim, bary) : triangle_uv(inst, prim, bary);
+        Le *= sample_texture(g.tex0.w, slot_map_uv(g, 3, uv), 0.0).rgb;
+    }
+#if defined(SC_MATERIAL_GRAPHS) && defined(SC_GRAPH_EMISSION)
+    Le = min(Le * ge, vec3(SC_MAX_EMISSION));   // as material_with
 #endif
     return Le;
 }

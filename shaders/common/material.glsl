@@ -52,7 +52,20 @@ vec3 tangent_space_normal(Surface s, vec3 tn, float scale) {
 // Whether a mapped normal may be used: finite, on the visible side of the geometry.
 bool mapped_normal_usable(Surface s, vec3 n) { return dot(n, s.ng) > 0.0 && all(equal(n, n)); }
 
-ShadingMaterial material_at(inout Surface s, vec3 ray_dir, float cone_width) {
+// material_with takes the material graphs' outputs from its caller
+// (material_at evaluates them): light sampling's clearcoat branch
+// (lights.glsl emitted_radiance) passes only the emission graph's, so the
+// scene's whole graph switch is not inlined a further time there (with it
+// the procedural-heavy Sponza's path tracer exceeded SPIR-V's id bound
+// and glslc's optimizer crashed, plain and cooperative builds alike).
+#ifdef SC_MATERIAL_GRAPHS
+#define SC_GRAPH_OUTPUTS_ARG , ScGraphOutputs go
+#define SC_GRAPH_OUTPUTS_PASS , go
+#else
+#define SC_GRAPH_OUTPUTS_ARG
+#define SC_GRAPH_OUTPUTS_PASS
+#endif
+ShadingMaterial material_with(inout Surface s, vec3 ray_dir, float cone_width SC_GRAPH_OUTPUTS_ARG) {
     MaterialGpu g = materials[s.material];
     ShadingMaterial m;
     // glTF: COLOR_0 multiplies the base colour factor (and texture).
@@ -77,12 +90,6 @@ ShadingMaterial material_at(inout Surface s, vec3 ray_dir, float cone_width) {
 #ifdef SC_MATERIAL_GRAPHS
     // Bound graph outputs multiply the factors in place of the textures
     // (whose indices are -1 then); unbound outputs are 1 (binding.rs).
-    float fp = graph_footprint(s.uv_area_ratio, cone_width, cos_i);
-#ifdef SC_MATERIAL_MEMO
-    ScGraphOutputs go = sc_material_graphs_at(s.material, s.instance, s.uv, s.uv2, s.uv2_per_uv, s.p, s.n, s.tangent, s.tangent_sign, cone_width, s.memo_uv_per_width, fp);
-#else
-    ScGraphOutputs go = sc_material_graphs(s.material, s.instance, s.uv, s.uv2, s.uv2_per_uv, s.p, s.n, s.tangent, s.tangent_sign, fp);
-#endif
     m.base *= go.base_color;
     m.metallic *= go.metallic;
     m.roughness *= go.roughness;
@@ -168,5 +175,19 @@ ShadingMaterial material_at(inout Surface s, vec3 ray_dir, float cone_width) {
         m.emissive *= 1.0 - m.clearcoat * coat_fresnel(abs(dot(nc, ray_dir)));
     }
     return m;
+}
+
+// The material at a hit: its graphs evaluated (where the scene has them),
+// then material_with.
+ShadingMaterial material_at(inout Surface s, vec3 ray_dir, float cone_width) {
+#ifdef SC_MATERIAL_GRAPHS
+    float fp = graph_footprint(s.uv_area_ratio, cone_width, dot(s.ng, -ray_dir));
+#ifdef SC_MATERIAL_MEMO
+    ScGraphOutputs go = sc_material_graphs_at(s.material, s.instance, s.uv, s.uv2, s.uv2_per_uv, s.p, s.n, s.tangent, s.tangent_sign, cone_width, s.memo_uv_per_width, fp);
+#else
+    ScGraphOutputs go = sc_material_graphs(s.material, s.instance, s.uv, s.uv2, s.uv2_per_uv, s.p, s.n, s.tangent, s.tangent_sign, fp);
+#endif
+#endif
+    return material_with(s, ray_dir, cone_width SC_GRAPH_OUTPUTS_PASS);
 }
 #endif
