@@ -231,6 +231,51 @@ fn an_experiment_equals_compare_and_two_merged_shards_equal_one_run() {
     );
     assert!(printed.contains("claim: the sample cache"), "{printed}");
 
+    // A part from another device, or with another frame count, is not a
+    // part of this comparison (timing ratios across machines, or means
+    // over other frames, would pass as one run's): one error line naming
+    // the part's summary.json, nothing merged.
+    for (what, edit) in [
+        (
+            "'device' is",
+            Box::new(|s: &mut serde_json::Value| s["device"] = "another GPU".into())
+                as Box<dyn Fn(&mut serde_json::Value)>,
+        ),
+        (
+            "a row has 3 frames",
+            Box::new(|s: &mut serde_json::Value| s["methods"][0]["frames"] = 3.into()),
+        ),
+    ] {
+        let other = root.join("s2-other");
+        let _ = std::fs::remove_dir_all(&other);
+        let mut c = std::process::Command::new("cp");
+        c.arg("-r").arg(&s2).arg(&other);
+        run(&mut c, "cp");
+        let p = other.join(group).join("summary.json");
+        let mut j: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&p).unwrap()).unwrap();
+        edit(&mut j);
+        std::fs::write(&p, j.to_string()).unwrap();
+        let out = root.join("merged-other");
+        let o = bin()
+            .args(["experiment", "merge"])
+            .arg(&s1)
+            .arg(&other)
+            .arg("--out")
+            .arg(&out)
+            .output()
+            .unwrap();
+        let line = single_error_line(&o, what);
+        assert!(
+            line.contains(&p.display().to_string()) && line.contains(what),
+            "{line}"
+        );
+        assert!(
+            !out.join(group).join("summary.json").exists(),
+            "{what}: merged anyway"
+        );
+    }
+
     // A mistyped metric: everything is written, the claim says which
     // figures exist, and a warning names it (the same verdict covers a
     // figure a run did not produce, so it is not an error).
