@@ -189,7 +189,8 @@ struct Surface {
     float uv2_area_ratio; // the same for the second uv channel
     // ∂uv2/∂uv on the triangle (columns: along u, along v): material
     // graphs move their second uv set with the first in central
-    // differences (scene_shaders.rs); zero where either is degenerate.
+    // differences (scene_shaders.rs); zero where either is degenerate,
+    // and in builds without graphs.
     mat2 uv2_per_uv;
     // The memoization cache's level of detail (memo/lod.glsl
     // memo_uv_per_width): the shorter uv derivative of a ray cone's
@@ -270,9 +271,12 @@ Surface surface_at(uint inst, uint prim, vec2 bary, vec3 ray_dir) {
         d1 = tb - ta;
         d2 = tc - ta;
         s.uv2_area_ratio = area2 > 0.0 ? abs(d1.x * d2.y - d1.y * d2.x) / area2 : 0.0;
-        // [d1 d2] = J·[duv1 duv2] on the triangle's plane.
+#ifdef SC_MATERIAL_GRAPHS
+        // [d1 d2] = J·[duv1 duv2] on the triangle's plane. Only material
+        // graphs read it (scene_shaders.rs), so other builds skip it.
         float det_uv = duv1.x * duv2.y - duv1.y * duv2.x;
         if (det_uv != 0.0) s.uv2_per_uv = mat2(d1, d2) * inverse(mat2(duv1, duv2));
+#endif
     }
     if (SC_CLEARCOAT && (SC_SECOND_UV || SC_UV_AFFINE)) {
         // The vertex tangents belong to the normal texture's uvs (its
