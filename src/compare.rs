@@ -604,7 +604,9 @@ pub fn non_finite_metrics_warning(out: &Path, rows: &[MethodRow]) -> Option<Stri
                 .get("non_finite_pixels")
                 .copied()
                 .filter(|n| *n > 0.0)
-                .map(|n| format!("{n:.1} pixels of ∞ or NaN per frame, scored as black"));
+                .map(|n| {
+                    format!("{n:.1} pixels of ∞ or NaN per frame, those channels scored as 0")
+                });
             let mut what: Vec<String> = Vec::new();
             if !keys.is_empty() {
                 what.push(format!(
@@ -1075,7 +1077,7 @@ mod tests {
         d.metrics.insert("non_finite_pixels".into(), 2.5);
         let w = non_finite_metrics_warning(out, &[row("a", 0.5), d]).unwrap();
         assert!(
-            w.ends_with(": d (2.5 pixels of ∞ or NaN per frame, scored as black)"),
+            w.ends_with(": d (2.5 pixels of ∞ or NaN per frame, those channels scored as 0)"),
             "{w}"
         );
     }

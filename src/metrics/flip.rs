@@ -200,8 +200,13 @@ const ACES: [f32; 6] = [
     0.14,
 ];
 
+/// `x` is capped at 10⁶ first: beyond x_t ≈ 2.12 the curve is above 1 and
+/// clamped to 1 by the caller anyway, and x² overflows f32 above ≈ 1.8·10¹⁹,
+/// where ∞/∞ = NaN was mapped to black, scoring the brightest fireflies as
+/// no error at all (until session 47).
 fn aces(x: f32) -> f32 {
     let k = ACES;
+    let x = x.min(1e6);
     (k[0] * x * x + k[1] * x + k[2]) / (k[3] * x * x + k[4] * x + k[5])
 }
 
@@ -703,6 +708,23 @@ mod tests {
             (f.start_exposure, f.stop_exposure, f.flip.mean),
             (0.0, 0.0, 0.0)
         );
+    }
+
+    /// A finite pixel too bright for x² in f32 (1e25) is white at every
+    /// exposure, as a merely very bright one (1e6) is: the same error (a
+    /// lone pixel's error is small after the CSF's low-pass at 67 PPD;
+    /// black, as it was mapped before, gives another value).
+    #[test]
+    fn huge_finite_pixels_are_white_not_black() {
+        let r = LinearImage::filled(16, 16, [0.02; 3]);
+        let with = |v: f32| {
+            let mut t = r.clone();
+            t.rgb[8 * 16 + 8] = [v; 3];
+            flip_hdr(&t, &r, DEFAULT_PPD).unwrap().flip.map[8 * 16 + 8]
+        };
+        let (bright, huge) = (with(1e6), with(1e25));
+        assert!(bright > 0.05, "{bright}");
+        assert_eq!(huge, bright);
     }
 
     #[test]

@@ -97,12 +97,13 @@ impl LinearImage {
         self.rgb.iter().map(|&p| luminance(sanitize(p))).collect()
     }
 
-    /// Number of non-finite channel values (NaN or ±Inf).
+    /// Number of pixels with a non-finite channel value (NaN or ±Inf): a
+    /// pixel NaN in all three channels counts once (until session 47 this
+    /// counted channel values, so a shader's NaN pixel counted three times).
     pub fn non_finite_count(&self) -> usize {
         self.rgb
             .iter()
-            .flat_map(|p| p.iter())
-            .filter(|v| !v.is_finite())
+            .filter(|p| p.iter().any(|v| !v.is_finite()))
             .count()
     }
 
@@ -231,11 +232,21 @@ mod tests {
 
     #[test]
     fn luminance_uses_rec709_and_zeroes_non_finite() {
-        let img =
-            LinearImage::new(2, 1, vec![[1.0, 1.0, 1.0], [f32::NAN, 1.0, f32::INFINITY]]).unwrap();
+        let img = LinearImage::new(
+            3,
+            1,
+            vec![
+                [1.0, 1.0, 1.0],
+                [f32::NAN, 1.0, f32::INFINITY],
+                [f32::NAN; 3],
+            ],
+        )
+        .unwrap();
         let y = img.luminance();
         assert!((y[0] - 1.0).abs() < 1e-6);
         assert!((y[1] - 0.7152).abs() < 1e-6);
+        assert_eq!(y[2], 0.0);
+        // Pixels, not channel values: two pixels hold non-finite values.
         assert_eq!(img.non_finite_count(), 2);
     }
 
