@@ -129,8 +129,11 @@ impl ReferenceCache {
 
     /// FNV-1a hash of everything that determines the image, the renderer's
     /// own code included: the SPIR-V of the reference shaders (so a change of
-    /// the integrator never reuses references rendered by the old one) and the
-    /// scene file's length and modification time (an edited scene is new).
+    /// the integrator never reuses references rendered by the old one), the
+    /// scene file's length and modification time, and the loaded scene's
+    /// content (`Scene::content_hash`: geometry, materials, textures, lights,
+    /// environment, graphs — so another `--lighting`, an edited `.bin`,
+    /// texture, `.mtlx` or environment map is a new scene).
     fn key(&self, session: &Session, cam: &StereoCamera, index: u32) -> String {
         let s = &self.settings;
         let code = fnv1a(
@@ -171,7 +174,8 @@ impl ReferenceCache {
             }
         };
         let text = format!(
-            "v2-halves|{code:016x}|{file}|{}|{}|{:?}|{:?}|{:?}|{}|{}|{}x{}|spp{}|b{}|seed{}|frame{}|{}{pose}{projection}",
+            "v3-halves|{code:016x}|{file}|{:016x}|{}|{}|{:?}|{:?}|{:?}|{}|{}|{}x{}|spp{}|b{}|seed{}|frame{}|{}{pose}{projection}",
+            session.scene_content_hash(),
             session.scene.source.display(),
             session.scene_gpu.triangle_count,
             cam.world_position().to_array().map(f64::to_bits),
@@ -449,8 +453,8 @@ impl Evaluator {
             add("flip", im.flip as f64);
             add("cpbd", im.cpbd as f64);
             add("cpbd_reference", im.cpbd_reference as f64);
-            // Pixels holding ∞ or NaN, both eyes together (2 × the eyes'
-            // mean): every metric scores them as black
+            // Pixels holding ∞ or NaN in some channel, both eyes together
+            // (2 × the eyes' mean): every metric scores those channels as 0
             // (LinearImage::sanitized), so they are counted here and named
             // by compare's warning.
             add("non_finite_pixels", 2.0 * im.non_finite as f64);

@@ -47,6 +47,8 @@ pub struct Session {
     camera_reported: AtomicBool,
     /// `scene.mesh_bounds()`, for the pose checks of an animated scene.
     mesh_bounds: Vec<Option<(Vec3, Vec3)>>,
+    /// `scene.content_hash()`, computed on first use (the reference cache's key).
+    content_hash: std::sync::OnceLock<u64>,
 }
 
 /// Bytes per triangle of the flattened software BVH's buffers
@@ -132,6 +134,7 @@ impl Session {
             scene_gpu,
             backend,
             camera_reported: AtomicBool::new(false),
+            content_hash: std::sync::OnceLock::new(),
         })
     }
 
@@ -142,6 +145,12 @@ impl Session {
     /// (`SceneGpu::set_instance_motion`). The frame loop calls it once per
     /// frame. Nothing happens for a static scene. Returns the wall time it
     /// took (animation sampling, TLAS rebuild, upload).
+    /// [`Scene::content_hash`] of this session's scene, computed once (the
+    /// scene is not changed after the session is made).
+    pub fn scene_content_hash(&self) -> u64 {
+        *self.content_hash.get_or_init(|| self.scene.content_hash())
+    }
+
     pub fn pose_instances(&self, t: f64, prev_t: Option<f64>) -> Result<std::time::Duration> {
         let start = std::time::Instant::now();
         if self.scene.is_animated() {

@@ -352,3 +352,56 @@ fn an_odd_reference_spp_is_refused_before_any_work() {
     );
     assert!(!out.exists());
 }
+
+/// The reference cache keys on the loaded scene's content: the same scene
+/// file under another `--lighting` renders (and stores) new references
+/// instead of reusing those of the old lighting (until session 47 the key
+/// held the lights' count alone, so `constant:5` after `constant:1` scored
+/// the reference itself at an RSE of 15.8). Plane at 32×24, 2 frames.
+#[test]
+fn references_are_not_reused_across_lighting() {
+    let base = std::env::temp_dir().join(format!("stereocache-refkey-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&base);
+    let cache = base.join("refs");
+    let trace = Path::new(env!("CARGO_MANIFEST_DIR")).join("captures/mmsys18-user1.csv");
+    let refs = || std::fs::read_dir(&cache).map(|d| d.count()).unwrap_or(0);
+    let mut counts = Vec::new();
+    for (k, lighting) in ["constant:1", "constant:5", "constant:1"]
+        .iter()
+        .enumerate()
+    {
+        let out = base.join(format!("run{k}"));
+        let o = Command::new(env!("CARGO_BIN_EXE_stereocache"))
+            .env("STEREOCACHE_VALIDATE", "1")
+            .args(["compare", "--scene", "plane", "--lighting", lighting])
+            .args(["--trace", trace.to_str().unwrap()])
+            .args(["--methods", "naive", "--frames", "2", "--every", "0"])
+            .args([
+                "--size",
+                "32x24",
+                "--rt",
+                "software",
+                "--reference-spp",
+                "4",
+            ])
+            .args(["--out", out.to_str().unwrap()])
+            .args(["--reference-cache", cache.to_str().unwrap()])
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let json: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
+        // 1 spp of a plane under a constant sky against its 4 spp
+        // reference: RSE well below 1, where a reference of the other
+        // lighting (5× or 1/5 the radiance) gives ≥ 0.64 = (1 − 1/5)²
+        // everywhere.
+        let rse = json["methods"][0]["metrics"]["rse"].as_f64().unwrap();
+        assert!(rse < 0.2, "{lighting}: naive's RSE {rse}");
+        counts.push(refs());
+    }
+    // Two new frames for the new lighting; the third run reuses the first's.
+    assert!(counts[0] > 0, "{counts:?}");
+    assert_eq!(counts[1], 2 * counts[0], "{counts:?}");
+    assert_eq!(counts[2], counts[1], "{counts:?}");
+    let _ = std::fs::remove_dir_all(&base);
+}

@@ -7,6 +7,7 @@
 
 pub mod alias;
 pub mod animation;
+mod content_hash;
 pub mod default_lighting;
 pub mod emitters;
 pub mod env_distribution;
