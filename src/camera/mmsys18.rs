@@ -138,6 +138,9 @@ pub fn parse_mmsys18(
     opts: &Mmsys18Options,
 ) -> Result<PoseTrace, TraceError> {
     let path = path.as_ref();
+    // A byte-order mark (editors on Windows write one) is not part of the
+    // header's first column name (as in table.rs).
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let mut b = TraceBuilder::new(path);
     let mut cols: Option<[usize; 6]> = None;
     let mut n_fields = 0;
@@ -373,6 +376,21 @@ mod tests {
         let text = "timestamp viewpoint w x y z\n1 0 1 0 0 0\n";
         let e = parse_mmsys18("u.txt", text, &opts).unwrap_err().to_string();
         assert!(e.contains("no samples with 5 ≤ timestamp"), "{e}");
+    }
+
+    /// A UTF-8 byte-order mark and CRLF line ends read as the plain file.
+    #[test]
+    fn a_byte_order_mark_and_crlf_are_read() {
+        let plain = "timestamp viewpoint w x y z\n0 1 1 0 0 0\n0.1 1 1 0 0 0\n";
+        let marked = format!("\u{feff}{}", plain.replace('\n', "\r\n"));
+        let opts = Mmsys18Options::default();
+        let a = parse_mmsys18("a.txt", plain, &opts).unwrap();
+        let b = parse_mmsys18("b.txt", &marked, &opts).unwrap();
+        assert_eq!(a.samples.len(), 2);
+        assert_eq!(a.samples.len(), b.samples.len());
+        for (x, y) in a.samples.iter().zip(&b.samples) {
+            assert_eq!((x.t, x.pose.orientation), (y.t, y.pose.orientation));
+        }
     }
 
     #[test]

@@ -236,8 +236,13 @@ fn parse_part(input: &str, s: &str) -> Result<DefaultLighting, LightingParseErro
                          horizon; a directional:ELEV,AZIM light may come from below)",
                     ));
                 }
-                if turbidity < 1.0 {
-                    return Err(err("turbidity must be at least 1"));
+                // preetham.rs clamps into the fit's range; refusing what it
+                // would clamp says so instead of rendering another sky.
+                let (lo, hi) = super::preetham::TURBIDITY_RANGE;
+                if !(lo..=hi).contains(&turbidity) {
+                    return Err(err(&format!(
+                        "turbidity must be within {lo}..{hi} (the range of Preetham et al.'s fit)"
+                    )));
                 }
                 Ok(DefaultLighting::SunSky {
                     elevation_deg,
@@ -259,6 +264,12 @@ fn parse_part(input: &str, s: &str) -> Result<DefaultLighting, LightingParseErro
             if c.min_element() < 0.0 {
                 return Err(err("radiance must not be negative"));
             }
+            if c.max_element() > super::MAX_EMISSION {
+                return Err(err(&format!(
+                    "radiance beyond the brightest emission accepted ({:e}; a path's throughput would overflow)",
+                    super::MAX_EMISSION
+                )));
+            }
             Ok(DefaultLighting::Constant(c))
         }
         ("env", Some(p)) if !p.is_empty() => Ok(DefaultLighting::EnvironmentMap(p.into())),
@@ -277,6 +288,12 @@ fn parse_part(input: &str, s: &str) -> Result<DefaultLighting, LightingParseErro
             }
             if illuminance.min_element() < 0.0 {
                 return Err(err("illuminance must not be negative"));
+            }
+            if illuminance.max_element() > super::MAX_EMISSION {
+                return Err(err(&format!(
+                    "illuminance beyond the brightest emission accepted ({:e}; a path's throughput would overflow)",
+                    super::MAX_EMISSION
+                )));
             }
             Ok(DefaultLighting::Directional {
                 elevation_deg,
@@ -556,7 +573,11 @@ fn add_lighting(scene: &mut Scene, choice: &DefaultLighting) -> Result<(), Scene
             });
         }
         DefaultLighting::Constant(c) => scene.environment = Some(Environment::Constant(*c)),
-        DefaultLighting::EnvironmentMap(p) => scene.environment = Some(load_env_map(p)?),
+        DefaultLighting::EnvironmentMap(p) => {
+            let (env, warning) = load_env_map(p)?;
+            scene.environment = Some(env);
+            scene.warnings.extend(warning);
+        }
         DefaultLighting::Directional {
             elevation_deg,
             azimuth_deg,
@@ -620,6 +641,14 @@ mod tests {
             "constant:NaN",
             "env:",
             "sun-sky:100,0,3",
+            // Beyond MAX_EMISSION (sample-cache rendered ∞ pixels) and
+            // outside the sky fit's turbidities (clamped silently before).
+            "constant:1e38",
+            "constant:1,1e31,1",
+            "directional:45,0,1e38,1,1",
+            "sun-sky:45,0,1e30",
+            "sun-sky:45,0,1.5",
+            "sun-sky:45,0,10.5",
         ] {
             let e = bad.parse::<DefaultLighting>().unwrap_err().to_string();
             assert!(e.contains("invalid lighting"), "{e}");

@@ -14,10 +14,12 @@ use std::path::Path;
 const MAX_TEXELS: usize = 16384 * 8192;
 
 /// Loads an equirectangular radiance map (linear RGB; alpha ignored).
-/// Negative values are clamped to 0 and NaN/Inf texels become black, so the
-/// map is always safe to importance-sample; a finite texel brighter than
-/// [`super::MAX_EMISSION`] is an error naming it.
-pub fn load_env_map(path: &Path) -> Result<Environment, SceneError> {
+/// Negative values are clamped to 0 and NaN/Inf values become 0, so the
+/// map is always safe to importance-sample; the second value is then one
+/// warning line naming the file, how many texels were repaired and the
+/// first of them (also for a map that is black everywhere). A finite texel
+/// brighter than [`super::MAX_EMISSION`] is an error naming it.
+pub fn load_env_map(path: &Path) -> Result<(Environment, Option<String>), SceneError> {
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
@@ -54,11 +56,37 @@ pub fn load_env_map(path: &Path) -> Result<Environment, SceneError> {
             ),
         ));
     }
-    let texels = texels
+    let repaired = |t: &[f32; 3]| t.iter().any(|c| !c.is_finite() || *c < 0.0);
+    let count = texels.iter().filter(|t| repaired(t)).count();
+    let warning = if count > 0 {
+        let (k, t) = texels
+            .iter()
+            .enumerate()
+            .find(|(_, t)| repaired(t))
+            .unwrap();
+        Some(format!(
+            "{}: {count} texel(s) negative, NaN or infinite, read with those values as 0 (the first: texel ({}, {}) = {:?})",
+            path.display(),
+            k % width as usize,
+            k / width as usize,
+            t
+        ))
+    } else {
+        None
+    };
+    let texels: Vec<[f32; 3]> = texels
         .into_iter()
         .map(|t| t.map(|c| if c.is_finite() { c.max(0.0) } else { 0.0 }))
         .collect();
-    Ok(Environment::Map {
+    let warning = warning.or_else(|| {
+        texels.iter().all(|t| *t == [0.0; 3]).then(|| {
+            format!(
+                "{}: the environment map is black everywhere",
+                path.display()
+            )
+        })
+    });
+    let env = Environment::Map {
         name: path
             .file_stem()
             .map(|s| s.to_string_lossy().into_owned())
@@ -67,7 +95,8 @@ pub fn load_env_map(path: &Path) -> Result<Environment, SceneError> {
         height,
         texels,
         scale: 1.0,
-    })
+    };
+    Ok((env, warning))
 }
 
 type Texels = (u32, u32, Vec<[f32; 3]>);
@@ -148,6 +177,41 @@ mod tests {
         assert!((d - Vec3::X).length() < 0.01, "{d}");
     }
 
+    /// Repaired texels (negative, NaN, ∞) are one warning naming the count
+    /// and the first; a map black everywhere is one too.
+    #[test]
+    fn repaired_and_black_maps_warn() {
+        let dir = std::env::temp_dir().join(format!("stereocache-envw-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join("odd.exr");
+        exr::prelude::write_rgb_file(&p, 4, 2, |x, y| match (x, y) {
+            (1, 0) => (-1.0f32, 0.5, 0.5),
+            (2, 1) => (f32::NAN, 0.5, 0.5),
+            (3, 1) => (0.5, f32::INFINITY, 0.5),
+            _ => (0.5, 0.5, 0.5),
+        })
+        .unwrap();
+        let (env, w) = load_env_map(&p).unwrap();
+        let w = w.expect("a warning");
+        assert!(
+            w.contains("odd.exr: 3 texel(s)") && w.contains("texel (1, 0) = [-1.0, 0.5, 0.5]"),
+            "{w}"
+        );
+        let Environment::Map { texels, .. } = env else {
+            panic!("not a map")
+        };
+        assert_eq!(texels[1], [0.0, 0.5, 0.5]);
+        assert_eq!(texels[4 + 2], [0.0, 0.5, 0.5]);
+        assert_eq!(texels[4 + 3], [0.5, 0.0, 0.5]);
+        let p = dir.join("black.exr");
+        exr::prelude::write_rgb_file(&p, 4, 2, |_, _| (0.0f32, 0.0, 0.0)).unwrap();
+        let (_, w) = load_env_map(&p).unwrap();
+        assert!(w
+            .unwrap()
+            .contains("black.exr: the environment map is black everywhere"));
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
     #[test]
     fn hdr_round_trip_and_errors() {
         let dir = std::env::temp_dir().join(format!("stereocache-env-{}", std::process::id()));
@@ -155,7 +219,9 @@ mod tests {
         let p = dir.join("sky.hdr");
         let img = image::Rgb32FImage::from_fn(8, 4, |x, y| image::Rgb([x as f32, y as f32, 0.5]));
         image::DynamicImage::ImageRgb32F(img).save(&p).unwrap();
-        match load_env_map(&p).unwrap() {
+        let (env, warning) = load_env_map(&p).unwrap();
+        assert_eq!(warning, None);
+        match env {
             Environment::Map {
                 width,
                 height,
