@@ -464,6 +464,24 @@ fn a_sweep_gives_one_configuration_per_value_and_shards_deal_them_round_robin() 
         line.contains("'sharpness'") && line.contains("--sharpness"),
         "{line}"
     );
+    // So is a scene that does not load (--check said OK to it until
+    // session 47; the run failed at once).
+    std::fs::write(
+        &file,
+        tiny(&root.join("refs")).replace("scenes = [\"cornell\"]", "scenes = [\"nosuchscene\"]"),
+    )
+    .unwrap();
+    let o = bin()
+        .args(["experiment", "run"])
+        .arg(&file)
+        .arg("--check")
+        .output()
+        .unwrap();
+    let line = single_error_line(&o, "a missing scene");
+    assert!(
+        line.contains("key 'scenes'") && line.contains("nosuchscene"),
+        "{line}"
+    );
     let _ = std::fs::remove_dir_all(&root);
 }
 

@@ -300,6 +300,18 @@ fn bad_no_triangles() {
     expect_error("no_triangles.gltf", "no triangles");
 }
 
+/// The warnings that explain "no triangles" stay in the error line: every
+/// triangle dropped for a NaN vertex (they were lost with the scene), and
+/// the points primitive skipped.
+#[test]
+fn bad_no_triangles_says_why() {
+    expect_error(
+        "all_nan_vertices.gltf",
+        "the scene has no triangles (while loading: mesh 0 'triangle' primitive 0: 1 triangles dropped because they use vertices with NaN/Inf attributes",
+    );
+    expect_error("no_triangles.gltf", "(while loading: ");
+}
+
 #[test]
 fn bad_required_geometry_extension() {
     expect_error("draco_required.gltf", "KHR_draco_mesh_compression");

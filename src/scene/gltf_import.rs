@@ -179,8 +179,32 @@ fn load_gltf_unguarded(path: &Path) -> Result<Scene, SceneError> {
         instance_offsets,
         &mut scene.warnings,
     )?;
-    scene.validate()?;
+    scene
+        .validate()
+        .map_err(|e| with_load_warnings(e, &scene.warnings))?;
     Ok(scene)
+}
+
+/// A scene that fails validation after the importer warned (every triangle
+/// dropped for NaN vertices, every primitive points or lines: "the scene has
+/// no triangles") keeps the warnings that explain it in its one error line,
+/// without the file name each repeats; they were dropped with the scene
+/// until session 47.
+fn with_load_warnings(e: SceneError, warnings: &[String]) -> SceneError {
+    match e {
+        SceneError::Invalid { path, message } if !warnings.is_empty() => {
+            let prefix = format!("{}: ", path.display());
+            let why: Vec<&str> = warnings
+                .iter()
+                .map(|w| w.strip_prefix(&prefix).unwrap_or(w))
+                .collect();
+            SceneError::Invalid {
+                path,
+                message: format!("{message} (while loading: {})", why.join("; ")),
+            }
+        }
+        e => e,
+    }
 }
 
 /// A material's `extras.materialx.file` (read by `materials::binding`,

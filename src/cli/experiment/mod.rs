@@ -94,6 +94,18 @@ fn run_file(a: RunArgs) -> Result<()> {
     for m in &e.missing {
         println!("not yet available (the file runs without it): {m}");
     }
+    // Every scene this run renders is loaded (parsed, its material graphs
+    // bound) before the first comparison: a broken second scene failed
+    // only after the first comparison had rendered; `--check` loads them
+    // too (it said OK to a file naming a scene that does not exist).
+    let mut loaded = std::collections::BTreeSet::new();
+    for (g, _) in &mine {
+        let scene = &e.groups[*g].args.scene.scene;
+        if loaded.insert(scene.clone()) {
+            stereocache::scene::load_scene(scene)
+                .map_err(|err| anyhow!("{}: [run]: key 'scenes': {err}", a.file.display()))?;
+        }
+    }
     if a.check {
         for (g, c) in &mine {
             let grp = &e.groups[*g];
@@ -106,17 +118,6 @@ fn run_file(a: RunArgs) -> Result<()> {
         .clone()
         .unwrap_or_else(|| PathBuf::from("out/experiments").join(&e.name));
     check_out(&out)?;
-    // Every scene this run renders is loaded (parsed, its material graphs
-    // bound) before the first comparison: a broken second scene failed
-    // only after the first comparison had rendered.
-    let mut loaded = std::collections::BTreeSet::new();
-    for (g, _) in &mine {
-        let scene = &e.groups[*g].args.scene.scene;
-        if loaded.insert(scene.clone()) {
-            stereocache::scene::load_scene(scene)
-                .map_err(|err| anyhow!("{}: [run]: key 'scenes': {err}", a.file.display()))?;
-        }
-    }
     let mut ran: Vec<Vec<String>> = vec![Vec::new(); e.groups.len()];
     for (g, grp) in e.groups.iter().enumerate() {
         let configs: Vec<_> = mine
