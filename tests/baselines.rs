@@ -67,7 +67,7 @@ fn run(m: &mut dyn Method, cams: &[StereoCamera]) -> Vec<StereoFrame> {
 /// naive (N = 1) against supersample (N = 16) predicts
 /// (1 + 1/R) / (1/16 + 1/R). Tolerance: 4σ of the measured ratio.
 /// Then TAA on a static view: its error against the reference falls over the
-/// frames, and the pfj23 weights (a running mean while the history is short)
+/// frames, and the count weights (a running mean while the history is short)
 /// lower it faster than a fixed α.
 #[test]
 fn supersample_naive_and_taa_against_the_reference() {
@@ -142,7 +142,8 @@ fn supersample_naive_and_taa_against_the_reference() {
     for (weights, clip) in [
         (TaaWeights::Fixed, true),
         (TaaWeights::Fixed, false),
-        (TaaWeights::Pfj23, false),
+        (TaaWeights::Count, false),
+        (TaaWeights::Pfj23, true),
     ] {
         // RUNS independent runs (seeds 21..) averaged frame by frame: one
         // run's per-frame MSE rests on the few emitter-edge pixels (above),
@@ -180,7 +181,8 @@ fn supersample_naive_and_taa_against_the_reference() {
         eprintln!("taa {weights:?} clip {clip}: MSE per frame (mean of {RUNS} runs) {e:.4?}");
         mse.insert(format!("{weights:?} {clip}"), e);
     }
-    let (clip, fixed, pfj) = (&mse["Fixed true"], &mse["Fixed false"], &mse["Pfj23 false"]);
+    let (clip, fixed, count) = (&mse["Fixed true"], &mse["Fixed false"], &mse["Count false"]);
+    let pfj = &mse["Pfj23 true"];
     // Clipping against a 1 spp neighbourhood acts as a spatial filter at once
     // and adds bias; a halving is all that is asserted (figures in the docs).
     // The reductions are against the expected 1 spp error m1 (16 images),
@@ -192,15 +194,22 @@ fn supersample_naive_and_taa_against_the_reference() {
     // 1 spp variance in steady state (plus the Halton-vs-random jitter
     // difference to the reference at edges).
     assert!(fixed[15] < 0.25 * m1, "fixed: {fixed:?} vs 1 spp {m1}");
-    assert!(pfj[15] < 0.25 * m1, "pfj23: {pfj:?} vs 1 spp {m1}");
-    // While the history is short, a running mean (pfj23: variance σ²/n) beats
+    assert!(count[15] < 0.25 * m1, "count: {count:?} vs 1 spp {m1}");
+    // Our reading of the paper's TAA weights (pfj23: Eq. 4 from 3×3
+    // neighbourhoods, clipping) also halves the error by frame 15; its
+    // per-frame MSE jumps where the fixed Halton jitter moves the emitter's
+    // edges (frames 7 and 13: 0.19 and 0.16 against 0.05–0.06 for the fixed
+    // weights), where the neighbourhoods see a bias and take the current
+    // frame (docs/ARCHITECTURE.md `taa`). Recorded, not asserted.
+    assert!(pfj[15] < 0.5 * m1, "pfj23: {pfj:?} vs 1 spp {m1}");
+    // While the history is short, a running mean (count: variance σ²/n) beats
     // an EMA from a reset (variance 0.81ⁿ⁻¹ + …, e.g. 0.56 σ² vs 0.25 σ² at
     // n = 4). The jitter pattern's bias against the reference adds to both, so
     // the order is asserted, not the ratio (measured: 0.70 at frame 3).
     for k in 1..=6 {
         assert!(
-            pfj[k] < fixed[k],
-            "frame {k}: pfj23 {pfj:?} vs fixed {fixed:?}"
+            count[k] < fixed[k],
+            "frame {k}: count {count:?} vs fixed {fixed:?}"
         );
     }
     assert_no_validation_messages(&ctx);
@@ -314,7 +323,7 @@ fn taa_keeps_no_history_across_a_disocclusion() {
         (max_red, checked, rejected)
     };
     for (clip, label) in [(true, "γ = 1"), (false, "no clipping")] {
-        for weights in [TaaWeights::Fixed, TaaWeights::Pfj23] {
+        for weights in [TaaWeights::Fixed, TaaWeights::Count, TaaWeights::Pfj23] {
             let frames = run_taa(TaaSettings {
                 clip,
                 weights,

@@ -551,7 +551,7 @@ fn per_pixel_furnace_sphere_shows_its_albedo() {
 }
 
 /// The static-view convergence test above, for the paper's per-pixel
-/// lookups (the default settings: tiles, TAA with pfj23 weights): the
+/// lookups (the default settings: tiles, TAA with count weights): the
 /// error against a 1024 spp reference falls from frame 1 to 4 to 8, each step
 /// by more than 4 standard errors of the paired per-pixel differences, and
 /// does not rise by more than 4 of them by frame 32.

@@ -1,8 +1,9 @@
 //! The one TAA on any method's output (`--taa-output`, `RenderSettings::taa_output`;
 //! the paper's Fig. 12 applies TAA on top of all methods): it runs on every
 //! registry method exactly once per frame inside the frame's one submit, and
-//! on a still view with the running-mean weights (pfj23, no clipping) its
-//! output is the running mean of the method's own frames.
+//! on a still view with the running-mean weights (count, no clipping) its
+//! output is the running mean of the method's own frames, and with the
+//! pfj23 weights (our reading of the paper's) it follows their CPU twin.
 
 mod common;
 use common::*;
@@ -108,7 +109,7 @@ fn taa_output_runs_once_per_frame_on_every_registry_method() {
     assert_no_validation_messages(&ctx);
 }
 
-/// Still view (Cornell box, 12 frames): with pfj23 weights, α_min = 1/32
+/// Still view (Cornell box, 12 frames): with count weights, α_min = 1/32
 /// (so the weights stay 1/(n + 1) for all 12 frames) and no clipping, the
 /// TAA over a method's output at frame k is the running mean of that
 /// method's frames 0..=k, per pixel and channel. Checked against a second,
@@ -130,7 +131,7 @@ fn still_view_taa_output_is_the_running_mean_of_the_method() {
     let cam = default_camera(&s, w, h);
     let frames = 12u32;
     let taa = TaaSettings {
-        weights: TaaWeights::Pfj23,
+        weights: TaaWeights::Count,
         alpha: 1.0 / 32.0,
         clip: false,
         ..Default::default()
@@ -200,6 +201,127 @@ fn still_view_taa_output_is_the_running_mean_of_the_method() {
             }
         }
         eprintln!("{kind}: largest |TAA − running mean| / tolerance {worst:.3}");
+    }
+    assert_no_validation_messages(&ctx);
+}
+
+/// The pfj23 weights (Eq. 4 per channel from 3×3 neighbourhood moments of
+/// the history X and the current frame Y) on a still view, no clipping:
+/// the history position is the pixel centre (to ~1e-6 px), so the resolve
+/// is out_t = lerp(out_{t−1}, in_t, β′) with β′ = 1 − σ_Y²/(Bias² + σ_X² +
+/// σ_Y²) from the boxes of out_{t−1} and in_t around the pixel (clamped at
+/// the border), computed here on the CPU in f32 in the shader's order from
+/// the plain method's frames (the CPU twin of Eq. 4 is the stereo blend's,
+/// src/stereo/blend.rs `beta_prime`). The noisy 1 spp `naive` frames make
+/// β′ vary between 0 and 1 from pixel to pixel; `debug-normals` is the same
+/// image every frame (Bias = 0, σ_X = σ_Y: β′ = ½ or, where the box is
+/// flat, 1 — the output is the input either way). Tolerance as the running
+/// mean's above, the recurrence's f32 rounding (FMA on the GPU) included.
+///
+/// Known answer of the weight itself (the case of an audit): a flat history
+/// c (σ_X = 0) against a current box of c with c + δ at its centre has Bias
+/// = −δ/9 and σ_Y² = 8δ²/81, so β′ = 1/9: the output moves δ/9 towards the
+/// outlier, where the count weights after 255 frames move it α_min·δ.
+#[test]
+fn still_view_pfj23_taa_follows_its_cpu_twin() {
+    use stereocache::stereo::blend::beta_prime;
+    let (c, d) = (0.5f32, 0.9f32);
+    let m1y = (8.0 * c + (c + d)) / 9.0;
+    let m2y = (8.0 * c * c + (c + d) * (c + d)) / 9.0;
+    let b = beta_prime(c, c * c, m1y, m2y);
+    assert!((b - 1.0 / 9.0).abs() < 1e-6, "β′ {b}");
+
+    let ctx = context();
+    let s = session(&ctx, shipped("cornell"), RtChoice::Software);
+    let (w, h) = (20usize, 16usize);
+    let cam = default_camera(&s, w as u32, h as u32);
+    let taa = TaaSettings {
+        weights: TaaWeights::Pfj23,
+        clip: false,
+        ..Default::default()
+    };
+    // 3×3 box moments (sum / 9 in the shader's order), clamped at the border.
+    let boxed = |img: &[[f32; 3]], x: usize, y: usize, k: usize| -> (f32, f32) {
+        let (mut m1, mut m2) = (0.0f32, 0.0f32);
+        for dy in -1i32..=1 {
+            for dx in -1i32..=1 {
+                let qx = (x as i32 + dx).clamp(0, w as i32 - 1) as usize;
+                let qy = (y as i32 + dy).clamp(0, h as i32 - 1) as usize;
+                let v = img[qy * w + qx][k];
+                m1 += v;
+                m2 += v * v;
+            }
+        }
+        (m1 / 9.0, m2 / 9.0)
+    };
+    for kind in [MethodKind::Naive, MethodKind::DebugNormals] {
+        let mut plain = s.create(kind, &settings(w as u32, h as u32, None)).unwrap();
+        let mut resolved = s
+            .create(kind, &settings(w as u32, h as u32, Some(taa.clone())))
+            .unwrap();
+        let mut twin: Vec<Vec<[f32; 3]>> = Vec::new();
+        let mut worst = 0.0f64;
+        let mut betas = Vec::new();
+        for f in 0..10u32 {
+            let prev = (f > 0).then_some(cam);
+            let a = render_at(plain.as_mut(), f, cam, prev);
+            let b = render_at(resolved.as_mut(), f, cam, prev);
+            for e in 0..2 {
+                let input: Vec<[f32; 3]> = a.eyes[e]
+                    .radiance
+                    .iter()
+                    .map(|p| [p[0], p[1], p[2]])
+                    .collect();
+                let out: Vec<[f32; 3]> = if f == 0 {
+                    input.clone()
+                } else {
+                    let hist = &twin[e];
+                    (0..w * h)
+                        .map(|i| {
+                            let (x, y) = (i % w, i / w);
+                            std::array::from_fn(|k| {
+                                let (m1x, m2x) = boxed(hist, x, y, k);
+                                let (m1y, m2y) = boxed(&input, x, y, k);
+                                let beta = beta_prime(m1x, m2x, m1y, m2y);
+                                betas.push(beta);
+                                let hv = hist[i][k].max(0.0);
+                                hv + (input[i][k] - hv) * beta
+                            })
+                        })
+                        .collect()
+                };
+                for (i, o) in out.iter().enumerate() {
+                    let local = o.iter().chain(&input[i]).fold(0.0f32, |m, v| m.max(*v));
+                    for (k, want) in o.iter().enumerate() {
+                        let got = b.eyes[e].radiance[i][k];
+                        let dlt = (got - want).abs() as f64;
+                        let tol = 1e-4 * (1.0 + local as f64);
+                        worst = worst.max(dlt / tol);
+                        assert!(
+                            dlt <= tol,
+                            "{kind} frame {f} eye {e} pixel {i} channel {k}: TAA {got} vs twin {want} (tolerance {tol:.1e})"
+                        );
+                    }
+                }
+                if twin.len() < 2 {
+                    twin.push(out);
+                } else {
+                    twin[e] = out;
+                }
+            }
+        }
+        let spread = betas.iter().filter(|b| **b > 0.05 && **b < 0.95).count();
+        eprintln!(
+            "{kind}: largest |TAA − twin| / tolerance {worst:.3}; β′ strictly inside (0.05, 0.95) in {spread} of {}",
+            betas.len()
+        );
+        if kind == MethodKind::Naive {
+            assert!(
+                spread > betas.len() / 4,
+                "the noisy frames exercise the weight ({spread} of {})",
+                betas.len()
+            );
+        }
     }
     assert_no_validation_messages(&ctx);
 }

@@ -24,6 +24,7 @@
 // moments brings the neighbours' spreads in, which is exactly what
 // the sharpness parameter trades. CPU twin of the math: src/stereo/blend.rs.
 #include "sample_cache/common.glsl"
+#include "common/mse_blend.glsl"
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 layout(set = SET_SAMPLE_CACHE, binding = B_SAMPLE_CACHE_OUT_BLENDED, std430) buffer OutBlended { vec4 out_blended[]; };
 
@@ -32,24 +33,6 @@ float dodgson(float s, float r) {
     if (a <= 0.5) return -2.0 * r * a * a + 0.5 * (r + 1.0);
     if (a <= 1.5) return r * a * a - (2.0 * r + 0.5) * a + 0.75 * (r + 1.0);
     return 0.0;
-}
-
-// Eq. 8 with Eq. 4's denominator written as Var(X) + Var(Y) + Bias², each
-// variance clamped at 0 (equal to μ2X + μ2Y − 2μ1Xμ1Y otherwise). Var(X)
-// can come out negative where Dodgson's kernel has negative lobes (R > ½:
-// −0.028 at the paper's R = 0.8): unclamped, a bright neighbour under a
-// negative tap shrank the denominator and pushed β′ to 0 (all X).
-vec3 beta_prime(vec3 m1x, vec3 m2x, vec3 m1y, vec3 m2y) {
-    vec3 var_y = max(m2y - m1y * m1y, vec3(0.0));
-    vec3 var_x = max(m2x - m1x * m1x, vec3(0.0));
-    vec3 bias = m1x - m1y;
-    vec3 denom = var_x + var_y + bias * bias;
-    vec3 b;
-    for (int c = 0; c < 3; ++c) {
-        bool ok = denom[c] > 1e-12 && !isinf(denom[c]) && !isnan(denom[c]) && !isinf(var_y[c]) && !isnan(var_y[c]);
-        b[c] = ok ? clamp(1.0 - var_y[c] / denom[c], 0.0, 1.0) : 1.0;
-    }
-    return b;
 }
 
 // The cache's moments of pixel q of `eye` (Eq. 5–6).

@@ -16,13 +16,23 @@
 //     (per-tap validity as in SVGF's reprojection);
 //  4. variance clipping (§4.2, Salvi 2016): the history is clipped towards
 //     the mean of a YCoCg AABB μ ± γσ of the current 3×3 neighbourhood;
-//  5. blend (§3): fixed α, or α = max(1/(n+1), α_min) with the per-pixel
-//     history length n (our reading of Philippi et al. 2023).
+//  5. blend (§3) of the (clipped) history h and the current frame c,
+//     result = mix(h, c, α): `pfj23` (weights 2) α = β′ of
+//     Eq. 4 per channel, the MSE-optimal weight of Philippi et al. 2023
+//     ("leverages variance to compute per pixel blending weights for both
+//     temporal and stereoscopic rendering"), with the moments of X = the
+//     history and Y = the current frame estimated from 3×3 neighbourhoods
+//     (the history's around q in the previous output, the current frame's
+//     around the pixel, both clamped at the image border), as the paper
+//     describes PFJ23's stereo estimate (§3.6); `count` (1, the default)
+//     α = max(1/(n+1), α_min) with the per-pixel history length n (Eq. 4 for
+//     an unbiased history of n frames); `fixed` (0) α.
 // Set 1 below; src/methods/taa/pass.rs (TaaPass) owns the buffers.
 #include "interface/taa.glsl"
 #include "common/camera.glsl"
 #include "common/packing.glsl"
 #include "common/first_hit.glsl"
+#include "common/mse_blend.glsl"
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 
 layout(push_constant) uniform Push { TAA_RESOLVE_PUSH } pc;   // src/interface/taa.rs
@@ -90,18 +100,24 @@ void main() {
     uint idx = base + px.y * size.x + px.x;
     vec3 c = input_color(idx);
 
-    // 3×3 neighbourhood moments in YCoCg (clamped at the image border).
-    vec3 m1 = vec3(0.0), m2 = vec3(0.0);
+    // 3×3 neighbourhood moments in YCoCg (clamped at the image border), and
+    // in RGB for the pfj23 weights.
+    vec3 m1 = vec3(0.0), m2 = vec3(0.0), m1y = vec3(0.0), m2y = vec3(0.0);
     for (int dy = -1; dy <= 1; ++dy) {
         for (int dx = -1; dx <= 1; ++dx) {
             ivec2 q = clamp(ivec2(px) + ivec2(dx, dy), ivec2(0), ivec2(size) - 1);
-            vec3 y = rgb_to_ycocg(input_color(base + uint(q.y) * size.x + uint(q.x)));
+            vec3 rgb = input_color(base + uint(q.y) * size.x + uint(q.x));
+            vec3 y = rgb_to_ycocg(rgb);
             m1 += y;
             m2 += y * y;
+            m1y += rgb;
+            m2y += rgb * rgb;
         }
     }
     vec3 mu = m1 / 9.0;
     vec3 sigma = sqrt(max(m2 / 9.0 - mu * mu, vec3(0.0)));
+    m1y /= 9.0;
+    m2y /= 9.0;
 
     // Reprojection of the pixel centre into the previous eye.
     EyeGpu e = frame.eyes[eye];
@@ -160,7 +176,22 @@ void main() {
         vec3 h = hist.rgb;
         if ((pc.flags & 4u) != 0u) h = ycocg_to_rgb(clip_towards_mean(rgb_to_ycocg(h), mu, pc.gamma * sigma, clipped));
         float n_prev = hist.w;
-        float alpha = pc.weights == 1u ? max(1.0 / (n_prev + 1.0), pc.alpha) : pc.alpha;
+        vec3 alpha = vec3(pc.weights == 1u ? max(1.0 / (n_prev + 1.0), pc.alpha) : pc.alpha);
+        if (pc.weights == 2u) {
+            // X's moments: the previous output's 3×3 box around the pixel
+            // q falls in (its rgb; clamped at the border like Y's).
+            ivec2 qc = ivec2(floor(q));
+            vec3 m1x = vec3(0.0), m2x = vec3(0.0);
+            for (int dy = -1; dy <= 1; ++dy) {
+                for (int dx = -1; dx <= 1; ++dx) {
+                    ivec2 t = clamp(qc + ivec2(dx, dy), ivec2(0), ivec2(size) - 1);
+                    vec3 x = hist_prev[base + uint(t.y) * size.x + uint(t.x)].rgb;
+                    m1x += x;
+                    m2x += x * x;
+                }
+            }
+            alpha = beta_prime(m1x / 9.0, m2x / 9.0, m1y, m2y);
+        }
         result = mix(max(h, vec3(0.0)), c, alpha);
         n = min(n_prev + 1.0, N_MAX);
         atomicAdd(counters[C_TAA_ACCEPTED], 1u);

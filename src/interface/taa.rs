@@ -19,11 +19,11 @@ crate::counter_slots! {
 pub const RESOLVE_PUSH: PushBlock = PushBlock {
     name: "TAA_RESOLVE",
     fields: &[
-        // fixed α, or α_min for the pfj23 weights
+        // fixed α, or α_min for the count weights (unused by pfj23)
         ("alpha", PushType::F32),
         // clipping box half-width in standard deviations
         ("gamma", PushType::F32),
-        // 0 fixed, 1 pfj23
+        // 0 fixed, 1 count, 2 pfj23
         ("weights", PushType::U32),
         // bit 0: a history exists; bit 1: reject disocclusions; bit 2: clip;
         // bit 3: the input colour is a sample sum (rgb / w); bit 4: motion

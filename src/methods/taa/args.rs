@@ -7,11 +7,11 @@ use crate::values::float_with;
 /// Options of the one TAA: the taa method's, hash-cache's and hybrid's TAA and --taa-output.
 #[derive(clap::Args, Clone, Debug)]
 pub struct TaaArgs {
-    /// Blend factor of the new frame (fixed weights), or its lower bound α_min (pfj23).
+    /// Blend factor of the new frame (fixed weights), or its lower bound α_min (count weights).
     #[arg(long, default_value_t = 0.1, value_parser = float_with("--taa-alpha", |v: f32| v > 0.0 && v <= 1.0, "a number in (0, 1]"))]
     pub taa_alpha: f32,
-    /// pfj23 (per-pixel sample-count weights, the paper's; see docs) | fixed (EMA with --taa-alpha)
-    #[arg(long, default_value = "pfj23")]
+    /// count (running mean, then EMA at --taa-alpha) | pfj23 (Eq. 4 per pixel from 3×3 neighbourhood variances: our reading of the paper's weights; see docs) | fixed (EMA with --taa-alpha)
+    #[arg(long, default_value = "count")]
     pub taa_weights: TaaWeights,
     /// Clipping box half-width in standard deviations of the 3×3 YCoCg neighbourhood.
     #[arg(long, default_value_t = 1.0, value_parser = float_with("--taa-gamma", crate::values::positive_f32, "a positive number"))]

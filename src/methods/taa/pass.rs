@@ -141,7 +141,8 @@ impl TaaPass {
             gamma: s.gamma,
             weights: match s.weights {
                 TaaWeights::Fixed => 0,
-                TaaWeights::Pfj23 => 1,
+                TaaWeights::Count => 1,
+                TaaWeights::Pfj23 => 2,
             },
             flags: has_history as u32
                 | (s.reject_disocclusions as u32) << 1

@@ -4,19 +4,31 @@
 use serde::Serialize;
 use std::str::FromStr;
 
-/// How the history and the new frame are blended.
+/// How the history and the new frame are blended: result = lerp(history,
+/// current, α).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 pub enum TaaWeights {
     /// Exponential moving average with a fixed α (Yang et al. 2020, §3).
     Fixed,
-    /// Per-pixel accumulated-sample-count weights, our reading of Philippi et
-    /// al. 2023 ([PFJ23]): α = max(1/(n+1), α_min) with n the frames in the
-    /// pixel's history, which restarts at 1 (the current frame alone) when
-    /// the history is rejected. A fresh history is a running mean until it
-    /// averages 1/α_min frames, then an EMA with α_min. (1/(n+1) is also
-    /// the MSE-optimal weight of the paper's Eq. 4, β' = 1 − σ_Y²/(Bias² +
-    /// σ_X² + σ_Y²), for an unbiased history X of n frames, σ_X² = σ_Y²/n,
-    /// blended with the current frame Y; α_min stands in for the bias.)
+    /// Per-pixel accumulated-sample-count weights: α = max(1/(n+1), α_min)
+    /// with n the frames in the pixel's history, which restarts at 1 (the
+    /// current frame alone) when the history is rejected. A fresh history
+    /// is a running mean until it averages 1/α_min frames, then an EMA with
+    /// α_min. (1/(n+1) is Eq. 4's β′ = 1 − σ_Y²/(Bias² + σ_X² + σ_Y²) for an
+    /// unbiased history X of n frames, σ_X² = σ_Y²/n; α_min stands in for
+    /// the bias.) The default; called `pfj23` until session 47.
+    Count,
+    /// Philippi et al. 2023 ([PFJ23], the paper's TAA weights, §4): α = β′
+    /// of Eq. 4 per channel with the moments of X (the history) and Y (the
+    /// current frame) estimated from 3×3 neighbourhoods — the previous
+    /// output's around the history position, the current frame's around the
+    /// pixel. PFJ23's abstract: "a new blending strategy that leverages
+    /// variance to compute per pixel blending weights for both temporal and
+    /// stereoscopic rendering"; the paper (§3.6) describes its stereo
+    /// estimate as "based on neighborhood sampling", and its text is not
+    /// available to this project, so the temporal estimate is the stereo
+    /// one applied to (history, current): our reading, not the default
+    /// (see `TaaSettings::default`). `--taa-alpha` does not enter.
     Pfj23,
 }
 
@@ -25,9 +37,10 @@ impl FromStr for TaaWeights {
     fn from_str(s: &str) -> Result<Self, String> {
         match s {
             "fixed" => Ok(TaaWeights::Fixed),
+            "count" => Ok(TaaWeights::Count),
             "pfj23" => Ok(TaaWeights::Pfj23),
             other => Err(format!(
-                "bad --taa-weights '{other}': expected fixed or pfj23"
+                "bad --taa-weights '{other}': expected fixed, count or pfj23"
             )),
         }
     }
@@ -35,7 +48,8 @@ impl FromStr for TaaWeights {
 
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct TaaSettings {
-    /// Blend factor of the new frame (fixed weights) or its lower bound α_min (pfj23).
+    /// Blend factor of the new frame (fixed weights) or its lower bound α_min
+    /// (count weights); pfj23 does not use it.
     pub alpha: f32,
     pub weights: TaaWeights,
     /// Half-width of the YCoCg clipping box in standard deviations of the 3×3
@@ -57,9 +71,14 @@ impl Default for TaaSettings {
     fn default() -> Self {
         TaaSettings {
             alpha: 0.1,
-            // The paper's TAA: Yang et al. 2020 "using temporal weights as
-            // derived by Philippi et al. [PFJ23]" (§4), our reading of them.
-            weights: TaaWeights::Pfj23,
+            // The paper's TAA is Yang et al. 2020 "using temporal weights as
+            // derived by Philippi et al. [PFJ23]" (§4). The default is the
+            // count weights, not our reading of PFJ23's (TaaWeights::Pfj23):
+            // on 1 spp path-traced input that neighbourhood estimate lets the
+            // Halton jitter's edge states through (docs/ARCHITECTURE.md
+            // `taa`), and a baseline is not to be weakened by a reading of a
+            // text we do not have.
+            weights: TaaWeights::Count,
             gamma: 1.0,
             clip: true,
             reject_disocclusions: true,
@@ -128,6 +147,8 @@ mod tests {
     #[test]
     fn parse_weights() {
         assert_eq!("pfj23".parse::<TaaWeights>().unwrap(), TaaWeights::Pfj23);
+        assert_eq!("count".parse::<TaaWeights>().unwrap(), TaaWeights::Count);
+        assert_eq!("fixed".parse::<TaaWeights>().unwrap(), TaaWeights::Fixed);
         assert!("nope".parse::<TaaWeights>().is_err());
     }
 }
