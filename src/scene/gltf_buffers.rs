@@ -31,6 +31,20 @@ fn le_u32(b: &[u8], at: usize) -> Option<u32> {
 /// Splits a file into JSON and binary chunk; plain `.gltf` text is returned as is.
 pub(crate) fn split_container(path: &Path, bytes: Vec<u8>) -> Result<GltfContainer, SceneError> {
     if !bytes.starts_with(GLB_MAGIC) {
+        // A `.glb` that is not one (empty, cut before its magic, another
+        // format) is named as such, not as JSON that fails to parse.
+        if path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("glb"))
+        {
+            return Err(SceneError::invalid(
+                path,
+                format!(
+                    "GLB container: does not start with the 'glTF' magic ({} bytes)",
+                    bytes.len()
+                ),
+            ));
+        }
         return Ok(GltfContainer {
             json: bytes,
             bin: None,
@@ -460,6 +474,18 @@ mod tests {
     fn glb_truncated_is_an_error() {
         let p = Path::new("x.glb");
         assert!(split_container(p, b"glTF\x02\0\0\0".to_vec()).is_err());
+        for bytes in [&b""[..], b"glT", b"{\"asset\":{}}"] {
+            let e = split_container(p, bytes.to_vec())
+                .err()
+                .unwrap()
+                .to_string();
+            assert!(
+                e.starts_with("x.glb: GLB container: does not start with"),
+                "{e}"
+            );
+        }
+        // A .gltf is JSON text.
+        assert!(split_container(Path::new("x.gltf"), b"{}".to_vec()).is_ok());
         let mut b = b"glTF".to_vec();
         b.extend(2u32.to_le_bytes());
         b.extend(1000u32.to_le_bytes());
