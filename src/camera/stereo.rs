@@ -100,7 +100,11 @@ pub struct StereoCamera {
     pub yfov: f32,
     /// Width / height of each eye's image.
     pub aspect: f32,
-    /// Near distance, metres (ray `t_min`, raster near plane).
+    /// Near distance, metres. **Not applied by any renderer**: primary rays
+    /// start at the eye (t_min 0), so nothing is clipped, and a scene
+    /// camera's glTF `znear` is not carried here (`from_scene`); the
+    /// importer's feature table says "partly" for cameras (found by a
+    /// session-47 audit; near clipping is not implemented).
     pub znear: f32,
     /// Perspective (the default) or orthographic.
     #[serde(default)]

@@ -178,13 +178,13 @@ pub const FEATURES: &[Feature] = &[
     ),
     f(
         "perspective cameras",
-        Full,
-        "yfov, aspectRatio and znear; zfar is not needed by a ray tracer",
+        Partly,
+        "yfov and aspectRatio; znear is read and checked but clips nothing (primary rays start at the eye: geometry nearer than znear is drawn); zfar is not needed by a ray tracer",
     ),
     f(
         "orthographic cameras",
-        Full,
-        "parallel rays from the image plane, ymag with the image's aspect (as aspectRatio); znear; zfar is not needed by a ray tracer",
+        Partly,
+        "parallel rays from the image plane, ymag with the image's aspect (as aspectRatio); znear is read and checked but clips nothing (rays start on the image plane); zfar is not needed by a ray tracer",
     ),
     f(
         "metallic-roughness materials",
