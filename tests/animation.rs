@@ -454,4 +454,20 @@ fn spin_turns_the_named_instances_about_the_vertical_through_their_origin() {
         e.contains("glass sphere") && e.contains("metal sphere"),
         "{e}"
     );
+    // A sheared node (a non-uniform scale under a rotated parent) has no
+    // T·R·S form to turn: refused, where its decomposition used to draw it
+    // distorted from t = 0 on (R_z(45°)·diag(2, 1, 1)·R_z(45°)ᵀ: its
+    // normalised columns are 0.6 from orthogonal).
+    let mut sheared = rest.clone();
+    let r = Mat4::from_rotation_z(45f32.to_radians());
+    let i = picked[0];
+    sheared.instances[i].transform = Mat4::from_translation(Vec3::new(0.1, 0.2, 0.3))
+        * r
+        * Mat4::from_scale(Vec3::new(2.0, 1.0, 1.0))
+        * r.transpose();
+    let e =
+        stereocache::scene::generate::animated::spin_named_instances(&mut sheared, "glass sphere")
+            .unwrap_err();
+    assert!(e.contains("sheared transform"), "{e}");
+    assert!(sheared.animation.is_none());
 }

@@ -133,10 +133,15 @@ fn used_by(doc: &Value) -> Vec<String> {
         }
     }
     for c in list("cameras") {
-        if c["type"] == "orthographic" {
-            add("orthographic cameras");
+        let kind = if c["type"] == "orthographic" {
+            "orthographic"
         } else {
-            add("perspective cameras");
+            "perspective"
+        };
+        add(&format!("{kind} cameras"));
+        // Near clipping is not implemented: a znear above the 1 cm default.
+        if c[kind]["znear"].as_f64().is_some_and(|z| z > 0.010_000_1) {
+            add("camera znear beyond 1 cm");
         }
     }
     if list("scenes").len() > 1 {
@@ -490,6 +495,7 @@ fn a_document_using_every_unimplemented_feature_warns_each_once() {
         "skins (JOINTS_0, WEIGHTS_0)",
         "application-specific attributes (_NAME)",
         "orthographic cameras",
+        "camera znear beyond 1 cm",
         "several scenes",
         "texture samplers (wrap modes, filters)",
         "VENDOR_unknown_thing",

@@ -103,8 +103,9 @@ pub struct StereoCamera {
     /// Near distance, metres. **Not applied by any renderer**: primary rays
     /// start at the eye (t_min 0), so nothing is clipped, and a scene
     /// camera's glTF `znear` is not carried here (`from_scene`); the
-    /// importer's feature table says "partly" for cameras (found by a
-    /// session-47 audit; near clipping is not implemented).
+    /// importer warns where a camera's znear exceeds 1 cm (feature table row
+    /// "camera znear beyond 1 cm"; found by a session-47 audit; near
+    /// clipping is not implemented).
     pub znear: f32,
     /// Perspective (the default) or orthographic.
     #[serde(default)]

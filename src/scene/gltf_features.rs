@@ -178,13 +178,18 @@ pub const FEATURES: &[Feature] = &[
     ),
     f(
         "perspective cameras",
-        Partly,
-        "yfov and aspectRatio; znear is read and checked but clips nothing (primary rays start at the eye: geometry nearer than znear is drawn); zfar is not needed by a ray tracer",
+        Full,
+        "yfov and aspectRatio; zfar is not needed by a ray tracer; znear: the next row",
     ),
     f(
         "orthographic cameras",
-        Partly,
-        "parallel rays from the image plane, ymag with the image's aspect (as aspectRatio); znear is read and checked but clips nothing (rays start on the image plane); zfar is not needed by a ray tracer",
+        Full,
+        "parallel rays from the image plane, ymag with the image's aspect (as aspectRatio); zfar is not needed by a ray tracer; znear: the next row",
+    ),
+    f(
+        "camera znear beyond 1 cm",
+        Ignored,
+        "read and checked, but no renderer clips at it: primary rays start at the eye (on the image plane for orthographic cameras), so geometry nearer than znear is drawn; warned where a camera's znear exceeds 1 cm",
     ),
     f(
         "metallic-roughness materials",
@@ -504,6 +509,18 @@ pub fn features_used(json: &Value) -> BTreeMap<String, Vec<String>> {
     }
     for (si, skin) in array("skins").iter().enumerate() {
         add!("skins (JOINTS_0, WEIGHTS_0)", label("skin", si, skin));
+    }
+    // znear is not applied (no near clipping); at most 1 cm (the default
+    // near distance, camera/stereo.rs DEFAULT_ZNEAR) it clips next to
+    // nothing, so only larger values are named.
+    for (ci, c) in array("cameras").iter().enumerate() {
+        let znear = ["perspective", "orthographic"]
+            .iter()
+            .filter_map(|k| c.get(*k)?.get("znear")?.as_f64())
+            .next();
+        if znear.is_some_and(|z| z > crate::camera::DEFAULT_ZNEAR as f64 * (1.0 + 1e-6)) {
+            add!("camera znear beyond 1 cm", label("camera", ci, c));
+        }
     }
     let scenes = array("scenes");
     if scenes.len() > 1 {

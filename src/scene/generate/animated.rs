@@ -213,6 +213,24 @@ pub fn spin_named_instances(s: &mut Scene, node: &str) -> Result<(), String> {
             }
         ));
     }
+    // The turn is a rotation channel over the node's T·R·S: a transform
+    // with shear (a non-uniform scale under a rotated parent) has no exact
+    // T·R·S, and its decomposition would draw it distorted from frame 0 on.
+    for &i in &picked {
+        let m = s.instances[i].transform;
+        let (sc, r, t) = m.to_scale_rotation_translation();
+        let back = glam::Mat4::from_scale_rotation_translation(sc, r, t);
+        let size = m.to_cols_array().iter().fold(1.0f32, |a, v| a.max(v.abs()));
+        let off = (back - m)
+            .to_cols_array()
+            .iter()
+            .fold(0.0f32, |a, v| a.max(v.abs()));
+        if !(off <= 1e-4 * size) {
+            return Err(format!(
+                "node '{node}' has a sheared transform (a non-uniform scale under a rotated parent: no translation·rotation·scale form), which spin: cannot turn"
+            ));
+        }
+    }
     let channels = picked
         .iter()
         .map(|&i| {
