@@ -225,7 +225,7 @@ pub fn spin_named_instances(s: &mut Scene, node: &str) -> Result<(), String> {
             .to_cols_array()
             .iter()
             .fold(0.0f32, |a, v| a.max(v.abs()));
-        if !(off <= 1e-4 * size) {
+        if off.is_nan() || off > 1e-4 * size {
             return Err(format!(
                 "node '{node}' has a sheared transform (a non-uniform scale under a rotated parent: no translation·rotation·scale form), which spin: cannot turn"
             ));
