@@ -92,10 +92,14 @@ fn load(name: &str) -> Option<(PathBuf, Scene)> {
 }
 
 /// [`load`], asserting that the importer warns about nothing the feature
-/// table does not list as unsupported, and nothing at all here.
+/// table does not list as unsupported, and nothing at all here but a
+/// camera's znear (not applied: the table's "camera znear beyond 1 cm";
+/// the samples' own cameras have 0.1 m, and no test here renders geometry
+/// that near a camera).
 fn load_unwarned(name: &str) -> Option<Scene> {
     let (path, scene) = load(name)?;
-    let warned = warned_features(&path, &scene);
+    let mut warned = warned_features(&path, &scene);
+    warned.remove("camera znear beyond 1 cm");
     assert_eq!(warned, BTreeMap::new(), "{:?}", scene.warnings);
     Some(scene)
 }
