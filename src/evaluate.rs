@@ -32,6 +32,7 @@ use crate::metrics::{
     temporal_instability_masked, Covisibility, Geometry, ImageMetrics, LinearImage, ReferenceNoise,
     DEFAULT_PPD, RSE_EPSILON,
 };
+use crate::scene::fnv1a;
 use crate::session::Session;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -129,11 +130,12 @@ impl ReferenceCache {
 
     /// FNV-1a hash of everything that determines the image, the renderer's
     /// own code included: the SPIR-V of the reference shaders (so a change of
-    /// the integrator never reuses references rendered by the old one), the
-    /// scene file's length and modification time, and the loaded scene's
-    /// content (`Scene::content_hash`: geometry, materials, textures, lights,
-    /// environment, graphs — so another `--lighting`, an edited `.bin`,
-    /// texture, `.mtlx` or environment map is a new scene).
+    /// the integrator never reuses references rendered by the old one) and
+    /// the loaded scene's content (`Scene::content_hash`: geometry,
+    /// materials, textures, lights, environment, graphs — so another
+    /// `--lighting`, an edited `.bin`, texture, `.mtlx` or environment map
+    /// is a new scene; until session 47 the key held the scene file's
+    /// length and time, its triangle count and its lights' count instead).
     fn key(&self, session: &Session, cam: &StereoCamera, index: u32) -> String {
         let s = &self.settings;
         let code = fnv1a(
@@ -142,15 +144,6 @@ impl ReferenceCache {
                 .filter(|(name, _)| name.starts_with("reference/"))
                 .flat_map(|(name, spv)| name.bytes().chain(spv.iter().copied())),
         );
-        let file = std::fs::metadata(&session.scene.source)
-            .map(|m| {
-                let t = m
-                    .modified()
-                    .ok()
-                    .and_then(|t| t.duration_since(std::time::UNIX_EPOCH).ok());
-                format!("{}@{:?}", m.len(), t.map(|d| d.as_nanos()))
-            })
-            .unwrap_or_default();
         // A moving scene's frame depends on the instances' pose too (the
         // animation selection and the replay's fps set it); static: no part.
         let pose = if session.scene.is_animated() {
@@ -174,15 +167,12 @@ impl ReferenceCache {
             }
         };
         let text = format!(
-            "v3-halves|{code:016x}|{file}|{:016x}|{}|{}|{:?}|{:?}|{:?}|{}|{}|{}x{}|spp{}|b{}|seed{}|frame{}|{}{pose}{projection}",
+            "v3-halves|{code:016x}|{:016x}|{}|{:?}|{:?}|{:?}|{}x{}|spp{}|b{}|seed{}|frame{}|{}{pose}{projection}",
             session.scene_content_hash(),
             session.scene.source.display(),
-            session.scene_gpu.triangle_count,
             cam.world_position().to_array().map(f64::to_bits),
             cam.head.orientation.to_array().map(f32::to_bits),
             [cam.ipd, cam.yfov, cam.aspect].map(f32::to_bits),
-            session.scene.lights.len(),
-            session.scene.environment.is_some(),
             s.width,
             s.height,
             s.spp,
@@ -590,16 +580,6 @@ impl Evaluator {
             .map(|(k, v)| (k.clone(), v.len()))
             .collect()
     }
-}
-
-/// 64-bit FNV-1a over a byte stream.
-fn fnv1a(bytes: impl IntoIterator<Item = u8>) -> u64 {
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    for b in bytes {
-        h ^= b as u64;
-        h = h.wrapping_mul(0x0000_0100_0000_01B3);
-    }
-    h
 }
 
 #[cfg(test)]

@@ -447,37 +447,32 @@ fn a_sweep_gives_one_configuration_per_value_and_shards_deal_them_round_robin() 
     assert_eq!(listed(&[]), all);
     assert_eq!(listed(&["--shard", "1/2"]), [all[0], all[2], all[4]]);
     assert_eq!(listed(&["--shard", "2/2"]), [all[1], all[3]]);
-    // A bad sweep value is refused with its key.
-    std::fs::write(
-        &file,
-        tiny(&root.join("refs")).replace("slots = 8", "sweep = { sharpness = [0.5, 2.0] }"),
-    )
-    .unwrap();
-    let o = bin()
-        .args(["experiment", "run"])
-        .arg(&file)
-        .arg("--check")
-        .output()
-        .unwrap();
-    let line = single_error_line(&o, "sharpness 2");
+    // A bad sweep value is refused with its key; so is a scene that does
+    // not load (--check said OK to it until session 47; the run failed at
+    // once).
+    let refused = |text: String, what: &str| -> String {
+        std::fs::write(&file, text).unwrap();
+        let o = bin()
+            .args(["experiment", "run"])
+            .arg(&file)
+            .arg("--check")
+            .output()
+            .unwrap();
+        single_error_line(&o, what)
+    };
+    let base = tiny(&root.join("refs"));
+    let line = refused(
+        base.replace("slots = 8", "sweep = { sharpness = [0.5, 2.0] }"),
+        "sharpness 2",
+    );
     assert!(
         line.contains("'sharpness'") && line.contains("--sharpness"),
         "{line}"
     );
-    // So is a scene that does not load (--check said OK to it until
-    // session 47; the run failed at once).
-    std::fs::write(
-        &file,
-        tiny(&root.join("refs")).replace("scenes = [\"cornell\"]", "scenes = [\"nosuchscene\"]"),
-    )
-    .unwrap();
-    let o = bin()
-        .args(["experiment", "run"])
-        .arg(&file)
-        .arg("--check")
-        .output()
-        .unwrap();
-    let line = single_error_line(&o, "a missing scene");
+    let line = refused(
+        base.replace("scenes = [\"cornell\"]", "scenes = [\"nosuchscene\"]"),
+        "a missing scene",
+    );
     assert!(
         line.contains("key 'scenes'") && line.contains("nosuchscene"),
         "{line}"

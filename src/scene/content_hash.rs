@@ -10,15 +10,22 @@
 use super::{Environment, Scene};
 use std::fmt::Write;
 
-/// FNV-1a over bytes, also fed by `write!` (the `Debug` text of the small
-/// parts; the large arrays go in as their bytes).
+/// 64-bit FNV-1a, fed byte by byte or by `write!` (the `Debug` text of a
+/// scene's small parts; the large arrays go in as their bytes). The
+/// project's one FNV: the reference cache's key hashes with [`fnv1a`].
 struct Fnv(u64);
 
 impl Fnv {
+    fn new() -> Self {
+        Fnv(0xcbf2_9ce4_8422_2325)
+    }
+    fn byte(&mut self, x: u8) {
+        self.0 ^= x as u64;
+        self.0 = self.0.wrapping_mul(0x0000_0100_0000_01B3);
+    }
     fn bytes(&mut self, b: &[u8]) {
         for &x in b {
-            self.0 ^= x as u64;
-            self.0 = self.0.wrapping_mul(0x0000_0100_0000_01B3);
+            self.byte(x);
         }
     }
     /// A length first, so that adjacent arrays cannot trade elements.
@@ -35,11 +42,20 @@ impl Write for Fnv {
     }
 }
 
+/// 64-bit FNV-1a over a byte stream.
+pub(crate) fn fnv1a(bytes: impl IntoIterator<Item = u8>) -> u64 {
+    let mut h = Fnv::new();
+    for b in bytes {
+        h.byte(b);
+    }
+    h.0
+}
+
 impl Scene {
     /// See the module documentation. Linear in the scene's bytes (about a
     /// nanosecond a byte: a quarter of a second for the Sponza's textures).
     pub fn content_hash(&self) -> u64 {
-        let mut h = Fnv(0xcbf2_9ce4_8422_2325);
+        let mut h = Fnv::new();
         let _ = write!(h, "meshes {}", self.meshes.len());
         for m in &self.meshes {
             h.slice(&m.positions);

@@ -33,6 +33,7 @@ pub mod preetham;
 pub mod texture;
 
 pub use animation::{AnimationSelection, SceneAnimation};
+pub(crate) use content_hash::fnv1a;
 pub use default_lighting::{
     apply_default_lighting, decide_lighting, light_scene, relight, DefaultLighting,
     LightingDecision, OwnLighting,
