@@ -394,8 +394,8 @@ fn a_tlas_of_no_boxes_uploads_an_empty_root() {
 /// straight at it from points off the grid's binary fractions, x = y (so
 /// x − y of a hit is the pixel's offset): its pixels 1/32 apart on the
 /// plane and the cells 1/16, so every other pixel centre is aimed at a
-/// shared diagonal. The vertices lie on a 2^-4 grid, so the stored (v0, e1,
-/// e2) give back every vertex exactly. Möller–Trumbore let such rays fall
+/// shared diagonal. The vertices lie on a 2^-4 grid (exact in any storage
+/// of a triangle). Möller–Trumbore let such rays fall
 /// through both triangles; the watertight test (rt_software.glsl
 /// `intersect_triangle`) hits every pixel, on both software layouts, as
 /// does its CPU twin, which finds the same depth.

@@ -5,8 +5,9 @@
 //   n1 = (child_base_idx, primitive_base_idx, child_meta[0..4], child_meta[4..8])
 //   n2 = (qlo_x[0..4], qlo_x[4..8], qhi_x[0..4], qhi_x[4..8])
 //   n3 = same for y, n4 = same for z
-// Leaf triangles are stored in BVH order: tri_verts[3k..3k+3] = (v0, e1, e2)
-// and tri_ref[k] = (instance, primitive) for leaf slot k.
+// Leaf triangles are stored in BVH order: tri_verts[3k..3k+3] = their
+// vertices (v0, v1, v2), and tri_ref[k] = (instance, primitive) for leaf
+// slot k.
 #include "interface/scene.glsl"
 layout(set = SET_SCENE, binding = B_SCENE_BVH_NODES, std430) readonly buffer BvhNodes { uvec4 bvh_nodes[]; };
 layout(set = SET_SCENE, binding = B_SCENE_BVH_TRI_REF, std430) readonly buffer BvhTriRef { uvec2 tri_ref[]; };
@@ -56,9 +57,10 @@ WtRay wt_ray(vec3 o, vec3 d) {
     return r;
 }
 
-// Against a stored triangle (v0, e1, e2): vertices v0, v0 + e1, v0 + e2,
-// each taken to ray space on its own, so a vertex two triangles store alike
-// lands on the same point in both. Returns t along the ray's own
+// Against a stored triangle (v0, v1, v2), each vertex taken to ray space on
+// its own, so a vertex two triangles share lands on the same point in both
+// (until session 48 the vertices were read as v0 + e1 and v0 + e2, an ulp
+// off the neighbour's for some triangles). Returns t along the ray's own
 // (unnormalised) direction, or -1; bary = weights of vertices 1 and 2; the
 // caller tests t > tmin && t < h.t.
 // Edge functions U (v1→v2), V (v2→v0), W (v0→v1): the neighbour across an
@@ -68,10 +70,8 @@ WtRay wt_ray(vec3 o, vec3 d) {
 // on every device); here 0 counts as inside in both triangles: both report
 // the hit and the closer is kept, so no ray falls through an edge, and a
 // value rounded to 0 can only add a hit within rounding of the edge.
-float intersect_triangle(WtRay r, vec3 v0, vec3 e1, vec3 e2, out vec2 bary) {
+float intersect_triangle(WtRay r, vec3 v0, vec3 v1, vec3 v2, out vec2 bary) {
     bary = vec2(0.0);
-    precise vec3 v1 = v0 + e1;
-    precise vec3 v2 = v0 + e2;
     precise vec3 a = v0 - r.o;
     precise vec3 b = v1 - r.o;
     precise vec3 c = v2 - r.o;
@@ -103,13 +103,13 @@ float intersect_triangle(WtRay r, vec3 v0, vec3 e1, vec3 e2, out vec2 bary) {
 }
 
 // Back-face culling (glTF doubleSided false): v0.w is 0, or for a culling
-// material the sign that makes w·(e1 × e2) the front normal (src/rt/bvh.rs:
+// material the sign that makes w·((v1 − v0) × (v2 − v0)) the front normal (src/rt/bvh.rs:
 // the instance determinant's sign for world-space triangles; 1 in a BLAS,
 // whose object space is where glTF's counter-clockwise front is defined).
 // The ray passes through a triangle it meets from behind. CPU twin: bvh.rs
 // `closest_hit`.
-bool culled(vec4 v0, vec3 e1, vec3 e2, vec3 d) {
-    return SC_BACKFACE_CULLING && dot(cross(e1, e2), d) * v0.w > 0.0;
+bool culled(vec4 v0, vec3 v1, vec3 v2, vec3 d) {
+    return SC_BACKFACE_CULLING && dot(cross(v1 - v0.xyz, v2 - v0.xyz), d) * v0.w > 0.0;
 }
 
 // Child hit mask of one node for the ray: bits 24..31 = internal children
@@ -125,6 +125,15 @@ uint cw_intersect_node(uint node, vec3 o, vec3 inv_d, uint oct_inv4, float tmin,
                     uintBitsToFloat(((n0.w >> 16) & 0xFFu) << 23));
     vec3 adj_inv = ext * inv_d;
     vec3 adj_o = (p - o) * inv_d;
+    // Conservative slabs (Ize 2013, "Robust BVH Ray Traversal", JCGT 2(2)):
+    // t0 and t1 below round at most about six times relative to
+    // |q·ext/d| + |(p − o)/d| ≤ 255·|adj_inv| + |adj_o| (q ≤ 255), so each
+    // slab is widened by 2^-20 (16 units in the last place) of that bound.
+    // Without it a ray aimed at a vertex on a child box's plane could leave
+    // the box by rounding before it entered it and miss the triangle there.
+    // CPU twin: src/rt/bvh.rs `intersect_node`.
+    vec3 pad = (255.0 * abs(adj_inv) + abs(adj_o)) * (1.0 / 1048576.0);
+    vec3 adj_lo = adj_o - pad, adj_hi = adj_o + pad;
     bvec3 neg = lessThan(inv_d, vec3(0.0));
     uint oct = oct_inv4 & 0xFFu;
     uint hit_mask = 0u;
@@ -135,8 +144,8 @@ uint cw_intersect_node(uint node, vec3 o, vec3 inv_d, uint oct_inv4, float tmin,
         vec3 hi = vec3(cw_byte(n2.zw, i), cw_byte(n3.zw, i), cw_byte(n4.zw, i));
         vec3 qmin = mix(lo, hi, neg);
         vec3 qmax = mix(hi, lo, neg);
-        vec3 t0 = qmin * adj_inv + adj_o;
-        vec3 t1 = qmax * adj_inv + adj_o;
+        vec3 t0 = qmin * adj_inv + adj_lo;
+        vec3 t1 = qmax * adj_inv + adj_hi;
         float tn = max(max(t0.x, t0.y), max(t0.z, tmin));
         float tf = min(min(t1.x, t1.y), min(t1.z, tmax));
         if (tn <= tf) {
@@ -182,9 +191,9 @@ bool cw_traverse(vec3 o, vec3 d, float tmin, float tmax, bool any_hit, out RtHit
             uint k = prims.x + local;
             vec2 bary;
             vec4 v0 = tri_verts[3u * k];
-            vec3 e1 = tri_verts[3u * k + 1u].xyz, e2 = tri_verts[3u * k + 2u].xyz;
-            float t = intersect_triangle(wr, v0.xyz, e1, e2, bary);
-            if (t > tmin && t < h.t && !culled(v0, e1, e2, d)) {
+            vec3 v1 = tri_verts[3u * k + 1u].xyz, v2 = tri_verts[3u * k + 2u].xyz;
+            float t = intersect_triangle(wr, v0.xyz, v1, v2, bary);
+            if (t > tmin && t < h.t && !culled(v0, v1, v2, d)) {
                 uvec2 ref = tri_ref[k];
                 if (alpha_passes(ref.x, ref.y, bary)) {
                     h.t = t;
@@ -264,9 +273,9 @@ bool cw_traverse_two_level(vec3 wo, vec3 wd, float tmin, float tmax, bool any_hi
             if (in_blas) {
                 vec2 bary;
                 vec4 v0 = tri_verts[3u * k];
-                vec3 e1 = tri_verts[3u * k + 1u].xyz, e2 = tri_verts[3u * k + 2u].xyz;
-                float t = intersect_triangle(wr, v0.xyz, e1, e2, bary);
-                if (t > tmin && t < h.t && !culled(v0, e1, e2, d)) {
+                vec3 v1 = tri_verts[3u * k + 1u].xyz, v2 = tri_verts[3u * k + 2u].xyz;
+                float t = intersect_triangle(wr, v0.xyz, v1, v2, bary);
+                if (t > tmin && t < h.t && !culled(v0, v1, v2, d)) {
                     uint prim = tri_ref[k].y;
                     if (alpha_passes(inst, prim, bary)) {
                         h.t = t;

@@ -14,8 +14,8 @@
 //!              [TLAS leaves, one per instance][triangles of mesh 0][mesh 1]…
 //! A TLAS leaf slot k holds tri_ref = (instance, BLAS root node) and
 //! tri_verts = the three rows of the instance's object-from-world 3×4
-//! matrix; a triangle slot holds tri_ref = (unused, primitive) and (v0, e1,
-//! e2) in object space. BLAS child/primitive indices are rebased to the
+//! matrix; a triangle slot holds tri_ref = (unused, primitive) and its
+//! vertices (v0, v1, v2) in object space. BLAS child/primitive indices are rebased to the
 //! combined arrays. The TLAS region has a fixed capacity, so a rebuild
 //! rewrites only the front of each buffer.
 //!
@@ -157,11 +157,10 @@ impl TwoLevelBvh {
             }
             for &pi in &cwbvh.primitive_indices {
                 let tri = &tris[pi as usize];
-                let (e1, e2) = (tri.v1 - tri.v0, tri.v2 - tri.v0);
                 tri_ref.push([0, prims[pi as usize]]);
                 tri_verts.push([tri.v0.x, tri.v0.y, tri.v0.z, cull]);
-                tri_verts.push([e1.x, e1.y, e1.z, 0.0]);
-                tri_verts.push([e2.x, e2.y, e2.z, 0.0]);
+                tri_verts.push([tri.v1.x, tri.v1.y, tri.v1.z, 0.0]);
+                tri_verts.push([tri.v2.x, tri.v2.y, tri.v2.z, 0.0]);
             }
             if !cwbvh.nodes.is_empty() {
                 blas_depth = blas_depth.max(max_depth(&cwbvh));
