@@ -19,8 +19,10 @@
 //!   reference's geometry: [`crate::evaluate`]).
 //!
 //! Uncertainty ([`crate::metrics::uncertainty`]): standard errors over
-//! frames treat frames as independent; ratios `x̄/ȳ` to the baseline use the
-//! delta method on the paired frames (both methods render the same frames).
+//! frames, widened by √((1 + ρ) / (1 − ρ)) for the series' lag-1
+//! autocorrelation ρ (successive frames of a trace are alike); ratios `x̄/ȳ`
+//! to the baseline use the delta method on the paired frames (both methods
+//! render the same frames), widened the same way.
 //!
 //! The reference is rendered as two independent halves of `spp/2` samples
 //! (different seeds) whose mean is the reference; their difference estimates
@@ -106,7 +108,10 @@ pub struct MethodRow {
 
 impl MethodRow {
     /// A row of summary.json as written ([`Self::series`] empty; `null`
-    /// standard errors read back as `∞`); `None` when it is not one.
+    /// standard errors read back as `∞`, `null` metrics — written for a
+    /// metric that was not finite — as NaN, so a merge writes them as
+    /// `null` again and warns about them as the run did); `None` when it is
+    /// not one.
     pub fn from_json(v: &serde_json::Value) -> Option<Self> {
         let f = |k: &str| v[k].as_f64();
         let map = |k: &str, null: Option<f64>| -> BTreeMap<String, f64> {
@@ -130,7 +135,7 @@ impl MethodRow {
             rays_per_frame: f("rays_per_frame")?,
             rays_total: v["rays_total"].as_u64()?,
             method_memory_bytes: v["method_memory_bytes"].as_u64()?,
-            metrics: map("metrics", None),
+            metrics: map("metrics", Some(f64::NAN)),
             metrics_stderr: map("metrics_stderr", Some(f64::INFINITY)),
             ratios: BTreeMap::new(),
             series: BTreeMap::new(),
@@ -409,14 +414,23 @@ pub fn check_label(l: &str) -> std::result::Result<(), String> {
     Ok(())
 }
 
-/// Refuses `--show-frames` past the last of `n` frames (before anything
-/// renders; `compare_configs` checks again).
+/// Refuses `--show-frames` past the last of `n` frames, or naming a frame
+/// twice (before anything renders; `compare_configs` checks again). (A
+/// repeated frame used to pass here and panic after every method had
+/// rendered, before the summaries were written.)
 pub fn check_shown_frames(shown: &[usize], n: usize) -> std::result::Result<(), String> {
     if let Some(bad) = shown.iter().find(|&&f| f >= n) {
         return Err(format!(
             "bad --show-frames: frame {bad} is past the last frame {}",
             n.saturating_sub(1)
         ));
+    }
+    if let Some((_, f)) = shown
+        .iter()
+        .enumerate()
+        .find(|&(i, f)| shown[..i].contains(f))
+    {
+        return Err(format!("bad --show-frames: frame {f} is listed twice"));
     }
     Ok(())
 }
@@ -1041,6 +1055,37 @@ pub fn ratio_table(cmp: &Comparison) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A metric written as `null` (not finite) survives a read back, as a
+    /// merge does: it is still there, still not finite, still warned about.
+    #[test]
+    fn null_metrics_read_back_as_not_finite() {
+        let r = MethodRow::from_json(&serde_json::json!({
+            "method": "a", "kind": "naive", "frames": 2, "mean_gpu_ms": 1.0,
+            "p95_gpu_ms": 1.0, "steady_mean_gpu_ms": 1.0, "steady_p95_gpu_ms": 1.0,
+            "rays_per_frame": 1.0, "rays_total": 2, "method_memory_bytes": 0,
+            "metrics": {"rse": null, "mse": 0.5},
+            "metrics_stderr": {"rse": null, "mse": 0.1}
+        }))
+        .unwrap();
+        assert!(r.metrics["rse"].is_nan());
+        assert_eq!(r.metrics["mse"], 0.5);
+        assert_eq!(r.metrics_stderr["rse"], f64::INFINITY);
+        let w = non_finite_metrics_warning(Path::new("out"), &[r]).expect("warned");
+        assert!(w.contains("rse"), "{w}");
+    }
+
+    /// `--show-frames` naming a frame twice is refused before rendering
+    /// (it panicked after rendering every method).
+    #[test]
+    fn shown_frames_are_checked() {
+        assert!(check_shown_frames(&[0, 3, 5], 6).is_ok());
+        let e = check_shown_frames(&[3, 0, 3], 6).unwrap_err();
+        assert!(e.contains("frame 3 is listed twice"), "{e}");
+        assert!(check_shown_frames(&[6], 6)
+            .unwrap_err()
+            .contains("past the last frame 5"));
+    }
 
     /// A reference or image holding ∞ gave `"rse": null` in summary.json
     /// without a word; now one warning line names the configurations and

@@ -109,17 +109,54 @@ pub fn run_interleaved(
 }
 
 /// Ratio of the means of `a` and `b` (paired per-frame times of two methods
-/// on the same frames) and the standard error of the per-frame ratios.
+/// on the same frames) and the standard error of that ratio: the delta
+/// method with the frames' covariance, widened for lag-1 autocorrelation
+/// (`metrics::uncertainty::ratio_of_means`, as `compare` reports its
+/// ratios). `∞` for fewer than two frames, NaN ratio for none. (Until
+/// session 48 the ± was the standard error of the mean of the per-frame
+/// ratios, a different number from the ratio of the means it followed:
+/// a = [1, 4], b = [1, 2] printed 1.667 ± 0.5, the 0.5 belonging to 1.5.)
 pub fn paired_ratio(a: &[f64], b: &[f64]) -> (f64, f64) {
-    let r: Vec<f64> = a.iter().zip(b).map(|(x, y)| x / y).collect();
-    (mean_and_se(a).0 / mean_and_se(b).0, mean_and_se(&r).1)
+    crate::metrics::uncertainty::ratio_of_means(a, b)
+        .map_or((f64::NAN, f64::INFINITY), |r| (r.mean, r.stderr))
 }
 
 /// The mean of `v` and its standard error (sample standard deviation over
-/// √n; 0 for fewer than two values).
+/// √n, frames taken as independent); the error is `∞` for fewer than two
+/// values (unknown, not 0), the mean NaN for none.
 pub fn mean_and_se(v: &[f64]) -> (f64, f64) {
     let n = v.len() as f64;
-    let m = v.iter().sum::<f64>() / n.max(1.0);
-    let var = v.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (n - 1.0).max(1.0);
-    (m, (var / n.max(1.0)).sqrt())
+    let m = v.iter().sum::<f64>() / n;
+    if v.len() < 2 {
+        return (m, f64::INFINITY);
+    }
+    let var = v.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (n - 1.0);
+    (m, (var / n).sqrt())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The ± belongs to the ratio printed before it: the ratio of the means
+    /// and its delta-method error, not the spread of the per-frame ratios
+    /// (whose mean, 1.5 here, is another number); one frame has no error
+    /// estimate.
+    #[test]
+    fn the_ratio_and_its_error_are_of_the_same_estimator() {
+        let (r, se) = paired_ratio(&[1.0, 4.0], &[1.0, 2.0]);
+        assert!((r - 5.0 / 3.0).abs() < 1e-12, "{r}");
+        // Delta method by hand: R = 5/3, ȳ = 1.5, sample (co)variances
+        // s_xx = 4.5, s_xy = 1.5, s_yy = 0.5 (n − 1 = 1); no lag-1 widening
+        // below three frames.
+        let rr: f64 = 5.0 / 3.0;
+        let want = ((4.5 - 2.0 * rr * 1.5 + rr * rr * 0.5) / (2.0 * 1.5 * 1.5)).sqrt();
+        assert!((se - want).abs() < 1e-12, "{se} vs {want}");
+        let (r, se) = paired_ratio(&[2.0], &[1.0]);
+        assert_eq!((r, se), (2.0, f64::INFINITY));
+        assert_eq!(mean_and_se(&[3.0]), (3.0, f64::INFINITY));
+        let (m, se) = mean_and_se(&[1.0, 3.0]);
+        assert_eq!(m, 2.0);
+        assert!((se - 1.0).abs() < 1e-12, "{se}");
+    }
 }

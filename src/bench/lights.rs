@@ -90,12 +90,8 @@ pub fn bench_lights(
             }
         }
     }
-    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
-    let se = |v: &[f64]| {
-        let m = mean(v);
-        let n = v.len() as f64;
-        (v.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0).max(1.0) / n.max(1.0)).sqrt()
-    };
+    let mean = |v: &[f64]| super::interleave::mean_and_se(v).0;
+    let se = |v: &[f64]| super::interleave::mean_and_se(v).1;
     let t0 = mean(&ms[0]);
     Ok(strategies
         .iter()

@@ -170,7 +170,7 @@ fn print_ratios(rows: &[CacheBenchRow], scatter: &ScatterBaselines, subgroup: bo
     let (r, se) =
         stereocache::bench::paired_ratio(&adaptive.frame_ms_per_frame, &naive.frame_ms_per_frame);
     println!(
-        "  sample-cache (adaptive) / 1 spp frame:   {r:.2}x time (± {se:.2}, standard error of the per-frame ratios; methods interleaved frame by frame)"
+        "  sample-cache (adaptive) / 1 spp frame:   {r:.2}x time (± {se:.2}, standard error of the ratio of the means; methods interleaved frame by frame)"
     );
     let (r, se) =
         stereocache::bench::paired_ratio(&adaptive.frame_ms_per_frame, &plain.frame_ms_per_frame);
