@@ -692,7 +692,10 @@ pub fn stereo_difference(f: &StereoFrame, cam: &StereoCamera) -> Vec<[f32; 4]> {
 }
 
 /// One column per method: a label, left eye, right eye, zoomed centre crops,
-/// the stereo difference (×4), and the methods' debug views where they have them.
+/// the stereo difference (through the preview's tone curve at exposure 4:
+/// `to_srgb8`, not a linear ×4), and the methods' debug views where they
+/// have them (clamped and sRGB-encoded as `replay --debug-views` writes
+/// them: `to_srgb8_clamped`).
 fn write_grid(
     path: &Path,
     names: &[String],
@@ -754,20 +757,23 @@ fn write_grid(
         blit(&mut img, gw, &diff, w, h, x0, row_y(4), None);
         for (k, dn) in debug_names.iter().enumerate() {
             if let Some((_, view)) = f.eyes[0].debug.iter().find(|(n, _)| n == dn) {
-                let rgb: Vec<u8> = view
-                    .iter()
-                    .flat_map(|p| (0..3).map(move |c| (p[c].clamp(0.0, 1.0) * 255.0 + 0.5) as u8))
-                    .collect();
+                let rgb = tonemap::to_srgb8_clamped(view);
                 blit(&mut img, gw, &rgb, w, h, x0, row_y(5 + k as u32), None);
             }
         }
     }
     // Row captions in the first column.
-    let captions: Vec<String> = ["left", "right", "left crop", "right crop", "stereo diff x4"]
-        .iter()
-        .map(|s| s.to_string())
-        .chain(debug_names.iter().map(|n| format!("{n} (left)")))
-        .collect();
+    let captions: Vec<String> = [
+        "left",
+        "right",
+        "left crop",
+        "right crop",
+        "stereo diff exp 4",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .chain(debug_names.iter().map(|n| format!("{n} (left)")))
+    .collect();
     for (r, cap) in captions.iter().enumerate() {
         label::Canvas {
             data: &mut img,

@@ -577,3 +577,29 @@ fn every_method_is_finite_and_non_negative_on_every_shipped_scene() {
     }
     assert_no_validation_messages(&ctx);
 }
+
+/// Every method's `memory_bytes` (compare's `method_memory_bytes`) is what
+/// its buffers take on the device: the allocator's count grows by exactly
+/// that much while the method is created, and shrinks back when it drops
+/// (tests/sample_cache.rs checks the cache's variants).
+#[test]
+fn every_method_reports_the_memory_it_allocates() {
+    let ctx = context();
+    let s: Session = session(&ctx, shipped("cornell"), RtChoice::Auto);
+    let mut wrong = Vec::new();
+    for method in METHODS {
+        let before = ctx.allocated_bytes();
+        let m = s.method(method, &settings(24, 16, 2, 9)).unwrap();
+        let allocated = ctx.allocated_bytes() - before;
+        if m.memory_bytes() != allocated {
+            wrong.push(format!(
+                "{method}: reports {} B, allocated {allocated} B",
+                m.memory_bytes()
+            ));
+        }
+        drop(m);
+        assert_eq!(ctx.allocated_bytes(), before, "{method}: freed");
+    }
+    assert!(wrong.is_empty(), "{}", wrong.join("\n"));
+    assert_no_validation_messages(&ctx);
+}

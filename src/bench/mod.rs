@@ -29,7 +29,7 @@ pub use materials::{
 pub use memo_fill::{
     bench_fill_cost, fill_cost_configs, fill_cost_csv, fill_cost_table, FillCostRow,
 };
-pub use rays::{bench_rays, RayBench};
+pub use rays::{bench_rays, check_ray_count, RayBench};
 pub use sample_cache::{bench_sample_cache, CacheBenchRow, ScatterBaselines};
 pub use scaling::{fit_slope, steady_frame_ms};
 pub use specialization::{

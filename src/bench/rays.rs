@@ -102,6 +102,20 @@ pub fn bench_rays(
     })
 }
 
+/// Refuses a size and number of rounds whose primary rays (both eyes, one
+/// per pixel a round; the bounce rays are fewer) bench/rays.comp's 32-bit
+/// counters cannot count: they would wrap and report a rate near 0.
+pub fn check_ray_count(width: u32, height: u32, repeats: u32) -> std::result::Result<(), String> {
+    let rays = 2 * width as u64 * height as u64 * repeats as u64;
+    if rays > u32::MAX as u64 {
+        return Err(format!(
+            "bench rays: {width}x{height} per eye for {repeats} rounds is {rays} primary rays, more than its 32-bit ray counters hold ({}); use fewer --repeats",
+            u32::MAX
+        ));
+    }
+    Ok(())
+}
+
 /// One pass of bench/rays.comp in mode 0 (primary) or 1 (bounce); `bufs`
 /// in the binding order of src/interface/bench.rs (frame, hits, normals,
 /// counters).
@@ -122,4 +136,16 @@ fn rays_pass<'a>(
         .write(bufs[3])
         .push(&mode)
         .dispatch(groups)
+}
+
+#[cfg(test)]
+mod tests {
+    /// 1024×1024 for 2048 rounds traces exactly 2^32 primary rays: the
+    /// counter would read 0; one round fewer fits.
+    #[test]
+    fn ray_counts_past_the_counters_are_refused() {
+        let e = super::check_ray_count(1024, 1024, 2048).unwrap_err();
+        assert!(e.contains("4294967296 primary rays"), "{e}");
+        assert!(super::check_ray_count(1024, 1024, 2047).is_ok());
+    }
 }

@@ -200,8 +200,8 @@ const ACES: [f32; 6] = [
     0.14,
 ];
 
-/// `x` is capped at 10⁶ first: beyond x_t ≈ 2.12 the curve is above 1 and
-/// clamped to 1 by the caller anyway, and x² overflows f32 above ≈ 1.8·10¹⁹,
+/// `x` is capped at 10⁶ first: the curve (Narkowicz's fit at 0.6·x) reaches
+/// 1 at x ≈ 12.1 and is clamped to 1 by the caller above that anyway, and x² overflows f32 above ≈ 1.8·10¹⁹,
 /// where ∞/∞ = NaN was mapped to black, scoring the brightest fireflies as
 /// no error at all (until session 47).
 fn aces(x: f32) -> f32 {

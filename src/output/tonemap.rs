@@ -2,7 +2,8 @@
 //! Narkowicz (2015), then the sRGB transfer function. Non-finite values map to
 //! black so a preview never hides a NaN as white.
 
-/// `x` is capped at 10⁶ (the curve is clamped to 1 from x ≈ 2.1 on): a
+/// `x` is capped at 10⁶ (the curve reaches 1 at x ≈ 7.24 and is clamped
+/// to 1 above): a
 /// larger finite value overflowed x² to ∞ and ∞/∞ = NaN, a black pixel in
 /// the preview (until session 47).
 pub fn aces_narkowicz(x: f32) -> f32 {

@@ -2,7 +2,7 @@
 
 use crate::cli::args::{self, GpuArgs};
 use crate::cli::common::{device_line, report_validation};
-use anyhow::Result;
+use anyhow::{anyhow, Result};
 use clap::Args;
 use std::sync::Arc;
 use stereocache::gpu::GpuContext;
@@ -38,6 +38,7 @@ pub fn run(a: RaysArgs) -> Result<()> {
         height: h,
     } = a.size;
     let repeats = a.repeats;
+    stereocache::bench::check_ray_count(w, h, repeats).map_err(|e| anyhow!(e))?;
     let (loaded, lit) = Session::load_scene_lit(&a.scene, a.lighting.as_ref())?;
     eprintln!("{}", lit.line());
     let ctx = Arc::new(GpuContext::new(&a.gpu.options()?)?);

@@ -810,6 +810,9 @@ impl Method for SampleCache {
             &self.counters,
             &self.pixel_action,
             &self.pixel_stats,
+            &self.retrace_list,
+            &self.retrace_found,
+            &self.indirect,
             &self.debug,
             &self.out_blended,
         ] {
