@@ -197,6 +197,11 @@ fn malformed_documents_give_one_line_errors() {
             &["graph `g`, node `t`: input `index` is 2: only tangent set 0"],
         ),
         (
+            r#"<place2d name="p" type="vector2"><input name="operationorder" type="integer" value="2" /></place2d>
+               <output name="out" type="vector2" nodename="p" />"#,
+            &["graph `g`, node `p`: input `operationorder` is 2; 0 (SRT) or 1 (TRS)"],
+        ),
+        (
             r#"<add name="a" type="float"><input name="bogus" type="float" value="1" /></add>
                <output name="out" type="float" nodename="a" />"#,
             &["node `a`: node `add` has no input `bogus`"],

@@ -102,7 +102,8 @@ fn blending_lowers_stereo_discrepancy() {
 ///   c_bg = c_total / n_surf, so surface and background weigh n_surf : n_bg
 ///   as in the colour (until session 43 c_total / shaded, which overweighted
 ///   the background while some surface samples were unshaded); without a
-///   shaded surface sample behind a surface, μ1 = colour, μ2 = colour².
+///   shaded surface sample behind a surface, μ1 = colour, μ2 = colour²
+///   (the CPU twin, `stereo::pixel_moments`, in f32 as the shader).
 ///
 /// Tolerance: f32 sums of ≤ 16 terms, 10⁻⁵ relative.
 #[test]
@@ -158,15 +159,10 @@ fn reconstruction_moments_weigh_coverage_like_the_colour() {
                 if vis == 0 {
                     continue;
                 }
-                let (mut n_bg, mut n_surf, mut shaded, mut c_total) =
-                    (0.0f64, 0.0f64, 0.0f64, 0.0f64);
-                let (mut sum, mut bg, mut m1, mut m2, mut bg2) = (
-                    [0.0f64; 3],
-                    [0.0f64; 3],
-                    [0.0f64; 3],
-                    [0.0f64; 3],
-                    [0.0f64; 3],
-                );
+                let (mut n_bg, mut n_surf, mut shaded) = (0.0f64, 0.0f64, 0.0f64);
+                let (mut sum, mut bg) = ([0.0f64; 3], [0.0f64; 3]);
+                // The visible records, for the CPU twin of Eq. 5–6.
+                let (mut surf_recs, mut bg_recs) = (Vec::new(), Vec::new());
                 let mut b = vis;
                 while b != 0 {
                     let sl = b.trailing_zeros();
@@ -174,20 +170,17 @@ fn reconstruction_moments_weigh_coverage_like_the_colour() {
                     let rec = snap.radiance[snap.slot(eye, sl, p)];
                     if snap.is_background(eye, sl, p) {
                         n_bg += 1.0;
+                        bg_recs.push(rec);
                         for k in 0..3 {
                             bg[k] += rec[k] as f64;
-                            bg2[k] += (rec[k] as f64).powi(2);
                         }
                     } else {
                         n_surf += 1.0;
+                        surf_recs.push(rec);
                         if rec[3] > 0.0 {
                             shaded += 1.0;
-                            c_total += rec[3] as f64;
                             for k in 0..3 {
-                                let l = rec[k] as f64;
-                                sum[k] += l;
-                                m1[k] += rec[3] as f64 * l;
-                                m2[k] += rec[3] as f64 * l * l;
+                                sum[k] += rec[k] as f64;
                             }
                         }
                     }
@@ -197,13 +190,15 @@ fn reconstruction_moments_weigh_coverage_like_the_colour() {
                 }
                 let i = eye * snap.npix() + p;
                 let colour = fr.eyes[eye].radiance[p];
-                let c_bg = if shaded > 0.0 { c_total / n_surf } else { 1.0 };
-                let c_all = c_total + c_bg * n_bg;
                 for k in 0..3 {
                     let surf_mean = if shaded > 0.0 { sum[k] / shaded } else { 0.0 };
                     let want_colour = (n_surf * surf_mean + bg[k]) / (n_surf + n_bg);
-                    let want_m1 = (m1[k] + c_bg * bg[k]) / c_all;
-                    let want_m2 = (m2[k] + c_bg * bg2[k]) / c_all;
+                    let (want_m1, want_m2) = stereocache::stereo::pixel_moments(
+                        &surf_recs.iter().map(|r| (r[k], r[3])).collect::<Vec<_>>(),
+                        &bg_recs.iter().map(|r| r[k]).collect::<Vec<_>>(),
+                    )
+                    .map(|(a, b)| (a as f64, b as f64))
+                    .expect("a shaded or a background sample");
                     for (what, got, want) in [
                         ("colour", colour[k], want_colour),
                         ("μ1", mom.m1[i][k], want_m1),

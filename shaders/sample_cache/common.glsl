@@ -259,7 +259,7 @@ float alpha_min(float a_ggx) { return (1.0 - a_ggx) * 0.5 + a_ggx * 0.1; }
 // α²σ², i.e. c' = 1 / ((1 − α)²/c + α²): α = 1/(c + 1) (running mean) gives
 // c' = c + 1 exactly, a constant α tends to (2 − α)/α. This c is what Eq. 5–6
 // weight by and what the importance (1 + c)^−1 reads. CPU twin: heuristics.rs
-// `accumulate_count`.
+// `accumulated_count`.
 float accumulated_count(float c, float alpha) {
     if (!(c > 0.0) || alpha >= 1.0) return 1.0;
     float k = 1.0 - alpha;

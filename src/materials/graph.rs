@@ -738,6 +738,11 @@ fn check_node(n: &Node) -> Option<String> {
         "fractal3d" => int("octaves")
             .filter(|o| !(0..=16).contains(o))
             .map(|o| format!("input `octaves` is {o}; 0 to 16 are supported")),
+        // MaterialX's NG_place2d picks by `switch`, which for other values
+        // returns neither order but (0, 0); stdlib_defs lists 0 and 1 only.
+        "place2d" => int("operationorder")
+            .filter(|o| !(0..=1).contains(o))
+            .map(|o| format!("input `operationorder` is {o}; 0 (SRT) or 1 (TRS)")),
         "worleynoise2d" | "worleynoise3d" => int("style")
             .filter(|s| !(0..=1).contains(s))
             .map(|s| format!("input `style` is {s}; 0 (distance) or 1 (solid)")),

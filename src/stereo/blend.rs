@@ -1,5 +1,6 @@
 //! The blending math of §3.6, evaluated identically by
-//! `shaders/sample_cache/stereo_blend.comp`.
+//! `shaders/sample_cache/stereo_blend.comp`, and the per-pixel moments
+//! (Eq. 5–6) `shaders/sample_cache/reconstruct.comp` hands it.
 
 use std::str::FromStr;
 
@@ -51,22 +52,38 @@ pub fn beta_prime(m1x: f32, m2x: f32, m1y: f32, m2y: f32) -> f32 {
     (1.0 - var_y / denom).clamp(0.0, 1.0)
 }
 
-/// Eq. 5–6 as `reconstruct.comp` evaluates them for one pixel: the raw
-/// moments μ1 = Σ c_s L_s / c_X and μ2 = Σ c_s L_s² / c_X over the pixel's
-/// shaded visible samples, `samples` = (L_s, c_s) with L_s the sample's
-/// accumulated mean (an exponential average) and c_s its effective sample
-/// count, c_X = Σ c_s. So σ² = μ2 − μ1² (Eq. 7) is the c-weighted spread of
-/// the per-sample means — the variance of one sample's mean, not of the
-/// pixel's average of them (which would be about σ²/n). None without a
-/// shaded sample.
-pub fn pixel_moments(samples: &[(f32, f32)]) -> Option<(f32, f32)> {
-    let (mut m1, mut m2, mut c) = (0.0f32, 0.0f32, 0.0f32);
-    for &(l, cs) in samples.iter().filter(|(_, cs)| *cs > 0.0) {
+/// Eq. 5–6 as `reconstruct.comp` evaluates them for one pixel (one colour
+/// channel): the raw moments μ1 = Σ c_s L_s / c_X and μ2 = Σ c_s L_s² / c_X
+/// over the pixel's visible samples. `surface` = (L_s, c_s) of its visible
+/// surface samples, L_s the sample's accumulated mean (an exponential
+/// average) and c_s its effective sample count (0: not shaded yet, left
+/// out of the sums but counted in n_surf); `background` = the radiance of
+/// its visible background samples (§3.3), each weighing c_bg = c_total /
+/// n_surf (1 without a surface sample), so that surface and background
+/// weigh n_surf : n_bg as in the pixel's colour. c_X = c_total + c_bg·n_bg.
+/// So σ² = μ2 − μ1² (Eq. 7) is the c-weighted spread of the per-sample
+/// means — the variance of one sample's mean, not of the pixel's average of
+/// them (which would be about σ²/n). None where nothing estimates it: no
+/// visible sample, or surface samples none of which is shaded (the shader
+/// then writes μ1 = colour, μ2 = colour²: no spread).
+pub fn pixel_moments(surface: &[(f32, f32)], background: &[f32]) -> Option<(f32, f32)> {
+    let (mut m1, mut m2, mut c_total, mut shaded) = (0.0f32, 0.0f32, 0.0f32, 0usize);
+    for &(l, cs) in surface.iter().filter(|(_, cs)| *cs > 0.0) {
         m1 += cs * l;
         m2 += cs * l * l;
-        c += cs;
+        c_total += cs;
+        shaded += 1;
     }
-    (c > 0.0).then(|| (m1 / c, m2 / c))
+    if !surface.is_empty() && shaded == 0 {
+        return None;
+    }
+    let n_surf = surface.len() as f32;
+    let c_bg = if shaded > 0 { c_total / n_surf } else { 1.0 };
+    let (bg1, bg2) = background
+        .iter()
+        .fold((0.0f32, 0.0f32), |(a, b), &l| (a + l, b + l * l));
+    let c = c_total + c_bg * background.len() as f32;
+    (c > 0.0).then(|| ((m1 + c_bg * bg1) / c, (m2 + c_bg * bg2) / c))
 }
 
 /// Dodgson's quadratic resampling kernel (Dodgson 1997) with parameter r:
@@ -174,19 +191,37 @@ mod tests {
             })
             .collect();
         let colour = means.iter().map(|m| m.0).sum::<f32>() / n as f32;
-        (colour, pixel_moments(&means).unwrap())
+        (colour, pixel_moments(&means, &[]).unwrap())
     }
 
     #[test]
     fn pixel_moments_are_eq5_and_eq6() {
         // Weighted by c_s: two samples 1.0 (c = 3) and 2.0 (c = 1).
-        let (m1, m2) = pixel_moments(&[(1.0, 3.0), (2.0, 1.0), (9.0, 0.0)]).unwrap();
+        let (m1, m2) = pixel_moments(&[(1.0, 3.0), (2.0, 1.0), (9.0, 0.0)], &[]).unwrap();
         assert!((m1 - 1.25).abs() < 1e-6 && (m2 - 1.75).abs() < 1e-6);
         // A single sample has no spread: σ² = μ2 − μ1² = 0.
-        let (a, b) = pixel_moments(&[(0.7, 5.0)]).unwrap();
+        let (a, b) = pixel_moments(&[(0.7, 5.0)], &[]).unwrap();
         assert!((b - a * a).abs() < 1e-6);
         assert!(beta_prime(0.3, 0.3 * 0.3 + 0.1, a, b) > 1.0 - 1e-6);
-        assert!(pixel_moments(&[(1.0, 0.0)]).is_none());
+        // Only unshaded surface samples: no estimate (the shader's colour²).
+        assert!(pixel_moments(&[(1.0, 0.0)], &[]).is_none());
+        assert!(pixel_moments(&[(1.0, 0.0)], &[3.0]).is_none());
+        assert!(pixel_moments(&[], &[]).is_none());
+        // One shaded surface sample (L = 1, c = 4) and one background sample
+        // (L = 3) weighing c_total / n_surf = 4: μ1 = (4 + 12) / 8 = 2,
+        // μ2 = (4 + 36) / 8 = 5.
+        let (m1, m2) = pixel_moments(&[(1.0, 4.0)], &[3.0]).unwrap();
+        assert!(
+            (m1 - 2.0).abs() < 1e-6 && (m2 - 5.0).abs() < 1e-6,
+            "{m1} {m2}"
+        );
+        // An unshaded surface sample beside them counts in n_surf: c_bg = 4 / 2,
+        // μ1 = (4 + 6) / 6, μ2 = (4 + 18) / 6.
+        let (m1, m2) = pixel_moments(&[(1.0, 4.0), (7.0, 0.0)], &[3.0]).unwrap();
+        assert!((m1 - 10.0 / 6.0).abs() < 1e-6 && (m2 - 22.0 / 6.0).abs() < 1e-6);
+        // Background alone: weight 1 each.
+        let (m1, m2) = pixel_moments(&[], &[1.0, 3.0]).unwrap();
+        assert!((m1 - 2.0).abs() < 1e-6 && (m2 - 5.0).abs() < 1e-6);
     }
 
     /// Eq. 4's optimum from the shader's estimator. Per pixel the moments

@@ -82,9 +82,10 @@ pub fn alpha_min(alpha_ggx: f32) -> f32 {
 /// Effective sample count after one exponential-average step
 /// x' = (1 − α)x + αL with independent L (Yang et al. 2009): from
 /// Var(x') = (1 − α)² Var(x) + α² σ², c' = 1 / ((1 − α)²/c + α²); an empty
-/// record (c = 0) or α = 1 gives 1. common.glsl `accumulated_count`.
+/// record (c = 0, or not a number: the shader's `!(c > 0)`) or α = 1 gives
+/// 1. common.glsl `accumulated_count`.
 pub fn accumulated_count(c: f32, alpha: f32) -> f32 {
-    if c <= 0.0 || alpha >= 1.0 {
+    if c.is_nan() || c <= 0.0 || alpha >= 1.0 {
         return 1.0;
     }
     let k = 1.0 - alpha;
@@ -284,6 +285,15 @@ mod tests {
     /// α_min(0.2) = 0.42 (and at 0.1, §5.2's fixed α); after every step the
     /// records' empirical variance equals 1/c within 4 standard errors
     /// (relative standard error √(2/(records − 1)) of a variance estimate).
+    #[test]
+    fn empty_or_broken_counts_restart_at_one() {
+        // As the shader's !(c > 0): 0, negative and NaN counts are empty records.
+        for c in [0.0, -1.0, f32::NAN] {
+            assert_eq!(accumulated_count(c, 0.1), 1.0, "{c}");
+        }
+        assert_eq!(accumulated_count(5.0, 1.0), 1.0);
+    }
+
     #[test]
     fn effective_count_predicts_the_variance_of_the_average() {
         let mut state = 0x1234_5678_9abc_def0u64;
