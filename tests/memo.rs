@@ -1345,33 +1345,33 @@ fn eviction_model_report() {
     }
 }
 
-/// Report only (issue 17, thesis Table 6.2), the second model: frames
-/// shaped like a path tracer's rather than like session 38's ranked keys.
-/// The thesis's Classroom reads ~110,000 distinct tiles a frame, yet 2^14
-/// tiles already give 95.8 % of its lookups (Table 6.3): a small hot set
-/// (primary hits) takes nearly every lookup, a long tail (secondary hits)
-/// the rest. Here each frame looks up H = 1,000 hot keys in screen order,
-/// each in a burst of B = 64 lookups (neighbouring pixels), 2 % of them
-/// replaced each frame (motion), and T = 6,000 tail lookups spread at
-/// random over the frame, each drawing one of a pool of K = 30,000 keys
-/// (so a table holding the pool reaches ≈ 99.9 %, as the thesis's large
-/// ones do). A miss inserts after a fill latency of Λ lookups (0: at once;
-/// 1,500 ≈ 2 % of the frame, the share of a GPU frame in flight at once);
-/// the key's lookups in between miss too and do not insert again. Hit
-/// rates over frames 20–59 at tables of 0.25–6 × U, U = H + T (about a
-/// frame's distinct keys), D = 8. Results in docs/PERFORMANCE.md
-/// ("Memoization, session 39"). Run: `cargo test --release --test memo --
-/// --ignored eviction_path_model --nocapture`.
-#[test]
-#[ignore]
-fn eviction_path_model_report() {
+/// The second model's hit rate over frames 20–59 (eviction_path_model_report);
+/// `thesis`: every miss fills (a lane does not see another's fill in
+/// flight) and a landing fill is stored without a presence check
+/// (`CpuMemo::insert_unchecked`).
+fn path_model_hit_rate(
+    latency: usize,
+    size: f64,
+    policy: Eviction,
+    counter: bool,
+    thesis: bool,
+) -> f64 {
     const H: usize = 1000;
     const B: usize = 64;
     const T: usize = 6000;
     const K: u64 = 30_000;
-    let run = |latency: usize, size: f64, policy: Eviction, counter: bool| {
+    {
         let capacity = (size * (H + T) as f64) as u32;
         let mut t = model_table(capacity, policy, counter);
+        // A fill landing: the shader's insert (present keys are not
+        // stored again) or the thesis's (stored wherever the victim is).
+        let land = |t: &mut CpuMemo, kk: &MemoKey, now: u32| {
+            if thesis {
+                t.insert_unchecked(kk, now, record(kk.h1()));
+            } else {
+                t.insert(kk, now, record(kk.h1()));
+            }
+        };
         let key = |k: i64| MemoKey {
             graph: 1,
             level: 0,
@@ -1414,14 +1414,14 @@ fn eviction_path_model_report() {
                     let (_, done) = pending.pop_front().unwrap();
                     in_flight.remove(&done);
                     let kk = key(done);
-                    t.insert(&kk, now, record(kk.h1()));
+                    land(&mut t, &kk, now);
                 }
                 let kk = key(k);
                 let hit = t.find(&kk, now).is_some();
                 if !hit {
                     if latency == 0 {
-                        t.insert(&kk, now, record(kk.h1()));
-                    } else if in_flight.insert(k) {
+                        land(&mut t, &kk, now);
+                    } else if in_flight.insert(k) || thesis {
                         pending.push_back((i + latency, k));
                     }
                 }
@@ -1433,11 +1433,35 @@ fn eviction_path_model_report() {
             // The frame's fills land before the next frame starts.
             for (_, done) in pending.drain(..) {
                 let kk = key(done);
-                t.insert(&kk, now, record(kk.h1()));
+                land(&mut t, &kk, now);
             }
         }
         hits as f64 / total as f64
-    };
+    }
+}
+
+/// Report only (issue 17, thesis Table 6.2), the second model: frames
+/// shaped like a path tracer's rather than like session 38's ranked keys.
+/// The thesis's Classroom reads ~110,000 distinct tiles a frame, yet 2^14
+/// tiles already give 95.8 % of its lookups (Table 6.3): a small hot set
+/// (primary hits) takes nearly every lookup, a long tail (secondary hits)
+/// the rest. Here each frame looks up H = 1,000 hot keys in screen order,
+/// each in a burst of B = 64 lookups (neighbouring pixels), 2 % of them
+/// replaced each frame (motion), and T = 6,000 tail lookups spread at
+/// random over the frame, each drawing one of a pool of K = 30,000 keys
+/// (so a table holding the pool reaches ≈ 99.9 %, as the thesis's large
+/// ones do). A miss inserts after a fill latency of Λ lookups (0: at once;
+/// 1,500 ≈ 2 % of the frame, the share of a GPU frame in flight at once);
+/// the key's lookups in between miss too and do not insert again. Hit
+/// rates over frames 20–59 at tables of 0.25–6 × U, U = H + T (about a
+/// frame's distinct keys), D = 8. Results in docs/PERFORMANCE.md
+/// ("Memoization, session 39"). Run: `cargo test --release --test memo --
+/// --ignored eviction_path_model --nocapture`.
+#[test]
+#[ignore]
+fn eviction_path_model_report() {
+    let run =
+        |latency, size, policy, counter| path_model_hit_rate(latency, size, policy, counter, false);
     eprintln!("| fill latency Λ | table / U | LRW frame | LRW counter | LRU frame | LRU counter | random |");
     eprintln!("|---:|---:|---:|---:|---:|---:|---:|");
     for latency in [0, 1500] {
@@ -1447,6 +1471,40 @@ fn eviction_path_model_report() {
                 .map(|&(p, c)| format!("{:.4}", run(latency, size, p, c)))
                 .collect();
             eprintln!("| {latency} | {size} | {} |", rates.join(" | "));
+        }
+    }
+}
+
+/// Report only (issue 17, thesis Table 6.2): session 39's second model with
+/// the thesis's insert protocol instead of the shader's. The thesis searches
+/// for a victim after evaluating and stores there without looking for the
+/// key (§5.3.3), and a lane cannot see a fill in flight in another wave, so
+/// every lane that misses a tile while its fill is in flight fills it
+/// again; the shader looks for the key before it locks a victim and in
+/// this model a key's fill in flight is not repeated. Hit rates over frames
+/// 20–59, fill latency Λ = 1,500 lookups, D = 8, both protocols. Results
+/// in docs/PERFORMANCE.md ("Memoization, session 48"). Run: `cargo test
+/// --release --test memo -- --ignored eviction_thesis_protocol --nocapture`.
+#[test]
+#[ignore]
+fn eviction_thesis_protocol_model_report() {
+    eprintln!("| protocol | fill latency Λ | table / U | LRW frame | LRW counter | LRU frame | LRU counter | random |");
+    eprintln!("|---|---:|---:|---:|---:|---:|---:|---:|");
+    for thesis in [false, true] {
+        for latency in [150, 1500] {
+            for size in [0.5, 1.19, 2.0, 6.0] {
+                let rates: Vec<String> = MODEL_POLICIES
+                    .iter()
+                    .map(|&(p, c)| {
+                        format!("{:.4}", path_model_hit_rate(latency, size, p, c, thesis))
+                    })
+                    .collect();
+                eprintln!(
+                    "| {} | {latency} | {size} | {} |",
+                    if thesis { "thesis" } else { "shader" },
+                    rates.join(" | ")
+                );
+            }
         }
     }
 }

@@ -299,7 +299,10 @@ void memo_lookup_tile(inout MemoCall c, uint material, vec3 n, inout ScGraphOutp
     c.count = 0u;
 #else
     if (!found) c.victim = memo_begin_fill(h0, c.h1, c.cap, c.probe, c.policy, c.now, c.seen, c.present);
-    c.count = found ? 0u : c.e * c.e;
+    // Without a locked entry (every one in the window locked, or the tile
+    // arrived since the lookup) nothing is stored: only the texels this call
+    // reads are evaluated (memo_fill_texel), not the whole tile.
+    c.count = found ? 0u : (c.victim != MEMO_NONE ? c.e * c.e : c.corners);
 #endif
 }
 
@@ -432,6 +435,12 @@ void memo_round_step(inout MemoRound r, inout MemoCall c, bool evaluated, ScGrap
 }
 #endif
 
+// The tile index of the k-th evaluation of a tiled miss: k, or where no
+// entry was locked (nothing is stored) the k-th texel the call reads.
+uint memo_fill_texel(MemoCall c, uint k) {
+    return c.tiled && c.victim == MEMO_NONE ? memo_tile_texel(c, k) : k;
+}
+
 // Where the k-th evaluation happens: the hit itself (unmemoized), the next
 // missing corner (non-tiled: taken off `missing`, so the loop must call this
 // once for k = 0, 1, … in order; its index in `corner`), or texel k of the
@@ -534,7 +543,7 @@ ScGraphOutputs sc_material_graphs_at(uint material, uint instance, vec2 uv, vec2
         } else
 #endif
         {
-            at = memo_evaluation_uv(c, k, uv, texel, corner);
+            at = memo_evaluation_uv(c, memo_fill_texel(c, k), uv, texel, corner);
             fp = c.variant == MEMO_V_DIRECT ? footprint : memo_texel_width(c.level);
         }
         ScGraphOutputs v = ScGraphOutputs(vec3(0.0), 0.0, 0.0, vec3(0.0), vec3(0.0), 0u);
@@ -549,7 +558,7 @@ ScGraphOutputs sc_material_graphs_at(uint material, uint instance, vec2 uv, vec2
 #endif
         {
             if (c.variant == MEMO_V_DIRECT) out4[0] = v;
-            else memo_store(c, material, k, texel, corner, v, n, out4);
+            else memo_store(c, material, memo_fill_texel(c, k), texel, corner, v, n, out4);
             ++k;
         }
     }

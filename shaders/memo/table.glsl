@@ -164,9 +164,10 @@ uint memo_oldness(uint s, uint now) { return memo_age(now, memo_stamps[memo_stam
 #endif
 
 // The victim of an insert in h1's window (§5.3.3): an empty entry if there
-// is one, else random (a hash of h1 and now picks the probe) or the oldest
-// stamp (LRW: set on write, LRU: also on read; memo_oldness). Locked
-// entries are skipped.
+// is one, else random (a hash of h1 and now picks the probe; if that entry
+// is locked, the next unlocked one after it, cyclically — not the window's
+// first, the tie rule's choice) or the oldest stamp (LRW: set on write, LRU:
+// also on read; memo_oldness). Locked entries are skipped.
 // Returns MEMO_NONE when h1 is already present or every entry is locked;
 // `seen` is the key word the victim held.
 uint memo_victim(uint h0, uint h1, uint capacity, uint probe, uint policy, uint now, out uint seen, out bool present) {
@@ -181,7 +182,7 @@ uint memo_victim(uint h0, uint h1, uint capacity, uint probe, uint policy, uint 
         if (k == h1) { present = true; return MEMO_NONE; }
         if (k == MEMO_EMPTY) { seen = k; return s; }
         if (k == MEMO_LOCK) continue;
-        MEMO_OLDNESS score = policy == MEMO_RANDOM ? MEMO_OLDNESS(i == pick ? 1u : 0u) : memo_oldness(s, now);
+        MEMO_OLDNESS score = policy == MEMO_RANDOM ? MEMO_OLDNESS(probe - (i + probe - pick) % probe) : memo_oldness(s, now);
         if (victim == MEMO_NONE || score > best) { victim = s; best = score; seen = k; }
     }
     return victim;

@@ -32,7 +32,10 @@ pub struct MemoCounters {
     /// grid holds exactly (lod.rs `fits`).
     pub bypassed: u64,
     /// The right (second) eye's hits and misses, counted in `hits` and
-    /// `misses` too (shaders/common/memo.glsl `sc_memo_eye`).
+    /// `misses` too (shaders/common/memo.glsl `sc_memo_eye`). "Second"
+    /// where its work groups run after the left eye's (llvmpipe); Vulkan
+    /// does not order them, so on a GPU this is the right eye's own hit
+    /// rate (docs/MATERIALS.md).
     pub second_eye_hits: u64,
     pub second_eye_misses: u64,
     /// Tiles filled by the subgroup-cooperative fill (one per round: the
@@ -67,7 +70,8 @@ impl MemoCounters {
         (n > 0).then(|| self.hits as f64 / n as f64)
     }
 
-    /// The second eye's hits / lookups, `None` without lookups.
+    /// The right eye's hits / lookups (`second_eye_hits`), `None` without
+    /// lookups.
     pub fn second_eye_hit_rate(&self) -> Option<f64> {
         let n = self.second_eye_hits + self.second_eye_misses;
         (n > 0).then(|| self.second_eye_hits as f64 / n as f64)

@@ -218,15 +218,16 @@ impl CpuMemo {
         None
     }
 
-    /// The victim in `k`'s window (memo_victim), or `None` when `k` is present.
-    fn victim(&self, k: &MemoKey, now: u32) -> Option<u32> {
+    /// The victim in `k`'s window (memo_victim), or `None` when `k` is
+    /// present (`check_presence`; the thesis's insert does not look).
+    fn victim(&self, k: &MemoKey, now: u32, check_presence: bool) -> Option<u32> {
         let (h0, h1) = (k.h0(), k.h1());
         let pick = pcg_hash(h1 ^ now.wrapping_mul(0x9E37_79B9)) % self.probe;
         let (mut victim, mut best) = (None, 0u64);
         for i in 0..self.probe {
             let s = slot(h0, i, self.capacity(), self.probe);
             let key = self.keys[s as usize];
-            if key == h1 {
+            if key == h1 && check_presence {
                 return None;
             }
             if key == EMPTY {
@@ -236,7 +237,8 @@ impl CpuMemo {
                 continue;
             }
             let score = match self.policy {
-                Eviction::Random => (i == pick) as u64,
+                // The pick, or the next unlocked entry after it (cyclic).
+                Eviction::Random => (self.probe - (i + self.probe - pick) % self.probe) as u64,
                 _ => self.oldness(s as usize, now),
             };
             if victim.is_none() || score > best {
@@ -249,13 +251,34 @@ impl CpuMemo {
 
     /// Inserts `record` for `k` (memo_insert).
     pub fn insert(&mut self, k: &MemoKey, now: u32, record: [u32; RECORD_WORDS]) -> Insert {
-        let Some(s) = self.victim(k, now) else {
+        let Some(s) = self.victim(k, now, true) else {
             return if self.find_slot(k).is_some() {
                 Insert::Present
             } else {
                 Insert::LockFailed
             };
         };
+        self.write(s, k, now, record)
+    }
+
+    /// The thesis's insert (§5.3.3: "I always insert a cache entry at the
+    /// potentially incorrect location found by the linear search"): the
+    /// victim is chosen without looking for `k` first, so a key filled by
+    /// several lanes at once is stored several times. Not the shader's
+    /// rule; for the eviction models of tests/memo.rs.
+    pub fn insert_unchecked(
+        &mut self,
+        k: &MemoKey,
+        now: u32,
+        record: [u32; RECORD_WORDS],
+    ) -> Insert {
+        match self.victim(k, now, false) {
+            Some(s) => self.write(s, k, now, record),
+            None => Insert::LockFailed,
+        }
+    }
+
+    fn write(&mut self, s: u32, k: &MemoKey, now: u32, record: [u32; RECORD_WORDS]) -> Insert {
         let was = self.keys[s as usize];
         self.keys[s as usize] = k.h1();
         self.stamp(s as usize, now);
@@ -293,6 +316,85 @@ mod tests {
             same += (h0 == h1) as u32;
         }
         assert_eq!(same, 0, "H1 equals H0 for some keys");
+    }
+
+    /// A key whose window (D = 8 of 16 entries) is full of other keys.
+    fn full_window(policy: Eviction) -> (CpuMemo, MemoKey, Vec<u32>) {
+        let mut t = CpuMemo::new(16, 8, policy);
+        let k = MemoKey {
+            graph: 3,
+            level: 2,
+            q: [5, -7],
+        };
+        let window: Vec<u32> = (0..8).map(|i| slot(k.h0(), i, 16, 8)).collect();
+        for (j, &s) in window.iter().enumerate() {
+            t.keys[s as usize] = 1000 + j as u32;
+            t.stamps[s as usize] = 7;
+        }
+        (t, k, window)
+    }
+
+    /// Random eviction takes the hashed pick, or where it is locked the
+    /// next unlocked entry after it, cyclically (it used to fall back to the
+    /// window's first unlocked entry, the tie rule's choice).
+    #[test]
+    fn random_eviction_passes_a_locked_pick_to_the_next_entry() {
+        let now: u32 = 7;
+        let (mut t, k, window) = full_window(Eviction::Random);
+        let pick = pcg_hash(k.h1() ^ now.wrapping_mul(0x9E37_79B9)) % 8;
+        assert_eq!(
+            t.insert(&k, now, [1; RECORD_WORDS]),
+            Insert::Evicted(window[pick as usize])
+        );
+        for locked in [1, 2] {
+            let (mut t, k, window) = full_window(Eviction::Random);
+            for j in 0..locked {
+                t.keys[window[((pick + j) % 8) as usize] as usize] = LOCK;
+            }
+            let want = window[((pick + locked) % 8) as usize];
+            assert_eq!(
+                t.insert(&k, now, [1; RECORD_WORDS]),
+                Insert::Evicted(want),
+                "{locked} locked"
+            );
+        }
+    }
+
+    /// The thesis's tie rule (§6.5): among entries all stamped this frame,
+    /// LRW by the frame clock overwrites the window's first; so does the
+    /// next insert of the same frame (the entry just written).
+    #[test]
+    fn tied_frame_stamps_evict_the_first_entry() {
+        let (mut t, k, window) = full_window(Eviction::Lrw);
+        assert_eq!(
+            t.insert(&k, 7, [1; RECORD_WORDS]),
+            Insert::Evicted(window[0])
+        );
+        // Another key with the same window.
+        let k2 = (0..)
+            .map(|x| MemoKey { q: [x, 11], ..k })
+            .find(|k2| slot(k2.h0(), 0, 16, 8) == window[0] && k2.h1() != k.h1())
+            .unwrap();
+        assert_eq!(
+            t.insert(&k2, 7, [2; RECORD_WORDS]),
+            Insert::Evicted(window[0])
+        );
+        // The access clock orders the same inserts: the first insert took
+        // the count's next stamp, so the second evicts the next-oldest.
+        let (mut t, k, window) = full_window(Eviction::Lrw);
+        t.clock = MemoClock::Counter;
+        for (j, &s) in window.iter().enumerate() {
+            t.stamps[s as usize] = 10 + j as u64;
+        }
+        t.ticks = 20;
+        assert_eq!(
+            t.insert(&k, 7, [1; RECORD_WORDS]),
+            Insert::Evicted(window[0])
+        );
+        assert_eq!(
+            t.insert(&k2, 7, [2; RECORD_WORDS]),
+            Insert::Evicted(window[1])
+        );
     }
 
     #[test]
