@@ -17,6 +17,7 @@ use crate::materials::memo::state::MemoCounters;
 use crate::materials::memo::table::Eviction;
 use crate::materials::memo::{MemoClock, MemoFill, MemoHits, MemoSettings};
 use crate::methods::{FrameInput, MethodConfig, RenderSettings};
+use crate::output::csv_field;
 use crate::rt::RtChoice;
 use crate::scene::Scene;
 use crate::session::Session;
@@ -353,10 +354,10 @@ pub fn memo_csv(rows: &[MemoBenchRow]) -> String {
     for r in rows {
         s.push_str(&format!(
             "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
-            r.label,
-            r.hits,
+            csv_field(&r.label),
+            csv_field(&r.hits),
             r.entries,
-            r.eviction,
+            csv_field(&r.eviction),
             r.table_bytes,
             r.frame_ms,
             r.ratio_to_off,

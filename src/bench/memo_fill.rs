@@ -19,6 +19,7 @@ use crate::gpu::GpuContext;
 use crate::materials::memo::state::MemoCounters;
 use crate::materials::memo::{MemoFill, MemoHits, MemoSettings};
 use crate::methods::{FrameInput, MethodConfig, RenderSettings};
+use crate::output::csv_field;
 use crate::rt::RtChoice;
 use crate::scene::Scene;
 use crate::session::Session;
@@ -246,7 +247,7 @@ pub fn fill_cost_csv(rows: &[FillCostRow]) -> String {
     for r in rows {
         s.push_str(&format!(
             "{},{},{},{},{},{},{},{},{},{},{},{}\n",
-            r.label,
+            csv_field(&r.label),
             r.cold_ms,
             r.warm_ms,
             r.cold_over_off,

@@ -4,6 +4,7 @@
 use super::interleave::{check_frame_poses, paired_ratio, report_pose_ms, run_interleaved};
 use crate::error::Result;
 use crate::methods::MethodKind;
+use crate::output::csv_field;
 use crate::session::Session;
 use serde::Serialize;
 
@@ -201,15 +202,15 @@ pub fn spec_csv(rows: &[SpecBenchRow]) -> String {
     for r in rows {
         c.push_str(&format!(
             "{},{},{},{},{},{:.4},{:.4},{:.4},{}\n",
-            r.scene,
-            r.method,
+            csv_field(&r.scene),
+            csv_field(&r.method),
             r.bounces,
-            r.build,
+            csv_field(&r.build),
             r.passes,
             r.frame_ms,
             r.ratio,
             r.ratio_se,
-            r.against
+            csv_field(&r.against)
         ));
     }
     c

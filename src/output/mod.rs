@@ -12,6 +12,17 @@ use std::path::Path;
 
 pub use atomic::{partial_path, write_encoded, write_file, AtomicFile, OutputError};
 
+/// A text field of a CSV line (RFC 4180): as it is, or in double quotes
+/// (inner quotes doubled) where it holds a comma, a quote or a line break,
+/// so a label or scene path with a comma does not shift the columns.
+pub fn csv_field(s: &str) -> std::borrow::Cow<'_, str> {
+    if s.contains([',', '"', '\n', '\r']) {
+        format!("\"{}\"", s.replace('"', "\"\"")).into()
+    } else {
+        s.into()
+    }
+}
+
 /// A text file (CSV, HTML, SVG, ...), written atomically.
 pub fn write_text(path: &Path, text: &str) -> Result<(), OutputError> {
     write_file(path, text.as_bytes())
@@ -141,6 +152,14 @@ pub fn write_json(path: &Path, value: &serde_json::Value) -> Result<(), OutputEr
 mod tests {
     use super::*;
     use std::path::PathBuf;
+
+    #[test]
+    fn csv_fields_with_commas_or_quotes_are_quoted() {
+        assert_eq!(csv_field("plain-label_1"), "plain-label_1");
+        assert_eq!(csv_field("both, 4x4"), "\"both, 4x4\"");
+        assert_eq!(csv_field("a \"b\""), "\"a \"\"b\"\"\"");
+        assert_eq!(csv_field("x\ny"), "\"x\ny\"");
+    }
 
     /// A full disk, for every kind of output file: the temporary name is a
     /// symbolic link to `/dev/full` (opens fine, every write fails with
