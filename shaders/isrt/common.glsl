@@ -14,9 +14,9 @@
 #include "common/camera.glsl"
 #include "common/first_hit.glsl"
 #include "common/demodulation.glsl"
+#include "common/accumulation.glsl"
 
 layout(constant_id = SPEC_ISRT_M) const uint M = 3;   // cells per pixel side
-const float C_MAX = 65535.0;                 // sample counts saturate here
 
 layout(push_constant) uniform Push { ISRT_PUSH } pc;   // eps0: retrace tolerance, relative to the hit distance; n_target: trace_pixel.comp's density target
 

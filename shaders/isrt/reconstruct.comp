@@ -1,12 +1,20 @@
 #version 460
-// Reconstruction: the pixel colour is the mean over its visible (= occupied,
-// since invisible samples are dropped when retraced), already shaded samples
-// of their remodulated radiance (floored base colour × demodulated radiance
-// + emission, common/demodulation.glsl) and its background samples
-// (first_hit.glsl) of the environment in their directions, so a partly
-// covered pixel shows its coverage; depth, first hit and albedo are the
-// closest surface sample's. A pixel without samples shows the environment
-// through its centre.
+// Reconstruction: the pixel's surface samples (visible = occupied, since
+// invisible samples are dropped when retraced) stand for their share
+// n_surf / (n_surf + n_bg) of the pixel with the mean remodulated radiance
+// (floored base colour × demodulated radiance + emission,
+// common/demodulation.glsl) of those already shaded, its background samples
+// (first_hit.glsl) for theirs with the environment in their directions, so
+// a partly covered pixel shows its coverage while some of its surface
+// samples are not shaded yet (as the sample cache's reconstruct.comp; until
+// session 48 the colour was (Σ shaded + Σ background) / (shaded + n_bg),
+// which gave the background the unshaded samples' share: frame 0 of a
+// silhouette pixel of 5 surface cells, one shaded, and 4 sky cells showed
+// 4/5 sky instead of 4/9). shade.comp shades one surface sample of every
+// pixel that has one before this pass runs, so a pixel with surface samples
+// has a shaded one. Depth, first hit and albedo are the closest surface
+// sample's. A pixel without samples shows the environment through its
+// centre.
 #include "isrt/common.glsl"
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 
@@ -62,7 +70,8 @@ void main() {
         out_fh[pm] = uvec4(0u, 0u, 0u, NO_HIT);
         out_albedo[pm] = vec4(0.0);
     } else {
-        out_color[pm] = vec4(shaded + n_bg > 0.0 ? (sum + bg_sum) / (shaded + n_bg) : vec3(0.0), samples);
+        vec3 surf_mean = shaded > 0.0 ? sum / shaded : vec3(0.0);
+        out_color[pm] = vec4((samples * surf_mean + bg_sum) / (samples + n_bg), samples);
         out_depth[pm] = view_depth(e, best_p);
         out_fh[pm] = best_fh;
         out_albedo[pm] = vec4(best_albedo, 1.0);

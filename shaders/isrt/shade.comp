@@ -4,12 +4,10 @@
 // shading). One path through the stored first hit with the shared
 // integrator, demodulated (emission kept apart, divided by the first hit's
 // floored base colour: common/demodulation.glsl) and accumulated as a
-// running mean, with the sample cache's appendix C clamp of α for
-// view-dependent materials.
+// running mean, with the sample cache's appendix C clamp of α wherever the
+// BSDF has a specular lobe (common/accumulation.glsl).
 #include "isrt/common.glsl"
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
-
-bool view_dependent(ShadingMaterial m) { return m.metallic > 0.5 || m.transmission > 0.0; }
 
 void main() {
     uvec2 px = gl_GlobalInvocationID.xy;
@@ -45,18 +43,11 @@ void main() {
     Surface s = surface_at(h.instance, h.prim, h.bary, d);
     ShadingMaterial m = material_at(s, d, eye_cone(e, t).x);
     vec3 demod = demodulate(L, m);   // emission kept apart (common/demodulation.glsl)
-    vec4 rec = rad_cur[idx];
-    float c = min(rec.w + 1.0, C_MAX);
-    float alpha = 1.0 / c;
-    if (view_dependent(m)) {
-        float a_ggx = m.roughness * m.roughness;
-        float a_min = (1.0 - a_ggx) * 0.5 + a_ggx * 0.1;
-        if (alpha < a_min) {
-            alpha = a_min;
-            c = 1.0 / a_min;
-        }
-    }
-    rad_cur[idx] = vec4(mix(rec.rgb, demod, alpha), c);
+    // The sample cache's accumulation (common/accumulation.glsl): a running
+    // mean, floored at appendix C's α_min wherever the BSDF has a specular
+    // lobe (until session 48 only metals > 0.5 and transmission, with the
+    // base roughness alone and a count of 1/α_min).
+    rad_cur[idx] = accumulate_record(rad_cur[idx], demod, alpha_floor_of(m));
     atomicAdd(counters[C_ISRT_SHADED], 1u);
     atomicAdd(counters[C_ISRT_BOUNCE_RAYS], rays.bounce);
     atomicAdd(counters[C_ISRT_SHADOW_RAYS], rays.shadow);

@@ -19,6 +19,7 @@
 #include "common/camera.glsl"
 #include "common/first_hit.glsl"
 #include "common/demodulation.glsl"
+#include "common/accumulation.glsl"
 
 layout(constant_id = SPEC_SAMPLE_CACHE_SLOTS) const uint N_SLOTS = 12;
 layout(constant_id = SPEC_SAMPLE_CACHE_RETRACE) const uint RETRACE_MODE = 2;   // 0 single, 1 multi, 2 adaptive
@@ -29,7 +30,6 @@ layout(constant_id = SPEC_SAMPLE_CACHE_ACCUM) const uint ACCUM_MODE = 0;     // 
 // importance histogram is not counted.
 layout(constant_id = SPEC_SAMPLE_CACHE_SHADING_STORAGE) const bool SHADING_STORAGE = true;
 const uint HIST_M = 13;                                 // histogram buckets (§3.5)
-const float C_MAX = 65535.0;                            // effective sample counts saturate here
 
 layout(push_constant) uniform Push { SAMPLE_CACHE_PUSH } pc;   // src/interface/sample_cache.rs (PUSH)
 
@@ -235,36 +235,7 @@ float importance(float c) { return 1.0 / (1.0 + c); }
 
 // --- Demodulation (§3.3): common/demodulation.glsl -------------------------
 
-// --- Accumulation (appendix C, §5.2, Eq. 5) ----------------------------------
-// True when the sample's BSDF has a specular (GGX or dielectric) lobe: a
-// metal, a transmissive dielectric, or an opaque dielectric with a specular
-// layer (KHR_materials_specular factor > 0; glTF's default is 1). Only pure
-// Lambert materials (metallic 0, specular 0, no transmission) lack one.
-bool has_specular_lobe(ShadingMaterial m) {
-    return m.transmission > 0.0 || (SC_VIEW_DEPENDENT && (m.metallic > 0.0 || m.specular > 0.0 || m.clearcoat > 0.0));
-}
-
-// The GGX roughness of the sharpest specular lobe: the base's, or the
-// clearcoat's where it is smoother (appendix C's α_GGX for a coated surface).
-float specular_roughness(ShadingMaterial m) {
-    return SC_CLEARCOAT && m.clearcoat > 0.0 ? min(m.roughness, m.clearcoat_roughness) : m.roughness;
-}
-
-// Appendix C: α_min = (1 − α_GGX)·0.5 + α_GGX·0.1, α_GGX the BSDF's GGX
-// roughness (bsdf.glsl ggx_alpha). CPU twin: heuristics.rs `alpha_min`.
-float alpha_min(float a_ggx) { return (1.0 - a_ggx) * 0.5 + a_ggx * 0.1; }
-
-// One exponential-average step (Yang et al. 2009): x' = (1 − α)x + αL. The
-// effective sample count c = σ²/Var(x) follows Var(x') = (1 − α)²Var(x) +
-// α²σ², i.e. c' = 1 / ((1 − α)²/c + α²): α = 1/(c + 1) (running mean) gives
-// c' = c + 1 exactly, a constant α tends to (2 − α)/α. This c is what Eq. 5–6
-// weight by and what the importance (1 + c)^−1 reads. CPU twin: heuristics.rs
-// `accumulated_count`.
-float accumulated_count(float c, float alpha) {
-    if (!(c > 0.0) || alpha >= 1.0) return 1.0;
-    float k = 1.0 - alpha;
-    return min(1.0 / (k * k / c + alpha * alpha), C_MAX);
-}
+// --- Accumulation (appendix C, §5.2, Eq. 5): common/accumulation.glsl -------
 
 // Block-sparse pattern of §3.4/§3.5: one pixel per 4×4 block, rotating each
 // frame: over any 16 consecutive frames every pixel of a block is its base

@@ -4,7 +4,7 @@
 // stored first hit (the integrator every method shares), demodulated
 // (common.glsl `demodulate`: emission kept apart) and accumulated as an
 // exponential average whose effective count c_s the record carries
-// (common.glsl `accumulated_count`). The blend factor is the running mean's
+// (common/accumulation.glsl `accumulate_record`). The blend factor is the running mean's
 // 1/(c_s + 1), floored at appendix C's α_min = (1 − α_GGX)·0.5 + α_GGX·0.1
 // for every sample whose BSDF has a specular lobe (ACCUM_MODE 0), or at the
 // fixed α of `--accumulation fixed:A` for every sample (ACCUM_MODE 1, §5.2's
@@ -48,15 +48,7 @@ void main() {
         ShadingMaterial m = material_at(s, d, eye_cone(e, t).x);
         vec3 demod = demodulate(L, m);
 
-        vec4 rec = rad_cur[idx];
-        float c = rec.w;
-        float alpha = 1.0 / (c + 1.0);   // running mean
-        float alpha_floor = ACCUM_MODE == 1u ? pc.fixed_alpha
-                          : has_specular_lobe(m) ? alpha_min(ggx_alpha(specular_roughness(m))) : 0.0;
-        bool clamped = alpha < alpha_floor;
-        if (clamped) alpha = alpha_floor;
-        float c_next = clamped ? accumulated_count(c, alpha) : min(c + 1.0, C_MAX);
-        rad_cur[idx] = vec4(mix(rec.rgb, demod, alpha), c_next);
+        rad_cur[idx] = accumulate_record(rad_cur[idx], demod, ACCUM_MODE == 1u ? pc.fixed_alpha : alpha_floor_of(m));
         atomicAdd(pixel_stats[eye * npix() + pixel].y, 1u);
         shaded++;
     }

@@ -181,7 +181,7 @@ methods! {
     Naive = "naive", no_options(baseline::naive), naive: NoOptions, "1 spp jittered path tracing, no reuse.";
     Supersample = "supersample", no_options(baseline::supersample), supersample: NoOptions, "--spp jittered samples per pixel per frame, no reuse.";
     Taa = "taa", Taa::new, taa: TaaSettings, "1 spp path tracing with temporal antialiasing (Halton jitter, YCoCg clipping).";
-    Isrt = "isrt", Isrt::new, isrt: IsrtSettings, "Interleaved super-resolution ray tracing (M×M cells per pixel).";
+    Isrt = "isrt", Isrt::new, isrt: IsrtSettings, "Interactive stable ray tracing (Dal Corso et al. 2017: M×M cells per pixel).";
     HashCache = "hash-cache", HashCache::new, hash_cache: HashCacheSettings, "A world-space hash-grid radiance cache, with TAA on its output.";
     Hybrid = "hybrid", Hybrid::new, hybrid: HybridConfig, "Sample-cache visibility shaded from the hash-grid cache, with TAA.";
     DebugNormals = "debug-normals", no_options(DebugNormals::new), debug_normals: NoOptions, "Scene check: the first hit's shading normal as colour (0.5·n + 0.5, world space; misses black).";

@@ -1,5 +1,6 @@
 //! CPU twins of the sample cache's per-pixel heuristics, written to evaluate
-//! exactly what `shaders/sample_cache/common.glsl` evaluates, so they can be
+//! exactly what `shaders/sample_cache/common.glsl` and
+//! `shaders/common/accumulation.glsl` evaluate, so they can be
 //! unit-tested at the edges (θ → 90°, t → 0, huge t).
 
 /// Number of importance buckets of the shading histogram (§3.5, M = 13).
@@ -83,7 +84,7 @@ pub fn alpha_min(alpha_ggx: f32) -> f32 {
 /// x' = (1 − α)x + αL with independent L (Yang et al. 2009): from
 /// Var(x') = (1 − α)² Var(x) + α² σ², c' = 1 / ((1 − α)²/c + α²); an empty
 /// record (c = 0, or not a number: the shader's `!(c > 0)`) or α = 1 gives
-/// 1. common.glsl `accumulated_count`.
+/// 1. common/accumulation.glsl `accumulated_count`.
 pub fn accumulated_count(c: f32, alpha: f32) -> f32 {
     if c.is_nan() || c <= 0.0 || alpha >= 1.0 {
         return 1.0;
@@ -92,10 +93,10 @@ pub fn accumulated_count(c: f32, alpha: f32) -> f32 {
     (1.0 / (k * k / c + alpha * alpha)).min(C_MAX)
 }
 
-/// Effective counts saturate here (common.glsl `C_MAX`).
+/// Effective counts saturate here (common/accumulation.glsl `C_MAX`).
 pub const C_MAX: f32 = 65535.0;
 
-/// shade.comp's update of a record with effective count `c`: the blend
+/// accumulation.glsl `accumulate_record` (sample_cache/shade.comp, isrt/shade.comp): the update of a record with effective count `c`: the blend
 /// factor (the running mean's 1/(c + 1), floored at `alpha_floor` — appendix
 /// C's α_min, `--accumulation fixed:A`'s A, or 0) and the new count.
 pub fn accumulate(c: f32, alpha_floor: f32) -> (f32, f32) {
