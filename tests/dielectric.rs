@@ -62,6 +62,11 @@ struct Sampled {
 }
 
 fn run_kernel(cases: &[Case], roughness: f32) -> Vec<Sampled> {
+    run_kernel_ior(cases, roughness, IOR)
+}
+
+/// The same for another index of refraction.
+fn run_kernel_ior(cases: &[Case], roughness: f32, ior: f64) -> Vec<Sampled> {
     let ctx = context();
     let raw: Vec<[f32; 4]> = cases
         .iter()
@@ -73,7 +78,7 @@ fn run_kernel(cases: &[Case], roughness: f32) -> Vec<Sampled> {
                     c.n.z as f32,
                     c.front as u32 as f32,
                 ],
-                [c.d.x as f32, c.d.y as f32, c.d.z as f32, IOR as f32],
+                [c.d.x as f32, c.d.y as f32, c.d.z as f32, ior as f32],
                 [c.u[0] as f32, c.u[1] as f32, c.u[2] as f32, roughness],
             ]
         })
@@ -160,6 +165,66 @@ fn arriving(out: DVec3, theta: f64, azimuth: DVec3, inside: bool) -> DVec3 {
 /// reflection on both sides; the weight is 1 (white glass) and the event delta.
 /// Directions agree with the exact vectors to 2e-5 (f32 arithmetic on unit
 /// vectors, about 100 ulps).
+/// KHR_materials_ior's ior 0 is an infinite index whose Fresnel term "MUST
+/// evaluate to 1.0 independently of the view or light direction": glass of
+/// ior 0 reflects every ray back out, at normal incidence too (where the
+/// Fresnel quotient was 0/0 and sent a NaN direction on until session 48).
+/// Smooth: every sample is the mirror direction with weight 1 (white,
+/// specular 1); rough: every successful sample leaves on the outside with
+/// a finite weight ≤ 1 (G2/G1).
+#[test]
+fn ior_zero_glass_reflects_every_ray_at_every_angle() {
+    let n = DVec3::Z;
+    let mut cases = vec![Case {
+        n,
+        front: true,
+        d: -n,
+        u: [0.3, 0.6, 0.999],
+    }];
+    for i in 0..500u32 {
+        let theta = rand01(i, 3) * 85f64.to_radians();
+        cases.push(Case {
+            n,
+            front: true,
+            d: arriving(n, theta, random_unit(i, 4), false),
+            u: [rand01(i, 7), rand01(i, 8), rand01(i, 6)],
+        });
+    }
+    for roughness in [0.0f32, 0.3] {
+        let got = run_kernel_ior(&cases, roughness, 0.0);
+        for (k, (s, c)) in got.iter().zip(&cases).enumerate() {
+            let what = format!("roughness {roughness}, case {k} (d = {:?})", c.d);
+            assert!(
+                s.wi.is_finite() && s.weight.is_finite(),
+                "{what}: {:?} {:?}",
+                s.wi,
+                s.weight
+            );
+            if roughness == 0.0 {
+                let mirror = c.d - 2.0 * c.d.dot(n) * n;
+                assert!(s.ok && s.delta, "{what}: not a delta reflection");
+                assert!(
+                    (s.wi.normalize() - mirror).length() < 1e-5,
+                    "{what}: {:?}",
+                    s.wi
+                );
+                assert!(
+                    (s.weight - DVec3::ONE).abs().max_element() < 1e-5,
+                    "{what}: {:?}",
+                    s.weight
+                );
+            } else if s.ok {
+                assert!(s.wi.dot(n) > 0.0, "{what}: transmitted {:?}", s.wi);
+                assert!(
+                    s.weight.max_element() <= 1.0 + 1e-5,
+                    "{what}: {:?}",
+                    s.weight
+                );
+            }
+        }
+    }
+}
+
 #[test]
 fn smooth_glass_directions_follow_snell_fresnel_and_total_internal_reflection() {
     let critical = (1.0 / IOR).asin();

@@ -79,10 +79,14 @@ vec3 fresnel_schlick(vec3 f0, vec3 f90, float c) {
     return f0 + (f90 - f0) * m5;
 }
 
-// Exact dielectric Fresnel reflectance; eta = n_t / n_i; cos_i > 0.
+// Exact dielectric Fresnel reflectance; eta = n_t / n_i; cos_i > 0. eta = 0
+// is KHR_materials_ior's ior 0, an infinite index whose Fresnel "MUST
+// evaluate to 1.0 independently of the view or light direction": 1 (at
+// cos_i = 1 the quotient below is 0/0, NaN, which until session 48 gave a
+// NaN reflectance and refraction direction there).
 float fresnel_dielectric(float cos_i, float eta) {
     float s2 = max(0.0, 1.0 - cos_i * cos_i) / (eta * eta);
-    if (s2 >= 1.0) return 1.0;
+    if (!(s2 < 1.0)) return 1.0;
     float cos_t = sqrt(1.0 - s2);
     float rs = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
     float rp = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
