@@ -471,16 +471,14 @@ pub fn compare_configs(
         .unwrap_or_else(|| default_shown(n));
     check_shown_frames(&shown, n).map_err(Error::Usage)?;
     std::fs::create_dir_all(&opts.out).map_err(|e| Error::io(&opts.out, e))?;
-    // A previous run's summaries go before this one renders: a run that
-    // fails part way must not leave them beside its own method folders,
-    // looking like its results.
-    for stale in ["summary.json", "summary.csv"] {
+    // A previous run's summaries and side-by-side grids go before this one
+    // renders: a run that fails part way must not leave them beside its own
+    // method folders, looking like its results, and the report embeds every
+    // grid in side-by-side/ (a rerun with fewer frames showed the old
+    // frames' grids).
+    for stale in ["summary.json", "summary.csv", "side-by-side"] {
         let p = opts.out.join(stale);
-        match std::fs::remove_file(&p) {
-            Ok(()) => {}
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
-            Err(e) => return Err(Error::io(&p, e)),
-        }
+        output::remove_stale(&p).map_err(|e| Error::io(&p, e))?;
     }
     // Every method is created before the first frame so bad method options
     // fail fast; debug views are on so the grids can show them.

@@ -52,7 +52,7 @@ pub struct Session {
 }
 
 /// Bytes per triangle of the flattened software BVH's buffers
-/// (`SoftwareBvh::tri_verts`: v0 and two edges as vec4; `tri_ref`: two u32).
+/// (`SoftwareBvh::tri_verts`: three vertices as vec4; `tri_ref`: two u32).
 const FLATTENED_BYTES_PER_TRIANGLE: [(&str, u64); 2] = [("bvh.tri_verts", 48), ("bvh.tri_ref", 8)];
 
 /// Refuses, before the BVH is built, a scene whose flattened software BVH

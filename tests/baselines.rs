@@ -373,11 +373,9 @@ impl<'a> HitPositions<'a> {
     }
     fn position(&self, fh: [u32; 4]) -> Vec3 {
         let k = self.index[&(fh[3], fh[2])];
-        let v = &self.bvh.tri_verts[3 * k..3 * k + 3];
+        let [v0, v1, v2] = self.bvh.triangle(k);
         let b = Vec2::new((fh[0] & 0xFF_FFFF) as f32, (fh[1] & 0xFF_FFFF) as f32) / 16_777_215.0;
-        Vec3::from_slice(&v[0][..3])
-            + b.x * Vec3::from_slice(&v[1][..3])
-            + b.y * Vec3::from_slice(&v[2][..3])
+        v0 + b.x * (v1 - v0) + b.y * (v2 - v0)
     }
 }
 

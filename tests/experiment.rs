@@ -376,6 +376,23 @@ fn malformed_files_fail_with_one_error_line_naming_the_file_and_key() {
             good.replace("of = \"sample-cache\"", "of = \"nobody\""),
             &["'of'", "nobody"],
         ),
+        (
+            // Both would render into one folder (until session 48 the
+            // second overwrote the first).
+            "two comparisons with one name",
+            good.replace(
+                "scenes = [\"cornell\"]",
+                "scenes = [\"cornell\", \"cornell\"]",
+            ),
+            &["both named", "'cornell-synth-head-turn'"],
+        ),
+        (
+            // Refused before the first comparison renders (until session 48,
+            // after the comparisons of earlier traces had).
+            "more frames than the trace has",
+            good.replace("frames = 4", "frames = 100000"),
+            &["'frames'", "100000", "synth-head-turn.csv"],
+        ),
     ];
     for (what, text, words) in cases {
         let file = root.join("tiny.toml");

@@ -23,6 +23,21 @@ pub fn csv_field(s: &str) -> std::borrow::Cow<'_, str> {
     }
 }
 
+/// Removes a previous run's output file or folder at `path`, if there is
+/// one, so that a run that fails part way does not leave it beside its own
+/// outputs looking like its results.
+pub fn remove_stale(path: &Path) -> std::io::Result<()> {
+    let r = if path.is_dir() {
+        std::fs::remove_dir_all(path)
+    } else {
+        std::fs::remove_file(path)
+    };
+    match r {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(()),
+        r => r,
+    }
+}
+
 /// A text file (CSV, HTML, SVG, ...), written atomically.
 pub fn write_text(path: &Path, text: &str) -> Result<(), OutputError> {
     write_file(path, text.as_bytes())

@@ -116,6 +116,11 @@ impl SoftwareBvh {
         }
     }
 
+    /// The vertices of leaf slot `k`'s triangle, in this structure's frame.
+    pub fn triangle(&self, k: usize) -> [Vec3; 3] {
+        [0, 1, 2].map(|j| Vec3::from_slice(&self.tri_verts[3 * k + j][..3]))
+    }
+
     /// A world point in this structure's frame (relative to `origin`).
     pub fn to_local(&self, world: DVec3) -> Vec3 {
         (world - self.origin).as_vec3()

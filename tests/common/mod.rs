@@ -299,14 +299,9 @@ pub fn stored_position(bvh: &stereocache::rt::SoftwareBvh, fh: [u32; 4]) -> Vec3
         .iter()
         .position(|r| r[0] == fh[3] && r[1] == fh[2])
         .expect("stored triangle exists");
-    let v = &bvh.tri_verts[3 * k..3 * k + 3];
-    let (v0, e1, e2) = (
-        Vec3::from_slice(&v[0][..3]),
-        Vec3::from_slice(&v[1][..3]),
-        Vec3::from_slice(&v[2][..3]),
-    );
+    let [v0, v1, v2] = bvh.triangle(k);
     let b = Vec2::new((fh[0] & 0xFF_FFFF) as f32, (fh[1] & 0xFF_FFFF) as f32) / 16_777_215.0;
-    v0 + b.x * e1 + b.y * e2
+    v0 + b.x * (v1 - v0) + b.y * (v2 - v0)
 }
 
 /// The barycentric weights of a stored first hit (Listing 1: barycentrics in

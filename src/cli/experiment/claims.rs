@@ -27,6 +27,7 @@
 
 use super::spec::Group;
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 use std::path::Path;
 
 #[derive(Clone, Debug, Deserialize, Serialize)]
@@ -148,32 +149,57 @@ pub struct ClaimResult {
 }
 
 /// Per-frame values of `metric` for configuration `label` of the comparison
-/// in `dir` (frames.jsonl): a metric where a frame has it, the GPU time and
-/// pass times over the frames after the first (as the summary's steady figures).
-fn per_frame(dir: &Path, label: &str, metric: &str) -> Option<Vec<f64>> {
+/// in `dir` (frames.jsonl), keyed by frame index (the record's `index`, else
+/// its line): a metric where a frame has it (a series may skip frames:
+/// `temporal` has no frame 0, stereo figures none where the mask is empty),
+/// the GPU time and pass times over the frames after the first (as the
+/// summary's steady figures).
+fn per_frame(dir: &Path, label: &str, metric: &str) -> Option<BTreeMap<u64, f64>> {
     let text = std::fs::read_to_string(dir.join(label).join("frames.jsonl")).ok()?;
-    let frames: Vec<serde_json::Value> = text
+    let frames: Vec<(u64, serde_json::Value)> = text
         .lines()
-        .filter_map(|l| serde_json::from_str(l).ok())
+        .filter_map(|l| serde_json::from_str::<serde_json::Value>(l).ok())
+        .enumerate()
+        .map(|(k, f)| (f["index"].as_u64().unwrap_or(k as u64), f))
         .collect();
     let steady = || frames.iter().skip(1);
-    let v: Vec<f64> = if metric == "steady_mean_gpu_ms" {
-        steady().filter_map(|f| f["gpu_ms"].as_f64()).collect()
+    let v: BTreeMap<u64, f64> = if metric == "steady_mean_gpu_ms" {
+        steady()
+            .filter_map(|(k, f)| Some((*k, f["gpu_ms"].as_f64()?)))
+            .collect()
     } else if let Some(p) = metric.strip_prefix("pass:") {
         steady()
-            .map(|f| {
-                p.split('+')
+            .map(|(k, f)| {
+                let ms = p
+                    .split('+')
                     .filter_map(|p| f["passes"][p.trim()].as_f64())
-                    .sum()
+                    .sum();
+                (*k, ms)
             })
             .collect()
     } else {
         frames
             .iter()
-            .filter_map(|f| f["metrics"][metric].as_f64())
+            .filter_map(|(k, f)| Some((*k, f["metrics"][metric].as_f64()?)))
             .collect()
     };
     (v.len() >= 2).then_some(v)
+}
+
+/// The ratio of the means of two per-frame series over the frames both
+/// have (paired by frame index, not by position: two series that skip
+/// different frames used to be paired out of step) and its standard error;
+/// `None` below two shared frames.
+fn paired_ratio(
+    x: &BTreeMap<u64, f64>,
+    y: &BTreeMap<u64, f64>,
+) -> Option<stereocache::metrics::MeanStderr> {
+    let (xs, ys): (Vec<f64>, Vec<f64>) =
+        x.iter().filter_map(|(k, a)| Some((*a, *y.get(k)?))).unzip();
+    if xs.len() < 2 {
+        return None;
+    }
+    stereocache::metrics::ratio_of_means(&xs, &ys)
 }
 
 /// Field `metric` of the row labelled `label` in `summary`.
@@ -245,6 +271,20 @@ pub fn evaluate(claims: &[ClaimSpec], groups: &[String], out: &Path) -> Vec<Clai
                     .filter(|(g, _)| in_scope(g))
                     .all(|(_, s)| lookup(s, of, metric).is_none())
             {
+                // Present but `null`: the run measured it and it was not
+                // finite (e.g. a PSNR of +∞ where a frame equals the
+                // reference), not a name this row lacks.
+                let null = |r: &&serde_json::Value| {
+                    r.get(metric.as_str()).is_some_and(|v| v.is_null())
+                        || r["metrics"].get(metric.as_str()).is_some_and(|v| v.is_null())
+                };
+                if rows.iter().any(null) {
+                    r.here = format!(
+                        "metric '{metric}' of configuration '{of}' is not finite in this run (null in summary.json): it cannot be judged"
+                    );
+                    r.verdict = "inconclusive".into();
+                    return r;
+                }
                 let mut known: Vec<String> = rows[0]
                     .as_object()
                     .map(|o| {
@@ -292,8 +332,17 @@ pub fn evaluate(claims: &[ClaimSpec], groups: &[String], out: &Path) -> Vec<Clai
                 let stderr = match den {
                     Some((over, m)) => x
                         .zip(per_frame(&dir, over, m))
-                        .and_then(|(x, y)| stereocache::metrics::ratio_of_means(&x, &y)),
-                    None => x.and_then(|x| stereocache::metrics::mean_stderr(&x)),
+                        .and_then(|(x, y)| paired_ratio(&x, &y)),
+                    None => x.and_then(|x| {
+                        stereocache::metrics::mean_stderr(&x.into_values().collect::<Vec<_>>())
+                    }),
+                };
+                // A ratio with per-frame values is the ratio of the means over
+                // the frames both series have (the summaries' means may be
+                // over different frames).
+                let value = match (den, stderr) {
+                    (Some(_), Some(q)) => q.mean,
+                    _ => value,
                 };
                 let frames = stderr.map(|q| q.n);
                 let stderr = stderr.map(|q| q.stderr).filter(|se| se.is_finite());
@@ -304,12 +353,17 @@ pub fn evaluate(claims: &[ClaimSpec], groups: &[String], out: &Path) -> Vec<Clai
                     ">" => value > t,
                     _ => value >= t,
                 });
-                let deterministic = DETERMINISTIC.contains(&metric.as_str());
+                // Deterministic only if the denominator is too (a count over a
+                // time is as noisy as the time).
+                let deterministic = DETERMINISTIC.contains(&metric.as_str())
+                    && den.is_none_or(|(_, m)| DETERMINISTIC.contains(&m));
                 let near = |t: f64| match stderr {
                     Some(se) => (value - t).abs() < 2.0 * se,
                     None => !deterministic,
                 };
                 let verdict: String = match (expect, holds) {
+                    // 0/0 and the like: nothing to judge.
+                    (Some(_), Some(_)) if !value.is_finite() => "inconclusive".into(),
                     (Some((_, t)), Some(_)) if near(t) => "inconclusive".into(),
                     (_, Some(true)) => "reproduces".into(),
                     (_, Some(false)) => "does not reproduce".into(),
@@ -523,6 +577,81 @@ mod tests {
         comparison(&out, "g2", (0.99, 1.0), false, 0.0);
         let r = evaluate(&[claim("rse", Some("b"), "< 1")], &g, &out);
         assert_eq!(r[0].verdict, "inconclusive");
+        let _ = std::fs::remove_dir_all(&out);
+    }
+
+    /// A ratio's two series pair by frame index, not by position: x = 2y on
+    /// every frame, x on frames {0, 1, 2, 4, 5}, y on {1, 2, 3, 4, 5}. Over
+    /// the shared frames the ratio is exactly 2 with no spread; paired by
+    /// position it came out 1.7 ± 0.27 (and the value was the ratio of the
+    /// two summaries' means over different frames).
+    #[test]
+    fn ratio_series_pair_by_frame_index() {
+        let out = dir("pairing");
+        let d = out.join("g");
+        let y = |k: u64| (k + 1) as f64;
+        let row = |l: &str, m: f64| serde_json::json!({ "method": l, "frames": 6, "metrics": { "rse": m } });
+        let (xs, ys): (Vec<u64>, Vec<u64>) = (vec![0, 1, 2, 4, 5], vec![1, 2, 3, 4, 5]);
+        let mean = |ks: &[u64], f: &dyn Fn(u64) -> f64| {
+            ks.iter().map(|&k| f(k)).sum::<f64>() / ks.len() as f64
+        };
+        let s = serde_json::json!({ "device": "test", "width": 8, "height": 6,
+            "methods": [row("a", mean(&xs, &|k| 2.0 * y(k))), row("b", mean(&ys, &y))] });
+        std::fs::create_dir_all(&d).unwrap();
+        std::fs::write(d.join("summary.json"), s.to_string()).unwrap();
+        for (l, ks, scale) in [("a", &xs, 2.0), ("b", &ys, 1.0)] {
+            std::fs::create_dir_all(d.join(l)).unwrap();
+            let lines: Vec<String> = (0..6u64)
+                .map(|k| {
+                    let m = if ks.contains(&k) {
+                        serde_json::json!({ "rse": scale * y(k) })
+                    } else {
+                        serde_json::json!({})
+                    };
+                    serde_json::json!({ "index": k, "metrics": m }).to_string()
+                })
+                .collect();
+            std::fs::write(d.join(l).join("frames.jsonl"), lines.join("\n")).unwrap();
+        }
+        let r = evaluate(
+            &[claim("rse", Some("b"), "< 1.9")],
+            &["g".to_string()],
+            &out,
+        );
+        assert!(
+            (r[0].value.unwrap() - 2.0).abs() < 1e-12,
+            "{:?}",
+            r[0].value
+        );
+        assert!(r[0].stderr.is_some_and(|se| se < 1e-9), "{:?}", r[0].stderr);
+        assert_eq!(r[0].verdict, "does not reproduce", "{}", r[0].here);
+        let _ = std::fs::remove_dir_all(&out);
+    }
+
+    /// A metric the run wrote as `null` (not finite) cannot be judged: it
+    /// is inconclusive and says so (it said the row lacked the metric while
+    /// listing it among the row's figures); a count over a noisy time is not
+    /// deterministic.
+    #[test]
+    fn null_metrics_and_noisy_denominators_are_inconclusive() {
+        let out = dir("null");
+        let d = out.join("g");
+        std::fs::create_dir_all(&d).unwrap();
+        let s = serde_json::json!({ "device": "test", "width": 8, "height": 6, "methods": [
+            { "method": "a", "frames": 6, "rays_per_frame": 99.0, "steady_mean_gpu_ms": 100.0, "metrics": { "psnr": null } },
+            { "method": "b", "frames": 6, "rays_per_frame": 100.0, "steady_mean_gpu_ms": 100.0, "metrics": { "psnr": 30.0 } }] });
+        std::fs::write(d.join("summary.json"), s.to_string()).unwrap();
+        let g = ["g".to_string()];
+        let r = evaluate(&[claim("psnr", Some("b"), "> 1")], &g, &out);
+        assert_eq!(r[0].verdict, "inconclusive", "{}", r[0].here);
+        assert!(r[0].here.contains("not finite"), "{}", r[0].here);
+        // Counts over counts stay deterministic; over a time they do not.
+        let r = evaluate(&[claim("rays_per_frame", Some("b"), "< 1")], &g, &out);
+        assert_eq!(r[0].verdict, "reproduces", "{}", r[0].here);
+        let mut c = claim("rays_per_frame", None, "< 1");
+        c.over_metric = Some("steady_mean_gpu_ms".into());
+        let r = evaluate(&[c], &g, &out);
+        assert_eq!(r[0].verdict, "inconclusive", "{}", r[0].here);
         let _ = std::fs::remove_dir_all(&out);
     }
 

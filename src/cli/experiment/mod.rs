@@ -118,6 +118,18 @@ fn run_file(a: RunArgs) -> Result<()> {
         .clone()
         .unwrap_or_else(|| PathBuf::from("out/experiments").join(&e.name));
     check_out(&out)?;
+    // A previous run's claims and plans go first: each comparison's report
+    // reads its experiment.json while this run renders, and a run that
+    // fails part way must not leave the old claims looking like its own.
+    let mut stale = vec![out.join("experiment.json"), out.join("claims.md")];
+    stale.extend(
+        e.groups
+            .iter()
+            .map(|g| out.join(&g.label).join("experiment.json")),
+    );
+    for p in &stale {
+        output::remove_stale(p).map_err(|err| anyhow!("{}: {err}", p.display()))?;
+    }
     let mut ran: Vec<Vec<String>> = vec![Vec::new(); e.groups.len()];
     for (g, grp) in e.groups.iter().enumerate() {
         let configs: Vec<_> = mine
@@ -179,8 +191,15 @@ fn finish(name: &str, plan: &serde_json::Value, out: &Path) -> Result<()> {
     let mut doc = plan.clone();
     doc["claims"] = serde_json::to_value(&results)?;
     output::write_json(&out.join("experiment.json"), &doc)?;
+    // A shard's claims see only its own configurations: the title says so.
+    let shard = match (plan["shard"]["k"].as_u64(), plan["shard"]["n"].as_u64()) {
+        (Some(k), Some(n)) => {
+            format!(" — shard {k}/{n} only: claims between configurations of other shards are not measured; merge the shards for the whole run")
+        }
+        _ => String::new(),
+    };
     let title = format!(
-        "{name}: {} ({})",
+        "{name}: {} ({}){shard}",
         plan["title"].as_str().unwrap_or(""),
         plan["paper"].as_str().unwrap_or("")
     );

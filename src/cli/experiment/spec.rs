@@ -466,6 +466,17 @@ pub fn read(
             let mut argv = base.clone();
             argv.extend(shared);
             let args = parse(&argv).map_err(|e| at(format!("[run]: {e}")))?;
+            if let (Some(k), Some(d)) = (args.frames, trace_data.get(trace)) {
+                // Refused here, not after the comparisons before this one
+                // have rendered (compare refuses it too).
+                let available = d.resampled_len(args.fps).min(usize::MAX as f64) as usize;
+                if k > available {
+                    return Err(at(format!(
+                        "[run]: key 'frames': {k} frames, but trace {trace} gives only {available} at {} fps",
+                        args.fps
+                    )));
+                }
+            }
             if let (Some(shown), Some(d)) = (&args.show_frames, trace_data.get(trace)) {
                 let available = d.resampled_len(args.fps).min(usize::MAX as f64) as usize;
                 let n = args.frames.map_or(available, |k| k.min(available));
@@ -508,6 +519,17 @@ pub fn read(
                 args,
                 configs,
             });
+        }
+    }
+    // Each comparison writes to the folder of its label: two scene/trace
+    // pairs with one label would overwrite each other.
+    let mut seen = std::collections::BTreeSet::new();
+    for g in &groups {
+        if !seen.insert(g.label.as_str()) {
+            return Err(at(format!(
+                "two comparisons are both named '{}' (scenes and traces are named by their file stems, `:` and `=` as `-`): rename a scene or trace file, or split the experiment",
+                g.label
+            )));
         }
     }
     for c in &file.claims {
