@@ -352,6 +352,34 @@ pub fn flip_ppd(cam: &StereoCamera, width: u32) -> f32 {
     eye_pixels_per_degree(&cam.eye(Eye::Left), width).unwrap_or(DEFAULT_PPD)
 }
 
+/// Every metric [`Evaluator::frame`] can give a frame (the keys of a
+/// summary row's `metrics`), for checking names before anything renders.
+pub const METRIC_NAMES: &[&str] = &[
+    "rse",
+    "mse",
+    "psnr",
+    "ssim",
+    "flip",
+    "cpbd",
+    "cpbd_reference",
+    "non_finite_pixels",
+    "rse_reference",
+    "mse_reference",
+    "flip_reference_halves",
+    "temporal",
+    "temporal_reference",
+    "temporal_excess",
+    "temporal_covisible",
+    "ghost_pixels",
+    "ghost_rse",
+    "stereo_covisible",
+    "stereo_mean",
+    "stereo_p95",
+    "stereo_mean_reference",
+    "stereo_p95_reference",
+    "stereo_excess",
+];
+
 /// Per-method running evaluation: call `frame` for every frame in order.
 #[derive(Default)]
 pub struct Evaluator {
@@ -696,6 +724,14 @@ mod tests {
             })
             .collect();
         let close = |a: f64, b: f64| (a - b).abs() < 1e-6;
+        // Every key a frame gives is a listed metric name (claims check
+        // names against the list before rendering).
+        for k in per_frame.iter().flat_map(|f| f.keys()) {
+            assert!(
+                METRIC_NAMES.contains(&k.as_str()),
+                "{k} not in METRIC_NAMES"
+            );
+        }
         // Which frames carry a value (absent, not 0, where the mask is empty).
         let has = |k: &str| -> Vec<bool> { per_frame.iter().map(|f| f.contains_key(k)).collect() };
         assert_eq!(has("temporal"), [false, true, true, false, false]);

@@ -377,6 +377,17 @@ fn malformed_files_fail_with_one_error_line_naming_the_file_and_key() {
             &["'of'", "nobody"],
         ),
         (
+            // Found only after rendering until session 48.
+            "claim of an unknown metric",
+            good.replace("metric = \"rse\"", "metric = \"rsee\""),
+            &["'metric'", "rsee"],
+        ),
+        (
+            "claim over an unknown metric",
+            good.replace("over = \"naive\"", "over-metric = \"cpbd_referense\""),
+            &["'over-metric'", "cpbd_referense"],
+        ),
+        (
             // Both would render into one folder (until session 48 the
             // second overwrote the first).
             "two comparisons with one name",

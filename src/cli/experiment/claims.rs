@@ -53,6 +53,28 @@ pub const NO_SUCH_FIGURE: &str = "no such figure";
 /// standard error.
 pub const DETERMINISTIC: &[&str] = &["rays_per_frame", "rays_total", "method_memory_bytes"];
 
+/// The numeric fields of a summary row a claim can name (compare.rs
+/// `MethodRow`).
+const ROW_FIGURES: &[&str] = &[
+    "frames",
+    "mean_gpu_ms",
+    "p95_gpu_ms",
+    "steady_mean_gpu_ms",
+    "steady_p95_gpu_ms",
+    "rays_per_frame",
+    "rays_total",
+    "method_memory_bytes",
+];
+
+/// Whether a claim's `metric` or `over-metric` names a figure a summary row
+/// can have.
+fn is_figure_name(m: &str) -> bool {
+    ROW_FIGURES.contains(&m)
+        || stereocache::evaluate::METRIC_NAMES.contains(&m)
+        || m.strip_prefix("pass:")
+            .is_some_and(|p| !p.trim().is_empty())
+}
+
 /// What one comparison measured for a claim.
 #[derive(Clone, Debug, Serialize)]
 pub struct GroupMeasure {
@@ -97,6 +119,23 @@ impl ClaimSpec {
         }
         if self.over_metric.is_some() && self.metric.is_none() {
             return Err(at("key 'over-metric' needs 'metric' and 'of'".into()));
+        }
+        if self.over.is_some() && self.metric.is_none() {
+            return Err(at("key 'over' needs 'metric' and 'of'".into()));
+        }
+        // Metric names are checked here, before anything renders (a typo
+        // was found only after every comparison had rendered, and one in
+        // 'over-metric' never).
+        for (k, m) in [("metric", &self.metric), ("over-metric", &self.over_metric)] {
+            if let Some(m) = m {
+                if !is_figure_name(m) {
+                    return Err(at(format!(
+                        "key '{k}': no figure '{m}' (a summary row's {}, `pass:NAME[+NAME…]`, or a metric: {})",
+                        ROW_FIGURES.join(", "),
+                        stereocache::evaluate::METRIC_NAMES.join(", ")
+                    )));
+                }
+            }
         }
         if let Some(g) = &self.group {
             if !groups.iter().any(|x| &x.label == g) {
