@@ -377,6 +377,16 @@ fn malformed_files_fail_with_one_error_line_naming_the_file_and_key() {
             &["'of'", "nobody"],
         ),
         (
+            // Three runs of one configuration under three labels until
+            // session 48: naive reads no method option.
+            "a sweep over an option the method does not read",
+            good.replace(
+                "method = \"naive\"\n",
+                "method = \"naive\"\nsweep = { sharpness = [0.0, 0.5] }\n",
+            ),
+            &["same run", "'naive'"],
+        ),
+        (
             // Found only after rendering until session 48.
             "claim of an unknown metric",
             good.replace("metric = \"rse\"", "metric = \"rsee\""),

@@ -484,6 +484,12 @@ pub fn read(
                     .map_err(|m| at(format!("[run]: key 'show-frames': {m}")))?;
             }
             let mut configs = Vec::new();
+            // (section, what the run records) of each configuration: two
+            // points of one [[method]]'s sweep that record the same are
+            // one run under two labels (a swept option the method does not
+            // read, e.g. `sharpness` on `naive`).
+            let mut runs_of: std::collections::BTreeMap<(String, String), String> =
+                Default::default();
             for e in &entries {
                 // The configuration's own keys replace [run]'s.
                 let merged = overlay(&run, &e.table);
@@ -499,6 +505,15 @@ pub fn read(
                     .method_opts
                     .config(e.kind, false)
                     .map_err(|m| at(format!("{}: {m}", e.section)))?;
+                let key = (e.section.clone(), config.record(&settings).to_string());
+                if let Some(other) = runs_of.insert(key, e.label.clone()) {
+                    return Err(at(format!(
+                        "{}: configurations '{other}' and '{}' are the same run: method '{}' does not read what the sweep changes (sweep only its own options: `stereocache compare --help`)",
+                        e.section,
+                        e.label,
+                        e.kind.name()
+                    )));
+                }
                 configs.push(Config {
                     label: e.label.clone(),
                     config,
