@@ -462,6 +462,14 @@ fn compiled_spirv_is_cached_by_content() {
         e.contains("glslc failed") && e.contains("exit status"),
         "{e}"
     );
+    // A damaged cache file (cut short mid-instruction, as a full disk can
+    // leave it: the header and the first word of the first two-word
+    // instruction) is not a hit: it is compiled again and replaced (it
+    // failed every later run as "malformed SPIR-V" until session 48).
+    std::fs::write(&a.path, &a.spirv[..24]).unwrap();
+    let d = compile::compile_in(&dir, "t", src).unwrap();
+    assert!(!d.cached && d.spirv == a.spirv && d.path == a.path);
+    assert!(compile::compile_in(&dir, "t", src).unwrap().cached);
     std::fs::remove_dir_all(&dir).unwrap();
 }
 

@@ -3,10 +3,14 @@
 //! `<dir>/<hash>.spv` with `<dir>` = `$STEREOCACHE_SHADER_CACHE`, else
 //! `$XDG_CACHE_HOME/stereocache/spirv`, else `$HOME/.cache/stereocache/spirv`
 //! (else the system temporary directory). The hash covers the whole
-//! compiled text (the node library is inlined, no include path) and the
-//! glslc arguments, so an edit of a graph, of the node library or of the
-//! arguments compiles anew. Files are written to a temporary name and
-//! renamed, so concurrent loads never read a half-written file.
+//! compiled text (the node library is inlined, no include path), the
+//! glslc arguments and the compiler (`GLSLC` and its `--version`), so an
+//! edit of a graph, of the node library or of the arguments, or another
+//! glslc, compiles anew. Files are written to a temporary name and
+//! renamed, so concurrent loads never read a half-written file; a cached
+//! file that is not a whole module (a write cut short) is compiled again,
+//! and a build glslc could only make unoptimized is marked and warned
+//! about on every load.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -35,6 +39,29 @@ const ARGS: &[&str] = &["--target-env=vulkan1.2", "-O", "-fshader-stage=compute"
 /// graphs fixed that shader). Unoptimized SPIR-V is valid and the driver's
 /// compiler optimizes it anyway.
 const ARGS_UNOPTIMIZED: &[&str] = &["--target-env=vulkan1.2", "-O0", "-fshader-stage=compute"];
+
+/// Which compiler a cached binary came from, part of every cache key: the
+/// `GLSLC` setting and that glslc's `--version` output (run once per
+/// process). Without it an upgraded or re-pointed glslc reused the binaries
+/// of the old one (session 48's audit).
+fn compiler_id() -> &'static str {
+    static ID: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+    ID.get_or_init(|| {
+        let glslc = std::env::var("GLSLC").unwrap_or_else(|_| "glslc".into());
+        let version = Command::new(&glslc)
+            .arg("--version")
+            .output()
+            .map(|o| String::from_utf8_lossy(&o.stdout).into_owned())
+            .unwrap_or_else(|e| format!("unavailable ({e})"));
+        format!("GLSLC={glslc}\n{version}")
+    })
+}
+
+/// The marker beside a cached binary that glslc built unoptimized (its
+/// optimizer failed on the shader: [`ARGS_UNOPTIMIZED`]).
+fn unoptimized_marker(spv: &Path) -> PathBuf {
+    spv.with_extension("unoptimized")
+}
 
 /// The cache directory (see the module docs).
 pub fn cache_dir() -> PathBuf {
@@ -74,17 +101,37 @@ pub struct Compiled {
     pub cached: bool,
 }
 
-/// The SPIR-V stored at `spv` by an earlier compile, if it is whole (the
-/// magic number and a length of whole words).
-fn cached(spv: &Path) -> Option<Compiled> {
+/// The SPIR-V stored at `spv` by an earlier compile, if it is whole: the
+/// magic number, whole words and a stream of whole instructions with the
+/// entry point's bindings readable (`gpu::reflect`). A damaged file (a
+/// write cut short by a full disk) is removed, so it is compiled again
+/// instead of failing every later run. A binary glslc built unoptimized
+/// says so on every load (its timings are not the optimized build's).
+fn cached(what: &str, spv: &Path) -> Option<Compiled> {
     let bytes = std::fs::read(spv).ok()?;
-    (bytes.len() >= 20 && bytes.len() % 4 == 0 && bytes[..4] == [0x03, 0x02, 0x23, 0x07]).then(
-        || Compiled {
-            spirv: bytes,
-            path: spv.to_path_buf(),
-            cached: true,
-        },
-    )
+    let whole = bytes.len() >= 20
+        && bytes.len() % 4 == 0
+        && bytes[..4] == [0x03, 0x02, 0x23, 0x07]
+        && crate::gpu::reflect::reflect(&bytes).is_ok();
+    if !whole {
+        eprintln!(
+            "warning: {what}: the cached SPIR-V {} is damaged; compiling it again",
+            spv.display()
+        );
+        let _ = std::fs::remove_file(spv);
+        return None;
+    }
+    if unoptimized_marker(spv).exists() {
+        eprintln!(
+            "warning: {what}: the cached build {} is unoptimized (glslc's optimizer failed on it; the driver optimizes it, timings may differ)",
+            spv.display()
+        );
+    }
+    Some(Compiled {
+        spirv: bytes,
+        path: spv.to_path_buf(),
+        cached: true,
+    })
 }
 
 /// A name part no other compile of this or another process uses, so
@@ -103,9 +150,10 @@ pub fn compile(what: &str, source: &str) -> Result<Compiled, String> {
 pub fn compile_in(dir: &Path, what: &str, source: &str) -> Result<Compiled, String> {
     let mut parts = vec![source];
     parts.extend_from_slice(ARGS);
+    parts.push(compiler_id());
     let hash = content_hash(&parts);
     let spv = dir.join(format!("{hash}.spv"));
-    if let Some(hit) = cached(&spv) {
+    if let Some(hit) = cached(what, &spv) {
         return Ok(hit);
     }
     std::fs::create_dir_all(dir).map_err(|e| {
@@ -146,9 +194,10 @@ pub fn compile_tree(
     let mut key = vec![tree_hash.as_str(), main];
     key.extend_from_slice(defines);
     key.extend_from_slice(ARGS);
+    key.push(compiler_id());
     let hash = content_hash(&key);
     let spv = dir.join(format!("{hash}.spv"));
-    if let Some(hit) = cached(&spv) {
+    if let Some(hit) = cached(what, &spv) {
         return Ok(hit);
     }
     let tag = unique_tag();
@@ -203,18 +252,23 @@ fn run_glslc(
             .output()
     };
     let mut out = run(ARGS);
+    let mut unoptimized = false;
     if let Ok(o) = &out {
         use std::os::unix::process::ExitStatusExt;
         let overflow = String::from_utf8_lossy(&o.stderr).contains("ID overflow");
         if !o.status.success() && (overflow || o.status.signal().is_some()) {
-            if !overflow {
-                eprintln!(
-                    "warning: {what}: glslc's optimizer crashed ({}); compiling it unoptimized \
-                     (the driver optimizes it)",
-                    o.status
-                );
-            }
+            eprintln!(
+                "warning: {what}: glslc's optimizer {} ({}); compiling it unoptimized \
+                 (the driver optimizes it; timings may differ)",
+                if overflow {
+                    "ran out of SPIR-V ids"
+                } else {
+                    "crashed"
+                },
+                o.status
+            );
             out = run(ARGS_UNOPTIMIZED);
+            unoptimized = true;
         }
     }
     let res = match out {
@@ -233,6 +287,11 @@ fn run_glslc(
     };
     let _ = std::fs::remove_file(tmp);
     res?;
+    // The marker goes with the binary it describes (a later optimized build
+    // of the same key would come from another glslc: another key).
+    if unoptimized {
+        let _ = std::fs::write(unoptimized_marker(spv), "");
+    }
     let spirv =
         std::fs::read(spv).map_err(|e| format!("{what}: cannot read {} ({e})", spv.display()))?;
     Ok(Compiled {

@@ -56,9 +56,18 @@ pub struct Reference {
 /// `SceneGpu::shaders`), else the build-time SPIR-V.
 pub(crate) fn backend_shader(name: &str, scene: &SceneGpu) -> GpuResult<&'static [u8]> {
     let full = format!("{name}.{}", scene.backend.shader_suffix());
-    shaders::lookup(&full, scene.shaders.as_deref())
-        .map_err(GpuError::Unsupported)?
+    optional_backend_shader(name, scene)?
         .ok_or_else(|| GpuError::Unsupported(format!("shader {full} was not compiled")))
+}
+
+/// The same for a build that need not exist (a variant only some shaders
+/// have): `None` where there is none, an error where it failed to compile.
+pub(crate) fn optional_backend_shader(
+    name: &str,
+    scene: &SceneGpu,
+) -> GpuResult<Option<&'static [u8]>> {
+    let full = format!("{name}.{}", scene.backend.shader_suffix());
+    shaders::lookup(&full, scene.shaders.as_deref()).map_err(GpuError::Unsupported)
 }
 
 impl Reference {

@@ -32,7 +32,7 @@ pub mod settings;
 
 pub use settings::{Accumulation, Payload, Reproject, Retrace, SampleCacheSettings, Shading};
 
-use super::reference::backend_shader;
+use super::reference::{backend_shader, optional_backend_shader};
 use super::{
     Color, CounterOutput, FrameInput, FrameOutputs, FrameParams, Method, RaySlots, RenderSettings,
 };
@@ -316,8 +316,13 @@ impl SampleCache {
         let shader = |name: &str| {
             let sg = format!("sample_cache/{name}.subgroup");
             if subgroup {
-                if let Ok(spirv) = backend_shader(&sg, scene) {
-                    return Ok(spirv);
+                // No `.subgroup` build of this shader: the plain one is the
+                // build. One that failed to compile (a scene's run-time
+                // shaders) falls back too, but says so (it was silent).
+                match optional_backend_shader(&sg, scene) {
+                    Ok(Some(spirv)) => return Ok(spirv),
+                    Ok(None) => {}
+                    Err(e) => eprintln!("warning: {sg}: {e}; using the plain build"),
                 }
             }
             backend_shader(&format!("sample_cache/{name}"), scene)
