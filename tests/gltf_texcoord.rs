@@ -1253,3 +1253,66 @@ fn a_normal_texture_through_a_map_shades_as_on_its_own_channel() {
     let _ = std::fs::remove_dir_all(&d);
     assert_no_validation_messages(&ctx);
 }
+
+/// KHR_mesh_quantization, required as gltfpack writes it: a quad whose
+/// positions are SHORT and uvs normalized UNSIGNED_SHORT loads, with uv =
+/// value / 65535 and the positions as integers (until session 48 a file
+/// that required the extension was refused, though the reader decodes it).
+#[test]
+fn quantized_attributes_load_when_the_extension_is_required() {
+    let d = dir("quantized");
+    let mut bin = Vec::new();
+    // POSITION: SHORT VEC3, 4 vertices (8 bytes each with padding to 4).
+    let pos: [[i16; 3]; 4] = [[0, 0, 0], [2, 0, 0], [2, 2, 0], [0, 2, 0]];
+    for p in pos {
+        for c in p {
+            bin.extend_from_slice(&c.to_le_bytes());
+        }
+        bin.extend_from_slice(&[0, 0]);
+    }
+    // TEXCOORD_0: normalized UNSIGNED_SHORT VEC2.
+    let uv_at = bin.len();
+    let uvs: [[u16; 2]; 4] = [[0, 65535], [32768, 65535], [65535, 0], [0, 0]];
+    for t in uvs {
+        for c in t {
+            bin.extend_from_slice(&c.to_le_bytes());
+        }
+    }
+    let idx_at = bin.len();
+    for i in [0u16, 1, 2, 0, 2, 3] {
+        bin.extend_from_slice(&i.to_le_bytes());
+    }
+    let root = json!({
+        "asset": { "version": "2.0" },
+        "extensionsUsed": ["KHR_mesh_quantization"],
+        "extensionsRequired": ["KHR_mesh_quantization"],
+        "scene": 0, "scenes": [{ "nodes": [0] }], "nodes": [{ "mesh": 0 }],
+        "meshes": [{ "primitives": [{ "attributes": { "POSITION": 0, "TEXCOORD_0": 1 }, "indices": 2 }] }],
+        "accessors": [
+            { "bufferView": 0, "componentType": 5122, "count": 4, "type": "VEC3",
+              "min": [0, 0, 0], "max": [2, 2, 0] },
+            { "bufferView": 1, "componentType": 5123, "normalized": true, "count": 4, "type": "VEC2" },
+            { "bufferView": 2, "componentType": 5123, "count": 6, "type": "SCALAR" }
+        ],
+        "bufferViews": [
+            { "buffer": 0, "byteOffset": 0, "byteLength": uv_at, "byteStride": 8 },
+            { "buffer": 0, "byteOffset": uv_at, "byteLength": idx_at - uv_at },
+            { "buffer": 0, "byteOffset": idx_at, "byteLength": 12 }
+        ],
+        "buffers": [{ "byteLength": bin.len(), "uri": format!("data:application/octet-stream;base64,{}",
+            base64::engine::general_purpose::STANDARD.encode(&bin)) }]
+    });
+    let path = d.join("quantized.gltf");
+    std::fs::write(&path, serde_json::to_string_pretty(&root).unwrap()).unwrap();
+    let scene = load_gltf(&path).unwrap_or_else(|e| panic!("quantized file refused: {e}"));
+    let m = &scene.meshes[0];
+    assert_eq!(m.positions[1], Vec3::new(2.0, 0.0, 0.0));
+    assert_eq!(m.positions[2], Vec3::new(2.0, 2.0, 0.0));
+    assert!(
+        (m.uvs[1].x - 32768.0 / 65535.0).abs() < 1e-7,
+        "{:?}",
+        m.uvs[1]
+    );
+    assert_eq!(m.uvs[2], Vec2::new(1.0, 0.0));
+    let _ = std::fs::remove_dir_all(&d);
+}

@@ -283,6 +283,13 @@ fn parse_document(
                 // Applied to the mesh uvs at import (gltf_uv; read from the JSON).
             } else if name == "KHR_texture_procedurals" {
                 // Read from the JSON by materials::binding (the crate does not know it).
+            } else if name == "KHR_mesh_quantization" {
+                // Decoded by gltf_buffers (read_component: every integer and
+                // normalized component type); the crate's list lacks it, so
+                // a file that requires it (gltfpack's quantized output does)
+                // was refused until session 48.
+            } else if name == "KHR_xmp_json_ld" {
+                // Metadata only.
             } else if APPEARANCE_ONLY_EXTENSIONS.contains(&name)
                 || name.starts_with("KHR_materials_")
             {
