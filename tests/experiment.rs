@@ -276,13 +276,14 @@ fn an_experiment_equals_compare_and_two_merged_shards_equal_one_run() {
         );
     }
 
-    // A mistyped metric: everything is written, the claim says which
-    // figures exist, and a warning names it (the same verdict covers a
-    // figure a run did not produce, so it is not an error).
+    // A metric this run does not produce (`ghost_rse`: no moving object;
+    // a mistyped name is refused before rendering since session 48, see
+    // malformed_files_…): everything is written, the claim says which
+    // figures exist, and a warning names it.
     let bogus = root.join("bogus.toml");
     std::fs::write(
         &bogus,
-        tiny(&root.join("refs")).replace(r#"metric = "rse""#, r#"metric = "rse_typo""#),
+        tiny(&root.join("refs")).replace(r#"metric = "rse""#, r#"metric = "ghost_rse""#),
     )
     .unwrap();
     let out = root.join("bogus");
@@ -297,12 +298,13 @@ fn an_experiment_equals_compare_and_two_merged_shards_equal_one_run() {
     assert!(o.status.success(), "{stderr}");
     assert!(
         stderr.contains("warning: claim 'the sample cache")
-            && stderr.contains("metric 'rse_typo' is not a figure of configuration 'sample-cache'"),
+            && stderr
+                .contains("metric 'ghost_rse' is not a figure of configuration 'sample-cache'"),
         "{stderr}"
     );
     let claims = std::fs::read_to_string(out.join("claims.md")).unwrap();
     assert!(
-        claims.contains("metric 'rse_typo' is not a figure of configuration 'sample-cache' in this run (its figures: ")
+        claims.contains("metric 'ghost_rse' is not a figure of configuration 'sample-cache' in this run (its figures: ")
             && claims.contains("rse, ")
             && claims.contains("| no such figure |"),
         "{claims}"

@@ -23,6 +23,7 @@ fn device(name: &str, device_type: &str) -> DeviceCaps {
         api: (1, 3),
         compute_queue_family: Some(0),
         supported: FeatureRequest::new(true, Features::default()).optional,
+        timestamp_valid_bits: 64,
         ..Default::default()
     }
 }
@@ -36,15 +37,19 @@ fn choose_rejects_each_unusable_device_with_its_reason() {
     graphics_only.compute_queue_family = None;
     let mut no_rq = device("No-RQ GPU", "discrete GPU");
     no_rq.supported.ray_query = false;
+    let mut no_di = device("No-DI GPU", "discrete GPU");
+    no_di.supported.descriptor_indexing = false;
+    let mut no_ts = device("No-TS GPU", "discrete GPU");
+    no_ts.timestamp_valid_bits = 0;
     let cpu = device("llvmpipe", "CPU");
-    let devices = [old, graphics_only, no_rq, cpu];
+    let devices = [old, graphics_only, no_rq, no_di, no_ts, cpu];
     let require = Features {
         ray_query: true,
         ..Default::default()
     };
 
     let c = choose(&devices, None, &require).unwrap();
-    assert_eq!(c.chosen, 3, "the only device with every requirement");
+    assert_eq!(c.chosen, 5, "the only device with every requirement");
     let reasons: Vec<(&str, &str, bool)> = c
         .rejected
         .iter()
@@ -56,6 +61,12 @@ fn choose_rejects_each_unusable_device_with_its_reason() {
             ("Old GPU", "no Vulkan 1.2 (has 1.1.0)", true),
             ("Graphics GPU", "no compute queue", true),
             ("No-RQ GPU", "lacks required ray_query", true),
+            (
+                "No-DI GPU",
+                "no descriptor indexing (runtimeDescriptorArray, shaderSampledImageArrayNonUniformIndexing: the scene's texture array)",
+                true
+            ),
+            ("No-TS GPU", "no timestamps on its compute queue (every pass is timed)", true),
         ]
     );
 
@@ -63,7 +74,7 @@ fn choose_rejects_each_unusable_device_with_its_reason() {
     // usable and preferred over the CPU.
     let c = choose(&devices, None, &Features::default()).unwrap();
     assert_eq!(c.chosen, 2);
-    let cpu_reason = &c.rejected.iter().find(|r| r.index == 3).unwrap();
+    let cpu_reason = &c.rejected.iter().find(|r| r.index == 5).unwrap();
     assert!(!cpu_reason.unusable);
     assert_eq!(cpu_reason.reason, "discrete GPU preferred over CPU");
 

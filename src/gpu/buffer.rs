@@ -320,6 +320,9 @@ impl Buffer {
     }
 
     /// Reads the whole buffer back to the host (waits for the GPU).
+    /// The copy's writes are made visible to the host by a barrier before
+    /// the fence (a fence wait alone does not, by the specification; until
+    /// session 48 this relied on the staging memory being host-coherent).
     pub fn download(&self) -> GpuResult<Vec<u8>> {
         let staging = Self::new(
             &self.ctx,
@@ -335,6 +338,7 @@ impl Buffer {
             self.ctx
                 .device
                 .cmd_copy_buffer(cb, self.raw, staging.raw, &region);
+            host_read_barrier(&self.ctx.device, cb);
         })?;
         let alloc = staging.allocation.as_ref().unwrap();
         let ptr = alloc
@@ -388,5 +392,29 @@ impl Drop for Buffer {
         self.ctx
             .allocated_bytes
             .fetch_sub(self.size + self.guard, Ordering::Relaxed);
+    }
+}
+
+/// TRANSFER_WRITE → HOST_READ: makes a recorded copy's writes available to
+/// the host once the submission's fence is waited on (as
+/// `Recorder::read_back` does).
+///
+/// # Safety
+/// `cb` is a command buffer of `device` in the recording state.
+pub(crate) unsafe fn host_read_barrier(device: &ash::Device, cb: vk::CommandBuffer) {
+    let after = [vk::MemoryBarrier::default()
+        .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
+        .dst_access_mask(vk::AccessFlags::HOST_READ)];
+    // SAFETY: the caller's: `cb` is recording on `device`.
+    unsafe {
+        device.cmd_pipeline_barrier(
+            cb,
+            vk::PipelineStageFlags::TRANSFER,
+            vk::PipelineStageFlags::HOST,
+            vk::DependencyFlags::empty(),
+            &after,
+            &[],
+            &[],
+        );
     }
 }

@@ -39,6 +39,17 @@ pub fn unusable_reason(caps: &DeviceCaps, required: &Features) -> Option<String>
     if caps.compute_queue_family.is_none() {
         return Some("no compute queue".into());
     }
+    // Every scene shader indexes its texture array non-uniformly
+    // (scene.glsl), and every pass is timed (gpu/pass.rs): a device
+    // without either was taken and its pipelines or timings were invalid.
+    if !caps.supported.descriptor_indexing {
+        return Some(
+            "no descriptor indexing (runtimeDescriptorArray, shaderSampledImageArrayNonUniformIndexing: the scene's texture array)".into(),
+        );
+    }
+    if !caps.has_timestamps() {
+        return Some("no timestamps on its compute queue (every pass is timed)".into());
+    }
     let missing = required.missing_from(&caps.supported);
     (!missing.is_empty()).then(|| format!("lacks required {}", missing.join(", ")))
 }

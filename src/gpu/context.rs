@@ -418,6 +418,19 @@ impl GpuContext {
         self.guards.is_some()
     }
 
+    /// Whether sampled images of `format` (optimal tiling) can be filtered
+    /// linearly on this device (optional for 32-bit float formats).
+    pub fn can_filter_linear(&self, format: vk::Format) -> bool {
+        // SAFETY: `physical` is the device this instance enumerated.
+        let props = unsafe {
+            self.instance
+                .get_physical_device_format_properties(self.physical, format)
+        };
+        props
+            .optimal_tiling_features
+            .contains(vk::FormatFeatureFlags::SAMPLED_IMAGE_FILTER_LINEAR)
+    }
+
     /// Bytes currently allocated through this context's buffers and images.
     pub fn allocated_bytes(&self) -> u64 {
         self.allocated_bytes

@@ -101,6 +101,7 @@ pub fn check(ctx: &Arc<GpuContext>) -> GpuResult<()> {
         for (raw, r) in &regions {
             ctx.device.cmd_copy_buffer(cb, *raw, staging.raw, &[*r]);
         }
+        super::buffer::host_read_barrier(&ctx.device, cb);
     })?;
     let bytes = staging.read_mapped(0, total);
     let mut bad = Vec::new();

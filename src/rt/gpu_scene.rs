@@ -442,6 +442,15 @@ impl SceneGpu {
                 params.env_constant = [0.0, 0.0, 0.0, *scale];
                 params.counts[1] = *width;
                 params.counts[2] = *height;
+                // Sampled through a LINEAR sampler (sky.glsl), which the
+                // importance sampling's cell weights assume; linear
+                // filtering of RGBA32F is optional in Vulkan.
+                if !ctx.can_filter_linear(vk::Format::R32G32B32A32_SFLOAT) {
+                    return Err(GpuError::Unsupported(format!(
+                        "device '{}' cannot filter 32-bit float images linearly, which the environment map {name} needs",
+                        ctx.caps.name
+                    )));
+                }
                 env_dist = EnvDistribution::new(*width, *height, texels);
                 let data: Vec<f32> = texels
                     .iter()

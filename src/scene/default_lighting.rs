@@ -49,8 +49,10 @@ pub const HDR_EMITTER_THRESHOLD: f32 = 1.0;
 pub const SUN_ILLUMINANCE: Vec3 = Vec3::new(3.0, 2.9, 2.7);
 /// Sky radiance per kcd/m² of the Preetham model (see module docs).
 pub const SKY_SCALE: f32 = 1.0 / 33.0;
-/// Name of the sun light added by [`apply_default_lighting`]; the glTF writer
-/// leaves it out so a reloaded file gets sun and sky together again.
+/// Name of every light [`apply_default_lighting`] adds (the sun of
+/// `sun-sky`, the delta light of `directional:`); the glTF writer leaves
+/// them out (the command line's lighting, not the scene's), so a reloaded
+/// file without lights gets sun and sky together again.
 pub const DEFAULT_SUN_NAME: &str = "default sun";
 /// Angular radius of the sun disc (0.266°).
 pub const SUN_ANGULAR_RADIUS: f32 = 0.00465;

@@ -4,7 +4,12 @@
 //! row 0 at +Y; u ∈ [0, 1) across a row, u = 0 at −Z increasing towards +X.
 //! For a unit direction d the lookup is
 //! `u = atan2(d.x, −d.z) / 2π` wrapped into [0, 1), `v = acos(d.y) / π`,
-//! texel (⌊u·width⌋, ⌊v·height⌋). See [`equirect_direction`] for the inverse.
+//! filtered bilinearly (texel centres at ((x + ½)/width, (y + ½)/height),
+//! repeat in u; sky.glsl `environment`, and the importance sampling's cell
+//! weights follow the same filter: env_distribution.rs). See
+//! [`equirect_direction`] for the inverse. (Khronos's sample viewer puts
+//! u = 0 at −X: a panorama made for it shows here turned 90° about +Y;
+//! this is Mitsuba 3's `envmap` convention.)
 
 use super::{Environment, SceneError};
 use glam::Vec3;

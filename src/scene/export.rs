@@ -11,9 +11,12 @@
 //! (the generated animated scenes) writes its animated instances as TRS
 //! nodes and its animations as samplers and channels on them.
 //!
-//! Not written: the environment (glTF has no sky or environment map) and the
-//! sun added by default lighting (named [`DEFAULT_SUN_NAME`]): a loaded file
-//! without lights gets the CLI's default lighting again, sun and sky together.
+//! Not written: the environment (glTF has no sky or environment map) and
+//! every light `--lighting` or default lighting added (all named
+//! [`DEFAULT_SUN_NAME`]: the sun of `sun-sky` and the delta light of
+//! `directional:` alike), which are the command line's, not the scene's: a
+//! loaded file without lights gets default lighting (sun and sky), and
+//! another `--lighting` choice has to be given again.
 //!
 //! All files are written under temporary names and renamed once complete, so
 //! an interrupted export never leaves a half-written `.gltf` behind.

@@ -119,9 +119,9 @@ impl HashTable {
         desc: TableDesc,
     ) -> GpuResult<HashTable> {
         settings.validate().map_err(GpuError::Unsupported)?;
-        if !ctx.enabled.buffer_int64_atomics {
+        if !(ctx.enabled.buffer_int64_atomics && ctx.enabled.shader_int64) {
             return Err(GpuError::Unsupported(format!(
-                "device '{}' lacks shaderBufferInt64Atomics, which the hash cache's keys need",
+                "device '{}' lacks shaderBufferInt64Atomics or shaderInt64 (64-bit integers), which the hash cache's keys need",
                 ctx.caps.name
             )));
         }

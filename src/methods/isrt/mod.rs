@@ -215,9 +215,9 @@ impl Isrt {
     ) -> GpuResult<Self> {
         let isrt = isrt.clone();
         isrt.validate().map_err(GpuError::Unsupported)?;
-        if !ctx.enabled.buffer_int64_atomics {
+        if !(ctx.enabled.buffer_int64_atomics && ctx.enabled.shader_int64) {
             return Err(GpuError::Unsupported(format!(
-                "device '{}' lacks shaderBufferInt64Atomics, which isrt's cell reservation needs",
+                "device '{}' lacks shaderBufferInt64Atomics or shaderInt64 (64-bit integers), which isrt's cell reservation needs",
                 ctx.caps.name
             )));
         }

@@ -250,9 +250,9 @@ impl SampleCache {
     ) -> GpuResult<Self> {
         let cache = cache.clone();
         cache.validate().map_err(GpuError::Unsupported)?;
-        if !ctx.enabled.buffer_int64_atomics {
+        if !(ctx.enabled.buffer_int64_atomics && ctx.enabled.shader_int64) {
             return Err(GpuError::Unsupported(format!(
-                "device '{}' lacks shaderBufferInt64Atomics, which the sample cache's depth bounds need",
+                "device '{}' lacks shaderBufferInt64Atomics or shaderInt64 (64-bit integers), which the sample cache's depth bounds need",
                 ctx.caps.name
             )));
         }
