@@ -1368,3 +1368,92 @@ fn a_clearcoat_dims_a_graph_driven_emission_for_every_strategy() {
     }
     assert_no_validation_messages(&ctx);
 }
+
+/// KHR_lights_punctual by value through the glTF import (the other light
+/// tests build `Light`s directly): a spot under a translated parent,
+/// turned +90° about X, so its −Z axis points along +Y; a point light
+/// under a node scaled 2×, whose range the scale leaves alone (the spec:
+/// light properties are unaffected by node scale); a directional light
+/// with no rotation, travelling along −Z. Colour × intensity is the
+/// radiant value, the cone angles are kept as given.
+#[test]
+fn punctual_lights_import_with_the_specs_directions_cones_and_ranges() {
+    use base64::Engine;
+    use serde_json::json;
+    let d = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("lights-punctual");
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    let mut bin = Vec::new();
+    for v in [0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0] {
+        bin.extend_from_slice(&v.to_le_bytes());
+    }
+    let h = std::f32::consts::FRAC_1_SQRT_2;
+    let root = json!({
+        "asset": { "version": "2.0" },
+        "extensionsUsed": ["KHR_lights_punctual"],
+        "extensions": { "KHR_lights_punctual": { "lights": [
+            { "name": "spot", "type": "spot", "color": [1.0, 0.5, 0.25], "intensity": 8.0, "range": 5.0,
+              "spot": { "innerConeAngle": 0.2, "outerConeAngle": 0.5 } },
+            { "name": "point", "type": "point", "intensity": 3.0, "range": 5.0 },
+            { "name": "sun", "type": "directional", "intensity": 2.0 }
+        ] } },
+        "scene": 0,
+        "scenes": [{ "nodes": [0, 1, 3, 4] }],
+        "nodes": [
+            { "mesh": 0 },
+            { "translation": [1.0, 2.0, 3.0], "children": [2] },
+            { "rotation": [h, 0.0, 0.0, h], "extensions": { "KHR_lights_punctual": { "light": 0 } } },
+            { "translation": [0.0, 4.0, 0.0], "scale": [2.0, 2.0, 2.0],
+              "extensions": { "KHR_lights_punctual": { "light": 1 } } },
+            { "extensions": { "KHR_lights_punctual": { "light": 2 } } }
+        ],
+        "meshes": [{ "primitives": [{ "attributes": { "POSITION": 0 } }] }],
+        "accessors": [{ "bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                        "min": [0.0, 0.0, 0.0], "max": [1.0, 1.0, 0.0] }],
+        "bufferViews": [{ "buffer": 0, "byteLength": 36 }],
+        "buffers": [{ "byteLength": 36, "uri": format!("data:application/octet-stream;base64,{}",
+            base64::engine::general_purpose::STANDARD.encode(&bin)) }]
+    });
+    let path = d.join("lights.gltf");
+    std::fs::write(&path, serde_json::to_string(&root).unwrap()).unwrap();
+    let scene = stereocache::scene::load_gltf(&path).unwrap();
+    let get = |n: &str| {
+        scene
+            .lights
+            .iter()
+            .find(|l| l.name == n)
+            .unwrap_or_else(|| panic!("{n}: {:?}", scene.lights))
+    };
+    let close = |a: Vec3, b: Vec3| (a - b).length() < 1e-5;
+    let spot = get("spot");
+    assert!(close(spot.position, Vec3::new(1.0, 2.0, 3.0)), "{spot:?}");
+    assert!(close(spot.direction, Vec3::Y), "{spot:?}");
+    assert!(close(spot.radiant, Vec3::new(8.0, 4.0, 2.0)), "{spot:?}");
+    assert_eq!(spot.range, Some(5.0));
+    match spot.kind {
+        stereocache::scene::LightKind::Spot {
+            inner_cone,
+            outer_cone,
+        } => {
+            assert!(
+                (inner_cone - 0.2).abs() < 1e-6 && (outer_cone - 0.5).abs() < 1e-6,
+                "{spot:?}"
+            )
+        }
+        k => panic!("spot imported as {k:?}"),
+    }
+    let point = get("point");
+    assert!(close(point.position, Vec3::new(0.0, 4.0, 0.0)), "{point:?}");
+    assert_eq!(
+        point.range,
+        Some(5.0),
+        "the node's scale leaves the range alone"
+    );
+    assert!(close(point.radiant, Vec3::splat(3.0)), "{point:?}");
+    let sun = get("sun");
+    assert!(close(sun.direction, Vec3::NEG_Z), "{sun:?}");
+    assert!(
+        matches!(sun.kind, stereocache::scene::LightKind::Directional { angular_radius } if angular_radius == 0.0)
+    );
+    let _ = std::fs::remove_dir_all(&d);
+}
