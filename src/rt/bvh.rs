@@ -795,33 +795,31 @@ mod tests {
         )
     }
 
+    /// Rays from inside the mesh `(p, idx)` placed by `m`, aimed at its
+    /// edges and vertices (`rays_at_edges`, 6000): how many miss through the
+    /// flattened and the two-level BVH, and how many were traced.
+    fn misses_through_both(p: &[Vec3], idx: &[u32], m: Mat4) -> (usize, usize, usize) {
+        let s = scene_of(p, idx, true, m);
+        let flat = SoftwareBvh::build(&s);
+        let two = TwoLevelBvh::build_at(&s, flat.origin);
+        let rays = rays_at_edges(p, idx, m, flat.origin, 0x1234_5678_9ABC_DEF1, 6000);
+        let miss = |f: &dyn Fn(Vec3, Vec3) -> bool| rays.iter().filter(|r| f(r.0, r.1)).count();
+        (
+            miss(&|o, d| flat.closest_hit(o, d, 0.0, 1e30).is_none()),
+            miss(&|o, d| two.closest_hit(o, d, 0.0, 1e30).is_none()),
+            rays.len(),
+        )
+    }
+
     /// Rays from inside a closed mesh (generic coordinates) aimed at its
     /// edges and vertices, through both BVHs: none misses.
     #[test]
     fn rays_from_inside_a_closed_mesh_aimed_at_edges_and_vertices_never_miss() {
         let (p, idx) = icosphere(2);
-        let s = scene_of(&p, &idx, true, Mat4::IDENTITY);
-        let flat = SoftwareBvh::build(&s);
-        let two = TwoLevelBvh::build_at(&s, flat.origin);
-        let rays = rays_at_edges(
-            &p,
-            &idx,
-            Mat4::IDENTITY,
-            flat.origin,
-            0x1234_5678_9ABC_DEF1,
-            6000,
-        );
-        let flat_miss = rays
-            .iter()
-            .filter(|r| flat.closest_hit(r.0, r.1, 0.0, 1e30).is_none());
-        let two_miss = rays
-            .iter()
-            .filter(|r| two.closest_hit(r.0, r.1, 0.0, 1e30).is_none());
-        let (a, b) = (flat_miss.count(), two_miss.count());
+        let (a, b, n) = misses_through_both(&p, &idx, Mat4::IDENTITY);
         assert!(
             a == 0 && b == 0,
-            "{a} (flattened) and {b} (two-level) of {} rays from inside missed",
-            rays.len()
+            "{a} (flattened) and {b} (two-level) of {n} rays from inside missed"
         );
     }
 
@@ -835,23 +833,10 @@ mod tests {
     #[test]
     fn rays_at_the_vertices_of_a_transformed_mesh_never_miss() {
         let (p, idx) = icosphere(2);
-        let m = generic_transform();
-        let s = scene_of(&p, &idx, true, m);
-        let flat = SoftwareBvh::build(&s);
-        let two = TwoLevelBvh::build_at(&s, flat.origin);
-        let rays = rays_at_edges(&p, &idx, m, flat.origin, 0x1234_5678_9ABC_DEF1, 6000);
-        let a = rays
-            .iter()
-            .filter(|r| flat.closest_hit(r.0, r.1, 0.0, 1e30).is_none())
-            .count();
-        let b = rays
-            .iter()
-            .filter(|r| two.closest_hit(r.0, r.1, 0.0, 1e30).is_none())
-            .count();
+        let (a, b, n) = misses_through_both(&p, &idx, generic_transform());
         assert!(
             a == 0 && b == 0,
-            "{a} (flattened) and {b} (two-level) of {} rays missed",
-            rays.len()
+            "{a} (flattened) and {b} (two-level) of {n} rays missed"
         );
     }
 
@@ -866,25 +851,7 @@ mod tests {
     fn rays_at_vertices_on_box_planes_are_not_culled_by_the_node_test() {
         let (p, idx) = icosphere(2);
         let p: Vec<Vec3> = p.iter().map(|v| (*v * 1024.0).round() / 1024.0).collect();
-        let s = scene_of(&p, &idx, true, Mat4::IDENTITY);
-        let flat = SoftwareBvh::build(&s);
-        let two = TwoLevelBvh::build_at(&s, flat.origin);
-        let rays = rays_at_edges(
-            &p,
-            &idx,
-            Mat4::IDENTITY,
-            flat.origin,
-            0x1234_5678_9ABC_DEF1,
-            6000,
-        );
-        let a = rays
-            .iter()
-            .filter(|r| flat.closest_hit(r.0, r.1, 0.0, 1e30).is_none())
-            .count();
-        let b = rays
-            .iter()
-            .filter(|r| two.closest_hit(r.0, r.1, 0.0, 1e30).is_none())
-            .count();
+        let (a, b, _) = misses_through_both(&p, &idx, Mat4::IDENTITY);
         assert!(
             a == 0 && b == 0,
             "{a} (flattened) and {b} (two-level) missed"
