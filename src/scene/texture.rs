@@ -19,8 +19,19 @@ pub struct Texture {
 }
 
 impl Texture {
-    /// Builds the full mip chain from a level-0 RGBA8 image with a 2×2 box filter
-    /// (in linear space for sRGB data so that averages are physically right).
+    /// Builds the full mip chain from a level-0 RGBA8 image with a box filter
+    /// over each texel's exact footprint, in linear space for sRGB data so
+    /// that averages are physically right. Level l + 1 has ⌊w/2⌋ × ⌊h/2⌋
+    /// texels (at least 1, as Vulkan sizes levels); where a size is odd, a
+    /// texel covers 2.5 (or 3, for 3 → 1) source texels along it, the edge
+    /// ones in part (`footprint_weights`), so no texel of a level is dropped
+    /// and every level keeps level 0's mean (to 8-bit rounding). Each level is
+    /// filtered from the one above kept in f32, not from its 8-bit storage, so
+    /// rounding does not accumulate down the chain. The colour channels are
+    /// not weighted by alpha: a texture is shared by every slot that reads its
+    /// image in this encoding, and alpha means coverage in glTF's base colour
+    /// but is ignored by the emissive slot and holds sheen roughness in
+    /// KHR_materials_sheen's colour texture.
     pub fn with_mips(
         name: String,
         encoding: TextureEncoding,
@@ -29,8 +40,6 @@ impl Texture {
         level0: Vec<u8>,
     ) -> Self {
         assert_eq!(level0.len(), (width * height * 4) as usize, "level 0 size");
-        let mut mips = vec![level0];
-        let (mut w, mut h) = (width, height);
         let to_lin = |c: u8| -> f32 {
             let c = c as f32 / 255.0;
             match encoding {
@@ -58,31 +67,54 @@ impl Texture {
             };
             (e * 255.0 + 0.5) as u8
         };
+        // 256-entry decode table (alpha is always linear).
+        let lut: Vec<f32> = (0..=255u8).map(to_lin).collect();
+        let mut cur: Vec<f32> = level0
+            .chunks_exact(4)
+            .flat_map(|t| {
+                [
+                    lut[t[0] as usize],
+                    lut[t[1] as usize],
+                    lut[t[2] as usize],
+                    t[3] as f32 / 255.0,
+                ]
+            })
+            .collect();
+        let mut mips = vec![level0];
+        let (mut w, mut h) = (width, height);
         while w > 1 || h > 1 {
             let (nw, nh) = ((w / 2).max(1), (h / 2).max(1));
-            let prev = mips.last().unwrap();
-            let mut next = vec![0u8; (nw * nh * 4) as usize];
-            for y in 0..nh {
-                for x in 0..nw {
-                    for c in 0..4 {
-                        let mut acc = 0.0;
-                        for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
-                            let sx = (2 * x + dx).min(w - 1);
-                            let sy = (2 * y + dy).min(h - 1);
-                            let v = prev[((sy * w + sx) * 4 + c) as usize];
-                            // Alpha is always linear.
-                            acc += if c == 3 { v as f32 / 255.0 } else { to_lin(v) };
+            let wx = footprint_weights(w, nw);
+            let wy = footprint_weights(h, nh);
+            let mut next = vec![0f32; (nw * nh * 4) as usize];
+            for (y, ys) in wy.iter().enumerate() {
+                for (x, xs) in wx.iter().enumerate() {
+                    let mut acc = [0f32; 4];
+                    for &(sy, fy) in ys {
+                        for &(sx, fx) in xs {
+                            let i = ((sy * w + sx) * 4) as usize;
+                            for (c, a) in acc.iter_mut().enumerate() {
+                                *a += fy * fx * cur[i + c];
+                            }
                         }
-                        acc *= 0.25;
-                        next[((y * nw + x) * 4 + c) as usize] = if c == 3 {
-                            (acc.clamp(0.0, 1.0) * 255.0 + 0.5) as u8
-                        } else {
-                            from_lin(acc)
-                        };
                     }
+                    let o = (y * nw as usize + x) * 4;
+                    next[o..o + 4].copy_from_slice(&acc);
                 }
             }
-            mips.push(next);
+            mips.push(
+                next.chunks_exact(4)
+                    .flat_map(|t| {
+                        [
+                            from_lin(t[0]),
+                            from_lin(t[1]),
+                            from_lin(t[2]),
+                            (t[3].clamp(0.0, 1.0) * 255.0 + 0.5) as u8,
+                        ]
+                    })
+                    .collect(),
+            );
+            cur = next;
             w = nw;
             h = nh;
         }
@@ -98,6 +130,29 @@ impl Texture {
     pub fn mip_levels(&self) -> u32 {
         self.mips.len() as u32
     }
+}
+
+/// The box filter of one axis from `n` texels down to `m` (m = ⌊n/2⌋ or 1):
+/// output texel i covers source texels [i·n/m, (i+1)·n/m), each weighted by
+/// the length of its overlap over n/m, so the weights of a texel sum to 1 and
+/// every source texel's weights sum to m/n (the mean is kept). Even n gives
+/// the plain 2-tap ½, ½.
+fn footprint_weights(n: u32, m: u32) -> Vec<Vec<(u32, f32)>> {
+    (0..m)
+        .map(|i| {
+            // Footprint in units of source texels, as exact rationals over m.
+            let (lo, hi) = (i as u64 * n as u64, (i as u64 + 1) * n as u64);
+            let first = (lo / m as u64) as u32;
+            let last = hi.div_ceil(m as u64) as u32; // exclusive
+            (first..last)
+                .map(|s| {
+                    let a = (s as u64 * m as u64).max(lo);
+                    let b = ((s as u64 + 1) * m as u64).min(hi);
+                    (s, (b - a) as f32 / n as f32)
+                })
+                .collect()
+        })
+        .collect()
 }
 
 /// How a texture coordinate outside [0, 1] is mapped back into the image
@@ -236,5 +291,78 @@ impl TextureSampler {
             "wrapS": self.wrap_s.to_gl(),
             "wrapT": self.wrap_t.to_gl(),
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn linear(w: u32, h: u32, mut f: impl FnMut(u32, u32) -> [u8; 4]) -> Texture {
+        let mut data = Vec::new();
+        for y in 0..h {
+            for x in 0..w {
+                data.extend(f(x, y));
+            }
+        }
+        Texture::with_mips("t".into(), TextureEncoding::Linear, w, h, data)
+    }
+
+    #[test]
+    fn odd_sizes_keep_every_texel() {
+        // 3×3 → 1×1 covers all nine texels: one white texel in the corner
+        // the old 2×2 box never read gives 255/9 = 28.3, not 0.
+        let t = linear(3, 3, |x, y| {
+            if (x, y) == (2, 2) {
+                [255; 4]
+            } else {
+                [0, 0, 0, 0]
+            }
+        });
+        assert_eq!(t.mips.len(), 2);
+        assert_eq!(t.mips[1], vec![28; 4]);
+        // 5 → 2: texel 0 covers 0, 1 and half of 2.
+        let t = linear(5, 1, |x, _| [[0, 0, 200, 0, 0][x as usize], 0, 0, 255]);
+        assert_eq!(t.mips[1][0], 40); // 200 · 0.5 / 2.5
+        assert_eq!(t.mips[1][4], 40);
+    }
+
+    #[test]
+    fn every_level_keeps_the_mean_of_level_zero() {
+        // A pseudo-random 37×23 image (odd and prime sizes all the way down).
+        let mut s = 12345u32;
+        let t = linear(37, 23, |_, _| {
+            let mut c = [0u8; 4];
+            for v in &mut c {
+                s = s.wrapping_mul(1664525).wrapping_add(1013904223);
+                *v = (s >> 24) as u8;
+            }
+            c
+        });
+        let mean = |level: &Vec<u8>, c: usize| {
+            let v: Vec<f64> = level.chunks_exact(4).map(|t| t[c] as f64).collect();
+            v.iter().sum::<f64>() / v.len() as f64
+        };
+        assert_eq!(t.mips.len(), 6); // 37×23, 18×11, 9×5, 4×2, 2×1, 1×1
+        for c in 0..4 {
+            let m0 = mean(&t.mips[0], c);
+            for (l, level) in t.mips.iter().enumerate() {
+                // Each level is the f32 filter of the one above, so its mean
+                // is level 0's up to the storage's rounding (±0.5 per texel).
+                let m = mean(level, c);
+                assert!(
+                    (m - m0).abs() <= 0.5 + 1e-3,
+                    "level {l} channel {c}: mean {m} against {m0}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn srgb_levels_average_in_linear_space() {
+        // Black and white → linear 0.5 → sRGB 0.7354 · 255 = 187.5 → 188.
+        let data = [0, 0, 0, 255, 255, 255, 255, 255].to_vec();
+        let t = Texture::with_mips("t".into(), TextureEncoding::Srgb, 2, 1, data);
+        assert_eq!(t.mips[1], vec![188, 188, 188, 255]);
     }
 }
