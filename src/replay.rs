@@ -26,7 +26,7 @@
 
 use crate::camera::{PoseTrace, Stage, StereoCamera};
 use crate::error::{Error, Result};
-use crate::methods::FrameInput;
+use crate::methods::{hash_table, FrameInput};
 use crate::methods::{EyeImage, FrameStats, Method, RayCounts, StereoFrame};
 use crate::output;
 use crate::session::{CameraSelect, Session};
@@ -511,6 +511,8 @@ pub fn replay_observed(
     // one after another must not inherit each other's entries).
     let memo = session.scene_gpu.memo.as_ref();
     let mut memo_live = 0u64;
+    // The hash table's lookups and failures over the run (hash-cache, hybrid).
+    let mut table_lookups: Option<(f64, f64)> = None;
     if let Some(m) = memo {
         m.reset()?;
     }
@@ -538,6 +540,11 @@ pub fn replay_observed(
             record.add_memo_counters(&m.counters()?, &mut memo_live);
         }
         record.metrics = metrics;
+        if let Some((l, f)) = hash_table::counters::lookups_and_failures(&record.counters) {
+            let t = table_lookups.get_or_insert((0.0, 0.0));
+            t.0 += l;
+            t.1 += f;
+        }
         if animated {
             let ms = posing.as_secs_f64() * 1e3;
             record.pose_ms = Some(ms);
@@ -571,6 +578,11 @@ pub fn replay_observed(
     let wall_s = start.elapsed().as_secs_f64();
     progress.finish_and_clear();
     lines.commit()?;
+    if let Some(w) = table_lookups
+        .and_then(|(l, f)| hash_table::counters::failed_lookup_warning(method.name(), l, f))
+    {
+        eprintln!("warning: {w}");
+    }
 
     let caps = &session.ctx.caps;
     let summary = ReplaySummary {

@@ -612,9 +612,11 @@ fn one_submit_per_frame_and_occupancy_from_the_live_entries() {
     let ctx = context();
     let s = session(&ctx, shipped("cornell"), RtChoice::Software);
     let (w, h) = (16, 12);
-    let hash = HashCacheSettings::default();
-    let capacity = hash.capacity as f64;
-    let mut m = hash_method(&s, &settings(w, h, hash));
+    let mut m = hash_method(&s, &settings(w, h, HashCacheSettings::default()));
+    // The table the default sized from the frame (settings.rs
+    // auto_capacity): 2^20 at this size.
+    let capacity = m.settings().capacity as f64;
+    assert_eq!(capacity, (1u32 << 20) as f64);
     let cam0 = default_camera(&s, w, h);
     check_one_submit_and_occupancy(&ctx, &mut m, capacity, |f| moving(&cam0, f, 2.0), |_, _| {});
 }

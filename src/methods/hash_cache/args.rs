@@ -1,15 +1,15 @@
 //! The `hash-cache` method's command-line options (`hybrid` takes its table's
 //! options from them).
 
-use super::settings::{HashCacheSettings, HashLod, MAX_CAPACITY};
+use super::settings::{HashCacheSettings, HashLod, AUTO_CAPACITY, MAX_CAPACITY};
 use crate::values::{float_with, int_in};
 
 /// Options of the hash-cache method (ignored by other methods).
 #[derive(clap::Args, Clone, Debug)]
 pub struct HashCacheArgs {
-    /// Hash-cache table entries (24 B each; a multiple of 16).
-    #[arg(long, default_value_t = 1 << 20, value_parser = int_in("--hash-capacity", 16u32, MAX_CAPACITY, "entries (a multiple of 16)"))]
-    pub hash_capacity: u32,
+    /// Hash-cache table entries (24 B each; a multiple of 16). Default: 8 per pixel of both eyes, as a power of two, at least 2^20, within the device's storage-buffer limit.
+    #[arg(long, value_parser = int_in("--hash-capacity", 16u32, MAX_CAPACITY, "entries (a multiple of 16)"))]
+    pub hash_capacity: Option<u32>,
     /// distance | distance-normal (level of detail also from the incidence angle)
     #[arg(long, default_value = "distance")]
     pub hash_lod: HashLod,
@@ -41,7 +41,7 @@ impl HashCacheArgs {
     /// (a multiple of 16, probes within the table); the message names the option.
     pub fn settings(&self, debug_views: bool) -> Result<HashCacheSettings, String> {
         let s = HashCacheSettings {
-            capacity: self.hash_capacity,
+            capacity: self.hash_capacity.unwrap_or(AUTO_CAPACITY),
             max_probe: self.hash_max_probe,
             stale_frames: self.hash_stale_frames,
             lod: self.hash_lod,

@@ -20,7 +20,7 @@
 //! [`HashTable::record_count`] (`count.comp`, live entries: a statistic, not
 //! counted in the frame time); its counters are [`table_counters`].
 
-mod counters;
+pub mod counters;
 pub mod hash;
 mod pixels;
 mod push;

@@ -14,6 +14,9 @@ use crate::gpu::{
 use crate::interface::hash_table::{TableCounter, INTERFACE, PUSH};
 use crate::interface::CounterSlot;
 use crate::interface::Interface;
+use crate::methods::hash_cache::settings::{
+    auto_capacity, AUTO_CAPACITY, AUTO_ENTRIES_PER_PIXEL, MAX_CAPACITY,
+};
 use crate::methods::hash_cache::HashCacheSettings;
 use crate::methods::reference::backend_shader;
 use crate::rt::SceneGpu;
@@ -119,6 +122,24 @@ impl HashTable {
         desc: TableDesc,
     ) -> GpuResult<HashTable> {
         settings.validate().map_err(GpuError::Unsupported)?;
+        let mut settings = settings.clone();
+        if settings.capacity == AUTO_CAPACITY {
+            let (cap, short) = auto_capacity(desc.pixels, ctx.caps.max_storage_buffer_range);
+            if short {
+                eprintln!(
+                    "warning: {}: the hash table holds {cap} entries, fewer than {AUTO_ENTRIES_PER_PIXEL} per pixel of both eyes ({} pixels; {}): expect failed lookups, whose pixels show their own 1 spp path",
+                    desc.label,
+                    desc.pixels,
+                    if cap == MAX_CAPACITY {
+                        "the largest table".to_string()
+                    } else {
+                        format!("device '{}' binds {} bytes", ctx.caps.name, ctx.caps.max_storage_buffer_range)
+                    }
+                );
+            }
+            settings.capacity = cap;
+        }
+        let settings = &settings;
         if !(ctx.enabled.buffer_int64_atomics && ctx.enabled.shader_int64) {
             return Err(GpuError::Unsupported(format!(
                 "device '{}' lacks shaderBufferInt64Atomics or shaderInt64 (64-bit integers), which the hash cache's keys need",
