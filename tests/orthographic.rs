@@ -493,3 +493,193 @@ fn an_orthographic_edge_pixel_converges_to_its_coverage() {
     }
     assert_no_validation_messages(&ctx);
 }
+
+/// Pixel (i, j) of `eye` lies at least two pixels from the square (as it
+/// stands at shift 0 and after the eye slid up to one pixel along +X) and
+/// from the image's border: sky that only background samples reach.
+fn open_sky(eye: Eye, i: u32, j: u32) -> bool {
+    let (lo, hi) = match eye {
+        Eye::Left => (11, 31),
+        Eye::Right => (9, 29),
+    };
+    let near_square = (lo - 3..hi + 2).contains(&i) && (8..32).contains(&j);
+    (2..W - 2).contains(&i) && (2..W - 2).contains(&j) && !near_square
+}
+
+/// An orthographic eye's background sample moves with the eye's
+/// translation by its place in the pixel (camera.glsl background_offset),
+/// so a sample reprojected into a pixel must carry its place there
+/// (first_hit.glsl background_at), in the one- and two-pass reprojection of
+/// the sample cache and in isrt's gather. Until session 49 it kept the
+/// place it was traced at: sliding 0.3 pixels a frame, a sample at place
+/// 0.1 of pixel p went to pixel p − 1 at place 0.1 (not 0.8), then to p − 2
+/// (not p − 1 at 0.5): samples stood still or ran a pixel ahead, and along
+/// a 24-frame slide the square's trailing edge pixels read 0.156 ± 0.014
+/// below their coverage in the sample cache (isrt 0.038 ± 0.003).
+///
+/// Known answer: every open-sky pixel (`open_sky`) is given one background
+/// sample along the view axis at place (0.1, 0.5) (isrt: each cell one at
+/// its centre); the eye slides 0.3 pixels along +X twice, and after each
+/// frame every sample of those pixels is the one from 0.3 pixels to the
+/// right, at place x − 0.3 (within 1/256 a frame, the stored place's
+/// resolution), its y place unchanged.
+#[test]
+fn background_samples_carry_their_place_into_the_new_pixel() {
+    use stereocache::methods::isrt::{Isrt, IsrtSettings, IsrtSnapshot};
+    use stereocache::methods::sample_cache::background::{
+        background_subpixel, encode_background, is_background,
+    };
+    use stereocache::methods::sample_cache::{CacheSnapshot, Reproject, SampleCache};
+    let ctx = context();
+    let scene = square(Environment::Constant(Vec3::ONE));
+    let px = 1.0 / (W as f32 / (2.0 * YMAG));
+    let cam = |k: u32| {
+        let mut c = ortho_camera(2.0, 0.0);
+        c.head.position.x += 0.3 * k as f32 * px;
+        c
+    };
+    let n = (W * W) as usize;
+    let sky = [1.0f32, 1.0, 1.0, 0.0];
+    let tol = |k: u32| k as f32 / 256.0 + 1e-5;
+    for rt in rt_backends(&ctx) {
+        let s = session(&ctx, scene.clone(), rt);
+        for reproject in [Reproject::OnePass, Reproject::TwoPass] {
+            let cs = SampleCacheSettings {
+                slots: 1,
+                n_target: 1,
+                delta: 0,
+                reproject,
+                retrace: Retrace::Multi,
+                ..Default::default()
+            };
+            let mut m = SampleCache::new(
+                &s.ctx,
+                &s.scene_gpu,
+                &s.scene.environment,
+                &settings(1),
+                &cs,
+            )
+            .unwrap();
+            let mut snap = CacheSnapshot {
+                slots: 1,
+                width: W,
+                height: W,
+                masks: vec![0; 2 * n],
+                first_hits: vec![[0, 0, 0, u32::MAX]; 2 * n],
+                radiance: vec![[0.0; 4]; 2 * n],
+                pixel_stats: vec![],
+                histogram: vec![],
+                unshaded_pixels: [0; 2],
+                base_pixels: [0; 2],
+                shade_count: 0,
+                shade_list: vec![],
+            };
+            for (e, eye) in Eye::BOTH.into_iter().enumerate() {
+                for j in 0..W {
+                    for i in 0..W {
+                        // The sky the samples come from: open sky and the
+                        // pixel to its right.
+                        if open_sky(eye, i, j) || (i > 0 && open_sky(eye, i - 1, j)) {
+                            let p = e * n + (j * W + i) as usize;
+                            snap.masks[p] = 0b11;
+                            snap.first_hits[p] =
+                                encode_background(Vec3::NEG_Z, Vec2::new(0.1, 0.5));
+                            snap.radiance[p] = sky;
+                        }
+                    }
+                }
+            }
+            m.load(&snap).unwrap();
+            for k in 1..=2u32 {
+                render_at(&mut m, k, cam(k), Some(cam(k - 1)));
+                let out = m.snapshot().unwrap();
+                // 0.1 − 0.3k: place 0.8 in the pixel to the left, then 0.5 there.
+                let want_x = (0.1 - 0.3 * k as f32).rem_euclid(1.0);
+                for (e, eye) in Eye::BOTH.into_iter().enumerate() {
+                    for j in 0..W {
+                        for i in 0..W {
+                            if !open_sky(eye, i, j) {
+                                continue;
+                            }
+                            let p = e * n + (j * W + i) as usize;
+                            let fh = out.first_hits[out.slot(e, 0, (j * W + i) as usize)];
+                            let what = format!("{reproject:?} {rt:?} frame {k} {eye:?} ({i}, {j})");
+                            assert_eq!(out.masks[p], 0b11, "{what}: one visible sample");
+                            assert!(is_background(fh), "{what}: a background sample");
+                            let at = background_subpixel(fh).unwrap();
+                            assert!(
+                                (at.x - want_x).abs() <= tol(k) && (at.y - 0.5).abs() <= tol(k),
+                                "{what}: place {at}, expected ({want_x}, 0.5)"
+                            );
+                        }
+                    }
+                }
+            }
+        }
+        // isrt: M = 3 cells a pixel, each given a background sample at its
+        // centre; 0.3 px < a cell (1/3 px), so each lands in the cell to its
+        // left, at place (centre − 0.3) in that cell's pixel, then − 0.6.
+        let is = IsrtSettings::default();
+        let mm = is.m;
+        let mut m = Isrt::new(
+            &s.ctx,
+            &s.scene_gpu,
+            &s.scene.environment,
+            &settings(1),
+            &is,
+        )
+        .unwrap();
+        let gw = W * mm;
+        let cells = (gw * gw) as usize;
+        let mut snap = IsrtSnapshot {
+            m: mm,
+            width: W,
+            height: W,
+            first_hits: vec![[0, 0, 0, u32::MAX]; 2 * cells],
+            radiance: vec![[0.0; 4]; 2 * cells],
+        };
+        let centre = |g: u32| (g as f32 + 0.5) / mm as f32; // in pixels
+        for (e, eye) in Eye::BOTH.into_iter().enumerate() {
+            for gy in 0..gw {
+                for gx in 0..gw {
+                    let (i, j) = (gx / mm, gy / mm);
+                    if open_sky(eye, i, j) || (i > 0 && open_sky(eye, i - 1, j)) {
+                        let c = snap.cell(e, gx, gy);
+                        let sub = Vec2::new(centre(gx).fract(), centre(gy).fract());
+                        snap.first_hits[c] = encode_background(Vec3::NEG_Z, sub);
+                        snap.radiance[c] = sky;
+                    }
+                }
+            }
+        }
+        m.load(&snap).unwrap();
+        for k in 1..=2u32 {
+            render_at(&mut m, k, cam(k), Some(cam(k - 1)));
+            let out = m.snapshot().unwrap();
+            for (e, eye) in Eye::BOTH.into_iter().enumerate() {
+                for gy in 0..gw {
+                    for gx in 0..gw {
+                        let (i, j) = (gx / mm, gy / mm);
+                        if !open_sky(eye, i, j) {
+                            continue;
+                        }
+                        // The sample from k cells to the right, 0.3k px
+                        // to the left of that cell's centre.
+                        let x = centre(gx + k) - 0.3 * k as f32;
+                        let (want_x, want_y) = (x - i as f32, centre(gy).fract());
+                        let fh = out.first_hits[out.cell(e, gx, gy)];
+                        let what = format!("isrt {rt:?} frame {k} {eye:?} cell ({gx}, {gy})");
+                        assert!(is_background(fh), "{what}: a background sample");
+                        let at = background_subpixel(fh).unwrap();
+                        assert!(
+                            (at.x - want_x).abs() <= tol(k) + 0.5 / 256.0
+                                && (at.y - want_y).abs() <= tol(k) + 0.5 / 256.0,
+                            "{what}: place {at}, expected ({want_x}, {want_y})"
+                        );
+                    }
+                }
+            }
+        }
+    }
+    assert_no_validation_messages(&ctx);
+}

@@ -128,4 +128,16 @@ bool background_offset(EyeGpu e, EyeGpu pe, vec2 at, vec3 d, out vec3 offset) {
     offset += (pe.pos_tanx.xyz - e.pos_tanx.xyz) + eye_plane_offset(pe, at);
     return true;
 }
+// Where a background sample (direction d, traced through continuous pixel
+// `at` of eye pe) lands in eye e: continuous pixel q (background_offset,
+// then project_offset_to_eye); false when it leaves the view (orthographic
+// turn, or behind). Pass 1 of a reprojection chooses the target with it, and
+// a later pass that copies the sample recomputes q to update the sample's
+// place in its new pixel (first_hit.glsl background_at).
+bool background_target(EyeGpu e, EyeGpu pe, vec2 at, vec3 d, out vec2 q) {
+    vec3 offset;
+    float vd;
+    q = vec2(-1.0);
+    return background_offset(e, pe, at, d, offset) && project_offset_to_eye(e, offset, q, vd);
+}
 #endif

@@ -77,13 +77,26 @@ bool first_hit_is_background(uvec4 fh) { return fh.w == NO_HIT && (fh.z & 0xFFFF
 
 vec2 bg_sign_not_zero(vec2 v) { return vec2(v.x >= 0.0 ? 1.0 : -1.0, v.y >= 0.0 ? 1.0 : -1.0); }
 
+// The background record fh with its place in the pixel set to `sub` (the
+// fractional part of where reprojection put it, clamped into the pixel):
+// an orthographic eye's background sample moves with the eye's translation
+// by its place in the pixel (camera.glsl background_offset), so it must
+// carry its new place, not the one it was traced at in another pixel
+// (before session 49 it kept the old one: an eye sliding 0.3 pixels a
+// frame left its samples behind or ran them ahead, whole pixels at a time;
+// tests/orthographic.rs). In a perspective eye the place only records
+// where the direction now projects.
+uvec4 background_at(uvec4 fh, vec2 sub) {
+    uvec2 q = uvec2(clamp(sub * 256.0, vec2(0.0), vec2(255.0)));
+    return uvec4(fh.xy, BACKGROUND_TAG | (q.x << 8) | q.y, fh.w);
+}
+
 // The record of a background ray in direction d through the point `sub` ∈
 // [0, 1)² of its pixel.
 uvec4 encode_background(vec3 d, vec2 sub) {
     vec3 n = d / (abs(d.x) + abs(d.y) + abs(d.z));
     vec2 p = n.z >= 0.0 ? n.xy : (1.0 - abs(n.yx)) * bg_sign_not_zero(n.xy);
-    uvec2 q = uvec2(clamp(sub * 256.0, vec2(0.0), vec2(255.0)));
-    return uvec4(floatBitsToUint(p.x), floatBitsToUint(p.y), BACKGROUND_TAG | (q.x << 8) | q.y, NO_HIT);
+    return background_at(uvec4(floatBitsToUint(p.x), floatBitsToUint(p.y), 0u, NO_HIT), sub);
 }
 
 // Where in its pixel a background sample's ray went (its 1/256 cell's centre).

@@ -15,8 +15,20 @@ void main() {
         rad_cur[dst] = vec4(0.0);
         return;
     }
-    uint src = eye * cells_per_eye() + uint(c & 0xFFFFFFFFul);
-    fh_cur[dst] = fh_prev[src];
+    uint local = uint(c & 0xFFFFFFFFul);
+    uint src = eye * cells_per_eye() + local;
+    uvec4 fh = fh_prev[src];
+    if (first_hit_is_background(fh)) {
+        // Its new place in its new pixel (first_hit.glsl background_at),
+        // from the projection reproject.comp made (camera.glsl
+        // background_target), clamped into the pixel should the recomputed
+        // q differ by an ulp.
+        uvec2 sg = uvec2(local % grid_size().x, local / grid_size().x);
+        vec2 q;
+        background_target(frame.eyes[eye], frame.prev_eyes[eye], vec2(sg / M) + background_subpixel(fh), background_direction(fh), q);
+        fh = background_at(fh, q - vec2(g / M));
+    }
+    fh_cur[dst] = fh;
     rad_cur[dst] = rad_prev[src];
     atomicAdd(counters[C_ISRT_KEPT], 1u);
 }

@@ -37,8 +37,9 @@ void main() {
             return;
         }
     }
-    bool kept = !bg || background_offset(e, frame.prev_eyes[eye], vec2(g / M) + background_subpixel(fh), background_direction(fh), offset);
-    if (!kept || !project_offset_to_eye(e, offset, q, vd) || any(lessThan(q, vec2(0.0))) ||
+    bool on_screen = bg ? background_target(e, frame.prev_eyes[eye], vec2(g / M) + background_subpixel(fh), background_direction(fh), q)
+                        : project_offset_to_eye(e, offset, q, vd);
+    if (!on_screen || any(lessThan(q, vec2(0.0))) ||
         any(greaterThanEqual(q, size))) {
         atomicAdd(counters[C_ISRT_OFFSCREEN], 1u);
         return;

@@ -48,17 +48,18 @@ void main() {
         // view turns: camera.glsl background_offset); its distance is t = ∞
         // (below).
         bool bg = first_hit_is_background(fh);
-        bool kept = true;
-        vec3 offset;   // from e's position
+        vec3 offset = vec3(0.0);   // a surface sample's, from e's position
+        vec2 q;
+        bool on_screen;
         if (bg) {
-            kept = background_offset(e, frame.prev_eyes[eye], vec2(px) + background_subpixel(fh), background_direction(fh), offset);
+            on_screen = background_target(e, frame.prev_eyes[eye], vec2(px) + background_subpixel(fh), background_direction(fh), q);
         } else {
             hit_position_and_normal(fh, wp, ng);
             offset = wp - e.pos_tanx.xyz;
+            float vd;
+            on_screen = project_offset_to_eye(e, offset, q, vd);
         }
-        vec2 q;
-        float vd;
-        if (!kept || !project_offset_to_eye(e, offset, q, vd) || any(lessThan(q, vec2(0.0))) || any(greaterThanEqual(q, vec2(size)))) {
+        if (!on_screen || any(lessThan(q, vec2(0.0))) || any(greaterThanEqual(q, vec2(size)))) {
             offscreen++;
             continue;
         }
@@ -106,7 +107,9 @@ void main() {
             // the source is in the same eye.)
             atomicMax(target_src[dst], (vis ? 0x80000000u : 0u) | (s * npix() + pixel + 1u));
         } else {
-            fh_cur[dst] = fh;
+            // A background sample carries its new place in the pixel
+            // (first_hit.glsl background_at).
+            fh_cur[dst] = bg ? background_at(fh, q - vec2(qi)) : fh;
             if (SHADING_STORAGE) rad_cur[dst] = rad_prev[src];
         }
         reprojected++;

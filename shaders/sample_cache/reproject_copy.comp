@@ -21,8 +21,21 @@ void main() {
         uint dst = slot_index(eye, s, pixel);
         uint key = target_src[dst];
         if (key == 0u) continue;   // (every successful reservation writes a key)
-        uint src = eye * N_SLOTS * npix() + (key & 0x7FFFFFFFu) - 1u;
-        fh_cur[dst] = fh_prev[src];
+        uint local = (key & 0x7FFFFFFFu) - 1u;   // s·npix + source pixel
+        uint src = eye * N_SLOTS * npix() + local;
+        uvec4 fh = fh_prev[src];
+        if (first_hit_is_background(fh)) {
+            // Its new place in the pixel (first_hit.glsl background_at),
+            // from the projection pass 1 made (camera.glsl
+            // background_target), relative to this pixel and clamped into
+            // it should the recomputed q differ by an ulp.
+            uint sp = local % npix();
+            vec2 at = vec2(sp % size.x, sp / size.x) + background_subpixel(fh);
+            vec2 q;
+            background_target(frame.eyes[eye], frame.prev_eyes[eye], at, background_direction(fh), q);
+            fh = background_at(fh, q - vec2(px));
+        }
+        fh_cur[dst] = fh;
         if (SHADING_STORAGE) rad_cur[dst] = rad_prev[src];
         m |= (1u << s) | ((key >> 31) << (s + N_SLOTS));
     }

@@ -311,6 +311,23 @@ impl Isrt {
             radiance: self.radiance[c].download_pod()?,
         })
     }
+
+    /// Replaces the current grid — what the next frame reprojects — with
+    /// `snap`'s first hits and radiance records (tests construct grid
+    /// contents this way, as `SampleCache::load`).
+    pub fn load(&mut self, snap: &IsrtSnapshot) -> GpuResult<()> {
+        let c = (self.frames % 2) as usize;
+        let cells =
+            2 * (self.settings.width * self.settings.height * self.isrt.m * self.isrt.m) as usize;
+        if snap.m != self.isrt.m || snap.first_hits.len() != cells || snap.radiance.len() != cells {
+            return Err(GpuError::Unsupported(
+                "Isrt::load: the snapshot's size does not match the grid".into(),
+            ));
+        }
+        self.first_hits[c].upload(bytemuck::cast_slice(&snap.first_hits))?;
+        self.radiance[c].upload(bytemuck::cast_slice(&snap.radiance))?;
+        Ok(())
+    }
 }
 
 impl Isrt {
