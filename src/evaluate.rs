@@ -460,6 +460,11 @@ impl Evaluator {
         // identical to the reference. (Until session 48 an identical eye
         // counted as 100 dB in a mean of the eyes' dB: [∞, 30] gave 65.)
         let mut display_mse = 0.0;
+        // CPBD of the eyes that have edges to measure (ImageMetrics: none
+        // in a flat image); the mean over those, absent when neither has
+        // one. (Until session 49 a flat eye counted as CPBD 0 in the mean:
+        // a sky-only eye beside one at 0.9 gave 0.45.)
+        let (mut cpbd_x, mut cpbd_r) = (Vec::new(), Vec::new());
         for e in 0..2 {
             let im = ImageMetrics::compute_at(&imgs[e], &refs[e], ppd).map_err(m)?;
             add("rse", im.rse as f64);
@@ -467,13 +472,18 @@ impl Evaluator {
             display_mse += 0.5 * 10f64.powf(-(im.psnr as f64) / 10.0);
             add("ssim", im.ssim as f64);
             add("flip", im.flip as f64);
-            add("cpbd", im.cpbd as f64);
-            add("cpbd_reference", im.cpbd_reference as f64);
+            cpbd_x.extend(im.cpbd.map(f64::from));
+            cpbd_r.extend(im.cpbd_reference.map(f64::from));
             // Pixels holding ∞ or NaN in some channel, both eyes together
             // (2 × the eyes' mean): every metric scores those channels as 0
             // (LinearImage::sanitized), so they are counted here and named
             // by compare's warning.
             add("non_finite_pixels", 2.0 * im.non_finite as f64);
+        }
+        for (k, v) in [("cpbd", &cpbd_x), ("cpbd_reference", &cpbd_r)] {
+            if !v.is_empty() {
+                out.insert(k.to_string(), v.iter().sum::<f64>() / v.len() as f64);
+            }
         }
         out.insert(
             "psnr".to_string(),

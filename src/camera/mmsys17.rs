@@ -40,8 +40,10 @@
 //! What could not be checked here: no MMSys'17 file is in `../shared`, so
 //! the sign of the forward axis (+x rather than −x, i.e. which way is the
 //! centre of the video) rests on the MMSys'18 data and the shared
-//! convention; a wrong sign would turn every pose by 180° about the
-//! vertical, not mirror the motion.
+//! convention, and the dataset's recorder (`CQuaternion.cpp`, which builds
+//! the viewport from head-frame corners (1, ±y, ±z)). A wrong sign would
+//! keep yaw but reverse pitch and roll: the replayed head would nod up
+//! where the user nodded down.
 //!
 //! # Position, repairs
 //!

@@ -198,7 +198,7 @@ impl TraceBuilder {
         if norm <= 1e-9 {
             return Err(self.line_error(
                 line,
-                "quaternion has zero norm; a head orientation needs a unit quaternion (qx,qy,qz,qw)",
+                "quaternion has (nearly) zero norm, at most 1e-9; a head orientation needs a unit quaternion (qx,qy,qz,qw)",
             ));
         }
         let dev = (norm - 1.0).abs();

@@ -45,7 +45,15 @@
 //! this changes nothing.
 //!
 //! **No edges** (e.g. a constant image): `cpbd = 0` with `edges = 0`, as the
-//! `cpbd` Python package returns; callers should check `edges`.
+//! `cpbd` Python package returns (the authors' MATLAB gives NaN); callers
+//! check `edges`: `ImageMetrics` reports no value then, and the frame's
+//! metric is the mean over the eyes that have edges.
+//!
+//! **Edge direction**: where the horizontal central difference is 0 and the
+//! vertical is not, the gradient angle is ±90° and the pixel is not
+//! measured (a vertical edge only); the authors' code leaves the angle at
+//! 0° there and measures it as a rising edge. On noisy 64×64 images that
+//! is 0.02 % of the Sobel edge pixels, below 10⁻³ in CPBD.
 
 use super::check::MetricsError;
 use super::filter::{gaussian_kernel, separable};

@@ -26,11 +26,14 @@ pub struct ImageMetrics {
     /// [`DEFAULT_PPD`] ([`Self::compute`]) or the given pixels per degree
     /// ([`Self::compute_at`]).
     pub flip: f32,
-    /// CPBD sharpness of the test image.
-    pub cpbd: f32,
-    /// CPBD sharpness of the reference (the paper compares the two).
-    pub cpbd_reference: f32,
-    /// Non-finite channel values in the test image, replaced by 0.
+    /// CPBD sharpness of the test image; `None` (JSON `null`) when the
+    /// image has no edge to measure (a flat image: CPBD's definition has
+    /// no value there, and the authors' code returns NaN).
+    pub cpbd: Option<f32>,
+    /// CPBD sharpness of the reference (the paper compares the two), as `cpbd`.
+    pub cpbd_reference: Option<f32>,
+    /// Pixels of the test image with a non-finite channel value (each
+    /// such channel replaced by 0).
     pub non_finite: usize,
 }
 
@@ -55,16 +58,33 @@ impl ImageMetrics {
             psnr: psnr(x, reference)?,
             ssim: ssim(x, reference)?.mean,
             flip: flip_hdr(x, reference, flip_ppd)?.flip.mean,
-            cpbd: cpbd(x)?.cpbd,
-            cpbd_reference: cpbd(reference)?.cpbd,
+            cpbd: cpbd_with_edges(x)?,
+            cpbd_reference: cpbd_with_edges(reference)?,
             non_finite: x.non_finite_count(),
         })
     }
 }
 
+/// CPBD of `x`, `None` without edges.
+fn cpbd_with_edges(x: &LinearImage) -> Result<Option<f32>, MetricsError> {
+    let c = cpbd(x)?;
+    Ok((c.edges > 0).then_some(c.cpbd))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_flat_image_has_no_cpbd() {
+        let flat = LinearImage::from_fn(64, 64, |_, _| [0.5; 3]);
+        let edges = LinearImage::from_fn(64, 64, |x, _| [if x < 32 { 0.0 } else { 1.0 }; 3]);
+        let m = ImageMetrics::compute(&flat, &edges).unwrap();
+        assert_eq!(m.cpbd, None);
+        assert_eq!(m.cpbd_reference, Some(1.0)); // one sharp step: every edge pixel sharp
+        let json = serde_json::to_value(m).unwrap();
+        assert!(json["cpbd"].is_null(), "{json}");
+    }
 
     #[test]
     fn identical_and_different_images() {

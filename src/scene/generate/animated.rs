@@ -40,18 +40,24 @@ pub fn cone(name: &str, segments: u32) -> Mesh {
         ..Default::default()
     };
     // Side: one ring at the base and one apex vertex per segment (the apex
-    // normal differs per segment), normals ∝ (cos φ, r/h = 1, sin φ).
+    // normal differs per segment), normals ∝ (sin φ, r/h = 1, cos φ): the
+    // cone's normal is constant along each ruling, so segment s's apex takes
+    // the normal of its middle ruling, φ at s + ½ (until session 49 it took
+    // φ_s, half a segment off: 3.75° at 48 segments).
+    let normal = |u: f32| {
+        let (sin, cos) = (u * std::f32::consts::TAU).sin_cos();
+        Vec3::new(sin, 1.0, cos).normalize()
+    };
     for s in 0..=segments {
         let u = s as f32 / segments as f32;
-        let phi = u * std::f32::consts::TAU;
-        let (sin, cos) = phi.sin_cos();
-        let n = Vec3::new(sin, 1.0, cos).normalize();
+        let (sin, cos) = (u * std::f32::consts::TAU).sin_cos();
         m.positions.push(Vec3::new(sin, 0.0, cos));
-        m.normals.push(n);
+        m.normals.push(normal(u));
         m.uvs.push(Vec2::new(u, 1.0));
+        let mid = (s as f32 + 0.5) / segments as f32;
         m.positions.push(Vec3::Y);
-        m.normals.push(n);
-        m.uvs.push(Vec2::new(u, 0.0));
+        m.normals.push(normal(mid));
+        m.uvs.push(Vec2::new(mid, 0.0));
     }
     for s in 0..segments {
         let a = 2 * s;

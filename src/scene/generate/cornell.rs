@@ -3,8 +3,12 @@
 //! ceiling, a metal sphere and a glass sphere. 1 m box, metres, +Y up, open
 //! towards +Z where the `default` camera stands.
 //!
-//! Colours are the usual measured Cornell reflectances (as in the Mitsuba/pbrt
-//! scene files), converted to linear RGB.
+//! Colours are linear RGB reflectances as in Bitterli's `cornell-box`
+//! rendering resource (white 0.725, 0.71, 0.68; red 0.63, 0.065, 0.05;
+//! green 0.14, 0.45, 0.091; light 17, 12, 4), used as they are. The box's
+//! size and the light's (0.25 × 0.2 m in a 1 m box) are the paper's
+//! appendix-C box, not the measured Cornell data (1.30 × 1.05 m of light in
+//! a 5.56 m box).
 
 use super::{add_material, add_mesh, grid, look_at, uv_sphere};
 use crate::scene::{Material, Scene, Volume};
