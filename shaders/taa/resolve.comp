@@ -12,8 +12,14 @@
 //  2. history rejection (§4.2): q off-screen, or no bilinear tap around q whose
 //     previous first hit and depth agree with the point (both misses, or both
 //     hits at the expected previous view depth) → disocclusion, history dropped;
-//  3. bilinear history fetch over the consistent taps only, renormalised
-//     (per-tap validity as in SVGF's reprojection);
+//  3. history fetch: Catmull-Rom over the 4×4 texels around q (Karis 2014;
+//     the survey's §4.1: a bicubic history keeps the repeated resampling
+//     from blurring a moving image; taps beyond the image clamped to its
+//     edge) where all 16 taps are consistent (flag bit 5, `--taa-history catmull-rom`, the default
+//     since session 49); else, and with `--taa-history bilinear`, bilinear
+//     over the consistent taps of the 2×2 only, renormalised (per-tap
+//     validity as in SVGF's reprojection). The history length n is the
+//     bilinear one either way;
 //  4. variance clipping (§4.2, Salvi 2016): the history is clipped towards
 //     the mean of a YCoCg AABB μ ± γσ of the current 3×3 neighbourhood;
 //  5. blend (§3) of the (clipped) history h and the current frame c,
@@ -163,6 +169,34 @@ void main() {
         }
         if (wsum > 1e-4) hist /= wsum;
         else reason = C_TAA_DISOCCLUDED;
+        if (reason == HISTORY_USED && (pc.flags & 32u) != 0u) {
+            // Catmull-Rom weights of the taps at b − 1 … b + 2 for the
+            // fraction t (they sum to 1 and interpolate: t = 0 gives the
+            // texel b alone, so a still view reads its history exactly).
+            vec2 w0 = t * (-0.5 + t * (1.0 - 0.5 * t));
+            vec2 w1 = 1.0 + t * t * (-2.5 + 1.5 * t);
+            vec2 w2 = t * (0.5 + t * (2.0 - 1.5 * t));
+            vec2 w3 = t * t * (-0.5 + 0.5 * t);
+            // Taps beyond the image read its edge (clamp-to-edge
+            // addressing, as a texture's), so the border pixels keep the
+            // filter (where a tap's weight is 0, as along an axis the view
+            // did not move, the clamped tap changes nothing).
+            vec3 cr = vec3(0.0);
+            bool all_taps = true;
+            for (int k = 0; k < 16 && all_taps; ++k) {
+                ivec2 o = ivec2(k & 3, k >> 2);
+                ivec2 tp = clamp(b - 1 + o, ivec2(0), ivec2(size) - 1);
+                uint pi = base + uint(tp.y) * size.x + uint(tp.x);
+                if ((pc.flags & 2u) != 0u && !tap_consistent(hit, fh, vd, prev_fh[pi], prev_depth[pi])) {
+                    all_taps = false;
+                    break;
+                }
+                float wx = o.x == 0 ? w0.x : o.x == 1 ? w1.x : o.x == 2 ? w2.x : w3.x;
+                float wy = o.y == 0 ? w0.y : o.y == 1 ? w1.y : o.y == 2 ? w2.y : w3.y;
+                cr += wx * wy * hist_prev[pi].rgb;
+            }
+            if (all_taps) hist.rgb = cr;
+        }
     }
 
     vec3 result;

@@ -27,7 +27,8 @@ pub const RESOLVE_PUSH: PushBlock = PushBlock {
         ("weights", PushType::U32),
         // bit 0: a history exists; bit 1: reject disocclusions; bit 2: clip;
         // bit 3: the input colour is a sample sum (rgb / w); bit 4: motion
-        // vectors of moving instances (where SC_ANIMATED)
+        // vectors of moving instances (where SC_ANIMATED); bit 5: Catmull-Rom
+        // history where its 16 taps are consistent
         ("flags", PushType::U32),
     ],
 };

@@ -30,7 +30,7 @@ pub use reference::Reference;
 pub use registry::{MethodConfig, MethodKind};
 pub use sample_cache::{SampleCache, SampleCacheSettings};
 pub use specialize::LightSampling;
-pub use taa::{Taa, TaaOnOutput, TaaPass, TaaSettings, TaaWeights};
+pub use taa::{halton_jitter, Taa, TaaHistory, TaaOnOutput, TaaPass, TaaSettings, TaaWeights};
 
 use crate::gpu::{GpuContext, GpuResult, Recorder};
 use std::sync::Arc;

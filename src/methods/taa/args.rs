@@ -1,7 +1,7 @@
 //! The one TAA's command-line options: the `taa` method's, and those of the
 //! TAA `hash-cache`, `hybrid` and `--taa-output` run on a method's output.
 
-use super::settings::{TaaSettings, TaaWeights};
+use super::settings::{TaaHistory, TaaSettings, TaaWeights};
 use crate::values::float_with;
 
 /// Options of the one TAA: the taa method's, hash-cache's and hybrid's TAA and --taa-output.
@@ -16,6 +16,9 @@ pub struct TaaArgs {
     /// Clipping box half-width in standard deviations of the 3×3 YCoCg neighbourhood.
     #[arg(long, default_value_t = 1.0, value_parser = float_with("--taa-gamma", crate::values::positive_f32, "a positive number"))]
     pub taa_gamma: f32,
+    /// catmull-rom (the history resampled over 4x4 texels where all are consistent, else bilinear) | bilinear
+    #[arg(long, default_value = "catmull-rom")]
+    pub taa_history: TaaHistory,
     /// Apply this TAA to the output of every method (the paper's Fig. 12,
     /// "TAA on top of all methods"); methods that already end in it
     /// (taa; hash-cache and hybrid unless --hash-no-taa) are left as they are.
@@ -30,6 +33,7 @@ impl TaaArgs {
             alpha: self.taa_alpha,
             weights: self.taa_weights,
             gamma: self.taa_gamma,
+            history: self.taa_history,
             ..Default::default()
         };
         s.validate()?;

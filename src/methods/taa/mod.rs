@@ -12,7 +12,7 @@ pub mod settings;
 
 pub use output::TaaOnOutput;
 pub use pass::{TaaInputs, TaaPass};
-pub use settings::{halton_jitter, TaaSettings, TaaWeights};
+pub use settings::{halton_jitter, TaaHistory, TaaSettings, TaaWeights};
 
 use super::{Color, FrameInput, FrameOutputs, Method, Reference, RenderSettings};
 use crate::gpu::{GpuContext, GpuResult, HostReadback, Recorder};

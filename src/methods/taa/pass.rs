@@ -12,7 +12,7 @@
 //! Passes (5): `taa.params` → `taa.clear` → `taa.resolve`
 //! (shaders/taa/resolve.comp) → `taa.keep.depth` → `taa.keep.first_hit`.
 
-use super::settings::{TaaSettings, TaaWeights};
+use super::settings::{TaaHistory, TaaSettings, TaaWeights};
 use crate::gpu::{shaders, Buffer, ComputePipeline, GpuContext, GpuError, GpuResult, Recorder};
 use crate::interface::taa::{TaaCounter, INTERFACE, RESOLVE_PUSH};
 use crate::methods::{Color, CounterOutput, FrameInput, FrameParams, RenderSettings};
@@ -148,7 +148,8 @@ impl TaaPass {
                 | (s.reject_disocclusions as u32) << 1
                 | (s.clip as u32) << 2
                 | (sample_sum as u32) << 3
-                | (s.motion_vectors as u32) << 4,
+                | (s.motion_vectors as u32) << 4
+                | ((s.history == TaaHistory::CatmullRom) as u32) << 5,
         };
         rec.pass("taa.params")
             .write(&this.frame)
