@@ -1375,7 +1375,10 @@ fn a_clearcoat_dims_a_graph_driven_emission_for_every_strategy() {
 /// under a node scaled 2×, whose range the scale leaves alone (the spec:
 /// light properties are unaffected by node scale); a directional light
 /// with no rotation, travelling along −Z. Colour × intensity is the
-/// radiant value, the cone angles are kept as given.
+/// radiant value, the cone angles are kept as given. The directional light
+/// is named "default sun", the name of the project's own default lighting
+/// (which `--lighting` replaces and export leaves out): it is renamed on
+/// import and stays the scene's own light.
 #[test]
 fn punctual_lights_import_with_the_specs_directions_cones_and_ranges() {
     use base64::Engine;
@@ -1395,7 +1398,7 @@ fn punctual_lights_import_with_the_specs_directions_cones_and_ranges() {
             { "name": "spot", "type": "spot", "color": [1.0, 0.5, 0.25], "intensity": 8.0, "range": 5.0,
               "spot": { "innerConeAngle": 0.2, "outerConeAngle": 0.5 } },
             { "name": "point", "type": "point", "intensity": 3.0, "range": 5.0 },
-            { "name": "sun", "type": "directional", "intensity": 2.0 }
+            { "name": "default sun", "type": "directional", "intensity": 2.0 }
         ] } },
         "scene": 0,
         "scenes": [{ "nodes": [0, 1, 3, 4] }],
@@ -1450,8 +1453,11 @@ fn punctual_lights_import_with_the_specs_directions_cones_and_ranges() {
         "the node's scale leaves the range alone"
     );
     assert!(close(point.radiant, Vec3::splat(3.0)), "{point:?}");
-    let sun = get("sun");
+    let sun = get("default sun (glTF light 2)");
     assert!(close(sun.direction, Vec3::NEG_Z), "{sun:?}");
+    let own = stereocache::scene::default_lighting::OwnLighting::of(&scene);
+    assert_eq!(own.punctual_lights, 3, "{own:?}");
+    assert!(!own.default_only, "{own:?}");
     assert!(
         matches!(sun.kind, stereocache::scene::LightKind::Directional { angular_radius } if angular_radius == 0.0)
     );

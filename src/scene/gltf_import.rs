@@ -1371,6 +1371,19 @@ impl Importer<'_> {
             .or(node.name())
             .map(str::to_owned)
             .unwrap_or_else(|| format!("light {}", light.index()));
+        // The name marks the project's own default lighting
+        // (default_lighting.rs), which `--lighting` replaces and export
+        // leaves out (export never writes it): a file's light of that name
+        // is renamed, so it stays the scene's.
+        let name = if name == super::default_lighting::DEFAULT_SUN_NAME {
+            let renamed = format!("{name} (glTF light {})", light.index());
+            self.warn(format!(
+                "light '{name}': the name marks the default lighting; imported as '{renamed}'"
+            ));
+            renamed
+        } else {
+            name
+        };
         if let Some(w) = cone_warning {
             self.warn(format!("light '{name}': {w}"));
         }
