@@ -485,6 +485,16 @@ fn export(
             serde_json::json!({ "diffuse": mat.base_color.truncate().to_array() })
         };
         let emission = (mat.emissive != Vec3::ZERO).then(|| mat.emissive.to_array());
+        // Mitsuba's `area` emitter emits from the front only and its
+        // `twosided` wrapper turns only the BSDF, and the script writes no
+        // emission texture: a double-sided or textured emitter has no twin
+        // here (ours emits from both faces and reads the texture), so a
+        // scene with one must not reach the comparison.
+        assert!(
+            emission.is_none() || (!mat.double_sided && mat.emissive_texture.is_none()),
+            "{}: a double-sided or textured emitter has no Mitsuba twin in this export",
+            mat.name
+        );
         shapes.push(serde_json::json!({
             "ply": name, "twosided": mat.double_sided, "bsdf": bsdf, "emission": emission,
             "absorption": absorption,

@@ -158,12 +158,12 @@ vec3 nee_punctual(Surface s, NeeVertex v, vec2 u_light, float u_pick, vec3 sigma
 // Light-sampling estimates (before the path throughput) at a non-delta
 // vertex: one emissive-triangle sample and one map sample, each weighted
 // against BSDF sampling by the power heuristic.
-vec3 nee_area_lights(Surface s, NeeVertex v, vec4 u_emitter, vec2 u_env, vec3 sigma_a, inout RayCounts rays) {
+vec3 nee_area_lights(Surface s, NeeVertex v, uint pick_emitter, vec3 u_emitter, vec2 u_env, vec3 sigma_a, inout RayCounts rays) {
     vec3 L = vec3(0.0);
     if (SC_LIGHT_STRATEGY == LIGHT_STRATEGY_BSDF) return L;
     if (SC_EMISSIVE) {
         EmitterSample es;
-        if (sample_emitter(s.p, u_emitter, es)) {
+        if (sample_emitter(s.p, pick_emitter, u_emitter, es)) {
             float pdf_b;
             vec3 fc = vertex_eval(v, s, es.wi, pdf_b);
             if (any(greaterThan(fc, vec3(0.0)))) {
@@ -335,7 +335,8 @@ vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, vec2 eye_cone, inout Rng r
             nee = true;
         }
         if (nee) {
-            vec4 u_emitter = vec4(rng_next2(rl), rng_next2(rl));
+            uint pick_emitter = rng_next_u32(rl);
+            vec3 u_emitter = vec3(rng_next(rl), rng_next2(rl));
             vec2 u_env = rng_next2(rl);
             L += beta * nee_punctual(s, v, u_light, u_pick, sigma_a, rays);
 #ifdef SC_MATERIAL_MEMO
@@ -348,7 +349,7 @@ vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, vec2 eye_cone, inout Rng r
             sc_memo_nee_w = memo_w;
             sc_memo_nee_spread = memo_spread + memo_beta_c;
 #endif
-            L += beta * nee_area_lights(s, v, u_emitter, u_env, sigma_a, rays);
+            L += beta * nee_area_lights(s, v, pick_emitter, u_emitter, u_env, sigma_a, rays);
 #ifdef SC_MATERIAL_MEMO
             sc_memo_nee = false;
 #endif

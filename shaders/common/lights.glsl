@@ -88,18 +88,25 @@ vec3 emitted_radiance(EmitterGpu e, vec2 bary, vec3 dir) {
     return Le;
 }
 
-// Picks an emitter triangle by power (u.x, u.y: alias table) and a point on it
-// uniformly by area (u.zw: Turk's square-root mapping, pbrt-v4 SampleUniformTriangle).
-bool sample_emitter(vec3 p, vec4 u, out EmitterSample es) {
+// Picks an emitter triangle by power (alias table: the column from the 32
+// random bits `pick`, ⌊pick·count / 2^32⌋, the coin u.x) and a point on it
+// uniformly by area (u.yz: Turk's square-root mapping, pbrt-v4
+// SampleUniformTriangle). The alias method needs a uniform column (Walker
+// 1977): until session 49 it came from a 24-bit float, ⌊u·count⌋, which
+// favours some columns by up to 1/⌊2^24/count⌋ (±1 % at 10^6 emitter
+// triangles, several % beyond; an audit's count). CPU twin:
+// scene/alias.rs `AliasTable::sample`.
+bool sample_emitter(vec3 p, uint pick, vec3 u, out EmitterSample es) {
     es.pdf = 0.0;
     es.Le = vec3(0.0);
     uint count = emitter_header.x;
     if (count == 0u) return false;
-    uint i = min(uint(u.x * float(count)), count - 1u);
-    if (u.y >= emitters[i].alias_prob) i = emitters[i].alias;
+    uint i, lsb;
+    umulExtended(pick, count, i, lsb);   // i = ⌊pick·count / 2^32⌋ < count
+    if (u.x >= emitters[i].alias_prob) i = emitters[i].alias;
     EmitterGpu e = emitters[i];
-    float su = sqrt(u.z);
-    vec2 bary = vec2(su * (1.0 - u.w), su * u.w);   // weights of p1, p2
+    float su = sqrt(u.y);
+    vec2 bary = vec2(su * (1.0 - u.z), su * u.z);   // weights of p1, p2
     vec3 q = (1.0 - bary.x - bary.y) * e.p0 + bary.x * e.p1 + bary.y * e.p2;
     vec3 d = q - p;
     float dist2 = dot(d, d);
@@ -141,8 +148,15 @@ float emitter_pdf(uint inst, uint prim, vec3 dir, float t) {
 }
 
 float power_heuristic(float a, float b) {
-    float a2 = a * a, b2 = b * b;
-    return a2 + b2 > 0.0 ? a2 / (a2 + b2) : 0.0;
+    // Computed as 1 / (1 + (b/a)²), so a pdf beyond √FLT_MAX (a light
+    // sample in an emitter's plane, a near-mirror at a grazing angle) gives
+    // the limit instead of ∞/∞ = NaN, which dropped the whole path's sample
+    // (pbrt-v4 PowerHeuristic returns 1 for an infinite a²).
+    if (!(a > 0.0)) return 0.0;
+    if (isinf(a)) return isinf(b) ? 0.5 : 1.0;
+    float r = b / a;
+    float w = 1.0 / (1.0 + r * r);
+    return isnan(w) ? 0.0 : w;   // b NaN: no weight, as before
 }
 
 // Picks one light uniformly and samples it.

@@ -31,4 +31,12 @@ float rng_next(inout Rng r) {
 }
 
 vec2 rng_next2(inout Rng r) { return vec2(rng_next(r), rng_next(r)); }
+
+// All 32 bits of the next number: for choosing among up to 2^32 items
+// uniformly (lights.glsl sample_emitter), which a 24-bit float cannot do
+// beyond a few thousand items.
+uint rng_next_u32(inout Rng r) {
+    r.state = pcg_hash(r.state);
+    return r.state;
+}
 #endif
