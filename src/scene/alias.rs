@@ -144,7 +144,7 @@ mod tests {
         let n: u64 = 3_000_000;
         let t = AliasTable::new(&vec![1.0; n as usize]).unwrap();
         // Column i takes the picks in [⌈i·2^32/n⌉, ⌈(i+1)·2^32/n⌉).
-        let first = |i: u64| ((i << 32) + n - 1) / n;
+        let first = |i: u64| (i << 32).div_ceil(n);
         let (lo, hi) = ((1u64 << 32) / n, (1u64 << 32).div_ceil(n));
         for i in (0..n).step_by(997).chain([n - 1]) {
             let count = first(i + 1) - first(i);
