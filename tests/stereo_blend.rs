@@ -146,6 +146,7 @@ fn reconstruction_moments_weigh_coverage_like_the_colour() {
         w as f32 / h as f32,
     );
     let (mut checked, mut partly_shaded, mut mixed, mut both) = (0usize, 0usize, 0usize, 0usize);
+    let mut borrowed = 0usize;
     let mut prev = None;
     for f in 0..6 {
         let cam = turning_head(&cam0, f, 3.0, 0.0);
@@ -185,10 +186,24 @@ fn reconstruction_moments_weigh_coverage_like_the_colour() {
                         }
                     }
                 }
-                if n_surf > 0.0 && shaded == 0.0 {
-                    continue; // colour borrowed from the neighbours (tested elsewhere)
-                }
                 let i = eye * snap.npix() + p;
+                if n_surf > 0.0 && shaded == 0.0 {
+                    // Colour borrowed from the neighbours (its value tested
+                    // elsewhere): moments not estimated, count 0, so the
+                    // stereo blend does not take it for a noise-free X.
+                    assert_eq!(
+                        (mom.m1[i][3], mom.m2[i][3]),
+                        (0.0, 0.0),
+                        "frame {f} eye {eye} pixel {p}"
+                    );
+                    borrowed += 1;
+                    continue;
+                }
+                assert!(
+                    mom.m1[i][3] > 0.0,
+                    "frame {f} eye {eye} pixel {p}: an estimate with count {}",
+                    mom.m1[i][3]
+                );
                 let colour = fr.eyes[eye].radiance[p];
                 for k in 0..3 {
                     let surf_mean = if shaded > 0.0 { sum[k] / shaded } else { 0.0 };
@@ -226,7 +241,7 @@ fn reconstruction_moments_weigh_coverage_like_the_colour() {
     // where both do).
     assert!(
         partly_shaded > 100 && mixed > 20 && both > 10,
-        "{partly_shaded} partly shaded, {mixed} mixed, {both} both"
+        "{partly_shaded} partly shaded, {mixed} mixed, {both} both, {borrowed} borrowed"
     );
     assert_no_validation_messages(&ctx);
 }
@@ -272,6 +287,7 @@ fn blend_twin(
     y: usize,
     p: usize,
     ambiguous: &mut bool,
+    borrowed: &mut usize,
 ) -> Option<TwinPixel> {
     use stereocache::stereo::blend::{beta_prime, dodgson};
     let (w, h) = (fr.width as usize, fr.height as usize);
@@ -300,6 +316,12 @@ fn blend_twin(
         *ambiguous = true;
     }
     if !(dx > 0.0) || (dx - vd).abs() > 0.01 * vd {
+        return None;
+    }
+    // X without an estimate of its own (colour borrowed from neighbours:
+    // moments' count 0) is not blended in.
+    if !(mom.m1[qx][3] > 0.0) {
+        *borrowed += 1;
         return None;
     }
     // X's moments: Dodgson's kernel around q over the 4×4 taps within 1.5 px.
@@ -401,7 +423,11 @@ fn stereo_blend_pass_matches_its_cpu_twin() {
     let s = session(&ctx, scene.clone(), RtChoice::Software);
     let (w, h) = (48, 36);
     let cam0 = default_camera(&s, w, h);
-    for r in [0.0f32, 0.5, 0.8] {
+    // The last configuration shades adaptively at a quarter of a path per
+    // pixel, so frame 0 leaves pixels without a shaded sample (colour
+    // borrowed from the neighbours), which must not be blended in as X.
+    use stereocache::methods::sample_cache::Shading;
+    for (r, adaptive) in [(0.0f32, false), (0.5, false), (0.8, false), (0.8, true)] {
         let st = RenderSettings {
             width: w,
             height: h,
@@ -414,8 +440,15 @@ fn stereo_blend_pass_matches_its_cpu_twin() {
         let cache = SampleCacheSettings {
             stereo_blend: BlendMode::Moments,
             sharpness: r,
+            shading: if adaptive {
+                Shading::Adaptive
+            } else {
+                Shading::Uniform
+            },
+            shading_rate: if adaptive { 0.25 } else { 1.0 },
             ..Default::default()
         };
+        let mut borrowed = 0usize;
         let mut m =
             SampleCache::new(&s.ctx, &s.scene_gpu, &s.scene.environment, &st, &cache).unwrap();
         let (mut compared, mut ambiguous_n, mut blended_n, mut mixed_n) = (0, 0, 0, 0);
@@ -432,8 +465,18 @@ fn stereo_blend_pass_matches_its_cpu_twin() {
                 for p in 0..npix {
                     let got = fr.eyes[y].radiance[p];
                     let mut ambiguous = false;
-                    let twin =
-                        blend_twin(&scene, &views, &fr, &colour, &mom, r, y, p, &mut ambiguous);
+                    let twin = blend_twin(
+                        &scene,
+                        &views,
+                        &fr,
+                        &colour,
+                        &mom,
+                        r,
+                        y,
+                        p,
+                        &mut ambiguous,
+                        &mut borrowed,
+                    );
                     if ambiguous {
                         ambiguous_n += 1;
                         continue;
@@ -481,6 +524,11 @@ fn stereo_blend_pass_matches_its_cpu_twin() {
             "R {r}: only {blended_n} of {compared} pixels blended"
         );
         assert!(mixed_n > 0, "R {r}: β′ never strictly between 0 and 1");
+        eprintln!("R {r}, adaptive {adaptive}: {borrowed} pixels whose X was borrowed");
+        assert!(
+            !adaptive || borrowed > 0,
+            "no X without its own estimate to test"
+        );
     }
     assert_no_validation_messages(&ctx);
 }

@@ -167,8 +167,12 @@ void main() {
         out_albedo[pm] = surface ? vec4(best_albedo, 1.0) : vec4(0.0);
     }
     out_color[pm] = vec4(color, c_total);
-    out_m1[pm] = vec4(m1, c_total);
-    out_m2[pm] = vec4(m2, c_total);
+    // w: the moments' effective count, 0 where they are not estimated (the
+    // colour borrowed from the neighbours, σ² = 0 by fiat above): the
+    // stereo blend then does not take it for a noise-free X.
+    bool own_estimate = c_total > 0.0 && (shaded > 0.0 || n_surf == 0.0);
+    out_m1[pm] = vec4(m1, own_estimate ? c_total : 0.0);
+    out_m2[pm] = vec4(m2, own_estimate ? c_total : 0.0);
 
     if (!DEBUG_VIEWS) return;
     uvec4 st = pixel_stats[pm];

@@ -83,6 +83,12 @@ void main() {
     uvec2 qi = uvec2(q);
     float dx = out_depth[other * npix() + qi.y * size.x + qi.x];
     if (!(dx > 0.0) || abs(dx - vd) > 0.01 * vd) return;   // no co-visible counterpart
+    // X's colour has no shaded sample of its own (adaptive shading at a
+    // disocclusion: reconstruct.comp borrowed it from its neighbours and
+    // wrote its moments with σ² = 0 and count 0). Eq. 4 would take such an
+    // X for noise-free and give it most of the weight (σ_Y² = 0.04, Bias =
+    // 0.05: 94 %), so Y is kept.
+    if (!(out_m1[other * npix() + qi.y * size.x + qi.x].w > 0.0)) return;
 
     float r = clamp(pc.sharpness, 0.0, 1.0);
     // X's moments: Dodgson resampling around q (taps within 1.5 pixels).

@@ -82,7 +82,10 @@ pub struct SampleCacheSettings {
     pub debug_views: bool,
     /// §3.6 stereo blending of the reconstructed eyes.
     pub stereo_blend: crate::stereo::BlendMode,
-    /// Sharpness R ∈ [0, 1] of the blending (1 = no neighbour contributes).
+    /// Sharpness R ∈ [0, 1] of the blending: Y's 3×3 moment blur has
+    /// neighbour weight 1 − R (R = 1: none), and Dodgson's kernel for X's
+    /// moments interpolates at R = 1 (exact at pixel centres, neighbours
+    /// still contributing between them).
     pub sharpness: f32,
 }
 
