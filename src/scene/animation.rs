@@ -228,7 +228,10 @@ pub fn slerp(a: Vec4, b: Vec4, s: f32) -> Vec4 {
         b
     };
     if d > 0.9995 {
-        // Nearly parallel: sin θ → 0, the normalized lerp is exact to f32.
+        // Nearly parallel: sin θ → 0, so the normalized lerp instead; at
+        // this cut-off (θ ≤ 0.0316) it departs from slerp by at most
+        // 5·10⁻⁷ rad of quaternion angle (10⁻⁶ rad of rotation, a few f32
+        // ulps; an audit's computation).
         return a.lerp(b, s).normalize_or(Vec4::W);
     }
     let theta = d.clamp(-1.0, 1.0).acos();
