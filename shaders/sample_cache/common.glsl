@@ -247,13 +247,28 @@ float importance(float c) { return 1.0 / (1.0 + c); }
 // border (width or height not a multiple of 4) rotate over their n pixels
 // inside the image in row order, each every n frames, so they too get their
 // base pixel every frame. CPU twin: heuristics.rs `is_sparse_base_pixel`.
+//
+// `visit` counts the block's cycles, (frame + offset) / n, so it grows by
+// one from one visit of a pixel to its next: the caller picks the slot to
+// retrace (select.comp) or shade (shade_select.comp) at a base visit as
+// visit mod n_occ, which walks the pixel's samples round robin over its
+// visits. Until session 49 both took frame mod n_occ, which at visits n
+// frames apart repeats whenever n_occ divides n (n_occ = 1, 2, 4, 8 of a
+// full block; 6 and 12 reached only some slots): with the default four
+// samples a still view retraced the same sample of a pixel at every visit
+// and never found the others occluded (an audit's finding).
 const uint BAYER4[16] = uint[16](0u, 8u, 2u, 10u, 12u, 4u, 14u, 6u, 3u, 11u, 1u, 9u, 15u, 7u, 13u, 5u);
-bool is_sparse_base_pixel(uvec2 px, uint frame_index, uint eye) {
+bool sparse_base_pixel(uvec2 px, uint frame_index, uint eye, out uint visit) {
     uvec2 block = px / 4u;
     uvec2 extent = min(frame_size() - block * 4u, uvec2(4u));
     uint n = extent.x * extent.y;
     uint offset = pcg_hash(block.x * 73856093u ^ block.y * 19349663u ^ eye * 83492791u);
     uint local = (px.x & 3u) + extent.x * (px.y & 3u);
     uint rank = n == 16u ? BAYER4[local] : local;
+    visit = (frame_index + offset) / n;
     return rank == (frame_index + offset) % n;
+}
+bool is_sparse_base_pixel(uvec2 px, uint frame_index, uint eye) {
+    uint visit;
+    return sparse_base_pixel(px, frame_index, eye, visit);
 }

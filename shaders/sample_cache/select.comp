@@ -66,8 +66,10 @@ void main() {
             // hairball.) Away from silhouettes sky pixels keep the base rate.
             bool sky_side = !has_own && vis != 0u && !isinf(t_near);
             edge = has_own && !depths_consistent(t_min, slope, t_max, pc.eps1);
+            uint visit;
             if (edge) trace = occ;
-            else if (sky_side || is_sparse_base_pixel(px, frame_index, eye)) trace = 1u << round_robin;
+            else if (sky_side) trace = 1u << round_robin;
+            else if (sparse_base_pixel(px, frame_index, eye, visit)) trace = 1u << nth_set_bit(occ, visit % n_occ);
         }
     }
 
@@ -77,8 +79,10 @@ void main() {
     // (issue 12): a pixel below n_target − δ inside a neighbourhood whose
     // mean is in the band would otherwise never be refilled. It is refilled
     // to n_target − δ only, and only while the mean is at most n_target, so
-    // the refill raises the mean by at most (n_target − δ)/9 and cannot push
-    // it above the band (refilling to n_target under motion, where
+    // its own refill raises its mean by at most (n_target − δ)/9; neighbours
+    // refilling in the same frame can still add up past n_target + δ (an
+    // audit's 5×5 example: 4.00 → 5.11), which the purge rule then trims
+    // one sample a frame (refilling to n_target under motion, where
     // reprojection spreads the samples unevenly, held the mean above
     // n_target + δ on 10 % of the Cornell pixels).
     uint add = 0u, purge = 0u;

@@ -93,8 +93,11 @@ void select_pixel(uvec2 px, uint eye) {
     if (SELECT_PHASE == 0u) {
         vis = surface_slots(eye, pixel, vis_bits(mask_cur[pm]));
         uint n = bitCount(vis);
-        round_robin = n > 0u ? nth_set_bit(vis, frame_index % n) : 0u;
-        base = n > 0u && is_sparse_base_pixel(px, frame_index, eye);
+        // A base pixel shades round robin over its visits (common.glsl
+        // sparse_base_pixel), an unshaded one over frames.
+        uint visit;
+        base = n > 0u && sparse_base_pixel(px, frame_index, eye, visit);
+        round_robin = n > 0u ? nth_set_bit(vis, (base ? visit : frame_index) % n) : 0u;
         float w_lo, w_hi;
         importance_bounds(eye, w_lo, w_hi);
         // One read of each visible sample's record: which are shaded, their

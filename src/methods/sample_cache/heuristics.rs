@@ -118,6 +118,14 @@ const BAYER4: [u32; 16] = [0, 8, 2, 10, 12, 4, 14, 6, 3, 11, 1, 9, 15, 7, 13, 5]
 /// from a per-block, per-eye hashed start); a block cut by the image's
 /// right or bottom border rotates over its n pixels in row order.
 pub fn is_sparse_base_pixel(px: [u32; 2], size: [u32; 2], frame_index: u32, eye: u32) -> bool {
+    sparse_base_visit(px, size, frame_index, eye).is_some()
+}
+
+/// The visit number of `px` when it is its block's base pixel this frame:
+/// (frame + offset) / n, one more at each of its visits, from which the
+/// shaders pick the slot round robin over visits (common.glsl
+/// `sparse_base_pixel`); `None` otherwise.
+pub fn sparse_base_visit(px: [u32; 2], size: [u32; 2], frame_index: u32, eye: u32) -> Option<u32> {
     use crate::methods::hash_table::hash::pcg_hash;
     let block = [px[0] / 4, px[1] / 4];
     let extent = [
@@ -136,7 +144,8 @@ pub fn is_sparse_base_pixel(px: [u32; 2], size: [u32; 2], frame_index: u32, eye:
     } else {
         local
     };
-    rank == frame_index.wrapping_add(offset) % n
+    let at = frame_index.wrapping_add(offset);
+    (rank == at % n).then_some(at / n)
 }
 
 #[cfg(test)]
@@ -361,6 +370,27 @@ mod tests {
     /// where n divides 2^32 (a full block) — so no pixel waits longer than
     /// n frames for its retrace. The order of a full block spreads
     /// consecutive base pixels: never 4-neighbours.
+    #[test]
+    fn a_base_pixel_walks_its_slots_over_its_visits() {
+        // At 4 occupied slots the slot of each visit, visit mod 4, takes all
+        // four values over four consecutive visits (frame mod 4 at visits 16
+        // frames apart took one), for every pixel of full and cut blocks.
+        let size = [10u32, 7];
+        for eye in 0..2 {
+            for y in 0..size[1] {
+                for x in 0..size[0] {
+                    let visits: Vec<u32> = (0..64u32)
+                        .filter_map(|f| sparse_base_visit([x, y], size, 1000 + f, eye))
+                        .collect();
+                    assert!(visits.len() >= 4, "({x}, {y}): {visits:?}");
+                    let slots: std::collections::BTreeSet<u32> =
+                        visits[..4].iter().map(|v| v % 4).collect();
+                    assert_eq!(slots.len(), 4, "({x}, {y}) eye {eye}: visits {visits:?}");
+                }
+            }
+        }
+    }
+
     #[test]
     fn base_pixels_rotate_through_every_pixel_of_a_block() {
         let size = [10u32, 7];
