@@ -475,8 +475,15 @@ pub fn compare_configs(
     // renders: a run that fails part way must not leave them beside its own
     // method folders, looking like its results, and the report embeds every
     // grid in side-by-side/ (a rerun with fewer frames showed the old
-    // frames' grids).
-    for stale in ["summary.json", "summary.csv", "side-by-side"] {
+    // frames' grids). The report and its viewer too (until session 49 a
+    // failed re-run left the previous run's report.html showing old results).
+    for stale in [
+        "summary.json",
+        "summary.csv",
+        "side-by-side",
+        "report.html",
+        "viewer",
+    ] {
         let p = opts.out.join(stale);
         output::remove_stale(&p).map_err(|e| Error::io(&p, e))?;
     }

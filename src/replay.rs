@@ -484,6 +484,11 @@ pub fn replay_observed(
     let out = &opts.out;
     let frames_dir = out.join("frames");
     std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
+    // A previous run's frame images go first: a shorter re-run left frames
+    // beyond its own beside its frames.jsonl (until session 49). Only the
+    // finished files: a `.partial` is a writer's temporary name, never
+    // taken for a result, and is replaced when written.
+    remove_finished_files(&frames_dir).map_err(|e| Error::io(&frames_dir, e))?;
     if opts.every > 0 {
         std::fs::create_dir_all(&frames_dir).map_err(|e| Error::io(&frames_dir, e))?;
     }
@@ -645,6 +650,22 @@ pub fn replay_observed(
     })?;
     output::write_json(&summary_path, &value)?;
     Ok(summary)
+}
+
+/// Removes the files in `dir` but those named `*.partial` (no error when
+/// `dir` does not exist).
+fn remove_finished_files(dir: &Path) -> std::io::Result<()> {
+    let entries = match std::fs::read_dir(dir) {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(()),
+        r => r?,
+    };
+    for e in entries {
+        let p = e?.path();
+        if p.extension().is_none_or(|x| x != "partial") {
+            output::remove_stale(&p)?;
+        }
+    }
+    Ok(())
 }
 
 /// The nearest-rank percentile `p` in (0, 1] of `v` (0 for an empty slice).

@@ -1393,16 +1393,23 @@ fn negative_values_closed_stdout_and_a_file_as_output_folder() {
             render("--pose", "1e20,0,0,0,0,0,1"),
             "the position is beyond ±1e15 m",
         ),
+        // Lists and sizes that start with '-' reach their parsers too.
+        (
+            render("--pose", "-1e20,0,0,0,0,0,1"),
+            "the position is beyond ±1e15 m",
+        ),
+        (render("--size", "-16x12"), "bad --size '-16x12'"),
     ] {
         let line = fails(&args);
         assert!(line.contains(phrase), "{args:?}: '{line}' lacks '{phrase}'");
         assert!(!line.contains("unexpected argument"), "{line}");
         assert!(!out.exists(), "{args:?}: output written");
     }
-    // `--time -1` renders, with stdout closed before the first line.
+    // `--time -1` renders, with stdout closed before the first line; so
+    // does a head at a negative x.
     let mut child = bin()
         .args(["render", "--size", "8x6", "--spp", "1", "--rt", "software"])
-        .args(["--time", "-1", "--out", o])
+        .args(["--time", "-1", "--pose", "-0.1,0,3,0,0,0,1", "--out", o])
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::piped())
         .spawn()
@@ -1428,4 +1435,41 @@ fn negative_values_closed_stdout_and_a_file_as_output_folder() {
         "{line}"
     );
     assert!(!line.contains("cannot read"), "{line}");
+}
+
+/// Outputs that could pass for another run's, and inputs overwritten by
+/// their own output (each accepted until session 49, found by an audit):
+/// a render that fails at its last write leaves no stats.json (the old
+/// render's went first); `trace convert X --out X` is refused and X kept;
+/// `compare --zoom 0` is refused (it was used as 1).
+#[test]
+fn stale_outputs_and_self_overwrites_are_refused() {
+    let out = out_dir("stale-render");
+    let o = out.to_str().unwrap();
+    std::fs::create_dir_all(&out).unwrap();
+    std::fs::write(out.join("stats.json"), b"{\"method\": \"an older render\"}").unwrap();
+    // The final write of stats.json fails: its temporary name is a folder.
+    std::fs::create_dir_all(out.join("stats.json.partial")).unwrap();
+    let line = fails(&[
+        "render", "--size", "8x6", "--spp", "1", "--rt", "software", "--out", o,
+    ]);
+    assert!(line.contains("stats.json"), "{line}");
+    assert!(
+        !out.join("stats.json").exists(),
+        "the older render's stats.json survived a failed render"
+    );
+    let trace = out.join("trace.csv");
+    std::fs::copy(
+        concat!(env!("CARGO_MANIFEST_DIR"), "/captures/mmsys18-user1.csv"),
+        &trace,
+    )
+    .unwrap();
+    let before = std::fs::read(&trace).unwrap();
+    let t = trace.to_str().unwrap();
+    let line = fails(&["trace", "convert", t, "--out", t]);
+    assert!(line.contains("is the recording itself"), "{line}");
+    assert_eq!(std::fs::read(&trace).unwrap(), before);
+    let line = fails(&["compare", "--zoom", "0", "--out", o]);
+    assert!(line.contains("bad --zoom 0"), "{line}");
+    let _ = std::fs::remove_dir_all(&out);
 }

@@ -410,6 +410,13 @@ fn malformed_files_fail_with_one_error_line_naming_the_file_and_key() {
             &["both named", "'cornell-synth-head-turn'"],
         ),
         (
+            // A folder name that would write into out/ itself (until
+            // session 49 accepted, removing out/experiment.json first).
+            "an experiment named '..'",
+            good.replace("name = \"tiny\"", "name = \"..\""),
+            &["key 'name'", "'..'"],
+        ),
+        (
             // Refused before the first comparison renders (until session 48,
             // after the comparisons of earlier traces had).
             "more frames than the trace has",

@@ -298,6 +298,10 @@ fn an_interrupted_replay_leaves_no_complete_looking_files() {
     let out = out_dir("interrupted");
     std::fs::create_dir_all(&out).unwrap();
     std::fs::write(out.join("frames.jsonl"), "{\"stale\":true}\n").unwrap();
+    // A previous run's frame images (until session 49 kept: a shorter
+    // re-run left them beside its own frames).
+    std::fs::create_dir_all(out.join("frames")).unwrap();
+    std::fs::write(out.join("frames").join("00003_left.png"), b"old").unwrap();
     let mut probe = Probe {
         inner: s.method("reference", &settings()).unwrap(),
         inputs: Vec::new(),
@@ -314,7 +318,11 @@ fn an_interrupted_replay_leaves_no_complete_looking_files() {
     common::assert_no_validation_messages(&ctx);
     assert!(!out.join("frames.jsonl").exists());
     assert!(!out.join("summary.json").exists());
-    assert!(!out.join("frames").exists(), "--every 0 writes no images");
+    let left: Vec<_> = std::fs::read_dir(out.join("frames")).unwrap().collect();
+    assert!(
+        left.is_empty(),
+        "--every 0 writes no images, and the old ones go: {left:?}"
+    );
     assert_eq!(read_jsonl(&out.join("frames.jsonl.partial")).len(), 2);
     let _ = std::fs::remove_dir_all(&out);
 }

@@ -36,7 +36,7 @@ pub struct CompareArgs {
     #[arg(long, value_parser = show_frames)]
     pub(crate) show_frames: Option<ShownFrames>,
     /// Magnification of the centre crop in the side-by-side grids.
-    #[arg(long, default_value_t = 3)]
+    #[arg(long, default_value_t = 3, value_parser = stereocache::values::int_in("--zoom", 1u32, 64, "a magnification"))]
     pub(crate) zoom: u32,
     /// Samples per pixel of the reference frames the metrics use (0 = no
     /// metrics; even: two independent halves). 128: the shipped scenes' main

@@ -83,9 +83,17 @@ enum Command {
 /// with `-` and is a number (`--ipd -1`, `--time -0.5`): clap otherwise
 /// reads it as an unknown flag ("unexpected argument '-1' found" and the
 /// usage), and the option's own range check never gives its one line.
+///
+/// `allow_negative_numbers` covers a value that is one number only; the
+/// comma lists and sizes of [`HYPHEN_VALUES`] may start with `-` and not be
+/// a number (`--pose -1,0,0,0,0,0,1`), so those options take any value
+/// (until session 49 a head position with a negative x was refused as an
+/// unknown flag; their own parsers give the one line for a bad value).
 pub fn negative_numbers(cmd: clap::Command) -> clap::Command {
     cmd.mut_args(|a| {
-        if a.get_action().takes_values() {
+        if HYPHEN_VALUES.contains(&a.get_id().as_str()) {
+            a.allow_hyphen_values(true)
+        } else if a.get_action().takes_values() {
             a.allow_negative_numbers(true)
         } else {
             a
@@ -93,6 +101,9 @@ pub fn negative_numbers(cmd: clap::Command) -> clap::Command {
     })
     .mut_subcommands(negative_numbers)
 }
+
+/// Options whose values are lists or sizes that may start with `-`.
+const HYPHEN_VALUES: &[&str] = &["pose", "size"];
 
 /// Parses the process's arguments ([`negative_numbers`] applied), exiting
 /// with clap's message on an error, as `Cli::parse` does.

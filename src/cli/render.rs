@@ -77,6 +77,16 @@ pub fn run(a: RenderArgs) -> Result<()> {
     let out = &a.out;
     std::fs::create_dir_all(out)
         .with_context(|| format!("{}: cannot create the output directory", out.display()))?;
+    // stats.json, written last, marks a complete render: a previous one's
+    // goes first, so a render failing part way does not leave its new
+    // images beside the old render's description (until session 49).
+    let stats_path = out.join("stats.json");
+    output::remove_stale(&stats_path).with_context(|| {
+        format!(
+            "{}: cannot remove the previous render's",
+            stats_path.display()
+        )
+    })?;
     output::write_eye(out, "left", w, h, &frame.eyes[0], a.exposure)?;
     output::write_eye(out, "right", w, h, &frame.eyes[1], a.exposure)?;
     let caps = &session.ctx.caps;
@@ -102,7 +112,7 @@ pub fn run(a: RenderArgs) -> Result<()> {
         println!("{}", memo_line(&c));
         stats["memo"] = serde_json::to_value(c)?;
     }
-    output::write_json(&out.join("stats.json"), &stats)?;
+    output::write_json(&stats_path, &stats)?;
     println!(
         "rendered {} ({}x{} per eye, {} spp, {} backend) in {:.1} GPU ms on {}: {}",
         session.scene.source.display(),

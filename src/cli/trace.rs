@@ -160,6 +160,15 @@ fn convert(a: &ConvertArgs) -> Result<()> {
             })
         }
     };
+    // Converting a recording onto itself would replace it with its
+    // conversion (until session 49 silently).
+    let same = |p: &std::path::Path| std::fs::canonicalize(p).ok();
+    if a.out == a.input || (same(&a.out).is_some() && same(&a.out) == same(&a.input)) {
+        return Err(anyhow!(
+            "{}: --out is the recording itself; give another file for the converted trace",
+            a.out.display()
+        ));
+    }
     let trace = convert_trace(&a.input, &a.out, &format)?;
     for w in &trace.warnings {
         eprintln!("warning: {w}");

@@ -280,14 +280,19 @@ pub fn read(
         .map_err(|e| format!("{}: cannot read ({e})", path.display()))?;
     let file: File = toml::from_str(&text).map_err(|e| toml_error(path, &text, &e))?;
     let at = |m: String| format!("{}: {m}", path.display());
+    // The name is a folder under out/experiments: '.' and '..' would put
+    // the experiment's files into out/experiments or out itself (and remove
+    // a stale experiment.json there first).
     if file.name.is_empty()
+        || file.name == "."
+        || file.name == ".."
         || !file
             .name
             .chars()
             .all(|c| c.is_ascii_alphanumeric() || "-_.".contains(c))
     {
         return Err(at(format!(
-            "key 'name': '{}' must be letters, digits, '-', '_', '.'",
+            "key 'name': '{}' must be letters, digits, '-', '_', '.' (and not '.' or '..')",
             file.name
         )));
     }
