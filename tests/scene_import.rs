@@ -255,6 +255,34 @@ fn bad_corpus_valid_reference_loads() {
     assert!(s.warnings.is_empty(), "{:?}", s.warnings);
 }
 
+/// A glTF whose JSON starts with a UTF-8 byte-order mark (which glTF does
+/// not allow and loaders may ignore) loads with one warning naming it;
+/// until session 49 it was "invalid JSON … line 1 column 1".
+#[test]
+fn a_byte_order_mark_is_ignored_with_a_warning() {
+    let d = temp_dir("bom");
+    let mut bytes = b"\xEF\xBB\xBF".to_vec();
+    bytes.extend(std::fs::read(bad("valid_triangle.gltf")).unwrap());
+    let path = d.join("bom.gltf");
+    std::fs::write(&path, bytes).unwrap();
+    // valid_triangle.gltf's buffer is a relative file: copy it beside.
+    for e in std::fs::read_dir(bad("")).unwrap() {
+        let p = e.unwrap().path();
+        if p.extension().is_some_and(|x| x == "bin") {
+            std::fs::copy(&p, d.join(p.file_name().unwrap())).unwrap();
+        }
+    }
+    let s = load_gltf(&path).unwrap();
+    assert_eq!(s.instanced_triangle_count(), 1);
+    assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
+    assert!(
+        s.warnings[0].contains("byte-order mark") && s.warnings[0].contains("bom.gltf"),
+        "{:?}",
+        s.warnings
+    );
+    let _ = std::fs::remove_dir_all(&d);
+}
+
 #[test]
 fn bad_truncated_json() {
     expect_error("truncated_json.gltf", "invalid JSON");

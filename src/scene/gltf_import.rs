@@ -253,6 +253,20 @@ fn parse_document(
     json: &[u8],
     warnings: &mut Vec<String>,
 ) -> Result<Prepared, SceneError> {
+    // glTF's JSON must not start with a UTF-8 byte-order mark, which
+    // loaders may ignore (glTF 2.0, "JSON encoding"): ignored with a
+    // warning (until session 49 "invalid JSON … line 1 column 1", which did
+    // not name it).
+    let json = match json.strip_prefix(b"\xEF\xBB\xBF") {
+        Some(rest) => {
+            warnings.push(format!(
+                "{}: the JSON starts with a UTF-8 byte-order mark, which glTF does not allow; ignored",
+                path.display()
+            ));
+            rest
+        }
+        None => json,
+    };
     let mut value: serde_json::Value = serde_json::from_slice(json)
         .map_err(|e| SceneError::invalid(path, format!("invalid JSON: {e}")))?;
     // One warning per feature used that is not implemented (gltf_features.rs).
