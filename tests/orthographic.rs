@@ -560,20 +560,7 @@ fn background_samples_carry_their_place_into_the_new_pixel() {
                 &cs,
             )
             .unwrap();
-            let mut snap = CacheSnapshot {
-                slots: 1,
-                width: W,
-                height: W,
-                masks: vec![0; 2 * n],
-                first_hits: vec![[0, 0, 0, u32::MAX]; 2 * n],
-                radiance: vec![[0.0; 4]; 2 * n],
-                pixel_stats: vec![],
-                histogram: vec![],
-                unshaded_pixels: [0; 2],
-                base_pixels: [0; 2],
-                shade_count: 0,
-                shade_list: vec![],
-            };
+            let mut snap = CacheSnapshot::empty(1, W, W);
             for (e, eye) in Eye::BOTH.into_iter().enumerate() {
                 for j in 0..W {
                     for i in 0..W {

@@ -208,21 +208,7 @@ fn two_pass_reprojection_keeps_the_visible_sample_on_a_shared_slot() {
                 ..Default::default()
             };
             let mut m = cache_method(&s, &settings(w, h, cs));
-            let n = (w * h) as usize;
-            let mut snap = CacheSnapshot {
-                slots: 1,
-                width: w,
-                height: h,
-                masks: vec![0; 2 * n],
-                first_hits: vec![[u32::MAX; 4]; 2 * n],
-                radiance: vec![[0.0; 4]; 2 * n],
-                pixel_stats: vec![],
-                histogram: vec![],
-                unshaded_pixels: [0; 2],
-                base_pixels: [0; 2],
-                shade_count: 0,
-                shade_list: vec![],
-            };
+            let mut snap = CacheSnapshot::empty(1, w, h);
             // Source pixels 0 and 1 of eye 0 (neighbouring lanes of one workgroup).
             let (inv, vis) = if invisible_first { (0, 1) } else { (1, 0) };
             snap.masks[inv] = 0b01; // occupied, invisible

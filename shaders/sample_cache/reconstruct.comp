@@ -125,6 +125,10 @@ void main() {
     m2 += c_bg * bg_sum2;
     c_total += c_bg * n_bg;
     bool surface = best_t < 3.4e38;   // some visible surface sample
+    // Moments estimated from the pixel's own samples: not where the surface
+    // part's colour is borrowed from the neighbours (no shaded surface
+    // sample), nor without samples (c_total = 0).
+    bool estimated = c_total > 0.0 && (shaded > 0.0 || n_surf == 0.0);
     vec3 color;
     if (vis == 0u) {
         // Background: what the pixel-centre camera ray sees (sky and sun disc).
@@ -157,7 +161,6 @@ void main() {
         // No shaded sample behind the surface part (its colour borrowed from
         // the neighbours): no spread to estimate, σ² = 0 around the colour,
         // not the background's moments alone.
-        bool estimated = c_total > 0.0 && (shaded > 0.0 || n_surf == 0.0);
         m1 = estimated ? m1 / c_total : color;
         m2 = estimated ? m2 / c_total : color * color;
         // Depth, first hit and albedo of the closest visible surface sample;
@@ -170,9 +173,8 @@ void main() {
     // w: the moments' effective count, 0 where they are not estimated (the
     // colour borrowed from the neighbours, σ² = 0 by fiat above): the
     // stereo blend then does not take it for a noise-free X.
-    bool own_estimate = c_total > 0.0 && (shaded > 0.0 || n_surf == 0.0);
-    out_m1[pm] = vec4(m1, own_estimate ? c_total : 0.0);
-    out_m2[pm] = vec4(m2, own_estimate ? c_total : 0.0);
+    out_m1[pm] = vec4(m1, estimated ? c_total : 0.0);
+    out_m2[pm] = vec4(m2, estimated ? c_total : 0.0);
 
     if (!DEBUG_VIEWS) return;
     uvec4 st = pixel_stats[pm];

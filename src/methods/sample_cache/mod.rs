@@ -97,6 +97,27 @@ pub struct CacheSnapshot {
 }
 
 impl CacheSnapshot {
+    /// An empty cache of `slots` layers over `width` × `height` per eye
+    /// (every mask 0, every first hit NO_HIT), for tests to fill and
+    /// [`SampleCache::load`].
+    pub fn empty(slots: u32, width: u32, height: u32) -> Self {
+        let n = (2 * width * height) as usize;
+        CacheSnapshot {
+            slots,
+            width,
+            height,
+            masks: vec![0; n],
+            first_hits: vec![[0, 0, 0, u32::MAX]; n * slots as usize],
+            radiance: vec![[0.0; 4]; n * slots as usize],
+            pixel_stats: vec![],
+            histogram: vec![],
+            unshaded_pixels: [0; 2],
+            base_pixels: [0; 2],
+            shade_count: 0,
+            shade_list: vec![],
+        }
+    }
+
     pub fn npix(&self) -> usize {
         (self.width * self.height) as usize
     }
