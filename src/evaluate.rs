@@ -117,12 +117,22 @@ pub struct ReferenceCache {
 
 impl ReferenceCache {
     /// A cache for references of `settings` (`spp` even and at least 2).
+    /// The references never go through `--taa-output` (`settings.taa_output`
+    /// is dropped): they are the path-traced truth every method is scored
+    /// against, and the cache key does not hold the TAA's options. Until
+    /// session 50 a compare with `--taa-output` (fig12-13) scored every
+    /// method against TAA-resolved references, each frame's history
+    /// reprojected at the current pose, and shared their cache entries with
+    /// plain references of the same key.
     pub fn new(dir: PathBuf, settings: RenderSettings) -> Result<Self> {
         check_reference_spp(settings.spp)?;
         check_reference_cache_dir(&dir)?;
         Ok(ReferenceCache {
             dir,
-            settings,
+            settings: RenderSettings {
+                taa_output: None,
+                ..settings
+            },
             flip_ppd: None,
             renderers: None,
         })
@@ -166,8 +176,10 @@ impl ReferenceCache {
                 format!("|ortho{:08x}", ymag.to_bits())
             }
         };
+        // v4 (session 50): v3 entries of a `--taa-output` run held
+        // TAA-resolved references under the plain key.
         let text = format!(
-            "v3-halves|{code:016x}|{:016x}|{}|{:?}|{:?}|{:?}|{}x{}|spp{}|b{}|seed{}|frame{}|{}{pose}{projection}",
+            "v4-halves|{code:016x}|{:016x}|{}|{:?}|{:?}|{:?}|{}x{}|spp{}|b{}|seed{}|frame{}|{}{pose}{projection}",
             session.scene_content_hash(),
             session.scene.source.display(),
             cam.world_position().to_array().map(f64::to_bits),

@@ -437,3 +437,53 @@ fn off_screen_reprojection_drops_the_history() {
     assert!(checked > 0);
     assert_no_validation_messages(&ctx);
 }
+
+/// The references the metrics score against are path-traced truth, never
+/// resolved through `--taa-output` (until session 50 a compare with
+/// `--taa-output`, fig12-13's setting, built them from the shared settings,
+/// so the reference's frame k was TAA's blend of frames 0..k reprojected at
+/// frame k's pose, and it was cached under the plain reference's key).
+/// Three frames of a head turn through two caches, one given `taa_output`:
+/// each frame's halves are bit-identical (the reference is deterministic
+/// for a seed), frame 0 included.
+#[test]
+fn references_never_pass_through_the_output_taa() {
+    use stereocache::evaluate::ReferenceCache;
+    let ctx = context();
+    let s = session(&ctx, shipped("cornell"), RtChoice::Software);
+    let (w, h) = (16, 12);
+    let cam0 = default_camera(&s, w, h);
+    let dir = |tag: &str| {
+        let d =
+            std::env::temp_dir().join(format!("stereocache-taa-ref-{tag}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        d
+    };
+    let (plain_dir, taa_dir) = (dir("plain"), dir("taa"));
+    let mut plain = ReferenceCache::new(plain_dir.clone(), settings(w, h, None)).unwrap();
+    let mut with_taa = ReferenceCache::new(
+        taa_dir.clone(),
+        settings(w, h, Some(TaaSettings::default())),
+    )
+    .unwrap();
+    for f in 0..3u32 {
+        let cam = turning_head(&cam0, f, 1.0, 0.02);
+        let a = plain.get(&s, &cam, f).unwrap();
+        let b = with_taa.get(&s, &cam, f).unwrap();
+        for e in 0..2 {
+            let differ = a.frame.eyes[e]
+                .radiance
+                .iter()
+                .zip(&b.frame.eyes[e].radiance)
+                .filter(|(x, y)| x != y)
+                .count();
+            assert_eq!(
+                differ, 0,
+                "frame {f}, eye {e}: {differ} pixels of the reference differ under --taa-output"
+            );
+        }
+    }
+    let _ = std::fs::remove_dir_all(&plain_dir);
+    let _ = std::fs::remove_dir_all(&taa_dir);
+    assert_no_validation_messages(&ctx);
+}
