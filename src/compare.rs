@@ -362,6 +362,33 @@ pub struct Config {
     pub settings: RenderSettings,
 }
 
+/// The files of a comparison folder that describe a whole run (not one
+/// configuration's folder).
+const RUN_OUTPUTS: &[&str] = &[
+    "experiment.json",
+    "summary.json",
+    "summary.csv",
+    "side-by-side",
+    "report.html",
+    "viewer",
+];
+
+/// Removes a previous run's summaries, grids, report, viewer and
+/// experiment.json from the comparison folder `out` before a new run (or
+/// merge) writes there: a run that fails part way must not leave them
+/// beside its own method folders, looking like its results; the report
+/// embeds every grid in side-by-side/ (a rerun with fewer frames showed the
+/// old frames' grids) and draws an experiment.json's claims and figures
+/// (until session 50 a plain compare into an experiment's folder showed the
+/// old claims; the experiment runner writes its own after its comparisons).
+pub fn remove_stale_outputs(out: &Path) -> Result<()> {
+    for stale in RUN_OUTPUTS {
+        let p = out.join(stale);
+        output::remove_stale(&p).map_err(|e| Error::io(&p, e))?;
+    }
+    Ok(())
+}
+
 /// Every method of `opts.methods` with the same settings.
 pub fn compare(
     session: &Session,
@@ -471,22 +498,7 @@ pub fn compare_configs(
         .unwrap_or_else(|| default_shown(n));
     check_shown_frames(&shown, n).map_err(Error::Usage)?;
     std::fs::create_dir_all(&opts.out).map_err(|e| Error::io(&opts.out, e))?;
-    // A previous run's summaries and side-by-side grids go before this one
-    // renders: a run that fails part way must not leave them beside its own
-    // method folders, looking like its results, and the report embeds every
-    // grid in side-by-side/ (a rerun with fewer frames showed the old
-    // frames' grids). The report and its viewer too (until session 49 a
-    // failed re-run left the previous run's report.html showing old results).
-    for stale in [
-        "summary.json",
-        "summary.csv",
-        "side-by-side",
-        "report.html",
-        "viewer",
-    ] {
-        let p = opts.out.join(stale);
-        output::remove_stale(&p).map_err(|e| Error::io(&p, e))?;
-    }
+    remove_stale_outputs(&opts.out)?;
     // Every method is created before the first frame so bad method options
     // fail fast; debug views are on so the grids can show them.
     let mut methods = Vec::new();
@@ -535,7 +547,11 @@ pub fn compare_configs(
             exposure: opts.exposure,
             debug_views: false,
             trace: opts.trace.clone(),
-            settings: config.config.record(settings),
+            // The configuration's own settings (its spp, seed, bounces,
+            // `--taa-output`), not the shared ones: until session 50 every
+            // method's summary.json recorded the [run] values (bench
+            // tradeoff's supersample-4spp said spp 1).
+            settings: config.config.record(&config.settings),
         };
         let mut observer =
             |i: usize, cam: &StereoCamera, f: &StereoFrame| -> Result<BTreeMap<String, f64>> {

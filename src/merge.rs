@@ -77,8 +77,10 @@ fn copy_dir(from: &Path, to: &Path) -> Result<()> {
 /// drivers, backends or settings would be meaningless while the merged
 /// summary names one device). Every row must also have the same frame
 /// count (`frames`).
+/// `flip` too: FLIP's pixels per degree (until session 50 a shard run with
+/// `--set flip-ppd=…` merged with one at the derived PPD).
 const SAME: &[&str] = &[
-    "scene", "trace", "width", "height", "fps", "device", "driver", "backend", "settings",
+    "scene", "trace", "width", "height", "fps", "device", "driver", "backend", "settings", "flip",
 ];
 
 /// Merges the compare directories `parts` (each holding some of `labels`,
@@ -137,6 +139,10 @@ pub fn merge_comparison(
         }
     }
     std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
+    // An earlier merge's or run's files go first (until session 50 a merge
+    // only added: an earlier merge's grids of other parts stayed in the
+    // report, and a configuration's folder kept files its part lacks).
+    crate::compare::remove_stale_outputs(out)?;
     let mut rows = Vec::new();
     for label in labels {
         let mut found = None;
@@ -163,7 +169,9 @@ pub fn merge_comparison(
         let mut r = MethodRow::from_json(row)
             .ok_or_else(|| bad(&p.join("summary.json"), format!("bad row for '{label}'")))?;
         r.series = series(&p.join(label).join("frames.jsonl"))?;
-        copy_dir(&p.join(label), &out.join(label))?;
+        let dst = out.join(label);
+        crate::output::remove_stale(&dst).map_err(|e| Error::io(&dst, e))?;
+        copy_dir(&p.join(label), &dst)?;
         rows.push(r);
     }
     let baseline = choose_baseline(labels, baseline)?;

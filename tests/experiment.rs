@@ -205,6 +205,19 @@ fn an_experiment_equals_compare_and_two_merged_shards_equal_one_run() {
     exp(&s2, &["--shard", "2/2"]);
     assert_eq!(labels(&s1.join(group)), ["naive", "sample-cache"]);
     assert_eq!(labels(&s2.join(group)), ["taa"]);
+    // An earlier merge's files in the output: a merge removes them (until
+    // session 50 it only added, so an earlier merge's grids stayed in the
+    // report and a configuration's folder kept files its part lacks).
+    let stale = [
+        merged
+            .join(group)
+            .join("side-by-side/frame_09999.part7.png"),
+        merged.join(group).join("naive/stale.txt"),
+    ];
+    for f in &stale {
+        std::fs::create_dir_all(f.parent().unwrap()).unwrap();
+        std::fs::write(f, "old").unwrap();
+    }
     let mut c = bin();
     c.args(["experiment", "merge"])
         .arg(&s1)
@@ -212,6 +225,9 @@ fn an_experiment_equals_compare_and_two_merged_shards_equal_one_run() {
         .arg("--out")
         .arg(&merged);
     let printed = run(&mut c, "experiment merge");
+    for f in &stale {
+        assert!(!f.exists(), "{} kept by the merge", f.display());
+    }
     assert_eq!(tables(&merged.join(group)), tables(&one.join(group)));
     assert!(merged.join(group).join("report.html").exists());
     assert!(merged.join(group).join("taa/frames.jsonl").exists());
@@ -245,6 +261,11 @@ fn an_experiment_equals_compare_and_two_merged_shards_equal_one_run() {
             "a row has 3 frames",
             Box::new(|s: &mut serde_json::Value| s["methods"][0]["frames"] = 3.into()),
         ),
+        (
+            // FLIP scored at another PPD (`--set flip-ppd=…` on one shard).
+            "'flip' is",
+            Box::new(|s: &mut serde_json::Value| s["flip"]["ppd"] = 67.into()),
+        ),
     ] {
         let other = root.join("s2-other");
         let _ = std::fs::remove_dir_all(&other);
@@ -257,6 +278,9 @@ fn an_experiment_equals_compare_and_two_merged_shards_equal_one_run() {
         edit(&mut j);
         std::fs::write(&p, j.to_string()).unwrap();
         let out = root.join("merged-other");
+        // An earlier merge's claims there: removed although this one fails.
+        std::fs::create_dir_all(&out).unwrap();
+        std::fs::write(out.join("claims.md"), "old").unwrap();
         let o = bin()
             .args(["experiment", "merge"])
             .arg(&s1)
@@ -274,6 +298,7 @@ fn an_experiment_equals_compare_and_two_merged_shards_equal_one_run() {
             !out.join(group).join("summary.json").exists(),
             "{what}: merged anyway"
         );
+        assert!(!out.join("claims.md").exists(), "{what}: old claims kept");
     }
 
     // A metric this run does not produce (`ghost_rse`: no moving object;
@@ -592,12 +617,28 @@ fn bench_tradeoff_records_through_the_compare_runner() {
     let stdout = run(&mut c, "bench tradeoff");
     assert!(stdout.contains("sc-N12 / naive:"), "{stdout}");
     let d = root.join("compare");
+    // An earlier run's files in the output folder: a plain compare removes
+    // them (until session 50 an experiment's experiment.json stayed, and
+    // the new report showed its title and claim verdicts).
+    std::fs::create_dir_all(d.join("viewer")).unwrap();
+    for f in ["experiment.json", "report.html", "viewer/index.json"] {
+        std::fs::write(d.join(f), "{}").unwrap();
+    }
     let mut c = bin();
     c.args(["compare", "--methods", "naive,taa,isrt", "--every", "0"])
         .arg("--out")
         .arg(&d);
     common(&mut c);
     run(&mut c, "compare");
+    assert!(
+        !d.join("experiment.json").exists(),
+        "stale experiment.json kept"
+    );
+    assert_ne!(
+        std::fs::read(d.join("report.html")).unwrap(),
+        b"{}",
+        "stale report.html kept"
+    );
 
     let expected: Vec<&str> = vec![
         "sc-N4",
@@ -630,6 +671,17 @@ fn bench_tradeoff_records_through_the_compare_runner() {
         "tradeoff.csv is the run's summary.csv"
     );
     assert!(t.join("report.html").is_file());
+    // Each configuration's summary.json records its own settings (until
+    // session 50 the run's shared ones: supersample-4spp said spp 1).
+    let spp = |label: &str| {
+        let p = t.join(label).join("summary.json");
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&p).unwrap()).unwrap();
+        v["settings"]["spp"].as_u64()
+    };
+    assert_eq!(spp("supersample-4spp"), Some(4));
+    assert_eq!(spp("supersample-8spp"), Some(8));
+    assert_eq!(spp("naive"), Some(1));
 
     let (mut tt, mut tc) = (tables(&t), tables(&d));
     // The reference's own estimate is the same; what it is set against (the

@@ -118,18 +118,7 @@ fn run_file(a: RunArgs) -> Result<()> {
         .clone()
         .unwrap_or_else(|| PathBuf::from("out/experiments").join(&e.name));
     check_out(&out)?;
-    // A previous run's claims and plans go first: each comparison's report
-    // reads its experiment.json while this run renders, and a run that
-    // fails part way must not leave the old claims looking like its own.
-    let mut stale = vec![out.join("experiment.json"), out.join("claims.md")];
-    stale.extend(
-        e.groups
-            .iter()
-            .map(|g| out.join(&g.label).join("experiment.json")),
-    );
-    for p in &stale {
-        output::remove_stale(p).map_err(|err| anyhow!("{}: {err}", p.display()))?;
-    }
+    remove_stale_claims(&out, e.groups.iter().map(|g| g.label.as_str()))?;
     let mut ran: Vec<Vec<String>> = vec![Vec::new(); e.groups.len()];
     for (g, grp) in e.groups.iter().enumerate() {
         let configs: Vec<_> = mine
@@ -296,6 +285,20 @@ fn check_out_apart(out: &Path, dirs: &[PathBuf]) -> Result<()> {
     Ok(())
 }
 
+/// Removes a previous run's (or merge's) claims and plans from `out` and
+/// its comparisons `groups` before this one writes: each comparison's report
+/// reads its experiment.json while this run renders, and a run or merge
+/// that fails part way must not leave the old claims looking like its own
+/// (until session 50 a merge removed none of them).
+fn remove_stale_claims<'a>(out: &Path, groups: impl Iterator<Item = &'a str>) -> Result<()> {
+    let mut stale = vec![out.join("experiment.json"), out.join("claims.md")];
+    stale.extend(groups.map(|g| out.join(g).join("experiment.json")));
+    for p in &stale {
+        output::remove_stale(p).map_err(|err| anyhow!("{}: {err}", p.display()))?;
+    }
+    Ok(())
+}
+
 fn merge(a: MergeArgs) -> Result<()> {
     let plans: Vec<serde_json::Value> =
         a.dirs.iter().map(|d| read_plan(d)).collect::<Result<_>>()?;
@@ -328,6 +331,8 @@ fn merge(a: MergeArgs) -> Result<()> {
     }
     check_out_apart(&a.out, &a.dirs)?;
     check_out(&a.out)?;
+    let group_labels = first["groups"].as_array().into_iter().flatten();
+    remove_stale_claims(&a.out, group_labels.filter_map(|g| g["label"].as_str()))?;
     let name = first["name"].as_str().unwrap_or("experiment").to_string();
     let mut merged = first.clone();
     merged["shard"] = serde_json::Value::Null;
