@@ -211,6 +211,13 @@ fn replay_writes_frames_at_the_cadence_and_one_record_per_frame() {
     assert_eq!(sum["method"], "reference");
     assert_eq!(sum["settings"]["spp"], 1);
     assert_eq!(sum["rays"]["total"].as_u64().unwrap(), ray_total);
+    // Rays per frame over the steady frames, as the steady times (frame 0,
+    // the warm-up, was included until session 50).
+    let first = recs[0]["rays"]["total"].as_u64().unwrap();
+    assert_eq!(
+        sum["rays_per_frame"].as_f64().unwrap(),
+        (ray_total - first) as f64 / 6.0
+    );
     assert!(sum["trace"]
         .as_str()
         .unwrap()

@@ -74,7 +74,13 @@ pub fn bench_sample_cache(
                     .collect();
                 ms.sort_by(f64::total_cmp);
                 let mean = ms.iter().sum::<f64>() / n;
-                format!("{name} {mean:.2}/{:.2}", ms[ms.len() / 2])
+                let k = ms.len() / 2;
+                let median = if ms.len() % 2 == 0 && k > 0 {
+                    (ms[k - 1] + ms[k]) / 2.0
+                } else {
+                    ms[k]
+                };
+                format!("{name} {mean:.2}/{median:.2}")
             })
             .collect();
         let per_pixel = |c: &str| {

@@ -60,4 +60,6 @@ pub use ssim::{ssim, SsimResult};
 pub use stereo::{stereo_discrepancy, stereo_discrepancy_masked, StereoDiscrepancy};
 pub use summary::ImageMetrics;
 pub use temporal::{temporal_instability, temporal_instability_masked, TemporalInstability};
-pub use uncertainty::{autocorrelation_factor, mean_stderr, ratio_of_means, MeanStderr};
+pub use uncertainty::{
+    autocorrelation_factor, mean_stderr, ratio_of_means, t_quantile_975, MeanStderr,
+};

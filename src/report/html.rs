@@ -17,6 +17,10 @@ fn fmt(v: Option<f64>) -> String {
         Some(v) if v.is_finite() => {
             if v.abs() >= 100.0 {
                 format!("{v:.1}")
+            } else if v != 0.0 && v.abs() < 1e-3 {
+                // Two significant digits: a standard error of 2.3e-5 read
+                // "0.0000" (exactly known) until session 50.
+                format!("{v:.1e}")
             } else {
                 format!("{v:.4}")
             }
@@ -557,4 +561,21 @@ fn viewer(d: &ReportData) -> String {
         data.to_string().replace("</", "<\\/"),
         include_str!("viewer.js")
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::fmt;
+
+    /// Small figures keep two significant digits (a standard error of
+    /// 2.3e-5 read "0.0000" until session 50); others as before.
+    #[test]
+    fn small_figures_are_not_rounded_to_zero() {
+        assert_eq!(fmt(Some(2.3e-5)), "2.3e-5");
+        assert_eq!(fmt(Some(-4.0e-4)), "-4.0e-4");
+        assert_eq!(fmt(Some(0.0)), "0.0000");
+        assert_eq!(fmt(Some(0.0123)), "0.0123");
+        assert_eq!(fmt(Some(123.45)), "123.5");
+        assert_eq!(fmt(None), "–");
+    }
 }

@@ -16,8 +16,10 @@
 //! ```
 //!
 //! **Verdicts.** In each comparison in scope (`group`, else every one
-//! whose rows have the figure) the value meets `expect` or not; within
-//! two standard errors of the bound it is inconclusive, and so it is where
+//! whose rows have the figure) the value meets `expect` or not; within a
+//! 95 % interval of the bound (Student's t over the frames times the
+//! standard error: 2.36 at 8 frames; 2 until session 50) it is
+//! inconclusive, and so it is where
 //! the figure has no standard error (no per-frame values) unless it is
 //! deterministic ([`DETERMINISTIC`]). Over the comparisons: does not
 //! reproduce if any does not, else inconclusive if any is, else
@@ -396,8 +398,14 @@ pub fn evaluate(claims: &[ClaimSpec], groups: &[String], out: &Path) -> Vec<Clai
                 // time is as noisy as the time).
                 let deterministic = DETERMINISTIC.contains(&metric.as_str())
                     && den.is_none_or(|(_, m)| DETERMINISTIC.contains(&m));
+                // Within a two-sided 95 % interval: Student's t over the
+                // frames (2·se until session 50; 2.36·se at 8 frames).
+                let half_width = |se: f64| {
+                    let df = frames.map_or(0, |n| n.saturating_sub(1));
+                    stereocache::metrics::t_quantile_975(df) * se
+                };
                 let near = |t: f64| match stderr {
-                    Some(se) => (value - t).abs() < 2.0 * se,
+                    Some(se) => (value - t).abs() < half_width(se),
                     None => !deterministic,
                 };
                 let verdict: String = match (expect, holds) {
@@ -491,7 +499,7 @@ pub fn text(results: &[ClaimResult]) -> String {
 /// claims.md: one row per claim.
 pub fn markdown(title: &str, results: &[ClaimResult]) -> String {
     let mut s = format!(
-        "# {title}\n\n± = standard error over frames (ratios: delta method over the paired frames), widened by the frames' lag-1 autocorrelation (metrics::uncertainty); inconclusive = the expected bound lies within two standard errors, or the figure has no standard error. A claim with several comparisons must hold in each (each one's verdict in brackets). Each configuration is one run: drift of the machine between runs is not in the ± (timing claims especially; docs/REPRODUCTION.md).\n\n| claim | paper | here | expected | verdict |\n|---|---|---|---|---|\n"
+        "# {title}\n\n± = standard error over frames (ratios: delta method over the paired frames), widened by the frames' lag-1 autocorrelation (metrics::uncertainty); inconclusive = the expected bound lies within a 95 % interval (Student's t over the frames × the standard error; the lag-1 autocorrelation bias-corrected), or the figure has no standard error. A claim with several comparisons must hold in each (each one's verdict in brackets). Each configuration is one run: drift of the machine between runs is not in the ± (timing claims especially; docs/REPRODUCTION.md).\n\n| claim | paper | here | expected | verdict |\n|---|---|---|---|---|\n"
     );
     let cell = |t: &str| t.replace('|', "\\|");
     for r in results {
