@@ -815,6 +815,73 @@ fn procedural_scene_spec_assigns_seeded_library_graphs() {
     }
 }
 
+/// A graph's tangent-space normal (`normal_tangent`) needs the mesh's
+/// tangent frame: glTF §3.7.2.1 asks for MikkTSpace tangents on the normal
+/// texture's uvs where TANGENT is absent, and here the graph is the normal
+/// texture. Until session 50 the procedural scenes' meshes (and any glTF
+/// without TANGENT whose normal came from a graph) had none, so
+/// material_at kept the interpolated normal: every bump graph rendered
+/// flat. Known answer: on a planar mesh MikkTSpace's tangent is ∂P/∂u made
+/// orthogonal to the normal, and w such that the bitangent w·(n × t)
+/// points up the image, −∂P/∂v (glTF: uv (0, 0) is the image's top-left,
+/// and a normal texture's +Y is up).
+#[test]
+fn graph_normals_get_mikktspace_tangents() {
+    use stereocache::materials::binding::Slot;
+    let scene = stereocache::scene::load_scene("procedural-uv:cornell").unwrap();
+    let mut planar = 0;
+    let mut bound = 0;
+    for mesh in &scene.meshes {
+        let binds_normal = scene
+            .graphs
+            .of_material(mesh.material)
+            .iter()
+            .any(|b| b.slot == Slot::NormalTangent);
+        if !binds_normal || mesh.uvs.is_empty() {
+            continue;
+        }
+        bound += 1;
+        assert_eq!(mesh.tangents.len(), mesh.positions.len(), "{}", mesh.name);
+        let n0 = mesh.normals[0];
+        if !mesh.normals.iter().all(|n| (*n - n0).length() < 1e-6) {
+            continue;
+        }
+        planar += 1;
+        for t in mesh.indices.chunks_exact(3) {
+            let [a, b, c] = [t[0] as usize, t[1] as usize, t[2] as usize];
+            let (e1, e2) = (
+                mesh.positions[b] - mesh.positions[a],
+                mesh.positions[c] - mesh.positions[a],
+            );
+            let (d1, d2) = (mesh.uvs[b] - mesh.uvs[a], mesh.uvs[c] - mesh.uvs[a]);
+            let det = d1.x * d2.y - d2.x * d1.y;
+            if det.abs() < 1e-12 {
+                continue;
+            }
+            let dpdu = (e1 * d2.y - e2 * d1.y) / det;
+            let dpdv = (e2 * d1.x - e1 * d2.x) / det;
+            let want = (dpdu - n0 * n0.dot(dpdu)).normalize();
+            let w = if n0.cross(dpdu).dot(-dpdv) > 0.0 {
+                1.0
+            } else {
+                -1.0
+            };
+            for v in [a, b, c] {
+                let got = mesh.tangents[v];
+                assert!(
+                    (got.truncate() - want).length() < 1e-4 && got.w == w,
+                    "{}: vertex {v} tangent {got} , want {want} w {w}",
+                    mesh.name
+                );
+            }
+        }
+    }
+    assert!(
+        bound > 0 && planar > 0,
+        "{bound} graph-normal meshes, {planar} planar"
+    );
+}
+
 /// Memoization (issue 17; thesis §5.3, non-tiled nearest-neighbour with
 /// texel-centre snapping): with `--memo primary`, a first hit of a material
 /// whose graphs read only the uv gets the graph outputs at the centre of its

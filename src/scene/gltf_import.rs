@@ -171,6 +171,7 @@ fn load_gltf_unguarded(path: &Path) -> Result<Scene, SceneError> {
     let instance_paths = std::mem::take(&mut importer.instance_paths);
     let instance_offsets = std::mem::take(&mut importer.instance_offsets);
     let mut scene = importer.scene;
+    super::mesh_ops::generate_graph_normal_tangents(&mut scene);
     scene.animation = import_animations(
         &doc,
         &importer.reader,
@@ -1760,16 +1761,19 @@ impl Importer<'_> {
         };
         let tangent_second = channels.second_slots & (1 << normal_slot) != 0;
         let tangent_choice = channels.tangent.unwrap_or(choice);
-        if !mesh.tangents.is_empty() && !tangent_choice.transform.is_identity() {
-            for (t, nrm) in mesh.tangents.iter_mut().zip(&mesh.normals) {
-                *t = tangent_choice.transform.tangent(*nrm, *t);
-            }
-        }
         let needs_tangents = self
             .scene
             .materials
             .get(material as usize)
             .is_some_and(|m| m.normal_texture.is_some() || m.clearcoat.normal_texture.is_some());
+        // Turned only for a normal texture: without one the tangents serve
+        // a graph's tangent-space normal, which reads its uvs untransformed
+        // (until session 50 turned by an unrelated texture's transform).
+        if needs_tangents && !mesh.tangents.is_empty() && !tangent_choice.transform.is_identity() {
+            for (t, nrm) in mesh.tangents.iter_mut().zip(&mesh.normals) {
+                *t = tangent_choice.transform.tangent(*nrm, *t);
+            }
+        }
         if mesh.tangents.is_empty() && needs_tangents {
             match channels.relative.iter().find(|&&(k, _)| k == normal_slot) {
                 // Read through a map: MikkTSpace on the channel's uvs mapped

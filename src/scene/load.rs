@@ -33,6 +33,14 @@ fn is_gltf(p: &Path) -> bool {
 /// (one turn in 4 s; `generate::animated::spin_named_instances`), e.g.
 /// `spin:VaseRound.006:../shared/scenes/sponza`, Sponza with one animated instance.
 pub fn load_scene(spec: &str) -> Result<Scene, SceneError> {
+    let mut scene = load_scene_as_specified(spec)?;
+    // Graphs attached after import (procedural:, the material balls) need
+    // their tangents too (glTF files have theirs from load_gltf).
+    super::mesh_ops::generate_graph_normal_tangents(&mut scene);
+    Ok(scene)
+}
+
+fn load_scene_as_specified(spec: &str) -> Result<Scene, SceneError> {
     if let Some(rest) = spec.strip_prefix("spin:") {
         let (node, inner) = rest.split_once(':').ok_or_else(|| {
             SceneError::invalid(

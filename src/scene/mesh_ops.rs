@@ -93,6 +93,47 @@ pub fn generate_tangents_for(mesh: &mut Mesh, second: bool) {
     generate_tangents_from(mesh, &uvs);
 }
 
+/// MikkTSpace tangents for the meshes whose material's graphs output a
+/// tangent-space normal (`normal_tangent`: a KHR_texture_procedurals
+/// `normalTexture`, an `.mtlx` output, the texture-space library graphs)
+/// and that have none: glTF 2.0 §3.7.2.1, "When tangents are not specified,
+/// client implementations SHOULD calculate tangents using default
+/// MikkTSpace algorithms with the specified vertex positions, normals, and
+/// texture coordinates associated with the normal texture" — here the
+/// graph is the normal texture, and its uvs are the lowest texture
+/// coordinate set it reads, untransformed (the channel `SceneGraphs`
+/// keeps it in; set 0 where it reads none). Until session 50 such meshes
+/// got no tangents and material_at kept the interpolated normal: the
+/// graphs' bumps vanished without a word (the procedural Cornell box, any
+/// glTF without TANGENT). Returns the number of meshes given tangents.
+pub fn generate_graph_normal_tangents(scene: &mut super::Scene) -> usize {
+    use crate::materials::binding::Slot;
+    let graphs = &scene.graphs;
+    let mut generated = 0;
+    for mesh in &mut scene.meshes {
+        let m = mesh.material;
+        if !mesh.tangents.is_empty()
+            || !graphs
+                .of_material(m)
+                .iter()
+                .any(|b| b.slot == Slot::NormalTangent)
+        {
+            continue;
+        }
+        let sets = graphs.uv_sets_of(m);
+        let set = if sets == 0 { 0 } else { sets.trailing_zeros() };
+        let swapped = graphs.uv_swapped.contains(&m);
+        let second = if swapped { set == 0 } else { set == 1 };
+        let channel = if second { &mesh.uvs2 } else { &mesh.uvs };
+        if channel.len() != mesh.positions.len() || mesh.normals.len() != mesh.positions.len() {
+            continue;
+        }
+        generate_tangents_for(mesh, second);
+        generated += 1;
+    }
+    generated
+}
+
 /// As [`generate_tangents`], for the uvs `uvs` (one per vertex): those a
 /// normal texture reads through a map of a channel (gltf_uv `UvAffine`).
 pub fn generate_tangents_from(mesh: &mut Mesh, uvs: &[Vec2]) {
