@@ -363,6 +363,40 @@ fn frame_times_hours_into_a_replay_keep_their_precision() {
     }
 }
 
+/// Lights and cameras stay at their rest pose (only mesh instances are
+/// re-posed): an animation that moves a node carrying one — itself or
+/// through a child — is named in one warning (until session 50 the light
+/// stood still silently). `animated.gltf` with a point light on "moving",
+/// the child of the animated "carrier": a warning naming "slide" only.
+#[test]
+fn animations_moving_a_light_say_it_stays_at_rest() {
+    let src = std::fs::read_to_string(data("animation/animated.gltf")).unwrap();
+    let mut j: serde_json::Value = serde_json::from_str(&src).unwrap();
+    j["extensionsUsed"] = serde_json::json!(["KHR_lights_punctual"]);
+    j["extensions"] = serde_json::json!({ "KHR_lights_punctual": { "lights": [
+        { "type": "point", "intensity": 1.0 } ] } });
+    j["nodes"][1]["extensions"] = serde_json::json!({ "KHR_lights_punctual": { "light": 0 } });
+    let p = std::env::temp_dir().join(format!(
+        "stereocache-animated-light-{}.gltf",
+        std::process::id()
+    ));
+    std::fs::write(&p, j.to_string()).unwrap();
+    let s = load_gltf(&p);
+    let _ = std::fs::remove_file(&p);
+    let s = s.unwrap();
+    let w: Vec<&String> = s
+        .warnings
+        .iter()
+        .filter(|w| w.contains("carries a light or camera"))
+        .collect();
+    assert_eq!(w.len(), 1, "{:?}", s.warnings);
+    assert!(
+        w[0].contains("'slide'") && w[0].contains("rest pose"),
+        "{}",
+        w[0]
+    );
+}
+
 fn expect_error(name: &str, phrases: &[&str]) {
     let e = match load_gltf(&data(&format!("bad_scenes/{name}"))) {
         Ok(_) => panic!("{name}: loaded, expected an error"),

@@ -152,6 +152,28 @@ pub(crate) fn import_animations(
             joint[j.index()] = true;
         }
     }
+    // Nodes whose subtree holds a light or a camera: those stay at their
+    // rest pose (only mesh instances are re-posed), so an animation that
+    // moves one is named in a warning (until session 50 silently static).
+    let mut parent = vec![None; doc.nodes().len()];
+    for n in doc.nodes() {
+        for c in n.children() {
+            parent[c.index()] = Some(n.index());
+        }
+    }
+    let mut carries = vec![false; doc.nodes().len()];
+    for n in doc
+        .nodes()
+        .filter(|n| n.light().is_some() || n.camera().is_some())
+    {
+        let mut at = Some(n.index());
+        // Bounded: the importer refuses cycles, but this runs on the raw tree.
+        for _ in 0..doc.nodes().len() {
+            let Some(i) = at else { break };
+            carries[i] = true;
+            at = parent[i];
+        }
+    }
     let nodes: Vec<LocalRest> = doc
         .nodes()
         .map(|n| match n.transform() {
@@ -175,6 +197,7 @@ pub(crate) fn import_animations(
         let mut channels = Vec::new();
         let mut morph = false;
         let mut skinned = false;
+        let mut moves_attachment = false;
         for (ci, ch) in anim.channels().enumerate() {
             let err = |m: String| SceneError::invalid(path, format!("{what} channel {ci}: {m}"));
             // The gltf crate does not validate these two indices, and its
@@ -211,6 +234,7 @@ pub(crate) fn import_animations(
                 )));
             }
             skinned |= joint[node];
+            moves_attachment |= carries[node];
             let sampler = ch.sampler();
             let interpolation = match sampler.interpolation() {
                 GltfInterp::Step => Interpolation::Step,
@@ -245,6 +269,13 @@ pub(crate) fn import_animations(
             warnings.push(format!(
                 "{}: {what} animates morph-target weights, which stereocache does not support; \
                  those channels are ignored (meshes keep their default weights)",
+                path.display()
+            ));
+        }
+        if moves_attachment {
+            warnings.push(format!(
+                "{}: {what} moves a node that carries a light or camera; lights and cameras \
+                 stay at their rest pose (only mesh instances are animated)",
                 path.display()
             ));
         }

@@ -179,7 +179,7 @@ pub const FEATURES: &[Feature] = &[
     f(
         "perspective cameras",
         Full,
-        "yfov and aspectRatio; zfar is not needed by a ray tracer; znear: the next row",
+        "yfov; aspectRatio is read, the image's own aspect (`--size`) is used, as the Khronos sample viewer does; zfar is not needed by a ray tracer; znear: the next row",
     ),
     f(
         "orthographic cameras",
