@@ -216,11 +216,20 @@ impl<'a> Recorder<'a> {
         let idx = self.names.len() as u32;
         self.names.push(name.to_string());
         let (pool, q) = self.query_slot(idx);
+        // The start is written at BOTTOM_OF_PIPE: when every earlier command
+        // has completed (vkCmdWriteTimestamp's first scope is all earlier
+        // commands, limited to the stage named). At TOP_OF_PIPE (until
+        // session 50) it waited only for earlier commands to *start*, so on
+        // a GPU that overlaps dispatches without a barrier between them a
+        // pass's interval covered its predecessor's work too and the sum of
+        // pass times (gpu_ms) counted overlaps twice. Now the intervals tile
+        // the frame: [all earlier work done, this pass done]. (llvmpipe runs
+        // commands one after another: no difference there.)
         // SAFETY: `pool` was reset earlier in this command buffer; `q` < its size.
         unsafe {
             self.ctx.device.cmd_write_timestamp(
                 self.cb,
-                vk::PipelineStageFlags::TOP_OF_PIPE,
+                vk::PipelineStageFlags::BOTTOM_OF_PIPE,
                 pool,
                 q,
             )
