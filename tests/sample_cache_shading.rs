@@ -372,3 +372,115 @@ fn black_base_emitter_renders_its_emission_through_the_cache() {
     }
     assert_no_validation_messages(&ctx);
 }
+
+/// `--accumulation` (common/accumulation.glsl `accumulation_floor`) in both
+/// methods that accumulate a sample's shadings, against the CPU twin
+/// (`heuristics::accumulate`): a still view of a rough dielectric plane
+/// (roughness 0.6: α_GGX = 0.36, appendix C's α_min = 0.5·0.64 + 0.1·0.36
+/// = 0.356), K shadings of the samples traced at frame 0. The sample cache
+/// with one slot per pixel shades its one sample every frame (K = 12);
+/// isrt (M = 2, every cell filled) shades its four cells round robin, so a
+/// cell of frame 0 is shaded every fourth frame (K = 4 over 16 frames).
+/// The largest effective count c of a visible surface sample is the twin's
+/// after K shadings: K for `mean` (the default since session 50: until
+/// then `mean` was `alpha-min`), the floored sequences for `alpha-min` and
+/// `fixed:0.5` (all three differ at these K). Tolerance: f32 rounding of
+/// the count's recurrence (K steps, relative 1e-5).
+#[test]
+fn accumulation_modes_floor_the_blend_factor_as_the_cpu_twin() {
+    use stereocache::methods::isrt::{Isrt, IsrtRetrace, IsrtSettings};
+    use stereocache::methods::sample_cache::{heuristics, Accumulation};
+    let ctx = context();
+    let plane = Material {
+        metallic: 0.0,
+        specular: 1.0,
+        roughness: 0.6,
+        ..Material::diffuse("rough dielectric", Vec3::splat(0.5))
+    };
+    let s = session(
+        &ctx,
+        plane_in_environment(plane, 8.0, Vec3::splat(0.4)),
+        RtChoice::Software,
+    );
+    let (w, h) = (16, 12);
+    let cam = look_at_camera(
+        Vec3::new(0.0, 1.0, 0.3),
+        Vec3::ZERO,
+        45.0,
+        w as f32 / h as f32,
+    );
+    let twin = |floor: f32, k: u32| (0..k).fold(0.0f32, |c, _| heuristics::accumulate(c, floor).1);
+    let a_min = heuristics::alpha_min(0.36);
+    let modes = [
+        (Accumulation::RunningMean, 0.0),
+        (Accumulation::AlphaMin, a_min),
+        (Accumulation::FixedAlpha(0.5), 0.5),
+    ];
+    let close = |got: f32, want: f32| (got - want).abs() <= 1e-5 * want;
+    // A surface hit (Listing 1: the no-hit marker w = u32::MAX marks empty
+    // cells and background samples).
+    for (mode, floor) in modes {
+        // The sample cache: one slot per pixel, shaded every frame.
+        let st = settings(
+            w,
+            h,
+            SampleCacheSettings {
+                slots: 1,
+                n_target: 1,
+                delta: 0,
+                accumulation: mode,
+                ..Default::default()
+            },
+        );
+        let mut m = cache_method(&s, &st);
+        for f in 0..12 {
+            render_at(&mut m, f, cam, if f > 0 { Some(cam) } else { None });
+        }
+        let snap = m.snapshot().unwrap();
+        let counts: Vec<f32> = snap
+            .first_hits
+            .iter()
+            .zip(&snap.radiance)
+            .filter(|(fh, _)| fh[3] != u32::MAX)
+            .map(|(_, r)| r[3])
+            .collect();
+        let max = counts.iter().cloned().fold(0.0, f32::max);
+        let want = twin(floor, 12);
+        assert!(
+            !counts.is_empty() && close(max, want),
+            "sample cache {mode:?}: largest count {max}, twin {want} after 12 shadings"
+        );
+        // isrt: four cells per pixel, each shaded every fourth frame.
+        let is = IsrtSettings {
+            m: 2,
+            retrace: IsrtRetrace::Every,
+            accumulation: mode,
+            ..Default::default()
+        };
+        let mut m = Isrt::new(
+            &s.ctx,
+            &s.scene_gpu,
+            &s.scene.environment,
+            &st.settings,
+            &is,
+        )
+        .unwrap();
+        for f in 0..16 {
+            render_at(&mut m, f, cam, if f > 0 { Some(cam) } else { None });
+        }
+        let snap = m.snapshot().unwrap();
+        let max = snap
+            .first_hits
+            .iter()
+            .zip(&snap.radiance)
+            .filter(|(fh, _)| fh[3] != u32::MAX)
+            .map(|(_, r)| r[3])
+            .fold(0.0, f32::max);
+        let want = twin(floor, 4);
+        assert!(
+            close(max, want),
+            "isrt {mode:?}: largest count {max}, twin {want} after 4 shadings"
+        );
+    }
+    assert_no_validation_messages(&ctx);
+}

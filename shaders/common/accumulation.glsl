@@ -56,4 +56,12 @@ vec4 accumulate_record(vec4 rec, vec3 demod, float alpha_floor) {
 float alpha_floor_of(ShadingMaterial m) {
     return has_specular_lobe(m) ? alpha_min(ggx_alpha(specular_roughness(m))) : 0.0;
 }
+
+// The blend factor's floor of `--accumulation` (src/methods/sample_cache/
+// settings.rs `Accumulation::mode`): 0 `mean`, none (the running mean, §4–5);
+// 1 `fixed:A`, A for every sample (§5.2); 2 `alpha-min`, appendix C's
+// alpha_floor_of(m).
+float accumulation_floor(uint mode, float fixed_alpha, ShadingMaterial m) {
+    return mode == 1u ? fixed_alpha : mode == 2u ? alpha_floor_of(m) : 0.0;
+}
 #endif

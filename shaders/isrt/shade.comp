@@ -3,9 +3,9 @@
 // occupied cells (frame index mod count, like the sample cache's uniform
 // shading). One path through the stored first hit with the shared
 // integrator, demodulated (emission kept apart, divided by the first hit's
-// floored base colour: common/demodulation.glsl) and accumulated as a
-// running mean, with the sample cache's appendix C clamp of α wherever the
-// BSDF has a specular lobe (common/accumulation.glsl).
+// floored base colour: common/demodulation.glsl) and accumulated as the
+// sample cache accumulates (`--accumulation`: the running mean by default;
+// common/accumulation.glsl), so both baselines of Fig. 10 average alike.
 #include "isrt/common.glsl"
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 
@@ -43,11 +43,10 @@ void main() {
     Surface s = surface_at(h.instance, h.prim, h.bary, d);
     ShadingMaterial m = material_at(s, d, eye_cone(e, t).x);
     vec3 demod = demodulate(L, m);   // emission kept apart (common/demodulation.glsl)
-    // The sample cache's accumulation (common/accumulation.glsl): a running
-    // mean, floored at appendix C's α_min wherever the BSDF has a specular
-    // lobe (until session 48 only metals > 0.5 and transmission, with the
-    // base roughness alone and a count of 1/α_min).
-    rad_cur[idx] = accumulate_record(rad_cur[idx], demod, alpha_floor_of(m));
+    // The sample cache's accumulation (common/accumulation.glsl): until
+    // session 50 always appendix C's α_min floor wherever the BSDF has a
+    // specular lobe, whatever `--accumulation` said.
+    rad_cur[idx] = accumulate_record(rad_cur[idx], demod, accumulation_floor(pc.accum_mode, pc.fixed_alpha, m));
     atomicAdd(counters[C_ISRT_SHADED], 1u);
     atomicAdd(counters[C_ISRT_BOUNCE_RAYS], rays.bounce);
     atomicAdd(counters[C_ISRT_SHADOW_RAYS], rays.shadow);

@@ -24,7 +24,7 @@
 layout(constant_id = SPEC_SAMPLE_CACHE_SLOTS) const uint N_SLOTS = 12;
 layout(constant_id = SPEC_SAMPLE_CACHE_RETRACE) const uint RETRACE_MODE = 2;   // 0 single, 1 multi, 2 adaptive
 layout(constant_id = SPEC_SAMPLE_CACHE_SHADING) const uint SHADING_MODE = 0;   // 0 uniform, 1 adaptive
-layout(constant_id = SPEC_SAMPLE_CACHE_ACCUM) const uint ACCUM_MODE = 0;     // 0 running mean (+ appendix C clamp), 1 fixed α floor for every sample (§5.2)
+layout(constant_id = SPEC_SAMPLE_CACHE_ACCUM) const uint ACCUM_MODE = 0;     // 0 running mean, 1 fixed α floor for every sample (§5.2), 2 appendix C's α_min for specular lobes
 // false: visibility only (the `hybrid` method) — the radiance records are
 // neither read nor written (their buffers are placeholders), and the
 // importance histogram is not counted.

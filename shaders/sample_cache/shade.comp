@@ -5,10 +5,11 @@
 // (common.glsl `demodulate`: emission kept apart) and accumulated as an
 // exponential average whose effective count c_s the record carries
 // (common/accumulation.glsl `accumulate_record`). The blend factor is the running mean's
-// 1/(c_s + 1), floored at appendix C's α_min = (1 − α_GGX)·0.5 + α_GGX·0.1
-// for every sample whose BSDF has a specular lobe (ACCUM_MODE 0), or at the
-// fixed α of `--accumulation fixed:A` for every sample (ACCUM_MODE 1, §5.2's
-// α = 0.1). Flooring rather than replacing keeps the start exact: the first
+// 1/(c_s + 1) (ACCUM_MODE 0, the default: §4–5's radiance cache), floored
+// at the fixed α of `--accumulation fixed:A` for every sample (ACCUM_MODE 1,
+// §5.2's α = 0.1) or at appendix C's α_min = (1 − α_GGX)·0.5 + α_GGX·0.1 for
+// every sample whose BSDF has a specular lobe (ACCUM_MODE 2,
+// `--accumulation alpha-min`). Flooring rather than replacing keeps the start exact: the first
 // shading of a sample (c_s = 0) takes its path as is, and the average only
 // becomes exponential once 1/(c_s + 1) falls below the floor.
 #include "sample_cache/common.glsl"
@@ -48,7 +49,7 @@ void main() {
         ShadingMaterial m = material_at(s, d, eye_cone(e, t).x);
         vec3 demod = demodulate(L, m);
 
-        rad_cur[idx] = accumulate_record(rad_cur[idx], demod, ACCUM_MODE == 1u ? pc.fixed_alpha : alpha_floor_of(m));
+        rad_cur[idx] = accumulate_record(rad_cur[idx], demod, accumulation_floor(ACCUM_MODE, pc.fixed_alpha, m));
         atomicAdd(pixel_stats[eye * npix() + pixel].y, 1u);
         shaded++;
     }

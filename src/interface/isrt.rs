@@ -33,8 +33,9 @@ pub const PUSH: PushBlock = PushBlock {
         ("eps0", PushType::F32),
         // trace_pixel.comp: samples per pixel to fill up to (0 = every cell)
         ("n_target", PushType::U32),
-        ("pad1", PushType::U32),
-        ("pad2", PushType::U32),
+        // shade.comp: `--accumulation` (common/accumulation.glsl accumulation_floor)
+        ("accum_mode", PushType::U32),
+        ("fixed_alpha", PushType::F32),
     ],
 };
 

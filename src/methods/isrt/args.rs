@@ -35,7 +35,11 @@ impl IsrtArgs {
 
 impl crate::methods::MethodOptions for IsrtSettings {
     fn from_args(args: &crate::methods::MethodArgs, _debug_views: bool) -> Result<Self, String> {
-        args.isrt.settings()
+        // `--accumulation` is the sample cache's option; isrt averages alike.
+        let mut s = args.isrt.settings()?;
+        s.accumulation = args.cache.accumulation;
+        s.accumulation.validate()?;
+        Ok(s)
     }
     fn record(&self, settings: &mut serde_json::Map<String, serde_json::Value>) {
         crate::methods::config::record_as(settings, "isrt", self);

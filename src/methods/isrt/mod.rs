@@ -62,6 +62,9 @@ pub mod settings {
         /// With [`IsrtRetrace::OnePerPixel`]: empty cells are filled until the
         /// pixel holds this many samples (0 = every cell; at most M²).
         pub n_target: u32,
+        /// How shade.comp averages a cell's paths: the sample cache's
+        /// `--accumulation` (Fig. 10 compares the two alike).
+        pub accumulation: crate::methods::sample_cache::Accumulation,
     }
 
     impl Default for IsrtSettings {
@@ -71,6 +74,7 @@ pub mod settings {
                 eps0: 1e-3,
                 retrace: IsrtRetrace::Every,
                 n_target: 0,
+                accumulation: crate::methods::sample_cache::Accumulation::RunningMean,
             }
         }
     }
@@ -142,7 +146,9 @@ struct IsrtPush {
     eps0: f32,
     /// trace_pixel.comp's density target (0 = every cell).
     n_target: u32,
-    pad: [u32; 2],
+    /// shade.comp's `--accumulation` (`Accumulation::mode`, `fixed_alpha`).
+    accum_mode: u32,
+    fixed_alpha: f32,
 }
 const _: () = assert!(std::mem::size_of::<IsrtPush>() == PUSH.size() as usize);
 
@@ -357,7 +363,8 @@ impl Isrt {
             .push(&IsrtPush {
                 eps0: self.isrt.eps0,
                 n_target: self.isrt.n_target,
-                pad: [0; 2],
+                accum_mode: self.isrt.accumulation.mode(),
+                fixed_alpha: self.isrt.accumulation.fixed_alpha(),
             })
     }
 }

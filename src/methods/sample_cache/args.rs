@@ -32,7 +32,7 @@ pub struct SampleCacheArgs {
     /// one-pass | two-pass
     #[arg(long, default_value = "one-pass")]
     pub reproject: Reproject,
-    /// mean (running mean, appendix C α_min floor for samples with a specular lobe) | fixed:ALPHA (α floored at ALPHA for every sample, §5.2)
+    /// mean (running mean, §4–5's radiance cache; HashCache's too) | alpha-min (appendix C: α floored at α_min(α_GGX) for samples with a specular lobe) | fixed:ALPHA (α floored at ALPHA for every sample, §5.2). Also isrt's.
     #[arg(long, default_value = "mean")]
     pub accumulation: Accumulation,
     /// Stereo blending of the two eyes (§3.6): none | moments | neighbourhood

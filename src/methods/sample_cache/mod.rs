@@ -322,10 +322,7 @@ impl SampleCache {
         spec.set(spec_id::SLOTS, cache.slots)
             .set(spec_id::RETRACE, cache.retrace as u32)
             .set(spec_id::SHADING, cache.shading as u32)
-            .set(
-                spec_id::ACCUM,
-                matches!(cache.accumulation, Accumulation::FixedAlpha(_)) as u32,
-            )
+            .set(spec_id::ACCUM, cache.accumulation.mode())
             .flag(spec_id::TWO_PASS, two_pass)
             .flag(spec_id::SHADING_STORAGE, storage)
             .flag(spec_id::DEBUG_VIEWS, cache.debug_views);
@@ -714,10 +711,6 @@ impl SampleCache {
 
 /// The push constants of `c` (the same for every pass and frame).
 fn push_constants(c: &SampleCacheSettings) -> Push {
-    let fixed_alpha = match c.accumulation {
-        Accumulation::FixedAlpha(a) => a,
-        Accumulation::RunningMean => 0.0,
-    };
     let blend_mode = match c.stereo_blend {
         crate::stereo::BlendMode::None => 0,
         crate::stereo::BlendMode::Moments => 1,
@@ -725,7 +718,7 @@ fn push_constants(c: &SampleCacheSettings) -> Push {
     };
     Push {
         shading_rate: c.shading_rate,
-        fixed_alpha,
+        fixed_alpha: c.accumulation.fixed_alpha(),
         eps0: c.eps0,
         eps1: c.eps1,
         n_target: c.n_target,

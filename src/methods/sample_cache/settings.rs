@@ -49,16 +49,56 @@ pub enum Reproject {
     TwoPass,
 }
 
-/// `--accumulation`: how shade.comp averages a sample's paths.
-/// `mean`: running mean, its blend factor floored at appendix C's
-/// α_min = (1 − α_GGX)·0.5 + α_GGX·0.1 for every sample whose BSDF has a
-/// specular lobe (metal, transmission, or a dielectric specular layer).
+/// `--accumulation`: how shade.comp (the sample cache's and isrt's) averages
+/// a sample's paths.
+/// `mean` (default): the running mean, as §4–5 accumulate the "secondary
+/// ray results for diffuse global illumination" of the main comparisons,
+/// and as HashCache's cells average theirs (hash_table/update.comp).
+/// `alpha-min`: appendix C's analysis of specular materials: the running
+/// mean's blend factor floored at α_min = (1 − α_GGX)·0.5 + α_GGX·0.1 for
+/// every sample whose BSDF has a specular lobe (metal, transmission, or a
+/// dielectric specular layer: glTF's default specular 1 included).
 /// `fixed:A`: every sample's blend factor floored at A (§5.2 uses α = 0.1):
 /// a running mean while 1/(c_s + 1) > A, then an exponential average with α = A.
+/// Until session 50 `mean` was `alpha-min`: every glTF dielectric has a
+/// specular layer, so the sample cache's history was capped at an
+/// effective 10–19 shadings nearly everywhere while HashCache's ran to 1024
+/// (an audit of the experiments against the paper).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub enum Accumulation {
     RunningMean,
+    AlphaMin,
     FixedAlpha(f32),
+}
+
+impl Accumulation {
+    /// The shaders' `ACCUM_MODE` (common/accumulation.glsl
+    /// `accumulation_floor`): 0 running mean, 1 fixed α, 2 appendix C's α_min.
+    pub fn mode(self) -> u32 {
+        match self {
+            Accumulation::RunningMean => 0,
+            Accumulation::FixedAlpha(_) => 1,
+            Accumulation::AlphaMin => 2,
+        }
+    }
+
+    /// `fixed:A` with A in (0, 1].
+    pub fn validate(self) -> Result<(), String> {
+        match self {
+            Accumulation::FixedAlpha(a) if !(a > 0.0 && a <= 1.0) => {
+                Err(format!("bad --accumulation fixed:{a}: α must be in (0, 1]"))
+            }
+            _ => Ok(()),
+        }
+    }
+
+    /// The α of `fixed:A` (0 otherwise), pushed to the shading pass.
+    pub fn fixed_alpha(self) -> f32 {
+        match self {
+            Accumulation::FixedAlpha(a) => a,
+            _ => 0.0,
+        }
+    }
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -153,12 +193,7 @@ impl SampleCacheSettings {
                     .into(),
             );
         }
-        if let Accumulation::FixedAlpha(a) = self.accumulation {
-            if !(a > 0.0 && a <= 1.0) {
-                return Err(format!("bad --accumulation fixed:{a}: α must be in (0, 1]"));
-            }
-        }
-        Ok(())
+        self.accumulation.validate()
     }
 }
 
@@ -220,6 +255,9 @@ impl FromStr for Accumulation {
         if s == "mean" {
             return Ok(Accumulation::RunningMean);
         }
+        if s == "alpha-min" {
+            return Ok(Accumulation::AlphaMin);
+        }
         if let Some(a) = s.strip_prefix("fixed:") {
             let a: f32 = a
                 .parse()
@@ -227,7 +265,7 @@ impl FromStr for Accumulation {
             return Ok(Accumulation::FixedAlpha(a));
         }
         Err(format!(
-            "bad --accumulation '{s}': expected mean or fixed:ALPHA"
+            "bad --accumulation '{s}': expected mean, alpha-min or fixed:ALPHA"
         ))
     }
 }
