@@ -372,9 +372,24 @@ impl GpuContext {
         // alive by the caller until this returns; the fence is unsignalled.
         // The queue is used from one thread at a time (`&self` callers run
         // on the thread that owns the session).
-        let r = unsafe { self.device.queue_submit(self.queue, &submit, fence) }
-            // SAFETY: the fence was created above on this device.
+        let submitted = unsafe { self.device.queue_submit(self.queue, &submit, fence) };
+        // SAFETY: the fence was created above on this device.
+        let r = submitted
             .and_then(|_| unsafe { self.device.wait_for_fences(&[fence], true, timeout_ns) });
+        // A wait that failed after a successful submit (a timeout, or out of
+        // host/device memory) leaves the submission possibly pending: the
+        // fence, command buffer and resources may not be destroyed
+        // (VUID-vkDestroyFence-fence-01120), so they are leaked as after a
+        // timeout. Until session 50 only a timeout did; a lost device needs
+        // no wait.
+        let pending = submitted.is_ok() && r.is_err() && r != Err(vk::Result::ERROR_DEVICE_LOST);
+        if pending && r != Err(vk::Result::TIMEOUT) {
+            self.abandoned.store(true, SeqCst);
+            return Err(GpuError::Vk {
+                call: "vkWaitForFences",
+                result: r.unwrap_err(),
+            });
+        }
         if r == Err(vk::Result::TIMEOUT) {
             // The fence is still pending: leak it with everything else.
             self.abandoned.store(true, SeqCst);
