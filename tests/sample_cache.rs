@@ -465,9 +465,11 @@ fn adaptive_shading_rate(s: &Session, subgroup_ops: bool) {
         let first: u32 = snap.base_pixels.iter().chain(&snap.unshaded_pixels).sum();
         assert_eq!(hist_total, visible - first, "frame {f}: histogram total");
         assert!(snap_visible_reprojected(&fr) > 0.0);
-        // Rate: base (one per 4×4 block) + rate × pixels, per eye.
+        // Rate: base (one per 4×4 block) + rate × the pixels uniform shading
+        // shades (a visible surface sample; all pixels until session 50).
         let shaded = snap.shade_count as f64;
-        let expected = 2.0 * (rate as f64 * npix).max(npix / 16.0);
+        let covered = (snap.covered(0) + snap.covered(1)) as f64 / 2.0;
+        let expected = 2.0 * (rate as f64 * covered).max(npix / 16.0);
         // Binomial spread of the straddling bucket's coin tosses: ≤ n/4 per eye.
         let sigma = (2.0 * npix / 4.0).sqrt();
         eprintln!("frame {f}: shaded {shaded} expected {expected:.0} ± {sigma:.0}");

@@ -25,14 +25,21 @@ fn settings(w: u32, h: u32, cache: SampleCacheSettings) -> CacheSetup {
 /// Per eye: the expected number of dispatched shading paths and the
 /// variance of its coin tosses, from what `shade.count` counted (histogram,
 /// base-rate and unshaded pixels): the base rate is shaded as is; of the
-/// budget rate × pixels left, the unshaded pixels take one path each with
+/// budget rate × covered pixels (a visible surface sample) left, the unshaded pixels take one path each with
 /// probability p_u = min(1, left / their count) (Bernoulli: var p_u(1 − p_u)
 /// each); what remains goes down the histogram, every sample above the
 /// straddling bucket shaded and that bucket's by coin tosses with
 /// probability p (var p(1 − p) each).
 fn expected_dispatch(snap: &CacheSnapshot, rate: f32, eye: usize) -> (f64, f64) {
-    let npix = snap.npix() as f64;
-    let budget = rate as f64 * npix;
+    // The rate is a fraction of what uniform shading shades: the pixels with
+    // a visible surface sample (until session 50 of all pixels). Counted
+    // here from the masks, and the shader's own count must agree.
+    let covered = snap.covered(eye);
+    assert_eq!(
+        snap.covered_pixels[eye] as usize, covered,
+        "eye {eye}: covered pixels"
+    );
+    let budget = rate as f64 * covered as f64;
     let base = snap.base_pixels[eye] as f64;
     let left = (budget - base).max(0.0);
     let unshaded = snap.unshaded_pixels[eye] as f64;
@@ -65,7 +72,7 @@ fn expected_dispatch(snap: &CacheSnapshot, rate: f32, eye: usize) -> (f64, f64) 
 /// Adaptive shading on a fast head turn (the synthetic head-turn trace's
 /// first sweep, 0 → 30° at a drawn 80–120 °/s peak, rendered at 30 Hz: a few
 /// pixels of new view per frame) and from frame 0 on: in every frame the
-/// dispatched paths equal the requested rate × pixels within 4 standard
+/// dispatched paths equal the requested rate × covered pixels within 4 standard
 /// deviations of the frame's coin tosses (variance computed from what the
 /// shader counted), and no pixel with a visible sample is black. On the
 /// sunlit plane every shaded path is positive (sun unoccluded, the sky above
@@ -113,7 +120,9 @@ fn adaptive_shading_holds_the_rate_and_leaves_no_visible_pixel_black() {
                 var += b;
             }
             let shaded = snap.shade_count as f64;
-            let requested = 2.0 * rate as f64 * snap.npix() as f64;
+            // Rate × the pixels uniform shading shades (session 50; all
+            // pixels before).
+            let requested = rate as f64 * (snap.covered(0) + snap.covered(1)) as f64;
             let new = fr.stats.counters["new_sample_rays"];
             eprintln!(
                 "subgroup {subgroup_ops} frame {f}: {shaded} paths, requested {requested}, expected {mean:.1} ± {:.1}; {new} new samples, {:?} unshaded pixels",

@@ -17,6 +17,7 @@ void main() {
         state[14] = 0u;
     }
     if (i < 4u) state[10u + i] = 0u;   // shade_select.comp's per-eye pixel counts
+    if (i < 2u) state[16u + i] = 0u;   // and its covered pixels
     if (i < 2u * HIST_M) hist[i] = 0u;
     if (i < 32u) counters[i] = 0u;
 }

@@ -44,7 +44,8 @@ layout(set = SET_SAMPLE_CACHE, binding = B_SAMPLE_CACHE_DEPTH_MAX, std430) buffe
 layout(set = SET_SAMPLE_CACHE, binding = B_SAMPLE_CACHE_HIST, std430) buffer Hist { uint hist[]; };               // [eye][HIST_M]
 // state: [0..2) w_min prev, [2..4) w_max prev, [4..6) w_min next, [6..8) w_max next, [8] shade-list length,
 // [9] retrace-list length (surface samples), [10..12) unshaded pixels, [12..14) base-rate pixels
-// (shade_select.comp phase 0), [14] retrace-list length (background samples)
+// (shade_select.comp phase 0), [14] retrace-list length (background samples), [15] unused,
+// [16..18) pixels with a visible surface sample (shade_select.comp phase 0: adaptive shading's budget)
 layout(set = SET_SAMPLE_CACHE, binding = B_SAMPLE_CACHE_STATE, std430) buffer State { uint state[]; };
 layout(set = SET_SAMPLE_CACHE, binding = B_SAMPLE_CACHE_SHADE_LIST, std430) buffer ShadeList { uint shade_list[]; };   // eye << 31 | slot << 26 | pixel
 layout(set = SET_SAMPLE_CACHE, binding = B_SAMPLE_CACHE_TARGET_SRC, std430) buffer TargetSrc { uint target_src[]; };   // two-pass: v << 31 | (source slot·npix + pixel + 1), reproject.comp

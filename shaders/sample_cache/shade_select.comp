@@ -36,6 +36,7 @@ layout(constant_id = SPEC_SAMPLE_CACHE_SELECT_PHASE) const uint SELECT_PHASE = 1
 // state[] entries written by phase 0 (reset by begin.comp), per eye.
 const uint S_UNSHADED = 10u;   // non-base pixels whose visible samples are all unshaded
 const uint S_BASE = 12u;       // base-rate pixels with a visible sample
+const uint S_COVERED = 16u;    // pixels with a visible surface sample (what uniform shading shades)
 
 void push_shade(uint eye, uint slot, uint pixel) {
     uint i = list_reserve(8u, 1u);
@@ -125,6 +126,7 @@ void select_pixel(uvec2 px, uint eye) {
         uint first = (base || unshaded) ? 1u << round_robin : 0u;
         state_add(S_BASE + eye, base ? 1u : 0u);
         state_add(S_UNSHADED + eye, unshaded ? 1u : 0u);
+        state_add(S_COVERED + eye, n > 0u ? 1u : 0u);
         bits = vis & ~first;
         while (bits != 0u) {
             uint s = uint(findLSB(bits));
@@ -143,9 +145,14 @@ void select_pixel(uvec2 px, uint eye) {
     uint n = bitCount(vis);
     uint first = (base || unshaded) ? 1u << round_robin : 0u;
 
-    // Budget per eye (rate × pixels), spent on the base rate, then the
-    // unshaded pixels, then the histogram's most important samples.
-    float budget = pc.shading_rate * float(npix());
+    // Budget per eye, spent on the base rate, then the unshaded pixels, then
+    // the histogram's most important samples: rate × the pixels uniform
+    // shading would shade (one path per pixel with a visible surface
+    // sample), so that `--shading-rate 0.7` is Fig. 14's "70 % of the
+    // shading rate used for uniform shading". Until session 50 it was
+    // rate × all pixels, background included: on a view with much sky 0.7
+    // shaded about as much as uniform (an audit of the experiments).
+    float budget = pc.shading_rate * float(state[S_COVERED + eye]);
     float left = max(budget - float(state[S_BASE + eye]), 0.0);
     float n_unshaded = float(state[S_UNSHADED + eye]);
     float p_unshaded = n_unshaded > 0.0 ? min(left / n_unshaded, 1.0) : 0.0;

@@ -26,7 +26,7 @@ pub struct SampleCacheArgs {
     /// radiance (256-bit entries: first hit + radiance record) | none (128-bit first hits only, Fig. 6's no-shade rows; needs --shading skip)
     #[arg(long, default_value = "radiance")]
     pub payload: Payload,
-    /// Shading invocations per pixel and frame for adaptive shading (1.0 = 100 %).
+    /// Shading invocations per frame for adaptive shading, per pixel that uniform shading shades (a visible surface sample): 1.0 = uniform's work, 0.7 = Fig. 14's 70 %.
     #[arg(long, default_value_t = 1.0, value_parser = float_with("--shading-rate", |v: f32| v.is_finite() && v > 0.0 && v <= 16.0, "a fraction in (0, 16] (at most --slots)"))]
     pub shading_rate: f32,
     /// one-pass | two-pass

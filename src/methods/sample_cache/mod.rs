@@ -91,6 +91,9 @@ pub struct CacheSnapshot {
     pub unshaded_pixels: [u32; 2],
     /// Per eye: base-rate pixels (one per 4×4 block) with a visible sample.
     pub base_pixels: [u32; 2],
+    /// Per eye: pixels with a visible surface sample (adaptive shading's
+    /// budget is the rate times these: what uniform shading shades).
+    pub covered_pixels: [u32; 2],
     /// Length of this frame's shade list.
     pub shade_count: u32,
     pub shade_list: Vec<u32>,
@@ -113,6 +116,7 @@ impl CacheSnapshot {
             histogram: vec![],
             unshaded_pixels: [0; 2],
             base_pixels: [0; 2],
+            covered_pixels: [0; 2],
             shade_count: 0,
             shade_list: vec![],
         }
@@ -149,6 +153,14 @@ impl CacheSnapshot {
             }
         }
         out
+    }
+    /// Pixels of `eye` with a visible surface sample: what uniform shading
+    /// shades, and what adaptive shading's rate is a fraction of (the CPU
+    /// count of shade_select.comp's `covered_pixels`).
+    pub fn covered(&self, eye: usize) -> usize {
+        (0..self.npix())
+            .filter(|&p| self.surface(eye, p, self.visible(self.mask(eye, p))) != 0)
+            .count()
     }
 }
 
@@ -300,7 +312,7 @@ impl SampleCache {
         let depth_min = b("depth_min", e2 * 8)?;
         let depth_max = b("depth_max", e2 * 4)?;
         let hist = b("histogram", 2 * HIST_M * 4)?;
-        let state = b("state", 16 * 4)?;
+        let state = b("state", STATE_WORDS as u64 * 4)?;
         let shade_list = sb("shade_list", (e2 * n + e2) * 4)?;
         let target_src = b("target_src", if two_pass { e2 * n * 4 } else { 16 })?;
         let out_color = sb("color", e2 * 16)?;
@@ -413,24 +425,10 @@ impl SampleCache {
             .write(&first_hits[0])
             .write(&first_hits[1])
             .fill(u32::MAX);
-        let state_init: [u32; 16] = [
-            u32::MAX,
-            u32::MAX,
-            0,
-            0,
-            u32::MAX,
-            u32::MAX,
-            0,
-            0,
-            0,
-            0,
-            0,
-            0,
-            0,
-            0,
-            0,
-            0,
-        ];
+        // The importance bounds' minima start at +∞ (common.glsl's layout).
+        let mut state_init = [0u32; STATE_WORDS];
+        state_init[..2].fill(u32::MAX);
+        state_init[4..6].fill(u32::MAX);
         init.pass("sample_cache.init.state")
             .write(&state)
             .update(bytemuck::cast_slice(&state_init));
@@ -495,6 +493,7 @@ impl SampleCache {
             histogram: self.hist.download_pod()?,
             unshaded_pixels: [state[10], state[11]],
             base_pixels: [state[12], state[13]],
+            covered_pixels: [state[16], state[17]],
             shade_count: state[8],
             shade_list: self.shade_list.download_pod()?,
         })
@@ -708,6 +707,9 @@ impl SampleCache {
         self.subgroup
     }
 }
+
+/// Words of the `state` buffer (layout: shaders/sample_cache/common.glsl).
+const STATE_WORDS: usize = 18;
 
 /// The push constants of `c` (the same for every pass and frame).
 fn push_constants(c: &SampleCacheSettings) -> Push {
