@@ -43,7 +43,7 @@ const METRICS: &[(&str, &str)] = &[
         "stereo_excess",
         "stereo discrepancy minus the reference pair's",
     ),
-    ("stereo_p95", "95th percentile stereo discrepancy"),
+    ("stereo_p95", "each frame's 95th percentile of the stereo discrepancy, mean over frames"),
 ];
 
 /// The error figures' ratios to the baseline with their standard errors
