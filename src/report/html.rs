@@ -43,7 +43,10 @@ const METRICS: &[(&str, &str)] = &[
         "stereo_excess",
         "stereo discrepancy minus the reference pair's",
     ),
-    ("stereo_p95", "each frame's 95th percentile of the stereo discrepancy, mean over frames"),
+    (
+        "stereo_p95",
+        "each frame's 95th percentile of the stereo discrepancy, mean over frames",
+    ),
 ];
 
 /// The error figures' ratios to the baseline with their standard errors
