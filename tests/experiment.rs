@@ -364,6 +364,17 @@ fn malformed_files_fail_with_one_error_line_naming_the_file_and_key() {
             &["reference-spp"],
         ),
         (
+            // A value option set to false (until session 50 left out
+            // silently: the default spp ran); a switch may be false.
+            "a value option set to false",
+            good.replace(
+                "slots = 8",
+                "slots = 8
+spp = false",
+            ),
+            &["'spp'", "expected a value, not false"],
+        ),
+        (
             "unknown method option",
             good.replace("slots = 8", "slot = 8"),
             &["'slot'", "sample-cache"],

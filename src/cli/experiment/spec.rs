@@ -195,8 +195,18 @@ fn flags(
         }
         let w = words(k, v).map_err(|e| format!("{section}: key '{k}': {e}"))?;
         let mut one = base.to_vec();
-        one.extend(w.iter().cloned());
-        parse(&one).map_err(|e| format!("{section}: key '{k}': {e}"))?;
+        if matches!(v, toml::Value::Boolean(false)) {
+            // `key = false` leaves the flag out, which only a switch may
+            // mean (until session 50 `spp = false` ran at the default spp):
+            // the flag alone must parse.
+            one.push(format!("--{k}"));
+            parse(&one).map_err(|_| {
+                format!("{section}: key '{k}': expected a value, not false (only a switch such as taa-output may be false)")
+            })?;
+        } else {
+            one.extend(w.iter().cloned());
+            parse(&one).map_err(|e| format!("{section}: key '{k}': {e}"))?;
+        }
         argv.extend(w);
     }
     Ok(argv)
