@@ -1056,67 +1056,25 @@ fn lifted(mut s: Scene, cam: StereoCamera, dy: f32) -> (Scene, StereoCamera) {
 #[test]
 fn emitter_light_samples_reach_the_floor_far_from_the_origin() {
     let ctx = context();
-    let (rho, le, side) = (0.5f32, 3.0f32, 1.0f32);
-    let (w, h) = (16u32, 16u32);
     for (dy, c) in [(16.0f32, 1.0f32), (-20.0, 1.0), (1.0, 0.25)] {
-        let cam0 = down_camera(0.5, 20.0);
-        let pts = floor_points(&cam0, w, h);
-        let hs = 0.5 * side as f64;
-        let want: Vec<Vec<f64>> = pts
-            .iter()
-            .map(|eye| {
-                eye.iter()
-                    .map(|&(x, z)| {
-                        (rho * le) as f64
-                            * form_factor_to_parallel_rect(
-                                -hs - x,
-                                hs - x,
-                                -hs - z,
-                                hs - z,
-                                c as f64,
-                            )
-                    })
-                    .collect()
-            })
-            .collect();
-        let mean_want: f64 = want.iter().flatten().sum::<f64>() / (2 * w * h) as f64;
-        let (scene, cam) = lifted(
-            floor_under_quad(rho, side, c, emissive(le), false),
-            cam0,
-            dy,
-        );
-        let s = session(&ctx, scene, RtChoice::Software);
-        for ls in STRATEGIES {
-            let f = render_with(&s, cam, (w, h), 32, 1, 13, ls);
-            let (m, se) = residual(&f, &want);
-            eprintln!("y {dy}, gap {c}, {ls:?}: residual {m:.2e} ± {se:.2e} (expected mean {mean_want:.4})");
-            assert!(
-                m.abs() < 5.0 * se + 1e-6 && m.abs() < 0.01 * mean_want,
-                "y {dy}, gap {c}, {ls:?}: mean residual {m:.3e} ({:.1} standard errors of {se:.2e}; expected mean {mean_want:.4})",
-                m / se
-            );
-        }
+        lifted_floor_receives_the_form_factor(&ctx, 3.0, c, dy, &STRATEGIES);
     }
     assert_no_validation_messages(&ctx);
 }
 
-/// A light sample's shadow ray must not end on the emitter it samples when
-/// the emitter is far: the segment's length is rounded to ulps of itself,
-/// while the end's offset off the emitter is 256 ulps of the point's
-/// coordinate across the emitter, smallest (2⁻²⁰ m) for an emitter within
-/// (1/32, ~0.15) m of a coordinate plane of the render origin. A 1 m
-/// emitter 0.05 m above the origin's plane, facing a floor 50 m below
-/// (render origin 0: the scene's centre snaps to 0 on its 64 m grid): the
-/// floor's radiance is ρ·Le·F(q) with F the exact form factor, as in
-/// `emitter_light_samples_reach_the_floor_far_from_the_origin`. Until
-/// session 50 the segment ran its full length and 13–15 % of the light
-/// samples ended on the emitter (an audit's f32 simulation); now it ends
-/// 2⁻¹⁶ of its length short. MIS and NEE only (BSDF sampling finds a
-/// 4·10⁻⁴ sr emitter too rarely to be judged in 32 spp); criteria as there.
-#[test]
-fn light_samples_of_a_distant_emitter_do_not_end_on_it() {
-    let ctx = context();
-    let (rho, le, side, c) = (0.5f32, 4000.0f32, 1.0f32, 50.05f32);
+/// The floor of `floor_under_quad` (ρ 0.5, a 1 m emitter of radiance `le`
+/// at height `c`), both lifted by `dy`, seen by `down_camera(0.5, 20°)`
+/// lifted alike (16×16, 32 spp, direct light): for each strategy the mean
+/// residual against ρ·Le·F(q) (F the exact form factor) is within 5
+/// standard errors (from the pixels' own spread) and 1 % of the mean.
+fn lifted_floor_receives_the_form_factor(
+    ctx: &std::sync::Arc<stereocache::gpu::GpuContext>,
+    le: f32,
+    c: f32,
+    dy: f32,
+    strategies: &[LightSampling],
+) {
+    let (rho, side) = (0.5f32, 1.0f32);
     let (w, h) = (16u32, 16u32);
     let cam0 = down_camera(0.5, 20.0);
     let pts = floor_points(&cam0, w, h);
@@ -1136,19 +1094,46 @@ fn light_samples_of_a_distant_emitter_do_not_end_on_it() {
     let (scene, cam) = lifted(
         floor_under_quad(rho, side, c, emissive(le), false),
         cam0,
-        -50.0,
+        dy,
     );
-    let s = session(&ctx, scene, RtChoice::Software);
-    for ls in [LightSampling::Mis, LightSampling::Nee] {
+    let s = session(ctx, scene, RtChoice::Software);
+    for &ls in strategies {
         let f = render_with(&s, cam, (w, h), 32, 1, 13, ls);
         let (m, se) = residual(&f, &want);
-        eprintln!("{ls:?}: residual {m:.2e} ± {se:.2e} (expected mean {mean_want:.4})");
+        eprintln!(
+            "y {dy}, gap {c}, {ls:?}: residual {m:.2e} ± {se:.2e} (expected mean {mean_want:.4})"
+        );
         assert!(
             m.abs() < 5.0 * se + 1e-6 && m.abs() < 0.01 * mean_want,
-            "{ls:?}: mean residual {m:.3e} ({:.1} standard errors of {se:.2e}; expected mean {mean_want:.4})",
+            "y {dy}, gap {c}, {ls:?}: mean residual {m:.3e} ({:.1} standard errors of {se:.2e}; expected mean {mean_want:.4})",
             m / se
         );
     }
+}
+
+/// A light sample's shadow ray must not end on the emitter it samples when
+/// the emitter is far: the segment's length is rounded to ulps of itself,
+/// while the end's offset off the emitter is 256 ulps of the point's
+/// coordinate across the emitter, smallest (2⁻²⁰ m) for an emitter within
+/// (1/32, ~0.15) m of a coordinate plane of the render origin. A 1 m
+/// emitter 0.05 m above the origin's plane, facing a floor 50 m below
+/// (render origin 0: the scene's centre snaps to 0 on its 64 m grid): the
+/// floor's radiance is ρ·Le·F(q) with F the exact form factor, as in
+/// `emitter_light_samples_reach_the_floor_far_from_the_origin`. Until
+/// session 50 the segment ran its full length and 13–15 % of the light
+/// samples ended on the emitter (an audit's f32 simulation); now it ends
+/// 2⁻¹⁶ of its length short. MIS and NEE only (BSDF sampling finds a
+/// 4·10⁻⁴ sr emitter too rarely to be judged in 32 spp); criteria as there.
+#[test]
+fn light_samples_of_a_distant_emitter_do_not_end_on_it() {
+    let ctx = context();
+    lifted_floor_receives_the_form_factor(
+        &ctx,
+        4000.0,
+        50.05,
+        -50.0,
+        &[LightSampling::Mis, LightSampling::Nee],
+    );
     assert_no_validation_messages(&ctx);
 }
 

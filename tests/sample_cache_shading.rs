@@ -426,8 +426,17 @@ fn accumulation_modes_floor_the_blend_factor_as_the_cpu_twin() {
         (Accumulation::FixedAlpha(0.5), 0.5),
     ];
     let close = |got: f32, want: f32| (got - want).abs() <= 1e-5 * want;
-    // A surface hit (Listing 1: the no-hit marker w = u32::MAX marks empty
-    // cells and background samples).
+    // The largest effective count of a surface sample (Listing 1: the no-hit
+    // marker w = u32::MAX marks empty cells and background samples); None
+    // without one.
+    let largest_count = |first_hits: &[[u32; 4]], radiance: &[[f32; 4]]| {
+        first_hits
+            .iter()
+            .zip(radiance)
+            .filter(|(fh, _)| fh[3] != u32::MAX)
+            .map(|(_, r)| r[3])
+            .reduce(f32::max)
+    };
     for (mode, floor) in modes {
         // The sample cache: one slot per pixel, shaded every frame.
         let st = settings(
@@ -446,18 +455,11 @@ fn accumulation_modes_floor_the_blend_factor_as_the_cpu_twin() {
             render_at(&mut m, f, cam, if f > 0 { Some(cam) } else { None });
         }
         let snap = m.snapshot().unwrap();
-        let counts: Vec<f32> = snap
-            .first_hits
-            .iter()
-            .zip(&snap.radiance)
-            .filter(|(fh, _)| fh[3] != u32::MAX)
-            .map(|(_, r)| r[3])
-            .collect();
-        let max = counts.iter().cloned().fold(0.0, f32::max);
+        let max = largest_count(&snap.first_hits, &snap.radiance);
         let want = twin(floor, 12);
         assert!(
-            !counts.is_empty() && close(max, want),
-            "sample cache {mode:?}: largest count {max}, twin {want} after 12 shadings"
+            max.is_some_and(|c| close(c, want)),
+            "sample cache {mode:?}: largest count {max:?}, twin {want} after 12 shadings"
         );
         // isrt: four cells per pixel, each shaded every fourth frame.
         let is = IsrtSettings {
@@ -478,17 +480,11 @@ fn accumulation_modes_floor_the_blend_factor_as_the_cpu_twin() {
             render_at(&mut m, f, cam, if f > 0 { Some(cam) } else { None });
         }
         let snap = m.snapshot().unwrap();
-        let max = snap
-            .first_hits
-            .iter()
-            .zip(&snap.radiance)
-            .filter(|(fh, _)| fh[3] != u32::MAX)
-            .map(|(_, r)| r[3])
-            .fold(0.0, f32::max);
+        let max = largest_count(&snap.first_hits, &snap.radiance);
         let want = twin(floor, 4);
         assert!(
-            close(max, want),
-            "isrt {mode:?}: largest count {max}, twin {want} after 4 shadings"
+            max.is_some_and(|c| close(c, want)),
+            "isrt {mode:?}: largest count {max:?}, twin {want} after 4 shadings"
         );
     }
     assert_no_validation_messages(&ctx);
