@@ -316,7 +316,7 @@ fn replay_checking_the_cache(
                         .transform_point3(a + bary.x * (b - a) + bary.y * (c - a));
                     let (q, _) = v.project(p, size).expect("a visible sample is in front");
                     assert!(
-                        (q - pixel_centre(pixel, w)).abs().max_element() < 1.0 + 1e-3,
+                        (q - pixel_centre(pixel, w)).abs().max_element() < 0.5 + 1e-3,
                         "frame {f}: a sample on instance {} lies outside its pixel",
                         fh[3]
                     );

@@ -74,13 +74,16 @@ fn check_invariants(
                     Some(hit) if (hit.t - (p - v.position).length()).abs() <= 1e-3 * hit.t => {}
                     _ => mismatched += 1,
                 }
-                // The sample projects into its own pixel.
+                // The sample projects into its own pixel (reproject.comp
+                // bins by truncation, trace.comp jitters inside the pixel):
+                // within half a pixel of its centre, plus 1e-3 px for the
+                // stored barycentrics' 24 bits and the CPU's projection
+                // against the GPU's (both ~1e-5 px here). A pixel's
+                // neighbour (a bin rounded to nearest) is a full pixel off.
                 if let Some((q, _)) = v.project(p, UVec2::new(w, h)) {
-                    let qp = (q.y.floor() as i64) * w as i64 + q.x.floor() as i64;
                     assert!(
-                        qp == pixel as i64
-                            || (q - pixel_centre(pixel, w)).abs().max_element() < 1.0 + 1e-3,
-                        "sample outside its pixel"
+                        (q - pixel_centre(pixel, w)).abs().max_element() < 0.5 + 1e-3,
+                        "sample outside its pixel: at {q}, pixel {pixel}"
                     );
                 }
             }
@@ -197,7 +200,18 @@ fn invariants_hold_on_a_moving_trace_cornell() {
         let (visible, stale, r) = run_moving("cornell", retrace, 8, 1.5);
         eprintln!("cornell {retrace:?}: {stale} stale of {visible} visible, {r} retrace rays");
         assert!(visible > 10_000);
-        assert!(stale as f64 <= 0.01 * visible as f64);
+        // Multi retraces every sample every frame, so a stale one is a
+        // precision case (measured 0), as on the hairball; single and
+        // adaptive lag by design (measured 0.7 % and 0.09 %).
+        let bound = if retrace == Retrace::Multi {
+            1e-3
+        } else {
+            0.01
+        };
+        assert!(
+            stale as f64 <= bound * visible as f64,
+            "cornell {retrace:?}: {stale} stale of {visible}"
+        );
         rays.insert(format!("{retrace:?}"), r);
     }
     // On surfaces with few edges adaptive retracing is a small fraction of multi (measured 0.12×).
@@ -436,7 +450,7 @@ fn adaptive_shading_rate(s: &Session, subgroup_ops: bool) {
     );
     st.subgroup_ops = subgroup_ops;
     let mut m = cache_method(s, &st);
-    eprintln!("subgroup builds: {}", m.uses_subgroup_ops());
+    assert_eq!(m.uses_subgroup_ops(), subgroup_ops, "subgroup builds");
     let cam0 = default_camera(s, w, h);
     let mut prev = None;
     let npix = (w * h) as f64;
@@ -444,9 +458,6 @@ fn adaptive_shading_rate(s: &Session, subgroup_ops: bool) {
         let cam = moving(&cam0, f, 0.5);
         let fr = render_at(&mut m, f, cam, prev);
         prev = Some(cam);
-        if f < 3 {
-            continue; // let the importance bounds settle
-        }
         let snap = m.snapshot().unwrap();
         // Histogram: every shading candidate was counted once — the visible
         // surface samples after tracing (new ones included, issue 12 item 3;
@@ -464,6 +475,12 @@ fn adaptive_shading_rate(s: &Session, subgroup_ops: bool) {
             .sum();
         let first: u32 = snap.base_pixels.iter().chain(&snap.unshaded_pixels).sum();
         assert_eq!(hist_total, visible - first, "frame {f}: histogram total");
+        if f < 3 {
+            // The rate from frame 0 on: sample_cache_shading.rs
+            // adaptive_shading_holds_the_rate_and_leaves_no_visible_pixel_black.
+            // Here the importance ordering below wants settled bounds.
+            continue;
+        }
         assert!(snap_visible_reprojected(&fr) > 0.0);
         // Rate: base (one per 4×4 block) + rate × the pixels uniform shading
         // shades (a visible surface sample; all pixels until session 50).
@@ -474,7 +491,7 @@ fn adaptive_shading_rate(s: &Session, subgroup_ops: bool) {
         let sigma = (2.0 * npix / 4.0).sqrt();
         eprintln!("frame {f}: shaded {shaded} expected {expected:.0} ± {sigma:.0}");
         assert!(
-            (shaded - expected).abs() <= 4.0 * sigma + 2.0 * npix / 16.0 * 0.05,
+            (shaded - expected).abs() <= 4.0 * sigma,
             "frame {f}: shaded {shaded}, expected {expected:.0}"
         );
         // Importance: the shaded samples have fewer accumulated samples than the average visible one.
@@ -936,22 +953,32 @@ fn base_rate_retraces_exactly_the_rotating_base_pixels() {
             }
         }
     }
-    let mut checked = 0;
+    // The still plane fills every pixel to n_target at frame 0 and loses no
+    // sample (no edge, nothing occluded): each pixel held the same n_target
+    // slots through frames 1–96 (a cache that dropped and refilled its
+    // samples would hold none throughout and pass the retrace check below
+    // vacuously). Six base visits (96 / 16 frames) then retrace all four
+    // round robin.
+    let n_target = SampleCacheSettings::default().n_target;
     for i in 0..2 * n {
-        if held[i].count_ones() <= 6 {
-            checked += 1;
-            assert_eq!(
-                traced_slots[i] & held[i],
-                held[i],
-                "eye {}, pixel {}: held slots {:#b}, retraced {:#b} in 96 frames",
-                i / n,
-                i % n,
-                held[i],
-                traced_slots[i]
-            );
-        }
+        assert_eq!(
+            held[i].count_ones(),
+            n_target,
+            "eye {}, pixel {}: held slots {:#b} through frames 1-96",
+            i / n,
+            i % n,
+            held[i]
+        );
+        assert_eq!(
+            traced_slots[i] & held[i],
+            held[i],
+            "eye {}, pixel {}: held slots {:#b}, retraced {:#b} in 96 frames",
+            i / n,
+            i % n,
+            held[i],
+            traced_slots[i]
+        );
     }
-    assert!(checked > n, "only {checked} pixels held their samples");
     assert_no_validation_messages(&ctx);
 }
 

@@ -75,6 +75,81 @@ fn probe_hits(bvh: &SoftwareBvh, v: &EyeView, pixel: usize, w: u32, h: u32, k: u
         .count() as u32
 }
 
+/// Points on the scene's emitters, in the BVH's frame: each emissive
+/// triangle's centroid and its vertices pulled 10 % towards it.
+fn emitter_points(scene: &Scene, bvh: &SoftwareBvh) -> Vec<Vec3> {
+    let mut pts = Vec::new();
+    for inst in &scene.instances {
+        let mesh = &scene.meshes[inst.mesh as usize];
+        if scene.materials[mesh.material as usize].emissive == Vec3::ZERO {
+            continue;
+        }
+        for t in 0..mesh.triangle_count() {
+            let v = mesh
+                .triangle(t)
+                .map(|p| bvh.to_local(inst.transform.transform_point3(p).as_dvec3()));
+            let c = (v[0] + v[1] + v[2]) / 3.0;
+            pts.push(c);
+            pts.extend(v.iter().map(|p| c + 0.9 * (*p - c)));
+        }
+    }
+    pts
+}
+
+/// Whether all k×k probe rays of `pixel` hit a surface without transmission
+/// (no glass) and without emission that sees every point of `lights` in
+/// front of it with nothing in between: a wholly covered, directly lit,
+/// opaque pixel. Each of its paths then carries next-event estimation's
+/// direct light (a sample on the emitter is occluded only where the five
+/// points of its triangle do not all tell the truth).
+#[allow(clippy::too_many_arguments)]
+fn probes_directly_lit(
+    scene: &Scene,
+    bvh: &SoftwareBvh,
+    lights: &[Vec3],
+    v: &EyeView,
+    pixel: usize,
+    w: u32,
+    h: u32,
+    k: u32,
+) -> bool {
+    let c = pixel_centre(pixel, w) - Vec2::splat(0.5);
+    let o = bvh.to_local(v.world);
+    (0..k * k).all(|i| {
+        let off = (Vec2::new((i % k) as f32, (i / k) as f32) + 0.5) / k as f32;
+        let d = v.ray_direction(c + off, UVec2::new(w, h));
+        let Some(hit) = bvh.closest_hit(o, d, 0.0, 1e30) else {
+            return false;
+        };
+        let inst = &scene.instances[hit.instance as usize];
+        let mesh = &scene.meshes[inst.mesh as usize];
+        let mat = &scene.materials[mesh.material as usize];
+        if mat.transmission != 0.0 || mat.emissive != Vec3::ZERO {
+            return false;
+        }
+        let [a, b, cc] = mesh.triangle(hit.prim as usize);
+        let mut n = inst
+            .transform
+            .inverse()
+            .transpose()
+            .transform_vector3((b - a).cross(cc - a))
+            .normalize();
+        if n.dot(d) > 0.0 {
+            n = -n;
+        }
+        let p = o + hit.t * d;
+        lights.iter().all(|l| {
+            let to = *l - p;
+            let dist = to.length();
+            let dir = to / dist;
+            n.dot(dir) > 0.0
+                && bvh
+                    .closest_hit(p, dir, 1e-4 * dist, dist * (1.0 - 1e-3))
+                    .is_none()
+        })
+    })
+}
+
 /// A black (radiance exactly 0: base colour 0, no specular lobe) square
 /// facing +Z at z = −2 whose right edge is the vertical line x = `edge_x`,
 /// extending far beyond the view elsewhere, in front of a constant white
@@ -337,7 +412,17 @@ fn under_filled_pixels_recover_and_none_stays_black() {
                     let mk = snap.mask(e, p);
                     let (occ, vis) = (snap.occupied(mk), snap.visible(mk));
                     assert_ne!(vis, 0, "{name} frame {f}: pixel without a visible sample");
-                    if vis.count_ones() >= floor || f == 0 {
+                    if f == 0 {
+                        // Frame 0 fills every pixel to n_target (rays that
+                        // miss are background samples).
+                        assert_eq!(
+                            vis.count_ones(),
+                            cs.n_target,
+                            "{name} frame 0: pixel {p} of eye {e} holds {vis:#b}"
+                        );
+                        continue;
+                    }
+                    if vis.count_ones() >= floor {
                         continue;
                     }
                     let full = occ.count_ones() == cs.slots && vis == occ;
@@ -361,7 +446,11 @@ fn under_filled_pixels_recover_and_none_stays_black() {
         }
         let fr = last.unwrap();
         let reference = reference_frame(&s, cam, w, h, 64);
-        let (mut black, mut checked) = (0, 0);
+        // Also counted apart: pixels whose 25 probes all hit opaque surfaces
+        // (no glass) that see the emitter (directly lit; the hairball has no
+        // emissive triangles, its sun and sky reach every opaque pixel).
+        let lights = emitter_points(&s.scene, &bvh);
+        let (mut black, mut checked, mut black_lit, mut checked_lit) = (0, 0, 0, 0);
         for (e, eye) in Eye::BOTH.iter().enumerate() {
             let v = cam.eye(*eye);
             for p in 0..(w * h) as usize {
@@ -371,13 +460,32 @@ fn under_filled_pixels_recover_and_none_stays_black() {
                     continue;
                 }
                 checked += 1;
-                black += fr.eyes[e].radiance[p][..3].iter().all(|c| *c == 0.0) as u32;
+                let is_black = fr.eyes[e].radiance[p][..3].iter().all(|c| *c == 0.0);
+                black += is_black as u32;
+                if probes_directly_lit(&s.scene, &bvh, &lights, &v, p, w, h, 5) {
+                    checked_lit += 1;
+                    black_lit += is_black as u32;
+                }
             }
         }
         eprintln!(
             "{name}: {exempt_total} pixel-frames below the floor right after a retrace loss; \
-             {black} black of {checked} covered pixels where the reference is lit"
+             {black} black of {checked} covered pixels where the reference is lit \
+             ({black_lit} of {checked_lit} wholly covered by directly lit opaque surfaces)"
         );
+        // Either scene: a pixel wholly covered by directly lit opaque
+        // surfaces has four samples with ≥ 8 paths each, and each path's
+        // next-event estimate carries light; black there is the integrator's
+        // bug this test was written for. (The Cornell box's one black pixel
+        // on opaque surfaces, (20, 29) of the left eye, is in the shadow of a
+        // sphere, reference luminance 0.002: 32 unlit paths are likely there.)
+        // (The hairball's thin tubes cover few pixels wholly: 39 of 1 633
+        // covered; all of its covered pixels are asserted below.)
+        assert!(
+            checked_lit > if name == "cornell" { 1000 } else { 20 },
+            "{name}: too few wholly covered, directly lit pixels ({checked_lit})"
+        );
+        assert_eq!(black_lit, 0, "{name}: directly lit pixels exactly black");
         if name == "hairball" {
             // Sun and sky: every path from a lit surface carries light, so
             // after 32 paths a black pixel is one whose paths all end at the
@@ -400,7 +508,9 @@ fn under_filled_pixels_recover_and_none_stays_black() {
         // emitter in some of its paths; and low-coverage pixels at the box's
         // outer edges whose n_target samples all missed (background only,
         // black environment; a fraction f is missed by all four with
-        // probability (1 − f)⁴). So the count is printed, not asserted, there.
+        // probability (1 − f)⁴). So over all covered pixels the count is
+        // printed, not asserted, there; pixels wholly covered by directly lit
+        // opaque surfaces are asserted above.
     }
     assert_no_validation_messages(&ctx);
 }

@@ -390,11 +390,14 @@ fn black_base_emitter_renders_its_emission_through_the_cache() {
 /// with one slot per pixel shades its one sample every frame (K = 12);
 /// isrt (M = 2, every cell filled) shades its four cells round robin, so a
 /// cell of frame 0 is shaded every fourth frame (K = 4 over 16 frames).
-/// The largest effective count c of a visible surface sample is the twin's
-/// after K shadings: K for `mean` (the default since session 50: until
-/// then `mean` was `alpha-min`), the floored sequences for `alpha-min` and
-/// `fixed:0.5` (all three differ at these K). Tolerance: f32 rounding of
-/// the count's recurrence (K steps, relative 1e-5).
+/// Every surface sample of the sample cache holds the twin's effective
+/// count c after K = 12 shadings (the view is still, the plane fills every
+/// pixel, so no sample is replaced); every isrt cell holds the twin's count
+/// after k ≤ 4 shadings (a cell filled later has fewer), the largest after
+/// 4: K for `mean` (the default since session 50: until then `mean` was
+/// `alpha-min`), the floored sequences for `alpha-min` and `fixed:0.5` (all
+/// three differ at these K). Tolerance: f32 rounding of the count's
+/// recurrence (K steps, relative 1e-5).
 #[test]
 fn accumulation_modes_floor_the_blend_factor_as_the_cpu_twin() {
     use stereocache::methods::isrt::{Isrt, IsrtRetrace, IsrtSettings};
@@ -426,16 +429,15 @@ fn accumulation_modes_floor_the_blend_factor_as_the_cpu_twin() {
         (Accumulation::FixedAlpha(0.5), 0.5),
     ];
     let close = |got: f32, want: f32| (got - want).abs() <= 1e-5 * want;
-    // The largest effective count of a surface sample (Listing 1: the no-hit
-    // marker w = u32::MAX marks empty cells and background samples); None
-    // without one.
-    let largest_count = |first_hits: &[[u32; 4]], radiance: &[[f32; 4]]| {
+    // The effective counts of the surface samples (Listing 1: the no-hit
+    // marker w = u32::MAX marks empty cells and background samples).
+    let counts = |first_hits: &[[u32; 4]], radiance: &[[f32; 4]]| -> Vec<f32> {
         first_hits
             .iter()
             .zip(radiance)
             .filter(|(fh, _)| fh[3] != u32::MAX)
             .map(|(_, r)| r[3])
-            .reduce(f32::max)
+            .collect()
     };
     for (mode, floor) in modes {
         // The sample cache: one slot per pixel, shaded every frame.
@@ -455,12 +457,19 @@ fn accumulation_modes_floor_the_blend_factor_as_the_cpu_twin() {
             render_at(&mut m, f, cam, if f > 0 { Some(cam) } else { None });
         }
         let snap = m.snapshot().unwrap();
-        let max = largest_count(&snap.first_hits, &snap.radiance);
+        let c = counts(&snap.first_hits, &snap.radiance);
         let want = twin(floor, 12);
-        assert!(
-            max.is_some_and(|c| close(c, want)),
-            "sample cache {mode:?}: largest count {max:?}, twin {want} after 12 shadings"
+        assert_eq!(
+            c.len(),
+            2 * (w * h) as usize,
+            "sample cache {mode:?}: one surface sample a pixel"
         );
+        for (i, &got) in c.iter().enumerate() {
+            assert!(
+                close(got, want),
+                "sample cache {mode:?}: sample {i}'s count {got}, twin {want} after 12 shadings"
+            );
+        }
         // isrt: four cells per pixel, each shaded every fourth frame.
         let is = IsrtSettings {
             m: 2,
@@ -480,11 +489,19 @@ fn accumulation_modes_floor_the_blend_factor_as_the_cpu_twin() {
             render_at(&mut m, f, cam, if f > 0 { Some(cam) } else { None });
         }
         let snap = m.snapshot().unwrap();
-        let max = largest_count(&snap.first_hits, &snap.radiance);
+        let c = counts(&snap.first_hits, &snap.radiance);
         let want = twin(floor, 4);
+        assert!(!c.is_empty(), "isrt {mode:?}: no surface cell");
+        for (i, &got) in c.iter().enumerate() {
+            assert!(
+                (0..=4).any(|k| close(got, twin(floor, k))),
+                "isrt {mode:?}: cell {i}'s count {got} is no twin count of 0-4 shadings"
+            );
+        }
+        let max = c.iter().copied().fold(0.0f32, f32::max);
         assert!(
-            max.is_some_and(|c| close(c, want)),
-            "isrt {mode:?}: largest count {max:?}, twin {want} after 4 shadings"
+            close(max, want),
+            "isrt {mode:?}: largest count {max}, twin {want} after 4 shadings"
         );
     }
     assert_no_validation_messages(&ctx);

@@ -190,6 +190,8 @@ fn error_against_reference(s: &Session, cam: &StereoCamera) -> (f64, f64) {
 struct Stress {
     agree: Option<f64>,
     stale: f64,
+    /// Stale and visible samples counted (stale = their ratio).
+    stale_counts: (usize, usize),
     uncovered: f64,
     finite: bool,
     mse: (f64, f64),
@@ -212,6 +214,7 @@ fn measure(base: &Scene, cam0: &StereoCamera, scale: f32, offset: Vec3) -> Stres
     let m = Stress {
         agree,
         stale: r.stale as f64 / r.visible.max(1) as f64,
+        stale_counts: (r.stale, r.visible),
         uncovered: r.uncovered as f64 / r.pixels.max(1) as f64,
         finite: r.finite,
         mse,
@@ -247,6 +250,17 @@ fn assert_like_origin(what: &str, m: &Stress, at_origin: &Stress, uncovered_budg
         );
     }
     assert!(m.stale <= 0.01, "{what}: stale fraction {:.4}", m.stale);
+    // And as many stale samples as at the origin (measured 9 of 25 368 on
+    // the Cornell box, 46 of 24 042 on the hairball there): the counts are
+    // Poisson-like, so they may differ by 4 standard deviations of the
+    // difference of two independent counts, √(k + k0) (conservative: the
+    // runs share their samples), plus one where both are 0.
+    let ((k, n), (k0, n0)) = (m.stale_counts, at_origin.stale_counts);
+    let expected = k0 as f64 * n as f64 / n0.max(1) as f64;
+    assert!(
+        (k as f64 - expected).abs() <= 4.0 * ((k + k0) as f64).sqrt() + 1.0,
+        "{what}: {k} stale of {n} samples, {k0} of {n0} at the origin"
+    );
     assert!(
         m.uncovered <= uncovered_budget,
         "{what}: {:.4} of pixels covered but without a visible sample",

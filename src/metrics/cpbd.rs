@@ -358,6 +358,12 @@ mod tests {
             assert!(a.cpbd > 0.9, "{a:?}");
             assert!(b.cpbd < 0.5 && c.cpbd < 0.5, "{b:?} {c:?}");
         }
+        // The checker's edges all have full contrast and one width each:
+        // every sharp edge is below the threshold, every blurred one above.
+        let sharp = checker(128, 8);
+        assert_eq!(cpbd(&sharp).unwrap().cpbd, 1.0);
+        assert_eq!(cpbd(&box_blur(&sharp, 2)).unwrap().cpbd, 0.0);
+        assert_eq!(cpbd(&box_blur(&sharp, 4)).unwrap().cpbd, 0.0);
     }
 
     /// A linear image whose display luma is exactly the given 8-bit grey levels.

@@ -120,6 +120,35 @@ mod tests {
         assert!(t.mean.is_nan() && t.covisible_fraction == 0.0, "{t:?}");
     }
 
+    /// The head moves between the frames (the rig's left eye at t − 1, its
+    /// right eye at t): a texture on a plane at depth 1 shifts 4 pixels, so
+    /// frame t − 1 reprojected through the two frames' own geometry matches
+    /// frame t on its 60 of 64 co-visible columns; the same image at both
+    /// poses (no shift) does not.
+    #[test]
+    fn a_moving_head_is_reprojected_before_differencing() {
+        let c = rig();
+        let [l, r] = [c.eye(Eye::Left), c.eye(Eye::Right)];
+        let prev = LinearImage::from_fn(64, 64, texture);
+        let cur = LinearImage::from_fn(64, 64, |x, y| texture(x + 4, y));
+        let depth = vec![1.0f32; 64 * 64];
+        let vb = |image, view| ViewBuffers {
+            image,
+            depth: &depth,
+            view,
+            first_hits: None,
+        };
+        let t = temporal_instability(&vb(&prev, &l), &vb(&cur, &r), 0.01).unwrap();
+        assert!(t.mean < 1e-3, "{t:?}");
+        assert!(
+            (t.covisible_fraction - 60.0 / 64.0).abs() < 1e-6,
+            "{}",
+            t.covisible_fraction
+        );
+        let t = temporal_instability(&vb(&prev, &l), &vb(&prev, &r), 0.01).unwrap();
+        assert!(t.mean > 0.05, "{}", t.mean);
+    }
+
     #[test]
     fn flicker_is_measured() {
         let v = rig().eye(Eye::Right);
