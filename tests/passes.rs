@@ -102,6 +102,51 @@ fn an_undeclared_buffer_fails_at_record_time() {
     assert_no_validation_messages(&ctx);
 }
 
+/// `update` and `copy` check their byte counts against the buffers they
+/// were declared with before recording (a larger vkCmdUpdateBuffer or
+/// vkCmdCopyBuffer is undefined behaviour that only the validation layer
+/// would report); the sizes that fit record and run.
+#[test]
+fn update_and_copy_beyond_a_buffer_are_refused() {
+    let ctx = context();
+    let big = Buffer::storage(&ctx, "test.big", 256).unwrap();
+    let small = Buffer::storage(&ctx, "test.small", 128).unwrap();
+    // The panic message of recording `$pass` on a fresh recorder, which
+    // must then hold no pass.
+    macro_rules! refused {
+        ($rec:ident => $pass:expr) => {{
+            let mut $rec = Recorder::new(&ctx, 1).unwrap();
+            let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| $pass));
+            let rec = $rec;
+            let msg = r
+                .expect_err("the pass must be refused")
+                .downcast::<String>()
+                .map(|m| *m)
+                .unwrap_or_default();
+            assert_eq!(rec.pass_count(), 0, "nothing was recorded: {msg}");
+            msg
+        }};
+    }
+    let msg = refused!(rec => rec.pass("test.copy").read(&big).write(&small).copy(256));
+    assert!(
+        msg.contains("pass test.copy") && msg.contains("256 bytes"),
+        "{msg}"
+    );
+    let msg = refused!(rec => rec.pass("test.copy0").read(&big).write(&small).copy(0));
+    assert!(msg.contains("pass test.copy0"), "{msg}");
+    let msg = refused!(rec => rec.pass("test.update").write(&small).update(&[0u8; 256]));
+    assert!(
+        msg.contains("pass test.update") && msg.contains("256 bytes"),
+        "{msg}"
+    );
+    let mut rec = Recorder::new(&ctx, 2).unwrap();
+    rec.pass("test.update").write(&big).update(&[7u8; 256]);
+    rec.pass("test.copy").read(&big).write(&small).copy(128);
+    assert_eq!(rec.pass_count(), 2);
+    rec.finish().unwrap();
+    assert_no_validation_messages(&ctx);
+}
+
 #[test]
 fn wrong_access_extra_buffers_and_push_size_fail_at_record_time() {
     let ctx = context();

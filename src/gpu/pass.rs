@@ -58,6 +58,10 @@ pub struct Pass<'r, 'a> {
     writes: Vec<vk::Buffer>,
     /// `fill`'s byte count per written buffer (`Buffer::fill_range`).
     fill_ranges: Vec<vk::DeviceSize>,
+    /// Sizes of the first read and the first written buffer (`update` and
+    /// `copy` check their byte counts against them).
+    first_read_size: Option<vk::DeviceSize>,
+    first_write_size: Option<vk::DeviceSize>,
 }
 
 impl<'a> Recorder<'a> {
@@ -139,6 +143,8 @@ impl<'a> Recorder<'a> {
             reads: Vec::new(),
             writes: Vec::new(),
             fill_ranges: Vec::new(),
+            first_read_size: None,
+            first_write_size: None,
         }
     }
 
@@ -419,10 +425,12 @@ impl Drop for Recorder<'_> {
 impl<'a> Pass<'_, 'a> {
     pub fn read(mut self, b: &'a Buffer) -> Self {
         self.reads.push(b.raw);
+        self.first_read_size.get_or_insert(b.size);
         self
     }
     pub fn write(mut self, b: &'a Buffer) -> Self {
         self.writes.push(b.raw);
+        self.first_write_size.get_or_insert(b.size);
         self.fill_ranges.push(b.fill_range());
         self
     }
@@ -435,6 +443,7 @@ impl<'a> Pass<'_, 'a> {
             reads,
             writes,
             fill_ranges,
+            ..
         } = self;
         let idx = rec.begin_pass(&name, &reads, &writes);
         for (b, range) in writes.iter().zip(&fill_ranges) {
@@ -453,16 +462,23 @@ impl<'a> Pass<'_, 'a> {
             name,
             reads,
             writes,
+            first_write_size,
             ..
         } = self;
         assert!(
             data.len() <= 65536 && data.len() % 4 == 0,
             "pass {name}: vkCmdUpdateBuffer size"
         );
+        let dst = first_write_size
+            .unwrap_or_else(|| panic!("pass {name}: update without a written buffer"));
+        assert!(
+            data.len() as u64 <= dst,
+            "pass {name}: {} bytes into a buffer of {dst}",
+            data.len()
+        );
         let idx = rec.begin_pass(&name, &reads, &writes);
         // SAFETY: `cb` is recording; `data` is at most 65536 bytes, a multiple
-        // of 4 (asserted above); that it fits the buffer is the caller's
-        // contract (not checked here; the validation layer does in tests).
+        // of 4, and fits the first written buffer (asserted above).
         unsafe { rec.ctx.device.cmd_update_buffer(rec.cb, writes[0], 0, data) };
         rec.end_pass(idx);
     }
@@ -474,13 +490,22 @@ impl<'a> Pass<'_, 'a> {
             name,
             reads,
             writes,
+            first_read_size,
+            first_write_size,
             ..
         } = self;
+        let (src, dst) = first_read_size
+            .zip(first_write_size)
+            .unwrap_or_else(|| panic!("pass {name}: copy needs a read and a written buffer"));
+        assert!(
+            bytes > 0 && bytes <= src.min(dst),
+            "pass {name}: copy of {bytes} bytes from a buffer of {src} into one of {dst}"
+        );
         let idx = rec.begin_pass(&name, &reads, &writes);
         let region = [vk::BufferCopy::default().size(bytes)];
         // SAFETY: `cb` is recording; both buffers are live, borrowed for 'a,
-        // `bytes` within both is the caller's contract (not checked here; the
-        // validation layer does in tests).
+        // and `bytes` (> 0, as Vulkan requires) lies within both (asserted
+        // above).
         unsafe {
             rec.ctx
                 .device
