@@ -57,6 +57,13 @@ pub fn check_storage_range(ctx: &GpuContext, name: &str, size: u64) -> GpuResult
 }
 
 impl Buffer {
+    /// The VkBuffer's size: `size` plus the guard band, if any (the extent
+    /// a command may touch without undefined behaviour; writes into the
+    /// band are what guard.rs reports).
+    pub(crate) fn vk_size(&self) -> u64 {
+        self.size + self.guard
+    }
+
     /// A device buffer of `size` bytes (at least 16) usable as a storage
     /// buffer; refused when larger than the device's `maxStorageBufferRange`.
     pub fn storage(ctx: &Arc<GpuContext>, name: &str, size: u64) -> GpuResult<Buffer> {

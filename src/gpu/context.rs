@@ -105,7 +105,13 @@ pub struct GpuContext {
     pub queue: vk::Queue,
     pub queue_family: u32,
     pub(crate) allocator: ManuallyDrop<Mutex<Allocator>>,
+    /// `submit_once`'s command pool; `pool_lock` is held while it is used
+    /// (a pool needs external synchronisation). Recorders own their pools.
     pub(crate) command_pool: vk::CommandPool,
+    pool_lock: Mutex<()>,
+    /// Held around vkQueueSubmit (the queue needs external synchronisation):
+    /// with it and `pool_lock` a context may be shared between threads.
+    queue_lock: Mutex<()>,
     /// VK_KHR_acceleration_structure (with `enabled.ray_query`).
     pub(crate) accel: Option<ash::khr::acceleration_structure::Device>,
     /// VK_KHR_push_descriptor (with `enabled.push_descriptor`).
@@ -244,6 +250,8 @@ impl GpuContext {
             queue_family: p.opened.queue_family,
             allocator: ManuallyDrop::new(Mutex::new(p.allocator)),
             command_pool: p.command_pool,
+            pool_lock: Mutex::new(()),
+            queue_lock: Mutex::new(()),
             accel: p.opened.accel,
             push_descriptor: p.opened.push_descriptor,
             timeout: options.timeout,
@@ -307,12 +315,14 @@ impl GpuContext {
 
     /// Records commands with `f` into a one-time command buffer, submits and waits.
     pub fn submit_once<F: FnOnce(vk::CommandBuffer)>(&self, what: &str, f: F) -> GpuResult<()> {
+        // The shared pool, one caller at a time (a poisoned lock guards no
+        // state of its own).
+        let _pool = self.pool_lock.lock().unwrap_or_else(|e| e.into_inner());
         let alloc = vk::CommandBufferAllocateInfo::default()
             .command_pool(self.command_pool)
             .level(vk::CommandBufferLevel::PRIMARY)
             .command_buffer_count(1);
-        // SAFETY: the pool belongs to this device and is only used from the
-        // thread holding `&self` for the duration of this call.
+        // SAFETY: the pool belongs to this device; `pool_lock` is held.
         let cb = unsafe { self.device.allocate_command_buffers(&alloc) }
             .map_err(vk_err("vkAllocateCommandBuffers"))?[0];
         let begin = vk::CommandBufferBeginInfo::default()
@@ -368,11 +378,13 @@ impl GpuContext {
         .map_err(vk_err("vkCreateFence"))?;
         let cbs = [cb];
         let submit = [vk::SubmitInfo::default().command_buffers(&cbs)];
-        // SAFETY: `cb` is executable (ended) and its resources are kept
-        // alive by the caller until this returns; the fence is unsignalled.
-        // The queue is used from one thread at a time (`&self` callers run
-        // on the thread that owns the session).
-        let submitted = unsafe { self.device.queue_submit(self.queue, &submit, fence) };
+        let submitted = {
+            let _queue = self.queue_lock.lock().unwrap_or_else(|e| e.into_inner());
+            // SAFETY: `cb` is executable (ended) and its resources are kept
+            // alive by the caller until this returns; the fence is
+            // unsignalled; `queue_lock` serialises the queue's use.
+            unsafe { self.device.queue_submit(self.queue, &submit, fence) }
+        };
         // SAFETY: the fence was created above on this device.
         let r = submitted
             .and_then(|_| unsafe { self.device.wait_for_fences(&[fence], true, timeout_ns) });

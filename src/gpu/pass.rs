@@ -35,6 +35,8 @@ pub struct PassTiming {
 /// passes reference.
 pub struct Recorder<'a> {
     pub(crate) ctx: Arc<GpuContext>,
+    /// The recorder's own command pool (destroyed in Drop) and its buffer.
+    pool: vk::CommandPool,
     pub(crate) cb: vk::CommandBuffer,
     /// Query pools of `pool_sizes[i]` timestamp pairs each.
     queries: Vec<vk::QueryPool>,
@@ -58,8 +60,9 @@ pub struct Pass<'r, 'a> {
     writes: Vec<vk::Buffer>,
     /// `fill`'s byte count per written buffer (`Buffer::fill_range`).
     fill_ranges: Vec<vk::DeviceSize>,
-    /// Sizes of the first read and the first written buffer (`update` and
-    /// `copy` check their byte counts against them).
+    /// VkBuffer sizes of the first read and the first written buffer
+    /// (`update` and `copy` check their byte counts against them; a guard
+    /// band counts, so the guard-band test can overrun into it).
     first_read_size: Option<vk::DeviceSize>,
     first_write_size: Option<vk::DeviceSize>,
 }
@@ -68,20 +71,46 @@ impl<'a> Recorder<'a> {
     /// A recorder with timestamps for `max_passes` passes to begin with
     /// (more are added as needed).
     pub fn new(ctx: &Arc<GpuContext>, max_passes: u32) -> GpuResult<Recorder<'a>> {
+        // A transient pool of its own: a command pool needs external
+        // synchronisation, so recorders on several threads share none.
+        let pool_info = vk::CommandPoolCreateInfo::default()
+            .queue_family_index(ctx.queue_family)
+            .flags(vk::CommandPoolCreateFlags::TRANSIENT);
+        // SAFETY: `ctx.device` is live; the pool is destroyed in Drop (or
+        // below on failure).
+        let pool = unsafe { ctx.device.create_command_pool(&pool_info, None) }
+            .map_err(vk_err("vkCreateCommandPool"))?;
         let alloc = vk::CommandBufferAllocateInfo::default()
-            .command_pool(ctx.command_pool)
+            .command_pool(pool)
             .level(vk::CommandBufferLevel::PRIMARY)
             .command_buffer_count(1);
-        // SAFETY: the pool belongs to this device; the buffer is freed in Drop.
-        let cb = unsafe { ctx.device.allocate_command_buffers(&alloc) }
-            .map_err(vk_err("vkAllocateCommandBuffers"))?[0];
         let begin = vk::CommandBufferBeginInfo::default()
             .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
-        // SAFETY: `cb` was just allocated and is not recording.
-        unsafe { ctx.device.begin_command_buffer(cb, &begin) }
-            .map_err(vk_err("vkBeginCommandBuffer"))?;
+        // SAFETY: the pool was just made on this device; the buffer, once
+        // allocated, is not recording.
+        let cb = unsafe {
+            ctx.device
+                .allocate_command_buffers(&alloc)
+                .map_err(vk_err("vkAllocateCommandBuffers"))
+                .and_then(|cbs| {
+                    ctx.device
+                        .begin_command_buffer(cbs[0], &begin)
+                        .map_err(vk_err("vkBeginCommandBuffer"))
+                        .map(|_| cbs[0])
+                })
+        };
+        let cb = match cb {
+            Ok(cb) => cb,
+            Err(e) => {
+                // SAFETY: nothing from the pool was submitted; destroying it
+                // frees its buffer.
+                unsafe { ctx.device.destroy_command_pool(pool, None) };
+                return Err(e);
+            }
+        };
         let mut rec = Recorder {
             ctx: ctx.clone(),
+            pool,
             cb,
             queries: Vec::new(),
             pool_sizes: Vec::new(),
@@ -407,9 +436,8 @@ impl Drop for Recorder<'_> {
             if !self.finished {
                 let _ = self.ctx.device.end_command_buffer(self.cb);
             }
-            self.ctx
-                .device
-                .free_command_buffers(self.ctx.command_pool, &[self.cb]);
+            // Frees `cb` with it.
+            self.ctx.device.destroy_command_pool(self.pool, None);
             for pool in &self.queries {
                 self.ctx.device.destroy_query_pool(*pool, None);
             }
@@ -425,12 +453,12 @@ impl Drop for Recorder<'_> {
 impl<'a> Pass<'_, 'a> {
     pub fn read(mut self, b: &'a Buffer) -> Self {
         self.reads.push(b.raw);
-        self.first_read_size.get_or_insert(b.size);
+        self.first_read_size.get_or_insert(b.vk_size());
         self
     }
     pub fn write(mut self, b: &'a Buffer) -> Self {
         self.writes.push(b.raw);
-        self.first_write_size.get_or_insert(b.size);
+        self.first_write_size.get_or_insert(b.vk_size());
         self.fill_ranges.push(b.fill_range());
         self
     }
