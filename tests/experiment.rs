@@ -359,6 +359,13 @@ fn malformed_files_fail_with_one_error_line_naming_the_file_and_key() {
             &["'spp'", "--spp"],
         ),
         (
+            // A key of [scale.ci] overrides [run] and is named with its
+            // own section (it read '[run]: key ...' until session 51).
+            "bad key in a scale",
+            good.replace("[scale.ci]\nframes = 4", "[scale.ci]\nframez = 4"),
+            &["[scale.ci]: key 'framez'"],
+        ),
+        (
             "odd reference spp",
             good.replace("reference-spp = 8", "reference-spp = 7"),
             &["reference-spp"],

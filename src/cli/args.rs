@@ -121,7 +121,7 @@ impl GpuArgs {
     }
 }
 
-/// `--lighting`: sun-sky[:ELEV,AZIM,TURB], constant:R,G,B or env:PATH.
+/// `--lighting`: sun-sky[:ELEV,AZIM,TURB], constant:V|R,G,B, env:PATH, directional:…, joined by '+'.
 pub fn lighting(s: &str) -> Result<DefaultLighting, String> {
     named::<DefaultLighting>("--lighting")(s)
 }
@@ -133,13 +133,13 @@ pub fn rt(s: &str) -> Result<RtChoice, String> {
 
 #[derive(Args, Clone)]
 pub struct SceneArgs {
-    /// Scene: built-in name (cornell, hairball, plane, cornell-moving, hairball-rotating, material-balls; cornell:alpha=A sets both spheres to GGX alpha A), a .gltf/.glb file, or a directory holding one.
+    /// Scene: built-in name (cornell, hairball, plane, cornell-moving, hairball-rotating, material-balls; cornell:alpha=A sets both spheres to GGX alpha A), a .gltf/.glb file, or a directory holding one; procedural[-uv|-heavy-uv]:[SEED:]SCENE replaces every material of SCENE by a seeded pick from the graph library (README), spin:NODE:SCENE turns SCENE's node NODE about the vertical (one turn in 4 s).
     #[arg(long, default_value = "cornell")]
     pub scene: String,
     /// Which of the scene's glTF animations play: all (looped), an index or a name.
     #[arg(long, default_value = "all")]
     pub animation: AnimationSelection,
-    /// Lighting added to the scene, even one with lights of its own (whose environment it replaces): sun-sky[:ELEV,AZIM,TURB], constant:R,G,B, env:PATH.hdr|.exr, directional:ELEV,AZIM[,R,G,B], A+B. Default: sun-sky, only where the scene has no punctual light, environment or emitter brighter than 1 (glows ≤ 1 do not count)
+    /// Lighting added to the scene, even one with lights of its own (whose environment it replaces): sun-sky[:ELEV,AZIM,TURB], constant:V|R,G,B, env:PATH.hdr|.exr, directional:ELEV,AZIM[,R,G,B], A+B. Default: sun-sky, only where the scene has no punctual light, environment or emitter brighter than 1 (glows ≤ 1 do not count)
     #[arg(long, value_parser = lighting)]
     pub lighting: Option<DefaultLighting>,
     /// Ray backend.

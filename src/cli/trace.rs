@@ -93,7 +93,7 @@ pub struct ConvertArgs {
     /// csv: the up axis, x|y|z with optional sign [default: +y].
     #[arg(long, allow_hyphen_values = true)]
     up: Option<SignedAxis>,
-    /// csv: the axis the head looks along (default: -z right-handed / +z left-handed with +y up; +x with z up).
+    /// csv: the axis the head looks along (default: -z right-handed / +z left-handed with +y up; +x with ±z up).
     #[arg(long, allow_hyphen_values = true)]
     forward: Option<SignedAxis>,
 }

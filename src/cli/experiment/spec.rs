@@ -315,6 +315,9 @@ pub fn read(
         }
     }
     let mut run = file.run.clone();
+    // Where each key of the merged [run] came from when not from [run]
+    // itself ([scale.X] or --set): an error about it names that source.
+    let mut origin: BTreeMap<String, String> = BTreeMap::new();
     if !file.scale.is_empty() || scale != "ci" {
         let t = file.scale.get(scale).ok_or_else(|| {
             at(format!(
@@ -323,12 +326,28 @@ pub fn read(
             ))
         })?;
         run = overlay(&run, t);
+        for k in t.keys() {
+            origin.insert(k.clone(), format!("[scale.{scale}]"));
+        }
     }
     let mut set_table = toml::Table::new();
     for (k, v) in sets {
         set_table.insert(k.clone(), v.clone());
+        origin.insert(k.clone(), "--set".into());
     }
     run = overlay(&run, &set_table);
+    let at = |m: String| {
+        let m = match m
+            .strip_prefix("[run]: key '")
+            .and_then(|r| r.split_once('\''))
+        {
+            Some((k, rest)) if origin.contains_key(k) => {
+                format!("{}: key '{k}'{rest}", origin[k])
+            }
+            _ => m,
+        };
+        format!("{}: {m}", path.display())
+    };
     let scenes = strings(run.get("scenes"), "scenes").map_err(at)?;
     let traces = strings(run.get("traces"), "traces").map_err(at)?;
     for s in &scenes {
