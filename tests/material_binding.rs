@@ -3385,3 +3385,107 @@ fn far_out_uvs_are_evaluated_directly() {
     assert_no_validation_messages(&ctx);
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// Memoized normals (issue 17): a graph's tangent-space normal
+/// (`normal_tangent`, the output the procedural-uv scenes' bumps bind and
+/// the memo record stores) comes out of the table as it went in. A white
+/// Lambert quad in y = 0 with tangents along +u (`tangent_quad`), one delta
+/// directional light, one scattering event; the graph's constant encoded
+/// normal (0.35, 0.75, 0.9) decodes to t = (−0.3, 0.5, 0.8), so every pixel
+/// is ρ/π·E·max(0, n·l) with n = normalize(t.x·T + t.y·B + t.z·N), to 10⁻⁴
+/// relative (f32 shading), without memoization and with it at primary and
+/// at all hits, non-tiled and tiled, both backends; the table is used (its
+/// lookups counted). A record that lost the normal shades with the quad's
+/// own normal, ≥ 5 % off (checked, so the test bites).
+#[test]
+fn memoized_graph_normals_shade_as_evaluated_ones() {
+    use stereocache::materials::memo::{MemoHits, MemoSettings};
+    let ctx = context();
+    let d = dir("memo-normal");
+    std::fs::write(
+        d.join("tilt.mtlx"),
+        r#"<?xml version="1.0"?>
+<materialx version="1.39">
+  <nodegraph name="tilt">
+    <constant name="nt" type="vector3"><input name="value" type="vector3" value="0.35, 0.75, 0.9" /></constant>
+    <output name="normal_tangent" type="vector3" nodename="nt" />
+  </nodegraph>
+</materialx>
+"#,
+    )
+    .unwrap();
+    let tn = Vec3::new(-0.3, 0.5, 0.8);
+    let (rho, e) = (0.8f32, 2.0f32);
+    let to_light = Vec3::new(0.2, 1.0, 0.7).normalize();
+    let quad = tangent_quad(false);
+    let t = quad.tangents[0];
+    let mut s = Scene {
+        source: "test:memo-normal".into(),
+        ..Default::default()
+    };
+    let mut m = Material::diffuse("white", Vec3::splat(rho));
+    m.specular = 0.0;
+    let mat = add_material(&mut s, m);
+    add_mesh(&mut s, quad, mat, Mat4::IDENTITY);
+    s.lights.push(directional_light(to_light, e, 0.0));
+    s.validate().unwrap();
+    let path = d.join("quad.gltf");
+    stereocache::scene::write_gltf(&s, &path).unwrap();
+    let mut j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    j["materials"][0]["extras"] = serde_json::json!({ "materialx": { "file": "tilt.mtlx" } });
+    std::fs::write(&path, serde_json::to_string_pretty(&j).unwrap()).unwrap();
+    let mut scene = stereocache::scene::load_gltf(&path).expect("bound scene loads");
+    assert!(scene.graphs.graphs[0].reads_only_uv(), "a memoizable graph");
+    let (n, tg) = (Vec3::Y, t.truncate());
+    let mapped = (tn.x * tg + tn.y * n.cross(tg) * t.w + tn.z * n).normalize();
+    let shade = |n: Vec3| rho / std::f32::consts::PI * e * n.dot(to_light).max(0.0);
+    let want = shade(mapped);
+    assert!(
+        (want - shade(n)).abs() > 0.05 * want,
+        "the mapped normal shades apart from the quad's: {want} vs {}",
+        shade(n)
+    );
+    let settings = RenderSettings {
+        width: 8,
+        height: 8,
+        spp: 2,
+        max_bounces: 1,
+        seed: 3,
+        all_features: false,
+        ..Default::default()
+    };
+    let cam = look_at_camera(Vec3::new(0.0, 10.0, 1e-3), Vec3::ZERO, 5.0, 1.0);
+    for (hits, tile) in [
+        (MemoHits::Off, 1),
+        (MemoHits::Primary, 1),
+        (MemoHits::Both, 1),
+        (MemoHits::Primary, 4),
+        (MemoHits::Both, 4),
+    ] {
+        scene.graphs.memo = MemoSettings {
+            hits,
+            tile,
+            entries: 1 << 16,
+            ..Default::default()
+        };
+        for rt in rt_backends(&ctx) {
+            let ses = session(&ctx, scene.clone(), rt);
+            let f = render(&ses, "reference", cam, &settings);
+            if hits != MemoHits::Off {
+                let c = memo_counters(&ses);
+                assert!(c.hits + c.misses > 0, "{hits:?} {tile} {rt:?}: no lookup");
+            }
+            for eye in &f.eyes {
+                for p in &eye.radiance {
+                    assert!(
+                        (p[0] - want).abs() <= 1e-4 * want,
+                        "{hits:?}, tile {tile}, {rt:?}: {} where ρ/π·E·(n·l) = {want}",
+                        p[0]
+                    );
+                }
+            }
+        }
+    }
+    assert_no_validation_messages(&ctx);
+}
