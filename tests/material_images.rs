@@ -371,17 +371,46 @@ fn bad_image_inputs_error_clearly() {
     let d = dir("errors");
     write_4x2(&d);
     let f = r#"value="four_by_two.png""#;
-    let cases: [(&str, String, &str); 6] = [
+    // A file that cannot be read (missing, empty name, not an image): the
+    // node gives its `default` input, as MaterialX specifies ("a default
+    // value to use if the file reference can not be resolved") and its
+    // renderer does, with one warning naming the file, graph and node
+    // (until session 51 a load error).
+    std::fs::write(d.join("not_an_image.png"), b"plain text").unwrap();
+    let default = r#"<input name="default" type="color3" value="0.2, 0.4, 0.6" />"#;
+    for (what, file, needle) in [
+        ("missing file", r#"value="nowhere.png""#, "nowhere.png"),
+        ("empty file", r#"value="""#, "input `file` is empty"),
         (
-            "missing file",
-            image_doc(r#"value="nowhere.png""#, "color3", "", ""),
-            "nowhere.png",
+            "not an image",
+            r#"value="not_an_image.png""#,
+            "not_an_image.png",
         ),
-        (
-            "empty file",
-            image_doc(r#"value="""#, "color3", "", ""),
-            "input `file` is empty",
-        ),
+    ] {
+        let g = build(&d, &image_doc(file, "color3", default, ""))
+            .unwrap_or_else(|e| panic!("{what}: {e}"));
+        assert_eq!(g.warnings.len(), 1, "{what}: {:?}", g.warnings);
+        let w = &g.warnings[0];
+        assert!(
+            w.contains(needle)
+                && w.contains("g.mtlx")
+                && w.contains("graph `g`")
+                && w.contains("node `img`")
+                && w.contains("default"),
+            "{what}: {w}"
+        );
+        let v = at(&g, [0.3, 0.7], 0.0);
+        assert_eq!(&v[..3], &[0.2, 0.4, 0.6], "{what}: the default input");
+        assert!(g.images.is_empty(), "{what}: no image to bind");
+        // Without a default input: the nodedef's, 0.
+        let g = build(&d, &image_doc(file, "color3", "", "")).unwrap();
+        assert_eq!(
+            &at(&g, [0.3, 0.7], 0.0)[..3],
+            &[0.0; 3],
+            "{what}: the nodedef's default"
+        );
+    }
+    let cases: [(&str, String, &str); 4] = [
         (
             "layer",
             image_doc(

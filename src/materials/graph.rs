@@ -627,8 +627,21 @@ impl<'a> Builder<'a> {
             "texcoord" | "position" | "normal" | "tangent" | "heighttonormal" | "image"
         );
         if sig.node == "image" {
-            let im = self.image(ri, &node)?;
-            self.images.push(im);
+            match self.image(ri, &node)? {
+                Some(im) => self.images.push(im),
+                None => {
+                    // The file cannot be read: the node is its `default`
+                    // input (MaterialX: "a default value to use if the file
+                    // reference can not be resolved"), with a warning.
+                    let (k, _, _) = node
+                        .sig
+                        .input("default")
+                        .expect("image has a default input");
+                    let src = node.inputs[k].clone();
+                    self.placed.insert(ri, src.clone());
+                    return Ok(src);
+                }
+            }
         }
         let src = if constant && !reads_geometry {
             Source::Const(eval::eval_constant(&node))
@@ -641,8 +654,10 @@ impl<'a> Builder<'a> {
     }
 
     /// The file and settings of image node `node` (raw node `ri`), which
-    /// becomes `self.nodes[self.nodes.len()]`.
-    fn image(&mut self, ri: usize, node: &Node) -> Result<GraphImage, GraphError> {
+    /// becomes `self.nodes[self.nodes.len()]`; None, with a warning, where
+    /// the file name is empty or the file cannot be read or decoded (the
+    /// node then gives its `default`). Unsupported settings are errors.
+    fn image(&mut self, ri: usize, node: &Node) -> Result<Option<GraphImage>, GraphError> {
         let raw = &self.raw.nodes[ri];
         let err = |m: String| self.err(Some(&raw.name), raw.line, m);
         let text = |name: &str| -> String {
@@ -663,25 +678,40 @@ impl<'a> Builder<'a> {
         })
         .map_err(err)?;
         let file = format!("{}{}", attr(|p| p.fileprefix.clone()), text("file"));
-        if file.is_empty() {
-            return Err(err("input `file` is empty".into()));
-        }
-        let path = self.doc.resolve(&file);
-        let texture = image::read(&path, set.encoding).map_err(err)?;
-        if let Some(w) = set.warning {
-            self.warnings.push(format!(
-                "{}: graph `{}`, node `{}`: {w}",
+        let warn = |m: String| {
+            format!(
+                "{}: graph `{}`, node `{}`: {m}",
                 self.doc.file, self.raw.name, raw.name
-            ));
+            )
+        };
+        let unread = if file.is_empty() {
+            Err("input `file` is empty".to_string())
+        } else {
+            image::read(&self.doc.resolve(&file), set.encoding)
+        };
+        let texture = match unread {
+            Ok(t) => t,
+            Err(e) => {
+                let w = warn(format!(
+                    "{e}; the node gives its `default` input (MaterialX's rule for a file that cannot be read)"
+                ));
+                self.warnings.push(w);
+                return Ok(None);
+            }
+        };
+        let path = self.doc.resolve(&file);
+        if let Some(w) = set.warning {
+            let w = warn(w);
+            self.warnings.push(w);
         }
-        Ok(GraphImage {
+        Ok(Some(GraphImage {
             node: self.nodes.len(),
             file,
             path,
             texture: std::sync::Arc::new(texture),
             sampler: set.sampler,
             constant: set.constant,
-        })
+        }))
     }
 
     /// The overload of raw node `ri` with output `out` whose inputs match the
