@@ -590,63 +590,129 @@ fn long_run_10000_frames() {
     check_long_run(10_000, true);
 }
 
-// ------------------------------------------------ barycentric packing (CPU)
+// ------------------------------------------------ barycentric packing (GPU)
 
-/// `shaders/common/packing.glsl`: b ↦ round(clamp(b, 0, 1) · (2²⁴ − 1)), in
-/// the low 24 bits; decoding divides by 2²⁴ − 1 (as `stored_position`).
-fn encode(b: f32) -> u32 {
-    (b.clamp(0.0, 1.0) * 16_777_215.0).round() as u32 & 0xFF_FFFF
-}
-
-fn decode(q: u32) -> f32 {
-    (q & 0xFF_FFFF) as f32 / 16_777_215.0
-}
-
+/// `shaders/common/packing.glsl` run on the device (`packing_test.comp`):
+/// b ↦ round(clamp(b, 0, 1) · (2²⁴ − 1)) in the low 24 bits of x and y,
+/// the material's 16 bits above them, primitive and instance whole;
+/// decoding divides by 2²⁴ − 1. Known bounds: the stored integer is the
+/// product's rounding (±1 only where the product is exactly half-way: GLSL
+/// leaves ties to the implementation); the decoded barycentric is within
+/// half a step plus the division's 2.5 ulp of the input (GLSL's precision
+/// for a / b), so a point rebuilt from them is within 2⁻²⁴·√2·1.5 of the
+/// triangle's longest edge. Ends, out-of-range values and material bits
+/// exact.
 #[test]
 fn barycentric_packing_round_trip() {
+    use stereocache::interface::packing_test;
+    let ctx = context();
     let mut rng = stereocache::camera::pcg::Pcg32::new(7, 1);
-    let mut worst_b = 0.0f64;
-    let mut worst_rel = 0.0f64;
-    for size_exp in [-6i32, -3, 0, 3, 6] {
-        for _ in 0..20_000 {
-            let size = 10f64.powi(size_exp);
-            let v0 = glam::DVec3::new(rng.next_f64(), rng.next_f64(), rng.next_f64()) * size;
-            let e1 = glam::DVec3::new(
-                rng.next_f64() - 0.5,
-                rng.next_f64() - 0.5,
-                rng.next_f64() - 0.5,
-            ) * size;
-            let e2 = glam::DVec3::new(
-                rng.next_f64() - 0.5,
-                rng.next_f64() - 0.5,
-                rng.next_f64() - 0.5,
-            ) * size;
-            let (mut b1, mut b2) = (rng.next_f64() as f32, rng.next_f64() as f32);
+    let mut bary: Vec<[f32; 2]> = (0..20_000)
+        .map(|_| {
+            let (b1, b2) = (rng.next_f64() as f32, rng.next_f64() as f32);
             if b1 + b2 > 1.0 {
-                (b1, b2) = (1.0 - b1, 1.0 - b2);
+                [1.0 - b1, 1.0 - b2]
+            } else {
+                [b1, b2]
             }
-            let (d1, d2) = (decode(encode(b1)), decode(encode(b2)));
-            let (eb1, eb2) = ((d1 as f64 - b1 as f64).abs(), (d2 as f64 - b2 as f64).abs());
-            // Half a quantization step plus f32 rounding of b and of the division.
-            let step = 1.0 / 16_777_215.0;
-            assert!(eb1 <= 0.5 * step + 2f64.powi(-24) && eb2 <= 0.5 * step + 2f64.powi(-24));
-            worst_b = worst_b.max(eb1.max(eb2));
-            let p = v0 + e1 * b1 as f64 + e2 * b2 as f64;
-            let q = v0 + e1 * d1 as f64 + e2 * d2 as f64;
-            let edge = e1.length().max(e2.length());
-            let rel = (p - q).length() / edge;
+        })
+        .collect();
+    bary.extend([[0.0, 1.0], [1.0, 0.0], [2.0, -1.0], [1e-9, 0.5], [0.5, 0.5]]);
+    let keys: Vec<[u32; 4]> = bary
+        .iter()
+        .enumerate()
+        .map(|(i, b)| {
+            [
+                b[0].to_bits(),
+                b[1].to_bits(),
+                (i as u32).wrapping_mul(2_654_435_761) & 0xFFFF,
+                i as u32 ^ 0x8000_0001,
+            ]
+        })
+        .collect();
+    let n = keys.len() as u32;
+    let out = run_key_kernel(
+        &ctx,
+        "common/packing_test",
+        &packing_test::INTERFACE,
+        &packing_test::PUSH,
+        &keys,
+        8,
+        &[[n, 0u32, 0, 0]],
+    )
+    .remove(0);
+    let step = 1.0 / 16_777_215.0f64;
+    let (mut worst_b, mut worst_rel) = (0.0f64, 0.0f64);
+    for (i, (k, b)) in keys.iter().zip(&bary).enumerate() {
+        let o = &out[8 * i..8 * i + 8];
+        assert_eq!(
+            (o[2], o[3]),
+            (k[3], i as u32),
+            "input {i}: primitive, instance"
+        );
+        assert_eq!(o[6], k[2], "input {i}: material bits");
+        assert_eq!(o[7], 1, "input {i}: a hit");
+        let mut d = [0.0f64; 2];
+        for c in 0..2 {
+            let x = b[c].clamp(0.0, 1.0) * 16_777_215.0f32;
+            let q = o[c] & 0xFF_FFFF;
+            let tie = x.fract() == 0.5;
+            assert!(
+                q as f32 == x.round() || (tie && (q as f32 - x).abs() == 0.5),
+                "input {i}: {} stored as {q}, product {x}",
+                b[c]
+            );
+            let got = f32::from_bits(o[4 + c]) as f64;
+            let exact = q as f64 * step;
+            assert!(
+                (got - exact).abs()
+                    <= 2.5 * f32::EPSILON as f64 * exact.max(f32::MIN_POSITIVE as f64),
+                "input {i}: decoded {got}, {q}/(2^24 - 1) = {exact}"
+            );
+            let want = b[c].clamp(0.0, 1.0) as f64;
+            assert!(
+                (got - want).abs() <= 0.5 * step + 3.0 * 2f64.powi(-24),
+                "input {i}: {got} for {want}"
+            );
+            worst_b = worst_b.max((got - want).abs());
+            d[c] = got;
+        }
+        // A point rebuilt from the decoded barycentrics, at any scale.
+        let size = 10f64.powi(i as i32 % 13 - 6);
+        let v0 = glam::DVec3::new(rng.next_f64(), rng.next_f64(), rng.next_f64()) * size;
+        let e1 = glam::DVec3::new(
+            rng.next_f64() - 0.5,
+            rng.next_f64() - 0.5,
+            rng.next_f64() - 0.5,
+        ) * size;
+        let e2 = glam::DVec3::new(
+            rng.next_f64() - 0.5,
+            rng.next_f64() - 0.5,
+            rng.next_f64() - 0.5,
+        ) * size;
+        if b[0] >= 0.0 && b[1] >= 0.0 && b[0] + b[1] <= 1.0 {
+            let p = v0 + e1 * b[0] as f64 + e2 * b[1] as f64;
+            let q = v0 + e1 * d[0] + e2 * d[1];
+            let rel = (p - q).length() / e1.length().max(e2.length());
             assert!(
                 rel <= 2f64.powi(-24) * 2f64.sqrt() * 1.5,
-                "relative error {rel:e} at size {size:e}"
+                "input {i}: relative error {rel:e}"
             );
             worst_rel = worst_rel.max(rel);
         }
     }
     eprintln!("barycentric packing: worst |Δb| = {worst_b:e} (2^-24 = {:e}), worst |Δp| / edge = {worst_rel:e}", 2f64.powi(-24));
-    // Exact at the ends and the midpoint's neighbours.
-    assert_eq!(decode(encode(0.0)), 0.0);
-    assert_eq!(decode(encode(1.0)), 1.0);
-    assert_eq!(encode(2.0), 0xFF_FFFF);
-    assert_eq!(encode(-1.0), 0);
-    assert_eq!(encode(f32::NAN), 0);
+    // Exact at the ends.
+    let at = |j: usize| &out[8 * (bary.len() - 5 + j)..8 * (bary.len() - 4 + j)];
+    assert_eq!((at(0)[0] & 0xFF_FFFF, at(0)[1] & 0xFF_FFFF), (0, 0xFF_FFFF));
+    assert_eq!(
+        (f32::from_bits(at(0)[4]), f32::from_bits(at(0)[5])),
+        (0.0, 1.0)
+    );
+    assert_eq!(
+        (at(2)[0] & 0xFF_FFFF, at(2)[1] & 0xFF_FFFF),
+        (0xFF_FFFF, 0),
+        "clamped"
+    );
+    assert_no_validation_messages(&ctx);
 }

@@ -18,6 +18,7 @@ pub mod hash_table;
 pub mod hybrid;
 pub mod isrt;
 pub mod memo;
+pub mod packing_test;
 pub mod reference;
 pub mod reflect_test;
 pub mod sample_cache;
@@ -46,6 +47,7 @@ pub const ALL: &[&Interface] = &[
     &reflect_test::INTERFACE,
     &memo::HASH_TEST,
     &memo::STRESS,
+    &packing_test::INTERFACE,
 ];
 
 /// camera.glsl's `FrameBuf` (the per-frame stereo camera, `FrameParams`):
