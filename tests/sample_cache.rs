@@ -487,8 +487,10 @@ fn adaptive_shading_rate(s: &Session, subgroup_ops: bool) {
         let shaded = snap.shade_count as f64;
         let covered = (snap.covered(0) + snap.covered(1)) as f64 / 2.0;
         let expected = 2.0 * (rate as f64 * covered).max(npix / 16.0);
-        // Binomial spread of the straddling bucket's coin tosses: ≤ n/4 per eye.
-        let sigma = (2.0 * npix / 4.0).sqrt();
+        // Spread of the coin tosses (the straddling bucket's samples and the
+        // unshaded pixels'): each candidate, a visible surface sample of
+        // either eye, is tossed at most once, Bernoulli variance ≤ 1/4.
+        let sigma = (visible as f64 / 4.0).sqrt();
         eprintln!("frame {f}: shaded {shaded} expected {expected:.0} ± {sigma:.0}");
         assert!(
             (shaded - expected).abs() <= 4.0 * sigma,

@@ -315,34 +315,44 @@ impl GpuContext {
 
     /// Records commands with `f` into a one-time command buffer, submits and waits.
     pub fn submit_once<F: FnOnce(vk::CommandBuffer)>(&self, what: &str, f: F) -> GpuResult<()> {
-        // The shared pool, one caller at a time (a poisoned lock guards no
-        // state of its own).
-        let _pool = self.pool_lock.lock().unwrap_or_else(|e| e.into_inner());
-        let alloc = vk::CommandBufferAllocateInfo::default()
-            .command_pool(self.command_pool)
-            .level(vk::CommandBufferLevel::PRIMARY)
-            .command_buffer_count(1);
-        // SAFETY: the pool belongs to this device; `pool_lock` is held.
-        let cb = unsafe { self.device.allocate_command_buffers(&alloc) }
-            .map_err(vk_err("vkAllocateCommandBuffers"))?[0];
-        let begin = vk::CommandBufferBeginInfo::default()
-            .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
-        let result = (|| {
-            // SAFETY: `cb` was just allocated and is in the initial state.
-            unsafe { self.device.begin_command_buffer(cb, &begin) }
-                .map_err(vk_err("vkBeginCommandBuffer"))?;
-            f(cb);
-            // SAFETY: `cb` is recording (begun above).
-            unsafe { self.device.end_command_buffer(cb) }.map_err(vk_err("vkEndCommandBuffer"))?;
-            self.submit_and_wait(cb, what)
-        })();
+        // The shared pool, one caller at a time while its buffer is
+        // allocated, recorded and freed (a pool needs external
+        // synchronisation for those, not while its buffer executes); the
+        // lock is not held during the wait, so other threads' waits do not
+        // queue behind it. A poisoned lock guards no state of its own.
+        let pool = || self.pool_lock.lock().unwrap_or_else(|e| e.into_inner());
+        let recorded = {
+            let _pool = pool();
+            let alloc = vk::CommandBufferAllocateInfo::default()
+                .command_pool(self.command_pool)
+                .level(vk::CommandBufferLevel::PRIMARY)
+                .command_buffer_count(1);
+            // SAFETY: the pool belongs to this device; `pool_lock` is held.
+            let cb = unsafe { self.device.allocate_command_buffers(&alloc) }
+                .map_err(vk_err("vkAllocateCommandBuffers"))?[0];
+            let begin = vk::CommandBufferBeginInfo::default()
+                .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT);
+            let r = (|| {
+                // SAFETY: `cb` was just allocated and is in the initial state.
+                unsafe { self.device.begin_command_buffer(cb, &begin) }
+                    .map_err(vk_err("vkBeginCommandBuffer"))?;
+                f(cb);
+                // SAFETY: `cb` is recording (begun above).
+                unsafe { self.device.end_command_buffer(cb) }.map_err(vk_err("vkEndCommandBuffer"))
+            })();
+            (cb, r)
+        };
+        let (cb, recorded) = recorded;
+        let result = recorded.and_then(|_| self.submit_and_wait(cb, what));
         // After a watchdog timeout `cb` is still pending: freeing it would
         // let the driver run freed commands (a crash at exit, the validation
         // error VUID-vkFreeCommandBuffers-pCommandBuffers-00047). Leak it,
         // like everything else once the context is abandoned.
         if !self.is_abandoned() {
+            let _pool = pool();
             // SAFETY: `cb` is not pending (the wait completed, failed or
-            // the submission never happened) and came from this pool.
+            // the submission never happened) and came from this pool;
+            // `pool_lock` is held.
             unsafe { self.device.free_command_buffers(self.command_pool, &[cb]) };
         }
         result
@@ -465,7 +475,9 @@ impl GpuContext {
     }
 
     pub fn wait_idle(&self) {
-        // SAFETY: waiting has no preconditions beyond a live device.
+        // vkDeviceWaitIdle needs every queue externally synchronised.
+        let _queue = self.queue_lock.lock().unwrap_or_else(|e| e.into_inner());
+        // SAFETY: a live device; its queue is held (`queue_lock`).
         let _ = unsafe { self.device.device_wait_idle() };
     }
 }

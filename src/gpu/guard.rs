@@ -93,8 +93,10 @@ pub fn check(ctx: &Arc<GpuContext>) -> GpuResult<()> {
         })
         .collect();
     // SAFETY: `cb` is recording; every band's buffer is live (registered
-    // until its drop, and nothing drops while this runs on the context's
-    // thread), each region lies inside its band and inside `staging`
+    // until its drop, and nothing drops while this runs: guard bands are a
+    // test aid for one thread at a time — a context shared between threads
+    // must not drop guarded buffers during a check), each region lies
+    // inside its band and inside `staging`
     // (packed one after the other, `total` bytes), which lives until
     // submit_once has waited. All earlier submissions were waited for.
     ctx.submit_once_uncounted("guard band check", |cb| unsafe {

@@ -102,8 +102,13 @@ fn run_file(a: RunArgs) -> Result<()> {
     for (g, _) in &mine {
         let scene = &e.groups[*g].args.scene.scene;
         if loaded.insert(scene.clone()) {
-            stereocache::scene::load_scene(scene)
-                .map_err(|err| anyhow!("{}: [run]: key 'scenes': {err}", a.file.display()))?;
+            stereocache::scene::load_scene(scene).map_err(|err| {
+                anyhow!(
+                    "{}: {}: key 'scenes': {err}",
+                    a.file.display(),
+                    e.scenes_from
+                )
+            })?;
         }
     }
     if a.check {

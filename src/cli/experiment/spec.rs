@@ -105,6 +105,9 @@ pub struct Experiment {
     pub missing: Vec<String>,
     pub claims: Vec<ClaimSpec>,
     pub scale: String,
+    /// Where the `scenes` key came from (`[run]`, `[scale.X]` or `--set`),
+    /// for errors about a scene found only when it is loaded.
+    pub scenes_from: String,
     pub groups: Vec<Group>,
 }
 
@@ -593,6 +596,10 @@ pub fn read(
         missing: file.missing,
         claims: file.claims,
         scale: scale.to_string(),
+        scenes_from: origin
+            .get("scenes")
+            .cloned()
+            .unwrap_or_else(|| "[run]".into()),
         groups,
     })
 }
