@@ -2957,6 +2957,51 @@ fn every_method_shades_through_the_memoization_table() {
     assert_no_validation_messages(&ctx);
 }
 
+/// A Lambert quad (albedo `rho`, no specular lobe) under one delta
+/// directional light of irradiance `e` towards `to_light`, written as glTF
+/// at `path` with its material bound to the MaterialX file `mtlx` (beside
+/// it) through `extras.materialx`, and loaded back.
+fn lit_quad_bound_to(
+    path: &Path,
+    mtlx: &str,
+    quad: stereocache::scene::Mesh,
+    rho: f32,
+    double_sided: bool,
+    to_light: Vec3,
+    e: f32,
+) -> Scene {
+    let mut s = Scene {
+        source: "test:lit-quad".into(),
+        ..Default::default()
+    };
+    let mut m = Material::diffuse("white", Vec3::splat(rho));
+    m.specular = 0.0;
+    m.double_sided = double_sided;
+    let mat = add_material(&mut s, m);
+    add_mesh(&mut s, quad, mat, Mat4::IDENTITY);
+    s.lights.push(directional_light(to_light, e, 0.0));
+    s.validate().unwrap();
+    stereocache::scene::write_gltf(&s, path).unwrap();
+    let mut j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+    j["materials"][0]["extras"] = serde_json::json!({ "materialx": { "file": mtlx } });
+    std::fs::write(path, serde_json::to_string_pretty(&j).unwrap()).unwrap();
+    stereocache::scene::load_gltf(path).expect("bound scene loads")
+}
+
+/// 8×8 per eye, 2 spp, one scattering event, seed 3.
+fn one_event_settings() -> RenderSettings {
+    RenderSettings {
+        width: 8,
+        height: 8,
+        spp: 2,
+        max_bounces: 1,
+        seed: 3,
+        all_features: false,
+        ..Default::default()
+    }
+}
+
 /// A graph's `normalmap` uses the mesh's own bitangent, glTF's
 /// cross(N, T)·w, as a normal texture does (material.glsl
 /// tangent_space_normal): on a mirrored uv island (w = −1) and seen from
@@ -2993,45 +3038,20 @@ fn graph_normal_maps_follow_the_meshs_handedness_and_sides() {
     let tn = Vec3::new(-0.3, 0.5, 0.8);
     let (rho, e) = (0.8f32, 2.0f32);
     let to_light_above = Vec3::new(0.2, 1.0, 0.7).normalize();
-    let settings = RenderSettings {
-        width: 8,
-        height: 8,
-        spp: 2,
-        max_bounces: 1,
-        seed: 3,
-        all_features: false,
-        ..Default::default()
-    };
+    let settings = one_event_settings();
     let mut handedness = Vec::new();
     for mirrored in [false, true] {
         let quad = tangent_quad(mirrored);
         let t = quad.tangents[0];
         handedness.push(t.w);
         for below in [false, true] {
-            let mut s = Scene {
-                source: "test:graph-normal-handedness".into(),
-                ..Default::default()
-            };
-            let mut m = Material::diffuse("white", Vec3::splat(rho));
-            m.specular = 0.0;
-            m.double_sided = true;
-            let mat = add_material(&mut s, m);
-            add_mesh(&mut s, quad.clone(), mat, Mat4::IDENTITY);
             let to_light = if below {
                 to_light_above * Vec3::new(1.0, -1.0, 1.0)
             } else {
                 to_light_above
             };
-            s.lights.push(directional_light(to_light, e, 0.0));
-            s.validate().unwrap();
             let path = d.join(format!("quad-{mirrored}-{below}.gltf"));
-            stereocache::scene::write_gltf(&s, &path).unwrap();
-            let mut j: serde_json::Value =
-                serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
-            j["materials"][0]["extras"] =
-                serde_json::json!({ "materialx": { "file": "tilt.mtlx" } });
-            std::fs::write(&path, serde_json::to_string_pretty(&j).unwrap()).unwrap();
-            let scene = stereocache::scene::load_gltf(&path).expect("bound scene loads");
+            let scene = lit_quad_bound_to(&path, "tilt.mtlx", quad.clone(), rho, true, to_light, e);
             let read = &scene.meshes[0].tangents;
             assert!(
                 read.len() == 4 && read.iter().all(|x| x.abs_diff_eq(t, 1e-6)),
@@ -3419,23 +3439,15 @@ fn memoized_graph_normals_shade_as_evaluated_ones() {
     let to_light = Vec3::new(0.2, 1.0, 0.7).normalize();
     let quad = tangent_quad(false);
     let t = quad.tangents[0];
-    let mut s = Scene {
-        source: "test:memo-normal".into(),
-        ..Default::default()
-    };
-    let mut m = Material::diffuse("white", Vec3::splat(rho));
-    m.specular = 0.0;
-    let mat = add_material(&mut s, m);
-    add_mesh(&mut s, quad, mat, Mat4::IDENTITY);
-    s.lights.push(directional_light(to_light, e, 0.0));
-    s.validate().unwrap();
-    let path = d.join("quad.gltf");
-    stereocache::scene::write_gltf(&s, &path).unwrap();
-    let mut j: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
-    j["materials"][0]["extras"] = serde_json::json!({ "materialx": { "file": "tilt.mtlx" } });
-    std::fs::write(&path, serde_json::to_string_pretty(&j).unwrap()).unwrap();
-    let mut scene = stereocache::scene::load_gltf(&path).expect("bound scene loads");
+    let mut scene = lit_quad_bound_to(
+        &d.join("quad.gltf"),
+        "tilt.mtlx",
+        quad,
+        rho,
+        false,
+        to_light,
+        e,
+    );
     assert!(scene.graphs.graphs[0].reads_only_uv(), "a memoizable graph");
     let (n, tg) = (Vec3::Y, t.truncate());
     let mapped = (tn.x * tg + tn.y * n.cross(tg) * t.w + tn.z * n).normalize();
@@ -3446,15 +3458,7 @@ fn memoized_graph_normals_shade_as_evaluated_ones() {
         "the mapped normal shades apart from the quad's: {want} vs {}",
         shade(n)
     );
-    let settings = RenderSettings {
-        width: 8,
-        height: 8,
-        spp: 2,
-        max_bounces: 1,
-        seed: 3,
-        all_features: false,
-        ..Default::default()
-    };
+    let settings = one_event_settings();
     let cam = look_at_camera(Vec3::new(0.0, 10.0, 1e-3), Vec3::ZERO, 5.0, 1.0);
     for (hits, tile) in [
         (MemoHits::Off, 1),
