@@ -495,6 +495,250 @@ fn black_base_dielectric_reflects_through_hash_cache_and_hybrid() {
     assert_no_validation_messages(&ctx);
 }
 
+/// Two materials sharing voxels (an audit's worked example): a plane split
+/// at x = 0.0137 (off every voxel boundary) into a black-base smooth
+/// dielectric (A: it reflects F·L ≈ 0.04 · 0.4 at near-normal incidence,
+/// nothing else) and a white Lambert without a specular layer (B: 0.4
+/// exactly), under a constant 0.4 environment, seen from above, without TAA.
+/// The jittered lookups of pixels beside the boundary read and update
+/// voxels of the other side, so each entry mixes both materials' records.
+/// Until session 52 the records were L / max(base, 10⁻³): A's 0.016 was
+/// stored as 16 (mean of its coin tosses), and a B pixel reading a voxel
+/// that took a quarter of its updates from A showed 4.3 for 0.4. With the
+/// furnace-consistent factor (common/demodulation.glsl: base + F0 (1 − base)
+/// for a dielectric) both sides store ≈ 0.4 and each pixel multiplies back
+/// by its own factor.
+///
+/// Compared: the mean over frames 32–63 of the B pixels next to a pixel
+/// that is not wholly B (the band where voxels mix), against a 64 spp
+/// reference of the same pixels, within 25 %. Its noise: B's records are
+/// exact, A's are coin tosses (the specular lobe taken with probability
+/// 0.1, 10·F·L / F0 each: relative deviation 3); an entry whose share q of
+/// ≥ 32 updates came from A has a relative standard error ≤ 3·√q/√32 ≤ 0.38
+/// (q ≤ ½), and the band's mean over its ≥ 10 distinct entries ≤ 0.12, so
+/// 25 % is ≥ 2 of them at the worst mix and many more at the usual q ≪ ½;
+/// the old factor was several times too bright there. A's band pixels
+/// (where the old factor was nearly right) are checked within ±50 %, as
+/// `black_base_dielectric_reflects_through_hash_cache_and_hybrid` argues.
+#[test]
+fn materials_sharing_a_voxel_keep_their_own_brightness() {
+    use stereocache::methods::{Hybrid, HybridConfig};
+    use stereocache::scene::generate::{add_material, add_mesh, grid};
+    use stereocache::scene::{Environment, Material, Scene};
+    let ctx = context();
+    let env = Vec3::splat(0.4);
+    let mut scene = Scene {
+        source: "test:split-plane".into(),
+        ..Default::default()
+    };
+    let black = add_material(
+        &mut scene,
+        Material {
+            base_color: glam::Vec4::new(0.0, 0.0, 0.0, 1.0),
+            metallic: 0.0,
+            roughness: 0.0,
+            ..Material::diffuse("black dielectric", Vec3::ZERO)
+        },
+    );
+    let mut lambert = Material::diffuse("white lambert", Vec3::ONE);
+    lambert.specular = 0.0;
+    let white = add_material(&mut scene, lambert);
+    let (x0, half) = (0.0137f32, 4.0f32);
+    for (name, from, to, mat) in [("a", -half, x0, black), ("b", x0, half, white)] {
+        let m = grid(
+            name,
+            Vec3::new(from, 0.0, half),
+            Vec3::X * (to - from),
+            Vec3::NEG_Z * (2.0 * half),
+            4,
+            4,
+            glam::Vec2::ONE,
+        );
+        add_mesh(&mut scene, m, mat, glam::Mat4::IDENTITY);
+    }
+    scene.environment = Some(Environment::Constant(env));
+    scene.validate().unwrap();
+    let s = session(&ctx, scene, RtChoice::Software);
+    let (w, h) = (32, 24);
+    let cam = look_at_camera(
+        Vec3::new(0.0, 2.0, 0.001),
+        Vec3::ZERO,
+        45.0,
+        w as f32 / h as f32,
+    );
+    let (st, hs) = settings(
+        w,
+        h,
+        HashCacheSettings {
+            taa: false,
+            ..Default::default()
+        },
+    );
+    let green = |fr: &StereoFrame| -> Vec<f64> {
+        fr.eyes
+            .iter()
+            .flat_map(|e| e.radiance.iter().map(|p| p[1] as f64))
+            .collect()
+    };
+    let reference = green(&render(
+        &s,
+        "reference",
+        cam,
+        &RenderSettings {
+            spp: 64,
+            ..st.clone()
+        },
+    ));
+    // Pixels wholly on one side (A's straddling neighbours reach 0.05 with
+    // a tenth of B; B's fall below 0.36 with a tenth of A) and, of those,
+    // the ones beside a pixel that is not (the band).
+    let npix = (w * h) as usize;
+    let band = |inside: &dyn Fn(f64) -> bool| -> Vec<usize> {
+        (0..2 * npix)
+            .filter(|&i| {
+                let (p, x, y) = (i % npix, (i % npix) % w as usize, (i % npix) / w as usize);
+                let eye = i - p;
+                let next = [
+                    (x > 0, p.wrapping_sub(1)),
+                    (x + 1 < w as usize, p + 1),
+                    (y > 0, p.wrapping_sub(w as usize)),
+                    (y + 1 < h as usize, p + w as usize),
+                ];
+                inside(reference[i])
+                    && next
+                        .iter()
+                        .any(|&(ok, q)| ok && !inside(reference[eye + q]))
+            })
+            .collect()
+    };
+    let band_a = band(&|v| v < 0.05);
+    let band_b = band(&|v| v > 0.36);
+    assert!(
+        band_a.len() >= 20 && band_b.len() >= 20,
+        "bands of {} and {} pixels",
+        band_a.len(),
+        band_b.len()
+    );
+    let mean_of =
+        |img: &[f64], band: &[usize]| band.iter().map(|&i| img[i]).sum::<f64>() / band.len() as f64;
+    let mut hash = hash_method(&s, &(st.clone(), hs.clone()));
+    let mut hyb = Hybrid::new(
+        &s.ctx,
+        &s.scene_gpu,
+        &s.scene.environment,
+        &st,
+        &HybridConfig {
+            cache: Default::default(),
+            hash: HashCacheSettings::default(),
+            lookups: Default::default(),
+        },
+    )
+    .expect("hybrid");
+    let methods: [(&str, &mut dyn Method); 2] = [("hash-cache", &mut hash), ("hybrid", &mut hyb)];
+    for (name, m) in methods {
+        let mut sum = vec![0.0; 2 * npix];
+        for f in 0..64 {
+            let fr = render_at(m, f, cam, (f > 0).then_some(cam));
+            assert_finite_non_negative(&fr, name);
+            if f >= 32 {
+                for (a, v) in sum.iter_mut().zip(green(&fr)) {
+                    *a += v / 32.0;
+                }
+            }
+        }
+        for (side, band, tol) in [("B", &band_b, 0.25), ("A", &band_a, 0.5)] {
+            let (got, want) = (mean_of(&sum, band), mean_of(&reference, band));
+            eprintln!(
+                "{name}: side {side}: {got:.4} against the reference's {want:.4} over {} pixels",
+                band.len()
+            );
+            assert!(
+                (got - want).abs() <= tol * want,
+                "{name}: side {side}'s band: {got} against the reference's {want}"
+            );
+        }
+    }
+    assert_no_validation_messages(&ctx);
+}
+
+/// The two faces of a thin sheet keep apart entries (an audit's finding): a
+/// double-sided grey sheet in y = 0 under a sun from straight above, with no
+/// environment, seen from 1 m above for 16 frames and then from 1 m below
+/// (the same distance, so the same level; the voxel jitter stays in the
+/// sheet's plane, so the same voxels). The underside is exactly black: its
+/// light samples are blocked by the sheet and its bounces leave into the
+/// black void. Until session 52 the non-tiled key held no normal, so the
+/// underside's lookups found the lit top's entries (ST_FOUND, a count of 16)
+/// and showed their radiance. Every pixel from below must be 0 exactly; the
+/// top must have been lit (the test's premise).
+#[test]
+fn the_two_faces_of_a_sheet_keep_apart_entries() {
+    use stereocache::scene::generate::{add_material, add_mesh, grid};
+    use stereocache::scene::{Material, Scene};
+    let ctx = context();
+    let mut scene = Scene {
+        source: "test:sheet".into(),
+        ..Default::default()
+    };
+    let mut grey = Material::diffuse("grey sheet", Vec3::splat(0.8));
+    grey.double_sided = true;
+    let mat = add_material(&mut scene, grey);
+    let m = grid(
+        "sheet",
+        Vec3::new(-4.0, 0.0, 4.0),
+        Vec3::X * 8.0,
+        Vec3::NEG_Z * 8.0,
+        4,
+        4,
+        glam::Vec2::ONE,
+    );
+    add_mesh(&mut scene, m, mat, glam::Mat4::IDENTITY);
+    scene.lights.push(directional_light(Vec3::Y, 3.0, 0.0));
+    scene.validate().unwrap();
+    let s = session(&ctx, scene, RtChoice::Software);
+    let above = looking_down(Vec3::new(0.0, 1.0, 0.0), 1.0);
+    let below = StereoCamera::new(
+        stereocache::camera::HeadPose::new(
+            Vec3::new(0.0, -1.0, 0.0),
+            glam::Quat::from_rotation_x(std::f32::consts::FRAC_PI_2),
+        ),
+        1.0,
+        1.0,
+    );
+    for tiles in [false, true] {
+        let hs = HashCacheSettings {
+            tiles,
+            taa: false,
+            ..Default::default()
+        };
+        let mut m = hash_method(&s, &settings(24, 24, hs));
+        let mut top = 0.0;
+        for f in 0..16 {
+            let fr = render_at(&mut m, f, above, (f > 0).then_some(above));
+            top = fr
+                .eyes
+                .iter()
+                .flat_map(|e| e.radiance.iter().map(|p| p[1] as f64))
+                .sum::<f64>()
+                / (2 * 24 * 24) as f64;
+        }
+        assert!(top > 0.1, "tiles {tiles}: the top's mean radiance {top}");
+        for f in 16..24 {
+            let fr = render_at(&mut m, f, below, Some(if f == 16 { above } else { below }));
+            let brightest = fr
+                .eyes
+                .iter()
+                .flat_map(|e| e.radiance.iter().map(|p| p[0].max(p[1]).max(p[2])))
+                .fold(0.0f32, f32::max);
+            assert!(
+                brightest == 0.0,
+                "tiles {tiles}, frame {f} from below: a pixel of {brightest} (the top shows {top:.3})"
+            );
+        }
+    }
+    assert_no_validation_messages(&ctx);
+}
+
 /// The command line: bad `--hash-*` values get one error line naming the
 /// option; a render with the method and its options writes the images.
 #[test]

@@ -10,9 +10,7 @@ use glam::Vec3;
 use std::path::Path;
 use std::process::Command;
 use stereocache::camera::{Eye, Projection, StereoCamera};
-use stereocache::methods::hash_cache::hash::{
-    entry_checksum, entry_frame, pack_meta, VoxelKey, NO_AXIS,
-};
+use stereocache::methods::hash_cache::hash::{entry_checksum, entry_frame, pack_meta, VoxelKey};
 use stereocache::methods::hash_cache::{HashCacheSettings, HashLod};
 use stereocache::methods::hybrid::HybridLookups;
 use stereocache::methods::sample_cache::background::background_direction;
@@ -709,7 +707,8 @@ fn per_pixel_coarse_level_is_the_fine_voxels_parent() {
         .map(|coord| {
             VoxelKey {
                 coord,
-                meta: pack_meta(coarse, NO_AXIS, 0, false),
+                // The plane's normal, +y: axis 1, positive (hc_key).
+                meta: pack_meta(coarse, 2, 0, false),
             }
             .checksum()
         })

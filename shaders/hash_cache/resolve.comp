@@ -1,6 +1,6 @@
 #version 460
-// Final colour = base colour (floored as update.comp floors it:
-// common/demodulation.glsl) × cell radiance + first-hit emission (the
+// Final colour = demodulation factor (the material's albedo under uniform
+// light, as update.comp divides by it: common/demodulation.glsl) × cell radiance + first-hit emission (the
 // environment for misses); debug views: voxel id, level of detail, cell
 // samples / max_samples, lookup status.
 #include "hash_table/table.glsl"

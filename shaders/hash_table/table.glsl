@@ -142,20 +142,26 @@ int hc_level(float t, vec3 d, vec3 ng, EyeGpu e) {
     return clamp(int(floor(log2(max(footprint, 1e-30)))), -24, 23);   // 60 nm .. 8 km
 }
 
-// Key of the (jittered) point p with geometric normal ng at `level`.
-// Tiles: 4x4 voxels in the plane across ng's major axis (signed), the voxel's
-// coordinate along that axis dropped within its tile.
+// Key of the (jittered) point p with geometric normal ng at `level`: the
+// voxel and ng's signed major axis, so the two faces of a thin surface
+// (ng faces the ray) never share an entry (as GI-1.0's and Gautron's keys
+// hold the normal). Until session 52 the non-tiled key held no axis, and a
+// double-sided sheet's underside, seen at the top's level, read the lit
+// top's entries (an audit's finding; tests/hash_cache.rs
+// `the_two_faces_of_a_sheet_keep_apart_entries`).
+// Tiles: 4x4 voxels in the plane across that axis, the voxel's coordinate
+// along it dropped within its tile.
 void hc_key(vec3 p, vec3 ng, int level, out ivec3 coord, out uint meta) {
     // Clamped so the float → int conversion stays defined far from the origin.
     ivec3 v = ivec3(clamp(floor(p * exp2(float(-level))), vec3(-1073741824.0), vec3(1073741760.0)));
-    if (!hc_tiles()) {
-        coord = v;
-        meta = hc_pack_meta(level, HC_NO_AXIS, 0u, false);
-        return;
-    }
     vec3 a = abs(ng);
     uint axis = a.x >= a.y && a.x >= a.z ? 0u : (a.y >= a.z ? 1u : 2u);
     uint sgn = ng[axis] < 0.0 ? 1u : 0u;
+    if (!hc_tiles()) {
+        coord = v;
+        meta = hc_pack_meta(level, 2u * axis + sgn, 0u, false);
+        return;
+    }
     uint u = (axis + 1u) % 3u, w = (axis + 2u) % 3u;
     uint local_offset = uint(v[u] & 3) + 4u * uint(v[w] & 3);
     coord = v >> 2;   // arithmetic shift: floor division by 4

@@ -2,7 +2,7 @@
 // One secondary path per updated cell: the thread that touched the cell first
 // this frame traces path_radiance from its jittered first hit (the shared
 // integrator, as sample_cache/shade.comp does), removes the first hit's
-// emission, demodulates by its base colour and folds the result into the
+// emission, demodulates (common/demodulation.glsl) and folds the result into the
 // cell's running mean (count capped at max_samples; a freshly reserved or
 // evicted cell starts over). Pixels without a cell (probe failure) trace
 // their own path into `fallback`.

@@ -2,7 +2,7 @@
 // Reconstruction: the pixel's surface samples (visible = occupied, since
 // invisible samples are dropped when retraced) stand for their share
 // n_surf / (n_surf + n_bg) of the pixel with the mean remodulated radiance
-// (floored base colour × demodulated radiance + emission,
+// (demodulation factor × demodulated radiance + emission,
 // common/demodulation.glsl) of those already shaded, its background samples
 // (first_hit.glsl) for theirs with the environment in their directions, so
 // a partly covered pixel shows its coverage while some of its surface
@@ -53,7 +53,7 @@ void main() {
         if (t < best_t) { best_t = t; best_fh = fh; best_albedo = mat.base; best_p = wp; }
         vec4 rec = rad_cur[idx];
         if (rec.w > 0.0) {
-            sum += remodulate(rec.rgb, mat);   // × floored base colour + emission
+            sum += remodulate(rec.rgb, mat);   // × demodulation factor + emission
             shaded += 1.0;
         }
     }

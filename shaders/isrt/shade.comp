@@ -3,7 +3,7 @@
 // occupied cells (frame index mod count, like the sample cache's uniform
 // shading). One path through the stored first hit with the shared
 // integrator, demodulated (emission kept apart, divided by the first hit's
-// floored base colour: common/demodulation.glsl) and accumulated as the
+// demodulation factor: common/demodulation.glsl) and accumulated as the
 // sample cache accumulates (`--accumulation`: the running mean by default;
 // common/accumulation.glsl), so both baselines of Fig. 10 average alike.
 #include "isrt/common.glsl"
