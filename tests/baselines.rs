@@ -646,18 +646,35 @@ fn isrt_grid_invariants_on_a_moving_trace() {
             let (n, bad) = check_isrt(&snap, &frame, &cam, &bvh, &hits);
             let c = &frame.stats.counters;
             assert_eq!(c["samples"] as usize, n, "counted vs read-back samples");
+            // One shading per pixel that holds a surface sample (shade.comp),
+            // in both eyes.
+            let with_surface = (0..2usize)
+                .flat_map(|e| (0..w * h).map(move |p| (e, p)))
+                .filter(|&(e, p)| {
+                    (0..m * m).any(|k| {
+                        snap.occupied(snap.cell(e, (p % w) * m + k % m, (p / w) * m + k / m))
+                    })
+                })
+                .count();
             assert_eq!(
-                c["shaded_samples"],
-                c["shaded_samples"].min((2 * w * h) as f64)
+                c["shaded_samples"] as usize, with_surface,
+                "frame {f}: shadings"
             );
             if f > 0 {
                 // Survivors of the reservation are at most the reprojected ones;
-                // retraces are exactly the survivors.
+                // retraces are exactly the survivors, and a retrace that finds
+                // a closer hit keeps it (isrt_retrace), so new-sample rays are
+                // exactly the cells the reservation left empty.
                 assert!(c["kept_samples"] <= c["reprojected_samples"]);
                 assert_eq!(c["retrace_rays"], c["kept_samples"]);
+                assert_eq!(
+                    c["new_sample_rays"],
+                    (2 * w * h * m * m) as f64 - c["kept_samples"],
+                    "frame {f}: new-sample rays"
+                );
                 samples += n;
                 stale += bad;
-                kept += c["kept_samples"] - c["retrace_lost"];
+                kept += c["kept_samples"] - c["retrace_replaced"];
             }
         }
         eprintln!("isrt {scene} M={m}: {stale} stale of {samples} samples, {kept} carried over");

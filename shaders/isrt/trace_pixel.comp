@@ -3,7 +3,8 @@
 // configuration ("we omit adaptive sampling here and only trace one sample
 // per pixel"). One thread per pixel: of the pixel's M × M cells, one sample
 // (surface or background) is retraced per frame, round robin by frame index
-// over the occupied cells as shade.comp picks (isrt_retrace, common.glsl); the
+// over the occupied cells as shade.comp picks (isrt_retrace, common.glsl:
+// kept, or replaced by the closer hit its ray finds); the
 // others are kept unchecked, hence the edge artefacts during movement the
 // paper reports. Then empty cells get new samples (isrt_new_sample), in a
 // cyclic order from a random cell, only until the pixel holds `n_target`
@@ -29,12 +30,9 @@ void main() {
         for (uint i = 0u; i < pick; ++i) rest &= rest - 1u;
         uint k = uint(findLSB(rest));
         uint idx = cell_index(eye, px * M + uvec2(k % M, k / M));
-        if (!isrt_retrace(fh_cur[idx], e, (vec2(px * M + uvec2(k % M, k / M)) + 0.5) / float(M))) {
-            fh_cur[idx] = uvec4(0u, 0u, 0u, NO_HIT);
-            rad_cur[idx] = vec4(0.0);
-            occupied &= ~(1u << k);
-            n -= 1u;
-        }
+        // Kept, or replaced by the closer hit its ray finds: the cell stays
+        // occupied either way.
+        isrt_retrace(idx, e, (vec2(px * M + uvec2(k % M, k / M)) + 0.5) / float(M));
         // The samples not retraced this frame, counted as they are.
         for (uint j = 0u; j < CELLS; ++j) {
             if (j == k || (occupied & (1u << j)) == 0u) continue;

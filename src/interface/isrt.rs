@@ -12,7 +12,9 @@ crate::counter_slots! {
         Backfacing = "BACKFACING" => "reproject_backfacing",
         Kept = "KEPT" => "kept_samples",
         RetraceRays = "RETRACE_RAYS" => "retrace_rays",
-        RetraceLost = "RETRACE_LOST" => "retrace_lost",
+        /// Retraced samples replaced by the closer hit their ray found
+        /// (isrt/common.glsl `isrt_retrace`).
+        RetraceReplaced = "RETRACE_REPLACED" => "retrace_replaced",
         NewRays = "NEW_RAYS" => "new_sample_rays",
         NewHits = "NEW_HITS" => "new_samples",
         Shaded = "SHADED" => "shaded_samples",
