@@ -222,6 +222,9 @@ pub struct ReferenceSummary {
 /// When the reference's noise is most of the best method's figure (`best ≤
 /// ρ / (1 − k)`, no estimate of `b`), `S' = spp · ρ/(k · best)`, a lower
 /// bound. Rounded up to a power of two.
+/// Degenerate figures (a best RSE of 0, a non-finite ratio) give the
+/// largest count rather than a NaN turned into 1, which `--reference-spp`
+/// refuses (odd); every result is even.
 pub fn suggested_reference_spp(spp: u32, rse_ref: f64, best: f64) -> u32 {
     let k = REFERENCE_NOISE_RATIO;
     let s = spp as f64;
@@ -230,6 +233,7 @@ pub fn suggested_reference_spp(spp: u32, rse_ref: f64, best: f64) -> u32 {
     } else {
         s * rse_ref / (k * best)
     };
+    let want = if want.is_nan() { f64::INFINITY } else { want };
     let want = want.ceil().clamp(2.0, (1u64 << 31) as f64) as u32;
     want.next_power_of_two()
 }
@@ -279,7 +283,9 @@ impl ReferenceSummary {
             warning: None,
         };
         if let (Some((name, b)), Some(r)) = (&best, ratio) {
-            if r > REFERENCE_NOISE_RATIO || !r.is_finite() {
+            // (A noise-free reference, RSE 0, inflates nothing: no warning,
+            // whatever 0/0 gives.)
+            if n.rse > 0.0 && (r > REFERENCE_NOISE_RATIO || !r.is_finite()) {
                 let s = suggested_reference_spp(spp, n.rse, *b);
                 sum.suggested_spp = Some(s);
                 sum.warning = Some(format!(
@@ -539,6 +545,7 @@ pub fn compare_configs(
     for ((name, config), method) in labels.iter().zip(configs).zip(methods.iter_mut()) {
         let mut evaluator = Evaluator::new(opts.flip_ppd);
         evaluator.moving = session.scene.instance_moves();
+        let moving = evaluator.moving.contains(&true);
         let ropts = ReplayOptions {
             frames: Some(n),
             fps: opts.fps,
@@ -558,6 +565,11 @@ pub fn compare_configs(
                 if let Some(k) = shown.iter().position(|&s| s == i) {
                     kept[k].push(f.clone());
                     kept_cameras[k] = Some(*cam);
+                }
+                // The pose the reference of frame i was rendered at, for the
+                // temporal mask's motion (Evaluator::pose).
+                if moving {
+                    evaluator.pose = session.scene.instance_transforms_at(i as f64 / opts.fps);
                 }
                 match references.get(i) {
                     Some(r) => evaluator.frame(cam, f, r),
@@ -1093,6 +1105,23 @@ pub fn ratio_table(cmp: &Comparison) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The suggested reference spp is always a value `--reference-spp`
+    /// accepts (even, ≥ 2), also where the best method's RSE is 0 (0/0 gave
+    /// a NaN that became 1).
+    #[test]
+    fn suggested_reference_spp_is_always_even() {
+        for (rse_ref, best) in [
+            (0.0, 0.0),
+            (0.01, 0.0),
+            (0.01, 0.05),
+            (0.01, 0.011),
+            (0.0, 0.1),
+        ] {
+            let s = suggested_reference_spp(64, rse_ref, best);
+            assert!(s >= 2 && s % 2 == 0, "{rse_ref} {best}: {s}");
+        }
+    }
 
     /// A metric written as `null` (not finite) survives a read back, as a
     /// merge does: it is still there, still not finite, still warned about.

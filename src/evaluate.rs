@@ -34,6 +34,7 @@ use crate::metrics::{
 };
 use crate::scene::fnv1a;
 use crate::session::Session;
+use glam::{DMat4, Mat4};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -405,6 +406,14 @@ pub struct Evaluator {
     /// does, each frame from the second on also reports `ghost_pixels` and
     /// `ghost_rse` ([`crate::metrics::ghosting`]).
     pub moving: Vec<bool>,
+    /// The instances' object-to-world transforms at the frame the next
+    /// [`Self::frame`] call scores (`Scene::instance_transforms_at`; the
+    /// caller sets it before each call where an instance moves; empty: a
+    /// still scene): the temporal mask follows a moving instance's surface
+    /// points from the previous frame's pose to this one's.
+    pub pose: Vec<Mat4>,
+    /// `pose` at the previous frame.
+    prev_pose: Vec<Mat4>,
     /// Every metric's per-frame values, in frame order.
     series: BTreeMap<String, Vec<f64>>,
 }
@@ -515,13 +524,25 @@ impl Evaluator {
             let rviews = rc.eyes();
             let mut scored: Vec<[f64; 3]> = Vec::new();
             let mut covisible = 0.0;
+            // Each moving instance's motion from this frame's pose back to
+            // the previous one's (f64: a small motion of a far object).
+            let motion: Vec<Option<DMat4>> = self
+                .moving
+                .iter()
+                .enumerate()
+                .map(|(k, &mv)| {
+                    let (now, before) = (self.pose.get(k)?, self.prev_pose.get(k)?);
+                    mv.then(|| before.as_dmat4() * now.as_dmat4().inverse())
+                })
+                .collect();
             for e in 0..2 {
-                let cov = Covisibility::new(
+                let cov = Covisibility::with_motion(
                     geometry(rf, &rviews[e], e),
                     geometry(reference, &views_now[e], e),
                     wu,
                     hu,
                     DEPTH_TOLERANCE,
+                    &motion,
                 )
                 .map_err(m)?;
                 covisible += 0.5 * cov.fraction() as f64;
@@ -599,6 +620,7 @@ impl Evaluator {
         }
         self.prev = Some(frame.clone());
         self.prev_ref = Some((reference.clone(), *cam));
+        self.prev_pose = std::mem::take(&mut self.pose);
         Ok(out)
     }
 

@@ -1403,3 +1403,23 @@ fn far_away_head_positions_are_refused() {
         }
     }
 }
+
+/// Times finite on their own whose difference from the first is not
+/// (`1e308` after `-1e308`) are refused naming the recording and its line
+/// (they were accepted, converted to `inf` and refused later, naming the
+/// converted file; an audit's finding).
+#[test]
+fn a_time_out_of_range_after_the_first_is_refused_on_its_line() {
+    let text = "t,x,y,z,qx,qy,qz,qw\n-1e308,0,0,0,0,0,0,1\n1e308,0,0,0,0,0,0,1\n";
+    let err = parse_generic_csv(
+        "f.txt",
+        text,
+        &CsvOptions::new(TimeUnit::Seconds, AxisConvention::GLTF),
+    )
+    .expect_err("an infinite relative time")
+    .to_string();
+    assert!(
+        err.contains("f.txt:3") && err.contains("out of range"),
+        "{err}"
+    );
+}

@@ -215,6 +215,15 @@ impl TraceBuilder {
     /// Appends a sample read on `line`: a time before the previous one is an
     /// error, an equal time drops the sample with a warning.
     pub(crate) fn push(&mut self, line: usize, sample: PoseSample) -> Result<(), TraceError> {
+        // Each time field is finite on its own, but a time relative to the
+        // first sample may not be (`1e308` after `-1e308`): refused here,
+        // naming the recording's line, not later in the converted file.
+        if !sample.t.is_finite() {
+            return Err(self.line_error(
+                line,
+                format!("time {} s after the first sample is out of range", sample.t),
+            ));
+        }
         let p = sample.pose.position;
         if !p.is_finite() || p.abs().max_element() as f64 > MAX_POSITION_M {
             return Err(self.line_error(

@@ -99,16 +99,25 @@ impl ReferenceNoise {
     }
 }
 
-/// The mean `(A + B)/2` of two half references (sanitized: non-finite → 0).
+/// The mean `(A + B)/2` of two half references. A pixel one half has as
+/// non-finite takes the other half's value alone (0 where neither is
+/// finite): averaging a sanitized 0 in halved it, so a method that rendered
+/// the right value scored an error there (until session 52; an audit's
+/// finding).
 pub fn mean_of_halves(a: &LinearImage, b: &LinearImage) -> Result<LinearImage, MetricsError> {
     a.check_same_size(b, "reference half B")?;
+    let finite = |p: [f32; 3]| p.iter().all(|c| c.is_finite());
     let rgb = a
         .rgb
         .iter()
         .zip(&b.rgb)
-        .map(|(&p, &q)| {
-            let (p, q) = (sanitize(p), sanitize(q));
-            [0, 1, 2].map(|c| 0.5 * (p[c] + q[c]))
+        .map(|(&p, &q)| match (finite(p), finite(q)) {
+            (true, false) => sanitize(p),
+            (false, true) => sanitize(q),
+            _ => {
+                let (p, q) = (sanitize(p), sanitize(q));
+                [0, 1, 2].map(|c| 0.5 * (p[c] + q[c]))
+            }
         })
         .collect();
     LinearImage::new(a.width, a.height, rgb)
@@ -191,6 +200,18 @@ pub fn half_split_error(
 mod tests {
     use super::*;
     use crate::metrics::RSE_EPSILON;
+
+    /// A pixel non-finite in one half takes the other half's value (it was
+    /// halved: 0.4 for 0.8), and 0 where neither half is finite.
+    #[test]
+    fn a_non_finite_half_pixel_takes_the_other_half() {
+        let a = LinearImage::new(3, 1, vec![[f32::NAN; 3], [0.2; 3], [f32::INFINITY; 3]]).unwrap();
+        let b = LinearImage::new(3, 1, vec![[0.8; 3], [0.4; 3], [f32::NAN; 3]]).unwrap();
+        let m = mean_of_halves(&a, &b).unwrap();
+        assert_eq!(m.rgb, vec![[0.8; 3], [0.3; 3], [0.0; 3]]);
+        let m = mean_of_halves(&b, &a).unwrap();
+        assert_eq!(m.rgb[0], [0.8; 3]);
+    }
 
     /// SplitMix64: a small deterministic generator for the synthetic noise.
     struct Rng(u64);
