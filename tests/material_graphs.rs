@@ -211,6 +211,18 @@ fn malformed_documents_give_one_line_errors() {
             &["bad.mtlx: not a valid XML document"],
         ),
         (
+            // An empty value is no number (it read as 0: a fractal of 0
+            // octaves, a black colour, without a word).
+            r#"<add name="a" type="color3"><input name="in1" type="color3" value="" /></add>
+               <output name="out" type="color3" nodename="a" />"#,
+            &["node `a`: input `in1`: bad color3 value: empty"],
+        ),
+        (
+            r#"<fractal3d name="f" type="float"><input name="octaves" type="integer" value=" " /></fractal3d>
+               <output name="out" type="float" nodename="f" />"#,
+            &["node `f`: input `octaves`: bad integer value: empty"],
+        ),
+        (
             r#"<add name="a" type="float"><input name="in1" type="float" value="nan" /></add>
                <output name="out" type="float" nodename="a" />"#,
             &["node `a`: input `in1`: bad float value: `nan` is not a finite number"],

@@ -375,6 +375,16 @@ impl<'a> Builder<'a> {
             return Ok(Source::Str(s.to_string()));
         }
         if s.trim().is_empty() {
+            // A `value` written but empty is no number: refused (it read as
+            // 0 until session 52, e.g. a fractal of 0 octaves, without a
+            // word; an audit's finding). No `value` at all keeps zeros.
+            if p.value.is_some() {
+                return Err(self.err(
+                    node,
+                    p.line,
+                    format!("input `{}`: bad {ty} value: empty", p.name),
+                ));
+            }
             return Ok(Source::Const(Value::new(ty, &[])));
         }
         Value::parse(ty, s).map(Source::Const).map_err(|e| {
