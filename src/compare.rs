@@ -387,10 +387,34 @@ const RUN_OUTPUTS: &[&str] = &[
 /// old frames' grids) and draws an experiment.json's claims and figures
 /// (until session 50 a plain compare into an experiment's folder showed the
 /// old claims; the experiment runner writes its own after its comparisons).
+/// In the two folders only the files a run writes there go
+/// (`side-by-side/frame_NNNNN[.partK].png`; `viewer/index.json`,
+/// `viewer/frame_NNNNN/*.png`): a user's own files in them stay.
 pub fn remove_stale_outputs(out: &Path) -> Result<()> {
     for stale in RUN_OUTPUTS {
         let p = out.join(stale);
-        output::remove_stale(&p).map_err(|e| Error::io(&p, e))?;
+        let r = match *stale {
+            "side-by-side" => {
+                output::remove_run_files(&p, &|rel, dir| !dir && output::is_grid_image(rel))
+            }
+            "viewer" => output::remove_run_files(&p, &|rel, dir| {
+                if dir {
+                    output::is_numbered(rel, "frame_", "")
+                } else {
+                    rel == Path::new("index.json")
+                        || (rel.extension().is_some_and(|x| x == "png")
+                            && rel
+                                .parent()
+                                .is_some_and(|d| output::is_numbered(d, "frame_", "")))
+                }
+            }),
+            _ => output::remove_stale(&p),
+        };
+        r.map_err(|e| Error::io(&p, e))?;
+        if p.is_dir() {
+            // Gone where nothing else was in it.
+            let _ = std::fs::remove_dir(&p);
+        }
     }
     Ok(())
 }

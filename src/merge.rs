@@ -170,7 +170,9 @@ pub fn merge_comparison(
             .ok_or_else(|| bad(&p.join("summary.json"), format!("bad row for '{label}'")))?;
         r.series = series(&p.join(label).join("frames.jsonl"))?;
         let dst = out.join(label);
-        crate::output::remove_stale(&dst).map_err(|e| Error::io(&dst, e))?;
+        // The previous outputs of this label only (a user's own files there stay).
+        crate::output::remove_run_files(&dst, &crate::output::is_replay_output)
+            .map_err(|e| Error::io(&dst, e))?;
         copy_dir(&p.join(label), &dst)?;
         rows.push(r);
     }

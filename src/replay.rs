@@ -493,7 +493,8 @@ pub fn replay_observed(
     // beyond its own beside its frames.jsonl (until session 49). Only the
     // finished files: a `.partial` is a writer's temporary name, never
     // taken for a result, and is replaced when written.
-    remove_finished_files(&frames_dir).map_err(|e| Error::io(&frames_dir, e))?;
+    output::remove_run_files(&frames_dir, &|rel, dir| !dir && output::is_frame_image(rel))
+        .map_err(|e| Error::io(&frames_dir, e))?;
     if opts.every > 0 {
         std::fs::create_dir_all(&frames_dir).map_err(|e| Error::io(&frames_dir, e))?;
     }
@@ -663,22 +664,6 @@ pub fn replay_observed(
     })?;
     output::write_json(&summary_path, &value)?;
     Ok(summary)
-}
-
-/// Removes the files in `dir` but those named `*.partial` (no error when
-/// `dir` does not exist).
-fn remove_finished_files(dir: &Path) -> std::io::Result<()> {
-    let entries = match std::fs::read_dir(dir) {
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(()),
-        r => r?,
-    };
-    for e in entries {
-        let p = e?.path();
-        if p.extension().is_none_or(|x| x != "partial") {
-            output::remove_stale(&p)?;
-        }
-    }
-    Ok(())
 }
 
 /// The nearest-rank percentile `p` in (0, 1] of `v` (0 for an empty slice).

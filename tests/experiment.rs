@@ -207,14 +207,17 @@ fn an_experiment_equals_compare_and_two_merged_shards_equal_one_run() {
     assert_eq!(labels(&s2.join(group)), ["taa"]);
     // An earlier merge's files in the output: a merge removes them (until
     // session 50 it only added, so an earlier merge's grids stayed in the
-    // report and a configuration's folder kept files its part lacks).
+    // report and a configuration's folder kept files its part lacks), and
+    // only them: a user's own file there stays (until session 52 the
+    // configuration's folder went whole).
     let stale = [
         merged
             .join(group)
             .join("side-by-side/frame_09999.part7.png"),
-        merged.join(group).join("naive/stale.txt"),
+        merged.join(group).join("naive/frames/09999_left.png"),
     ];
-    for f in &stale {
+    let mine = merged.join(group).join("naive/notes.txt");
+    for f in stale.iter().chain([&mine]) {
         std::fs::create_dir_all(f.parent().unwrap()).unwrap();
         std::fs::write(f, "old").unwrap();
     }
@@ -228,6 +231,7 @@ fn an_experiment_equals_compare_and_two_merged_shards_equal_one_run() {
     for f in &stale {
         assert!(!f.exists(), "{} kept by the merge", f.display());
     }
+    assert!(mine.exists(), "{} removed by the merge", mine.display());
     assert_eq!(tables(&merged.join(group)), tables(&one.join(group)));
     assert!(merged.join(group).join("report.html").exists());
     assert!(merged.join(group).join("taa/frames.jsonl").exists());

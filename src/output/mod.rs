@@ -23,19 +23,108 @@ pub fn csv_field(s: &str) -> std::borrow::Cow<'_, str> {
     }
 }
 
-/// Removes a previous run's output file or folder at `path`, if there is
-/// one, so that a run that fails part way does not leave it beside its own
-/// outputs looking like its results.
+/// Removes a previous run's output file at `path`, if there is one, so that
+/// a run that fails part way does not leave it beside its own outputs
+/// looking like its results. A folder there is left alone (folders of
+/// outputs: [`remove_run_files`]).
 pub fn remove_stale(path: &Path) -> std::io::Result<()> {
-    let r = if path.is_dir() {
-        std::fs::remove_dir_all(path)
-    } else {
-        std::fs::remove_file(path)
-    };
-    match r {
+    match std::fs::symlink_metadata(path) {
+        Ok(m) if m.is_dir() => Ok(()),
+        Ok(_) => std::fs::remove_file(path),
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(()),
-        r => r,
+        Err(e) => Err(e),
     }
+}
+
+/// Removes, under the folder `dir`, what a previous run wrote there: the
+/// files, and the folders once empty, whose path relative to `dir` `ours`
+/// recognises (`ours(relative path, is a folder)`), and nothing else: a
+/// user's own files stay, and the folders that hold them. Symbolic links
+/// are never followed (one `ours` names is removed itself). No error when
+/// `dir` does not exist. Until session 52 the outputs' folders were removed
+/// whole (`remove_dir_all`), a user's notes and subfolders in them too (an
+/// audit's finding).
+pub fn remove_run_files(dir: &Path, ours: &dyn Fn(&Path, bool) -> bool) -> std::io::Result<()> {
+    fn walk(root: &Path, rel: &Path, ours: &dyn Fn(&Path, bool) -> bool) -> std::io::Result<()> {
+        let entries = match std::fs::read_dir(root.join(rel)) {
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(()),
+            r => r?,
+        };
+        for e in entries {
+            let e = e?;
+            let name = rel.join(e.file_name());
+            if e.file_type()?.is_dir() {
+                if ours(&name, true) {
+                    walk(root, &name, ours)?;
+                    // Kept where it still holds something not ours.
+                    let _ = std::fs::remove_dir(root.join(&name));
+                }
+            } else if ours(&name, false) {
+                std::fs::remove_file(root.join(&name))?;
+            }
+        }
+        Ok(())
+    }
+    walk(dir, Path::new(""), ours)
+}
+
+/// Whether `name` is `prefix`, five or more digits, then `suffix`
+/// (`frame_00012.png`, a viewer's `frame_00012`).
+pub fn is_numbered(name: &Path, prefix: &str, suffix: &str) -> bool {
+    name.to_str()
+        .and_then(|n| n.strip_prefix(prefix))
+        .and_then(|n| n.strip_suffix(suffix))
+        .is_some_and(|d| d.len() >= 5 && d.bytes().all(|b| b.is_ascii_digit()))
+}
+
+/// A compare's (or merge's) side-by-side grid: `frame_NNNNN.png`, or
+/// `frame_NNNNN.partK.png` from a merge of parts.
+pub fn is_grid_image(rel: &Path) -> bool {
+    if is_numbered(rel, "frame_", ".png") {
+        return true;
+    }
+    let Some((stem, part)) = rel
+        .to_str()
+        .and_then(|n| n.strip_suffix(".png"))
+        .and_then(|n| n.rsplit_once(".part"))
+    else {
+        return false;
+    };
+    !part.is_empty()
+        && part.bytes().all(|b| b.is_ascii_digit())
+        && is_numbered(Path::new(stem), "frame_", "")
+}
+
+/// What a replay writes into its folder (a compare's method folders, a
+/// merge's copies): `frames.jsonl`, `summary.json` and `frames/` with its
+/// [`is_frame_image`]s; for [`remove_run_files`].
+pub fn is_replay_output(rel: &Path, dir: bool) -> bool {
+    let frames = Path::new("frames");
+    if dir {
+        return rel == frames;
+    }
+    rel == Path::new("frames.jsonl")
+        || rel == Path::new("summary.json")
+        || rel.strip_prefix(frames).is_ok_and(is_frame_image)
+}
+
+/// Whether `rel` (a path relative to a replay's `frames/`) is one of the
+/// images replay writes there: `NNNNN_left.exr`, `NNNNN_right.png`,
+/// `NNNNN_left_VIEW.png` (a debug view), with at least five digits.
+pub fn is_frame_image(rel: &Path) -> bool {
+    let Some(name) = rel.to_str().filter(|n| !n.contains(['/', '\\'])) else {
+        return false;
+    };
+    let digits = name.bytes().take_while(u8::is_ascii_digit).count();
+    let rest = &name[digits..];
+    digits >= 5
+        && ["_left", "_right"].iter().any(|eye| {
+            rest.strip_prefix(eye).is_some_and(|r| {
+                r == ".exr"
+                    || r == ".png"
+                    || (r.starts_with('_') && r.ends_with(".png") && r.len() > 5)
+            })
+        })
 }
 
 /// A text file (CSV, HTML, SVG, ...), written atomically.
@@ -279,5 +368,91 @@ mod tests {
         let png = image::open(d.join("a.png")).unwrap().into_rgb8();
         assert_eq!(png.as_raw(), &tonemap::to_srgb8(&rgb, 1.0));
         let _ = std::fs::remove_dir_all(&d);
+    }
+
+    /// A replay's and a compare's previous outputs go; a user's own files
+    /// and folders beside them stay (they were deleted with the folder),
+    /// as do symbolic links' targets.
+    #[test]
+    fn stale_outputs_go_and_the_users_files_stay() {
+        let d = std::env::temp_dir().join(format!("sc-stale-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        let files = [
+            "frames/00000_left.exr",
+            "frames/00001_right.png",
+            "frames/00001_left_trace-mask.png",
+            "frames/readme.txt",
+            "frames/notes/x.txt",
+            "frames/00002_left.exr/precious.txt",
+            "frames/0001_left.exr",
+            "frames/00003_middle.png",
+            "frames.jsonl",
+            "summary.json",
+            "mine.json",
+        ];
+        for f in files {
+            let p = d.join(f);
+            std::fs::create_dir_all(p.parent().unwrap()).unwrap();
+            std::fs::write(&p, b"x").unwrap();
+        }
+        let outside = d.join("outside.txt");
+        std::fs::write(&outside, b"keep").unwrap();
+        #[cfg(unix)]
+        std::os::unix::fs::symlink(&outside, d.join("frames/00004_left.png")).unwrap();
+        remove_run_files(&d, &is_replay_output).unwrap();
+        let left: Vec<&str> = files
+            .iter()
+            .copied()
+            .filter(|f| d.join(f).exists())
+            .collect();
+        assert_eq!(
+            left,
+            [
+                "frames/readme.txt",
+                "frames/notes/x.txt",
+                "frames/00002_left.exr/precious.txt",
+                "frames/0001_left.exr",
+                "frames/00003_middle.png",
+                "mine.json"
+            ]
+        );
+        assert!(outside.exists());
+        #[cfg(unix)]
+        assert!(std::fs::symlink_metadata(d.join("frames/00004_left.png")).is_err());
+        // A folder that held only outputs goes with them; none at all is no error.
+        remove_run_files(&d.join("absent"), &is_replay_output).unwrap();
+        let e = d.join("only");
+        std::fs::create_dir_all(e.join("frames")).unwrap();
+        std::fs::write(e.join("frames/00000_left.png"), b"x").unwrap();
+        remove_run_files(&e, &is_replay_output).unwrap();
+        assert!(!e.join("frames").exists());
+        // remove_stale leaves a folder alone.
+        remove_stale(&d.join("frames")).unwrap();
+        assert!(d.join("frames/readme.txt").exists());
+        let _ = std::fs::remove_dir_all(&d);
+    }
+
+    #[test]
+    fn output_names_are_recognised_exactly() {
+        for (n, want) in [
+            ("00000_left.exr", true),
+            ("123456_right.png", true),
+            ("00007_right_spp.png", true),
+            ("00007_right_.png", false),
+            ("0007_right.png", false),
+            ("00007_left.exr.partial", false),
+            ("00007_left.txt", false),
+            ("a/00007_left.png", false),
+        ] {
+            assert_eq!(is_frame_image(Path::new(n)), want, "{n}");
+        }
+        assert!(is_numbered(Path::new("frame_00012.png"), "frame_", ".png"));
+        assert!(!is_numbered(Path::new("frame_12.png"), "frame_", ".png"));
+        assert!(!is_numbered(Path::new("frame_0001x.png"), "frame_", ".png"));
+        assert!(is_numbered(Path::new("frame_00012"), "frame_", ""));
+        assert!(is_grid_image(Path::new("frame_00012.png")));
+        assert!(is_grid_image(Path::new("frame_09999.part7.png")));
+        assert!(!is_grid_image(Path::new("frame_09999.part.png")));
+        assert!(!is_grid_image(Path::new("my_frame.png")));
     }
 }
