@@ -7,12 +7,23 @@
 //! file's name.
 
 use std::io::{self, Read};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
-/// Fails unless `path` (after symlinks) is a regular file.
+/// Every file this process has checked or read as input, canonical (what
+/// [`overwritten_input`] compares outputs against).
+static READ: std::sync::Mutex<Vec<PathBuf>> = std::sync::Mutex::new(Vec::new());
+
+/// Fails unless `path` (after symlinks) is a regular file; records it as
+/// one of the run's inputs.
 pub fn check_regular(path: &Path) -> io::Result<std::fs::Metadata> {
     let meta = std::fs::metadata(path)?;
     if meta.is_file() {
+        if let Ok(c) = std::fs::canonicalize(path) {
+            let mut read = READ.lock().unwrap_or_else(|e| e.into_inner());
+            if !read.contains(&c) {
+                read.push(c);
+            }
+        }
         return Ok(meta);
     }
     let what = if meta.is_dir() {
@@ -68,6 +79,22 @@ pub fn read_to_string(path: &Path) -> io::Result<String> {
             "stream did not contain valid UTF-8",
         )
     })
+}
+
+/// The first input file this process has read (a scene, its buffers and
+/// images, an environment map, a trace, a MaterialX document) that a run
+/// writing into the folder `out` would overwrite: one whose folder is `out`
+/// (after symlinks) and whose path relative to it `writes` names. None where
+/// `out` does not exist yet. Until session 52 `render` and `replay` wrote
+/// over such files without a word (an environment map named left.exr, a
+/// trace named frames.jsonl, a texture named left.png in the scene's
+/// folder; an audit's finding).
+pub fn overwritten_input(out: &Path, writes: &dyn Fn(&Path) -> bool) -> Option<PathBuf> {
+    let out = std::fs::canonicalize(out).ok()?;
+    let read = READ.lock().unwrap_or_else(|e| e.into_inner());
+    read.iter()
+        .find(|p| p.strip_prefix(&out).is_ok_and(writes))
+        .cloned()
 }
 
 #[cfg(test)]

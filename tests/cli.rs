@@ -1493,3 +1493,93 @@ fn stale_outputs_and_self_overwrites_are_refused() {
     assert!(line.contains("bad --zoom 0"), "{line}");
     let _ = std::fs::remove_dir_all(&out);
 }
+
+/// A run never writes over its own inputs (an audit's findings: `render`
+/// replaced an environment map named left.exr in --out, `replay` a trace
+/// named frames.jsonl): refused with one line naming both, before
+/// rendering, the input unchanged. A compare whose configuration folder
+/// is a file is refused before the device opens (it failed after the
+/// reference and the earlier configurations had rendered).
+#[test]
+fn runs_refuse_to_overwrite_their_inputs() {
+    let out = out_dir("own-inputs");
+    let o = out.to_str().unwrap();
+    let common = ["--size", "8x6", "--spp", "1", "--rt", "software"];
+    succeeds(bin().arg("render").args(common).args(["--out", o]));
+    let env = out.join("left.exr");
+    let before = std::fs::read(&env).unwrap();
+    let lighting = format!("env:{}", env.display());
+    let line = fails(
+        &[
+            &["render", "--lighting", &lighting, "--out", o][..],
+            &common[..],
+        ]
+        .concat(),
+    );
+    assert!(
+        line.contains("would overwrite") && line.contains("left.exr"),
+        "{line}"
+    );
+    assert_eq!(std::fs::read(&env).unwrap(), before);
+    // Elsewhere the same map is fine.
+    let other = out_dir("own-inputs-elsewhere");
+    succeeds(
+        bin()
+            .args(["render", "--lighting", &lighting, "--out"])
+            .arg(&other)
+            .args(common),
+    );
+    let trace = out.join("frames.jsonl");
+    std::fs::copy(
+        concat!(env!("CARGO_MANIFEST_DIR"), "/captures/synth-head-turn.csv"),
+        &trace,
+    )
+    .unwrap();
+    let before = std::fs::read(&trace).unwrap();
+    let line = fails(
+        &[
+            &[
+                "replay",
+                "--trace",
+                trace.to_str().unwrap(),
+                "--frames",
+                "1",
+                "--out",
+                o,
+            ][..],
+            &common[..],
+        ]
+        .concat(),
+    );
+    assert!(
+        line.contains("would overwrite") && line.contains("frames.jsonl"),
+        "{line}"
+    );
+    assert_eq!(std::fs::read(&trace).unwrap(), before);
+    let cmp = out_dir("own-inputs-compare");
+    std::fs::create_dir_all(&cmp).unwrap();
+    std::fs::write(cmp.join("taa"), b"a file").unwrap();
+    let line = fails(&[
+        "compare",
+        "--methods",
+        "naive,taa",
+        "--frames",
+        "1",
+        "--size",
+        "8x6",
+        "--rt",
+        "software",
+        "--reference-spp",
+        "0",
+        "--out",
+        cmp.to_str().unwrap(),
+    ]);
+    assert!(line.contains("taa") && line.contains("is a file"), "{line}");
+    assert!(
+        !cmp.join("naive").exists(),
+        "a configuration rendered before the refusal"
+    );
+    for d in [&out, &other, &cmp] {
+        let _ = std::fs::remove_dir_all(d);
+    }
+}

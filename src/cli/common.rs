@@ -151,6 +151,30 @@ pub fn check_out(dir: &std::path::Path) -> Result<()> {
     stereocache::values::check_output_dir(dir).map_err(anyhow::Error::msg)
 }
 
+/// Refuses a run whose outputs in `out` — the paths relative to it that
+/// `writes` names — would overwrite a file the run has read (its scene, the
+/// scene's buffers and images, an environment map, a trace): called once
+/// the inputs are loaded, before anything is rendered.
+pub fn check_out_spares_inputs(
+    out: &std::path::Path,
+    writes: &dyn Fn(&std::path::Path) -> bool,
+) -> Result<()> {
+    if let Some(p) = stereocache::input::overwritten_input(out, writes) {
+        anyhow::bail!(
+            "{}: the outputs would overwrite {}, an input of this run: choose another --out",
+            out.display(),
+            p.display()
+        );
+    }
+    Ok(())
+}
+
+/// What `replay` (and each configuration of `compare`) writes under its
+/// folder: `frames.jsonl`, `summary.json`, `frames/NNNNN_eye….{exr,png}`.
+pub fn replay_writes(rel: &std::path::Path) -> bool {
+    stereocache::output::is_replay_output(rel, false)
+}
+
 /// Refuses an output file that cannot be written, before any work.
 pub fn check_out_file(file: &std::path::Path) -> Result<()> {
     stereocache::values::check_output_file(file).map_err(anyhow::Error::msg)

@@ -2,7 +2,7 @@
 //! and DIR/stats.json; an animated scene is posed at `--time` (default 0).
 
 use super::args::{self, CameraArgs, GpuArgs, MethodArgs, SceneArgs};
-use super::common::{check_out, report_validation};
+use super::common::{check_out, check_out_spares_inputs, report_validation};
 use anyhow::{anyhow, Context, Result};
 use clap::Args;
 use std::path::PathBuf;
@@ -65,6 +65,15 @@ pub fn run(a: RenderArgs) -> Result<()> {
     check_out(&a.out)?;
     let select = a.camera.select();
     let session = a.scene.open(&a.gpu)?;
+    check_out_spares_inputs(&a.out, &|rel| {
+        let name = rel.to_str().unwrap_or("");
+        name == "stats.json"
+            || ["left", "right"].iter().any(|eye| {
+                [".exr", ".png", "_depth.exr", "_albedo.exr", "_firsthit.bin"]
+                    .iter()
+                    .any(|tail| name == format!("{eye}{tail}"))
+            })
+    })?;
     let cam = session.camera(&select, w, h, a.camera.ipd, a.camera.fov_radians())?;
     let mut m = session.create(&config, &settings)?;
     // One frame: previous and current pose are both those at --time.

@@ -2,7 +2,9 @@
 //! DIR/frames/, DIR/frames.jsonl and DIR/summary.json.
 
 use super::args::{self, CameraArgs, GpuArgs, MethodArgs, SceneArgs};
-use super::common::{check_out, open_along_trace, report_validation};
+use super::common::{
+    check_out, check_out_spares_inputs, open_along_trace, replay_writes, report_validation,
+};
 use super::render::method;
 use anyhow::{anyhow, Result};
 use clap::Args;
@@ -83,6 +85,7 @@ pub fn run(a: ReplayArgs) -> Result<()> {
     let (session, cameras) = open_along_trace(
         &a.trace, a.fps, a.frames, a.size, &a.scene, &a.gpu, &a.camera,
     )?;
+    check_out_spares_inputs(&a.out, &replay_writes)?;
     opts.frame_count(cameras.len())?;
     opts.settings = config.record(&settings);
     let mut method = session.create(&config, &settings)?;

@@ -2,7 +2,10 @@
 //! reference) and records it: what `compare` and every group of an
 //! experiment run, so there is one way to run and record a comparison.
 
-use crate::cli::common::{check_out, open_along_trace, print_reference_noise, report_validation};
+use crate::cli::common::{
+    check_out, check_out_spares_inputs, open_along_trace, print_reference_noise, replay_writes,
+    report_validation,
+};
 use crate::cli::compare::CompareArgs;
 use anyhow::{bail, Result};
 use std::path::Path;
@@ -27,6 +30,13 @@ pub fn run_comparison(
     let labels: Vec<String> = configs.iter().map(|c| c.label.clone()).collect();
     stereocache::compare::choose_baseline(&labels, baseline)?;
     check_out(out)?;
+    // Each configuration's folder and its frames/ too (a file there failed
+    // after the reference and the earlier configurations had rendered,
+    // leaving their folders looking complete; an audit's finding).
+    for l in &labels {
+        check_out(&out.join(l))?;
+        check_out(&out.join(l).join("frames"))?;
+    }
     let settings = a
         .method_opts
         .settings(a.size, a.spp, a.bounces, a.seed, false)
@@ -34,6 +44,18 @@ pub fn run_comparison(
     let (session, cameras) = open_along_trace(
         &a.trace, a.fps, a.frames, a.size, &a.scene, &a.gpu, &a.camera,
     )?;
+    // The run's summaries and every configuration's replay outputs.
+    check_out_spares_inputs(out, &|rel| {
+        let mut parts = rel.components();
+        let first = parts
+            .next()
+            .map(|c| c.as_os_str().to_string_lossy().into_owned());
+        matches!(
+            first.as_deref(),
+            Some("summary.json" | "summary.csv" | "report.html" | "experiment.json")
+        ) && parts.clone().next().is_none()
+            || first.is_some_and(|l| labels.contains(&l)) && replay_writes(parts.as_path())
+    })?;
     if let Some(k) = a.frames {
         if k > cameras.len() {
             bail!(
