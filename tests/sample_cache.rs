@@ -435,6 +435,93 @@ fn adaptive_shading_dispatches_the_requested_rate() {
     assert_no_validation_messages(&ctx);
 }
 
+/// §3.5's importance ordering, with a known answer (an audit found the
+/// check above passes under uniformly random selection): a still view
+/// whose cache is loaded with every pixel's visible surface samples
+/// alternating between c = 50 (w = 1/51) and c = 0 (w = 1), twice (the
+/// first loaded frame sets the bounds w_min, w_max the second one buckets
+/// with; §3.5 uses the previous frame's). At rate 0.5 the budget (half the
+/// covered pixels) is below the c = 0 samples' count (about two per
+/// pixel), so outside the base-rate pixels' round-robin sample (one per
+/// 4×4 block, which may be either) every shaded sample must come from the
+/// top bucket, c = 0: its count after shading is 1, a c = 50 sample's is
+/// 51. So at most the base pixels' count of shaded samples may show 51,
+/// where random selection would give about a quarter of all shadings.
+#[test]
+fn adaptive_shading_picks_the_least_accumulated_samples() {
+    let ctx = context();
+    let s = session(&ctx, shipped("cornell"), RtChoice::Software);
+    let (w, h) = (48, 36);
+    let st = settings(
+        w,
+        h,
+        SampleCacheSettings {
+            shading: Shading::Adaptive,
+            shading_rate: 0.5,
+            ..Default::default()
+        },
+    );
+    let mut m = cache_method(&s, &st);
+    let cam = default_camera(&s, w, h);
+    for f in 0..4 {
+        render_at(&mut m, f, cam, (f > 0).then_some(cam));
+    }
+    let mut snap = m.snapshot().unwrap();
+    let mut loaded = [0usize; 2]; // samples given c = 50, c = 0
+    for e in 0..2 {
+        for p in 0..snap.npix() {
+            let mut bits = snap.surface(e, p, snap.visible(snap.mask(e, p)));
+            let mut k = 0;
+            while bits != 0 {
+                let sl = bits.trailing_zeros();
+                bits &= bits - 1;
+                let i = snap.slot(e, sl, p);
+                let c = if k % 2 == 0 { 50.0 } else { 0.0 };
+                loaded[(c == 0.0) as usize] += 1;
+                snap.radiance[i] = [0.5, 0.5, 0.5, c];
+                k += 1;
+            }
+        }
+    }
+    for f in 4..6 {
+        m.load(&snap).unwrap();
+        render_at(&mut m, f, cam, Some(cam));
+    }
+    let out = m.snapshot().unwrap();
+    let list = &out.shade_list[..out.shade_count as usize];
+    let old = list
+        .iter()
+        .filter(|&&code| {
+            let (e, sl, p) = (
+                (code >> 31) as usize,
+                (code >> 26) & 31,
+                (code & 0x3FF_FFFF) as usize,
+            );
+            out.radiance[out.slot(e, sl, p)][3] > 2.0
+        })
+        .count();
+    let base: u32 = out.base_pixels.iter().sum();
+    eprintln!(
+        "loaded {} samples at c = 50 and {} at c = 0; shaded {}, of them {old} at c = 50, base pixels {base}",
+        loaded[0],
+        loaded[1],
+        list.len()
+    );
+    assert!(
+        loaded[1] > list.len(),
+        "the premise: more c = 0 samples than shadings"
+    );
+    assert!(
+        list.len() as u32 > 2 * base,
+        "the premise: most shadings outside the base rate"
+    );
+    assert!(
+        old as u32 <= base,
+        "{old} shaded samples had c = 50, more than the {base} base-rate picks"
+    );
+    assert_no_validation_messages(&ctx);
+}
+
 fn adaptive_shading_rate(s: &Session, subgroup_ops: bool) {
     let (w, h) = (48, 36);
     let rate = 0.5f32;
