@@ -148,6 +148,13 @@ pub fn check_output_file(file: &Path) -> Result<(), String> {
     if file.is_dir() {
         return Err(format!("{}: is a directory, not a file", file.display()));
     }
+    // A device (/dev/null), FIFO or socket: the atomic rename would replace it.
+    if std::fs::metadata(file).is_ok_and(|m| !m.is_file()) {
+        return Err(format!(
+            "{}: is a device, FIFO or socket, not a regular file",
+            file.display()
+        ));
+    }
     let parent = match file.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),

@@ -60,7 +60,13 @@ pub struct AtomicFile {
 
 impl AtomicFile {
     /// Creates `path`'s parent directories and opens `path.partial` for writing.
+    /// A `path` that exists as something other than a regular file (a
+    /// device such as `/dev/null`, a FIFO, a socket, a folder) is refused:
+    /// the rename into place would replace it (`trace convert --out
+    /// /dev/null` turned the system's /dev/null into a regular file; an
+    /// audit's run found it).
     pub fn create(path: &Path) -> Result<Self, OutputError> {
+        not_special(path)?;
         if let Some(parent) = path.parent() {
             if !parent.as_os_str().is_empty() {
                 std::fs::create_dir_all(parent).map_err(|e| OutputError::new(path, e))?;
@@ -92,6 +98,11 @@ impl AtomicFile {
     /// failure the temporary is removed: it is known to be broken.
     pub fn commit(self) -> Result<(), OutputError> {
         let AtomicFile { path, tmp, file } = self;
+        if let Err(e) = not_special(&path) {
+            drop(file);
+            let _ = std::fs::remove_file(&tmp);
+            return Err(e);
+        }
         let done = file
             .sync_all()
             .and_then(|()| {
@@ -110,6 +121,21 @@ impl AtomicFile {
         let AtomicFile { tmp, file, .. } = self;
         drop(file);
         let _ = std::fs::remove_file(&tmp);
+    }
+}
+
+/// Fails where `path` exists (after symlinks) as anything but a regular file.
+fn not_special(path: &Path) -> Result<(), OutputError> {
+    match std::fs::metadata(path) {
+        Ok(m) if !m.is_file() => Err(OutputError::new(
+            path,
+            if m.is_dir() {
+                "it is a directory, not a file"
+            } else {
+                "it is a device, FIFO or socket, not a regular file"
+            },
+        )),
+        _ => Ok(()),
     }
 }
 
@@ -188,5 +214,22 @@ mod tests {
         assert!(e.to_string().contains("a.png: cannot write: no"), "{e}");
         assert!(!p.exists() && !partial_path(&p).exists());
         let _ = std::fs::remove_dir_all(&d);
+    }
+
+    /// A special file is never replaced by the rename (`/dev/null` became a
+    /// regular file under `trace convert --out /dev/null`): a FIFO made for
+    /// the test stands in for the device, which a regression would break.
+    #[cfg(unix)]
+    #[test]
+    fn special_files_are_not_replaced() {
+        let p = std::env::temp_dir().join(format!("sc-fifo-{}", std::process::id()));
+        let _ = std::fs::remove_file(&p);
+        let made = std::process::Command::new("mkfifo").arg(&p).status();
+        assert!(made.is_ok_and(|s| s.success()), "mkfifo (coreutils) failed");
+        let e = write_file(&p, b"x").unwrap_err().to_string();
+        assert!(e.contains("not a regular file"), "{e}");
+        assert!(!std::fs::metadata(&p).unwrap().is_file());
+        assert!(!partial_path(&p).exists());
+        std::fs::remove_file(&p).unwrap();
     }
 }
