@@ -35,6 +35,31 @@ fn hash_method(s: &Session, (st, hash): &(RenderSettings, HashCacheSettings)) ->
     HashCache::new(&s.ctx, &s.scene_gpu, &s.scene.environment, st, hash).expect("hash cache")
 }
 
+/// The green channel of both eyes, pixel by pixel.
+fn green(fr: &StereoFrame) -> Vec<f64> {
+    fr.eyes
+        .iter()
+        .flat_map(|e| e.radiance.iter().map(|p| p[1] as f64))
+        .collect()
+}
+
+/// Hybrid with its defaults (sample cache, the hash cache's table, lookups).
+fn default_hybrid(s: &Session, st: &RenderSettings) -> stereocache::methods::Hybrid {
+    use stereocache::methods::{Hybrid, HybridConfig};
+    Hybrid::new(
+        &s.ctx,
+        &s.scene_gpu,
+        &s.scene.environment,
+        st,
+        &HybridConfig {
+            cache: Default::default(),
+            hash: HashCacheSettings::default(),
+            lookups: Default::default(),
+        },
+    )
+    .expect("hybrid")
+}
+
 fn moving(start: &StereoCamera, frame: u32, deg_per_frame: f32) -> StereoCamera {
     turning_head(start, frame, deg_per_frame, 0.01)
 }
@@ -410,7 +435,6 @@ fn furnace_sphere_shows_its_albedo() {
 /// 0.075, so ±50 % is more than 6 of them (the old resolve gave 0).
 #[test]
 fn black_base_dielectric_reflects_through_hash_cache_and_hybrid() {
-    use stereocache::methods::{Hybrid, HybridConfig};
     use stereocache::scene::Material;
     let ctx = context();
     let env = Vec3::splat(0.4);
@@ -441,12 +465,6 @@ fn black_base_dielectric_reflects_through_hash_cache_and_hybrid() {
             ..Default::default()
         },
     );
-    let green = |fr: &StereoFrame| -> Vec<f64> {
-        fr.eyes
-            .iter()
-            .flat_map(|e| e.radiance.iter().map(|p| p[1] as f64))
-            .collect()
-    };
     let reference = render(
         &s,
         "reference",
@@ -462,18 +480,7 @@ fn black_base_dielectric_reflects_through_hash_cache_and_hybrid() {
         "reference {m} ± {se}, want F·L = {want}"
     );
     let mut hash = hash_method(&s, &(st.clone(), hs.clone()));
-    let mut hyb = Hybrid::new(
-        &s.ctx,
-        &s.scene_gpu,
-        &s.scene.environment,
-        &st,
-        &HybridConfig {
-            cache: Default::default(),
-            hash: HashCacheSettings::default(),
-            lookups: Default::default(),
-        },
-    )
-    .expect("hybrid");
+    let mut hyb = default_hybrid(&s, &st);
     let methods: [(&str, &mut dyn Method); 2] = [("hash-cache", &mut hash), ("hybrid", &mut hyb)];
     for (name, m) in methods {
         let mut last = None;
@@ -522,7 +529,6 @@ fn black_base_dielectric_reflects_through_hash_cache_and_hybrid() {
 /// `black_base_dielectric_reflects_through_hash_cache_and_hybrid` argues.
 #[test]
 fn materials_sharing_a_voxel_keep_their_own_brightness() {
-    use stereocache::methods::{Hybrid, HybridConfig};
     use stereocache::scene::generate::{add_material, add_mesh, grid};
     use stereocache::scene::{Environment, Material, Scene};
     let ctx = context();
@@ -574,12 +580,6 @@ fn materials_sharing_a_voxel_keep_their_own_brightness() {
             ..Default::default()
         },
     );
-    let green = |fr: &StereoFrame| -> Vec<f64> {
-        fr.eyes
-            .iter()
-            .flat_map(|e| e.radiance.iter().map(|p| p[1] as f64))
-            .collect()
-    };
     let reference = green(&render(
         &s,
         "reference",
@@ -622,18 +622,7 @@ fn materials_sharing_a_voxel_keep_their_own_brightness() {
     let mean_of =
         |img: &[f64], band: &[usize]| band.iter().map(|&i| img[i]).sum::<f64>() / band.len() as f64;
     let mut hash = hash_method(&s, &(st.clone(), hs.clone()));
-    let mut hyb = Hybrid::new(
-        &s.ctx,
-        &s.scene_gpu,
-        &s.scene.environment,
-        &st,
-        &HybridConfig {
-            cache: Default::default(),
-            hash: HashCacheSettings::default(),
-            lookups: Default::default(),
-        },
-    )
-    .expect("hybrid");
+    let mut hyb = default_hybrid(&s, &st);
     let methods: [(&str, &mut dyn Method); 2] = [("hash-cache", &mut hash), ("hybrid", &mut hyb)];
     for (name, m) in methods {
         let mut sum = vec![0.0; 2 * npix];
@@ -715,12 +704,7 @@ fn the_two_faces_of_a_sheet_keep_apart_entries() {
         let mut top = 0.0;
         for f in 0..16 {
             let fr = render_at(&mut m, f, above, (f > 0).then_some(above));
-            top = fr
-                .eyes
-                .iter()
-                .flat_map(|e| e.radiance.iter().map(|p| p[1] as f64))
-                .sum::<f64>()
-                / (2 * 24 * 24) as f64;
+            top = green(&fr).iter().sum::<f64>() / (2 * 24 * 24) as f64;
         }
         assert!(top > 0.1, "tiles {tiles}: the top's mean radiance {top}");
         for f in 16..24 {
