@@ -35,6 +35,26 @@ fn hash_method(s: &Session, (st, hash): &(RenderSettings, HashCacheSettings)) ->
     HashCache::new(&s.ctx, &s.scene_gpu, &s.scene.environment, st, hash).expect("hash cache")
 }
 
+/// A smooth dielectric with a black base: it reflects F·L and nothing else.
+fn black_dielectric() -> stereocache::scene::Material {
+    stereocache::scene::Material {
+        base_color: glam::Vec4::new(0.0, 0.0, 0.0, 1.0),
+        metallic: 0.0,
+        roughness: 0.0,
+        ..stereocache::scene::Material::diffuse("black dielectric", Vec3::ZERO)
+    }
+}
+
+/// A 45° camera 2 m above the origin looking down at the plane y = 0.
+fn from_above(w: u32, h: u32) -> StereoCamera {
+    look_at_camera(
+        Vec3::new(0.0, 2.0, 0.001),
+        Vec3::ZERO,
+        45.0,
+        w as f32 / h as f32,
+    )
+}
+
 /// The green channel of both eyes, pixel by pixel.
 fn green(fr: &StereoFrame) -> Vec<f64> {
     fr.eyes
@@ -435,27 +455,16 @@ fn furnace_sphere_shows_its_albedo() {
 /// 0.075, so ±50 % is more than 6 of them (the old resolve gave 0).
 #[test]
 fn black_base_dielectric_reflects_through_hash_cache_and_hybrid() {
-    use stereocache::scene::Material;
     let ctx = context();
     let env = Vec3::splat(0.4);
-    let black = Material {
-        base_color: glam::Vec4::new(0.0, 0.0, 0.0, 1.0),
-        metallic: 0.0,
-        roughness: 0.0,
-        ..Material::diffuse("black dielectric", Vec3::ZERO)
-    };
+    let black = black_dielectric();
     let s = session(
         &ctx,
         plane_in_environment(black, 40.0, env),
         RtChoice::Software,
     );
     let (w, h) = (24, 16);
-    let cam = look_at_camera(
-        Vec3::new(0.0, 2.0, 0.001),
-        Vec3::ZERO,
-        45.0,
-        w as f32 / h as f32,
-    );
+    let cam = from_above(w, h);
     let want = 0.04 * env.x as f64;
     let (st, hs) = settings(
         w,
@@ -537,15 +546,7 @@ fn materials_sharing_a_voxel_keep_their_own_brightness() {
         source: "test:split-plane".into(),
         ..Default::default()
     };
-    let black = add_material(
-        &mut scene,
-        Material {
-            base_color: glam::Vec4::new(0.0, 0.0, 0.0, 1.0),
-            metallic: 0.0,
-            roughness: 0.0,
-            ..Material::diffuse("black dielectric", Vec3::ZERO)
-        },
-    );
+    let black = add_material(&mut scene, black_dielectric());
     let mut lambert = Material::diffuse("white lambert", Vec3::ONE);
     lambert.specular = 0.0;
     let white = add_material(&mut scene, lambert);
@@ -566,12 +567,7 @@ fn materials_sharing_a_voxel_keep_their_own_brightness() {
     scene.validate().unwrap();
     let s = session(&ctx, scene, RtChoice::Software);
     let (w, h) = (32, 24);
-    let cam = look_at_camera(
-        Vec3::new(0.0, 2.0, 0.001),
-        Vec3::ZERO,
-        45.0,
-        w as f32 / h as f32,
-    );
+    let cam = from_above(w, h);
     let (st, hs) = settings(
         w,
         h,
