@@ -223,8 +223,9 @@ pub struct ReferenceSummary {
 /// ρ / (1 − k)`, no estimate of `b`), `S' = spp · ρ/(k · best)`, a lower
 /// bound. Rounded up to a power of two.
 /// Degenerate figures (a best RSE of 0, a non-finite ratio) give the
-/// largest count rather than a NaN turned into 1, which `--reference-spp`
-/// refuses (odd); every result is even.
+/// largest count rather than a NaN turned into 1; every result is one
+/// `--reference-spp` accepts: even and at most [`crate::values::MAX_SPP`]
+/// (where more would be needed the warning says so).
 pub fn suggested_reference_spp(spp: u32, rse_ref: f64, best: f64) -> u32 {
     let k = REFERENCE_NOISE_RATIO;
     let s = spp as f64;
@@ -234,7 +235,7 @@ pub fn suggested_reference_spp(spp: u32, rse_ref: f64, best: f64) -> u32 {
         s * rse_ref / (k * best)
     };
     let want = if want.is_nan() { f64::INFINITY } else { want };
-    let want = want.ceil().clamp(2.0, (1u64 << 31) as f64) as u32;
+    let want = want.ceil().clamp(2.0, crate::values::MAX_SPP as f64) as u32;
     want.next_power_of_two()
 }
 
@@ -288,8 +289,13 @@ impl ReferenceSummary {
             if n.rse > 0.0 && (r > REFERENCE_NOISE_RATIO || !r.is_finite()) {
                 let s = suggested_reference_spp(spp, n.rse, *b);
                 sum.suggested_spp = Some(s);
+                let advice = if s >= crate::values::MAX_SPP {
+                    format!("use --reference-spp {s} (the largest; it may not be enough)")
+                } else {
+                    format!("use --reference-spp {s} or more")
+                };
                 sum.warning = Some(format!(
-                    "the reference ({spp} spp) has an estimated RSE of {:.4} ± {:.1e} against the converged image, {r:.2}x the best method's ({name}, RSE {b:.4}); above {REFERENCE_NOISE_RATIO}x every method's error is inflated by the reference's noise: use --reference-spp {s} or more",
+                    "the reference ({spp} spp) has an estimated RSE of {:.4} ± {:.1e} against the converged image, {r:.2}x the best method's ({name}, RSE {b:.4}); above {REFERENCE_NOISE_RATIO}x every method's error is inflated by the reference's noise: {advice}",
                     n.rse, n.rse_stderr
                 ));
             }
@@ -397,17 +403,7 @@ pub fn remove_stale_outputs(out: &Path) -> Result<()> {
             "side-by-side" => {
                 output::remove_run_files(&p, &|rel, dir| !dir && output::is_grid_image(rel))
             }
-            "viewer" => output::remove_run_files(&p, &|rel, dir| {
-                if dir {
-                    output::is_numbered(rel, "frame_", "")
-                } else {
-                    rel == Path::new("index.json")
-                        || (rel.extension().is_some_and(|x| x == "png")
-                            && rel
-                                .parent()
-                                .is_some_and(|d| output::is_numbered(d, "frame_", "")))
-                }
-            }),
+            "viewer" => output::remove_run_files(&p, &output::is_viewer_output),
             _ => output::remove_stale(&p),
         };
         r.map_err(|e| Error::io(&p, e))?;
@@ -1131,20 +1127,32 @@ mod tests {
     use super::*;
 
     /// The suggested reference spp is always a value `--reference-spp`
-    /// accepts (even, ≥ 2), also where the best method's RSE is 0 (0/0 gave
-    /// a NaN that became 1).
+    /// accepts (even, 2..=MAX_SPP), also where the best method's RSE is 0
+    /// (0/0 gave a NaN that became 1; the cap was 2^31) or the count needed
+    /// is beyond the largest (4096 spp at 0.02 against 0.03 asks ~94 500).
+    /// The formula's known answer: 64 spp at 0.01 against 0.05 wants
+    /// 64 · 0.01 · 0.9 / (0.1 · 0.04) = 144, rounded up to 256.
     #[test]
-    fn suggested_reference_spp_is_always_even() {
-        for (rse_ref, best) in [
-            (0.0, 0.0),
-            (0.01, 0.0),
-            (0.01, 0.05),
-            (0.01, 0.011),
-            (0.0, 0.1),
+    fn suggested_reference_spp_is_always_accepted() {
+        for (spp, rse_ref, best) in [
+            (64, 0.0, 0.0),
+            (64, 0.01, 0.0),
+            (64, 0.01, 0.05),
+            (64, 0.01, 0.011),
+            (64, 0.0, 0.1),
+            (4096, 0.02, 0.03),
         ] {
-            let s = suggested_reference_spp(64, rse_ref, best);
-            assert!(s >= 2 && s % 2 == 0, "{rse_ref} {best}: {s}");
+            let s = suggested_reference_spp(spp, rse_ref, best);
+            assert!(
+                (2..=crate::values::MAX_SPP).contains(&s) && s % 2 == 0,
+                "{spp} {rse_ref} {best}: {s}"
+            );
         }
+        assert_eq!(suggested_reference_spp(64, 0.01, 0.05), 256);
+        assert_eq!(
+            suggested_reference_spp(4096, 0.02, 0.03),
+            crate::values::MAX_SPP
+        );
     }
 
     /// A metric written as `null` (not finite) survives a read back, as a

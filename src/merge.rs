@@ -219,7 +219,9 @@ pub fn merge_comparison(
     Ok(cmp)
 }
 
-/// Every part's side-by-side grids, `frame_<f>.part<k>.png`.
+/// Every part's side-by-side grids, `frame_<f>.part<k>.png`: the plain
+/// `frame_<f>.png` grids of a compare run (a part's other files there, a
+/// user's or an earlier merge's, are not copied).
 fn merge_grids(parts: &[PathBuf], out: &Path) -> Result<()> {
     let dst = out.join("side-by-side");
     std::fs::create_dir_all(&dst).map_err(|e| Error::io(&dst, e))?;
@@ -235,6 +237,9 @@ fn merge_grids(parts: &[PathBuf], out: &Path) -> Result<()> {
             ) else {
                 continue;
             };
+            if !crate::output::is_numbered(Path::new(&e.file_name()), "frame_", ".png") {
+                continue;
+            }
             let to = dst.join(format!("{stem}.part{}.png", k + 1));
             std::fs::copy(&src, &to).map_err(|e| Error::io(&to, e))?;
         }

@@ -1,6 +1,6 @@
 #version 460
 // Reconstruction: the pixel's surface samples (visible = occupied, since
-// invisible samples are dropped when retraced) stand for their share
+// a sample found behind a closer hit is replaced by it) stand for their share
 // n_surf / (n_surf + n_bg) of the pixel with the mean remodulated radiance
 // (demodulation factor × demodulated radiance + emission,
 // common/demodulation.glsl) of those already shaded, its background samples

@@ -40,7 +40,8 @@ pub fn remove_stale(path: &Path) -> std::io::Result<()> {
 /// files, and the folders once empty, whose path relative to `dir` `ours`
 /// recognises (`ours(relative path, is a folder)`), and nothing else: a
 /// user's own files stay, and the folders that hold them. Symbolic links
-/// are never followed (one `ours` names is removed itself). No error when
+/// are never followed (one `ours` names is removed itself; `dir` itself a
+/// link: nothing is removed). No error when
 /// `dir` does not exist. Until session 52 the outputs' folders were removed
 /// whole (`remove_dir_all`), a user's notes and subfolders in them too (an
 /// audit's finding).
@@ -64,6 +65,11 @@ pub fn remove_run_files(dir: &Path, ours: &dyn Fn(&Path, bool) -> bool) -> std::
             }
         }
         Ok(())
+    }
+    // A symbolic link in place of the folder is left alone: its target is
+    // not the run's.
+    if std::fs::symlink_metadata(dir).is_ok_and(|m| m.file_type().is_symlink()) {
+        return Ok(());
     }
     walk(dir, Path::new(""), ours)
 }
@@ -93,6 +99,17 @@ pub fn is_grid_image(rel: &Path) -> bool {
     !part.is_empty()
         && part.bytes().all(|b| b.is_ascii_digit())
         && is_numbered(Path::new(stem), "frame_", "")
+}
+
+/// What a compare writes into its `viewer/` (a path relative to it):
+/// `index.json` and `frame_NNNNN/*.png`; `dir`: a folder of them.
+pub fn is_viewer_output(rel: &Path, dir: bool) -> bool {
+    if dir {
+        return is_numbered(rel, "frame_", "");
+    }
+    rel == Path::new("index.json")
+        || (rel.extension().is_some_and(|x| x == "png")
+            && rel.parent().is_some_and(|d| is_numbered(d, "frame_", "")))
 }
 
 /// What a replay writes into its folder (a compare's method folders, a
@@ -429,6 +446,21 @@ mod tests {
         // remove_stale leaves a folder alone.
         remove_stale(&d.join("frames")).unwrap();
         assert!(d.join("frames/readme.txt").exists());
+        // A link in place of the folder: its target is not the run's.
+        #[cfg(unix)]
+        {
+            let target = d.join("elsewhere");
+            std::fs::create_dir_all(target.join("frames")).unwrap();
+            std::fs::write(target.join("frames/00000_left.png"), b"x").unwrap();
+            std::os::unix::fs::symlink(&target, d.join("linked")).unwrap();
+            remove_run_files(&d.join("linked"), &is_replay_output).unwrap();
+            assert!(target.join("frames/00000_left.png").exists());
+        }
+        assert!(is_viewer_output(Path::new("frame_00003/naive.png"), false));
+        assert!(is_viewer_output(Path::new("index.json"), false));
+        assert!(is_viewer_output(Path::new("frame_00003"), true));
+        assert!(!is_viewer_output(Path::new("mine/naive.png"), false));
+        assert!(!is_viewer_output(Path::new("notes.txt"), false));
         let _ = std::fs::remove_dir_all(&d);
     }
 

@@ -143,7 +143,11 @@ pub fn load(dir: &Path) -> Result<ReportData> {
         let mut names: Vec<PathBuf> = rd
             .flatten()
             .map(|e| e.path())
-            .filter(|p| p.extension().is_some_and(|e| e == "png"))
+            // The grids a run writes (a user's own PNG there is not one).
+            .filter(|p| {
+                p.file_name()
+                    .is_some_and(|n| crate::output::is_grid_image(Path::new(n)))
+            })
             .collect();
         names.sort();
         for p in names {

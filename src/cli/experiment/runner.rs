@@ -44,17 +44,23 @@ pub fn run_comparison(
     let (session, cameras) = open_along_trace(
         &a.trace, a.fps, a.frames, a.size, &a.scene, &a.gpu, &a.camera,
     )?;
-    // The run's summaries and every configuration's replay outputs.
+    // The run's summaries, grids and viewer, and every configuration's
+    // replay outputs.
     check_out_spares_inputs(out, &|rel| {
         let mut parts = rel.components();
         let first = parts
             .next()
             .map(|c| c.as_os_str().to_string_lossy().into_owned());
-        matches!(
-            first.as_deref(),
-            Some("summary.json" | "summary.csv" | "report.html" | "experiment.json")
-        ) && parts.clone().next().is_none()
-            || first.is_some_and(|l| labels.contains(&l)) && replay_writes(parts.as_path())
+        let rest = parts.as_path();
+        match first.as_deref() {
+            Some("summary.json" | "summary.csv" | "report.html" | "experiment.json") => {
+                rest.as_os_str().is_empty()
+            }
+            Some("side-by-side") => stereocache::output::is_grid_image(rest),
+            Some("viewer") => stereocache::output::is_viewer_output(rest, false),
+            Some(l) => labels.iter().any(|x| x == l) && replay_writes(rest),
+            None => false,
+        }
     })?;
     if let Some(k) = a.frames {
         if k > cameras.len() {

@@ -42,7 +42,10 @@ pub fn xxhash32(p: u32) -> u32 {
 /// Tiles are 4×4 voxels (16 entries).
 pub const TILE: i32 = 4;
 pub const TILE_ENTRIES: u32 = 16;
-/// `meta` axis value when tiles are off.
+/// `meta` axis value of no axis: keys carry the normal's signed major axis
+/// (0–5) tiled or not since session 52; Hybrid's per-pixel record
+/// (`reserve.comp` `pix_cell.w`) still writes this, where only the level
+/// and tile offset are read.
 pub const NO_AXIS: u32 = 7;
 /// Levels of detail are stored as level + LEVEL_BIAS in 6 bits.
 pub const LEVEL_BIAS: i32 = 32;

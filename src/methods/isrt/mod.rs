@@ -8,7 +8,8 @@
 //! its new sub-pixel position falls into; 64-bit `atomicMin` on
 //! depth | source index: the closest sample wins) → `gather` (copies the
 //! winners) → `trace` (`--isrt-retrace every`, default: every sample
-//! retraced; occluded ones dropped; every empty cell gets a new sample
+//! retraced; one behind a closer hit is replaced by that hit; every cell
+//! left empty by the reprojection gets a new sample
 //! through a random point in it, a miss a background sample: the ray's
 //! direction, `sample_cache::background`; `--isrt-retrace one`, the paper's
 //! Fig. 10 configuration: one sample per pixel retraced, empty cells filled
