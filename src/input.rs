@@ -73,12 +73,14 @@ pub fn regular_len(path: &Path) -> io::Result<u64> {
 
 /// The text of a regular file (UTF-8).
 pub fn read_to_string(path: &Path) -> io::Result<String> {
-    String::from_utf8(read(path)?).map_err(|_| {
-        io::Error::new(
-            io::ErrorKind::InvalidData,
-            "stream did not contain valid UTF-8",
-        )
-    })
+    let bytes = read(path)?;
+    // A UTF-16 file (as some editors save text) is named as such.
+    let what = if bytes.starts_with(&[0xFF, 0xFE]) || bytes.starts_with(&[0xFE, 0xFF]) {
+        "the text is UTF-16 (it starts with a UTF-16 byte-order mark); save it as UTF-8"
+    } else {
+        "stream did not contain valid UTF-8"
+    };
+    String::from_utf8(bytes).map_err(|_| io::Error::new(io::ErrorKind::InvalidData, what))
 }
 
 /// The first input file this process has read (a scene, its buffers and
@@ -112,6 +114,19 @@ mod tests {
         }
         let e = read(&std::env::temp_dir()).unwrap_err().to_string();
         assert!(e.contains("a directory"), "{e}");
+    }
+
+    /// A UTF-16 file is named as such (it was "not valid UTF-8").
+    #[test]
+    fn utf16_text_is_named() {
+        let p = std::env::temp_dir().join(format!("stereocache-utf16-{}", std::process::id()));
+        std::fs::write(&p, [0xFF, 0xFE, b't', 0, b',', 0]).unwrap();
+        let e = read_to_string(&p).unwrap_err().to_string();
+        assert!(e.contains("UTF-16"), "{e}");
+        std::fs::write(&p, [0xC3, 0x28]).unwrap();
+        let e = read_to_string(&p).unwrap_err().to_string();
+        assert!(e.contains("not contain valid UTF-8"), "{e}");
+        std::fs::remove_file(&p).unwrap();
     }
 
     #[test]

@@ -500,6 +500,22 @@ spp = false",
         line.contains("scale.paper") && line.contains("ci"),
         "{line}"
     );
+    // A file without scales says so (it listed "(scales: )").
+    let start = good.find("[scale.ci]").unwrap();
+    let end = good[start..]
+        .find("\n\n")
+        .map_or(good.len(), |e| start + e + 1);
+    let unscaled = format!("{}{}", &good[..start], &good[end..]);
+    assert!(!unscaled.contains("[scale."), "{unscaled}");
+    std::fs::write(root.join("unscaled.toml"), &unscaled).unwrap();
+    let o = bin()
+        .args(["experiment", "run"])
+        .arg(root.join("unscaled.toml"))
+        .args(["--scale", "paper", "--check"])
+        .output()
+        .unwrap();
+    let line = single_error_line(&o, "no scales");
+    assert!(line.contains("defines no [scale.*] section"), "{line}");
     let _ = std::fs::remove_dir_all(&root);
 }
 

@@ -223,6 +223,12 @@ fn malformed_documents_give_one_line_errors() {
             &["node `f`: input `octaves`: bad integer value: empty"],
         ),
         (
+            // An integer, but not a 32-bit one (it said "not an integer").
+            r#"<fractal3d name="f" type="float"><input name="octaves" type="integer" value="99999999999" /></fractal3d>
+               <output name="out" type="float" nodename="f" />"#,
+            &["input `octaves`: bad integer value: `99999999999` is out of the 32-bit integer range"],
+        ),
+        (
             r#"<add name="a" type="float"><input name="in1" type="float" value="nan" /></add>
                <output name="out" type="float" nodename="a" />"#,
             &["node `a`: input `in1`: bad float value: `nan` is not a finite number"],

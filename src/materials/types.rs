@@ -136,8 +136,14 @@ impl Value {
         let mut v = [0.0f32; 4];
         for (i, p) in parts.iter().enumerate() {
             v[i] = if ty == Type::Integer {
-                p.parse::<i32>()
-                    .map_err(|_| format!("`{p}` is not an integer"))? as f32
+                p.parse::<i32>().map_err(|_| {
+                    // An integer too large for 32 bits is one, out of range.
+                    if p.parse::<i128>().is_ok() {
+                        format!("`{p}` is out of the 32-bit integer range")
+                    } else {
+                        format!("`{p}` is not an integer")
+                    }
+                })? as f32
             } else {
                 p.parse::<f32>()
                     .ok()

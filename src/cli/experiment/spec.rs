@@ -323,10 +323,14 @@ pub fn read(
     let mut origin: BTreeMap<String, String> = BTreeMap::new();
     if !file.scale.is_empty() || scale != "ci" {
         let t = file.scale.get(scale).ok_or_else(|| {
-            at(format!(
-                "no [scale.{scale}] (scales: {})",
-                file.scale.keys().cloned().collect::<Vec<_>>().join(", ")
-            ))
+            at(if file.scale.is_empty() {
+                format!("no [scale.{scale}]: the file defines no [scale.*] section")
+            } else {
+                format!(
+                    "no [scale.{scale}] (scales: {})",
+                    file.scale.keys().cloned().collect::<Vec<_>>().join(", ")
+                )
+            })
         })?;
         run = overlay(&run, t);
         for k in t.keys() {
