@@ -487,15 +487,18 @@ spp = false",
         }
         assert!(!out.exists(), "{what}: failed before writing anything");
     }
-    // A scale the file does not have.
-    std::fs::write(root.join("tiny.toml"), &good).unwrap();
-    let o = bin()
-        .args(["experiment", "run"])
-        .arg(root.join("tiny.toml"))
-        .args(["--scale", "paper", "--check"])
-        .output()
-        .unwrap();
-    let line = single_error_line(&o, "unknown scale");
+    // A scale the file does not have: `--scale paper --check` on `text`.
+    let paper_scale = |name: &str, text: &str| {
+        std::fs::write(root.join(name), text).unwrap();
+        let o = bin()
+            .args(["experiment", "run"])
+            .arg(root.join(name))
+            .args(["--scale", "paper", "--check"])
+            .output()
+            .unwrap();
+        single_error_line(&o, name)
+    };
+    let line = paper_scale("tiny.toml", &good);
     assert!(
         line.contains("scale.paper") && line.contains("ci"),
         "{line}"
@@ -507,14 +510,7 @@ spp = false",
         .map_or(good.len(), |e| start + e + 1);
     let unscaled = format!("{}{}", &good[..start], &good[end..]);
     assert!(!unscaled.contains("[scale."), "{unscaled}");
-    std::fs::write(root.join("unscaled.toml"), &unscaled).unwrap();
-    let o = bin()
-        .args(["experiment", "run"])
-        .arg(root.join("unscaled.toml"))
-        .args(["--scale", "paper", "--check"])
-        .output()
-        .unwrap();
-    let line = single_error_line(&o, "no scales");
+    let line = paper_scale("unscaled.toml", &unscaled);
     assert!(line.contains("defines no [scale.*] section"), "{line}");
     let _ = std::fs::remove_dir_all(&root);
 }

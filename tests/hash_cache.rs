@@ -55,6 +55,19 @@ fn from_above(w: u32, h: u32) -> StereoCamera {
     )
 }
 
+/// The 64 spp reference of `st`'s frame at `cam`.
+fn reference_64(s: &Session, cam: StereoCamera, st: &RenderSettings) -> StereoFrame {
+    render(
+        s,
+        "reference",
+        cam,
+        &RenderSettings {
+            spp: 64,
+            ..st.clone()
+        },
+    )
+}
+
 /// The green channel of both eyes, pixel by pixel.
 fn green(fr: &StereoFrame) -> Vec<f64> {
     fr.eyes
@@ -474,15 +487,7 @@ fn black_base_dielectric_reflects_through_hash_cache_and_hybrid() {
             ..Default::default()
         },
     );
-    let reference = render(
-        &s,
-        "reference",
-        cam,
-        &RenderSettings {
-            spp: 64,
-            ..st.clone()
-        },
-    );
+    let reference = reference_64(&s, cam, &st);
     let (m, se) = mean_and_standard_error(&green(&reference));
     assert!(
         (m - want).abs() <= 4.0 * se,
@@ -576,15 +581,7 @@ fn materials_sharing_a_voxel_keep_their_own_brightness() {
             ..Default::default()
         },
     );
-    let reference = green(&render(
-        &s,
-        "reference",
-        cam,
-        &RenderSettings {
-            spp: 64,
-            ..st.clone()
-        },
-    ));
+    let reference = green(&reference_64(&s, cam, &st));
     // Pixels wholly on one side (A's straddling neighbours reach 0.05 with
     // a tenth of B; B's fall below 0.36 with a tenth of A) and, of those,
     // the ones beside a pixel that is not (the band).

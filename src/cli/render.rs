@@ -66,13 +66,7 @@ pub fn run(a: RenderArgs) -> Result<()> {
     let select = a.camera.select();
     let session = a.scene.open(&a.gpu)?;
     check_out_spares_inputs(&a.out, &|rel| {
-        let name = rel.to_str().unwrap_or("");
-        name == "stats.json"
-            || ["left", "right"].iter().any(|eye| {
-                [".exr", ".png", "_depth.exr", "_albedo.exr", "_firsthit.bin"]
-                    .iter()
-                    .any(|tail| name == format!("{eye}{tail}"))
-            })
+        rel == std::path::Path::new("stats.json") || output::is_eye_output(rel)
     })?;
     let cam = session.camera(&select, w, h, a.camera.ipd, a.camera.fov_radians())?;
     let mut m = session.create(&config, &settings)?;

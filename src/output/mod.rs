@@ -224,8 +224,19 @@ pub fn write_first_hits(path: &Path, hits: &[[u32; 4]]) -> Result<(), OutputErro
     write_file(path, bytemuck::cast_slice::<[u32; 4], u8>(hits))
 }
 
+/// Whether `rel` is one of the files [`write_eye`] writes for `left` or
+/// `right` (what a render's outputs may not overwrite).
+pub fn is_eye_output(rel: &Path) -> bool {
+    let name = rel.to_str().unwrap_or("");
+    ["left", "right"].iter().any(|eye| {
+        name.strip_prefix(eye).is_some_and(|tail| {
+            [".exr", ".png", "_depth.exr", "_albedo.exr", "_firsthit.bin"].contains(&tail)
+        })
+    })
+}
+
 /// Writes one eye as `DIR/<eye>.exr`, `<eye>.png`, `<eye>_depth.exr`,
-/// `<eye>_albedo.exr` and `<eye>_firsthit.bin`.
+/// `<eye>_albedo.exr` and `<eye>_firsthit.bin` ([`is_eye_output`] names them).
 pub fn write_eye(
     dir: &Path,
     eye: &str,
