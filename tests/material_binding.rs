@@ -1699,20 +1699,12 @@ fn memo_levels_past_a_rough_mirror_follow_the_roughness_spread() {
                 // The memoized texel and the exact hit, when the path
                 // reflected onto quad 0: (u, v, 1) × the factor × the
                 // rough reflection's weight (the same in both renders),
-                // which blue gives (`texel_centre` for this graph). Else
+                // which blue gives (`weighted_uv`). Else
                 // black (refracted away, or reflected past the quad).
-                let decode = |rad: [f32; 4]| {
-                    let w = rad[2] / KHR_EMISSIVE_FACTOR[2];
-                    (w > 0.0).then(|| {
-                        Vec2::new(
-                            rad[0] / (KHR_EMISSIVE_FACTOR[0] * w),
-                            rad[1] / (KHR_EMISSIVE_FACTOR[1] * w),
-                        )
-                    })
-                };
-                let (Some(uc), Some(uv)) =
-                    (decode(eye.radiance[i]), decode(direct.eyes[e].radiance[i]))
-                else {
+                let (Some(uc), Some(uv)) = (
+                    weighted_uv(eye.radiance[i]),
+                    weighted_uv(direct.eyes[e].radiance[i]),
+                ) else {
                     continue;
                 };
                 let p2 = quv.point_at(uv);
@@ -1779,6 +1771,176 @@ fn memo_levels_past_a_rough_mirror_follow_the_roughness_spread() {
     let _ = std::fs::remove_dir_all(&d);
 }
 
+/// Radius, bias and tessellation of the spherical mirror of the curved-mirror
+/// tests ([`SphereMirror`]).
+const SPHERE_R: f32 = 2.0;
+const SPHERE_SEGMENTS: usize = 256;
+const SPHERE_RINGS: usize = 128;
+
+/// A sphere of radius `SPHERE_R` (a 256 × 128 UV sphere with smooth normals,
+/// poles turned to ±z so rays near its equator meet near-square facets) of
+/// the ior-100 sheet material with GGX `roughness`, double-sided, added to a
+/// scene, and its facets in world space (f32 as uploaded), bucketed by the
+/// (ring, segment) cell of their centroid, so the CPU can follow a ray to
+/// the facet the GPU hits.
+struct SphereMirror {
+    centre: Vec3,
+    instance: u32,
+    mesh: usize,
+    tris: Vec<([Vec3; 3], [Vec3; 3])>,
+    to_object: glam::DMat4,
+    buckets: Vec<Vec<usize>>,
+}
+
+/// Where a ray meets a [`SphereMirror`], as the shader sees it.
+struct SphereHit {
+    /// Distance along the (unit) ray.
+    t: f64,
+    /// The ray mirrored about the interpolated shading normal.
+    reflected: glam::DVec3,
+    /// The hit facet's k (`lod::triangle_curvature`) towards the shading
+    /// normal, as `surface_at` signs it.
+    k: f32,
+    /// |n_g·d| of the facet's plane.
+    cos: f64,
+    /// The f32 rounding bound of k: 32·2^-23·(1 + |p| / R) / (shortest edge
+    /// / R), as in tests/memo.rs.
+    tol_k: f64,
+}
+
+impl SphereMirror {
+    fn add(scene: &mut Scene, centre: Vec3, roughness: f32) -> Self {
+        let mut sheet = Material::diffuse("mirror", Vec3::ONE);
+        sheet.transmission = 1.0;
+        sheet.ior = 100.0;
+        sheet.roughness = roughness;
+        sheet.double_sided = true;
+        let m_sheet = add_material(scene, sheet);
+        add_mesh(
+            scene,
+            stereocache::scene::generate::uv_sphere(
+                "mirror",
+                SPHERE_SEGMENTS as u32,
+                SPHERE_RINGS as u32,
+            ),
+            m_sheet,
+            Mat4::from_translation(centre)
+                * Mat4::from_rotation_x(std::f32::consts::FRAC_PI_2)
+                * Mat4::from_scale(Vec3::splat(SPHERE_R)),
+        );
+        scene.validate().unwrap();
+        let instance = (scene.instances.len() - 1) as u32;
+        let inst = &scene.instances[instance as usize];
+        let mesh = inst.mesh as usize;
+        let m = &scene.meshes[mesh];
+        let tris: Vec<([Vec3; 3], [Vec3; 3])> = (0..m.indices.len() / 3)
+            .map(|t| {
+                let idx = [0, 1, 2].map(|k| m.indices[3 * t + k] as usize);
+                (
+                    idx.map(|k| inst.transform.transform_point3(m.positions[k])),
+                    idx.map(|k| inst.transform.transform_vector3(m.normals[k]).normalize()),
+                )
+            })
+            .collect();
+        let mut s = SphereMirror {
+            centre,
+            instance,
+            mesh,
+            tris,
+            to_object: inst.transform.as_dmat4().inverse(),
+            buckets: vec![Vec::new(); SPHERE_RINGS * SPHERE_SEGMENTS],
+        };
+        for t in 0..s.tris.len() {
+            let p = s.tris[t].0;
+            let (r, c) = s.cell((p[0] + p[1] + p[2]).as_dvec3() / 3.0);
+            s.buckets[r * SPHERE_SEGMENTS + c].push(t);
+        }
+        s
+    }
+
+    /// The (ring, segment) cell of a point near the sphere.
+    fn cell(&self, p: glam::DVec3) -> (usize, usize) {
+        use std::f64::consts::{PI, TAU};
+        let o = self.to_object.transform_point3(p).normalize();
+        let theta = o.y.clamp(-1.0, 1.0).acos();
+        let phi = o.x.atan2(o.z).rem_euclid(TAU);
+        (
+            ((theta / PI * SPHERE_RINGS as f64) as usize).min(SPHERE_RINGS - 1),
+            ((phi / TAU * SPHERE_SEGMENTS as f64) as usize).min(SPHERE_SEGMENTS - 1),
+        )
+    }
+
+    /// A ray's hit on the mesh, as the shader computes it: the nearest facet
+    /// ahead (f64 Möller–Trumbore among the facets around the exact
+    /// sphere's hit, both sides), its interpolated and normalised normal
+    /// turned to the ray's side, k signed with it. `sign` −1: the mesh's
+    /// normals turned inwards.
+    fn hit(&self, o: glam::DVec3, dir: glam::DVec3, sign: f32) -> Option<SphereHit> {
+        use stereocache::materials::memo::lod;
+        let r2 = (SPHERE_R * SPHERE_R) as f64;
+        let oc = o - self.centre.as_dvec3();
+        let bq = oc.dot(dir);
+        let disc = bq * bq - (oc.length_squared() - r2);
+        if disc <= 0.0 {
+            return None;
+        }
+        // From outside the near root, from inside the far one.
+        let inside = oc.length_squared() < r2;
+        let root = -bq + if inside { disc.sqrt() } else { -disc.sqrt() };
+        let (r0, s0) = self.cell(o + dir * root);
+        let mut best: Option<(f64, usize, f64, f64)> = None;
+        for r in r0.saturating_sub(1)..=(r0 + 1).min(SPHERE_RINGS - 1) {
+            for ds in [SPHERE_SEGMENTS - 1, 0, 1] {
+                for &t in &self.buckets[r * SPHERE_SEGMENTS + (s0 + ds) % SPHERE_SEGMENTS] {
+                    let p = self.tris[t].0.map(|v| v.as_dvec3());
+                    let (e1, e2) = (p[1] - p[0], p[2] - p[0]);
+                    let pv = dir.cross(e2);
+                    let det = e1.dot(pv);
+                    if det.abs() < 1e-18 {
+                        continue;
+                    }
+                    let tv = o - p[0];
+                    let u = tv.dot(pv) / det;
+                    let qv = tv.cross(e1);
+                    let v = dir.dot(qv) / det;
+                    let th = e2.dot(qv) / det;
+                    if u >= 0.0
+                        && v >= 0.0
+                        && u + v <= 1.0
+                        && th > 0.0
+                        && best.is_none_or(|b| th < b.0)
+                    {
+                        best = Some((th, t, u, v));
+                    }
+                }
+            }
+        }
+        let (t, tri, u, v) = best?;
+        let (p, nv) = self.tris[tri];
+        let nv = nv.map(|n| n * sign);
+        let ng = (p[1] - p[0]).cross(p[2] - p[0]).as_dvec3().normalize();
+        let ng = if ng.dot(dir) > 0.0 { -ng } else { ng };
+        let n = (nv[0].as_dvec3() * (1.0 - u - v) + nv[1].as_dvec3() * u + nv[2].as_dvec3() * v)
+            .normalize();
+        let flipped = n.dot(ng) < 0.0;
+        let n = if flipped { -n } else { n };
+        let k = lod::triangle_curvature(p, nv) * if flipped { -1.0 } else { 1.0 };
+        let edge = (0..3)
+            .map(|j| (p[(j + 1) % 3] - p[j]).length())
+            .fold(f32::MAX, f32::min) as f64;
+        let far = p.iter().map(|v| v.length()).fold(0.0, f32::max) as f64;
+        let tol_k =
+            32.0 * f32::EPSILON as f64 * (1.0 + far / SPHERE_R as f64) * SPHERE_R as f64 / edge;
+        Some(SphereHit {
+            t,
+            reflected: dir - n * (2.0 * dir.dot(n)),
+            k,
+            cos: ng.dot(dir).abs(),
+            tol_k,
+        })
+    }
+}
+
 /// Eq. 2.12 (β_c = −2 k w / (n·d)) on the GPU: the cone a curved mirror
 /// reflects. The plane mirror of `memo_levels_past_a_mirror_follow_the_grown_cone`
 /// becomes a sphere of radius R = 2 m (a 256 × 128 UV sphere with smooth
@@ -1826,10 +1988,8 @@ fn memo_levels_past_a_curved_mirror_follow_the_curvature_spread() {
     let ctx = context();
     let d = dir("memo-curved-mirror");
     let (base, quv) = uv_emitting_quads(&d, 0.0);
-    const R: f32 = 2.0;
+    const R: f32 = SPHERE_R;
     const BIAS: f32 = -2.0;
-    const SEGMENTS: usize = 256;
-    const RINGS: usize = 128;
     // (name, the sphere's centre, the eyes' midpoint, where they look).
     let geometries = [
         // Convex: the sphere's lowest point 0.6 above the quads.
@@ -1851,128 +2011,15 @@ fn memo_levels_past_a_curved_mirror_follow_the_curvature_spread() {
     ];
     for (geometry, centre, eye, look) in geometries {
         let mut scene = base.clone();
-        let mut sheet = Material::diffuse("mirror", Vec3::ONE);
-        sheet.transmission = 1.0;
-        sheet.ior = 100.0;
-        sheet.roughness = 0.0;
-        sheet.double_sided = true;
-        let m_sheet = add_material(&mut scene, sheet);
-        add_mesh(
-            &mut scene,
-            stereocache::scene::generate::uv_sphere("mirror", SEGMENTS as u32, RINGS as u32),
-            m_sheet,
-            // Poles along ±z: the rays meet the sphere near its equator, where
-            // the facets are near-square (at a pole they are slivers).
-            Mat4::from_translation(centre)
-                * Mat4::from_rotation_x(std::f32::consts::FRAC_PI_2)
-                * Mat4::from_scale(Vec3::splat(R)),
-        );
-        scene.validate().unwrap();
-        let mirror_inst = (scene.instances.len() - 1) as u32;
-        // The sphere's facets in world space (f32 as uploaded, then f64),
-        // bucketed by the (ring, segment) cell of their centroid.
-        let inst = &scene.instances[mirror_inst as usize];
-        let mesh_index = inst.mesh as usize;
-        let mesh = &scene.meshes[mesh_index];
-        let tris: Vec<([Vec3; 3], [Vec3; 3])> = (0..mesh.indices.len() / 3)
-            .map(|t| {
-                let idx = [0, 1, 2].map(|k| mesh.indices[3 * t + k] as usize);
-                (
-                    idx.map(|k| inst.transform.transform_point3(mesh.positions[k])),
-                    idx.map(|k| {
-                        inst.transform
-                            .transform_vector3(mesh.normals[k])
-                            .normalize()
-                    }),
-                )
-            })
-            .collect();
-        let to_object = inst.transform.as_dmat4().inverse();
-        let cell = |p: DVec3| {
-            let o = to_object.transform_point3(p).normalize();
-            let theta = o.y.clamp(-1.0, 1.0).acos();
-            let phi = o.x.atan2(o.z).rem_euclid(std::f64::consts::TAU);
-            (
-                ((theta / std::f64::consts::PI * RINGS as f64) as usize).min(RINGS - 1),
-                ((phi / std::f64::consts::TAU * SEGMENTS as f64) as usize).min(SEGMENTS - 1),
-            )
-        };
-        let mut buckets = vec![Vec::new(); RINGS * SEGMENTS];
-        for (t, (p, _)) in tris.iter().enumerate() {
-            let (r, s) = cell((p[0] + p[1] + p[2]).as_dvec3() / 3.0);
-            buckets[r * SEGMENTS + s].push(t);
-        }
+        let mirror = SphereMirror::add(&mut scene, centre, 0.0);
+        let (mirror_inst, mesh_index) = (mirror.instance, mirror.mesh);
         // A ray's reflection at the mesh, as the shader computes it: (t₁,
-        // reflected direction, hit facet's k towards the shading normal, |n_g·d|,
-        // the f32 rounding bound of k: 32·2^-23·(1 + |p| / R) / (shortest
-        // edge / R), as in tests/memo.rs).
-        // `sign` −1: the mesh's normals turned inwards.
-        let reflect_at_mesh = |o: DVec3,
-                               dir: DVec3,
-                               sign: f32|
-         -> Option<(f64, DVec3, f32, f64, f64)> {
-            let c = centre.as_dvec3();
-            let oc = o - c;
-            let bq = oc.dot(dir);
-            let disc = bq * bq - (oc.length_squared() - (R * R) as f64);
-            if disc <= 0.0 {
-                return None;
-            }
-            // The nearest hit ahead: from outside the near root, from
-            // inside the far one.
-            let inside = oc.length_squared() < (R * R) as f64;
-            let (r0, s0) = cell(o + dir * (-bq + if inside { disc.sqrt() } else { -disc.sqrt() }));
-            let mut best: Option<(f64, usize, f64, f64)> = None;
-            for r in r0.saturating_sub(1)..=(r0 + 1).min(RINGS - 1) {
-                for ds in [SEGMENTS - 1, 0, 1] {
-                    for &t in &buckets[r * SEGMENTS + (s0 + ds) % SEGMENTS] {
-                        // Möller–Trumbore, both sides.
-                        let p = tris[t].0.map(|v| v.as_dvec3());
-                        let (e1, e2) = (p[1] - p[0], p[2] - p[0]);
-                        let pv = dir.cross(e2);
-                        let det = e1.dot(pv);
-                        if det.abs() < 1e-18 {
-                            continue;
-                        }
-                        let tv = o - p[0];
-                        let u = tv.dot(pv) / det;
-                        let qv = tv.cross(e1);
-                        let v = dir.dot(qv) / det;
-                        let th = e2.dot(qv) / det;
-                        if u >= 0.0
-                            && v >= 0.0
-                            && u + v <= 1.0
-                            && th > 0.0
-                            && best.is_none_or(|b| th < b.0)
-                        {
-                            best = Some((th, t, u, v));
-                        }
-                    }
-                }
-            }
-            let (t1, t, u, v) = best?;
-            let (p, nv) = tris[t];
-            let nv = nv.map(|n| n * sign);
-            let ng = (p[1] - p[0]).cross(p[2] - p[0]).as_dvec3().normalize();
-            let ng = if ng.dot(dir) > 0.0 { -ng } else { ng };
-            let n =
-                (nv[0].as_dvec3() * (1.0 - u - v) + nv[1].as_dvec3() * u + nv[2].as_dvec3() * v)
-                    .normalize();
-            let flipped = n.dot(ng) < 0.0;
-            let n = if flipped { -n } else { n };
-            let k = lod::triangle_curvature(p, nv) * if flipped { -1.0 } else { 1.0 };
-            let edge = (0..3)
-                .map(|j| (p[(j + 1) % 3] - p[j]).length())
-                .fold(f32::MAX, f32::min) as f64;
-            let far = p.iter().map(|v| v.length()).fold(0.0, f32::max) as f64;
-            let tol_k = 32.0 * f32::EPSILON as f64 * (1.0 + far / R as f64) * R as f64 / edge;
-            Some((
-                t1,
-                dir - n * (2.0 * dir.dot(n)),
-                k,
-                ng.dot(dir).abs(),
-                tol_k,
-            ))
+        // reflected direction, hit facet's k towards the shading normal,
+        // |n_g·d|, the f32 rounding bound of k).
+        let reflect_at_mesh = |o: DVec3, dir: DVec3, sign: f32| {
+            mirror
+                .hit(o, dir, sign)
+                .map(|h| (h.t, h.reflected, h.k, h.cos, h.tol_k))
         };
         let size = glam::UVec2::new(96, 60);
         let settings = RenderSettings {
@@ -2126,6 +2173,202 @@ fn memo_levels_past_a_curved_mirror_follow_the_curvature_spread() {
                 "{geometry} {rt:?}: {c:?}"
             );
         }
+    }
+    assert_no_validation_messages(&ctx);
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// The uv a pixel of `uv_emitting_quads(_, 1.0)`'s quad 0 shows, when its
+/// path reached the quad: (u, v, 1) × the emissive factor × the path's
+/// weight, which blue gives; None for black (the path went elsewhere).
+fn weighted_uv(rad: [f32; 4]) -> Option<Vec2> {
+    let w = rad[2] / KHR_EMISSIVE_FACTOR[2];
+    (w > 0.0).then(|| {
+        Vec2::new(
+            rad[0] / (KHR_EMISSIVE_FACTOR[0] * w),
+            rad[1] / (KHR_EMISSIVE_FACTOR[1] * w),
+        )
+    })
+}
+
+/// Eqs. 2.11 and 2.12 at one surface: the cone past a *rough concave*
+/// mirror keeps its roughness blur (shaders/memo/lod.glsl
+/// `memo_cone_at`, twin `lod::cone_at`). The thesis sums the spreads
+/// (α + β_r + β_c), so a concave surface's negative β_c would cancel the
+/// blur β_r adds and focus the whole cone; ours keeps the geometric pencil
+/// (the eye's spread turned by β_c) apart from the blur, and the width at
+/// the next hit is |w₁ + (α + β_c)·t₂| + β_r·t₂. The concave view of
+/// `memo_levels_past_a_curved_mirror_follow_the_curvature_spread` (eyes
+/// and quad 0 inside the sphere of radius 2 m, k = −1/R) with the sphere
+/// made slightly rough (roughness 0.1, α_GGX = 0.01, β_r = 0.0141 rad, of
+/// the order of the eyes' 0.019 rad a pixel and of β_c), quad 0 alone and
+/// emitting (u, v, 1), memoized at secondary hits only (bias −2), BSDF
+/// sampling alone, rendered memoized and direct with the same seed as in
+/// `memo_levels_past_a_rough_mirror_follow_the_roughness_spread` (the
+/// direct render gives each path's exact hit on the quad, the memoized one
+/// the texel the cache keyed). For every pixel whose path reflected onto the
+/// quad, the CPU follows the pixel's centre and corner rays to the sphere's
+/// facets (t₁, k of the hit facet, |n_g·d|) and takes the second leg to the
+/// exact hit; the levels of the two-part cone over those rays must explain
+/// the texel at every pixel. The summed cone, |w₁ + (α + β_r + β_c)·t₂|,
+/// which focuses at this mirror (width through 0 before the quad at most
+/// pixels), is refuted wherever none of its levels explains the texel
+/// (required: a quarter of the pixels; measured in the eprintln), and so is
+/// the cone without the curvature term (w₁ + (α + β_r)·t₂; required: a
+/// tenth): the two-part cone still carries eq. 2.12. Both backends where
+/// ray queries exist, non-tiled and 4×4 tiles.
+#[test]
+fn memo_levels_past_a_rough_concave_mirror_keep_the_roughness_blur() {
+    use glam::DVec3;
+    use stereocache::materials::memo::lod;
+    use stereocache::materials::memo::{MemoFill, MemoHits, MemoSettings};
+    let ctx = context();
+    let d = dir("memo-rough-concave");
+    let (mut scene, quv) = uv_emitting_quads(&d, 1.0);
+    let meshes = scene.meshes.clone();
+    scene
+        .instances
+        .retain(|i| meshes[i.mesh as usize].material == 0);
+    const BIAS: f32 = -2.0;
+    const ROUGHNESS: f32 = 0.1;
+    let beta_r = lod::roughness_spread(ROUGHNESS * ROUGHNESS);
+    let mirror = SphereMirror::add(&mut scene, Vec3::new(-0.55, 0.5, 0.0), ROUGHNESS);
+    let size = glam::UVec2::new(96, 60);
+    let settings = RenderSettings {
+        width: size.x,
+        height: size.y,
+        spp: 1,
+        max_bounces: 1,
+        seed: 11,
+        all_features: false,
+        light_sampling: stereocache::methods::LightSampling::Bsdf,
+        ..Default::default()
+    };
+    let c = look_at(
+        "rough concave",
+        Vec3::new(-0.55, 0.2, 1.0),
+        Vec3::new(-0.55, 2.4, -0.3),
+        Vec3::Y,
+        60.0,
+    );
+    let camera = StereoCamera::from_scene_camera(c.transform, c.yfov, 96.0 / 60.0);
+    for (rt, tile) in level_test_configs(&ctx) {
+        let mut direct_scene = scene.clone();
+        direct_scene.graphs.memo = MemoSettings::default();
+        let direct = render(
+            &session(&ctx, direct_scene, rt),
+            "reference",
+            camera,
+            &settings,
+        );
+        let mut memo_scene = scene.clone();
+        memo_scene.graphs.memo = MemoSettings {
+            hits: MemoHits::Secondary,
+            tile,
+            entries: (1 << 20) / (tile * tile),
+            fill: MemoFill::Plain,
+            bias: BIAS,
+            ..Default::default()
+        };
+        let s = session(&ctx, memo_scene, rt);
+        let f = render(&s, "reference", camera, &settings);
+        let (mut checked, mut focused, mut summed_refuted, mut flat_refuted) =
+            (0usize, 0usize, 0usize, 0usize);
+        let mut levels_seen = std::collections::BTreeSet::new();
+        for (e, eye) in f.eyes.iter().enumerate() {
+            let view = camera.eyes()[e];
+            let spread = 2.0 * view.tan_half_fov().y / size.y as f32;
+            for (i, fh) in eye.first_hit.iter().enumerate() {
+                if fh[3] != mirror.instance {
+                    continue;
+                }
+                let (Some(uc), Some(uv)) = (
+                    weighted_uv(eye.radiance[i]),
+                    weighted_uv(direct.eyes[e].radiance[i]),
+                ) else {
+                    continue;
+                };
+                let p2 = quv.point_at(uv).as_dvec3();
+                let px = Vec2::new(
+                    (i as u32 % size.x) as f32 + 0.5,
+                    (i as u32 / size.x) as f32 + 0.5,
+                );
+                // Per ray of the pixel: (w₁, α + β_c, t₂, second leg's
+                // direction).
+                let legs: Vec<_> = [
+                    Vec2::ZERO,
+                    Vec2::new(-0.5, -0.5),
+                    Vec2::new(0.5, -0.5),
+                    Vec2::new(-0.5, 0.5),
+                    Vec2::new(0.5, 0.5),
+                ]
+                .iter()
+                .map(|&off| {
+                    let dir = view.ray_direction(px + off, size).as_dvec3().normalize();
+                    let o = view.position.as_dvec3();
+                    let h = mirror
+                        .hit(o, dir, 1.0)
+                        .expect("rays from inside meet the sphere");
+                    assert!(
+                        (h.k as f64 * SPHERE_R as f64 + 1.0).abs() <= h.tol_k,
+                        "{rt:?}: a facet's k·R is {}",
+                        h.k * SPHERE_R
+                    );
+                    let second = p2 - (o + dir * h.t);
+                    let t2 = second.length();
+                    let w1 = spread * h.t as f32;
+                    let pencil = spread + lod::curvature_spread(h.k, w1, h.cos as f32);
+                    (w1, pencil, t2 as f32, (second / t2).as_vec3())
+                })
+                .collect();
+                let levels = |width: &dyn Fn(f32, f32, f32) -> f32| {
+                    pixel_levels(
+                        &quv,
+                        legs.iter()
+                            .map(|&(w1, pencil, t2, r)| (width(w1, pencil, t2), r, p2.as_vec3())),
+                        BIAS,
+                    )
+                    .0
+                };
+                let explains = |m: i32| texel_explains(uc, m, uv, uv);
+                let two_part = levels(&|w1, pencil, t2| lod::cone_at(w1, pencil, 0.0, beta_r, t2));
+                assert!(
+                    two_part.clone().any(explains),
+                    "{rt:?} tile {tile}: eye {e} pixel {i}: texel centre {uc} (hit at uv {uv}) is no texel \
+                     of the two-part cone's levels {two_part:?}"
+                );
+                levels_seen.extend(two_part.filter(|&m| explains(m)));
+                checked += 1;
+                let (w1, pencil, t2, _) = legs[0];
+                if w1 + (pencil + beta_r) * t2 < 0.0 {
+                    focused += 1;
+                }
+                if !levels(&|w1, pencil, t2| w1 + (pencil + beta_r) * t2).any(explains) {
+                    summed_refuted += 1;
+                }
+                if !levels(&|w1, _, t2| w1 + (spread + beta_r) * t2).any(explains) {
+                    flat_refuted += 1;
+                }
+            }
+        }
+        eprintln!(
+            "{rt:?} tile {tile}: {checked} pixels reflected onto quad 0 (levels {levels_seen:?}); \
+             the summed cone focuses at {focused} and is refuted at {summed_refuted}, \
+             the cone without eq. 2.12 at {flat_refuted}"
+        );
+        assert!(
+            checked > 200 && focused > checked / 2,
+            "{rt:?} tile {tile}: {checked} pixels, {focused} focused"
+        );
+        assert!(
+            summed_refuted > checked / 4 && flat_refuted > checked / 10,
+            "{rt:?} tile {tile}: the alternatives are refuted at only {summed_refuted} and {flat_refuted} of {checked}"
+        );
+        let c = memo_counters(&s);
+        assert!(
+            c.hits > 0 && c.misses > 0 && c.refused == 0,
+            "{rt:?}: {c:?}"
+        );
     }
     assert_no_validation_messages(&ctx);
     let _ = std::fs::remove_dir_all(&d);

@@ -223,14 +223,19 @@ vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, vec2 eye_cone, inout Rng r
     vec3 sigma_a = vec3(0.0);    // absorption of the innermost, media_sigma_a(media)
 #ifdef SC_MATERIAL_MEMO
     // The memoization cache's cone past the first hit (thesis eqs.
-    // 2.10-2.12: width grown by the spread, the spread by each surface's
-    // roughness and, for reflections, its curvature); the texture
-    // filtering's `cone` stays 0 there. The width is signed (a concave
-    // mirror may focus the cone through 0); the level takes its magnitude.
+    // 2.10-2.12; memo/lod.glsl "The cone in two parts"): the geometric
+    // pencil (signed width memo_w, spread memo_spread: the eye's, turned by
+    // each reflection's curvature, eq. 2.12; a concave mirror may focus it
+    // through 0) and the roughness blur (width memo_blur_w ≥ 0, spread
+    // memo_blur_spread: the sum of the surfaces' β_r, eq. 2.11, never
+    // focused). The width at a hit is |memo_w| + memo_blur_w; the texture
+    // filtering's `cone` stays 0 there.
     float memo_w = cone_width;
     // (A perspective cone's spread is its width over the distance;
     // an orthographic one's is 0: parallel rays.)
     float memo_spread = hit && h.t > 0.0 && eye_cone.y > 0.0 ? cone_width / h.t : 0.0;
+    float memo_blur_w = 0.0;
+    float memo_blur_spread = 0.0;
 #endif
     for (uint bounce = 0u;;) {
         // Beer–Lambert over this segment (a ray escaping an open mesh from
@@ -243,7 +248,10 @@ vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, vec2 eye_cone, inout Rng r
         }
         Surface s = surface_at(h.instance, h.prim, h.bary, d);
 #ifdef SC_MATERIAL_MEMO
-        if (bounce > 0u) memo_w += memo_spread * h.t;
+        if (bounce > 0u) {
+            memo_w += memo_spread * h.t;
+            memo_blur_w += memo_blur_spread * h.t;
+        }
 #endif
         if (SC_TRANSMISSION && media_false_interface(media, h.instance, s.front)) {
             // A boundary with the same medium on both sides (media.glsl):
@@ -261,18 +269,18 @@ vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, vec2 eye_cone, inout Rng r
             continue;
         }
 #ifdef SC_MATERIAL_MEMO
-        sc_memo_cone = bounce > 0u && cone_width > 0.0 ? abs(memo_w) : -1.0;
+        sc_memo_cone = bounce > 0u && cone_width > 0.0 ? abs(memo_w) + memo_blur_w : -1.0;
 #endif
         ShadingMaterial m = material_at(s, d, cone);
 #ifdef SC_MATERIAL_MEMO
         sc_memo_cone = -1.0;
-        // A cone focused past zero width (negative width and spread, eq.
-        // 2.12) is widened by roughness too: β_r takes the width's sign.
-        memo_spread += (memo_w < 0.0 ? -1.0 : 1.0) * memo_roughness_spread(m.roughness * m.roughness);
-        // Eq. 2.12 at this hit (cone width memo_w), added below where the
-        // path reflects (light samples and reflected bounces); a
-        // transmitted ray gets none (exact for a thin-walled sheet; a
-        // refracting boundary's lens term is not modelled).
+        // Eq. 2.11: the roughness blur grows by this surface's β_r.
+        memo_blur_spread += memo_roughness_spread(m.roughness * m.roughness);
+        // Eq. 2.12 at this hit, on the geometric pencil (width memo_w),
+        // added below where the path reflects (light samples and
+        // reflected bounces); a transmitted ray gets none (exact for a
+        // thin-walled sheet; a refracting boundary's lens term is not
+        // modelled).
         float memo_beta_c = memo_curvature_spread(s.memo_curvature, memo_w, dot(s.ng, d));
 #endif
         // Shading normal facing away from the ray (interpolated or mapped
@@ -351,12 +359,15 @@ vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, vec2 eye_cone, inout Rng r
 #ifdef SC_MATERIAL_MEMO
             // Light samples are secondary hits of this path too: their
             // cone is the one a BSDF-sampled ray reaching the same point
-            // would have (memo_w + memo_spread · distance, as the next
+            // would have (|memo_w + memo_spread · distance| + the blur's width
+            // there, as the next
             // bounce grows it), so both strategies see the same memoized
             // emission (lights.glsl sample_emitter).
             sc_memo_nee = cone_width > 0.0;
             sc_memo_nee_w = memo_w;
             sc_memo_nee_spread = memo_spread + memo_beta_c;
+            sc_memo_nee_blur_w = memo_blur_w;
+            sc_memo_nee_blur_spread = memo_blur_spread;
 #endif
             L += beta * nee_area_lights(s, v, pick_emitter, u_emitter, u_env, sigma_a, rays);
 #ifdef SC_MATERIAL_MEMO

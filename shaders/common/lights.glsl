@@ -126,8 +126,10 @@ bool sample_emitter(vec3 p, uint pick, vec3 u, out EmitterSample es) {
     es.extent = max(va.x, max(va.y, va.z));
 #ifdef SC_MATERIAL_MEMO
     // The sampled point's memoization cone (integrator.glsl sets the
-    // vertex's signed width and spread; none: the graph is evaluated directly).
-    sc_memo_cone = sc_memo_nee ? abs(sc_memo_nee_w + sc_memo_nee_spread * es.dist) : -1.0;
+    // vertex's pencil and blur; none: the graph is evaluated directly).
+    sc_memo_cone = sc_memo_nee ? memo_cone_at(sc_memo_nee_w, sc_memo_nee_spread, sc_memo_nee_blur_w,
+                                              sc_memo_nee_blur_spread, es.dist)
+                               : -1.0;
 #endif
     es.Le = emitted_radiance(e, bary, es.wi);
 #ifdef SC_MATERIAL_MEMO

@@ -46,13 +46,16 @@ uint sc_memo_eye = 2u;
 float sc_memo_cone = -1.0;
 
 // The cone of light samples taken from the current path vertex (if
-// sc_memo_nee; else they are evaluated directly): signed width
-// sc_memo_nee_w grown by sc_memo_nee_spread per unit distance to the
-// sampled point (integrator.glsl sets them around next-event estimation;
-// lights.glsl sample_emitter reads them).
+// sc_memo_nee; else they are evaluated directly): the geometric pencil's
+// signed width sc_memo_nee_w grown by sc_memo_nee_spread per unit distance
+// to the sampled point, plus the roughness blur's width sc_memo_nee_blur_w
+// grown by sc_memo_nee_blur_spread (memo_cone_at; integrator.glsl sets
+// them around next-event estimation; lights.glsl sample_emitter reads them).
 bool sc_memo_nee = false;
 float sc_memo_nee_w = 0.0;
 float sc_memo_nee_spread = 0.0;
+float sc_memo_nee_blur_w = 0.0;
+float sc_memo_nee_blur_spread = 0.0;
 
 // The 12 record words: base colour, metallic, roughness, normal, emission, mask.
 void memo_pack(ScGraphOutputs o, out uvec4 r0, out uvec4 r1, out uvec4 r2) {

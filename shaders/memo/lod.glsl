@@ -127,4 +127,27 @@ float memo_triangle_curvature(vec3 pa, vec3 pb, vec3 pc, vec3 na, vec3 nb, vec3 
 float memo_curvature_spread(float k, float width, float n_dot_d) {
     return 2.0 * k * width / max(abs(n_dot_d), 1e-6);
 }
+// The cone in two parts. The thesis sums the spreads (alpha + beta_r +
+// beta_c), so a concave surface's negative beta_c can cancel the spread
+// its own or an earlier surface's roughness added and focus the whole cone
+// through zero width; past a rough bounce (beta_r up to ~45 rad for GGX
+// alpha 1, a width of tens of metres at the next hit) a concave facet's
+// beta_c = -2 k w / (n.d) is of that size too, and hits near the focus take
+// the finest level (a fresh key nearly every time: session 51's bisect,
+// docs/PERFORMANCE.md). Roughness is a statistical spread (eq. 2.11: the
+// width of the GGX lobe each point of the footprint scatters into), not a
+// pencil of rays that a later mirror can refocus; curvature turns the
+// geometric pencil. So the cone is kept as the geometric pencil (signed
+// width w, spread s: the eye's, turned by eq. 2.12 at each reflection, which
+// may focus it) plus the roughness blur (width b >= 0 grown by the sum of
+// the surfaces' beta_r), and its width at distance t is
+// |w + s t| + b + beta t. Along mirrors (beta_r = 0) this is the thesis's
+// cone exactly; past one rough surface without curvature it is the
+// thesis's w + (s + beta_r) t wherever the pencil has not focused.
+// Elsewhere it is never narrower than the blur (coarser levels than the
+// summed cone; the snapping error stays within the blur's footprint).
+// A deviation from the thesis (docs/MATERIALS.md "Curvature").
+float memo_cone_at(float w, float s, float blur_w, float blur_s, float t) {
+    return abs(w + s * t) + blur_w + blur_s * t;
+}
 #endif

@@ -2,7 +2,8 @@
 //! from a ray cone's anisotropic footprint (thesis eqs. 2.13–2.16,
 //! 5.1–5.5), the nearest texel centre (eqs. 5.6–5.7, texel-centre
 //! snapping) and the cone's growth past a hit (eqs. 2.10–2.12, the
-//! curvature k of eq. 2.12 estimated from a triangle's vertex normals). See
+//! curvature k of eq. 2.12 estimated from a triangle's vertex normals;
+//! the geometric pencil and the roughness blur kept apart, `cone_at`). See
 //! the shader for the reasoning; the formulas are the same, in f32.
 
 use glam::{Vec2, Vec3};
@@ -127,4 +128,15 @@ pub fn triangle_curvature(p: [Vec3; 3], n: [Vec3; 3]) -> f32 {
 /// cone of width w in the plane of incidence.
 pub fn curvature_spread(k: f32, width: f32, n_dot_d: f32) -> f32 {
     2.0 * k * width / n_dot_d.abs().max(1e-6)
+}
+
+/// The cone's width at distance `t` past a vertex, kept in two parts
+/// (`memo_cone_at` in `shaders/memo/lod.glsl`, which gives the reasoning):
+/// the geometric pencil (signed width `w`, spread `s`: the eye's, turned by
+/// eq. 2.12 at reflections; it may focus through 0) and the roughness blur
+/// (width `blur_w` ≥ 0, spread `blur_s`: the sum of the surfaces' eq. 2.11
+/// β_r, never focused): |w + s·t| + blur_w + blur_s·t. The thesis sums the
+/// two spreads; keeping them apart is ours (docs/MATERIALS.md "Curvature").
+pub fn cone_at(w: f32, s: f32, blur_w: f32, blur_s: f32, t: f32) -> f32 {
+    (w + s * t).abs() + blur_w + blur_s * t
 }
