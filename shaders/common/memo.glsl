@@ -31,6 +31,17 @@ const uint MEMO_S_NOW = 0u, MEMO_S_CAPACITY = 1u, MEMO_S_PROBE = 2u, MEMO_S_POLI
 const uint MEMO_C_HITS = 8u, MEMO_C_MISSES = 9u, MEMO_C_FILLS = 10u, MEMO_C_EVICTIONS = 11u,
            MEMO_C_LOCK_FAILURES = 12u, MEMO_C_REFUSED = 13u, MEMO_C_BYPASSED = 14u,
            MEMO_C_SECOND_EYE_HITS = 15u, MEMO_C_SECOND_EYE_MISSES = 16u, MEMO_C_COOPERATIVE_FILLS = 17u;
+// Each counter's high word (its carries) sits MEMO_C_COUNT words after it:
+// one frame of a long render (the reference's samples are chunked inside
+// one frame) counts past 2^32 lookups at 1080p stereo from ~1,036 spp.
+const uint MEMO_C_COUNT = 10u;
+
+// Counter c plus one, carried into its high word on the wrap (the add that
+// returns 2^32 − 1 is the one that wrapped; read after the frame, so the
+// pair is consistent).
+void memo_add(uint c) {
+    if (atomicAdd(memo_state[c], 1u) == 0xFFFFFFFFu) atomicAdd(memo_state[c + MEMO_C_COUNT], 1u);
+}
 
 // The eye of the pass's current work item (0 left, 1 right, 2 unknown),
 // set by each hit-shading pass where it knows it. Both eyes render in one
@@ -92,8 +103,8 @@ void memo_write_texel(uint b, uvec4 r0, uvec4 r1, uvec4 r2) {
 // A tiled hit in slot `sl`: LRU's stamp and the counters.
 void memo_count_hit(uint sl, uint policy, uint now) {
     if (policy == MEMO_LRU) memo_touch(sl, now);
-    atomicAdd(memo_state[MEMO_C_HITS], 1u);
-    if (sc_memo_eye == 1u) atomicAdd(memo_state[MEMO_C_SECOND_EYE_HITS], 1u);
+    memo_add(MEMO_C_HITS);
+    if (sc_memo_eye == 1u) memo_add(MEMO_C_SECOND_EYE_HITS);
 }
 
 // A tiled miss is counted (memo_count_miss), then the victim of h1's
@@ -102,8 +113,8 @@ void memo_count_hit(uint sl, uint policy, uint now) {
 // MEMO_NONE when the key is present already (`present`) or no entry could
 // be locked: the lane then evaluates for itself and stores nothing.
 void memo_count_miss() {
-    atomicAdd(memo_state[MEMO_C_MISSES], 1u);
-    if (sc_memo_eye == 1u) atomicAdd(memo_state[MEMO_C_SECOND_EYE_MISSES], 1u);
+    memo_add(MEMO_C_MISSES);
+    if (sc_memo_eye == 1u) memo_add(MEMO_C_SECOND_EYE_MISSES);
 }
 uint memo_lock_victim(uint h0, uint h1, uint cap, uint probe, uint policy, uint now,
                       out uint seen, out bool present) {
@@ -122,9 +133,9 @@ uint memo_begin_fill(uint h0, uint h1, uint cap, uint probe, uint policy, uint n
 void memo_end_fill(uint victim, uint h1, uint now, uint seen, bool present) {
     if (victim != MEMO_NONE) {
         memo_unlock(victim, h1, now);
-        atomicAdd(memo_state[seen == MEMO_EMPTY ? MEMO_C_FILLS : MEMO_C_EVICTIONS], 1u);
+        memo_add(seen == MEMO_EMPTY ? MEMO_C_FILLS : MEMO_C_EVICTIONS);
     } else if (!present) {
-        atomicAdd(memo_state[MEMO_C_LOCK_FAILURES], 1u);
+        memo_add(MEMO_C_LOCK_FAILURES);
     }
 }
 
@@ -185,7 +196,7 @@ MemoCall memo_call(uint material, vec2 uv, float cone_width, float uv_per_width)
             c.variant = c.shift > 0u ? (bilinear ? MEMO_V_TILE_BILINEAR : MEMO_V_TILE)
                                      : (bilinear ? MEMO_V_TEXELS : MEMO_V_TEXEL);
         } else {
-            atomicAdd(memo_state[MEMO_C_BYPASSED], 1u);
+            memo_add(MEMO_C_BYPASSED);
         }
     }
     c.tiled = c.variant == MEMO_V_TILE || c.variant == MEMO_V_TILE_BILINEAR;
@@ -210,7 +221,7 @@ MemoCall memo_call(uint material, vec2 uv, float cone_width, float uv_per_width)
         // Level m's grid cannot hold this uv (lod.glsl memo_fits): the
         // graph is evaluated at the hit, as for a material that is not
         // memoizable, and counted with those.
-        atomicAdd(memo_state[MEMO_C_BYPASSED], 1u);
+        memo_add(MEMO_C_BYPASSED);
         c.variant = MEMO_V_DIRECT;
         c.tiled = false;
         c.bilinear = false;
@@ -247,13 +258,13 @@ void memo_lookup_texels(inout MemoCall c, uint material, vec3 n, inout ScGraphOu
         bool torn;
         if (memo_find(memo_h0(material, c.level, qk), memo_h1(material, c.level, qk), c.cap, c.probe, true,
                       c.policy, c.now, r0, r1, r2, torn) != MEMO_NONE) {
-            atomicAdd(memo_state[MEMO_C_HITS], 1u);
-            if (sc_memo_eye == 1u) atomicAdd(memo_state[MEMO_C_SECOND_EYE_HITS], 1u);
+            memo_add(MEMO_C_HITS);
+            if (sc_memo_eye == 1u) memo_add(MEMO_C_SECOND_EYE_HITS);
             out4[k] = memo_unpack(r0, r1, r2, n);
         } else {
-            atomicAdd(memo_state[MEMO_C_MISSES], 1u);
-            if (sc_memo_eye == 1u) atomicAdd(memo_state[MEMO_C_SECOND_EYE_MISSES], 1u);
-            if (torn) atomicAdd(memo_state[MEMO_C_REFUSED], 1u);
+            memo_add(MEMO_C_MISSES);
+            if (sc_memo_eye == 1u) memo_add(MEMO_C_SECOND_EYE_MISSES);
+            if (torn) memo_add(MEMO_C_REFUSED);
             c.missing |= 1u << k;
         }
     }
@@ -291,7 +302,7 @@ void memo_lookup_tile(inout MemoCall c, uint material, vec3 n, inout ScGraphOutp
             memo_count_hit(sl, c.policy, c.now);
             found = true;
         } else {
-            atomicAdd(memo_state[MEMO_C_REFUSED], 1u);
+            memo_add(MEMO_C_REFUSED);
         }
         break;
     }
@@ -431,7 +442,7 @@ void memo_round_step(inout MemoRound r, inout MemoCall c, bool evaluated, ScGrap
     subgroupBallot(true);
     if (r.lead) {
         memo_end_fill(r.victim, r.h1, c.now, r.seen, r.present);
-        atomicAdd(memo_state[MEMO_C_COOPERATIVE_FILLS], 1u);
+        memo_add(MEMO_C_COOPERATIVE_FILLS);
     }
     if (r.mine) c.need = false;
     memo_round_next(r, c);
@@ -479,9 +490,9 @@ void memo_store(MemoCall c, uint material, uint k, ivec2 texel, uint corner, ScG
     }
     uint res = memo_insert(memo_h0(material, c.level, texel), memo_h1(material, c.level, texel), c.cap,
                            c.probe, c.policy, c.now, r0, r1, r2);
-    if (res == MEMO_FILLED) atomicAdd(memo_state[MEMO_C_FILLS], 1u);
-    else if (res == MEMO_EVICTED) atomicAdd(memo_state[MEMO_C_EVICTIONS], 1u);
-    else if (res == MEMO_LOCK_FAILED) atomicAdd(memo_state[MEMO_C_LOCK_FAILURES], 1u);
+    if (res == MEMO_FILLED) memo_add(MEMO_C_FILLS);
+    else if (res == MEMO_EVICTED) memo_add(MEMO_C_EVICTIONS);
+    else if (res == MEMO_LOCK_FAILED) memo_add(MEMO_C_LOCK_FAILURES);
     out4[corner] = memo_unpack(r0, r1, r2, n);
 }
 

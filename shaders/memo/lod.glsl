@@ -49,7 +49,10 @@ float memo_uv_per_width(vec3 dir, vec3 e1, vec3 e2, vec2 d1, vec2 d2) {
 int memo_level(float cone_width, float uv_per_width, float bias) {
     float l = abs(cone_width) * max(uv_per_width, 0.0);
     if (!(l > 0.0)) return MEMO_MAX_LEVEL;
-    return clamp(int(floor(-log2(l) + bias + 0.5)), MEMO_MIN_LEVEL, MEMO_MAX_LEVEL);
+    // Clamped as a float first: l may be +inf (eq. 2.12's |n.d| floor of
+    // 1e-6 at grazing curved bounces overflows f32 in a few bounces), and
+    // int(-inf) is undefined in SPIR-V (Rust's `as i32` saturates).
+    return int(clamp(floor(-log2(l) + bias + 0.5), float(MEMO_MIN_LEVEL), float(MEMO_MAX_LEVEL)));
 }
 
 // Whether level m's texel grid holds uv exactly: |2^m u|, |2^m v| < 2^23,
@@ -61,7 +64,9 @@ int memo_level(float cone_width, float uv_per_width, float bias) {
 // not fit.
 bool memo_fits(vec2 uv, int level) {
     vec2 x = abs(ldexp(uv, ivec2(level)));
-    return max(x.x, x.y) < 8388608.0;
+    // Per component: max(NaN, y) may return y (GLSL.std.450 FMax), which
+    // let a NaN uv through; a comparison with NaN is false.
+    return all(lessThan(x, vec2(8388608.0)));
 }
 
 // Eqs. 5.6-5.7: the nearest texel centre, (û, v̂) = round(2^m (u, v))
@@ -127,6 +132,7 @@ float memo_triangle_curvature(vec3 pa, vec3 pb, vec3 pc, vec3 na, vec3 nb, vec3 
 float memo_curvature_spread(float k, float width, float n_dot_d) {
     return 2.0 * k * width / max(abs(n_dot_d), 1e-6);
 }
+
 // The cone in two parts. The thesis sums the spreads (alpha + beta_r +
 // beta_c), so a concave surface's negative beta_c can cancel the spread
 // its own or an earlier surface's roughness added and focus the whole cone

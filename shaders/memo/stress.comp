@@ -61,9 +61,14 @@ void interleaved(uint lane) {
     barrier();
     if (writer) locked = memo_lock(s, a);
     barrier();
-    if (writer && locked)
+    if (writer && locked) {
         memo_write_record(s, uvec4(f(b, 0u), f(b, 1u), f(b, 2u), f(b, 3u)), uvec4(f(b, 4u), f(b, 5u), f(b, 6u), f(b, 7u)),
                           uvec4(f(b, 8u), f(b, 9u), f(b, 10u), f(b, 11u)));
+        // barrier() orders execution, not buffer memory: make the record
+        // visible before the reader's read, so the read sees B's record
+        // (the torn case this mode forces) on any device.
+        memoryBarrierBuffer();
+    }
     barrier();
     if (reader && seen) memo_read_record(s, r0, r1, r2);
     barrier();

@@ -133,7 +133,7 @@ pub fn run(a: RenderArgs) -> Result<()> {
 /// One line of the memoization cache's counters.
 pub fn memo_line(c: &stereocache::materials::memo::state::MemoCounters) -> String {
     format!(
-        "memo: {} lookups, hit rate {} (second eye {}), {} fills, {} evictions, {} lock failures, {} refused reads, {} hits not memoizable (graphs read more than the uv)",
+        "memo: {} lookups, hit rate {} (second eye {}), {} fills, {} evictions, {} lock failures, {} refused reads, {} hits evaluated directly (graphs that read more than the uv, or uvs beyond the level's texel grid)",
         c.hits + c.misses,
         c.hit_rate().map_or("-".into(), |r| format!("{:.2} %", 100.0 * r)),
         c.second_eye_hit_rate()

@@ -249,8 +249,12 @@ void sc_graph_object_space(inout MxGeom g, uint instance, vec3 p) {
 /// [0, `scene::MAX_EMISSION`] (the bound on an emissive factor; HDR
 /// emission is what an emission graph is for; the product with the factor
 /// is bounded again where it is formed, material.glsl and lights.glsl), and
-/// a normal that is not finite is the surface's own. So no graph can put a
-/// NaN or an infinity into a path, a cache or the memo table.
+/// a normal that is not finite is the surface's own: its slot bits (8, 32)
+/// are cleared, so the material keeps its shading normal (a world normal
+/// was put into a tangent-space slot before) and the memo table stores "no
+/// normal" rather than the evaluating hit's normal, which every later hit
+/// of the texel read as its own. So no graph can put a NaN or an infinity
+/// into a path, a cache or the memo table.
 fn sanitize() -> String {
     format!(
         "const float SC_MAX_EMISSION = {:e};
@@ -263,7 +267,10 @@ void sc_graph_sanitize(inout ScGraphOutputs r, vec3 normal) {{
     r.metallic = sc_graph_range(r.metallic, 1.0);
     r.roughness = sc_graph_range(r.roughness, 1.0);
     r.emission = sc_graph_range(r.emission, SC_MAX_EMISSION);
-    if (any(isnan(r.normal)) || any(isinf(r.normal))) r.normal = normal;
+    if (any(isnan(r.normal)) || any(isinf(r.normal))) {{
+        r.normal = normal;
+        r.mask &= ~40u;
+    }}
 }}
 ",
         crate::scene::MAX_EMISSION

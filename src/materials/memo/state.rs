@@ -46,10 +46,15 @@ pub struct MemoCounters {
 }
 
 impl MemoCounters {
-    pub const WORDS: usize = 10;
+    /// The counters' words: each counter's low word, then each one's high
+    /// word in the same order (`memo_add` in shaders/common/memo.glsl
+    /// carries into it: one frame of a long render counts past 2^32).
+    pub const COUNT: usize = 10;
+    pub const WORDS: usize = 2 * Self::COUNT;
 
     pub fn from_words(w: &[u32]) -> MemoCounters {
-        let g = |k: usize| w.get(k).copied().unwrap_or(0) as u64;
+        let word = |k: usize| w.get(k).copied().unwrap_or(0) as u64;
+        let g = |k: usize| word(k) | word(k + Self::COUNT) << 32;
         MemoCounters {
             hits: g(0),
             misses: g(1),
@@ -109,3 +114,26 @@ pub fn frame_words(s: &MemoSettings, now: u32) -> Vec<u32> {
 
 /// Bytes of the state buffer.
 pub const STATE_BYTES: u64 = ((PARAM_WORDS + MemoCounters::WORDS) * 4) as u64;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A counter's high word (`memo_add`'s carries) is its upper 32 bits.
+    #[test]
+    fn counters_join_their_carry_words() {
+        let mut w = vec![0u32; MemoCounters::WORDS];
+        w[0] = 7; // hits, low
+        w[MemoCounters::COUNT] = 2; // hits, high
+        w[9] = u32::MAX; // cooperative fills, low
+        w[9 + MemoCounters::COUNT] = 1;
+        let c = MemoCounters::from_words(&w);
+        assert_eq!(c.hits, (2u64 << 32) + 7);
+        assert_eq!(c.cooperative_fills, (1u64 << 32) + u32::MAX as u64);
+        assert_eq!(c.misses, 0);
+        assert_eq!(
+            STATE_BYTES as usize,
+            4 * frame_words(&MemoSettings::default(), 1).len()
+        );
+    }
+}
