@@ -297,8 +297,16 @@ fn blend_twin(
     if fh[3] == u32::MAX {
         return None;
     }
-    let wp = hit_position(scene, fh);
-    let (q, vd) = views[x].project(wp, glam::UVec2::new(w as u32, h as u32))?;
+    // The point on the ray through Y's pixel centre at the closest sample's
+    // view depth (stereo_blend.comp).
+    let size = glam::UVec2::new(w as u32, h as u32);
+    let yc = glam::Vec2::new((p % w) as f32 + 0.5, (p / w) as f32 + 0.5);
+    let vy = &views[y];
+    let (_, depth_y) = vy.project(hit_position(scene, fh), size)?;
+    let yd = vy.ray_direction(yc, size);
+    let fwd = vy.orientation * glam::Vec3::NEG_Z;
+    let wp = vy.position + vy.ray_origin_offset(yc, size) + yd * (depth_y / yd.dot(fwd));
+    let (q, vd) = views[x].project(wp, size)?;
     // Rounding of q (the GPU projects from origin-relative f32, this from
     // world f32): within 10⁻³ px of a pixel edge the nearest pixel and the
     // bounds are ambiguous.

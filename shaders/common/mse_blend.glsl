@@ -13,9 +13,12 @@
 // negative tap shrank the denominator and pushed β′ to 0 (all X). Where
 // the denominator vanishes (X and Y agree exactly and neither varies) or is
 // not finite, β′ = 1: Y is kept.
+// The clamp is written as a selection: GLSL's max(NaN, 0) may return
+// either operand, Rust's f32::max (the twin) returns 0, as this does.
+vec3 mse_nonneg(vec3 v) { return mix(vec3(0.0), v, greaterThan(v, vec3(0.0))); }
 vec3 beta_prime(vec3 m1x, vec3 m2x, vec3 m1y, vec3 m2y) {
-    vec3 var_y = max(m2y - m1y * m1y, vec3(0.0));
-    vec3 var_x = max(m2x - m1x * m1x, vec3(0.0));
+    vec3 var_y = mse_nonneg(m2y - m1y * m1y);
+    vec3 var_x = mse_nonneg(m2x - m1x * m1x);
     vec3 bias = m1x - m1y;
     vec3 denom = var_x + var_y + bias * bias;
     vec3 b;

@@ -15,14 +15,16 @@
 // a noise-free textured plane bilinear X halved the blended image's CPBD at
 // R = 0 while nearest kept it within noise of the unblended image
 // (tests/sample_cache_shading.rs); nearest's price is a misregistration of
-// X by at most half a pixel, which β′ (the bias term) limits at edges.
+// X by at most half a pixel (Y's pixel centre is reprojected, below), which
+// β′ (the bias term) limits at edges.
 // A single-sample pixel: Eq. 5 over one sample gives μ2 = μ1², i.e. σ² = 0
-// (Eq. 7); we keep the paper's estimator rather than invent a variance. As
-// Y that gives β′ = 1 (Y kept as it is: nothing to gain by blending); as X
-// it makes β′ = 1 − σ_Y²/(Bias² + σ_Y²), i.e. X is trusted as noise-free and
-// weighted by how far its mean lies from Y's. At R < 1 the 3×3 blur of the
-// moments brings the neighbours' spreads in, which is exactly what
-// the sharpness parameter trades. CPU twin of the math: src/stereo/blend.rs.
+// (Eq. 7): the estimator cannot tell a one-sample pixel from a noise-free
+// one, a limitation of the paper's we keep rather than invent a variance.
+// As Y that gives β′ = 1 (Y kept, though it is the noisiest pixel); as X it
+// counts as noise-free, softened only where Dodgson's taps mix in its
+// neighbours' moments (off a pixel centre, at any R) and, for Y, by the 3×3
+// blur at R < 1 (docs/ARCHITECTURE.md "Stereo blending").
+// CPU twin of the math: src/stereo/blend.rs.
 #include "sample_cache/common.glsl"
 #include "common/mse_blend.glsl"
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
@@ -75,7 +77,17 @@ void main() {
     if (!first_hit_valid(fh)) return;                      // background: left unblended
     uint other = 1u - eye;
     EyeGpu ex = frame.eyes[other];
-    vec3 wp = hit_position(fh);
+    EyeGpu ey = frame.eyes[eye];
+    // The point reprojected: on the ray through Y's pixel centre, at the
+    // closest visible sample's view depth (§3.6: the closest sample "gives
+    // a more stable depth value"). Y's colour stands for the whole pixel, so
+    // its centre is what X's pixel must match: the sample's own position
+    // lies anywhere in the pixel and, with X's nearest pixel, misregistered
+    // X by up to a whole pixel (on average a third); from the centre it is
+    // at most half a pixel.
+    vec2 yc = vec2(px) + 0.5;
+    vec3 yd = eye_ray_dir(ey, yc);
+    vec3 wp = eye_ray_origin(ey, yc) + yd * (view_depth(ey, hit_position(fh)) / dot(yd, ey.fwd.xyz));
     vec2 q;
     float vd;
     if (!project_to_eye(ex, wp, q, vd)) return;

@@ -38,7 +38,7 @@ pub struct SampleCacheArgs {
     /// Stereo blending of the two eyes (§3.6): none | moments | neighbourhood
     #[arg(long, default_value = "none")]
     pub stereo_blend: BlendMode,
-    /// Sharpness R of the stereo blending in [0, 1] (1 = no neighbour contributes).
+    /// Sharpness R of the stereo blending in [0, 1] (1 = no neighbour enters Y's moments; X's are resampled with Dodgson's kernel at any R).
     #[arg(long, default_value_t = 0.5, value_parser = float_with("--sharpness", |v: f32| (0.0..=1.0).contains(&v), "R in [0, 1]"))]
     pub sharpness: f32,
 }
