@@ -259,7 +259,8 @@ pub struct FrameRecord {
     pub index: usize,
     /// Seconds since the trace's first sample (`index / fps`).
     pub t: f64,
-    /// Sum of the frame's pass timings.
+    /// The frame's GPU time (`FrameStats::gpu_ms`: its passes' timings
+    /// without the diagnostic `diag.` passes, which `passes` lists too).
     pub gpu_ms: f64,
     /// Milliseconds per pass name (passes with the same name summed).
     pub passes: BTreeMap<String, f64>,

@@ -73,7 +73,7 @@ pub struct Interleaved {
 }
 
 /// Renders `cameras` (frames at `fps`) with every method in `methods`,
-/// interleaved frame by frame in rotating order so drift of a shared
+/// interleaved frame by frame in a carry-over balanced order (`balanced_order`) so drift of a shared
 /// machine hits them alike; frame 0 is a warm-up and not counted. Before
 /// each frame the scene's instances are posed at the frame's time
 /// ([`pose_frame`]; the poses of every frame are checked first), once for
@@ -97,8 +97,7 @@ pub fn run_interleaved(
         if i > 0 {
             pose_ms.extend(posing);
         }
-        for k in 0..methods.len() {
-            let j = (k + i) % methods.len();
+        for j in balanced_order(i, methods.len()) {
             let f = methods[j].render_frame(&input)?;
             if i > 0 {
                 stats[j].push(f.stats);
@@ -106,6 +105,41 @@ pub fn run_interleaved(
         }
     }
     Ok(Interleaved { stats, pose_ms })
+}
+
+/// The order in which `m` configurations run in round (frame) `round` of an
+/// interleaved benchmark: the rows of a Williams design (Williams 1949), so
+/// that over m rounds (2m when m is odd) every configuration runs in every
+/// position equally often *and* follows every other one equally often.
+/// The rotation used before (k + round mod m) balanced the positions but
+/// put each configuration after the same neighbour in every round, so a
+/// carry-over from one workload to the next (clock, caches, the driver's
+/// state) fell on the same configuration every time, a bias no ± shows.
+/// Row r of the first m is (r, r+1, r−1, r+2, r−2, …) mod m; for odd m the
+/// next m are those rows reversed.
+pub fn balanced_order(round: usize, m: usize) -> Vec<usize> {
+    if m == 0 {
+        return Vec::new();
+    }
+    let r = round % if m % 2 == 0 { m } else { 2 * m };
+    let shift = r % m;
+    let mut row: Vec<usize> = (0..m)
+        .map(|j| {
+            // 0, 1, m−1, 2, m−2, …
+            let base = if j == 0 {
+                0
+            } else if j % 2 == 1 {
+                j.div_ceil(2)
+            } else {
+                m - j / 2
+            };
+            (base + shift) % m
+        })
+        .collect();
+    if r >= m {
+        row.reverse();
+    }
+    row
 }
 
 /// Ratio of the means of `a` and `b` (paired per-frame times of two methods
@@ -137,6 +171,56 @@ pub fn mean_and_se(v: &[f64]) -> (f64, f64) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Over a full cycle of rounds every configuration takes every position
+    /// equally often and follows every other configuration equally often
+    /// (the first-order carry-over balance the old rotation lacked: with it
+    /// configuration j always followed j − 1).
+    #[test]
+    fn balanced_order_balances_positions_and_predecessors() {
+        for m in 1..=9usize {
+            let rounds = if m % 2 == 0 { m } else { 2 * m };
+            let mut position = vec![vec![0usize; m]; m];
+            let mut follows = vec![vec![0usize; m]; m];
+            for r in 0..rounds {
+                let row = balanced_order(r, m);
+                let mut sorted = row.clone();
+                sorted.sort();
+                assert_eq!(
+                    sorted,
+                    (0..m).collect::<Vec<_>>(),
+                    "m {m} round {r}: {row:?}"
+                );
+                for (p, &c) in row.iter().enumerate() {
+                    position[c][p] += 1;
+                }
+                for w in row.windows(2) {
+                    follows[w[1]][w[0]] += 1;
+                }
+                assert_eq!(
+                    balanced_order(r + rounds, m),
+                    row,
+                    "m {m}: the cycle repeats"
+                );
+            }
+            let per = rounds / m;
+            for c in 0..m {
+                assert!(
+                    position[c].iter().all(|&n| n == per),
+                    "m {m}: positions {position:?}"
+                );
+                for b in 0..m {
+                    let want = if b == c {
+                        0
+                    } else {
+                        rounds * (m - 1) / (m * (m - 1)).max(1)
+                    };
+                    assert_eq!(follows[c][b], want, "m {m}: {c} after {b}: {follows:?}");
+                }
+            }
+        }
+        assert!(balanced_order(3, 0).is_empty());
+    }
 
     /// The ± belongs to the ratio printed before it: the ratio of the means
     /// and its delta-method error, not the spread of the per-frame ratios

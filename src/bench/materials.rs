@@ -5,7 +5,7 @@
 //! policies (Table 6.2's analogue), with per-frame hit rates, fills,
 //! evictions and lock failures. Every configuration renders the same
 //! cameras from an empty table on its own upload of the scene (the table
-//! belongs to the scene's set 0); the configurations alternate in rotating
+//! belongs to the scene's set 0); the configurations alternate in a carry-over balanced
 //! order over `repeats` rounds, and each round's frame times are paired
 //! with the same round's "off" run for the ratio.
 
@@ -222,8 +222,10 @@ pub fn bench_materials(
     // Wall ms of posing before each steady frame, all runs.
     let mut pose_ms = Vec::new();
     for round in 0..repeats.max(1) {
-        for k in 0..configs.len() {
-            let c = (k + round) % configs.len();
+        for (k, c) in super::interleave::balanced_order(round, configs.len())
+            .into_iter()
+            .enumerate()
+        {
             let mut s = scene.clone();
             s.graphs.memo = configs[c].1;
             let session = Session::with_context(ctx.clone(), s, rt)?;

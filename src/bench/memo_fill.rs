@@ -9,10 +9,10 @@
 //! (every lookup hits); the difference of the two frames' GPU times over
 //! the difference of their fills is the time a fill costs beyond a hit.
 //! Each round empties the table again; the rows alternate with an "off"
-//! run (no table: the direct evaluation) in rotating order, like
+//! run (no table: the direct evaluation) in a carry-over balanced order, like
 //! `bench_materials`.
 
-use super::interleave::{mean_and_se, pose_frame};
+use super::interleave::{mean_and_se, paired_ratio, pose_frame};
 use crate::camera::StereoCamera;
 use crate::error::Result;
 use crate::gpu::GpuContext;
@@ -74,11 +74,14 @@ pub struct FillCostRow {
     pub warm_fills: f64,
     /// Lookups of the warm frame that hit.
     pub warm_hit_rate: f64,
-    /// (cold − warm) / (cold fills − warm fills), mean over rounds, in µs,
-    /// and its standard error over the rounds.
+    /// Σ(cold − warm) / Σ(cold fills − warm fills) over the rounds, in µs
+    /// (a ratio of means, as every ratio of the benches: a mean of per-round
+    /// ratios is biased and weighs a round with few fills as much as one
+    /// with many), and its delta-method standard error.
     pub us_per_fill: f64,
     pub us_per_fill_se: f64,
-    /// Cold and warm frame over the same round's "off" frame (mean ratio).
+    /// Cold and warm frame over the "off" frame of the same rounds (ratio of
+    /// the means, paired by round).
     pub cold_over_off: f64,
     pub warm_over_off: f64,
 }
@@ -127,8 +130,7 @@ pub fn bench_fill_cost(
         m.render_frame(&input)?;
     }
     for round in 0..rounds {
-        for k in 0..configs.len() {
-            let c = (k + round) % configs.len();
+        for c in super::interleave::balanced_order(round, configs.len()) {
             let memo = sessions[c].scene_gpu.memo.as_ref();
             let frame = |m: &mut Box<dyn crate::methods::Method>| -> Result<Frame> {
                 if let Some(t) = memo {
@@ -160,23 +162,21 @@ pub fn bench_fill_cost(
                 mean_and_se(&r.iter().map(f).collect::<Vec<f64>>()).0
             };
             let over_off = |f: &dyn Fn(&(Frame, Frame)) -> f64| {
-                mean_and_se(
-                    &r.iter()
-                        .zip(&off)
-                        .map(|(x, o)| f(x) / o)
-                        .collect::<Vec<f64>>(),
-                )
-                .0
+                paired_ratio(&r.iter().map(f).collect::<Vec<f64>>(), &off).0
             };
-            let per_fill: Vec<f64> = r
+            // µs per fill: the rounds' time differences over their fill
+            // differences, pooled (every round kept: one whose cold frame
+            // filled nothing more than its warm one adds its time, not a
+            // division by zero).
+            let dt: Vec<f64> = r.iter().map(|(c, w)| 1e3 * (c.0 - w.0)).collect();
+            let dfills: Vec<f64> = r
                 .iter()
-                .filter(|(c, w)| c.1.fills > w.1.fills)
-                .map(|(c, w)| 1e3 * (c.0 - w.0) / (c.1.fills - w.1.fills) as f64)
+                .map(|(c, w)| c.1.fills as f64 - w.1.fills as f64)
                 .collect();
-            let (us_per_fill, us_per_fill_se) = if per_fill.is_empty() {
-                (f64::NAN, f64::NAN)
+            let (us_per_fill, us_per_fill_se) = if dfills.iter().sum::<f64>() > 0.0 {
+                paired_ratio(&dt, &dfills)
             } else {
-                mean_and_se(&per_fill)
+                (f64::NAN, f64::NAN)
             };
             let warm_lookups: u64 = r.iter().map(|(_, w)| w.1.hits + w.1.misses).sum();
             let warm_hits: u64 = r.iter().map(|(_, w)| w.1.hits).sum();

@@ -75,7 +75,9 @@ pub fn bench_sample_cache(
                 ms.sort_by(f64::total_cmp);
                 let mean = ms.iter().sum::<f64>() / n;
                 let k = ms.len() / 2;
-                let median = if ms.len() % 2 == 0 && k > 0 {
+                let median = if ms.is_empty() {
+                    f64::NAN
+                } else if ms.len() % 2 == 0 {
                     (ms[k - 1] + ms[k]) / 2.0
                 } else {
                     ms[k]

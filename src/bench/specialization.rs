@@ -69,7 +69,9 @@ pub struct SpecBenchRow {
     /// `frame_ms` over that of the group's baseline build (`all features`
     /// for the specialized builds, `specialized` for single-feature builds).
     pub ratio: f64,
-    /// Standard error of the mean per-frame ratio (frames paired).
+    /// Standard error of `ratio`, a ratio of the means (frames paired): the
+    /// delta method widened for lag-1 autocorrelation (`interleave::paired_ratio`;
+    /// until session 48 the error of the mean per-frame ratio).
     pub ratio_se: f64,
     /// The baseline the ratio is taken against.
     pub against: String,
@@ -84,7 +86,7 @@ pub struct SpecBenchRow {
 /// are the same build and their ratio shows the measurement noise), and — at the largest
 /// bounce count — the specialized build with one unused feature compiled
 /// back in, for each feature the scene lacks. All builds of a group render
-/// the same frames interleaved (frame by frame, in rotating order) so drift
+/// the same frames interleaved (frame by frame, in a carry-over balanced order) so drift
 /// of a shared machine hits them alike. `cameras` are frames at `fps`: an
 /// animated scene is posed at each frame's time (its poses checked before
 /// anything renders), as replay poses it.

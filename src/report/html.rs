@@ -362,8 +362,7 @@ fn time_plot(d: &ReportData) -> String {
         let warm: Vec<String> = d
             .methods
             .iter()
-            .filter_map(|m| m.frames.iter().find(|f| f.index == 0))
-            .zip(&d.methods)
+            .filter_map(|m| m.frames.iter().find(|f| f.index == 0).map(|f| (f, m)))
             .map(|(f, m)| format!("{} {}", esc(&m.name), fmt(Some(f.gpu_ms))))
             .collect();
         h.push_str(&format!(

@@ -74,7 +74,7 @@ pub fn run(a: BenchLightsArgs) -> Result<()> {
     let ctx = std::sync::Arc::new(GpuContext::new(&a.gpu.options()?)?);
     println!("{}", device_line(&ctx.caps));
     println!(
-        "{w}x{h} per eye, both eyes, {} spp, bounces {}, reference {} spp (MIS), {} frames per strategy after 1 warm-up, interleaved frame by frame",
+        "{w}x{h} per eye, both eyes, {} spp, bounces {}, reference {} spp (MIS, two halves: its own variance is subtracted from each MSE), {} frames per strategy after 1 warm-up, interleaved frame by frame",
         a.spp, a.bounces, a.reference_spp, a.frames
     );
     let base = RenderSettings {

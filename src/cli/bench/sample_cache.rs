@@ -144,7 +144,7 @@ fn print_ratios(rows: &[CacheBenchRow], scatter: &ScatterBaselines, subgroup: bo
         row("1 spp"),
         row("plain builds"),
     );
-    println!("ratios (same run, same device):");
+    println!("ratios (same run, same device; the scatters are timed after the interleaved frames, not interleaved with them):");
     println!(
         "  one-pass reprojection / plain scatter:   {:.2}x time",
         adaptive.reproject_ms / scatter.one_sample_ms
