@@ -2219,7 +2219,6 @@ fn weighted_uv(rad: [f32; 4]) -> Option<Vec2> {
 /// ray queries exist, non-tiled and 4×4 tiles.
 #[test]
 fn memo_levels_past_a_rough_concave_mirror_keep_the_roughness_blur() {
-    use glam::DVec3;
     use stereocache::materials::memo::lod;
     use stereocache::materials::memo::{MemoFill, MemoHits, MemoSettings};
     let ctx = context();
