@@ -1002,3 +1002,41 @@ fn noise_contrast_is_the_documented_one() {
     assert!((r2 - 0.266).abs() < 0.005, "noise2d rms {r2}");
     assert!(r3 > 0.1 && r3 < 0.5, "noise3d rms {r3}");
 }
+
+/// Two GPU/CPU disagreements an audit found. (1) A constant that folding
+/// makes non-finite (divide(1, 0) = +∞, sqrt(−1) = NaN) was written into
+/// GLSL as 0.0, so a varying sum with it was u on the GPU and +∞ / NaN on
+/// the CPU; the GLSL now carries the same bits. (2) hsvadjust of a hue
+/// just below 0 (−10⁻⁸): x − floor(x) rounds to 1.0, sector 6, which fell to
+/// the last sector: pure red came out magenta, (1, 0, 1); hue 0 is red.
+/// Both graphs take a varying 0 (0·u) so they are evaluated on the GPU, not
+/// folded on the CPU; the harness checks every float at the grid.
+#[test]
+fn folded_non_finite_constants_and_a_hue_just_below_zero_agree_on_gpu_and_cpu() {
+    let g = graphs_of(&[
+        r#"<texcoord name="uv" type="vector2" />
+           <extract name="u" type="float"><input name="in" type="vector2" nodename="uv" /><input name="index" type="integer" value="0" /></extract>
+           <divide name="inf" type="float"><input name="in1" type="float" value="1" /><input name="in2" type="float" value="0" /></divide>
+           <sqrt name="nan" type="float"><input name="in" type="float" value="-1" /></sqrt>
+           <add name="a" type="float"><input name="in1" type="float" nodename="inf" /><input name="in2" type="float" nodename="u" /></add>
+           <add name="b" type="float"><input name="in1" type="float" nodename="nan" /><input name="in2" type="float" nodename="u" /></add>
+           <subtract name="c" type="float"><input name="in1" type="float" nodename="u" /><input name="in2" type="float" nodename="inf" /></subtract>
+           <combine3 name="o" type="vector3"><input name="in1" type="float" nodename="a" /><input name="in2" type="float" nodename="b" /><input name="in3" type="float" nodename="c" /></combine3>
+           <output name="out" type="vector3" nodename="o" />"#,
+        r#"<texcoord name="uv" type="vector2" />
+           <extract name="u" type="float"><input name="in" type="vector2" nodename="uv" /><input name="index" type="integer" value="0" /></extract>
+           <multiply name="z" type="float"><input name="in1" type="float" nodename="u" /><input name="in2" type="float" value="0" /></multiply>
+           <add name="hue" type="float"><input name="in1" type="float" nodename="z" /><input name="in2" type="float" value="-1e-8" /></add>
+           <combine3 name="amount" type="vector3"><input name="in1" type="float" nodename="hue" /><input name="in2" type="float" value="1" /><input name="in3" type="float" value="1" /></combine3>
+           <hsvadjust name="h" type="color3"><input name="in" type="color3" value="1, 0, 0" /><input name="amount" type="vector3" nodename="amount" /></hsvadjust>
+           <output name="out" type="color3" nodename="h" />"#,
+    ]);
+    let p = Geom::default();
+    let v = first_output(&g[0], &p);
+    assert!(
+        v[0] == f32::INFINITY && v[1].is_nan() && v[2] == f32::NEG_INFINITY,
+        "{v:?}"
+    );
+    assert_eq!(first_output(&g[1], &p), [1.0, 0.0, 0.0]);
+    assert_gpu_equals_cpu(&g);
+}

@@ -139,6 +139,7 @@ vec3 mx_hsv_to_rgb(vec3 c) {
     float s = c.y, v = c.z;
     if (s < 0.0001) return vec3(v);
     precise float h = c.x - floor(c.x);
+    if (h >= 1.0) h = 0.0;   // x just below 0 rounds to 1 (eval.rs hsv_to_rgb)
     precise float h6 = h * 6.0;
     float sector = floor(h6);
     precise float f = h6 - sector;

@@ -500,7 +500,10 @@ pub fn hsv_to_rgb(c: [f32; 3]) -> [f32; 3] {
     if s < HSV_GREY_SATURATION {
         return [v, v, v];
     }
+    // x − floor(x) rounds to 1 for x just below 0 (−1e-8): that hue is 0,
+    // not sector 6 (which fell to the last sector's magenta).
     let h = c[0] - c[0].floor();
+    let h = if h >= 1.0 { 0.0 } else { h };
     let h6 = h * 6.0;
     let sector = h6.floor();
     let f = h6 - sector;

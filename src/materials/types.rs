@@ -166,7 +166,11 @@ impl Value {
                     format!("{s}.0")
                 }
             } else {
-                "0.0".into()
+                // Folding can make a constant infinite or NaN (divide(1, 0),
+                // exp(100)); the CPU evaluator keeps it, so the GPU gets the
+                // same bits (until session 53: 0.0, which made e.g. an
+                // overflowing emission black on the GPU and +inf on the CPU).
+                format!("uintBitsToFloat({:#010x}u)", x.to_bits())
             }
         };
         match self.ty {
