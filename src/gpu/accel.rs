@@ -40,7 +40,8 @@ pub struct TlasInstance {
     pub custom_index: u32,
     pub blas: usize,
     /// Rays with `gl_RayFlagsCullBackFacingTrianglesEXT` pass through the
-    /// back faces (glTF's, counter-clockwise front in world space).
+    /// back faces (glTF's: counter-clockwise front in object space, where
+    /// Vulkan decides facing).
     pub cull_back_faces: bool,
 }
 

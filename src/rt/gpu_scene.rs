@@ -944,7 +944,13 @@ fn tlas_instances(transforms: &[Mat4], ids: &[[u32; 4]], origin: DVec3) -> Vec<T
         .zip(ids)
         .enumerate()
         .map(|(i, (t, id))| TlasInstance {
-            transform: row_major_3x4(relative_transform(*t, origin)),
+            // A singular placement may not enter a TLAS
+            // (VUID-VkTransformMatrixKHR-matrix-03799): made invertible
+            // (scene::regularized_placement), the same world triangles.
+            transform: row_major_3x4(relative_transform(
+                crate::scene::regularized_placement(*t),
+                origin,
+            )),
             custom_index: i as u32,
             blas: id[0] as usize,
             cull_back_faces: id[2] != 0,
@@ -1071,7 +1077,12 @@ fn instance_records(
         .zip(ids)
         .map(|((t, p), &ids)| InstanceGpu {
             object_to_world: relative_transform(*t, origin).to_cols_array(),
-            normal_to_world: t.inverse().transpose().to_cols_array(),
+            // (A singular placement's normals through its regularized
+            // inverse: a mesh flattened to a plane gets the plane's normal.)
+            normal_to_world: crate::scene::regularized_placement(*t)
+                .inverse()
+                .transpose()
+                .to_cols_array(),
             // w: 1 where the transform mirrors (scene.glsl instance_front_sign).
             mesh_pad: [ids[0], ids[1], ids[2], (t.determinant() < 0.0) as u32],
             prev_object_to_world: relative_transform(*p, origin).to_cols_array(),

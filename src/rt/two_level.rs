@@ -242,8 +242,9 @@ impl TwoLevelBvh {
             let inst = self.tlas_instances[p as usize];
             let blas = &self.blas[self.mesh_of[inst as usize] as usize];
             self.tri_ref[k] = [inst, blas.node_base];
-            // Rows of object-from-world, inverted in f64.
-            let inv = self.world_from_object[inst as usize]
+            // Rows of object-from-world, inverted in f64 (a singular
+            // placement made invertible: scene::regularized_placement).
+            let inv = crate::scene::regularized_placement(self.world_from_object[inst as usize])
                 .as_dmat4()
                 .inverse()
                 .as_mat4()

@@ -345,3 +345,44 @@ impl Scene {
         Ok(())
     }
 }
+
+/// An instance's placement made invertible for the layouts that need its
+/// inverse or forbid a singular one. A node scaled to zero along some axis
+/// (a static file's flat node, an animated flip through 0) has a singular
+/// linear part; its world triangles are still there (a cube flattened to a
+/// square), and the flattened software layout hits them as they are. The
+/// TLAS may not hold a singular matrix (VUID-VkTransformMatrixKHR-matrix-03799)
+/// and the software two-level layout traces in object space through the
+/// inverse (NaN: the instance was missed), so both take the linear part
+/// plus ε·I, ε = 2^-22 of its largest entry (2^-22 when it is all zero):
+/// the same world geometry to a few f32 ulps, a finite inverse, and a
+/// normal matrix that gives the flattened mesh its plane's normal. An
+/// invertible placement (det finite and non-zero, in f64) is returned as
+/// it is.
+pub fn regularized_placement(m: Mat4) -> Mat4 {
+    let m3 = glam::DMat3::from_mat4(m.as_dmat4());
+    let d = m3.determinant();
+    if d.is_finite() && d != 0.0 {
+        return m;
+    }
+    let big = [m3.x_axis, m3.y_axis, m3.z_axis]
+        .iter()
+        .map(|c| c.abs().max_element())
+        .fold(0.0f64, f64::max);
+    let scale = if big > 0.0 && big.is_finite() {
+        big
+    } else {
+        1.0
+    };
+    let eps = scale * 2f64.powi(-22);
+    let mut r = m3 + glam::DMat3::from_diagonal(glam::DVec3::splat(eps));
+    // M + εI is singular only where M has the eigenvalue −ε: one more step.
+    if r.determinant() == 0.0 {
+        r = m3 + glam::DMat3::from_diagonal(glam::DVec3::splat(2.0 * eps));
+    }
+    let mut out = m;
+    out.x_axis = r.x_axis.as_vec3().extend(0.0);
+    out.y_axis = r.y_axis.as_vec3().extend(0.0);
+    out.z_axis = r.z_axis.as_vec3().extend(0.0);
+    out
+}
