@@ -138,6 +138,12 @@ impl Session {
         })
     }
 
+    /// [`Scene::content_hash`] of this session's scene, computed once (the
+    /// scene is not changed after the session is made).
+    pub fn scene_content_hash(&self) -> u64 {
+        *self.content_hash.get_or_init(|| self.scene.content_hash())
+    }
+
     /// Poses the scene's instances at time `t` (seconds: the replay's frame
     /// time, so a 90 Hz and a 45 Hz replay see the same motion) and uploads
     /// them with the previous frame's pose at `prev_t` (`None`: the first
@@ -145,12 +151,6 @@ impl Session {
     /// (`SceneGpu::set_instance_motion`). The frame loop calls it once per
     /// frame. Nothing happens for a static scene. Returns the wall time it
     /// took (animation sampling, TLAS rebuild, upload).
-    /// [`Scene::content_hash`] of this session's scene, computed once (the
-    /// scene is not changed after the session is made).
-    pub fn scene_content_hash(&self) -> u64 {
-        *self.content_hash.get_or_init(|| self.scene.content_hash())
-    }
-
     pub fn pose_instances(&self, t: f64, prev_t: Option<f64>) -> Result<std::time::Duration> {
         let start = std::time::Instant::now();
         if self.scene.is_animated() {

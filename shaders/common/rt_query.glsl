@@ -6,7 +6,8 @@ layout(set = SET_SCENE, binding = B_SCENE_TLAS) uniform accelerationStructureEXT
 
 // Back-face culling (glTF doubleSided false): instances whose material does
 // not cull carry TRIANGLE_FACING_CULL_DISABLE, the others counter-clockwise
-// front faces in world space (src/gpu/accel.rs `facing_flags`).
+// front faces in object space (Vulkan decides facing in the BLAS's space, so
+// a mirrored instance keeps glTF's rule; src/gpu/accel.rs `facing_flags`).
 uint cull_flags() { return SC_BACKFACE_CULLING ? gl_RayFlagsCullBackFacingTrianglesEXT : gl_RayFlagsNoneEXT; }
 
 bool rt_closest_hit(vec3 o, vec3 d, float tmin, float tmax, out RtHit h) {
