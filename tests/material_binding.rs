@@ -1378,6 +1378,39 @@ fn texel_explains(uc: Vec2, m: i32, uv_lo: Vec2, uv_hi: Vec2) -> bool {
     })
 }
 
+/// The memo settings of the level tests: secondary hits only, `tile`
+/// (1 or 4), a 2^20-texel table, the plain fill, level bias `bias`.
+fn level_test_memo(tile: u32, bias: f32) -> stereocache::materials::memo::MemoSettings {
+    use stereocache::materials::memo::{MemoFill, MemoHits, MemoSettings};
+    MemoSettings {
+        hits: MemoHits::Secondary,
+        tile,
+        entries: (1 << 20) / (tile * tile),
+        fill: MemoFill::Plain,
+        bias,
+        ..Default::default()
+    }
+}
+
+/// The centre of pixel `i` of an image `size` wide (continuous pixel
+/// coordinates).
+fn pixel_centre(i: usize, size: glam::UVec2) -> Vec2 {
+    Vec2::new(
+        (i as u32 % size.x) as f32 + 0.5,
+        (i as u32 / size.x) as f32 + 0.5,
+    )
+}
+
+/// A pixel's centre and corners, as offsets from its centre: the rays a
+/// level test follows (the GPU's sample is jittered within the pixel).
+const PIXEL_RAYS: [Vec2; 5] = [
+    Vec2::ZERO,
+    Vec2::new(-0.5, -0.5),
+    Vec2::new(0.5, -0.5),
+    Vec2::new(-0.5, 0.5),
+    Vec2::new(0.5, 0.5),
+];
+
 /// Height of the mirror sheet of [`under_a_mirror`].
 const MIRROR_H: f32 = 0.6;
 
@@ -1470,7 +1503,6 @@ fn under_a_mirror(
 /// pixels in three): measured 273 and 254 of 453.
 #[test]
 fn memo_levels_past_a_mirror_follow_the_grown_cone() {
-    use stereocache::materials::memo::{MemoFill, MemoHits, MemoSettings};
     let ctx = context();
     let d = dir("memo-mirror");
     let (mut scene, quv) = uv_emitting_quads(&d, 0.0);
@@ -1480,14 +1512,7 @@ fn memo_levels_past_a_mirror_follow_the_grown_cone() {
     const BIAS: f32 = -3.0;
     let (mirror_inst, camera, size, settings) = under_a_mirror(&mut scene, 0.0);
     for (rt, tile) in level_test_configs(&ctx) {
-        scene.graphs.memo = MemoSettings {
-            hits: MemoHits::Secondary,
-            tile,
-            entries: (1 << 20) / (tile * tile),
-            fill: MemoFill::Plain,
-            bias: BIAS,
-            ..Default::default()
-        };
+        scene.graphs.memo = level_test_memo(tile, BIAS);
         let s = session(&ctx, scene.clone(), rt);
         let f = render(&s, "reference", camera, &settings);
         let (mut checked, mut refracted, mut no_growth, mut restarted) = (0usize, 0usize, 0, 0);
@@ -1500,10 +1525,7 @@ fn memo_levels_past_a_mirror_follow_the_grown_cone() {
                 if fh[3] != mirror_inst {
                     continue;
                 }
-                let px = Vec2::new(
-                    (i as u32 % size.x) as f32 + 0.5,
-                    (i as u32 / size.x) as f32 + 0.5,
-                );
+                let px = pixel_centre(i, size);
                 // A ray through the mirror: (t1, t2, reflected direction,
                 // the quad's point) in f64 where it matters.
                 let follow = |dir: glam::DVec3| {
@@ -1642,7 +1664,7 @@ fn memo_levels_past_a_mirror_follow_the_grown_cone() {
 #[test]
 fn memo_levels_past_a_rough_mirror_follow_the_roughness_spread() {
     use stereocache::materials::memo::lod;
-    use stereocache::materials::memo::{MemoFill, MemoHits, MemoSettings};
+    use stereocache::materials::memo::MemoSettings;
     let ctx = context();
     let d = dir("memo-rough-mirror");
     let (mut scene, quv) = uv_emitting_quads(&d, 1.0);
@@ -1676,14 +1698,7 @@ fn memo_levels_past_a_rough_mirror_follow_the_roughness_spread() {
             camera,
             &settings,
         );
-        scene.graphs.memo = MemoSettings {
-            hits: MemoHits::Secondary,
-            tile,
-            entries: (1 << 20) / (tile * tile),
-            fill: MemoFill::Plain,
-            bias: BIAS,
-            ..Default::default()
-        };
+        scene.graphs.memo = level_test_memo(tile, BIAS);
         let s = session(&ctx, scene.clone(), rt);
         let f = render(&s, "reference", camera, &settings);
         let (mut checked, mut no_roughness, mut halved, mut doubled) =
@@ -1708,21 +1723,11 @@ fn memo_levels_past_a_rough_mirror_follow_the_roughness_spread() {
                     continue;
                 };
                 let p2 = quv.point_at(uv);
-                let px = Vec2::new(
-                    (i as u32 % size.x) as f32 + 0.5,
-                    (i as u32 / size.x) as f32 + 0.5,
-                );
+                let px = pixel_centre(i, size);
                 // Levels over the pixel's rays for a spread gain `gain` at
                 // the sheet.
                 let levels = |gain: f32| {
-                    let rays = [
-                        Vec2::ZERO,
-                        Vec2::new(-0.5, -0.5),
-                        Vec2::new(0.5, -0.5),
-                        Vec2::new(-0.5, 0.5),
-                        Vec2::new(0.5, 0.5),
-                    ]
-                    .map(|off| {
+                    let rays = PIXEL_RAYS.map(|off| {
                         let dir = view.ray_direction(px + off, size).normalize();
                         let t1 = (H - view.position.y) / dir.y;
                         let p1 = view.position + dir * t1;
@@ -1984,7 +1989,6 @@ impl SphereMirror {
 fn memo_levels_past_a_curved_mirror_follow_the_curvature_spread() {
     use glam::DVec3;
     use stereocache::materials::memo::lod;
-    use stereocache::materials::memo::{MemoFill, MemoHits, MemoSettings};
     let ctx = context();
     let d = dir("memo-curved-mirror");
     let (base, quv) = uv_emitting_quads(&d, 0.0);
@@ -2049,14 +2053,7 @@ fn memo_levels_past_a_curved_mirror_follow_the_curvature_spread() {
             for n in &mut scene.meshes[mesh_index].normals {
                 *n *= sign;
             }
-            scene.graphs.memo = MemoSettings {
-                hits: MemoHits::Secondary,
-                tile,
-                entries: (1 << 20) / (tile * tile),
-                fill: MemoFill::Plain,
-                bias: BIAS,
-                ..Default::default()
-            };
+            scene.graphs.memo = level_test_memo(tile, BIAS);
             let s = session(&ctx, scene, rt);
             let f = render(&s, "reference", camera, &settings);
             let (mut checked, mut refracted, mut refuted, mut focused) =
@@ -2070,10 +2067,7 @@ fn memo_levels_past_a_curved_mirror_follow_the_curvature_spread() {
                     if fh[3] != mirror_inst {
                         continue;
                     }
-                    let px = Vec2::new(
-                        (i as u32 % size.x) as f32 + 0.5,
-                        (i as u32 / size.x) as f32 + 0.5,
-                    );
+                    let px = pixel_centre(i, size);
                     // Centre and corners: (t₁, t₂, reflected direction, the
                     // quad's point, k, |n_g·d|).
                     let follow = |off: Vec2| {
@@ -2087,16 +2081,7 @@ fn memo_levels_past_a_curved_mirror_follow_the_curvature_spread() {
                         let t2 = -p1.y / r.y;
                         Some((t1, t2, r, p1 + r * t2, k, cos, tol_k))
                     };
-                    let rays: Vec<_> = [
-                        Vec2::ZERO,
-                        Vec2::new(-0.5, -0.5),
-                        Vec2::new(0.5, -0.5),
-                        Vec2::new(-0.5, 0.5),
-                        Vec2::new(0.5, 0.5),
-                    ]
-                    .iter()
-                    .map(|&o| follow(o))
-                    .collect();
+                    let rays: Vec<_> = PIXEL_RAYS.iter().map(|&o| follow(o)).collect();
                     if !rays.iter().all(|r| r.is_some_and(|r| on_quad(r.3))) {
                         continue;
                     }
@@ -2220,7 +2205,7 @@ fn weighted_uv(rad: [f32; 4]) -> Option<Vec2> {
 #[test]
 fn memo_levels_past_a_rough_concave_mirror_keep_the_roughness_blur() {
     use stereocache::materials::memo::lod;
-    use stereocache::materials::memo::{MemoFill, MemoHits, MemoSettings};
+    use stereocache::materials::memo::MemoSettings;
     let ctx = context();
     let d = dir("memo-rough-concave");
     let (mut scene, quv) = uv_emitting_quads(&d, 1.0);
@@ -2261,14 +2246,7 @@ fn memo_levels_past_a_rough_concave_mirror_keep_the_roughness_blur() {
             &settings,
         );
         let mut memo_scene = scene.clone();
-        memo_scene.graphs.memo = MemoSettings {
-            hits: MemoHits::Secondary,
-            tile,
-            entries: (1 << 20) / (tile * tile),
-            fill: MemoFill::Plain,
-            bias: BIAS,
-            ..Default::default()
-        };
+        memo_scene.graphs.memo = level_test_memo(tile, BIAS);
         let s = session(&ctx, memo_scene, rt);
         let f = render(&s, "reference", camera, &settings);
         let (mut checked, mut focused, mut summed_refuted, mut flat_refuted) =
@@ -2288,38 +2266,29 @@ fn memo_levels_past_a_rough_concave_mirror_keep_the_roughness_blur() {
                     continue;
                 };
                 let p2 = quv.point_at(uv).as_dvec3();
-                let px = Vec2::new(
-                    (i as u32 % size.x) as f32 + 0.5,
-                    (i as u32 / size.x) as f32 + 0.5,
-                );
+                let px = pixel_centre(i, size);
                 // Per ray of the pixel: (w₁, α + β_c, t₂, second leg's
                 // direction).
-                let legs: Vec<_> = [
-                    Vec2::ZERO,
-                    Vec2::new(-0.5, -0.5),
-                    Vec2::new(0.5, -0.5),
-                    Vec2::new(-0.5, 0.5),
-                    Vec2::new(0.5, 0.5),
-                ]
-                .iter()
-                .map(|&off| {
-                    let dir = view.ray_direction(px + off, size).as_dvec3().normalize();
-                    let o = view.position.as_dvec3();
-                    let h = mirror
-                        .hit(o, dir, 1.0)
-                        .expect("rays from inside meet the sphere");
-                    assert!(
-                        (h.k as f64 * SPHERE_R as f64 + 1.0).abs() <= h.tol_k,
-                        "{rt:?}: a facet's k·R is {}",
-                        h.k * SPHERE_R
-                    );
-                    let second = p2 - (o + dir * h.t);
-                    let t2 = second.length();
-                    let w1 = spread * h.t as f32;
-                    let pencil = spread + lod::curvature_spread(h.k, w1, h.cos as f32);
-                    (w1, pencil, t2 as f32, (second / t2).as_vec3())
-                })
-                .collect();
+                let legs: Vec<_> = PIXEL_RAYS
+                    .iter()
+                    .map(|&off| {
+                        let dir = view.ray_direction(px + off, size).as_dvec3().normalize();
+                        let o = view.position.as_dvec3();
+                        let h = mirror
+                            .hit(o, dir, 1.0)
+                            .expect("rays from inside meet the sphere");
+                        assert!(
+                            (h.k as f64 * SPHERE_R as f64 + 1.0).abs() <= h.tol_k,
+                            "{rt:?}: a facet's k·R is {}",
+                            h.k * SPHERE_R
+                        );
+                        let second = p2 - (o + dir * h.t);
+                        let t2 = second.length();
+                        let w1 = spread * h.t as f32;
+                        let pencil = spread + lod::curvature_spread(h.k, w1, h.cos as f32);
+                        (w1, pencil, t2 as f32, (second / t2).as_vec3())
+                    })
+                    .collect();
                 let levels = |width: &dyn Fn(f32, f32, f32) -> f32| {
                     pixel_levels(
                         &quv,
