@@ -1219,11 +1219,7 @@ fn memo_levels_follow_the_cone_footprints_shorter_uv_derivative() {
             other_level > checked / 2 && refuted > checked / 10,
             "{rt:?} tile {tile}: the isotropic level differs at {other_level} and is refuted at {refuted} of {checked} pixels"
         );
-        let c = memo_counters(&s);
-        assert!(
-            c.hits > 0 && c.misses > 0 && c.refused == 0,
-            "{rt:?}: {c:?}"
-        );
+        assert_table_hit_and_missed(&s, &format!("{rt:?}"));
     }
     assert_no_validation_messages(&ctx);
     let _ = std::fs::remove_dir_all(&d);
@@ -1390,6 +1386,15 @@ fn level_test_memo(tile: u32, bias: f32) -> stereocache::materials::memo::MemoSe
         bias,
         ..Default::default()
     }
+}
+
+/// The level tests' table was used: hits and misses, no refused read.
+fn assert_table_hit_and_missed(s: &stereocache::session::Session, what: &str) {
+    let c = memo_counters(s);
+    assert!(
+        c.hits > 0 && c.misses > 0 && c.refused == 0,
+        "{what}: {c:?}"
+    );
 }
 
 /// The centre of pixel `i` of an image `size` wide (continuous pixel
@@ -1627,11 +1632,7 @@ fn memo_levels_past_a_mirror_follow_the_grown_cone() {
             no_growth > checked / 3 && restarted > checked / 3,
             "{rt:?}: the alternatives are refuted at only {no_growth} and {restarted} of {checked}"
         );
-        let c = memo_counters(&s);
-        assert!(
-            c.hits > 0 && c.misses > 0 && c.refused == 0,
-            "{rt:?}: {c:?}"
-        );
+        assert_table_hit_and_missed(&s, &format!("{rt:?}"));
     }
     assert_no_validation_messages(&ctx);
     let _ = std::fs::remove_dir_all(&d);
@@ -1766,11 +1767,7 @@ fn memo_levels_past_a_rough_mirror_follow_the_roughness_spread() {
             no_roughness > checked / 2 && halved > checked / 5 && doubled > checked / 5,
             "{rt:?} tile {tile}: the alternatives are refuted at only {no_roughness}, {halved} and {doubled} of {checked}"
         );
-        let c = memo_counters(&s);
-        assert!(
-            c.hits > 0 && c.misses > 0 && c.refused == 0,
-            "{rt:?}: {c:?}"
-        );
+        assert_table_hit_and_missed(&s, &format!("{rt:?}"));
     }
     assert_no_validation_messages(&ctx);
     let _ = std::fs::remove_dir_all(&d);
@@ -2152,11 +2149,7 @@ fn memo_levels_past_a_curved_mirror_follow_the_curvature_spread() {
             refuted > checked / 4,
             "{geometry} {rt:?}: the cone without the curvature term is refuted at only {refuted} of {checked}"
         );
-            let c = memo_counters(&s);
-            assert!(
-                c.hits > 0 && c.misses > 0 && c.refused == 0,
-                "{geometry} {rt:?}: {c:?}"
-            );
+            assert_table_hit_and_missed(&s, &format!("{geometry} {rt:?}"));
         }
     }
     assert_no_validation_messages(&ctx);
@@ -2332,11 +2325,7 @@ fn memo_levels_past_a_rough_concave_mirror_keep_the_roughness_blur() {
             summed_refuted > checked / 4 && flat_refuted > checked / 10,
             "{rt:?} tile {tile}: the alternatives are refuted at only {summed_refuted} and {flat_refuted} of {checked}"
         );
-        let c = memo_counters(&s);
-        assert!(
-            c.hits > 0 && c.misses > 0 && c.refused == 0,
-            "{rt:?}: {c:?}"
-        );
+        assert_table_hit_and_missed(&s, &format!("{rt:?}"));
     }
     assert_no_validation_messages(&ctx);
     let _ = std::fs::remove_dir_all(&d);
