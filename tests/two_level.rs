@@ -463,57 +463,74 @@ fn rays_at_shared_diagonals_hit_on_both_software_layouts() {
 /// TLAS was handed the singular matrix, which Vulkan forbids
 /// (VUID-VkTransformMatrixKHR-matrix-03799). Both now take the placement
 /// made invertible (`scene::regularized_placement`: the linear part +
-/// 2^-22·I, the same world triangles to a few ulps), so every layout sees
-/// the disc on the same pixels (the file's bar: ≤ 0.1 % of pixels differ),
-/// the CPU twins included, and the disc covers far more than that bar.
+/// 2^-22·max|entry|·I, the same world triangles to a few ulps), so every
+/// layout sees the disc on the same pixels and the same primitives (the
+/// file's bar: ≤ 0.1 % of pixels differ), the CPU twins included, and the
+/// disc covers far more than that bar. The sphere's material culls back
+/// faces, so the two sheets of the disc (its upper and lower hemisphere)
+/// are told apart by the placement's mirror sign; in the second pose
+/// (turned 180° about z: diag(−1.5, 0, 1.5) before the tilt) the
+/// regularized determinant is negative, and every layout must take the
+/// same sheet.
 #[test]
 fn a_node_flattened_to_a_disc_is_hit_by_every_layout() {
     let ctx = context();
-    let mut scene = shipped("cornell");
-    let sphere = scene
+    let base = shipped("cornell");
+    let sphere = base
         .instances
         .iter()
         .find(|i| i.name.to_lowercase().contains("sphere"))
         .expect("cornell has spheres")
         .clone();
     let c = sphere.transform.w_axis.truncate();
-    let flat = Mat4::from_translation(Vec3::new(0.0, 0.35, 0.1))
-        * Mat4::from_rotation_x(0.7)
-        * Mat4::from_scale(Vec3::new(1.5, 0.0, 1.5))
-        * Mat4::from_translation(-c);
-    let mut disc = sphere.clone();
-    disc.name = "disc".into();
-    disc.transform = flat * sphere.transform;
-    assert_eq!(disc.transform.determinant(), 0.0, "a singular placement");
-    scene.instances.push(disc);
-    scene.validate().unwrap();
-    let disc_id = (scene.instances.len() - 1) as f32;
-    let cam = camera_of(&scene);
-    let flat_cpu = SoftwareBvh::build(&scene);
-    let two_cpu = TwoLevelBvh::build_at(&scene, flat_cpu.origin);
-    let a = cpu_hits(&cam, |o, d| {
-        flat_cpu.closest_hit(flat_cpu.to_local(o.as_dvec3()), d, 0.0, 1e30)
-    });
-    let on_disc = a.iter().filter(|h| h[0] == disc_id).count();
-    assert!(
-        on_disc > a.len() / 50,
-        "the disc covers {on_disc} of {} pixels",
-        a.len()
-    );
-    let b = cpu_hits(&cam, |o, d| {
-        two_cpu.closest_hit(two_cpu.to_local(o.as_dvec3()), d, 0.0, 1e30)
-    });
-    assert_agree("disc: CPU flattened vs two-level", &a, &b);
-    let flat_gpu = layout_session(&ctx, &scene, RtChoice::Software, BvhLayout::Flattened);
-    let gf = gpu_hits(&primary(&flat_gpu, &cam));
-    assert_agree("disc: GPU flattened vs CPU", &gf, &a);
-    let two_gpu = layout_session(&ctx, &scene, RtChoice::Software, BvhLayout::TwoLevel);
-    let g2 = gpu_hits(&primary(&two_gpu, &cam));
-    assert_agree("disc: GPU two-level vs flattened", &g2, &gf);
-    if require(ctx.ray_query_enabled(), "ray queries (the TLAS's matrix)") {
-        let rq = layout_session(&ctx, &scene, RtChoice::Query, BvhLayout::TwoLevel);
-        let gq = gpu_hits(&primary(&rq, &cam));
-        assert_agree("disc: ray query vs flattened", &gq, &gf);
+    for (pose, turn) in [
+        ("tilted", 0.0f32),
+        ("tilted, turned 180° about z", std::f32::consts::PI),
+    ] {
+        let mut scene = base.clone();
+        let flat = Mat4::from_translation(Vec3::new(0.0, 0.35, 0.1))
+            * Mat4::from_rotation_x(0.7)
+            * Mat4::from_rotation_z(turn)
+            * Mat4::from_scale(Vec3::new(1.5, 0.0, 1.5))
+            * Mat4::from_translation(-c);
+        let mut disc = sphere.clone();
+        disc.name = "disc".into();
+        disc.transform = flat * sphere.transform;
+        assert_eq!(
+            disc.transform.determinant(),
+            0.0,
+            "{pose}: a singular placement"
+        );
+        scene.instances.push(disc);
+        scene.validate().unwrap();
+        let disc_id = (scene.instances.len() - 1) as f32;
+        let cam = camera_of(&scene);
+        let flat_cpu = SoftwareBvh::build(&scene);
+        let two_cpu = TwoLevelBvh::build_at(&scene, flat_cpu.origin);
+        let a = cpu_hits(&cam, |o, d| {
+            flat_cpu.closest_hit(flat_cpu.to_local(o.as_dvec3()), d, 0.0, 1e30)
+        });
+        let on_disc = a.iter().filter(|h| h[0] == disc_id).count();
+        assert!(
+            on_disc > a.len() / 50,
+            "{pose}: the disc covers {on_disc} of {} pixels",
+            a.len()
+        );
+        let b = cpu_hits(&cam, |o, d| {
+            two_cpu.closest_hit(two_cpu.to_local(o.as_dvec3()), d, 0.0, 1e30)
+        });
+        assert_agree(&format!("{pose}: CPU flattened vs two-level"), &a, &b);
+        let flat_gpu = layout_session(&ctx, &scene, RtChoice::Software, BvhLayout::Flattened);
+        let gf = gpu_hits(&primary(&flat_gpu, &cam));
+        assert_agree(&format!("{pose}: GPU flattened vs CPU"), &gf, &a);
+        let two_gpu = layout_session(&ctx, &scene, RtChoice::Software, BvhLayout::TwoLevel);
+        let g2 = gpu_hits(&primary(&two_gpu, &cam));
+        assert_agree(&format!("{pose}: GPU two-level vs flattened"), &g2, &gf);
+        if require(ctx.ray_query_enabled(), "ray queries (the TLAS's matrix)") {
+            let rq = layout_session(&ctx, &scene, RtChoice::Query, BvhLayout::TwoLevel);
+            let gq = gpu_hits(&primary(&rq, &cam));
+            assert_agree(&format!("{pose}: ray query vs flattened"), &gq, &gf);
+        }
     }
     assert_no_validation_messages(&ctx);
 }

@@ -86,8 +86,9 @@ float memo_texel_width(int level) { return ldexp(1.0, -level); }
 vec2 memo_snapped_uv(ivec2 q, int level) { return ldexp(vec2(q), ivec2(-level)); }
 
 // Eqs. 2.10-2.11: the cone past a GGX surface of roughness alpha (GGX's
-// alpha): width w + spread * t at the next hit, spread grown by
-// beta_r = 2 sqrt(alpha^2 / (2 - 2 alpha^2)).
+// alpha): width w + spread * t at the next hit; the surface adds
+// beta_r = 2 sqrt(alpha^2 / (2 - 2 alpha^2)) to the spread (to the
+// roughness blur's, memo_cone_at below).
 float memo_cone_width(float width, float spread, float t) { return width + spread * t; }
 float memo_roughness_spread(float alpha) {
     float a2 = min(alpha * alpha, 0.999);

@@ -1,6 +1,7 @@
 #version 460
-// §3.6 stereo blending. For each pixel of eye Y, the closest visible sample's
-// position is projected into the other eye X; where X sees the same point
+// §3.6 stereo blending. For each pixel of eye Y, the point on the ray
+// through its centre at the closest visible sample's view depth is
+// projected into the other eye X (below); where X sees the same point
 // (depth agreement within 1 %), the final colour is lerp(X, Y, β′) (Eq. 3)
 // with β′ from Eq. 8. Moments: the cache's per-pixel μ1, μ2 (Eq. 5–6,
 // `moments` mode) or 3×3 neighbourhood estimates from the colours

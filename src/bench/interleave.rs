@@ -116,7 +116,9 @@ pub fn run_interleaved(
 /// carry-over from one workload to the next (clock, caches, the driver's
 /// state) fell on the same configuration every time, a bias no ± shows.
 /// Row r of the first m is (r, r+1, r−1, r+2, r−2, …) mod m; for odd m the
-/// next m are those rows reversed.
+/// next m are those rows reversed. The balance is within rounds: the step
+/// from one round's last configuration to the next round's first is not
+/// balanced, and only whole cycles of rounds are balanced at all.
 pub fn balanced_order(round: usize, m: usize) -> Vec<usize> {
     if m == 0 {
         return Vec::new();

@@ -21,7 +21,9 @@ pub struct LightBenchRow {
     pub mse: f64,
     pub mse_se: f64,
     /// The reference's variance per pixel and channel, from its two halves
-    /// (different seeds): mean of (h₁ − h₂)² · n₁n₂ / (n₁ + n₂)².
+    /// (different seeds, ⌈spp/2⌉ and ⌊spp/2⌋ samples, at least 1 each: a
+    /// 1 spp reference is rendered as two): mean of
+    /// (h₁ − h₂)² · n₁n₂ / (n₁ + n₂)².
     pub reference_noise: f64,
     /// MSE at the frame time of the first strategy: mse · frame_ms / frame_ms[0]
     /// (MSE ∝ 1/samples ∝ 1/time for an unbiased estimator; with the

@@ -152,7 +152,8 @@ pub fn bench_fill_cost(
         }
     }
     // Per configuration: the mean over rounds of a figure of the round's
-    // (cold, warm) pair, or of its ratio to the round's "off" frame.
+    // (cold, warm) pair; its ratio to the "off" frames and the µs per fill
+    // as ratios of means over the rounds.
     let off: Vec<f64> = runs[0].iter().map(|r| 0.5 * (r.0 .0 + r.1 .0)).collect();
     Ok(configs
         .iter()

@@ -66,7 +66,10 @@ impl SoftwareBvh {
             let mesh = &scene.meshes[inst.mesh as usize];
             let cull = match (
                 scene.mesh_culls_back_faces(mesh),
-                inst.transform.determinant() < 0.0,
+                // Mirrored: by the placement the TLAS and the two-level
+                // layout use (a singular one regularized: its sign decides
+                // which side of the flattened mesh is the front there too).
+                crate::scene::regularized_placement(inst.transform).determinant() < 0.0,
             ) {
                 (false, _) => 0.0,
                 (true, false) => 1.0,

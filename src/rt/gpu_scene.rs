@@ -1084,7 +1084,14 @@ fn instance_records(
                 .transpose()
                 .to_cols_array(),
             // w: 1 where the transform mirrors (scene.glsl instance_front_sign).
-            mesh_pad: [ids[0], ids[1], ids[2], (t.determinant() < 0.0) as u32],
+            // (The regularized placement's sign, as the TLAS and the
+            // two-level layout see a singular one.)
+            mesh_pad: [
+                ids[0],
+                ids[1],
+                ids[2],
+                (crate::scene::regularized_placement(*t).determinant() < 0.0) as u32,
+            ],
             prev_object_to_world: relative_transform(*p, origin).to_cols_array(),
         })
         .collect()

@@ -356,7 +356,12 @@ impl Scene {
 /// inverse (NaN: the instance was missed), so both take the linear part
 /// plus ε·I, ε = 2^-22 of its largest entry (2^-22 when it is all zero):
 /// the same world geometry to a few f32 ulps, a finite inverse, and a
-/// normal matrix that gives the flattened mesh its plane's normal. An
+/// normal matrix that gives the flattened mesh its plane's normal. The
+/// sign of the result's determinant is arbitrary (diag(−1.5, 0, 1.5) gives
+/// a negative one, a small positive y-scale a positive one), so every
+/// layout takes a singular placement's mirror flag from this matrix (the
+/// flattened BVH's cull sign, the instance record's front sign), and all
+/// agree on which side of a flattened single-sided mesh is its front. An
 /// invertible placement (det finite and non-zero, in f64) is returned as
 /// it is.
 pub fn regularized_placement(m: Mat4) -> Mat4 {

@@ -62,7 +62,7 @@ pub struct BenchMaterialsArgs {
     /// fills when not given).
     #[arg(long)]
     sweep_fill: Option<MemoFill>,
-    /// Rounds over all configurations (alternating, in a carry-over balanced order: every configuration follows every other equally often over m rounds, 2m for odd m).
+    /// Rounds over all configurations (alternating, in a carry-over balanced order: over m rounds, 2m for odd m, every configuration takes every position, and within a round follows every other, equally often).
     #[arg(long, default_value_t = 2)]
     repeats: usize,
     /// Instead of the sweep: what one fill costs, timed apart. The trace's
