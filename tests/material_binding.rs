@@ -1388,6 +1388,49 @@ fn level_test_memo(tile: u32, bias: f32) -> stereocache::materials::memo::MemoSe
     }
 }
 
+/// `uv_emitting_quads(d, 1.0)` with quad 0 alone: any light a path brings
+/// back is then its (u, v, 1) (`weighted_uv`).
+fn quad_zero_alone(d: &Path) -> (Scene, QuadUv) {
+    let (mut scene, quv) = uv_emitting_quads(d, 1.0);
+    let meshes = scene.meshes.clone();
+    scene
+        .instances
+        .retain(|i| meshes[i.mesh as usize].material == 0);
+    (scene, quv)
+}
+
+/// The rough-mirror tests' pair of renders, same seed: direct (memo off:
+/// each path's exact hit) and memoized at secondary hits
+/// (`level_test_memo(tile, bias)`: the texel the cache keyed), with the
+/// memoized session for its counters.
+fn direct_and_memoized(
+    ctx: &std::sync::Arc<stereocache::gpu::GpuContext>,
+    scene: &Scene,
+    rt: RtChoice,
+    tile: u32,
+    bias: f32,
+    camera: StereoCamera,
+    settings: &RenderSettings,
+) -> (
+    stereocache::methods::StereoFrame,
+    stereocache::session::Session,
+    stereocache::methods::StereoFrame,
+) {
+    let mut direct_scene = scene.clone();
+    direct_scene.graphs.memo = stereocache::materials::memo::MemoSettings::default();
+    let direct = render(
+        &session(ctx, direct_scene, rt),
+        "reference",
+        camera,
+        settings,
+    );
+    let mut memo_scene = scene.clone();
+    memo_scene.graphs.memo = level_test_memo(tile, bias);
+    let s = session(ctx, memo_scene, rt);
+    let f = render(&s, "reference", camera, settings);
+    (direct, s, f)
+}
+
 /// The level tests' table was used: hits and misses, no refused read.
 fn assert_table_hit_and_missed(s: &stereocache::session::Session, what: &str) {
     let c = memo_counters(s);
@@ -1665,15 +1708,9 @@ fn memo_levels_past_a_mirror_follow_the_grown_cone() {
 #[test]
 fn memo_levels_past_a_rough_mirror_follow_the_roughness_spread() {
     use stereocache::materials::memo::lod;
-    use stereocache::materials::memo::MemoSettings;
     let ctx = context();
     let d = dir("memo-rough-mirror");
-    let (mut scene, quv) = uv_emitting_quads(&d, 1.0);
-    // Quad 0 alone: any light a path brings back is then its (u, v, 1).
-    let meshes = scene.meshes.clone();
-    scene
-        .instances
-        .retain(|i| meshes[i.mesh as usize].material == 0);
+    let (mut scene, quv) = quad_zero_alone(&d);
     const H: f32 = MIRROR_H;
     const BIAS: f32 = -3.0;
     const ROUGHNESS: f32 = 0.5;
@@ -1691,17 +1728,7 @@ fn memo_levels_past_a_rough_mirror_follow_the_roughness_spread() {
         ..settings
     };
     for (rt, tile) in level_test_configs(&ctx) {
-        let mut direct_scene = scene.clone();
-        direct_scene.graphs.memo = MemoSettings::default();
-        let direct = render(
-            &session(&ctx, direct_scene, rt),
-            "reference",
-            camera,
-            &settings,
-        );
-        scene.graphs.memo = level_test_memo(tile, BIAS);
-        let s = session(&ctx, scene.clone(), rt);
-        let f = render(&s, "reference", camera, &settings);
+        let (direct, s, f) = direct_and_memoized(&ctx, &scene, rt, tile, BIAS, camera, &settings);
         let (mut checked, mut no_roughness, mut halved, mut doubled) =
             (0usize, 0usize, 0usize, 0usize);
         let mut levels_seen = std::collections::BTreeSet::new();
@@ -2198,14 +2225,9 @@ fn weighted_uv(rad: [f32; 4]) -> Option<Vec2> {
 #[test]
 fn memo_levels_past_a_rough_concave_mirror_keep_the_roughness_blur() {
     use stereocache::materials::memo::lod;
-    use stereocache::materials::memo::MemoSettings;
     let ctx = context();
     let d = dir("memo-rough-concave");
-    let (mut scene, quv) = uv_emitting_quads(&d, 1.0);
-    let meshes = scene.meshes.clone();
-    scene
-        .instances
-        .retain(|i| meshes[i.mesh as usize].material == 0);
+    let (mut scene, quv) = quad_zero_alone(&d);
     const BIAS: f32 = -2.0;
     const ROUGHNESS: f32 = 0.1;
     let beta_r = lod::roughness_spread(ROUGHNESS * ROUGHNESS);
@@ -2230,18 +2252,7 @@ fn memo_levels_past_a_rough_concave_mirror_keep_the_roughness_blur() {
     );
     let camera = StereoCamera::from_scene_camera(c.transform, c.yfov, 96.0 / 60.0);
     for (rt, tile) in level_test_configs(&ctx) {
-        let mut direct_scene = scene.clone();
-        direct_scene.graphs.memo = MemoSettings::default();
-        let direct = render(
-            &session(&ctx, direct_scene, rt),
-            "reference",
-            camera,
-            &settings,
-        );
-        let mut memo_scene = scene.clone();
-        memo_scene.graphs.memo = level_test_memo(tile, BIAS);
-        let s = session(&ctx, memo_scene, rt);
-        let f = render(&s, "reference", camera, &settings);
+        let (direct, s, f) = direct_and_memoized(&ctx, &scene, rt, tile, BIAS, camera, &settings);
         let (mut checked, mut focused, mut summed_refuted, mut flat_refuted) =
             (0usize, 0usize, 0usize, 0usize);
         let mut levels_seen = std::collections::BTreeSet::new();
