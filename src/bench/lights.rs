@@ -21,9 +21,8 @@ pub struct LightBenchRow {
     pub mse: f64,
     pub mse_se: f64,
     /// The reference's variance per pixel and channel, from its two halves
-    /// (different seeds, ⌈spp/2⌉ and ⌊spp/2⌋ samples, at least 1 each: a
-    /// 1 spp reference is rendered as two): mean of
-    /// (h₁ − h₂)² · n₁n₂ / (n₁ + n₂)².
+    /// (different seeds, ⌈spp/2⌉ samples each: an odd `--reference-spp`
+    /// renders one more), `metrics::reference_noise`'s MSE estimate.
     pub reference_noise: f64,
     /// MSE at the frame time of the first strategy: mse · frame_ms / frame_ms[0]
     /// (MSE ∝ 1/samples ∝ 1/time for an unbiased estimator; with the
@@ -56,16 +55,15 @@ pub fn bench_lights(
         camera,
         prev_camera: None,
     };
-    // The reference in two halves of independent seeds: their weighted mean
-    // is the reference, their difference its noise.
-    let n1 = reference_spp.div_ceil(2).max(1);
-    let n2 = (reference_spp / 2).max(1);
-    let half = |spp: u32, salt: u32| -> Result<crate::methods::StereoFrame> {
+    // The reference in two halves of independent seeds, ⌈spp/2⌉ samples
+    // each, as `compare` renders its references: their mean is the
+    // reference, their difference its own error (evaluate::ReferenceFrame).
+    let half = |salt: u32| -> Result<crate::methods::StereoFrame> {
         Ok(session
             .create(
                 MethodKind::Reference,
                 &RenderSettings {
-                    spp,
+                    spp: reference_spp.div_ceil(2).max(1),
                     seed: base.seed ^ 0x9E37_79B9 ^ salt,
                     light_sampling: LightSampling::Mis,
                     ..base.clone()
@@ -73,20 +71,10 @@ pub fn bench_lights(
             )?
             .render_frame(&frame(0))?)
     };
-    let (h1, h2) = (half(n1, 0)?, half(n2, 0x5A5A_0001)?);
-    let (w1, w2) = (n1 as f64 / (n1 + n2) as f64, n2 as f64 / (n1 + n2) as f64);
-    let mut reference: Vec<[f64; 3]> = Vec::new();
-    let (mut noise, mut count) = (0.0f64, 0usize);
-    for (a, b) in h1.eyes.iter().zip(&h2.eyes) {
-        for (p, q) in a.radiance.iter().zip(&b.radiance) {
-            reference.push([0, 1, 2].map(|k| w1 * p[k] as f64 + w2 * q[k] as f64));
-            for k in 0..3 {
-                noise += (p[k] as f64 - q[k] as f64).powi(2) * w1 * w2;
-                count += 1;
-            }
-        }
-    }
-    let reference_noise = noise / count.max(1) as f64;
+    let halves = [half(0)?, half(0x5A5A_0001)?];
+    let ppd = crate::evaluate::flip_ppd(&camera, base.width);
+    let reference = crate::evaluate::ReferenceFrame::from_halves(halves, ppd)?;
+    let reference_noise = reference.noise.mse;
     let mut methods = Vec::new();
     for &s in strategies {
         methods.push(session.create(
@@ -99,9 +87,10 @@ pub fn bench_lights(
     }
     let mse_of = |f: &crate::methods::StereoFrame| -> f64 {
         let (mut acc, mut n) = (0.0f64, 0usize);
-        for (p, q) in f.eyes.iter().flat_map(|e| &e.radiance).zip(&reference) {
+        let eyes = f.eyes.iter().zip(&reference.frame.eyes);
+        for (p, q) in eyes.flat_map(|(a, b)| a.radiance.iter().zip(&b.radiance)) {
             for k in 0..3 {
-                acc += (p[k] as f64 - q[k]).powi(2);
+                acc += (p[k] as f64 - q[k] as f64).powi(2);
                 n += 1;
             }
         }
