@@ -84,10 +84,11 @@ struct NeeVertex {
     float wc;             // glass: the coat's share (0 without one or from behind)
     bool diel_delta;      // glass: a smooth dielectric (a delta lobe: no density)
     vec3 sigma_other;     // absorption on the surface's other side (glass)
+    float ior_other;      // index of refraction of the medium there (glass; media.glsl)
 };
 
-NeeVertex opaque_vertex(ShadingMaterial m, Frame f, vec3 wo, vec3 sigma_a) {
-    return NeeVertex(false, m, m, f, f, wo, wo, 0.0, true, sigma_a);
+NeeVertex opaque_vertex(ShadingMaterial m, Frame f, vec3 wo, vec3 sigma_a, float ior) {
+    return NeeVertex(false, m, m, f, f, wo, wo, 0.0, true, sigma_a, ior);
 }
 
 // f·|cos θi| of the vertex's BSDF towards world direction wi, and the density
@@ -146,20 +147,87 @@ bool nee_unoccluded_to(Surface s, vec3 wi, vec3 x, vec3 nl, float extent) {
 vec3 nee_sigma(NeeVertex v, Surface s, vec3 wi, vec3 sigma_a) {
     return dot(wi, s.ng) > 0.0 ? sigma_a : v.sigma_other;
 }
+// The index of refraction of the medium a shadow ray along wi travels in.
+float nee_ior(NeeVertex v, Surface s, vec3 wi, float ior) { return dot(wi, s.ng) > 0.0 ? ior : v.ior_other; }
+
+// What a smooth thin-walled transmissive surface passes straight on along
+// d, in expectation over path_radiance's choices at it for a path arriving
+// along d (the glass share m.transmission; from the front the coat's share
+// wc = coat_weight, which only reflects; the dielectric's smooth branch
+// reflecting with p_reflect (dielectric_layer) and transmitting the rest
+// undeviated, tinted by the base colour: bsdf.glsl dielectric_sample), so
+// m.transmission·(1 − wc)·(1 − p_reflect)·base; 0 for any other surface
+// (opaque, rough, or a volume's boundary, which refracts). `ior` is the
+// medium's around it (the thin sheet's relative index, as
+// media_outside_ior gives it for a surface not in the stack).
+vec3 thin_sheet_transmittance(Surface q, ShadingMaterial m, vec3 d, float ior) {
+    if (!SC_TRANSMISSION || !m.thin || !(m.transmission > 0.0) || !dielectric_delta(m)) return vec3(0.0);
+    if (dot(q.n, d) >= 0.0) q.n = q.ng;   // path_radiance's fallbacks
+    if (SC_CLEARCOAT && m.clearcoat > 0.0 && dot(m.coat_n, d) >= 0.0) m.coat_n = q.ng;
+    Frame f = frame_from(q.n);
+    m = coat_in_frame(m, f);
+    float wc = q.front ? coat_weight(m, to_local(f, -d)) : 0.0;
+    ShadingMaterial mi = m;
+    mi.ior /= ior;
+    vec3 Fr;
+    float p_reflect = dielectric_layer(mi, abs(dot(q.n, d)), mi.ior, Fr);
+    return m.transmission * (1.0 - wc) * (1.0 - p_reflect) * m.base;
+}
+
+// A delta light's shadow ray from the vertex along wi over `dist`: 1 where
+// unoccluded, and through up to `sheets` smooth thin-walled transmissive
+// surfaces (a glTF window: KHR_materials_transmission without a volume,
+// roughness < 0.02) the product of what each passes straight on
+// (thin_sheet_transmittance); 0 at any other surface or one sheet more.
+// A delta light cannot be reached by BSDF sampling, so until session 54 a
+// point, spot or delta directional light behind such a window lit nothing
+// through it; an area emitter, the map and the sun's disc are reached
+// through it by BSDF sampling and their light samples still stop there (no
+// estimate counts twice). `sheets` is the bounces the path has left after
+// this light sample (path_radiance spends one on each sheet), so the light
+// is counted exactly where a path through the same sheets to a small
+// emitter would be. A thin sheet bounds no volume: the medium, its index
+// `ior`, is the same along the whole ray.
+vec3 nee_delta_transmittance(Surface s, vec3 wi, float dist, float ior, uint sheets) {
+    vec3 o = surface_offset(s, dot(wi, s.ng) > 0.0 ? s.ng : -s.ng);
+    if (!SC_TRANSMISSION) return rt_occluded(o, wi, 0.0, dist) ? vec3(0.0) : vec3(1.0);
+    vec3 T = vec3(1.0);
+    float tmax = dist;
+    for (uint k = 0u;; ++k) {
+        RtHit h;
+        if (!rt_closest_hit(o, wi, 0.0, tmax, h)) return T;
+        if (k >= sheets) return vec3(0.0);
+        Surface q = surface_at(h.instance, h.prim, h.bary, wi);
+        ShadingMaterial m = material_at(q, wi, 0.0);
+        T *= thin_sheet_transmittance(q, m, wi, ior);
+        if (!any(greaterThan(T, vec3(0.0)))) return vec3(0.0);
+        tmax -= h.t;
+        o = surface_offset(q, -q.ng);   // q.ng faces the ray: the far side
+    }
+}
 
 // Punctual lights and the sun: one light picked uniformly, weighted against
 // BSDF sampling by the power heuristic where it has a density (the sun's
-// discs), in full where it is a delta light.
-vec3 nee_punctual(Surface s, NeeVertex v, vec2 u_light, float u_pick, vec3 sigma_a, inout RayCounts rays) {
+// discs), in full where it is a delta light (whose shadow ray passes smooth
+// thin sheets: nee_delta_transmittance, with `sheets` and the medium's
+// index `ior` on the vertex's side).
+vec3 nee_punctual(Surface s, NeeVertex v, vec2 u_light, float u_pick, vec3 sigma_a, float ior, uint sheets,
+                  inout RayCounts rays) {
     LightSample ls;
     if (!(SC_DIRECTIONAL || SC_PUNCTUAL) || !sample_light(s.p, u_light, u_pick, ls)) return vec3(0.0);
     float pdf_b;
     vec3 fc = vertex_eval(v, s, ls.wi, pdf_b);
     if (!any(greaterThan(fc, vec3(0.0)))) return vec3(0.0);
     rays.shadow++;
-    if (!nee_unoccluded(s, ls.wi, ls.dist * (1.0 - 1e-4))) return vec3(0.0);
+    vec3 T = vec3(1.0);
+    if (ls.pdf > 0.0) {
+        if (!nee_unoccluded(s, ls.wi, ls.dist * (1.0 - 1e-4))) return vec3(0.0);
+    } else {
+        T = nee_delta_transmittance(s, ls.wi, ls.dist * (1.0 - 1e-4), nee_ior(v, s, ls.wi, ior), sheets);
+        if (!any(greaterThan(T, vec3(0.0)))) return vec3(0.0);
+    }
     float w = ls.pdf > 0.0 ? power_heuristic(ls.pdf, pdf_b) : 1.0;
-    vec3 c = fc * ls.L * w;
+    vec3 c = T * fc * ls.L * w;
     vec3 sg = nee_sigma(v, s, ls.wi, sigma_a);
     return in_medium(sg) ? c * medium_transmittance(sg, ls.dist) : c;
 }
@@ -212,7 +280,16 @@ vec3 nee_area_lights(Surface s, NeeVertex v, uint pick_emitter, vec3 u_emitter, 
 // false for a miss). `eye_cone` is the camera ray's cone at the hit (width,
 // spread angle: camera.glsl eye_cone; 0 for a miss): the width is used for
 // texture filtering at the first hit; later hits use mip 0 plus growth.
-vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, vec2 eye_cone, inout Rng rng, inout RayCounts rays) {
+// `first` is the material evaluated at the first hit, where `first_set`:
+// the caching passes demodulate with it instead of evaluating it again (an
+// evaluation per shaded sample, and with memoization a second lookup of
+// the same texel). Not set for a miss, or where the first hit is a false
+// interface (media.glsl: the path goes on through it, never evaluating its
+// material): there the caller evaluates it itself.
+vec3 path_radiance_first(vec3 o, vec3 d, bool hit, RtHit h, vec2 eye_cone, inout Rng rng, inout RayCounts rays,
+                         out ShadingMaterial first, out bool first_set) {
+    first_set = false;
+    bool at_first = true;   // the surface of `h` as passed in
     float cone_width = eye_cone.x;
     vec3 L = vec3(0.0);
     vec3 beta = vec3(1.0);
@@ -261,6 +338,7 @@ vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, vec2 eye_cone, inout Rng r
             // do not pass transmissive ones), so the emission counts in
             // full (and emitter_pdf's distance from here would be wrong).
             media_cross(media, h.instance, s.front);
+            at_first = false;
             o = surface_offset(s, -s.ng);
             specular_prev = true;
             pdf_prev = 0.0;
@@ -272,6 +350,11 @@ vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, vec2 eye_cone, inout Rng r
         sc_memo_cone = bounce > 0u && cone_width > 0.0 ? abs(memo_w) + memo_blur_w : -1.0;
 #endif
         ShadingMaterial m = material_at(s, d, cone);
+        if (at_first) {
+            first = m;
+            first_set = true;
+            at_first = false;
+        }
 #ifdef SC_MATERIAL_MEMO
         sc_memo_cone = -1.0;
         // Eq. 2.11: the roughness blur grows by this surface's β_r.
@@ -333,11 +416,12 @@ vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, vec2 eye_cone, inout Rng r
             ShadingMaterial mi = m;
             mi.ior /= media_outside_ior(media, h.instance, s.front);
             Frame fg = frame_from(s.front ? s.n : -s.n);
-            v = NeeVertex(true, m, mi, f, fg, wo, to_local(fg, -d), wc, dielectric_delta(mi), sigma_a);
+            v = NeeVertex(true, m, mi, f, fg, wo, to_local(fg, -d), wc, dielectric_delta(mi), sigma_a, media_ior(media, 0u));
             if (!m.thin) {
                 Media across = media;
                 media_cross(across, h.instance, s.front);
                 v.sigma_other = media_sigma_a(across);
+                v.ior_other = media_ior(across, 0u);
             }
             nee = wc > 0.0 || !v.diel_delta;
             if (nee) {
@@ -348,14 +432,14 @@ vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, vec2 eye_cone, inout Rng r
             if (wo.z <= 0.0) break;
             u_light = rng_next2(r);
             u_pick = rng_next(r);
-            v = opaque_vertex(m, f, wo, sigma_a);
+            v = opaque_vertex(m, f, wo, sigma_a, media_ior(media, 0u));
             nee = true;
         }
         if (nee) {
             uint pick_emitter = rng_next_u32(rl);
             vec3 u_emitter = vec3(rng_next(rl), rng_next2(rl));
             vec2 u_env = rng_next2(rl);
-            L += beta * nee_punctual(s, v, u_light, u_pick, sigma_a, rays);
+            L += beta * nee_punctual(s, v, u_light, u_pick, sigma_a, media_ior(media, 0u), SC_MAX_BOUNCES - 1u - bounce, rays);
 #ifdef SC_MATERIAL_MEMO
             // Light samples are secondary hits of this path too: their
             // cone is the one a BSDF-sampled ray reaching the same point
@@ -429,6 +513,27 @@ vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, vec2 eye_cone, inout Rng r
         rays.bounce++;
         ++bounce;
         hit = rt_closest_hit(o, d, 0.0, 1e30, h);
+    }
+    return L;
+}
+
+vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, vec2 eye_cone, inout Rng rng, inout RayCounts rays) {
+    ShadingMaterial first;
+    bool first_set;
+    return path_radiance_first(o, d, hit, h, eye_cone, rng, rays, first, first_set);
+}
+
+// path_radiance from a first hit `h` and the material there (`m`, the
+// demodulation factor's and the accumulation floor's input): the one
+// path_radiance evaluated, or, where it evaluated none there (a false
+// interface), evaluated here as path_radiance would have.
+vec3 path_radiance_with_material(vec3 o, vec3 d, RtHit h, vec2 eye_cone, inout Rng rng, inout RayCounts rays,
+                                 out ShadingMaterial m) {
+    bool m_set;
+    vec3 L = path_radiance_first(o, d, true, h, eye_cone, rng, rays, m, m_set);
+    if (!m_set) {
+        Surface s = surface_at(h.instance, h.prim, h.bary, d);
+        m = material_at(s, d, eye_cone.x);
     }
     return L;
 }

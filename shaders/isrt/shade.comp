@@ -38,10 +38,9 @@ void main() {
     h.bary = first_hit_bary(fh);
     Rng rng = rng_init(frame.size_seed.z, frame.size_seed.w, eye, px.y * frame_size().x + px.x, 0x15A70002u + k);
     RayCounts rays = RayCounts(0u, 0u);
-    vec3 L = path_radiance(o, d, true, h, eye_cone(e, t), rng, rays);
+    ShadingMaterial m;
+    vec3 L = path_radiance_with_material(o, d, h, eye_cone(e, t), rng, rays, m);
     if (any(isnan(L)) || any(isinf(L))) L = vec3(0.0);
-    Surface s = surface_at(h.instance, h.prim, h.bary, d);
-    ShadingMaterial m = material_at(s, d, eye_cone(e, t).x);
     vec3 demod = demodulate(L, m);   // emission kept apart (common/demodulation.glsl)
     // The sample cache's accumulation (common/accumulation.glsl): until
     // session 50 always appendix C's α_min floor wherever the BSDF has a

@@ -43,10 +43,9 @@ void main() {
         h.prim = fh.z;
         h.bary = first_hit_bary(fh);
         Rng rng = rng_init(frame.size_seed.z, frame.size_seed.w, eye, pixel, 0x10000u + slot);
-        vec3 L = path_radiance(o, d, true, h, eye_cone(e, t), rng, rays);
+        ShadingMaterial m;
+        vec3 L = path_radiance_with_material(o, d, h, eye_cone(e, t), rng, rays, m);
         if (any(isnan(L)) || any(isinf(L))) L = vec3(0.0);
-        Surface s = surface_at(h.instance, h.prim, h.bary, d);
-        ShadingMaterial m = material_at(s, d, eye_cone(e, t).x);
         vec3 demod = demodulate(L, m);
 
         rad_cur[idx] = accumulate_record(rad_cur[idx], demod, accumulation_floor(ACCUM_MODE, pc.fixed_alpha, m));
