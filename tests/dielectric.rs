@@ -817,6 +817,178 @@ fn rough_thin_sheet_is_lit_by_a_point_light_through_and_in_front() {
     assert_no_validation_messages(&ctx);
 }
 
+/// Delta lights through smooth thin sheets (session 54): a white Lambert
+/// floor (y = 0) seen from below the sheets, lit by a point light 10 m above
+/// the origin or a delta directional light straight down, through one or
+/// two smooth thin-walled sheets (KHR_materials_transmission without a
+/// volume, roughness 0, ior 1.5) at y = 5 and 6 that cover everything the
+/// camera sees of the floor from the light. Each sheet passes on
+/// transmission·(1 − F(cos θ))·base of the light (path_radiance's expected
+/// weight for a path going straight through: integrator.glsl
+/// thin_sheet_transmittance), so each pixel's ratio to the same render
+/// without the sheets (the same seed: the same floor points, the same light
+/// samples) lies between the products at the steepest and at normal
+/// incidence over the floor the view covers (|x|, |z| ≤ 3.2 m: cos θ ≥
+/// 0.91, F from 0.0400 to 0.0410). With two bounces one sheet is within
+/// the path's budget and two are not (a path through two sheets to a small
+/// emitter would need three): 0 there, as for the emitter. The sheets
+/// (100 m) outreach the floor (80 m), so a path reflected back down by a
+/// sheet finds its light behind them as well. Until session
+/// 54 every ratio was 0 (a delta light was never reached through a delta
+/// event).
+#[test]
+fn delta_lights_shine_through_smooth_thin_sheets() {
+    let ctx = context();
+    let tint = [0.9f64, 0.6, 0.3];
+    let transmission = 0.5f64;
+    let cam = look_at_camera(Vec3::new(0.0, 4.5, 6.0), Vec3::ZERO, 20.0, 1.0);
+    let scene = |sheets: &[f32], point: bool| {
+        let mut s = Scene {
+            source: "test:thin-sheets".into(),
+            ..Default::default()
+        };
+        let floor = add_material(
+            &mut s,
+            Material {
+                name: "floor".into(),
+                base_color: glam::Vec4::ONE,
+                metallic: 0.0,
+                roughness: 1.0,
+                double_sided: true,
+                ..Default::default()
+            },
+        );
+        add_mesh(
+            &mut s,
+            grid(
+                "floor",
+                Vec3::new(-40.0, 0.0, 40.0),
+                Vec3::X * 80.0,
+                Vec3::NEG_Z * 80.0,
+                1,
+                1,
+                Vec2::ONE,
+            ),
+            floor,
+            Mat4::IDENTITY,
+        );
+        let sheet = add_material(
+            &mut s,
+            Material {
+                name: "window".into(),
+                base_color: glam::Vec4::new(tint[0] as f32, tint[1] as f32, tint[2] as f32, 1.0),
+                metallic: 0.0,
+                roughness: 0.0,
+                transmission: transmission as f32,
+                ior: IOR as f32,
+                double_sided: true,
+                ..Default::default()
+            },
+        );
+        for (i, y) in sheets.iter().enumerate() {
+            add_mesh(
+                &mut s,
+                grid(
+                    &format!("sheet {i}"),
+                    Vec3::new(-50.0, *y, 50.0),
+                    Vec3::X * 100.0,
+                    Vec3::NEG_Z * 100.0,
+                    1,
+                    1,
+                    Vec2::ONE,
+                ),
+                sheet,
+                Mat4::IDENTITY,
+            );
+        }
+        s.lights.push(stereocache::scene::Light {
+            name: "light".into(),
+            kind: if point {
+                stereocache::scene::LightKind::Point
+            } else {
+                stereocache::scene::LightKind::Directional {
+                    angular_radius: 0.0,
+                }
+            },
+            radiant: Vec3::splat(100.0),
+            position: Vec3::new(0.0, 10.0, 0.0),
+            direction: Vec3::NEG_Y,
+            range: None,
+        });
+        s.validate().unwrap();
+        s
+    };
+    // The floor the view covers, from the camera's corner rays.
+    let v = cam.eyes()[0];
+    let mut reach = 0.0f64;
+    for (px, py) in [(0.0, 0.0), (16.0, 0.0), (0.0, 16.0), (16.0, 16.0)] {
+        let d = v
+            .ray_direction(Vec2::new(px, py), glam::UVec2::new(16, 16))
+            .as_dvec3();
+        let o = v.position.as_dvec3();
+        let t = -o.y / d.y;
+        reach = reach.max((o.x + t * d.x).abs()).max((o.z + t * d.z).abs());
+    }
+    assert!(reach < 3.2, "the view covers the floor to {reach} m");
+    let cos_min = 10.0 / (10.0f64 * 10.0 + 2.0 * reach * reach).sqrt();
+    let sheet_t = |c: f64| transmission * (1.0 - fresnel_dielectric(c, IOR));
+    for rt in rt_backends(&ctx) {
+        for point in [true, false] {
+            for (sheets, bounces, count) in [
+                (&[5.0f32][..], 2u32, 1i32),
+                (&[5.0, 6.0][..], 2, 0),
+                (&[5.0, 6.0][..], 3, 2),
+            ] {
+                let settings = RenderSettings {
+                    width: 16,
+                    height: 16,
+                    spp: 2,
+                    max_bounces: bounces,
+                    seed: 9,
+                    ..Default::default()
+                };
+                let open = render(
+                    &session(&ctx, scene(&[], point), rt),
+                    "reference",
+                    cam,
+                    &settings,
+                );
+                let covered = render(
+                    &session(&ctx, scene(sheets, point), rt),
+                    "reference",
+                    cam,
+                    &settings,
+                );
+                let c_lo = if point { cos_min } else { 1.0 };
+                for (e, (a, b)) in open.eyes.iter().zip(&covered.eyes).enumerate() {
+                    for (p, (pa, pb)) in a.radiance.iter().zip(&b.radiance).enumerate() {
+                        for k in 0..3 {
+                            let (lo, hi) = if count == 0 {
+                                (0.0, 0.0)
+                            } else {
+                                (
+                                    (sheet_t(c_lo) * tint[k]).powi(count),
+                                    (sheet_t(1.0) * tint[k]).powi(count),
+                                )
+                            };
+                            let r = pb[k] as f64 / pa[k] as f64;
+                            assert!(
+                                pa[k] > 0.0 && r >= lo * (1.0 - 1e-4) && r <= hi * (1.0 + 1e-4),
+                                "{rt:?}, {}, {} sheet(s), {bounces} bounces: eye {e} pixel {p} channel {k}: {} / {} = {r:.5}, want [{lo:.5}, {hi:.5}]",
+                                if point { "point light" } else { "directional light" },
+                                sheets.len(),
+                                pb[k],
+                                pa[k]
+                            );
+                        }
+                    }
+                }
+            }
+        }
+    }
+    assert_no_validation_messages(&ctx);
+}
+
 /// Light sampling and BSDF sampling must see the same rough glass: an
 /// emitter behind rough glass (roughness 0.4), a thin sheet and a sphere
 /// with a volume (its back face transmits towards the emitter from inside,
