@@ -187,8 +187,9 @@ vec3 thin_sheet_transmittance(Surface q, ShadingMaterial m, vec3 d, float ior) {
 // this light sample (path_radiance spends one on each sheet), so the light
 // is counted exactly where a path through the same sheets to a small
 // emitter would be. A thin sheet bounds no volume: the medium, its index
-// `ior`, is the same along the whole ray.
-vec3 nee_delta_transmittance(Surface s, vec3 wi, float dist, float ior, uint sheets) {
+// `ior`, is the same along the whole ray. Each ray past a sheet counts as
+// a shadow ray of its own.
+vec3 nee_delta_transmittance(Surface s, vec3 wi, float dist, float ior, uint sheets, inout RayCounts rays) {
     vec3 o = surface_offset(s, dot(wi, s.ng) > 0.0 ? s.ng : -s.ng);
     if (!SC_TRANSMISSION) return rt_occluded(o, wi, 0.0, dist) ? vec3(0.0) : vec3(1.0);
     vec3 T = vec3(1.0);
@@ -197,12 +198,27 @@ vec3 nee_delta_transmittance(Surface s, vec3 wi, float dist, float ior, uint she
         RtHit h;
         if (!rt_closest_hit(o, wi, 0.0, tmax, h)) return T;
         if (k >= sheets) return vec3(0.0);
+        // Not thin-walled or not transmissive by its factors (no texture
+        // makes it so): stopped, without evaluating the material.
+        uint material = instance_material(h.instance);
+        MaterialGpu g = materials[material];
+        if (!(g.attenuation.w > 0.5) || !(g.params.y > 0.0)) return vec3(0.0);
         Surface q = surface_at(h.instance, h.prim, h.bary, wi);
-        ShadingMaterial m = material_at(q, wi, 0.0);
+#ifdef SC_MATERIAL_GRAPHS
+        // A sheet whose material binds graphs stops the ray, as every sheet
+        // did before: its graphs are not evaluated here (the scene's graph
+        // switch inlined once more per shader does not compile for the
+        // procedural-heavy Sponza: material.glsl material_with). The others
+        // are evaluated by material_with with no graph outputs (mask 0).
+        if (sc_material_binds_graphs(material)) return vec3(0.0);
+        ScGraphOutputs go = ScGraphOutputs(vec3(1.0), 1.0, 1.0, q.n, vec3(1.0), 0u);
+#endif
+        ShadingMaterial m = material_with(q, wi, 0.0 SC_GRAPH_OUTPUTS_PASS);
         T *= thin_sheet_transmittance(q, m, wi, ior);
         if (!any(greaterThan(T, vec3(0.0)))) return vec3(0.0);
         tmax -= h.t;
         o = surface_offset(q, -q.ng);   // q.ng faces the ray: the far side
+        rays.shadow++;
     }
 }
 
@@ -223,7 +239,7 @@ vec3 nee_punctual(Surface s, NeeVertex v, vec2 u_light, float u_pick, vec3 sigma
     if (ls.pdf > 0.0) {
         if (!nee_unoccluded(s, ls.wi, ls.dist * (1.0 - 1e-4))) return vec3(0.0);
     } else {
-        T = nee_delta_transmittance(s, ls.wi, ls.dist * (1.0 - 1e-4), nee_ior(v, s, ls.wi, ior), sheets);
+        T = nee_delta_transmittance(s, ls.wi, ls.dist * (1.0 - 1e-4), nee_ior(v, s, ls.wi, ior), sheets, rays);
         if (!any(greaterThan(T, vec3(0.0)))) return vec3(0.0);
     }
     float w = ls.pdf > 0.0 ? power_heuristic(ls.pdf, pdf_b) : 1.0;
@@ -280,15 +296,14 @@ vec3 nee_area_lights(Surface s, NeeVertex v, uint pick_emitter, vec3 u_emitter, 
 // false for a miss). `eye_cone` is the camera ray's cone at the hit (width,
 // spread angle: camera.glsl eye_cone; 0 for a miss): the width is used for
 // texture filtering at the first hit; later hits use mip 0 plus growth.
-// `first` is the material evaluated at the first hit, where `first_set`:
-// the caching passes demodulate with it instead of evaluating it again (an
-// evaluation per shaded sample, and with memoization a second lookup of
-// the same texel). Not set for a miss, or where the first hit is a false
-// interface (media.glsl: the path goes on through it, never evaluating its
-// material): there the caller evaluates it itself.
+// `first` is the material evaluated at the first hit (undefined for a
+// miss): the caching passes demodulate with it instead of evaluating it
+// again (an evaluation per shaded sample, and with memoization a second
+// lookup of the same texel). Every path evaluates it: the first hit cannot
+// be a false interface (the path starts in vacuum, an empty media stack:
+// media.glsl media_false_interface).
 vec3 path_radiance_first(vec3 o, vec3 d, bool hit, RtHit h, vec2 eye_cone, inout Rng rng, inout RayCounts rays,
-                         out ShadingMaterial first, out bool first_set) {
-    first_set = false;
+                         out ShadingMaterial first) {
     bool at_first = true;   // the surface of `h` as passed in
     float cone_width = eye_cone.x;
     vec3 L = vec3(0.0);
@@ -352,7 +367,6 @@ vec3 path_radiance_first(vec3 o, vec3 d, bool hit, RtHit h, vec2 eye_cone, inout
         ShadingMaterial m = material_at(s, d, cone);
         if (at_first) {
             first = m;
-            first_set = true;
             at_first = false;
         }
 #ifdef SC_MATERIAL_MEMO
@@ -519,23 +533,15 @@ vec3 path_radiance_first(vec3 o, vec3 d, bool hit, RtHit h, vec2 eye_cone, inout
 
 vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, vec2 eye_cone, inout Rng rng, inout RayCounts rays) {
     ShadingMaterial first;
-    bool first_set;
-    return path_radiance_first(o, d, hit, h, eye_cone, rng, rays, first, first_set);
+    return path_radiance_first(o, d, hit, h, eye_cone, rng, rays, first);
 }
 
-// path_radiance from a first hit `h` and the material there (`m`, the
-// demodulation factor's and the accumulation floor's input): the one
-// path_radiance evaluated, or, where it evaluated none there (a false
-// interface), evaluated here as path_radiance would have.
+// path_radiance from a first hit `h` and the material path_radiance
+// evaluated there (`m`: the demodulation factor's and the accumulation
+// floor's input in the caching passes).
 vec3 path_radiance_with_material(vec3 o, vec3 d, RtHit h, vec2 eye_cone, inout Rng rng, inout RayCounts rays,
                                  out ShadingMaterial m) {
-    bool m_set;
-    vec3 L = path_radiance_first(o, d, true, h, eye_cone, rng, rays, m, m_set);
-    if (!m_set) {
-        Surface s = surface_at(h.instance, h.prim, h.bary, d);
-        m = material_at(s, d, eye_cone.x);
-    }
-    return L;
+    return path_radiance_first(o, d, true, h, eye_cone, rng, rays, m);
 }
 
 // Base colour at a first hit, for demodulation and the albedo output.

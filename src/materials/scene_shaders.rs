@@ -198,6 +198,17 @@ pub fn include(sg: &SceneGraphs, origin: DVec3, memo: bool, slots: &[Vec<u32>]) 
         s.push_str("#define SC_GRAPH_EMISSION\n");
         material_predicate(&mut s, "sc_material_binds_emission", &emissive);
     }
+    // The materials that bind any graph: a delta light's shadow ray
+    // (integrator.glsl nee_delta_transmittance) evaluates a thin sheet's
+    // material without its graphs (their switch inlined there once more does
+    // not compile for the procedural-heavy Sponza) and stops at these.
+    let bound: Vec<u32> = sg
+        .materials
+        .iter()
+        .filter(|(_, binds)| !binds.is_empty())
+        .map(|(m, _)| *m)
+        .collect();
+    material_predicate(&mut s, "sc_material_binds_graphs", &bound);
     if memo {
         let memoizable: Vec<u32> = sg
             .materials
