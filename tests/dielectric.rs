@@ -818,31 +818,75 @@ fn rough_thin_sheet_is_lit_by_a_point_light_through_and_in_front() {
 }
 
 /// Delta lights through smooth thin sheets (session 54): a white Lambert
-/// floor (y = 0) seen from below the sheets, lit by a point light 10 m above
-/// the origin or a delta directional light straight down, through one or
-/// two smooth thin-walled sheets (KHR_materials_transmission without a
-/// volume, roughness 0, ior 1.5) at y = 5 and 6 that cover everything the
-/// camera sees of the floor from the light. Each sheet passes on
-/// transmission·(1 − F(cos θ))·base of the light (path_radiance's expected
-/// weight for a path going straight through: integrator.glsl
-/// thin_sheet_transmittance), so each pixel's ratio to the same render
-/// without the sheets (the same seed: the same floor points, the same light
-/// samples) lies between the products at the steepest and at normal
-/// incidence over the floor the view covers (|x|, |z| ≤ 3.2 m: cos θ ≥
-/// 0.91, F from 0.0400 to 0.0410). With two bounces one sheet is within
-/// the path's budget and two are not (a path through two sheets to a small
-/// emitter would need three): 0 there, as for the emitter. The sheets
-/// (100 m) outreach the floor (80 m), so a path reflected back down by a
-/// sheet finds its light behind them as well. Until session
-/// 54 every ratio was 0 (a delta light was never reached through a delta
-/// event).
+/// floor (y = 0) seen from below the sheets, lit through one or two smooth
+/// thin-walled sheets (KHR_materials_transmission without a volume,
+/// roughness 0, ior 1.5, transmission 0.5, base (0.9, 0.6, 0.3)) at y = 5
+/// and 6 by a point light 10 m above the origin (a black ceiling 2 m above
+/// it, which a shadow ray that overshot its light would find), a delta
+/// directional light straight down, or one at 60° from the vertical. Each
+/// sheet passes on transmission·(1 − F(cos θ))·base of the light
+/// (path_radiance's expected weight for a path going straight through:
+/// integrator.glsl thin_sheet_transmittance), so each pixel's ratio to the
+/// same render without the sheets (the same seed: the same floor points,
+/// the same light samples) lies between the products at the steepest and
+/// at the most normal incidence: for the point light over the floor the
+/// view covers (|x|, |z| ≤ 3.2 m: cos θ ≥ 0.91, F from 0.0400 to 0.0410),
+/// for the directional lights exactly (F(1) = 0.0400, F(cos 60°) = 0.0891).
+/// With two bounces one sheet is within the path's budget and two are not
+/// (a path through two sheets to a small emitter would need three): 0
+/// there, as for the emitter. The sheets (120 m) outreach the floor (80 m)
+/// by more than the slanted light's offset, so a path reflected back down by
+/// a sheet finds its light behind them as well. Until session 54 every
+/// ratio was 0 (a delta light was never reached through a delta event).
 #[test]
 fn delta_lights_shine_through_smooth_thin_sheets() {
+    use stereocache::scene::{Light, LightKind};
     let ctx = context();
     let tint = [0.9f64, 0.6, 0.3];
     let transmission = 0.5f64;
+    let slant = 60f32.to_radians();
+    // (name, light, cos θ at the sheets: the range over the view, below)
+    let lights = [
+        (
+            "point light",
+            Light {
+                name: "point".into(),
+                kind: LightKind::Point,
+                radiant: Vec3::splat(100.0),
+                position: Vec3::new(0.0, 10.0, 0.0),
+                direction: Vec3::NEG_Y,
+                range: None,
+            },
+        ),
+        (
+            "directional light, vertical",
+            Light {
+                name: "sun".into(),
+                kind: LightKind::Directional {
+                    angular_radius: 0.0,
+                },
+                radiant: Vec3::splat(3.0),
+                position: Vec3::ZERO,
+                direction: Vec3::NEG_Y,
+                range: None,
+            },
+        ),
+        (
+            "directional light, 60°",
+            Light {
+                name: "low sun".into(),
+                kind: LightKind::Directional {
+                    angular_radius: 0.0,
+                },
+                radiant: Vec3::splat(3.0),
+                position: Vec3::ZERO,
+                direction: Vec3::new(slant.sin(), -slant.cos(), 0.0),
+                range: None,
+            },
+        ),
+    ];
     let cam = look_at_camera(Vec3::new(0.0, 4.5, 6.0), Vec3::ZERO, 20.0, 1.0);
-    let scene = |sheets: &[f32], point: bool| {
+    let scene = |sheets: &[f32], light: &Light| {
         let mut s = Scene {
             source: "test:thin-sheets".into(),
             ..Default::default()
@@ -890,9 +934,9 @@ fn delta_lights_shine_through_smooth_thin_sheets() {
                 &mut s,
                 grid(
                     &format!("sheet {i}"),
-                    Vec3::new(-50.0, *y, 50.0),
-                    Vec3::X * 100.0,
-                    Vec3::NEG_Z * 100.0,
+                    Vec3::new(-60.0, *y, 60.0),
+                    Vec3::X * 120.0,
+                    Vec3::NEG_Z * 120.0,
                     1,
                     1,
                     Vec2::ONE,
@@ -901,20 +945,34 @@ fn delta_lights_shine_through_smooth_thin_sheets() {
                 Mat4::IDENTITY,
             );
         }
-        s.lights.push(stereocache::scene::Light {
-            name: "light".into(),
-            kind: if point {
-                stereocache::scene::LightKind::Point
-            } else {
-                stereocache::scene::LightKind::Directional {
-                    angular_radius: 0.0,
-                }
-            },
-            radiant: Vec3::splat(100.0),
-            position: Vec3::new(0.0, 10.0, 0.0),
-            direction: Vec3::NEG_Y,
-            range: None,
-        });
+        if light.kind == LightKind::Point {
+            let black = add_material(
+                &mut s,
+                Material {
+                    name: "ceiling".into(),
+                    base_color: glam::Vec4::new(0.0, 0.0, 0.0, 1.0),
+                    metallic: 0.0,
+                    specular: 0.0,
+                    double_sided: true,
+                    ..Default::default()
+                },
+            );
+            add_mesh(
+                &mut s,
+                grid(
+                    "ceiling",
+                    Vec3::new(-60.0, 12.0, 60.0),
+                    Vec3::X * 120.0,
+                    Vec3::NEG_Z * 120.0,
+                    1,
+                    1,
+                    Vec2::ONE,
+                ),
+                black,
+                Mat4::IDENTITY,
+            );
+        }
+        s.lights.push(light.clone());
         s.validate().unwrap();
         s
     };
@@ -930,15 +988,15 @@ fn delta_lights_shine_through_smooth_thin_sheets() {
         reach = reach.max((o.x + t * d.x).abs()).max((o.z + t * d.z).abs());
     }
     assert!(reach < 3.2, "the view covers the floor to {reach} m");
-    let cos_min = 10.0 / (10.0f64 * 10.0 + 2.0 * reach * reach).sqrt();
+    let cos_range = [
+        (10.0 / (10.0f64 * 10.0 + 2.0 * reach * reach).sqrt(), 1.0),
+        (1.0, 1.0),
+        ((slant as f64).cos(), (slant as f64).cos()),
+    ];
     let sheet_t = |c: f64| transmission * (1.0 - fresnel_dielectric(c, IOR));
     for rt in rt_backends(&ctx) {
-        for point in [true, false] {
-            for (sheets, bounces, count) in [
-                (&[5.0f32][..], 2u32, 1i32),
-                (&[5.0, 6.0][..], 2, 0),
-                (&[5.0, 6.0][..], 3, 2),
-            ] {
+        for ((name, light), (c_lo, c_hi)) in lights.iter().zip(cos_range) {
+            for bounces in [2u32, 3] {
                 let settings = RenderSettings {
                     width: 16,
                     height: 16,
@@ -948,38 +1006,43 @@ fn delta_lights_shine_through_smooth_thin_sheets() {
                     ..Default::default()
                 };
                 let open = render(
-                    &session(&ctx, scene(&[], point), rt),
+                    &session(&ctx, scene(&[], light), rt),
                     "reference",
                     cam,
                     &settings,
                 );
-                let covered = render(
-                    &session(&ctx, scene(sheets, point), rt),
-                    "reference",
-                    cam,
-                    &settings,
-                );
-                let c_lo = if point { cos_min } else { 1.0 };
-                for (e, (a, b)) in open.eyes.iter().zip(&covered.eyes).enumerate() {
-                    for (p, (pa, pb)) in a.radiance.iter().zip(&b.radiance).enumerate() {
-                        for k in 0..3 {
-                            let (lo, hi) = if count == 0 {
-                                (0.0, 0.0)
-                            } else {
-                                (
-                                    (sheet_t(c_lo) * tint[k]).powi(count),
-                                    (sheet_t(1.0) * tint[k]).powi(count),
-                                )
-                            };
-                            let r = pb[k] as f64 / pa[k] as f64;
-                            assert!(
-                                pa[k] > 0.0 && r >= lo * (1.0 - 1e-4) && r <= hi * (1.0 + 1e-4),
-                                "{rt:?}, {}, {} sheet(s), {bounces} bounces: eye {e} pixel {p} channel {k}: {} / {} = {r:.5}, want [{lo:.5}, {hi:.5}]",
-                                if point { "point light" } else { "directional light" },
-                                sheets.len(),
-                                pb[k],
-                                pa[k]
-                            );
+                let cases: &[(&[f32], i32)] = if bounces == 2 {
+                    &[(&[5.0], 1), (&[5.0, 6.0], 0)]
+                } else {
+                    &[(&[5.0, 6.0], 2)]
+                };
+                for &(sheets, count) in cases {
+                    let covered = render(
+                        &session(&ctx, scene(sheets, light), rt),
+                        "reference",
+                        cam,
+                        &settings,
+                    );
+                    for (e, (a, b)) in open.eyes.iter().zip(&covered.eyes).enumerate() {
+                        for (p, (pa, pb)) in a.radiance.iter().zip(&b.radiance).enumerate() {
+                            for k in 0..3 {
+                                let (lo, hi) = if count == 0 {
+                                    (0.0, 0.0)
+                                } else {
+                                    (
+                                        (sheet_t(c_lo) * tint[k]).powi(count),
+                                        (sheet_t(c_hi) * tint[k]).powi(count),
+                                    )
+                                };
+                                let r = pb[k] as f64 / pa[k] as f64;
+                                assert!(
+                                    pa[k] > 0.0 && r >= lo * (1.0 - 1e-4) && r <= hi * (1.0 + 1e-4),
+                                    "{rt:?}, {name}, {} sheet(s), {bounces} bounces: eye {e} pixel {p} channel {k}: {} / {} = {r:.5}, want [{lo:.5}, {hi:.5}]",
+                                    sheets.len(),
+                                    pb[k],
+                                    pa[k]
+                                );
+                            }
                         }
                     }
                 }
