@@ -830,7 +830,7 @@ fn rough_thin_sheet_is_lit_by_a_point_light_through_and_in_front() {
 /// same render without the sheets (the same seed: the same floor points,
 /// the same light samples) lies between the products at the steepest and
 /// at the most normal incidence: for the point light over the floor the
-/// view covers (|x|, |z| ≤ 3.2 m: cos θ ≥ 0.91, F from 0.0400 to 0.0410),
+/// view covers (|x|, |z| ≤ 3.2 m: cos θ ≥ 0.91, F from 0.0400 to 0.0406),
 /// for the directional lights exactly (F(1) = 0.0400, F(cos 60°) = 0.0891).
 /// With two bounces one sheet is within the path's budget and two are not
 /// (a path through two sheets to a small emitter would need three): 0
