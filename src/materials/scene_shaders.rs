@@ -468,4 +468,31 @@ mod tests {
         );
         assert!(!f.contains("case 0u:"), "{f}");
     }
+
+    /// A delta light's shadow ray stops at a sheet whose material binds
+    /// any graph (integrator.glsl nee_delta_transmittance):
+    /// `sc_material_binds_graphs` lists exactly the bound materials, with
+    /// and without memoization.
+    #[test]
+    fn bound_materials_are_listed_for_shadow_rays() {
+        let lib = |name: &str| *EMBEDDED.iter().find(|(n, _)| *n == name).unwrap();
+        let mut sg = SceneGraphs::default();
+        for (m, file) in [(2u32, "bricks.mtlx"), (7, "marble.mtlx")] {
+            let (f, text) = lib(file);
+            sg.attach_mtlx(m, &mut Material::default(), f, text)
+                .unwrap();
+        }
+        for memo in [false, true] {
+            let text = include(&sg, DVec3::ZERO, memo, &[]);
+            let f = &text[text
+                .find("bool sc_material_binds_graphs(")
+                .expect("the predicate is defined")..];
+            let f = &f[..f.find("default:").unwrap()];
+            assert!(
+                f.contains("case 2u: return true;") && f.contains("case 7u: return true;"),
+                "{f}"
+            );
+            assert_eq!(f.matches("case ").count(), 2, "{f}");
+        }
+    }
 }
