@@ -438,30 +438,39 @@ mod tests {
         assert_eq!(switch.matches("mxg_").count(), 2, "{switch}");
     }
 
+    /// The graphs of shipped library documents bound to materials
+    /// (material id, file name).
+    fn library_graphs(files: &[(u32, &str)]) -> SceneGraphs {
+        let mut sg = SceneGraphs::default();
+        for &(m, file) in files {
+            let (f, text) = *EMBEDDED.iter().find(|(n, _)| *n == file).unwrap();
+            sg.attach_mtlx(m, &mut Material::default(), f, text)
+                .unwrap();
+        }
+        sg
+    }
+
+    /// The generated text from `marker` to the end of the first switch's
+    /// cases after it.
+    fn cases_after<'a>(text: &'a str, marker: &str) -> &'a str {
+        let f = &text[text
+            .find(marker)
+            .unwrap_or_else(|| panic!("{marker} is generated"))..];
+        &f[..f.find("default:").unwrap()]
+    }
+
     /// Light sampling evaluates the graphs only for materials that bind an
     /// emission graph (lights.glsl), and compiles no evaluation where no
     /// material does: `SC_GRAPH_EMISSION` and its case list follow the
     /// bindings.
     #[test]
     fn only_emission_graphs_reach_light_sampling() {
-        let lib = |name: &str| *EMBEDDED.iter().find(|(n, _)| *n == name).unwrap();
-        let build = |files: &[(u32, &str)]| {
-            let mut sg = SceneGraphs::default();
-            for &(m, file) in files {
-                let (f, text) = lib(file);
-                sg.attach_mtlx(m, &mut Material::default(), f, text)
-                    .unwrap();
-            }
-            include(&sg, DVec3::ZERO, true, &[])
-        };
+        let build = |files: &[(u32, &str)]| include(&library_graphs(files), DVec3::ZERO, true, &[]);
         let none = build(&[(0, "bricks.mtlx"), (1, "marble.mtlx")]);
         assert!(!none.contains("SC_GRAPH_EMISSION"), "{none}");
         assert!(!none.contains("sc_material_binds_emission"));
         let lava = build(&[(0, "bricks.mtlx"), (3, "lava.mtlx"), (5, "lava.mtlx")]);
-        let f = &lava[lava
-            .find("#define SC_GRAPH_EMISSION")
-            .expect("lava binds emission")..];
-        let f = &f[..f.find("default:").unwrap()];
+        let f = cases_after(&lava, "#define SC_GRAPH_EMISSION");
         assert!(
             f.contains("case 3u: return true;") && f.contains("case 5u: return true;"),
             "{f}"
@@ -475,19 +484,10 @@ mod tests {
     /// and without memoization.
     #[test]
     fn bound_materials_are_listed_for_shadow_rays() {
-        let lib = |name: &str| *EMBEDDED.iter().find(|(n, _)| *n == name).unwrap();
-        let mut sg = SceneGraphs::default();
-        for (m, file) in [(2u32, "bricks.mtlx"), (7, "marble.mtlx")] {
-            let (f, text) = lib(file);
-            sg.attach_mtlx(m, &mut Material::default(), f, text)
-                .unwrap();
-        }
+        let sg = library_graphs(&[(2, "bricks.mtlx"), (7, "marble.mtlx")]);
         for memo in [false, true] {
             let text = include(&sg, DVec3::ZERO, memo, &[]);
-            let f = &text[text
-                .find("bool sc_material_binds_graphs(")
-                .expect("the predicate is defined")..];
-            let f = &f[..f.find("default:").unwrap()];
+            let f = cases_after(&text, "bool sc_material_binds_graphs(");
             assert!(
                 f.contains("case 2u: return true;") && f.contains("case 7u: return true;"),
                 "{f}"
