@@ -150,6 +150,19 @@ vec3 nee_sigma(NeeVertex v, Surface s, vec3 wi, vec3 sigma_a) {
 // The index of refraction of the medium a shadow ray along wi travels in.
 float nee_ior(NeeVertex v, Surface s, vec3 wi, float ior) { return dot(wi, s.ng) > 0.0 ? ior : v.ior_other; }
 
+// Shading normal facing away from the ray d (interpolated or mapped normals
+// at grazing hits: s.ng faces the ray, s.n only shares its hemisphere): wo.z
+// ≤ 0 would end every path there black, so such a hit is shaded with the
+// geometric normal (issue 12). The clearcoat's normal (the interpolated one,
+// or its own normal texture's) gets the same fallback: its lobe sampled
+// around a normal facing away ended the coat's share of the paths there
+// (tests/material_extensions.rs
+// `clearcoat_normals_facing_away_fall_back_to_the_geometric_normal`).
+void normals_facing_the_ray(inout Surface s, inout ShadingMaterial m, vec3 d) {
+    if (dot(s.n, d) >= 0.0) s.n = s.ng;
+    if (SC_CLEARCOAT && m.clearcoat > 0.0 && dot(m.coat_n, d) >= 0.0) m.coat_n = s.ng;
+}
+
 // What a smooth thin-walled transmissive surface passes straight on along
 // d, in expectation over path_radiance's choices at it for a path arriving
 // along d (the glass share m.transmission; from the front the coat's share
@@ -162,8 +175,7 @@ float nee_ior(NeeVertex v, Surface s, vec3 wi, float ior) { return dot(wi, s.ng)
 // media_outside_ior gives it for a surface not in the stack).
 vec3 thin_sheet_transmittance(Surface q, ShadingMaterial m, vec3 d, float ior) {
     if (!SC_TRANSMISSION || !m.thin || !(m.transmission > 0.0) || !dielectric_delta(m)) return vec3(0.0);
-    if (dot(q.n, d) >= 0.0) q.n = q.ng;   // path_radiance's fallbacks
-    if (SC_CLEARCOAT && m.clearcoat > 0.0 && dot(m.coat_n, d) >= 0.0) m.coat_n = q.ng;
+    normals_facing_the_ray(q, m, d);   // as path_radiance does
     Frame f = frame_from(q.n);
     m = coat_in_frame(m, f);
     float wc = q.front ? coat_weight(m, to_local(f, -d)) : 0.0;
@@ -304,7 +316,6 @@ vec3 nee_area_lights(Surface s, NeeVertex v, uint pick_emitter, vec3 u_emitter, 
 // media.glsl media_false_interface).
 vec3 path_radiance_first(vec3 o, vec3 d, bool hit, RtHit h, vec2 eye_cone, inout Rng rng, inout RayCounts rays,
                          out ShadingMaterial first) {
-    bool at_first = true;   // the surface of `h` as passed in
     float cone_width = eye_cone.x;
     vec3 L = vec3(0.0);
     vec3 beta = vec3(1.0);
@@ -353,7 +364,6 @@ vec3 path_radiance_first(vec3 o, vec3 d, bool hit, RtHit h, vec2 eye_cone, inout
             // do not pass transmissive ones), so the emission counts in
             // full (and emitter_pdf's distance from here would be wrong).
             media_cross(media, h.instance, s.front);
-            at_first = false;
             o = surface_offset(s, -s.ng);
             specular_prev = true;
             pdf_prev = 0.0;
@@ -365,10 +375,7 @@ vec3 path_radiance_first(vec3 o, vec3 d, bool hit, RtHit h, vec2 eye_cone, inout
         sc_memo_cone = bounce > 0u && cone_width > 0.0 ? abs(memo_w) + memo_blur_w : -1.0;
 #endif
         ShadingMaterial m = material_at(s, d, cone);
-        if (at_first) {
-            first = m;
-            at_first = false;
-        }
+        if (bounce == 0u) first = m;   // (no false interface before it)
 #ifdef SC_MATERIAL_MEMO
         sc_memo_cone = -1.0;
         // Eq. 2.11: the roughness blur grows by this surface's β_r.
@@ -380,17 +387,7 @@ vec3 path_radiance_first(vec3 o, vec3 d, bool hit, RtHit h, vec2 eye_cone, inout
         // modelled).
         float memo_beta_c = memo_curvature_spread(s.memo_curvature, memo_w, dot(s.ng, d));
 #endif
-        // Shading normal facing away from the ray (interpolated or mapped
-        // normals at grazing hits: s.ng faces the ray, s.n only shares its
-        // hemisphere): wo.z ≤ 0 below would end every path here black, so
-        // shade such a hit with the geometric normal (issue 12). The
-        // clearcoat's normal (the interpolated one, or its own normal
-        // texture's) gets the same fallback: its lobe sampled around a
-        // normal facing away ended the coat's share of the paths there
-        // (tests/material_extensions.rs
-        // `clearcoat_normals_facing_away_fall_back_to_the_geometric_normal`).
-        if (dot(s.n, d) >= 0.0) s.n = s.ng;
-        if (SC_CLEARCOAT && m.clearcoat > 0.0 && dot(m.coat_n, d) >= 0.0) m.coat_n = s.ng;
+        normals_facing_the_ray(s, m, d);
         if (SC_EMISSIVE && any(greaterThan(m.emissive, vec3(0.0))))
             L += beta * m.emissive * emitter_mis_weight(h, d, specular_prev, pdf_prev);
         if (bounce >= SC_MAX_BOUNCES) break;
@@ -534,14 +531,6 @@ vec3 path_radiance_first(vec3 o, vec3 d, bool hit, RtHit h, vec2 eye_cone, inout
 vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, vec2 eye_cone, inout Rng rng, inout RayCounts rays) {
     ShadingMaterial first;
     return path_radiance_first(o, d, hit, h, eye_cone, rng, rays, first);
-}
-
-// path_radiance from a first hit `h` and the material path_radiance
-// evaluated there (`m`: the demodulation factor's and the accumulation
-// floor's input in the caching passes).
-vec3 path_radiance_with_material(vec3 o, vec3 d, RtHit h, vec2 eye_cone, inout Rng rng, inout RayCounts rays,
-                                 out ShadingMaterial m) {
-    return path_radiance_first(o, d, true, h, eye_cone, rng, rays, m);
 }
 
 // Base colour at a first hit, for demodulation and the albedo output.

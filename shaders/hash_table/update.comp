@@ -38,7 +38,7 @@ void main() {
     Rng rng = rng_init(frame.size_seed.z, pc.now, eye, pixel, 0x4A5C0002u);
     RayCounts rays = RayCounts(0u, 0u);
     ShadingMaterial m;
-    vec3 L = path_radiance_with_material(o, d, h, cone, rng, rays, m);
+    vec3 L = path_radiance_first(o, d, true, h, cone, rng, rays, m);
     if (any(isnan(L)) || any(isinf(L))) L = vec3(0.0);
     vec3 Le = SC_EMISSIVE ? m.emissive : vec3(0.0);
     vec3 demod = max(L - Le, vec3(0.0)) / demodulation_factor(m);

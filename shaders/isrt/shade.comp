@@ -39,7 +39,7 @@ void main() {
     Rng rng = rng_init(frame.size_seed.z, frame.size_seed.w, eye, px.y * frame_size().x + px.x, 0x15A70002u + k);
     RayCounts rays = RayCounts(0u, 0u);
     ShadingMaterial m;
-    vec3 L = path_radiance_with_material(o, d, h, eye_cone(e, t), rng, rays, m);
+    vec3 L = path_radiance_first(o, d, true, h, eye_cone(e, t), rng, rays, m);
     if (any(isnan(L)) || any(isinf(L))) L = vec3(0.0);
     vec3 demod = demodulate(L, m);   // emission kept apart (common/demodulation.glsl)
     // The sample cache's accumulation (common/accumulation.glsl): until

@@ -44,7 +44,7 @@ void main() {
         h.bary = first_hit_bary(fh);
         Rng rng = rng_init(frame.size_seed.z, frame.size_seed.w, eye, pixel, 0x10000u + slot);
         ShadingMaterial m;
-        vec3 L = path_radiance_with_material(o, d, h, eye_cone(e, t), rng, rays, m);
+        vec3 L = path_radiance_first(o, d, true, h, eye_cone(e, t), rng, rays, m);
         if (any(isnan(L)) || any(isinf(L))) L = vec3(0.0);
         vec3 demod = demodulate(L, m);
 
