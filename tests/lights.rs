@@ -1087,6 +1087,82 @@ fn sun_disc_delivers_its_cap_irradiance() {
     assert_no_validation_messages(&ctx);
 }
 
+/// A small sun disc, seen straight on, has the size and radiance its
+/// angular radius r gives: E/Ω with Ω = 2π(1 − cos r) = 4π sin²(r/2) on
+/// every pixel wholly inside it, and its image (Σ L/(E/Ω) over the pixels)
+/// the area of the circle of radius tan r over the pixel's tangent, within
+/// 5 standard errors of the pixels' binomial coverage. Until session 55 the
+/// shader got cos r in f32, whose step near 1 (6·10⁻⁸) put the radiance of
+/// a 0.001 rad disc 4.6 % high and its image 4.6 % small, and the shipped
+/// sun's (r = 0.00465) radiance 0.21 % high.
+#[test]
+fn small_sun_discs_have_their_angular_size() {
+    use stereocache::scene::{Light, LightKind};
+    let ctx = context();
+    let (w, h) = (48u32, 48u32);
+    let disc_px = 16.0f64;
+    let e = 3.0f32;
+    let to_sun = Vec3::new(0.0, 60f32.to_radians().sin(), -60f32.to_radians().cos());
+    for r in [0.001f32, 0.00465] {
+        let mut scene = Scene {
+            source: "test:a-small-sun".into(),
+            ..Default::default()
+        };
+        let f = add_material(&mut scene, lambert(0.5));
+        add_floor(&mut scene, f);
+        scene.lights.push(Light {
+            name: "small sun".into(),
+            kind: LightKind::Directional { angular_radius: r },
+            radiant: Vec3::splat(e),
+            position: Vec3::ZERO,
+            direction: -to_sun,
+            range: None,
+        });
+        scene.validate().unwrap();
+        let s = session(&ctx, scene, RtChoice::Software);
+        // The disc's radius on the image plane is tan r / tan(fov/2) · h/2 = 16 px.
+        let tan_half = (r as f64).tan() * (h as f64 / 2.0) / disc_px;
+        let fov = (2.0 * tan_half.atan()).to_degrees() as f32;
+        let eye = Vec3::new(0.0, 1.0, 0.0);
+        let cam = look_at_camera(eye, eye + to_sun, fov, 1.0);
+        let spp = 64;
+        let frame = render_with(&s, cam, (w, h), spp, 1, 7, LightSampling::Mis);
+        let l0 = e as f64 / (4.0 * std::f64::consts::PI * ((r as f64) / 2.0).sin().powi(2));
+        for (k, eye) in frame.eyes.iter().enumerate() {
+            let (mut area, mut var, mut inside) = (0.0f64, 0.0f64, 0usize);
+            for (i, p) in eye.radiance.iter().enumerate() {
+                let (x, y) = ((i as u32 % w) as f64, (i as u32 / w) as f64);
+                let c = (w as f64 / 2.0, h as f64 / 2.0);
+                let far = ((x - c.0).abs().max((x + 1.0 - c.0).abs()))
+                    .hypot((y - c.1).abs().max((y + 1.0 - c.1).abs()));
+                let cover = p[0] as f64 / l0;
+                if far < disc_px - 0.5 {
+                    inside += 1;
+                    assert!(
+                        (cover - 1.0).abs() < 1e-4,
+                        "r = {r}, eye {k}, pixel ({x}, {y}) inside the disc: radiance {} against E/Ω = {l0} ({:+.2e})",
+                        p[0],
+                        cover - 1.0
+                    );
+                }
+                area += cover;
+                let f = cover.clamp(0.0, 1.0);
+                var += f * (1.0 - f) / spp as f64;
+            }
+            assert!(inside > 600, "{inside} pixels wholly inside");
+            let expected = std::f64::consts::PI * disc_px * disc_px;
+            let se = var.sqrt().max(1e-9);
+            eprintln!("r = {r}, eye {k}: image {area:.2} px² against {expected:.2} ± {se:.2}");
+            assert!(
+                (area - expected).abs() < 5.0 * se,
+                "r = {r}, eye {k}: the disc's image is {area:.2} px², expected {expected:.2} (se {se:.2}, {:+.2} %)",
+                100.0 * (area / expected - 1.0)
+            );
+        }
+    }
+    assert_no_validation_messages(&ctx);
+}
+
 /// Overlapping sun discs: every disc's two strategies (its light sample,
 /// which carries its own pdf, and a BSDF-sampled ray escaping into it)
 /// must weigh 1 together, so two coincident discs of irradiance E each

@@ -177,21 +177,25 @@ bool sample_light(vec3 p, vec2 u, float u_pick, out LightSample ls) {
     if (kind == 2u) {
         if (!SC_DIRECTIONAL) return false;
         vec3 to_sun = -l.direction.xyz;
-        float cos_max = l.direction.w;
+        float one_minus_cos = l.direction.w;   // 1 − cos r, exact (gpu_scene.rs)
         ls.dist = 1e30;
-        if (cos_max >= 1.0) {
+        if (!(one_minus_cos > 0.0)) {
             ls.wi = to_sun;
             ls.L = l.radiant_kind.rgb * sel;
             ls.pdf = 0.0;
             return true;
         }
         // Uniform cone sampling; radiance of the disc = E / Ω, pdf = 1 / Ω → L/pdf = E.
-        float cos_t = 1.0 - u.x * (1.0 - cos_max);
-        float sin_t = sqrt(max(0.0, 1.0 - cos_t * cos_t));
+        // cos θ = 1 − h with h uniform in [0, 1 − cos r], and sin θ from h
+        // (√(h (2 − h))), so small discs keep their precision: 1 − u (1 − cos r)
+        // in f32 has only ~181 values for the default sun's r = 0.00465.
+        float hh = u.x * one_minus_cos;
+        float cos_t = 1.0 - hh;
+        float sin_t = sqrt(max(0.0, hh * (2.0 - hh)));
         float phi = 2.0 * PI * u.y;
         Frame f = frame_from(to_sun);
         ls.wi = to_world(f, vec3(sin_t * cos(phi), sin_t * sin(phi), cos_t));
-        float omega = 2.0 * PI * (1.0 - cos_max);
+        float omega = 2.0 * PI * one_minus_cos;
         ls.pdf = 1.0 / (omega * sel);
         ls.L = l.radiant_kind.rgb * sel;
         return true;
@@ -241,9 +245,14 @@ vec3 sun_radiance_mis(vec3 dir, float pdf_prev, bool specular_prev) {
     uint count = scene.counts.x;
     for (uint i = 0u; i < count; ++i) {
         LightGpu l = lights[i];
-        if (uint(l.radiant_kind.w) != 2u || l.direction.w >= 1.0) continue;
-        if (dot(dir, -l.direction.xyz) >= l.direction.w) {
-            float omega = 2.0 * PI * (1.0 - l.direction.w);
+        float one_minus_cos = l.direction.w;
+        if (uint(l.radiant_kind.w) != 2u || !(one_minus_cos > 0.0)) continue;
+        // Inside the cap: |dir − to_sun|² = 2 (1 − cos θ) ≤ 2 (1 − cos r),
+        // the chord rather than the dot product, which near 1 resolves cos θ
+        // only to 6·10⁻⁸ (1/180 of the default sun's 1 − cos r).
+        vec3 chord = dir + l.direction.xyz;
+        if (dot(chord, chord) <= 2.0 * one_minus_cos) {
+            float omega = 2.0 * PI * one_minus_cos;
             float w = specular_prev ? 1.0 : power_heuristic(pdf_prev, 1.0 / (omega * float(count)));
             L += l.radiant_kind.rgb / omega * w;
         }

@@ -28,7 +28,7 @@ struct MaterialGpu {
 struct LightGpu {
     vec4 radiant_kind;        // rgb, kind (0 point, 1 spot, 2 directional)
     vec4 position_range;      // xyz, range (0 = infinite)
-    vec4 direction;           // xyz = travel direction, w = cos(angular radius) for the sun (1 = delta)
+    vec4 direction;           // xyz = travel direction, w = 1 − cos(angular radius) for the sun (0 = delta; gpu_scene.rs)
     vec4 cone;                // cos inner, cos outer, unused, unused
 };
 struct SceneParams {

@@ -123,6 +123,22 @@ struct SceneParamsGpu {
     counts: [u32; 4],
 }
 
+/// `1 − cos r` of a sun disc of angular radius `r` (lights.glsl reads it
+/// from `LightGpu.direction.w`; 0 = a delta light), as `2 sin²(r/2)` in
+/// f64 (radii beyond π are the whole sphere; negative, zero or not finite:
+/// a delta light). Before session 55 the shader got `cos r` in f32, whose
+/// rounding near 1 (a step of 6·10⁻⁸) made the default sun's solid angle
+/// 0.21 % small, a 0.001 rad disc's 4.6 % small, and any disc under
+/// 3.5·10⁻⁴ rad a delta light; and its cone samples took only the ~181
+/// values of cos θ that f32 has between cos r and 1.
+fn sun_one_minus_cos(r: f32) -> f32 {
+    if !(r.is_finite() && r > 0.0) {
+        return 0.0;
+    }
+    let half = (r as f64).min(std::f64::consts::PI) / 2.0;
+    (2.0 * half.sin().powi(2)) as f32
+}
+
 /// Environment kinds of `SC_ENV_KIND`.
 fn env_kind(env: &Option<Environment>) -> u32 {
     match env {
@@ -387,14 +403,14 @@ impl SceneGpu {
             .lights
             .iter()
             .map(|l| {
-                let (kind, cos_radius, cone) = match l.kind {
-                    LightKind::Point => (0.0, 1.0, [1.0, 0.0]),
+                let (kind, one_minus_cos, cone) = match l.kind {
+                    LightKind::Point => (0.0, 0.0, [1.0, 0.0]),
                     LightKind::Spot {
                         inner_cone,
                         outer_cone,
-                    } => (1.0, 1.0, [inner_cone.cos(), outer_cone.cos()]),
+                    } => (1.0, 0.0, [inner_cone.cos(), outer_cone.cos()]),
                     LightKind::Directional { angular_radius } => {
-                        (2.0, angular_radius.cos().min(1.0), [1.0, 0.0])
+                        (2.0, sun_one_minus_cos(angular_radius), [1.0, 0.0])
                     }
                 };
                 let d = l.direction.normalize_or(Vec3::NEG_Y);
@@ -402,7 +418,7 @@ impl SceneGpu {
                 LightGpu {
                     radiant_kind: [l.radiant.x, l.radiant.y, l.radiant.z, kind],
                     position_range: [p.x, p.y, p.z, l.range.unwrap_or(0.0)],
-                    direction: [d.x, d.y, d.z, cos_radius],
+                    direction: [d.x, d.y, d.z, one_minus_cos],
                     cone: [cone[0], cone[1], 0.0, 0.0],
                 }
             })
