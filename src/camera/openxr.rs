@@ -1,6 +1,15 @@
-//! Importer for OpenXR-style head-pose logs: `XrTime` and `XrPosef` of the
-//! view (or `VIEW` reference space) located in a stage/local space, one
-//! sample per line.
+//! Importer for OpenXR-style head-pose logs: `XrTime` and the `XrPosef` of
+//! the head — the `VIEW` reference space located with `xrLocateSpace` in a
+//! `STAGE` or `LOCAL` space — one sample per line.
+//!
+//! **The head, not an eye.** stereocache places the eyes itself, half the
+//! IPD either side of the head pose along its +X ([`crate::camera`]), so a
+//! per-eye `XrView` pose from `xrLocateViews` would move each eye by that
+//! offset twice (and a left-eye log would put the right eye near the head's
+//! centre). A log of views only converts by taking the midpoint of the two
+//! eyes' positions and the head's orientation (the views' own orientation
+//! where the displays are parallel; canted displays rotate each view
+//! outwards, which the head's pose does not have).
 //!
 //! # File format
 //!
@@ -17,8 +26,9 @@
 //!   first sample.
 //! - `position.*`: `XrVector3f`, metres; `orientation.*`: `XrQuaternionf`
 //!   in OpenXR's `x, y, z, w` order, view → space.
-//! - `flags` (optional): `XrSpaceLocationFlags` from `xrLocateSpace`/
-//!   `xrLocateViews` (decimal or `0x` hex). The OpenXR specification leaves
+//! - `flags` (optional): `XrSpaceLocationFlags` from `xrLocateSpace` (or
+//!   `XrViewStateFlags` from `xrLocateViews`, whose valid bits have the same
+//!   values; decimal or `0x` hex). The OpenXR specification leaves
 //!   a pose component undefined unless its `*_VALID_BIT` is set, so a
 //!   sample without `ORIENTATION_VALID` (0x1) and `POSITION_VALID` (0x2) is
 //!   dropped (one warning with the count and the first line; tracking loss
