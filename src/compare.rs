@@ -666,9 +666,10 @@ pub fn compare_configs(
 /// One line naming the configurations whose mean metrics are not finite
 /// (`null` in summary.json) or whose images held ∞ or NaN pixels (the
 /// metrics score those as black: `non_finite_pixels`, the mean per frame
-/// of both eyes' count), or `None` when neither happened.
+/// of both eyes' count), and a reference whose halves held such pixels
+/// (`non_finite_reference_pixels`), or `None` when none of these happened.
 pub fn non_finite_metrics_warning(out: &Path, rows: &[MethodRow]) -> Option<String> {
-    let bad: Vec<String> = rows
+    let mut bad: Vec<String> = rows
         .iter()
         .filter_map(|r| {
             let keys: Vec<&str> = r
@@ -696,6 +697,16 @@ pub fn non_finite_metrics_warning(out: &Path, rows: &[MethodRow]) -> Option<Stri
             (!what.is_empty()).then(|| format!("{} ({})", r.method, what.join("; ")))
         })
         .collect();
+    // The reference is shared by every row: named once, from any row that has it.
+    if let Some(n) = rows
+        .iter()
+        .filter_map(|r| r.metrics.get("non_finite_reference_pixels").copied())
+        .find(|n| *n > 0.0)
+    {
+        bad.push(format!(
+            "the reference ({n:.1} pixels of ∞ or NaN per frame in its two halves, both eyes: the other half's value used where finite, else those channels scored as 0)"
+        ));
+    }
     (!bad.is_empty()).then(|| {
         format!(
             "{}: images or metrics that are not finite: {}",
@@ -717,7 +728,7 @@ pub fn check_flip_ppd(ppd: f32) -> Result<()> {
 }
 
 /// |left reprojected into the right view − right| on co-visible pixels
-/// (same instance and primitive, depth within 1 %), 0 elsewhere: where the
+/// (same instance, depth within 1 %), 0 elsewhere: where the
 /// two eyes disagree about the same surface point.
 pub fn stereo_difference(f: &StereoFrame, cam: &StereoCamera) -> Vec<[f32; 4]> {
     use crate::metrics::{reproject, LinearImage};
@@ -1222,6 +1233,21 @@ mod tests {
         let w = non_finite_metrics_warning(out, &[row("a", 0.5), d]).unwrap();
         assert!(
             w.ends_with(": d (2.5 pixels of ∞ or NaN per frame, those channels scored as 0)"),
+            "{w}"
+        );
+        // A reference with such pixels: one clause, however many rows share it.
+        let with_ref = |label: &str, n: f64| {
+            let mut r = row(label, 0.5);
+            r.metrics.insert("non_finite_reference_pixels".into(), n);
+            r
+        };
+        assert_eq!(
+            non_finite_metrics_warning(out, &[with_ref("a", 0.0), with_ref("b", 0.0)]),
+            None
+        );
+        let w = non_finite_metrics_warning(out, &[with_ref("a", 1.5), with_ref("b", 1.5)]).unwrap();
+        assert!(
+            w.ends_with(": the reference (1.5 pixels of ∞ or NaN per frame in its two halves, both eyes: the other half's value used where finite, else those channels scored as 0)"),
             "{w}"
         );
     }

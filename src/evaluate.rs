@@ -67,6 +67,12 @@ pub struct ReferenceFrame {
     /// under every method's FLIP (FLIP is not additive in the noise as RSE
     /// is, so it is not subtracted from anything).
     pub flip_halves: f64,
+    /// Pixels holding ∞ or NaN in some channel, counted in both halves of
+    /// both eyes (metric `non_finite_reference_pixels`): a path tracer bug
+    /// the mean hides — where one half is finite its value alone is the
+    /// reference ([`mean_of_halves`]), where neither is its non-finite channels
+    /// are 0.
+    pub non_finite_half_pixels: usize,
 }
 
 impl ReferenceFrame {
@@ -84,8 +90,10 @@ impl ReferenceFrame {
         let mut noise = Vec::new();
         let mut flip_halves = 0.0;
         let mut frame = a.clone();
+        let mut non_finite_half_pixels = 0;
         for e in 0..2 {
             let (ia, ib) = (image(&a.eyes[e], w, h)?, image(&b.eyes[e], w, h)?);
+            non_finite_half_pixels += ia.non_finite_count() + ib.non_finite_count();
             noise.push(half_split_error(&ia, &ib, RSE_EPSILON).map_err(m)?);
             flip_halves += 0.5 * flip_hdr(&ia, &ib, flip_ppd).map_err(m)?.flip.mean as f64;
             let mean = mean_of_halves(&ia, &ib).map_err(m)?;
@@ -98,6 +106,7 @@ impl ReferenceFrame {
             frame,
             noise: ReferenceNoise::mean(&noise),
             flip_halves,
+            non_finite_half_pixels,
         })
     }
 }
@@ -376,6 +385,7 @@ pub const METRIC_NAMES: &[&str] = &[
     "cpbd",
     "cpbd_reference",
     "non_finite_pixels",
+    "non_finite_reference_pixels",
     "rse_reference",
     "mse_reference",
     "flip_reference_halves",
@@ -615,6 +625,10 @@ impl Evaluator {
         out.insert("rse_reference".into(), reference_frame.noise.rse);
         out.insert("mse_reference".into(), reference_frame.noise.mse);
         out.insert("flip_reference_halves".into(), reference_frame.flip_halves);
+        out.insert(
+            "non_finite_reference_pixels".into(),
+            reference_frame.non_finite_half_pixels as f64,
+        );
         for (k, v) in &out {
             self.series.entry(k.clone()).or_default().push(*v);
         }

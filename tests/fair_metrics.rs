@@ -98,7 +98,7 @@ fn reference(f: u64) -> ReferenceFrame {
 
 /// A method's frame `f`: the same radiance for every method, with its own
 /// geometry: `true` = the plane's, `false` = wrong (the right eye's top
-/// quarter at depth 1.5, the left eye's left half on another primitive).
+/// quarter at depth 1.5, the left eye's left half on another instance).
 fn method(f: u64, true_geometry: bool) -> StereoFrame {
     let (mut dl, mut dr, mut il, ir) = (plane_depth(), plane_depth(), plane_ids(), plane_ids());
     if !true_geometry {
@@ -107,7 +107,7 @@ fn method(f: u64, true_geometry: bool) -> StereoFrame {
                 dr[i] = 1.5;
             }
             if i % W < W / 2 {
-                il[i][2] = 4;
+                il[i][3] = 4;
             }
             if f == 1 && i % W >= W - 8 {
                 dl[i] = 0.0;
@@ -693,4 +693,60 @@ fn the_temporal_metric_follows_a_moving_instance() {
     eprintln!("temporal: {with} following the instance, {without} by camera motion alone");
     assert!(with.abs() < 1e-6, "temporal {with} on a perfect method");
     assert!(without > 0.05, "the control: {without}");
+}
+
+/// ∞ or NaN in the reference's halves is counted (`non_finite_reference_pixels`,
+/// both halves of both eyes), not hidden by the mean: a pixel with one bad
+/// half takes the other half's value alone, in a pixel bad in both the
+/// non-finite channels are 0.
+#[test]
+fn non_finite_reference_pixels_are_counted() {
+    let half = |v: u64, bad: &[(usize, usize)]| {
+        let eyes = [0, 1].map(|e| {
+            let mut r = radiance(0, e, v);
+            for &(be, i) in bad {
+                if be == e as usize {
+                    r[i] = [f32::NAN, 0.5, f32::INFINITY, 1.0];
+                }
+            }
+            eye(r, plane_depth(), plane_ids())
+        });
+        stereo(eyes)
+    };
+    let ppd = flip_ppd(&rig(0.0), W as u32);
+    let clean = ReferenceFrame::from_halves([half(1, &[]), half(2, &[])], ppd).unwrap();
+    assert_eq!(clean.non_finite_half_pixels, 0);
+    // Half A: pixel 5 of the left eye and pixel 7 of the right eye; half B:
+    // pixel 7 of the right eye too (bad in both halves) and pixel 9 of the left.
+    let r = ReferenceFrame::from_halves(
+        [half(1, &[(0, 5), (1, 7)]), half(2, &[(1, 7), (0, 9)])],
+        ppd,
+    )
+    .unwrap();
+    assert_eq!(r.non_finite_half_pixels, 4);
+    let b = radiance(0, 0, 2)[5];
+    assert_eq!(
+        r.frame.eyes[0].radiance[5][..3],
+        b[..3],
+        "the finite half alone"
+    );
+    let a = radiance(0, 0, 1)[9];
+    assert_eq!(
+        r.frame.eyes[0].radiance[9][..3],
+        a[..3],
+        "the finite half alone"
+    );
+    assert_eq!(
+        r.frame.eyes[1].radiance[7][..3],
+        [0.0, 0.5, 0.0],
+        "bad in both: the non-finite channels 0"
+    );
+    let m = Evaluator::new(None)
+        .frame(&rig(0.0), &r.frame.clone(), &r)
+        .unwrap();
+    assert_eq!(m["non_finite_reference_pixels"], 4.0);
+    assert_eq!(
+        m["non_finite_pixels"], 0.0,
+        "the method's own image is finite"
+    );
 }

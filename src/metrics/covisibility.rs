@@ -17,7 +17,8 @@
 //! depth agrees within the relative tolerance — with the depth at the
 //! projected point or with the destination surface's tangent plane at the
 //! tap's own pixel centre (slanted surfaces) — and (with ids) its instance
-//! and primitive match; the pixel is co-visible when one tap is kept.
+//! matches (not necessarily its primitive: sub-pixel triangles); the pixel
+//! is co-visible when one tap is kept.
 //! [`Covisibility::warp`] then fetches any source image through the kept
 //! taps with their weights renormalized.
 
@@ -284,8 +285,17 @@ impl Covisibility {
                     if !valid(ds) || !(agrees(d_s) || on_plane.is_some_and(agrees)) {
                         continue;
                     }
+                    // The same object: its instance, not its primitive.
+                    // Requiring the same primitive (until session 55) kept
+                    // only taps on the destination's own triangle, so a
+                    // mesh of sub-pixel triangles had almost no co-visible
+                    // pixel (the hairball's stereo mask: 3.5 % of its
+                    // pixels, none at the strands' edges) and every tap
+                    // across a triangle edge of a smooth surface was
+                    // dropped; the depth tests above decide whether the
+                    // tap sees the destination's surface.
                     if let (Some((sh, _)), Some(id)) = (first_hits, dst_id) {
-                        if sh[si][2] != id[2] || sh[si][3] != id[3] {
+                        if sh[si][3] != id[3] {
                             continue;
                         }
                     }

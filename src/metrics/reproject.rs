@@ -23,7 +23,9 @@
 //!    times their offset from `p` (at 60° already more than 1 % per pixel),
 //!    so the plane keeps them; before, oblique walls and floors were largely
 //!    not co-visible. And — when first-hit buffers are given — the tap's
-//!    instance and primitive must equal the destination pixel's.
+//!    instance must equal the destination pixel's (its primitive need not:
+//!    until session 55 it had to, which left a mesh of sub-pixel triangles,
+//!    the hairball, almost without co-visible pixels).
 //!    Failing taps are dropped and the weights of the rest renormalized;
 //! 4. the pixel is **co-visible** when at least one tap passed. Otherwise it
 //!    is black in the reprojected image.
@@ -74,7 +76,7 @@ impl<'a> ViewBuffers<'a> {
 ///
 /// Returns the reprojected image (destination size) and the co-visibility
 /// mask. `first_hits = Some((src_hits, dst_hits))` additionally requires the
-/// same instance and primitive. The destination size is `dst_depth`'s grid,
+/// same instance. The destination size is `dst_depth`'s grid,
 /// taken to have `src`'s dimensions (both eyes and consecutive frames render
 /// at one resolution); every buffer must hold `width · height` entries.
 pub fn reproject(
@@ -200,11 +202,21 @@ pub(crate) mod tests {
         let far = vec![1.5f32; 64 * 64];
         let (_, cov) = reproject(&img, &far, &l, &near, &r, 0.05, None).unwrap();
         assert!(cov.iter().all(|&v| !v));
+        // Another instance at the same depth: not the same surface.
         let ids_a = vec![[0, 0, 3, 1]; 64 * 64];
-        let ids_b = vec![[0, 0, 4, 1]; 64 * 64];
+        let ids_b = vec![[0, 0, 3, 2]; 64 * 64];
         let (_, cov) = reproject(&img, &near, &l, &near, &r, 0.05, Some((&ids_a, &ids_b))).unwrap();
         assert!(cov.iter().all(|&v| !v));
         let (_, cov) = reproject(&img, &near, &l, &near, &r, 0.05, Some((&ids_a, &ids_a))).unwrap();
+        assert_eq!(cov.iter().filter(|&&v| v).count(), 60 * 64);
+        // One instance of sub-pixel triangles (every pixel its own
+        // primitive, none shared between the eyes): the surface is still
+        // co-visible wherever the depths agree.
+        let tiny = |k: u32| -> Vec<[u32; 4]> {
+            (0..64 * 64u32).map(|i| [0, 0, k * 4096 + i, 1]).collect()
+        };
+        let (ids_l, ids_r) = (tiny(0), tiny(1));
+        let (_, cov) = reproject(&img, &near, &l, &near, &r, 0.05, Some((&ids_l, &ids_r))).unwrap();
         assert_eq!(cov.iter().filter(|&&v| v).count(), 60 * 64);
         let sky = vec![0.0f32; 64 * 64];
         let (_, cov) = reproject(&img, &sky, &l, &sky, &r, 0.05, None).unwrap();
