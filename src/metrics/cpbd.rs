@@ -3,9 +3,15 @@
 //! Blur Detection (CPBD)", IEEE TIP 20(9), 2011 — used by Philippi et al.
 //! 2025 (Fig. 15) to compare sharpness with the reference.
 //!
-//! Input: the 8-bit-equivalent display luma `I = round(255 · Y')`
-//! ([`LinearImage::display_luma`]: channels clamped to `[0, 1]`, Rec. 709
-//! luminance, sRGB OETF), as the original works on 8-bit grey images.
+//! Input: the grey levels MATLAB's `rgb2gray` gives for the display image
+//! saved as 8-bit sRGB ([`LinearImage::display_grey_8bit`]: channels
+//! clamped to `[0, 1]`, encoded and rounded to 8 bits, then `round(0.2989
+//! R′ + 0.5870 G′ + 0.1140 B′)`), as the original works on 8-bit grey
+//! images made so. Until session 55 it was `round(255 · Y′)` of the Rec. 709
+//! luminance before the encoding, which agrees on grey and differs on
+//! saturated colours (pure red 127 against rgb2gray's 76), so edges
+//! between coloured surfaces (the Cornell box's walls) had other contrasts
+//! than the authors' code sees.
 //!
 //! Algorithm (Sec. III of the paper, and the authors' MATLAB code as ported
 //! by the `cpbd` Python package):
@@ -88,11 +94,7 @@ pub fn cpbd(image: &LinearImage) -> Result<CpbdResult, MetricsError> {
         });
     }
     let (w, h) = (image.width, image.height);
-    let img: Vec<f32> = image
-        .display_luma()
-        .into_iter()
-        .map(|v| (255.0 * v).round())
-        .collect();
+    let img: Vec<f32> = image.display_grey_8bit();
     let (sx, sy) = sobel(&img, w, h);
     let vertical = vertical_sobel_edges(&sx, &sy, w, h);
     let block_edges = canny_edges(&img, w, h);
@@ -371,12 +373,11 @@ mod tests {
         let img = LinearImage::from_fn(w, h, |x, y| {
             [super::super::image::srgb_decode(grey[y * w + x] / 255.0); 3]
         });
-        let back: Vec<f32> = img
-            .display_luma()
-            .iter()
-            .map(|v| (255.0 * v).round())
-            .collect();
-        assert_eq!(back, grey, "grey levels must survive the sRGB round trip");
+        assert_eq!(
+            img.display_grey_8bit(),
+            grey,
+            "grey levels must survive the sRGB round trip"
+        );
         img
     }
 

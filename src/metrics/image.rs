@@ -18,6 +18,11 @@ use super::check::{check_len, MetricsError};
 /// of the linear-sRGB → XYZ matrix.
 pub const REC709_LUMA: [f32; 3] = [0.2126, 0.7152, 0.0722];
 
+/// MATLAB `rgb2gray`'s weights (Rec. 601 luma of the encoded channels,
+/// as MATLAB documents them): the grey image CPBD's authors computed from
+/// an 8-bit colour image ([`LinearImage::display_grey_8bit`]).
+pub const RGB2GRAY: [f32; 3] = [0.2989, 0.5870, 0.1140];
+
 /// A linear-light RGB image.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LinearImage {
@@ -142,6 +147,27 @@ impl LinearImage {
             .collect()
     }
 
+    /// Grey levels `0..=255` of the display image as MATLAB's `rgb2gray`
+    /// reads its 8-bit sRGB file: each channel clamped to `[0, 1]`,
+    /// sRGB-encoded and rounded to 8 bits, then
+    /// `round(0.2989 R′ + 0.5870 G′ + 0.1140 B′)` ([`RGB2GRAY`]). CPBD's
+    /// input (its authors' MATLAB code works on such a grey image; the
+    /// `cpbd` package's PIL `'L'` uses the same Rec. 601 weights, rounding
+    /// aside). For grey pixels it is `round(255 · Y′)` of
+    /// [`Self::display_luma`]; for saturated colours the two differ (pure
+    /// red: 76 against 127).
+    pub fn display_grey_8bit(&self) -> Vec<f32> {
+        let byte = |c: f32| (255.0 * srgb_encode(c)).round();
+        self.display()
+            .rgb
+            .iter()
+            .map(|p| {
+                let [r, g, b] = p.map(byte);
+                (RGB2GRAY[0] * r + RGB2GRAY[1] * g + RGB2GRAY[2] * b).round()
+            })
+            .collect()
+    }
+
     /// [`MetricsError::SizeMismatch`] unless `other` has this image's size;
     /// [`MetricsError::Empty`] when it has no pixels.
     pub fn check_same_size(
@@ -259,6 +285,33 @@ mod tests {
         let img = LinearImage::new(2, 1, vec![[2.0, 5.0, 9.0], [-1.0, 0.0, 0.0]]).unwrap();
         let l = img.display_luma();
         assert!((l[0] - 1.0).abs() < 1e-6 && l[1] == 0.0);
+    }
+
+    /// MATLAB `rgb2gray` of 8-bit sRGB channels, by hand: pure red 255 →
+    /// round(0.2989 · 255) = 76, green → round(149.685) = 150, blue →
+    /// round(29.07) = 29, white → round(254.9745) = 255; linear 0.5 grey
+    /// encodes to 187.5 → 188 in every channel → round(187.98) = 188.
+    #[test]
+    fn display_grey_is_matlab_rgb2gray_of_the_8_bit_channels() {
+        let img = LinearImage::new(
+            6,
+            1,
+            vec![
+                [1.0, 0.0, 0.0],
+                [0.0, 1.0, 0.0],
+                [0.0, 0.0, 1.0],
+                [3.0, 2.0, 1.0],
+                [0.5, 0.5, 0.5],
+                [f32::NAN, -1.0, 0.0],
+            ],
+        )
+        .unwrap();
+        assert_eq!(
+            img.display_grey_8bit(),
+            [76.0, 150.0, 29.0, 255.0, 188.0, 0.0]
+        );
+        // Rec. 709 luminance before the encoding (display_luma) gives red 127.
+        assert_eq!((255.0 * img.display_luma()[0]).round(), 127.0);
     }
 
     #[test]
