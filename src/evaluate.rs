@@ -25,7 +25,11 @@
 
 use crate::camera::{Eye, StereoCamera};
 use crate::error::{Error, Result};
-use crate::methods::{EyeImage, FrameInput, Method, MethodKind, RenderSettings, StereoFrame};
+use crate::interface::reference::ReferenceCounter;
+use crate::interface::CounterSlot;
+use crate::methods::{
+    EyeImage, FrameInput, FrameStats, Method, MethodKind, RenderSettings, StereoFrame,
+};
 use crate::metrics::ghosting::{ghost_mask, rse_on_mask};
 use crate::metrics::{
     eye_pixels_per_degree, flip_hdr, half_split_error, mean_of_halves, stereo_discrepancy_masked,
@@ -73,11 +77,17 @@ pub struct ReferenceFrame {
     /// reference ([`mean_of_halves`]), where neither is its non-finite channels
     /// are 0.
     pub non_finite_half_pixels: usize,
+    /// Samples the path tracer dropped because their radiance was ∞ or NaN
+    /// (counted as black, `reference/trace.comp`), both halves and eyes
+    /// (metric `non_finite_reference_samples`): where a half's pixels are
+    /// all finite, a bug shows only here.
+    pub non_finite_samples: f64,
 }
 
 impl ReferenceFrame {
     /// The mean of `halves` and its estimated error; FLIP at `flip_ppd`.
     pub fn from_halves(halves: [StereoFrame; 2], flip_ppd: f32) -> Result<Self> {
+        let non_finite_samples = dropped_samples(&halves[0]) + dropped_samples(&halves[1]);
         let [a, b] = halves;
         let (w, h) = (a.width, a.height);
         if (b.width, b.height) != (w, h) {
@@ -107,6 +117,7 @@ impl ReferenceFrame {
             noise: ReferenceNoise::mean(&noise),
             flip_halves,
             non_finite_half_pixels,
+            non_finite_samples,
         })
     }
 }
@@ -270,16 +281,30 @@ pub fn check_reference_spp(spp: u32) -> Result<()> {
     }
 }
 
-const MAGIC: &[u8; 8] = b"SCREF02\n";
+const MAGIC: &[u8; 8] = b"SCREF03\n";
 
-/// Both halves: header, radiance of half A (left, right), of half B (left,
-/// right), then depth and first hits (left, right) once — they come from the
-/// pixel-centre primary rays and are the same in both halves.
+/// The reference path tracer's count of dropped (∞ or NaN) samples, as its
+/// frames report it (`reference/trace.comp`).
+fn dropped_samples(f: &StereoFrame) -> f64 {
+    let name = ReferenceCounter::NonFiniteSamples
+        .report_name()
+        .expect("a reported counter");
+    f.stats.counters.get(name).copied().unwrap_or(0.0)
+}
+
+/// Both halves: header (magic, width, height, each half's dropped
+/// non-finite samples as u64 — `SCREF03` since session 55), radiance of
+/// half A (left, right), of half B (left, right), then depth and first hits
+/// (left, right) once — they come from the pixel-centre primary rays and
+/// are the same in both halves.
 fn write_halves(path: &Path, f: &[StereoFrame; 2]) -> Result<()> {
     let mut bytes = Vec::new();
     bytes.extend_from_slice(MAGIC);
     bytes.extend_from_slice(&f[0].width.to_le_bytes());
     bytes.extend_from_slice(&f[0].height.to_le_bytes());
+    for half in f {
+        bytes.extend_from_slice(&(dropped_samples(half) as u64).to_le_bytes());
+    }
     for half in f {
         for e in &half.eyes {
             bytes.extend_from_slice(bytemuck::cast_slice(&e.radiance));
@@ -318,9 +343,10 @@ fn read_halves(
     let n = (width as usize) * (height as usize);
     let rad = n * 16;
     let geo = n * (4 + 16);
-    let want = 16 + 4 * rad + 2 * geo;
-    if bytes.len() < 16 || &bytes[..8] != MAGIC {
-        return Err("not a SCREF02 reference file".into());
+    let head = 32;
+    let want = head + 4 * rad + 2 * geo;
+    if bytes.len() < head || &bytes[..8] != MAGIC {
+        return Err("not a SCREF03 reference file".into());
     }
     let w = u32::from_le_bytes(bytes[8..12].try_into().expect("4 bytes"));
     let h = u32::from_le_bytes(bytes[12..16].try_into().expect("4 bytes"));
@@ -330,7 +356,8 @@ fn read_halves(
     if bytes.len() != want {
         return Err(format!("{} bytes, not {want}", bytes.len()));
     }
-    let body = &bytes[16..];
+    let dropped = [16, 24].map(|o| u64::from_le_bytes(bytes[o..o + 8].try_into().expect("8 bytes")));
+    let body = &bytes[head..];
     let floats = |b: &[u8]| -> Vec<f32> { bytemuck::pod_collect_to_vec(b) };
     if !floats(&body[..4 * rad]).iter().all(|v| v.is_finite()) {
         return Err("non-finite radiance".into());
@@ -352,11 +379,18 @@ fn read_halves(
             debug: Vec::new(),
         }
     };
-    let frame = |half: usize| StereoFrame {
-        width,
-        height,
-        eyes: [eye(half, 0), eye(half, 1)],
-        stats: Default::default(),
+    let frame = |half: usize| {
+        let mut stats = FrameStats::default();
+        let name = ReferenceCounter::NonFiniteSamples
+            .report_name()
+            .expect("a reported counter");
+        stats.counters.insert(name.into(), dropped[half] as f64);
+        StereoFrame {
+            width,
+            height,
+            eyes: [eye(half, 0), eye(half, 1)],
+            stats,
+        }
     };
     Ok(Some([frame(0), frame(1)]))
 }
@@ -386,6 +420,7 @@ pub const METRIC_NAMES: &[&str] = &[
     "cpbd_reference",
     "non_finite_pixels",
     "non_finite_reference_pixels",
+    "non_finite_reference_samples",
     "rse_reference",
     "mse_reference",
     "flip_reference_halves",
@@ -629,6 +664,10 @@ impl Evaluator {
             "non_finite_reference_pixels".into(),
             reference_frame.non_finite_half_pixels as f64,
         );
+        out.insert(
+            "non_finite_reference_samples".into(),
+            reference_frame.non_finite_samples,
+        );
         for (k, v) in &out {
             self.series.entry(k.clone()).or_default().push(*v);
         }
@@ -684,6 +723,8 @@ mod tests {
         let mut b = MAGIC.to_vec();
         b.extend(w.to_le_bytes());
         b.extend(h.to_le_bytes());
+        b.extend(3u64.to_le_bytes());
+        b.extend(0u64.to_le_bytes());
         b.extend(std::iter::repeat_n(1f32.to_le_bytes(), 4 * n * 4).flatten());
         b.extend(std::iter::repeat_n(0u8, 2 * n * 20));
         b
@@ -699,10 +740,12 @@ mod tests {
         let p = dir.join("a.ref");
         assert!(read_halves(&p, 2, 1).unwrap().is_none(), "absent");
         std::fs::write(&p, entry(2, 1)).unwrap();
-        let [a, _] = read_halves(&p, 2, 1).unwrap().unwrap();
+        let [a, b] = read_halves(&p, 2, 1).unwrap().unwrap();
         assert_eq!(a.eyes[1].radiance, vec![[1.0; 4]; 2]);
+        // The halves' dropped-sample counts come back.
+        assert_eq!((dropped_samples(&a), dropped_samples(&b)), (3.0, 0.0));
         let mut nan = entry(2, 1);
-        nan[16 + 8..16 + 12].copy_from_slice(&f32::NAN.to_le_bytes());
+        nan[32 + 8..32 + 12].copy_from_slice(&f32::NAN.to_le_bytes());
         std::fs::write(&p, &nan).unwrap();
         assert_eq!(read_halves(&p, 2, 1).unwrap_err(), "non-finite radiance");
         let mut inf = entry(2, 1);
@@ -715,7 +758,12 @@ mod tests {
         std::fs::write(&p, entry(2, 1)).unwrap();
         assert_eq!(read_halves(&p, 4, 1).unwrap_err(), "2x1 per eye, not 4x1");
         std::fs::write(&p, b"SCREF01\n").unwrap();
-        assert!(read_halves(&p, 2, 1).unwrap_err().contains("not a SCREF02"));
+        assert!(read_halves(&p, 2, 1).unwrap_err().contains("not a SCREF03"));
+        // A SCREF02 entry (no counts) is another format: rendered again.
+        let mut old = entry(2, 1);
+        old[..8].copy_from_slice(b"SCREF02\n");
+        std::fs::write(&p, &old).unwrap();
+        assert!(read_halves(&p, 2, 1).unwrap_err().contains("not a SCREF03"));
         let _ = std::fs::remove_dir_all(&dir);
     }
 

@@ -697,8 +697,8 @@ fn the_temporal_metric_follows_a_moving_instance() {
 
 /// ∞ or NaN in the reference's halves is counted (`non_finite_reference_pixels`,
 /// both halves of both eyes), not hidden by the mean: a pixel with one bad
-/// half takes the other half's value alone, in a pixel bad in both the
-/// non-finite channels are 0.
+/// half takes the other half's value alone, in a pixel bad in both each
+/// non-finite channel counts as 0 in the mean.
 #[test]
 fn non_finite_reference_pixels_are_counted() {
     let half = |v: u64, bad: &[(usize, usize)]| {
@@ -739,7 +739,7 @@ fn non_finite_reference_pixels_are_counted() {
     assert_eq!(
         r.frame.eyes[1].radiance[7][..3],
         [0.0, 0.5, 0.0],
-        "bad in both: the non-finite channels 0"
+        "bad in both: the non-finite channels count as 0"
     );
     let m = Evaluator::new(None)
         .frame(&rig(0.0), &r.frame.clone(), &r)

@@ -714,3 +714,60 @@ fn barycentric_packing_round_trip() {
     );
     assert_no_validation_messages(&ctx);
 }
+
+/// A path tracer that produces ∞ or NaN radiance says so. The reference
+/// drops such a sample (counted as black, so one bad path cannot poison a
+/// pixel's mean) and counts it: `non_finite_samples` in its frame, and
+/// through the reference cache (rendered, then read back from disk) the
+/// `non_finite_reference_samples` every method's metrics carry. An
+/// environment of infinite radiance (the Rust API takes it as given; no
+/// importer makes one), seen by every pixel (the scene's sphere is behind
+/// the camera): every sample is ∞ and dropped, so the count is exact,
+/// spp · pixels · 2 eyes, and the image is black.
+#[test]
+fn non_finite_reference_samples_are_counted() {
+    use stereocache::evaluate::ReferenceCache;
+    let ctx = context();
+    let scene = sphere_in_environment(
+        Material::default(),
+        Vec3::ZERO,
+        1.0,
+        Vec3::splat(f32::INFINITY),
+    );
+    let s = session(&ctx, scene, RtChoice::Software);
+    let cam = look_at_camera(Vec3::new(0.0, 0.0, 3.0), Vec3::new(0.0, 0.0, 6.0), 10.0, 1.0);
+    let (w, h, spp) = (16u32, 16u32, 4u32);
+    let settings = RenderSettings {
+        width: w,
+        height: h,
+        spp,
+        ..Default::default()
+    };
+    let f = render(&s, "reference", cam, &settings);
+    let expected = (spp * w * h * 2) as f64;
+    assert_eq!(f.stats.counters.get("non_finite_samples"), Some(&expected));
+    assert!(f
+        .eyes
+        .iter()
+        .all(|e| e.radiance.iter().all(|p| p[..3] == [0.0; 3])));
+    // A finite sky drops nothing.
+    let healthy = sphere_in_environment(Material::default(), Vec3::ZERO, 1.0, Vec3::splat(0.5));
+    let s2 = session(&ctx, healthy, RtChoice::Software);
+    let g = render(&s2, "reference", cam, &settings);
+    assert_eq!(g.stats.counters.get("non_finite_samples"), Some(&0.0));
+
+    // The two halves of a reference of 2·spp, rendered and then cached.
+    let dir = std::env::temp_dir().join(format!("stereocache-nonfinite-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let reference_settings = RenderSettings {
+        spp: 2 * spp,
+        ..settings.clone()
+    };
+    for pass in ["rendered", "read from the cache"] {
+        let mut cache = ReferenceCache::new(dir.clone(), reference_settings.clone()).unwrap();
+        let r = cache.get(&s, &cam, 0).unwrap();
+        assert_eq!(r.non_finite_samples, 2.0 * expected, "{pass}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+    assert_no_validation_messages(&ctx);
+}

@@ -20,6 +20,7 @@ void main() {
     EyeGpu e = frame.eyes[eye];
     vec3 sum = vec3(0.0);
     RayCounts rays = RayCounts(0u, 0u);
+    uint dropped = 0u;
     for (uint k = 0u; k < pc.sample_count; ++k) {
         uint sample_index = pc.sample_base + k;
         Rng rng = rng_init(frame.size_seed.z, frame.size_seed.w, eye, px.y * size.x + px.x, sample_index);
@@ -30,12 +31,18 @@ void main() {
         RtHit h;
         bool hit = rt_closest_hit(o, d, 0.0, 1e30, h);
         vec3 L = path_radiance(o, d, hit, h, hit ? eye_cone(e, h.t) : vec2(0.0), rng, rays);
-        // A non-finite sample is dropped (counted as black) rather than poisoning the mean.
-        if (any(isnan(L)) || any(isinf(L))) L = vec3(0.0);
+        // A non-finite sample is dropped (counted as black) rather than
+        // poisoning the mean, and counted (`non_finite_samples`: a path
+        // tracer bug the image alone would hide).
+        if (any(isnan(L)) || any(isinf(L))) {
+            L = vec3(0.0);
+            dropped++;
+        }
         sum += L;
     }
     accum[idx] += vec4(sum, float(pc.sample_count));
     atomicAdd(counters[C_REFERENCE_PRIMARY_RAYS], pc.sample_count);
     atomicAdd(counters[C_REFERENCE_BOUNCE_RAYS], rays.bounce);
     atomicAdd(counters[C_REFERENCE_SHADOW_RAYS], rays.shadow);
+    if (dropped > 0u) atomicAdd(counters[C_REFERENCE_NONFINITE_SAMPLES], dropped);
 }

@@ -4,9 +4,9 @@
 //!
 //! **The head, not an eye.** stereocache places the eyes itself, half the
 //! IPD either side of the head pose along its +X ([`crate::camera`]), so a
-//! per-eye `XrView` pose from `xrLocateViews` would move each eye by that
-//! offset twice (and a left-eye log would put the right eye near the head's
-//! centre). A log of views only converts by taking the midpoint of the two
+//! log of one eye's `XrView` pose from `xrLocateViews` would be taken for
+//! the head: that eye would be rendered at twice its offset from the head
+//! and the other eye near the head's centre. A log of views only converts by taking the midpoint of the two
 //! eyes' positions and the head's orientation (the views' own orientation
 //! where the displays are parallel; canted displays rotate each view
 //! outwards, which the head's pose does not have).

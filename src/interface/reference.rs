@@ -11,6 +11,8 @@ crate::counter_slots! {
         ShadowRays = "SHADOW_RAYS",
         // pixel-centre rays of `primary` (primary rays only where a TAA reads them)
         CentreRays = "CENTRE_RAYS" => "centre_rays",
+        // samples whose radiance came out ∞ or NaN, dropped (counted as black)
+        NonFiniteSamples = "NONFINITE_SAMPLES" => "non_finite_samples",
     }
 }
 

@@ -126,18 +126,26 @@ struct SceneParamsGpu {
 /// `1 − cos r` of a sun disc of angular radius `r` (lights.glsl reads it
 /// from `LightGpu.direction.w`; 0 = a delta light), as `2 sin²(r/2)` in
 /// f64 (radii beyond π are the whole sphere; negative, zero or not finite:
-/// a delta light). Before session 55 the shader got `cos r` in f32, whose
-/// rounding near 1 (a step of 6·10⁻⁸) made the default sun's solid angle
-/// 0.21 % small, a 0.001 rad disc's 4.6 % small, and any disc under
-/// 3.5·10⁻⁴ rad a delta light; and its cone samples took only the ~181
-/// values of cos θ that f32 has between cos r and 1.
+/// a delta light; so is a disc under [`SMALLEST_SUN_DISC`], whose 1 − cos r
+/// would be an f32 denormal or near one, and 1/Ω near f32's range). Before
+/// session 55 the shader got `cos r` in f32, whose rounding near 1 (a step
+/// of 6·10⁻⁸) made the default sun's solid angle 0.21 % small, a 0.001 rad
+/// disc's 4.6 % small, every disc from 2.4·10⁻⁴ to 3.45·10⁻⁴ rad that of a
+/// 3.45·10⁻⁴ rad disc and any smaller one a delta light; and its cone
+/// samples took only the ~181 values of cos θ that f32 has between cos r
+/// and 1.
 fn sun_one_minus_cos(r: f32) -> f32 {
-    if !(r.is_finite() && r > 0.0) {
+    if !(r.is_finite() && r >= SMALLEST_SUN_DISC) {
         return 0.0;
     }
     let half = (r as f64).min(std::f64::consts::PI) / 2.0;
     (2.0 * half.sin().powi(2)) as f32
 }
+
+/// Angular radius (rad) below which a directional light is a delta light:
+/// 1 − cos r = 5·10⁻²¹ there, far from f32's denormals (10⁻³⁸), and no ray
+/// could find a disc of 10⁻¹⁰ rad.
+const SMALLEST_SUN_DISC: f32 = 1e-10;
 
 /// Environment kinds of `SC_ENV_KIND`.
 fn env_kind(env: &Option<Environment>) -> u32 {
@@ -1158,4 +1166,32 @@ fn env_distribution_buffer(d: Option<&EnvDistribution>) -> Vec<u8> {
 fn row_major_3x4(m: Mat4) -> [[f32; 4]; 3] {
     let r = m.transpose().to_cols_array_2d();
     [r[0], r[1], r[2]]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// 1 − cos r of a sun disc: exact to f32 rounding against the series
+    /// r²/2 − r⁴/24 + r⁶/720 for small discs (where f32's cos r has no
+    /// digits left), 1 at a quarter sphere, 2 from π on; no disc (a delta
+    /// light) for zero, negative, non-finite and sub-10⁻¹⁰ radii.
+    #[test]
+    fn sun_discs_carry_one_minus_cos_exactly() {
+        for r in [1e-10f32, 1e-6, 3e-4, 0.001, 0.00465, 0.01] {
+            let x = r as f64;
+            let series = x * x / 2.0 - x.powi(4) / 24.0 + x.powi(6) / 720.0;
+            let got = sun_one_minus_cos(r) as f64;
+            assert!(
+                (got / series - 1.0).abs() < 1.2e-7,
+                "r = {r}: {got} against {series}"
+            );
+        }
+        assert!((sun_one_minus_cos(std::f32::consts::FRAC_PI_2) - 1.0).abs() < 1e-7);
+        assert_eq!(sun_one_minus_cos(std::f32::consts::PI), 2.0);
+        assert_eq!(sun_one_minus_cos(4.0), 2.0);
+        for r in [0.0, -0.1, f32::NAN, f32::INFINITY, 9e-11] {
+            assert_eq!(sun_one_minus_cos(r), 0.0, "r = {r}");
+        }
+    }
 }
