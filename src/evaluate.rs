@@ -356,7 +356,8 @@ fn read_halves(
     if bytes.len() != want {
         return Err(format!("{} bytes, not {want}", bytes.len()));
     }
-    let dropped = [16, 24].map(|o| u64::from_le_bytes(bytes[o..o + 8].try_into().expect("8 bytes")));
+    let dropped =
+        [16, 24].map(|o| u64::from_le_bytes(bytes[o..o + 8].try_into().expect("8 bytes")));
     let body = &bytes[head..];
     let floats = |b: &[u8]| -> Vec<f32> { bytemuck::pod_collect_to_vec(b) };
     if !floats(&body[..4 * rad]).iter().all(|v| v.is_finite()) {

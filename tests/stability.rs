@@ -735,7 +735,12 @@ fn non_finite_reference_samples_are_counted() {
         Vec3::splat(f32::INFINITY),
     );
     let s = session(&ctx, scene, RtChoice::Software);
-    let cam = look_at_camera(Vec3::new(0.0, 0.0, 3.0), Vec3::new(0.0, 0.0, 6.0), 10.0, 1.0);
+    let cam = look_at_camera(
+        Vec3::new(0.0, 0.0, 3.0),
+        Vec3::new(0.0, 0.0, 6.0),
+        10.0,
+        1.0,
+    );
     let (w, h, spp) = (16u32, 16u32, 4u32);
     let settings = RenderSettings {
         width: w,
@@ -769,5 +774,58 @@ fn non_finite_reference_samples_are_counted() {
         assert_eq!(r.non_finite_samples, 2.0 * expected, "{pass}");
     }
     let _ = std::fs::remove_dir_all(&dir);
+    assert_no_validation_messages(&ctx);
+}
+
+/// The caching methods drop a shading path whose radiance is ∞ or NaN as
+/// the reference does, and count it (`non_finite_samples` in their frame
+/// counters) instead of hiding it in a cached record. A white Lambertian
+/// sphere filling the view under an environment of infinite radiance:
+/// every path's first bounce leaves the convex sphere (cosine-sampled, so
+/// always above the surface) into ∞, so every shading path is dropped —
+/// the count equals the paths the method traced (sample-cache and isrt:
+/// `shaded_samples`; the hash cache: `cell_updates` + `fallback_paths`) —
+/// and under a finite sky none is.
+#[test]
+fn caching_methods_count_the_paths_they_drop() {
+    let ctx = context();
+    let lambert = Material {
+        metallic: 0.0,
+        specular: 0.0,
+        ..Default::default()
+    };
+    let cam = look_at_camera(Vec3::new(0.0, 0.0, 3.0), Vec3::ZERO, 10.0, 1.0);
+    let settings = RenderSettings {
+        width: 16,
+        height: 16,
+        spp: 1,
+        ..Default::default()
+    };
+    for (sky, bad) in [(f32::INFINITY, true), (0.5, false)] {
+        let scene = sphere_in_environment(lambert.clone(), Vec3::ZERO, 1.0, Vec3::splat(sky));
+        let s = session(&ctx, scene, RtChoice::Software);
+        for method in ["sample-cache", "isrt", "hash-cache", "hybrid"] {
+            let f = render(&s, method, cam, &settings);
+            let c = |k: &str| f.stats.counters.get(k).copied().unwrap_or(0.0);
+            let paths = match method {
+                "sample-cache" | "isrt" => c("shaded_samples"),
+                _ => c("cell_updates") + c("fallback_paths"),
+            };
+            let dropped = c("non_finite_samples");
+            assert!(
+                f.stats.counters.contains_key("non_finite_samples"),
+                "{method}: no non_finite_samples counter"
+            );
+            if bad {
+                assert!(paths > 0.0, "{method}: no paths traced");
+                assert_eq!(
+                    dropped, paths,
+                    "{method}: dropped against paths under an infinite sky"
+                );
+            } else {
+                assert_eq!(dropped, 0.0, "{method}: dropped paths under a finite sky");
+            }
+        }
+    }
     assert_no_validation_messages(&ctx);
 }

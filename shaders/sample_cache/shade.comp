@@ -22,7 +22,7 @@ void main() {
     // workgroups cost time on CPU drivers (issue 6).
     uint stride = gl_NumWorkGroups.x * gl_WorkGroupSize.x;
     uint count = state[8];
-    uint shaded = 0u;
+    uint shaded = 0u, dropped = 0u;
     RayCounts rays = RayCounts(0u, 0u);
     for (uint i = gl_GlobalInvocationID.x; i < count; i += stride) {
         uint code = shade_list[i];
@@ -45,7 +45,11 @@ void main() {
         Rng rng = rng_init(frame.size_seed.z, frame.size_seed.w, eye, pixel, 0x10000u + slot);
         ShadingMaterial m;
         vec3 L = path_radiance_first(o, d, true, h, eye_cone(e, t), rng, rays, m);
-        if (any(isnan(L)) || any(isinf(L))) L = vec3(0.0);
+        if (any(isnan(L)) || any(isinf(L))) {
+            // Dropped (a black path) and counted: `non_finite_samples`.
+            L = vec3(0.0);
+            dropped++;
+        }
         vec3 demod = demodulate(L, m);
 
         rad_cur[idx] = accumulate_record(rad_cur[idx], demod, accumulation_floor(ACCUM_MODE, pc.fixed_alpha, m));
@@ -53,6 +57,7 @@ void main() {
         shaded++;
     }
     count_add(C_SHADED, shaded);
+    count_add(C_NONFINITE_SAMPLES, dropped);
     count_add(C_BOUNCE_RAYS, rays.bounce);
     count_add(C_SHADOW_RAYS, rays.shadow);
 }

@@ -23,6 +23,9 @@ crate::counter_slots! {
         Live = "LIVE" => "live_entries",
         /// Pixels without a lookup (hash-cache: primary rays that missed).
         Misses = "MISSES" => "primary_misses",
+        /// Paths whose radiance came out ∞ or NaN, dropped (update.comp,
+        /// hash_cache/primary.comp's misses).
+        NonFiniteSamples = "NONFINITE_SAMPLES" => "non_finite_samples",
     }
 }
 

@@ -21,6 +21,7 @@ crate::counter_slots! {
         Live = "LIVE" => "live_entries",
         /// The table's misses count pixels without a visible sample here.
         Misses = "MISSES" => "pixels_without_samples",
+        NonFiniteSamples = "NONFINITE_SAMPLES" => "non_finite_samples",
         LookedUp = "LOOKED_UP" => "samples_looked_up",
         Both = "BOTH" => "both_level_hits",
         FineOnly = "FINE_ONLY" => "fine_level_only",

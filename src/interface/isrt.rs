@@ -24,6 +24,8 @@ crate::counter_slots! {
         Samples = "SAMPLES" => "samples",
         /// Background samples (rays that missed the scene).
         Background = "BACKGROUND" => "background_samples",
+        /// Shading paths whose radiance came out ∞ or NaN, dropped (shade.comp).
+        NonFiniteSamples = "NONFINITE_SAMPLES" => "non_finite_samples",
     }
 }
 
