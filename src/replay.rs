@@ -526,6 +526,7 @@ pub fn replay_observed(
     let mut memo_live = 0u64;
     // The hash table's lookups and failures over the run (hash-cache, hybrid).
     let mut table_lookups: Option<(f64, f64)> = None;
+    let mut dropped_paths = 0.0;
     if let Some(m) = memo {
         m.reset()?;
     }
@@ -553,6 +554,11 @@ pub fn replay_observed(
             record.add_memo_counters(&m.counters()?, &mut memo_live);
         }
         record.metrics = metrics;
+        dropped_paths += record
+            .counters
+            .get(NON_FINITE_SAMPLES)
+            .copied()
+            .unwrap_or(0.0);
         if let Some((l, f)) = hash_table::counters::lookups_and_failures(&record.counters) {
             let t = table_lookups.get_or_insert((0.0, 0.0));
             t.0 += l;
@@ -597,6 +603,9 @@ pub fn replay_observed(
     if let Some(w) = table_lookups
         .and_then(|(l, f)| hash_table::counters::failed_lookup_warning(method.name(), l, f))
     {
+        eprintln!("warning: {w}");
+    }
+    if let Some(w) = dropped_paths_warning(method.name(), dropped_paths, gpu_ms.len()) {
         eprintln!("warning: {w}");
     }
 
@@ -749,8 +758,34 @@ fn write_frame_images(
     Ok(())
 }
 
+/// The frame counter in which every path-tracing method reports the paths
+/// it dropped because their radiance was ∞ or NaN.
+pub const NON_FINITE_SAMPLES: &str = "non_finite_samples";
+
+/// One line when a run's path tracing dropped paths of ∞ or NaN radiance
+/// (counted as black by the shaders, so the images alone do not show it).
+pub fn dropped_paths_warning(method: &str, dropped: f64, frames: usize) -> Option<String> {
+    (dropped > 0.0).then(|| {
+        format!(
+            "{method}: {dropped} paths of ∞ or NaN radiance were dropped (counted as black) over {frames} frames, a bug in the scene's data or the path tracer; frames.jsonl `{NON_FINITE_SAMPLES}` says which frames"
+        )
+    })
+}
+
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn dropped_paths_are_one_warning() {
+        assert_eq!(super::dropped_paths_warning("taa", 0.0, 8), None);
+        let w = super::dropped_paths_warning("taa", 12.0, 8).unwrap();
+        assert!(
+            w.starts_with(
+                "taa: 12 paths of ∞ or NaN radiance were dropped (counted as black) over 8 frames"
+            ),
+            "{w}"
+        );
+    }
+
     use super::*;
 
     #[test]

@@ -89,6 +89,27 @@ mod tests {
         }
     }
 
+    /// Every path-tracing method reports its dropped (∞/NaN) paths under
+    /// the one name replay's warning reads.
+    #[test]
+    fn dropped_paths_share_one_report_name() {
+        let name = Some(crate::replay::NON_FINITE_SAMPLES);
+        assert_eq!(
+            reference::ReferenceCounter::NonFiniteSamples.report_name(),
+            name
+        );
+        assert_eq!(
+            sample_cache::SampleCacheCounter::NonFiniteSamples.report_name(),
+            name
+        );
+        assert_eq!(isrt::IsrtCounter::NonFiniteSamples.report_name(), name);
+        assert_eq!(
+            hash_table::TableCounter::NonFiniteSamples.report_name(),
+            name
+        );
+        assert_eq!(hybrid::HybridCounter::NonFiniteSamples.report_name(), name);
+    }
+
     #[test]
     fn push_block_sizes_follow_std430() {
         let p = PushBlock {
