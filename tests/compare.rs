@@ -314,15 +314,16 @@ fn the_reference_estimates_its_own_noise_and_warns_when_it_is_not_small() {
         seen.push((rse, r.clone()));
     }
     // The cache holds both halves of every frame: 2 frames × 2 runs, each
-    // file a header, 4 radiance images (2 halves × 2 eyes) and depth + first
-    // hits per eye.
+    // file a header (magic, size, the halves' dropped-sample counts: 32
+    // bytes), 4 radiance images (2 halves × 2 eyes) and depth + first hits
+    // per eye.
     let n = 32 * 24;
     let files: Vec<_> = std::fs::read_dir(&cache).unwrap().flatten().collect();
     assert_eq!(files.len(), 4);
     for f in &files {
         assert_eq!(
             f.metadata().unwrap().len() as usize,
-            16 + 4 * n * 16 + 2 * n * 20
+            32 + 4 * n * 16 + 2 * n * 20
         );
     }
     // A rerun reads them back: the same estimate, no warning lost.

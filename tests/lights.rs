@@ -1045,25 +1045,15 @@ fn spot_cone_and_range_window_follow_the_gltf_recommendation() {
 /// 0.00465 rad puts (1 + cos r)/2 at 1 − 5·10⁻⁶.)
 #[test]
 fn sun_disc_delivers_its_cap_irradiance() {
-    use stereocache::scene::{Light, LightKind};
     let ctx = context();
     let (rho, e, r, theta0) = (0.5f64, 3.0f32, 0.3f32, 40f32.to_radians());
     let (w, h) = (24u32, 24u32);
-    let mut scene = Scene {
-        source: "test:floor-under-a-wide-sun".into(),
-        ..Default::default()
-    };
-    let f = add_material(&mut scene, lambert(rho as f32));
-    add_floor(&mut scene, f);
-    scene.lights.push(Light {
-        name: "wide sun".into(),
-        kind: LightKind::Directional { angular_radius: r },
-        radiant: Vec3::splat(e),
-        position: Vec3::ZERO,
-        direction: Vec3::new(theta0.sin(), -theta0.cos(), 0.0),
-        range: None,
-    });
-    scene.validate().unwrap();
+    let scene = floor_under_a_sun(
+        rho as f32,
+        r,
+        e,
+        Vec3::new(theta0.sin(), -theta0.cos(), 0.0),
+    );
     let s = session(&ctx, scene, RtChoice::Software);
     let cam = down_camera(1.0, 30.0);
     let frame = render_with(&s, cam, (w, h), 256, 1, 3, LightSampling::Mis);
@@ -1087,6 +1077,28 @@ fn sun_disc_delivers_its_cap_irradiance() {
     assert_no_validation_messages(&ctx);
 }
 
+/// A Lambert floor of albedo `rho` under one sun disc of angular radius `r`
+/// and illuminance `e` travelling along `direction`.
+fn floor_under_a_sun(rho: f32, r: f32, e: f32, direction: Vec3) -> Scene {
+    use stereocache::scene::{Light, LightKind};
+    let mut scene = Scene {
+        source: format!("test:floor-under-a-sun-of-{r}-rad").into(),
+        ..Default::default()
+    };
+    let f = add_material(&mut scene, lambert(rho));
+    add_floor(&mut scene, f);
+    scene.lights.push(Light {
+        name: "sun".into(),
+        kind: LightKind::Directional { angular_radius: r },
+        radiant: Vec3::splat(e),
+        position: Vec3::ZERO,
+        direction,
+        range: None,
+    });
+    scene.validate().unwrap();
+    scene
+}
+
 /// A small sun disc, seen straight on, has the size and radiance its
 /// angular radius r gives: E/Ω with Ω = 2π(1 − cos r) = 4π sin²(r/2) on
 /// every pixel wholly inside it (within 10⁻⁴: f32 rounding of Ω, E/Ω and a
@@ -1101,28 +1113,13 @@ fn sun_disc_delivers_its_cap_irradiance() {
 /// the radiance check at both radii.
 #[test]
 fn small_sun_discs_have_their_angular_size() {
-    use stereocache::scene::{Light, LightKind};
     let ctx = context();
     let (w, h) = (48u32, 48u32);
     let disc_px = 16.0f64;
     let e = 3.0f32;
     let to_sun = Vec3::new(0.0, 60f32.to_radians().sin(), -60f32.to_radians().cos());
     for r in [0.001f32, 0.00465] {
-        let mut scene = Scene {
-            source: "test:a-small-sun".into(),
-            ..Default::default()
-        };
-        let f = add_material(&mut scene, lambert(0.5));
-        add_floor(&mut scene, f);
-        scene.lights.push(Light {
-            name: "small sun".into(),
-            kind: LightKind::Directional { angular_radius: r },
-            radiant: Vec3::splat(e),
-            position: Vec3::ZERO,
-            direction: -to_sun,
-            range: None,
-        });
-        scene.validate().unwrap();
+        let scene = floor_under_a_sun(0.5, r, e, -to_sun);
         let s = session(&ctx, scene, RtChoice::Software);
         // The disc's radius on the image plane is tan r / tan(fov/2) · h/2 = 16 px.
         let tan_half = (r as f64).tan() * (h as f64 / 2.0) / disc_px;

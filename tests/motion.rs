@@ -9,6 +9,7 @@ use common::*;
 use glam::{DVec3, Mat4, UVec2, Vec2, Vec3, Vec4};
 use stereocache::camera::{Eye, StereoCamera};
 use stereocache::methods::sample_cache::{Retrace, SampleCacheSettings};
+use stereocache::methods::taa::TaaHistory;
 use stereocache::methods::{MethodConfig, MethodKind, RenderSettings, TaaSettings, TaaWeights};
 use stereocache::rt::{BvhLayout, RtChoice, TwoLevelBvh};
 use stereocache::scene::generate::*;
@@ -109,8 +110,11 @@ fn distance_to(p: Vec2, r: (Vec2, Vec2)) -> f32 {
     d.max_element()
 }
 
-/// TAA on a moving quad over a static background (fixed α, no clipping, so
-/// nothing but the blend and the reprojection decide what history remains).
+/// TAA on a moving quad over a static background (fixed α, no clipping and
+/// the bilinear history fetch, so nothing but the blend and the
+/// reprojection decide what history remains; the default Catmull-Rom
+/// fetch reads 4×4 texels, 2 px around the point, which the bound below
+/// would have to widen by a pixel).
 /// Red enters a pixel's input only where the pixel's jittered sample can hit
 /// the red half: its centre within 0.5 px of the red rectangle. Each frame's
 /// bilinear history fetch reads taps within 1 px of the point's previous
@@ -146,6 +150,7 @@ fn taa_motion_vectors_leave_no_trail_behind_a_moving_quad() {
             weights: TaaWeights::Fixed,
             clip: false,
             motion_vectors,
+            history: TaaHistory::Bilinear,
             ..Default::default()
         };
         let mut m = s.create(MethodConfig::Taa(taa), &st).unwrap();
