@@ -666,7 +666,8 @@ pub fn compare_configs(
 /// One line naming the configurations whose mean metrics are not finite
 /// (`null` in summary.json) or whose images held ∞ or NaN pixels (the
 /// metrics score those as black: `non_finite_pixels`, the mean per frame
-/// of both eyes' count), and a reference whose halves held such pixels
+/// of both eyes' count), and a reference whose path tracer dropped such
+/// samples (`non_finite_reference_samples`) or whose halves held such pixels
 /// (`non_finite_reference_pixels`), or `None` when none of these happened.
 pub fn non_finite_metrics_warning(out: &Path, rows: &[MethodRow]) -> Option<String> {
     let mut bad: Vec<String> = rows
@@ -698,14 +699,24 @@ pub fn non_finite_metrics_warning(out: &Path, rows: &[MethodRow]) -> Option<Stri
         })
         .collect();
     // The reference is shared by every row: named once, from any row that has it.
-    if let Some(n) = rows
-        .iter()
-        .filter_map(|r| r.metrics.get("non_finite_reference_pixels").copied())
-        .find(|n| *n > 0.0)
-    {
-        bad.push(format!(
-            "the reference ({n:.1} pixels of ∞ or NaN per frame in its two halves, both eyes: the other half's value used where finite, else those channels scored as 0)"
+    let reference = |key: &str| {
+        rows.iter()
+            .filter_map(|r| r.metrics.get(key).copied())
+            .find(|n| *n > 0.0)
+    };
+    let mut what: Vec<String> = Vec::new();
+    if let Some(n) = reference("non_finite_reference_samples") {
+        what.push(format!(
+            "{n:.1} samples of ∞ or NaN per frame dropped by its path tracer, counted as black"
         ));
+    }
+    if let Some(n) = reference("non_finite_reference_pixels") {
+        what.push(format!(
+            "{n:.1} pixels of ∞ or NaN per frame in its two halves, both eyes: the other half's value used where it is finite, else those channels counted as 0 in the mean"
+        ));
+    }
+    if !what.is_empty() {
+        bad.push(format!("the reference ({})", what.join("; ")));
     }
     (!bad.is_empty()).then(|| {
         format!(
@@ -1247,7 +1258,14 @@ mod tests {
         );
         let w = non_finite_metrics_warning(out, &[with_ref("a", 1.5), with_ref("b", 1.5)]).unwrap();
         assert!(
-            w.ends_with(": the reference (1.5 pixels of ∞ or NaN per frame in its two halves, both eyes: the other half's value used where finite, else those channels scored as 0)"),
+            w.ends_with(": the reference (1.5 pixels of ∞ or NaN per frame in its two halves, both eyes: the other half's value used where it is finite, else those channels counted as 0 in the mean)"),
+            "{w}"
+        );
+        let mut s = row("s", 0.5);
+        s.metrics.insert("non_finite_reference_samples".into(), 4.0);
+        let w = non_finite_metrics_warning(out, &[s]).unwrap();
+        assert!(
+            w.ends_with(": the reference (4.0 samples of ∞ or NaN per frame dropped by its path tracer, counted as black)"),
             "{w}"
         );
     }

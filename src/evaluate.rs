@@ -72,10 +72,12 @@ pub struct ReferenceFrame {
     /// is, so it is not subtracted from anything).
     pub flip_halves: f64,
     /// Pixels holding ∞ or NaN in some channel, counted in both halves of
-    /// both eyes (metric `non_finite_reference_pixels`): a path tracer bug
-    /// the mean hides — where one half is finite its value alone is the
-    /// reference ([`mean_of_halves`]), where neither is its non-finite channels
-    /// are 0.
+    /// both eyes (metric `non_finite_reference_pixels`). The path tracer
+    /// drops non-finite samples itself ([`Self::non_finite_samples`]), so
+    /// this fires only where a pixel's sum overflowed; the mean would hide
+    /// it — where one half is finite its value alone is the reference
+    /// ([`mean_of_halves`]), where neither is each non-finite channel counts
+    /// as 0 in the mean.
     pub non_finite_half_pixels: usize,
     /// Samples the path tracer dropped because their radiance was ∞ or NaN
     /// (counted as black, `reference/trace.comp`), both halves and eyes

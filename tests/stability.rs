@@ -780,9 +780,12 @@ fn non_finite_reference_samples_are_counted() {
 /// The caching methods drop a shading path whose radiance is ∞ or NaN as
 /// the reference does, and count it (`non_finite_samples` in their frame
 /// counters) instead of hiding it in a cached record. A white Lambertian
-/// sphere filling the view under an environment of infinite radiance:
-/// every path's first bounce leaves the convex sphere (cosine-sampled, so
-/// always above the surface) into ∞, so every shading path is dropped —
+/// sphere filling the view under an environment of infinite radiance,
+/// faceted so that shading normals are the geometric ones: every path's
+/// first bounce is cosine-sampled about the face's own normal, so it leaves
+/// the convex sphere into ∞ (with smooth normals a sample can fall below
+/// the geometric surface and end the path finite, ~10⁻⁴ of them), and
+/// every shading path is dropped —
 /// the count equals the paths the method traced (sample-cache and isrt:
 /// `shaded_samples`; the hash cache: `cell_updates` + `fallback_paths`) —
 /// and under a finite sky none is.
@@ -802,7 +805,7 @@ fn caching_methods_count_the_paths_they_drop() {
         ..Default::default()
     };
     for (sky, bad) in [(f32::INFINITY, true), (0.5, false)] {
-        let scene = sphere_in_environment(lambert.clone(), Vec3::ZERO, 1.0, Vec3::splat(sky));
+        let scene = faceted_sphere_in_environment(lambert.clone(), Vec3::splat(sky));
         let s = session(&ctx, scene, RtChoice::Software);
         for method in ["sample-cache", "isrt", "hash-cache", "hybrid"] {
             let f = render(&s, method, cam, &settings);

@@ -45,8 +45,8 @@ crate::counter_slots! {
         /// eye sees their single-sided triangle from behind (eye rays pass
         /// through it: first_hit.glsl `first_hit_culled`).
         ReprojectedBackfacing = "REPROJECTED_BACKFACING" => "reprojected_backfacing",
-        /// Shading paths whose radiance came out ∞ or NaN, dropped (the
-        /// sample keeps its record; shade.comp).
+        /// Shading paths whose radiance came out ∞ or NaN, dropped
+        /// (averaged into the record as black; shade.comp).
         NonFiniteSamples = "NONFINITE_SAMPLES" => "non_finite_samples",
     }
 }

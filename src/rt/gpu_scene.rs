@@ -127,10 +127,11 @@ struct SceneParamsGpu {
 /// from `LightGpu.direction.w`; 0 = a delta light), as `2 sin²(r/2)` in
 /// f64 (radii beyond π are the whole sphere; negative, zero or not finite:
 /// a delta light; so is a disc under [`SMALLEST_SUN_DISC`], whose 1 − cos r
-/// would be an f32 denormal or near one, and 1/Ω near f32's range). Before
+/// is far below any disc a ray could find, and whose 1/Ω squared in the
+/// power heuristic overflows f32). Before
 /// session 55 the shader got `cos r` in f32, whose rounding near 1 (a step
 /// of 6·10⁻⁸) made the default sun's solid angle 0.21 % small, a 0.001 rad
-/// disc's 4.6 % small, every disc from 2.4·10⁻⁴ to 3.45·10⁻⁴ rad that of a
+/// disc's 4.6 % small, every disc from 2.4·10⁻⁴ to 4.2·10⁻⁴ rad that of a
 /// 3.45·10⁻⁴ rad disc and any smaller one a delta light; and its cone
 /// samples took only the ~181 values of cos θ that f32 has between cos r
 /// and 1.

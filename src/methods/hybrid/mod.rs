@@ -52,8 +52,10 @@ use crate::rt::SceneGpu;
 use crate::scene::Environment;
 use std::sync::Arc;
 
-/// Counter slots allocated (`C_HY_*` use the first 19).
+/// Counter slots allocated (`C_HY_*` use the first 20).
 const COUNTER_SLOTS: u64 = 32;
+const _: () =
+    assert!(<HybridCounter as crate::interface::CounterSlot>::ALL.len() as u64 <= COUNTER_SLOTS);
 const LOCAL: u32 = 8;
 
 struct Pipelines {

@@ -247,7 +247,10 @@ impl Isrt {
         let out_depth = b("depth", 2 * npix * 4)?;
         let out_fh = b("out_first_hit", 2 * npix * 16)?;
         let out_albedo = b("albedo", 2 * npix * 16)?;
-        let counters = b("counters", 16 * 4)?;
+        let counters = b(
+            "counters",
+            <IsrtCounter as crate::interface::CounterSlot>::ALL.len() as u64 * 4,
+        )?;
         let mut spec = settings.spec_constants(scene, env);
         spec.set(SPEC_M, isrt.m);
         let shared = [scene.layout.clone()];
