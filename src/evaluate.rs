@@ -25,8 +25,6 @@
 
 use crate::camera::{Eye, StereoCamera};
 use crate::error::{Error, Result};
-use crate::interface::reference::ReferenceCounter;
-use crate::interface::CounterSlot;
 use crate::methods::{
     EyeImage, FrameInput, FrameStats, Method, MethodKind, RenderSettings, StereoFrame,
 };
@@ -36,6 +34,7 @@ use crate::metrics::{
     temporal_instability_masked, Covisibility, Geometry, ImageMetrics, LinearImage, ReferenceNoise,
     DEFAULT_PPD, RSE_EPSILON,
 };
+use crate::replay::NON_FINITE_SAMPLES;
 use crate::scene::fnv1a;
 use crate::session::Session;
 use glam::{DMat4, Mat4};
@@ -288,10 +287,11 @@ const MAGIC: &[u8; 8] = b"SCREF03\n";
 /// The reference path tracer's count of dropped (∞ or NaN) samples, as its
 /// frames report it (`reference/trace.comp`).
 fn dropped_samples(f: &StereoFrame) -> f64 {
-    let name = ReferenceCounter::NonFiniteSamples
-        .report_name()
-        .expect("a reported counter");
-    f.stats.counters.get(name).copied().unwrap_or(0.0)
+    f.stats
+        .counters
+        .get(NON_FINITE_SAMPLES)
+        .copied()
+        .unwrap_or(0.0)
 }
 
 /// Both halves: header (magic, width, height, each half's dropped
@@ -384,10 +384,9 @@ fn read_halves(
     };
     let frame = |half: usize| {
         let mut stats = FrameStats::default();
-        let name = ReferenceCounter::NonFiniteSamples
-            .report_name()
-            .expect("a reported counter");
-        stats.counters.insert(name.into(), dropped[half] as f64);
+        stats
+            .counters
+            .insert(NON_FINITE_SAMPLES.into(), dropped[half] as f64);
         StereoFrame {
             width,
             height,
