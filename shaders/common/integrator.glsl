@@ -533,6 +533,16 @@ vec3 path_radiance(vec3 o, vec3 d, bool hit, RtHit h, vec2 eye_cone, inout Rng r
     return path_radiance_first(o, d, hit, h, eye_cone, rng, rays, first);
 }
 
+// Every pass that traces paths drops one whose radiance came out ∞ or NaN:
+// it is replaced by black (one bad path must not poison a pixel's mean or a
+// cache's record) and the caller counts it (`non_finite_samples`, a path
+// tracer bug the image alone would hide). True when L was replaced.
+bool drop_non_finite(inout vec3 L) {
+    if (!(any(isnan(L)) || any(isinf(L)))) return false;
+    L = vec3(0.0);
+    return true;
+}
+
 // Base colour at a first hit, for demodulation and the albedo output.
 vec3 first_hit_albedo(RtHit h, vec3 d, float cone_width) {
     Surface s = surface_at(h.instance, h.prim, h.bary, d);

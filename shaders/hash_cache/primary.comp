@@ -58,11 +58,7 @@ void main() {
         RayCounts rays = RayCounts(0u, 0u);
         Rng rr = r;
         vec3 L = path_radiance(o, d, false, h, vec2(0.0), rr, rays);   // environment and sun: no rays
-        if (any(isnan(L)) || any(isinf(L))) {
-            // Dropped (black) and counted: `non_finite_samples`.
-            L = vec3(0.0);
-            atomicAdd(counters[C_HT_NONFINITE_SAMPLES], 1u);
-        }
+        if (drop_non_finite(L)) atomicAdd(counters[C_HT_NONFINITE_SAMPLES], 1u);   // (integrator.glsl)
         pix_ray[pm] = vec4(d, -1.0);
         pix_hit[pm] = uvec4(0u, 0u, 0u, NO_HIT);
         pix_cell[pm] = uvec4(NO_CELL, ST_MISS, 0u, 0u);

@@ -39,11 +39,7 @@ void main() {
     RayCounts rays = RayCounts(0u, 0u);
     ShadingMaterial m;
     vec3 L = path_radiance_first(o, d, true, h, cone, rng, rays, m);
-    if (any(isnan(L)) || any(isinf(L))) {
-        // Dropped (a black path) and counted: `non_finite_samples`.
-        L = vec3(0.0);
-        atomicAdd(counters[C_HT_NONFINITE_SAMPLES], 1u);
-    }
+    if (drop_non_finite(L)) atomicAdd(counters[C_HT_NONFINITE_SAMPLES], 1u);   // (integrator.glsl)
     vec3 Le = SC_EMISSIVE ? m.emissive : vec3(0.0);
     vec3 demod = max(L - Le, vec3(0.0)) / demodulation_factor(m);
     if (st == ST_FAILED) {

@@ -40,11 +40,7 @@ void main() {
     RayCounts rays = RayCounts(0u, 0u);
     ShadingMaterial m;
     vec3 L = path_radiance_first(o, d, true, h, eye_cone(e, t), rng, rays, m);
-    if (any(isnan(L)) || any(isinf(L))) {
-        // Dropped (a black path) and counted: `non_finite_samples`.
-        L = vec3(0.0);
-        atomicAdd(counters[C_ISRT_NONFINITE_SAMPLES], 1u);
-    }
+    if (drop_non_finite(L)) atomicAdd(counters[C_ISRT_NONFINITE_SAMPLES], 1u);   // (integrator.glsl)
     vec3 demod = demodulate(L, m);   // emission kept apart (common/demodulation.glsl)
     // The sample cache's accumulation (common/accumulation.glsl): until
     // session 50 always appendix C's α_min floor wherever the BSDF has a

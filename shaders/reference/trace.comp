@@ -31,13 +31,7 @@ void main() {
         RtHit h;
         bool hit = rt_closest_hit(o, d, 0.0, 1e30, h);
         vec3 L = path_radiance(o, d, hit, h, hit ? eye_cone(e, h.t) : vec2(0.0), rng, rays);
-        // A non-finite sample is dropped (counted as black) rather than
-        // poisoning the mean, and counted (`non_finite_samples`: a path
-        // tracer bug the image alone would hide).
-        if (any(isnan(L)) || any(isinf(L))) {
-            L = vec3(0.0);
-            dropped++;
-        }
+        if (drop_non_finite(L)) dropped++;   // (integrator.glsl)
         sum += L;
     }
     accum[idx] += vec4(sum, float(pc.sample_count));

@@ -45,11 +45,7 @@ void main() {
         Rng rng = rng_init(frame.size_seed.z, frame.size_seed.w, eye, pixel, 0x10000u + slot);
         ShadingMaterial m;
         vec3 L = path_radiance_first(o, d, true, h, eye_cone(e, t), rng, rays, m);
-        if (any(isnan(L)) || any(isinf(L))) {
-            // Dropped (a black path) and counted: `non_finite_samples`.
-            L = vec3(0.0);
-            dropped++;
-        }
+        if (drop_non_finite(L)) dropped++;   // (integrator.glsl)
         vec3 demod = demodulate(L, m);
 
         rad_cur[idx] = accumulate_record(rad_cur[idx], demod, accumulation_floor(ACCUM_MODE, pc.fixed_alpha, m));
