@@ -418,7 +418,8 @@ fn blend_twin(
 /// moments and the co-visibility test written out here), from the buffers
 /// the pass read, on every pixel of both eyes over three frames of a
 /// turning head on the hairball, at R = 0 (a 3×3 kernel), ½ and the
-/// paper's 0.8 (negative lobes). The only pixels not compared are those
+/// paper's 0.8 (negative lobes), with adaptive shading at 0.8 and through
+/// orthographic eyes at ½. The only pixels not compared are those
 /// where rounding could flip a discrete choice (`blend_twin`'s
 /// `ambiguous`); they must be rare. The test also requires that blending
 /// happened (pixels changed, β′ strictly between 0 and 1 somewhere), so it
@@ -437,7 +438,29 @@ fn stereo_blend_pass_matches_its_cpu_twin() {
     // 0 leaves pixels without a shaded sample (colour borrowed from the
     // neighbours), which must not be blended in as X.
     use stereocache::methods::sample_cache::Shading;
-    for (r, adaptive) in [(0.0f32, false), (0.5, false), (0.8, false), (0.8, true)] {
+    // The last configuration looks through orthographic eyes (issue 18's
+    // projection; until session 56 the pass's parallel-ray path, Y's pixel
+    // centre moved along the eye's forward axis from its own image-plane
+    // origin, was not compared with anything): the same hairball, framed
+    // by a view as tall as the perspective one's at the scene's centre.
+    let (lo, hi) = scene.world_bounds();
+    let eyes0 = cam0.eyes();
+    let centre_dist = ((lo + hi) * 0.5 - (eyes0[0].position + eyes0[1].position) * 0.5).length();
+    let cam_ortho = {
+        let mut c = cam0;
+        c.projection = stereocache::camera::Projection::Orthographic {
+            ymag: centre_dist * (0.5 * cam0.yfov).tan(),
+        };
+        c
+    };
+    for (r, adaptive, ortho) in [
+        (0.0f32, false, false),
+        (0.5, false, false),
+        (0.8, false, false),
+        (0.8, true, false),
+        (0.5, false, true),
+    ] {
+        let cam0 = if ortho { cam_ortho } else { cam0 };
         let st = RenderSettings {
             width: w,
             height: h,
@@ -523,7 +546,7 @@ fn stereo_blend_pass_matches_its_cpu_twin() {
             }
         }
         eprintln!(
-            "R {r}: {compared} pixels compared, {ambiguous_n} ambiguous, {blended_n} changed by the blend, {mixed_n} channels with 0.01 < β′ < 0.99"
+            "R {r}, orthographic {ortho}: {compared} pixels compared, {ambiguous_n} ambiguous, {blended_n} changed by the blend, {mixed_n} channels with 0.01 < β′ < 0.99"
         );
         assert!(
             ambiguous_n * 100 <= compared,
