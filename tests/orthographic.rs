@@ -670,3 +670,99 @@ fn background_samples_carry_their_place_into_the_new_pixel() {
     }
     assert_no_validation_messages(&ctx);
 }
+
+/// isrt fixes a sample's cell by its place in the pixel, and a background
+/// sample's place is stored in steps of 1/256 of a pixel (first_hit.glsl).
+/// At M = 3 the cell edges 1/3 and 2/3 fall inside a step: a place of
+/// 0.3325 (cell 0) is stored as its step's centre 0.33398 (cell 1). Until
+/// session 56 an orthographic eye's sample so placed moved to cell 1 in a
+/// still view (a tie with cell 1's own sample, one of them dropped), and
+/// cell 0 took a new sample at a random place: a ray a frame for nothing
+/// (an audit's finding; 0.5 % of uniformly placed background samples).
+///
+/// Known answer: every cell of both eyes holds a background sample, those
+/// of column 0 at x = 0.3325 and the others at their cell's centre; after a
+/// still frame (`--isrt-retrace every`) every cell keeps its own sample at
+/// its place (within a step) and no new sample is traced — the samples
+/// over the square are retraced and replaced by its hits, at no new ray.
+#[test]
+fn isrt_background_samples_keep_their_cell() {
+    use stereocache::methods::isrt::{Isrt, IsrtSettings, IsrtSnapshot};
+    use stereocache::methods::sample_cache::background::{
+        background_subpixel, encode_background, is_background,
+    };
+    let ctx = context();
+    let scene = square(Environment::Constant(Vec3::ONE));
+    let cam = ortho_camera(2.0, 0.0);
+    let is = IsrtSettings::default();
+    let mm = is.m;
+    assert_eq!(mm, 3, "the test's places are for M = 3");
+    let gw = W * mm;
+    let cells = (gw * gw) as usize;
+    // Place (pixel-relative) of grid column / row g's sample: the cell's
+    // centre, but 0.3325 in column 0 (its step's centre lies in cell 1).
+    let centre = |g: u32| ((g % mm) as f32 + 0.5) / mm as f32;
+    let place_x = |gx: u32| if gx % mm == 0 { 0.3325f32 } else { centre(gx) };
+    let place_y = centre;
+    for rt in rt_backends(&ctx) {
+        let s = session(&ctx, scene.clone(), rt);
+        let mut m = Isrt::new(
+            &s.ctx,
+            &s.scene_gpu,
+            &s.scene.environment,
+            &settings(1),
+            &is,
+        )
+        .unwrap();
+        let mut snap = IsrtSnapshot {
+            m: mm,
+            width: W,
+            height: W,
+            first_hits: vec![[0, 0, 0, u32::MAX]; 2 * cells],
+            radiance: vec![[0.0; 4]; 2 * cells],
+        };
+        for e in 0..2 {
+            for gy in 0..gw {
+                for gx in 0..gw {
+                    let c = snap.cell(e, gx, gy);
+                    snap.first_hits[c] =
+                        encode_background(Vec3::NEG_Z, Vec2::new(place_x(gx), place_y(gy)));
+                    snap.radiance[c] = [1.0, 1.0, 1.0, 0.0];
+                }
+            }
+        }
+        m.load(&snap).unwrap();
+        let fr = render_at(&mut m, 1, cam, Some(cam));
+        assert_eq!(
+            fr.stats.counters["new_sample_rays"], 0.0,
+            "{rt:?}: a still view with every cell filled traced new samples"
+        );
+        let out = m.snapshot().unwrap();
+        let (mut checked, step) = (0usize, 1.0 / 256.0 + 1e-5);
+        for (e, eye) in Eye::BOTH.into_iter().enumerate() {
+            for gy in 0..gw {
+                for gx in 0..gw {
+                    let fh = out.first_hits[out.cell(e, gx, gy)];
+                    if !is_background(fh) {
+                        // Over the square: retraced and replaced by its hit.
+                        assert!(
+                            covered(eye, gx / mm, gy / mm, 0),
+                            "{rt:?} {eye:?} cell ({gx}, {gy}): a surface sample in open sky"
+                        );
+                        continue;
+                    }
+                    let at = background_subpixel(fh).unwrap();
+                    let want = Vec2::new(place_x(gx), place_y(gy));
+                    assert!(
+                        (at - want).abs().max_element() <= step,
+                        "{rt:?} {eye:?} cell ({gx}, {gy}): place {at}, its own sample's is {want}"
+                    );
+                    checked += 1;
+                }
+            }
+        }
+        // Every cell but the square's 20 × 20 pixels' in each eye.
+        assert_eq!(checked, 2 * (cells - 400 * 9), "{rt:?}: background cells");
+    }
+    assert_no_validation_messages(&ctx);
+}

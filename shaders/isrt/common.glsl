@@ -39,18 +39,34 @@ uint cells_per_eye() { uvec2 g = grid_size(); return g.x * g.y; }
 uint cell_index(uint eye, uvec2 g) { return eye * cells_per_eye() + g.y * grid_size().x + g.x; }
 uint pixel_index(uint eye, uvec2 px) { return (eye * frame_size().y + px.y) * frame_size().x + px.x; }
 
+// Where in its pixel the background sample of grid cell g lies: its stored
+// place (first_hit.glsl, the centre of its 1/256-pixel step) clamped into
+// the cell, 0.01 of a cell inside its edges (the step's half width is 0.006
+// of a cell at M = 3). For M = 3 the cell edges 1/3 and 2/3 fall inside a
+// step whose centre lies in the neighbouring cell: until session 56 an
+// orthographic eye's background sample so placed (0.5 % of them) moved to
+// that cell in a still view, dropping a sample and costing a new ray a
+// frame (an audit's finding; tests/orthographic.rs). A sample's cell is
+// fixed by its place, so its place stays in its cell.
+vec2 isrt_background_place(uvec4 fh, uvec2 g) {
+    vec2 k = vec2(g % M);
+    vec2 in_cell = clamp(background_subpixel(fh) * float(M) - k, vec2(0.01), vec2(0.99));
+    return (k + in_cell) / float(M);
+}
+
 // Retraces the sample of cell `idx` from the eye (trace.comp's rule, after
 // the sample cache's retrace): a surface sample is kept when the closest hit
 // lies within ε0·t of it or the ray finds neither (precision at triangle
 // edges), a background sample while its direction hits nothing. Otherwise
 // the ray has found a closer surface on its way, through the sample's own
-// place in the cell (`at` is the cell's centre in pixels): Dal Corso et
+// place in the cell (grid cell g; a surface sample's ray goes to its stored
+// hit, a background sample's through its place): Dal Corso et
 // al.'s updated hit point, which the cell takes as its new sample with a
 // fresh radiance record, at no further ray. (Until session 52 the cell was
 // emptied and refilled by a second ray through a random point of it: a ray
 // more per sample lost, and a new place; an audit's finding.) Counts the
 // ray and the outcome.
-void isrt_retrace(uint idx, EyeGpu e, vec2 at) {
+void isrt_retrace(uint idx, EyeGpu e, uvec2 g) {
     uvec4 fh = fh_cur[idx];
     vec3 o, d;
     float t = 1e30;
@@ -58,7 +74,7 @@ void isrt_retrace(uint idx, EyeGpu e, vec2 at) {
     if (bg) {
         // (Orthographic: from the ray's own place in the pixel.)
         d = background_direction(fh);
-        o = eye_ray_origin(e, floor(at) + background_subpixel(fh));
+        o = eye_ray_origin(e, vec2(g / M) + isrt_background_place(fh, g));
     } else {
         eye_ray_to(e, hit_position(fh), o, d, t);
     }

@@ -25,7 +25,7 @@ void main() {
         // q differ by an ulp.
         uvec2 sg = uvec2(local % grid_size().x, local / grid_size().x);
         vec2 q;
-        background_target(frame.eyes[eye], frame.prev_eyes[eye], vec2(sg / M) + background_subpixel(fh), background_direction(fh), q);
+        background_target(frame.eyes[eye], frame.prev_eyes[eye], vec2(sg / M) + isrt_background_place(fh, sg), background_direction(fh), q);
         fh = background_at(fh, q - vec2(g / M));
     }
     fh_cur[dst] = fh;

@@ -37,7 +37,7 @@ void main() {
             return;
         }
     }
-    bool on_screen = bg ? background_target(e, frame.prev_eyes[eye], vec2(g / M) + background_subpixel(fh), background_direction(fh), q)
+    bool on_screen = bg ? background_target(e, frame.prev_eyes[eye], vec2(g / M) + isrt_background_place(fh, g), background_direction(fh), q)
                         : project_offset_to_eye(e, offset, q, vd);
     if (!on_screen || any(lessThan(q, vec2(0.0))) ||
         any(greaterThanEqual(q, size))) {

@@ -23,7 +23,7 @@ void main() {
     EyeGpu e = frame.eyes[eye];
     uvec4 fh = fh_cur[idx];
     if (first_hit_is_background(fh) || first_hit_valid(fh)) {
-        isrt_retrace(idx, e, (vec2(g) + 0.5) / float(M));
+        isrt_retrace(idx, e, g);
         return;
     }
     isrt_new_sample(idx, eye, g, e);

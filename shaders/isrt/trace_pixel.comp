@@ -32,7 +32,7 @@ void main() {
         uint idx = cell_index(eye, px * M + uvec2(k % M, k / M));
         // Kept, or replaced by the closer hit its ray finds: the cell stays
         // occupied either way.
-        isrt_retrace(idx, e, (vec2(px * M + uvec2(k % M, k / M)) + 0.5) / float(M));
+        isrt_retrace(idx, e, px * M + uvec2(k % M, k / M));
         // The samples not retraced this frame, counted as they are.
         for (uint j = 0u; j < CELLS; ++j) {
             if (j == k || (occupied & (1u << j)) == 0u) continue;
@@ -41,7 +41,7 @@ void main() {
         }
     }
     uint target = pc.n_target == 0u ? CELLS : min(pc.n_target, CELLS);
-    Rng r = rng_init(frame.size_seed.z, frame.size_seed.w, eye, px.y * frame_size().x + px.x, 0x15A70003u);
+    Rng r = rng_init(frame.size_seed.z, frame.size_seed.w, eye, px.y * frame_size().x + px.x, 0x15A70100u);   // (not shade.comp's 0x15A70002 + cell)
     uint start = min(uint(rng_next(r) * float(CELLS)), CELLS - 1u);
     for (uint j = 0u; j < CELLS && n < target; ++j) {
         uint k = (start + j) % CELLS;
