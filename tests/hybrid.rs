@@ -402,14 +402,12 @@ fn one_submit_per_frame_and_occupancy_from_the_live_entries() {
 }
 
 /// The paper's hybrid (per-pixel lookups, the default), along a moving
-/// trace: three lookups per pixel (§5.1) — every pixel whose sample of the
-/// frame is a surface sample makes one shading lookup (found, reserved,
-/// evicted or failed) and one update on a fair coin's level, and looks up
-/// exactly two levels for its colour; a pixel whose sample is a background
-/// one makes none; every pixel is counted once. The sample is drawn
-/// uniformly from the pixel's visible samples: the number of background
-/// samples shown lies within 4σ of its expectation Σ n_bg/n (a sum of
-/// Bernoulli draws, σ² = Σ p(1 − p)).
+/// trace: three lookups per pixel (§5.1) — every pixel with a visible
+/// surface sample makes one shading lookup (found, reserved, evicted or
+/// failed) and one update on a fair coin's level, and looks up exactly two
+/// levels for its colour; a pixel with background samples only makes none;
+/// every pixel is counted once. The silhouette pixels (surface and
+/// background samples, mixed by coverage) are counted exactly.
 #[test]
 fn per_pixel_lookups_are_three_per_pixel() {
     let ctx = context();
@@ -422,14 +420,13 @@ fn per_pixel_lookups_are_three_per_pixel() {
         let cam0 = default_camera(&s, w, h);
         let mut prev = None;
         let (mut fine, mut coarse, mut both) = (0.0, 0.0, 0.0);
-        let (mut bg_shown, mut bg_expected, mut bg_var) = (0.0, 0.0, 0.0);
         for f in 0..frames {
             let cam = moving(&cam0, f, 1.5);
             let fr = render_at(&mut m, f, cam, prev);
             prev = Some(cam);
             assert_finite_non_negative(&fr, name);
             let snap = m.sample_cache().snapshot().unwrap();
-            let (mut without, mut with_surface) = (0usize, 0usize);
+            let (mut without, mut with_surface, mut silhouette) = (0usize, 0usize, 0usize);
             for e in 0..2 {
                 for pixel in 0..npix {
                     let all_vis = snap.visible(snap.mask(e, pixel));
@@ -441,22 +438,21 @@ fn per_pixel_lookups_are_three_per_pixel() {
                         continue;
                     }
                     with_surface += 1;
-                    let p = (all_vis.count_ones() - vis.count_ones()) as f64
-                        / all_vis.count_ones() as f64;
-                    bg_expected += p;
-                    bg_var += p * (1.0 - p);
+                    silhouette += (all_vis != vis) as usize;
                 }
             }
             let c = &fr.stats.counters;
             let looked_up = c["samples_looked_up"];
-            let shown = c["background_samples_shown"];
-            bg_shown += shown;
             assert_eq!(c["pixels_without_samples"] as usize, without, "{name}");
             assert_eq!(
-                (looked_up + shown) as usize,
-                with_surface,
+                looked_up as usize, with_surface,
                 "{name} frame {f}: one sample per pixel"
             );
+            assert_eq!(
+                c["silhouette_pixels"] as usize, silhouette,
+                "{name} frame {f}: silhouette pixels"
+            );
+            assert!(silhouette > 0, "{name} frame {f}: no silhouette to test");
             assert_eq!(
                 c["cells_found"]
                     + c["cells_reserved"]
@@ -488,20 +484,19 @@ fn per_pixel_lookups_are_three_per_pixel() {
             (fine - 0.5 * n).abs() < 4.0 * (0.25 * n).sqrt(),
             "{name}: fine {fine} coarse {coarse}"
         );
-        assert!(
-            (bg_shown - bg_expected).abs() < 4.0 * f64::sqrt(bg_var).max(1.0),
-            "{name}: {bg_shown} background samples shown, expected {bg_expected:.1} ± {:.1}",
-            bg_var.sqrt()
-        );
         assert!(both > 0.0, "{name}: no pixel ever found both levels");
     }
     assert_no_validation_messages(&ctx);
 }
 
 /// Furnace (as above) with per-pixel lookups and voxel jitter: every entry
-/// holds exactly 1, so without TAA each pixel shows exactly its one sample of
-/// the frame: the albedo (a surface sample) or 1 (a background sample; only
-/// those where the pixel has some), never a mixture; with TAA (the default)
+/// holds exactly 1, so without TAA each pixel shows exactly its coverage,
+/// (n_surface · albedo + n_bg · 1) / (n_surface + n_bg), in every frame —
+/// its drawn surface sample shows the albedo whichever it is, and its
+/// background samples the environment (until session 56 the draw included
+/// the background samples, so a silhouette pixel showed the albedo or 1 in
+/// turn, like a 1 spp frame; an audit's finding against §6's "the Hybrid
+/// method delivers a good picture without [TAA]"); with TAA (the default)
 /// the values stay between albedo and 1; with and without tiles.
 #[test]
 fn per_pixel_furnace_sphere_shows_its_albedo() {
@@ -531,6 +526,7 @@ fn per_pixel_furnace_sphere_shows_its_albedo() {
             prev = Some(cam);
             let snap = m.sample_cache().snapshot().unwrap();
             let mut on_sphere = 0;
+            let mut silhouettes = 0;
             for (e, eye) in fr.eyes.iter().enumerate() {
                 for (pixel, (px, fh)) in eye.radiance.iter().zip(&eye.first_hit).enumerate() {
                     let all_vis = snap.visible(snap.mask(e, pixel));
@@ -540,10 +536,19 @@ fn per_pixel_furnace_sphere_shows_its_albedo() {
                     on_sphere += hit as usize;
                     assert_eq!(hit, n_surface > 0);
                     let is = |want: Vec3| (0..3).all(|c| (px[c] - want[c]).abs() < 1e-4);
+                    let coverage = if n_surface + n_bg == 0 {
+                        Vec3::ONE
+                    } else {
+                        (albedo * n_surface as f32 + Vec3::splat(n_bg as f32))
+                            / (n_surface + n_bg) as f32
+                    };
+                    if n_surface > 0 && n_bg > 0 {
+                        silhouettes += 1;
+                    }
                     let ok = if taa {
                         (0..3).all(|c| px[c] >= albedo[c] - 1e-4 && px[c] <= 1.0 + 1e-4)
                     } else {
-                        (n_surface > 0 && is(albedo)) || ((n_bg > 0 || !hit) && is(Vec3::ONE))
+                        is(coverage)
                     };
                     assert!(
                         ok,
@@ -552,6 +557,10 @@ fn per_pixel_furnace_sphere_shows_its_albedo() {
                 }
             }
             assert!(on_sphere > 500);
+            assert!(
+                taa || silhouettes > 0,
+                "frame {f}: no silhouette pixel to test"
+            );
         }
     }
     assert_no_validation_messages(&ctx);

@@ -1,6 +1,7 @@
 #version 460
 // Jittered 1 spp first hits; the hit's voxel (level of detail from distance,
-// optionally incidence; jittered by up to one voxel in the tangent plane) is
+// optionally incidence; jittered by up to half a voxel each way in the
+// tangent plane) is
 // looked up or reserved. The first thread to touch an entry this frame
 // becomes its updater (winner). Also writes the per-pixel outputs (of the
 // jittered hit) and, for TAA only (push flag bit 3: the method's TAA or

@@ -61,17 +61,21 @@ void hy_key(vec3 p, vec3 ng, int level, out uint h, out uint local_offset, out u
     chk = hc_checksum(coord, meta);
 }
 
-// Per-pixel lookups (paper §4): the pixel's sample this frame, drawn
-// uniformly from its visible samples `all_vis` (≠ 0; background samples
-// included, so coverage is resolved over frames like HashCache's jittered
-// 1 spp first hits, and TAA integrates it), and the voxel jitter j ∈
-// [-1/2, 1/2)². Reserve and resolve draw the same values.
-uint hy_pixel_sample(uint eye, uint pixel, uint all_vis, out vec2 j) {
+// Per-pixel lookups (paper §4): the pixel's surface sample this frame,
+// drawn uniformly from its visible surface samples `vis` (≠ 0), and the
+// voxel jitter j ∈ [-1/2, 1/2)². Reserve and resolve draw the same values.
+// Background samples need no lookup: resolve.comp mixes the environment in
+// by the pixel's coverage, as the sample cache does (§3.3), so a
+// silhouette against the sky is antialiased in every frame, without TAA
+// (§6: "the Hybrid method delivers a good picture without it"). Until
+// session 56 the draw included them, so such a pixel showed the surface or
+// the environment in turn, like a 1 spp frame (an audit's finding).
+uint hy_pixel_sample(uint eye, uint pixel, uint vis, out vec2 j) {
     Rng r = rng_init(frame.size_seed.z, pc.now, eye, pixel, 0x4B1D0002u);
-    uint n = uint(bitCount(all_vis));
+    uint n = uint(bitCount(vis));
     uint k = min(uint(rng_next(r) * float(n)), n - 1u);
     j = rng_next2(r) - 0.5;
-    return hy_nth_set_bit(all_vis, k);
+    return hy_nth_set_bit(vis, k);
 }
 
 // Voxel jitter as in HashCache (hash_cache/primary.comp, [BFK18]): p moved

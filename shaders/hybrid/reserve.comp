@@ -4,8 +4,8 @@
 // chosen by a coin toss ("the update randomly updates one of the two
 // levels", §4) — is looked up or reserved in the table (the pixel's one
 // lookup for shading); the first toucher of an entry this frame becomes its
-// updater. The sample: per-pixel lookups (default) the pixel's sample of this
-// frame (hy_pixel_sample; a background one makes no lookup), its point
+// updater. The sample: per-pixel lookups (default) the pixel's surface sample
+// of this frame (hy_pixel_sample), its point
 // voxel-jittered at level L's scale whichever level it updates (so the L + 1
 // voxel is the parent of the L voxel, as in resolve.comp); per-sample lookups round robin over the surface samples
 // (hy_update_slot), unjittered. Writes pix_hit / pix_ray / pix_cell in the
@@ -33,12 +33,7 @@ void main() {
     if (PER_SAMPLE) {
         sl = hy_update_slot(vis);
     } else {
-        sl = hy_pixel_sample(eye, pixel, all_vis, j);
-        if ((vis & (1u << sl)) == 0u) {   // a background sample: nothing to shade
-            pix_cell[pm] = uvec4(NO_CELL, ST_MISS, 0u, 0u);
-            atomicAdd(counters[C_HY_BACKGROUND], 1u);
-            return;
-        }
+        sl = hy_pixel_sample(eye, pixel, vis, j);
     }
     uvec4 fh = fh_cur[hy_slot_index(eye, sl, pixel)];
     EyeGpu e = frame.eyes[eye];

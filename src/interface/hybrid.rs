@@ -29,9 +29,10 @@ crate::counter_slots! {
         NoLevel = "NO_LEVEL" => "no_level_hits",
         UpdatesFine = "UPD_FINE" => "updates_fine_level",
         UpdatesCoarse = "UPD_COARSE" => "updates_coarse_level",
-        /// Per-pixel lookups: pixels whose sample of the frame is a
-        /// background one (no lookup; the environment is shown).
-        Background = "BACKGROUND" => "background_samples_shown",
+        /// Pixels with visible surface and background samples (a
+        /// silhouette against the environment): their colour mixes the two
+        /// by coverage (resolve.comp), in both lookup modes.
+        Silhouette = "SILHOUETTE" => "silhouette_pixels",
     }
 }
 

@@ -10,7 +10,8 @@
 //! TAA reads, so its history rejection sees the same surface every frame,
 //! [`CentreHits`]) → `update` (one
 //! secondary path per updated entry; own path for pixels whose lookup
-//! failed) → `resolve` (base colour × entry radiance + emission) → `diag.count`
+//! failed) → `resolve` (demodulation factor × entry radiance + emission,
+//! `common/demodulation.glsl`) → `diag.count`
 //! (live entries, a statistic: not counted in the frame time) → the one TAA
 //! ([`TaaPass`], `--taa-*` options; unless `--hash-no-taa`).
 

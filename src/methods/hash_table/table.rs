@@ -26,7 +26,8 @@ use std::sync::Arc;
 pub const ENTRY_BYTES: u64 = 24;
 
 /// The frame counter stamped into table entries by a method's frame `k`
-/// (0-based): k + 1 mod 2^32 (0 never stamps, so a zeroed table is empty).
+/// (0-based): k + 1 mod 2^32 (0 for k ≡ 2^32 − 1 only, which is harmless:
+/// an entry is empty by its checksum 0, and ages use wrapping arithmetic).
 pub fn stamp(k: u64) -> u32 {
     (k as u32).wrapping_add(1)
 }

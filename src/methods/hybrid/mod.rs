@@ -19,11 +19,13 @@
 //!   updater of each touched entry traces one secondary path from the
 //!   sample's stored first hit (one path per pixel at most);
 //! * `hybrid.resolve` (`shaders/hybrid/resolve.comp`): per-pixel lookups: the
-//!   pixel's drawn sample finds (never inserts) both levels of its jittered
-//!   point — the two lookups for reconstruction (§5.1: "three lookups per
-//!   pixel") — and the pixel shows base colour × mean of the levels holding
-//!   radiance + emission; per-sample lookups: every visible sample finds both
-//!   levels and the pixel shows the mean over its samples;
+//!   pixel's drawn surface sample finds (never inserts) both levels of its
+//!   jittered point — the two lookups for reconstruction (§5.1: "three
+//!   lookups per pixel") — and shows demodulation factor × mean of the
+//!   levels holding radiance + emission, mixed with the pixel's background
+//!   samples' environment by coverage; per-sample lookups: every visible
+//!   sample finds both levels and the pixel shows the mean over its
+//!   samples, background ones included;
 //! * `diag.hybrid.count` (the table's `count.comp`, live entries; a statistic
 //!   left out of the frame time) → the one TAA ([`TaaPass`], `--taa-*`
 //!   options, as the hash cache; unless `--hash-no-taa`), on the closest
