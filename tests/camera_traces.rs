@@ -225,6 +225,77 @@ fn mmsys18_user1_imports() {
     assert!(pitch[pitch.len() * 95 / 100] < 35.0);
 }
 
+/// The MMSys'18 quaternions were composed from Unity's Euler angles,
+/// rounded to 0.1°, in the order Rx(−roll)·Rz(yaw)·Ry(−pitch) (module docs
+/// of `camera::mmsys18`, "Composition order"): decomposed in that order by
+/// `mmsys18_euler`, every sample of user 1 gives three angles on the 0.1°
+/// grid (to 10⁻⁶ of a step; another order gives fractions spread over the
+/// step). At the order's gimbal lock (a yaw of exactly ±90.0°, which the
+/// 0.1° grid makes possible) only pitch ∓ roll is determined: the roll is
+/// the previous sample's (the hint) and pitch ∓ roll is on the grid.
+#[test]
+fn mmsys18_quaternions_decompose_to_a_tenth_of_a_degree() {
+    use glam::DQuat;
+    use stereocache::camera::mmsys18::mmsys18_euler;
+    let raw = manifest().join("../shared/captures/mmsys18/user1_quaternion.txt");
+    if !require_file(&raw) {
+        return;
+    }
+    let text = std::fs::read_to_string(&raw).unwrap();
+    let off_grid = |x: f64| {
+        let tenths = x.to_degrees() * 10.0;
+        (tenths - tenths.round()).abs()
+    };
+    let (mut n, mut gimbal, mut worst, mut roll) = (0usize, 0usize, 0.0f64, 0.0f64);
+    for line in text.lines().skip(1) {
+        let v: Vec<f64> = line
+            .split_whitespace()
+            .map(|t| t.parse().unwrap())
+            .collect();
+        let q = DQuat::from_xyzw(v[3], v[4], v[5], v[2]).normalize();
+        let (a, b, c) = mmsys18_euler(q, f64::NAN);
+        if a.is_nan() {
+            // Gimbal lock: the hint's roll, pitch ∓ roll on the grid.
+            let (a, b, c) = mmsys18_euler(q, roll);
+            assert_eq!(a, roll);
+            worst = worst.max(off_grid(b)).max(off_grid(c - b.signum() * a));
+            gimbal += 1;
+        } else {
+            worst = worst.max(off_grid(a)).max(off_grid(b)).max(off_grid(c));
+            roll = a;
+        }
+        n += 1;
+    }
+    eprintln!("{n} samples, {gimbal} at the gimbal lock, worst {worst} of a step");
+    assert!(n > 15_000);
+    assert!(worst < 1e-6, "an angle {worst} of a 0.1° step off the grid");
+}
+
+/// `captures/mmsys18-user1.csv` is what the importer makes of the source
+/// file today (examples/make_captures.rs: source seconds 10 to 40), so a
+/// change to the import cannot leave the shipped trace behind.
+#[test]
+fn shipped_mmsys18_excerpt_is_the_import_of_its_source() {
+    let raw = manifest().join("../shared/captures/mmsys18/user1_quaternion.txt");
+    if !require_file(&raw) {
+        return;
+    }
+    let opts = Mmsys18Options {
+        start: 10.0,
+        end: 40.0,
+        ..Default::default()
+    };
+    let fresh =
+        std::env::temp_dir().join(format!("stereocache-mmsys18-{}.csv", std::process::id()));
+    stereocache::camera::convert_mmsys18(&raw, &fresh, &opts).unwrap();
+    let made = std::fs::read_to_string(&fresh).unwrap();
+    std::fs::remove_file(&fresh).ok();
+    assert!(
+        made == std::fs::read_to_string(manifest().join("captures/mmsys18-user1.csv")).unwrap(),
+        "captures/mmsys18-user1.csv is stale: cargo run --example make_captures"
+    );
+}
+
 #[test]
 fn shipped_mmsys18_excerpt_is_sane() {
     let tr = PoseTrace::read_csv(manifest().join("captures/mmsys18-user1.csv")).unwrap();
@@ -532,13 +603,9 @@ fn corbillon_convention_is_the_mmsys18_mapping() {
     let mut rng = stereocache::camera::pcg::Pcg32::new(17, 1);
     for _ in 0..20 {
         let [w, x, y, z] = [0; 4].map(|_| rng.uniform(-1.0, 1.0));
-        let a =
-            stereocache::camera::mmsys18::mmsys18_to_gltf(w as f32, x as f32, y as f32, z as f32);
+        let a = stereocache::camera::mmsys18::mmsys18_to_gltf(glam::DQuat::from_xyzw(x, y, z, w));
         let b = AxisConvention::CORBILLON.quaternion([x, y, z, w]);
-        assert!(a.abs_diff_eq(
-            Quat::from_xyzw(b[0] as f32, b[1] as f32, b[2] as f32, b[3] as f32),
-            1e-7
-        ));
+        assert!(a.abs_diff_eq(glam::DQuat::from_xyzw(b[0], b[1], b[2], b[3]), 1e-12));
     }
 }
 
@@ -748,7 +815,8 @@ fn openxr_rows_keep_axes_exact_nanoseconds_and_valid_flags() {
 fn mmsys17_both_layouts_and_axes() {
     let h = std::f32::consts::FRAC_1_SQRT_2;
     // 6 fields (published dataset): t frameId w x y z. The second sample is a
-    // 90° left turn (about +z, up): forward → glTF −X; sign-flipped third.
+    // 90° turn about +z (up): a right turn in the recorder's frame (+y
+    // right): forward → glTF +X; sign-flipped third.
     let six = format!("0.000000 0 1 0 0 0\n0.016667 1 {h} 0 0 {h}\n0.033334 2 -{h} 0 0 -{h}\n");
     let seven = format!(
         "0.000000 0 0.0 1 0 0 0\n0.016667 1 0.04 {h} 0 0 {h}\n0.033334 2 0.08 -{h} 0 0 -{h}\n"
@@ -758,7 +826,7 @@ fn mmsys17_both_layouts_and_axes() {
         assert_eq!(tr.samples.len(), 3);
         assert_eq!(tr.samples[1].t, 0.016667);
         assert!(tr.samples[0].pose.forward().abs_diff_eq(Vec3::NEG_Z, 1e-6));
-        assert!(tr.samples[1].pose.forward().abs_diff_eq(Vec3::NEG_X, 1e-5));
+        assert!(tr.samples[1].pose.forward().abs_diff_eq(Vec3::X, 1e-5));
         // Neck model: the eyes swing with the turn.
         assert!(
             (tr.samples[1].pose.position

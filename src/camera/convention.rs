@@ -34,8 +34,8 @@
 //!   forward. A Unity yaw about +Y (clockwise seen from above: a right turn,
 //!   +Z → +X) becomes a glTF yaw about +Y with the opposite sign — a right
 //!   turn again.
-//! - Corbillon et al. (right-handed, +z up, +x forward): `q' = (−y, z, −x, w)`,
-//!   the MMSys'18 importer's mapping.
+//! - Corbillon et al. (left-handed: +z up, +x forward, +y right):
+//!   `q' = (−y, −z, x, w)`, the MMSys'18 importer's mapping.
 
 use std::fmt;
 use std::str::FromStr;
@@ -43,9 +43,9 @@ use std::str::FromStr;
 /// Whether a coordinate frame is right- or left-handed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, clap::ValueEnum)]
 pub enum Handedness {
-    /// Right-handed (glTF, OpenXR, OpenGL, ROS, Corbillon et al.).
+    /// Right-handed (glTF, OpenXR, OpenGL, ROS).
     Right,
-    /// Left-handed (Unity, HoloLens Unity apps, Direct3D, Unreal).
+    /// Left-handed (Unity, HoloLens Unity apps, Direct3D, Unreal, Corbillon et al.).
     Left,
 }
 
@@ -176,9 +176,13 @@ impl AxisConvention {
         forward: SignedAxis::PZ,
     };
     /// Corbillon et al.'s 360° video datasets (MMSys'17, MMSys'18):
-    /// right-handed, +z up, +x forward (+y left).
+    /// +z up, +x forward (the equirectangular frame's centre), +y right —
+    /// left-handed, the frame of the authors' viewport tool
+    /// (360Transformations) and of their 2017 recorder (`super::mmsys17`
+    /// module docs, "Axes"). Until session 56 right-handed (+y left), which
+    /// mirrored every turn.
     pub const CORBILLON: Self = Self {
-        handedness: Handedness::Right,
+        handedness: Handedness::Left,
         up: SignedAxis::PZ,
         forward: SignedAxis::PX,
     };
@@ -276,7 +280,7 @@ mod tests {
     fn presets_have_the_documented_right_axis_and_matrix() {
         assert_eq!(AxisConvention::GLTF.right(), SignedAxis::PX);
         assert_eq!(AxisConvention::UNITY.right(), SignedAxis::PX);
-        assert_eq!(AxisConvention::CORBILLON.right(), SignedAxis::NY);
+        assert_eq!(AxisConvention::CORBILLON.right(), SignedAxis::PY);
         let id = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
         assert_eq!(AxisConvention::GLTF.matrix(), id);
         let unity = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, -1.0]];

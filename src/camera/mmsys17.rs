@@ -27,23 +27,22 @@
 //!
 //! # Axes
 //!
-//! Right-handed, +x forward (the centre of the equirectangular frame), +y
-//! left, +z up: the MMSys'18 dataset's README says its quaternions use
-//! "the same convention as for the dataset of Corbillon et al.", and the
-//! MMSys'18 importer ([`super::mmsys18`]) established and checked that
-//! reading against its data (head up axis stays near +z, yaw dominates,
-//! small roll). The recorder's own post-processing reads `values[2..6]` as
-//! `w, x, y, z` and takes yaw about +z. So the conversion to glTF is the
-//! same proper rotation, [`AxisConvention::CORBILLON`]:
-//! `(qx, qy, qz, qw)_glTF = (−y, z, −x, w)`.
-//!
-//! What could not be checked here: no MMSys'17 file is in `../shared`, so
-//! the sign of the forward axis (+x rather than −x, i.e. which way is the
-//! centre of the video) rests on the MMSys'18 data and the shared
-//! convention, and the dataset's recorder (`CQuaternion.cpp`, which builds
-//! the viewport from head-frame corners (1, ±y, ±z)). A wrong sign would
-//! keep yaw but reverse pitch and roll: the replayed head would nod up
-//! where the user nodded down.
+//! +x forward, +y right, +z up, head → world: the frame the recorder writes
+//! (`src/RenderManagerOpenGLHighPolyTest.cpp`: `Rz(−90°)·(w, −z, −x, −y)` of
+//! the OSVR pose, whose frame is +x right, +y up, +z back: an OSVR left turn
+//! becomes a rotation about −z, looking up raises +z) and the authors' viewport
+//! tool reads (`360Transformations`: viewport centre `q·(1,0,0)`,
+//! image-right +y, +z up; [`super::mmsys18`] module docs, "Axes"). The frame
+//! is left-handed; the conversion to glTF is [`AxisConvention::CORBILLON`]:
+//! `(qx, qy, qz, qw)_glTF = (−y, −z, x, w)`. (Until session 56 +y was read as
+//! left, which mirrored every turn. The recorder's `Rz(−90°)` makes the
+//! identity pose a view 90° left of the video's centre; a constant turn
+//! changes nothing once a trace is placed at a scene camera.) The 2017
+//! post-processing (`CQuaternion.cpp`'s `ComputeVision`, `Statistics.py`)
+//! takes image-right as −y and forward as −x; the recorder and the viewport
+//! tool agree with each other and are what wrote and read the data.
+//! No MMSys'17 file is in `../shared`: the frame rests on the recorder's
+//! code, not on data.
 //!
 //! # Position, repairs
 //!

@@ -24,28 +24,66 @@
 //!
 //! # Axes
 //!
-//! The quaternions use the convention of Corbillon et al.'s 2017 head-movement
-//! dataset (the README says so): right-handed, **+x forward** (centre of the
-//! equirectangular frame), **+y left**, **+z up**, and the quaternion
-//! rotates head-frame vectors into the world frame — their tools compute the
-//! viewing direction as `q · (1,0,0) · q*` and its azimuth as `atan2(y, x)`
-//! (`360Degree_Head_Movement_Dataset`, `PythonInterface/Helpers/Quaternion.py`).
-//! The data agrees: with this reading, over all four users the head's up
-//! axis stays within a few degrees of +z, the largest rotation by far is about
-//! +z (yaw), pitch stays moderate (5th–95th percentile between −32° and
-//! +24°) and roll is small (median 0.3–1.3°, 95th percentile 4–10°). Reading
-//! the quaternion as world → head instead, or taking +y as forward, gives
-//! two to four times more roll.
+//! The README says the quaternions use "the same convention as for the
+//! dataset of Corbillon et al." (2017). That frame is **+x forward** (the
+//! centre of the equirectangular frame), **+y right**, **+z up** — a
+//! left-handed frame, the quaternion applied algebraically head → world —
+//! as the authors' own code fixes it (session 56; `xmar` repositories):
+//! - their viewport tool, `360Transformations`, which they ran on exactly
+//!   these traces (`MultiViewpoint360_MMSys18/reconstruct/`): the viewport
+//!   centre is `q·(1,0,0)`, image-right is +y (`LayoutFlatFixed.cpp`),
+//!   equirectangular `u = 0.5 + atan2(y, x)/2π` and `v = acos(z)/π`
+//!   (`LayoutEquirectangular.hpp`, `Vector.hpp`): +y to the right, +z up;
+//! - their 2017 recorder (`360Degree_Head_Movement_Dataset`,
+//!   `RenderManagerOpenGLHighPolyTest.cpp`: `Rz(−90°)·(w, −z, −x, −y)` of
+//!   the OSVR pose), in which a left turn is a rotation about −z and
+//!   looking up raises +z;
+//! - their tile-visibility inputs (`MILP_Multiview/scenarios/`), which
+//!   match the traces read so (a session-56 audit: top against bottom
+//!   visibility in 520 of 523 chunks).
 //!
-//! The conversion to glTF axes (+X right, +Y up, −Z forward) is the proper
-//! rotation `M` with `M·x̂ = −Ẑ` (forward), `M·ŷ = −X̂` (left), `M·ẑ = +Ŷ` (up);
-//! a quaternion `(w, v)` becomes `(w, M·v)`:
+//! Until session 56 this importer read +y as **left** (right-handed), an
+//! assumption from the 2017 Python helpers' `atan2(y, x)`, which does not
+//! fix the side: every turn replayed mirrored. What stays unverifiable is
+//! the Unity logger that wrote the MMSys'18 files (not public): if it got
+//! a sign wrong, the authors' own pipeline shares the error. The data
+//! agrees with the frame: over all four users the head's up axis stays
+//! within a few degrees of +z, yaw dominates, pitch stays moderate and roll
+//! small (mirroring would not change these).
+//!
+//! The conversion to glTF axes (+X right, +Y up, −Z forward) is the
+//! change of frame `M` with `M·x̂ = −Ẑ` (forward), `M·ŷ = +X̂` (right),
+//! `M·ẑ = +Ŷ` (up), a reflection (det −1); a rotation `(w, v)` becomes
+//! `(w, −M·v)` ([`mmsys18_to_gltf`], [`AxisConvention::CORBILLON`](super::AxisConvention::CORBILLON)):
 //!
 //! ```text
-//! (qx, qy, qz, qw)_glTF = (−y, z, −x, w)_MMSys18
+//! (qx, qy, qz, qw)_glTF = (−y, −z, x, w)_MMSys18
 //! ```
 //!
-//! so a positive yaw in the data (a left turn, +z) is a rotation about +Y.
+//! so a positive yaw in the data (about +z: x towards +y, a right turn) is a
+//! right turn in glTF. The data's +x is not where the authors' own pipeline
+//! looks at the video's centre: it turns every sample 180° about z first
+//! (`Navigation_user_*.txt` = `k ⊗ q`); a constant turn of the whole trace
+//! changes nothing once the trace is placed at a scene camera
+//! ([`super::Stage`]).
+//!
+//! # Composition order
+//!
+//! The quaternion files were computed from the Unity logger's Euler
+//! angles (`user*_euler.txt` upstream: multiples of 0.1°, columns labelled
+//! yaw/pitch/roll holding roll A, yaw B and pitch C) as
+//! `q = Rx(−A)·Rz(B)·Ry(−C)`, exactly (residual 10⁻¹⁶, all four users; a
+//! session-54 audit, confirmed in session 56) — roll outermost, where a
+//! head's yaw·pitch·roll (Unity's own order) has yaw outermost. Near a yaw
+//! of ±90° that order turns roll into pitch: whole-session rotation errors
+//! of 2–4° (median) and up to 15° in the shipped excerpt, and at the end of
+//! user 4's session rotation speeds of 6300°/s that the head never made.
+//! The importer decomposes each quaternion in the files' order
+//! ([`mmsys18_euler`]; on the data every angle comes out on the 0.1° grid,
+//! `tests/camera_traces.rs`) and composes the angles yaw outermost
+//! ([`mmsys18_head_rotation`]: `Rz(b)·Ry(c)·Rx(a)`). At a yaw of exactly
+//! ±90.0° (12 of user 1's 16 053 samples) the files' order is at its gimbal
+//! lock, only pitch ∓ roll survives, and the roll is the previous sample's.
 //!
 //! # Position
 //!
@@ -68,7 +106,7 @@
 
 use std::path::Path;
 
-use glam::Quat;
+use glam::{DMat3, DQuat, DVec3};
 
 use super::neck::HeadNeckModel;
 use super::trace::{excerpt, PoseSample, PoseTrace, TraceBuilder, TraceError};
@@ -100,10 +138,63 @@ impl Default for Mmsys18Options {
     }
 }
 
-/// An MMSys'18 quaternion (`w, x, y, z`, +x forward, +y left, +z up) in glTF
-/// axes (+X right, +Y up, −Z forward). Not normalized.
-pub fn mmsys18_to_gltf(w: f32, x: f32, y: f32, z: f32) -> Quat {
-    Quat::from_xyzw(-y, z, -x, w)
+/// An MMSys'18 rotation (`w, x, y, z` in the data's axes: +x forward, +y
+/// right, +z up, the axes of the dataset authors' own viewport tool; module
+/// docs "Axes") in glTF axes (+X right, +Y up, −Z forward). The data's
+/// axes are left-handed, so the map is a reflection: the rotation axis
+/// maps to (y, z, −x) and the angle changes sign:
+/// `(qx, qy, qz, qw) = (−y, −z, x, w)`.
+pub fn mmsys18_to_gltf(q: DQuat) -> DQuat {
+    DQuat::from_xyzw(-q.y, -q.z, q.x, q.w)
+}
+
+/// Roll `a`, yaw `b` and pitch `c` (radians) of the decomposition
+/// `R = Rx(a)·Rz(b)·Ry(c)` of the unit quaternion `q` (the data's axes),
+/// the order the MMSys'18 quaternions were composed in (module docs
+/// "Composition order"), on the branch with |a|, |c| ≤ 90° (the data's yaw
+/// takes the full circle, its roll and pitch do not). Where cos b is 0 (a
+/// yaw of exactly ±90°, a gimbal lock of this order) only c ∓ a is
+/// determined (R = Rz(±90°)·Ry(c ∓ a)); the roll is then `roll_hint` (the
+/// previous sample's).
+pub fn mmsys18_euler(q: DQuat, roll_hint: f64) -> (f64, f64, f64) {
+    let m = DMat3::from_quat(q);
+    let r = |i: usize, j: usize| m.col(j)[i];
+    // R = [[cb cc, −sb, cb sc], [ca sb cc + sa sc, ca cb, ca sb sc − sa cc],
+    //      [sa sb cc − ca sc, sa cb, sa sb sc + ca cc]].
+    let sb = (-r(0, 1)).clamp(-1.0, 1.0);
+    let cb = (r(1, 1).hypot(r(2, 1))).min(1.0);
+    if cb < 1e-12 {
+        // b = ±90°: Rx(a)·Rz(b) = Rz(b)·Ry(∓a), so R = Rz(b)·Ry(φ) with
+        // φ = c ∓ a; R's first column rotated back by Rz(−b) is Ry(φ)·x̂ =
+        // (cos φ, 0, −sin φ).
+        let s = sb.signum();
+        let b = s * std::f64::consts::FRAC_PI_2;
+        let v = DQuat::from_rotation_z(-b) * (q * DVec3::X);
+        let phi = (-v.z).atan2(v.x);
+        return (roll_hint, b, phi + s * roll_hint);
+    }
+    let branch = |s: f64| {
+        let a = (s * r(2, 1)).atan2(s * r(1, 1));
+        let c = (s * r(0, 2)).atan2(s * r(0, 0));
+        (a, sb.atan2(s * cb), c)
+    };
+    let (p, n) = (branch(1.0), branch(-1.0));
+    let worst = |(a, _, c): (f64, f64, f64)| a.abs().max(c.abs());
+    if worst(p) <= worst(n) {
+        p
+    } else {
+        n
+    }
+}
+
+/// The head rotation an MMSys'18 quaternion stands for (the data's axes):
+/// its roll `a`, yaw `b` and pitch `c` (`mmsys18_euler`) composed yaw
+/// outermost, `Rz(b)·Ry(c)·Rx(a)`, as a head pose's Euler angles compose
+/// (Unity's own order). Returns it and its roll (the next sample's hint).
+pub fn mmsys18_head_rotation(q: DQuat, roll_hint: f64) -> (DQuat, f64) {
+    let (a, b, c) = mmsys18_euler(q, roll_hint);
+    let r = DQuat::from_rotation_z(b) * DQuat::from_rotation_y(c) * DQuat::from_rotation_x(a);
+    (r, a)
 }
 
 /// Reads an MMSys'18 `user*_quaternion.txt` file into a stage-space trace.
@@ -153,6 +244,8 @@ pub fn parse_mmsys18(
     let mut last_viewpoint: Option<i64> = None;
     let mut switches = 0usize;
     let mut fields: Vec<&str> = Vec::with_capacity(6);
+    // The previous sample's roll (mmsys18_euler's hint at a gimbal lock).
+    let mut roll = 0.0f64;
     // A truncated final line (fewer fields, no newline at the end: a
     // recording cut off mid-write) is dropped with a warning, as the
     // MMSys'17, OpenXR and generic CSV importers do (`table.rs`).
@@ -266,8 +359,15 @@ pub fn parse_mmsys18(
             switches += 1;
         }
         last_viewpoint = Some(vp);
-        // glTF axes (module docs): (qx, qy, qz, qw) = (−y, z, −x, w).
-        let orientation = b.quaternion(line_no, [-y, z, -x, w])?;
+        // Checked (finite, not of zero norm) and normalized in f64; the
+        // composition order repaired and mapped to glTF axes (module docs).
+        b.quaternion(line_no, [x, y, z, w])?;
+        let scale = [w, x, y, z].iter().fold(0.0f64, |m, c| m.max(c.abs()));
+        let q = DQuat::from_xyzw(x / scale, y / scale, z / scale, w / scale).normalize();
+        let (head, a) = mmsys18_head_rotation(q, roll);
+        roll = a;
+        let g = mmsys18_to_gltf(head);
+        let orientation = b.quaternion(line_no, [g.x, g.y, g.z, g.w])?;
         let t0 = *t_first.get_or_insert(t);
         let t_out = if opts.rebase_time { t - t0 } else { t };
         b.push(
@@ -318,19 +418,72 @@ pub fn parse_mmsys18(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use glam::Vec3;
 
+    /// The map is the change of frame x → −Z (forward), y → +X (right),
+    /// z → +Y (up): for any rotation, the glTF rotation carries each mapped
+    /// axis where the data's rotation carries the axis, mapped.
     #[test]
-    fn axes_map_forward_left_up() {
-        // 90° left turn in MMSys'18 axes: about +z.
-        let h = std::f32::consts::FRAC_1_SQRT_2;
-        let q = mmsys18_to_gltf(h, 0.0, 0.0, h);
-        // Forward (−Z) turns to the left (−X).
-        assert!((q * Vec3::NEG_Z).abs_diff_eq(Vec3::NEG_X, 1e-6));
-        // Positive rotation about +y (left axis) pitches the nose down.
-        let (s, c) = (0.2f32).sin_cos();
-        let q = mmsys18_to_gltf(c, 0.0, s, 0.0);
-        assert!((q * Vec3::NEG_Z).y < -0.3);
+    fn axes_map_forward_right_up() {
+        let map = |v: DVec3| DVec3::new(v.y, v.z, -v.x);
+        for (axis, angle) in [
+            (DVec3::Z, 0.7),
+            (DVec3::Y, -0.4),
+            (DVec3::X, 0.3),
+            (DVec3::new(0.3, -0.5, 0.8).normalize(), 2.1),
+        ] {
+            let q = DQuat::from_axis_angle(axis, angle);
+            let g = mmsys18_to_gltf(q);
+            for v in [DVec3::X, DVec3::Y, DVec3::Z] {
+                assert!(
+                    (g * map(v)).abs_diff_eq(map(q * v), 1e-12),
+                    "{axis} {angle} {v}"
+                );
+            }
+        }
+        // A positive yaw (about +z) turns the head right: forward (−Z)
+        // towards +X. A positive rotation about +y pitches it down.
+        let h = std::f64::consts::FRAC_1_SQRT_2;
+        let q = mmsys18_to_gltf(DQuat::from_xyzw(0.0, 0.0, h, h));
+        assert!((q * DVec3::NEG_Z).abs_diff_eq(DVec3::X, 1e-12));
+        let q = mmsys18_to_gltf(DQuat::from_rotation_y(0.4));
+        assert!((q * DVec3::NEG_Z).y < -0.3);
+    }
+
+    /// `mmsys18_euler` inverts Rx(a)·Rz(b)·Ry(c) on its branch, yaw over
+    /// the full circle; at a yaw of exactly ±90° it keeps the hint's roll
+    /// and the composition is still q.
+    #[test]
+    fn euler_decomposition_inverts_the_data_order() {
+        let compose = |a: f64, b: f64, c: f64| {
+            DQuat::from_rotation_x(a) * DQuat::from_rotation_z(b) * DQuat::from_rotation_y(c)
+        };
+        let mut checked = 0;
+        for i in 0..24 {
+            for (a, c) in [(0.1, -0.3), (-1.2, 0.9), (0.0, 0.0), (1.5, -1.5)] {
+                let b = -3.1 + i as f64 * 0.26;
+                let (ga, gb, gc) = mmsys18_euler(compose(a, b, c), 0.0);
+                assert!(
+                    (ga - a).abs() < 1e-9 && (gb - b).abs() < 1e-9 && (gc - c).abs() < 1e-9,
+                    "({a}, {b}, {c}) -> ({ga}, {gb}, {gc})"
+                );
+                checked += 1;
+            }
+        }
+        assert_eq!(checked, 96);
+        for b in [std::f64::consts::FRAC_PI_2, -std::f64::consts::FRAC_PI_2] {
+            let q = compose(0.2, b, -0.5);
+            let (a, gb, c) = mmsys18_euler(q, 0.05);
+            assert_eq!(a, 0.05);
+            assert!((gb - b).abs() < 1e-12);
+            let back = compose(a, gb, c);
+            assert!(back.dot(q).abs() > 1.0 - 1e-12, "{b}: {back} vs {q}");
+        }
+        // The rebuilt head rotation is the same angles composed yaw first.
+        let (r, a) = mmsys18_head_rotation(compose(0.1, 2.0, -0.3), 0.0);
+        let want = DQuat::from_rotation_z(2.0)
+            * DQuat::from_rotation_y(-0.3)
+            * DQuat::from_rotation_x(0.1);
+        assert!(r.dot(want).abs() > 1.0 - 1e-12 && (a - 0.1).abs() < 1e-12);
     }
 
     /// A timestamp earlier than the previous one is an error even where
@@ -395,9 +548,11 @@ mod tests {
 
     #[test]
     fn parses_excerpt_and_repairs() {
+        // Yaw 179° then −179° (the rebuilt quaternions' signs part across
+        // ±180°), a duplicate time, an identity of norm 2.
         let text = "timestamp viewpoint w x y z\n\
-            10.0 0 1 0 0 0\n\
-            10.5 0 -1 0 0 0\n\
+            10.0 0 0.0087265355 0 0 0.9999619231\n\
+            10.5 0 0.0087265355 0 0 -0.9999619231\n\
             10.5 1 1 0 0 0\n\
             11.0 1 2 0 0 0\n\
             12.0 1 1 0 0 0\n";
@@ -408,7 +563,9 @@ mod tests {
         let tr = parse_mmsys18("u.txt", text, &opts).unwrap();
         let t: Vec<f64> = tr.samples.iter().map(|s| s.t).collect();
         assert_eq!(t, vec![0.0, 0.5, 1.0]);
-        assert!(tr.samples.iter().all(|s| s.pose.orientation.w > 0.0));
+        for w in tr.samples.windows(2) {
+            assert!(w[0].pose.orientation.dot(w[1].pose.orientation) > 0.0);
+        }
         assert!(tr.warnings.iter().any(|w| w.contains("u.txt:4: duplicate")));
         assert!(tr
             .warnings
