@@ -14,8 +14,10 @@
 //! direction, `sample_cache::background`; `--isrt-retrace one`, the paper's
 //! Fig. 10 configuration: one sample per pixel retraced, empty cells filled
 //! up to `--isrt-n-target`, shaders/isrt/trace_pixel.comp) → `shade` (one
-//! sample per pixel, round robin; demodulated running mean) → `reconstruct`
-//! (mean over the pixel's shaded and background samples).
+//! sample per pixel, round robin; demodulated, accumulated as the sample
+//! cache's records, `--accumulation`) → `reconstruct` (coverage: the
+//! shaded surface samples' mean for the surface samples' share of the
+//! pixel, the environment for the background samples').
 //!
 //! Memory per pixel per eye: M² × (16 B first hit + 16 B radiance) × 2
 //! (previous / current) + M² × 8 B reservations, plus the per-pixel outputs.
