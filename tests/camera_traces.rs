@@ -271,6 +271,60 @@ fn mmsys18_quaternions_decompose_to_a_tenth_of_a_degree() {
     assert!(worst < 1e-6, "an angle {worst} of a 0.1° step off the grid");
 }
 
+/// The end of user 4's session (source seconds 264–266): the head looks
+/// almost straight down (pitch −76° to −89°), where the files' roll-
+/// outermost order turns small head motions into fast spins (6 312°/s
+/// between two samples) and the roll of the pitch-limited Euler angles
+/// reaches 176°. The rebuilt rotation is continuous there: its fastest
+/// step is slower than the file's. (Until session 56's review the Euler
+/// branch alternated between samples there: 11 938°/s.)
+#[test]
+fn mmsys18_rebuild_does_not_spin_where_the_head_looks_down() {
+    let raw = manifest().join("../shared/captures/mmsys18/user4_quaternion.txt");
+    if !require_file(&raw) {
+        return;
+    }
+    let (start, end) = (264.0, 266.0);
+    let opts = Mmsys18Options {
+        start,
+        end,
+        rebase_time: false,
+        ..Default::default()
+    };
+    let tr = read_mmsys18(&raw, &opts).unwrap();
+    let speed = |t0: f64, t1: f64, a: Quat, b: Quat| {
+        2.0 * (a.dot(b).abs().min(1.0) as f64).acos().to_degrees() / (t1 - t0)
+    };
+    let rebuilt = tr
+        .samples
+        .windows(2)
+        .filter(|w| w[1].t > w[0].t)
+        .map(|w| speed(w[0].t, w[1].t, w[0].pose.orientation, w[1].pose.orientation))
+        .fold(0.0f64, f64::max);
+    // The file's own quaternions over the same samples.
+    let text = std::fs::read_to_string(&raw).unwrap();
+    let rows: Vec<(f64, Quat)> = text
+        .lines()
+        .skip(1)
+        .map(|l| {
+            let v: Vec<f64> = l.split_whitespace().map(|t| t.parse().unwrap()).collect();
+            (
+                v[0],
+                Quat::from_xyzw(v[3] as f32, v[4] as f32, v[5] as f32, v[2] as f32).normalize(),
+            )
+        })
+        .filter(|(t, _)| (start..=end).contains(t))
+        .collect();
+    let file = rows
+        .windows(2)
+        .filter(|w| w[1].0 > w[0].0)
+        .map(|w| speed(w[0].0, w[1].0, w[0].1, w[1].1))
+        .fold(0.0f64, f64::max);
+    eprintln!("fastest step: file {file:.0}°/s, rebuilt {rebuilt:.0}°/s");
+    assert!(tr.samples.len() > 50 && rows.len() == tr.samples.len());
+    assert!(rebuilt < file, "rebuilt {rebuilt}°/s, file {file}°/s");
+}
+
 /// `captures/mmsys18-user1.csv` is what the importer makes of the source
 /// file today (examples/make_captures.rs: source seconds 10 to 40), so a
 /// change to the import cannot leave the shipped trace behind.

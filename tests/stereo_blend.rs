@@ -520,7 +520,7 @@ fn stereo_blend_pass_matches_its_cpu_twin() {
                         assert_eq!(
                             &got[..3],
                             &c[..3],
-                            "R {r}, frame {f}, eye {y}, pixel {p}: left unblended by the twin, changed by the pass"
+                            "R {r}, orthographic {ortho}, adaptive {adaptive}, frame {f}, eye {y}, pixel {p}: left unblended by the twin, changed by the pass"
                         );
                         continue;
                     };
@@ -530,7 +530,7 @@ fn stereo_blend_pass_matches_its_cpu_twin() {
                     for c in 0..3 {
                         assert!(
                             (got[c] - want[c]).abs() <= bound[c],
-                            "R {r}, frame {f}, eye {y}, pixel {p}, channel {c}: pass {} vs twin {} (bound {}; X {}, Y {})",
+                            "R {r}, orthographic {ortho}, adaptive {adaptive}, frame {f}, eye {y}, pixel {p}, channel {c}: pass {} vs twin {} (bound {}; X {}, Y {})",
                             got[c], want[c], bound[c], cx[c], cy[c]
                         );
                         let lo = cx[c].min(cy[c]);
@@ -550,13 +550,16 @@ fn stereo_blend_pass_matches_its_cpu_twin() {
         );
         assert!(
             ambiguous_n * 100 <= compared,
-            "R {r}: {ambiguous_n} ambiguous pixels of {compared}"
+            "R {r}, orthographic {ortho}, adaptive {adaptive}: {ambiguous_n} ambiguous pixels of {compared}"
         );
         assert!(
             blended_n * 10 >= compared,
-            "R {r}: only {blended_n} of {compared} pixels blended"
+            "R {r}, orthographic {ortho}, adaptive {adaptive}: only {blended_n} of {compared} pixels blended"
         );
-        assert!(mixed_n > 0, "R {r}: β′ never strictly between 0 and 1");
+        assert!(
+            mixed_n > 0,
+            "R {r}, orthographic {ortho}, adaptive {adaptive}: β′ never strictly between 0 and 1"
+        );
         eprintln!("R {r}, adaptive {adaptive}: {borrowed} pixels whose X was borrowed");
         assert!(
             !adaptive || borrowed > 0,

@@ -1,7 +1,7 @@
 #version 460
 // §3.3 reconstruction: the pixel colour is the mean over its visible,
 // already shaded samples of their remodulated radiance (common.glsl
-// `remodulate`: base colour × demodulated radiance + emission) and its visible
+// `remodulate`: demodulation factor × demodulated radiance + emission) and its visible
 // background samples (first_hit.glsl) of the environment in their
 // directions, each kind weighted by its share of the pixel's visible samples,
 // so a partly covered pixel shows its coverage; a pixel without visible

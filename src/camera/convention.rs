@@ -176,7 +176,8 @@ impl AxisConvention {
         forward: SignedAxis::PZ,
     };
     /// Corbillon et al.'s 360° video datasets (MMSys'17, MMSys'18):
-    /// +z up, +x forward (the equirectangular frame's centre), +y right —
+    /// +z up, +x forward (the centre of the authors' viewport tool's
+    /// equirectangular frame), +y right —
     /// left-handed, the frame of the authors' viewport tool
     /// (360Transformations) and of their 2017 recorder (`super::mmsys17`
     /// module docs, "Axes"). Until session 56 right-handed (+y left), which

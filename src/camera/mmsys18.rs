@@ -26,7 +26,9 @@
 //!
 //! The README says the quaternions use "the same convention as for the
 //! dataset of Corbillon et al." (2017). That frame is **+x forward** (the
-//! centre of the equirectangular frame), **+y right**, **+z up** — a
+//! centre of the viewport tool's equirectangular frame; the authors' own
+//! MMSys'18 scripts turn the traces 180° about z first, below), **+y
+//! right**, **+z up** — a
 //! left-handed frame, the quaternion applied algebraically head → world —
 //! as the authors' own code fixes it (session 56; `xmar` repositories):
 //! - their viewport tool, `360Transformations`, which they ran on exactly
@@ -76,7 +78,8 @@
 //! session-54 audit, confirmed in session 56) — roll outermost, where a
 //! head's yaw·pitch·roll (Unity's own order) has yaw outermost. Near a yaw
 //! of ±90° that order turns roll into pitch: whole-session rotation errors
-//! of 2–4° (median) and up to 15° in the shipped excerpt, and at the end of
+//! of ≈2–4° (median, users 1–4: 4.3°, 1.8°, 2.9°, 2.7°) and up to 15° in
+//! the shipped excerpt, and at the end of
 //! user 4's session rotation speeds of 6300°/s that the head never made.
 //! The importer decomposes each quaternion in the files' order
 //! ([`mmsys18_euler`]; on the data every angle comes out on the 0.1° grid,
@@ -89,7 +92,7 @@
 //!
 //! The data has orientation only; the eye midpoint comes from a
 //! [`HeadNeckModel`]: `position = R·offset − offset`, so the identity
-//! orientation (looking at the centre of the video) is at the stage origin.
+//! orientation (looking along the data's +x) is at the stage origin.
 //!
 //! # Repairs
 //!
@@ -151,8 +154,14 @@ pub fn mmsys18_to_gltf(q: DQuat) -> DQuat {
 /// Roll `a`, yaw `b` and pitch `c` (radians) of the decomposition
 /// `R = Rx(a)·Rz(b)·Ry(c)` of the unit quaternion `q` (the data's axes),
 /// the order the MMSys'18 quaternions were composed in (module docs
-/// "Composition order"), on the branch with |a|, |c| ≤ 90° (the data's yaw
-/// takes the full circle, its roll and pitch do not). Where cos b is 0 (a
+/// "Composition order"), on the branch with |c| ≤ 90°: the pitch of
+/// Unity's `eulerAngles` (the angles the files were made from) lies in
+/// [−90°, 90°], its yaw and roll take the full circle (a head looking
+/// straight down reaches rolls of 176°: the end of user 4's session; until
+/// session 56's review the branch was the one with the smaller of |a| and
+/// |c|, which alternated there, and the rebuilt head turned at 11 938°/s).
+/// At |c| = 90° exactly, the branch whose roll is nearer `roll_hint`.
+/// Where cos b is 0 (a
 /// yaw of exactly ±90°, a gimbal lock of this order) only c ∓ a is
 /// determined (R = Rz(±90°)·Ry(c ∓ a)); the roll is then `roll_hint` (the
 /// previous sample's).
@@ -179,11 +188,17 @@ pub fn mmsys18_euler(q: DQuat, roll_hint: f64) -> (f64, f64, f64) {
         (a, sb.atan2(s * cb), c)
     };
     let (p, n) = (branch(1.0), branch(-1.0));
-    let worst = |(a, _, c): (f64, f64, f64)| a.abs().max(c.abs());
-    if worst(p) <= worst(n) {
-        p
-    } else {
-        n
+    let half_pi = std::f64::consts::FRAC_PI_2;
+    let angle_to = |x: f64, y: f64| {
+        let d = (x - y).rem_euclid(std::f64::consts::TAU);
+        d.min(std::f64::consts::TAU - d)
+    };
+    match (p.2.abs() <= half_pi, n.2.abs() <= half_pi) {
+        (true, false) => p,
+        (false, true) => n,
+        // |c| = 90° on both (r00 = 0): the roll nearer the hint.
+        _ if angle_to(p.0, roll_hint) <= angle_to(n.0, roll_hint) => p,
+        _ => n,
     }
 }
 
@@ -351,6 +366,17 @@ pub fn parse_mmsys18(
             }
         }
         prev = Some((t, line_no));
+        // The rebuilt rotation (module docs "Composition order"), computed
+        // for every row, kept or not, so the roll hint at a gimbal lock is
+        // the previous row's and an excerpt is the same slice of a full
+        // import. A row of zero norm is an error below if it is kept.
+        let scale = [w, x, y, z].iter().fold(0.0f64, |m, c| m.max(c.abs()));
+        let head = (scale > 0.0).then(|| {
+            let q = DQuat::from_xyzw(x / scale, y / scale, z / scale, w / scale).normalize();
+            let (head, a) = mmsys18_head_rotation(q, roll);
+            roll = a;
+            head
+        });
         if t < opts.start || t > opts.end {
             continue;
         }
@@ -359,13 +385,10 @@ pub fn parse_mmsys18(
             switches += 1;
         }
         last_viewpoint = Some(vp);
-        // Checked (finite, not of zero norm) and normalized in f64; the
-        // composition order repaired and mapped to glTF axes (module docs).
+        // Checked (finite, not of zero norm: then `head` exists), mapped to
+        // glTF axes (module docs).
         b.quaternion(line_no, [x, y, z, w])?;
-        let scale = [w, x, y, z].iter().fold(0.0f64, |m, c| m.max(c.abs()));
-        let q = DQuat::from_xyzw(x / scale, y / scale, z / scale, w / scale).normalize();
-        let (head, a) = mmsys18_head_rotation(q, roll);
-        roll = a;
+        let Some(head) = head else { continue };
         let g = mmsys18_to_gltf(head);
         let orientation = b.quaternion(line_no, [g.x, g.y, g.z, g.w])?;
         let t0 = *t_first.get_or_insert(t);
@@ -459,7 +482,15 @@ mod tests {
         };
         let mut checked = 0;
         for i in 0..24 {
-            for (a, c) in [(0.1, -0.3), (-1.2, 0.9), (0.0, 0.0), (1.5, -1.5)] {
+            // Rolls beyond ±90° (a head looking straight down) included.
+            for (a, c) in [
+                (0.1, -0.3),
+                (-1.2, 0.9),
+                (0.0, 0.0),
+                (1.5, -1.5),
+                (2.5, 0.3),
+                (-2.8, -1.2),
+            ] {
                 let b = -3.1 + i as f64 * 0.26;
                 let (ga, gb, gc) = mmsys18_euler(compose(a, b, c), 0.0);
                 assert!(
@@ -469,7 +500,7 @@ mod tests {
                 checked += 1;
             }
         }
-        assert_eq!(checked, 96);
+        assert_eq!(checked, 144);
         for b in [std::f64::consts::FRAC_PI_2, -std::f64::consts::FRAC_PI_2] {
             let q = compose(0.2, b, -0.5);
             let (a, gb, c) = mmsys18_euler(q, 0.05);

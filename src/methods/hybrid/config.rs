@@ -15,10 +15,11 @@ use std::str::FromStr;
 pub enum HybridLookups {
     /// The paper's Hybrid (§4; §5.1: "a total of three lookups per pixel (one
     /// for shading, two for reconstruction)"): per pixel and frame one of its
-    /// visible samples, drawn uniformly (background ones included), is
-    /// voxel-jittered as in HashCache; one lookup reserves and updates one of
-    /// its two levels (a coin), two find the hit voxel and its parent for the
-    /// colour. TAA integrates the per-frame sample.
+    /// visible surface samples, drawn uniformly, is voxel-jittered as in
+    /// HashCache; one lookup reserves and updates one of its two levels (a
+    /// coin), two find the hit voxel and its parent for the colour, which
+    /// the pixel mixes with its background samples' environment by
+    /// coverage. TAA integrates the per-frame sample.
     #[default]
     PerPixel,
     /// Every visible sample finds both levels of its unjittered point and the
