@@ -525,7 +525,6 @@ fn open_sky(eye: Eye, i: u32, j: u32) -> bool {
 /// resolution), its y place unchanged.
 #[test]
 fn background_samples_carry_their_place_into_the_new_pixel() {
-    use stereocache::methods::isrt::{Isrt, IsrtSettings, IsrtSnapshot};
     use stereocache::methods::sample_cache::background::{
         background_subpixel, encode_background, is_background,
     };
@@ -606,25 +605,9 @@ fn background_samples_carry_their_place_into_the_new_pixel() {
         // isrt: M = 3 cells a pixel, each given a background sample at its
         // centre; 0.3 px < a cell (1/3 px), so each lands in the cell to its
         // left, at place (centre − 0.3) in that cell's pixel, then − 0.6.
-        let is = IsrtSettings::default();
-        let mm = is.m;
-        let mut m = Isrt::new(
-            &s.ctx,
-            &s.scene_gpu,
-            &s.scene.environment,
-            &settings(1),
-            &is,
-        )
-        .unwrap();
+        let (mut m, mut snap) = isrt_with_empty_cells(&s);
+        let mm = snap.m;
         let gw = W * mm;
-        let cells = (gw * gw) as usize;
-        let mut snap = IsrtSnapshot {
-            m: mm,
-            width: W,
-            height: W,
-            first_hits: vec![[0, 0, 0, u32::MAX]; 2 * cells],
-            radiance: vec![[0.0; 4]; 2 * cells],
-        };
         let centre = |g: u32| (g as f32 + 0.5) / mm as f32; // in pixels
         for (e, eye) in Eye::BOTH.into_iter().enumerate() {
             for gy in 0..gw {
@@ -671,6 +654,35 @@ fn background_samples_carry_their_place_into_the_new_pixel() {
     assert_no_validation_messages(&ctx);
 }
 
+/// isrt with the default settings (M = 3) at the tests' size, and a
+/// snapshot of its grid with every cell empty, to fill and load.
+fn isrt_with_empty_cells(
+    s: &stereocache::session::Session,
+) -> (
+    stereocache::methods::isrt::Isrt,
+    stereocache::methods::isrt::IsrtSnapshot,
+) {
+    use stereocache::methods::isrt::{Isrt, IsrtSettings, IsrtSnapshot};
+    let is = IsrtSettings::default();
+    let m = Isrt::new(
+        &s.ctx,
+        &s.scene_gpu,
+        &s.scene.environment,
+        &settings(1),
+        &is,
+    )
+    .unwrap();
+    let cells = (W * is.m * W * is.m) as usize;
+    let snap = IsrtSnapshot {
+        m: is.m,
+        width: W,
+        height: W,
+        first_hits: vec![[0, 0, 0, u32::MAX]; 2 * cells],
+        radiance: vec![[0.0; 4]; 2 * cells],
+    };
+    (m, snap)
+}
+
 /// isrt fixes a sample's cell by its place in the pixel, and a background
 /// sample's place is stored in steps of 1/256 of a pixel (first_hit.glsl).
 /// At M = 3 the cell edges 1/3 and 2/3 fall inside a step: a place of
@@ -687,15 +699,14 @@ fn background_samples_carry_their_place_into_the_new_pixel() {
 /// over the square are retraced and replaced by its hits, at no new ray.
 #[test]
 fn isrt_background_samples_keep_their_cell() {
-    use stereocache::methods::isrt::{Isrt, IsrtSettings, IsrtSnapshot};
+    use stereocache::methods::isrt::IsrtSettings;
     use stereocache::methods::sample_cache::background::{
         background_subpixel, encode_background, is_background,
     };
     let ctx = context();
     let scene = square(Environment::Constant(Vec3::ONE));
     let cam = ortho_camera(2.0, 0.0);
-    let is = IsrtSettings::default();
-    let mm = is.m;
+    let mm = IsrtSettings::default().m;
     assert_eq!(mm, 3, "the test's places are for M = 3");
     let gw = W * mm;
     let cells = (gw * gw) as usize;
@@ -706,21 +717,7 @@ fn isrt_background_samples_keep_their_cell() {
     let place_y = centre;
     for rt in rt_backends(&ctx) {
         let s = session(&ctx, scene.clone(), rt);
-        let mut m = Isrt::new(
-            &s.ctx,
-            &s.scene_gpu,
-            &s.scene.environment,
-            &settings(1),
-            &is,
-        )
-        .unwrap();
-        let mut snap = IsrtSnapshot {
-            m: mm,
-            width: W,
-            height: W,
-            first_hits: vec![[0, 0, 0, u32::MAX]; 2 * cells],
-            radiance: vec![[0.0; 4]; 2 * cells],
-        };
+        let (mut m, mut snap) = isrt_with_empty_cells(&s);
         for e in 0..2 {
             for gy in 0..gw {
                 for gx in 0..gw {
