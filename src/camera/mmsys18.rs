@@ -109,6 +109,8 @@
 
 use std::path::Path;
 
+use std::f64::consts::{FRAC_PI_2, PI, TAU};
+
 use glam::{DMat3, DQuat, DVec3};
 
 use super::neck::HeadNeckModel;
@@ -160,11 +162,12 @@ pub fn mmsys18_to_gltf(q: DQuat) -> DQuat {
 /// straight down reaches rolls of 176°: the end of user 4's session; until
 /// session 56's review the branch was the one with the smaller of |a| and
 /// |c|, which alternated there, and the rebuilt head turned at 11 938°/s).
-/// At |c| = 90° exactly, the branch whose roll is nearer `roll_hint`.
+/// At |c| = 90° (within 10⁻⁹ rad), the branch whose roll is nearer
+/// `roll_hint`.
 /// Where cos b is 0 (a
 /// yaw of exactly ±90°, a gimbal lock of this order) only c ∓ a is
 /// determined (R = Rz(±90°)·Ry(c ∓ a)); the roll is then `roll_hint` (the
-/// previous sample's).
+/// previous sample's), or that plus π where that keeps |c| ≤ 90°.
 pub fn mmsys18_euler(q: DQuat, roll_hint: f64) -> (f64, f64, f64) {
     let m = DMat3::from_quat(q);
     let r = |i: usize, j: usize| m.col(j)[i];
@@ -177,10 +180,17 @@ pub fn mmsys18_euler(q: DQuat, roll_hint: f64) -> (f64, f64, f64) {
         // φ = c ∓ a; R's first column rotated back by Rz(−b) is Ry(φ)·x̂ =
         // (cos φ, 0, −sin φ).
         let s = sb.signum();
-        let b = s * std::f64::consts::FRAC_PI_2;
+        let b = s * FRAC_PI_2;
         let v = DQuat::from_rotation_z(-b) * (q * DVec3::X);
         let phi = (-v.z).atan2(v.x);
-        return (roll_hint, b, phi + s * roll_hint);
+        // (a + π, c + π) is the same rotation here; the one with |c| ≤ 90°.
+        let wrap = |x: f64| (x + PI).rem_euclid(TAU) - PI;
+        let (a, c) = (roll_hint, wrap(phi + s * roll_hint));
+        return if c.abs() <= FRAC_PI_2 {
+            (a, b, c)
+        } else {
+            (wrap(a + PI), b, wrap(c + PI))
+        };
     }
     let branch = |s: f64| {
         let a = (s * r(2, 1)).atan2(s * r(1, 1));
@@ -188,17 +198,23 @@ pub fn mmsys18_euler(q: DQuat, roll_hint: f64) -> (f64, f64, f64) {
         (a, sb.atan2(s * cb), c)
     };
     let (p, n) = (branch(1.0), branch(-1.0));
-    let half_pi = std::f64::consts::FRAC_PI_2;
     let angle_to = |x: f64, y: f64| {
-        let d = (x - y).rem_euclid(std::f64::consts::TAU);
-        d.min(std::f64::consts::TAU - d)
+        let d = (x - y).rem_euclid(TAU);
+        d.min(TAU - d)
     };
-    match (p.2.abs() <= half_pi, n.2.abs() <= half_pi) {
-        (true, false) => p,
-        (false, true) => n,
-        // |c| = 90° on both (r00 = 0): the roll nearer the hint.
-        _ if angle_to(p.0, roll_hint) <= angle_to(n.0, roll_hint) => p,
-        _ => n,
+    // The two branches' pitches differ by π: one has |c| ≤ 90°, unless
+    // |c| = 90° (r00 = 0 but for rounding: within 10⁻⁹ rad counts), where
+    // the roll nearer the hint decides.
+    if (p.2.abs() - FRAC_PI_2).abs() < 1e-9 {
+        if angle_to(p.0, roll_hint) <= angle_to(n.0, roll_hint) {
+            p
+        } else {
+            n
+        }
+    } else if p.2.abs() < FRAC_PI_2 {
+        p
+    } else {
+        n
     }
 }
 
@@ -501,7 +517,7 @@ mod tests {
             }
         }
         assert_eq!(checked, 144);
-        for b in [std::f64::consts::FRAC_PI_2, -std::f64::consts::FRAC_PI_2] {
+        for b in [FRAC_PI_2, -FRAC_PI_2] {
             let q = compose(0.2, b, -0.5);
             let (a, gb, c) = mmsys18_euler(q, 0.05);
             assert_eq!(a, 0.05);
@@ -509,6 +525,29 @@ mod tests {
             let back = compose(a, gb, c);
             assert!(back.dot(q).abs() > 1.0 - 1e-12, "{b}: {back} vs {q}");
         }
+        // At a pitch of ±90° (both branches' |c| = 90° but for rounding)
+        // the hint's roll decides, whichever branch rounding favours.
+        for (a, c) in [(0.3, FRAC_PI_2), (-2.0, -FRAC_PI_2)] {
+            let q = compose(a, 0.7, c);
+            for hint in [a, a + PI] {
+                let (ga, gb, gc) = mmsys18_euler(q, hint);
+                let back = compose(ga, gb, gc);
+                assert!(back.dot(q).abs() > 1.0 - 1e-12);
+                assert!(
+                    ((ga - hint + PI).rem_euclid(TAU) - PI).abs() < 1e-6,
+                    "pitch {c}, hint {hint}: roll {ga}"
+                );
+            }
+        }
+        // At the gimbal lock a hint that would put |c| beyond 90° gives the
+        // equivalent angles (hint + π, c + π).
+        let q = compose(0.2, FRAC_PI_2, 0.1);
+        let (a, _, c) = mmsys18_euler(q, 2.0);
+        assert!(
+            c.abs() <= FRAC_PI_2 && ((a - (2.0 - PI)).abs() < 1e-12),
+            "({a}, {c})"
+        );
+        assert!(compose(a, FRAC_PI_2, c).dot(q).abs() > 1.0 - 1e-12);
         // The rebuilt head rotation is the same angles composed yaw first.
         let (r, a) = mmsys18_head_rotation(compose(0.1, 2.0, -0.3), 0.0);
         let want = DQuat::from_rotation_z(2.0)
