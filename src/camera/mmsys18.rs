@@ -56,7 +56,7 @@
 //! The conversion to glTF axes (+X right, +Y up, −Z forward) is the
 //! change of frame `M` with `M·x̂ = −Ẑ` (forward), `M·ŷ = +X̂` (right),
 //! `M·ẑ = +Ŷ` (up), a reflection (det −1); a rotation `(w, v)` becomes
-//! `(w, −M·v)` ([`mmsys18_to_gltf`], [`AxisConvention::CORBILLON`](super::AxisConvention::CORBILLON)):
+//! `(w, −M·v)` ([`mmsys18_to_gltf`], [`AxisConvention::CORBILLON`]):
 //!
 //! ```text
 //! (qx, qy, qz, qw)_glTF = (−y, −z, x, w)_MMSys18
@@ -113,6 +113,8 @@ use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
 use glam::{DMat3, DQuat, DVec3};
 
+use super::convention::AxisConvention;
+
 use super::neck::HeadNeckModel;
 use super::trace::{excerpt, PoseSample, PoseTrace, TraceBuilder, TraceError};
 
@@ -148,9 +150,11 @@ impl Default for Mmsys18Options {
 /// docs "Axes") in glTF axes (+X right, +Y up, −Z forward). The data's
 /// axes are left-handed, so the map is a reflection: the rotation axis
 /// maps to (y, z, −x) and the angle changes sign:
-/// `(qx, qy, qz, qw) = (−y, −z, x, w)`.
+/// `(qx, qy, qz, qw) = (−y, −z, x, w)` — [`AxisConvention::CORBILLON`],
+/// the generic importers' convention of the same frame.
 pub fn mmsys18_to_gltf(q: DQuat) -> DQuat {
-    DQuat::from_xyzw(-q.y, -q.z, q.x, q.w)
+    let [x, y, z, w] = AxisConvention::CORBILLON.quaternion([q.x, q.y, q.z, q.w]);
+    DQuat::from_xyzw(x, y, z, w)
 }
 
 /// Roll `a`, yaw `b` and pitch `c` (radians) of the decomposition
