@@ -12,7 +12,7 @@ use common::*;
 use std::sync::Arc;
 use stereocache::gpu::{
     shaders, Buffer, ComputePipeline, DescriptorLayout, DescriptorSet, GpuContext, GpuError,
-    Recorder, Resource,
+    PassBinding, Recorder, Resource,
 };
 use stereocache::interface::dielectric;
 
@@ -25,6 +25,10 @@ struct Kernel {
 }
 
 fn kernel(ctx: &Arc<GpuContext>) -> Kernel {
+    kernel_binding(ctx, PassBinding::Default)
+}
+
+fn kernel_binding(ctx: &Arc<GpuContext>, binding: PassBinding) -> Kernel {
     let n = 64u32;
     // Cases: normal +z, front face, direction down the normal, ior 1.5, u = 0.5.
     let cases: Vec<[f32; 4]> = (0..n)
@@ -52,7 +56,7 @@ fn kernel(ctx: &Arc<GpuContext>) -> Kernel {
         &[Resource::Buffer(&inp), Resource::Buffer(&out)],
     )
     .unwrap();
-    let pipe = ComputePipeline::with_interface(
+    let pipe = ComputePipeline::with_interface_binding(
         ctx,
         "dielectric_test",
         shaders::spirv("common/dielectric_test").expect("dielectric_test compiled"),
@@ -60,6 +64,7 @@ fn kernel(ctx: &Arc<GpuContext>) -> Kernel {
         &dielectric::INTERFACE,
         Some(&dielectric::PUSH),
         &Default::default(),
+        binding,
     )
     .unwrap();
     Kernel {
@@ -227,9 +232,7 @@ fn per_pass_descriptor_sets_match_push_descriptors() {
     let ctx = context();
     let pushed = kernel(&ctx);
     // Pipelines keep the binding path they were created with.
-    std::env::set_var("STEREOCACHE_NO_PUSH_DESCRIPTOR", "1");
-    let fallback = kernel(&ctx);
-    std::env::remove_var("STEREOCACHE_NO_PUSH_DESCRIPTOR");
+    let fallback = kernel_binding(&ctx, PassBinding::DescriptorSets);
     assert!(!fallback.pipe.uses_push_descriptors());
     if !pushed.pipe.uses_push_descriptors() {
         // Then both runs take the fallback path and compare nothing.

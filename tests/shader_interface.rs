@@ -11,7 +11,9 @@ use common::*;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use stereocache::gpu::reflect::{check_interface, reflect, PassUse};
-use stereocache::gpu::{shaders, Buffer, ComputePipeline, GpuContext, GpuError, Recorder};
+use stereocache::gpu::{
+    shaders, Buffer, ComputePipeline, GpuContext, GpuError, PassBinding, Recorder,
+};
 use stereocache::interface::{self, read, reflect_test, write, Interface};
 
 /// The interface group of shader `name` (`sample_cache/trace.software`):
@@ -98,7 +100,15 @@ fn reflection_tells_loads_stores_atomics_and_lengths_apart() {
 }
 
 fn pipeline(ctx: &Arc<GpuContext>, iface: &'static Interface) -> Result<ComputePipeline, GpuError> {
-    ComputePipeline::with_interface(
+    pipeline_binding(ctx, iface, PassBinding::Default)
+}
+
+fn pipeline_binding(
+    ctx: &Arc<GpuContext>,
+    iface: &'static Interface,
+    binding: PassBinding,
+) -> Result<ComputePipeline, GpuError> {
+    ComputePipeline::with_interface_binding(
         ctx,
         "reflect_test",
         shaders::spirv("common/reflect_test").unwrap(),
@@ -106,6 +116,7 @@ fn pipeline(ctx: &Arc<GpuContext>, iface: &'static Interface) -> Result<ComputeP
         iface,
         None,
         &Default::default(),
+        binding,
     )
 }
 
@@ -180,10 +191,10 @@ struct Kernel {
 
 const N: u32 = 128;
 
-fn kernel(ctx: &Arc<GpuContext>) -> Kernel {
+fn kernel(ctx: &Arc<GpuContext>, binding: PassBinding) -> Kernel {
     let src: Vec<u32> = (0..N).map(|i| 3 * i + 1).collect();
     Kernel {
-        pipe: pipeline(ctx, &reflect_test::INTERFACE).unwrap(),
+        pipe: pipeline_binding(ctx, &reflect_test::INTERFACE, binding).unwrap(),
         src: Buffer::with_data(ctx, "t.src", bytemuck::cast_slice(&src), Default::default())
             .unwrap(),
         dst: Buffer::storage(ctx, "t.dst", N as u64 * 4).unwrap(),
@@ -229,10 +240,8 @@ fn run(ctx: &Arc<GpuContext>, k: &Kernel) -> (Vec<u32>, u32, Vec<u32>, [u32; 4])
 #[test]
 fn only_the_bindings_a_shader_uses_are_bound_and_tracked() {
     let ctx = context();
-    let pushed = kernel(&ctx);
-    std::env::set_var("STEREOCACHE_NO_PUSH_DESCRIPTOR", "1");
-    let fallback = kernel(&ctx);
-    std::env::remove_var("STEREOCACHE_NO_PUSH_DESCRIPTOR");
+    let pushed = kernel(&ctx, PassBinding::Default);
+    let fallback = kernel(&ctx, PassBinding::DescriptorSets);
     assert!(!fallback.pipe.uses_push_descriptors());
     for k in [&pushed, &fallback] {
         let (dst, count, unused, barriers) = run(&ctx, k);
@@ -257,7 +266,7 @@ fn only_the_bindings_a_shader_uses_are_bound_and_tracked() {
 #[test]
 fn a_binding_the_shader_writes_declared_read_fails_at_record_time() {
     let ctx = context();
-    let k = kernel(&ctx);
+    let k = kernel(&ctx, PassBinding::Default);
     let mut rec = Recorder::new(&ctx, 1).unwrap();
     let err = rec
         .compute("reflect_test.wrong", &k.pipe)

@@ -105,12 +105,13 @@ pub struct GpuContext {
     pub queue: vk::Queue,
     pub queue_family: u32,
     pub(crate) allocator: ManuallyDrop<Mutex<Allocator>>,
-    /// `submit_once`'s command pool; `pool_lock` is held while it is used
-    /// (a pool needs external synchronisation). Recorders own their pools.
+    /// `submit_once`'s command pool; `command_buffer_lock` is held while it
+    /// is used (a pool needs external synchronisation). Recorders own their
+    /// pools.
     pub(crate) command_pool: vk::CommandPool,
-    pool_lock: Mutex<()>,
     /// Held around vkQueueSubmit (the queue needs external synchronisation):
-    /// with it and `pool_lock` a context may be shared between threads.
+    /// with it and `command_buffer_lock` a context may be shared between
+    /// threads.
     queue_lock: Mutex<()>,
     /// VK_KHR_acceleration_structure (with `enabled.ray_query`).
     pub(crate) accel: Option<ash::khr::acceleration_structure::Device>,
@@ -250,7 +251,6 @@ impl GpuContext {
             queue_family: p.opened.queue_family,
             allocator: ManuallyDrop::new(Mutex::new(p.allocator)),
             command_pool: p.command_pool,
-            pool_lock: Mutex::new(()),
             queue_lock: Mutex::new(()),
             accel: p.opened.accel,
             push_descriptor: p.opened.push_descriptor,
@@ -320,14 +320,14 @@ impl GpuContext {
         // synchronisation for those, not while its buffer executes); the
         // lock is not held during the wait, so other threads' waits do not
         // queue behind it. A poisoned lock guards no state of its own.
-        let pool = || self.pool_lock.lock().unwrap_or_else(|e| e.into_inner());
+        let pool = || self.command_buffer_lock();
         let recorded = {
             let _pool = pool();
             let alloc = vk::CommandBufferAllocateInfo::default()
                 .command_pool(self.command_pool)
                 .level(vk::CommandBufferLevel::PRIMARY)
                 .command_buffer_count(1);
-            // SAFETY: the pool belongs to this device; `pool_lock` is held.
+            // SAFETY: the pool belongs to this device; its lock is held.
             let cb = unsafe { self.device.allocate_command_buffers(&alloc) }
                 .map_err(vk_err("vkAllocateCommandBuffers"))?[0];
             let begin = vk::CommandBufferBeginInfo::default()
@@ -352,10 +352,33 @@ impl GpuContext {
             let _pool = pool();
             // SAFETY: `cb` is not pending (the wait completed, failed or
             // the submission never happened) and came from this pool;
-            // `pool_lock` is held.
+            // its lock is held.
             unsafe { self.device.free_command_buffers(self.command_pool, &[cb]) };
         }
         result
+    }
+
+    /// The lock held, process-wide, around every call that creates,
+    /// begins or destroys a command buffer's debug-label state in the
+    /// validation layer: vkCreateCommandPool, vkAllocateCommandBuffers,
+    /// vkBeginCommandBuffer, vkFreeCommandBuffers, vkDestroyCommandPool and
+    /// vkCmdBegin/EndDebugUtilsLabelEXT (and around `submit_once`'s
+    /// recording into the shared pool, which the spec requires). For the
+    /// recorders' own pools the spec asks for nothing, but the Khronos
+    /// validation layer installed here (1.3.239) keeps the labels of every
+    /// command buffer of the process in one map and corrupts its heap when
+    /// one thread labels its command buffer while another frees or begins
+    /// one (test `passes::threads_share_a_context`, measured: "malloc():
+    /// unaligned tcache chunk detected" or a SIGSEGV inside the layer, 24
+    /// runs in 300 with labels and no lock, 3 in 300 with the lifetime
+    /// calls locked and the label calls not, none in 700 without labels,
+    /// none in 200 with the layer off; docs/ROBUSTNESS.md §5). One lock
+    /// for the process because the map is the process's. The calls are
+    /// cheap (two labels per pass): serialising them costs nothing
+    /// measurable. Poisoning is ignored: the lock guards no data of ours.
+    pub(crate) fn command_buffer_lock(&self) -> std::sync::MutexGuard<'static, ()> {
+        static COMMAND_POOLS: Mutex<()> = Mutex::new(());
+        COMMAND_POOLS.lock().unwrap_or_else(|e| e.into_inner())
     }
 
     /// True once a submission outlived the watchdog (see `abandoned`).
@@ -531,7 +554,9 @@ impl Drop for GpuContext {
         // destroyed twice.
         unsafe {
             let _ = self.device.device_wait_idle();
+            let pools = self.command_buffer_lock();
             self.device.destroy_command_pool(self.command_pool, None);
+            drop(pools);
             ManuallyDrop::drop(&mut self.allocator);
             self.device.destroy_device(None);
             if let Some((du, m)) = self.debug.take() {

@@ -90,8 +90,9 @@ impl DescriptorLayout {
 /// True when a pipeline created now binds its per-pass buffers with push
 /// descriptors: the device has VK_KHR_push_descriptor and
 /// `STEREOCACHE_NO_PUSH_DESCRIPTOR` is not `1` (which forces the per-pass
-/// descriptor-set fallback, for tests of that path on devices that have
-/// the extension). Each pipeline keeps the answer it was created with.
+/// descriptor-set fallback for a whole run; tests of that path choose it
+/// per pipeline, `PassBinding::DescriptorSets`). Each pipeline keeps the
+/// answer it was created with.
 pub(crate) fn use_push_descriptors(ctx: &GpuContext) -> bool {
     ctx.push_descriptor.is_some()
         && !std::env::var("STEREOCACHE_NO_PUSH_DESCRIPTOR").is_ok_and(|v| v == "1")

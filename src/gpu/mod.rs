@@ -35,6 +35,6 @@ pub use descriptors::{BindingKind, DescriptorLayout, DescriptorSet, Resource};
 pub use error::{GpuError, GpuResult};
 pub use open::FeatureRequest;
 pub use pass::{groups_for, PassTiming, Recorder};
-pub use pipeline::{ComputePipeline, SpecConstants};
+pub use pipeline::{ComputePipeline, PassBinding, SpecConstants};
 pub use readback::{HostReadback, ReadbackRange};
 pub use texture::{GpuTexture, Sampler};

@@ -72,7 +72,10 @@ impl<'a> Recorder<'a> {
     /// (more are added as needed).
     pub fn new(ctx: &Arc<GpuContext>, max_passes: u32) -> GpuResult<Recorder<'a>> {
         // A transient pool of its own: a command pool needs external
-        // synchronisation, so recorders on several threads share none.
+        // synchronisation, so recorders on several threads share none. Its
+        // creation, allocation and (in Drop) destruction still hold the
+        // context's `command_buffer_lock`, for the validation layer's sake.
+        let _pools = ctx.command_buffer_lock();
         let pool_info = vk::CommandPoolCreateInfo::default()
             .queue_family_index(ctx.queue_family)
             .flags(vk::CommandPoolCreateFlags::TRANSIENT);
@@ -108,6 +111,7 @@ impl<'a> Recorder<'a> {
                 return Err(e);
             }
         };
+        drop(_pools);
         let mut rec = Recorder {
             ctx: ctx.clone(),
             pool,
@@ -294,6 +298,7 @@ impl<'a> Recorder<'a> {
                 return;
             };
             let label = vk::DebugUtilsLabelEXT::default().label_name(&cname);
+            let _layer = self.ctx.command_buffer_lock();
             // SAFETY: `cb` is recording; the label's string outlives the call.
             unsafe { du.cmd_begin_debug_utils_label(self.cb, &label) };
         }
@@ -301,6 +306,7 @@ impl<'a> Recorder<'a> {
 
     fn label_end(&self) {
         if let Some(du) = &self.ctx.debug_utils_device {
+            let _layer = self.ctx.command_buffer_lock();
             // SAFETY: closes the label `label_begin` opened in this command buffer.
             unsafe { du.cmd_end_debug_utils_label(self.cb) };
         }
@@ -433,11 +439,13 @@ impl Drop for Recorder<'_> {
         // SAFETY: the command buffer is either finished and waited for or
         // never submitted, so nothing in flight uses these objects.
         unsafe {
+            let _pools = self.ctx.command_buffer_lock();
             if !self.finished {
                 let _ = self.ctx.device.end_command_buffer(self.cb);
             }
             // Frees `cb` with it.
             self.ctx.device.destroy_command_pool(self.pool, None);
+            drop(_pools);
             for pool in &self.queries {
                 self.ctx.device.destroy_query_pool(*pool, None);
             }

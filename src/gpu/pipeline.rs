@@ -23,6 +23,19 @@ impl SpecConstants {
     }
 }
 
+/// How a pipeline binds its per-pass buffers (set `interface.set`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum PassBinding {
+    /// Push descriptors where VK_KHR_push_descriptor is enabled and
+    /// `STEREOCACHE_NO_PUSH_DESCRIPTOR` is not `1`, else descriptor sets.
+    #[default]
+    Default,
+    /// A descriptor set per pass from the recorder's pools, even where push
+    /// descriptors exist: tests compare the two paths in one process
+    /// without changing the environment (which other threads read).
+    DescriptorSets,
+}
+
 pub struct ComputePipeline {
     ctx: Arc<GpuContext>,
     pub name: String,
@@ -61,6 +74,30 @@ impl ComputePipeline {
         push: Option<&'static PushBlock>,
         spec: &SpecConstants,
     ) -> GpuResult<ComputePipeline> {
+        Self::with_interface_binding(
+            ctx,
+            name,
+            spirv,
+            shared,
+            interface,
+            push,
+            spec,
+            PassBinding::Default,
+        )
+    }
+
+    /// `with_interface` with the per-pass binding path chosen by the caller.
+    #[allow(clippy::too_many_arguments)]
+    pub fn with_interface_binding(
+        ctx: &Arc<GpuContext>,
+        name: &str,
+        spirv: &[u8],
+        shared: &[Arc<DescriptorLayout>],
+        interface: &'static Interface,
+        push: Option<&'static PushBlock>,
+        spec: &SpecConstants,
+        binding: PassBinding,
+    ) -> GpuResult<ComputePipeline> {
         if interface.set as usize != shared.len() {
             return Err(GpuError::Interface(format!(
                 "pipeline {name}: interface {} binds its buffers at set {}, after {} shared set(s)",
@@ -83,7 +120,8 @@ impl ComputePipeline {
             .map_err(|e| GpuError::Unsupported(format!("shader {name}: {e}")))?;
         let uses = reflect::check_interface(name, &used, interface).map_err(GpuError::Interface)?;
         let writes_persistent = reflect::writes_persistent(&used, interface);
-        let push_descriptors = super::descriptors::use_push_descriptors(ctx);
+        let push_descriptors =
+            binding == PassBinding::Default && super::descriptors::use_push_descriptors(ctx);
         let mut layouts = shared.to_vec();
         layouts.push(DescriptorLayout::pass_buffers(
             ctx,
