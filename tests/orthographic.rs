@@ -763,3 +763,92 @@ fn isrt_background_samples_keep_their_cell() {
     }
     assert_no_validation_messages(&ctx);
 }
+
+/// The square 0.5 m in front of a darker backdrop that fills the view.
+fn square_before_backdrop() -> Scene {
+    let mut s = square(Environment::Constant(Vec3::ONE));
+    let mut m = Material::diffuse("dark", Vec3::splat(0.1));
+    m.specular = 0.0;
+    let mat = add_material(&mut s, m);
+    add_mesh(
+        &mut s,
+        grid(
+            "backdrop",
+            Vec3::new(-2.0, -2.0, -0.5),
+            4.0 * Vec3::X,
+            4.0 * Vec3::Y,
+            2,
+            2,
+            Vec2::ONE,
+        ),
+        mat,
+        Mat4::IDENTITY,
+    );
+    s.validate().unwrap();
+    s
+}
+
+/// Eq. 2's ε1 and the retrace's ε0 are relative tolerances: for a
+/// perspective eye they scale with the hit distance t; for an orthographic
+/// eye, whose t runs from the camera's arbitrary place along its axis and
+/// whose pixels do not grow with distance, with the view's half height
+/// (`eye_tolerance_scale`). Until session 57 they scaled with that t too
+/// (an audit): 1 km back, ε1·t = 5 m passed the square's 0.5 m step as one
+/// flat surface, and ε0·t = 1 m hid it as an occluder from the retrace.
+/// The same view from 2 m and from 1 km, three still frames and three
+/// after a 2-pixel slide: every frame's Eq. 2 edge flags and visible-sample
+/// counts agree pixel for pixel, and the square's outline is flagged.
+#[test]
+fn orthographic_tolerances_do_not_depend_on_the_camera_distance() {
+    use stereocache::methods::sample_cache::SampleCache;
+    let ctx = context();
+    let s = session(&ctx, square_before_backdrop(), RtChoice::Software);
+    let st = settings(1);
+    let run = |d: f32| -> Vec<Vec<[u32; 2]>> {
+        let cs = SampleCacheSettings::default();
+        let mut m = SampleCache::new(&s.ctx, &s.scene_gpu, &s.scene.environment, &st, &cs).unwrap();
+        let still = ortho_camera(d, 0.0);
+        let mut moved = still;
+        moved.head.position.x += 2.0 / (W as f32 / (2.0 * YMAG));
+        (0..6u32)
+            .map(|f| {
+                let (cam, prev) = if f < 3 {
+                    (still, still)
+                } else {
+                    (moved, if f == 3 { still } else { moved })
+                };
+                render_at(&mut m, f, cam, Some(prev));
+                let snap = m.snapshot().unwrap();
+                (0..2 * snap.npix())
+                    .map(|k| {
+                        let (e, p) = (k / snap.npix(), k % snap.npix());
+                        let vis = snap.visible(snap.mask(e, p)).count_ones();
+                        [snap.pixel_stats[k][3], vis]
+                    })
+                    .collect()
+            })
+            .collect()
+    };
+    let near = run(2.0);
+    let far = run(1000.0);
+    for f in 0..near.len() {
+        let edges = near[f].iter().filter(|v| v[0] != 0).count();
+        // The square's 20 × 20 pixels in each eye: its outline, the 76
+        // pixels inside it whose 3×3 neighbourhood reaches the backdrop,
+        // from frame 1 on (frame 0 decides on an empty cache).
+        assert!(
+            f == 0 || edges >= 2 * 76,
+            "frame {f}: {edges} edge pixels at 2 m"
+        );
+        for (k, (a, b)) in near[f].iter().zip(&far[f]).enumerate() {
+            assert_eq!(
+                a,
+                b,
+                "frame {f}, eye {}, pixel {}: [edge, visible samples] at 2 m vs 1 km",
+                k / (W * W) as usize,
+                k % (W * W) as usize
+            );
+        }
+    }
+    assert_no_validation_messages(&ctx);
+}

@@ -25,6 +25,16 @@ uvec2 frame_size() { return frame.size_seed.xy; }
 // parallel, along fwd, from the pixel's point on the image plane.
 bool eye_is_ortho(EyeGpu e) { return e.up.w != 0.0; }
 
+// The length that the cache's relative tolerances (the retrace's ε0, §3.2;
+// Eq. 2's ε1) multiply, for a hit at distance t: t itself from a
+// perspective eye, whose pixel footprint and f32 resolution grow with t;
+// for an orthographic eye the view's half height ymag. Its t runs from the
+// camera's place along its axis, which moves nothing in the image, and its
+// pixels keep their size (until session 57 the tolerances scaled with that
+// t too: 1 km back, ε1·t = 5 m let a 0.5 m step pass Eq. 2 as flat).
+// Beyond ~10⁴·ymag from the scene ε0·ymag nears f32's resolution of t.
+float eye_tolerance_scale(EyeGpu e, float t) { return eye_is_ortho(e) ? e.right_tany.w : t; }
+
 // Normalized device coordinates of continuous pixel coordinate `px`.
 vec2 eye_ndc(vec2 px) {
     return vec2(2.0 * px.x / float(frame.size_seed.x) - 1.0, 1.0 - 2.0 * px.y / float(frame.size_seed.y));

@@ -19,7 +19,7 @@
 
 layout(constant_id = SPEC_ISRT_M) const uint M = 3;   // cells per pixel side
 
-layout(push_constant) uniform Push { ISRT_PUSH } pc;   // eps0: retrace tolerance, relative to the hit distance; n_target: trace_pixel.comp's density target
+layout(push_constant) uniform Push { ISRT_PUSH } pc;   // eps0: retrace tolerance, relative to the hit distance (orthographic: to the view's half height); n_target: trace_pixel.comp's density target
 
 layout(set = SET_ISRT, binding = B_ISRT_FH_PREV, std430) buffer FhPrev { uvec4 fh_prev[]; };
 layout(set = SET_ISRT, binding = B_ISRT_FH_CUR, std430) buffer FhCur { uvec4 fh_cur[]; };
@@ -80,9 +80,10 @@ void isrt_retrace(uint idx, EyeGpu e, uvec2 g) {
         eye_ray_to(e, hit_position(fh), o, d, t);
     }
     RtHit h;
-    bool hit = rt_closest_hit(o, d, 0.0, bg ? 1e30 : t * (1.0 + 2.0 * pc.eps0), h);
+    float tol = pc.eps0 * eye_tolerance_scale(e, t);   // ε0·t (orthographic: ε0·ymag)
+    bool hit = rt_closest_hit(o, d, 0.0, bg ? 1e30 : t + 2.0 * tol, h);
     atomicAdd(counters[C_ISRT_RETRACE_RAYS], 1u);
-    if (!hit || (!bg && h.t >= t - pc.eps0 * t)) {
+    if (!hit || (!bg && h.t >= t - tol)) {
         atomicAdd(counters[bg ? C_ISRT_BACKGROUND : C_ISRT_SAMPLES], 1u);
         return;
     }

@@ -61,9 +61,10 @@ layout(set = SET_SAMPLE_CACHE, binding = B_SAMPLE_CACHE_PIXEL_STATS, std430) buf
 // Retracing (§3.4) as a compacted list: select.comp appends the slots to
 // retrace (eye << 31 | slot << 26 | pixel), retrace.comp traces them with
 // every lane busy and records per pixel in retrace_found, which trace.comp
-// applies: bit s = slot s found visible (closest hit within ε0 of it, or, for
-// a background sample, no hit at all); bit N + s = a closer hit was found
-// (the sample is occluded). Neither bit: the ray found no hit near the
+// applies: bit s = slot s found visible (an invisible surface sample: the
+// closest hit within ε0 of it; a background sample: no hit at all); bit
+// N + s = a closer hit was found (the sample is occluded; for a sample
+// visible already the only answer its occlusion query can give). Neither bit: the ray found no hit near the
 // stored one (precision at triangle edges) and the slot keeps its
 // visibility, as §3.2 sets v_s = 0 only "if a closer hit is encountered".
 // The list holds the surface samples' entries from the front (state[9] of
@@ -213,8 +214,16 @@ float normal_slope_parallel(float t, float cos_theta, float diag) {
 }
 
 // Eq. 2 with ε1: true when the depths are consistent with one flat surface.
+// CPU twin: heuristics.rs `depths_consistent`.
 bool depths_consistent(float t_min, float slope, float t_max, float eps1) {
     return t_max < (1.0 + eps1) * (t_min + 2.0 * slope);
+}
+
+// Eq. 2 for an orthographic eye: the tolerance ε1 times the view's half
+// height (camera.glsl `eye_tolerance_scale`), not times the depth.
+// CPU twin: heuristics.rs `depths_consistent_ortho`.
+bool depths_consistent_ortho(float t_min, float slope, float t_max, float eps1, float ymag) {
+    return t_max < t_min + 2.0 * slope + eps1 * ymag;
 }
 
 // §3.5: importance w = (1 + c_s)^−1 into HIST_M logarithmic buckets between

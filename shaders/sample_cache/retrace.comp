@@ -35,6 +35,7 @@ void main() {
             vec3 o, d;
             float t;
             eye_ray_to(e, hit_position(fh), o, d, t);
+            float tol = pc.eps0 * eye_tolerance_scale(e, t);   // ε0·t (orthographic: ε0·ymag)
             bool was_visible = ((mask_cur[eye * npix() + pixel] >> (s + N_SLOTS)) & 1u) != 0u;
             if (was_visible) {
                 occlusion_rays++;
@@ -44,11 +45,11 @@ void main() {
                 // when some hit lies before t − ε0·t, so an occlusion query
                 // (first hit ends it) over [0, t − ε0·t) gives the same
                 // answer and stops at the first occluder.
-                if (rt_occluded(o, d, 0.0, t - pc.eps0 * t)) bit = 1u << (s + N_SLOTS);
-            } else if (rt_closest_hit(o, d, 0.0, t * (1.0 + 2.0 * pc.eps0), h)) {
+                if (rt_occluded(o, d, 0.0, t - tol)) bit = 1u << (s + N_SLOTS);
+            } else if (rt_closest_hit(o, d, 0.0, t + 2.0 * tol, h)) {
                 // An invisible sample becomes visible again when the closest
                 // hit is within ε0·t of it: that needs the closest hit.
-                if (abs(h.t - t) <= pc.eps0 * t) bit = 1u << s;
+                if (abs(h.t - t) <= tol) bit = 1u << s;
                 else if (h.t < t) bit = 1u << (s + N_SLOTS);
             }
         }

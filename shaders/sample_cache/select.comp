@@ -65,7 +65,10 @@ void main() {
             // 75 418 retrace rays per frame in `bench sample-cache` on the
             // hairball.) Away from silhouettes sky pixels keep the base rate.
             bool sky_side = !has_own && vis != 0u && !isinf(t_near);
-            edge = has_own && !depths_consistent(t_min, slope, t_max, pc.eps1);
+            EyeGpu e = frame.eyes[eye];
+            edge = has_own && !(eye_is_ortho(e)
+                                    ? depths_consistent_ortho(t_min, slope, t_max, pc.eps1, eye_tolerance_scale(e, t_min))
+                                    : depths_consistent(t_min, slope, t_max, pc.eps1));
             uint visit;
             if (edge) trace = occ;
             else if (sky_side) trace = 1u << round_robin;
@@ -75,25 +78,29 @@ void main() {
 
     // Density control (§3.2): add towards n_target, or purge one sample at
     // random. Background samples count like any other (they are visible
-    // samples). Besides the 3×3 mean the pixel's own count decides adding
-    // (issue 12): a pixel below n_target − δ inside a neighbourhood whose
-    // mean is in the band would otherwise never be refilled. It is refilled
-    // to n_target − δ only, and only while the mean is at most n_target, so
-    // its own refill raises its mean by at most (n_target − δ)/9; neighbours
-    // refilling in the same frame can still add up past n_target + δ (an
-    // audit's 5×5 example: 4.00 → 5.11), which the purge rule then trims
-    // one sample a frame (refilling to n_target under motion, where
-    // reprojection spreads the samples unevenly, held the mean above
-    // n_target + δ on 10 % of the Cornell pixels).
+    // samples). Besides the 3×3 mean the pixel's own count decides (issue
+    // 12): a pixel below low = n_target − δ is refilled to low whatever its
+    // neighbourhood's mean, and the purge takes no pixel below low. A
+    // pixel's count then never crosses low in either direction by these
+    // rules, so refill and purge cannot undo each other, and every pixel
+    // holds at least low samples one frame after it fell below (as far as
+    // its slots allow). Until session 57 the refill waited for a mean of at
+    // most n_target and the purge went down to one sample: after motion
+    // had piled samples unevenly, a pixel with 2 samples among neighbours
+    // with 6 was purged to 1 and then sat at a mean of 4.56, in the band,
+    // for good (an audit's simulation; a pixel with 11 samples beside one
+    // with 1 kept both there). The refill adds at most low samples, so
+    // neighbours refilling in one frame can lift a mean past n_target + δ,
+    // which the purge trims one sample a frame from the pixels above low.
     uint add = 0u, purge = 0u;
     uint n_vis = bitCount(vis);
     uint low = pc.n_target - min(pc.delta, pc.n_target);
     uint room = bitCount(~occ & full_bits()) + bitCount(occ & ~vis);
     if (density < float(low) && n_vis < pc.n_target) {
         add = min(pc.n_target - n_vis, room);
-    } else if (n_vis < low && density <= float(pc.n_target)) {
+    } else if (n_vis < low) {
         add = min(low - n_vis, room);
-    } else if (density > float(pc.n_target + pc.delta) && n_vis > 1u) {
+    } else if (density > float(pc.n_target + pc.delta) && n_vis > low) {
         Rng r = rng_init(frame.size_seed.z, frame_index, eye, pixel, 0x5EED0001u);
         purge = nth_set_bit(vis, min(uint(rng_next(r) * float(n_vis)), n_vis - 1u)) + 1u;
         trace &= ~(1u << (purge - 1u));

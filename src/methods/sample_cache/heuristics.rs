@@ -39,6 +39,14 @@ pub fn depths_consistent(t_min: f32, slope: f32, t_max: f32, eps1: f32) -> bool 
     t_max < (1.0 + eps1) * (t_min + 2.0 * slope)
 }
 
+/// Eq. 2 for an orthographic eye: `t_max < t_min + 2Δn + ε1·ymag`. Its
+/// depths run from the camera's arbitrary place along its axis, so the
+/// tolerance scales with the view's half height `ymag`, not with them
+/// (`eye_tolerance_scale` in camera.glsl).
+pub fn depths_consistent_ortho(t_min: f32, slope: f32, t_max: f32, eps1: f32, ymag: f32) -> bool {
+    t_max < t_min + 2.0 * slope + eps1 * ymag
+}
+
 /// φ of Eq. 1: the angle subtended by a pixel's diagonal, for a symmetric
 /// frustum with half-angle tangents `tan_half` and an image of `size` pixels.
 pub fn pixel_diagonal_angle(tan_half: [f32; 2], size: [u32; 2]) -> f32 {
@@ -207,6 +215,22 @@ mod tests {
         assert!(!depths_consistent(t, slope, t * 1.2, 0.005));
         // Numerical noise at a head-on plane is absorbed by ε1.
         assert!(depths_consistent(t, 0.0, t * (1.0 + 1e-4), 0.005));
+    }
+
+    /// The orthographic form answers the same wherever the camera sits
+    /// along its axis (all depths shifted alike), unlike the relative one.
+    #[test]
+    fn orthographic_eq2_does_not_depend_on_the_camera_distance() {
+        let (ymag, eps1, slope) = (1.0, 0.005, 0.0);
+        for shift in [0.0f32, 8.0, 998.0] {
+            let t = 2.0 + shift;
+            // A 0.5 m step is an edge, a 1 mm wobble is not, at every shift.
+            assert!(!depths_consistent_ortho(t, slope, t + 0.5, eps1, ymag));
+            assert!(depths_consistent_ortho(t, slope, t + 0.001, eps1, ymag));
+        }
+        // The perspective form, read with the orthographic depths, passes
+        // the step 1 km back (the session-57 bug the form replaces).
+        assert!(depths_consistent(1000.0, 0.0, 1000.5, eps1));
     }
 
     #[test]

@@ -8,8 +8,11 @@
 //! of masks; plus 12 B of depth bounds and the per-pixel outputs.
 //!
 //! Passes per frame (both eyes in one dispatch each, `z` = eye):
-//! `begin` → `clear` → `reproject` (→ `reproject.copy` for two-pass) →
-//! `select` → `trace` → (`shade.count` for adaptive shading →) `shade.select` → `shade` → `reconstruct`.
+//! `begin` → `clear` → `clear.depth` → `reproject` (→ `reproject.copy` for
+//! two-pass) → `select` → `trace.args` → `trace.retrace` → `trace` →
+//! (`shade.count` for adaptive shading →) `shade.select` → `shade.args` →
+//! `shade` → `reconstruct` (→ `stereo.blend` with stereo blending);
+//! docs/ARCHITECTURE.md lists them with what each does.
 //! Every pass binds the 27 buffers of src/interface/sample_cache.rs (one
 //! binding list for the group, declared in order by [`SampleCache::pass`]);
 //! the shared frame loop reads the outputs and counters back.
