@@ -1,10 +1,12 @@
 //! Frames against a reference: the reference renders (cached on disk) and
-//! the per-frame metrics `compare` reports for every method (§5 of the paper):
-//! error (RSE, MSE, PSNR, SSIM, HDR-FLIP at the eye's pixels per degree,
-//! [`crate::metrics::ppd`]), sharpness (CPBD), temporal instability (frame
-//! t−1 reprojected into t, method minus reference) and stereo discrepancy
-//! (left reprojected into right, with the reference pair's own discrepancy
-//! beside it so view-dependent effects are not counted as error). The
+//! the per-frame metrics `compare` reports for every method: the paper's (§5:
+//! RSE, sharpness by CPBD, temporal instability and stereo discrepancy as
+//! reprojected differences, Figs. 10, 12, 15) and the project's additions
+//! (MSE, PSNR, SSIM, HDR-FLIP at the eye's pixels per degree,
+//! [`crate::metrics::ppd`]). Temporal instability (frame t−1 reprojected
+//! into t) and stereo discrepancy (left reprojected into right) are
+//! reported with the reference's own figure on the same mask beside them,
+//! so view-dependent effects are not counted as error. The
 //! reference is rendered as two independent halves; their difference
 //! estimates its own error (`rse_reference`, `mse_reference`,
 //! [`crate::metrics::reference_noise`]), which every method's measured error

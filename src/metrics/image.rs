@@ -136,9 +136,10 @@ impl LinearImage {
 
     /// Display luma in `[0, 1]`: the sRGB encoding (IEC 61966-2-1 OETF,
     /// [`srgb_encode`]) of the Rec. 709 luminance of the display image
-    /// (channels clamped to `[0, 1]`). This is the grey image SSIM and CPBD
-    /// work on: perceptually roughly uniform, like the 8-bit grey images the
-    /// original papers used.
+    /// (channels clamped to `[0, 1]`). This is the grey image SSIM works
+    /// on: perceptually roughly uniform, like the 8-bit grey images the
+    /// original paper used (CPBD takes [`LinearImage::display_grey_8bit`],
+    /// MATLAB's `rgb2gray`, as its authors' code did).
     pub fn display_luma(&self) -> Vec<f32> {
         self.display()
             .rgb

@@ -1,6 +1,7 @@
-//! Image metrics on linear float images (pure CPU): the error, sharpness,
-//! temporal-stability and stereo-consistency measures of Philippi et al.
-//! 2025 (Sec. 5, Figs. 10, 12 and 15).
+//! Image metrics on linear float images (pure CPU): the error (RSE),
+//! sharpness (CPBD), temporal-stability and stereo-consistency measures of
+//! Philippi et al. 2025 (Sec. 5, Figs. 10, 12 and 15), and the project's
+//! additions the paper does not use (MSE, PSNR, SSIM, HDR-FLIP).
 //!
 //! - [`image`]: [`LinearImage`], Rec. 709 luminance, sRGB encode/decode, the
 //!   display image and display luma every display-referred metric uses.
