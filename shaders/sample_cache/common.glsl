@@ -80,7 +80,12 @@ layout(set = SET_SAMPLE_CACHE, binding = B_SAMPLE_CACHE_INDIRECT_ARGS, std430) b
 // (the `.subgroup` build of the shaders marked `// variant: SUBGROUP_OPS`,
 // chosen when the device supports subgroup arithmetic and ballot), else one
 // per invocation. The subgroup forms combine whichever invocations call
-// together, so they are correct in divergent code too.
+// together, in divergent code too, provided those invocations stay
+// together through `list_reserve`'s elect branch to its broadcast: the
+// reconvergence at the end of a structured `if` that current drivers
+// provide, which the Vulkan spec promises only with
+// VK_KHR_shader_maximal_reconvergence (not required here; an audit's note,
+// session 57). Without it a lane could broadcast another group's base.
 
 // counters[c] += v.
 void count_add(uint c, uint v) {
