@@ -109,6 +109,8 @@ pub struct GpuContext {
     /// is used (a pool needs external synchronisation). Recorders own their
     /// pools.
     pub(crate) command_pool: vk::CommandPool,
+    /// `command_buffer_lock`'s mutex.
+    command_lock: Mutex<()>,
     /// Held around vkQueueSubmit (the queue needs external synchronisation):
     /// with it and `command_buffer_lock` a context may be shared between
     /// threads.
@@ -251,6 +253,7 @@ impl GpuContext {
             queue_family: p.opened.queue_family,
             allocator: ManuallyDrop::new(Mutex::new(p.allocator)),
             command_pool: p.command_pool,
+            command_lock: Mutex::new(()),
             queue_lock: Mutex::new(()),
             accel: p.opened.accel,
             push_descriptor: p.opened.push_descriptor,
@@ -358,27 +361,29 @@ impl GpuContext {
         result
     }
 
-    /// The lock held, process-wide, around every call that creates,
-    /// begins or destroys a command buffer's debug-label state in the
-    /// validation layer: vkCreateCommandPool, vkAllocateCommandBuffers,
-    /// vkBeginCommandBuffer, vkFreeCommandBuffers, vkDestroyCommandPool and
+    /// The context's lock around every call that creates, begins or
+    /// destroys a command buffer's debug-label state in the validation
+    /// layer: vkCreateCommandPool (recorders' pools; the context's own is
+    /// made before any other thread can reach the context),
+    /// vkAllocateCommandBuffers, vkBeginCommandBuffer,
+    /// vkFreeCommandBuffers, vkDestroyCommandPool and
     /// vkCmdBegin/EndDebugUtilsLabelEXT (and around `submit_once`'s
-    /// recording into the shared pool, which the spec requires). For the
+    /// recording into the shared pool, which the spec requires);
+    /// vkEndCommandBuffer and vkQueueSubmit are not among them. For the
     /// recorders' own pools the spec asks for nothing, but the Khronos
     /// validation layer installed here (1.3.239) keeps the labels of every
-    /// command buffer of the process in one map and corrupts its heap when
-    /// one thread labels its command buffer while another frees or begins
-    /// one (test `passes::threads_share_a_context`, measured: "malloc():
-    /// unaligned tcache chunk detected" or a SIGSEGV inside the layer, 24
-    /// runs in 300 with labels and no lock, 3 in 300 with the lifetime
-    /// calls locked and the label calls not, none in 700 without labels,
-    /// none in 200 with the layer off; docs/ROBUSTNESS.md §5). One lock
-    /// for the process because the map is the process's. The calls are
-    /// cheap (two labels per pass): serialising them costs nothing
-    /// measurable. Poisoning is ignored: the lock guards no data of ours.
-    pub(crate) fn command_buffer_lock(&self) -> std::sync::MutexGuard<'static, ()> {
-        static COMMAND_POOLS: Mutex<()> = Mutex::new(());
-        COMMAND_POOLS.lock().unwrap_or_else(|e| e.into_inner())
+    /// command buffer of an instance (each context has its own) in one map
+    /// and corrupts its heap when one thread labels its command buffer
+    /// while another frees or begins one (test
+    /// `passes::threads_share_a_context`, measured: "malloc(): unaligned
+    /// tcache chunk detected" or a SIGSEGV inside the layer, 24 runs in 300
+    /// with labels and no lock, 3 in 300 with the lifetime calls locked and
+    /// the label calls not, none in 400 without labels, none in 600 with
+    /// this lock; docs/ROBUSTNESS.md §5). The calls are cheap (two labels
+    /// per pass): serialising them costs nothing measurable. Poisoning is
+    /// ignored: the lock guards no data of ours.
+    pub(crate) fn command_buffer_lock(&self) -> std::sync::MutexGuard<'_, ()> {
+        self.command_lock.lock().unwrap_or_else(|e| e.into_inner())
     }
 
     /// True once a submission outlived the watchdog (see `abandoned`).
