@@ -797,7 +797,8 @@ fn square_before_backdrop() -> Scene {
 /// flat surface, and ε0·t = 1 m hid it as an occluder from the retrace.
 /// The same view from 2 m and from 1 km, three still frames and three
 /// after a 2-pixel slide: every frame's Eq. 2 edge flags and visible-sample
-/// counts agree pixel for pixel, and the square's outline is flagged.
+/// counts agree pixel for pixel, and from frame 1 at least as many pixels
+/// are edges as the square's outline has.
 #[test]
 fn orthographic_tolerances_do_not_depend_on_the_camera_distance() {
     use stereocache::methods::sample_cache::SampleCache;

@@ -379,16 +379,20 @@ fn hairball_edges_match_the_reference() {
 /// The density rule's own-count floor where motion has piled samples
 /// unevenly (session 57, an audit's simulation of select.comp). On a
 /// converged still view of the Cornell box a 5×5 block of each eye is
-/// rebuilt (`SampleCache::load`): every pixel holds 6 visible samples
-/// (copies of its own), the centre 2. Its 3×3 mean, 5.56, is above
-/// n_target + δ: until session 57 the purge took the centre to 1 sample
-/// and the refill waited for a mean of at most n_target, so it stayed at 1
-/// among 5s (mean 4.56, in the band) for good. Now a pixel below
-/// low = n_target − δ is refilled whatever the mean and the purge stops at
-/// low, so from the first frame after the rebuild (select decides before
-/// that frame's trace) no pixel of the block holds fewer than low visible
-/// samples, in each of eight frames. (A sample lost in a frame's own
-/// retrace would excuse its pixel; in a still view none is lost, asserted.)
+/// rebuilt (`SampleCache::load`): every pixel holds 11 visible samples
+/// (copies of its own), the centre 2, whose 3×3 mean is then 10. Until
+/// session 57 the purge took such a pixel down to 1 sample and the refill
+/// waited for a mean of at most n_target (with 6s around it: purged to 1,
+/// then a mean of 4.56, in the band, for good). Now a pixel below
+/// low = n_target − δ is refilled whatever the mean, and the purge takes
+/// no pixel at or below low: from the first frame after the rebuild
+/// (select decides before that frame's trace) no pixel of the block holds
+/// fewer than low visible samples, in each of eight frames, while its
+/// crowded neighbours lose one a frame down to 6 (asserted through frame
+/// 12; the centre's mean stays above n_target + δ until then, so each half
+/// of the rule is tested: a purge down to 1 fails at frame 9, a refill that
+/// waits for the mean at frame 8). A sample lost in a frame's own retrace would excuse its
+/// pixel; in a still view none is lost (asserted).
 #[test]
 fn a_starved_pixel_among_crowded_ones_is_refilled() {
     let ctx = context();
@@ -417,7 +421,7 @@ fn a_starved_pixel_among_crowded_ones_is_refilled() {
                 "eye {e} pixel {p}: converged"
             );
             let own: Vec<u32> = (0..n).filter(|s| vis >> s & 1 == 1).collect();
-            let want = if p == cy * w as usize + cx { 2 } else { 6 };
+            let want = if p == cy * w as usize + cx { 2 } else { 11 };
             let mut bits = 0u32;
             for k in 0..want {
                 let (src, dst) = (own[k % own.len()], k as u32);
@@ -431,10 +435,21 @@ fn a_starved_pixel_among_crowded_ones_is_refilled() {
         }
     }
     m.load(&snap).unwrap();
+    let ring = cy * w as usize + cx + 1;
     for f in 8..16 {
         render_at(&mut m, f, cam, Some(cam));
         let snap = m.snapshot().unwrap();
         for e in 0..2 {
+            // The crowded neighbours purge one sample a frame: 11 − (f − 7)
+            // while their means exceed n_target + δ (down to 6 at frame 12).
+            let k = e * snap.npix() + ring;
+            if f <= 12 {
+                assert_eq!(
+                    snap.visible(snap.masks[k]).count_ones(),
+                    11 - (f - 7),
+                    "frame {f}, eye {e}: the centre's right neighbour"
+                );
+            }
             for p in (0..snap.npix()).filter(|&p| block(p)) {
                 let k = e * snap.npix() + p;
                 let vis = snap.visible(snap.masks[k]);

@@ -343,10 +343,14 @@ fn blend_twin(
             }
             let s = q - (t + 0.5);
             let k = dodgson(s.x, r) * dodgson(s.y, r);
-            if k == 0.0 {
+            let ti = x * npix + t.y as usize * w + t.x as usize;
+            // Taps lend their moments only where they show a surface with
+            // moments of their own (stereo_blend.comp `moment_tap`).
+            let tap =
+                fr.eyes[x].depth[t.y as usize * w + t.x as usize] > 0.0 && mom.m1[ti][3] > 0.0;
+            if k == 0.0 || !tap {
                 continue;
             }
-            let ti = x * npix + t.y as usize * w + t.x as usize;
             for c in 0..3 {
                 m1x[c] += k * mom.m1[ti][c];
                 m2x[c] += k * mom.m2[ti][c];
@@ -366,11 +370,13 @@ fn blend_twin(
             if tx < 0 || ty < 0 || tx >= w as i64 || ty >= h as i64 {
                 continue;
             }
-            let k = if i == 0 && j == 0 { 1.0 } else { 1.0 - r };
-            if k == 0.0 {
+            let centre = i == 0 && j == 0;
+            let k = if centre { 1.0 } else { 1.0 - r };
+            let ti = y * npix + ty as usize * w + tx as usize;
+            let tap = fr.eyes[y].depth[ty as usize * w + tx as usize] > 0.0 && mom.m1[ti][3] > 0.0;
+            if k == 0.0 || !(centre || tap) {
                 continue;
             }
-            let ti = y * npix + ty as usize * w + tx as usize;
             for c in 0..3 {
                 m1y[c] += k * mom.m1[ti][c];
                 m2y[c] += k * mom.m2[ti][c];
@@ -565,6 +571,118 @@ fn stereo_blend_pass_matches_its_cpu_twin() {
             !adaptive || borrowed > 0,
             "no X without its own estimate to test"
         );
+    }
+    assert_no_validation_messages(&ctx);
+}
+
+/// No halo against the sky at R < 1 (session 57, an audit's scenario). A
+/// 1 m square that only emits (black base: every surface sample is its
+/// emission 0.1 exactly) before a constant sky of 1 (every background
+/// sample 1 exactly), seen by orthographic eyes 40 px over 2 m: the left
+/// eye sits at x = 0, so the square's outline lies on its pixel edges
+/// (columns and rows 10..30 are all square, the rest all sky); the right
+/// eye 1.45 px further, so its outline cuts columns 8 and 28. A pixel the
+/// square covers holds one value, σ² = 0, and Eq. 8 keeps it (β′ = 1)
+/// unless its estimate takes in moments from elsewhere. Until session 57
+/// Y's 3×3 blur (R < 1) and X's Dodgson taps took in the sky's: the left
+/// eye's column 29, beside the sky, came out blended with the right eye's
+/// partly-sky column 28: 0.209 at R = 0, twice its emission. Now only pixels that show a
+/// surface with moments of their own lend them, and every covered pixel
+/// of both eyes is its emission (f32 rounding: 1e-6) in every frame, at
+/// R = 0 and ½.
+#[test]
+fn stereo_blending_leaves_no_halo_against_the_sky() {
+    use glam::{Mat4, Quat, Vec2, Vec3, Vec4};
+    use stereocache::camera::{HeadPose, Projection, StereoCamera};
+    use stereocache::scene::generate::{add_material, add_mesh, grid};
+    use stereocache::scene::{Environment, Material, Scene};
+    let ctx = context();
+    let (w, ymag, emission) = (40u32, 1.0f32, 0.1f32);
+    let mut scene = Scene {
+        source: "test:emitting-square".into(),
+        ..Default::default()
+    };
+    let mat = add_material(
+        &mut scene,
+        Material {
+            base_color: Vec4::new(0.0, 0.0, 0.0, 1.0),
+            metallic: 0.0,
+            specular: 0.0,
+            emissive: Vec3::splat(emission),
+            ..Material::diffuse("black emitter", Vec3::ZERO)
+        },
+    );
+    add_mesh(
+        &mut scene,
+        grid(
+            "square",
+            Vec3::new(-0.5, -0.5, 0.0),
+            Vec3::X,
+            Vec3::Y,
+            2,
+            2,
+            Vec2::ONE,
+        ),
+        mat,
+        Mat4::IDENTITY,
+    );
+    scene.environment = Some(Environment::Constant(Vec3::ONE));
+    scene.validate().unwrap();
+    let s = session(&ctx, scene, RtChoice::Software);
+    // 20 px per metre; the eyes 1.45 px apart.
+    let ipd = 1.45 / (w as f32 / (2.0 * ymag));
+    let mut cam = StereoCamera::new(
+        HeadPose::new(Vec3::new(ipd / 2.0, 0.0, 2.0), Quat::IDENTITY),
+        1.0,
+        1.0,
+    );
+    cam.ipd = ipd;
+    cam.projection = Projection::Orthographic { ymag };
+    let covered = |eye: usize, i: u32, j: u32| -> bool {
+        let (lo, hi) = if eye == 0 {
+            (10.0, 30.0)
+        } else {
+            (8.55, 28.55)
+        };
+        (10..30).contains(&j) && i as f32 >= lo && (i + 1) as f32 <= hi
+    };
+    for r in [0.0f32, 0.5] {
+        let st = RenderSettings {
+            width: w,
+            height: w,
+            spp: 1,
+            max_bounces: 2,
+            seed: 7,
+            all_features: false,
+            ..Default::default()
+        };
+        let cache = SampleCacheSettings {
+            stereo_blend: BlendMode::Moments,
+            sharpness: r,
+            ..Default::default()
+        };
+        let mut m =
+            SampleCache::new(&s.ctx, &s.scene_gpu, &s.scene.environment, &st, &cache).unwrap();
+        for f in 0..4 {
+            let fr = render_at(&mut m, f, cam, Some(cam));
+            for (e, eye) in [Eye::Left, Eye::Right].into_iter().enumerate() {
+                let img = fr.eye(eye);
+                for j in 0..w {
+                    for i in 0..w {
+                        if !covered(e, i, j) {
+                            continue;
+                        }
+                        let p = img.radiance[(j * w + i) as usize];
+                        for c in &p[..3] {
+                            assert!(
+                                (c - emission).abs() <= 1e-6,
+                                "R = {r}, frame {f}, {eye:?} ({i}, {j}): {p:?}, emission {emission}"
+                            );
+                        }
+                    }
+                }
+            }
+        }
     }
     assert_no_validation_messages(&ctx);
 }

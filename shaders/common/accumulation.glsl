@@ -1,4 +1,5 @@
-// Accumulation of a stored sample's shadings (appendix C, §5.2, Eq. 5),
+// Accumulation of a stored sample's shadings (appendix C, §5.2; its
+// effective count c_s is what Eq. 5–6 weigh by),
 // shared by the sample cache (sample_cache/shade.comp) and isrt
 // (isrt/shade.comp), so both baselines of Fig. 10 average alike. CPU twins:
 // src/methods/sample_cache/heuristics.rs.

@@ -31,9 +31,13 @@ bool eye_is_ortho(EyeGpu e) { return e.up.w != 0.0; }
 // for an orthographic eye the view's half height ymag. Its t runs from the
 // camera's place along its axis, which moves nothing in the image, and its
 // pixels keep their size (until session 57 the tolerances scaled with that
-// t too: 1 km back, ε1·t = 5 m let a 0.5 m step pass Eq. 2 as flat).
-// Beyond ~10⁴·ymag from the scene ε0·ymag nears f32's resolution of t.
-float eye_tolerance_scale(EyeGpu e, float t) { return eye_is_ortho(e) ? e.right_tany.w : t; }
+// t too: 1 km back, ε1·t = 5 m let a 0.5 m step pass Eq. 2 as flat). Past
+// t = 1024·ymag it is t/1024, so that ε0 times it stays ≈ 16 ulps of t
+// (f32 resolves t to 2⁻²⁴·t; a fixed ε0·ymag would fall below that and let
+// a sample's own surface occlude it).
+float eye_tolerance_scale(EyeGpu e, float t) {
+    return eye_is_ortho(e) ? max(e.right_tany.w, t * (1.0 / 1024.0)) : t;
+}
 
 // Normalized device coordinates of continuous pixel coordinate `px`.
 vec2 eye_ndc(vec2 px) {

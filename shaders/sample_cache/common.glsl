@@ -210,12 +210,14 @@ float normal_slope(float t, float cos_theta, vec2 cs_phi) {
 
 // Eq. 1 for an orthographic eye's parallel rays: its limit as t → ∞ with
 // t·tan φ held at the pixel diagonal's length L on the image plane,
-// Δn = L tan θ, capped at t as Eq. 1 is at θ = π/2 (Δn = t there).
+// Δn = L tan θ, unbounded (Eq. 1's cap Δn = t at θ = π/2 grows without
+// bound in that limit; capping at the orthographic t, the distance from the
+// camera's arbitrary place, made steep surfaces edges near and flat far).
 // CPU twin: src/methods/sample_cache/heuristics.rs `normal_slope_parallel`.
-float normal_slope_parallel(float t, float cos_theta, float diag) {
+float normal_slope_parallel(float cos_theta, float diag) {
     float c = clamp(cos_theta, 0.0, 1.0);
     float sin_theta = sqrt((1.0 - c) * (1.0 + c));
-    return diag * sin_theta < t * c ? diag * sin_theta / c : t;   // compared before dividing: c may be 0
+    return c > 0.0 ? diag * sin_theta / c : uintBitsToFloat(0x7F800000u);   // edge-on: ∞
 }
 
 // Eq. 2 with ε1: true when the depths are consistent with one flat surface.
@@ -225,10 +227,11 @@ bool depths_consistent(float t_min, float slope, float t_max, float eps1) {
 }
 
 // Eq. 2 for an orthographic eye: the tolerance ε1 times the view's half
-// height (camera.glsl `eye_tolerance_scale`), not times the depth.
+// height (camera.glsl `eye_tolerance_scale`; `scale` is what that gives),
+// not times the depth.
 // CPU twin: heuristics.rs `depths_consistent_ortho`.
-bool depths_consistent_ortho(float t_min, float slope, float t_max, float eps1, float ymag) {
-    return t_max < t_min + 2.0 * slope + eps1 * ymag;
+bool depths_consistent_ortho(float t_min, float slope, float t_max, float eps1, float scale) {
+    return t_max < t_min + 2.0 * slope + eps1 * scale;
 }
 
 // §3.5: importance w = (1 + c_s)^−1 into HIST_M logarithmic buckets between

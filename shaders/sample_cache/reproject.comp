@@ -129,7 +129,7 @@ void main() {
                 float t;
                 eye_ray_to(e, wp, o, d, t);
                 float cos_theta = abs(dot(ng, d));
-                float slope = ortho ? normal_slope_parallel(t, cos_theta, diag) : normal_slope(t, cos_theta, cs_phi);
+                float slope = ortho ? normal_slope_parallel(cos_theta, diag) : normal_slope(t, cos_theta, cs_phi);
                 atomicMin(depth_min[tm], (uint64_t(floatBitsToUint(t)) << 32) | uint64_t(floatBitsToUint(slope)));
                 atomicMax(depth_max[tm], floatBitsToUint(t));
             }

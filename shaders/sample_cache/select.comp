@@ -83,8 +83,9 @@ void main() {
     // neighbourhood's mean, and the purge takes no pixel below low. A
     // pixel's count then never crosses low in either direction by these
     // rules, so refill and purge cannot undo each other, and every pixel
-    // holds at least low samples one frame after it fell below (as far as
-    // its slots allow). Until session 57 the refill waited for a mean of at
+    // holds at least low samples one frame after it fell below (room =
+    // N − n_vis never limits it; a retrace that finds some of its samples
+    // occluded in that frame can). Until session 57 the refill waited for a mean of at
     // most n_target and the purge went down to one sample: after motion
     // had piled samples unevenly, a pixel with 2 samples among neighbours
     // with 6 was purged to 1 and then sat at a mean of 4.56, in the band,

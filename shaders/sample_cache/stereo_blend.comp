@@ -21,7 +21,8 @@
 // A single-sample pixel: Eq. 5 over one sample gives μ2 = μ1², i.e. σ² = 0
 // (Eq. 7): the estimator cannot tell a one-sample pixel from a noise-free
 // one, a limitation of the paper's we keep rather than invent a variance.
-// As Y that gives β′ = 1 (Y kept, though it is the noisiest pixel); as X it
+// As Y at R = 1 that gives β′ = 1 (Y kept, though it is the noisiest
+// pixel; at R < 1 its neighbours' moments enter its estimate); as X it
 // counts as noise-free, softened only where Dodgson's taps mix in its
 // neighbours' moments (off a pixel centre, at any R) and, for Y, by the 3×3
 // blur at R < 1 (docs/ARCHITECTURE.md "Stereo blending").
@@ -36,6 +37,21 @@ float dodgson(float s, float r) {
     if (a <= 0.5) return -2.0 * r * a * a + 0.5 * (r + 1.0);
     if (a <= 1.5) return r * a * a - (2.0 * r + 0.5) * a + 0.75 * (r + 1.0);
     return 0.0;
+}
+
+// Whether pixel t of `eye` may lend its moments to a neighbour's estimate
+// (Y's 3×3 blur, X's Dodgson taps): it shows a surface (a pixel of only
+// background samples has depth 0) and holds moments of its own (count > 0:
+// not a colour borrowed from its neighbours). Without this guard the sky
+// beside a silhouette inflated σ_Y² at R < 1 and, the blurred μ1 moving
+// with it, left the bias term small: a noise-free dark pixel next to a
+// bright sky was blended about half with X's partly-sky pixel (0.1 came
+// out 0.21 beside a sky of 1; session 57, an audit's scenario; tests/stereo_blend.rs
+// `stereo_blending_leaves_no_halo_against_the_sky`). Taps on another
+// surface are still averaged in, as in the paper's R blur.
+bool moment_tap(uint eye, ivec2 t) {
+    uint i = eye * npix() + uint(t.y) * frame_size().x + uint(t.x);
+    return out_depth[i] > 0.0 && out_m1[i].w > 0.0;
 }
 
 // The cache's moments of pixel q of `eye` (Eq. 5–6).
@@ -115,7 +131,7 @@ void main() {
                 if (any(lessThan(t, ivec2(0))) || any(greaterThanEqual(t, ivec2(size)))) continue;
                 vec2 s = q - (vec2(t) + 0.5);
                 float w = dodgson(s.x, r) * dodgson(s.y, r);
-                if (w == 0.0) continue;
+                if (w == 0.0 || !moment_tap(other, t)) continue;
                 vec3 a1, a2;
                 moments_at(other, uvec2(t), a1, a2);
                 m1x += w * a1;
@@ -141,8 +157,9 @@ void main() {
             for (int i = -1; i <= 1; ++i) {
                 ivec2 t = ivec2(px) + ivec2(i, j);
                 if (any(lessThan(t, ivec2(0))) || any(greaterThanEqual(t, ivec2(size)))) continue;
-                float w = (i == 0 && j == 0) ? 1.0 : 1.0 - r;
-                if (w == 0.0) continue;
+                bool centre = i == 0 && j == 0;
+                float w = centre ? 1.0 : 1.0 - r;
+                if (w == 0.0 || (!centre && !moment_tap(eye, t))) continue;
                 vec3 a1, a2;
                 moments_at(eye, uvec2(t), a1, a2);
                 m1y += w * a1;

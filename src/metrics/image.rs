@@ -10,7 +10,8 @@
 //!   as a black pixel against the reference, never as a silent skip.
 //! - **Display-referred** metrics (PSNR, SSIM, LDR-FLIP, CPBD) use the
 //!   *display* image: each channel clamped to `[0, 1]` (exposure 1, no tone
-//!   curve), see [`LinearImage::display_luma`].
+//!   curve); SSIM its luma ([`LinearImage::display_luma`]), CPBD MATLAB's
+//!   `rgb2gray` of its 8-bit channels ([`LinearImage::display_grey_8bit`]).
 
 use super::check::{check_len, MetricsError};
 

@@ -59,7 +59,8 @@ pub mod settings {
     pub struct IsrtSettings {
         /// Cells per pixel side (2, 3 or 4): M² samples per pixel at most.
         pub m: u32,
-        /// Retrace tolerance relative to the hit distance (as the sample cache's ε0).
+        /// Retrace tolerance relative to the hit distance (orthographic eyes:
+        /// to the view's half height), as the sample cache's ε0.
         pub eps0: f32,
         pub retrace: IsrtRetrace,
         /// With [`IsrtRetrace::OnePerPixel`]: empty cells are filled until the

@@ -20,16 +20,19 @@ pub fn normal_slope(t: f32, cos_theta: f32, cs_phi: [f32; 2]) -> f32 {
 
 /// Eq. 1 for an orthographic eye, whose rays are parallel: the limit of
 /// [`normal_slope`] as `t → ∞` with `t · tan φ` held at `diag`, the pixel
-/// diagonal's length on the image plane (metres): Δn = diag · tan θ, capped
-/// at `t` as Eq. 1 is at θ = π/2 (where it gives Δn = t).
-pub fn normal_slope_parallel(t: f32, cos_theta: f32, diag: f32) -> f32 {
+/// diagonal's length on the image plane (metres): Δn = diag · tan θ, with
+/// no cap (Eq. 1's cap, Δn = t at θ = π/2, grows without bound in that
+/// limit; until session 57 it was kept at t, which for an orthographic eye
+/// is the distance from the camera's arbitrary place along its axis, so a
+/// steep surface's pixels were edges seen from near and flat from far —
+/// a review's finding). Edge-on (cos θ ≤ 0): ∞, every depth consistent.
+pub fn normal_slope_parallel(cos_theta: f32, diag: f32) -> f32 {
     let c = cos_theta.clamp(0.0, 1.0);
     let sin_theta = ((1.0 - c) * (1.0 + c)).sqrt();
-    // Compared before dividing: c may be 0 (edge-on).
-    if diag * sin_theta < t * c {
+    if c > 0.0 {
         diag * sin_theta / c
     } else {
-        t
+        f32::INFINITY
     }
 }
 
@@ -39,12 +42,13 @@ pub fn depths_consistent(t_min: f32, slope: f32, t_max: f32, eps1: f32) -> bool 
     t_max < (1.0 + eps1) * (t_min + 2.0 * slope)
 }
 
-/// Eq. 2 for an orthographic eye: `t_max < t_min + 2Δn + ε1·ymag`. Its
+/// Eq. 2 for an orthographic eye: `t_max < t_min + 2Δn + ε1·scale`. Its
 /// depths run from the camera's arbitrary place along its axis, so the
-/// tolerance scales with the view's half height `ymag`, not with them
-/// (`eye_tolerance_scale` in camera.glsl).
-pub fn depths_consistent_ortho(t_min: f32, slope: f32, t_max: f32, eps1: f32, ymag: f32) -> bool {
-    t_max < t_min + 2.0 * slope + eps1 * ymag
+/// tolerance scales with the view's half height, not with them: `scale`
+/// is `eye_tolerance_scale` of camera.glsl, ymag (max(ymag, t/1024), so
+/// that far from the scene it stays above f32's resolution of t).
+pub fn depths_consistent_ortho(t_min: f32, slope: f32, t_max: f32, eps1: f32, scale: f32) -> bool {
+    t_max < t_min + 2.0 * slope + eps1 * scale
 }
 
 /// φ of Eq. 1: the angle subtended by a pixel's diagonal, for a symmetric
@@ -274,22 +278,31 @@ mod tests {
         for deg in [0.0f64, 10.0, 45.0, 70.0, 85.0, 89.0] {
             let theta = deg.to_radians();
             let far = t * (1.0 - theta.cos() / (theta - phi).cos()).abs();
-            let s = normal_slope_parallel(1e30, theta.cos() as f32, diag) as f64;
+            let s = normal_slope_parallel(theta.cos() as f32, diag) as f64;
             // Neglected: the relative O(φ tan θ) term, and t·φ²/2 = diag·φ/2
             // (the perspective cone's own growth, non-zero head on).
             let tol = far * (2.0 * phi * theta.tan() + 1e-5) + diag as f64 * phi;
             assert!((s - far).abs() <= tol, "θ = {deg}°: {s} vs {far}");
         }
-        // Head on: 0; grazing and back-facing: capped at t.
-        assert_eq!(normal_slope_parallel(3.0, 1.0, diag), 0.0);
-        assert_eq!(normal_slope_parallel(3.0, 0.0, diag), 3.0);
-        assert_eq!(normal_slope_parallel(3.0, -0.5, diag), 3.0);
-        // Independent of the distance below the cap (parallel rays).
-        let c = 60f32.to_radians().cos();
-        assert_eq!(
-            normal_slope_parallel(1.0, c, diag),
-            normal_slope_parallel(100.0, c, diag)
-        );
+        // Head on: 0; edge-on and back-facing: unbounded, so Eq. 2 holds.
+        assert_eq!(normal_slope_parallel(1.0, diag), 0.0);
+        assert_eq!(normal_slope_parallel(0.0, diag), f32::INFINITY);
+        assert_eq!(normal_slope_parallel(-0.5, diag), f32::INFINITY);
+        assert!(depths_consistent_ortho(
+            2.0,
+            normal_slope_parallel(0.0, diag),
+            1e6,
+            0.005,
+            1.0
+        ));
+        // A steep surface (tan θ = 100) at any depth: its own spread over a
+        // 3×3 block (≈ diag · tan θ) passes Eq. 2, and 3× that does not.
+        let c = (1.0f32 / (1.0 + 100.0 * 100.0)).sqrt();
+        let s = normal_slope_parallel(c, diag);
+        for t in [2.0f32, 1000.0] {
+            assert!(depths_consistent_ortho(t, s, t + 1.5 * s, 0.005, 1.0));
+            assert!(!depths_consistent_ortho(t, s, t + 3.0 * s, 0.005, 1.0));
+        }
     }
 
     #[test]
@@ -314,11 +327,6 @@ mod tests {
         assert_eq!((b1, b2), (1, 2));
     }
 
-    /// The effective count is what the variance says: many independent
-    /// records accumulate N(0, 1) samples with α floored at appendix C's
-    /// α_min(0.2) = 0.42 (and at 0.1, §5.2's fixed α); after every step the
-    /// records' empirical variance equals 1/c within 4 standard errors
-    /// (relative standard error √(2/(records − 1)) of a variance estimate).
     #[test]
     fn empty_or_broken_counts_restart_at_one() {
         // As the shader's !(c > 0): 0, negative and NaN counts are empty records.
@@ -328,6 +336,11 @@ mod tests {
         assert_eq!(accumulated_count(5.0, 1.0), 1.0);
     }
 
+    /// The effective count is what the variance says: many independent
+    /// records accumulate N(0, 1) samples with α floored at appendix C's
+    /// α_min(0.2) = 0.42 (and at 0.1, §5.2's fixed α); after every step the
+    /// records' empirical variance equals 1/c within 4 standard errors
+    /// (relative standard error √(2/(records − 1)) of a variance estimate).
     #[test]
     fn effective_count_predicts_the_variance_of_the_average() {
         let mut state = 0x1234_5678_9abc_def0u64;

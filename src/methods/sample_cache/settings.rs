@@ -114,7 +114,8 @@ pub struct SampleCacheSettings {
     pub shading_rate: f32,
     pub reproject: Reproject,
     pub accumulation: Accumulation,
-    /// Retrace tolerance ε0, relative to the hit distance.
+    /// Retrace tolerance ε0, relative to the hit distance (orthographic
+    /// eyes: to the view's half height, camera.glsl `eye_tolerance_scale`).
     pub eps0: f32,
     /// Eq. 2's ε1.
     pub eps1: f32,
