@@ -41,30 +41,9 @@ const RHO: f32 = 0.5;
 
 /// A 1 m square in the z = 0 plane facing +Z, pure Lambert (no specular lobe).
 fn square(env: Environment) -> Scene {
-    let mut s = Scene {
-        source: "test:orthographic-square".into(),
-        ..Default::default()
-    };
     let mut m = Material::diffuse("grey", Vec3::splat(RHO));
     m.specular = 0.0;
-    let mat = add_material(&mut s, m);
-    add_mesh(
-        &mut s,
-        grid(
-            "square",
-            Vec3::new(-0.5, -0.5, 0.0),
-            Vec3::X,
-            Vec3::Y,
-            2,
-            2,
-            Vec2::ONE,
-        ),
-        mat,
-        Mat4::IDENTITY,
-    );
-    s.environment = Some(env);
-    s.validate().unwrap();
-    s
+    square_in_environment("test:orthographic-square", m, env)
 }
 
 /// The orthographic stereo camera at distance `d` in front of the square,

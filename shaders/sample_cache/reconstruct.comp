@@ -170,11 +170,14 @@ void main() {
         out_albedo[pm] = surface ? vec4(best_albedo, 1.0) : vec4(0.0);
     }
     out_color[pm] = vec4(color, c_total);
-    // w: the moments' effective count, 0 where they are not estimated (the
-    // colour borrowed from the neighbours, σ² = 0 by fiat above): the
-    // stereo blend then does not take it for a noise-free X.
+    // out_m1.w: the moments' effective count, 0 where they are not
+    // estimated (the colour borrowed from the neighbours, σ² = 0 by fiat
+    // above): the stereo blend then does not take it for a noise-free X.
+    // out_m2.w: the visible background samples the moments hold (the pixel
+    // without samples: 1, its centre ray's sky); the blend takes no
+    // neighbour's moments that mix in the sky (stereo_blend.comp).
     out_m1[pm] = vec4(m1, estimated ? c_total : 0.0);
-    out_m2[pm] = vec4(m2, estimated ? c_total : 0.0);
+    out_m2[pm] = vec4(m2, vis == 0u ? 1.0 : n_bg);
 
     if (!DEBUG_VIEWS) return;
     uvec4 st = pixel_stats[pm];

@@ -80,7 +80,7 @@ void main() {
     // random. Background samples count like any other (they are visible
     // samples). Besides the 3×3 mean the pixel's own count decides (issue
     // 12): a pixel below low = n_target − δ is refilled to low whatever its
-    // neighbourhood's mean, and the purge takes no pixel below low. A
+    // neighbourhood's mean, and the purge takes no pixel at or below low. A
     // pixel's count then never crosses low in either direction by these
     // rules, so refill and purge cannot undo each other, and every pixel
     // holds at least low samples one frame after it fell below (room =

@@ -40,18 +40,21 @@ float dodgson(float s, float r) {
 }
 
 // Whether pixel t of `eye` may lend its moments to a neighbour's estimate
-// (Y's 3×3 blur, X's Dodgson taps): it shows a surface (a pixel of only
-// background samples has depth 0) and holds moments of its own (count > 0:
-// not a colour borrowed from its neighbours). Without this guard the sky
-// beside a silhouette inflated σ_Y² at R < 1 and, the blurred μ1 moving
-// with it, left the bias term small: a noise-free dark pixel next to a
-// bright sky was blended about half with X's partly-sky pixel (0.1 came
-// out 0.21 beside a sky of 1; session 57, an audit's scenario; tests/stereo_blend.rs
-// `stereo_blending_leaves_no_halo_against_the_sky`). Taps on another
-// surface are still averaged in, as in the paper's R blur.
+// (Y's 3×3 blur, X's Dodgson taps): it shows a surface and no sky (depth
+// > 0 and no visible background sample, reconstruct.comp's out_m2.w) and
+// holds moments of its own (count > 0: not a colour borrowed from its
+// neighbours). Without this guard the sky beside a silhouette inflated
+// σ_Y² at R < 1 and, the blurred μ1 moving with it, left the bias term
+// small: a noise-free dark pixel next to a bright sky was blended about
+// half with X's partly-sky pixel (0.1 came out 0.21 beside a sky of 1;
+// session 57, an audit's scenario). A first guard that still let partly
+// covered neighbours lend their sky-laden moments left ≈ 0.23 where the
+// silhouette cut a pixel (a review's model; tests/stereo_blend.rs
+// `stereo_blending_leaves_no_halo_against_the_sky` has both cases). Taps
+// on another surface are still averaged in, as in the paper's R blur.
 bool moment_tap(uint eye, ivec2 t) {
     uint i = eye * npix() + uint(t.y) * frame_size().x + uint(t.x);
-    return out_depth[i] > 0.0 && out_m1[i].w > 0.0;
+    return out_depth[i] > 0.0 && out_m1[i].w > 0.0 && out_m2[i].w == 0.0;
 }
 
 // The cache's moments of pixel q of `eye` (Eq. 5–6).
@@ -131,7 +134,10 @@ void main() {
                 if (any(lessThan(t, ivec2(0))) || any(greaterThanEqual(t, ivec2(size)))) continue;
                 vec2 s = q - (vec2(t) + 0.5);
                 float w = dodgson(s.x, r) * dodgson(s.y, r);
-                if (w == 0.0 || !moment_tap(other, t)) continue;
+                // q's own pixel (whose colour is X's) always lends its
+                // moments, as Y's centre does; its neighbours only where
+                // `moment_tap` allows.
+                if (w == 0.0 || (t != ivec2(qi) && !moment_tap(other, t))) continue;
                 vec3 a1, a2;
                 moments_at(other, uvec2(t), a1, a2);
                 m1x += w * a1;

@@ -369,7 +369,9 @@ impl GpuContext {
     /// vkFreeCommandBuffers, vkDestroyCommandPool and
     /// vkCmdBegin/EndDebugUtilsLabelEXT (and around `submit_once`'s
     /// recording into the shared pool, which the spec requires);
-    /// vkEndCommandBuffer and vkQueueSubmit are not among them. For the
+    /// vkQueueSubmit is not among them, nor vkEndCommandBuffer by design
+    /// (it falls under the lock in `submit_once` and a recorder's drop,
+    /// not in `Recorder::finish`). For the
     /// recorders' own pools the spec asks for nothing, but the Khronos
     /// validation layer installed here (1.3.239) keeps the labels of every
     /// command buffer of an instance (each context has its own) in one map
@@ -379,7 +381,8 @@ impl GpuContext {
     /// tcache chunk detected" or a SIGSEGV inside the layer, 24 runs in 300
     /// with labels and no lock, 3 in 300 with the lifetime calls locked and
     /// the label calls not, none in 400 without labels, none in 600 with
-    /// this lock; docs/ROBUSTNESS.md §5). The calls are cheap (two labels
+    /// one such lock for the whole process, none in 300 with this one per
+    /// context; docs/ROBUSTNESS.md §5). The calls are cheap (two labels
     /// per pass): serialising them costs nothing measurable. Poisoning is
     /// ignored: the lock guards no data of ours.
     pub(crate) fn command_buffer_lock(&self) -> std::sync::MutexGuard<'_, ()> {

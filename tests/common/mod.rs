@@ -231,6 +231,33 @@ pub fn faceted_sphere_in_environment(m: Material, env: Vec3) -> Scene {
 }
 
 /// A square of side `size` in the XZ plane facing +Y, inside a constant environment.
+/// A 1 m square (2 × 2 cells) in the z = 0 plane facing +Z, centred on
+/// the origin, of material `m`, in `env`; the scene's source is `source`.
+pub fn square_in_environment(source: &str, m: Material, env: Environment) -> Scene {
+    let mut s = Scene {
+        source: source.into(),
+        ..Default::default()
+    };
+    let mat = add_material(&mut s, m);
+    add_mesh(
+        &mut s,
+        grid(
+            "square",
+            Vec3::new(-0.5, -0.5, 0.0),
+            Vec3::X,
+            Vec3::Y,
+            2,
+            2,
+            Vec2::ONE,
+        ),
+        mat,
+        Mat4::IDENTITY,
+    );
+    s.environment = Some(env);
+    s.validate().unwrap();
+    s
+}
+
 pub fn plane_in_environment(m: Material, size: f32, env: Vec3) -> Scene {
     let mut s = Scene {
         source: "test:plane".into(),

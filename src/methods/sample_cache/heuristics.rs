@@ -25,7 +25,8 @@ pub fn normal_slope(t: f32, cos_theta: f32, cs_phi: [f32; 2]) -> f32 {
 /// limit; until session 57 it was kept at t, which for an orthographic eye
 /// is the distance from the camera's arbitrary place along its axis, so a
 /// steep surface's pixels were edges seen from near and flat from far —
-/// a review's finding). Edge-on (cos θ ≤ 0): ∞, every depth consistent.
+/// a review's finding). Edge-on (cos θ ≤ 0): ∞, every finite depth
+/// consistent.
 pub fn normal_slope_parallel(cos_theta: f32, diag: f32) -> f32 {
     let c = cos_theta.clamp(0.0, 1.0);
     let sin_theta = ((1.0 - c) * (1.0 + c)).sqrt();
@@ -45,8 +46,8 @@ pub fn depths_consistent(t_min: f32, slope: f32, t_max: f32, eps1: f32) -> bool 
 /// Eq. 2 for an orthographic eye: `t_max < t_min + 2Δn + ε1·scale`. Its
 /// depths run from the camera's arbitrary place along its axis, so the
 /// tolerance scales with the view's half height, not with them: `scale`
-/// is `eye_tolerance_scale` of camera.glsl, ymag (max(ymag, t/1024), so
-/// that far from the scene it stays above f32's resolution of t).
+/// is camera.glsl's `eye_tolerance_scale`, max(ymag, t/1024) (the second
+/// term keeps it above f32's resolution of t far from the scene).
 pub fn depths_consistent_ortho(t_min: f32, slope: f32, t_max: f32, eps1: f32, scale: f32) -> bool {
     t_max < t_min + 2.0 * slope + eps1 * scale
 }
@@ -295,8 +296,8 @@ mod tests {
             0.005,
             1.0
         ));
-        // A steep surface (tan θ = 100) at any depth: its own spread over a
-        // 3×3 block (≈ diag · tan θ) passes Eq. 2, and 3× that does not.
+        // A steep surface (tan θ = 100) at any depth: a spread within a 3×3
+        // block of up to 2·diag·tan θ (1.5× here) passes Eq. 2, 3× does not.
         let c = (1.0f32 / (1.0 + 100.0 * 100.0)).sqrt();
         let s = normal_slope_parallel(c, diag);
         for t in [2.0f32, 1000.0] {
