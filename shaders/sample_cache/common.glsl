@@ -220,18 +220,13 @@ float normal_slope_parallel(float cos_theta, float diag) {
     return c > 0.0 ? diag * sin_theta / c : uintBitsToFloat(0x7F800000u);   // edge-on: ∞
 }
 
-// Eq. 2 with ε1: true when the depths are consistent with one flat surface.
-// CPU twin: heuristics.rs `depths_consistent`.
-bool depths_consistent(float t_min, float slope, float t_max, float eps1) {
-    return t_max < (1.0 + eps1) * (t_min + 2.0 * slope);
-}
-
-// Eq. 2 for an orthographic eye: the tolerance ε1 times the view's half
-// height (camera.glsl `eye_tolerance_scale`; `scale` is what that gives),
-// not times the depth.
-// CPU twin: heuristics.rs `depths_consistent_ortho`.
-bool depths_consistent_ortho(float t_min, float slope, float t_max, float eps1, float scale) {
-    return t_max < t_min + 2.0 * slope + eps1 * scale;
+// Eq. 2: true when the depths are consistent with one flat surface,
+// t_max < t_min + 2Δn + tol with tol = ε1 · eye_tolerance_scale(e, t_min +
+// 2Δn) (camera.glsl): a perspective eye's (1 + ε1)(t_min + 2Δn), an
+// orthographic eye's ε1 times its view's half height.
+// CPU twin: heuristics.rs `depths_consistent`, `tolerance_scale`.
+bool depths_consistent(float t_min, float slope, float t_max, float tol) {
+    return t_max < t_min + 2.0 * slope + tol;
 }
 
 // §3.5: importance w = (1 + c_s)^−1 into HIST_M logarithmic buckets between

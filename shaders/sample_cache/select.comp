@@ -65,10 +65,8 @@ void main() {
             // 75 418 retrace rays per frame in `bench sample-cache` on the
             // hairball.) Away from silhouettes sky pixels keep the base rate.
             bool sky_side = !has_own && vis != 0u && !isinf(t_near);
-            EyeGpu e = frame.eyes[eye];
-            edge = has_own && !(eye_is_ortho(e)
-                                    ? depths_consistent_ortho(t_min, slope, t_max, pc.eps1, eye_tolerance_scale(e, t_min))
-                                    : depths_consistent(t_min, slope, t_max, pc.eps1));
+            float tol = pc.eps1 * eye_tolerance_scale(frame.eyes[eye], t_min + 2.0 * slope);
+            edge = has_own && !depths_consistent(t_min, slope, t_max, tol);
             uint visit;
             if (edge) trace = occ;
             else if (sky_side) trace = 1u << round_robin;

@@ -75,7 +75,7 @@ impl<'a> Recorder<'a> {
         // synchronisation, so recorders on several threads share none. Its
         // creation, allocation and (in Drop) destruction still hold the
         // context's `command_buffer_lock`, for the validation layer's sake.
-        let _pools = ctx.command_buffer_lock();
+        let pools = ctx.command_buffer_lock();
         let pool_info = vk::CommandPoolCreateInfo::default()
             .queue_family_index(ctx.queue_family)
             .flags(vk::CommandPoolCreateFlags::TRANSIENT);
@@ -111,7 +111,7 @@ impl<'a> Recorder<'a> {
                 return Err(e);
             }
         };
-        drop(_pools);
+        drop(pools);
         let mut rec = Recorder {
             ctx: ctx.clone(),
             pool,
@@ -439,13 +439,13 @@ impl Drop for Recorder<'_> {
         // SAFETY: the command buffer is either finished and waited for or
         // never submitted, so nothing in flight uses these objects.
         unsafe {
-            let _pools = self.ctx.command_buffer_lock();
+            let pools = self.ctx.command_buffer_lock();
             if !self.finished {
                 let _ = self.ctx.device.end_command_buffer(self.cb);
             }
             // Frees `cb` with it.
             self.ctx.device.destroy_command_pool(self.pool, None);
-            drop(_pools);
+            drop(pools);
             for pool in &self.queries {
                 self.ctx.device.destroy_query_pool(*pool, None);
             }

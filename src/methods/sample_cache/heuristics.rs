@@ -37,19 +37,24 @@ pub fn normal_slope_parallel(cos_theta: f32, diag: f32) -> f32 {
     }
 }
 
-/// Eq. 2: `t_max < (1 + ε1)(t_min + 2Δn)` — the depths in a 3×3 neighbourhood
-/// are consistent with one locally flat surface (no retrace of every sample).
-pub fn depths_consistent(t_min: f32, slope: f32, t_max: f32, eps1: f32) -> bool {
-    t_max < (1.0 + eps1) * (t_min + 2.0 * slope)
+/// Eq. 2: `t_max < t_min + 2Δn + tol` — the depths in a 3×3 neighbourhood
+/// are consistent with one locally flat surface (no retrace of every
+/// sample). `tol` = ε1 · [`tolerance_scale`]`(t_min + 2Δn)`: for a
+/// perspective eye the paper's `(1 + ε1)(t_min + 2Δn)`.
+pub fn depths_consistent(t_min: f32, slope: f32, t_max: f32, tol: f32) -> bool {
+    t_max < t_min + 2.0 * slope + tol
 }
 
-/// Eq. 2 for an orthographic eye: `t_max < t_min + 2Δn + ε1·scale`. Its
-/// depths run from the camera's arbitrary place along its axis, so the
-/// tolerance scales with the view's half height, not with them: `scale`
-/// is camera.glsl's `eye_tolerance_scale`, max(ymag, t/1024) (the second
-/// term keeps it above f32's resolution of t far from the scene).
-pub fn depths_consistent_ortho(t_min: f32, slope: f32, t_max: f32, eps1: f32, scale: f32) -> bool {
-    t_max < t_min + 2.0 * slope + eps1 * scale
+/// What the relative tolerances ε0, ε1 multiply for a depth `t` (CPU twin
+/// of camera.glsl `eye_tolerance_scale`): `t` for a perspective eye
+/// (`ortho_ymag` None); for an orthographic one, whose depths run from the
+/// camera's arbitrary place along its axis, the view's half height ymag,
+/// or t/1024 beyond 1024·ymag (keeping it above f32's resolution of t).
+pub fn tolerance_scale(t: f32, ortho_ymag: Option<f32>) -> f32 {
+    match ortho_ymag {
+        Some(ymag) => ymag.max(t / 1024.0),
+        None => t,
+    }
 }
 
 /// φ of Eq. 1: the angle subtended by a pixel's diagonal, for a symmetric
@@ -215,11 +220,12 @@ mod tests {
         let theta = 70f32.to_radians();
         let slope = normal_slope(t, theta.cos(), CS_PHI);
         // A tilted plane's depth range across a 3×3 block stays inside the bound.
-        assert!(depths_consistent(t, slope, t + 1.5 * slope, 0.005));
+        let tol = |t_min: f32, slope: f32| 0.005 * tolerance_scale(t_min + 2.0 * slope, None);
+        assert!(depths_consistent(t, slope, t + 1.5 * slope, tol(t, slope)));
         // A depth step (an edge) does not.
-        assert!(!depths_consistent(t, slope, t * 1.2, 0.005));
+        assert!(!depths_consistent(t, slope, t * 1.2, tol(t, slope)));
         // Numerical noise at a head-on plane is absorbed by ε1.
-        assert!(depths_consistent(t, 0.0, t * (1.0 + 1e-4), 0.005));
+        assert!(depths_consistent(t, 0.0, t * (1.0 + 1e-4), tol(t, 0.0)));
     }
 
     /// The orthographic form answers the same wherever the camera sits
@@ -230,12 +236,18 @@ mod tests {
         for shift in [0.0f32, 8.0, 998.0] {
             let t = 2.0 + shift;
             // A 0.5 m step is an edge, a 1 mm wobble is not, at every shift.
-            assert!(!depths_consistent_ortho(t, slope, t + 0.5, eps1, ymag));
-            assert!(depths_consistent_ortho(t, slope, t + 0.001, eps1, ymag));
+            let tol = eps1 * tolerance_scale(t + 2.0 * slope, Some(ymag));
+            assert!(!depths_consistent(t, slope, t + 0.5, tol));
+            assert!(depths_consistent(t, slope, t + 0.001, tol));
         }
         // The perspective form, read with the orthographic depths, passes
         // the step 1 km back (the session-57 bug the form replaces).
-        assert!(depths_consistent(1000.0, 0.0, 1000.5, eps1));
+        assert!(depths_consistent(
+            1000.0,
+            0.0,
+            1000.5,
+            eps1 * tolerance_scale(1000.0, None)
+        ));
     }
 
     #[test]
@@ -289,20 +301,17 @@ mod tests {
         assert_eq!(normal_slope_parallel(1.0, diag), 0.0);
         assert_eq!(normal_slope_parallel(0.0, diag), f32::INFINITY);
         assert_eq!(normal_slope_parallel(-0.5, diag), f32::INFINITY);
-        assert!(depths_consistent_ortho(
-            2.0,
-            normal_slope_parallel(0.0, diag),
-            1e6,
-            0.005,
-            1.0
-        ));
+        let edge_on = normal_slope_parallel(0.0, diag);
+        let tol = 0.005 * tolerance_scale(2.0 + 2.0 * edge_on, Some(1.0));
+        assert!(depths_consistent(2.0, edge_on, 1e6, tol));
         // A steep surface (tan θ = 100) at any depth: a spread within a 3×3
         // block of up to 2·diag·tan θ (1.5× here) passes Eq. 2, 3× does not.
         let c = (1.0f32 / (1.0 + 100.0 * 100.0)).sqrt();
         let s = normal_slope_parallel(c, diag);
         for t in [2.0f32, 1000.0] {
-            assert!(depths_consistent_ortho(t, s, t + 1.5 * s, 0.005, 1.0));
-            assert!(!depths_consistent_ortho(t, s, t + 3.0 * s, 0.005, 1.0));
+            let tol = 0.005 * tolerance_scale(t + 2.0 * s, Some(1.0));
+            assert!(depths_consistent(t, s, t + 1.5 * s, tol));
+            assert!(!depths_consistent(t, s, t + 3.0 * s, tol));
         }
     }
 
