@@ -633,6 +633,7 @@ pub fn compare_configs(
             &labels,
             &kept[k],
             &cam,
+            references.get(f).map(|r| &r.frame),
             opts.exposure,
             opts.zoom.max(1),
         )?;
@@ -738,48 +739,54 @@ pub fn check_flip_ppd(ppd: f32) -> Result<()> {
     }
 }
 
-/// |left reprojected into the right view − right| on co-visible pixels
-/// (same instance, depth within 1 %), 0 elsewhere: where the
-/// two eyes disagree about the same surface point.
-pub fn stereo_difference(f: &StereoFrame, cam: &StereoCamera) -> Vec<[f32; 4]> {
-    use crate::metrics::{reproject, LinearImage};
+/// |left reprojected into the right view − right| per pixel — the term
+/// `stereo_mean` averages ([`crate::metrics::pixel_difference`]) — on the
+/// pixels of the stereo metric's mask, 0 elsewhere. The mask comes from
+/// `geometry`'s pixel-centre depth and first hits (same instance, depth
+/// within [`crate::evaluate::DEPTH_TOLERANCE`]): `compare` passes the
+/// frame's reference, as the metric uses it (issue 15: every method on one
+/// mask), and the method's own frame only where it renders no reference.
+/// Until session 58 the picture always used the method's own depth and
+/// ids, so it showed other pixels than `stereo_mean` scored (and nothing
+/// at all for a method that reports no depth).
+pub fn stereo_difference(
+    f: &StereoFrame,
+    cam: &StereoCamera,
+    geometry: &StereoFrame,
+) -> Vec<[f32; 4]> {
+    use crate::metrics::{pixel_difference, Covisibility, Geometry, LinearImage};
     let (w, h) = (f.width as usize, f.height as usize);
     let views = cam.eyes();
-    let (l, r) = (&f.eyes[0], &f.eyes[1]);
-    let (Ok(li), Ok(ri)) = (
-        LinearImage::from_rgba(&l.radiance, w, h),
-        LinearImage::from_rgba(&r.radiance, w, h),
-    ) else {
-        return vec![[0.0; 4]; w * h];
+    let eye = |e: usize| Geometry {
+        depth: &geometry.eyes[e].depth,
+        view: &views[e],
+        first_hits: Some(&geometry.eyes[e].first_hit),
     };
-    match reproject(
-        &li,
-        &l.depth,
-        &views[0],
-        &r.depth,
-        &views[1],
-        0.01,
-        Some((&l.first_hit, &r.first_hit)),
-    ) {
-        Ok((warped, cov)) => (0..w * h)
-            .map(|i| {
-                if !cov[i] {
-                    return [0.0; 4];
-                }
-                let d = (0..3)
-                    .map(|c| (warped.rgb[i][c] - ri.rgb[i][c]).abs())
-                    .sum::<f32>()
-                    / 3.0;
-                [d, d, d, 1.0]
-            })
-            .collect(),
-        Err(_) => vec![[0.0; 4]; w * h],
-    }
+    let difference = || -> Option<Vec<[f32; 4]>> {
+        let left = LinearImage::from_rgba(&f.eyes[0].radiance, w, h).ok()?;
+        let right = LinearImage::from_rgba(&f.eyes[1].radiance, w, h).ok()?;
+        let cov = Covisibility::new(eye(0), eye(1), w, h, crate::evaluate::DEPTH_TOLERANCE).ok()?;
+        let warped = cov.warp(&left).ok()?;
+        Some(
+            (0..w * h)
+                .map(|i| match cov.is_covisible(i) {
+                    true => {
+                        let d = pixel_difference(warped.rgb[i], right.rgb[i]);
+                        [d, d, d, 1.0]
+                    }
+                    false => [0.0; 4],
+                })
+                .collect(),
+        )
+    };
+    difference().unwrap_or_else(|| vec![[0.0; 4]; w * h])
 }
 
 /// One column per method: a label, left eye, right eye, zoomed centre crops,
-/// the stereo difference (through the preview's tone curve at exposure 4:
-/// `to_srgb8`, not a linear ×4), and the methods' debug views where they
+/// the stereo difference on the stereo metric's mask (`reference`'s
+/// geometry where there is one: [`stereo_difference`]; through the
+/// preview's tone curve at exposure 4: `to_srgb8`, not a linear ×4), and
+/// the methods' debug views where they
 /// have them (clamped and sRGB-encoded as `replay --debug-views` writes
 /// them: `to_srgb8_clamped`).
 fn write_grid(
@@ -787,6 +794,7 @@ fn write_grid(
     names: &[String],
     frames: &[StereoFrame],
     cam: &StereoCamera,
+    reference: Option<&StereoFrame>,
     exposure: f32,
     zoom: u32,
 ) -> Result<()> {
@@ -839,7 +847,7 @@ fn write_grid(
                 Some(crop),
             );
         }
-        let diff = tonemap::to_srgb8(&stereo_difference(f, cam), 4.0);
+        let diff = tonemap::to_srgb8(&stereo_difference(f, cam, reference.unwrap_or(f)), 4.0);
         blit(&mut img, gw, &diff, w, h, x0, row_y(4), None);
         for (k, dn) in debug_names.iter().enumerate() {
             if let Some((_, view)) = f.eyes[0].debug.iter().find(|(n, _)| n == dn) {
@@ -1147,6 +1155,93 @@ pub fn ratio_table(cmp: &Comparison) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The side-by-side's stereo row shows what `stereo_mean` scores: on
+    /// the reference's mask, the metric's per-pixel term. A fronto-parallel
+    /// textured plane at 1 m (the metrics' 64 × 64 rig: 4 px of disparity),
+    /// its right eye wrong by 0.5 at one pixel, rendered by a method that
+    /// reports no depth (as a method may, or one whose depth is wrong): the
+    /// row holds 0.5 at that pixel, 0 at the other co-visible ones, and its
+    /// mean over the mask is `stereo_discrepancy_masked`'s; from the
+    /// method's own geometry (until session 58) the row was black.
+    #[test]
+    fn the_stereo_row_shows_the_metrics_pixels() {
+        use crate::metrics::reproject::tests::{rig, texture};
+        use crate::metrics::{stereo_discrepancy_masked, Covisibility, Geometry, LinearImage};
+        let cam = rig();
+        let n = 64 * 64;
+        let image = |shift: usize| -> Vec<[f32; 4]> {
+            (0..n)
+                .map(|k| {
+                    let t = texture(k % 64 + shift, k / 64);
+                    [t[0], t[1], t[2], 1.0]
+                })
+                .collect()
+        };
+        let (bad_i, bad_j) = (20usize, 30usize);
+        let mut right = image(4);
+        for c in 0..3 {
+            right[bad_j * 64 + bad_i][c] += 0.5;
+        }
+        let eye = |radiance: Vec<[f32; 4]>, depth: f32| crate::methods::EyeImage {
+            radiance,
+            depth: vec![depth; n],
+            first_hit: vec![[0, 0, 0, 0]; n],
+            ..Default::default()
+        };
+        let frame = |l, r, depth| StereoFrame {
+            width: 64,
+            height: 64,
+            eyes: [eye(l, depth), eye(r, depth)],
+            stats: Default::default(),
+        };
+        let method = frame(image(0), right, 0.0);
+        let reference = frame(image(0), image(4), 1.0);
+        let row = stereo_difference(&method, &cam, &reference);
+        let views = cam.eyes();
+        let geometry = |e: usize| Geometry {
+            depth: &reference.eyes[e].depth,
+            view: &views[e],
+            first_hits: Some(&reference.eyes[e].first_hit),
+        };
+        let cov = Covisibility::new(
+            geometry(0),
+            geometry(1),
+            64,
+            64,
+            crate::evaluate::DEPTH_TOLERANCE,
+        )
+        .unwrap();
+        assert_eq!(
+            cov.fraction(),
+            60.0 / 64.0,
+            "all but the 4 columns only the right eye sees"
+        );
+        for (k, p) in row.iter().enumerate() {
+            let want = if k == bad_j * 64 + bad_i { 0.5 } else { 0.0 };
+            assert!(
+                (p[0] - want).abs() < 1e-5 && p[3] == if cov.is_covisible(k) { 1.0 } else { 0.0 },
+                "pixel ({}, {}): {p:?}, want {want}",
+                k % 64,
+                k / 64
+            );
+        }
+        let img = |e: usize| LinearImage::from_rgba(&method.eyes[e].radiance, 64, 64).unwrap();
+        let metric = stereo_discrepancy_masked(&img(0), &img(1), &cov).unwrap();
+        let shown =
+            row.iter().map(|p| p[0] as f64).sum::<f64>() / (cov.fraction() as f64 * n as f64);
+        assert!(
+            (shown - metric.mean as f64).abs() < 1e-6,
+            "row {shown}, stereo_mean {}",
+            metric.mean
+        );
+        assert!(
+            stereo_difference(&method, &cam, &method)
+                .iter()
+                .all(|p| p[0] == 0.0),
+            "the method's own (empty) depth masks every pixel"
+        );
+    }
 
     /// The suggested reference spp is always a value `--reference-spp`
     /// accepts (even, 2..=MAX_SPP), also where the best method's RSE is 0

@@ -307,7 +307,7 @@ pub fn page(d: &ReportData) -> Result<String> {
     section(&mut h, "error-vs-time", mark);
     mark = h.len();
     if !d.grids.is_empty() {
-        h.push_str("<h2>Side by side</h2>\n<p class=\"note\">Columns: methods. Rows: left eye, right eye, centre crops of each (nearest-neighbour zoom), the stereo difference (|left reprojected into the right view − right| on co-visible pixels, tone-mapped at exposure 4), then each method's debug views of the left eye where it has them.</p>\n");
+        h.push_str("<h2>Side by side</h2>\n<p class=\"note\">Columns: methods. Rows: left eye, right eye, centre crops of each (nearest-neighbour zoom), the stereo difference (|left reprojected into the right view − right|, the per-pixel term of <code>stereo_mean</code>, on the pixels its mask scores: those the reference's pixel-centre geometry shows co-visible, or the method's own where there is no reference; tone-mapped at exposure 4), then each method's debug views of the left eye where it has them.</p>\n");
         for (name, bytes) in &d.grids {
             let b64 = base64::engine::general_purpose::STANDARD.encode(bytes);
             // PNG width from the IHDR chunk; small grids are shown enlarged (pixelated).
