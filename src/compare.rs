@@ -1180,8 +1180,8 @@ mod tests {
         };
         let (bad_i, bad_j) = (20usize, 30usize);
         let mut right = image(4);
-        for c in 0..3 {
-            right[bad_j * 64 + bad_i][c] += 0.5;
+        for c in &mut right[bad_j * 64 + bad_i][..3] {
+            *c += 0.5;
         }
         let eye = |radiance: Vec<[f32; 4]>, depth: f32| crate::methods::EyeImage {
             radiance,
