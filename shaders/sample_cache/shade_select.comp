@@ -1,7 +1,8 @@
 #version 460
 // variant: SUBGROUP_OPS
-// §3.3/§3.5: choose the samples to shade and compact them into shade_list.
-// Uniform: one visible sample per pixel, round robin. Adaptive: one sample per
+// §3.5: adaptive shading's choice of the samples to shade, compacted into
+// shade_list (uniform shading needs no choice: shade.comp shades each
+// pixel's round-robin sample itself). One sample per
 // 4×4 block as the base rate, plus samples by importance w = (1 + c_s)^−1:
 // walking the histogram from the most important bucket down until the
 // requested rate is reached; buckets above the threshold are all shaded, the
@@ -82,12 +83,6 @@ void select_pixel(uvec2 px, uint eye) {
     uint pixel = px.y * size.x + px.x;
     uint pm = eye * npix() + pixel;
     uint frame_index = frame.size_seed.w;
-    if (SHADING_MODE == 0u) {
-        uint vis = surface_slots(eye, pixel, vis_bits(mask_cur[pm]));
-        uint n = bitCount(vis);
-        if (n > 0u) push_shade(eye, nth_set_bit(vis, frame_index % n), pixel);
-        return;
-    }
     uint vis, round_robin;
     bool base, unshaded;
     uvec2 buckets = uvec2(0u);
@@ -188,7 +183,7 @@ void main() {
     uvec2 px = gl_GlobalInvocationID.xy;
     uint eye = gl_GlobalInvocationID.z;
     bool inside = all(lessThan(px, frame_size()));
-    if (SELECT_PHASE == 1u || SHADING_MODE == 0u) {   // (specialization constants: uniform)
+    if (SELECT_PHASE == 1u) {   // (a specialization constant: uniform)
         if (inside) select_pixel(px, eye);
         return;
     }

@@ -10,7 +10,7 @@
 //! Passes per frame (both eyes in one dispatch each, `z` = eye):
 //! `begin` → `clear` → `clear.depth` → `reproject` (→ `reproject.copy` for
 //! two-pass) → `select` → `trace.args` → `trace.retrace` → `trace` →
-//! (`shade.count` for adaptive shading →) `shade.select` → `shade.args` →
+//! (adaptive shading: `shade.count` → `shade.select` → `shade.args` →)
 //! `shade` → `reconstruct` (→ `stereo.blend` with stereo blending);
 //! docs/ARCHITECTURE.md lists them with what each does.
 //! Every pass binds the 27 buffers of src/interface/sample_cache.rs (one
@@ -97,7 +97,9 @@ pub struct CacheSnapshot {
     /// Per eye: pixels with a visible surface sample (adaptive shading's
     /// budget is the rate times these: what uniform shading shades).
     pub covered_pixels: [u32; 2],
-    /// Length of this frame's shade list.
+    /// Length of this frame's shade list (adaptive shading; uniform
+    /// shading has none: its `shade` pass picks each pixel's sample, and
+    /// `pixel_stats` says which pixels it shaded).
     pub shade_count: u32,
     pub shade_list: Vec<u32>,
 }
@@ -194,11 +196,21 @@ struct ShadingPipelines {
 
 /// The passes that shade samples (§3.3, §3.5).
 struct ShadePipelines {
-    /// shade_select.comp phase 0 (adaptive shading only): the importance histogram.
-    count: Option<ComputePipeline>,
-    select: ComputePipeline,
-    args: ComputePipeline,
+    /// Adaptive shading's choice of samples (§3.5); `None` for uniform
+    /// shading, whose `shade` pass takes each pixel's round-robin sample
+    /// itself (one invocation per pixel, no list).
+    adaptive: Option<AdaptiveSelect>,
     shade: ComputePipeline,
+}
+
+/// Adaptive shading's passes before `shade` (shade_select.comp, indirect_args.comp).
+struct AdaptiveSelect {
+    /// Phase 0: the importance histogram of this frame's candidates.
+    count: ComputePipeline,
+    /// Phase 1: the threshold and the shade list.
+    select: ComputePipeline,
+    /// The shade list's indirect dispatch.
+    args: ComputePipeline,
 }
 
 /// The current frame's cache buffers (see [`SampleCache::current_buffers`]).
@@ -395,15 +407,17 @@ impl SampleCache {
                         None
                     } else {
                         Some(ShadePipelines {
-                            count: if cache.shading == Shading::Adaptive {
+                            adaptive: if cache.shading == Shading::Adaptive {
                                 let mut s = spec.clone();
                                 s.set(spec_id::SELECT_PHASE, 0);
-                                Some(pipe_with("shade_select", "shade_count", &s)?)
+                                Some(AdaptiveSelect {
+                                    count: pipe_with("shade_select", "shade_count", &s)?,
+                                    select: pipe("shade_select")?,
+                                    args: args_pipe(1, "shade_args")?,
+                                })
                             } else {
                                 None
                             },
-                            select: pipe("shade_select")?,
-                            args: args_pipe(1, "shade_args")?,
                             shade: pipe("shade")?,
                         })
                     },
@@ -761,17 +775,31 @@ impl Method for SampleCache {
         let prev = 1 - this.record_begun_visibility(rec, input)?;
         let groups = [w.div_ceil(LOCAL), h.div_ceil(LOCAL), 2];
         if let Some(shade) = &sp.shade {
-            if let Some(count) = &shade.count {
-                this.pass(rec, "shade.count", count, prev)
-                    .dispatch(groups)?;
+            match &shade.adaptive {
+                Some(a) => {
+                    this.pass(rec, "shade.count", &a.count, prev)
+                        .dispatch(groups)?;
+                    this.pass(rec, "shade.select", &a.select, prev)
+                        .dispatch(groups)?;
+                    // shade.comp runs over the list's length (indirect dispatch).
+                    this.pass(rec, "shade.args", &a.args, prev)
+                        .dispatch([1, 1, 1])?;
+                    this.pass(rec, "shade", &shade.shade, prev)
+                        .dispatch_indirect(&this.indirect, 16)?;
+                }
+                // Uniform: one invocation per pixel (64 per group, x the
+                // pixel, y the eye; groups capped at 65535, the smallest
+                // maxComputeWorkGroupCount[0], the shader striding over the
+                // rest), each shading its pixel's round-robin sample
+                // (shade.comp).
+                None => {
+                    this.pass(rec, "shade", &shade.shade, prev).dispatch([
+                        (w * h).div_ceil(64).min(65535),
+                        2,
+                        1,
+                    ])?;
+                }
             }
-            this.pass(rec, "shade.select", &shade.select, prev)
-                .dispatch(groups)?;
-            // shade.comp runs over the list's length (indirect dispatch).
-            this.pass(rec, "shade.args", &shade.args, prev)
-                .dispatch([1, 1, 1])?;
-            this.pass(rec, "shade", &shade.shade, prev)
-                .dispatch_indirect(&this.indirect, 16)?;
         }
         this.pass(rec, "reconstruct", &sp.reconstruct, prev)
             .dispatch(groups)?;
