@@ -3,8 +3,8 @@
 // grid of (W·M) × (H·M) cells, M × M per pixel; a sample's sub-pixel position
 // fixes its cell. Per cell: the 128-bit first hit (Listing 1; w = NO_HIT marks
 // an empty cell, or with z = BACKGROUND_TAG a background sample: a sample
-// whose ray missed the scene, stored as its direction, first_hit.glsl) and a radiance record (demodulated
-// rgb accumulated as the sample cache's, common/accumulation.glsl, and its
+// whose ray missed the scene, stored as its direction, first_hit.glsl) and a radiance record (the radiance,
+// not demodulated, accumulated as the sample cache's, common/accumulation.glsl, and its
 // effective count). Everything is double-buffered (previous / current frame).
 // Descriptor set 1 below; src/methods/isrt/ owns the buffers and the passes.
 #extension GL_EXT_shader_atomic_int64 : require

@@ -1,9 +1,9 @@
 #version 460
 // Reconstruction: the pixel's surface samples (visible = occupied, since
 // a sample found behind a closer hit is replaced by it) stand for their share
-// n_surf / (n_surf + n_bg) of the pixel with the mean remodulated radiance
-// (demodulation factor × demodulated radiance + emission,
-// common/demodulation.glsl) of those already shaded, its background samples
+// n_surf / (n_surf + n_bg) of the pixel with the mean radiance of those
+// already shaded (records hold it as shaded, not demodulated: shade.comp),
+// its background samples
 // (first_hit.glsl) for theirs with the environment in their directions, so
 // a partly covered pixel shows its coverage while some of its surface
 // samples are not shaded yet (as the sample cache's reconstruct.comp; until
@@ -31,7 +31,7 @@ void main() {
     float shaded = 0.0, samples = 0.0;
     float best_t = 3.4e38;
     uvec4 best_fh = uvec4(0u, 0u, 0u, NO_HIT);
-    vec3 best_albedo = vec3(0.0), best_p = vec3(0.0);
+    vec3 best_p = vec3(0.0);
     vec3 bg_sum = vec3(0.0);
     float n_bg = 0.0;
     for (uint k = 0u; k < M * M; ++k) {
@@ -48,12 +48,10 @@ void main() {
         vec3 wp = hit_position(fh), o, d;
         float t;
         eye_ray_to(e, wp, o, d, t);
-        Surface surf = surface_at(fh.w, fh.z, first_hit_bary(fh), d);
-        ShadingMaterial mat = material_at(surf, d, eye_cone(e, t).x);
-        if (t < best_t) { best_t = t; best_fh = fh; best_albedo = mat.base; best_p = wp; }
+        if (t < best_t) { best_t = t; best_fh = fh; best_p = wp; }
         vec4 rec = rad_cur[idx];
         if (rec.w > 0.0) {
-            sum += remodulate(rec.rgb, mat);   // × demodulation factor + emission
+            sum += rec.rgb;
             shaded += 1.0;
         }
     }
@@ -74,6 +72,11 @@ void main() {
         out_color[pm] = vec4((samples * surf_mean + bg_sum) / (samples + n_bg), samples);
         out_depth[pm] = view_depth(e, best_p);
         out_fh[pm] = best_fh;
-        out_albedo[pm] = vec4(best_albedo, 1.0);
+        // The closest sample's base colour: its material, evaluated once.
+        vec3 o, d;
+        float t;
+        eye_ray_to(e, best_p, o, d, t);
+        Surface surf = surface_at(best_fh.w, best_fh.z, first_hit_bary(best_fh), d);
+        out_albedo[pm] = vec4(material_at(surf, d, eye_cone(e, t).x).base, 1.0);
     }
 }

@@ -2,10 +2,12 @@
 // Shading: one sample per pixel and frame, round robin over the pixel's
 // occupied cells (frame index mod count, like the sample cache's uniform
 // shading). One path through the stored first hit with the shared
-// integrator, demodulated (emission kept apart, divided by the first hit's
-// demodulation factor: common/demodulation.glsl) and accumulated as the
-// sample cache accumulates (`--accumulation`: the running mean by default;
-// common/accumulation.glsl), so both baselines of Fig. 10 average alike.
+// integrator, accumulated as the sample cache accumulates (`--accumulation`:
+// the running mean by default; common/accumulation.glsl), so both baselines
+// of Fig. 10 average alike; the record holds the radiance itself, not
+// demodulated, as the sample cache's since session 58 (its shade.comp says
+// why that is the same colour; reconstruct.comp evaluates no material per
+// sample).
 #include "isrt/common.glsl"
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 
@@ -41,11 +43,10 @@ void main() {
     ShadingMaterial m;
     vec3 L = path_radiance_first(o, d, true, h, eye_cone(e, t), rng, rays, m);
     if (drop_non_finite(L)) atomicAdd(counters[C_ISRT_NONFINITE_SAMPLES], 1u);   // (integrator.glsl)
-    vec3 demod = demodulate(L, m);   // emission kept apart (common/demodulation.glsl)
     // The sample cache's accumulation (common/accumulation.glsl): until
     // session 50 always appendix C's α_min floor wherever the BSDF has a
     // specular lobe, whatever `--accumulation` said.
-    rad_cur[idx] = accumulate_record(rad_cur[idx], demod, accumulation_floor(pc.accum_mode, pc.fixed_alpha, m));
+    rad_cur[idx] = accumulate_record(rad_cur[idx], L, accumulation_floor(pc.accum_mode, pc.fixed_alpha, m));
     atomicAdd(counters[C_ISRT_SHADED], 1u);
     atomicAdd(counters[C_ISRT_BOUNCE_RAYS], rays.bounce);
     atomicAdd(counters[C_ISRT_SHADOW_RAYS], rays.shadow);

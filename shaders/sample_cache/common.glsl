@@ -1,8 +1,9 @@
 // The screen-space sample cache (Philippi, Jensen & Frisvad, EGSR 2025):
 // per eye, N slots per pixel held as N layers; a 32-bit mask per pixel with
 // occupancy bits o_s (0..N−1) and visibility bits v_s (N..2N−1). Per slot:
-// the 128-bit first hit (Listing 1) and a radiance record (demodulated
-// running mean rgb, effective sample count c_s). Descriptor set 1 below:
+// the 128-bit first hit (Listing 1) and a radiance record (running mean of
+// the sample's radiance, not demodulated (shade.comp says why), effective
+// sample count c_s) with the sample's distance from the eye (slot_depth). Descriptor set 1 below:
 // bindings, push constants, counter slots and specialization-constant ids
 // from src/interface/sample_cache.rs (the generated interface/sample_cache.glsl);
 // src/methods/sample_cache/ owns the buffers and the pass order.
@@ -58,6 +59,12 @@ layout(set = SET_SAMPLE_CACHE, binding = B_SAMPLE_CACHE_OUT_ALBEDO, std430) buff
 layout(set = SET_SAMPLE_CACHE, binding = B_SAMPLE_CACHE_COUNTERS, std430) buffer Counters { uint counters[]; };
 layout(set = SET_SAMPLE_CACHE, binding = B_SAMPLE_CACHE_PIXEL_ACTION, std430) buffer PixelAction { uvec4 pixel_action[]; }; // select.comp → trace.comp: trace bits, add count, purge slot + 1, flags; then (adaptive shading) shade_select.comp phase 0 → 1: packed buckets (xy), shadeable visible bits, round robin | flags
 layout(set = SET_SAMPLE_CACHE, binding = B_SAMPLE_CACHE_PIXEL_STATS, std430) buffer PixelStats { uvec4 pixel_stats[]; };   // traced bits, shaded count, fresh, unused
+// [eye][slot][pixel]: the sample's distance t from this frame's eye
+// (eye_ray_to), written where the sample is placed — reprojection (both
+// variants) and new samples (trace.comp) — and read by reconstruct.comp, so
+// that finding a pixel's closest visible sample fetches no vertices. Part of
+// the shading payload: written and read only with SHADING_STORAGE.
+layout(set = SET_SAMPLE_CACHE, binding = B_SAMPLE_CACHE_SLOT_DEPTH, std430) buffer SlotDepth { float slot_depth[]; };
 // Retracing (§3.4) as a compacted list: select.comp appends the slots to
 // retrace (eye << 31 | slot << 26 | pixel), retrace.comp traces them with
 // every lane busy and records per pixel in retrace_found, which trace.comp
@@ -247,7 +254,8 @@ void importance_bounds(uint eye, out float w_min, out float w_max) {
 
 float importance(float c) { return 1.0 / (1.0 + c); }
 
-// --- Demodulation (§3.3): common/demodulation.glsl -------------------------
+// --- Demodulation (§3.3): common/demodulation.glsl (the unshaded fallback of
+// reconstruct.comp; records hold radiance as shaded) ------------------------
 
 // --- Accumulation (appendix C, §5.2, Eq. 5): common/accumulation.glsl -------
 

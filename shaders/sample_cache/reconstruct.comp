@@ -1,15 +1,20 @@
 #version 460
 // §3.3 reconstruction: the pixel colour is the mean over its visible,
-// already shaded samples of their remodulated radiance (common.glsl
-// `remodulate`: demodulation factor × demodulated radiance + emission) and its visible
+// already shaded samples of their radiance and its visible
 // background samples (first_hit.glsl) of the environment in their
 // directions, each kind weighted by its share of the pixel's visible samples,
 // so a partly covered pixel shows its coverage; a pixel without visible
-// samples shows the environment. A pixel whose visible surface samples are
+// samples shows the environment. A record holds its sample's radiance as
+// shaded, not demodulated (shade.comp): the paper's demodulation factor
+// of a sample is its fixed surface point's, so factor × demodulated mean +
+// emission is the mean of the radiance itself, and this pass evaluates no
+// material per sample (until session 58 it evaluated each visible sample's
+// surface and material to remodulate). A pixel whose visible surface samples are
 // all still unshaded (adaptive shading when the frame's rate cannot cover
 // every such pixel: frame 0 or a disocclusion at a rate below one path per
-// pixel) falls back to its neighbours' demodulated radiance
-// (`unshaded_fallback`) instead of black. Also writes the raw moments of
+// pixel) falls back to its neighbours' demodulated radiance, remodulated
+// with its own samples' materials (`unshaded_fallback`), instead of black.
+// Also writes the raw moments of
 // Eq. 5–6 for stereo blending, the depth / first hit / albedo of the closest
 // visible sample, and the debug views.
 #include "sample_cache/common.glsl"
@@ -19,10 +24,21 @@ layout(set = SET_SAMPLE_CACHE, binding = B_SAMPLE_CACHE_DEBUG, std430) buffer De
 // stores that nothing reads otherwise).
 layout(constant_id = SPEC_SAMPLE_CACHE_DEBUG_VIEWS) const bool DEBUG_VIEWS = false;
 
+// The material of surface sample `fh` (at world position wp) seen by eye e.
+ShadingMaterial sample_material(EyeGpu e, uvec4 fh, vec3 wp) {
+    vec3 o, d;
+    float t;
+    eye_ray_to(e, wp, o, d, t);
+    Surface surf = surface_at(fh.w, fh.z, first_hit_bary(fh), d);
+    return material_at(surf, d, eye_cone(e, t).x);
+}
+
 // Issue 12 item 3 (adaptive shading): the mean demodulated radiance of the
 // shaded visible samples nearest to `px` — the ring of Chebyshev radius r =
 // 1, 2, ... up to 4 that first holds any, each weighted by its effective
-// count — or false when none lies within 4 pixels. shade_select.comp shades
+// count; each record's radiance divided by its own sample's demodulation
+// factor after its emission is taken off (common/demodulation.glsl) — or
+// false when none lies within 4 pixels. shade_select.comp shades
 // one sample of every 4×4 block (the base rate) and gives unshaded pixels
 // priority within the rate, so a covered block has a shaded sample within
 // radius 3 (its base pixel) unless the block's base pixel sees background.
@@ -31,6 +47,7 @@ layout(constant_id = SPEC_SAMPLE_CACHE_DEBUG_VIEWS) const bool DEBUG_VIEWS = fal
 bool unshaded_fallback(uint eye, ivec2 px, ivec2 size, out vec3 demod) {
     demod = vec3(0.0);
     if (!SHADING_STORAGE) return false;   // --payload none: no radiance records
+    EyeGpu e = frame.eyes[eye];
     for (int r = 1; r <= 4; ++r) {
         vec3 sum = vec3(0.0);
         float wsum = 0.0;
@@ -44,8 +61,13 @@ bool unshaded_fallback(uint eye, ivec2 px, ivec2 size, out vec3 demod) {
                 while (bits != 0u) {
                     uint s = uint(findLSB(bits));
                     bits &= bits - 1u;
-                    vec4 rec = rad_cur[slot_index(eye, s, qp)];
-                    if (rec.w > 0.0) { sum += rec.w * rec.rgb; wsum += rec.w; }
+                    uint idx = slot_index(eye, s, qp);
+                    vec4 rec = rad_cur[idx];
+                    if (rec.w > 0.0) {
+                        uvec4 fh = fh_cur[idx];
+                        sum += rec.w * demodulate(rec.rgb, sample_material(e, fh, hit_position(fh)));
+                        wsum += rec.w;
+                    }
                 }
             }
         }
@@ -71,10 +93,8 @@ void main() {
 
     vec3 sum = vec3(0.0), m1 = vec3(0.0), m2 = vec3(0.0);
     float shaded = 0.0, c_total = 0.0;
-    vec3 factor_sum = vec3(0.0), emission_sum = vec3(0.0);   // for the unshaded fallback (issue 12 item 3)
     float best_t = 3.4e38;
     uvec4 best_fh = uvec4(0u, 0u, 0u, NO_HIT);
-    vec3 best_albedo = vec3(0.0), best_p = vec3(0.0);
     // Background samples: sum and sum of squares of their radiance, count.
     vec3 bg_sum = vec3(0.0), bg_sum2 = vec3(0.0);
     float n_bg = 0.0;
@@ -93,18 +113,20 @@ void main() {
             n_bg += 1.0;
             continue;
         }
-        vec3 wp = hit_position(fh), o, d;
+        // Its distance from the eye as placed (slot_depth); without the
+        // shading payload from its position.
         float t;
-        eye_ray_to(e, wp, o, d, t);
-        Surface surf = surface_at(fh.w, fh.z, first_hit_bary(fh), d);
-        ShadingMaterial mat = material_at(surf, d, eye_cone(e, t).x);
+        if (SHADING_STORAGE) {
+            t = slot_depth[idx];
+        } else {
+            vec3 o, d;
+            eye_ray_to(e, hit_position(fh), o, d, t);
+        }
         // (--payload none: no radiance record; every sample counts as unshaded.)
         vec4 rec = SHADING_STORAGE ? rad_cur[idx] : vec4(0.0);
-        if (t < best_t) { best_t = t; best_fh = fh; best_albedo = mat.base; best_p = wp; }
-        factor_sum += demodulation_factor(mat);
-        emission_sum += mat.emissive;
+        if (t < best_t) { best_t = t; best_fh = fh; }
         if (rec.w > 0.0) {
-            vec3 L = remodulate(rec.rgb, mat);   // issue 12 item 7: emission kept
+            vec3 L = rec.rgb;   // the sample's radiance, emission included (issue 12 item 7)
             sum += L;
             shaded += 1.0;
             m1 += rec.w * L;          // Eq. 5, weighted by effective sample counts (Eq. 6)
@@ -153,6 +175,17 @@ void main() {
             // of remodulate(neighbours' radiance, own material) over the own
             // visible surface samples; without a shaded neighbour either,
             // their own emission remains.
+            vec3 factor_sum = vec3(0.0), emission_sum = vec3(0.0);
+            uint own = vis;
+            while (own != 0u) {
+                uint s = uint(findLSB(own));
+                own &= own - 1u;
+                uvec4 fh = fh_cur[slot_index(eye, s, pixel)];
+                if (first_hit_is_background(fh)) continue;
+                ShadingMaterial mat = sample_material(e, fh, hit_position(fh));
+                factor_sum += demodulation_factor(mat);
+                emission_sum += mat.emissive;
+            }
             vec3 demod;
             unshaded_fallback(eye, ivec2(px), ivec2(size), demod);
             surf_mean = (factor_sum * demod + emission_sum) / n_surf;
@@ -165,9 +198,10 @@ void main() {
         m2 = estimated ? m2 / c_total : color * color;
         // Depth, first hit and albedo of the closest visible surface sample;
         // background only: as for a pixel without samples.
+        vec3 best_p = surface ? hit_position(best_fh) : vec3(0.0);
         out_depth[pm] = surface ? view_depth(e, best_p) : 0.0;
         out_fh[pm] = best_fh;
-        out_albedo[pm] = surface ? vec4(best_albedo, 1.0) : vec4(0.0);
+        out_albedo[pm] = surface ? vec4(sample_material(e, best_fh, best_p).base, 1.0) : vec4(0.0);
     }
     out_color[pm] = vec4(color, c_total);
     // out_m1.w: the moments' effective count, 0 where they are not

@@ -51,6 +51,8 @@ void main() {
         vec3 offset = vec3(0.0);   // a surface sample's, from e's position
         vec2 q;
         bool on_screen;
+        vec3 d;          // a surface sample's eye ray and distance from
+        float t = 0.0;   // the new eye (below: Eq. 1, slot_depth)
         if (bg) {
             on_screen = background_target(e, frame.prev_eyes[eye], vec2(px) + background_subpixel(fh), background_direction(fh), q);
         } else {
@@ -112,6 +114,10 @@ void main() {
             fh_cur[dst] = bg ? background_at(fh, q - vec2(qi)) : fh;
             if (SHADING_STORAGE) rad_cur[dst] = rad_prev[src];
         }
+        vec3 o;
+        if (!bg) eye_ray_to(e, wp, o, d, t);
+        // Its distance for reconstruct.comp (two-pass: reproject_copy.comp).
+        if (SHADING_STORAGE && !TWO_PASS) slot_depth[dst] = bg ? uintBitsToFloat(0x7F800000u) : t;
         reprojected++;
         if (vis) {
             reprojected_visible++;
@@ -125,9 +131,6 @@ void main() {
                 reprojected_bg++;
                 if (depth_max[tm] != 0x7F800000u) atomicMax(depth_max[tm], 0x7F800000u);
             } else {
-                vec3 o, d;
-                float t;
-                eye_ray_to(e, wp, o, d, t);
                 float cos_theta = abs(dot(ng, d));
                 float slope = ortho ? normal_slope_parallel(cos_theta, diag) : normal_slope(t, cos_theta, cs_phi);
                 atomicMin(depth_min[tm], (uint64_t(floatBitsToUint(t)) << 32) | uint64_t(floatBitsToUint(slope)));

@@ -36,7 +36,13 @@ void main() {
             fh = background_at(fh, q - vec2(px));
         }
         fh_cur[dst] = fh;
-        if (SHADING_STORAGE) rad_cur[dst] = rad_prev[src];
+        if (SHADING_STORAGE) {
+            rad_cur[dst] = rad_prev[src];
+            vec3 o, d;
+            float t = uintBitsToFloat(0x7F800000u);   // a background sample: ∞
+            if (!first_hit_is_background(fh)) eye_ray_to(frame.eyes[eye], hit_position(fh), o, d, t);
+            slot_depth[dst] = t;
+        }
         m |= (1u << s) | ((key >> 31) << (s + N_SLOTS));
     }
     mask_cur[pm] = m;

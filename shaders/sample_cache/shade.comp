@@ -1,8 +1,7 @@
 #version 460
 // variant: SUBGROUP_OPS
 // Shades samples: one path per sample from the eye through its stored first
-// hit (the integrator every method shares), demodulated (common.glsl
-// `demodulate`: emission kept apart) and accumulated as an exponential
+// hit (the integrator every method shares), accumulated as an exponential
 // average whose effective count c_s the record carries
 // (common/accumulation.glsl `accumulate_record`). The blend factor is the running mean's
 // 1/(c_s + 1) (ACCUM_MODE 0, the default: §4–5's radiance cache), floored
@@ -12,6 +11,18 @@
 // `--accumulation alpha-min`). Flooring rather than replacing keeps the start exact: the first
 // shading of a sample (c_s = 0) takes its path as is, and the average only
 // becomes exponential once 1/(c_s + 1) falls below the floor.
+//
+// The record holds the radiance itself, not demodulated. The paper stores
+// it demodulated and multiplies the albedo back in reconstruction ("the
+// radiance can be stored demodulated", §3.3); a sample is one fixed surface
+// point, whose demodulation factor and emission do not change, so factor ×
+// the mean of (L − emission) / factor + emission is the mean of L: the
+// same colour (up to the texture filter's level of detail, taken at
+// shading time), without a surface and material evaluation per visible
+// sample and frame in reconstruct.comp (until session 58; 0.1 of a 1 spp
+// frame on llvmpipe, docs/PERFORMANCE.md "Session 58"). Where a pixel
+// borrows its neighbours' radiance (reconstruct.comp `unshaded_fallback`)
+// it demodulates their records by their own materials there.
 //
 // Which samples (§3.3, §3.5):
 // - uniform shading (SHADING_MODE 0, the paper's default: "one sample for
@@ -59,8 +70,7 @@ bool shade_sample(uint eye, uint slot, uint pixel, inout RayCounts rays) {
     ShadingMaterial m;
     vec3 L = path_radiance_first(o, d, true, h, eye_cone(e, t), rng, rays, m);
     bool dropped = drop_non_finite(L);
-    vec3 demod = demodulate(L, m);
-    rad_cur[idx] = accumulate_record(rad_cur[idx], demod, accumulation_floor(ACCUM_MODE, pc.fixed_alpha, m));
+    rad_cur[idx] = accumulate_record(rad_cur[idx], L, accumulation_floor(ACCUM_MODE, pc.fixed_alpha, m));
     atomicAdd(pixel_stats[eye * npix() + pixel].y, 1u);
     return dropped;
 }

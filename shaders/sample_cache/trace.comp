@@ -26,7 +26,15 @@ bool new_sample(EyeGpu e, uvec2 px, uint eye, uint pixel, uint slot, inout Rng r
     // stored direction (what reconstruct.comp would evaluate every frame:
     // the sky and the lights' discs are fixed for a run, gpu_scene.rs), with
     // count 0, so no pass takes it for a shaded surface sample.
-    if (SHADING_STORAGE) rad_cur[idx] = hit ? vec4(0.0) : vec4(background_radiance(background_direction(fh)), 0.0);
+    if (SHADING_STORAGE) {
+        rad_cur[idx] = hit ? vec4(0.0) : vec4(background_radiance(background_direction(fh)), 0.0);
+        // Its distance as reprojection and reconstruction compute it (from
+        // the stored point, not the ray's t: the same float operations).
+        vec3 so, sd;
+        float t = uintBitsToFloat(0x7F800000u);
+        if (hit) eye_ray_to(e, hit_position(fh), so, sd, t);
+        slot_depth[idx] = t;
+    }
     m |= o_bit | v_bit;
     return hit;
 }

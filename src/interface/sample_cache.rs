@@ -1,5 +1,5 @@
 //! Interface of shaders/sample_cache/ (src/methods/sample_cache/): every
-//! pass of the sample cache declares the same 27 buffers of set 1 (one list
+//! pass of the sample cache declares the same 28 buffers of set 1 (one list
 //! for the whole group, see `SampleCache::pass`); each pass binds and tracks
 //! only the ones its shader uses (src/gpu/reflect.rs).
 //! `_prev` / `_cur`: the previous frame's cache (read) and this frame's
@@ -120,6 +120,7 @@ pub const INTERFACE: Interface = Interface {
         write("retrace_list"),
         write("retrace_found"),
         write("indirect_args"),
+        write("slot_depth"),
     ],
     push: &[PUSH],
     counters: &[SampleCacheCounter::TABLE],

@@ -13,7 +13,7 @@
 //! (adaptive shading: `shade.count` → `shade.select` → `shade.args` →)
 //! `shade` → `reconstruct` (→ `stereo.blend` with stereo blending);
 //! docs/ARCHITECTURE.md lists them with what each does.
-//! Every pass binds the 27 buffers of src/interface/sample_cache.rs (one
+//! Every pass binds the 28 buffers of src/interface/sample_cache.rs (one
 //! binding list for the group, declared in order by [`SampleCache::pass`]);
 //! the shared frame loop reads the outputs and counters back.
 //!
@@ -252,6 +252,10 @@ pub struct SampleCache {
     retrace_found: Buffer,
     /// Dispatch arguments of the retrace (bytes 0..12) and shade (16..28) passes.
     indirect: Buffer,
+    /// `[eye][slot][pixel]` f32: each sample's distance from this frame's
+    /// eye (written where the sample is placed, read by reconstruction);
+    /// part of the shading payload (a placeholder without it).
+    slot_depth: Buffer,
     /// The `.subgroup` shader builds are in use.
     subgroup: bool,
     debug: Buffer,
@@ -324,6 +328,7 @@ impl SampleCache {
         let first_hits = [b("first_hit0", e2 * n * 16)?, b("first_hit1", e2 * n * 16)?];
         let rb = |name: &str| b(name, if storage { e2 * n * 16 } else { 16 });
         let radiance = [rb("radiance0")?, rb("radiance1")?];
+        let slot_depth = b("slot_depth", if storage { e2 * n * 4 } else { 16 })?;
         let depth_min = b("depth_min", e2 * 8)?;
         let depth_max = b("depth_max", e2 * 4)?;
         let hist = b("histogram", 2 * HIST_M * 4)?;
@@ -480,6 +485,7 @@ impl SampleCache {
             retrace_list,
             retrace_found,
             indirect,
+            slot_depth,
             debug,
             out_blended,
             subgroup,
@@ -599,6 +605,7 @@ impl SampleCache {
             .write(&self.retrace_list)
             .write(&self.retrace_found)
             .write(&self.indirect)
+            .write(&self.slot_depth)
             .push(&self.push)
     }
 
@@ -865,6 +872,7 @@ impl Method for SampleCache {
             &self.retrace_list,
             &self.retrace_found,
             &self.indirect,
+            &self.slot_depth,
             &self.debug,
             &self.out_blended,
         ] {
