@@ -1,7 +1,8 @@
 //! The sample cache's shading (issue 12 items 3–7): adaptive shading holds
 //! its rate and leaves no visible pixel black, the two-pass reprojection
 //! resolves a visible/invisible race for the visible sample, stereo blending
-//! does not blur the colour, and demodulation keeps emission.
+//! does not blur the colour, emission survives the cache, and the
+//! adaptive-shading fallback demodulates what it borrows.
 
 mod common;
 use common::*;
@@ -327,11 +328,12 @@ fn stereo_blending_does_not_blur_the_colour() {
     assert_no_validation_messages(&ctx);
 }
 
-/// Demodulation keeps emission (issue 12 item 7): an emitter with a black
+/// Emission survives the cache (issue 12 item 7): an emitter with a black
 /// base colour (and no specular layer, so it reflects nothing) fills the
 /// view; its radiance is its emission, exactly, through `reference` and
-/// through `sample-cache` (which used to divide it by max(base, 10⁻³) and
-/// multiply it back by the black base: 0).
+/// through `sample-cache` (which once divided it by max(base, 10⁻³) and
+/// multiplied it back by the black base: 0; since session 58 records hold
+/// radiance as shaded, and this pins that the emission stays in them).
 #[test]
 fn black_base_emitter_renders_its_emission_through_the_cache() {
     let ctx = context();
@@ -503,6 +505,116 @@ fn accumulation_modes_floor_the_blend_factor_as_the_cpu_twin() {
             close(max, want),
             "isrt {mode:?}: largest count {max}, twin {want} after 4 shadings"
         );
+    }
+    assert_no_validation_messages(&ctx);
+}
+
+/// The adaptive-shading fallback (issue 12 item 3) with known answers, now
+/// that records hold radiance as shaded (session 58). Two Lambertian
+/// halves of a 1 m square, white (x < 0) and grey 0.5 (x > 0), no specular
+/// layer (demodulation factor = base colour), seen head-on by orthographic
+/// eyes 40 px over 2 m (20 px per metre, both eyes alike: ipd 0): columns
+/// 10..20 white, 20..30 grey, rows 10..30. After two still frames the
+/// cache is loaded with every grey sample shaded at radiance 0.25 (c = 1)
+/// and every white one unshaded, and one more still frame is rendered
+/// without shading (`--shading skip`: only the loaded records). Then
+/// - a grey pixel shows its records' radiance, 0.25 (until session 58 a
+///   record was demodulated radiance, remodulated to 0.125 here);
+/// - a white pixel within 4 columns of the grey half borrows its nearest
+///   shaded neighbours' radiance demodulated by their own material and
+///   remodulated by its own: 0.25 / 0.5 × 1 = 0.5 (without the
+///   demodulation by the neighbours' material: 0.25);
+/// - a white pixel farther away finds no shaded sample within 4 pixels and
+///   shows its own emission, 0.
+#[test]
+fn the_unshaded_fallback_borrows_demodulated_radiance() {
+    use glam::{Mat4, Quat, Vec2};
+    use stereocache::camera::{Eye, HeadPose, Projection, StereoCamera};
+    use stereocache::scene::generate::{add_material, add_mesh, grid};
+    use stereocache::scene::{Environment, Scene};
+    let ctx = context();
+    let mut scene = Scene {
+        source: "test:two-halves".into(),
+        ..Default::default()
+    };
+    for (name, base, x0) in [("white", 1.0f32, -0.5f32), ("grey", 0.5, 0.0)] {
+        let mut m = Material::diffuse(name, Vec3::splat(base));
+        m.specular = 0.0;
+        let mat = add_material(&mut scene, m);
+        let quad = grid(
+            name,
+            Vec3::new(x0, -0.5, 0.0),
+            0.5 * Vec3::X,
+            Vec3::Y,
+            1,
+            1,
+            Vec2::ONE,
+        );
+        add_mesh(&mut scene, quad, mat, Mat4::IDENTITY);
+    }
+    scene.environment = Some(Environment::Constant(Vec3::ONE));
+    scene.validate().unwrap();
+    let s = session(&ctx, scene, RtChoice::Software);
+    let w = 40u32;
+    let mut cam = StereoCamera::new(
+        HeadPose::new(Vec3::new(0.0, 0.0, 2.0), Quat::IDENTITY),
+        1.0,
+        1.0,
+    );
+    cam.ipd = 0.0;
+    cam.projection = Projection::Orthographic { ymag: 1.0 };
+    let st = settings(
+        w,
+        w,
+        SampleCacheSettings {
+            shading: Shading::Skip,
+            ..Default::default()
+        },
+    );
+    let mut m = cache_method(&s, &st);
+    for f in 0..2 {
+        render_at(&mut m, f, cam, Some(cam));
+    }
+    // Instance 1 is the grey half (meshes are instanced in order).
+    let mut snap = m.snapshot().unwrap();
+    let mut grey_samples = 0;
+    for e in 0..2 {
+        for p in 0..snap.npix() {
+            let mut bits = snap.surface(e, p, snap.visible(snap.mask(e, p)));
+            while bits != 0 {
+                let sl = bits.trailing_zeros();
+                bits &= bits - 1;
+                let i = snap.slot(e, sl, p);
+                let grey = snap.first_hits[i][3] == 1;
+                grey_samples += grey as usize;
+                snap.radiance[i] = if grey {
+                    [0.25, 0.25, 0.25, 1.0]
+                } else {
+                    [0.0; 4]
+                };
+            }
+        }
+    }
+    assert!(grey_samples > 2 * 200, "{grey_samples} grey samples");
+    m.load(&snap).unwrap();
+    let fr = render_at(&mut m, 2, cam, Some(cam));
+    for (e, eye) in [Eye::Left, Eye::Right].into_iter().enumerate() {
+        for j in 10..30u32 {
+            for i in 10..30u32 {
+                let want = match i {
+                    20.. => 0.25,
+                    16..=19 => 0.5,
+                    _ => 0.0,
+                };
+                let p = fr.eye(eye).radiance[(j * w + i) as usize];
+                for c in &p[..3] {
+                    assert!(
+                        (c - want).abs() <= 1e-5,
+                        "eye {e}, pixel ({i}, {j}): {p:?}, want {want}"
+                    );
+                }
+            }
+        }
     }
     assert_no_validation_messages(&ctx);
 }

@@ -38,8 +38,8 @@ float accumulated_count(float c, float alpha) {
     return min(1.0 / (k * k / c + alpha * alpha), C_MAX);
 }
 
-// A record (demodulated rgb, effective count c) after one more shading
-// `demod`: the running mean's blend factor 1/(c + 1), floored at
+// A record (rgb: radiance, or demodulated radiance in the hash cache's
+// tables; effective count c) after one more shading `demod`: the running mean's blend factor 1/(c + 1), floored at
 // `alpha_floor` (appendix C's alpha_floor_of, `--accumulation fixed:A`'s A,
 // or 0); the count follows the factor (accumulated_count) once floored.
 // CPU twin: heuristics.rs `accumulate`.

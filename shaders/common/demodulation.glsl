@@ -1,11 +1,15 @@
 #ifndef DEMODULATION_GLSL
 #define DEMODULATION_GLSL
-// Demodulation of a cached first hit's radiance (the sample cache's and
-// isrt's radiance records; the hash cache and hybrid do the same in
-// hash_table/update.comp, hash_cache/resolve.comp and hybrid/resolve.comp,
-// which until session 43 multiplied back by the unfloored base colour, so a
-// black-base dielectric's reflection vanished there).
-// A radiance record holds L_s with the first hit's emission removed and the
+// Demodulation of a cached first hit's radiance: the hash cache's and
+// hybrid's records (hash_table/update.comp, hash_cache/resolve.comp and
+// hybrid/resolve.comp, which until session 43 multiplied back by the
+// unfloored base colour, so a black-base dielectric's reflection vanished
+// there), and the sample cache's adaptive-shading fallback, where a pixel
+// borrows its neighbours' radiance (sample_cache/reconstruct.comp). The
+// sample cache's and isrt's own records hold radiance as shaded since
+// session 58 (sample_cache/shade.comp: for one surface point the two are
+// the same colour).
+// A demodulated record holds L_s with the first hit's emission removed and the
 // rest divided by the material's demodulation factor (floored at 1e-3
 // against division by zero); reconstruction multiplies by the same factor
 // and adds the emission back, so a black-base emitter comes back exactly

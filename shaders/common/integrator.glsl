@@ -309,9 +309,10 @@ vec3 nee_area_lights(Surface s, NeeVertex v, uint pick_emitter, vec3 u_emitter, 
 // spread angle: camera.glsl eye_cone; 0 for a miss): the width is used for
 // texture filtering at the first hit; later hits use mip 0 plus growth.
 // `first` is the material evaluated at the first hit (undefined for a
-// miss): the caching passes demodulate with it instead of evaluating it
-// again (an evaluation per shaded sample, and with memoization a second
-// lookup of the same texel). Every path evaluates it: the first hit cannot
+// miss): the caching passes use it (the hash cache's demodulation, the
+// accumulation floor of appendix C) instead of evaluating it again (an
+// evaluation per shaded sample, and with memoization a second lookup of
+// the same texel). Every path evaluates it: the first hit cannot
 // be a false interface (the path starts in vacuum, an empty media stack:
 // media.glsl media_false_interface).
 vec3 path_radiance_first(vec3 o, vec3 d, bool hit, RtHit h, vec2 eye_cone, inout Rng rng, inout RayCounts rays,

@@ -43,7 +43,8 @@ layout(set = SET_SAMPLE_CACHE, binding = B_SAMPLE_CACHE_RAD_CUR, std430) buffer 
 layout(set = SET_SAMPLE_CACHE, binding = B_SAMPLE_CACHE_DEPTH_MIN, std430) buffer DepthMin { uint64_t depth_min[]; };  // t_min bits << 32 | Δn bits
 layout(set = SET_SAMPLE_CACHE, binding = B_SAMPLE_CACHE_DEPTH_MAX, std430) buffer DepthMax { uint depth_max[]; };      // t_max bits
 layout(set = SET_SAMPLE_CACHE, binding = B_SAMPLE_CACHE_HIST, std430) buffer Hist { uint hist[]; };               // [eye][HIST_M]
-// state: [0..2) w_min prev, [2..4) w_max prev, [4..6) w_min next, [6..8) w_max next, [8] shade-list length,
+// state: [0..2) w_min prev, [2..4) w_max prev, [4..6) w_min next, [6..8) w_max next, [8] shade-list length
+// (adaptive shading; 0 under uniform shading, which has no list),
 // [9] retrace-list length (surface samples), [10..12) unshaded pixels, [12..14) base-rate pixels
 // (shade_select.comp phase 0), [14] retrace-list length (background samples), [15] unused,
 // [16..18) pixels with a visible surface sample (shade_select.comp phase 0: adaptive shading's budget)

@@ -63,8 +63,11 @@ bool unshaded_fallback(uint eye, ivec2 px, ivec2 size, out vec3 demod) {
                     bits &= bits - 1u;
                     uint idx = slot_index(eye, s, qp);
                     vec4 rec = rad_cur[idx];
-                    if (rec.w > 0.0) {
-                        uvec4 fh = fh_cur[idx];
+                    uvec4 fh = fh_cur[idx];
+                    // (A surface sample's record: the one-pass race can leave
+                    // a shaded record under a background first hit, whose
+                    // material does not exist.)
+                    if (rec.w > 0.0 && first_hit_valid(fh)) {
                         sum += rec.w * demodulate(rec.rgb, sample_material(e, fh, hit_position(fh)));
                         wsum += rec.w;
                     }
@@ -115,10 +118,12 @@ void main() {
         }
         // Its distance from the eye as placed (slot_depth); without the
         // shading payload from its position.
-        float t;
-        if (SHADING_STORAGE) {
-            t = slot_depth[idx];
-        } else {
+        // (∞ under a surface first hit: one-pass reprojection's documented
+        // race let two reservations write the slot, a background sample's
+        // distance landing beside a surface sample's first hit; recomputed
+        // so the pixel keeps its closest surface sample.)
+        float t = SHADING_STORAGE ? slot_depth[idx] : uintBitsToFloat(0x7F800000u);
+        if (isinf(t)) {
             vec3 o, d;
             eye_ray_to(e, hit_position(fh), o, d, t);
         }

@@ -115,7 +115,7 @@ void main() {
             if (SHADING_STORAGE) rad_cur[dst] = rad_prev[src];
         }
         vec3 o;
-        if (!bg) eye_ray_to(e, wp, o, d, t);
+        if (!bg && (vis || (SHADING_STORAGE && !TWO_PASS))) eye_ray_to(e, wp, o, d, t);
         // Its distance for reconstruct.comp (two-pass: reproject_copy.comp).
         if (SHADING_STORAGE && !TWO_PASS) slot_depth[dst] = bg ? uintBitsToFloat(0x7F800000u) : t;
         reprojected++;

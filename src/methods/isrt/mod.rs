@@ -14,7 +14,7 @@
 //! direction, `sample_cache::background`; `--isrt-retrace one`, the paper's
 //! Fig. 10 configuration: one sample per pixel retraced, empty cells filled
 //! up to `--isrt-n-target`, shaders/isrt/trace_pixel.comp) → `shade` (one
-//! sample per pixel, round robin; demodulated, accumulated as the sample
+//! sample per pixel, round robin; the radiance accumulated as the sample
 //! cache's records, `--accumulation`) → `reconstruct` (coverage: the
 //! shaded surface samples' mean for the surface samples' share of the
 //! pixel, the environment for the background samples').

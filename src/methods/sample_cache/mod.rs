@@ -5,7 +5,8 @@
 //!
 //! Memory per pixel per eye: 4 B mask + N × (16 B first hit + 16 B radiance),
 //! twice (previous and current frame), i.e. 64 B per pixel per layer plus 8 B
-//! of masks; plus 12 B of depth bounds and the per-pixel outputs.
+//! of masks; plus N × 4 B of slot depths (one copy, with the shading
+//! payload), 12 B of depth bounds and the per-pixel outputs.
 //!
 //! Passes per frame (both eyes in one dispatch each, `z` = eye):
 //! `begin` → `clear` → `clear.depth` → `reproject` (→ `reproject.copy` for
@@ -333,7 +334,10 @@ impl SampleCache {
         let depth_max = b("depth_max", e2 * 4)?;
         let hist = b("histogram", 2 * HIST_M * 4)?;
         let state = b("state", STATE_WORDS as u64 * 4)?;
-        let shade_list = sb("shade_list", (e2 * n + e2) * 4)?;
+        // The shade list: adaptive shading's only (uniform shading picks
+        // each pixel's sample in the shade pass).
+        let adaptive = shading && cache.shading == Shading::Adaptive;
+        let shade_list = b("shade_list", if adaptive { (e2 * n + e2) * 4 } else { 16 })?;
         let target_src = b("target_src", if two_pass { e2 * n * 4 } else { 16 })?;
         let out_color = sb("color", e2 * 16)?;
         let out_m1 = sb("moment1", e2 * 16)?;
@@ -561,7 +565,7 @@ impl SampleCache {
     }
 
     /// A compute pass of this group running `pipe`, with the scene's set
-    /// and all 27 buffers of src/interface/sample_cache.rs declared in
+    /// and all 28 buffers of src/interface/sample_cache.rs declared in
     /// binding order — `prev` (0/1) the ping-pong half read as the previous
     /// frame's cache, `1 − prev` the one written — and the push constants.
     /// The group has one binding list, so every pass declares every buffer;

@@ -29,8 +29,10 @@ pub enum Shading {
 }
 
 /// `--payload`: what a cache entry holds besides its 128-bit first hit
-/// (Listing 1). `radiance`: the 128-bit radiance record (demodulated mean,
-/// effective count), 256 bits per entry, what shading accumulates into.
+/// (Listing 1). `radiance`: the 128-bit radiance record (mean radiance,
+/// effective count), 256 bits per entry, what shading accumulates into,
+/// and the 32-bit slot depth (reconstruction's closest sample, one copy
+/// beside the double-buffered entries).
 /// `none`: the first hit alone, the paper's "no-shade" rows of Fig. 6 /
 /// Table 1 (reprojection without a shading payload); nothing can be shaded
 /// into it, so it needs `--shading skip`.
