@@ -594,18 +594,11 @@ fn adaptive_shading_rate(s: &Session, subgroup_ops: bool) {
             c_shaded += snap.radiance[snap.slot(e, sl, p)][3] as f64;
             n_shaded += 1.0;
         }
+        // Visible surface samples (background ones are not shaded).
         let (mut c_all, mut n_all) = (0.0, 0.0);
-        for e in 0..2 {
-            for p in 0..snap.npix() {
-                // Visible surface samples (background ones are not shaded).
-                let mut bits = snap.surface(e, p, snap.visible(snap.mask(e, p)));
-                while bits != 0 {
-                    let sl = bits.trailing_zeros();
-                    bits &= bits - 1;
-                    c_all += snap.radiance[snap.slot(e, sl, p)][3] as f64;
-                    n_all += 1.0;
-                }
-            }
+        for i in snap.visible_surface_records() {
+            c_all += snap.radiance[i][3] as f64;
+            n_all += 1.0;
         }
         // Counts are read after shading (each shaded sample gained one).
         assert!(

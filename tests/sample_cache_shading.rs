@@ -578,22 +578,14 @@ fn the_unshaded_fallback_borrows_demodulated_radiance() {
     // Instance 1 is the grey half (meshes are instanced in order).
     let mut snap = m.snapshot().unwrap();
     let mut grey_samples = 0;
-    for e in 0..2 {
-        for p in 0..snap.npix() {
-            let mut bits = snap.surface(e, p, snap.visible(snap.mask(e, p)));
-            while bits != 0 {
-                let sl = bits.trailing_zeros();
-                bits &= bits - 1;
-                let i = snap.slot(e, sl, p);
-                let grey = snap.first_hits[i][3] == 1;
-                grey_samples += grey as usize;
-                snap.radiance[i] = if grey {
-                    [0.25, 0.25, 0.25, 1.0]
-                } else {
-                    [0.0; 4]
-                };
-            }
-        }
+    for i in snap.visible_surface_records() {
+        let grey = snap.first_hits[i][3] == 1;
+        grey_samples += grey as usize;
+        snap.radiance[i] = if grey {
+            [0.25, 0.25, 0.25, 1.0]
+        } else {
+            [0.0; 4]
+        };
     }
     assert!(grey_samples > 2 * 200, "{grey_samples} grey samples");
     m.load(&snap).unwrap();

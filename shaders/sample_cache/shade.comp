@@ -19,8 +19,9 @@
 // the mean of (L − emission) / factor + emission is the mean of L: the
 // same colour (up to the texture filter's level of detail, taken at
 // shading time), without a surface and material evaluation per visible
-// sample and frame in reconstruct.comp (until session 58; 0.1 of a 1 spp
-// frame on llvmpipe, docs/PERFORMANCE.md "Session 58"). Where a pixel
+// sample and frame in reconstruct.comp (until session 58; the Cornell
+// frame 1.61 → 1.53 times the 1 spp frame's on llvmpipe, docs/PERFORMANCE.md
+// "Session 58"). Where a pixel
 // borrows its neighbours' radiance (reconstruct.comp `unshaded_fallback`)
 // it demodulates their records by their own materials there.
 //
@@ -30,11 +31,10 @@
 //   pixel, y the eye) shades the pixel's visible surface sample number
 //   frame mod n (`uniform_shading_slot`). Until session 58 a selection pass
 //   (shade_select.comp) wrote those samples into a compacted list first and
-//   this pass ran over the list: the same samples, but a pass more, and
-//   each SIMD batch of the list pass mixed entries from two places of the
-//   image (a subgroup's block of entries starts anywhere in the list); on
-//   llvmpipe the per-pixel dispatch took 0.06 of a 1 spp frame off the
-//   Cornell frame (docs/PERFORMANCE.md, session 58).
+//   this pass ran over the list: the same samples (the images are
+//   bit-identical), but a pass more, and a dearer shade pass; on llvmpipe
+//   the Cornell frame went from 1.72 to 1.61 times the 1 spp frame's
+//   (docs/PERFORMANCE.md "Session 58").
 // - adaptive shading (SHADING_MODE 1): the compacted list shade_select.comp
 //   fills, over its length (indirect dispatch).
 #include "sample_cache/common.glsl"

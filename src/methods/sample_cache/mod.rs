@@ -163,6 +163,22 @@ impl CacheSnapshot {
     /// Pixels of `eye` with a visible surface sample: what uniform shading
     /// shades, and what adaptive shading's rate is a fraction of (the CPU
     /// count of shade_select.comp's `covered_pixels`).
+    /// The record index ([`Self::slot`]) of every visible surface sample,
+    /// both eyes, in eye, pixel and slot order.
+    pub fn visible_surface_records(&self) -> Vec<usize> {
+        let mut out = Vec::new();
+        for e in 0..2 {
+            for p in 0..self.npix() {
+                let mut bits = self.surface(e, p, self.visible(self.mask(e, p)));
+                while bits != 0 {
+                    out.push(self.slot(e, bits.trailing_zeros(), p));
+                    bits &= bits - 1;
+                }
+            }
+        }
+        out
+    }
+
     pub fn covered(&self, eye: usize) -> usize {
         (0..self.npix())
             .filter(|&p| self.surface(eye, p, self.visible(self.mask(eye, p))) != 0)
