@@ -36,5 +36,4 @@ vec3 demodulation_factor(ShadingMaterial m) {
     return max(mix(dielectric, m.base, m.metallic), vec3(1e-3));
 }
 vec3 demodulate(vec3 L, ShadingMaterial m) { return (L - m.emissive) / demodulation_factor(m); }
-vec3 remodulate(vec3 demod, ShadingMaterial m) { return demodulation_factor(m) * demod + m.emissive; }
 #endif

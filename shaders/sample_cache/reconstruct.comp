@@ -177,7 +177,7 @@ void main() {
             surf_mean = sum / shaded;
         } else if (n_surf > 0.0) {
             // Issue 12 item 3: no visible surface sample shaded yet. The mean
-            // of remodulate(neighbours' radiance, own material) over the own
+            // of (own factor × neighbours' demodulated radiance + own emission) over the own
             // visible surface samples; without a shaded neighbour either,
             // their own emission remains.
             vec3 factor_sum = vec3(0.0), emission_sum = vec3(0.0);
