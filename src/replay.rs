@@ -302,6 +302,8 @@ impl FrameRecord {
             ("memo_refused", c.refused),
             ("memo_bypassed", c.bypassed),
             ("memo_cooperative_fills", c.cooperative_fills),
+            ("memo_window_full", c.window_full),
+            ("memo_other_eye_hits", c.other_eye_hits),
         ] {
             self.counters.insert(k.to_string(), v as f64);
         }

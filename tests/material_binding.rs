@@ -3002,6 +3002,78 @@ fn small_tables_evict_by_either_clock_without_changing_the_image() {
     assert_no_validation_messages(&ctx);
 }
 
+/// The reuse between the eyes (`other_eye_hits`: hits on a record the
+/// other eye filled in this frame, tagged in the record). Both eyes at one
+/// point (IPD 0) see nearly the same tiles (4×4 texels, primary hits only;
+/// their jitter differs), so each tile is filled by one eye and read by the
+/// other: whichever eye fills a tile, the other's later lookups of it are
+/// the other eye's hits. Those are at most the non-filling eye's lookups,
+/// about half of all lookups whatever order the device runs the eyes in
+/// (≤ 0.5 + the 1 % by which the eyes' lookup counts may differ), and at
+/// least the hits that are not on the own eye's fills: here well above a
+/// third. A tag without the eye counts the filler's own later lookups too
+/// (≈ the frame's hit rate, 0.86); one never matching counts 0. In the
+/// next frame, same view, the tiles were filled in frame 0, so hardly any
+/// hit is on this frame's fills: under 1 % of the lookups (a tag without
+/// the frame gives about half again).
+#[test]
+fn other_eye_hits_count_the_other_eyes_fills_of_this_frame() {
+    use stereocache::materials::memo::{MemoHits, MemoSettings};
+    let ctx = context();
+    let mut s =
+        stereocache::scene::load_scene("procedural-uv:cornell").expect("procedural-uv:cornell");
+    s.graphs.memo = MemoSettings {
+        hits: MemoHits::Primary,
+        tile: 4,
+        entries: MemoSettings::default_entries(4),
+        ..Default::default()
+    };
+    let rt = RtChoice::Software;
+    let session = session(&ctx, s, rt);
+    let settings = RenderSettings {
+        width: 40,
+        height: 30,
+        spp: 1,
+        max_bounces: 1,
+        seed: 1,
+        all_features: false,
+        ..Default::default()
+    };
+    let mut camera = default_camera(&session, 40, 30);
+    camera.ipd = 0.0;
+    let table = session.scene_gpu.memo.as_ref().expect("a memo table");
+    let mut m = session.method("reference", &settings).expect("reference");
+    let mut prev = None;
+    for frame in 0..2u32 {
+        table.begin_frame(frame).unwrap();
+        render_at(m.as_mut(), frame, camera, prev);
+        prev = Some(camera);
+        let c = table.counters().unwrap();
+        let lookups = c.hits + c.misses;
+        let share = c.other_eye_share().unwrap_or(0.0);
+        eprintln!("frame {frame}: {c:?}, other-eye share {share:.4}");
+        assert!(lookups > 1000, "frame {frame}: {c:?}");
+        let second = c.second_eye_hits + c.second_eye_misses;
+        assert!(
+            second.abs_diff(lookups / 2) * 100 <= lookups,
+            "frame {frame}: the eyes look up alike: {second} of {lookups}"
+        );
+        if frame == 0 {
+            assert!(
+                c.fills > 0 && (0.35..=0.51).contains(&share),
+                "frame 0: other-eye share {share} (hit rate {:?})",
+                c.hit_rate()
+            );
+        } else {
+            assert!(
+                c.hits * 10 > lookups * 9 && c.other_eye_hits * 100 < lookups,
+                "frame 1: {c:?}"
+            );
+        }
+    }
+    assert_no_validation_messages(&ctx);
+}
+
 /// Emission seen by light sampling goes through the table like emission a
 /// BSDF-sampled ray hits, so both MIS strategies estimate the same light.
 /// A white floor under a 1 m emissive square 0.5 m above it (black

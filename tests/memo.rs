@@ -305,10 +305,10 @@ fn c(s: &Stress, which: StressCounter) -> u32 {
 
 /// With the protocol: zero torn reads and zero torn or locked entries, for
 /// every eviction policy, while the kernel really contends (hits, evictions
-/// and refused reads all happen).
+/// and refused reads all happen; without eviction, full windows instead).
 #[test]
 fn lock_and_validate_never_tears() {
-    for policy in 0..3u32 {
+    for policy in 0..4u32 {
         let s = stress(true, policy, 64);
         eprintln!("policy {policy}: {:?} live {}", s.counters, s.live);
         assert_eq!(
@@ -326,10 +326,25 @@ fn lock_and_validate_never_tears() {
             4096 * 64,
             "every lookup counted"
         );
-        assert!(
-            c(&s, StressCounter::Hits) > 0 && c(&s, StressCounter::Evicted) > 0,
-            "policy {policy}: no contention"
-        );
+        if policy == 3 {
+            // No eviction: the table fills once and then keeps its keys.
+            assert!(
+                c(&s, StressCounter::Hits) > 0
+                    && c(&s, StressCounter::WindowFull) > 0
+                    && c(&s, StressCounter::Evicted) == 0,
+                "no eviction: {:?}",
+                s.counters
+            );
+            assert!(
+                c(&s, StressCounter::Filled) <= 64,
+                "no eviction: more fills than entries"
+            );
+        } else {
+            assert!(
+                c(&s, StressCounter::Hits) > 0 && c(&s, StressCounter::Evicted) > 0,
+                "policy {policy}: no contention"
+            );
+        }
     }
 }
 
@@ -434,13 +449,19 @@ fn sliding_key(frame: u64, i: u32) -> MemoKey {
 /// every entry holds its own key's record, no key is stored twice in a
 /// window, a key found is the last one inserted, the evicted entry is
 /// the oldest of its window (LRW / LRU by true age) and misses keep
-/// happening (the table is under pressure all along).
+/// happening (the table is under pressure all along). Without eviction a
+/// miss stores only into a window with room, and the table keeps its keys.
 #[test]
 fn ten_thousand_frames_stay_consistent() {
-    for policy in [Eviction::Random, Eviction::Lrw, Eviction::Lru] {
+    for policy in [
+        Eviction::Random,
+        Eviction::Lrw,
+        Eviction::Lru,
+        Eviction::Disabled,
+    ] {
         let mut t = CpuMemo::new(64, 8, policy);
         let start = u32::MAX - 5000;
-        let (mut hits, mut evictions) = (0u64, 0u64);
+        let (mut hits, mut evictions, mut full_misses) = (0u64, 0u64, 0u64);
         // True frame of each slot's stamp, to check the wrapping ages.
         let mut true_stamp = vec![0u64; 64];
         for frame in 0..10_000u64 {
@@ -474,6 +495,12 @@ fn ten_thousand_frames_stay_consistent() {
                         true_stamp[s as usize] = frame;
                         evictions += 1;
                     }
+                    Insert::WindowFull if policy == Eviction::Disabled => {
+                        assert!(full, "nothing stored though the window had room");
+                        full_misses += 1;
+                        assert!(t.find(&k, now).is_none());
+                        continue;
+                    }
                     other => panic!("{policy:?}: {other:?} in a single-threaded table"),
                 }
                 assert_eq!(t.find(&k, now).map(|x| x.1), Some(record(k.h1())));
@@ -492,10 +519,17 @@ fn ten_thousand_frames_stay_consistent() {
                 }
             }
         }
-        assert!(
-            hits > 100_000 && evictions > 10_000,
-            "{policy:?}: {hits} hits {evictions} evictions"
-        );
+        if policy == Eviction::Disabled {
+            assert!(
+                evictions == 0 && full_misses > 100_000 && hits > 0,
+                "no eviction: {hits} hits {evictions} evictions {full_misses} full"
+            );
+        } else {
+            assert!(
+                hits > 100_000 && evictions > 10_000,
+                "{policy:?}: {hits} hits {evictions} evictions"
+            );
+        }
     }
 }
 
@@ -583,13 +617,18 @@ fn one_lanes_table_equals_the_cpu_twins_under_either_clock() {
             (0u32, Eviction::Random),
             (1, Eviction::Lrw),
             (2, Eviction::Lru),
+            (3, Eviction::Disabled),
         ] {
+            // No eviction reads no stamps: the frame clock only.
+            if eviction == Eviction::Disabled && clock.is_some() {
+                continue;
+            }
             let g = run_stress_clock(true, policy, iterations, 3, 64, frames, clock, 64, 1);
             let mut t = match clock {
                 None => CpuMemo::new(64, 8, eviction),
                 Some(c) => CpuMemo::with_counter(64, 8, eviction, c),
             };
-            let (mut hits, mut filled, mut evicted) = (0u32, 0u32, 0u32);
+            let (mut hits, mut filled, mut evicted, mut full) = (0u32, 0u32, 0u32, 0u32);
             for frame in 0..frames {
                 let now = stress_now(frame);
                 let seed = pcg_hash(frame);
@@ -608,6 +647,7 @@ fn one_lanes_table_equals_the_cpu_twins_under_either_clock() {
                     match t.insert(&key, now, record(key.h1())) {
                         Insert::Filled(_) => filled += 1,
                         Insert::Evicted(_) => evicted += 1,
+                        Insert::WindowFull => full += 1,
                         other => panic!("{other:?} in a single-threaded table"),
                     }
                 }
@@ -618,12 +658,17 @@ fn one_lanes_table_equals_the_cpu_twins_under_either_clock() {
                     c(&g, StressCounter::Hits),
                     c(&g, StressCounter::Filled),
                     c(&g, StressCounter::Evicted),
+                    c(&g, StressCounter::WindowFull),
                     c(&g, StressCounter::TornReads)
                 ],
-                [hits, filled, evicted, 0],
+                [hits, filled, evicted, full, 0],
                 "{what}: counters"
             );
-            assert!(evicted > 1000, "{what}: {evicted} evictions");
+            if eviction == Eviction::Disabled {
+                assert!(full > 1000 && evicted == 0, "{what}: {full} full");
+            } else {
+                assert!(evicted > 1000, "{what}: {evicted} evictions");
+            }
             assert_eq!(g.keys, t.keys, "{what}: keys");
             for (s, &key) in t.keys.iter().enumerate() {
                 if key == EMPTY {

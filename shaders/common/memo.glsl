@@ -30,11 +30,12 @@ const uint MEMO_S_NOW = 0u, MEMO_S_CAPACITY = 1u, MEMO_S_PROBE = 2u, MEMO_S_POLI
            MEMO_S_FLAGS = 4u, MEMO_S_BIAS = 5u, MEMO_S_TILE_SHIFT = 6u, MEMO_S_BILINEAR = 7u;
 const uint MEMO_C_HITS = 8u, MEMO_C_MISSES = 9u, MEMO_C_FILLS = 10u, MEMO_C_EVICTIONS = 11u,
            MEMO_C_LOCK_FAILURES = 12u, MEMO_C_REFUSED = 13u, MEMO_C_BYPASSED = 14u,
-           MEMO_C_SECOND_EYE_HITS = 15u, MEMO_C_SECOND_EYE_MISSES = 16u, MEMO_C_COOPERATIVE_FILLS = 17u;
+           MEMO_C_SECOND_EYE_HITS = 15u, MEMO_C_SECOND_EYE_MISSES = 16u, MEMO_C_COOPERATIVE_FILLS = 17u,
+           MEMO_C_WINDOW_FULL = 18u, MEMO_C_OTHER_EYE_HITS = 19u;
 // Each counter's high word (its carries) sits MEMO_C_COUNT words after it:
 // one frame of a long render (the reference's samples are chunked inside
 // one frame) counts past 2^32 lookups at 1080p stereo from ~1,036 spp.
-const uint MEMO_C_COUNT = 10u;
+const uint MEMO_C_COUNT = 12u;
 
 // Counter c plus one, carried into its high word on the wrap (the add that
 // returns 2^32 − 1 is the one that wrapped; read after the frame, so the
@@ -50,6 +51,24 @@ void memo_add(uint c) {
 // what it reuses of the first eye's fills (thesis: the cache is
 // view-independent, so the second eye shares it).
 uint sc_memo_eye = 2u;
+
+// Each record's mask word (ScGraphOutputs.mask: which outputs the graphs
+// bind, bits 0-5) carries above MEMO_MASK_BITS the tag of its fill: the
+// filling lane's eye (bits 6-7: 0, 1, or 2 unknown) and the frame counter's
+// low 24 bits (bits 8-31). A hit on a record the other eye filled in this
+// frame is counted (MEMO_C_OTHER_EYE_HITS): the reuse between the eyes
+// that the view-independent cache exists for, whatever order the device
+// runs the eyes' work groups in (the second-eye counters above rely on
+// llvmpipe's order). Frames 2^24 apart (52 h at 90 Hz) share a tag.
+const uint MEMO_MASK_BITS = 63u;
+uint memo_fill_tag() { return ((memo_state[MEMO_S_NOW] & 0xFFFFFFu) << 8) | (min(sc_memo_eye, 2u) << 6); }
+// A hit on the record whose mask word is `w`: counted as the other eye's
+// fill when both eyes are known, differ, and the fill is of this frame.
+void memo_count_other_eye(uint w, uint now) {
+    uint eye = (w >> 6) & 3u;
+    if (sc_memo_eye < 2u && eye < 2u && eye != sc_memo_eye && (w >> 8) == (now & 0xFFFFFFu))
+        memo_add(MEMO_C_OTHER_EYE_HITS);
+}
 
 // The ray-cone width at a secondary hit of path_radiance (thesis eqs.
 // 2.10-2.12, grown along the path; its magnitude); < 0 where the caller has none: then
@@ -72,7 +91,7 @@ float sc_memo_nee_blur_spread = 0.0;
 void memo_pack(ScGraphOutputs o, out uvec4 r0, out uvec4 r1, out uvec4 r2) {
     r0 = uvec4(floatBitsToUint(o.base_color), floatBitsToUint(o.metallic));
     r1 = uvec4(floatBitsToUint(o.roughness), floatBitsToUint(o.normal));
-    r2 = uvec4(floatBitsToUint(o.emission), o.mask);
+    r2 = uvec4(floatBitsToUint(o.emission), (o.mask & MEMO_MASK_BITS) | memo_fill_tag());
 }
 // An unbound normal is the hit's own (the generated function's default),
 // never the one stored with another hit.
@@ -83,7 +102,7 @@ ScGraphOutputs memo_unpack(uvec4 r0, uvec4 r1, uvec4 r2, vec3 normal) {
     o.roughness = uintBitsToFloat(r1.x);
     o.normal = uintBitsToFloat(r1.yzw);
     o.emission = uintBitsToFloat(r2.xyz);
-    o.mask = r2.w;
+    o.mask = r2.w & MEMO_MASK_BITS;
     if ((o.mask & 40u) == 0u) o.normal = normal;
     return o;
 }
@@ -100,18 +119,22 @@ void memo_write_texel(uint b, uvec4 r0, uvec4 r1, uvec4 r2) {
     memo_values[b] = r0; memo_values[b + 1u] = r1; memo_values[b + 2u] = r2;
 }
 
-// A tiled hit in slot `sl`: LRU's stamp and the counters.
-void memo_count_hit(uint sl, uint policy, uint now) {
+// A tiled hit in slot `sl` (`w`: a texel's mask word): LRU's stamp and the
+// counters.
+void memo_count_hit(uint sl, uint policy, uint now, uint w) {
     if (policy == MEMO_LRU) memo_touch(sl, now);
     memo_add(MEMO_C_HITS);
     if (sc_memo_eye == 1u) memo_add(MEMO_C_SECOND_EYE_HITS);
+    memo_count_other_eye(w, now);
 }
 
 // A tiled miss is counted (memo_count_miss), then the victim of h1's
 // window locked for the fill (memo_lock_victim: the table's memo_victim and
 // memo_lock). memo_begin_fill does both; it returns the locked slot, or
-// MEMO_NONE when the key is present already (`present`) or no entry could
-// be locked: the lane then evaluates for itself and stores nothing.
+// MEMO_NONE when the key is present already (`present`), no entry could be
+// locked (`seen` = MEMO_LOCK) or, without eviction, the window is full
+// (`seen` = MEMO_EMPTY): the lane then evaluates for itself and stores
+// nothing.
 void memo_count_miss() {
     memo_add(MEMO_C_MISSES);
     if (sc_memo_eye == 1u) memo_add(MEMO_C_SECOND_EYE_MISSES);
@@ -119,7 +142,8 @@ void memo_count_miss() {
 uint memo_lock_victim(uint h0, uint h1, uint cap, uint probe, uint policy, uint now,
                       out uint seen, out bool present) {
     uint victim = memo_victim(h0, h1, cap, probe, policy, now, seen, present);
-    if (present || victim == MEMO_NONE || !memo_lock(victim, seen)) return MEMO_NONE;
+    if (present || victim == MEMO_NONE) return MEMO_NONE;
+    if (!memo_lock(victim, seen)) { seen = MEMO_LOCK; return MEMO_NONE; }
     memoryBarrierBuffer();
     return victim;
 }
@@ -135,7 +159,7 @@ void memo_end_fill(uint victim, uint h1, uint now, uint seen, bool present) {
         memo_unlock(victim, h1, now);
         memo_add(seen == MEMO_EMPTY ? MEMO_C_FILLS : MEMO_C_EVICTIONS);
     } else if (!present) {
-        memo_add(MEMO_C_LOCK_FAILURES);
+        memo_add(seen == MEMO_LOCK ? MEMO_C_LOCK_FAILURES : MEMO_C_WINDOW_FULL);
     }
 }
 
@@ -260,6 +284,7 @@ void memo_lookup_texels(inout MemoCall c, uint material, vec3 n, inout ScGraphOu
                       c.policy, c.now, r0, r1, r2, torn) != MEMO_NONE) {
             memo_add(MEMO_C_HITS);
             if (sc_memo_eye == 1u) memo_add(MEMO_C_SECOND_EYE_HITS);
+            memo_count_other_eye(r2.w, c.now);
             out4[k] = memo_unpack(r0, r1, r2, n);
         } else {
             memo_add(MEMO_C_MISSES);
@@ -293,13 +318,15 @@ void memo_lookup_tile(inout MemoCall c, uint material, vec3 n, inout ScGraphOutp
         uint sl = memo_slot(h0, i, c.cap, c.probe);
         if (memo_keys[sl] != c.h1) continue;
         uint v0 = memo_version(sl);
+        uint w = 0u;   // the mask word of a texel read (one fill wrote them all)
         for (uint k = 0u; k < c.corners; ++k) {
             uvec4 r0, r1, r2;
             memo_read_texel(MEMO_RECORD * (sl * c.e * c.e + memo_tile_texel(c, k)), r0, r1, r2);
             out4[k] = memo_unpack(r0, r1, r2, n);
+            w = r2.w;
         }
         if (memo_validate(sl, c.h1, v0, true)) {
-            memo_count_hit(sl, c.policy, c.now);
+            memo_count_hit(sl, c.policy, c.now, w);
             found = true;
         } else {
             memo_add(MEMO_C_REFUSED);
@@ -493,6 +520,7 @@ void memo_store(MemoCall c, uint material, uint k, ivec2 texel, uint corner, ScG
     if (res == MEMO_FILLED) memo_add(MEMO_C_FILLS);
     else if (res == MEMO_EVICTED) memo_add(MEMO_C_EVICTIONS);
     else if (res == MEMO_LOCK_FAILED) memo_add(MEMO_C_LOCK_FAILURES);
+    else if (res == MEMO_WINDOW_FULL) memo_add(MEMO_C_WINDOW_FULL);
     out4[corner] = memo_unpack(r0, r1, r2, n);
 }
 

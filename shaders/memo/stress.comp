@@ -135,7 +135,7 @@ void main() {
     if (pc.mode == 2u) { aba(lane); return; }
     if (pc.mode == 3u && lane != 0u) return;
     uint hits = 0u, torn = 0u, refused = 0u, misses = 0u;
-    uint results[4] = uint[4](0u, 0u, 0u, 0u);
+    uint results[5] = uint[5](0u, 0u, 0u, 0u, 0u);
     for (uint it = 0u; it < pc.iterations; ++it) {
         uint k = pcg_hash(pc.seed ^ pcg_hash(lane * pc.iterations + it)) % pc.keys;
         uint graph = k & 15u;
@@ -163,5 +163,5 @@ void main() {
     atomicAdd(counters[C_MEMO_STRESS_TORN_READS], torn);
     atomicAdd(counters[C_MEMO_STRESS_REFUSED], refused);
     atomicAdd(counters[C_MEMO_STRESS_MISSES], misses);
-    for (uint r = 0u; r < 4u; ++r) atomicAdd(counters[C_MEMO_STRESS_FILLED + r], results[r]);
+    for (uint r = 0u; r < 5u; ++r) atomicAdd(counters[C_MEMO_STRESS_FILLED + r], results[r]);
 }

@@ -32,9 +32,13 @@ const uint MEMO_EMPTY = 0u;
 const uint MEMO_LOCK = 0xFFFFFFFFu;
 const uint MEMO_NONE = 0xFFFFFFFFu;
 const uint MEMO_RECORD = 3u;   // uvec4 per entry: 12 words, the thesis's 11 channels + mask
-const uint MEMO_RANDOM = 0u, MEMO_LRW = 1u, MEMO_LRU = 2u;
+// MEMO_NO_EVICTION: Table 6.2's "no eviction" row: a miss stores only
+// into an empty entry of its window; once the window is full it stores
+// nothing (memo_insert's MEMO_WINDOW_FULL).
+const uint MEMO_RANDOM = 0u, MEMO_LRW = 1u, MEMO_LRU = 2u, MEMO_NO_EVICTION = 3u;
 // memo_insert results
-const uint MEMO_FILLED = 0u, MEMO_EVICTED = 1u, MEMO_PRESENT = 2u, MEMO_LOCK_FAILED = 3u;
+const uint MEMO_FILLED = 0u, MEMO_EVICTED = 1u, MEMO_PRESENT = 2u, MEMO_LOCK_FAILED = 3u,
+           MEMO_WINDOW_FULL = 4u;
 
 // The two graph hashes computed ahead of time (ID0, ID1 of eqs. 5.8-5.9).
 uint memo_id0(uint graph) { return pcg_hash(graph); }
@@ -167,9 +171,12 @@ uint memo_oldness(uint s, uint now) { return memo_age(now, memo_stamps[memo_stam
 // is one, else random (a hash of h1 and now picks the probe; if that entry
 // is locked, the next unlocked one after it, cyclically — not the window's
 // first, the tie rule's choice) or the oldest stamp (LRW: set on write, LRU:
-// also on read; memo_oldness). Locked entries are skipped.
-// Returns MEMO_NONE when h1 is already present or every entry is locked;
-// `seen` is the key word the victim held.
+// also on read; memo_oldness); no other entry under MEMO_NO_EVICTION.
+// Locked entries are skipped.
+// Returns MEMO_NONE when h1 is already present (`present`), when every
+// entry it could take is locked (`seen` = MEMO_LOCK) or, without eviction,
+// when the window is full (`seen` = MEMO_EMPTY); else `seen` is the key
+// word the victim held.
 uint memo_victim(uint h0, uint h1, uint capacity, uint probe, uint policy, uint now, out uint seen, out bool present) {
     uint victim = MEMO_NONE;
     MEMO_OLDNESS best = MEMO_OLDNESS(0u);
@@ -181,7 +188,8 @@ uint memo_victim(uint h0, uint h1, uint capacity, uint probe, uint policy, uint 
         uint k = memo_keys[s];
         if (k == h1) { present = true; return MEMO_NONE; }
         if (k == MEMO_EMPTY) { seen = k; return s; }
-        if (k == MEMO_LOCK) continue;
+        if (k == MEMO_LOCK) { if (victim == MEMO_NONE) seen = MEMO_LOCK; continue; }
+        if (policy == MEMO_NO_EVICTION) continue;
         MEMO_OLDNESS score = policy == MEMO_RANDOM ? MEMO_OLDNESS(probe - (i + probe - pick) % probe) : memo_oldness(s, now);
         if (victim == MEMO_NONE || score > best) { victim = s; best = score; seen = k; }
     }
@@ -191,13 +199,15 @@ uint memo_victim(uint h0, uint h1, uint capacity, uint probe, uint policy, uint 
 // Inserts the record for h1 (thesis §5.3.4): the victim's key word is
 // exchanged for LOCK by compare-and-swap (never spin, never retry: on
 // failure the value is used by this thread only), the record and stamp are
-// written, then the key, which unlocks the entry.
+// written, then the key, which unlocks the entry. Without eviction a full
+// window stores nothing (MEMO_WINDOW_FULL).
 uint memo_insert(uint h0, uint h1, uint capacity, uint probe, uint policy, uint now,
                  uvec4 r0, uvec4 r1, uvec4 r2) {
     uint seen;
     bool present;
     uint s = memo_victim(h0, h1, capacity, probe, policy, now, seen, present);
     if (present) return MEMO_PRESENT;
+    if (s == MEMO_NONE && seen != MEMO_LOCK) return MEMO_WINDOW_FULL;
     if (s == MEMO_NONE || !memo_lock(s, seen)) return MEMO_LOCK_FAILED;
     memo_write_record(s, r0, r1, r2);
     memo_unlock(s, h1, now);

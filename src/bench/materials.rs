@@ -47,7 +47,7 @@ impl Default for SweepVariant {
 /// table; both at each of `sizes` entries (LRU); 4×4 tiles (nearest with the
 /// cooperative and the plain fill, bilinear); each eviction policy at the
 /// smallest size (where eviction happens), LRW and LRU also by the access
-/// counter. With a tiled `sweep` (s > 1) the size sweep and the eviction
+/// counter, and without eviction (Table 6.2's "no eviction" baseline). With a tiled `sweep` (s > 1) the size sweep and the eviction
 /// rows are of s×s tiles with its fill (labels "both tile sxs S=…"), and
 /// secondary-only gets a row with those tiles too.
 pub fn memo_configs(sizes: &[u32], sweep: SweepVariant) -> Vec<(String, MemoSettings)> {
@@ -145,9 +145,11 @@ pub fn memo_configs(sizes: &[u32], sweep: SweepVariant) -> Vec<(String, MemoSett
         }
     }
     if let Some(&small) = sizes.iter().min() {
-        // Table 6.2's rows: random, LRW and LRU by the frame clock (LRU is
-        // "both S=small" above), LRW and LRU by the access counter.
+        // Table 6.2's rows: no eviction, random, LRW and LRU by the frame
+        // clock (LRU is "both S=small" above), LRW and LRU by the access
+        // counter.
         for (name, eviction, clock) in [
+            ("no eviction", Eviction::Disabled, MemoClock::Frame),
             ("random", Eviction::Random, MemoClock::Frame),
             ("lrw", Eviction::Lrw, MemoClock::Frame),
             ("lrw counter", Eviction::Lrw, MemoClock::Counter),
@@ -193,6 +195,9 @@ pub struct MemoBenchRow {
     pub last_hit_rate: f64,
     /// The second (right) eye's hit rate over the steady frames.
     pub second_eye_hit_rate: f64,
+    /// The share of lookups (both eyes) that hit a record the other eye
+    /// filled in the same frame.
+    pub other_eye_share: f64,
     pub lookups_per_frame: f64,
     pub fills_per_frame: f64,
     pub evictions_per_frame: f64,
@@ -200,6 +205,8 @@ pub struct MemoBenchRow {
     pub bypassed_per_frame: f64,
     /// Tiles filled by the subgroup-cooperative fill, per frame.
     pub cooperative_fills_per_frame: f64,
+    /// Misses not stored because their window was full (no eviction).
+    pub window_full_per_frame: f64,
 }
 
 /// Renders `cameras` (frames at `fps`) with `method` once per configuration
@@ -298,12 +305,14 @@ pub fn bench_materials(
                 hit_rate: total.hit_rate().unwrap_or(0.0),
                 last_hit_rate: last.hit_rate().unwrap_or(0.0),
                 second_eye_hit_rate: total.second_eye_hit_rate().unwrap_or(0.0),
+                other_eye_share: total.other_eye_share().unwrap_or(0.0),
                 lookups_per_frame: per(total.hits + total.misses),
                 fills_per_frame: per(total.fills),
                 evictions_per_frame: per(total.evictions),
                 lock_failures_per_frame: per(total.lock_failures),
                 bypassed_per_frame: per(total.bypassed),
                 cooperative_fills_per_frame: per(total.cooperative_fills),
+                window_full_per_frame: per(total.window_full),
             }
         })
         .collect())
@@ -312,7 +321,7 @@ pub fn bench_materials(
 /// The table `bench materials` prints.
 pub fn memo_table(rows: &[MemoBenchRow]) -> String {
     let mut s = format!(
-        "{:<24} {:>9} {:>10} {:>10} {:>10} {:>9} {:>9} {:>8} {:>9} {:>10} {:>10} {:>9} {:>9}\n",
+        "{:<24} {:>9} {:>10} {:>10} {:>10} {:>9} {:>9} {:>8} {:>9} {:>10} {:>10} {:>10} {:>9} {:>9}\n",
         "configuration",
         "hits",
         "entries",
@@ -324,12 +333,13 @@ pub fn memo_table(rows: &[MemoBenchRow]) -> String {
         "hit rate",
         "last frame",
         "second eye",
+        "other eye",
         "fills/fr",
         "evict/fr"
     );
     for r in rows {
         s.push_str(&format!(
-            "{:<24} {:>9} {:>10} {:>10} {:>10.1} {:>9.2} {:>9.3} {:>8.3} {:>9.4} {:>10.4} {:>10.4} {:>9.0} {:>9.0}\n",
+            "{:<24} {:>9} {:>10} {:>10} {:>10.1} {:>9.2} {:>9.3} {:>8.3} {:>9.4} {:>10.4} {:>10.4} {:>10.4} {:>9.0} {:>9.0}\n",
             r.label,
             r.hits,
             r.entries,
@@ -341,6 +351,7 @@ pub fn memo_table(rows: &[MemoBenchRow]) -> String {
             r.hit_rate,
             r.last_hit_rate,
             r.second_eye_hit_rate,
+            r.other_eye_share,
             r.fills_per_frame,
             r.evictions_per_frame
         ));
@@ -351,11 +362,11 @@ pub fn memo_table(rows: &[MemoBenchRow]) -> String {
 /// The rows as CSV (one header line).
 pub fn memo_csv(rows: &[MemoBenchRow]) -> String {
     let mut s = String::from(
-        "label,hits,entries,eviction,table_bytes,frame_ms,ratio_to_off,ratio_se,hit_rate,last_hit_rate,second_eye_hit_rate,lookups_per_frame,fills_per_frame,evictions_per_frame,lock_failures_per_frame,bypassed_per_frame,cooperative_fills_per_frame\n",
+        "label,hits,entries,eviction,table_bytes,frame_ms,ratio_to_off,ratio_se,hit_rate,last_hit_rate,second_eye_hit_rate,other_eye_share,lookups_per_frame,fills_per_frame,evictions_per_frame,lock_failures_per_frame,bypassed_per_frame,cooperative_fills_per_frame,window_full_per_frame\n",
     );
     for r in rows {
         s.push_str(&format!(
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
             csv_field(&r.label),
             csv_field(&r.hits),
             r.entries,
@@ -367,12 +378,14 @@ pub fn memo_csv(rows: &[MemoBenchRow]) -> String {
             r.hit_rate,
             r.last_hit_rate,
             r.second_eye_hit_rate,
+            r.other_eye_share,
             r.lookups_per_frame,
             r.fills_per_frame,
             r.evictions_per_frame,
             r.lock_failures_per_frame,
             r.bypassed_per_frame,
-            r.cooperative_fills_per_frame
+            r.cooperative_fills_per_frame,
+            r.window_full_per_frame
         ));
     }
     s
@@ -407,8 +420,8 @@ mod tests {
             assert_eq!(labels.len(), n, "tile {tile}: a label twice");
             let prefix = format!("both tile {tile}x{tile} plain fill S=");
             let swept: Vec<_> = v.iter().filter(|(l, _)| l.starts_with(&prefix)).collect();
-            // Two sizes and four more policies at the smallest.
-            assert_eq!(swept.len(), 6, "tile {tile}: {labels:?}");
+            // Two sizes and five more policies at the smallest.
+            assert_eq!(swept.len(), 7, "tile {tile}: {labels:?}");
             for (l, s) in &swept {
                 assert_eq!(
                     (s.tile, s.fill, s.hits),
@@ -417,7 +430,8 @@ mod tests {
                 );
             }
             let small: Vec<_> = swept.iter().filter(|(l, _)| l.contains("S=64 ")).collect();
-            assert_eq!(small.len(), 4);
+            assert_eq!(small.len(), 5);
+            assert!(small.iter().any(|(_, s)| s.eviction == Eviction::Disabled));
             assert!(small.iter().all(|(_, s)| s.entries == 64));
             let secondary = v
                 .iter()

@@ -159,7 +159,9 @@ pub struct SceneArgs {
     /// Its linear-probing window.
     #[arg(long, default_value_t = MemoSettings::default().probe)]
     pub memo_probe: u32,
-    /// Its eviction policy: random, lrw (least recently written) or lru.
+    /// Its eviction policy: random, lrw (least recently written), lru, or
+    /// none (a miss whose probing window is full stores nothing: the
+    /// thesis's "no eviction" baseline, Table 6.2).
     #[arg(long, default_value = "lru")]
     pub memo_eviction: Eviction,
     /// Where lrw and lru take an access's time from: frame (the frame

@@ -133,14 +133,17 @@ pub fn run(a: RenderArgs) -> Result<()> {
 /// One line of the memoization cache's counters.
 pub fn memo_line(c: &stereocache::materials::memo::state::MemoCounters) -> String {
     format!(
-        "memo: {} lookups, hit rate {} (second eye {}), {} fills, {} evictions, {} lock failures, {} refused reads, {} hits evaluated directly (graphs that read more than the uv, or uvs beyond the level's texel grid)",
+        "memo: {} lookups, hit rate {} (second eye {}; {} of lookups hit the other eye's fills of this frame), {} fills, {} evictions, {} lock failures, {} misses not stored (window full, no eviction), {} refused reads, {} hits evaluated directly (graphs that read more than the uv, or uvs beyond the level's texel grid)",
         c.hits + c.misses,
         c.hit_rate().map_or("-".into(), |r| format!("{:.2} %", 100.0 * r)),
         c.second_eye_hit_rate()
             .map_or("-".into(), |r| format!("{:.2} %", 100.0 * r)),
+        c.other_eye_share()
+            .map_or("-".into(), |r| format!("{:.2} %", 100.0 * r)),
         c.fills,
         c.evictions,
         c.lock_failures,
+        c.window_full,
         c.refused,
         c.bypassed
     )

@@ -6,7 +6,7 @@ use super::{read, write, CounterSlot, Interface, PushBlock, PushType};
 
 crate::counter_slots! {
     /// What the stress kernel's lanes saw (`C_MEMO_STRESS_*`). `FILLED +
-    /// result` is indexed by memo_insert's result, so these four stay in order.
+    /// result` is indexed by memo_insert's result, so these five stay in order.
     pub enum StressCounter("MEMO_STRESS") {
         Hits = "HITS",
         /// Accepted reads whose record is not f(key): must stay 0.
@@ -18,6 +18,8 @@ crate::counter_slots! {
         Evicted = "EVICTED",
         Present = "PRESENT",
         LockFailed = "LOCK_FAILED",
+        /// Inserts that stored nothing: window full, eviction disabled.
+        WindowFull = "WINDOW_FULL",
         /// Mode 2 (forced ABA): torn reads a validation by the key alone
         /// (the thesis's) would have accepted; the version refuses them.
         AbaKeyOnly = "ABA_KEY_ONLY",
@@ -55,7 +57,7 @@ pub const STRESS_PUSH: PushBlock = PushBlock {
         ("probe", PushType::U32),
         // lookups per lane
         ("iterations", PushType::U32),
-        // MEMO_RANDOM, MEMO_LRW, MEMO_LRU
+        // MEMO_RANDOM, MEMO_LRW, MEMO_LRU, MEMO_NO_EVICTION
         ("policy", PushType::U32),
         ("now", PushType::U32),
         ("seed", PushType::U32),

@@ -54,9 +54,10 @@ impl std::str::FromStr for Eviction {
             "random" => Eviction::Random,
             "lrw" => Eviction::Lrw,
             "lru" => Eviction::Lru,
+            "none" => Eviction::Disabled,
             _ => {
                 return Err(format!(
-                    "bad --memo-eviction '{s}': expected random, lrw or lru"
+                    "bad --memo-eviction '{s}': expected random, lrw, lru or none"
                 ))
             }
         })
@@ -207,12 +208,18 @@ impl MemoSettings {
                 (MAX_ENTRIES as u64 * ENTRY_BYTES * 4) >> 20
             ));
         }
-        if self.clock == MemoClock::Counter && self.eviction == Eviction::Random {
-            return Err(
-                "bad --memo-clock counter with --memo-eviction random: random eviction reads no \
+        if self.clock == MemoClock::Counter
+            && matches!(self.eviction, Eviction::Random | Eviction::Disabled)
+        {
+            let name = if self.eviction == Eviction::Random {
+                "random"
+            } else {
+                "none"
+            };
+            return Err(format!(
+                "bad --memo-clock counter with --memo-eviction {name}: {name} eviction reads no \
                  stamps (the access clock ages entries for lrw and lru)"
-                    .into(),
-            );
+            ));
         }
         if !self.bias.is_finite() || self.bias.abs() > 16.0 {
             return Err(format!(
@@ -279,6 +286,11 @@ mod tests {
         let e = counter(Eviction::Random).validate().unwrap_err();
         assert!(
             e.contains("--memo-clock counter") && e.contains("random"),
+            "{e}"
+        );
+        let e = counter(Eviction::Disabled).validate().unwrap_err();
+        assert!(
+            e.contains("--memo-clock counter") && e.contains("--memo-eviction none"),
             "{e}"
         );
         for eviction in [Eviction::Lrw, Eviction::Lru] {

@@ -43,13 +43,24 @@ pub struct MemoCounters {
     /// plain fill).
     #[serde(default)]
     pub cooperative_fills: u64,
+    /// Misses that stored nothing because their probing window was full
+    /// and eviction is disabled (`--memo-eviction none`).
+    #[serde(default)]
+    pub window_full: u64,
+    /// Hits on a record the other eye filled in this frame (either eye;
+    /// the fill's eye and frame are tagged in the record, memo.glsl
+    /// `memo_fill_tag`): the reuse between the eyes, independent of the
+    /// order the device runs their work groups in. Counted in `hits` too;
+    /// 0 in passes that do not know their eye.
+    #[serde(default)]
+    pub other_eye_hits: u64,
 }
 
 impl MemoCounters {
     /// The counters' words: each counter's low word, then each one's high
     /// word in the same order (`memo_add` in shaders/common/memo.glsl
     /// carries into it: one frame of a long render counts past 2^32).
-    pub const COUNT: usize = 10;
+    pub const COUNT: usize = 12;
     pub const WORDS: usize = 2 * Self::COUNT;
 
     pub fn from_words(w: &[u32]) -> MemoCounters {
@@ -66,6 +77,8 @@ impl MemoCounters {
             second_eye_hits: g(7),
             second_eye_misses: g(8),
             cooperative_fills: g(9),
+            window_full: g(10),
+            other_eye_hits: g(11),
         }
     }
 
@@ -82,6 +95,13 @@ impl MemoCounters {
         (n > 0).then(|| self.second_eye_hits as f64 / n as f64)
     }
 
+    /// The share of all lookups that hit a record the other eye filled in
+    /// the same frame, `None` without lookups.
+    pub fn other_eye_share(&self) -> Option<f64> {
+        let n = self.hits + self.misses;
+        (n > 0).then(|| self.other_eye_hits as f64 / n as f64)
+    }
+
     pub fn add(&mut self, o: &MemoCounters) {
         self.hits += o.hits;
         self.misses += o.misses;
@@ -93,6 +113,8 @@ impl MemoCounters {
         self.second_eye_hits += o.second_eye_hits;
         self.second_eye_misses += o.second_eye_misses;
         self.cooperative_fills += o.cooperative_fills;
+        self.window_full += o.window_full;
+        self.other_eye_hits += o.other_eye_hits;
     }
 }
 
@@ -127,9 +149,12 @@ mod tests {
         w[MemoCounters::COUNT] = 2; // hits, high
         w[9] = u32::MAX; // cooperative fills, low
         w[9 + MemoCounters::COUNT] = 1;
+        w[11] = 5; // other-eye hits, low
+        w[11 + MemoCounters::COUNT] = 3;
         let c = MemoCounters::from_words(&w);
         assert_eq!(c.hits, (2u64 << 32) + 7);
         assert_eq!(c.cooperative_fills, (1u64 << 32) + u32::MAX as u64);
+        assert_eq!(c.other_eye_hits, (3u64 << 32) + 5);
         assert_eq!(c.misses, 0);
         assert_eq!(
             STATE_BYTES as usize,

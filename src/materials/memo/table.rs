@@ -15,7 +15,8 @@
 //!   (never wraps).
 //! * **Eviction** (§5.3.3), within the window: an empty entry if any, else
 //!   random (probe `pcg(H1 ⊕ now·0x9E3779B9) mod D`), LRW (oldest write
-//!   stamp) or LRU (oldest read-or-write stamp); locked entries are skipped.
+//!   stamp) or LRU (oldest read-or-write stamp), or none (Table 6.2's "no
+//!   eviction": a full window stores nothing); locked entries are skipped.
 //!   The stamps come from one of the thesis's two clocks ([`MemoClock`]):
 //!   a frame counter mod 2^32 compared by wrapping age, exact below 2^32
 //!   frames (18 months at 90 Hz), or an access counter that every stamp
@@ -37,12 +38,16 @@ pub const ENTRY_HEADER_BYTES: u64 = 4 + 4 + 4;
 /// Bytes per non-tiled entry: the header and one record.
 pub const ENTRY_BYTES: u64 = ENTRY_HEADER_BYTES + 4 * RECORD_WORDS as u64;
 
-/// The eviction strategy (the shader's `MEMO_RANDOM`, `MEMO_LRW`, `MEMO_LRU`).
+/// The eviction strategy (the shader's `MEMO_RANDOM`, `MEMO_LRW`, `MEMO_LRU`,
+/// `MEMO_NO_EVICTION`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Eviction {
     Random = 0,
     Lrw = 1,
     Lru = 2,
+    /// Thesis Table 6.2's "no eviction" row: a miss stores into an empty
+    /// entry of its window only; a full window keeps what it holds.
+    Disabled = 3,
 }
 
 /// Where LRW and LRU take the time of an access from (thesis §5.3.3 and
@@ -136,6 +141,8 @@ pub enum Insert {
     Evicted(u32),
     Present,
     LockFailed,
+    /// No empty entry in the window and eviction disabled: nothing stored.
+    WindowFull,
 }
 
 /// A single-threaded model of the GPU table: the same search, victim choice
@@ -233,7 +240,7 @@ impl CpuMemo {
             if key == EMPTY {
                 return Some(s);
             }
-            if key == LOCK {
+            if key == LOCK || self.policy == Eviction::Disabled {
                 continue;
             }
             let score = match self.policy {
@@ -254,6 +261,8 @@ impl CpuMemo {
         let Some(s) = self.victim(k, now, true) else {
             return if self.find_slot(k).is_some() {
                 Insert::Present
+            } else if self.policy == Eviction::Disabled {
+                Insert::WindowFull
             } else {
                 Insert::LockFailed
             };
@@ -274,6 +283,7 @@ impl CpuMemo {
     ) -> Insert {
         match self.victim(k, now, false) {
             Some(s) => self.write(s, k, now, record),
+            None if self.policy == Eviction::Disabled => Insert::WindowFull,
             None => Insert::LockFailed,
         }
     }
@@ -395,6 +405,29 @@ mod tests {
             t.insert(&k2, 7, [2; RECORD_WORDS]),
             Insert::Evicted(window[1])
         );
+    }
+
+    /// Without eviction a full window keeps its keys and stores nothing;
+    /// an empty entry anywhere in it is still filled, and a present key is
+    /// found.
+    #[test]
+    fn disabled_eviction_fills_empty_entries_only() {
+        let (mut t, k, window) = full_window(Eviction::Disabled);
+        let before = t.keys.clone();
+        assert_eq!(t.insert(&k, 8, [1; RECORD_WORDS]), Insert::WindowFull);
+        assert_eq!(
+            t.insert_unchecked(&k, 8, [1; RECORD_WORDS]),
+            Insert::WindowFull
+        );
+        assert_eq!(t.keys, before, "a full window changed");
+        assert!(t.find(&k, 8).is_none());
+        t.keys[window[5] as usize] = EMPTY;
+        assert_eq!(
+            t.insert(&k, 8, [2; RECORD_WORDS]),
+            Insert::Filled(window[5])
+        );
+        assert_eq!(t.find(&k, 9), Some((window[5], [2; RECORD_WORDS])));
+        assert_eq!(t.insert(&k, 9, [3; RECORD_WORDS]), Insert::Present);
     }
 
     #[test]
