@@ -1,18 +1,24 @@
 #!/usr/bin/env bash
 # One prepared check for a machine with an NVIDIA GPU that has no Rust
-# toolchain and no network. Writes every figure into one folder in under
-# 8 minutes: `info`, a render of every method on the GPU paths (the CLI
+# toolchain and no network. Writes every figure into one folder in about
+# 9 minutes (each step has its own limit; figures.md is written before
+# the last one and after it): `info`, a render of every method on the GPU paths (the CLI
 # equivalent of the GPU-path tests: every method on both ray backends the
 # device offers, exit status checked), `bench rays`, `bench sample-cache`
-# at 2x960x1080 on Sponza, and the Fig. 12/13 experiment at paper scale
-# for 60 frames.
+# at 2x960x1080 on Sponza, `bench materials` (issue 17: the memoization
+# cache's variants, a table-size sweep and the eviction policies — Table
+# 6.2's small-table question — on the procedural Cornell box at the same
+# size, along the real head trace), and the Fig. 12/13 experiment at paper
+# scale for 60 frames.
 #
 # Prepare here (a machine with the toolchain and network), from the repo root:
 #   scripts/gpu-check.sh --prepare
 # builds the release binary, strips it into .gpu/stereocache, downloads the
-# Vulkan loader packages (amd64 .debs) into .gpu/debs and copies Sponza
-# (../shared/scenes/sponza, 19 MB) into .gpu/sponza; .gpu/ is git-ignored
-# (.git/info/exclude), about 40 MB: carry it (device tool: carry [".gpu"]).
+# Vulkan loader packages (amd64 .debs) into .gpu/debs, glslc and its
+# library (material graphs compile to SPIR-V at scene load) into
+# .gpu/tools, and copies Sponza (../shared/scenes/sponza, 19 MB) into
+# .gpu/sponza; .gpu/ is git-ignored (.git/info/exclude), about 45 MB: carry
+# it (device tool: carry [".gpu"]).
 #
 # Run there, from the repo root (root: unpacks the loader into /):
 #   scripts/gpu-check.sh [--out DIR] [--tiny]
@@ -37,6 +43,9 @@ prepare() {
   apt-get $o update >/dev/null
   # shellcheck disable=SC2086
   (cd .gpu/debs && apt-get $o download libvulkan1)
+  mkdir -p .gpu/tools
+  # shellcheck disable=SC2086
+  (cd .gpu/tools && apt-get $o download glslc libshaderc1)
   rm -rf .gpu/sponza && cp -r ../shared/scenes/sponza .gpu/sponza
   du -sh .gpu
   echo "prepared .gpu/: carry it and run scripts/gpu-check.sh there"
@@ -66,6 +75,13 @@ if ! ldconfig -p 2>/dev/null | grep -q libvulkan.so.1; then
   for f in .gpu/debs/*.deb; do [ -f "$f" ] && dpkg -x "$f" /; done
   ldconfig 2>/dev/null || true
 fi
+# glslc for the material graphs, unpacked beside the tree (not into /).
+if ! command -v "${GLSLC:-glslc}" >/dev/null 2>&1 && ls .gpu/tools/*.deb >/dev/null 2>&1; then
+  for f in .gpu/tools/*.deb; do dpkg -x "$f" .gpu/root; done
+  export GLSLC=$PWD/.gpu/root/usr/bin/glslc
+  export LD_LIBRARY_PATH=$PWD/.gpu/root/usr/lib/x86_64-linux-gnu${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}
+  [ -x "$GLSLC" ] || echo "warning: gpu-check.sh: no glslc in .gpu/tools: scenes with material graphs will not load" >&2
+fi
 icd=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
 [ -f "$icd" ] && [ -z "${VK_DRIVER_FILES:-}" ] && export VK_DRIVER_FILES=$icd
 
@@ -73,8 +89,18 @@ if [ $tiny = 1 ]; then
   # Plumbing only: the Cornell box instead of Sponza (its BVH build alone
   # takes minutes on two CPU cores).
   size=64x48; bench_size=64x48; frames=4; scale=ci; exp_frames=4; rays_size=64x64; sponza=cornell
+  # The plain fill: llvmpipe compiles the cooperative builds slowly.
+  memo_sizes=256,4096; memo_frames=3; memo_fill=plain
 else
   size=256x144; bench_size=960x1080; frames=30; scale=paper; exp_frames=60; rays_size=1024x1024
+  # 4x4 tiles. The frame's working set here is not measured: the
+  # procedural Sponza at 2x96x72, 6 spp, 3 bounces touched 3,777 tiles a
+  # frame, 0.27 a pixel (docs/PERFORMANCE.md, "Memoization, session 37"),
+  # which would be 5.7e5 at 2x960x1080; the Cornell box at 1 spp and 2
+  # bounces touches fewer. So three sizes around it, the eviction rows at
+  # the smallest (the thesis's small table held 1.19 frames' tiles); the
+  # rows' fills per frame show where each size stands.
+  memo_sizes=131072,524288,2097152; memo_frames=12; memo_fill=subgroup
 fi
 
 start=$(date +%s)
@@ -107,15 +133,32 @@ step fig12-13 300 "$bin" experiment run experiments/fig12-13-sponza.toml \
   --scale "$scale" --set frames="$exp_frames" --set "scenes=[\"$sponza\"]" \
   --set "reference-cache=\"$out/reference-cache\"" --out "$out/fig12-13"
 rm -rf "$out/reference-cache" "$out/render"/*/*.exr
-# The figures in one place: what the docs quote.
-{
-  echo "# gpu-check $(date -u +%FT%TZ), $(($(date +%s) - start)) s"
-  grep -m1 -i "device" "$out/info.txt"
-  cat "$out/steps.txt"
-  echo; echo "## bench rays"; cat "$out/bench-rays.txt"
-  echo; echo "## bench sample-cache ($bench_size per eye, Sponza)"; cat "$out/bench-sample-cache.txt"
-  echo; echo "## Fig. 12/13"; cat "$out/fig12-13/claims.md" 2>/dev/null
-  grep -A12 "^method" "$out/fig12-13.txt" 2>/dev/null
-} >"$out/figures.md"
+# The figures in one place: what the docs quote. Written before the last
+# step and again after it, so a run cut short still leaves the summary.
+summary() {
+  {
+    echo "# gpu-check $(date -u +%FT%TZ), $(($(date +%s) - start)) s"
+    grep -m1 -i "device" "$out/info.txt"
+    cat "$out/steps.txt"
+    echo; echo "## bench rays"; cat "$out/bench-rays.txt"
+    echo; echo "## bench sample-cache ($bench_size per eye, Sponza)"; cat "$out/bench-sample-cache.txt"
+    echo; echo "## Fig. 12/13"; cat "$out/fig12-13/claims.md" 2>/dev/null
+    grep -A12 "^method" "$out/fig12-13.txt" 2>/dev/null
+    if [ -f "$out/bench-materials.txt" ]; then
+      echo; echo "## bench materials ($bench_size per eye, procedural Cornell box)"
+      cat "$out/bench-materials.txt"
+    fi
+  } >"$out/figures.md"
+}
+summary
+# Memoization (issue 17): every variant, the sweep and the eviction rows
+# (no eviction, random, LRW/LRU by frame and by the 64-bit counter) at the
+# smallest size, 4x4 tiles (the cooperative fill on the GPU), both eyes,
+# along the real head trace.
+step bench-materials 180 "$bin" bench materials --scene procedural-uv:cornell --rt software \
+  --size "$bench_size" --frames "$memo_frames" --repeats 1 --sweep-tile 4 \
+  --sweep-fill "$memo_fill" --sizes "$memo_sizes" \
+  --trace captures/mmsys18-user1.csv --out "$out/bench-materials.csv"
+summary
 echo "wrote $out (figures.md, steps.txt, one log per step)"
 ! grep -qv 'rc=0 ' "$out/steps.txt"

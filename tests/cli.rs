@@ -788,6 +788,7 @@ fn bench_materials_checks_input_and_sweeps_the_table() {
             "both tile 4x4",
             "both tile 4x4 bilinear",
             "both tile 4x4 plain fill",
+            "both S=64 no eviction",
             "both S=64 random",
             "both S=64 lrw",
             "both S=64 lrw counter",
@@ -827,6 +828,18 @@ fn bench_materials_checks_input_and_sweeps_the_table() {
     assert_eq!(row("both S=64 lru counter")[col("eviction")], "lru counter");
     assert!(f(row("both S=64 lru counter"), "evictions_per_frame") > 0.0);
     assert_eq!(f(row("both"), "evictions_per_frame"), 0.0);
+    // No eviction: a 64-entry table fills up and then stores nothing more.
+    let none = row("both S=64 no eviction");
+    assert_eq!(none[col("eviction")], "none");
+    assert_eq!(f(none, "evictions_per_frame"), 0.0, "{none:?}");
+    assert!(f(none, "window_full_per_frame") > 0.0, "{none:?}");
+    assert_eq!(f(row("both S=64"), "window_full_per_frame"), 0.0);
+    // The other eye's fills of this frame: a share of the lookups.
+    for r in rows {
+        let share = f(r, "other_eye_share");
+        assert!((0.0..=1.0).contains(&share), "{r:?}");
+    }
+    assert!(f(row("both tile 4x4"), "other_eye_share") > 0.0);
     // The size sweep and eviction rows of 4×4 tiles with the plain fill
     // (--sweep-tile, --sweep-fill: the thesis's tiled columns): 16 tiles
     // must evict, every row of them fills no tile cooperatively.
@@ -848,10 +861,15 @@ fn bench_materials_checks_input_and_sweeps_the_table() {
         .iter()
         .filter(|r| r[0].starts_with("both tile 4x4 plain fill S=16"))
         .collect();
-    assert_eq!(tiled.len(), 5, "{rows:?}");
+    assert_eq!(tiled.len(), 6, "{rows:?}");
     for r in &tiled {
         assert_eq!(r[col("entries")], "16", "{r:?}");
-        assert!(f(r, "evictions_per_frame") > 0.0, "{r:?}");
+        if r[0].ends_with("no eviction") {
+            assert_eq!(f(r, "evictions_per_frame"), 0.0, "{r:?}");
+            assert!(f(r, "window_full_per_frame") > 0.0, "{r:?}");
+        } else {
+            assert!(f(r, "evictions_per_frame") > 0.0, "{r:?}");
+        }
         assert_eq!(f(r, "cooperative_fills_per_frame"), 0.0, "{r:?}");
     }
     // --sweep-fill plain puts the fixed 4×4 rows on the plain fill too: no

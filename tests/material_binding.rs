@@ -523,6 +523,159 @@ fn probe_graph_bound_quads(name: &str, place: Mat4, tol: f32) {
     let _ = std::fs::remove_dir_all(&d);
 }
 
+/// A KHR_texture_procedurals graph for the packed metallicRoughnessTexture:
+/// (0.9, 0.25, 1.0) + 0·u (varying, so compiled, not folded at load), i.e.
+/// roughness g = 0.25, metallic b = 1.
+const MR_PROCEDURAL: &str = r#"{
+  "name": "mr", "nodetype": "nodegraph", "type": "color3",
+  "nodes": [
+    { "name": "uv", "nodetype": "texcoord", "type": "vector2" },
+    { "name": "z", "nodetype": "dotproduct", "type": "float", "inputs": [
+        { "name": "in1", "nodetype": "input", "type": "vector2", "node": 0 },
+        { "name": "in2", "nodetype": "input", "type": "vector2", "value": [0.0, 0.0] } ] },
+    { "name": "mr", "nodetype": "add", "type": "color3", "inputs": [
+        { "name": "in1", "nodetype": "input", "type": "color3", "value": [0.9, 0.25, 1.0] },
+        { "name": "in2", "nodetype": "input", "type": "float", "node": 1 } ] }
+  ],
+  "outputs": [ { "name": "mr", "nodetype": "output", "type": "color3", "node": 2 } ]
+}"#;
+
+/// The `.mtlx` of the extras form: metallic 0 + 0·u, roughness 0.4 + 0·u.
+const MR_MTLX: &str = r#"<?xml version="1.0"?>
+<materialx version="1.39">
+  <nodegraph name="mr">
+    <texcoord name="uv" type="vector2" />
+    <dotproduct name="z" type="float"><input name="in1" type="vector2" nodename="uv" /><input name="in2" type="vector2" value="0, 0" /></dotproduct>
+    <add name="m" type="float"><input name="in1" type="float" nodename="z" /><input name="in2" type="float" value="0" /></add>
+    <add name="r" type="float"><input name="in1" type="float" nodename="z" /><input name="in2" type="float" value="0.4" /></add>
+    <output name="metallic" type="float" nodename="m" />
+    <output name="roughness" type="float" nodename="r" />
+  </nodegraph>
+</materialx>
+"#;
+
+/// A graph's metallic and roughness reach the BSDF, in both binding forms:
+/// material 0 (gold base colour factor) by KHR's packed
+/// metallicRoughnessTexture (g = roughness 0.25, b = metallic 1, times
+/// factors 1), material 1 (blue) by an attached `.mtlx`'s `metallic` (0)
+/// and `roughness` (0.4) outputs. The same quads with those values as the
+/// materials' factors and no graphs, lit alike (sun and sky) and rendered
+/// with the same seed, give the same image: every pixel within 10⁻⁵ of
+/// max(1, v) (the graph's values are exact in f32 and the factors 1, so
+/// the BSDF sees the same numbers; the run-time shader may order other
+/// arithmetic differently, a few ulp). Not vacuous: the factor scenes with
+/// each likely mistake — g and b swapped, the metallic output lost (the
+/// extras form leaves the factor 1), the roughness output lost — differ
+/// from the graph image on that quad by far more (mean over its pixels
+/// above 10⁻² of the mean radiance).
+#[test]
+fn graph_metallic_and_roughness_reach_the_bsdf() {
+    use stereocache::scene::default_lighting::{apply_default_lighting, DefaultLighting};
+    let ctx = context();
+    let d = dir("metallic-roughness");
+    let path = write_quads(&d);
+    let plain = stereocache::scene::load_gltf(&path).expect("quads load");
+    let mut j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    j["extensionsUsed"] = serde_json::json!(["KHR_texture_procedurals"]);
+    j["extensions"] = serde_json::json!({ "KHR_texture_procedurals": { "procedurals": [
+        serde_json::from_str::<serde_json::Value>(MR_PROCEDURAL).unwrap()
+    ] } });
+    let gold = [0.9f32, 0.6, 0.2];
+    let blue = [0.2f32, 0.5, 0.8];
+    let m0 = &mut j["materials"][0]["pbrMetallicRoughness"];
+    m0["baseColorFactor"] = serde_json::json!([gold[0], gold[1], gold[2], 1.0]);
+    m0["metallicFactor"] = serde_json::json!(1.0);
+    m0["roughnessFactor"] = serde_json::json!(1.0);
+    m0["metallicRoughnessTexture"] = serde_json::json!({ "index": 0, "extensions": { "KHR_texture_procedurals": { "index": 0, "output": 0 } } });
+    j["materials"][1]["pbrMetallicRoughness"]["baseColorFactor"] =
+        serde_json::json!([blue[0], blue[1], blue[2], 1.0]);
+    j["materials"][1]["extras"] =
+        serde_json::json!({ "materialx": { "file": "mr.mtlx", "graph": "mr" } });
+    std::fs::write(path.with_file_name("mr.mtlx"), MR_MTLX).unwrap();
+    std::fs::write(&path, serde_json::to_string_pretty(&j).unwrap()).unwrap();
+    let mut graphs = stereocache::scene::load_gltf(&path).expect("bound quads load");
+    assert_eq!(
+        graphs.graphs.graphs.len(),
+        2,
+        "one KHR graph, one .mtlx graph"
+    );
+    let lighting = DefaultLighting::default();
+    apply_default_lighting(&mut graphs, &lighting).unwrap();
+    let settings = probe_settings();
+    let rt = RtChoice::Software;
+    let s = session(&ctx, graphs, rt);
+    assert!(
+        s.scene_gpu.shaders.is_some(),
+        "graph scene has run-time shaders"
+    );
+    let want = render(&s, "reference", top_camera(), &settings);
+    // The factor scene: (metallic, roughness) of material 0 and 1.
+    let factors = |mr0: (f32, f32), mr1: (f32, f32)| {
+        let mut p = plain.clone();
+        for (m, c, (metallic, roughness)) in [(0usize, gold, mr0), (1, blue, mr1)] {
+            let mat = &mut p.materials[m];
+            mat.base_color = Vec3::from(c).extend(1.0);
+            mat.metallic = metallic;
+            mat.roughness = roughness;
+            mat.metallic_roughness_texture = None;
+        }
+        apply_default_lighting(&mut p, &lighting).unwrap();
+        let s = session(&ctx, p, rt);
+        render(&s, "reference", top_camera(), &settings)
+    };
+    // Per quad: the mean |difference| and the mean radiance over its pixels.
+    let quad_diff = |a: &stereocache::methods::StereoFrame,
+                     b: &stereocache::methods::StereoFrame| {
+        let mut sums = [(0.0f64, 0.0f64, 0usize); 2];
+        for (ea, eb) in a.eyes.iter().zip(&b.eyes) {
+            for (i, fh) in ea.first_hit.iter().enumerate() {
+                if fh[3] == u32::MAX || *fh != eb.first_hit[i] {
+                    continue;
+                }
+                let mat = hit_geom(&s.scene, *fh).0 as usize;
+                for c in 0..3 {
+                    sums[mat].0 += (ea.radiance[i][c] - eb.radiance[i][c]).abs() as f64;
+                    sums[mat].1 += ea.radiance[i][c] as f64;
+                }
+                sums[mat].2 += 1;
+            }
+        }
+        sums.map(|(d, v, n)| {
+            assert!(n > 100, "quad pixels: {n}");
+            (d / n as f64, v / n as f64)
+        })
+    };
+    let same = factors((1.0, 0.25), (0.0, 0.4));
+    for (ea, eb) in want.eyes.iter().zip(&same.eyes) {
+        assert_eq!(ea.first_hit, eb.first_hit, "the same hits");
+        for (i, (a, b)) in ea.radiance.iter().zip(&eb.radiance).enumerate() {
+            for c in 0..3 {
+                assert!(
+                    (a[c] - b[c]).abs() <= 1e-5 * a[c].abs().max(1.0),
+                    "pixel {i}, channel {c}: graphs {} vs factors {}",
+                    a[c],
+                    b[c]
+                );
+            }
+        }
+    }
+    for (what, quad, mr0, mr1) in [
+        ("g and b swapped", 0usize, (0.25, 1.0), (0.0, 0.4)),
+        ("metallic output lost", 1, (1.0, 0.25), (1.0, 0.4)),
+        ("roughness output lost", 1, (1.0, 0.25), (0.0, 1.0)),
+    ] {
+        let (diff, mean) = quad_diff(&want, &factors(mr0, mr1))[quad];
+        eprintln!("{what}: quad {quad} mean |difference| {diff:.5} of mean {mean:.5}");
+        assert!(
+            diff > 1e-2 * mean,
+            "{what}: {diff} of {mean}: the test would not see it"
+        );
+    }
+    assert_no_validation_messages(&ctx);
+    let _ = std::fs::remove_dir_all(&d);
+}
+
 /// Graph outputs that are not finite or out of range: the `.mtlx` of
 /// material 1 makes x = 100 + 0·P.x (varying, so not folded at load),
 /// e = exp(x) (overflows to +∞ in f32) and e − e (NaN): base colour

@@ -696,6 +696,86 @@ fn hsvadjust_is_grey_below_materialx_saturation_threshold() {
     assert_eq!(first_output(&g[3], &p), [1.0, -0.5, -0.5]);
 }
 
+/// ramp4 and remap against the definitions written out by hand, with
+/// inputs that tell every corner and bound apart (the library-graph
+/// comparison feeds the nodes their all-zero defaults, and the
+/// every-signature run a texcoord past 1, clamped to one corner):
+/// ramp4 is NG_ramp4's mix(mix(bl, br, s), mix(tl, tr, s), t) of the
+/// texcoord (s, t) clamped to [0, 1]² — corners tl = 1, tr = 2, bl = 3,
+/// br = 4 give 3 + s − 2t, and the colour overload its corners' blend per
+/// channel; remap is the genglsl source's outlow + (in − inlow)(outhigh −
+/// outlow) / (inhigh − inlow), the float-argument (FA) overload with the
+/// bounds broadcast. Over the grid's uvs in [−1.5, 1.73]² (inside and
+/// outside the clamp), CPU within 4 ulp of the f64 formula (one mix chain
+/// or one division), and the GLSL equal to the CPU.
+#[test]
+fn ramp4_and_remap_follow_their_definitions() {
+    let g = graphs_of(&[
+        r#"<ramp4 name="r" type="float"><input name="valuetl" type="float" value="1" /><input name="valuetr" type="float" value="2" /><input name="valuebl" type="float" value="3" /><input name="valuebr" type="float" value="4" /></ramp4><output name="out" type="float" nodename="r" />"#,
+        r#"<ramp4 name="r" type="color3"><input name="valuetl" type="color3" value="1, 0, 0" /><input name="valuetr" type="color3" value="0, 1, 0" /><input name="valuebl" type="color3" value="0, 0, 1" /><input name="valuebr" type="color3" value="1, 1, 1" /></ramp4><output name="out" type="color3" nodename="r" />"#,
+        r#"<texcoord name="t" type="vector2" /><extract name="x" type="float"><input name="in" type="vector2" nodename="t" /><input name="index" type="integer" value="0" /></extract><remap name="m" type="float"><input name="in" type="float" nodename="x" /><input name="inlow" type="float" value="0.5" /><input name="inhigh" type="float" value="2.5" /><input name="outlow" type="float" value="10" /><input name="outhigh" type="float" value="20" /></remap><output name="out" type="float" nodename="m" />"#,
+        r#"<texcoord name="t" type="vector2" /><remap name="m" type="vector2"><input name="in" type="vector2" nodename="t" /><input name="inlow" type="float" value="0.5" /><input name="inhigh" type="float" value="2.5" /><input name="outlow" type="float" value="-1" /><input name="outhigh" type="float" value="3" /></remap><output name="out" type="vector2" nodename="m" />"#,
+    ]);
+    let mix = |a: f64, b: f64, m: f64| a + (b - a) * m;
+    let remap = |x: f64, il: f64, ih: f64, ol: f64, oh: f64| ol + (x - il) * (oh - ol) / (ih - il);
+    let close = |got: &[f32], want: &[f64], what: &str| {
+        assert_eq!(got.len(), want.len(), "{what}");
+        for (x, y) in got.iter().zip(want) {
+            let tol = 4.0 * f32::EPSILON as f64 * y.abs().max(1.0);
+            assert!((*x as f64 - y).abs() <= tol, "{what}: {got:?} != {want:?}");
+        }
+    };
+    let (mut inside, mut clamped) = (0, 0);
+    for p in grid() {
+        let (u, v) = (p.uv[0] as f64, p.uv[1] as f64);
+        let (s, t) = (u.clamp(0.0, 1.0), v.clamp(0.0, 1.0));
+        if s == u && t == v {
+            inside += 1;
+        } else {
+            clamped += 1;
+        }
+        let at = format!("uv {:?}", p.uv);
+        close(
+            &first_output(&g[0], &p),
+            &[3.0 + s - 2.0 * t],
+            &format!("ramp4 float, {at}"),
+        );
+        let corners = [
+            [1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.0, 0.0, 1.0],
+            [1.0, 1.0, 1.0],
+        ];
+        let want: Vec<f64> = (0..3)
+            .map(|c| {
+                let top = mix(corners[0][c], corners[1][c], s);
+                let bottom = mix(corners[2][c], corners[3][c], s);
+                mix(bottom, top, t)
+            })
+            .collect();
+        close(
+            &first_output(&g[1], &p),
+            &want,
+            &format!("ramp4 color3, {at}"),
+        );
+        close(
+            &first_output(&g[2], &p),
+            &[remap(u, 0.5, 2.5, 10.0, 20.0)],
+            &format!("remap float, {at}"),
+        );
+        close(
+            &first_output(&g[3], &p),
+            &[remap(u, 0.5, 2.5, -1.0, 3.0), remap(v, 0.5, 2.5, -1.0, 3.0)],
+            &format!("remap vector2FA, {at}"),
+        );
+    }
+    assert!(
+        inside > 20 && clamped > 20,
+        "{inside} inside, {clamped} clamped"
+    );
+    assert_gpu_equals_cpu(&g);
+}
+
 /// normalmap maps an all-zero input to the unperturbed normal N (MaterialX's
 /// mx_normalmap: "no data" is tangent-space (0, 0, 1)); it was
 /// normalize(−T − B − N).

@@ -88,10 +88,12 @@ float sc_memo_nee_blur_w = 0.0;
 float sc_memo_nee_blur_spread = 0.0;
 
 // The 12 record words: base colour, metallic, roughness, normal, emission, mask.
-void memo_pack(ScGraphOutputs o, out uvec4 r0, out uvec4 r1, out uvec4 r2) {
+// `tag`: memo_fill_tag() of the lane that stores (of the round's leader in
+// a cooperative fill, so a tile's texels carry one tag).
+void memo_pack(ScGraphOutputs o, uint tag, out uvec4 r0, out uvec4 r1, out uvec4 r2) {
     r0 = uvec4(floatBitsToUint(o.base_color), floatBitsToUint(o.metallic));
     r1 = uvec4(floatBitsToUint(o.roughness), floatBitsToUint(o.normal));
-    r2 = uvec4(floatBitsToUint(o.emission), (o.mask & MEMO_MASK_BITS) | memo_fill_tag());
+    r2 = uvec4(floatBitsToUint(o.emission), (o.mask & MEMO_MASK_BITS) | tag);
 }
 // An unbound normal is the hit's own (the generated function's default),
 // never the one stored with another hit.
@@ -392,6 +394,8 @@ struct MemoRound {
     ivec2 tq;
     uint victim, seen;    // the locked entry (the leader's, broadcast)
     bool present;
+    uint tag;             // the leader's fill tag (memo_fill_tag), broadcast: a
+                          // subgroup may mix both eyes' lanes (a shade list)
     uint base;            // the round's first texel of this step
 };
 
@@ -404,6 +408,7 @@ void memo_round_next(inout MemoRound r, MemoCall c) {
     uint leader = subgroupBallotFindLSB(req);
     r.lead = gl_SubgroupInvocationID == leader;
     uint key = subgroupShuffle(c.key, leader);
+    r.tag = subgroupShuffle(memo_fill_tag(), leader);
     r.level = subgroupShuffle(c.level, leader);
     r.tq = subgroupShuffle(c.tq, leader);
     r.mine = c.need && c.key == key && c.level == r.level && all(equal(c.tq, r.tq));
@@ -452,7 +457,7 @@ void memo_round_step(inout MemoRound r, inout MemoCall c, bool evaluated, ScGrap
     uint k = r.base + r.rank;
     uvec4 r0 = uvec4(0u), r1 = uvec4(0u), r2 = uvec4(0u);
     if (evaluated) {
-        memo_pack(v, r0, r1, r2);
+        memo_pack(v, r.tag, r0, r1, r2);
         if (r.victim != MEMO_NONE) memo_write_texel(MEMO_RECORD * (r.victim * r.e * r.e + k), r0, r1, r2);
     }
     for (uint j = 0u; j < r.corners; ++j) {
@@ -506,7 +511,7 @@ vec2 memo_evaluation_uv(inout MemoCall c, uint k, vec2 uv, out ivec2 texel, out 
 void memo_store(MemoCall c, uint material, uint k, ivec2 texel, uint corner, ScGraphOutputs v, vec3 n,
                 inout ScGraphOutputs out4[4]) {
     uvec4 r0, r1, r2;
-    memo_pack(v, r0, r1, r2);
+    memo_pack(v, memo_fill_tag(), r0, r1, r2);
     if (c.tiled) {
         if (c.victim != MEMO_NONE) memo_write_texel(MEMO_RECORD * (c.victim * c.e * c.e + k), r0, r1, r2);
         // The texels this call reads: q's (nearest), or the 2×2 from q0.

@@ -295,8 +295,8 @@ pub fn bench_materials(
                 hits: format!("{:?}", s.hits).to_lowercase(),
                 entries: s.entries,
                 eviction: match s.clock {
-                    MemoClock::Frame => format!("{:?}", s.eviction).to_lowercase(),
-                    MemoClock::Counter => format!("{:?} counter", s.eviction).to_lowercase(),
+                    MemoClock::Frame => s.eviction.name().to_string(),
+                    MemoClock::Counter => format!("{} counter", s.eviction.name()),
                 },
                 table_bytes: if s.enabled() { s.table_bytes() } else { 0 },
                 frame_ms: ms.iter().sum::<f64>() / ms.len().max(1) as f64,
@@ -321,7 +321,7 @@ pub fn bench_materials(
 /// The table `bench materials` prints.
 pub fn memo_table(rows: &[MemoBenchRow]) -> String {
     let mut s = format!(
-        "{:<24} {:>9} {:>10} {:>10} {:>10} {:>9} {:>9} {:>8} {:>9} {:>10} {:>10} {:>10} {:>9} {:>9}\n",
+        "{:<24} {:>9} {:>10} {:>10} {:>10} {:>9} {:>9} {:>8} {:>9} {:>10} {:>10} {:>10} {:>9} {:>9} {:>9}\n",
         "configuration",
         "hits",
         "entries",
@@ -335,11 +335,12 @@ pub fn memo_table(rows: &[MemoBenchRow]) -> String {
         "second eye",
         "other eye",
         "fills/fr",
-        "evict/fr"
+        "evict/fr",
+        "full/fr"
     );
     for r in rows {
         s.push_str(&format!(
-            "{:<24} {:>9} {:>10} {:>10} {:>10.1} {:>9.2} {:>9.3} {:>8.3} {:>9.4} {:>10.4} {:>10.4} {:>10.4} {:>9.0} {:>9.0}\n",
+            "{:<24} {:>9} {:>10} {:>10} {:>10.1} {:>9.2} {:>9.3} {:>8.3} {:>9.4} {:>10.4} {:>10.4} {:>10.4} {:>9.0} {:>9.0} {:>9.0}\n",
             r.label,
             r.hits,
             r.entries,
@@ -353,7 +354,8 @@ pub fn memo_table(rows: &[MemoBenchRow]) -> String {
             r.second_eye_hit_rate,
             r.other_eye_share,
             r.fills_per_frame,
-            r.evictions_per_frame
+            r.evictions_per_frame,
+            r.window_full_per_frame
         ));
     }
     s

@@ -217,6 +217,27 @@ impl Emit<'_> {
                 a(0),
                 self.raw(n, 2)
             ),
+            "ramp4" => {
+                let tc = self.raw(n, 4);
+                let s = format!("{ty}(mx_clamp({tc}.x, 0.0, 1.0))");
+                format!(
+                    "mx_mix(mx_mix({}, {}, {s}), mx_mix({}, {}, {s}), {ty}(mx_clamp({tc}.y, 0.0, 1.0)))",
+                    a(2),
+                    a(3),
+                    a(0),
+                    a(1)
+                )
+            }
+            "remap" => format!(
+                "{} + ({} - {}) * ({} - {}) / ({} - {})",
+                a(3),
+                a(0),
+                a(1),
+                a(4),
+                a(3),
+                a(2),
+                a(1)
+            ),
             "checkerboard" => format!(
                 "mx_checkerboard({}, {}, {}, {}, {})",
                 a(0),

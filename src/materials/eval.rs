@@ -582,6 +582,30 @@ fn apply(node: &Node, a: &[Arg], geom: &Geom) -> Value {
             let t = clamp(v(2).v[1], 0.0, 1.0);
             map2(out, v(1), v(0), |b, tp| mix(b, tp, t))
         }
+        "ramp4" => {
+            // NG_ramp4: the texcoord clamped to [0, 1]²; mix(bl, br, s) and
+            // mix(tl, tr, s), then mix(bottom, top, t).
+            let tc = v(4).v;
+            let (s, t) = (clamp(tc[0], 0.0, 1.0), clamp(tc[1], 0.0, 1.0));
+            let top = map2(out, v(0), v(1), |l, r| mix(l, r, s));
+            let bottom = map2(out, v(2), v(3), |l, r| mix(l, r, s));
+            map2(out, bottom, top, |b, tp| mix(b, tp, t))
+        }
+        "remap" => {
+            // The genglsl source: outlow + (in − inlow)(outhigh − outlow) / (inhigh − inlow).
+            let (x, il, ih, ol, oh) = (
+                bc(v(0), w),
+                bc(v(1), w),
+                bc(v(2), w),
+                bc(v(3), w),
+                bc(v(4), w),
+            );
+            let mut r = [0.0; 4];
+            for k in 0..w {
+                r[k] = ol[k] + (x[k] - il[k]) * (oh[k] - ol[k]) / (ih[k] - il[k]);
+            }
+            Value { ty: out, v: r }
+        }
         "checkerboard" => {
             // NG_checkerboard_color3: mix(color2, color1, mod(dot(floor(uv·tiling − offset), 1), 2)).
             let (t, tile, off) = (uv(4), uv(2), uv(3));

@@ -211,14 +211,10 @@ impl MemoSettings {
         if self.clock == MemoClock::Counter
             && matches!(self.eviction, Eviction::Random | Eviction::Disabled)
         {
-            let name = if self.eviction == Eviction::Random {
-                "random"
-            } else {
-                "none"
-            };
             return Err(format!(
-                "bad --memo-clock counter with --memo-eviction {name}: {name} eviction reads no \
-                 stamps (the access clock ages entries for lrw and lru)"
+                "bad --memo-clock counter with --memo-eviction {0}: --memo-eviction {0} reads no \
+                 stamps (the access clock ages entries for lrw and lru)",
+                self.eviction.name()
             ));
         }
         if !self.bias.is_finite() || self.bias.abs() > 16.0 {

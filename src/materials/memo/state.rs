@@ -51,7 +51,8 @@ pub struct MemoCounters {
     /// the fill's eye and frame are tagged in the record, memo.glsl
     /// `memo_fill_tag`): the reuse between the eyes, independent of the
     /// order the device runs their work groups in. Counted in `hits` too;
-    /// 0 in passes that do not know their eye.
+    /// 0 in passes that do not know their eye. "This frame" is the state's
+    /// `now`: callers advance it per frame (`MemoGpu::begin_frame`).
     #[serde(default)]
     pub other_eye_hits: u64,
 }

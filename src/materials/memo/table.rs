@@ -50,6 +50,18 @@ pub enum Eviction {
     Disabled = 3,
 }
 
+impl Eviction {
+    /// The `--memo-eviction` value.
+    pub fn name(self) -> &'static str {
+        match self {
+            Eviction::Random => "random",
+            Eviction::Lrw => "lrw",
+            Eviction::Lru => "lru",
+            Eviction::Disabled => "none",
+        }
+    }
+}
+
 /// Where LRW and LRU take the time of an access from (thesis §5.3.3 and
 /// Table 6.2: "frame" and "counter").
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -226,11 +238,21 @@ impl CpuMemo {
     }
 
     /// The victim in `k`'s window (memo_victim), or `None` when `k` is
-    /// present (`check_presence`; the thesis's insert does not look).
-    fn victim(&self, k: &MemoKey, now: u32, check_presence: bool) -> Option<u32> {
+    /// present (`check_presence`; the thesis's insert does not look) or no
+    /// entry can be taken; `saw_lock` is set where a locked entry was passed
+    /// before any victim was found (memo_victim's `seen` = MEMO_LOCK: the
+    /// shader then reports a lock failure, not a full window).
+    fn victim(
+        &self,
+        k: &MemoKey,
+        now: u32,
+        check_presence: bool,
+        saw_lock: &mut bool,
+    ) -> Option<u32> {
         let (h0, h1) = (k.h0(), k.h1());
         let pick = pcg_hash(h1 ^ now.wrapping_mul(0x9E37_79B9)) % self.probe;
         let (mut victim, mut best) = (None, 0u64);
+        *saw_lock = false;
         for i in 0..self.probe {
             let s = slot(h0, i, self.capacity(), self.probe);
             let key = self.keys[s as usize];
@@ -240,7 +262,11 @@ impl CpuMemo {
             if key == EMPTY {
                 return Some(s);
             }
-            if key == LOCK || self.policy == Eviction::Disabled {
+            if key == LOCK {
+                *saw_lock |= victim.is_none();
+                continue;
+            }
+            if self.policy == Eviction::Disabled {
                 continue;
             }
             let score = match self.policy {
@@ -258,10 +284,13 @@ impl CpuMemo {
 
     /// Inserts `record` for `k` (memo_insert).
     pub fn insert(&mut self, k: &MemoKey, now: u32, record: [u32; RECORD_WORDS]) -> Insert {
-        let Some(s) = self.victim(k, now, true) else {
+        let mut saw_lock = false;
+        let Some(s) = self.victim(k, now, true, &mut saw_lock) else {
             return if self.find_slot(k).is_some() {
                 Insert::Present
-            } else if self.policy == Eviction::Disabled {
+            } else if !saw_lock {
+                // Only without eviction does a window without a lock offer
+                // no victim.
                 Insert::WindowFull
             } else {
                 Insert::LockFailed
@@ -281,9 +310,10 @@ impl CpuMemo {
         now: u32,
         record: [u32; RECORD_WORDS],
     ) -> Insert {
-        match self.victim(k, now, false) {
+        let mut saw_lock = false;
+        match self.victim(k, now, false, &mut saw_lock) {
             Some(s) => self.write(s, k, now, record),
-            None if self.policy == Eviction::Disabled => Insert::WindowFull,
+            None if !saw_lock => Insert::WindowFull,
             None => Insert::LockFailed,
         }
     }
@@ -428,6 +458,12 @@ mod tests {
         );
         assert_eq!(t.find(&k, 9), Some((window[5], [2; RECORD_WORDS])));
         assert_eq!(t.insert(&k, 9, [3; RECORD_WORDS]), Insert::Present);
+        // A full window with a locked entry (without eviction, an empty one
+        // another lane is filling): this lane lost the race for it, a lock
+        // failure, as the shader counts it.
+        let (mut t, k, window) = full_window(Eviction::Disabled);
+        t.keys[window[3] as usize] = LOCK;
+        assert_eq!(t.insert(&k, 8, [1; RECORD_WORDS]), Insert::LockFailed);
     }
 
     #[test]
