@@ -93,13 +93,8 @@ if [ $tiny = 1 ]; then
   memo_sizes=256,4096; memo_frames=3; memo_fill=plain
 else
   size=256x144; bench_size=960x1080; frames=30; scale=paper; exp_frames=60; rays_size=1024x1024
-  # 4x4 tiles. The frame's working set here is not measured: the
-  # procedural Sponza at 2x96x72, 6 spp, 3 bounces touched 3,777 tiles a
-  # frame, 0.27 a pixel (docs/PERFORMANCE.md, "Memoization, session 37"),
-  # which would be 5.7e5 at 2x960x1080; the Cornell box at 1 spp and 2
-  # bounces touches fewer. So three sizes around it, the eviction rows at
-  # the smallest (the thesis's small table held 1.19 frames' tiles); the
-  # rows' fills per frame show where each size stands.
+  # 4x4 tiles; the sizes are set from the frame's working set below (these
+  # stand if that measurement fails).
   memo_sizes=131072,524288,2097152; memo_frames=12; memo_fill=subgroup
 fi
 
@@ -146,11 +141,36 @@ summary() {
     grep -A12 "^method" "$out/fig12-13.txt" 2>/dev/null
     if [ -f "$out/bench-materials.txt" ]; then
       echo; echo "## bench materials ($bench_size per eye, procedural Cornell box)"
+      cat "$out/memo-sizes.txt" 2>/dev/null
       cat "$out/bench-materials.txt"
     fi
   } >"$out/figures.md"
 }
 summary
+# The memo table's sizes from frame 0's working set: the tiles one frame
+# of the bench's setting stores (fills + evictions) into a table of
+# 1,048,576 4x4 tiles (780 B each, 0.8 GB). The smallest size is 1.19 of
+# it, the thesis's small tiled table against the tiles its Classroom frame
+# touched (Table 6.2: where its frame clock collapsed), then 4x and 16x,
+# none above 2,097,152 tiles (1.6 GB: a storage buffer's range).
+if [ $tiny = 0 ]; then
+  step memo-working-set 120 "$bin" replay --scene procedural-uv:cornell --rt software \
+    --size "$bench_size" --spp 1 --bounces 2 --frames 1 --memo both --memo-tile 4 \
+    --memo-entries 1048576 --trace captures/mmsys18-user1.csv --out "$out/memo-working-set"
+  counter() { grep -o "\"$1\":[0-9]*" "$out/memo-working-set/frames.jsonl" 2>/dev/null | head -1 | cut -d: -f2; }
+  fills=$(counter memo_fills)
+  evictions=$(counter memo_evictions)
+  if [ -n "$fills" ] && [ "$fills" -gt 0 ]; then
+    fills=$((fills + ${evictions:-0}))
+    small=$((fills * 119 / 100))
+    memo_sizes=$small
+    for k in 4 16; do
+      [ $((small * k)) -le 2097152 ] && memo_sizes="$memo_sizes,$((small * k))"
+    done
+  fi
+  rm -rf "$out/memo-working-set/frames"
+  echo "memo sizes: $memo_sizes (frame 0 filled ${fills:-?} tiles)" | tee "$out/memo-sizes.txt"
+fi
 # Memoization (issue 17): every variant, the sweep and the eviction rows
 # (no eviction, random, LRW/LRU by frame and by the 64-bit counter) at the
 # smallest size, 4x4 tiles (the cooperative fill on the GPU), both eyes,

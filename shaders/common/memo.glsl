@@ -46,10 +46,11 @@ void memo_add(uint c) {
 
 // The eye of the pass's current work item (0 left, 1 right, 2 unknown),
 // set by each hit-shading pass where it knows it. Both eyes render in one
-// dispatch with the eye in z, so the right eye's work groups run after the
-// left eye's: the right eye is the second eye, and its hit rate measures
-// what it reuses of the first eye's fills (thesis: the cache is
-// view-independent, so the second eye shares it).
+// dispatch with the eye in z; where the right eye's work groups run after
+// the left eye's (llvmpipe; Vulkan does not order them) its hit rate
+// measures what it reuses of the first eye's fills (thesis: the cache is
+// view-independent, so the second eye shares it). The reuse between the
+// eyes in any order is counted by the fill tags below.
 uint sc_memo_eye = 2u;
 
 // Each record's mask word (ScGraphOutputs.mask: which outputs the graphs

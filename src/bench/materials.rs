@@ -47,9 +47,10 @@ impl Default for SweepVariant {
 /// table; both at each of `sizes` entries (LRU); 4×4 tiles (nearest with the
 /// cooperative and the plain fill, bilinear); each eviction policy at the
 /// smallest size (where eviction happens), LRW and LRU also by the access
-/// counter, and without eviction (Table 6.2's "no eviction" baseline). With a tiled `sweep` (s > 1) the size sweep and the eviction
-/// rows are of s×s tiles with its fill (labels "both tile sxs S=…"), and
-/// secondary-only gets a row with those tiles too.
+/// counter, and without eviction (Table 6.2's "no eviction" baseline).
+/// With a tiled `sweep` (s > 1) the size sweep and the eviction rows are of
+/// s×s tiles with its fill (labels "both tile sxs S=…"), and secondary-only
+/// gets a row with those tiles too.
 pub fn memo_configs(sizes: &[u32], sweep: SweepVariant) -> Vec<(String, MemoSettings)> {
     let d = MemoSettings::default();
     let tiled = sweep.tile > 1;
