@@ -43,6 +43,7 @@
 #include "common/lights.glsl"
 #include "common/sky.glsl"
 #include "common/media.glsl"
+#include "common/packing.glsl"
 
 struct RayCounts { uint bounce; uint shadow; };
 
@@ -549,5 +550,12 @@ vec3 first_hit_albedo(RtHit h, vec3 d, float cone_width) {
     Surface s = surface_at(h.instance, h.prim, h.bary, d);
     ShadingMaterial m = material_at(s, d, cone_width);
     return m.base;
+}
+
+// The material of a stored first hit (Listing 1: the caches' slots) seen
+// along `d` by a pixel's cone of width `cone_width` there.
+ShadingMaterial stored_hit_material(uvec4 fh, vec3 d, float cone_width) {
+    Surface s = surface_at(fh.w, fh.z, first_hit_bary(fh), d);
+    return material_at(s, d, cone_width);
 }
 #endif

@@ -122,13 +122,17 @@ void memo_write_texel(uint b, uvec4 r0, uvec4 r1, uvec4 r2) {
     memo_values[b] = r0; memo_values[b + 1u] = r1; memo_values[b + 2u] = r2;
 }
 
+// A hit's counters (`w`: the record's mask word, with its fill tag).
+void memo_count_hit_counters(uint w, uint now) {
+    memo_add(MEMO_C_HITS);
+    if (sc_memo_eye == 1u) memo_add(MEMO_C_SECOND_EYE_HITS);
+    memo_count_other_eye(w, now);
+}
 // A tiled hit in slot `sl` (`w`: a texel's mask word): LRU's stamp and the
 // counters.
 void memo_count_hit(uint sl, uint policy, uint now, uint w) {
     if (policy == MEMO_LRU) memo_touch(sl, now);
-    memo_add(MEMO_C_HITS);
-    if (sc_memo_eye == 1u) memo_add(MEMO_C_SECOND_EYE_HITS);
-    memo_count_other_eye(w, now);
+    memo_count_hit_counters(w, now);
 }
 
 // A tiled miss is counted (memo_count_miss), then the victim of h1's
@@ -285,13 +289,10 @@ void memo_lookup_texels(inout MemoCall c, uint material, vec3 n, inout ScGraphOu
         bool torn;
         if (memo_find(memo_h0(material, c.level, qk), memo_h1(material, c.level, qk), c.cap, c.probe, true,
                       c.policy, c.now, r0, r1, r2, torn) != MEMO_NONE) {
-            memo_add(MEMO_C_HITS);
-            if (sc_memo_eye == 1u) memo_add(MEMO_C_SECOND_EYE_HITS);
-            memo_count_other_eye(r2.w, c.now);
+            memo_count_hit_counters(r2.w, c.now);   // (memo_find stamped it for LRU)
             out4[k] = memo_unpack(r0, r1, r2, n);
         } else {
-            memo_add(MEMO_C_MISSES);
-            if (sc_memo_eye == 1u) memo_add(MEMO_C_SECOND_EYE_MISSES);
+            memo_count_miss();
             if (torn) memo_add(MEMO_C_REFUSED);
             c.missing |= 1u << k;
         }

@@ -76,7 +76,6 @@ void main() {
         vec3 o, d;
         float t;
         eye_ray_to(e, best_p, o, d, t);
-        Surface surf = surface_at(best_fh.w, best_fh.z, first_hit_bary(best_fh), d);
-        out_albedo[pm] = vec4(material_at(surf, d, eye_cone(e, t).x).base, 1.0);
+        out_albedo[pm] = vec4(stored_hit_material(best_fh, d, eye_cone(e, t).x).base, 1.0);
     }
 }

@@ -29,8 +29,7 @@ ShadingMaterial sample_material(EyeGpu e, uvec4 fh, vec3 wp) {
     vec3 o, d;
     float t;
     eye_ray_to(e, wp, o, d, t);
-    Surface surf = surface_at(fh.w, fh.z, first_hit_bary(fh), d);
-    return material_at(surf, d, eye_cone(e, t).x);
+    return stored_hit_material(fh, d, eye_cone(e, t).x);
 }
 
 // Issue 12 item 3 (adaptive shading): the mean demodulated radiance of the
